@@ -1,0 +1,1 @@
+//! Thin adapters from embedded-hal / embedded-io to the pure code.

@@ -1,0 +1,46 @@
+//! # terrain-pyramid
+//!
+//! A `no_std`, allocation-free implementation of the multi-resolution terrain pyramid of
+//! Montemerlo & Thrun, *"A Multi-Resolution Pyramid for Outdoor Robot Terrain Perception"*,
+//! for a microcontroller that sits next to a scanning laser.
+//!
+//! The path of one observation:
+//!
+//! ```text
+//! UART bytes --> [wire::sick] telegram --> ranges + beam angles
+//! pan encoder / host link --> pose ----> [geometry] points --> [classify] evidence
+//!                                         --> [pyramid] gated log-odds updates, window moves
+//! ```
+//!
+//! The core rooms, each with one job:
+//! - [`units`]: the fixed-point number types and their ranges.
+//! - [`design`]: the sensor model, the cell-size bound δ(d) (eq. 17), the resolution schedule
+//!   and the range bands (eq. 20), and the validation of a configuration.
+//! - [`gate`]: the precomputed hard or soft gating tables `w_k(d)`.
+//! - [`logodds`]: the fixed-point log-odds cell, the inverse sensor model as increments, clamping.
+//! - [`grid`]: one robot-centric layer as a circular buffer, and its index maths.
+//! - [`pyramid`]: the layers together: gated integration, recentring, the fused query.
+//!
+//! # Panic contract
+//! No function in this crate panics on any input, as smoltcp's `wire` promises: parsers and
+//! bounded containers return errors, numeric conversions saturate and are counted. Clippy
+//! denies `unwrap`, `expect`, `panic!` and unchecked indexing outside tests.
+#![no_std]
+#![deny(unsafe_code)]
+#![deny(missing_docs)]
+
+#[macro_use]
+mod fmt;
+
+pub mod design;
+pub mod drivers;
+pub mod gate;
+pub mod grid;
+pub mod logodds;
+pub mod pyramid;
+pub mod units;
+pub mod wire;
+
+pub use design::{Design, DesignError, GateShape, Param, Schedule, SensorModel};
+
+

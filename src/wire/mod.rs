@@ -1,0 +1,1 @@
+//! Pure, zero-copy wire formats.
