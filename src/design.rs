@@ -2,8 +2,8 @@
 //! resolution schedule and the range bands of eq. 20, and the validation of a configuration.
 //!
 //! Everything here runs when a configuration changes, never per point, so it computes in
-//! `f32` with `micromath` (the device has no `libm`); the calls name `F32Ext` explicitly so that
-//! host builds, where `std`'s inherent float methods would otherwise win, run the same maths. Its results that the hot path needs
+//! `f32` with [`crate::fmath`] (micromath seeds, refined; the device has no `libm`), called by
+//! name so that host builds, where `std`'s inherent float methods would win, run the same maths. Its results that the hot path needs
 //! (resolutions, band edges) are converted to fixed point once, in [`crate::gate`] and
 //! [`crate::grid`].
 //!
@@ -15,6 +15,7 @@
 
 use core::fmt;
 use heapless::Vec;
+use crate::fmath;
 use micromath::F32Ext;
 
 /// The largest supported maximum range, metres: the SICK LMS2xx "80 m" (cm) mode reads up to
@@ -309,19 +310,18 @@ impl SensorModel {
     /// The bound δ(d) and its three terms at horizontal distance `d_m` ≥ 0 (eq. 17).
     ///
     /// At `d_m = 0` the noise and horizontal terms vanish and δ = φ·h. Computed in `f32` with
-    /// micromath's approximations (relative error below 10⁻³, measured against the f64
-    /// reference in `host-tests`).
+    /// [`crate::fmath`]; its error against the f64 reference is measured in `host-tests`.
     #[must_use]
     pub fn bound(&self, d_m: f32) -> BoundTerms {
         let d = d_m.max(0.0);
         let h = self.height_m;
         let noise_m = if d > 0.0 {
             let ratio = h / d;
-            self.sigma_m / F32Ext::sqrt(1.0 + ratio * ratio)
+            self.sigma_m / fmath::sqrt(1.0 + ratio * ratio)
         } else {
             0.0
         };
-        let horizontal_m = 2.0 * d * F32Ext::atan(self.psi_rad * 0.5);
+        let horizontal_m = 2.0 * d * fmath::atan(self.psi_rad * 0.5);
         let vertical_m = self.phi_rad * (d * d + h * h) / h;
         BoundTerms {
             d_m: d,

@@ -29,6 +29,7 @@
 #![deny(unsafe_code)]
 #![deny(missing_docs)]
 
+pub mod fmath;
 #[macro_use]
 mod fmt;
 

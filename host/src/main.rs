@@ -1,2 +1,29 @@
 //! `pyramid`: the main computer's command-line tool for terrain-pyramid.
-fn main() {}
+//!
+//! Each subcommand lives in its own module with an `Args` struct (clap) and a
+//! `run(args) -> ExitCode` function.
+use clap::{Parser, Subcommand};
+use std::process::ExitCode;
+
+mod design;
+
+/// The main computer's side of terrain-pyramid.
+#[derive(Parser)]
+#[command(name = "pyramid", version, about)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Derive a pyramid design (bound, bands, layers) from a sensor and a schedule.
+    Design(design::Args),
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    match cli.command {
+        Command::Design(args) => design::run(&args),
+    }
+}
