@@ -13,9 +13,9 @@
 //! - `d_0 = 0`, `d_{k+1} = sup{d : δ(d) ≤ r_k}`; the last band is closed at the maximum range;
 //! - layers are added until `d_N ≥ max range`.
 
+use crate::fmath;
 use core::fmt;
 use heapless::Vec;
-use crate::fmath;
 use micromath::F32Ext;
 
 /// The largest supported maximum range, metres: the SICK LMS2xx "80 m" (cm) mode reads up to
@@ -210,6 +210,11 @@ pub enum DesignError {
         /// Layers the pyramid can hold (its const generic `L`).
         capacity: usize,
     },
+    /// The window size is odd, below 4 or above [`MAX_CELLS_PER_SIDE`].
+    BadWindow {
+        /// The window given, cells per side.
+        cells: usize,
+    },
     /// A layer's window cannot hold its band around the robot.
     WindowTooSmall {
         /// The layer whose band does not fit.
@@ -232,7 +237,7 @@ impl DesignError {
             Self::GammaNotAboveOne { .. } => Param::Gamma,
             Self::BaseBelowBound { .. } => Param::Base,
             Self::TooManyLayers { .. } => Param::MaxRange,
-            Self::WindowTooSmall { .. } => Param::Cells,
+            Self::WindowTooSmall { .. } | Self::BadWindow { .. } => Param::Cells,
         }
     }
 }
@@ -246,10 +251,22 @@ impl fmt::Display for DesignError {
                 write!(f, "{flag}: must be greater than 0 (got {value})")
             }
             Self::OutOfRange {
-                value, min, max, ..
-            } => write!(
+                param,
+                value,
+                min,
+                max,
+            } => {
+                // Angles are radians in the library and degrees on the command line.
+                let (value, min, max) = if matches!(param, Param::Phi | Param::Psi) {
+                    (value.to_degrees(), min.to_degrees(), max.to_degrees())
+                } else {
+                    (value, min, max)
+                };
+                write!(f, "{flag}: must lie within [{min}, {max}] (got {value})")
+            }
+            Self::BadWindow { cells } => write!(
                 f,
-                "{flag}: must lie within [{min}, {max}] (got {value}, library units: radians, metres)"
+                "{flag}: must be an even number of cells from 4 to {MAX_CELLS_PER_SIDE} (got {cells})"
             ),
             Self::GammaNotAboveOne { gamma } => write!(
                 f,
@@ -257,7 +274,7 @@ impl fmt::Display for DesignError {
             ),
             Self::BaseBelowBound { base_m, bound_m } => write!(
                 f,
-                "{flag}: the base cell must exceed phi*h = {bound_m} m, or layer 0's band is empty (got {base_m} m)"
+                "{flag}: the base cell must exceed phi*h = {bound_m} m, or layer 0's band is empty (got {base_m} m; raise --base-m or lower --phi-deg / --height-m)"
             ),
             Self::TooManyLayers { needed, capacity } => write!(
                 f,
@@ -474,13 +491,10 @@ impl<const L: usize> Design<L> {
     ) -> Result<Self, DesignError> {
         sensor.validate()?;
         schedule.validate(&sensor)?;
-        if !(4..=MAX_CELLS_PER_SIDE).contains(&cells_per_side) || cells_per_side % 2 != 0 {
-            #[allow(clippy::cast_precision_loss)]
-            return Err(DesignError::OutOfRange {
-                param: Param::Cells,
-                value: cells_per_side as f32,
-                min: 4.0,
-                max: MAX_CELLS_PER_SIDE as f32,
+        if !(4..=MAX_CELLS_PER_SIDE).contains(&cells_per_side) || !cells_per_side.is_multiple_of(2)
+        {
+            return Err(DesignError::BadWindow {
+                cells: cells_per_side,
             });
         }
         let needed = layers_needed(&sensor, &schedule);
@@ -665,10 +679,7 @@ mod tests {
                 ..
             })
         ));
-        let below = SensorModel {
-            phi_rad: 0.1,
-            ..s
-        };
+        let below = SensorModel { phi_rad: 0.1, ..s };
         assert!(matches!(
             Design::<16>::new(below, sch, 64),
             Err(DesignError::BaseBelowBound { .. })
@@ -704,10 +715,7 @@ mod tests {
         ));
         assert!(matches!(
             Design::<16>::new(s, sch, 63),
-            Err(DesignError::OutOfRange {
-                param: Param::Cells,
-                ..
-            })
+            Err(DesignError::BadWindow { cells: 63 })
         ));
     }
 

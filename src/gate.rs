@@ -1,1 +1,246 @@
-//! gate
+//! The precomputed gating tables: `w_k(d)` for every layer over quantised distance.
+//!
+//! The per-point path never calls `exp`: it quantises the distance at measurement into one of
+//! [`GATE_BINS`] bins with a shift ([`DistanceBins::bin`]) and reads a Q1.15 weight.
+//!
+//! - **Bin width** `b = 2⁻ˢ` m, the finest power of two (s ≤ 10) for which
+//!   `GATE_BINS · b` exceeds the maximum range: 1/32 m (31.25 mm) for 10 m, 1/4 m for 81.92 m.
+//! - **Range covered**: `0 ..= GATE_BINS · b`; longer distances read the last bin.
+//! - **Weights** are evaluated at bin centres and rounded to Q1.15: the rounding error is
+//!   at most 2⁻¹⁶, and the soft gate's binning error at most `e^{−½}·b / (2σ_g,k)`
+//!   ([`binning_error_bound`]), e.g. 0.036 for layer 0 of the default design
+//!   (σ_g = 0.265 m, b = 1/32 m). The hard gate's band edges move to bin boundaries:
+//!   by at most b/2.
+
+use crate::design::{Design, GateShape, LayerDesign};
+use crate::fmath;
+use crate::units::{Meters, Weight};
+
+/// Number of distance bins in every gate table.
+pub const GATE_BINS: usize = 512;
+
+/// The finest bin shift: bins of 2⁻¹⁰ m ≈ 1 mm.
+const MAX_BIN_SHIFT: u32 = 10;
+
+/// How distances are quantised into gate bins: `bin = floor(d / 2⁻ˢ)`, capped at the last.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct DistanceBins {
+    /// s: the bin width is 2⁻ˢ m; 0 ..= 10.
+    shift: u32,
+}
+
+impl DistanceBins {
+    /// The finest binning whose [`GATE_BINS`] bins cover `max_range_m` (> 0, ≤ 512 m).
+    #[must_use]
+    pub fn for_range(max_range_m: f32) -> Self {
+        let mut shift = MAX_BIN_SHIFT;
+        while shift > 0 && bins_f32() * pow2_neg(shift) <= max_range_m {
+            shift -= 1;
+        }
+        Self { shift }
+    }
+
+    /// The binning for the default 10 m range (bins of 1/32 m), usable in `const` contexts.
+    #[must_use]
+    pub const fn for_range_const_default() -> Self {
+        Self { shift: 5 }
+    }
+
+    /// The bin width, metres.
+    #[must_use]
+    pub fn width_m(self) -> f32 {
+        pow2_neg(self.shift)
+    }
+
+    /// The bin of a distance: `min(floor(d / b), GATE_BINS − 1)`, 0 for negative distances.
+    #[must_use]
+    #[inline]
+    pub fn bin(self, distance: Meters) -> usize {
+        let raw = distance.to_bits().max(0);
+        // d / 2⁻ˢ = raw · 2ˢ / 2¹⁶ = raw >> (16 − s); s ≤ 10 keeps the shift in range.
+        #[allow(clippy::cast_sign_loss)]
+        let bin = (raw as u32) >> (16 - self.shift);
+        (bin as usize).min(GATE_BINS - 1)
+    }
+
+    /// The centre of bin `i`, metres.
+    #[must_use]
+    pub fn center_m(self, i: usize) -> f32 {
+        #[allow(clippy::cast_precision_loss)]
+        let fi = i as f32;
+        (fi + 0.5) * self.width_m()
+    }
+}
+
+/// 2⁻ˢ as `f32`, s ≤ 10.
+fn pow2_neg(shift: u32) -> f32 {
+    #[allow(clippy::cast_precision_loss)]
+    let denominator = (1_u32 << shift.min(MAX_BIN_SHIFT)) as f32;
+    1.0 / denominator
+}
+
+/// [`GATE_BINS`] as `f32`.
+fn bins_f32() -> f32 {
+    #[allow(clippy::cast_precision_loss)]
+    let b = GATE_BINS as f32;
+    b
+}
+
+/// One layer's gate: a weight per distance bin, Q1.15. 1 KiB.
+#[derive(Clone, PartialEq, Eq)]
+pub struct GateTable {
+    weights: [Weight; GATE_BINS],
+}
+
+impl core::fmt::Debug for GateTable {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        let nonzero = self.weights.iter().filter(|w| **w != Weight::ZERO).count();
+        write!(f, "GateTable {{ nonzero bins: {nonzero} }}")
+    }
+}
+
+#[cfg(feature = "defmt")]
+impl defmt::Format for GateTable {
+    fn format(&self, f: defmt::Formatter<'_>) {
+        defmt::write!(f, "GateTable");
+    }
+}
+
+impl GateTable {
+    /// A table of zeros: the layer receives nothing.
+    pub const ZERO: Self = Self {
+        weights: [Weight::ZERO; GATE_BINS],
+    };
+
+    /// Builds layer `k`'s table of a design (rules in `docs/core.md`): the top-hat over the
+    /// band, or the Gaussian around the band's centre, at every bin centre.
+    #[must_use]
+    pub fn build<const L: usize>(design: &Design<L>, k: usize, bins: DistanceBins) -> Self {
+        let mut table = Self::ZERO;
+        let layers = design.layers();
+        let Some(layer) = layers.get(k) else {
+            return table;
+        };
+        let last = k + 1 == layers.len();
+        let shape = design.schedule().gate;
+        for (i, w) in table.weights.iter_mut().enumerate() {
+            *w = round_weight(weight_at(layer, last, shape, bins.center_m(i)));
+        }
+        table
+    }
+
+    /// The weight of a distance bin (0 past the table, which [`DistanceBins::bin`] never
+    /// returns).
+    #[must_use]
+    #[inline]
+    pub fn weight(&self, bin: usize) -> Weight {
+        self.weights.get(bin).copied().unwrap_or(Weight::ZERO)
+    }
+
+    /// All weights, bin 0 first.
+    #[must_use]
+    pub fn weights(&self) -> &[Weight; GATE_BINS] {
+        &self.weights
+    }
+}
+
+/// The continuous gate of a layer at distance `d_m`, as a real number in 0 ..= 1.
+fn weight_at(layer: &LayerDesign, last: bool, shape: GateShape, d_m: f32) -> f32 {
+    match shape {
+        GateShape::Hard => {
+            let inside = d_m >= layer.band_inner_m && (last || d_m < layer.band_outer_m);
+            if inside {
+                1.0
+            } else {
+                0.0
+            }
+        }
+        GateShape::Soft { .. } => {
+            let sigma = layer.gate_sigma_m;
+            if sigma > 0.0 {
+                let z = (d_m - layer.gate_center_m) / sigma;
+                fmath::exp(-0.5 * z * z)
+            } else {
+                0.0
+            }
+        }
+    }
+}
+
+/// Rounds a weight in 0 ..= 1 to Q1.15, to nearest (ties up); out-of-range values saturate.
+fn round_weight(w: f32) -> Weight {
+    let raw = (w * 32_768.0 + 0.5).clamp(0.0, 32_768.0);
+    #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+    Weight::from_bits(raw as u16)
+}
+
+/// The worst-case error of a soft gate's table against the continuous gate, in weight units:
+/// the binning error `e^{−½}·b/(2σ)` plus the rounding error 2⁻¹⁶. For the hard gate, 0 away
+/// from the band edges (which move by at most b/2).
+#[must_use]
+pub fn binning_error_bound(layer: &LayerDesign, bins: DistanceBins) -> f32 {
+    if layer.gate_sigma_m > 0.0 {
+        // max |w'| = e^{−½}/σ at d = c ± σ.
+        0.606_530_66 * bins.width_m() / (2.0 * layer.gate_sigma_m) + 1.0 / 65_536.0
+    } else {
+        0.0
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::design::{Schedule, SensorModel};
+
+    #[test]
+    fn bins_for_ten_metres_are_1_32_m() {
+        let b = DistanceBins::for_range(10.0);
+        assert_eq!(b.width_m(), 1.0 / 32.0);
+        assert_eq!(b.bin(Meters::from_num(0.0)), 0);
+        assert_eq!(b.bin(Meters::from_num(0.031)), 0);
+        assert_eq!(b.bin(Meters::from_num(0.0313)), 1);
+        assert_eq!(b.bin(Meters::from_num(-3)), 0);
+        assert_eq!(b.bin(Meters::from_num(1000)), GATE_BINS - 1);
+        assert_eq!(DistanceBins::for_range(81.92).width_m(), 0.25);
+        assert_eq!(DistanceBins::for_range(0.4).width_m(), 1.0 / 1024.0);
+    }
+
+    #[test]
+    fn hard_gates_partition_the_bins() {
+        let s = Schedule {
+            gate: GateShape::Hard,
+            ..Schedule::default()
+        };
+        let d = Design::<16>::new(SensorModel::default(), s, 64).unwrap();
+        let bins = DistanceBins::for_range(10.0);
+        let tables: heapless::Vec<GateTable, 16> = (0..d.layers().len())
+            .map(|k| GateTable::build(&d, k, bins))
+            .collect();
+        for i in 0..GATE_BINS {
+            let sum: u32 = tables
+                .iter()
+                .map(|t| u32::from(t.weight(i).to_bits()))
+                .sum();
+            assert_eq!(sum, 1 << 15, "bin {i} belongs to exactly one layer");
+        }
+    }
+
+    #[test]
+    fn soft_gate_peaks_at_the_band_centre() {
+        let d = Design::<16>::new(SensorModel::default(), Schedule::default(), 64).unwrap();
+        let bins = DistanceBins::for_range(10.0);
+        let layer = d.layers()[2];
+        let t = GateTable::build(&d, 2, bins);
+        let centre = bins.bin(Meters::from_num(layer.gate_center_m));
+        let w = t.weight(centre).to_num::<f32>();
+        assert!(w > 0.99, "{w}");
+        // One σ away: e^{−½} = 0.6065 within the binning error.
+        let one_sigma = bins.bin(Meters::from_num(layer.gate_center_m + layer.gate_sigma_m));
+        let w1 = t.weight(one_sigma).to_num::<f32>();
+        assert!(
+            (w1 - 0.6065).abs() < binning_error_bound(&layer, bins),
+            "{w1}"
+        );
+    }
+}

@@ -1,1 +1,493 @@
-//! grid
+//! One robot-centric layer as a circular buffer, and its index maths.
+//!
+//! A layer is a W × W window of [`Cell`]s over world cells `[ox, ox+W) × [oy, oy+W)`. World
+//! cell `(i, j)` lives at storage slot `(i mod W, j mod W)`, so when the robot moves the
+//! window moves by changing its origin: only the rows and columns that enter are reset to
+//! unknown, and nothing is copied (grid_map's `GridMap::move`). The index maths are small free
+//! functions: [`cell_of`], [`window_offset`], [`slot`], [`entering`].
+
+use crate::logodds::{Cell, CellClass, Clamp};
+use crate::units::{LogOddsFixed, Meters};
+
+/// A layer's cell size in fixed point: `rq = round(r · 2¹⁶)` raw Q16.16, at least 1 cm.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Resolution {
+    /// Raw Q16.16 metres; ≥ 655 (0.01 m).
+    bits: i32,
+}
+
+impl Resolution {
+    /// The smallest raw value accepted: 0.01 m.
+    const MIN_BITS: i32 = 655;
+
+    /// Rounds a cell size in metres to Q16.16 (ties away from zero), refusing sizes below
+    /// 1 cm, above 32 000 m, or not finite.
+    #[must_use]
+    pub fn from_m(resolution_m: f32) -> Option<Self> {
+        if !resolution_m.is_finite() || !(0.01..=32_000.0).contains(&resolution_m) {
+            return None;
+        }
+        // In range: the product is below 2³¹ and the conversion is exact after rounding.
+        #[allow(clippy::cast_possible_truncation)]
+        let bits = (resolution_m * 65_536.0 + 0.5) as i32;
+        (bits >= Self::MIN_BITS).then_some(Self { bits })
+    }
+
+    /// The cell size as [`Meters`].
+    #[must_use]
+    pub const fn meters(self) -> Meters {
+        Meters::from_bits(self.bits)
+    }
+
+    /// The raw Q16.16 value.
+    #[must_use]
+    pub const fn to_bits(self) -> i32 {
+        self.bits
+    }
+
+    /// The cell that contains a coordinate: `floor(x / r)`, see [`cell_of`].
+    #[must_use]
+    #[inline]
+    pub fn cell_of(self, coordinate: Meters) -> i32 {
+        cell_of(coordinate.to_bits(), self.bits)
+    }
+
+    /// The lower edge of cell `index`, metres: `index · r` (saturating).
+    #[must_use]
+    pub fn cell_edge(self, index: i32) -> Meters {
+        Meters::from_bits(index.saturating_mul(self.bits))
+    }
+}
+
+/// The cell index of a coordinate: `floor(x_bits / r_bits)`, exact, flooring toward −∞ for
+/// negative coordinates. `r_bits` must be positive; a non-positive one yields cell 0.
+#[must_use]
+#[inline]
+pub fn cell_of(x_bits: i32, r_bits: i32) -> i32 {
+    if r_bits <= 0 {
+        return 0;
+    }
+    // With a positive divisor Euclidean division is floor division and cannot overflow.
+    x_bits.checked_div_euclid(r_bits).unwrap_or(0)
+}
+
+/// The offset of world index `index` inside a window that starts at `origin` and spans
+/// `width` cells, or `None` outside it.
+#[must_use]
+#[inline]
+pub fn window_offset(origin: i32, index: i32, width: usize) -> Option<usize> {
+    let offset = i64::from(index) - i64::from(origin);
+    usize::try_from(offset).ok().filter(|&o| o < width)
+}
+
+/// The storage slot of window offset `offset` when the window's origin is stored at slot
+/// `start`: `(start + offset) mod width`, for `start, offset < width`.
+#[must_use]
+#[inline]
+pub fn slot(start: usize, offset: usize, width: usize) -> usize {
+    let s = start + offset;
+    if s >= width {
+        s - width
+    } else {
+        s
+    }
+}
+
+/// The storage slot of a window origin: `origin mod width` (Euclidean).
+#[must_use]
+pub fn start_of(origin: i32, width: usize) -> usize {
+    let w = i64::try_from(width).unwrap_or(i64::MAX).max(1);
+    usize::try_from(i64::from(origin).rem_euclid(w)).unwrap_or(0)
+}
+
+/// Which storage slots along one axis enter the window when its origin moves from `old` to
+/// `new` (their contents must be reset).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Entering {
+    /// No move along this axis.
+    None,
+    /// `count` slots starting at slot `first`, wrapping modulo the width.
+    Slots {
+        /// The first slot to reset.
+        first: usize,
+        /// How many consecutive slots (mod width) to reset; < width.
+        count: usize,
+    },
+    /// The move is a whole window or more: every slot enters.
+    All,
+}
+
+/// The slots that enter along one axis when a window of `width` cells whose origin is stored
+/// at slot `start` moves its origin from `old` to `new`.
+///
+/// Moving up by n (n < width) replaces the n lowest world indices, whose slots start at
+/// `start`; moving down by n replaces the n highest, whose slots start at `start − n`.
+#[must_use]
+pub fn entering(old: i32, new: i32, start: usize, width: usize) -> Entering {
+    let delta = i64::from(new) - i64::from(old);
+    let w = i64::try_from(width).unwrap_or(i64::MAX);
+    if delta == 0 {
+        Entering::None
+    } else if delta.abs() >= w {
+        Entering::All
+    } else {
+        let n = usize::try_from(delta.unsigned_abs()).unwrap_or(width);
+        let first = if delta > 0 {
+            start
+        } else {
+            slot(start, width - n, width)
+        };
+        Entering::Slots { first, count: n }
+    }
+}
+
+/// Counts of one layer's cells.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct LayerCounts {
+    /// Observed cells, including those with L = 0.
+    pub observed: u32,
+    /// Observed cells with L > 0.
+    pub obstacle: u32,
+    /// Observed cells with L < 0.
+    pub free: u32,
+}
+
+/// Where a layer's window lies and how it is stored: 16 bytes, the same on every target.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Window {
+    /// World cell index of the window's lower-left cell, x.
+    origin_x: i32,
+    /// World cell index of the window's lower-left cell, y.
+    origin_y: i32,
+    /// Storage slot of `origin_x` (< W ≤ 1024).
+    start_x: u16,
+    /// Storage slot of `origin_y` (< W ≤ 1024).
+    start_y: u16,
+    /// The cell size.
+    resolution: Resolution,
+}
+
+/// One robot-centric layer: a W × W circular buffer of cells, `2·W² + 16` bytes.
+#[derive(Clone)]
+pub struct Layer<const W: usize> {
+    /// `cells[row][col]`: row = storage slot along y, col = along x.
+    cells: [[Cell; W]; W],
+    window: Window,
+}
+
+/// The bytes of one `Layer<W>` for `cells_per_side` = W (even): `2·W² + 16`.
+#[must_use]
+pub const fn layer_bytes(cells_per_side: usize) -> usize {
+    2 * cells_per_side * cells_per_side + core::mem::size_of::<Window>()
+}
+
+impl<const W: usize> core::fmt::Debug for Layer<W> {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.debug_struct("Layer")
+            .field("cells_per_side", &W)
+            .field("window", &self.window)
+            .finish()
+    }
+}
+
+/// Half a window, as a cell offset; W ≤ 1024 keeps it exact.
+const fn half<const W: usize>() -> i32 {
+    #[allow(clippy::cast_possible_truncation, clippy::cast_possible_wrap)]
+    let h = (W / 2) as i32;
+    h
+}
+
+impl<const W: usize> Layer<W> {
+    /// An empty layer of 1 cm cells centred on the world origin; [`Layer::reset`] gives it its
+    /// real resolution. `const`, so a pyramid can live in a `static`.
+    #[must_use]
+    pub const fn new() -> Self {
+        Self {
+            cells: [[Cell::UNKNOWN; W]; W],
+            window: Window {
+                origin_x: -half::<W>(),
+                origin_y: -half::<W>(),
+                #[allow(clippy::cast_possible_truncation)]
+                start_x: (W / 2) as u16,
+                #[allow(clippy::cast_possible_truncation)]
+                start_y: (W / 2) as u16,
+                resolution: Resolution {
+                    bits: Resolution::MIN_BITS,
+                },
+            },
+        }
+    }
+
+    /// Forgets everything: every cell unknown, the given resolution, the window centred on
+    /// the world origin.
+    pub fn reset(&mut self, resolution: Resolution) {
+        for row in &mut self.cells {
+            row.fill(Cell::UNKNOWN);
+        }
+        self.window.resolution = resolution;
+        self.set_origin(-half::<W>(), -half::<W>());
+    }
+
+    /// The cell size.
+    #[must_use]
+    pub const fn resolution(&self) -> Resolution {
+        self.window.resolution
+    }
+
+    /// Where the window lies and how it is stored.
+    #[must_use]
+    pub const fn window(&self) -> Window {
+        self.window
+    }
+
+    fn set_origin(&mut self, x: i32, y: i32) {
+        self.window.origin_x = x;
+        self.window.origin_y = y;
+        self.window.start_x = u16::try_from(start_of(x, W)).unwrap_or(0);
+        self.window.start_y = u16::try_from(start_of(y, W)).unwrap_or(0);
+    }
+
+    fn start(&self) -> (usize, usize) {
+        (
+            usize::from(self.window.start_x),
+            usize::from(self.window.start_y),
+        )
+    }
+
+    /// The world cell index of the window's lower-left cell, `(ox, oy)`.
+    #[must_use]
+    pub const fn origin(&self) -> (i32, i32) {
+        (self.window.origin_x, self.window.origin_y)
+    }
+
+    /// Storage `(row, col)` of world cell `(i, j)`, or `None` outside the window.
+    #[inline]
+    fn slot_of(&self, i: i32, j: i32) -> Option<(usize, usize)> {
+        let (start_x, start_y) = self.start();
+        let col = slot(start_x, window_offset(self.window.origin_x, i, W)?, W);
+        let row = slot(start_y, window_offset(self.window.origin_y, j, W)?, W);
+        Some((row, col))
+    }
+
+    /// The cell at world cell index `(i, j)`, or `None` outside the window.
+    #[must_use]
+    pub fn get(&self, i: i32, j: i32) -> Option<Cell> {
+        let (row, col) = self.slot_of(i, j)?;
+        self.cells.get(row)?.get(col).copied()
+    }
+
+    /// The cell at window offset `(dx, dy)` (0 ..< W each, from the lower-left corner), or
+    /// `None` outside.
+    #[must_use]
+    pub fn at_offset(&self, dx: usize, dy: usize) -> Option<Cell> {
+        if dx >= W || dy >= W {
+            return None;
+        }
+        let (start_x, start_y) = self.start();
+        let col = slot(start_x, dx, W);
+        let row = slot(start_y, dy, W);
+        self.cells.get(row)?.get(col).copied()
+    }
+
+    /// Adds a gated increment to world cell `(i, j)`; returns `false` (and changes nothing)
+    /// when the cell is outside the window.
+    #[inline]
+    pub fn update(&mut self, i: i32, j: i32, g: i16, initial: LogOddsFixed, clamp: Clamp) -> bool {
+        let Some((row, col)) = self.slot_of(i, j) else {
+            return false;
+        };
+        match self.cells.get_mut(row).and_then(|r| r.get_mut(col)) {
+            Some(cell) => {
+                *cell = cell.updated(g, initial, clamp);
+                true
+            }
+            None => false,
+        }
+    }
+
+    /// Moves the window so that the robot at `(x, y)` sits in its centre cell:
+    /// origin = robot cell − W/2. Returns the number of cells reset to unknown.
+    pub fn recentre(&mut self, x: Meters, y: Meters) -> usize {
+        let r = self.window.resolution;
+        let new_x = r.cell_of(x).saturating_sub(half::<W>());
+        let new_y = r.cell_of(y).saturating_sub(half::<W>());
+        self.move_origin(new_x, new_y)
+    }
+
+    /// Moves the window's origin to world cell `(new_x, new_y)`, resetting the rows and
+    /// columns that enter. Returns the number of cells reset.
+    pub fn move_origin(&mut self, new_x: i32, new_y: i32) -> usize {
+        let (start_x, start_y) = self.start();
+        let along_x = entering(self.window.origin_x, new_x, start_x, W);
+        let along_y = entering(self.window.origin_y, new_y, start_y, W);
+        let reset = match (along_x, along_y) {
+            (Entering::All, _) | (_, Entering::All) => {
+                for row in &mut self.cells {
+                    row.fill(Cell::UNKNOWN);
+                }
+                W * W
+            }
+            (ex, ey) => {
+                let mut n = 0;
+                if let Entering::Slots { first, count } = ey {
+                    for t in 0..count {
+                        if let Some(row) = self.cells.get_mut(slot(first, t, W)) {
+                            row.fill(Cell::UNKNOWN);
+                        }
+                    }
+                    n += count * W;
+                }
+                if let Entering::Slots { first, count } = ex {
+                    for row in &mut self.cells {
+                        for t in 0..count {
+                            if let Some(c) = row.get_mut(slot(first, t, W)) {
+                                *c = Cell::UNKNOWN;
+                            }
+                        }
+                    }
+                    let rows_done = match ey {
+                        Entering::Slots { count: dy, .. } => dy,
+                        _ => 0,
+                    };
+                    n += count * (W - rows_done);
+                }
+                n
+            }
+        };
+        self.set_origin(new_x, new_y);
+        reset
+    }
+
+    /// Counts of observed, obstacle and free cells over the whole window.
+    #[must_use]
+    pub fn counts(&self) -> LayerCounts {
+        let mut counts = LayerCounts::default();
+        for cell in self.cells.iter().flatten() {
+            match cell.class() {
+                CellClass::Unknown => continue,
+                CellClass::Obstacle => counts.obstacle += 1,
+                CellClass::Navigable => counts.free += 1,
+                CellClass::Undecided => {}
+            }
+            counts.observed += 1;
+        }
+        counts
+    }
+}
+
+impl<const W: usize> Default for Layer<W> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn cell_of_floors_toward_negative_infinity() {
+        assert_eq!(cell_of(0, 10), 0);
+        assert_eq!(cell_of(9, 10), 0);
+        assert_eq!(cell_of(10, 10), 1);
+        assert_eq!(cell_of(-1, 10), -1);
+        assert_eq!(cell_of(-10, 10), -1);
+        assert_eq!(cell_of(-11, 10), -2);
+        assert_eq!(cell_of(i32::MIN, 655), i32::MIN / 655 - 1);
+        assert_eq!(cell_of(5, 0), 0);
+    }
+
+    #[test]
+    fn resolution_rounds_to_q16_16() {
+        let r = Resolution::from_m(0.1).unwrap();
+        assert_eq!(r.to_bits(), 6554);
+        assert!(Resolution::from_m(0.001).is_none());
+        assert!(Resolution::from_m(f32::NAN).is_none());
+        assert_eq!(r.cell_of(Meters::from_num(-0.05)), -1);
+        assert_eq!(r.cell_of(Meters::from_num(0.25)), 2);
+    }
+
+    #[test]
+    fn window_offsets_and_slots_wrap() {
+        assert_eq!(window_offset(-32, -32, 64), Some(0));
+        assert_eq!(window_offset(-32, 31, 64), Some(63));
+        assert_eq!(window_offset(-32, 32, 64), None);
+        assert_eq!(window_offset(-32, -33, 64), None);
+        assert_eq!(window_offset(i32::MIN, i32::MAX, 64), None);
+        assert_eq!(slot(60, 3, 64), 63);
+        assert_eq!(slot(60, 4, 64), 0);
+        assert_eq!(start_of(-1, 64), 63);
+        assert_eq!(start_of(-64, 64), 0);
+        assert_eq!(start_of(130, 64), 2);
+    }
+
+    #[test]
+    fn entering_slots_follow_the_move() {
+        assert_eq!(entering(0, 0, 5, 8), Entering::None);
+        assert_eq!(entering(0, 3, 5, 8), Entering::Slots { first: 5, count: 3 });
+        assert_eq!(
+            entering(0, -3, 5, 8),
+            Entering::Slots { first: 2, count: 3 }
+        );
+        assert_eq!(entering(0, 8, 5, 8), Entering::All);
+        assert_eq!(entering(0, -9, 5, 8), Entering::All);
+        assert_eq!(entering(i32::MIN, i32::MAX, 0, 8), Entering::All);
+    }
+
+    fn mark(layer: &mut Layer<8>, i: i32, j: i32) {
+        assert!(layer.update(i, j, 10, LogOddsFixed::ZERO, Clamp::Off));
+    }
+
+    #[test]
+    fn a_move_keeps_the_overlap_and_resets_what_enters() {
+        let mut layer = Layer::<8>::new();
+        layer.reset(Resolution::from_m(1.0).unwrap());
+        assert_eq!(layer.origin(), (-4, -4));
+        for i in -4..4 {
+            for j in -4..4 {
+                mark(&mut layer, i, j);
+            }
+        }
+        // Move by (+3, −2): the window becomes [-1, 7) × [-6, 2).
+        let reset = layer.move_origin(-1, -6);
+        assert_eq!(reset, 8 * 8 - 5 * 6);
+        for i in -1..7 {
+            for j in -6..2 {
+                let was_inside = (-4..4).contains(&i) && (-4..4).contains(&j);
+                assert_eq!(
+                    layer.get(i, j).unwrap().is_observed(),
+                    was_inside,
+                    "({i}, {j})"
+                );
+            }
+        }
+        assert_eq!(layer.get(-2, 0), None);
+        assert_eq!(layer.counts().observed, 30);
+    }
+
+    #[test]
+    fn a_move_larger_than_the_window_resets_everything() {
+        let mut layer = Layer::<8>::new();
+        layer.reset(Resolution::from_m(1.0).unwrap());
+        mark(&mut layer, 0, 0);
+        assert_eq!(layer.move_origin(100, -4), 64);
+        assert_eq!(layer.counts().observed, 0);
+        assert_eq!(layer.origin(), (100, -4));
+        mark(&mut layer, 107, 3);
+        assert_eq!(layer.at_offset(7, 7).unwrap().class(), CellClass::Obstacle);
+    }
+
+    #[test]
+    fn recentre_puts_the_robot_in_the_centre_cell() {
+        let mut layer = Layer::<8>::new();
+        layer.reset(Resolution::from_m(0.5).unwrap());
+        layer.recentre(Meters::from_num(10.2), Meters::from_num(-3.1));
+        // Robot cell (20, −7) → origin (16, −11).
+        assert_eq!(layer.origin(), (16, -11));
+        assert!(!layer.update(15, 0, 10, LogOddsFixed::ZERO, Clamp::Off));
+    }
+}

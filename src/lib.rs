@@ -44,4 +44,16 @@ pub mod wire;
 
 pub use design::{Design, DesignError, GateShape, Param, Schedule, SensorModel};
 
+pub use grid::{Layer, LayerCounts, Resolution};
+pub use logodds::{Cell, CellClass, Clamp, Increments, InverseSensorModel};
+pub use pyramid::{Applied, Config, Evidence, EvidenceClass, Fused, Pyramid, PyramidStats};
+pub use units::{LogOddsFixed, Meters, Weight};
 
+/// Window size of the default pyramid, cells per side: 6.4 m across at 0.1 m.
+pub const DEFAULT_CELLS_PER_SIDE: usize = 64;
+/// Layer capacity of the default pyramid: the default design (10 m, Δd = 0.1 m, γ = 2) needs 8.
+pub const DEFAULT_LAYERS: usize = 8;
+/// The default pyramid: 8 layers of 64 × 64 cells, about 73 KiB.
+pub type DefaultPyramid = Pyramid<DEFAULT_CELLS_PER_SIDE, DEFAULT_LAYERS>;
+/// The design type of the default pyramid.
+pub type DefaultDesign = Design<DEFAULT_LAYERS>;

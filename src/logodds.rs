@@ -1,1 +1,470 @@
-//! logodds
+//! Fixed-point log-odds: the cell type, the inverse sensor model as increments, clamping.
+//!
+//! A cell holds `L = log(p / (1 − p))` of "not navigable" in signed Q8.8 nats
+//! ([`LogOddsFixed`]), or the explicit **unknown** state, which is distinct from "observed,
+//! L = 0". Updates saturate (nothing wraps) and may be clamped to OctoMap-style bounds.
+//! See `docs/core.md` for the exact rules.
+
+use crate::design::{DesignError, Param};
+use crate::fmath;
+use crate::units::{LogOddsFixed, Weight};
+use core::fmt;
+
+/// The raw value reserved for "unknown".
+const UNKNOWN_RAW: i16 = i16::MIN;
+/// The largest magnitude a stored log-odds may have, raw Q8.8 (127.996 nats).
+const STORED_MAX_RAW: i16 = i16::MAX;
+
+/// One grid cell: a log-odds value in Q8.8 nats, or unknown. Two bytes.
+///
+/// The raw value `i16::MIN` is the unknown state; every observed value lies in
+/// −32 767 ..= +32 767 raw (±127.996 nats).
+#[derive(Clone, Copy, PartialEq, Eq, Hash)]
+#[repr(transparent)]
+pub struct Cell(i16);
+
+/// What a cell says about its place.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum CellClass {
+    /// Never observed.
+    Unknown,
+    /// Observed, and the evidence cancels exactly (L = 0).
+    Undecided,
+    /// Observed with L > 0: not navigable.
+    Obstacle,
+    /// Observed with L < 0: navigable.
+    Navigable,
+}
+
+impl Cell {
+    /// The state of a cell that has never been observed.
+    pub const UNKNOWN: Self = Self(UNKNOWN_RAW);
+
+    /// An observed cell holding `value` (never unknown: the reserved raw value maps to the
+    /// smallest stored value).
+    #[must_use]
+    pub const fn observed(value: LogOddsFixed) -> Self {
+        let raw = value.to_bits();
+        Self(if raw == UNKNOWN_RAW {
+            -STORED_MAX_RAW
+        } else {
+            raw
+        })
+    }
+
+    /// The raw 16-bit representation (`i16::MIN` = unknown), as exported over the link.
+    #[must_use]
+    pub const fn to_raw(self) -> i16 {
+        self.0
+    }
+
+    /// The cell whose raw representation is `raw` (`i16::MIN` = unknown).
+    #[must_use]
+    pub const fn from_raw(raw: i16) -> Self {
+        Self(raw)
+    }
+
+    /// Whether the cell has received at least one non-zero increment since it entered the
+    /// window.
+    #[must_use]
+    pub const fn is_observed(self) -> bool {
+        self.0 != UNKNOWN_RAW
+    }
+
+    /// The log-odds value, or `None` when unknown.
+    #[must_use]
+    pub const fn log_odds(self) -> Option<LogOddsFixed> {
+        if self.is_observed() {
+            Some(LogOddsFixed::from_bits(self.0))
+        } else {
+            None
+        }
+    }
+
+    /// The class of the cell: unknown, undecided (L = 0), obstacle (L > 0), navigable (L < 0).
+    #[must_use]
+    pub const fn class(self) -> CellClass {
+        match self.0 {
+            UNKNOWN_RAW => CellClass::Unknown,
+            0 => CellClass::Undecided,
+            v if v > 0 => CellClass::Obstacle,
+            _ => CellClass::Navigable,
+        }
+    }
+
+    /// Adds a gated increment `g` (raw Q8.8). Zero leaves the cell untouched (it does not
+    /// become observed); otherwise an unknown cell first takes `initial`, the sum saturates at
+    /// ±127.996 nats, and `clamp` applies.
+    #[must_use]
+    pub fn updated(self, g: i16, initial: LogOddsFixed, clamp: Clamp) -> Self {
+        if g == 0 {
+            return self;
+        }
+        let start = if self.is_observed() {
+            self.0
+        } else {
+            initial.to_bits()
+        };
+        let sum = start.saturating_add(g).max(-STORED_MAX_RAW);
+        Self(clamp.apply_raw(sum))
+    }
+}
+
+impl Default for Cell {
+    fn default() -> Self {
+        Self::UNKNOWN
+    }
+}
+
+impl fmt::Debug for Cell {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self.log_odds() {
+            Some(v) => write!(f, "Cell({v})"),
+            None => f.write_str("Cell(unknown)"),
+        }
+    }
+}
+
+#[cfg(feature = "defmt")]
+impl defmt::Format for Cell {
+    fn format(&self, f: defmt::Formatter<'_>) {
+        if self.is_observed() {
+            defmt::write!(f, "Cell({=i16} raw Q8.8)", self.0);
+        } else {
+            defmt::write!(f, "Cell(unknown)");
+        }
+    }
+}
+
+/// Clamping of stored log-odds, after OctoMap's `clamping_thres_min/max`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Clamp {
+    /// No clamping: the paper's baseline. Only the format saturates, at ±127.996 nats.
+    Off,
+    /// Keep `min ≤ L ≤ max` (`min < 0 < max`), so that a cell can change its mind quickly.
+    Bounds {
+        /// The lower bound, nats (OctoMap default −2.0, p = 0.1192).
+        min: LogOddsFixed,
+        /// The upper bound, nats (OctoMap default 3.5, p = 0.971).
+        max: LogOddsFixed,
+    },
+}
+
+impl Clamp {
+    /// OctoMap's default bounds, −2.0 ..= 3.5 nats.
+    pub const OCTOMAP: Self = Self::Bounds {
+        min: LogOddsFixed::lit("-2"),
+        max: LogOddsFixed::lit("3.5"),
+    };
+
+    /// Builds bounds from nats, refusing non-finite values, `min ≥ 0` or `max ≤ 0`.
+    ///
+    /// # Errors
+    /// [`DesignError::NotFinite`] or [`DesignError::OutOfRange`] naming the bound.
+    pub fn bounds(min: f32, max: f32) -> Result<Self, DesignError> {
+        // min in [−127, 0), max in (0, 127].
+        let limit = 127.0;
+        for (param, value, ok, lo, hi) in [
+            (
+                Param::ClampMin,
+                min,
+                (-limit..0.0).contains(&min),
+                -limit,
+                0.0,
+            ),
+            (Param::ClampMax, max, max > 0.0 && max <= limit, 0.0, limit),
+        ] {
+            if !value.is_finite() {
+                return Err(DesignError::NotFinite { param });
+            }
+            if !ok {
+                return Err(DesignError::OutOfRange {
+                    param,
+                    value,
+                    min: lo,
+                    max: hi,
+                });
+            }
+        }
+        Ok(Self::Bounds {
+            min: round_to_log_odds(min),
+            max: round_to_log_odds(max),
+        })
+    }
+
+    /// Applies the bounds to a raw Q8.8 value.
+    #[must_use]
+    pub fn apply_raw(self, raw: i16) -> i16 {
+        match self {
+            Self::Off => raw,
+            Self::Bounds { min, max } => raw.clamp(min.to_bits(), max.to_bits().max(min.to_bits())),
+        }
+    }
+}
+
+#[cfg(feature = "defmt")]
+impl defmt::Format for Clamp {
+    fn format(&self, f: defmt::Formatter<'_>) {
+        match self {
+            Self::Off => defmt::write!(f, "Clamp::Off"),
+            Self::Bounds { min, max } => defmt::write!(
+                f,
+                "Clamp::Bounds {{ min: {=i16}, max: {=i16} }} (raw Q8.8)",
+                min.to_bits(),
+                max.to_bits()
+            ),
+        }
+    }
+}
+
+#[cfg(feature = "defmt")]
+impl defmt::Format for Increments {
+    fn format(&self, f: defmt::Formatter<'_>) {
+        defmt::write!(
+            f,
+            "Increments {{ obstacle: {=i16}, free: {=i16}, initial: {=i16} }} (raw Q8.8)",
+            self.obstacle.to_bits(),
+            self.free.to_bits(),
+            self.initial.to_bits()
+        );
+    }
+}
+
+impl Default for Clamp {
+    fn default() -> Self {
+        Self::OCTOMAP
+    }
+}
+
+/// The inverse sensor model: p(x | z) for each class of a cell's observation, and the prior.
+///
+/// Probabilities of "not navigable". Defaults `p_obstacle = 0.7`, `p_free = 0.4`,
+/// `prior = 0.5`; each must lie in (0, 1) with `p_free < prior < p_obstacle`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct InverseSensorModel {
+    /// p(x | z) when the classifier finds the cell non-navigable.
+    pub p_obstacle: f32,
+    /// p(x | z) when the classifier finds the cell navigable.
+    pub p_free: f32,
+    /// The prior p(x).
+    pub prior: f32,
+}
+
+impl Default for InverseSensorModel {
+    fn default() -> Self {
+        Self {
+            p_obstacle: 0.7,
+            p_free: 0.4,
+            prior: 0.5,
+        }
+    }
+}
+
+/// The inverse sensor model in fixed point: what one observation adds to a cell, before gating.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Increments {
+    /// `logit(p_obstacle) − logit(prior)`, > 0.
+    pub obstacle: LogOddsFixed,
+    /// `logit(p_free) − logit(prior)`, < 0.
+    pub free: LogOddsFixed,
+    /// `logit(prior)`: the value a cell takes before its first increment (eq. 6).
+    pub initial: LogOddsFixed,
+}
+
+impl Default for Increments {
+    fn default() -> Self {
+        // logit(0.7) = 0.8473 → raw 217; logit(0.4) = −0.4055 → raw −104; logit(0.5) = 0.
+        Self {
+            obstacle: LogOddsFixed::from_bits(217),
+            free: LogOddsFixed::from_bits(-104),
+            initial: LogOddsFixed::ZERO,
+        }
+    }
+}
+
+impl InverseSensorModel {
+    /// Validates the probabilities and converts them into Q8.8 increments (rounded to nearest,
+    /// ties away from zero), with the device's own `f32` maths.
+    ///
+    /// # Errors
+    /// A non-finite probability, one outside (0.001, 0.999), or the order
+    /// `p_free < prior < p_obstacle` broken (reported against the parameter out of order).
+    pub fn increments(&self) -> Result<Increments, DesignError> {
+        for (param, value) in [
+            (Param::PObstacle, self.p_obstacle),
+            (Param::PFree, self.p_free),
+            (Param::Prior, self.prior),
+        ] {
+            if !value.is_finite() {
+                return Err(DesignError::NotFinite { param });
+            }
+            if !(0.001..=0.999).contains(&value) {
+                return Err(DesignError::OutOfRange {
+                    param,
+                    value,
+                    min: 0.001,
+                    max: 0.999,
+                });
+            }
+        }
+        if self.p_obstacle <= self.prior {
+            return Err(DesignError::OutOfRange {
+                param: Param::PObstacle,
+                value: self.p_obstacle,
+                min: self.prior,
+                max: 0.999,
+            });
+        }
+        if self.p_free >= self.prior {
+            return Err(DesignError::OutOfRange {
+                param: Param::PFree,
+                value: self.p_free,
+                min: 0.001,
+                max: self.prior,
+            });
+        }
+        let prior = logit(self.prior);
+        Ok(Increments {
+            obstacle: round_to_log_odds(logit(self.p_obstacle) - prior),
+            free: round_to_log_odds(logit(self.p_free) - prior),
+            initial: round_to_log_odds(prior),
+        })
+    }
+}
+
+/// `ln(p / (1 − p))`, nats, for p in (0, 1).
+#[must_use]
+pub fn logit(p: f32) -> f32 {
+    fmath::ln(p / (1.0 - p))
+}
+
+/// Rounds nats to Q8.8, to nearest with ties away from zero, saturating at ±127.996.
+#[must_use]
+pub fn round_to_log_odds(nats: f32) -> LogOddsFixed {
+    let raw = nats * 256.0;
+    let rounded = if raw >= 0.0 { raw + 0.5 } else { raw - 0.5 };
+    // Saturate before the truncating conversion; NaN gives 0.
+    let clamped = if rounded.is_nan() {
+        0.0
+    } else {
+        rounded.clamp(-f32::from(STORED_MAX_RAW), f32::from(STORED_MAX_RAW))
+    };
+    #[allow(clippy::cast_possible_truncation)]
+    LogOddsFixed::from_bits(clamped as i16)
+}
+
+/// The gated increment `g = round_half_up(l · w)` in raw Q8.8: exact integer maths.
+///
+/// `|l| ≤ 32 767` and `w ≤ 1.0` (raw 32 768), so the product fits an `i32` and the result
+/// fits an `i16`.
+#[must_use]
+#[inline]
+pub fn gated(l: LogOddsFixed, w: Weight) -> i16 {
+    let product = i32::from(l.to_bits()) * i32::from(w.to_bits());
+    let g = (product + (1 << 14)) >> 15;
+    // |g| ≤ |l| ≤ 32 768 only when w ≤ 1; weights above 1 do not exist in a table, but
+    // saturate anyway rather than wrap.
+    i16::try_from(g).unwrap_or(if g < 0 { i16::MIN + 1 } else { i16::MAX })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn unknown_is_distinct_from_observed_zero() {
+        let zero = Cell::observed(LogOddsFixed::ZERO);
+        assert!(zero.is_observed());
+        assert_eq!(zero.class(), CellClass::Undecided);
+        assert!(!Cell::UNKNOWN.is_observed());
+        assert_eq!(Cell::UNKNOWN.class(), CellClass::Unknown);
+        assert_ne!(zero, Cell::UNKNOWN);
+        assert_eq!(Cell::UNKNOWN.log_odds(), None);
+    }
+
+    #[test]
+    fn default_increments_are_the_logits() {
+        let inc = InverseSensorModel::default().increments().unwrap();
+        assert_eq!(inc, Increments::default());
+        // Independent of the code: logit(0.7) = ln(7/3) = 0.847298; ×256 = 216.9.
+        assert_eq!(inc.obstacle.to_bits(), 217);
+        assert_eq!(inc.free.to_bits(), -104);
+        assert_eq!(inc.initial.to_bits(), 0);
+    }
+
+    #[test]
+    fn zero_increment_does_not_observe() {
+        assert_eq!(
+            Cell::UNKNOWN.updated(0, LogOddsFixed::ZERO, Clamp::Off),
+            Cell::UNKNOWN
+        );
+    }
+
+    #[test]
+    fn updates_saturate_and_never_reach_the_unknown_sentinel() {
+        let mut c = Cell::UNKNOWN;
+        for _ in 0..1000 {
+            c = c.updated(-217, LogOddsFixed::ZERO, Clamp::Off);
+        }
+        assert_eq!(c.to_raw(), -32767);
+        assert!(c.is_observed());
+        for _ in 0..1000 {
+            c = c.updated(i16::MAX, LogOddsFixed::ZERO, Clamp::Off);
+        }
+        assert_eq!(c.to_raw(), 32767);
+    }
+
+    #[test]
+    fn clamping_holds_the_octomap_bounds() {
+        let mut c = Cell::UNKNOWN;
+        for _ in 0..100 {
+            c = c.updated(-104, LogOddsFixed::ZERO, Clamp::OCTOMAP);
+        }
+        assert_eq!(c.log_odds(), Some(LogOddsFixed::from_num(-2)));
+        for _ in 0..100 {
+            c = c.updated(217, LogOddsFixed::ZERO, Clamp::OCTOMAP);
+        }
+        assert_eq!(c.log_odds(), Some(LogOddsFixed::from_num(3.5)));
+    }
+
+    #[test]
+    fn gated_rounds_half_up_and_hard_gate_is_exact() {
+        assert_eq!(gated(LogOddsFixed::from_bits(-104), Weight::ONE), -104);
+        assert_eq!(gated(LogOddsFixed::from_bits(217), Weight::ZERO), 0);
+        // 217 · 0.5 = 108.5 → 109; −104 · 0.5 = −52 exactly; −105 · 0.5 = −52.5 → −52.
+        let half = Weight::from_num(0.5);
+        assert_eq!(gated(LogOddsFixed::from_bits(217), half), 109);
+        assert_eq!(gated(LogOddsFixed::from_bits(-104), half), -52);
+        assert_eq!(gated(LogOddsFixed::from_bits(-105), half), -52);
+    }
+
+    #[test]
+    fn bad_probabilities_are_refused_by_name() {
+        let m = InverseSensorModel {
+            p_obstacle: 0.4,
+            ..InverseSensorModel::default()
+        };
+        assert!(matches!(
+            m.increments(),
+            Err(DesignError::OutOfRange {
+                param: Param::PObstacle,
+                ..
+            })
+        ));
+        let m = InverseSensorModel {
+            prior: f32::NAN,
+            ..InverseSensorModel::default()
+        };
+        assert_eq!(
+            m.increments(),
+            Err(DesignError::NotFinite {
+                param: Param::Prior
+            })
+        );
+        assert!(Clamp::bounds(1.0, 3.0).is_err());
+        assert!(Clamp::bounds(-2.0, f32::INFINITY).is_err());
+        assert_eq!(Clamp::bounds(-2.0, 3.5), Ok(Clamp::OCTOMAP));
+    }
+}

@@ -1,1 +1,685 @@
-//! pyramid
+//! The pyramid: the layers together. Gated integration of evidence, recentring on the robot,
+//! the fused query, and per-layer counts. Rules in `docs/core.md`.
+//!
+//! A `Pyramid<W, L>` holds up to `L` layers of W × W cells and their gate tables, about
+//! `L · (2·W² + 1 KiB)` bytes, all inline: put it in a `static` (its constructor is `const`)
+//! and [`Pyramid::configure`] it in place, so that it never sits on the stack.
+
+use crate::design::{Design, DesignError, Param};
+use crate::gate::{DistanceBins, GateTable};
+use crate::grid::{Layer, LayerCounts, Resolution};
+use crate::logodds::{gated, Clamp, Increments, InverseSensorModel};
+use crate::units::{LogOddsFixed, Meters};
+
+/// What the classifier concluded about one layer cell from one observation.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum EvidenceClass {
+    /// The points in the cell spread beyond the step threshold: not navigable.
+    Obstacle,
+    /// The points in the cell lie close together (or overhang above the robot): navigable.
+    Navigable,
+}
+
+/// One observation's evidence for one layer cell.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Evidence {
+    /// The layer, 0 = finest.
+    pub layer: u8,
+    /// The cell's world index along x in that layer: `floor(x / r_k)`.
+    pub cell_x: i32,
+    /// The cell's world index along y in that layer: `floor(y / r_k)`.
+    pub cell_y: i32,
+    /// What the observation says about the cell.
+    pub class: EvidenceClass,
+    /// The horizontal distance from the sensor to the cell at the time of measurement, ≥ 0.
+    pub distance: Meters,
+}
+
+#[cfg(feature = "defmt")]
+impl defmt::Format for Evidence {
+    fn format(&self, f: defmt::Formatter<'_>) {
+        defmt::write!(
+            f,
+            "Evidence {{ layer: {=u8}, cell: ({=i32}, {=i32}), class: {}, distance: {=i32} raw Q16.16 }}",
+            self.layer,
+            self.cell_x,
+            self.cell_y,
+            self.class,
+            self.distance.to_bits()
+        );
+    }
+}
+
+/// The fused answer for a place.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Fused {
+    /// No layer has a confident answer.
+    Unknown,
+    /// Not navigable, according to this layer (the finest that answered).
+    Obstacle {
+        /// The layer that answered.
+        layer: u8,
+    },
+    /// Navigable, according to this layer (the finest that answered).
+    Navigable {
+        /// The layer that answered.
+        layer: u8,
+    },
+}
+
+/// What the pyramid does with evidence, beyond the design.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Config {
+    /// The inverse sensor model. Default 0.7 / 0.4 / prior 0.5.
+    pub model: InverseSensorModel,
+    /// Clamping of stored log-odds. Default: OctoMap's −2 ..= 3.5 nats.
+    pub clamp: Clamp,
+    /// The fused query's confidence margin for "navigable", nats, ≥ 0. Default 0.
+    pub fused_margin: f32,
+}
+
+impl Default for Config {
+    fn default() -> Self {
+        Self {
+            model: InverseSensorModel::default(),
+            clamp: Clamp::default(),
+            fused_margin: 0.0,
+        }
+    }
+}
+
+/// Counters of what integration did. They saturate at `u32::MAX`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct PyramidStats {
+    /// Records that changed a cell.
+    pub applied: u32,
+    /// Records whose gated increment rounded to zero for their layer (not an error).
+    pub gated_out: u32,
+    /// Records outside their layer's window.
+    pub outside_window: u32,
+    /// Records naming a layer the design does not have.
+    pub bad_layer: u32,
+    /// Cells reset to unknown by window moves.
+    pub cells_reset: u32,
+}
+
+/// What became of one evidence record.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Applied {
+    /// The cell took the gated increment.
+    Updated,
+    /// The gated increment was zero: nothing changed.
+    GatedOut,
+    /// The cell lies outside its layer's window.
+    OutsideWindow,
+    /// The layer index is beyond the design's layers.
+    BadLayer,
+}
+
+/// Why a region export was refused.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[non_exhaustive]
+pub enum RegionError {
+    /// The output buffer holds fewer than `width · height` cells.
+    BufferTooSmall {
+        /// Cells needed.
+        needed: usize,
+        /// Cells in the buffer.
+        got: usize,
+    },
+    /// The step is zero or negative.
+    BadStep,
+}
+
+impl core::fmt::Display for RegionError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match *self {
+            Self::BufferTooSmall { needed, got } => {
+                write!(f, "region needs {needed} cells, the buffer holds {got}")
+            }
+            Self::BadStep => f.write_str("region step must be positive"),
+        }
+    }
+}
+
+/// The terrain pyramid: up to `L` robot-centric layers of `W × W` cells.
+#[derive(Clone)]
+pub struct Pyramid<const W: usize, const L: usize> {
+    layers: [Layer<W>; L],
+    gates: [GateTable; L],
+    state: State,
+}
+
+/// Everything of a pyramid but its layers and gates; its size is the same on every target.
+#[derive(Debug, Clone, Copy)]
+struct State {
+    /// Active layers, ≤ L ≤ 255; 0 until configured.
+    active: u8,
+    bins: DistanceBins,
+    increments: Increments,
+    clamp: Clamp,
+    /// Raw Q8.8, ≥ 0.
+    margin: i16,
+    stats: PyramidStats,
+}
+
+impl<const W: usize, const L: usize> core::fmt::Debug for Pyramid<W, L> {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.debug_struct("Pyramid")
+            .field("cells_per_side", &W)
+            .field("layers", &self.state.active)
+            .field("stats", &self.state.stats)
+            .finish()
+    }
+}
+
+/// The static RAM of a `Pyramid<W, L>`, bytes: what the firmware reserves for it.
+#[must_use]
+pub const fn static_ram_bytes<const W: usize, const L: usize>() -> usize {
+    core::mem::size_of::<Pyramid<W, L>>()
+}
+
+/// The static RAM of a pyramid of `layers` layers of `cells_per_side` (even) cells per side,
+/// bytes: `layers · (2·W² + 16 + 1024) + 40`. Equal to [`static_ram_bytes`] for the same
+/// shape (a unit test holds them together), for designs chosen at run time.
+#[must_use]
+pub const fn ram_bytes(cells_per_side: usize, layers: usize) -> usize {
+    layers * (crate::grid::layer_bytes(cells_per_side) + core::mem::size_of::<GateTable>())
+        + core::mem::size_of::<State>()
+}
+
+impl<const W: usize, const L: usize> Pyramid<W, L> {
+    /// An unconfigured pyramid (no layers; every query answers unknown). `const`, so that
+    /// firmware can place it in a `static` and [`configure`](Self::configure) it in place.
+    #[must_use]
+    pub const fn new() -> Self {
+        Self {
+            layers: [const { Layer::new() }; L],
+            gates: [const { GateTable::ZERO }; L],
+            state: State {
+                active: 0,
+                bins: DistanceBins::for_range_const_default(),
+                increments: Increments {
+                    obstacle: LogOddsFixed::from_bits(217),
+                    free: LogOddsFixed::from_bits(-104),
+                    initial: LogOddsFixed::ZERO,
+                },
+                clamp: Clamp::OCTOMAP,
+                margin: 0,
+                stats: PyramidStats {
+                    applied: 0,
+                    gated_out: 0,
+                    outside_window: 0,
+                    bad_layer: 0,
+                    cells_reset: 0,
+                },
+            },
+        }
+    }
+
+    /// Adopts a design and a configuration: rebuilds the gate tables and increments, and
+    /// resets every layer to unknown, centred on the world origin.
+    ///
+    /// On error nothing changes: the maps and the configuration in force stay as they were.
+    ///
+    /// # Errors
+    /// The design's window differs from `W`; a probability, a clamping bound or the margin is
+    /// invalid; a resolution cannot be represented.
+    pub fn configure(&mut self, design: &Design<L>, config: &Config) -> Result<(), DesignError> {
+        if design.cells_per_side() != W {
+            #[allow(clippy::cast_precision_loss)]
+            return Err(DesignError::OutOfRange {
+                param: Param::Cells,
+                value: design.cells_per_side() as f32,
+                min: W as f32,
+                max: W as f32,
+            });
+        }
+        let increments = config.model.increments()?;
+        if !config.fused_margin.is_finite() {
+            return Err(DesignError::NotFinite {
+                param: Param::ClampMax,
+            });
+        }
+        let margin = crate::logodds::round_to_log_odds(config.fused_margin).to_bits();
+        if margin < 0 {
+            return Err(DesignError::OutOfRange {
+                param: Param::ClampMax,
+                value: config.fused_margin,
+                min: 0.0,
+                max: 127.0,
+            });
+        }
+        let mut resolutions = [None; L];
+        for (slot, layer) in resolutions.iter_mut().zip(design.layers()) {
+            *slot = Some(Resolution::from_m(layer.resolution_m).ok_or(
+                DesignError::OutOfRange {
+                    param: Param::Base,
+                    value: layer.resolution_m,
+                    min: crate::design::MIN_RESOLUTION_M,
+                    max: 32_000.0,
+                },
+            )?);
+        }
+        let bins = DistanceBins::for_range(design.sensor().max_range_m);
+        let active = design.layers().len().min(L).min(usize::from(u8::MAX));
+        for (k, ((layer, gate), resolution)) in self
+            .layers
+            .iter_mut()
+            .zip(self.gates.iter_mut())
+            .zip(resolutions)
+            .enumerate()
+        {
+            match resolution {
+                Some(r) if k < active => {
+                    layer.reset(r);
+                    *gate = GateTable::build(design, k, bins);
+                }
+                _ => {
+                    *gate = GateTable::ZERO;
+                }
+            }
+        }
+        self.state = State {
+            active: u8::try_from(active).unwrap_or(u8::MAX),
+            bins,
+            increments,
+            clamp: config.clamp,
+            margin,
+            stats: PyramidStats::default(),
+        };
+        debug!("pyramid configured: {} layers", active);
+        Ok(())
+    }
+
+    /// Forgets every observation: all layers unknown, windows kept where they are.
+    pub fn clear(&mut self) {
+        let active = self.layer_count();
+        for layer in self.layers.iter_mut().take(active) {
+            let (x, y) = layer.origin();
+            let r = layer.resolution();
+            layer.reset(r);
+            layer.move_origin(x, y);
+        }
+    }
+
+    /// The number of layers in force (0 before [`configure`](Self::configure)).
+    #[must_use]
+    pub const fn layer_count(&self) -> usize {
+        self.state.active as usize
+    }
+
+    /// Layer `k`, finest first, or `None` beyond the layers in force.
+    #[must_use]
+    pub fn layer(&self, k: usize) -> Option<&Layer<W>> {
+        self.layers.get(..self.layer_count())?.get(k)
+    }
+
+    /// Layer `k`'s gate table, or `None` beyond the layers in force.
+    #[must_use]
+    pub fn gate(&self, k: usize) -> Option<&GateTable> {
+        self.gates.get(..self.layer_count())?.get(k)
+    }
+
+    /// The distance binning of the gate tables.
+    #[must_use]
+    pub const fn distance_bins(&self) -> DistanceBins {
+        self.state.bins
+    }
+
+    /// The increments in force.
+    #[must_use]
+    pub const fn increments(&self) -> Increments {
+        self.state.increments
+    }
+
+    /// The counters since the last [`configure`](Self::configure).
+    #[must_use]
+    pub const fn stats(&self) -> PyramidStats {
+        self.state.stats
+    }
+
+    /// Applies one record: the gated increment `round(l_class · w_k(bin(d)))` to its cell.
+    #[inline]
+    pub fn apply(&mut self, record: &Evidence) -> Applied {
+        let k = usize::from(record.layer);
+        let active = self.layer_count();
+        let state = &mut self.state;
+        let (Some(layer), Some(gate)) = (
+            self.layers.get_mut(..active).and_then(|l| l.get_mut(k)),
+            self.gates.get(k),
+        ) else {
+            state.stats.bad_layer = state.stats.bad_layer.saturating_add(1);
+            return Applied::BadLayer;
+        };
+        let l = match record.class {
+            EvidenceClass::Obstacle => state.increments.obstacle,
+            EvidenceClass::Navigable => state.increments.free,
+        };
+        let g = gated(l, gate.weight(state.bins.bin(record.distance)));
+        if g == 0 {
+            state.stats.gated_out = state.stats.gated_out.saturating_add(1);
+            return Applied::GatedOut;
+        }
+        if layer.update(
+            record.cell_x,
+            record.cell_y,
+            g,
+            state.increments.initial,
+            state.clamp,
+        ) {
+            state.stats.applied = state.stats.applied.saturating_add(1);
+            Applied::Updated
+        } else {
+            state.stats.outside_window = state.stats.outside_window.saturating_add(1);
+            Applied::OutsideWindow
+        }
+    }
+
+    /// Applies every record of one observation, in order.
+    pub fn integrate(&mut self, records: &[Evidence]) {
+        for record in records {
+            self.apply(record);
+        }
+    }
+
+    /// Moves every layer's window so that the robot at `(x, y)` sits in its centre cell.
+    /// Returns the number of cells reset to unknown.
+    pub fn recentre(&mut self, x: Meters, y: Meters) -> usize {
+        let mut reset = 0_usize;
+        let active = self.layer_count();
+        for layer in self.layers.iter_mut().take(active) {
+            reset = reset.saturating_add(layer.recentre(x, y));
+        }
+        let counted = u32::try_from(reset).unwrap_or(u32::MAX);
+        self.state.stats.cells_reset = self.state.stats.cells_reset.saturating_add(counted);
+        reset
+    }
+
+    /// The fused answer at world point `(x, y)`: the finest layer whose cell is observed with
+    /// L > 0 (obstacle) or L < −margin (navigable); unknown when none.
+    #[must_use]
+    pub fn fused(&self, x: Meters, y: Meters) -> Fused {
+        for (k, layer) in self.layers.iter().take(self.layer_count()).enumerate() {
+            let r = layer.resolution();
+            let Some(cell) = layer.get(r.cell_of(x), r.cell_of(y)) else {
+                continue;
+            };
+            let Some(value) = cell.log_odds() else {
+                continue;
+            };
+            let raw = value.to_bits();
+            let layer = u8::try_from(k).unwrap_or(u8::MAX);
+            if raw > 0 {
+                return Fused::Obstacle { layer };
+            }
+            if raw < -self.state.margin {
+                return Fused::Navigable { layer };
+            }
+        }
+        Fused::Unknown
+    }
+
+    /// Samples the fused query over a grid of `width × height` cells of size `step` whose
+    /// lower-left corner is `(x0, y0)`, at the cell centres, row `j = 0` (lowest y) first,
+    /// into `out`.
+    ///
+    /// # Errors
+    /// A non-positive step, or `out` shorter than `width · height`.
+    pub fn fused_region(
+        &self,
+        x0: Meters,
+        y0: Meters,
+        step: Meters,
+        width: usize,
+        height: usize,
+        out: &mut [Fused],
+    ) -> Result<(), RegionError> {
+        if step <= Meters::ZERO {
+            return Err(RegionError::BadStep);
+        }
+        let needed = width.saturating_mul(height);
+        let got = out.len();
+        let Some(out) = out.get_mut(..needed) else {
+            return Err(RegionError::BufferTooSmall { needed, got });
+        };
+        let half = step / 2;
+        let mut y = y0.saturating_add(half);
+        for row in out.chunks_mut(width.max(1)) {
+            let mut x = x0.saturating_add(half);
+            for cell in row {
+                *cell = self.fused(x, y);
+                x = x.saturating_add(step);
+            }
+            y = y.saturating_add(step);
+        }
+        Ok(())
+    }
+
+    /// Counts of observed, obstacle and free cells of layer `k`.
+    #[must_use]
+    pub fn counts(&self, k: usize) -> Option<LayerCounts> {
+        self.layer(k).map(Layer::counts)
+    }
+}
+
+impl<const W: usize, const L: usize> Default for Pyramid<W, L> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::design::{GateShape, Schedule, SensorModel};
+    use crate::logodds::CellClass;
+
+    type P = Pyramid<64, 8>;
+
+    fn pyramid(gate: GateShape, clamp: Clamp) -> P {
+        let schedule = Schedule {
+            gate,
+            ..Schedule::default()
+        };
+        let design = Design::<8>::new(SensorModel::default(), schedule, 64).unwrap();
+        let mut p = P::new();
+        p.configure(
+            &design,
+            &Config {
+                clamp,
+                ..Config::default()
+            },
+        )
+        .unwrap();
+        p
+    }
+
+    fn record(layer: u8, x: i32, y: i32, class: EvidenceClass, d: f32) -> Evidence {
+        Evidence {
+            layer,
+            cell_x: x,
+            cell_y: y,
+            class,
+            distance: Meters::from_num(d),
+        }
+    }
+
+    #[test]
+    fn unconfigured_pyramid_knows_nothing() {
+        let mut p = P::new();
+        assert_eq!(p.layer_count(), 0);
+        assert_eq!(p.fused(Meters::ZERO, Meters::ZERO), Fused::Unknown);
+        assert_eq!(
+            p.apply(&record(0, 0, 0, EvidenceClass::Obstacle, 0.2)),
+            Applied::BadLayer
+        );
+    }
+
+    #[test]
+    fn hard_gate_feeds_only_the_layer_of_the_band() {
+        let mut p = pyramid(GateShape::Hard, Clamp::Off);
+        // 0.2 m lies in layer 0's band [0, 0.53): layer 1 refuses it.
+        assert_eq!(
+            p.apply(&record(0, 1, 1, EvidenceClass::Obstacle, 0.2)),
+            Applied::Updated
+        );
+        assert_eq!(
+            p.apply(&record(1, 1, 1, EvidenceClass::Obstacle, 0.2)),
+            Applied::GatedOut
+        );
+        assert_eq!(p.layer(0).unwrap().get(1, 1).unwrap().to_raw(), 217);
+        assert!(!p.layer(1).unwrap().get(1, 1).unwrap().is_observed());
+        assert_eq!(
+            p.apply(&record(0, 40, 0, EvidenceClass::Obstacle, 0.2)),
+            Applied::OutsideWindow
+        );
+        assert_eq!(p.stats().applied, 1);
+        assert_eq!(p.stats().gated_out, 1);
+        assert_eq!(p.stats().outside_window, 1);
+    }
+
+    #[test]
+    fn far_free_evidence_cannot_mask_a_close_obstacle_in_the_pyramid() {
+        // The paper's failure (eq. 7): n far "free" readings bury m close "obstacle" readings
+        // in a flat grid; in the pyramid they land in different layers.
+        let mut p = pyramid(GateShape::Hard, Clamp::Off);
+        let far = 4.0; // a band of a coarse layer
+        let k_far = p
+            .layer_count()
+            .checked_sub(1)
+            .and_then(|_| {
+                (0..p.layer_count()).find(|&k| {
+                    p.gate(k)
+                        .unwrap()
+                        .weight(p.distance_bins().bin(Meters::from_num(far)))
+                        > crate::units::Weight::ZERO
+                })
+            })
+            .unwrap();
+        assert!(k_far > 0);
+        for _ in 0..300 {
+            p.apply(&record(k_far as u8, 0, 0, EvidenceClass::Navigable, far));
+        }
+        for _ in 0..5 {
+            p.apply(&record(0, 0, 0, EvidenceClass::Obstacle, 0.3));
+        }
+        assert_eq!(
+            p.fused(Meters::from_num(0.05), Meters::from_num(0.05)),
+            Fused::Obstacle { layer: 0 }
+        );
+        // A flat grid is one layer fed by both: 300 × −104 + 5 × 217 stays deeply negative.
+        let flat: i32 = 300 * -104 + 5 * 217;
+        assert!(flat < 0);
+    }
+
+    #[test]
+    fn fused_prefers_the_finest_confident_layer() {
+        let mut p = pyramid(GateShape::Hard, Clamp::Off);
+        let (x, y) = (Meters::from_num(0.05), Meters::from_num(0.05));
+        assert_eq!(p.fused(x, y), Fused::Unknown);
+        // Layer 1 (0.2 m cells, band ~[0.53, 1.4)) says free.
+        p.apply(&record(1, 0, 0, EvidenceClass::Navigable, 1.0));
+        assert_eq!(p.fused(x, y), Fused::Navigable { layer: 1 });
+        // Layer 0 says obstacle: it wins.
+        p.apply(&record(0, 0, 0, EvidenceClass::Obstacle, 0.3));
+        assert_eq!(p.fused(x, y), Fused::Obstacle { layer: 0 });
+    }
+
+    #[test]
+    fn an_observed_zero_defers_to_coarser_layers() {
+        let mut p = pyramid(GateShape::Hard, Clamp::Off);
+        p.layers[0].update(0, 0, 1, LogOddsFixed::ZERO, Clamp::Off);
+        p.layers[0].update(0, 0, -1, LogOddsFixed::ZERO, Clamp::Off);
+        assert_eq!(
+            p.layer(0).unwrap().get(0, 0).unwrap().class(),
+            CellClass::Undecided
+        );
+        p.apply(&record(1, 0, 0, EvidenceClass::Navigable, 1.0));
+        assert_eq!(
+            p.fused(Meters::from_num(0.05), Meters::from_num(0.05)),
+            Fused::Navigable { layer: 1 }
+        );
+    }
+
+    #[test]
+    fn soft_gate_spreads_an_observation_over_neighbouring_layers() {
+        let mut p = pyramid(GateShape::default(), Clamp::Off);
+        let d = 1.4; // the edge between layers 1 and 2
+        let touched = (0..p.layer_count())
+            .filter(|&k| {
+                p.apply(&record(k as u8, 0, 0, EvidenceClass::Obstacle, d)) == Applied::Updated
+            })
+            .count();
+        assert!(touched >= 2, "{touched}");
+    }
+
+    #[test]
+    fn recentre_moves_every_layer_and_counts_resets() {
+        let mut p = pyramid(GateShape::Hard, Clamp::Off);
+        p.apply(&record(0, -32, -32, EvidenceClass::Obstacle, 0.1));
+        let reset = p.recentre(Meters::from_num(0.1), Meters::ZERO);
+        // Layer 0 moves one column (64 cells); coarser layers stay put.
+        assert_eq!(reset, 64);
+        assert_eq!(p.layer(0).unwrap().origin(), (-31, -32));
+        assert_eq!(p.stats().cells_reset, 64);
+        assert_eq!(p.counts(0).unwrap().observed, 0);
+    }
+
+    #[test]
+    fn region_export_checks_its_buffer() {
+        let p = pyramid(GateShape::Hard, Clamp::Off);
+        let mut out = [Fused::Unknown; 4];
+        assert_eq!(
+            p.fused_region(Meters::ZERO, Meters::ZERO, Meters::ONE, 3, 2, &mut out),
+            Err(RegionError::BufferTooSmall { needed: 6, got: 4 })
+        );
+        assert_eq!(
+            p.fused_region(Meters::ZERO, Meters::ZERO, Meters::ZERO, 2, 2, &mut out),
+            Err(RegionError::BadStep)
+        );
+        assert_eq!(
+            p.fused_region(Meters::ZERO, Meters::ZERO, Meters::ONE, 2, 2, &mut out),
+            Ok(())
+        );
+    }
+
+    #[test]
+    fn a_refused_configuration_changes_nothing() {
+        let mut p = pyramid(GateShape::Hard, Clamp::Off);
+        p.apply(&record(0, 0, 0, EvidenceClass::Obstacle, 0.1));
+        let design = Design::<8>::new(SensorModel::default(), Schedule::default(), 64).unwrap();
+        let bad = Config {
+            model: InverseSensorModel {
+                p_free: 0.9,
+                ..InverseSensorModel::default()
+            },
+            ..Config::default()
+        };
+        assert!(p.configure(&design, &bad).is_err());
+        assert_eq!(p.layer(0).unwrap().get(0, 0).unwrap().to_raw(), 217);
+    }
+
+    #[test]
+    fn ram_bytes_matches_the_layout() {
+        assert_eq!(ram_bytes(64, 8), static_ram_bytes::<64, 8>());
+        assert_eq!(ram_bytes(8, 2), static_ram_bytes::<8, 2>());
+        assert_eq!(ram_bytes(6, 3), static_ram_bytes::<6, 3>());
+        assert_eq!(ram_bytes(128, 1), static_ram_bytes::<128, 1>());
+        assert_eq!(ram_bytes(32, 16), static_ram_bytes::<32, 16>());
+    }
+
+    #[test]
+    fn the_default_pyramid_fits_its_budget() {
+        // 8 layers × (2 · 64² cells + 1 KiB gate) plus a few words.
+        let bytes = static_ram_bytes::<64, 8>();
+        assert!(bytes >= 8 * (2 * 64 * 64 + 1024));
+        assert!(bytes < 8 * (2 * 64 * 64 + 1024) + 8 * 64 + 256, "{bytes}");
+    }
+}
