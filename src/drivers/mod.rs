@@ -1,1 +1,14 @@
-//! Thin adapters from embedded-hal / embedded-io to the pure code.
+//! Thin adapters from embedded-hal / embedded-io traits to the pure code.
+//!
+//! Each driver owns a bus handle (an `embedded-hal` `SpiDevice`, an `embedded-io` reader or
+//! writer), turns its bytes into the library's types and its failures into a per-driver error
+//! enum, and does nothing else: the core modules never touch a peripheral, a clock or an
+//! allocator, and are handed the data these adapters produce. Like the rest of the crate, no
+//! driver panics on any input from its bus.
+//!
+//! - [`angle`]: the pan [`angle::Angle`] type, the [`angle::AngleSource`] trait, encoder
+//!   mounting, and the host-supplied angle for boards without an encoder.
+//! - [`as5047`]: the AS5047P-kind 14-bit magnetic encoder over SPI.
+
+pub mod angle;
+pub mod as5047;
