@@ -1,0 +1,241 @@
+//! `pyramid design` as scripts use it: the JSON report, the refusals, the plot.
+use serde_json::Value;
+use std::path::PathBuf;
+use std::process::{Command, Output};
+
+fn pyramid(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_pyramid"))
+        .arg("design")
+        .args(args)
+        .output()
+        .expect("the pyramid binary runs")
+}
+
+/// Runs `pyramid design --json ARGS`, checks it succeeded, and parses its stdout as one object.
+fn design_json(args: &[&str]) -> Value {
+    let mut all = vec!["--json"];
+    all.extend_from_slice(args);
+    let out = pyramid(&all);
+    assert!(
+        out.status.success(),
+        "pyramid design {all:?} failed: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let stdout = String::from_utf8(out.stdout).expect("UTF-8 output");
+    let value: Value = serde_json::from_str(stdout.trim()).expect("stdout is one JSON value");
+    assert!(value.is_object(), "the JSON is an object: {stdout}");
+    value
+}
+
+fn num(v: &Value) -> f64 {
+    v.as_f64().unwrap_or_else(|| panic!("{v} is not a number"))
+}
+
+fn close(a: f64, b: f64, tol: f64) -> bool {
+    (a - b).abs() <= tol
+}
+
+/// Checks that a refused configuration exits 2, prints nothing on stdout and exactly one line on
+/// stderr that names `flag`.
+fn assert_refused(args: &[&str], flag: &str) {
+    for json in [false, true] {
+        let mut all = args.to_vec();
+        if json {
+            all.push("--json");
+        }
+        let out = pyramid(&all);
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{all:?}: stderr {stderr}");
+        assert!(out.stdout.is_empty(), "{all:?}: stdout not empty");
+        assert_eq!(stderr.lines().count(), 1, "{all:?}: stderr {stderr:?}");
+        assert!(stderr.ends_with('\n'), "{all:?}: stderr {stderr:?}");
+        assert!(stderr.contains(flag), "{all:?}: {stderr} names {flag}");
+    }
+}
+
+#[test]
+fn default_layers_have_contiguous_increasing_bands_up_to_the_max_range() {
+    let v = design_json(&[]);
+    let layers = v["layers"].as_array().expect("layers is an array");
+    assert!(layers.len() >= 2);
+    let first = &layers[0];
+    assert_eq!(first["index"], 0);
+    assert!(close(num(&first["resolution_m"]), 0.1, 1e-9));
+    assert_eq!(num(&first["band_m"][0]), 0.0);
+    assert!(close(num(&first["band_m"][1]), 0.53, 0.01));
+    for (k, l) in layers.iter().enumerate() {
+        assert_eq!(l["index"], k);
+        let (inner, outer) = (num(&l["band_m"][0]), num(&l["band_m"][1]));
+        assert!(outer > inner, "layer {k}: band {inner}..{outer}");
+        assert_eq!(l["cells_per_side"], 64);
+        let r = num(&l["resolution_m"]);
+        assert!(close(num(&l["extent_m"]), 64.0 * r, 1e-3));
+        assert!(close(num(&l["gate_center_m"]), 0.5 * (inner + outer), 2e-4));
+        // The default soft gate's width is half the band's.
+        assert!(close(num(&l["gate_sigma_m"]), 0.5 * (outer - inner), 2e-4));
+    }
+    for w in layers.windows(2) {
+        assert_eq!(num(&w[0]["band_m"][1]), num(&w[1]["band_m"][0]));
+        assert!(num(&w[1]["resolution_m"]) > num(&w[0]["resolution_m"]));
+        assert!(num(&w[1]["band_m"][1]) > num(&w[0]["band_m"][1]));
+    }
+    let last = layers.last().unwrap();
+    assert_eq!(num(&last["band_m"][1]), 10.0);
+}
+
+#[test]
+fn default_bound_lists_the_distances_and_matches_the_paper_notes() {
+    let v = design_json(&[]);
+    let bound = v["bound"].as_array().expect("bound is an array");
+    let ds: Vec<f64> = bound.iter().map(|b| num(&b["d_m"])).collect();
+    assert_eq!(ds, vec![0.5, 1.0, 2.0, 3.0, 5.0, 8.0, 10.0]);
+    for b in bound {
+        let sum = num(&b["noise_m"]) + num(&b["horizontal_m"]) + num(&b["vertical_m"]);
+        // Each of the four is rounded to 0.1 mm.
+        assert!(close(num(&b["total_m"]), sum, 3e-4), "{b}");
+    }
+    let total_at = |d: f64| {
+        bound
+            .iter()
+            .find(|b| num(&b["d_m"]) == d)
+            .map(|b| num(&b["total_m"]))
+            .unwrap()
+    };
+    // paper-notes check values, h = 1 m.
+    assert!(close(total_at(1.0), 0.158, 0.003));
+    assert!(close(total_at(5.0), 0.548, 0.003));
+    assert!(close(total_at(10.0), 1.380, 0.003));
+}
+
+#[test]
+fn static_ram_counts_every_layer() {
+    let v = design_json(&[]);
+    let n = v["layers"].as_array().unwrap().len() as u64;
+    // Each layer: 64 × 64 cells of 2 bytes and a 1 KiB gate table, plus small headers.
+    let ram = v["static_ram_bytes"].as_u64().unwrap();
+    let floor = n * (64 * 64 * 2 + 512 * 2);
+    assert!(ram >= floor && ram < floor + n * 64 + 256, "{ram}");
+}
+
+#[test]
+fn the_bound_stops_at_a_shorter_max_range_and_lists_it() {
+    let v = design_json(&["--max-range-m", "4"]);
+    let ds: Vec<f64> = v["bound"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|b| num(&b["d_m"]))
+        .collect();
+    assert_eq!(ds, vec![0.5, 1.0, 2.0, 3.0, 4.0]);
+    let layers = v["layers"].as_array().unwrap();
+    assert_eq!(num(&layers.last().unwrap()["band_m"][1]), 4.0);
+}
+
+#[test]
+fn the_hard_gate_has_no_width_and_degrees_are_converted() {
+    let v = design_json(&[
+        "--gate",
+        "hard",
+        "--phi-deg",
+        "1",
+        "--height-m",
+        "0.5",
+        "--gamma",
+        "4",
+    ]);
+    for l in v["layers"].as_array().unwrap() {
+        assert_eq!(num(&l["gate_sigma_m"]), 0.0);
+    }
+    // δ(0.5) with φ = 1°, ψ = 2°, σ = 0.15 m, h = 0.5 m.
+    let (phi, psi, sigma, h, d): (f64, f64, f64, f64, f64) =
+        (1f64.to_radians(), 2f64.to_radians(), 0.15, 0.5, 0.5);
+    let delta = sigma / (1.0 + (h / d) * (h / d)).sqrt()
+        + 2.0 * d * (psi / 2.0).atan()
+        + phi * (d * d + h * h) / h;
+    let b = &v["bound"][0];
+    assert_eq!(num(&b["d_m"]), 0.5);
+    assert!(close(num(&b["total_m"]), delta, 2e-4), "{b} vs {delta}");
+}
+
+#[test]
+fn the_table_is_printed_without_json() {
+    let out = pyramid(&[]);
+    assert!(out.status.success());
+    let stdout = String::from_utf8(out.stdout).unwrap();
+    assert!(stdout.contains("Layers (8)"), "{stdout}");
+    assert!(stdout.contains("Static RAM"), "{stdout}");
+    assert!(stdout.contains("1.3797"), "{stdout}");
+}
+
+#[test]
+fn gamma_one_is_refused_by_name() {
+    assert_refused(&["--gamma", "1"], "--gamma");
+}
+
+#[test]
+fn a_base_cell_below_a_centimetre_is_refused_by_name() {
+    assert_refused(&["--base-m", "0.001"], "--base-m");
+}
+
+#[test]
+fn a_nan_sigma_is_refused_by_name() {
+    assert_refused(&["--sigma-m", "nan"], "--sigma-m");
+}
+
+#[test]
+fn negative_and_infinite_values_reach_the_library() {
+    assert_refused(&["--height-m", "-1"], "--height-m");
+    assert_refused(&["--psi-deg", "-inf"], "--psi-deg");
+    assert_refused(&["--max-range-m", "inf"], "--max-range-m");
+}
+
+#[test]
+fn a_window_too_small_for_its_band_is_refused_by_name() {
+    assert_refused(&["--cells", "8"], "--cells");
+}
+
+#[test]
+fn a_plot_that_is_not_a_png_is_refused_by_name() {
+    assert_refused(&["--plot", "figure.svg"], "--plot");
+}
+
+/// A file under the target directory, removed first.
+fn scratch_file(name: &str) -> PathBuf {
+    let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR"));
+    let path = dir.join(name);
+    let _ = std::fs::remove_file(&path);
+    path
+}
+
+#[test]
+fn the_plot_is_a_png_and_json_stays_alone_on_stdout() {
+    let path = scratch_file("design_cli_fig2.png");
+    let v = design_json(&["--plot", path.to_str().unwrap()]);
+    assert!(v["layers"].is_array());
+    let bytes = std::fs::read(&path).expect("the plot was written");
+    assert!(bytes.len() > 1000, "{} bytes", bytes.len());
+    assert_eq!(&bytes[..8], b"\x89PNG\r\n\x1a\n");
+}
+
+#[test]
+fn a_refused_configuration_writes_no_plot() {
+    let path = scratch_file("design_cli_refused.png");
+    assert_refused(
+        &["--gamma", "0.5", "--plot", path.to_str().unwrap()],
+        "--gamma",
+    );
+    assert!(!path.exists());
+}
+
+#[test]
+fn an_unwritable_plot_fails_with_one_line() {
+    let dir = scratch_file("design_cli_not_a_dir");
+    std::fs::write(&dir, b"a file, not a directory").unwrap();
+    let path = dir.join("fig2.png");
+    let out = pyramid(&["--json", "--plot", path.to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(1));
+    assert!(out.stdout.is_empty());
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(stderr.lines().count(), 1, "{stderr:?}");
+    assert!(stderr.contains("--plot"), "{stderr}");
+}
