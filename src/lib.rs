@@ -47,7 +47,7 @@ pub use design::{Design, DesignError, GateShape, Param, Schedule, SensorModel};
 pub use grid::{Layer, LayerCounts, Resolution};
 pub use logodds::{Cell, CellClass, Clamp, Increments, InverseSensorModel};
 pub use pyramid::{Applied, Config, Evidence, EvidenceClass, Fused, Pyramid, PyramidStats};
-pub use units::{LogOddsFixed, Meters, Weight};
+pub use units::{LogOddsFixed, Meters, Point3, Weight};
 
 /// Window size of the default pyramid, cells per side: 6.4 m across at 0.1 m.
 pub const DEFAULT_CELLS_PER_SIDE: usize = 64;
@@ -57,3 +57,8 @@ pub const DEFAULT_LAYERS: usize = 8;
 pub type DefaultPyramid = Pyramid<DEFAULT_CELLS_PER_SIDE, DEFAULT_LAYERS>;
 /// The design type of the default pyramid.
 pub type DefaultDesign = Design<DEFAULT_LAYERS>;
+
+// The README's example is compiled and run as a doctest, so it stays true.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+struct ReadmeDoctests;

@@ -37,6 +37,30 @@ pub fn meters_from_f32(value: f32) -> Meters {
     }
 }
 
+/// A point in a right-handed frame (x forward, y left, z up), metres.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct Point3 {
+    /// x, metres (forward in the robot frame; east or map-x in the world frame).
+    pub x: Meters,
+    /// y, metres (left in the robot frame; north or map-y in the world frame).
+    pub y: Meters,
+    /// z, metres (up).
+    pub z: Meters,
+}
+
+#[cfg(feature = "defmt")]
+impl defmt::Format for Point3 {
+    fn format(&self, f: defmt::Formatter<'_>) {
+        defmt::write!(
+            f,
+            "Point3({=i32}, {=i32}, {=i32}) raw Q16.16",
+            self.x.to_bits(),
+            self.y.to_bits(),
+            self.z.to_bits()
+        );
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
