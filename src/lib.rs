@@ -33,6 +33,7 @@ pub mod fmath;
 #[macro_use]
 mod fmt;
 
+pub mod classify;
 pub mod design;
 pub mod drivers;
 pub mod gate;

@@ -1,0 +1,599 @@
+//! The navigability classifier: one observation's points → per-layer cell evidence.
+//!
+//! For each layer cell that the points of one observation touch (a whole sweep, or N scan
+//! lines: the caller decides by when it calls [`Classifier::finish`]), after Ferguson et al.
+//! as the paper summarises it:
+//! - the **ground** is the lowest point in the cell;
+//! - points higher than ground + **robot height** are **overhang** the robot passes under,
+//!   and are ignored;
+//! - the cell is **not navigable** when the remaining points spread over more than the
+//!   **step threshold**, navigable otherwise.
+//!
+//! A point joins the cell of every layer whose gate gives it a non-zero increment at the
+//! point's horizontal distance from the sensor, so with the hard gate each point feeds exactly
+//! one layer. A record carries the smallest such distance among its points (the closest look),
+//! which the pyramid gates with.
+//!
+//! A cell holding a single point always looks navigable: that is the systematic far-range miss
+//! the pyramid exists to fix, and it is deliberately not "fixed" here.
+//!
+//! # Beyond the paper (options, off by default)
+//! - **Drop-offs**: a return more than [`ClassifierConfig::drop_threshold`] below the robot's
+//!   ground plane marks its cell not navigable (a hole, a ditch, the top of stairs going down).
+//! - **Missing ground**: a beam that points below the horizon and should have met flat ground
+//!   within range, but returned nothing, marks the cell where the ground should have been
+//!   ([`Classifier::add_missing_ground`]); the caller decides when a beam qualifies.
+//!
+//! # Bounded scratch
+//! The touched cells live in an open-addressing table of `C` slots (a power of two, 20 bytes
+//! each, plus 2 bytes of insertion order). A point that finds the table full is dropped and
+//! counted in [`ClassifierStats::overflow_points`]; nothing panics. One 361-beam line touches
+//! at most 361 cells per layer it feeds (2 to 4 with the default soft gate); 1024 slots (22 KiB)
+//! hold a line with room to spare, a whole 3-D sweep needs a window's worth.
+//!
+//! # The incremental rule
+//! The scratch keeps, per cell, the lowest z and the highest z not above lowest + robot height.
+//! When a new lowest point lowers the cut below the stored highest, the highest is lowered to
+//! the best bound still known (the previous lowest, if under the new cut, else the new point):
+//! the spread can only be underestimated, never invented. The f64 reference keeps every point
+//! and applies the rule exactly; `host-tests` measures the agreement.
+
+use crate::logodds::gated;
+use crate::pyramid::{Evidence, EvidenceClass, Pyramid};
+use crate::units::{Meters, Point3};
+
+/// What the classifier looks for, metres.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct ClassifierConfig {
+    /// Points higher than the cell's ground plus this are overhang and ignored. Default 1.0 m.
+    pub robot_height: Meters,
+    /// A spread of the remaining points above this makes the cell not navigable. Default 0.05 m.
+    pub step_threshold: Meters,
+    /// A return this far below the robot's ground plane marks a drop-off; `None` (the
+    /// default) turns the check off. 0.3 m is a sensible value when on.
+    pub drop_threshold: Option<Meters>,
+}
+
+impl Default for ClassifierConfig {
+    fn default() -> Self {
+        Self {
+            robot_height: Meters::ONE,
+            step_threshold: Meters::lit("0.05"),
+            drop_threshold: None,
+        }
+    }
+}
+
+#[cfg(feature = "defmt")]
+impl defmt::Format for ClassifierConfig {
+    fn format(&self, f: defmt::Formatter<'_>) {
+        defmt::write!(
+            f,
+            "ClassifierConfig {{ robot_height: {=i32}, step_threshold: {=i32} }} (raw Q16.16)",
+            self.robot_height.to_bits(),
+            self.step_threshold.to_bits()
+        );
+    }
+}
+
+/// Counters of the classifier. They saturate at `u32::MAX`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct ClassifierStats {
+    /// Points offered.
+    pub points: u32,
+    /// Points that fed at least one layer cell.
+    pub points_used: u32,
+    /// Points that fed no layer (every gate zero at their distance).
+    pub points_gated_out: u32,
+    /// Point-to-cell additions dropped because the scratch table was full.
+    pub overflow_points: u32,
+    /// Points ignored as overhang (above ground + robot height) when they arrived.
+    pub overhang_points: u32,
+    /// Points below the drop threshold (drop-offs).
+    pub drop_points: u32,
+    /// Observations finished.
+    pub observations: u32,
+    /// Evidence records produced.
+    pub records: u32,
+}
+
+/// The marker of an empty slot's layer.
+const EMPTY: u8 = u8::MAX;
+
+/// One touched layer cell of the current observation. 20 bytes.
+#[derive(Debug, Clone, Copy)]
+struct Slot {
+    cell_x: i32,
+    cell_y: i32,
+    /// Smallest horizontal distance of the cell's points from the sensor, raw Q16.16.
+    distance: i32,
+    /// Lowest z, millimetres relative to the observation's reference height.
+    z_low: i16,
+    /// Highest z not above `z_low + robot height`, same units.
+    z_high: i16,
+    /// The layer, or [`EMPTY`].
+    layer: u8,
+    /// Whether a drop-off or missing ground was seen in the cell.
+    hole: bool,
+}
+
+impl Slot {
+    const VACANT: Self = Self {
+        cell_x: 0,
+        cell_y: 0,
+        distance: 0,
+        z_low: 0,
+        z_high: 0,
+        layer: EMPTY,
+        hole: false,
+    };
+}
+
+/// Scratch and counters for classifying observations with `C` cell slots (a power of two).
+pub struct Classifier<const C: usize> {
+    slots: [Slot; C],
+    /// Indices of the used slots, in insertion order (the order records come out).
+    order: heapless::Vec<u16, C>,
+    config: ClassifierConfig,
+    /// The observation's reference height, raw Q16.16: z values are stored relative to it.
+    reference_z: i32,
+    /// Robot height and step threshold in millimetres, saturated to `i16`.
+    robot_height_mm: i16,
+    step_mm: i16,
+    stats: ClassifierStats,
+}
+
+impl<const C: usize> core::fmt::Debug for Classifier<C> {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.debug_struct("Classifier")
+            .field("slots", &C)
+            .field("used", &self.order.len())
+            .field("stats", &self.stats)
+            .finish()
+    }
+}
+
+/// Metres (raw Q16.16) to millimetres, saturated to `i16`.
+fn mm_i16(raw: i32) -> i16 {
+    let mm = (i64::from(raw) * 1000) >> 16;
+    i16::try_from(mm).unwrap_or(if mm < 0 { i16::MIN } else { i16::MAX })
+}
+
+/// Mixes a cell key into a slot index (multiplicative hashing of 32-bit words).
+#[inline]
+fn hash(layer: u8, x: i32, y: i32) -> u32 {
+    #[allow(clippy::cast_sign_loss)]
+    let (xu, yu) = (x as u32, y as u32);
+    let h = xu.wrapping_mul(0x9E37_79B1)
+        ^ yu.wrapping_mul(0x85EB_CA77).rotate_left(13)
+        ^ u32::from(layer).wrapping_mul(0xC2B2_AE3D);
+    h ^ (h >> 15)
+}
+
+impl<const C: usize> Classifier<C> {
+    const MASK: usize = {
+        assert!(
+            C.is_power_of_two() && C <= 65_536,
+            "the scratch capacity C must be a power of two, at most 65536"
+        );
+        C - 1
+    };
+
+    /// An empty classifier with the default configuration. `const`, for a `static`.
+    #[must_use]
+    pub const fn new() -> Self {
+        let _ = Self::MASK;
+        Self {
+            slots: [Slot::VACANT; C],
+            order: heapless::Vec::new(),
+            config: ClassifierConfig {
+                robot_height: Meters::ONE,
+                step_threshold: Meters::lit("0.05"),
+                drop_threshold: None,
+            },
+            reference_z: 0,
+            robot_height_mm: 1000,
+            step_mm: 50,
+            stats: ClassifierStats {
+                points: 0,
+                points_used: 0,
+                points_gated_out: 0,
+                overflow_points: 0,
+                overhang_points: 0,
+                drop_points: 0,
+                observations: 0,
+                records: 0,
+            },
+        }
+    }
+
+    /// Adopts a configuration and forgets the current observation. Negative heights or
+    /// thresholds are taken as zero.
+    pub fn configure(&mut self, config: ClassifierConfig) {
+        self.config = config;
+        self.robot_height_mm = mm_i16(config.robot_height.to_bits()).max(0);
+        self.step_mm = mm_i16(config.step_threshold.to_bits()).max(0);
+        self.discard();
+    }
+
+    /// The configuration in force.
+    #[must_use]
+    pub const fn config(&self) -> ClassifierConfig {
+        self.config
+    }
+
+    /// The counters since construction.
+    #[must_use]
+    pub const fn stats(&self) -> ClassifierStats {
+        self.stats
+    }
+
+    /// Cells touched so far in the current observation.
+    #[must_use]
+    pub fn cells_in_use(&self) -> usize {
+        self.order.len()
+    }
+
+    /// Starts an observation whose z values are stored relative to `reference_z` (the
+    /// sensor's or robot's height now; z within ±32 m of it is kept exactly, beyond saturates).
+    /// Forgets any unfinished observation.
+    pub fn begin(&mut self, reference_z: Meters) {
+        self.discard();
+        self.reference_z = reference_z.to_bits();
+    }
+
+    /// Forgets the current observation without producing evidence.
+    pub fn discard(&mut self) {
+        for &i in &self.order {
+            if let Some(slot) = self.slots.get_mut(usize::from(i)) {
+                *slot = Slot::VACANT;
+            }
+        }
+        self.order.clear();
+    }
+
+    /// Adds one world point measured at horizontal distance `distance` from the sensor, with
+    /// the robot's ground plane at `ground_z`.
+    pub fn add_point<const W: usize, const L: usize>(
+        &mut self,
+        pyramid: &Pyramid<W, L>,
+        point: Point3,
+        distance: Meters,
+        ground_z: Meters,
+    ) {
+        self.stats.points = self.stats.points.saturating_add(1);
+        let hole = match self.config.drop_threshold {
+            Some(drop) => point.z < ground_z.saturating_sub(drop),
+            None => false,
+        };
+        if hole {
+            self.stats.drop_points = self.stats.drop_points.saturating_add(1);
+        }
+        let z = mm_i16(point.z.to_bits().saturating_sub(self.reference_z));
+        if self.feed(pyramid, point, distance, z, hole) {
+            self.stats.points_used = self.stats.points_used.saturating_add(1);
+        } else {
+            self.stats.points_gated_out = self.stats.points_gated_out.saturating_add(1);
+        }
+    }
+
+    /// Marks the cells at `expected` (where a beam should have met the ground, at horizontal
+    /// distance `distance`) as missing ground: not navigable, whatever else they hold.
+    pub fn add_missing_ground<const W: usize, const L: usize>(
+        &mut self,
+        pyramid: &Pyramid<W, L>,
+        expected: Point3,
+        distance: Meters,
+    ) {
+        let z = mm_i16(expected.z.to_bits().saturating_sub(self.reference_z));
+        self.feed(pyramid, expected, distance, z, true);
+    }
+
+    /// Adds a point to every layer cell whose gate passes it; `true` when at least one did.
+    fn feed<const W: usize, const L: usize>(
+        &mut self,
+        pyramid: &Pyramid<W, L>,
+        point: Point3,
+        distance: Meters,
+        z: i16,
+        hole: bool,
+    ) -> bool {
+        let bin = pyramid.distance_bins().bin(distance);
+        let increments = pyramid.increments();
+        let mut fed = false;
+        for k in 0..pyramid.layer_count() {
+            let (Some(layer), Some(gate)) = (pyramid.layer(k), pyramid.gate(k)) else {
+                break;
+            };
+            let w = gate.weight(bin);
+            if gated(increments.obstacle, w) == 0 && gated(increments.free, w) == 0 {
+                continue;
+            }
+            let r = layer.resolution();
+            let layer_index = u8::try_from(k).unwrap_or(EMPTY - 1);
+            let (cx, cy) = (r.cell_of(point.x), r.cell_of(point.y));
+            if self.accumulate(layer_index, cx, cy, distance.to_bits(), z, hole) {
+                fed = true;
+            } else {
+                self.stats.overflow_points = self.stats.overflow_points.saturating_add(1);
+            }
+        }
+        fed
+    }
+
+    /// Folds one point into the slot of `(layer, cx, cy)`; `false` when the table is full.
+    #[inline]
+    fn accumulate(
+        &mut self,
+        layer: u8,
+        cx: i32,
+        cy: i32,
+        distance: i32,
+        z: i16,
+        hole: bool,
+    ) -> bool {
+        let mut index = hash(layer, cx, cy) as usize & Self::MASK;
+        for _ in 0..C {
+            let Some(slot) = self.slots.get_mut(index) else {
+                return false;
+            };
+            if slot.layer == EMPTY {
+                let Ok(position) = u16::try_from(index) else {
+                    return false;
+                };
+                if self.order.push(position).is_err() {
+                    return false;
+                }
+                *slot = Slot {
+                    cell_x: cx,
+                    cell_y: cy,
+                    distance,
+                    z_low: z,
+                    z_high: z,
+                    layer,
+                    hole,
+                };
+                return true;
+            }
+            if slot.layer == layer && slot.cell_x == cx && slot.cell_y == cy {
+                fold(slot, z, distance, hole, self.robot_height_mm);
+                return true;
+            }
+            index = (index + 1) & Self::MASK;
+        }
+        false
+    }
+
+    /// Ends the observation: classifies every touched cell, hands each record to `sink` in the
+    /// order the cells were first touched, and clears the scratch.
+    pub fn finish(&mut self, mut sink: impl FnMut(Evidence)) {
+        for &i in &self.order {
+            let Some(slot) = self.slots.get_mut(usize::from(i)) else {
+                continue;
+            };
+            let spread = i32::from(slot.z_high) - i32::from(slot.z_low);
+            let class = if slot.hole || spread > i32::from(self.step_mm) {
+                EvidenceClass::Obstacle
+            } else {
+                EvidenceClass::Navigable
+            };
+            sink(Evidence {
+                layer: slot.layer,
+                cell_x: slot.cell_x,
+                cell_y: slot.cell_y,
+                class,
+                distance: Meters::from_bits(slot.distance),
+            });
+            *slot = Slot::VACANT;
+        }
+        let records = u32::try_from(self.order.len()).unwrap_or(u32::MAX);
+        self.stats.records = self.stats.records.saturating_add(records);
+        self.stats.observations = self.stats.observations.saturating_add(1);
+        self.order.clear();
+    }
+
+    /// Ends the observation and integrates its evidence into `pyramid`.
+    pub fn finish_into<const W: usize, const L: usize>(&mut self, pyramid: &mut Pyramid<W, L>) {
+        self.finish(|record| {
+            pyramid.apply(&record);
+        });
+    }
+}
+
+/// Folds a point (z mm, distance raw) into a used slot under the overhang rule.
+#[inline]
+fn fold(slot: &mut Slot, z: i16, distance: i32, hole: bool, robot_height_mm: i16) {
+    slot.distance = slot.distance.min(distance);
+    slot.hole |= hole;
+    if z < slot.z_low {
+        let cut = i32::from(z) + i32::from(robot_height_mm);
+        if i32::from(slot.z_high) > cut {
+            // The stored highest is overhang now; the best bound still known below the cut.
+            slot.z_high = if i32::from(slot.z_low) <= cut {
+                slot.z_low
+            } else {
+                z
+            };
+        }
+        slot.z_low = z;
+    } else if i32::from(z) <= i32::from(slot.z_low) + i32::from(robot_height_mm) {
+        slot.z_high = slot.z_high.max(z);
+    }
+}
+
+impl<const C: usize> Default for Classifier<C> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::design::{Design, GateShape, Schedule, SensorModel};
+    use crate::pyramid::Config;
+    use crate::Fused;
+    extern crate std;
+    use std::vec::Vec;
+
+    fn pyramid(gate: GateShape) -> Pyramid<64, 8> {
+        let schedule = Schedule {
+            gate,
+            ..Schedule::default()
+        };
+        let design = Design::<8>::new(SensorModel::default(), schedule, 64).unwrap();
+        let mut p = Pyramid::new();
+        p.configure(&design, &Config::default()).unwrap();
+        p
+    }
+
+    fn pt(x: f32, y: f32, z: f32) -> Point3 {
+        Point3 {
+            x: Meters::from_num(x),
+            y: Meters::from_num(y),
+            z: Meters::from_num(z),
+        }
+    }
+
+    fn records(c: &mut Classifier<256>) -> Vec<Evidence> {
+        let mut out = Vec::new();
+        c.finish(|r| out.push(r));
+        out
+    }
+
+    #[test]
+    fn flat_ground_is_navigable_and_a_step_is_an_obstacle() {
+        let p = pyramid(GateShape::Hard);
+        let mut c = Classifier::<256>::new();
+        c.begin(Meters::ZERO);
+        let d = Meters::from_num(0.3);
+        // Cell (3, 0) of layer 0: flat within 2 cm.
+        c.add_point(&p, pt(0.31, 0.02, 0.00), d, Meters::ZERO);
+        c.add_point(&p, pt(0.35, 0.05, 0.02), d, Meters::ZERO);
+        // Cell (2, 0): a 10 cm step.
+        c.add_point(&p, pt(0.21, 0.02, 0.00), d, Meters::ZERO);
+        c.add_point(&p, pt(0.25, 0.05, 0.10), d, Meters::ZERO);
+        let r = records(&mut c);
+        assert_eq!(r.len(), 2);
+        assert_eq!((r[0].cell_x, r[0].class), (3, EvidenceClass::Navigable));
+        assert_eq!((r[1].cell_x, r[1].class), (2, EvidenceClass::Obstacle));
+        assert!(r.iter().all(|e| e.layer == 0 && e.distance == d));
+        assert_eq!(c.cells_in_use(), 0);
+    }
+
+    #[test]
+    fn overhang_above_the_robot_is_ignored_in_any_order() {
+        let p = pyramid(GateShape::Hard);
+        let d = Meters::from_num(0.2);
+        for order in [[0.0, 1.5, 0.01], [1.5, 0.0, 0.01], [1.5, 0.01, 0.0]] {
+            let mut c = Classifier::<256>::new();
+            c.begin(Meters::ZERO);
+            for z in order {
+                c.add_point(&p, pt(0.05, 0.05, z), d, Meters::ZERO);
+            }
+            let r = records(&mut c);
+            assert_eq!(r.len(), 1);
+            assert_eq!(r[0].class, EvidenceClass::Navigable, "{order:?}");
+        }
+    }
+
+    #[test]
+    fn a_single_point_always_looks_navigable() {
+        let p = pyramid(GateShape::Hard);
+        let mut c = Classifier::<256>::new();
+        c.begin(Meters::ZERO);
+        c.add_point(&p, pt(0.05, 0.05, 0.4), Meters::from_num(0.2), Meters::ZERO);
+        assert_eq!(records(&mut c)[0].class, EvidenceClass::Navigable);
+    }
+
+    #[test]
+    fn record_distance_is_the_closest_look() {
+        let p = pyramid(GateShape::Hard);
+        let mut c = Classifier::<256>::new();
+        c.begin(Meters::ZERO);
+        c.add_point(&p, pt(0.05, 0.05, 0.0), Meters::from_num(0.4), Meters::ZERO);
+        c.add_point(&p, pt(0.06, 0.05, 0.0), Meters::from_num(0.2), Meters::ZERO);
+        c.add_point(&p, pt(0.07, 0.05, 0.0), Meters::from_num(0.3), Meters::ZERO);
+        assert_eq!(records(&mut c)[0].distance, Meters::from_num(0.2));
+    }
+
+    #[test]
+    fn hard_gate_sends_each_point_to_one_layer_soft_to_several() {
+        let hard = pyramid(GateShape::Hard);
+        let soft = pyramid(GateShape::default());
+        let mut c = Classifier::<256>::new();
+        c.begin(Meters::ZERO);
+        c.add_point(
+            &hard,
+            pt(2.0, 0.0, 0.0),
+            Meters::from_num(2.0),
+            Meters::ZERO,
+        );
+        assert_eq!(records(&mut c).len(), 1);
+        c.add_point(
+            &soft,
+            pt(2.0, 0.0, 0.0),
+            Meters::from_num(2.0),
+            Meters::ZERO,
+        );
+        assert!(records(&mut c).len() >= 2);
+    }
+
+    #[test]
+    fn drop_offs_and_missing_ground_are_obstacles_when_enabled() {
+        let p = pyramid(GateShape::Hard);
+        let mut c = Classifier::<256>::new();
+        let d = Meters::from_num(0.3);
+        c.begin(Meters::ZERO);
+        c.add_point(&p, pt(0.35, 0.05, -0.5), d, Meters::ZERO);
+        assert_eq!(records(&mut c)[0].class, EvidenceClass::Navigable);
+        c.configure(ClassifierConfig {
+            drop_threshold: Some(Meters::from_num(0.3)),
+            ..ClassifierConfig::default()
+        });
+        c.begin(Meters::ZERO);
+        c.add_point(&p, pt(0.35, 0.05, -0.5), d, Meters::ZERO);
+        c.add_missing_ground(&p, pt(0.15, 0.05, 0.0), d);
+        let r = records(&mut c);
+        assert!(r.iter().all(|e| e.class == EvidenceClass::Obstacle));
+        assert_eq!(r.len(), 2);
+        assert_eq!(c.stats().drop_points, 1);
+    }
+
+    #[test]
+    fn a_full_table_drops_and_counts_instead_of_panicking() {
+        let p = pyramid(GateShape::Hard);
+        let mut c = Classifier::<8>::new();
+        c.begin(Meters::ZERO);
+        for i in 0..20 {
+            let x = 0.05 + 0.1 * i as f32;
+            c.add_point(
+                &p,
+                pt(x - 3.0, 0.05, 0.0),
+                Meters::from_num(0.2),
+                Meters::ZERO,
+            );
+        }
+        assert_eq!(c.cells_in_use(), 8);
+        assert_eq!(c.stats().overflow_points, 12);
+        let mut n = 0;
+        c.finish(|_| n += 1);
+        assert_eq!(n, 8);
+    }
+
+    #[test]
+    fn finish_into_updates_the_pyramid() {
+        let mut p = pyramid(GateShape::Hard);
+        let mut c = Classifier::<256>::new();
+        c.begin(Meters::ZERO);
+        let d = Meters::from_num(0.3);
+        c.add_point(&p, pt(0.21, 0.02, 0.00), d, Meters::ZERO);
+        c.add_point(&p, pt(0.25, 0.05, 0.12), d, Meters::ZERO);
+        c.finish_into(&mut p);
+        assert_eq!(
+            p.fused(Meters::from_num(0.25), Meters::from_num(0.05)),
+            Fused::Obstacle { layer: 0 }
+        );
+    }
+}
