@@ -171,18 +171,69 @@ pub struct Window {
     resolution: Resolution,
 }
 
-/// One robot-centric layer: a W × W circular buffer of cells, `2·W² + 16` bytes.
+/// One robot-centric layer: a W × W circular buffer of cells, `2·W² + 24` bytes.
 #[derive(Clone)]
 pub struct Layer<const W: usize> {
     /// `cells[row][col]`: row = storage slot along y, col = along x.
     cells: [[Cell; W]; W],
     window: Window,
+    /// One bit per storage tile (8 × 8 tiles, bit `8·ty + tx`) changed by an update since the
+    /// link last took them.
+    dirty: u64,
 }
 
-/// The bytes of one `Layer<W>` for `cells_per_side` = W (even): `2·W² + 16`.
+/// A rectangle of world cells of one layer: `[x, x + width) × [y, y + height)`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct CellRect {
+    /// World cell index of the lower-left cell, x.
+    pub x: i32,
+    /// World cell index of the lower-left cell, y.
+    pub y: i32,
+    /// Cells along x, ≥ 1.
+    pub width: u16,
+    /// Cells along y, ≥ 1.
+    pub height: u16,
+}
+
+/// Tiles per side of the dirty map: 8, so a layer has 64 tiles and its dirty set is a `u64`.
+pub const TILES_PER_SIDE: usize = 8;
+
+/// The storage range `[first, end)` of tile `t` along an axis of `width` slots.
+fn tile_span(t: usize, width: usize) -> (usize, usize) {
+    (t * width / TILES_PER_SIDE, (t + 1) * width / TILES_PER_SIDE)
+}
+
+/// The window-offset ranges that a storage range `[first, end)` covers, when the window's
+/// origin is stored at slot `start`: one range, or two when it straddles the wrap point.
+fn offset_spans(
+    first: usize,
+    end: usize,
+    start: usize,
+    width: usize,
+) -> [Option<(usize, usize)>; 2] {
+    let offset = |s: usize| {
+        if s >= start {
+            s - start
+        } else {
+            s + width - start
+        }
+    };
+    if first < start && start < end {
+        [Some((offset(first), width)), Some((0, end - start))]
+    } else if first < end {
+        let o = offset(first);
+        [Some((o, o + (end - first))), None]
+    } else {
+        [None, None]
+    }
+}
+
+/// The bytes of one `Layer<W>` for `cells_per_side` = W (even): `2·W² + 24` (cells, the
+/// window, the dirty tiles).
 #[must_use]
 pub const fn layer_bytes(cells_per_side: usize) -> usize {
-    2 * cells_per_side * cells_per_side + core::mem::size_of::<Window>()
+    2 * cells_per_side * cells_per_side + core::mem::size_of::<Window>() + 8
 }
 
 impl<const W: usize> core::fmt::Debug for Layer<W> {
@@ -219,6 +270,7 @@ impl<const W: usize> Layer<W> {
                     bits: Resolution::MIN_BITS,
                 },
             },
+            dirty: 0,
         }
     }
 
@@ -229,6 +281,7 @@ impl<const W: usize> Layer<W> {
             row.fill(Cell::UNKNOWN);
         }
         self.window.resolution = resolution;
+        self.dirty = 0;
         self.set_origin(-half::<W>(), -half::<W>());
     }
 
@@ -302,7 +355,13 @@ impl<const W: usize> Layer<W> {
         };
         match self.cells.get_mut(row).and_then(|r| r.get_mut(col)) {
             Some(cell) => {
-                *cell = cell.updated(g, initial, clamp);
+                let new = cell.updated(g, initial, clamp);
+                if new != *cell {
+                    *cell = new;
+                    let tile =
+                        (row * TILES_PER_SIDE / W) * TILES_PER_SIDE + col * TILES_PER_SIDE / W;
+                    self.dirty |= 1 << (tile & 63);
+                }
                 true
             }
             None => false,
@@ -362,6 +421,61 @@ impl<const W: usize> Layer<W> {
         reset
     }
 
+    /// The tiles changed by updates since [`take_dirty`](Self::take_dirty) last ran: bit
+    /// `8·ty + tx` for storage tile (tx, ty). Window moves do not mark tiles: a consumer that
+    /// mirrors the window applies the same move and the same resets.
+    #[must_use]
+    pub const fn dirty(&self) -> u64 {
+        self.dirty
+    }
+
+    /// Returns the changed tiles and clears them.
+    pub fn take_dirty(&mut self) -> u64 {
+        core::mem::take(&mut self.dirty)
+    }
+
+    /// Marks tiles as changed (bits as in [`dirty`](Self::dirty)), e.g. to resend them.
+    pub fn mark_dirty(&mut self, tiles: u64) {
+        self.dirty |= tiles;
+    }
+
+    /// The world rectangles that storage tile `tile` (0 ..< 64) covers now: one, or up to
+    /// four when the tile straddles the window's wrap point. `None` entries are unused.
+    #[must_use]
+    pub fn tile_rects(&self, tile: usize) -> [Option<CellRect>; 4] {
+        let mut out = [None; 4];
+        if tile >= TILES_PER_SIDE * TILES_PER_SIDE {
+            return out;
+        }
+        let (x0, x1) = tile_span(tile % TILES_PER_SIDE, W);
+        let (y0, y1) = tile_span(tile / TILES_PER_SIDE, W);
+        let (start_x, start_y) = self.start();
+        let xs = offset_spans(x0, x1, start_x, W);
+        let ys = offset_spans(y0, y1, start_y, W);
+        let mut n = 0;
+        for (ya, yb) in ys.iter().flatten() {
+            for (xa, xb) in xs.iter().flatten() {
+                let rect = CellRect {
+                    x: self
+                        .window
+                        .origin_x
+                        .saturating_add(i32::try_from(*xa).unwrap_or(0)),
+                    y: self
+                        .window
+                        .origin_y
+                        .saturating_add(i32::try_from(*ya).unwrap_or(0)),
+                    width: u16::try_from(xb - xa).unwrap_or(0),
+                    height: u16::try_from(yb - ya).unwrap_or(0),
+                };
+                if let Some(slot) = out.get_mut(n) {
+                    *slot = Some(rect);
+                    n += 1;
+                }
+            }
+        }
+        out
+    }
+
     /// Counts of observed, obstacle and free cells over the whole window.
     #[must_use]
     pub fn counts(&self) -> LayerCounts {
@@ -388,6 +502,7 @@ impl<const W: usize> Default for Layer<W> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    extern crate std;
 
     #[test]
     fn cell_of_floors_toward_negative_infinity() {
@@ -479,6 +594,52 @@ mod tests {
         assert_eq!(layer.origin(), (100, -4));
         mark(&mut layer, 107, 3);
         assert_eq!(layer.at_offset(7, 7).unwrap().class(), CellClass::Obstacle);
+    }
+
+    #[test]
+    fn dirty_tiles_map_back_to_the_changed_cells() {
+        let mut layer = Layer::<16>::new();
+        layer.reset(Resolution::from_m(1.0).unwrap());
+        layer.move_origin(5, -3); // a move that puts the wrap point inside the window
+        for (i, j) in [(5, -3), (20, 12), (12, 4), (9, 0)] {
+            assert!(layer.update(i, j, 10, LogOddsFixed::ZERO, Clamp::Off));
+        }
+        // An update that changes nothing marks nothing.
+        let mut clamped = Layer::<16>::new();
+        clamped.reset(Resolution::from_m(1.0).unwrap());
+        assert!(clamped.update(0, 0, 0, LogOddsFixed::ZERO, Clamp::Off));
+        assert_eq!(clamped.dirty(), 0);
+
+        let dirty = layer.take_dirty();
+        assert_eq!(layer.dirty(), 0);
+        let mut covered = 0;
+        let mut seen = std::vec::Vec::new();
+        for tile in 0..64 {
+            if dirty & (1 << tile) == 0 {
+                continue;
+            }
+            for rect in layer.tile_rects(tile).into_iter().flatten() {
+                covered += usize::from(rect.width) * usize::from(rect.height);
+                for i in rect.x..rect.x + i32::from(rect.width) {
+                    for j in rect.y..rect.y + i32::from(rect.height) {
+                        assert!(layer.get(i, j).is_some(), "({i}, {j}) outside the window");
+                        if layer.get(i, j).unwrap().is_observed() {
+                            seen.push((i, j));
+                        }
+                    }
+                }
+            }
+        }
+        seen.sort_unstable();
+        assert_eq!(seen, [(5, -3), (9, 0), (12, 4), (20, 12)]);
+        assert!(covered >= 4 && covered <= 4 * 4);
+        // All 64 tiles together cover the window exactly once.
+        let total: usize = (0..64)
+            .flat_map(|t| layer.tile_rects(t))
+            .flatten()
+            .map(|r| usize::from(r.width) * usize::from(r.height))
+            .sum();
+        assert_eq!(total, 16 * 16);
     }
 
     #[test]

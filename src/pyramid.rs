@@ -179,6 +179,23 @@ impl<const W: usize, const L: usize> core::fmt::Debug for Pyramid<W, L> {
     }
 }
 
+/// Access to one layer's dirty tiles only: the link takes and re-marks them; cells stay
+/// read-only outside [`Pyramid::apply`].
+#[derive(Debug)]
+pub struct DirtyTiles<'a, const W: usize>(&'a mut Layer<W>);
+
+impl<const W: usize> DirtyTiles<'_, W> {
+    /// Returns the changed tiles and clears them (see [`Layer::take_dirty`]).
+    pub fn take(&mut self) -> u64 {
+        self.0.take_dirty()
+    }
+
+    /// Marks tiles as changed again (see [`Layer::mark_dirty`]).
+    pub fn mark(&mut self, tiles: u64) {
+        self.0.mark_dirty(tiles);
+    }
+}
+
 /// The static RAM of a `Pyramid<W, L>`, bytes: what the firmware reserves for it.
 #[must_use]
 pub const fn static_ram_bytes<const W: usize, const L: usize>() -> usize {
@@ -186,7 +203,7 @@ pub const fn static_ram_bytes<const W: usize, const L: usize>() -> usize {
 }
 
 /// The static RAM of a pyramid of `layers` layers of `cells_per_side` (even) cells per side,
-/// bytes: `layers · (2·W² + 16 + 1024) + 40`. Equal to [`static_ram_bytes`] for the same
+/// bytes: `layers · (2·W² + 24 + 1024) + 40`. Equal to [`static_ram_bytes`] for the same
 /// shape (a unit test holds them together), for designs chosen at run time.
 #[must_use]
 pub const fn ram_bytes(cells_per_side: usize, layers: usize) -> usize {
@@ -319,6 +336,13 @@ impl<const W: usize, const L: usize> Pyramid<W, L> {
     #[must_use]
     pub fn layer(&self, k: usize) -> Option<&Layer<W>> {
         self.layers.get(..self.layer_count())?.get(k)
+    }
+
+    /// Layer `k` for changes that keep its cells (taking or marking dirty tiles), or `None`
+    /// beyond the layers in force.
+    pub fn layer_dirty_mut(&mut self, k: usize) -> Option<DirtyTiles<'_, W>> {
+        let active = self.layer_count();
+        self.layers.get_mut(..active)?.get_mut(k).map(DirtyTiles)
     }
 
     /// Layer `k`'s gate table, or `None` beyond the layers in force.
