@@ -632,7 +632,7 @@ mod tests {
         }
         seen.sort_unstable();
         assert_eq!(seen, [(5, -3), (9, 0), (12, 4), (20, 12)]);
-        assert!(covered >= 4 && covered <= 4 * 4);
+        assert!((4..=4 * 4).contains(&covered));
         // All 64 tiles together cover the window exactly once.
         let total: usize = (0..64)
             .flat_map(|t| layer.tile_rects(t))
