@@ -1,1 +1,2 @@
 //! The f64 reference.
+pub mod classify;
