@@ -1,1 +1,2 @@
 //! Pure, zero-copy wire formats.
+pub mod recording;

@@ -1,0 +1,563 @@
+//! The recording format (`docs/recording.md`): timestamped laser bytes, actuator angles, poses
+//! and the setup, as converters and the simulator write them and the tools replay them.
+//!
+//! [`Reader`] walks a recording held in memory without copying; [`Event::emit`] writes one
+//! event into a caller's buffer. Both follow the crate's panic contract: bad input is an error.
+
+use core::fmt;
+
+/// The file's magic bytes: ASCII `TPYRREC\n`.
+pub const MAGIC: [u8; 8] = *b"TPYRREC\n";
+/// The version this module reads and writes.
+pub const VERSION: u16 = 1;
+/// Bytes of the version-1 file header.
+pub const HEADER_LEN: usize = 16;
+/// Bytes of an event header (kind, time, length).
+pub const EVENT_HEADER_LEN: usize = 11;
+/// The largest payload of one event.
+pub const MAX_PAYLOAD: usize = 4096;
+/// Bytes of a setup payload.
+pub const SETUP_LEN: usize = 28;
+
+/// Event kinds.
+mod kind {
+    pub const LASER: u8 = 0x01;
+    pub const ANGLE: u8 = 0x02;
+    pub const POSE: u8 = 0x03;
+    pub const SETUP: u8 = 0x04;
+    pub const MARKER: u8 = 0x05;
+}
+
+/// How the laser is mounted on its actuator.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum MountKind {
+    /// A vertical scan plane panned about the vertical axis (the paper's robot).
+    PannedVertical,
+    /// A horizontal scan plane tilted about the sideways axis (positive tilt looks down).
+    TiltedHorizontal,
+}
+
+/// The setup a recording was taken with.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Setup {
+    /// How the laser is mounted.
+    pub mount: MountKind,
+    /// The SICK measuring mode (0x77 mode number; 0 = factory default).
+    pub measuring_mode: u8,
+    /// Field of view, degrees (180 or 100).
+    pub field_deg: u16,
+    /// Angular resolution, hundredths of a degree (25, 50 or 100).
+    pub resolution_cdeg: u16,
+    /// Sensor position in the robot frame, metres (x forward, y left, z up above the ground).
+    pub sensor_m: [f32; 3],
+    /// Scan lines per observation; 0 = one observation per full sweep.
+    pub lines_per_observation: u32,
+}
+
+/// One event's content.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Payload<'a> {
+    /// Bytes as they came off the laser's UART (1 ..= 4096).
+    Laser(&'a [u8]),
+    /// The actuator angle as a fraction of a turn (value / 65536 turns).
+    Angle(u16),
+    /// The robot pose: x, y, z (m), roll, pitch, yaw (rad).
+    Pose([f32; 6]),
+    /// The setup.
+    Setup(Setup),
+    /// A marker id.
+    Marker(u32),
+    /// An event of a kind this version does not know; skipped by its length.
+    Unknown {
+        /// The kind byte.
+        kind: u8,
+        /// The payload.
+        data: &'a [u8],
+    },
+}
+
+/// One timestamped event.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Event<'a> {
+    /// Microseconds since the start of the recording.
+    pub time_us: u64,
+    /// What happened.
+    pub payload: Payload<'a>,
+}
+
+/// Why a recording could not be read or written.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[non_exhaustive]
+pub enum RecordingError {
+    /// The file does not start with the magic bytes.
+    BadMagic,
+    /// The version is not one this module reads.
+    UnsupportedVersion {
+        /// The version found.
+        version: u16,
+    },
+    /// The header length is below 16 or beyond the file.
+    BadHeader,
+    /// An event is cut off by the end of the data.
+    Truncated {
+        /// Byte offset of the event.
+        offset: usize,
+    },
+    /// An event's payload is longer than 4096 bytes, empty laser bytes, or the wrong length
+    /// for its kind.
+    BadLength {
+        /// Byte offset of the event.
+        offset: usize,
+    },
+    /// An event's time is before the previous event's.
+    TimeWentBack {
+        /// Byte offset of the event.
+        offset: usize,
+    },
+    /// A setup field holds a value this version does not know.
+    BadSetup {
+        /// Byte offset of the event.
+        offset: usize,
+    },
+    /// The output buffer is too small.
+    BufferTooSmall,
+}
+
+impl fmt::Display for RecordingError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match *self {
+            Self::BadMagic => f.write_str("not a recording (bad magic bytes)"),
+            Self::UnsupportedVersion { version } => {
+                write!(
+                    f,
+                    "recording version {version} is not supported (this reads {VERSION})"
+                )
+            }
+            Self::BadHeader => f.write_str("bad recording header length"),
+            Self::Truncated { offset } => write!(f, "event at byte {offset} is truncated"),
+            Self::BadLength { offset } => write!(f, "event at byte {offset} has a bad length"),
+            Self::TimeWentBack { offset } => {
+                write!(f, "event at byte {offset} goes back in time")
+            }
+            Self::BadSetup { offset } => write!(f, "setup event at byte {offset} is invalid"),
+            Self::BufferTooSmall => f.write_str("output buffer too small"),
+        }
+    }
+}
+
+/// Writes the version-1 file header into `out`; returns the bytes written (16).
+///
+/// # Errors
+/// [`RecordingError::BufferTooSmall`].
+pub fn emit_header(out: &mut [u8]) -> Result<usize, RecordingError> {
+    let header = out
+        .get_mut(..HEADER_LEN)
+        .ok_or(RecordingError::BufferTooSmall)?;
+    header.fill(0);
+    let (magic, rest) = header.split_at_mut(8);
+    magic.copy_from_slice(&MAGIC);
+    put(rest, 0, &VERSION.to_le_bytes());
+    #[allow(clippy::cast_possible_truncation)]
+    put(rest, 2, &(HEADER_LEN as u16).to_le_bytes());
+    Ok(HEADER_LEN)
+}
+
+/// Copies `bytes` into `out` at `at` if it fits (callers size `out` first).
+fn put(out: &mut [u8], at: usize, bytes: &[u8]) {
+    if let Some(dst) = out.get_mut(at..at + bytes.len()) {
+        dst.copy_from_slice(bytes);
+    }
+}
+
+/// Reads `N` bytes at `at`.
+fn take<const N: usize>(data: &[u8], at: usize) -> Option<[u8; N]> {
+    data.get(at..at.checked_add(N)?)?.try_into().ok()
+}
+
+fn f32_at(data: &[u8], at: usize) -> Option<f32> {
+    take::<4>(data, at).map(f32::from_le_bytes)
+}
+
+impl Setup {
+    fn parse(data: &[u8]) -> Option<Self> {
+        if data.len() != SETUP_LEN {
+            return None;
+        }
+        let mount = match data.first()? {
+            0 => MountKind::PannedVertical,
+            1 => MountKind::TiltedHorizontal,
+            _ => return None,
+        };
+        let field_deg = u16::from_le_bytes(take(data, 2)?);
+        let resolution_cdeg = u16::from_le_bytes(take(data, 4)?);
+        if !matches!(field_deg, 100 | 180) || !matches!(resolution_cdeg, 25 | 50 | 100) {
+            return None;
+        }
+        let sensor_m = [f32_at(data, 8)?, f32_at(data, 12)?, f32_at(data, 16)?];
+        if sensor_m.iter().any(|v| !v.is_finite()) {
+            return None;
+        }
+        Some(Self {
+            mount,
+            measuring_mode: *data.get(1)?,
+            field_deg,
+            resolution_cdeg,
+            sensor_m,
+            lines_per_observation: u32::from_le_bytes(take(data, 20)?),
+        })
+    }
+
+    fn emit(&self, out: &mut [u8]) {
+        out.fill(0);
+        put(
+            out,
+            0,
+            &[
+                match self.mount {
+                    MountKind::PannedVertical => 0,
+                    MountKind::TiltedHorizontal => 1,
+                },
+                self.measuring_mode,
+            ],
+        );
+        put(out, 2, &self.field_deg.to_le_bytes());
+        put(out, 4, &self.resolution_cdeg.to_le_bytes());
+        for (i, v) in self.sensor_m.iter().enumerate() {
+            put(out, 8 + 4 * i, &v.to_le_bytes());
+        }
+        put(out, 20, &self.lines_per_observation.to_le_bytes());
+    }
+}
+
+impl Event<'_> {
+    fn kind(&self) -> u8 {
+        match self.payload {
+            Payload::Laser(_) => kind::LASER,
+            Payload::Angle(_) => kind::ANGLE,
+            Payload::Pose(_) => kind::POSE,
+            Payload::Setup(_) => kind::SETUP,
+            Payload::Marker(_) => kind::MARKER,
+            Payload::Unknown { kind, .. } => kind,
+        }
+    }
+
+    fn payload_len(&self) -> usize {
+        match self.payload {
+            Payload::Laser(bytes) => bytes.len(),
+            Payload::Angle(_) => 2,
+            Payload::Pose(_) => 24,
+            Payload::Setup(_) => SETUP_LEN,
+            Payload::Marker(_) => 4,
+            Payload::Unknown { data, .. } => data.len(),
+        }
+    }
+
+    /// Bytes this event takes when emitted.
+    #[must_use]
+    pub fn buffer_len(&self) -> usize {
+        EVENT_HEADER_LEN + self.payload_len()
+    }
+
+    /// Writes the event into `out`; returns the bytes written.
+    ///
+    /// # Errors
+    /// [`RecordingError::BufferTooSmall`], or [`RecordingError::BadLength`] for laser bytes
+    /// that are empty or longer than 4096.
+    pub fn emit(&self, out: &mut [u8]) -> Result<usize, RecordingError> {
+        let len = self.payload_len();
+        if len > MAX_PAYLOAD || (matches!(self.payload, Payload::Laser(_)) && len == 0) {
+            return Err(RecordingError::BadLength { offset: 0 });
+        }
+        let total = self.buffer_len();
+        let out = out.get_mut(..total).ok_or(RecordingError::BufferTooSmall)?;
+        let (header, body) = out.split_at_mut(EVENT_HEADER_LEN);
+        put(header, 0, &[self.kind()]);
+        put(header, 1, &self.time_us.to_le_bytes());
+        #[allow(clippy::cast_possible_truncation)]
+        put(header, 9, &(len as u16).to_le_bytes());
+        match self.payload {
+            Payload::Laser(bytes) | Payload::Unknown { data: bytes, .. } => put(body, 0, bytes),
+            Payload::Angle(a) => put(body, 0, &a.to_le_bytes()),
+            Payload::Pose(p) => {
+                for (i, v) in p.iter().enumerate() {
+                    put(body, 4 * i, &v.to_le_bytes());
+                }
+            }
+            Payload::Setup(s) => s.emit(body),
+            Payload::Marker(m) => put(body, 0, &m.to_le_bytes()),
+        }
+        Ok(total)
+    }
+}
+
+/// Walks the events of a recording held in memory.
+#[derive(Debug, Clone)]
+pub struct Reader<'a> {
+    data: &'a [u8],
+    offset: usize,
+    last_time: u64,
+    failed: bool,
+    unknown: u32,
+}
+
+impl<'a> Reader<'a> {
+    /// Checks the file header and positions the reader at the first event.
+    ///
+    /// # Errors
+    /// Bad magic, an unsupported version, or a bad header length.
+    pub fn new(data: &'a [u8]) -> Result<Self, RecordingError> {
+        if data.get(..8) != Some(&MAGIC[..]) {
+            return Err(RecordingError::BadMagic);
+        }
+        let version = take::<2>(data, 8)
+            .map(u16::from_le_bytes)
+            .ok_or(RecordingError::BadHeader)?;
+        if version != VERSION {
+            return Err(RecordingError::UnsupportedVersion { version });
+        }
+        let header_len = take::<2>(data, 10)
+            .map(|b| usize::from(u16::from_le_bytes(b)))
+            .ok_or(RecordingError::BadHeader)?;
+        if header_len < HEADER_LEN || header_len > data.len() {
+            return Err(RecordingError::BadHeader);
+        }
+        Ok(Self {
+            data,
+            offset: header_len,
+            last_time: 0,
+            failed: false,
+            unknown: 0,
+        })
+    }
+
+    /// Events of unknown kinds skipped so far.
+    #[must_use]
+    pub const fn unknown_events(&self) -> u32 {
+        self.unknown
+    }
+
+    /// The byte offset of the next event.
+    #[must_use]
+    pub const fn offset(&self) -> usize {
+        self.offset
+    }
+
+    fn next_event(&mut self) -> Result<Event<'a>, RecordingError> {
+        let offset = self.offset;
+        let data = self.data;
+        let header = data
+            .get(offset..offset + EVENT_HEADER_LEN)
+            .ok_or(RecordingError::Truncated { offset })?;
+        let kind = *header.first().ok_or(RecordingError::Truncated { offset })?;
+        let time_us = take::<8>(header, 1)
+            .map(u64::from_le_bytes)
+            .ok_or(RecordingError::Truncated { offset })?;
+        let len = take::<2>(header, 9)
+            .map(|b| usize::from(u16::from_le_bytes(b)))
+            .ok_or(RecordingError::Truncated { offset })?;
+        if len > MAX_PAYLOAD {
+            return Err(RecordingError::BadLength { offset });
+        }
+        let start = offset + EVENT_HEADER_LEN;
+        let body = data
+            .get(start..start + len)
+            .ok_or(RecordingError::Truncated { offset })?;
+        if time_us < self.last_time {
+            return Err(RecordingError::TimeWentBack { offset });
+        }
+        let bad_len = RecordingError::BadLength { offset };
+        let payload = match kind {
+            kind::LASER if len > 0 => Payload::Laser(body),
+            kind::ANGLE => {
+                Payload::Angle(take::<2>(body, 0).map(u16::from_le_bytes).ok_or(bad_len)?)
+            }
+            kind::POSE if len == 24 => {
+                let mut p = [0.0_f32; 6];
+                for (i, v) in p.iter_mut().enumerate() {
+                    *v = f32_at(body, 4 * i).ok_or(bad_len)?;
+                }
+                Payload::Pose(p)
+            }
+            kind::SETUP => {
+                Payload::Setup(Setup::parse(body).ok_or(RecordingError::BadSetup { offset })?)
+            }
+            kind::MARKER if len == 4 => {
+                Payload::Marker(take::<4>(body, 0).map(u32::from_le_bytes).ok_or(bad_len)?)
+            }
+            kind::LASER | kind::POSE | kind::MARKER => return Err(bad_len),
+            other => {
+                self.unknown = self.unknown.saturating_add(1);
+                Payload::Unknown {
+                    kind: other,
+                    data: body,
+                }
+            }
+        };
+        if matches!(payload, Payload::Angle(_)) && len != 2 {
+            return Err(bad_len);
+        }
+        self.offset = start + len;
+        self.last_time = time_us;
+        Ok(Event { time_us, payload })
+    }
+}
+
+impl<'a> Iterator for Reader<'a> {
+    type Item = Result<Event<'a>, RecordingError>;
+
+    /// The next event; after the first error, `None`.
+    fn next(&mut self) -> Option<Self::Item> {
+        if self.failed || self.offset >= self.data.len() {
+            return None;
+        }
+        let item = self.next_event();
+        self.failed = item.is_err();
+        Some(item)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    extern crate std;
+    use std::vec::Vec;
+
+    /// The example of docs/recording.md, byte for byte.
+    const DOC_EXAMPLE: &[u8] = &[
+        0x54, 0x50, 0x59, 0x52, 0x52, 0x45, 0x43, 0x0A, 0x01, 0x00, 0x10, 0x00, 0x00, 0x00, 0x00,
+        0x00, //
+        0x04, 0, 0, 0, 0, 0, 0, 0, 0, 0x1C, 0x00, //
+        0x01, 0x00, 0xB4, 0x00, 0x32, 0x00, 0x00, 0x00, 0, 0, 0, 0, 0, 0, 0, 0, 0xCD, 0xCC, 0xCC,
+        0x3E, 0xE2, 0x00, 0x00, 0x00, 0, 0, 0, 0, //
+        0x01, 0x15, 0x34, 0, 0, 0, 0, 0, 0, 0x04, 0x00, 0x06, 0x02, 0x80, 0xD6,
+    ];
+
+    fn setup() -> Setup {
+        Setup {
+            mount: MountKind::TiltedHorizontal,
+            measuring_mode: 0,
+            field_deg: 180,
+            resolution_cdeg: 50,
+            sensor_m: [0.0, 0.0, 0.4],
+            lines_per_observation: 226,
+        }
+    }
+
+    #[test]
+    fn reads_the_documented_example() {
+        let events: Vec<_> = Reader::new(DOC_EXAMPLE).unwrap().collect();
+        assert_eq!(events.len(), 2);
+        assert_eq!(
+            events[0],
+            Ok(Event {
+                time_us: 0,
+                payload: Payload::Setup(setup())
+            })
+        );
+        assert_eq!(
+            events[1],
+            Ok(Event {
+                time_us: 13_333,
+                payload: Payload::Laser(&[0x06, 0x02, 0x80, 0xD6])
+            })
+        );
+    }
+
+    #[test]
+    fn writes_the_documented_example() {
+        let mut buf = [0_u8; 128];
+        let mut n = emit_header(&mut buf).unwrap();
+        for e in [
+            Event {
+                time_us: 0,
+                payload: Payload::Setup(setup()),
+            },
+            Event {
+                time_us: 13_333,
+                payload: Payload::Laser(&[0x06, 0x02, 0x80, 0xD6]),
+            },
+        ] {
+            n += e.emit(&mut buf[n..]).unwrap();
+        }
+        assert_eq!(&buf[..n], DOC_EXAMPLE);
+    }
+
+    #[test]
+    fn every_kind_round_trips() {
+        let events = [
+            Event {
+                time_us: 1,
+                payload: Payload::Angle(0x4000),
+            },
+            Event {
+                time_us: 2,
+                payload: Payload::Pose([1.0, -2.0, 0.5, 0.01, -0.02, 3.0]),
+            },
+            Event {
+                time_us: 2,
+                payload: Payload::Marker(7),
+            },
+            Event {
+                time_us: 3,
+                payload: Payload::Unknown {
+                    kind: 0x7F,
+                    data: &[1, 2, 3],
+                },
+            },
+        ];
+        let mut buf = [0_u8; 256];
+        let mut n = emit_header(&mut buf).unwrap();
+        for e in &events {
+            n += e.emit(&mut buf[n..]).unwrap();
+        }
+        let mut reader = Reader::new(&buf[..n]).unwrap();
+        let back: Vec<_> = reader.by_ref().map(Result::unwrap).collect();
+        assert_eq!(back, events);
+        assert_eq!(reader.unknown_events(), 1);
+    }
+
+    #[test]
+    fn damage_is_reported_not_panicked() {
+        assert_eq!(Reader::new(b"nope").err(), Some(RecordingError::BadMagic));
+        let mut v = DOC_EXAMPLE.to_vec();
+        v[8] = 2;
+        assert_eq!(
+            Reader::new(&v).err(),
+            Some(RecordingError::UnsupportedVersion { version: 2 })
+        );
+        // Every truncation of the example either reads cleanly up to the cut or reports it.
+        let boundaries = [HEADER_LEN, HEADER_LEN + EVENT_HEADER_LEN + SETUP_LEN];
+        for cut in HEADER_LEN..DOC_EXAMPLE.len() {
+            let events: Vec<_> = Reader::new(&DOC_EXAMPLE[..cut]).unwrap().collect();
+            if boundaries.contains(&cut) {
+                assert!(events.iter().all(Result::is_ok), "{cut}");
+            } else {
+                let last = events.last().unwrap();
+                assert!(
+                    matches!(last, Err(RecordingError::Truncated { .. })),
+                    "{cut}"
+                );
+            }
+        }
+        // Time going backwards.
+        let mut v = DOC_EXAMPLE.to_vec();
+        v[16 + 1] = 0xFF; // the setup event now says t = 255 µs, the next 13 333 µs: fine
+        assert!(Reader::new(&v).unwrap().all(|e| e.is_ok()));
+        v[16 + 11 + 28 + 2] = 0x00; // the laser event now says t = 21 µs < 255
+        let events: Vec<_> = Reader::new(&v).unwrap().collect();
+        assert_eq!(events[1], Err(RecordingError::TimeWentBack { offset: 55 }));
+        // Any byte flipped anywhere: no panic.
+        for i in 0..DOC_EXAMPLE.len() {
+            for bit in 0..8 {
+                let mut v = DOC_EXAMPLE.to_vec();
+                v[i] ^= 1 << bit;
+                if let Ok(r) = Reader::new(&v) {
+                    for _ in r {}
+                }
+            }
+        }
+    }
+}
