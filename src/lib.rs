@@ -20,6 +20,14 @@
 //! - [`logodds`]: the fixed-point log-odds cell, the inverse sensor model as increments, clamping.
 //! - [`grid`]: one robot-centric layer as a circular buffer, and its index maths.
 //! - [`pyramid`]: the layers together: gated integration, recentring, the fused query.
+//! - [`classify`]: one observation's points → per-layer cell evidence (the navigability rule).
+//!
+//! At the edges:
+//! - [`wire`]: pure, zero-copy wire formats: [`wire::sick`], the SICK LMS2xx telegrams and
+//!   their reassembly from UART chunks; [`wire::recording`], the recording file format.
+//! - [`drivers`]: thin adapters from embedded-io / embedded-hal to the pure code:
+//!   [`drivers::uart`] (telegrams from any `embedded_io::Read`), [`drivers::angle`] and
+//!   [`drivers::as5047`] (the pan angle).
 //!
 //! # Panic contract
 //! No function in this crate panics on any input, as smoltcp's `wire` promises: parsers and

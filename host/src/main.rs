@@ -6,6 +6,7 @@ use clap::{Parser, Subcommand};
 use std::process::ExitCode;
 
 mod design;
+mod sick_decode;
 
 /// The main computer's side of terrain-pyramid.
 #[derive(Parser)]
@@ -19,11 +20,14 @@ struct Cli {
 enum Command {
     /// Derive a pyramid design (bound, bands, layers) from a sensor and a schedule.
     Design(design::Args),
+    /// Decode a captured SICK LMS2xx byte stream: measured values and framing errors.
+    SickDecode(sick_decode::Args),
 }
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
     match cli.command {
         Command::Design(args) => design::run(&args),
+        Command::SickDecode(args) => sick_decode::run(&args),
     }
 }

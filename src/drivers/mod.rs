@@ -9,6 +9,9 @@
 //! - [`angle`]: the pan [`angle::Angle`] type, the [`angle::AngleSource`] trait, encoder
 //!   mounting, and the host-supplied angle for boards without an encoder.
 //! - [`as5047`]: the AS5047P-kind 14-bit magnetic encoder over SPI.
+//! - [`uart`]: SICK LMS2xx telegrams from any `embedded_io::Read` (a UART), through
+//!   [`crate::wire::sick::Accumulator`].
 
 pub mod angle;
 pub mod as5047;
+pub mod uart;

@@ -1,2 +1,28 @@
 //! Pure, zero-copy wire formats.
+//!
+//! Each format is a view over a byte buffer (`Telegram<T: AsRef<[u8]>>`, as smoltcp's
+//! `Packet`) plus validated representations (`Repr`-style types with `parse`, `emit` and
+//! `buffer_len`), and, where bytes arrive in chunks, an accumulator that reassembles them.
+//! Nothing here touches a peripheral, a clock or an allocator.
+//!
+//! - [`sick`]: the SICK LMS2xx serial telegrams (framing, CRC, measured values, the commands
+//!   that bring a scanner up) and the stream reassembly over UART chunks.
+//! - [`recording`]: the recording file format (`docs/recording.md`).
+//!
+//! # Panic contract
+//! No function in this module panics, on any input and on any buffer:
+//! - `new_checked` validates a buffer once (length, limits, checksum) and returns an error
+//!   instead of a view that could misread;
+//! - a view made with `new_unchecked` over a buffer that is too short never panics either: its
+//!   accessors read absent bytes as zero and absent slices as empty, so its values are
+//!   meaningless until `check_len` (or `new_checked`) has passed;
+//! - `parse` returns an error for every field it cannot represent, and `emit` returns an error
+//!   when the output buffer is shorter than `buffer_len()`, writing nothing in that case;
+//! - the accumulators are bounded by a const generic capacity, count every rejected byte or
+//!   frame, and make progress on every call.
+//!
+//! Clippy denies `unwrap`, `expect`, `panic!`, `unreachable!` and unchecked indexing outside
+//! tests, and every arithmetic on a value read from the wire is checked or saturating.
+
 pub mod recording;
+pub mod sick;

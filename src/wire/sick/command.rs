@@ -1,0 +1,808 @@
+//! The commands that bring a scanner up, and their replies.
+//!
+//! Requests (host to scanner, ADR 0x00):
+//! ```text
+//! 0x20 mode                      operating mode (continuous output, on request, baud rate)
+//! 0x20 0x00 "SICK_LMS"           installation mode (needed before 0x77)
+//! 0x3B angle(u16 LE) res(u16 LE) variant: 100/180 degrees, 25/50/100 hundredths of a degree
+//! 0x30 0x01                      send the measured values once
+//! ```
+//! Replies (scanner to host, ADR 0x80), each after an ACK byte:
+//! ```text
+//! 0xA0 result status             result 0x00: mode changed
+//! 0xBB result angle res status   result 0x01: variant accepted; angle and resolution as 0x3B
+//! 0xB0 ...                       measured values, see MeasuredValues
+//! ```
+//! Reading of the replies (from the public drivers the protocol notes cite): 0xA0 carries a
+//! result byte, 0x00 when the mode changed (0x01 refused, e.g. a wrong password, 0x02 refused
+//! on a fault), then the status byte; 0xBB carries a result byte, 0x01 when the variant was
+//! accepted, then the scan angle (degrees) and resolution (hundredths of a degree) now in
+//! force as u16 LE, then the status byte.
+
+use super::measured::MeasuredValues;
+use super::telegram::{emit_with, Telegram, ADDRESS_HOST, ADDRESS_REPLY, CRC_LEN, HEADER_LEN};
+use super::{read_u16_le, Error};
+
+/// The scanner's positive acknowledgement, one byte sent before a reply.
+pub const ACK: u8 = 0x06;
+/// The scanner's negative acknowledgement, one byte sent instead of a reply.
+pub const NAK: u8 = 0x15;
+/// Request: select the operating mode.
+pub const OPERATING_MODE: u8 = 0x20;
+/// Request: send measured values.
+pub const REQUEST_MEASURED_VALUES: u8 = 0x30;
+/// Request: select the variant (scan angle and resolution).
+pub const VARIANT: u8 = 0x3B;
+/// Reply to [`OPERATING_MODE`].
+pub const OPERATING_MODE_REPLY: u8 = 0xA0;
+/// Reply to [`VARIANT`].
+pub const VARIANT_REPLY: u8 = 0xBB;
+/// The password of installation mode, 8 ASCII bytes.
+pub const INSTALLATION_PASSWORD: [u8; 8] = *b"SICK_LMS";
+
+/// The reply's command byte for a request's: `request + 0x80` (0x20 -> 0xA0), wrapping.
+#[must_use]
+pub const fn reply_command(request: u8) -> u8 {
+    request.wrapping_add(0x80)
+}
+
+/// A serial speed the scanner can be switched to with command 0x20. It powers up at 9600 Bd,
+/// 8N1; 500 kBd needs RS-422 (unverified for all models).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Baud {
+    /// 9600 Bd, code 0x42 (the power-up speed).
+    B9600,
+    /// 19 200 Bd, code 0x41.
+    B19200,
+    /// 38 400 Bd, code 0x40.
+    B38400,
+    /// 500 000 Bd, code 0x48.
+    B500k,
+}
+
+impl Baud {
+    /// The mode byte of command 0x20 that selects this speed.
+    #[must_use]
+    pub const fn code(self) -> u8 {
+        match self {
+            Self::B9600 => 0x42,
+            Self::B19200 => 0x41,
+            Self::B38400 => 0x40,
+            Self::B500k => 0x48,
+        }
+    }
+
+    /// The speed a mode byte selects, if it selects one.
+    #[must_use]
+    pub const fn from_code(code: u8) -> Option<Self> {
+        match code {
+            0x42 => Some(Self::B9600),
+            0x41 => Some(Self::B19200),
+            0x40 => Some(Self::B38400),
+            0x48 => Some(Self::B500k),
+            _ => None,
+        }
+    }
+
+    /// The speed, bits per second.
+    #[must_use]
+    pub const fn bits_per_second(self) -> u32 {
+        match self {
+            Self::B9600 => 9_600,
+            Self::B19200 => 19_200,
+            Self::B38400 => 38_400,
+            Self::B500k => 500_000,
+        }
+    }
+}
+
+/// An operating mode of command 0x20.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum OperatingMode {
+    /// Code 0x24: continuous output of all measured values (replies 0xB0, ~75 per second at 1°).
+    ContinuousAll,
+    /// Code 0x25: measured values only on request (0x30); stops continuous output.
+    OnRequest,
+    /// Codes 0x40-0x48: switch the serial speed.
+    Baud(Baud),
+    /// Code 0x00 followed by an 8-byte password ([`INSTALLATION_PASSWORD`]): installation mode,
+    /// needed before configuration commands such as 0x77.
+    Installation {
+        /// The password, 8 bytes.
+        password: [u8; 8],
+    },
+}
+
+impl OperatingMode {
+    /// Installation mode with the default password `SICK_LMS`.
+    pub const INSTALLATION: Self = Self::Installation {
+        password: INSTALLATION_PASSWORD,
+    };
+
+    /// The mode byte.
+    #[must_use]
+    pub const fn code(&self) -> u8 {
+        match self {
+            Self::ContinuousAll => 0x24,
+            Self::OnRequest => 0x25,
+            Self::Baud(baud) => baud.code(),
+            Self::Installation { .. } => 0x00,
+        }
+    }
+
+    /// Bytes after the mode byte: 8 for installation mode, 0 otherwise.
+    const fn data_len(&self) -> usize {
+        match self {
+            Self::Installation { .. } => 8,
+            _ => 0,
+        }
+    }
+}
+
+/// The scan angle (field of view) of a variant.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum ScanAngle {
+    /// 100°: from 40° to 140° of the 180° frame (the 40° start is unverified).
+    Deg100,
+    /// 180°: from 0° (first value) to 180° (last value).
+    Deg180,
+}
+
+impl ScanAngle {
+    /// The angle, degrees, as command 0x3B carries it.
+    #[must_use]
+    pub const fn degrees(self) -> u16 {
+        match self {
+            Self::Deg100 => 100,
+            Self::Deg180 => 180,
+        }
+    }
+
+    /// The angle of the first value, hundredths of a degree in the 0°..180° frame:
+    /// 0 for 180°, 4000 for 100° (unverified).
+    #[must_use]
+    pub const fn start_centideg(self) -> u32 {
+        match self {
+            Self::Deg100 => 4_000,
+            Self::Deg180 => 0,
+        }
+    }
+
+    /// The scan angle with this many degrees.
+    ///
+    /// # Errors
+    /// [`Error::UnknownScanAngle`] for anything but 100 or 180.
+    pub const fn from_degrees(degrees: u16) -> Result<Self, Error> {
+        match degrees {
+            100 => Ok(Self::Deg100),
+            180 => Ok(Self::Deg180),
+            _ => Err(Error::UnknownScanAngle { degrees }),
+        }
+    }
+}
+
+/// The angular resolution of a variant. 0.5° and 0.25° are produced by interlacing 1° scans.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Resolution {
+    /// 0.25° (only with the 100° angle).
+    Quarter,
+    /// 0.5°.
+    Half,
+    /// 1°.
+    One,
+}
+
+impl Resolution {
+    /// The resolution, hundredths of a degree (25, 50 or 100), as command 0x3B carries it.
+    #[must_use]
+    pub const fn centideg(self) -> u16 {
+        match self {
+            Self::Quarter => 25,
+            Self::Half => 50,
+            Self::One => 100,
+        }
+    }
+
+    /// The resolution with this many hundredths of a degree.
+    ///
+    /// # Errors
+    /// [`Error::UnknownResolution`] for anything but 25, 50 or 100.
+    pub const fn from_centideg(centideg: u16) -> Result<Self, Error> {
+        match centideg {
+            25 => Ok(Self::Quarter),
+            50 => Ok(Self::Half),
+            100 => Ok(Self::One),
+            _ => Err(Error::UnknownResolution { centideg }),
+        }
+    }
+}
+
+/// A variant: scan angle and angular resolution (command 0x3B). Every combination but
+/// 180° at 0.25° exists: 101/201/401 values over 100°, 181/361 over 180°.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Variant {
+    angle: ScanAngle,
+    resolution: Resolution,
+}
+
+impl Variant {
+    /// 180° at 0.5°: 361 values, the paper's configuration.
+    pub const DEG180_HALF: Self = Self {
+        angle: ScanAngle::Deg180,
+        resolution: Resolution::Half,
+    };
+
+    /// A variant, if the scanner offers it.
+    ///
+    /// # Errors
+    /// [`Error::UnsupportedVariant`] for 180° at 0.25° (721 values do not fit a telegram).
+    pub const fn new(angle: ScanAngle, resolution: Resolution) -> Result<Self, Error> {
+        if matches!(
+            (angle, resolution),
+            (ScanAngle::Deg180, Resolution::Quarter)
+        ) {
+            return Err(Error::UnsupportedVariant {
+                degrees: angle.degrees(),
+                centideg: resolution.centideg(),
+            });
+        }
+        Ok(Self { angle, resolution })
+    }
+
+    /// The variant command 0x3B's fields describe.
+    ///
+    /// # Errors
+    /// [`Error::UnknownScanAngle`], [`Error::UnknownResolution`] or
+    /// [`Error::UnsupportedVariant`].
+    pub const fn from_fields(degrees: u16, centideg: u16) -> Result<Self, Error> {
+        let angle = match ScanAngle::from_degrees(degrees) {
+            Ok(angle) => angle,
+            Err(e) => return Err(e),
+        };
+        let resolution = match Resolution::from_centideg(centideg) {
+            Ok(resolution) => resolution,
+            Err(e) => return Err(e),
+        };
+        Self::new(angle, resolution)
+    }
+
+    /// The scan angle.
+    #[must_use]
+    pub const fn angle(self) -> ScanAngle {
+        self.angle
+    }
+
+    /// The angular resolution.
+    #[must_use]
+    pub const fn resolution(self) -> Resolution {
+        self.resolution
+    }
+
+    /// Values in a full scan: `angle / resolution + 1` (101, 181, 201, 361 or 401).
+    #[must_use]
+    pub const fn value_count(self) -> u16 {
+        self.angle.degrees() * 100 / self.resolution.centideg() + 1
+    }
+
+    /// The beam angle of value `index` of a measured-values reply with `count` values and
+    /// partial-scan index `partial_index`, hundredths of a degree in the scanner's 0°..180°
+    /// frame (90° straight ahead):
+    ///
+    /// `start + index · (angle · 100) / (count − 1) + 25 · partial_index`
+    ///
+    /// - `start` is 0° for 180° and 40° for 100° (unverified);
+    /// - the step is the scan angle over `count − 1`, so a full scan (181 values at 1°, 361 at
+    ///   0.5°, 401 at 0.25° over 100°) steps by the resolution, and a 1° partial scan of an
+    ///   interlaced 0.5°/0.25° mode (181 or 101 values) steps by 1°; the integer division is
+    ///   exact for every count a variant produces, and rounds down otherwise;
+    /// - an interlaced partial scan is offset by its index times 0.25° (as the public ROS
+    ///   drivers read it; unverified), so indexes 0..=3 cover the four 0.25° phases; a full
+    ///   scan carries index 0.
+    ///
+    /// `None` when `index >= count`, when `count < 2`, or when `partial_index > 3`.
+    #[must_use]
+    pub fn beam_angle_centideg(self, count: u16, partial_index: u8, index: u16) -> Option<u32> {
+        if index >= count || count < 2 || partial_index > 3 {
+            return None;
+        }
+        let span = u32::from(self.angle.degrees()) * 100;
+        let step = u32::from(index).checked_mul(span)? / u32::from(count - 1);
+        Some(self.angle.start_centideg() + step + 25 * u32::from(partial_index))
+    }
+}
+
+/// A request from the host to the scanner: a validated representation of the telegrams this
+/// module can send.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Request {
+    /// 0x20: select an operating mode (payload `20 mode [password]`).
+    SetOperatingMode(OperatingMode),
+    /// 0x3B: select a variant (payload `3B angle(u16 LE) resolution(u16 LE)`).
+    SetVariant(Variant),
+    /// 0x30 0x01: send the measured values once (the scanner answers with 0xB0).
+    MeasuredValues,
+}
+
+impl Request {
+    /// Reads a request from a telegram's payload (ADR and CRC are the caller's: construct the
+    /// telegram with [`Telegram::new_checked`]).
+    ///
+    /// # Errors
+    /// [`Error::Truncated`]/[`Error::BadLength`] from the framing, [`Error::UnexpectedCommand`]
+    /// for another command, [`Error::BadPayloadLength`] for a wrong LEN,
+    /// [`Error::UnknownOperatingMode`] and the variant errors for values out of the model.
+    pub fn parse<T: AsRef<[u8]> + ?Sized>(telegram: &Telegram<&T>) -> Result<Self, Error> {
+        telegram.check_len()?;
+        let payload = telegram.payload();
+        let command = telegram.command();
+        let bad_len = Error::BadPayloadLength {
+            command,
+            len: payload.len(),
+        };
+        match command {
+            OPERATING_MODE => {
+                let code = payload.get(1).copied().ok_or(bad_len)?;
+                let mode = match code {
+                    0x24 => OperatingMode::ContinuousAll,
+                    0x25 => OperatingMode::OnRequest,
+                    0x00 => {
+                        let password = payload
+                            .get(2..)
+                            .and_then(|p| p.first_chunk::<8>())
+                            .copied()
+                            .ok_or(bad_len)?;
+                        OperatingMode::Installation { password }
+                    }
+                    _ => OperatingMode::Baud(
+                        Baud::from_code(code).ok_or(Error::UnknownOperatingMode { code })?,
+                    ),
+                };
+                if payload.len() != 2 + mode.data_len() {
+                    return Err(bad_len);
+                }
+                Ok(Self::SetOperatingMode(mode))
+            }
+            VARIANT => {
+                if payload.len() != 5 {
+                    return Err(bad_len);
+                }
+                let degrees = read_u16_le(payload, 1).ok_or(bad_len)?;
+                let centideg = read_u16_le(payload, 3).ok_or(bad_len)?;
+                Ok(Self::SetVariant(Variant::from_fields(degrees, centideg)?))
+            }
+            REQUEST_MEASURED_VALUES => {
+                if payload != [REQUEST_MEASURED_VALUES, 0x01] {
+                    return Err(bad_len);
+                }
+                Ok(Self::MeasuredValues)
+            }
+            found => Err(Error::UnexpectedCommand { found }),
+        }
+    }
+
+    /// The payload length, bytes.
+    #[must_use]
+    pub const fn payload_len(&self) -> usize {
+        match self {
+            Self::SetOperatingMode(mode) => 2 + mode.data_len(),
+            Self::SetVariant(_) => 5,
+            Self::MeasuredValues => 2,
+        }
+    }
+
+    /// The telegram's length, bytes: `6 + payload_len()`.
+    #[must_use]
+    pub const fn buffer_len(&self) -> usize {
+        self.payload_len() + HEADER_LEN + CRC_LEN
+    }
+
+    /// Writes the whole telegram (ADR 0x00, CRC filled) to the start of `buf`; returns its
+    /// length, [`buffer_len`](Self::buffer_len) bytes. For example
+    /// `SetOperatingMode(ContinuousAll)` is `02 00 02 00 20 24 34 08`.
+    ///
+    /// # Errors
+    /// [`Error::BufferTooSmall`] when `buf` is shorter (nothing is written).
+    pub fn emit(&self, buf: &mut [u8]) -> Result<usize, Error> {
+        let mut payload = [0u8; 10];
+        match self {
+            Self::SetOperatingMode(mode) => {
+                payload[0] = OPERATING_MODE;
+                payload[1] = mode.code();
+                if let OperatingMode::Installation { password } = mode {
+                    payload[2..].copy_from_slice(password);
+                }
+            }
+            Self::SetVariant(variant) => {
+                let [a0, a1] = variant.angle.degrees().to_le_bytes();
+                let [r0, r1] = variant.resolution.centideg().to_le_bytes();
+                payload[..5].copy_from_slice(&[VARIANT, a0, a1, r0, r1]);
+            }
+            Self::MeasuredValues => {
+                payload[..2].copy_from_slice(&[REQUEST_MEASURED_VALUES, 0x01]);
+            }
+        }
+        let len = self.payload_len();
+        let bytes = payload.get(..len).unwrap_or(&payload);
+        emit_with(buf, ADDRESS_HOST, len, |dst| dst.copy_from_slice(bytes))
+    }
+}
+
+/// Reply 0xA0 to an operating-mode request: `A0 result status`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct OperatingModeReply {
+    /// The result byte: 0x00 the mode changed, 0x01 refused (e.g. a wrong password), 0x02
+    /// refused on a fault.
+    pub result: u8,
+    /// The scanner's status byte.
+    pub status: u8,
+}
+
+impl OperatingModeReply {
+    /// Whether the mode changed (result 0x00).
+    #[must_use]
+    pub const fn accepted(&self) -> bool {
+        self.result == 0x00
+    }
+
+    /// Reads the reply from a telegram's payload (CRC is the caller's, as for [`Request::parse`]).
+    ///
+    /// # Errors
+    /// [`Error::UnexpectedCommand`] for another command, [`Error::BadPayloadLength`] unless
+    /// LEN is 3, and the framing errors of [`Telegram::check_len`].
+    pub fn parse<T: AsRef<[u8]> + ?Sized>(telegram: &Telegram<&T>) -> Result<Self, Error> {
+        telegram.check_len()?;
+        match *telegram.payload() {
+            [OPERATING_MODE_REPLY, result, status] => Ok(Self { result, status }),
+            [OPERATING_MODE_REPLY, ..] => Err(Error::BadPayloadLength {
+                command: OPERATING_MODE_REPLY,
+                len: telegram.payload().len(),
+            }),
+            _ => Err(Error::UnexpectedCommand {
+                found: telegram.command(),
+            }),
+        }
+    }
+
+    /// The telegram's length, bytes (9).
+    #[must_use]
+    pub const fn buffer_len(&self) -> usize {
+        3 + HEADER_LEN + CRC_LEN
+    }
+
+    /// Writes the reply telegram (ADR 0x80) to `buf`; returns its length.
+    ///
+    /// # Errors
+    /// [`Error::BufferTooSmall`] when `buf` is shorter than [`buffer_len`](Self::buffer_len).
+    pub fn emit(&self, buf: &mut [u8]) -> Result<usize, Error> {
+        let payload = [OPERATING_MODE_REPLY, self.result, self.status];
+        emit_with(buf, ADDRESS_REPLY, payload.len(), |dst| {
+            dst.copy_from_slice(&payload);
+        })
+    }
+}
+
+/// Reply 0xBB to a variant request: `BB result angle(u16 LE) resolution(u16 LE) status`.
+///
+/// The angle and resolution are kept raw: they report the configuration in force, which a
+/// refused request leaves as it was; [`VariantReply::variant`] validates them.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct VariantReply {
+    /// The result byte: 0x01 the variant was accepted, 0x00 refused.
+    pub result: u8,
+    /// The scan angle in force, degrees (100 or 180).
+    pub angle_deg: u16,
+    /// The resolution in force, hundredths of a degree (25, 50 or 100).
+    pub resolution_centideg: u16,
+    /// The scanner's status byte.
+    pub status: u8,
+}
+
+impl VariantReply {
+    /// Whether the variant was accepted (result 0x01).
+    #[must_use]
+    pub const fn accepted(&self) -> bool {
+        self.result == 0x01
+    }
+
+    /// The variant in force.
+    ///
+    /// # Errors
+    /// As [`Variant::from_fields`].
+    pub const fn variant(&self) -> Result<Variant, Error> {
+        Variant::from_fields(self.angle_deg, self.resolution_centideg)
+    }
+
+    /// Reads the reply from a telegram's payload (CRC is the caller's).
+    ///
+    /// # Errors
+    /// [`Error::UnexpectedCommand`] for another command, [`Error::BadPayloadLength`] unless
+    /// LEN is 7, and the framing errors of [`Telegram::check_len`].
+    pub fn parse<T: AsRef<[u8]> + ?Sized>(telegram: &Telegram<&T>) -> Result<Self, Error> {
+        telegram.check_len()?;
+        match *telegram.payload() {
+            [VARIANT_REPLY, result, a0, a1, r0, r1, status] => Ok(Self {
+                result,
+                angle_deg: u16::from_le_bytes([a0, a1]),
+                resolution_centideg: u16::from_le_bytes([r0, r1]),
+                status,
+            }),
+            [VARIANT_REPLY, ..] => Err(Error::BadPayloadLength {
+                command: VARIANT_REPLY,
+                len: telegram.payload().len(),
+            }),
+            _ => Err(Error::UnexpectedCommand {
+                found: telegram.command(),
+            }),
+        }
+    }
+
+    /// The telegram's length, bytes (13).
+    #[must_use]
+    pub const fn buffer_len(&self) -> usize {
+        7 + HEADER_LEN + CRC_LEN
+    }
+
+    /// Writes the reply telegram (ADR 0x80) to `buf`; returns its length.
+    ///
+    /// # Errors
+    /// [`Error::BufferTooSmall`] when `buf` is shorter than [`buffer_len`](Self::buffer_len).
+    pub fn emit(&self, buf: &mut [u8]) -> Result<usize, Error> {
+        let [a0, a1] = self.angle_deg.to_le_bytes();
+        let [r0, r1] = self.resolution_centideg.to_le_bytes();
+        let payload = [VARIANT_REPLY, self.result, a0, a1, r0, r1, self.status];
+        emit_with(buf, ADDRESS_REPLY, payload.len(), |dst| {
+            dst.copy_from_slice(&payload);
+        })
+    }
+}
+
+/// Any reply this module reads, by command byte.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Reply<'a> {
+    /// 0xA0.
+    OperatingMode(OperatingModeReply),
+    /// 0xBB.
+    Variant(VariantReply),
+    /// 0xB0, borrowing the telegram's buffer.
+    MeasuredValues(MeasuredValues<'a>),
+    /// A well-framed reply with another command byte, left to the caller.
+    Other {
+        /// Its command byte.
+        command: u8,
+    },
+}
+
+impl<'a> Reply<'a> {
+    /// Reads a reply by its command byte (CRC is the caller's: the accumulator and
+    /// [`Telegram::new_checked`] verify it).
+    ///
+    /// # Errors
+    /// The errors of the reply's own `parse`; an unknown command is not an error but
+    /// [`Reply::Other`].
+    pub fn parse<T: AsRef<[u8]> + ?Sized>(telegram: &Telegram<&'a T>) -> Result<Self, Error> {
+        telegram.check_len()?;
+        match telegram.command() {
+            OPERATING_MODE_REPLY => OperatingModeReply::parse(telegram).map(Self::OperatingMode),
+            VARIANT_REPLY => VariantReply::parse(telegram).map(Self::Variant),
+            super::MEASURED_VALUES_REPLY => {
+                MeasuredValues::parse(telegram).map(Self::MeasuredValues)
+            }
+            command => Ok(Self::Other { command }),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    extern crate std;
+
+    use super::*;
+    use std::vec::Vec;
+
+    fn emit(request: Request) -> Vec<u8> {
+        let mut buf = [0u8; 32];
+        let n = request.emit(&mut buf).unwrap();
+        assert_eq!(n, request.buffer_len());
+        buf[..n].to_vec()
+    }
+
+    #[test]
+    fn operating_mode_bytes_match_the_documented_vectors() {
+        use OperatingMode::*;
+        let cases: [(OperatingMode, [u8; 8]); 5] = [
+            (
+                ContinuousAll,
+                [0x02, 0x00, 0x02, 0x00, 0x20, 0x24, 0x34, 0x08],
+            ),
+            (OnRequest, [0x02, 0x00, 0x02, 0x00, 0x20, 0x25, 0x35, 0x08]),
+            (
+                Baud(super::Baud::B500k),
+                [0x02, 0x00, 0x02, 0x00, 0x20, 0x48, 0x58, 0x08],
+            ),
+            (
+                Baud(super::Baud::B9600),
+                [0x02, 0x00, 0x02, 0x00, 0x20, 0x42, 0x52, 0x08],
+            ),
+            (
+                Baud(super::Baud::B38400),
+                [0x02, 0x00, 0x02, 0x00, 0x20, 0x40, 0x50, 0x08],
+            ),
+        ];
+        for (mode, wire) in cases {
+            let bytes = emit(Request::SetOperatingMode(mode));
+            assert_eq!(bytes, wire, "{mode:?}");
+            let t = Telegram::new_checked(&bytes[..]).unwrap();
+            assert_eq!(Request::parse(&t), Ok(Request::SetOperatingMode(mode)));
+        }
+    }
+
+    #[test]
+    fn variant_bytes_match_the_documented_vector() {
+        let bytes = emit(Request::SetVariant(Variant::DEG180_HALF));
+        assert_eq!(
+            bytes,
+            [0x02, 0x00, 0x05, 0x00, 0x3B, 0xB4, 0x00, 0x32, 0x00, 0x3B, 0x1F]
+        );
+        let t = Telegram::new_checked(&bytes[..]).unwrap();
+        assert_eq!(
+            Request::parse(&t),
+            Ok(Request::SetVariant(Variant::DEG180_HALF))
+        );
+    }
+
+    #[test]
+    fn installation_and_measured_values_round_trip() {
+        let install = Request::SetOperatingMode(OperatingMode::INSTALLATION);
+        let bytes = emit(install);
+        assert_eq!(&bytes[..6], &[0x02, 0x00, 0x0A, 0x00, 0x20, 0x00]);
+        assert_eq!(&bytes[6..14], b"SICK_LMS");
+        let t = Telegram::new_checked(&bytes[..]).unwrap();
+        assert_eq!(Request::parse(&t), Ok(install));
+
+        let bytes = emit(Request::MeasuredValues);
+        assert_eq!(&bytes[..6], &[0x02, 0x00, 0x02, 0x00, 0x30, 0x01]);
+        let t = Telegram::new_checked(&bytes[..]).unwrap();
+        assert_eq!(Request::parse(&t), Ok(Request::MeasuredValues));
+    }
+
+    #[test]
+    fn request_parse_refuses_what_it_cannot_represent() {
+        let mut buf = [0u8; 32];
+        let cases: [(&[u8], Error); 6] = [
+            (&[0x20, 0x99], Error::UnknownOperatingMode { code: 0x99 }),
+            (
+                &[0x20, 0x24, 0x00],
+                Error::BadPayloadLength {
+                    command: 0x20,
+                    len: 3,
+                },
+            ),
+            (
+                &[0x20, 0x00, b'S'],
+                Error::BadPayloadLength {
+                    command: 0x20,
+                    len: 3,
+                },
+            ),
+            (
+                &[0x3B, 0xB4, 0x00, 0x19, 0x00],
+                Error::UnsupportedVariant {
+                    degrees: 180,
+                    centideg: 25,
+                },
+            ),
+            (
+                &[0x3B, 0x5A, 0x00, 0x32, 0x00],
+                Error::UnknownScanAngle { degrees: 90 },
+            ),
+            (&[0x31], Error::UnexpectedCommand { found: 0x31 }),
+        ];
+        for (payload, error) in cases {
+            let n = emit_with(&mut buf, ADDRESS_HOST, payload.len(), |d| {
+                d.copy_from_slice(payload)
+            })
+            .unwrap();
+            let t = Telegram::new_checked(&buf[..n]).unwrap();
+            assert_eq!(Request::parse(&t), Err(error), "{payload:02x?}");
+        }
+    }
+
+    #[test]
+    fn emit_into_a_short_buffer_writes_nothing() {
+        let mut buf = [0xEE_u8; 7];
+        assert_eq!(
+            Request::SetOperatingMode(OperatingMode::ContinuousAll).emit(&mut buf),
+            Err(Error::BufferTooSmall {
+                needed: 8,
+                available: 7
+            })
+        );
+        assert_eq!(buf, [0xEE; 7]);
+    }
+
+    #[test]
+    fn replies_round_trip() {
+        let mut buf = [0u8; 16];
+        let a0 = OperatingModeReply {
+            result: 0x00,
+            status: 0x10,
+        };
+        let n = a0.emit(&mut buf).unwrap();
+        assert_eq!(n, a0.buffer_len());
+        assert_eq!(&buf[..7], &[0x02, 0x80, 0x03, 0x00, 0xA0, 0x00, 0x10]);
+        let t = Telegram::new_checked(&buf[..n]).unwrap();
+        assert_eq!(Reply::parse(&t), Ok(Reply::OperatingMode(a0)));
+        assert!(a0.accepted());
+
+        let bb = VariantReply {
+            result: 0x01,
+            angle_deg: 180,
+            resolution_centideg: 50,
+            status: 0x10,
+        };
+        let n = bb.emit(&mut buf).unwrap();
+        assert_eq!(n, bb.buffer_len());
+        let t = Telegram::new_checked(&buf[..n]).unwrap();
+        assert_eq!(Reply::parse(&t), Ok(Reply::Variant(bb)));
+        assert!(bb.accepted());
+        assert_eq!(bb.variant(), Ok(Variant::DEG180_HALF));
+
+        let n = emit_with(&mut buf, ADDRESS_REPLY, 2, |d| {
+            d.copy_from_slice(&[0xB1, 0])
+        })
+        .unwrap();
+        let t = Telegram::new_checked(&buf[..n]).unwrap();
+        assert_eq!(Reply::parse(&t), Ok(Reply::Other { command: 0xB1 }));
+
+        let n = emit_with(&mut buf, ADDRESS_REPLY, 2, |d| {
+            d.copy_from_slice(&[0xA0, 0])
+        })
+        .unwrap();
+        let t = Telegram::new_checked(&buf[..n]).unwrap();
+        assert_eq!(
+            Reply::parse(&t),
+            Err(Error::BadPayloadLength {
+                command: 0xA0,
+                len: 2
+            })
+        );
+    }
+
+    #[test]
+    fn beam_angles() {
+        let v = Variant::DEG180_HALF;
+        assert_eq!(v.value_count(), 361);
+        assert_eq!(v.beam_angle_centideg(361, 0, 0), Some(0));
+        assert_eq!(v.beam_angle_centideg(361, 0, 1), Some(50));
+        assert_eq!(v.beam_angle_centideg(361, 0, 180), Some(9_000));
+        assert_eq!(v.beam_angle_centideg(361, 0, 360), Some(18_000));
+        assert_eq!(v.beam_angle_centideg(361, 0, 361), None);
+        // A 1° partial scan of the interlaced 0.5° mode, second phase.
+        assert_eq!(v.beam_angle_centideg(181, 2, 0), Some(50));
+        assert_eq!(v.beam_angle_centideg(181, 2, 1), Some(150));
+        assert_eq!(v.beam_angle_centideg(181, 4, 1), None);
+        assert_eq!(v.beam_angle_centideg(1, 0, 0), None);
+
+        let q = Variant::new(ScanAngle::Deg100, Resolution::Quarter).unwrap();
+        assert_eq!(q.value_count(), 401);
+        assert_eq!(q.beam_angle_centideg(401, 0, 0), Some(4_000));
+        assert_eq!(q.beam_angle_centideg(401, 0, 1), Some(4_025));
+        assert_eq!(q.beam_angle_centideg(401, 0, 400), Some(14_000));
+        assert_eq!(q.beam_angle_centideg(101, 3, 0), Some(4_075));
+        let one = Variant::new(ScanAngle::Deg180, Resolution::One).unwrap();
+        assert_eq!(one.value_count(), 181);
+        assert_eq!(one.beam_angle_centideg(181, 0, 90), Some(9_000));
+        assert!(Variant::new(ScanAngle::Deg180, Resolution::Quarter).is_err());
+        assert_eq!(reply_command(VARIANT), VARIANT_REPLY);
+        assert_eq!(reply_command(OPERATING_MODE), OPERATING_MODE_REPLY);
+    }
+}
