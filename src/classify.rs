@@ -20,6 +20,9 @@
 //! # Beyond the paper (options, off by default)
 //! - **Drop-offs**: a return more than [`ClassifierConfig::drop_threshold`] below the robot's
 //!   ground plane marks its cell not navigable (a hole, a ditch, the top of stairs going down).
+//! - **Ceilings**: with [`ClassifierConfig::ceiling`], returns higher than that above the
+//!   robot's ground plane are overhang before any cell sees them, so a cell that only saw a
+//!   roof stays unknown instead of looking like an uneven obstacle.
 //! - **Missing ground**: a beam that points below the horizon and should have met flat ground
 //!   within range, but returned nothing, marks the cell where the ground should have been
 //!   ([`Classifier::add_missing_ground`]); the caller decides when a beam qualifies.
@@ -52,6 +55,10 @@ pub struct ClassifierConfig {
     /// A return this far below the robot's ground plane marks a drop-off; `None` (the
     /// default) turns the check off. 0.3 m is a sensible value when on.
     pub drop_threshold: Option<Meters>,
+    /// Returns higher than this above the robot's ground plane are overhang whatever the
+    /// cell holds (a roof or a ceiling seen where the floor under it was not); `None` (the
+    /// default, the paper's rule) judges overhang only against the cell's own lowest point.
+    pub ceiling: Option<Meters>,
 }
 
 impl Default for ClassifierConfig {
@@ -60,6 +67,7 @@ impl Default for ClassifierConfig {
             robot_height: Meters::ONE,
             step_threshold: Meters::lit("0.05"),
             drop_threshold: None,
+            ceiling: None,
         }
     }
 }
@@ -191,6 +199,7 @@ impl<const C: usize> Classifier<C> {
                 robot_height: Meters::ONE,
                 step_threshold: Meters::lit("0.05"),
                 drop_threshold: None,
+                ceiling: None,
             },
             reference_z: 0,
             robot_height_mm: 1000,
@@ -263,6 +272,12 @@ impl<const C: usize> Classifier<C> {
         ground_z: Meters,
     ) {
         self.stats.points = self.stats.points.saturating_add(1);
+        if let Some(ceiling) = self.config.ceiling {
+            if point.z > ground_z.saturating_add(ceiling) {
+                self.stats.overhang_points = self.stats.overhang_points.saturating_add(1);
+                return;
+            }
+        }
         let hole = match self.config.drop_threshold {
             Some(drop) => point.z < ground_z.saturating_sub(drop),
             None => false,
@@ -559,6 +574,30 @@ mod tests {
         assert!(r.iter().all(|e| e.class == EvidenceClass::Obstacle));
         assert_eq!(r.len(), 2);
         assert_eq!(c.stats().drop_points, 1);
+    }
+
+    #[test]
+    fn a_ceiling_cut_drops_roof_points_before_any_cell_sees_them() {
+        let p = pyramid(GateShape::Hard);
+        let mut c = Classifier::<256>::new();
+        let d = Meters::from_num(0.3);
+        // A cell that saw only an uneven roof, 2.0 to 2.2 m above the robot's ground.
+        let roof = [pt(0.35, 0.05, 2.0), pt(0.36, 0.05, 2.2)];
+        c.begin(Meters::ZERO);
+        for r in roof {
+            c.add_point(&p, r, d, Meters::ZERO);
+        }
+        assert_eq!(records(&mut c)[0].class, EvidenceClass::Obstacle);
+        c.configure(ClassifierConfig {
+            ceiling: Some(Meters::from_num(1.5)),
+            ..ClassifierConfig::default()
+        });
+        c.begin(Meters::ZERO);
+        for r in roof {
+            c.add_point(&p, r, d, Meters::ZERO);
+        }
+        assert!(records(&mut c).is_empty());
+        assert_eq!(c.stats().overhang_points, 2);
     }
 
     #[test]

@@ -37,9 +37,10 @@ const BISECTION_STEPS: u32 = 32;
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct SensorModel {
-    /// φ, the vertical angular resolution, radians; > 0 and < π/2. Default 0.5° (SICK LMS at 0.5°).
+    /// φ, the vertical angular resolution, radians; > 0 and < π/2 (strictly). Default 0.5° (SICK LMS at 0.5°).
     pub phi_rad: f32,
-    /// ψ, the horizontal angular resolution (the pan step between lines), radians; > 0 and < π.
+    /// ψ, the horizontal angular resolution (the pan step between lines), radians; > 0 and
+    /// < π (strictly).
     /// Default 2°, as in the paper's Figure 2.
     pub psi_rad: f32,
     /// σ, the standard deviation of the range noise, metres; > 0. Default 0.15 m (Figure 2).
@@ -316,8 +317,8 @@ impl SensorModel {
     /// The first rule broken, naming its parameter.
     pub fn validate(&self) -> Result<(), DesignError> {
         use core::f32::consts::{FRAC_PI_2, PI};
-        check_in(Param::Phi, self.phi_rad, FRAC_PI_2)?;
-        check_in(Param::Psi, self.psi_rad, PI)?;
+        check_below(Param::Phi, self.phi_rad, FRAC_PI_2)?;
+        check_below(Param::Psi, self.psi_rad, PI)?;
         check_in(Param::Sigma, self.sigma_m, 100.0)?;
         check_in(Param::Height, self.height_m, 100.0)?;
         check_in(Param::MaxRange, self.max_range_m, MAX_RANGE_LIMIT_M)?;
@@ -371,6 +372,21 @@ impl SensorModel {
         }
         lo
     }
+}
+
+/// Checks that `value` is finite and lies in `(0, limit)`: an angle must stay below its
+/// geometric limit.
+fn check_below(param: Param, value: f32, limit: f32) -> Result<(), DesignError> {
+    check_in(param, value, limit)?;
+    if value >= limit {
+        return Err(DesignError::OutOfRange {
+            param,
+            value,
+            min: 0.0,
+            max: limit,
+        });
+    }
+    Ok(())
 }
 
 /// Checks that `value` is finite and lies in `(0, max]`.

@@ -5,7 +5,9 @@
 //!
 //! - **Bin width** `b = 2⁻ˢ` m, the finest power of two (s ≤ 10) for which
 //!   `GATE_BINS · b` exceeds the maximum range: 1/32 m (31.25 mm) for 10 m, 1/4 m for 81.92 m.
-//! - **Range covered**: `0 ..= GATE_BINS · b`; longer distances read the last bin.
+//! - **Range covered**: `0 ..= GATE_BINS · b`; longer distances read the last bin. Bins whose
+//!   lower edge lies beyond the maximum range R weigh 0 in every layer: the last band is
+//!   closed at R, and nothing beyond it feeds the pyramid.
 //! - **Weights** are evaluated at bin centres and rounded to Q1.15: the rounding error is
 //!   at most 2⁻¹⁶, and the soft gate's binning error at most `e^{−½}·b / (2σ_g,k)`
 //!   ([`binning_error_bound`]), e.g. 0.036 for layer 0 of the default design
@@ -62,6 +64,14 @@ impl DistanceBins {
         #[allow(clippy::cast_sign_loss)]
         let bin = (raw as u32) >> (16 - self.shift);
         (bin as usize).min(GATE_BINS - 1)
+    }
+
+    /// The lower edge of bin `i`, metres.
+    #[must_use]
+    pub fn lower_edge_m(self, i: usize) -> f32 {
+        #[allow(clippy::cast_precision_loss)]
+        let fi = i as f32;
+        fi * self.width_m()
     }
 
     /// The centre of bin `i`, metres.
@@ -124,7 +134,13 @@ impl GateTable {
         };
         let last = k + 1 == layers.len();
         let shape = design.schedule().gate;
+        let range = design.sensor().max_range_m;
         for (i, w) in table.weights.iter_mut().enumerate() {
+            // Nothing is measured beyond the maximum range: bins that start past it feed no
+            // layer (the last band is closed at R).
+            if bins.lower_edge_m(i) > range {
+                break;
+            }
             *w = round_weight(weight_at(layer, last, shape, bins.center_m(i)));
         }
         table
@@ -222,7 +238,11 @@ mod tests {
                 .iter()
                 .map(|t| u32::from(t.weight(i).to_bits()))
                 .sum();
-            assert_eq!(sum, 1 << 15, "bin {i} belongs to exactly one layer");
+            if bins.lower_edge_m(i) <= 10.0 {
+                assert_eq!(sum, 1 << 15, "bin {i} belongs to exactly one layer");
+            } else {
+                assert_eq!(sum, 0, "bin {i} lies beyond the range");
+            }
         }
     }
 
