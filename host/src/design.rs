@@ -23,11 +23,27 @@ pub type PyramidDesign = Design<LAYER_CAPACITY>;
 pub const BOUND_DISTANCES_M: [f32; 7] = [0.5, 1.0, 2.0, 3.0, 5.0, 8.0, 10.0];
 
 /// Arguments of `pyramid design`.
+#[derive(clap::Args, Debug, Clone)]
+pub struct Args {
+    /// The sensor, the schedule, the window and the gate.
+    #[command(flatten)]
+    pub design: DesignArgs,
+    /// Print one JSON object instead of the table.
+    #[arg(long)]
+    pub json: bool,
+    /// Also draw the bound, its terms and the bands (the paper's Figure 2) into this PNG file.
+    #[arg(long, value_name = "FILE.png")]
+    pub plot: Option<PathBuf>,
+}
+
+/// The flags that describe a design: the sensor, the resolution schedule, the window and the
+/// gate. Shared by every command that builds a pyramid (`design`, `replay`), with the same
+/// names and defaults.
 ///
 /// The numeric flags accept values that start with a hyphen (`--height-m -1`, `--sigma-m -inf`)
 /// so that the library, not the parser, refuses them with its own message.
 #[derive(clap::Args, Debug, Clone)]
-pub struct Args {
+pub struct DesignArgs {
     /// φ, the sensor's vertical angular resolution, degrees.
     #[arg(
         long,
@@ -99,12 +115,6 @@ pub struct Args {
         allow_hyphen_values = true
     )]
     pub gate_width: f64,
-    /// Print one JSON object instead of the table.
-    #[arg(long)]
-    pub json: bool,
-    /// Also draw the bound, its terms and the bands (the paper's Figure 2) into this PNG file.
-    #[arg(long, value_name = "FILE.png")]
-    pub plot: Option<PathBuf>,
 }
 
 /// The gate shape, as the command line names it.
@@ -125,7 +135,7 @@ fn to_f32(value: f64) -> f32 {
 
 /// The sensor model the arguments describe, in the library's units (radians, metres).
 #[must_use]
-pub fn sensor_model(args: &Args) -> SensorModel {
+pub fn sensor_model(args: &DesignArgs) -> SensorModel {
     SensorModel {
         phi_rad: to_f32(args.phi_deg.to_radians()),
         psi_rad: to_f32(args.psi_deg.to_radians()),
@@ -137,7 +147,7 @@ pub fn sensor_model(args: &Args) -> SensorModel {
 
 /// The resolution schedule the arguments describe.
 #[must_use]
-pub fn schedule(args: &Args) -> Schedule {
+pub fn schedule(args: &DesignArgs) -> Schedule {
     let gate = match args.gate {
         GateArg::Hard => GateShape::Hard,
         GateArg::Soft => GateShape::Soft {
@@ -155,7 +165,7 @@ pub fn schedule(args: &Args) -> Schedule {
 ///
 /// # Errors
 /// The library's refusal, which names the flag and the rule.
-pub fn build(args: &Args) -> Result<PyramidDesign, DesignError> {
+pub fn build(args: &DesignArgs) -> Result<PyramidDesign, DesignError> {
     Design::new(sensor_model(args), schedule(args), args.cells)
 }
 
@@ -276,7 +286,7 @@ pub fn report<const L: usize>(design: &Design<L>) -> Report {
 }
 
 /// The human-readable table.
-fn table<const L: usize>(args: &Args, design: &Design<L>, report: &Report) -> String {
+fn table<const L: usize>(args: &DesignArgs, design: &Design<L>, report: &Report) -> String {
     use std::fmt::Write as _;
     let mut s = String::new();
     let gate = match design.schedule().gate {
@@ -373,7 +383,7 @@ pub fn run(args: &Args) -> ExitCode {
             return ExitCode::from(2);
         }
     }
-    let design = match build(args) {
+    let design = match build(&args.design) {
         Ok(design) => design,
         Err(e) => {
             eprintln!("error: {e}");
@@ -381,7 +391,7 @@ pub fn run(args: &Args) -> ExitCode {
         }
     };
     if let Some(path) = &args.plot {
-        if let Err(msg) = plot::draw(path, args, &design) {
+        if let Err(msg) = plot::draw(path, &args.design, &design) {
             eprintln!("error: --plot: cannot write {}: {msg}", path.display());
             return ExitCode::FAILURE;
         }
@@ -396,7 +406,7 @@ pub fn run(args: &Args) -> ExitCode {
             }
         }
     } else {
-        print!("{}", table(args, &design, &report));
+        print!("{}", table(&args.design, &design, &report));
     }
     ExitCode::SUCCESS
 }

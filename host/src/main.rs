@@ -6,7 +6,10 @@ use clap::{Parser, Subcommand};
 use std::process::ExitCode;
 
 mod design;
+mod export;
+mod replay;
 mod sick_decode;
+mod uos;
 
 /// The main computer's side of terrain-pyramid.
 #[derive(Parser)]
@@ -20,6 +23,8 @@ struct Cli {
 enum Command {
     /// Derive a pyramid design (bound, bands, layers) from a sensor and a schedule.
     Design(design::Args),
+    /// Integrate a recorded 3-D point file (3DTK format) as one observation and write the maps.
+    Replay(replay::Args),
     /// Decode a captured SICK LMS2xx byte stream: measured values and framing errors.
     SickDecode(sick_decode::Args),
 }
@@ -28,6 +33,7 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     match cli.command {
         Command::Design(args) => design::run(&args),
+        Command::Replay(args) => replay::run(&args),
         Command::SickDecode(args) => sick_decode::run(&args),
     }
 }

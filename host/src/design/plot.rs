@@ -3,7 +3,7 @@
 //!
 //! Drawn with plotters' bitmap backend. Its text goes through `ab_glyph` with DejaVu Sans, which
 //! the `dejavu` crate ships and embeds (`include_bytes!`), so the binary needs no system font.
-use super::{metres, Args};
+use super::{metres, DesignArgs};
 use plotters::coord::Shift;
 use plotters::element::DashedPathElement;
 use plotters::prelude::*;
@@ -49,7 +49,11 @@ fn num(value: f64) -> String {
 ///
 /// # Errors
 /// The font or the file could not be used; the message says why.
-pub fn draw<const L: usize>(path: &Path, args: &Args, design: &Design<L>) -> Result<(), String> {
+pub fn draw<const L: usize>(
+    path: &Path,
+    args: &DesignArgs,
+    design: &Design<L>,
+) -> Result<(), String> {
     register_embedded_font()?;
     let root = BitMapBackend::new(path, SIZE).into_drawing_area();
     root.fill(&WHITE).map_err(text)?;
@@ -61,7 +65,7 @@ pub fn draw<const L: usize>(path: &Path, args: &Args, design: &Design<L>) -> Res
 /// The figure on a drawing area.
 fn figure<DB: DrawingBackend, const L: usize>(
     root: &DrawingArea<DB, Shift>,
-    args: &Args,
+    args: &DesignArgs,
     design: &Design<L>,
 ) -> Result<(), String> {
     let sensor = design.sensor();

@@ -1,0 +1,528 @@
+//! `pyramid replay`: integrates a recorded 3-D point file (3DTK `uos` format) as ONE
+//! observation, through the library's classifier and pyramid (the firmware's code), and writes
+//! the maps (see [`crate::export`]) and a summary.
+//!
+//! # Frames
+//! 3DTK's files are left-handed (x right, y up, z forward, centimetres). The project's frame is
+//! right-handed (x forward, y left, z up, metres): `x = z_file/100, y = −x_file/100,
+//! z = y_file/100`. A pose file's translation is converted the same way and added to every
+//! point; its rotation must be zero (refused otherwise). `--sensor-origin-m` is the sensor's
+//! position in the scan's own frame (project axes, metres; the scanner of a 3DTK scan sits at
+//! 0,0,0); the pose moves it with the points.
+//!
+//! # One observation
+//! The pyramid is recentred on the sensor's (x, y), then every point (but the scanner's
+//! "no echo" value) goes to the classifier with its horizontal distance from the sensor and the
+//! robot's ground plane `sensor z − --height-m`; the observation is then finished into the
+//! pyramid.
+use crate::design::{self, DesignArgs};
+use crate::export::{self, MapSnapshot, MapSummary};
+use crate::uos::{self, UosReader};
+use serde::Serialize;
+use std::fs::File;
+use std::io::BufReader;
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+use std::str::FromStr;
+use terrain_pyramid::classify::{Classifier, ClassifierStats};
+use terrain_pyramid::{Clamp, Config, Design, Meters, Point3, Pyramid, PyramidStats};
+
+/// The layer capacity: the design's.
+const L: usize = design::LAYER_CAPACITY;
+
+/// The classifier's scratch slots: a whole 3-D sweep touches up to a window's worth of cells
+/// per layer it feeds.
+pub const CLASSIFIER_SLOTS: usize = 65_536;
+
+/// The stack of the thread that runs the replay: the classifier's scratch (about 1.4 MB) and
+/// the pyramid are built in place on it before they are boxed.
+const STACK_BYTES: usize = 64 << 20;
+
+/// The scanner's "no echo" range is 3276.7 cm (32767 mm). In the 3DTK file those returns sit
+/// between 3275.9 and 3276.7 cm from the origin (the tilt axis is not exactly at the mirror),
+/// and no real return of that scanner comes near them, so a point at least 3270 cm from the
+/// sensor is taken as "no echo" and is not a point.
+pub const NO_ECHO_CM: f64 = 3270.0;
+
+/// The windows, cells per side, that `replay` is compiled for (the pyramid's `W` is a const
+/// generic); `--cells` must be one of them.
+pub const SUPPORTED_CELLS: [usize; 5] = [32, 64, 128, 256, 512];
+
+/// Arguments of `pyramid replay`.
+#[derive(clap::Args, Debug, Clone)]
+pub struct Args {
+    /// The point file, 3DTK `uos` format (`x y z` in cm per line, optional `W x H` header).
+    #[arg(long, value_name = "FILE.3d")]
+    pub points: PathBuf,
+    /// The scan's pose file (translation x y z in cm, rotation rx ry rz in degrees; the
+    /// rotation must be zero).
+    #[arg(long, value_name = "FILE.pose")]
+    pub pose: Option<PathBuf>,
+    /// The sensor's position in the scan's own frame, converted (x forward, y left, z up),
+    /// metres; the pose moves it with the points. Ranges ("no echo") are measured from it.
+    #[arg(
+        long,
+        value_name = "X,Y,Z",
+        default_value = "0,0,0",
+        allow_hyphen_values = true
+    )]
+    pub sensor_origin_m: Xyz,
+    /// The directory the maps, the picture and `summary.json` are written into (created if
+    /// missing).
+    #[arg(long, value_name = "DIR")]
+    pub out: PathBuf,
+    /// Print the summary as one JSON object on stdout (it is always written to
+    /// `DIR/summary.json`).
+    #[arg(long)]
+    pub json: bool,
+    /// The sensor, the schedule, the window and the gate, as for `pyramid design`.
+    #[command(flatten)]
+    pub design: DesignArgs,
+    /// Clamping of the stored log-odds: none (the paper's baseline), or OctoMap's bounds
+    /// (−2 ..= 3.5 nats).
+    #[arg(long, value_enum, default_value_t = ClampArg::Octomap)]
+    pub clamp: ClampArg,
+}
+
+/// The clamping, as the command line names it.
+#[derive(clap::ValueEnum, Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ClampArg {
+    /// No clamping: only the Q8.8 format saturates.
+    Off,
+    /// OctoMap's default bounds, −2.0 ..= 3.5 nats.
+    Octomap,
+}
+
+/// Three comma-separated numbers.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Xyz(pub [f64; 3]);
+
+impl FromStr for Xyz {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        let parts: Vec<&str> = s.split(',').map(str::trim).collect();
+        let [x, y, z] = parts.as_slice() else {
+            return Err(format!("expected three numbers X,Y,Z, got {s:?}"));
+        };
+        let mut out = [0.0; 3];
+        for (slot, text) in out.iter_mut().zip([x, y, z]) {
+            let v: f64 = text
+                .parse()
+                .map_err(|_| format!("{text:?} is not a number"))?;
+            if !v.is_finite() {
+                return Err(format!("{text:?} is not a finite number"));
+            }
+            *slot = v;
+        }
+        Ok(Self(out))
+    }
+}
+
+/// A 3DTK vector (cm, left-handed: x right, y up, z forward) in the project's frame (m,
+/// right-handed: x forward, y left, z up).
+#[must_use]
+pub fn from_3dtk_cm([x, y, z]: [f64; 3]) -> [f64; 3] {
+    [z / 100.0, -x / 100.0, y / 100.0]
+}
+
+/// The inverse of [`from_3dtk_cm`].
+#[must_use]
+pub fn to_3dtk_cm([x, y, z]: [f64; 3]) -> [f64; 3] {
+    [-y * 100.0, z * 100.0, x * 100.0]
+}
+
+/// Metres to the library's fixed point, saturating.
+fn meters(v: f64) -> Meters {
+    Meters::saturating_from_num(v)
+}
+
+fn point3([x, y, z]: [f64; 3]) -> Point3 {
+    Point3 {
+        x: meters(x),
+        y: meters(y),
+        z: meters(z),
+    }
+}
+
+/// The horizontal distance from the sensor to a point, metres.
+///
+/// INTEGRATION: `terrain_pyramid::geometry` will offer a fixed-point horizontal distance (the
+/// firmware's); replace this f64 stand-in with it when it lands, so that replay gates exactly
+/// as the device does.
+#[must_use]
+pub fn horizontal_distance(sensor: Point3, point: Point3) -> Meters {
+    let dx = point.x.to_num::<f64>() - sensor.x.to_num::<f64>();
+    let dy = point.y.to_num::<f64>() - sensor.y.to_num::<f64>();
+    meters(dx.hypot(dy))
+}
+
+/// The summary of a replay: what `summary.json` holds and `--json` prints.
+#[derive(Serialize, Debug, Clone, PartialEq)]
+pub struct Summary {
+    /// Point lines read.
+    pub points_read: u64,
+    /// Points that fed at least one layer cell (the classifier's count).
+    pub points_used: u64,
+    /// Points that were the scanner's "no echo" value.
+    pub no_return: u64,
+    /// Per layer: counts of the cells of its window.
+    pub layers: Vec<export::LayerSummary>,
+    /// The fused map's counts.
+    pub fused: export::FusedSummary,
+    /// Point-to-cell additions dropped because the classifier's scratch was full.
+    pub overflow_points: u64,
+    /// Points that fed no layer (every gate zero at their distance).
+    pub points_gated_out: u64,
+    /// Points farther (horizontally) from the sensor than the maximum range; they are still
+    /// given to the classifier, whose gates decide.
+    pub points_beyond_max_range: u64,
+    /// Evidence records the observation produced.
+    pub records: u64,
+    /// Records that changed a cell.
+    pub records_applied: u64,
+    /// Records outside their layer's window (dropped by the pyramid).
+    pub records_outside_window: u64,
+    /// The sensor's position, metres (project frame, after the pose).
+    pub sensor_m: [f64; 3],
+    /// The robot's ground plane given to the classifier, metres.
+    pub ground_z_m: f64,
+    /// The files written.
+    pub files: Vec<String>,
+}
+
+/// What went wrong, and the exit status it gives.
+#[derive(Debug)]
+pub struct Failure {
+    /// 1 for input and output problems, 2 for a refused configuration.
+    pub code: u8,
+    /// One line, without the `error: ` prefix.
+    pub message: String,
+}
+
+impl Failure {
+    fn input(message: String) -> Self {
+        Self { code: 1, message }
+    }
+
+    fn config(message: String) -> Self {
+        Self { code: 2, message }
+    }
+}
+
+/// An unreadable input file, said clearly (the real data lives outside the project).
+fn unreadable(what: &str, path: &Path, e: &std::io::Error) -> Failure {
+    let hint = if e.kind() == std::io::ErrorKind::NotFound {
+        " (file not found; the recorded data lives in ../shared/data/ and is never copied into the project)"
+    } else {
+        ""
+    };
+    Failure::input(format!(
+        "cannot read the {what} {}: {e}{hint}",
+        path.display()
+    ))
+}
+
+/// The validated inputs of one replay, read before any work is done.
+struct Plan {
+    design: Design<L>,
+    config: Config,
+    /// The pose's translation, metres, project frame.
+    translation: [f64; 3],
+    /// The sensor, project frame, metres (after the pose).
+    sensor: [f64; 3],
+    /// The sensor in the file's own frame, cm (for the "no echo" test).
+    sensor_file_cm: [f64; 3],
+    ground_z: f64,
+}
+
+fn plan(args: &Args) -> Result<Plan, Failure> {
+    let design = design::build(&args.design).map_err(|e| Failure::config(e.to_string()))?;
+    if !SUPPORTED_CELLS.contains(&design.cells_per_side()) {
+        return Err(Failure::config(format!(
+            "--cells: replay is compiled for windows of {SUPPORTED_CELLS:?} cells per side (got {})",
+            design.cells_per_side()
+        )));
+    }
+    let clamp = match args.clamp {
+        ClampArg::Off => Clamp::Off,
+        ClampArg::Octomap => Clamp::OCTOMAP,
+    };
+    let config = Config {
+        clamp,
+        ..Config::default()
+    };
+    let translation = match &args.pose {
+        None => [0.0; 3],
+        Some(path) => {
+            let text =
+                std::fs::read_to_string(path).map_err(|e| unreadable("pose file", path, &e))?;
+            let pose = uos::parse_pose(&text)
+                .map_err(|e| Failure::input(format!("{}: {e}", path.display())))?;
+            if pose.rotation_deg.iter().any(|&r| r != 0.0) {
+                return Err(Failure::input(format!(
+                    "{}: line 2: the rotation {:?} degrees is not zero; replay applies only a translation",
+                    path.display(),
+                    pose.rotation_deg
+                )));
+            }
+            from_3dtk_cm(pose.translation_cm)
+        }
+    };
+    let origin = args.sensor_origin_m.0;
+    let sensor = [
+        origin[0] + translation[0],
+        origin[1] + translation[1],
+        origin[2] + translation[2],
+    ];
+    Ok(Plan {
+        design,
+        config,
+        translation,
+        sensor,
+        sensor_file_cm: to_3dtk_cm(origin),
+        ground_z: sensor[2] - args.design.height_m,
+    })
+}
+
+/// What integrating the point file gave.
+struct Integrated {
+    snapshot: MapSnapshot,
+    points_read: u64,
+    no_return: u64,
+    beyond_max_range: u64,
+    classifier: ClassifierStats,
+    pyramid: PyramidStats,
+}
+
+/// Reads the point file into one observation of a `Pyramid<W, L>`.
+fn integrate<const W: usize>(args: &Args, plan: &Plan) -> Result<Integrated, Failure> {
+    let file = File::open(&args.points).map_err(|e| unreadable("point file", &args.points, &e))?;
+    let mut pyramid: Box<Pyramid<W, L>> = Box::new(Pyramid::new());
+    pyramid
+        .configure(&plan.design, &plan.config)
+        .map_err(|e| Failure::config(e.to_string()))?;
+    let mut classifier: Box<Classifier<CLASSIFIER_SLOTS>> = Box::new(Classifier::new());
+    let sensor = point3(plan.sensor);
+    pyramid.recentre(sensor.x, sensor.y);
+    classifier.begin(sensor.z);
+    let ground_z = meters(plan.ground_z);
+    let max_range = f64::from(plan.design.sensor().max_range_m);
+    let (mut no_return, mut beyond) = (0_u64, 0_u64);
+    let mut reader = UosReader::new(BufReader::new(file));
+    for point in reader.by_ref() {
+        let p = point.map_err(|e| Failure::input(format!("{}: {e}", args.points.display())))?;
+        let raw = [p.x, p.y, p.z];
+        let s = plan.sensor_file_cm;
+        let range_cm = (raw[0] - s[0]).hypot(raw[1] - s[1]).hypot(raw[2] - s[2]);
+        if range_cm >= NO_ECHO_CM {
+            no_return += 1;
+            continue;
+        }
+        let local = from_3dtk_cm(raw);
+        let world = point3([
+            local[0] + plan.translation[0],
+            local[1] + plan.translation[1],
+            local[2] + plan.translation[2],
+        ]);
+        let distance = horizontal_distance(sensor, world);
+        if distance.to_num::<f64>() > max_range {
+            beyond += 1;
+        }
+        classifier.add_point(&pyramid, world, distance, ground_z);
+    }
+    classifier.finish_into(&mut pyramid);
+    let snapshot = MapSnapshot::from_pyramid(
+        &pyramid,
+        &plan.design,
+        &plan.config,
+        (plan.sensor[0], plan.sensor[1]),
+    );
+    Ok(Integrated {
+        snapshot,
+        points_read: u64::try_from(reader.points_read()).unwrap_or(u64::MAX),
+        no_return,
+        beyond_max_range: beyond,
+        classifier: classifier.stats(),
+        pyramid: pyramid.stats(),
+    })
+}
+
+/// Integrates with the window the design asks for.
+fn integrate_any(args: &Args, plan: &Plan) -> Result<Integrated, Failure> {
+    match plan.design.cells_per_side() {
+        32 => integrate::<32>(args, plan),
+        64 => integrate::<64>(args, plan),
+        128 => integrate::<128>(args, plan),
+        256 => integrate::<256>(args, plan),
+        512 => integrate::<512>(args, plan),
+        other => Err(Failure::config(format!(
+            "--cells: replay is compiled for windows of {SUPPORTED_CELLS:?} cells per side (got {other})"
+        ))),
+    }
+}
+
+/// The whole command, on the current thread.
+///
+/// # Errors
+/// The failure, with its exit status.
+pub fn replay(args: &Args) -> Result<Summary, Failure> {
+    let plan = plan(args)?;
+    let run = integrate_any(args, &plan)?;
+    let title = format!(
+        "pyramid replay: {} ({} points, one observation)",
+        args.points.file_name().map_or_else(
+            || args.points.display().to_string(),
+            |n| n.to_string_lossy().into_owned()
+        ),
+        run.points_read
+    );
+    let written = export::write_maps(&args.out, &run.snapshot, &title).map_err(Failure::input)?;
+    let MapSummary { layers, fused } = written.summary;
+    let c = run.classifier;
+    let mut summary = Summary {
+        points_read: run.points_read,
+        points_used: u64::from(c.points_used),
+        no_return: run.no_return,
+        layers,
+        fused,
+        overflow_points: u64::from(c.overflow_points),
+        points_gated_out: u64::from(c.points_gated_out),
+        points_beyond_max_range: run.beyond_max_range,
+        records: u64::from(c.records),
+        records_applied: u64::from(run.pyramid.applied),
+        records_outside_window: u64::from(run.pyramid.outside_window),
+        sensor_m: plan.sensor,
+        ground_z_m: plan.ground_z,
+        files: written
+            .files
+            .iter()
+            .filter_map(|p| p.file_name().map(|n| n.to_string_lossy().into_owned()))
+            .collect(),
+    };
+    summary.files.push("summary.json".to_string());
+    let json = serde_json::to_string_pretty(&summary)
+        .map_err(|e| Failure::input(format!("cannot encode the summary as JSON: {e}")))?;
+    export::write_file(
+        &args.out.join("summary.json"),
+        format!("{json}\n").as_bytes(),
+    )
+    .map_err(Failure::input)?;
+    Ok(summary)
+}
+
+/// The human-readable lines printed without `--json`.
+fn table(args: &Args, s: &Summary) -> String {
+    use std::fmt::Write as _;
+    let mut out = String::new();
+    let _ = writeln!(
+        out,
+        "{}: {} points read, {} used, {} no echo, {} beyond the max range; {} classifier overflow",
+        args.points.display(),
+        s.points_read,
+        s.points_used,
+        s.no_return,
+        s.points_beyond_max_range,
+        s.overflow_points
+    );
+    let _ = writeln!(out, "  layer  resolution   observed  obstacle      free");
+    for l in &s.layers {
+        let _ = writeln!(
+            out,
+            "  {:>5}  {:>8.3} m  {:>9}  {:>8}  {:>8}",
+            l.index, l.resolution_m, l.observed_cells, l.obstacle_cells, l.free_cells
+        );
+    }
+    let _ = writeln!(
+        out,
+        "  fused  {:>8.3} m  {:>9}  {:>8}  {:>8}   ({} x {} cells)",
+        s.fused.resolution_m,
+        s.fused.observed_cells,
+        s.fused.obstacle_cells,
+        s.fused.free_cells,
+        s.fused.width,
+        s.fused.height
+    );
+    let _ = writeln!(
+        out,
+        "Wrote {} files into {}",
+        s.files.len(),
+        args.out.display()
+    );
+    out
+}
+
+/// Runs `pyramid replay` on a thread with a large stack.
+///
+/// Exit status: 0 on success; 1 when a file is missing, unreadable or malformed (one line on
+/// stderr naming it, and the line number), or an output cannot be written; 2 for a refused
+/// configuration, as `pyramid design`.
+pub fn run(args: &Args) -> ExitCode {
+    let owned = args.clone();
+    let worker = std::thread::Builder::new()
+        .name("replay".to_string())
+        .stack_size(STACK_BYTES)
+        .spawn(move || replay(&owned));
+    let result = match worker {
+        Ok(handle) => handle
+            .join()
+            .unwrap_or_else(|_| Err(Failure::input("the replay thread panicked".to_string()))),
+        Err(e) => Err(Failure::input(format!(
+            "cannot start the replay thread: {e}"
+        ))),
+    };
+    match result {
+        Ok(summary) => {
+            if args.json {
+                match serde_json::to_string(&summary) {
+                    Ok(json) => println!("{json}"),
+                    Err(e) => {
+                        eprintln!("error: cannot encode the summary as JSON: {e}");
+                        return ExitCode::FAILURE;
+                    }
+                }
+            } else {
+                print!("{}", table(args, &summary));
+            }
+            ExitCode::SUCCESS
+        }
+        Err(f) => {
+            eprintln!("error: {}", f.message);
+            ExitCode::from(f.code)
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn frames_round_trip_and_point_the_right_way() {
+        // 3DTK forward (z) is our x; 3DTK right (x) is our −y; 3DTK up (y) is our z.
+        assert_eq!(from_3dtk_cm([0.0, 0.0, 100.0]), [1.0, 0.0, 0.0]);
+        assert_eq!(from_3dtk_cm([100.0, 0.0, 0.0]), [0.0, -1.0, 0.0]);
+        assert_eq!(from_3dtk_cm([0.0, -40.0, 0.0]), [0.0, 0.0, -0.4]);
+        let v = [1.25, -2.5, 0.75];
+        assert_eq!(from_3dtk_cm(to_3dtk_cm(v)), v);
+    }
+
+    #[test]
+    fn horizontal_distance_ignores_height() {
+        let s = point3([1.0, 1.0, 5.0]);
+        let p = point3([4.0, 5.0, -3.0]);
+        assert_eq!(horizontal_distance(s, p), Meters::from_num(5));
+    }
+
+    #[test]
+    fn xyz_parses_three_numbers() {
+        assert_eq!("0,0,0".parse::<Xyz>().unwrap(), Xyz([0.0; 3]));
+        assert_eq!(
+            "-1, 2.5,3e-1".parse::<Xyz>().unwrap(),
+            Xyz([-1.0, 2.5, 0.3])
+        );
+        assert!("1,2".parse::<Xyz>().is_err());
+        assert!("1,2,x".parse::<Xyz>().is_err());
+        assert!("1,2,inf".parse::<Xyz>().is_err());
+    }
+}

@@ -1,0 +1,402 @@
+//! `pyramid replay` as scripts use it: a synthetic scan, the real 3DTK scan (when present), and
+//! the refusals.
+use serde_json::Value;
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn pyramid(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_pyramid"))
+        .arg("replay")
+        .args(args)
+        .output()
+        .expect("the pyramid binary runs")
+}
+
+/// A fresh directory for one test.
+fn scratch(name: &str) -> PathBuf {
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("replay-{name}"));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+fn path(p: &Path) -> &str {
+    p.to_str().expect("UTF-8 path")
+}
+
+/// Runs `pyramid replay --json ARGS`, checks it succeeded, and parses stdout as one object
+/// whose first keys are the required ones, in order.
+fn replay_json(args: &[&str]) -> Value {
+    let mut all = vec!["--json"];
+    all.extend_from_slice(args);
+    let out = pyramid(&all);
+    assert!(
+        out.status.success(),
+        "pyramid replay {all:?} failed: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let stdout = String::from_utf8(out.stdout).expect("UTF-8 output");
+    assert_eq!(stdout.trim().lines().count(), 1, "one line: {stdout}");
+    let value: Value = serde_json::from_str(stdout.trim()).expect("stdout is one JSON value");
+    assert!(value.is_object());
+    let positions: Vec<usize> = [
+        "{\"points_read\":",
+        ",\"points_used\":",
+        ",\"no_return\":",
+        ",\"layers\":[{\"index\":0,\"resolution_m\":",
+        ",\"fused\":{\"observed_cells\":",
+        ",\"overflow_points\":",
+    ]
+    .iter()
+    .map(|key| {
+        stdout
+            .find(key)
+            .unwrap_or_else(|| panic!("{key} in {stdout}"))
+    })
+    .collect();
+    assert_eq!(positions[0], 0);
+    assert!(positions.windows(2).all(|w| w[0] < w[1]), "{stdout}");
+    value
+}
+
+/// A map as `map_server` reads it.
+struct Map {
+    width: usize,
+    height: usize,
+    /// Rows as stored: the first is the top (largest y).
+    pixels: Vec<u8>,
+    resolution: f64,
+    origin: (f64, f64),
+}
+
+impl Map {
+    fn read(dir: &Path, stem: &str) -> Self {
+        let yaml = std::fs::read_to_string(dir.join(format!("{stem}.yaml"))).unwrap();
+        let field = |name: &str| -> String {
+            yaml.lines()
+                .find_map(|l| l.strip_prefix(&format!("{name}: ")))
+                .unwrap_or_else(|| panic!("{stem}.yaml has no {name}: {yaml}"))
+                .to_string()
+        };
+        assert_eq!(field("image"), format!("{stem}.pgm"));
+        assert_eq!(field("negate"), "0");
+        assert_eq!(field("occupied_thresh"), "0.65");
+        assert_eq!(field("free_thresh"), "0.196");
+        let resolution: f64 = field("resolution").parse().unwrap();
+        let origin = field("origin");
+        let origin: Vec<f64> = origin
+            .trim_start_matches('[')
+            .trim_end_matches(']')
+            .split(',')
+            .map(|v| v.trim().parse().unwrap())
+            .collect();
+        assert_eq!(origin.len(), 3);
+        assert_eq!(origin[2], 0.0);
+
+        let bytes = std::fs::read(dir.join(format!("{stem}.pgm"))).unwrap();
+        // "P5\n<w> <h>\n255\n" then w·h bytes.
+        let text = String::from_utf8_lossy(&bytes[..bytes.len().min(40)]).to_string();
+        let mut parts = text.splitn(5, |c: char| c.is_ascii_whitespace());
+        assert_eq!(parts.next(), Some("P5"));
+        let width: usize = parts.next().unwrap().parse().unwrap();
+        let height: usize = parts.next().unwrap().parse().unwrap();
+        assert_eq!(parts.next(), Some("255"));
+        let header = format!("P5\n{width} {height}\n255\n");
+        assert!(bytes.starts_with(header.as_bytes()));
+        let pixels = bytes[header.len()..].to_vec();
+        assert_eq!(pixels.len(), width * height, "{stem}.pgm size");
+        assert!(pixels.iter().all(|p| [0, 205, 254].contains(p)));
+        Self {
+            width,
+            height,
+            pixels,
+            resolution,
+            origin: (origin[0], origin[1]),
+        }
+    }
+
+    /// The value of the cell that contains world point (x, y).
+    fn at(&self, x: f64, y: f64) -> u8 {
+        let col = ((x - self.origin.0) / self.resolution).floor() as usize;
+        let row_up = ((y - self.origin.1) / self.resolution).floor() as usize;
+        assert!(
+            col < self.width && row_up < self.height,
+            "({x}, {y}) outside"
+        );
+        self.pixels[(self.height - 1 - row_up) * self.width + col]
+    }
+
+    fn count(&self, value: u8) -> usize {
+        self.pixels.iter().filter(|&&p| p == value).count()
+    }
+}
+
+const OBSTACLE: u8 = 0;
+const FREE: u8 = 254;
+const UNKNOWN: u8 = 205;
+
+/// One point in the project's frame (x forward, y left, z up, metres) as a 3DTK line (cm;
+/// x right, y up, z forward).
+fn line(out: &mut String, x: f64, y: f64, z: f64) {
+    let _ = writeln!(out, "{} {} {}", -y * 100.0, z * 100.0, x * 100.0);
+}
+
+/// A flat floor 0.4 m below the sensor over x 0.3..4.5 m, y −2..2 m (every 5 cm), a box 30 cm
+/// high on it at x 2.05..2.35 m, y 0.25..0.55 m (its top and its four faces), and three
+/// "no echo" points.
+fn synthetic_scan() -> (String, usize) {
+    let mut s = String::from("100 x 100\n\n");
+    let mut n = 0;
+    let in_box = |x: f64, y: f64| (2.05..=2.35).contains(&x) && (0.25..=0.55).contains(&y);
+    for i in 0..=84 {
+        for j in 0..=80 {
+            let (x, y) = (0.3 + 0.05 * f64::from(i), -2.0 + 0.05 * f64::from(j));
+            if !in_box(x, y) {
+                line(&mut s, x, y, -0.4);
+                n += 1;
+            }
+        }
+    }
+    for i in 0..=6 {
+        for j in 0..=6 {
+            let (x, y) = (2.05 + 0.05 * f64::from(i), 0.25 + 0.05 * f64::from(j));
+            line(&mut s, x, y, -0.1);
+            n += 1;
+        }
+        for k in 0..6 {
+            let z = -0.4 + 0.05 * f64::from(k);
+            let t = 0.05 * f64::from(i);
+            for (x, y) in [
+                (2.05, 0.25 + t),
+                (2.35, 0.25 + t),
+                (2.05 + t, 0.25),
+                (2.05 + t, 0.55),
+            ] {
+                line(&mut s, x, y, z);
+                n += 1;
+            }
+        }
+    }
+    s.push('\n');
+    for no_echo in ["0 0 3276.7", "3276.7 0 0", "-2317 0 2317.01"] {
+        s.push_str(no_echo);
+        s.push('\n');
+        n += 1;
+    }
+    (s, n)
+}
+
+#[test]
+fn a_synthetic_floor_with_a_box() {
+    let dir = scratch("synthetic");
+    let (text, lines) = synthetic_scan();
+    let file = dir.join("box.3d");
+    std::fs::write(&file, text).unwrap();
+    let out = dir.join("out");
+    let v = replay_json(&["--points", path(&file), "--out", path(&out)]);
+
+    assert_eq!(v["points_read"], lines);
+    assert_eq!(v["no_return"], 3);
+    assert_eq!(v["overflow_points"], 0);
+    let used = v["points_used"].as_u64().unwrap();
+    assert!(used > 0 && used <= lines as u64 - 3, "{used}");
+    // The summary on disk is the one printed.
+    let on_disk: Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    assert_eq!(on_disk, v);
+
+    let layers = v["layers"].as_array().unwrap();
+    assert!(layers.len() >= 2);
+    for (k, l) in layers.iter().enumerate() {
+        assert_eq!(l["index"], k);
+        let observed = l["observed_cells"].as_u64().unwrap();
+        let obstacle = l["obstacle_cells"].as_u64().unwrap();
+        let free = l["free_cells"].as_u64().unwrap();
+        assert!(obstacle + free <= observed);
+        let map = Map::read(&out, &format!("layer-{k}"));
+        assert_eq!((map.width, map.height), (64, 64));
+        assert_eq!(map.count(OBSTACLE) as u64, obstacle, "layer {k}");
+        assert_eq!(map.count(FREE) as u64, free, "layer {k}");
+        let r = l["resolution_m"].as_f64().unwrap();
+        assert!(
+            (map.resolution - r).abs() < 1e-4,
+            "layer {k}: {}",
+            map.resolution
+        );
+        // The window is centred on the sensor's cell.
+        assert!((map.origin.0 + 32.0 * map.resolution).abs() <= map.resolution);
+    }
+
+    let fused = Map::read(&out, "fused");
+    // The default design: 64 cells of 1.4 m at 0.1 m.
+    assert_eq!((fused.width, fused.height), (896, 896));
+    assert_eq!(fused.count(OBSTACLE) as u64, v["fused"]["obstacle_cells"]);
+    assert_eq!(
+        (fused.count(OBSTACLE) + fused.count(FREE)) as u64,
+        v["fused"]["observed_cells"]
+    );
+    // The box, and not its mirror image across y = 0 (the rows are top first).
+    for (x, y) in [(2.1, 0.3), (2.2, 0.4), (2.3, 0.5)] {
+        assert_eq!(fused.at(x, y), OBSTACLE, "box at ({x}, {y})");
+    }
+    for (x, y) in [
+        (2.2, -0.4),
+        (1.0, 0.0),
+        (1.0, 1.0),
+        (3.0, -1.5),
+        (4.0, 1.2),
+        (0.6, -0.3),
+    ] {
+        assert_eq!(fused.at(x, y), FREE, "floor at ({x}, {y})");
+    }
+    // Behind the sensor nothing was seen.
+    assert_eq!(fused.at(-1.0, 0.0), UNKNOWN);
+    assert!(out.join("maps.png").metadata().unwrap().len() > 10_000);
+}
+
+/// The real scan: `../shared/data` next to the project (or `$PYRAMID_SHARED_DATA`).
+fn real_scan() -> Option<PathBuf> {
+    let dir = std::env::var_os("PYRAMID_SHARED_DATA").map_or_else(
+        || PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../../shared/data")),
+        PathBuf::from,
+    );
+    let file = dir.join("3dtk-tilt-scan/scan000.3d");
+    if file.is_file() {
+        Some(file)
+    } else {
+        println!(
+            "note: {} is absent (the recorded data lives in ../shared/data, never in the project; \
+             set PYRAMID_SHARED_DATA to its folder): the real-scan test is skipped",
+            file.display()
+        );
+        None
+    }
+}
+
+#[test]
+fn the_real_tilt_scan() {
+    let Some(scan) = real_scan() else {
+        return;
+    };
+    let pose = scan.with_extension("pose");
+    let out = scratch("real");
+    let v = replay_json(&[
+        "--points",
+        path(&scan),
+        "--pose",
+        path(&pose),
+        "--sensor-origin-m",
+        "0,0,0",
+        "--out",
+        path(&out),
+    ]);
+    assert_eq!(v["points_read"], 81_360);
+    let no_return = v["no_return"].as_u64().unwrap();
+    assert!(no_return > 0 && no_return < 5_000, "{no_return}");
+    let used = v["points_used"].as_u64().unwrap();
+    assert!(used > 70_000 && used <= 81_360 - no_return, "{used}");
+    assert_eq!(v["overflow_points"], 0);
+    let fused = Map::read(&out, "fused");
+    // The floor just in front of the sensor.
+    assert_eq!(fused.at(1.0, 0.0), FREE);
+    assert!(v["fused"]["obstacle_cells"].as_u64().unwrap() > 100);
+    assert!(v["fused"]["free_cells"].as_u64().unwrap() > 100);
+    // The wall on the right of the walkway, about 1 m away at x = 2 m.
+    assert!(
+        (0..5).any(|k| fused.at(2.2, -1.3 + 0.1 * f64::from(k)) == OBSTACLE),
+        "the wall at x = 2.2 m, y = -1.3 .. -0.9 m"
+    );
+    // Every layer saw something, the finest mostly floor.
+    for l in v["layers"].as_array().unwrap() {
+        assert!(l["observed_cells"].as_u64().unwrap() > 0, "{l}");
+    }
+    let l0 = &v["layers"][0];
+    assert!(l0["free_cells"].as_u64().unwrap() > l0["obstacle_cells"].as_u64().unwrap());
+}
+
+#[test]
+fn a_missing_point_file_is_named() {
+    let out = scratch("missing");
+    let missing = out.join("no-such-scan.3d");
+    let r = pyramid(&["--points", path(&missing), "--out", path(&out.join("o"))]);
+    assert_eq!(r.status.code(), Some(1));
+    let stderr = String::from_utf8_lossy(&r.stderr);
+    assert_eq!(stderr.lines().count(), 1, "{stderr}");
+    assert!(stderr.contains("no-such-scan.3d"), "{stderr}");
+    assert!(stderr.contains("../shared/data"), "{stderr}");
+    assert!(r.stdout.is_empty());
+    assert!(!out.join("o").exists(), "nothing is written");
+}
+
+#[test]
+fn a_malformed_line_is_named_by_its_number() {
+    let dir = scratch("malformed");
+    let file = dir.join("bad.3d");
+    std::fs::write(&file, "2 x 2\n0 -40 100\n\n0 -40 oops\n").unwrap();
+    let r = pyramid(&["--points", path(&file), "--out", path(&dir.join("o"))]);
+    assert_eq!(r.status.code(), Some(1));
+    let stderr = String::from_utf8_lossy(&r.stderr);
+    assert_eq!(stderr.lines().count(), 1, "{stderr}");
+    assert!(
+        stderr.contains("bad.3d") && stderr.contains("line 4"),
+        "{stderr}"
+    );
+}
+
+#[test]
+fn a_rotated_pose_is_refused_and_a_translation_moves_the_maps() {
+    let dir = scratch("pose");
+    let file = dir.join("scan.3d");
+    let (text, _) = synthetic_scan();
+    std::fs::write(&file, text).unwrap();
+    let pose = dir.join("scan.pose");
+    std::fs::write(&pose, "0 0 0\n0 90 0\n").unwrap();
+    let r = pyramid(&[
+        "--points",
+        path(&file),
+        "--pose",
+        path(&pose),
+        "--out",
+        path(&dir.join("o")),
+    ]);
+    assert_eq!(r.status.code(), Some(1));
+    let stderr = String::from_utf8_lossy(&r.stderr);
+    assert!(
+        stderr.contains("scan.pose") && stderr.contains("rotation"),
+        "{stderr}"
+    );
+
+    // 500 cm forward in the file's frame (its z) is 5 m along x: the sensor and the box move.
+    std::fs::write(&pose, "0 0 500\n0 0 0\n").unwrap();
+    let out = dir.join("moved");
+    let v = replay_json(&[
+        "--points",
+        path(&file),
+        "--pose",
+        path(&pose),
+        "--out",
+        path(&out),
+    ]);
+    assert_eq!(v["sensor_m"][0], 5.0);
+    let fused = Map::read(&out, "fused");
+    assert_eq!(fused.at(7.2, 0.4), OBSTACLE);
+    assert_eq!(fused.at(6.0, 0.0), FREE);
+}
+
+#[test]
+fn an_invalid_design_exits_2_like_pyramid_design() {
+    let dir = scratch("design");
+    for (args, flag) in [
+        (["--gamma", "1"], "--gamma"),
+        (["--cells", "66"], "--cells"),
+    ] {
+        let mut all = vec!["--points", "whatever.3d", "--out", path(&dir)];
+        all.extend_from_slice(&args);
+        let r = pyramid(&all);
+        assert_eq!(r.status.code(), Some(2), "{all:?}");
+        let stderr = String::from_utf8_lossy(&r.stderr);
+        assert_eq!(stderr.lines().count(), 1, "{stderr}");
+        assert!(stderr.contains(flag), "{stderr}");
+    }
+}
