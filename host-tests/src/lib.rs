@@ -1,2 +1,15 @@
-//! The f64 reference.
+//! The std side of the truth for `terrain-pyramid`: an independent `f64` reference of the
+//! pyramid's core, written from the paper (Montemerlo & Thrun) and `docs/core.md` — never from
+//! the library's code — and the helpers that let property tests and the `agreement` example
+//! hold the fixed-point library to it.
+//!
+//! - [`reference`]: the reference itself (no dependency on the library).
+//! - [`harness`]: conversions between the library's types and the reference's, and the
+//!   comparison of a library pyramid with a reference pyramid.
+//! - [`workload`]: evidence/recentre sequences that drive both in lock step.
+//! - [`classify`]: the classifier's reference (every point kept, the rule applied exactly).
+
 pub mod classify;
+pub mod harness;
+pub mod reference;
+pub mod workload;

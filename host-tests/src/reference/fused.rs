@@ -1,0 +1,148 @@
+//! The fused query of `docs/core.md`: walk the layers from the finest; the first layer whose
+//! cell at the point is observed and either positive (obstacle) or below −margin (navigable)
+//! answers; otherwise unknown. And the region export that samples it at a grid's centres.
+
+use super::window::{cell_of, Pyramid};
+
+/// The answer of the fused query.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Fused {
+    /// No layer answers.
+    Unknown,
+    /// The first answering layer holds L > 0.
+    Obstacle {
+        /// The answering layer.
+        layer: usize,
+    },
+    /// The first answering layer holds L < −margin.
+    Navigable {
+        /// The answering layer.
+        layer: usize,
+    },
+}
+
+impl Pyramid {
+    /// The fused answer at the raw Q16.16 point (x, y).
+    #[must_use]
+    pub fn fused(&self, x_raw: i32, y_raw: i32) -> Fused {
+        for (k, layer) in self.layers.iter().enumerate() {
+            let i = cell_of(i64::from(x_raw), layer.rq);
+            let j = cell_of(i64::from(y_raw), layer.rq);
+            let Some(cell) = self.cell(k, i, j) else {
+                continue;
+            };
+            match cell.value {
+                Some(l) if l > 0.0 => return Fused::Obstacle { layer: k },
+                Some(l) if l < -self.margin => return Fused::Navigable { layer: k },
+                _ => {}
+            }
+        }
+        Fused::Unknown
+    }
+
+    /// The fused answer, or `None` when a fixed-point pyramid that follows the spec could
+    /// legitimately answer differently from this one: some layer visited before (or at) the
+    /// answering one has a cell whose observed-ness or whose comparison with 0 or −margin
+    /// lies within its error budget. (In the quantised arithmetic the budget is 0 unless a
+    /// table entry may legitimately differ, so this is nearly always [`Pyramid::fused`].)
+    #[must_use]
+    pub fn fused_robust(&self, x_raw: i32, y_raw: i32) -> Option<Fused> {
+        for (k, layer) in self.layers.iter().enumerate() {
+            let i = cell_of(i64::from(x_raw), layer.rq);
+            let j = cell_of(i64::from(y_raw), layer.rq);
+            let Some(cell) = self.cell(k, i, j) else {
+                continue;
+            };
+            if cell.threshold_case && !cell.surely_observed {
+                return None;
+            }
+            let Some(l) = cell.value else {
+                continue;
+            };
+            let e = cell.budget;
+            if e > 0.0 && (l.abs() <= e || (l + self.margin).abs() <= e) {
+                return None;
+            }
+            if l > 0.0 {
+                return Some(Fused::Obstacle { layer: k });
+            }
+            if l < -self.margin {
+                return Some(Fused::Navigable { layer: k });
+            }
+        }
+        Some(Fused::Unknown)
+    }
+
+    /// The fused answer at the centres of a caller's grid: `(x0 + (i + ½)·s, y0 + (j + ½)·s)`
+    /// for i < width, j < height, row j = 0 first. Coordinates are raw Q16.16; the centre's
+    /// half step is computed exactly as `(2i + 1)·s / 2` and must be an integer (s even).
+    ///
+    /// # Panics
+    /// If `step_raw` is odd.
+    #[must_use]
+    pub fn fused_region(
+        &self,
+        x0_raw: i32,
+        y0_raw: i32,
+        step_raw: i32,
+        width: usize,
+        height: usize,
+    ) -> Vec<Fused> {
+        assert!(step_raw % 2 == 0, "odd step: the centres are not exact");
+        let mut out = Vec::with_capacity(width * height);
+        for j in 0..height {
+            for i in 0..width {
+                let x = i64::from(x0_raw) + (2 * i as i64 + 1) * i64::from(step_raw) / 2;
+                let y = i64::from(y0_raw) + (2 * j as i64 + 1) * i64::from(step_raw) / 2;
+                out.push(self.fused(x as i32, y as i32));
+            }
+        }
+        out
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::reference::bands::{design, Schedule};
+    use crate::reference::bound::Sensor;
+    use crate::reference::logodds::{Arithmetic, Clamp, InverseModel, Model};
+    use crate::reference::window::Evidence;
+
+    #[test]
+    fn finer_positive_evidence_wins_and_undecided_falls_through() {
+        let d = design(&Sensor::default(), &Schedule::default(), 64, 16)
+            .result
+            .unwrap();
+        let model = Model {
+            arithmetic: Arithmetic::Quantised,
+            inverse: InverseModel::default(),
+            clamp: Clamp::DEFAULT,
+        };
+        let mut p = Pyramid::new(&d, model, 0.0);
+        assert_eq!(p.fused(0, 0), Fused::Unknown);
+        // Layer 1 (r = 0.2 m) says free at the origin; layer 0 says nothing yet.
+        let l1 = d.layers[1].centre;
+        let dist = (l1 * 65_536.0) as i32;
+        p.apply(&Evidence {
+            layer: 1,
+            i: 0,
+            j: 0,
+            obstacle: false,
+            distance_raw: dist,
+        });
+        assert_eq!(p.fused(100, 100), Fused::Navigable { layer: 1 });
+        // Layer 0 sees an obstacle: it answers first.
+        p.apply(&Evidence {
+            layer: 0,
+            i: 0,
+            j: 0,
+            obstacle: true,
+            distance_raw: (d.layers[0].centre * 65_536.0) as i32,
+        });
+        assert_eq!(p.fused(100, 100), Fused::Obstacle { layer: 0 });
+        // With a large margin the free layer no longer answers.
+        p.margin = 10.0;
+        assert_eq!(p.fused(-100, -100), Fused::Unknown);
+    }
+}
