@@ -24,7 +24,7 @@ use std::io::BufReader;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::str::FromStr;
-use terrain_pyramid::classify::{Classifier, ClassifierStats};
+use terrain_pyramid::classify::{Classifier, ClassifierConfig, ClassifierStats};
 use terrain_pyramid::{Clamp, Config, Design, Meters, Point3, Pyramid, PyramidStats};
 
 /// The layer capacity: the design's.
@@ -82,6 +82,15 @@ pub struct Args {
     /// (−2 ..= 3.5 nats).
     #[arg(long, value_enum, default_value_t = ClampArg::Octomap)]
     pub clamp: ClampArg,
+    /// Returns higher than this above the robot's ground plane are overhang whatever the cell
+    /// holds (a roof seen where the floor under it was not), metres; off by default (the
+    /// paper's rule judges overhang only against the cell's lowest point).
+    #[arg(long, value_name = "M")]
+    pub ceiling_m: Option<f64>,
+    /// Returns this far below the robot's ground plane mark a drop-off (a negative
+    /// obstacle), metres; off by default.
+    #[arg(long, value_name = "M")]
+    pub drop_m: Option<f64>,
 }
 
 /// The clamping, as the command line names it.
@@ -303,6 +312,11 @@ fn integrate<const W: usize>(args: &Args, plan: &Plan) -> Result<Integrated, Fai
         .configure(&plan.design, &plan.config)
         .map_err(|e| Failure::config(e.to_string()))?;
     let mut classifier: Box<Classifier<CLASSIFIER_SLOTS>> = Box::new(Classifier::new());
+    classifier.configure(ClassifierConfig {
+        ceiling: args.ceiling_m.map(meters),
+        drop_threshold: args.drop_m.map(meters),
+        ..ClassifierConfig::default()
+    });
     let sensor = point3(plan.sensor);
     pyramid.recentre(sensor.x, sensor.y);
     classifier.begin(sensor.z);
