@@ -17,6 +17,8 @@
 //! - [`design`]: the sensor model, the cell-size bound δ(d) (eq. 17), the resolution schedule
 //!   and the range bands (eq. 20), and the validation of a configuration.
 //! - [`gate`]: the precomputed hard or soft gating tables `w_k(d)`.
+//! - [`geometry`]: beam tables, mounts, poses and the per-line transform from a range
+//!   reading to a world point, in fixed point.
 //! - [`logodds`]: the fixed-point log-odds cell, the inverse sensor model as increments, clamping.
 //! - [`grid`]: one robot-centric layer as a circular buffer, and its index maths.
 //! - [`pyramid`]: the layers together: gated integration, recentring, the fused query.
@@ -45,6 +47,7 @@ pub mod classify;
 pub mod design;
 pub mod drivers;
 pub mod gate;
+pub mod geometry;
 pub mod grid;
 pub mod logodds;
 pub mod pyramid;

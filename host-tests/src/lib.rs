@@ -10,6 +10,7 @@
 //! - [`classify`]: the classifier's reference (every point kept, the rule applied exactly).
 
 pub mod classify;
+pub mod geometry;
 pub mod harness;
 pub mod reference;
 pub mod workload;
