@@ -156,14 +156,11 @@ fn point3([x, y, z]: [f64; 3]) -> Point3 {
 
 /// The horizontal distance from the sensor to a point, metres.
 ///
-/// INTEGRATION: `terrain_pyramid::geometry` will offer a fixed-point horizontal distance (the
-/// firmware's); replace this f64 stand-in with it when it lands, so that replay gates exactly
-/// as the device does.
+/// The horizontal distance from the sensor to a point, as the firmware computes it
+/// ([`terrain_pyramid::geometry::horizontal_distance`]), so replay gates exactly as the device.
 #[must_use]
 pub fn horizontal_distance(sensor: Point3, point: Point3) -> Meters {
-    let dx = point.x.to_num::<f64>() - sensor.x.to_num::<f64>();
-    let dy = point.y.to_num::<f64>() - sensor.y.to_num::<f64>();
-    meters(dx.hypot(dy))
+    terrain_pyramid::geometry::horizontal_distance(sensor, point)
 }
 
 /// The summary of a replay: what `summary.json` holds and `--json` prints.

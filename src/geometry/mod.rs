@@ -62,5 +62,5 @@ pub mod trig;
 pub use beams::{BeamDir, BeamTable, Variant, MAX_BEAMS};
 pub use mount::{Mount, ScanPlane};
 pub use pose::{Pose, PoseError, PoseField, PoseFrame, Rotation};
-pub use transform::{LinePoint, LineTransform, MAX_RANGE_MM};
+pub use transform::{horizontal_distance, LinePoint, LineTransform, MAX_RANGE_MM};
 pub use trig::{FineAngle, SinCos};

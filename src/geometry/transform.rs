@@ -328,6 +328,22 @@ impl<'a> LineTransform<'a> {
     }
 }
 
+/// The horizontal distance `√(Δx² + Δy²)` between two points, rounded to Q16.16 metres with
+/// the same integer square root as the per-line path (saturating at 32 768 m).
+///
+/// For points that did not come through a [`LineTransform`] (a point file, a simulator).
+#[must_use]
+pub fn horizontal_distance(from: Point3, to: Point3) -> Meters {
+    let dx = i64::from(to.x.to_bits()) - i64::from(from.x.to_bits());
+    let dy = i64::from(to.y.to_bits()) - i64::from(from.y.to_bits());
+    // |Δ| < 2³², so each square fits a u64; their sum saturates (a distance ≥ 2¹⁶ m).
+    let sum = dx
+        .unsigned_abs()
+        .pow(2)
+        .saturating_add(dy.unsigned_abs().pow(2));
+    Meters::from_bits(sat_i32(i64::try_from(isqrt_round(sum)).unwrap_or(i64::MAX)))
+}
+
 /// `√(Δx² + Δy²)` of two Q40 offsets (each below 2⁴⁸), as Q16.16 metres.
 #[inline]
 fn horizontal(dx: i64, dy: i64) -> Meters {
@@ -568,6 +584,23 @@ mod tests {
                 assert_eq!(line.horizontal_distance(beam, 1_000), None);
             }
         }
+    }
+
+    #[test]
+    fn horizontal_distance_between_points() {
+        let p = |x: f32, y: f32, z: f32| Point3 {
+            x: Meters::from_num(x),
+            y: Meters::from_num(y),
+            z: Meters::from_num(z),
+        };
+        assert_eq!(
+            horizontal_distance(p(1.0, 1.0, 5.0), p(4.0, 5.0, -2.0)),
+            Meters::from_num(5)
+        );
+        assert_eq!(
+            horizontal_distance(p(-30_000.0, -30_000.0, 0.0), p(30_000.0, 30_000.0, 0.0)),
+            Meters::MAX
+        );
     }
 
     #[test]
