@@ -50,6 +50,7 @@ pub mod gate;
 pub mod geometry;
 pub mod grid;
 pub mod logodds;
+pub mod pipeline;
 pub mod pyramid;
 pub mod units;
 pub mod wire;

@@ -1,0 +1,422 @@
+//! The per-line pipeline: a validated measured-values telegram, the actuator angle and the
+//! robot pose in; points, evidence and pyramid updates out.
+//!
+//! ```text
+//! MeasuredValues --> ranges (mm) --> [geometry] world points + horizontal distance
+//!                                 --> [classify] per-layer cells of this observation
+//!                   end of observation --> recentre on the pose --> [pyramid] gated updates
+//! ```
+//!
+//! The core is handed data and never fetches it (smoltcp's `Interface::poll`): the board's
+//! main loop calls [`Frontend::set_actuator`] when the encoder (or the host) reports an angle,
+//! [`Frontend::set_pose`] when the host sends a pose, and [`Frontend::line`] for each telegram.
+//!
+//! A line applies whole or not at all: its value count is checked against the scanner
+//! variant before any of its points reaches the classifier.
+//!
+//! An observation ends after a fixed number of lines, or, with `lines_per_observation = 0`,
+//! when the actuator turns back (the end of a sweep). At its end the pyramid is recentred on
+//! the robot and the observation's evidence is applied.
+
+use crate::classify::{Classifier, ClassifierConfig, ClassifierStats};
+use crate::geometry::{BeamTable, FineAngle, LineTransform, Mount, Pose, PoseFrame, Variant};
+use crate::pyramid::Pyramid;
+use crate::units::Meters;
+use crate::wire::sick::{MeasuredValues, MeasuringMode};
+use core::fmt;
+
+/// How the laser is set up and how its lines are grouped into observations.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct FrontendConfig {
+    /// How the laser is mounted on its actuator, and where.
+    pub mount: Mount,
+    /// The scanner's field and angular resolution.
+    pub variant: Variant,
+    /// The measuring mode the scanner is in (its distance mask and no-echo value).
+    pub measuring_mode: MeasuringMode,
+    /// Lines per observation, ≥ 1; 0 = one observation per sweep of the actuator.
+    pub lines_per_observation: u32,
+    /// The navigability rule's thresholds and options.
+    pub classifier: ClassifierConfig,
+}
+
+/// Counters of the pipeline. They saturate at `u32::MAX`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct FrontendStats {
+    /// Lines whose points all went to the classifier.
+    pub lines_applied: u32,
+    /// Lines refused whole (a value count that does not fit the variant).
+    pub lines_rejected: u32,
+    /// Returns with a distance.
+    pub returns: u32,
+    /// Values that carried "no echo".
+    pub no_return: u32,
+    /// Returns whose geometry could not be computed (out of the transform's range).
+    pub returns_dropped: u32,
+    /// Observations finished and applied.
+    pub observations: u32,
+}
+
+/// Why a line was refused.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[non_exhaustive]
+pub enum LineError {
+    /// The telegram's value count fits neither a full scan nor an interlaced partial scan of
+    /// the configured variant.
+    CountMismatch {
+        /// Values in the telegram.
+        count: u16,
+        /// Beams of a full scan of the variant.
+        expected: u16,
+    },
+    /// The partial-scan index does not fit the variant's interlacing.
+    BadPartialIndex {
+        /// The index in the telegram.
+        partial_index: u8,
+    },
+}
+
+impl fmt::Display for LineError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match *self {
+            Self::CountMismatch { count, expected } => write!(
+                f,
+                "a line of {count} values does not fit the scanner variant ({expected} beams)"
+            ),
+            Self::BadPartialIndex { partial_index } => {
+                write!(
+                    f,
+                    "partial-scan index {partial_index} does not fit the variant"
+                )
+            }
+        }
+    }
+}
+
+/// How a telegram's values map onto the beam table.
+#[derive(Clone, Copy)]
+enum Layout {
+    /// Value j is beam j.
+    Full,
+    /// An interlaced partial scan with this index.
+    Partial(u8),
+}
+
+/// The per-line pipeline, with `C` classifier slots.
+pub struct Frontend<const C: usize> {
+    config: FrontendConfig,
+    beams: BeamTable,
+    classifier: Classifier<C>,
+    pose: Pose,
+    frame: PoseFrame,
+    actuator: FineAngle,
+    /// The actuator angle of the previous line, and the sign of its last move (−1, 0, +1).
+    last_actuator: Option<FineAngle>,
+    direction: i8,
+    lines_in_observation: u32,
+    stats: FrontendStats,
+}
+
+impl<const C: usize> fmt::Debug for Frontend<C> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("Frontend")
+            .field("config", &self.config)
+            .field("lines_in_observation", &self.lines_in_observation)
+            .field("stats", &self.stats)
+            .finish()
+    }
+}
+
+impl<const C: usize> Frontend<C> {
+    /// A pipeline for `config`, at the world origin with the actuator at zero.
+    #[must_use]
+    pub fn new(config: FrontendConfig) -> Self {
+        let pose = Pose::default();
+        let mut classifier = Classifier::new();
+        classifier.configure(config.classifier);
+        Self {
+            config,
+            beams: BeamTable::new(config.variant),
+            classifier,
+            frame: pose.frame(),
+            pose,
+            actuator: FineAngle::from_bits(0),
+            last_actuator: None,
+            direction: 0,
+            lines_in_observation: 0,
+            stats: FrontendStats::default(),
+        }
+    }
+
+    /// Adopts a new configuration; the current observation is discarded.
+    pub fn configure(&mut self, config: FrontendConfig) {
+        self.config = config;
+        self.beams = BeamTable::new(config.variant);
+        self.classifier.configure(config.classifier);
+        self.lines_in_observation = 0;
+        self.last_actuator = None;
+        self.direction = 0;
+    }
+
+    /// The configuration in force.
+    #[must_use]
+    pub const fn config(&self) -> &FrontendConfig {
+        &self.config
+    }
+
+    /// The robot's pose from now on (validated by [`Pose::from_f32`] where it came in).
+    pub fn set_pose(&mut self, pose: Pose) {
+        self.pose = pose;
+        self.frame = pose.frame();
+    }
+
+    /// The robot's pose in force.
+    #[must_use]
+    pub const fn pose(&self) -> &Pose {
+        &self.pose
+    }
+
+    /// The actuator (pan or tilt) angle for the lines that follow.
+    pub fn set_actuator(&mut self, angle: FineAngle) {
+        self.actuator = angle;
+    }
+
+    /// The counters.
+    #[must_use]
+    pub const fn stats(&self) -> FrontendStats {
+        self.stats
+    }
+
+    /// The classifier's counters.
+    #[must_use]
+    pub const fn classifier_stats(&self) -> ClassifierStats {
+        self.classifier.stats()
+    }
+
+    /// Lines gathered in the current observation.
+    #[must_use]
+    pub const fn lines_in_observation(&self) -> u32 {
+        self.lines_in_observation
+    }
+
+    fn layout(&self, values: &MeasuredValues<'_>) -> Result<Layout, LineError> {
+        let variant = self.config.variant;
+        let count = usize::from(values.count());
+        let p = values.partial_index();
+        let expected = u16::try_from(variant.beam_count()).unwrap_or(u16::MAX);
+        if count == variant.beam_count() && p == 0 {
+            Ok(Layout::Full)
+        } else if count == variant.sweep_count() && count != variant.beam_count() {
+            if variant.partial_scan_beam(p, 0).is_some() {
+                Ok(Layout::Partial(p))
+            } else {
+                Err(LineError::BadPartialIndex { partial_index: p })
+            }
+        } else {
+            Err(LineError::CountMismatch {
+                count: values.count(),
+                expected,
+            })
+        }
+    }
+
+    /// Whether the actuator turned back since the previous line (the end of a sweep).
+    fn sweep_turned(&mut self) -> bool {
+        let now = self.actuator;
+        let Some(last) = self.last_actuator.replace(now) else {
+            return false;
+        };
+        // The signed difference of two fractions of a turn.
+        #[allow(clippy::cast_possible_wrap)]
+        let delta = now.wrapping_sub(last).to_bits() as i32;
+        let direction = delta.signum();
+        #[allow(clippy::cast_possible_truncation)]
+        let direction = direction as i8;
+        if direction == 0 {
+            return false;
+        }
+        let turned = self.direction != 0 && direction != self.direction;
+        self.direction = direction;
+        turned
+    }
+
+    /// Feeds one line. Its points join the current observation; when the observation is
+    /// complete its evidence is applied to `pyramid`.
+    ///
+    /// # Errors
+    /// The line does not fit the configured variant; nothing of it was used.
+    pub fn line<const W: usize, const L: usize>(
+        &mut self,
+        pyramid: &mut Pyramid<W, L>,
+        values: &MeasuredValues<'_>,
+    ) -> Result<(), LineError> {
+        let layout = match self.layout(values) {
+            Ok(layout) => layout,
+            Err(e) => {
+                self.stats.lines_rejected = self.stats.lines_rejected.saturating_add(1);
+                return Err(e);
+            }
+        };
+        if self.config.lines_per_observation == 0 && self.sweep_turned() {
+            self.end_observation(pyramid);
+        }
+        let transform =
+            LineTransform::new(&self.beams, &self.config.mount, self.actuator, &self.frame);
+        if self.lines_in_observation == 0 {
+            self.classifier.begin(transform.sensor_origin().z);
+        }
+        let ground_z: Meters = self.pose.z;
+        let variant = self.config.variant;
+        for (j, range) in values.ranges_mm(self.config.measuring_mode).enumerate() {
+            let Some(range_mm) = range else {
+                self.stats.no_return = self.stats.no_return.saturating_add(1);
+                continue;
+            };
+            self.stats.returns = self.stats.returns.saturating_add(1);
+            let beam = match layout {
+                Layout::Full => Some(j),
+                Layout::Partial(p) => variant.partial_scan_beam(p, j),
+            };
+            match beam.and_then(|b| transform.locate(b, range_mm)) {
+                Some(located) => {
+                    self.classifier
+                        .add_point(pyramid, located.point, located.horizontal, ground_z);
+                }
+                None => {
+                    self.stats.returns_dropped = self.stats.returns_dropped.saturating_add(1);
+                }
+            }
+        }
+        self.stats.lines_applied = self.stats.lines_applied.saturating_add(1);
+        self.lines_in_observation = self.lines_in_observation.saturating_add(1);
+        let per = self.config.lines_per_observation;
+        if per != 0 && self.lines_in_observation >= per {
+            self.end_observation(pyramid);
+        }
+        Ok(())
+    }
+
+    /// Ends the current observation now (if it holds any line): recentres the pyramid on the
+    /// robot and applies the evidence.
+    pub fn end_observation<const W: usize, const L: usize>(&mut self, pyramid: &mut Pyramid<W, L>) {
+        if self.lines_in_observation == 0 {
+            return;
+        }
+        pyramid.recentre(self.pose.x, self.pose.y);
+        self.classifier.finish_into(pyramid);
+        self.lines_in_observation = 0;
+        self.stats.observations = self.stats.observations.saturating_add(1);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::design::{Design, Schedule, SensorModel};
+    use crate::geometry::ScanPlane;
+    use crate::pyramid::Config;
+    use crate::units::Point3;
+    use crate::wire::sick::Unit;
+    use crate::Fused;
+    extern crate std;
+    use std::vec::Vec;
+
+    /// A SICK at 0.5 m on a tilt unit, looking at flat floor with a wall 2 m ahead.
+    fn ranges_mm(tilt_deg: f64) -> Vec<u8> {
+        let tau = tilt_deg.to_radians();
+        let mut bytes = Vec::new();
+        for i in 0..361 {
+            let theta = (i as f64 * 0.5).to_radians();
+            // Beam direction after the tilt: (sin θ cos τ, −cos θ, −sin θ sin τ).
+            let (dx, dz) = (theta.sin() * tau.cos(), -theta.sin() * tau.sin());
+            let floor = if dz < -1e-6 { 0.5 / -dz } else { f64::INFINITY };
+            let wall = if dx > 1e-6 { 2.0 / dx } else { f64::INFINITY };
+            let r = floor.min(wall);
+            let raw: u16 = if r < 8.0 {
+                (r * 1000.0).round() as u16
+            } else {
+                0x1FFF
+            };
+            bytes.extend_from_slice(&raw.to_le_bytes());
+        }
+        bytes
+    }
+
+    fn setup(lines: u32) -> (Frontend<4096>, std::boxed::Box<Pyramid<64, 8>>) {
+        let design = Design::<8>::new(SensorModel::default(), Schedule::default(), 64).unwrap();
+        let mut p = std::boxed::Box::new(Pyramid::new());
+        p.configure(&design, &Config::default()).unwrap();
+        let config = FrontendConfig {
+            mount: Mount::new(
+                ScanPlane::TiltedHorizontal,
+                Point3 {
+                    z: Meters::from_num(0.5),
+                    ..Point3::default()
+                },
+            ),
+            variant: Variant::from_sick(180, 50).unwrap(),
+            measuring_mode: MeasuringMode::Mm8Cm80,
+            lines_per_observation: lines,
+            classifier: ClassifierConfig::default(),
+        };
+        (Frontend::new(config), p)
+    }
+
+    fn sweep(f: &mut Frontend<4096>, p: &mut Pyramid<64, 8>, degrees: impl Iterator<Item = u32>) {
+        for tilt in degrees {
+            let values = ranges_mm(f64::from(tilt));
+            let line = MeasuredValues::new(Unit::Millimetre, 0, &values, None, 0).unwrap();
+            f.set_actuator(FineAngle::from_quarter_degrees(4 * tilt));
+            f.line(p, &line).unwrap();
+        }
+    }
+
+    #[test]
+    fn a_sweep_over_floor_and_wall_marks_both() {
+        let (mut f, mut p) = setup(36);
+        sweep(&mut f, &mut p, 5..41);
+        assert_eq!(f.stats().observations, 1);
+        assert_eq!(f.stats().lines_applied, 36);
+        let at = |x: f32, y: f32| p.fused(Meters::from_num(x), Meters::from_num(y));
+        assert!(
+            matches!(at(1.0, 0.05), Fused::Navigable { .. }),
+            "{:?}",
+            at(1.0, 0.05)
+        );
+        assert!(
+            matches!(at(2.02, 0.05), Fused::Obstacle { .. }),
+            "{:?}",
+            at(2.02, 0.05)
+        );
+    }
+
+    #[test]
+    fn a_line_that_does_not_fit_the_variant_is_refused_whole() {
+        let (mut f, mut p) = setup(1);
+        let values = ranges_mm(20.0);
+        let short = MeasuredValues::new(Unit::Millimetre, 0, &values[..360], None, 0).unwrap();
+        assert_eq!(
+            f.line(&mut p, &short),
+            Err(LineError::CountMismatch {
+                count: 180,
+                expected: 361
+            })
+        );
+        assert_eq!(f.stats().lines_rejected, 1);
+        assert_eq!(f.classifier_stats().points, 0);
+        assert_eq!(p.stats().applied, 0);
+    }
+
+    #[test]
+    fn a_sweep_ends_when_the_actuator_turns_back() {
+        let (mut f, mut p) = setup(0);
+        sweep(&mut f, &mut p, 5..41);
+        assert_eq!(f.stats().observations, 0);
+        sweep(&mut f, &mut p, (5..40).rev());
+        assert_eq!(f.stats().observations, 1);
+        f.end_observation(&mut p);
+        assert_eq!(f.stats().observations, 2);
+    }
+}
