@@ -27,6 +27,8 @@
 //! At the edges:
 //! - [`wire`]: pure, zero-copy wire formats: [`wire::sick`], the SICK LMS2xx telegrams and
 //!   their reassembly from UART chunks; [`wire::recording`], the recording file format.
+//! - [`link`]: the device side of the serial link to the main computer (`docs/protocol.md`):
+//!   rate-limited patches of changed tiles, commands in, replies out.
 //! - [`drivers`]: thin adapters from embedded-io / embedded-hal to the pure code:
 //!   [`drivers::uart`] (telegrams from any `embedded_io::Read`), [`drivers::angle`] and
 //!   [`drivers::as5047`] (the pan angle).
@@ -49,6 +51,7 @@ pub mod drivers;
 pub mod gate;
 pub mod geometry;
 pub mod grid;
+pub mod link;
 pub mod logodds;
 pub mod pipeline;
 pub mod pyramid;
@@ -70,6 +73,11 @@ pub const DEFAULT_LAYERS: usize = 8;
 pub type DefaultPyramid = Pyramid<DEFAULT_CELLS_PER_SIDE, DEFAULT_LAYERS>;
 /// The design type of the default pyramid.
 pub type DefaultDesign = Design<DEFAULT_LAYERS>;
+/// Classifier slots of the default pipeline: 1024 cells of one observation (22 KiB), enough
+/// for a whole 226-line sweep of the real 3DTK scan (about 860 cells with the soft gate).
+pub const DEFAULT_CLASSIFIER_SLOTS: usize = 1024;
+/// The default pipeline, as the firmware runs it.
+pub type DefaultFrontend = pipeline::Frontend<DEFAULT_CLASSIFIER_SLOTS>;
 
 // The README's example is compiled and run as a doctest, so it stays true.
 #[cfg(doctest)]

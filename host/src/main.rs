@@ -7,7 +7,9 @@ use std::process::ExitCode;
 
 mod design;
 mod export;
+mod record3dtk;
 mod replay;
+mod run;
 mod sick_decode;
 mod uos;
 
@@ -25,6 +27,11 @@ enum Command {
     Design(design::Args),
     /// Integrate a recorded 3-D point file (3DTK format) as one observation and write the maps.
     Replay(replay::Args),
+    /// Turn a structured 3DTK tilt scan into a recording of SICK telegrams and tilt angles.
+    #[command(name = "record-3dtk")]
+    Record3dtk(record3dtk::Args),
+    /// Play a recording through the co-processor's pipeline and write the maps it builds.
+    Run(run::Args),
     /// Decode a captured SICK LMS2xx byte stream: measured values and framing errors.
     SickDecode(sick_decode::Args),
 }
@@ -35,5 +42,7 @@ fn main() -> ExitCode {
         Command::Design(args) => design::run(&args),
         Command::Replay(args) => replay::run(&args),
         Command::SickDecode(args) => sick_decode::run(&args),
+        Command::Record3dtk(args) => record3dtk::run(&args),
+        Command::Run(args) => run::run(&args),
     }
 }

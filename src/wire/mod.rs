@@ -7,6 +7,7 @@
 //!
 //! - [`sick`]: the SICK LMS2xx serial telegrams (framing, CRC, measured values, the commands
 //!   that bring a scanner up) and the stream reassembly over UART chunks.
+//! - [`link`]: the framed, checksummed, versioned host link (`docs/protocol.md`).
 //! - [`recording`]: the recording file format (`docs/recording.md`).
 //!
 //! # Panic contract
@@ -24,5 +25,6 @@
 //! Clippy denies `unwrap`, `expect`, `panic!`, `unreachable!` and unchecked indexing outside
 //! tests, and every arithmetic on a value read from the wire is checked or saturating.
 
+pub mod link;
 pub mod recording;
 pub mod sick;

@@ -1,0 +1,801 @@
+//! The host link end to end: frames round-trip through the library's encoder and decoder for
+//! any field values; corrupted, truncated, oversized and old frames are refused and counted and
+//! the next frame still decodes; and after lossy streams and snapshot recovery the host's
+//! mirror equals the device's pyramid cell for cell.
+use proptest::prelude::*;
+use terrain_pyramid::design::{GateShape, Schedule, SensorModel};
+use terrain_pyramid::link::{Event, Link, LinkConfig, SensorCounters};
+use terrain_pyramid::logodds::InverseSensorModel;
+use terrain_pyramid::wire::link::{
+    encode, Accumulator, ClampRequest, Configure, DecodeError, FeedResult, FirmwareVersion, Header,
+    Hello, HelloReason, LayerInfo, LayerPatch, Message, PanAngle, PatchArea, PatchCells, Pose,
+    Reply, ReplyCode, SnapshotScope, Stats, WindowMoved, MAX_ENCODED_FRAME, MAX_FRAME,
+    STATS_COUNTERS,
+};
+use terrain_pyramid::{
+    Config, DefaultDesign, DefaultPyramid, Evidence, EvidenceClass, Meters, DEFAULT_CELLS_PER_SIDE,
+};
+use terrain_pyramid_host::link::{HostLink, LinkEvent};
+
+// ------------------------------------------------------------------ messages
+
+/// A message with owned cells, so that strategies can build it.
+#[derive(Debug, Clone)]
+#[allow(clippy::large_enum_variant)]
+enum Owned {
+    Msg(Message<'static>),
+    Patch(PatchArea, Vec<u8>),
+}
+
+impl Owned {
+    fn message(&self) -> Message<'_> {
+        match self {
+            Self::Msg(m) => m.clone(),
+            Self::Patch(area, bytes) => Message::LayerPatch(LayerPatch {
+                area: *area,
+                cells: PatchCells::from_le_bytes(bytes).unwrap(),
+            }),
+        }
+    }
+}
+
+fn float() -> impl Strategy<Value = f32> {
+    any::<f32>().prop_filter("NaN never equals itself", |v| !v.is_nan())
+}
+
+fn hello() -> impl Strategy<Value = Owned> {
+    let layer = (any::<i32>(), float(), float(), any::<i32>(), any::<i32>()).prop_map(
+        |(resolution_q16, band_inner_m, band_outer_m, origin_x, origin_y)| LayerInfo {
+            resolution_q16,
+            band_inner_m,
+            band_outer_m,
+            origin_x,
+            origin_y,
+        },
+    );
+    (
+        any::<[u8; 4]>(),
+        0_u8..4,
+        any::<u16>(),
+        any::<u16>(),
+        prop::collection::vec(layer, 0..=16),
+    )
+        .prop_map(|(v, reason, cells_per_side, resend, layers)| {
+            let reason = [
+                HelloReason::Boot,
+                HelloReason::Configured,
+                HelloReason::Reset,
+                HelloReason::Snapshot,
+            ][usize::from(reason)];
+            Owned::Msg(Message::Hello(Hello {
+                protocol: v[0],
+                firmware: FirmwareVersion {
+                    major: v[1],
+                    minor: v[2],
+                    patch: v[3],
+                },
+                reason,
+                cells_per_side,
+                resend,
+                layers: layers.iter().copied().fold(Default::default(), |mut v, l| {
+                    v.push(l).unwrap();
+                    v
+                }),
+            }))
+        })
+}
+
+fn patch() -> impl Strategy<Value = Owned> {
+    (
+        0_u8..16,
+        1_u8..=16,
+        1_u8..=16,
+        any::<(i32, i32)>(),
+        i32::MIN..i32::MAX - 16,
+        i32::MIN..i32::MAX - 16,
+    )
+        .prop_flat_map(|(layer, width, height, origin, x, y)| {
+            let n = usize::from(width) * usize::from(height);
+            prop::collection::vec(any::<i16>(), n).prop_map(move |cells| {
+                let area = PatchArea {
+                    layer,
+                    origin_x: origin.0,
+                    origin_y: origin.1,
+                    x,
+                    y,
+                    width,
+                    height,
+                };
+                let bytes = cells.iter().flat_map(|c| c.to_le_bytes()).collect();
+                Owned::Patch(area, bytes)
+            })
+        })
+}
+
+fn moved() -> impl Strategy<Value = Owned> {
+    (1_u16..=u16::MAX, any::<[(i32, i32); 16]>()).prop_map(|(mask, origins)| {
+        let mut m = WindowMoved::new();
+        for (k, o) in origins.iter().enumerate() {
+            if mask & (1 << k) != 0 {
+                m.set(k, *o);
+            }
+        }
+        Owned::Msg(Message::WindowMoved(m))
+    })
+}
+
+fn stats() -> impl Strategy<Value = Owned> {
+    prop::collection::vec(any::<u32>(), STATS_COUNTERS)
+        .prop_map(|v| Owned::Msg(Message::Stats(Stats::from_array(v.try_into().unwrap()))))
+}
+
+fn reply() -> impl Strategy<Value = Owned> {
+    (any::<(u16, u8, u8)>(), 0_u8..12, float(), float(), float()).prop_map(
+        |((to_seq, to_type, param), code, value, a, b)| {
+            // Any valid code: build one through the decoder's own table.
+            let codes = [
+                ReplyCode::Ok,
+                ReplyCode::NotFinite,
+                ReplyCode::NotPositive,
+                ReplyCode::OutOfRange,
+                ReplyCode::GammaNotAboveOne,
+                ReplyCode::BaseBelowBound,
+                ReplyCode::TooManyLayers,
+                ReplyCode::BadWindow,
+                ReplyCode::WindowTooSmall,
+                ReplyCode::BadLayer,
+                ReplyCode::Unsupported,
+                ReplyCode::Malformed,
+            ];
+            Owned::Msg(Message::Reply(Reply {
+                to_seq,
+                to_type,
+                code: codes[usize::from(code)],
+                param,
+                value,
+                a,
+                b,
+            }))
+        },
+    )
+}
+
+fn commands() -> impl Strategy<Value = Owned> {
+    let pose = (prop::array::uniform6(float()), any::<u32>()).prop_map(|(f, timestamp_ms)| {
+        Owned::Msg(Message::Pose(Pose {
+            x_m: f[0],
+            y_m: f[1],
+            z_m: f[2],
+            roll_rad: f[3],
+            pitch_rad: f[4],
+            yaw_rad: f[5],
+            timestamp_ms,
+        }))
+    });
+    let pan = any::<(u16, u32)>().prop_map(|(turns, timestamp_ms)| {
+        Owned::Msg(Message::PanAngle(PanAngle {
+            turns,
+            timestamp_ms,
+        }))
+    });
+    let configure = (
+        prop::array::uniform7(float()),
+        prop::option::of(float()),
+        any::<u16>(),
+        prop::array::uniform3(float()),
+        prop::option::of((float(), float())),
+        float(),
+    )
+        .prop_map(|(f, gate, cells_per_side, p, clamp, fused_margin)| {
+            Owned::Msg(Message::Configure(Configure {
+                sensor: SensorModel {
+                    phi_rad: f[0],
+                    psi_rad: f[1],
+                    sigma_m: f[2],
+                    height_m: f[3],
+                    max_range_m: f[4],
+                },
+                schedule: Schedule {
+                    base_m: f[5],
+                    gamma: f[6],
+                    gate: gate.map_or(GateShape::Hard, |width_factor| GateShape::Soft {
+                        width_factor,
+                    }),
+                },
+                cells_per_side,
+                model: InverseSensorModel {
+                    p_obstacle: p[0],
+                    p_free: p[1],
+                    prior: p[2],
+                },
+                clamp: clamp.map_or(ClampRequest::Off, |(min, max)| ClampRequest::Bounds {
+                    min,
+                    max,
+                }),
+                fused_margin,
+            }))
+        });
+    let snapshot = prop::option::of(0_u8..255).prop_map(|k| {
+        Owned::Msg(Message::RequestSnapshot(
+            k.map_or(SnapshotScope::All, SnapshotScope::Layer),
+        ))
+    });
+    prop_oneof![
+        pose,
+        pan,
+        configure,
+        snapshot,
+        Just(Owned::Msg(Message::Reset)),
+        Just(Owned::Msg(Message::Ping)),
+    ]
+}
+
+fn any_message() -> impl Strategy<Value = Owned> {
+    prop_oneof![hello(), patch(), moved(), stats(), reply(), commands()]
+}
+
+fn encoded(seq: u16, m: &Owned) -> Vec<u8> {
+    let mut out = vec![0_u8; MAX_ENCODED_FRAME];
+    let n = encode(seq, &m.message(), &mut out).unwrap();
+    assert!(n <= m.message().encoded_len_max());
+    out.truncate(n);
+    out
+}
+
+/// Feeds `chunks` and returns (seq, re-encoded message) of every frame, and the errors.
+fn decode_stream<'c>(
+    acc: &mut Accumulator<MAX_FRAME>,
+    chunks: impl IntoIterator<Item = &'c [u8]>,
+) -> (Vec<(u16, Vec<u8>)>, Vec<DecodeError>) {
+    let (mut ok, mut bad) = (Vec::new(), Vec::new());
+    for chunk in chunks {
+        let mut input = chunk;
+        loop {
+            match acc.feed(input) {
+                FeedResult::Consumed => break,
+                FeedResult::Frame {
+                    header,
+                    message,
+                    remaining,
+                } => {
+                    let mut out = vec![0_u8; MAX_ENCODED_FRAME];
+                    let n = encode(header.seq, &message, &mut out).unwrap();
+                    out.truncate(n);
+                    ok.push((header.seq, out));
+                    input = remaining;
+                }
+                FeedResult::Error {
+                    error, remaining, ..
+                } => {
+                    bad.push(error);
+                    input = remaining;
+                }
+            }
+        }
+    }
+    (ok, bad)
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 256, ..ProptestConfig::default() })]
+
+    #[test]
+    fn every_message_round_trips(m in any_message(), seq in any::<u16>()) {
+        let bytes = encoded(seq, &m);
+        prop_assert_eq!(bytes.iter().filter(|&&b| b == 0).count(), 1);
+        let mut acc = Accumulator::<MAX_FRAME>::new();
+        match acc.feed(&bytes) {
+            FeedResult::Frame { header, message, remaining } => {
+                prop_assert_eq!(header, Header { version: 1, msg_type: m.message().msg_type().to_u8(), seq });
+                prop_assert_eq!(message, m.message());
+                prop_assert!(remaining.is_empty());
+            }
+            other => prop_assert!(false, "{:?}", other),
+        }
+    }
+
+    #[test]
+    fn floats_survive_bit_for_bit(bits in prop::array::uniform6(any::<u32>())) {
+        // NaN payloads included: decode(encode(x)) re-encodes to the same bytes.
+        let f = bits.map(f32::from_bits);
+        let pose = Owned::Msg(Message::Pose(Pose {
+            x_m: f[0], y_m: f[1], z_m: f[2], roll_rad: f[3], pitch_rad: f[4], yaw_rad: f[5],
+            timestamp_ms: 0,
+        }));
+        let bytes = encoded(3, &pose);
+        let mut acc = Accumulator::<MAX_FRAME>::new();
+        let (ok, bad) = decode_stream(&mut acc, [&bytes[..]]);
+        prop_assert!(bad.is_empty());
+        prop_assert_eq!(&ok[0].1, &bytes);
+    }
+
+    #[test]
+    fn streams_reassemble_from_any_chunking(
+        messages in prop::collection::vec(any_message(), 1..12),
+        cuts in prop::collection::vec(1_usize..200, 1..40),
+    ) {
+        let frames: Vec<Vec<u8>> = messages.iter().enumerate()
+            .map(|(i, m)| encoded(i as u16, m)).collect();
+        let stream = frames.concat();
+        let mut chunks = Vec::new();
+        let (mut at, mut i) = (0, 0);
+        while at < stream.len() {
+            let n = cuts[i % cuts.len()].min(stream.len() - at);
+            chunks.push(&stream[at..at + n]);
+            at += n;
+            i += 1;
+        }
+        let mut acc = Accumulator::<MAX_FRAME>::new();
+        let (ok, bad) = decode_stream(&mut acc, chunks);
+        prop_assert!(bad.is_empty());
+        prop_assert_eq!(ok.len(), frames.len());
+        for (i, (seq, bytes)) in ok.iter().enumerate() {
+            prop_assert_eq!(*seq as usize, i);
+            prop_assert_eq!(bytes, &frames[i]);
+        }
+    }
+
+    /// Flipped bytes, deleted runs and oversized garbage: every frame left untouched (with the
+    /// delimiter before it) still decodes, nothing else does, every bad frame is counted.
+    #[test]
+    fn corruption_is_refused_and_the_next_frame_decodes(
+        messages in prop::collection::vec(any_message(), 2..10),
+        flips in prop::collection::vec((any::<prop::sample::Index>(), 1_u8..=255), 0..4),
+        cut in prop::option::of((any::<prop::sample::Index>(), 1_usize..40)),
+        garbage in prop::option::of((any::<prop::sample::Index>(), 600_usize..900)),
+    ) {
+        let frames: Vec<Vec<u8>> = messages.iter().enumerate()
+            .map(|(i, m)| encoded(i as u16, m)).collect();
+        // Mark each byte with the frame it belongs to, then damage the stream.
+        let mut stream: Vec<(u8, Option<usize>)> = frames.iter().enumerate()
+            .flat_map(|(i, f)| f.iter().map(move |&b| (b, Some(i)))).collect();
+        let mut damaged = vec![false; frames.len()];
+        let damage = |stream: &Vec<(u8, Option<usize>)>, at: usize, damaged: &mut Vec<bool>| {
+            if let Some((_, Some(i))) = stream.get(at) {
+                damaged[*i] = true;
+                // A frame whose leading delimiter is hit merges with the one before.
+                if stream[at].0 == 0 && *i + 1 < damaged.len() {
+                    damaged[*i + 1] = true;
+                }
+            }
+        };
+        for (index, mask) in &flips {
+            let at = index.index(stream.len());
+            damage(&stream, at, &mut damaged);
+            stream[at].0 ^= mask;
+        }
+        if let Some((index, len)) = cut {
+            let at = index.index(stream.len());
+            let end = (at + len).min(stream.len());
+            for i in at..end {
+                damage(&stream, i, &mut damaged);
+            }
+            stream.drain(at..end);
+        }
+        let mut garbage_ends = false;
+        if let Some((index, len)) = garbage {
+            // Oversized: a run of non-zero bytes inside some frame.
+            let at = index.index(stream.len());
+            let owner = stream[at].1;
+            if let Some(i) = owner {
+                damaged[i] = true;
+            }
+            stream.splice(at..at, std::iter::repeat_n((0x5A, owner), len));
+            // It is refused as too long when a delimiter still ends it.
+            garbage_ends = stream[at + len..].iter().any(|(b, _)| *b == 0);
+        }
+        let bytes: Vec<u8> = stream.iter().map(|(b, _)| *b).collect();
+        let mut acc = Accumulator::<MAX_FRAME>::new();
+        let (ok, bad) = decode_stream(&mut acc, bytes.chunks(37));
+        let clean: Vec<usize> = (0..frames.len()).filter(|&i| !damaged[i]).collect();
+        let got: Vec<usize> = ok.iter().map(|(s, _)| *s as usize).collect();
+        prop_assert_eq!(&got, &clean, "errors {:?}", bad);
+        for (seq, b) in &ok {
+            prop_assert_eq!(b, &frames[*seq as usize]);
+        }
+        let c = acc.counters();
+        prop_assert_eq!(c.errors() as usize, bad.len());
+        prop_assert_eq!(c.frames_ok as usize, ok.len());
+        if damaged.iter().any(|&d| d) && !bytes.is_empty() {
+            prop_assert!(!bad.is_empty() || got.len() < frames.len());
+        }
+        if garbage_ends {
+            let too_long = bad.iter().any(|e| matches!(e, DecodeError::TooLong { .. }));
+            prop_assert!(too_long, "no TooLong in {:?}", bad);
+        }
+    }
+}
+
+// ------------------------------------------------------------------ sequence numbers
+
+fn device_frame(seq: u16, message: &Message<'_>) -> Vec<u8> {
+    let mut out = vec![0_u8; MAX_ENCODED_FRAME];
+    let n = encode(seq, message, &mut out).unwrap();
+    out.truncate(n);
+    out
+}
+
+fn small_hello() -> Message<'static> {
+    let mut hello = Hello {
+        protocol: 1,
+        firmware: FirmwareVersion::default(),
+        reason: HelloReason::Boot,
+        cells_per_side: 8,
+        resend: 0,
+        layers: Default::default(),
+    };
+    hello
+        .layers
+        .push(LayerInfo {
+            resolution_q16: 6554,
+            band_inner_m: 0.0,
+            band_outer_m: 0.5,
+            origin_x: -4,
+            origin_y: -4,
+        })
+        .unwrap();
+    Message::Hello(hello)
+}
+
+#[test]
+fn old_frames_are_refused_gaps_ask_for_a_snapshot_and_the_next_frame_applies() {
+    let mut host = HostLink::new();
+    let cells = [7_i16.to_le_bytes(); 4].concat();
+    let patch = |x| {
+        Message::LayerPatch(LayerPatch {
+            area: PatchArea {
+                layer: 0,
+                origin_x: -4,
+                origin_y: -4,
+                x,
+                y: 0,
+                width: 2,
+                height: 2,
+            },
+            cells: PatchCells::from_le_bytes(&cells).unwrap(),
+        })
+    };
+    let mut stream = device_frame(10, &small_hello());
+    stream.extend(device_frame(11, &patch(-4)));
+    let events = host.feed(&stream);
+    assert!(matches!(events[..], [LinkEvent::Hello(_)]));
+    assert!(host.mirror().is_synced());
+    // An old frame: refused, counted, snapshot advised; the mirror keeps its cells.
+    let events = host.feed(&device_frame(5, &patch(0)));
+    assert_eq!(events, [LinkEvent::SnapshotNeeded]);
+    assert_eq!(host.mirror().counters().out_of_order, 1);
+    let (_, _, cells_now) = host.mirror().layer_cells(0).unwrap();
+    assert_eq!(
+        cells_now[4 * 8 + 4],
+        i16::MIN,
+        "the old patch at x = 0 was not applied"
+    );
+    // The next frame in order applies.
+    host.feed(&device_frame(12, &patch(2)));
+    let (origin, res, cells_now) = host.mirror().layer_cells(0).unwrap();
+    assert_eq!((origin, res), ((-4, -4), 6554));
+    assert_eq!(cells_now[4 * 8 + 6], 7);
+    assert_eq!(cells_now[4 * 8], 7);
+    // A gap: applied, counted, snapshot advised, the layer stale until resent.
+    let events = host.feed(&device_frame(15, &patch(0)));
+    assert_eq!(events, [LinkEvent::SnapshotNeeded]);
+    assert_eq!(host.mirror().counters().missing, 2);
+    assert!(host.mirror().needs_snapshot());
+    assert_eq!(host.mirror().layer_cells(0).unwrap().2[4 * 8 + 4], 7);
+    // A corrupted frame in between: counted, and the next one decodes.
+    let mut bad = device_frame(16, &patch(-2));
+    bad[5] ^= 0x10;
+    bad.extend(device_frame(
+        16,
+        &Message::Reply(Reply::ok(Header {
+            version: 1,
+            msg_type: 0x86,
+            seq: 0,
+        })),
+    ));
+    let events = host.feed(&bad);
+    assert!(matches!(
+        events[0],
+        LinkEvent::BadFrame(DecodeError::Crc { .. })
+    ));
+    assert!(matches!(events[1], LinkEvent::Reply(r) if r.is_ok()));
+    assert_eq!(host.rx_counters().crc, 1);
+    // A device that restarts: its Hello is taken whatever its number.
+    let events = host.feed(&device_frame(0, &small_hello()));
+    assert!(matches!(events[..], [LinkEvent::Hello(_)]));
+    assert!(host.mirror().is_synced());
+    assert_eq!(host.mirror().layer_cells(0).unwrap().2, vec![i16::MIN; 64]);
+}
+
+// ------------------------------------------------------------------ device and mirror
+
+/// A small deterministic generator (xorshift64*), so the scenarios need no extra crate.
+struct Rng(u64);
+
+impl Rng {
+    fn next(&mut self) -> u64 {
+        self.0 ^= self.0 >> 12;
+        self.0 ^= self.0 << 25;
+        self.0 ^= self.0 >> 27;
+        self.0.wrapping_mul(0x2545_F491_4F6C_DD1D)
+    }
+    fn below(&mut self, n: u64) -> u64 {
+        self.next() % n
+    }
+    fn unit(&mut self) -> f64 {
+        (self.next() >> 11) as f64 / (1_u64 << 53) as f64
+    }
+    fn chance(&mut self, per_mille: u32) -> bool {
+        self.below(1000) < u64::from(per_mille)
+    }
+}
+
+/// The serial line up: forwards whole frames, deleting some and flipping a byte in others.
+struct Channel {
+    pending: Vec<u8>,
+    drop_per_mille: u32,
+    flip_per_mille: u32,
+    dropped: u32,
+    flipped: u32,
+}
+
+impl Channel {
+    fn pass(&mut self, rng: &mut Rng, bytes: &[u8]) -> Vec<u8> {
+        let mut out = Vec::new();
+        for &b in bytes {
+            self.pending.push(b);
+            if b == 0 {
+                let mut frame = std::mem::take(&mut self.pending);
+                if rng.chance(self.drop_per_mille) {
+                    self.dropped += 1;
+                    continue;
+                }
+                if rng.chance(self.flip_per_mille) && frame.len() > 1 {
+                    let at = rng.below(frame.len() as u64 - 1) as usize;
+                    frame[at] ^= 1 << rng.below(8);
+                    self.flipped += 1;
+                }
+                out.extend(frame);
+            }
+        }
+        out
+    }
+}
+
+struct Outcome {
+    dropped: u32,
+    flipped: u32,
+    snapshots: u32,
+    resyncs: u32,
+    frames_dropped_by_device: u32,
+    patches_deferred: u32,
+}
+
+/// Drives a default pyramid with random evidence and moves, streams its link through a lossy
+/// channel to a host mirror that asks for snapshots, then lets everything settle and compares
+/// the mirror with the pyramid cell for cell.
+fn scenario<const Q: usize>(
+    seed: u64,
+    steps: usize,
+    channel: Channel,
+    pings: bool,
+    collapse: bool,
+) -> Outcome {
+    let mut rng = Rng(seed | 1);
+    let mut pyramid = Box::new(DefaultPyramid::new());
+    let mut link: Box<Link<Q>> = Box::new(Link::new(LinkConfig {
+        stats_interval_ms: 500,
+        ..LinkConfig::DEFAULT
+    }));
+    let design = DefaultDesign::new(
+        SensorModel::default(),
+        Schedule::default(),
+        DEFAULT_CELLS_PER_SIDE,
+    )
+    .unwrap();
+    link.configure(&mut pyramid, &design, &Config::default())
+        .unwrap();
+    let mut host = HostLink::new();
+    let mut channel = channel;
+    let (mut x, mut y) = (0.0_f64, 0.0_f64);
+    let mut now_ms = 0_u32;
+    let uart_per_step = 92_160 * 13 / 1000;
+    let mut last_request: Option<u32> = None;
+
+    let mut step = |pyramid: &mut DefaultPyramid,
+                    link: &mut Link<Q>,
+                    host: &mut HostLink,
+                    channel: &mut Channel,
+                    rng: &mut Rng,
+                    now_ms: u32,
+                    lossy: bool| {
+        link.poll(now_ms, pyramid, &SensorCounters::default());
+        let mut uart = vec![0_u8; uart_per_step];
+        let n = link.pop_bytes(&mut uart);
+        let bytes = if lossy {
+            channel.pass(rng, &uart[..n])
+        } else {
+            uart[..n].to_vec()
+        };
+        let mut wants_snapshot = false;
+        for event in host.feed(&bytes) {
+            wants_snapshot |= event == LinkEvent::SnapshotNeeded;
+        }
+        // A host that is still missing something asks again after a while.
+        let overdue = last_request.is_none_or(|t| now_ms.wrapping_sub(t) > 2000);
+        if wants_snapshot || (host.mirror().needs_snapshot() && overdue) {
+            let cmd = host
+                .command(&Message::RequestSnapshot(SnapshotScope::All))
+                .unwrap();
+            last_request = Some(now_ms);
+            let mut acked = false;
+            link.receive(&cmd, pyramid, |e| {
+                acked |= e == Event::SnapshotRequested(SnapshotScope::All)
+            });
+            assert!(acked);
+        }
+    };
+
+    for _ in 0..steps {
+        // Drive: mostly small steps, sometimes a jump of several metres.
+        if rng.chance(20) {
+            x += (rng.unit() - 0.5) * 12.0;
+            y += (rng.unit() - 0.5) * 12.0;
+        } else {
+            x += (rng.unit() - 0.5) * 0.3;
+            y += (rng.unit() - 0.5) * 0.3;
+        }
+        let (mx, my) = (Meters::from_num(x), Meters::from_num(y));
+        pyramid.recentre(mx, my);
+        if collapse && rng.chance(30) {
+            // A second move before the link is polled: the link must resend everything.
+            pyramid.recentre(mx + Meters::from_num(0.35), my);
+            pyramid.recentre(mx, my);
+        }
+        for _ in 0..60 {
+            let k = rng.below(pyramid.layer_count() as u64) as usize;
+            let r = pyramid.layer(k).unwrap().resolution();
+            let evidence = Evidence {
+                layer: k as u8,
+                cell_x: r.cell_of(mx) + rng.below(70) as i32 - 35,
+                cell_y: r.cell_of(my) + rng.below(70) as i32 - 35,
+                class: if rng.chance(300) {
+                    EvidenceClass::Obstacle
+                } else {
+                    EvidenceClass::Navigable
+                },
+                distance: Meters::from_num(rng.unit() * 10.0),
+            };
+            pyramid.apply(&evidence);
+        }
+        if pings && rng.chance(300) {
+            // Bursts of commands whose replies may find the small queue full.
+            for _ in 0..20 {
+                let cmd = host.command(&Message::Ping).unwrap();
+                link.receive(&cmd, &mut pyramid, |_| {});
+            }
+        }
+        now_ms += 13;
+        step(
+            &mut pyramid,
+            &mut link,
+            &mut host,
+            &mut channel,
+            &mut rng,
+            now_ms,
+            true,
+        );
+    }
+    // Settle over a clean line.
+    let mut settled = false;
+    for _ in 0..5000 {
+        now_ms += 13;
+        step(
+            &mut pyramid,
+            &mut link,
+            &mut host,
+            &mut channel,
+            &mut rng,
+            now_ms,
+            false,
+        );
+        let quiet = link.queue().is_empty()
+            && (0..pyramid.layer_count()).all(|k| pyramid.layer(k).unwrap().dirty() == 0);
+        if quiet && host.mirror().is_synced() {
+            settled = true;
+            break;
+        }
+    }
+    assert!(
+        settled,
+        "the mirror never settled: {:?} {:?} queue {} dirty {:?} stale {:?}",
+        host.mirror().counters(),
+        link.counters(),
+        link.queue().len(),
+        (0..pyramid.layer_count())
+            .map(|k| pyramid.layer(k).unwrap().dirty())
+            .collect::<Vec<_>>(),
+        (0..pyramid.layer_count())
+            .map(|k| host.mirror().layer(k).unwrap().is_stale())
+            .collect::<Vec<_>>(),
+    );
+    assert_eq!(host.mirror().layer_count(), pyramid.layer_count());
+    let w = DEFAULT_CELLS_PER_SIDE;
+    for k in 0..pyramid.layer_count() {
+        let layer = pyramid.layer(k).unwrap();
+        let (origin, res, cells) = host.mirror().layer_cells(k).unwrap();
+        assert_eq!(origin, layer.origin(), "layer {k}");
+        assert_eq!(res, layer.resolution().to_bits(), "layer {k}");
+        for dy in 0..w {
+            for dx in 0..w {
+                assert_eq!(
+                    cells[dy * w + dx],
+                    layer.at_offset(dx, dy).unwrap().to_raw(),
+                    "layer {k} cell ({dx}, {dy})"
+                );
+            }
+        }
+    }
+    let c = link.counters();
+    Outcome {
+        dropped: channel.dropped,
+        flipped: channel.flipped,
+        snapshots: c.snapshots,
+        resyncs: c.resyncs,
+        frames_dropped_by_device: c.frames_dropped,
+        patches_deferred: c.patches_deferred,
+    }
+}
+
+fn clean() -> Channel {
+    Channel {
+        pending: Vec::new(),
+        drop_per_mille: 0,
+        flip_per_mille: 0,
+        dropped: 0,
+        flipped: 0,
+    }
+}
+
+#[test]
+fn a_clean_line_needs_no_snapshot() {
+    let out = scenario::<4096>(7, 300, clean(), false, false);
+    assert_eq!(out.snapshots, 0);
+    assert_eq!(out.resyncs, 0);
+}
+
+#[test]
+fn deleted_and_corrupted_frames_are_recovered_by_snapshots() {
+    let lossy = Channel {
+        drop_per_mille: 20,
+        flip_per_mille: 20,
+        ..clean()
+    };
+    let out = scenario::<4096>(42, 400, lossy, false, false);
+    assert!(out.dropped > 0 && out.flipped > 0);
+    assert!(out.snapshots > 0);
+}
+
+#[test]
+fn a_queue_too_small_drops_replies_and_still_converges() {
+    let out = scenario::<512>(3, 300, clean(), true, false);
+    assert!(out.frames_dropped_by_device > 0, "replies were dropped");
+    assert!(out.patches_deferred > 0);
+    assert!(out.snapshots > 0);
+}
+
+#[test]
+fn moves_that_collapse_between_polls_are_resent() {
+    let out = scenario::<4096>(11, 200, clean(), false, true);
+    assert!(out.resyncs > 0);
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 6, ..ProptestConfig::default() })]
+
+    #[test]
+    fn any_lossy_stream_converges(seed in any::<u64>(), drop in 0_u32..60, flip in 0_u32..60) {
+        let lossy = Channel { drop_per_mille: drop, flip_per_mille: flip, ..clean() };
+        scenario::<4096>(seed, 150, lossy, false, false);
+    }
+}

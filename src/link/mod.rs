@@ -1,0 +1,1041 @@
+//! The device's side of the host link (`docs/protocol.md`): an outgoing frame queue, the
+//! token bucket that holds map traffic to a byte budget, the patches of changed tiles, window
+//! moves, Hello and Stats, and the handler of the host's commands.
+//!
+//! Like smoltcp's `Interface::poll`, the [`Link`] is handed everything: the time, the pyramid,
+//! the bytes the UART received, the counters of other modules. It reads no clock, touches no
+//! peripheral and allocates nothing; a board drains its queue into the UART with
+//! [`Link::pop_bytes`] (or [`Link::peek`] + [`Link::consume`] for DMA).
+//!
+//! RAM: a `Link` with the default 4 096-byte queue takes about 6.2 KiB (queue, a 543-byte
+//! encode scratch, the 68-byte receive buffer, 1 KiB of tile ages, counters).
+//!
+//! Scan intake never waits for the link: [`Link::poll`] sends a changed tile only while the
+//! budget and the queue allow, and **puts the tile's dirty bit back** otherwise, so the tile
+//! goes later with whatever else changed in it meanwhile. Patches are never dropped; only a
+//! control frame (a Reply) that finds no room is dropped, and it still uses its sequence
+//! number, so the host sees the gap and asks for a snapshot.
+//!
+//! The firmware's loop:
+//! ```
+//! use terrain_pyramid::link::{Link, LinkConfig, SensorCounters};
+//! use terrain_pyramid::{Config, DefaultDesign, DefaultPyramid, Schedule, SensorModel, Meters};
+//!
+//! let mut pyramid = DefaultPyramid::new();
+//! let mut link: Link = Link::new(LinkConfig::default());
+//! let design = DefaultDesign::new(SensorModel::default(), Schedule::default(), 64).unwrap();
+//! link.configure(&mut pyramid, &design, &Config::default()).unwrap();
+//! let mut now_ms = 0;
+//! for _line in 0..3 {
+//!     // UART bytes from the host: poses, commands.
+//!     link.receive(&[], &mut pyramid, |_event| {});
+//!     // ... integrate the line's evidence, then recentre on the pose ...
+//!     pyramid.recentre(Meters::from_num(0.1), Meters::ZERO);
+//!     link.poll(now_ms, &mut pyramid, &SensorCounters::default());
+//!     let mut uart = [0_u8; 64];
+//!     while link.pop_bytes(&mut uart) > 0 { /* write to the UART */ }
+//!     now_ms += 13;
+//! }
+//! ```
+
+mod bucket;
+mod queue;
+
+pub use bucket::TokenBucket;
+pub use queue::FrameQueue;
+
+use crate::grid::{CellRect, TILES_PER_SIDE};
+use crate::logodds::Cell;
+use crate::pyramid::{Config, Pyramid};
+use crate::wire::link::{
+    encode, encode_patch, Accumulator, Configure, DecodeError, FeedResult, FirmwareVersion, Header,
+    Hello, HelloReason, LayerInfo, Message, PanAngle, PatchArea, Pose, Reply, ReplyCode,
+    RxCounters, SnapshotScope, Stats, WindowMoved, MAX_COMMAND_FRAME, MAX_ENCODED_FRAME,
+    MAX_LAYERS, MAX_PATCH_SIDE, MIN_FRAME, VERSION,
+};
+use crate::{Design, DesignError};
+
+/// The default outgoing queue, bytes: 26 default patches, 44 ms of the link at 921 600 Bd.
+pub const DEFAULT_QUEUE_BYTES: usize = 4096;
+
+/// Queue room kept free of patches and Stats for control frames (WindowMoved, Reply), bytes.
+pub const CONTROL_RESERVE: usize = 256;
+
+/// Tiles per layer.
+const TILES: usize = TILES_PER_SIDE * TILES_PER_SIDE;
+
+/// The most bytes one storage tile of a `cells_per_side` window takes on the wire: its cells
+/// (a tile is ⌈W/8⌉ cells on a side), cut by the window's wrap point and into pieces of at
+/// most 16 × 16, each piece a LayerPatch frame. 248 bytes for W = 64.
+#[must_use]
+pub const fn max_tile_bytes(cells_per_side: usize) -> usize {
+    let side = cells_per_side.div_ceil(TILES_PER_SIDE);
+    let per_axis = side.div_ceil(MAX_PATCH_SIDE) + 1;
+    let pieces = per_axis * per_axis;
+    let cells = 2 * side * side;
+    // Per piece: header, area, CRC, COBS code byte, delimiter; plus COBS' 1 in 254.
+    pieces * (MIN_FRAME + PATCH_AREA_BYTES + 2) + cells + (pieces * 27 + cells) / 254 + pieces
+}
+
+/// The smallest queue a `Link` of windows of `cells_per_side` may have: room for the largest
+/// tile beside [`CONTROL_RESERVE`], and for a 16-layer Hello. 504 bytes for W = 64.
+#[must_use]
+pub const fn min_queue_bytes(cells_per_side: usize) -> usize {
+    let tile = max_tile_bytes(cells_per_side) + CONTROL_RESERVE;
+    let hello = crate::wire::link::encoded_len_max(MIN_FRAME + 10 + 20 * MAX_LAYERS);
+    if tile > hello {
+        tile
+    } else {
+        hello
+    }
+}
+
+/// Bytes of a LayerPatch body before its cells.
+const PATCH_AREA_BYTES: usize = 19;
+
+/// The link's settings.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct LinkConfig {
+    /// The byte budget of all outgoing traffic, bytes per second. Default 46 080: half of
+    /// 921 600 Bd.
+    pub budget_bytes_per_s: u32,
+    /// The most bytes sent in a burst (the bucket's depth). Default 2 048.
+    pub burst_bytes: u32,
+    /// How often a Stats frame goes out, ms; 0 = never. Default 1 000.
+    pub stats_interval_ms: u32,
+    /// The firmware's version, for Hello.
+    pub firmware: FirmwareVersion,
+}
+
+impl LinkConfig {
+    /// The defaults: half of 921 600 Bd, 2 KiB bursts, Stats every second.
+    pub const DEFAULT: Self = Self {
+        budget_bytes_per_s: 46_080,
+        burst_bytes: 2048,
+        stats_interval_ms: 1000,
+        firmware: FirmwareVersion {
+            major: 0,
+            minor: 1,
+            patch: 0,
+        },
+    };
+}
+
+impl Default for LinkConfig {
+    fn default() -> Self {
+        Self::DEFAULT
+    }
+}
+
+/// Counters of other modules that Stats carries: the firmware fills them in.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct SensorCounters {
+    /// SICK telegrams decoded.
+    pub telegrams_ok: u32,
+    /// SICK telegrams with a bad checksum.
+    pub telegrams_bad_checksum: u32,
+    /// SICK telegrams with bad framing.
+    pub telegrams_bad_framing: u32,
+    /// SICK telegrams refused for another reason.
+    pub telegrams_bad_other: u32,
+    /// Points offered to the classifier.
+    pub points: u32,
+    /// Points dropped by a full classifier scratch table.
+    pub classifier_overflows: u32,
+}
+
+/// The link's own counters. They saturate.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct LinkCounters {
+    /// Frames queued.
+    pub frames_sent: u32,
+    /// Encoded bytes queued.
+    pub bytes_sent: u32,
+    /// LayerPatch frames queued.
+    pub patches_sent: u32,
+    /// Tile sends put back for lack of budget or room.
+    pub patches_deferred: u32,
+    /// Control frames dropped for lack of room.
+    pub frames_dropped: u32,
+    /// Host frames missing by their sequence numbers.
+    pub rx_seq_gaps: u32,
+    /// Commands refused.
+    pub commands_refused: u32,
+    /// Snapshots served.
+    pub snapshots: u32,
+    /// Full resends after window moves collapsed between two polls.
+    pub resyncs: u32,
+}
+
+/// What a host frame asked of the firmware, after the link did its part.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Event {
+    /// A validated pose (finite, within range): use it for the geometry and to recentre.
+    Pose(Pose),
+    /// A pan angle from the host (boards without an encoder).
+    PanAngle(PanAngle),
+    /// The pyramid was reconfigured (maps cleared); a Hello follows.
+    Configured,
+    /// The maps were cleared.
+    Reset,
+    /// Every tile of these layers will be sent again.
+    SnapshotRequested(SnapshotScope),
+    /// The host pinged.
+    Ping,
+    /// A command was refused; the Reply says why.
+    Refused(Reply),
+    /// A bad frame was dropped (and counted).
+    BadFrame(DecodeError),
+}
+
+/// What one [`Link::poll`] queued.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct PollReport {
+    /// Frames queued.
+    pub frames: u32,
+    /// Bytes queued.
+    pub bytes: u32,
+    /// LayerPatch frames queued.
+    pub patches: u32,
+    /// Dirty tiles left for a later poll.
+    pub deferred_tiles: u32,
+}
+
+/// A host command, copied out of the receive buffer.
+enum Command {
+    Pose(Pose),
+    PanAngle(PanAngle),
+    Configure(Configure),
+    Reset,
+    RequestSnapshot(SnapshotScope),
+    Ping,
+}
+
+/// A host frame, copied out of the receive buffer.
+enum Incoming {
+    Command(Header, Command),
+    Unsupported(Header),
+    Bad(DecodeError, Option<Header>),
+}
+
+/// The device's end of the host link, with an outgoing queue of `Q` bytes.
+///
+/// `Q` must be at least [`min_queue_bytes`]`(W)` (checked at compile time by [`Link::poll`]):
+/// 504 bytes for W = 64. The default 4 096 bytes hold 26 default patches.
+#[derive(Debug, Clone)]
+pub struct Link<const Q: usize = DEFAULT_QUEUE_BYTES> {
+    config: LinkConfig,
+    queue: FrameQueue<Q>,
+    scratch: [u8; MAX_ENCODED_FRAME],
+    bucket: TokenBucket,
+    rx: Accumulator<MAX_COMMAND_FRAME>,
+    rx_expected: Option<u16>,
+    tx_seq: u16,
+    /// A Hello to send before anything else: its reason and the layers it announces for resend.
+    hello: Option<(HelloReason, u16)>,
+    /// What the host was last told: layers, resolutions, origins.
+    sent_layers: usize,
+    sent_resolution: [i32; MAX_LAYERS],
+    sent_origin: [(i32, i32); MAX_LAYERS],
+    /// The pyramid's `cells_reset` counter when the host's origins were last brought up to date.
+    reset_baseline: u32,
+    /// Band edges of the design in force, metres (zeros until the link is told).
+    bands: [(f32, f32); MAX_LAYERS],
+    /// Where the round-robin over `layer · 64 + tile` resumes.
+    cursor: usize,
+    /// Polls each dirty tile has waited (0 = not waiting), for oldest-first sending.
+    ages: [[u8; TILES]; MAX_LAYERS],
+    last_stats_ms: Option<u32>,
+    counters: LinkCounters,
+}
+
+impl<const Q: usize> Link<Q> {
+    /// A link that will announce itself with Hello (reason boot) at its first poll. `const`,
+    /// for a `static`.
+    #[must_use]
+    pub const fn new(config: LinkConfig) -> Self {
+        Self {
+            config,
+            queue: FrameQueue::new(),
+            scratch: [0; MAX_ENCODED_FRAME],
+            bucket: TokenBucket::new(config.budget_bytes_per_s, config.burst_bytes),
+            rx: Accumulator::new(),
+            rx_expected: None,
+            tx_seq: 0,
+            hello: Some((HelloReason::Boot, 0)),
+            sent_layers: 0,
+            sent_resolution: [0; MAX_LAYERS],
+            sent_origin: [(0, 0); MAX_LAYERS],
+            reset_baseline: 0,
+            bands: [(0.0, 0.0); MAX_LAYERS],
+            cursor: 0,
+            ages: [[0; TILES]; MAX_LAYERS],
+            last_stats_ms: None,
+            counters: LinkCounters {
+                frames_sent: 0,
+                bytes_sent: 0,
+                patches_sent: 0,
+                patches_deferred: 0,
+                frames_dropped: 0,
+                rx_seq_gaps: 0,
+                commands_refused: 0,
+                snapshots: 0,
+                resyncs: 0,
+            },
+        }
+    }
+
+    /// The settings.
+    #[must_use]
+    pub const fn config(&self) -> &LinkConfig {
+        &self.config
+    }
+
+    /// The link's counters.
+    #[must_use]
+    pub const fn counters(&self) -> LinkCounters {
+        self.counters
+    }
+
+    /// The receive side's counters.
+    #[must_use]
+    pub const fn rx_counters(&self) -> RxCounters {
+        self.rx.counters()
+    }
+
+    /// The outgoing queue.
+    #[must_use]
+    pub const fn queue(&self) -> &FrameQueue<Q> {
+        &self.queue
+    }
+
+    /// The token bucket.
+    #[must_use]
+    pub const fn bucket(&self) -> &TokenBucket {
+        &self.bucket
+    }
+
+    /// The sequence number the next frame will carry.
+    #[must_use]
+    pub const fn next_seq(&self) -> u16 {
+        self.tx_seq
+    }
+
+    /// Moves up to `out.len()` queued bytes into `out` for the UART; returns how many.
+    pub fn pop_bytes(&mut self, out: &mut [u8]) -> usize {
+        self.queue.pop_bytes(out)
+    }
+
+    /// The oldest queued bytes that lie contiguously (for a DMA or a non-blocking write).
+    #[must_use]
+    pub fn peek(&self) -> &[u8] {
+        self.queue.peek()
+    }
+
+    /// Drops `n` bytes the UART took after [`peek`](Self::peek).
+    pub fn consume(&mut self, n: usize) {
+        self.queue.consume(n);
+    }
+
+    /// Tells the link that the pyramid now runs `design` (configured outside the link, e.g.
+    /// at boot): records its bands and announces it with Hello (maps cleared).
+    pub fn adopt<const L: usize>(&mut self, design: &Design<L>) {
+        self.bands = [(0.0, 0.0); MAX_LAYERS];
+        for (band, layer) in self.bands.iter_mut().zip(design.layers()) {
+            *band = (layer.band_inner_m, layer.band_outer_m);
+        }
+        self.want_hello(HelloReason::Configured, 0);
+    }
+
+    /// Configures the pyramid and [`adopt`](Self::adopt)s the design.
+    ///
+    /// # Errors
+    /// [`Pyramid::configure`]'s; nothing changes then.
+    pub fn configure<const W: usize, const L: usize>(
+        &mut self,
+        pyramid: &mut Pyramid<W, L>,
+        design: &Design<L>,
+        config: &Config,
+    ) -> Result<(), DesignError> {
+        pyramid.configure(design, config)?;
+        self.adopt(design);
+        Ok(())
+    }
+
+    /// Clears the maps (windows stay) and tells the host with Hello (reason reset).
+    pub fn reset<const W: usize, const L: usize>(&mut self, pyramid: &mut Pyramid<W, L>) {
+        pyramid.clear();
+        self.want_hello(HelloReason::Reset, 0);
+    }
+
+    /// Marks every tile of the layers in `scope` for sending again and announces it with
+    /// Hello (reason snapshot); `false` for a layer the pyramid does not have.
+    pub fn snapshot<const W: usize, const L: usize>(
+        &mut self,
+        pyramid: &mut Pyramid<W, L>,
+        scope: SnapshotScope,
+    ) -> bool {
+        let count = layers_of(pyramid);
+        let layers = match scope {
+            SnapshotScope::All => 0..count,
+            SnapshotScope::Layer(k) if usize::from(k) < count => usize::from(k)..usize::from(k) + 1,
+            SnapshotScope::Layer(_) => return false,
+        };
+        let mut mask = 0_u16;
+        for k in layers {
+            if let Some(mut dirty) = pyramid.layer_dirty_mut(k) {
+                dirty.mark(u64::MAX);
+            }
+            mask |= 1 << k;
+        }
+        self.counters.snapshots = self.counters.snapshots.saturating_add(1);
+        self.want_hello(HelloReason::Snapshot, mask);
+        true
+    }
+
+    fn want_hello(&mut self, reason: HelloReason, resend: u16) {
+        self.hello = Some(match self.hello {
+            // A Hello that clears the host's maps stays one; resend masks add up.
+            Some((pending, mask)) if pending.clears_maps() => (pending, mask | resend),
+            Some((_, mask)) => (reason, mask | resend),
+            None => (reason, resend),
+        });
+    }
+
+    /// The Stats frame as it would go out now.
+    #[must_use]
+    pub fn stats<const W: usize, const L: usize>(
+        &self,
+        now_ms: u32,
+        pyramid: &Pyramid<W, L>,
+        sensor: &SensorCounters,
+    ) -> Stats {
+        let p = pyramid.stats();
+        let rx = self.rx.counters();
+        let c = &self.counters;
+        let count = |n: usize| u32::try_from(n).unwrap_or(u32::MAX);
+        Stats {
+            uptime_ms: now_ms,
+            telegrams_ok: sensor.telegrams_ok,
+            telegrams_bad_checksum: sensor.telegrams_bad_checksum,
+            telegrams_bad_framing: sensor.telegrams_bad_framing,
+            telegrams_bad_other: sensor.telegrams_bad_other,
+            points: sensor.points,
+            classifier_overflows: sensor.classifier_overflows,
+            evidence_applied: p.applied,
+            evidence_gated_out: p.gated_out,
+            evidence_outside_window: p.outside_window,
+            frames_sent: c.frames_sent,
+            bytes_sent: c.bytes_sent,
+            patches_sent: c.patches_sent,
+            patches_deferred: c.patches_deferred,
+            frames_dropped: c.frames_dropped,
+            queue_used: count(self.queue.len()),
+            queue_high_water: count(self.queue.high_water()),
+            queue_capacity: count(Q),
+            rx_frames_ok: rx.frames_ok,
+            rx_bad_cobs: rx.cobs,
+            rx_bad_crc: rx.crc,
+            rx_bad_length: rx.too_short.saturating_add(rx.too_long),
+            rx_bad_other: rx
+                .unknown_version
+                .saturating_add(rx.unknown_type)
+                .saturating_add(rx.bad_body)
+                .saturating_add(rx.out_of_range),
+            rx_seq_gaps: c.rx_seq_gaps,
+            commands_refused: c.commands_refused,
+            snapshots: c.snapshots,
+            resyncs: c.resyncs,
+        }
+    }
+
+    // ---------------------------------------------------------------- sending
+
+    /// Counts a queued frame and charges it to the bucket.
+    fn account(&mut self, len: usize, report: &mut PollReport) {
+        let len32 = u32::try_from(len).unwrap_or(u32::MAX);
+        self.bucket.take(len);
+        self.counters.frames_sent = self.counters.frames_sent.saturating_add(1);
+        self.counters.bytes_sent = self.counters.bytes_sent.saturating_add(len32);
+        report.frames = report.frames.saturating_add(1);
+        report.bytes = report.bytes.saturating_add(len32);
+    }
+
+    /// Encodes `message` with the next sequence number and queues it if at least `reserve`
+    /// bytes stay free after it. `false` when it did not fit (the number is not used).
+    fn send(&mut self, message: &Message<'_>, reserve: usize, report: &mut PollReport) -> bool {
+        let Ok(len) = encode(self.tx_seq, message, &mut self.scratch) else {
+            return false;
+        };
+        self.push_scratch(len, reserve, report)
+    }
+
+    fn push_scratch(&mut self, len: usize, reserve: usize, report: &mut PollReport) -> bool {
+        if self.queue.free() < len.saturating_add(reserve) {
+            return false;
+        }
+        let Some(frame) = self.scratch.get(..len) else {
+            return false;
+        };
+        if !self.queue.push(frame) {
+            return false;
+        }
+        self.tx_seq = self.tx_seq.wrapping_add(1);
+        self.account(len, report);
+        true
+    }
+
+    /// Queues a Reply, or drops it (using its sequence number, so the host sees a gap).
+    fn reply(&mut self, reply: Reply) {
+        let mut report = PollReport::default();
+        if !self.send(&Message::Reply(reply), 0, &mut report) {
+            self.tx_seq = self.tx_seq.wrapping_add(1);
+            self.counters.frames_dropped = self.counters.frames_dropped.saturating_add(1);
+        }
+    }
+
+    /// Sends the pending Hello; `true` when none is pending any more.
+    fn flush_hello<const W: usize, const L: usize>(
+        &mut self,
+        pyramid: &Pyramid<W, L>,
+        report: &mut PollReport,
+    ) -> bool {
+        let Some((reason, resend)) = self.hello else {
+            return true;
+        };
+        let count = layers_of(pyramid);
+        let mut layers = heapless::Vec::new();
+        for k in 0..count {
+            let (Some(layer), Some(&(inner, outer))) = (pyramid.layer(k), self.bands.get(k)) else {
+                continue;
+            };
+            let (origin_x, origin_y) = layer.origin();
+            let info = LayerInfo {
+                resolution_q16: layer.resolution().to_bits(),
+                band_inner_m: inner,
+                band_outer_m: outer,
+                origin_x,
+                origin_y,
+            };
+            if layers.push(info).is_err() {
+                break;
+            }
+        }
+        let hello = Hello {
+            protocol: VERSION,
+            firmware: self.config.firmware,
+            reason,
+            cells_per_side: u16::try_from(W).unwrap_or(u16::MAX),
+            resend,
+            layers,
+        };
+        if !self.send(&Message::Hello(hello), 0, report) {
+            return false;
+        }
+        self.hello = None;
+        self.remember_geometry(pyramid);
+        true
+    }
+
+    /// Records what the host now knows: layers, resolutions, origins, the reset counter.
+    fn remember_geometry<const W: usize, const L: usize>(&mut self, pyramid: &Pyramid<W, L>) {
+        self.sent_layers = layers_of(pyramid);
+        for k in 0..MAX_LAYERS {
+            let (res, origin) = pyramid
+                .layer(k)
+                .map_or((0, (0, 0)), |l| (l.resolution().to_bits(), l.origin()));
+            if let Some(slot) = self.sent_resolution.get_mut(k) {
+                *slot = res;
+            }
+            if let Some(slot) = self.sent_origin.get_mut(k) {
+                *slot = origin;
+            }
+        }
+        self.reset_baseline = pyramid.stats().cells_reset;
+    }
+
+    /// Whether the pyramid's layers differ from what the host was told, or its counters went
+    /// back: it was configured without the link's knowledge.
+    fn reconfigured<const W: usize, const L: usize>(&self, pyramid: &Pyramid<W, L>) -> bool {
+        let count = layers_of(pyramid);
+        if count != self.sent_layers || pyramid.stats().cells_reset < self.reset_baseline {
+            return true;
+        }
+        (0..count).any(|k| {
+            pyramid.layer(k).map(|l| l.resolution().to_bits())
+                != self.sent_resolution.get(k).copied()
+        })
+    }
+
+    /// Sends one WindowMoved for the layers whose origin changed; `false` when it did not fit.
+    /// Detects moves that collapsed between two polls and then resends everything.
+    fn send_moves<const W: usize, const L: usize>(
+        &mut self,
+        pyramid: &mut Pyramid<W, L>,
+        report: &mut PollReport,
+    ) -> bool {
+        let count = layers_of(pyramid);
+        let mut moved = WindowMoved::new();
+        let mut expected: u64 = 0;
+        for k in 0..count {
+            let (Some(layer), Some(&sent)) = (pyramid.layer(k), self.sent_origin.get(k)) else {
+                continue;
+            };
+            let origin = layer.origin();
+            if origin != sent {
+                moved.set(k, origin);
+                expected = expected.saturating_add(cells_reset_by_move::<W>(sent, origin));
+            }
+        }
+        let now = pyramid.stats().cells_reset;
+        let delta = u64::from(now.saturating_sub(self.reset_baseline));
+        // A saturated counter says nothing any more: trust the caller then.
+        let collapsed = now != u32::MAX && delta != expected;
+        if moved.is_empty() && !collapsed {
+            return true;
+        }
+        if !moved.is_empty() && !self.send(&Message::WindowMoved(moved), 0, report) {
+            return false;
+        }
+        if collapsed {
+            for k in 0..count {
+                if let Some(mut dirty) = pyramid.layer_dirty_mut(k) {
+                    dirty.mark(u64::MAX);
+                }
+            }
+            self.counters.resyncs = self.counters.resyncs.saturating_add(1);
+            warn!("link: window moves collapsed between polls, resending every tile");
+        }
+        for (k, origin) in moved.iter() {
+            if let Some(slot) = self.sent_origin.get_mut(k) {
+                *slot = origin;
+            }
+        }
+        self.reset_baseline = now;
+        true
+    }
+
+    /// The waiting tiles as `(layer, tile, age)`.
+    fn waiting<'a>(
+        &'a self,
+        dirty: &'a [u64; MAX_LAYERS],
+        count: usize,
+    ) -> impl Iterator<Item = (usize, usize, u8)> + 'a {
+        dirty
+            .iter()
+            .zip(self.ages.iter())
+            .take(count)
+            .enumerate()
+            .flat_map(|(k, (bits, ages))| {
+                ages.iter()
+                    .enumerate()
+                    .filter(move |(tile, _)| bits & (1 << tile) != 0)
+                    .map(move |(tile, &age)| (k, tile, age))
+            })
+    }
+
+    /// Sends the changed tiles, oldest first (round-robin among equals), while the budget and
+    /// the queue allow; puts the rest back.
+    fn send_patches<const W: usize, const L: usize>(
+        &mut self,
+        pyramid: &mut Pyramid<W, L>,
+        report: &mut PollReport,
+    ) {
+        let count = layers_of(pyramid);
+        let total = count * TILES;
+        if total == 0 {
+            return;
+        }
+        let mut dirty = [0_u64; MAX_LAYERS];
+        for (k, bits) in dirty.iter_mut().enumerate().take(count) {
+            if let Some(mut tiles) = pyramid.layer_dirty_mut(k) {
+                *bits = tiles.take();
+            }
+        }
+        // Each waiting tile ages by one poll; the oldest go first, round-robin within an age.
+        for (bits, ages) in dirty.iter().zip(self.ages.iter_mut()).take(count) {
+            for (tile, age) in ages.iter_mut().enumerate() {
+                *age = if bits & (1 << tile) != 0 {
+                    age.saturating_add(1)
+                } else {
+                    0
+                };
+            }
+        }
+        let start = self.cursor % total;
+        let mut level = u8::MAX;
+        'ages: loop {
+            let top = self
+                .waiting(&dirty, count)
+                .map(|(_, _, age)| age)
+                .filter(|&age| age <= level)
+                .max()
+                .unwrap_or(0);
+            if top == 0 {
+                break;
+            }
+            for step in 0..total {
+                let g = (start + step) % total;
+                let (k, tile) = (g / TILES, g % TILES);
+                let age = self.ages.get(k).and_then(|a| a.get(tile)).copied();
+                let waiting = dirty.get(k).is_some_and(|b| b & (1 << tile) != 0);
+                if !waiting || age != Some(top) {
+                    continue;
+                }
+                if !self.send_tile(pyramid, k, tile, report) {
+                    self.cursor = g;
+                    break 'ages;
+                }
+                if let Some(bits) = dirty.get_mut(k) {
+                    *bits &= !(1 << tile);
+                }
+                if let Some(age) = self.ages.get_mut(k).and_then(|a| a.get_mut(tile)) {
+                    *age = 0;
+                }
+            }
+            level = top - 1;
+        }
+        let mut deferred = 0_u32;
+        for (k, &bits) in dirty.iter().enumerate().take(count) {
+            if bits != 0 {
+                if let Some(mut tiles) = pyramid.layer_dirty_mut(k) {
+                    tiles.mark(bits);
+                }
+                deferred += bits.count_ones();
+            }
+        }
+        report.deferred_tiles = deferred;
+        self.counters.patches_deferred = self.counters.patches_deferred.saturating_add(deferred);
+    }
+
+    /// Sends one tile of layer `k` as one or more patches, all or none.
+    fn send_tile<const W: usize, const L: usize>(
+        &mut self,
+        pyramid: &Pyramid<W, L>,
+        k: usize,
+        tile: usize,
+        report: &mut PollReport,
+    ) -> bool {
+        let Some(layer) = pyramid.layer(k) else {
+            return true;
+        };
+        let rects = layer.tile_rects(tile);
+        let need: usize = rects
+            .iter()
+            .flatten()
+            .copied()
+            .flat_map(pieces)
+            .map(|r| patch_frame_len(&r))
+            .sum();
+        // A tile larger than the bucket's depth waits for a full bucket, then overdraws it.
+        let burst = usize::try_from(self.config.burst_bytes).unwrap_or(usize::MAX);
+        if !self.bucket.allows(need.min(burst))
+            || self.queue.free() < need.saturating_add(CONTROL_RESERVE)
+        {
+            return false;
+        }
+        let (origin_x, origin_y) = layer.origin();
+        let layer_byte = u8::try_from(k).unwrap_or(u8::MAX);
+        for rect in rects.iter().flatten().copied().flat_map(pieces) {
+            let area = PatchArea {
+                layer: layer_byte,
+                origin_x,
+                origin_y,
+                x: rect.x,
+                y: rect.y,
+                width: u8::try_from(rect.width).unwrap_or(0),
+                height: u8::try_from(rect.height).unwrap_or(0),
+            };
+            let cell = |c: u8, r: u8| {
+                layer
+                    .get(
+                        rect.x.saturating_add(i32::from(c)),
+                        rect.y.saturating_add(i32::from(r)),
+                    )
+                    .map_or(Cell::UNKNOWN.to_raw(), Cell::to_raw)
+            };
+            let Ok(len) = encode_patch(self.tx_seq, &area, cell, &mut self.scratch) else {
+                continue;
+            };
+            if self.push_scratch(len, 0, report) {
+                self.counters.patches_sent = self.counters.patches_sent.saturating_add(1);
+                report.patches = report.patches.saturating_add(1);
+            }
+        }
+        true
+    }
+
+    /// Sends Stats when due and there is room.
+    fn send_stats<const W: usize, const L: usize>(
+        &mut self,
+        now_ms: u32,
+        pyramid: &Pyramid<W, L>,
+        sensor: &SensorCounters,
+        report: &mut PollReport,
+    ) {
+        let interval = self.config.stats_interval_ms;
+        let due = match self.last_stats_ms {
+            _ if interval == 0 => false,
+            None => true,
+            Some(last) => now_ms.wrapping_sub(last) >= interval,
+        };
+        if !due {
+            return;
+        }
+        // The counters as they will be once this frame is queued.
+        let stats = self.stats(now_ms, pyramid, sensor);
+        if self.send(&Message::Stats(stats), CONTROL_RESERVE, report) {
+            self.last_stats_ms = Some(now_ms);
+        }
+    }
+
+    /// Refills the budget from `now_ms` (the caller's clock, ms, wrapping) and queues what is
+    /// due, in order: a pending Hello, WindowMoved, Stats, then changed tiles oldest first while
+    /// the budget and the queue allow (the rest stay dirty for a later poll).
+    ///
+    /// Call it after every [`Pyramid::recentre`]: the host replays each window move, and moves
+    /// that collapse between two polls cost a full resend.
+    pub fn poll<const W: usize, const L: usize>(
+        &mut self,
+        now_ms: u32,
+        pyramid: &mut Pyramid<W, L>,
+        sensor: &SensorCounters,
+    ) -> PollReport {
+        const {
+            assert!(L <= MAX_LAYERS, "the host link describes at most 16 layers");
+            assert!(
+                Q >= min_queue_bytes(W),
+                "the link's queue must hold min_queue_bytes(W) bytes"
+            );
+        }
+        let mut report = PollReport::default();
+        self.bucket.refill(now_ms);
+        if self.hello.is_none() && self.reconfigured(pyramid) {
+            warn!("link: the pyramid was configured behind the link's back");
+            self.want_hello(HelloReason::Configured, 0);
+        }
+        if !self.flush_hello(pyramid, &mut report) {
+            return report;
+        }
+        if !self.send_moves(pyramid, &mut report) {
+            return report;
+        }
+        self.send_stats(now_ms, pyramid, sensor, &mut report);
+        self.send_patches(pyramid, &mut report);
+        report
+    }
+
+    // ---------------------------------------------------------------- receiving
+
+    /// Takes bytes from the host: decodes every complete frame, carries out its command
+    /// (queueing its Reply and, for Configure, Reset and RequestSnapshot, a Hello), and hands
+    /// the firmware what concerns it through `on_event`.
+    pub fn receive<const W: usize, const L: usize>(
+        &mut self,
+        bytes: &[u8],
+        pyramid: &mut Pyramid<W, L>,
+        mut on_event: impl FnMut(Event),
+    ) {
+        let mut input = bytes;
+        loop {
+            let incoming = match self.rx.feed(input) {
+                FeedResult::Consumed => return,
+                FeedResult::Frame {
+                    header,
+                    message,
+                    remaining,
+                } => {
+                    input = remaining;
+                    match owned_command(message) {
+                        Some(command) => Incoming::Command(header, command),
+                        None => Incoming::Unsupported(header),
+                    }
+                }
+                FeedResult::Error {
+                    error,
+                    header,
+                    remaining,
+                } => {
+                    input = remaining;
+                    Incoming::Bad(error, header)
+                }
+            };
+            self.handle(incoming, pyramid, &mut on_event);
+        }
+    }
+
+    fn track_seq(&mut self, seq: u16) {
+        if let Some(expected) = self.rx_expected {
+            let d = seq.wrapping_sub(expected);
+            if d != 0 {
+                let missing = if d < 0x8000 { u32::from(d) } else { 1 };
+                self.counters.rx_seq_gaps = self.counters.rx_seq_gaps.saturating_add(missing);
+            }
+        }
+        self.rx_expected = Some(seq.wrapping_add(1));
+    }
+
+    fn refuse(&mut self, reply: Reply, on_event: &mut impl FnMut(Event)) {
+        self.counters.commands_refused = self.counters.commands_refused.saturating_add(1);
+        self.reply(reply);
+        on_event(Event::Refused(reply));
+    }
+
+    fn handle<const W: usize, const L: usize>(
+        &mut self,
+        incoming: Incoming,
+        pyramid: &mut Pyramid<W, L>,
+        on_event: &mut impl FnMut(Event),
+    ) {
+        let (header, command) = match incoming {
+            Incoming::Command(header, command) => (header, command),
+            Incoming::Unsupported(header) => {
+                self.track_seq(header.seq);
+                self.refuse(Reply::code(header, ReplyCode::Unsupported), on_event);
+                return;
+            }
+            Incoming::Bad(error, header) => {
+                if let Some(header) = header {
+                    self.track_seq(header.seq);
+                    let code = match error {
+                        DecodeError::UnknownType(_) => ReplyCode::Unsupported,
+                        _ => ReplyCode::Malformed,
+                    };
+                    self.refuse(Reply::code(header, code), on_event);
+                }
+                on_event(Event::BadFrame(error));
+                return;
+            }
+        };
+        self.track_seq(header.seq);
+        match command {
+            Command::Pose(pose) => match pose.validate() {
+                Ok(()) => on_event(Event::Pose(pose)),
+                Err(e) => self.refuse(Reply::pose_error(header, e), on_event),
+            },
+            Command::PanAngle(pan) => on_event(Event::PanAngle(pan)),
+            Command::Configure(c) => match configure_checked(pyramid, &c) {
+                Ok(design) => {
+                    self.reply(Reply::ok(header));
+                    self.adopt(&design);
+                    self.flush_hello(pyramid, &mut PollReport::default());
+                    on_event(Event::Configured);
+                }
+                Err(e) => self.refuse(Reply::design_error(header, &e), on_event),
+            },
+            Command::Reset => {
+                self.reply(Reply::ok(header));
+                self.reset(pyramid);
+                self.flush_hello(pyramid, &mut PollReport::default());
+                on_event(Event::Reset);
+            }
+            Command::RequestSnapshot(scope) => {
+                if self.snapshot(pyramid, scope) {
+                    self.reply(Reply::ok(header));
+                    self.flush_hello(pyramid, &mut PollReport::default());
+                    on_event(Event::SnapshotRequested(scope));
+                } else {
+                    let asked = match scope {
+                        SnapshotScope::Layer(k) => f32::from(k),
+                        SnapshotScope::All => 255.0,
+                    };
+                    let mut reply = Reply::code(header, ReplyCode::BadLayer);
+                    reply.param = 40;
+                    reply.value = asked;
+                    reply.a = f32::from(u8::try_from(layers_of(pyramid)).unwrap_or(u8::MAX));
+                    self.refuse(reply, on_event);
+                }
+            }
+            Command::Ping => {
+                self.reply(Reply::ok(header));
+                on_event(Event::Ping);
+            }
+        }
+    }
+}
+
+impl<const Q: usize> Default for Link<Q> {
+    fn default() -> Self {
+        Self::new(LinkConfig::DEFAULT)
+    }
+}
+
+/// A command copied out of the receive buffer, or `None` for a type the device does not take.
+fn owned_command(message: Message<'_>) -> Option<Command> {
+    Some(match message {
+        Message::Pose(p) => Command::Pose(p),
+        Message::PanAngle(p) => Command::PanAngle(p),
+        Message::Configure(c) => Command::Configure(c),
+        Message::Reset => Command::Reset,
+        Message::RequestSnapshot(s) => Command::RequestSnapshot(s),
+        Message::Ping => Command::Ping,
+        Message::Hello(_)
+        | Message::LayerPatch(_)
+        | Message::WindowMoved(_)
+        | Message::Stats(_)
+        | Message::Reply(_) => return None,
+    })
+}
+
+/// Validates a Configure with the library's own rules, in order: `Design::new`, the
+/// increments, the clamping bounds, then `Pyramid::configure` (window, margin). On success
+/// the pyramid runs the new design (maps cleared).
+fn configure_checked<const W: usize, const L: usize>(
+    pyramid: &mut Pyramid<W, L>,
+    request: &Configure,
+) -> Result<Design<L>, DesignError> {
+    let design = request.design::<L>()?;
+    let config = request.config()?;
+    pyramid.configure(&design, &config)?;
+    Ok(design)
+}
+
+/// The layers the link describes: the pyramid's, at most 16.
+fn layers_of<const W: usize, const L: usize>(pyramid: &Pyramid<W, L>) -> usize {
+    pyramid.layer_count().min(MAX_LAYERS)
+}
+
+/// The cells a window of W cells resets when its origin moves from `old` to `new` directly:
+/// `W² − (W − |dx|)·(W − |dy|)`, or `W²` for a move of W or more.
+fn cells_reset_by_move<const W: usize>(old: (i32, i32), new: (i32, i32)) -> u64 {
+    let w = u64::try_from(W).unwrap_or(u64::MAX);
+    let dx = (i64::from(new.0) - i64::from(old.0)).unsigned_abs();
+    let dy = (i64::from(new.1) - i64::from(old.1)).unsigned_abs();
+    if dx >= w || dy >= w {
+        w.saturating_mul(w)
+    } else {
+        w * w - (w - dx) * (w - dy)
+    }
+}
+
+/// A tile rectangle cut into pieces of at most 16 × 16 cells.
+fn pieces(rect: CellRect) -> impl Iterator<Item = CellRect> {
+    let side = u16::try_from(MAX_PATCH_SIDE).unwrap_or(16);
+    let rows = rect.height.div_ceil(side);
+    let cols = rect.width.div_ceil(side);
+    (0..rows).flat_map(move |r| {
+        (0..cols).map(move |c| {
+            let (dx, dy) = (c * side, r * side);
+            CellRect {
+                x: rect.x.saturating_add(i32::from(dx)),
+                y: rect.y.saturating_add(i32::from(dy)),
+                width: (rect.width - dx).min(side),
+                height: (rect.height - dy).min(side),
+            }
+        })
+    })
+}
+
+/// The most bytes a patch of `rect` takes on the wire.
+fn patch_frame_len(rect: &CellRect) -> usize {
+    let cells = usize::from(rect.width) * usize::from(rect.height);
+    crate::wire::link::encoded_len_max(MIN_FRAME + PATCH_AREA_BYTES + 2 * cells)
+}
+
+#[cfg(test)]
+mod tests;

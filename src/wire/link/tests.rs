@@ -1,0 +1,504 @@
+//! Golden frames of every message type, as hex written from `docs/protocol.md` (section 10 and
+//! an independent encoder of the spec), and the accumulator's handling of bad input.
+extern crate std;
+use super::*;
+use crate::design::{GateShape, Schedule, SensorModel};
+use crate::logodds::InverseSensorModel;
+use std::vec::Vec;
+
+fn hex(s: &str) -> Vec<u8> {
+    s.split_whitespace()
+        .map(|b| u8::from_str_radix(b, 16).unwrap())
+        .collect()
+}
+
+/// Encodes `message` as seq `seq`, checks it against `encoded`, decodes `encoded` back (via the
+/// accumulator) and checks the message and header.
+fn golden(seq: u16, message: &Message<'_>, encoded: &str) {
+    let expected = hex(encoded);
+    let mut out = [0_u8; MAX_ENCODED_FRAME];
+    let n = encode(seq, message, &mut out).unwrap();
+    assert_eq!(&out[..n], &expected[..], "{message:?}");
+    assert!(n <= message.encoded_len_max());
+    let mut acc = Accumulator::<MAX_FRAME>::new();
+    match acc.feed(&expected) {
+        FeedResult::Frame {
+            header,
+            message: decoded,
+            remaining,
+        } => {
+            assert_eq!(
+                header,
+                Header {
+                    version: 1,
+                    msg_type: message.msg_type().to_u8(),
+                    seq
+                }
+            );
+            assert_eq!(&decoded, message);
+            assert!(remaining.is_empty());
+        }
+        other => panic!("{other:?}"),
+    }
+}
+
+fn ping_frame() -> Vec<u8> {
+    hex("04 01 86 01 05 0a ee 5b 65 00")
+}
+
+#[test]
+fn ping_reset_snapshot_golden() {
+    golden(1, &Message::Ping, "04 01 86 01 05 0a ee 5b 65 00");
+    golden(0x0203, &Message::Reset, "09 01 84 03 02 ca 39 e7 ba 00");
+    golden(
+        7,
+        &Message::RequestSnapshot(SnapshotScope::All),
+        "04 01 85 07 06 ff ac 61 88 09 00",
+    );
+    golden(
+        8,
+        &Message::RequestSnapshot(SnapshotScope::Layer(2)),
+        "04 01 85 08 06 02 30 a8 d8 c1 00",
+    );
+}
+
+#[test]
+fn pan_and_pose_golden() {
+    golden(
+        9,
+        &Message::PanAngle(PanAngle {
+            turns: 0x4000,
+            timestamp_ms: 123_456,
+        }),
+        "04 01 82 09 01 05 40 40 e2 01 05 51 05 3e 2b 00",
+    );
+    golden(
+        10,
+        &Message::Pose(Pose {
+            x_m: 1.5,
+            y_m: -2.25,
+            z_m: 0.0,
+            roll_rad: 0.0,
+            pitch_rad: 0.0,
+            yaw_rad: 3.140625,
+            timestamp_ms: 1000,
+        }),
+        "04 01 81 0a 01 01 03 c0 3f 01 03 10 c0 01 01 01 01 01 01 01 01 01 01 01 01 01 05 49 40 \
+         e8 03 01 05 ba f6 41 2a 00",
+    );
+}
+
+#[test]
+fn configure_golden() {
+    let c = Configure {
+        sensor: SensorModel {
+            phi_rad: 0.5,
+            psi_rad: 0.25,
+            sigma_m: 0.15,
+            height_m: 1.0,
+            max_range_m: 10.0,
+        },
+        schedule: Schedule {
+            base_m: 0.1,
+            gamma: 2.0,
+            gate: GateShape::Soft { width_factor: 0.5 },
+        },
+        cells_per_side: 64,
+        model: InverseSensorModel {
+            p_obstacle: 0.7,
+            p_free: 0.4,
+            prior: 0.5,
+        },
+        clamp: ClampRequest::Bounds {
+            min: -2.0,
+            max: 3.5,
+        },
+        fused_margin: 0.0,
+    };
+    golden(
+        11,
+        &Message::Configure(c),
+        "04 01 83 0b 01 01 01 02 3f 01 07 80 3e 9a 99 19 3e 01 03 80 3f 01 07 20 41 cd cc cc 3d \
+         01 01 03 40 01 01 01 03 3f 40 09 33 33 33 3f cd cc cc 3e 01 01 03 3f 01 01 01 02 c0 01 \
+         03 60 40 01 01 01 05 07 e2 b0 cc 00",
+    );
+}
+
+#[test]
+fn hello_golden() {
+    let mut layers = heapless::Vec::new();
+    layers
+        .push(LayerInfo {
+            resolution_q16: 6554,
+            band_inner_m: 0.0,
+            band_outer_m: 0.5,
+            origin_x: -32,
+            origin_y: -32,
+        })
+        .unwrap();
+    layers
+        .push(LayerInfo {
+            resolution_q16: 13107,
+            band_inner_m: 0.5,
+            band_outer_m: 1.5,
+            origin_x: -32,
+            origin_y: -32,
+        })
+        .unwrap();
+    let hello = Hello {
+        protocol: 1,
+        firmware: FirmwareVersion {
+            major: 0,
+            minor: 1,
+            patch: 2,
+        },
+        reason: HelloReason::Boot,
+        cells_per_side: 64,
+        resend: 0,
+        layers,
+    };
+    golden(
+        0,
+        &Message::Hello(hello),
+        "03 01 01 01 02 01 03 01 02 03 02 40 01 01 03 9a 19 01 01 01 01 01 01 01 01 0c 3f e0 ff \
+         ff ff e0 ff ff ff 33 33 01 01 01 01 02 3f 01 0f c0 3f e0 ff ff ff e0 ff ff ff e3 d5 3b \
+         b0 00",
+    );
+}
+
+#[test]
+fn layer_patch_golden_is_the_specs_worked_example() {
+    let cells = hex("00 80 d9 00 00 fe 00 00");
+    let patch = LayerPatch {
+        area: PatchArea {
+            layer: 1,
+            origin_x: -32,
+            origin_y: -32,
+            x: 3,
+            y: -4,
+            width: 2,
+            height: 2,
+        },
+        cells: PatchCells::from_le_bytes(&cells).unwrap(),
+    };
+    let encoded = "11 01 02 02 01 01 02 02 e0 ff ff ff e0 ff ff ff 03 01 01 05 fc ff ff ff \
+                   03 80 d9 01 02 fe 01 05 57 e3 07 47 00";
+    golden(0x0102, &Message::LayerPatch(patch), encoded);
+    let values: Vec<i16> = patch.cells.iter().collect();
+    assert_eq!(values, [i16::MIN, 217, -512, 0]);
+    assert_eq!(patch.cells.get(3), Some(0));
+    assert_eq!(patch.cells.get(4), None);
+    // The device's writer, fed cell by cell, gives the same bytes.
+    let mut out = [0_u8; 64];
+    let grid = [[i16::MIN, 217], [-512, 0]];
+    let n = encode_patch(
+        0x0102,
+        &patch.area,
+        |c, r| grid[usize::from(r)][usize::from(c)],
+        &mut out,
+    )
+    .unwrap();
+    assert_eq!(&out[..n], &hex(encoded)[..]);
+}
+
+#[test]
+fn window_moved_stats_reply_golden() {
+    let mut moved = WindowMoved::new();
+    moved.set(0, (-31, -32));
+    moved.set(2, (-16, -33));
+    golden(
+        0x0103,
+        &Message::WindowMoved(moved),
+        "06 01 03 03 01 05 15 e1 ff ff ff e0 ff ff ff f0 ff ff ff df ff ff ff d3 71 9d 4a 00",
+    );
+    let mut values = [0_u32; STATS_COUNTERS];
+    for (i, v) in values.iter_mut().enumerate() {
+        *v = i as u32 + 1;
+    }
+    let stats = Stats::from_array(values);
+    assert_eq!(stats.uptime_ms, 1);
+    assert_eq!(stats.resyncs, 27);
+    golden(
+        0x0104,
+        &Message::Stats(stats),
+        "06 01 04 04 01 01 01 01 02 02 01 01 02 03 01 01 02 04 01 01 02 05 01 01 02 06 01 01 02 \
+         07 01 01 02 08 01 01 02 09 01 01 02 0a 01 01 02 0b 01 01 02 0c 01 01 02 0d 01 01 02 0e \
+         01 01 02 0f 01 01 02 10 01 01 02 11 01 01 02 12 01 01 02 13 01 01 02 14 01 01 02 15 01 \
+         01 02 16 01 01 02 17 01 01 02 18 01 01 02 19 01 01 02 1a 01 01 02 1b 01 01 05 b0 71 ba \
+         b3 00",
+    );
+    let configure = Header {
+        version: 1,
+        msg_type: 0x83,
+        seq: 11,
+    };
+    golden(
+        0x0105,
+        &Message::Reply(Reply::ok(configure)),
+        "06 01 05 05 01 0b 02 83 01 01 01 01 01 01 01 01 01 01 01 01 01 05 89 23 fc ce 00",
+    );
+    let error = crate::DesignError::OutOfRange {
+        param: crate::Param::Gamma,
+        value: 200.0,
+        min: 0.0,
+        max: 100.0,
+    };
+    let reply = Reply::design_error(
+        Header {
+            seq: 12,
+            ..configure
+        },
+        &error,
+    );
+    assert_eq!(reply.code, ReplyCode::OutOfRange);
+    assert_eq!(reply.param, 7);
+    golden(
+        0x0106,
+        &Message::Reply(reply),
+        "06 01 05 06 01 0c 04 83 03 07 01 03 48 43 01 01 01 01 01 07 c8 42 84 ff a9 bd 00",
+    );
+}
+
+#[test]
+fn sizes_match_the_spec() {
+    assert_eq!(MAX_FRAME, 539);
+    assert_eq!(MAX_ENCODED_FRAME, 543);
+    assert_eq!(MAX_COMMAND_FRAME, 68);
+    assert_eq!(MAX_ENCODED_COMMAND, 70);
+    assert_eq!(encoded_len_max(MIN_FRAME + 19 + 128), 157);
+    assert_eq!(encoded_len_max(MIN_FRAME + 10 + 16 * 20), 341);
+}
+
+/// A frame with a given header and body, framed by this crate's CRC and COBS (whose own
+/// vectors are checked above).
+fn raw_frame(version: u8, msg_type: u8, seq: u16, body: &[u8]) -> Vec<u8> {
+    let mut raw = std::vec![version, msg_type];
+    raw.extend_from_slice(&seq.to_le_bytes());
+    raw.extend_from_slice(body);
+    let crc = crc32(&raw);
+    raw.extend_from_slice(&crc.to_le_bytes());
+    let mut out = std::vec![0_u8; raw.len() + 8];
+    let mut enc = cobs::Encoder::new(&mut out);
+    enc.push_all(&raw);
+    let n = enc.finish().unwrap();
+    out.truncate(n);
+    out
+}
+
+/// Feeds `input` in one go and collects what came out.
+fn feed_all<const N: usize>(
+    acc: &mut Accumulator<N>,
+    mut input: &[u8],
+) -> Vec<Result<u16, DecodeError>> {
+    let mut out = Vec::new();
+    loop {
+        match acc.feed(input) {
+            FeedResult::Consumed => return out,
+            FeedResult::Frame {
+                header, remaining, ..
+            } => {
+                out.push(Ok(header.seq));
+                input = remaining;
+            }
+            FeedResult::Error {
+                error, remaining, ..
+            } => {
+                out.push(Err(error));
+                input = remaining;
+            }
+        }
+    }
+}
+
+#[test]
+fn bad_frames_are_refused_counted_and_the_next_frame_decodes() {
+    let mut acc = Accumulator::<MAX_FRAME>::new();
+    let mut stream = Vec::new();
+    // 1. A corrupted byte: CRC.
+    let mut bad = ping_frame();
+    bad[6] ^= 0x40;
+    stream.extend_from_slice(&bad);
+    // 2. Truncated: a COBS block cut by the delimiter.
+    stream.extend_from_slice(&hex("04 01 86 00"));
+    // 3. Too short: a 3-byte frame.
+    stream.extend_from_slice(&hex("04 01 86 01 00"));
+    // 4. Unknown version, unknown type, bad body length, out-of-range field.
+    stream.extend_from_slice(&raw_frame(2, 0x86, 3, &[]));
+    stream.extend_from_slice(&raw_frame(1, 0x7E, 4, &[]));
+    stream.extend_from_slice(&raw_frame(1, 0x86, 5, &[0]));
+    stream.extend_from_slice(&raw_frame(1, 0x01, 6, &[1, 0, 0, 0, 9, 0, 64, 0, 0, 0]));
+    // 5. Oversized: more than the buffer holds.
+    stream.extend_from_slice(&[0x55; 700]);
+    stream.push(0);
+    // 6. Spare delimiters are not errors; then a good frame.
+    stream.extend_from_slice(&[0, 0]);
+    stream.extend_from_slice(&ping_frame());
+    let got = feed_all(&mut acc, &stream);
+    assert!(matches!(got[0], Err(DecodeError::Crc { .. })));
+    assert_eq!(got[1], Err(DecodeError::Cobs));
+    assert_eq!(got[2], Err(DecodeError::TooShort { len: 3 }));
+    assert_eq!(got[3], Err(DecodeError::UnknownVersion(2)));
+    assert_eq!(got[4], Err(DecodeError::UnknownType(0x7E)));
+    assert_eq!(
+        got[5],
+        Err(DecodeError::BadBody {
+            msg_type: 0x86,
+            len: 1
+        })
+    );
+    assert_eq!(
+        got[6],
+        Err(DecodeError::OutOfRange {
+            field: "Hello.reason"
+        })
+    );
+    assert_eq!(got[7], Err(DecodeError::TooLong { max: MAX_FRAME }));
+    assert_eq!(got[8], Ok(1));
+    assert_eq!(got.len(), 9);
+    let c = acc.counters();
+    assert_eq!(
+        (
+            c.crc,
+            c.cobs,
+            c.too_short,
+            c.unknown_version,
+            c.unknown_type
+        ),
+        (1, 1, 1, 1, 1)
+    );
+    assert_eq!((c.bad_body, c.out_of_range, c.too_long), (1, 1, 1));
+    assert_eq!((c.frames_ok, c.errors()), (1, 8));
+}
+
+#[test]
+fn frames_split_anywhere_reassemble() {
+    let mut stream = Vec::new();
+    for seq in 0..5_u16 {
+        let mut out = [0_u8; 32];
+        let n = encode(
+            seq,
+            &Message::RequestSnapshot(SnapshotScope::Layer(3)),
+            &mut out,
+        )
+        .unwrap();
+        stream.extend_from_slice(&out[..n]);
+    }
+    for chunk in 1..stream.len() {
+        let mut acc = Accumulator::<MAX_COMMAND_FRAME>::new();
+        let mut seqs = Vec::new();
+        for piece in stream.chunks(chunk) {
+            seqs.extend(feed_all(&mut acc, piece));
+        }
+        assert_eq!(seqs, [Ok(0), Ok(1), Ok(2), Ok(3), Ok(4)], "chunk {chunk}");
+    }
+}
+
+#[test]
+fn a_garbage_prefix_costs_one_frame() {
+    // Opening the port mid-frame: the tail of some frame, then good frames.
+    let mut stream = hex("13 77 02 41");
+    stream.extend_from_slice(&ping_frame());
+    stream.extend_from_slice(&ping_frame());
+    let mut acc = Accumulator::<MAX_FRAME>::new();
+    let got = feed_all(&mut acc, &stream);
+    assert_eq!(got.len(), 2);
+    assert!(got[0].is_err());
+    assert_eq!(got[1], Ok(1));
+}
+
+#[test]
+fn encoders_refuse_what_the_format_cannot_carry() {
+    let mut out = [0_u8; MAX_ENCODED_FRAME];
+    let cells = [0_u8; 2 * 17];
+    let wide = LayerPatch {
+        area: PatchArea {
+            layer: 0,
+            origin_x: 0,
+            origin_y: 0,
+            x: 0,
+            y: 0,
+            width: 17,
+            height: 1,
+        },
+        cells: PatchCells::from_le_bytes(&cells).unwrap(),
+    };
+    assert_eq!(
+        encode(0, &Message::LayerPatch(wide), &mut out),
+        Err(EncodeError::Invalid {
+            field: "LayerPatch.width"
+        })
+    );
+    let short = LayerPatch {
+        area: PatchArea {
+            width: 2,
+            ..wide.area
+        },
+        cells: PatchCells::from_le_bytes(&cells[..2]).unwrap(),
+    };
+    assert!(encode(0, &Message::LayerPatch(short), &mut out).is_err());
+    assert!(encode(0, &Message::WindowMoved(WindowMoved::new()), &mut out).is_err());
+    assert!(encode(
+        0,
+        &Message::RequestSnapshot(SnapshotScope::Layer(255)),
+        &mut out
+    )
+    .is_err());
+    assert_eq!(
+        encode(1, &Message::Ping, &mut out[..9]),
+        Err(EncodeError::BufferTooSmall { needed: 10, got: 9 })
+    );
+}
+
+#[test]
+fn pose_validation_names_the_field() {
+    let ok = Pose {
+        x_m: 29_999.0,
+        y_m: -29_999.0,
+        z_m: 999.0,
+        roll_rad: 10.0,
+        pitch_rad: -10.0,
+        yaw_rad: 100.0,
+        timestamp_ms: 0,
+    };
+    assert_eq!(ok.validate(), Ok(()));
+    let far = Pose {
+        y_m: 30_000.0,
+        ..ok
+    };
+    assert_eq!(
+        far.validate(),
+        Err(PoseError::OutOfRange {
+            field: PoseField::Y,
+            value: 30_000.0,
+            limit: 30_000.0
+        })
+    );
+    let nan = Pose {
+        pitch_rad: f32::NAN,
+        ..ok
+    };
+    assert_eq!(
+        nan.validate(),
+        Err(PoseError::NotFinite {
+            field: PoseField::Pitch
+        })
+    );
+    let high = Pose { z_m: -1000.0, ..ok };
+    assert!(matches!(
+        high.validate(),
+        Err(PoseError::OutOfRange {
+            field: PoseField::Z,
+            ..
+        })
+    ));
+    let header = Header {
+        version: 1,
+        msg_type: 0x81,
+        seq: 3,
+    };
+    let reply = Reply::pose_error(header, far.validate().unwrap_err());
+    assert_eq!(
+        (reply.code, reply.param, reply.b),
+        (ReplyCode::OutOfRange, 33, 30_000.0)
+    );
+}
