@@ -43,11 +43,8 @@ impl DistanceBins {
         Self { shift }
     }
 
-    /// The binning for the default 10 m range (bins of 1/32 m), usable in `const` contexts.
-    #[must_use]
-    pub const fn for_range_const_default() -> Self {
-        Self { shift: 5 }
-    }
+    /// The binning of an unconfigured pyramid (bins of 1 m; all zero bits).
+    pub const UNCONFIGURED: Self = Self { shift: 0 };
 
     /// The bin width, metres.
     #[must_use]

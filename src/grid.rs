@@ -253,22 +253,19 @@ const fn half<const W: usize>() -> i32 {
 }
 
 impl<const W: usize> Layer<W> {
-    /// An empty layer of 1 cm cells centred on the world origin; [`Layer::reset`] gives it its
-    /// real resolution. `const`, so a pyramid can live in a `static`.
+    /// An unconfigured layer: every cell unknown, no resolution (every coordinate maps to
+    /// cell 0) and the window at cell (0, 0); [`Layer::reset`] gives it its resolution and
+    /// centres it. All zero bits, and `const`, so a pyramid in a `static` costs no flash.
     #[must_use]
     pub const fn new() -> Self {
         Self {
             cells: [[Cell::UNKNOWN; W]; W],
             window: Window {
-                origin_x: -half::<W>(),
-                origin_y: -half::<W>(),
-                #[allow(clippy::cast_possible_truncation)]
-                start_x: (W / 2) as u16,
-                #[allow(clippy::cast_possible_truncation)]
-                start_y: (W / 2) as u16,
-                resolution: Resolution {
-                    bits: Resolution::MIN_BITS,
-                },
+                origin_x: 0,
+                origin_y: 0,
+                start_x: 0,
+                start_y: 0,
+                resolution: Resolution { bits: 0 },
             },
             dirty: 0,
         }

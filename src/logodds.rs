@@ -17,11 +17,26 @@ const STORED_MAX_RAW: i16 = i16::MAX;
 
 /// One grid cell: a log-odds value in Q8.8 nats, or unknown. Two bytes.
 ///
-/// The raw value `i16::MIN` is the unknown state; every observed value lies in
-/// −32 767 ..= +32 767 raw (±127.996 nats).
+/// Its raw value ([`Cell::to_raw`], as exported over the link) is the Q8.8 log-odds, with
+/// `i16::MIN` for unknown; every observed value lies in −32 767 ..= +32 767 raw
+/// (±127.996 nats). In memory the raw value is stored with its sign bit flipped, so that an
+/// unknown cell is all zero bits: a fresh pyramid is zero-initialised (it lives in `.bss`,
+/// costing no flash) and resetting cells is a plain zero fill.
 #[derive(Clone, Copy, PartialEq, Eq, Hash)]
 #[repr(transparent)]
-pub struct Cell(i16);
+pub struct Cell(u16);
+
+/// The stored form of a raw value: the sign bit flipped.
+#[inline]
+const fn encode(raw: i16) -> u16 {
+    (raw as u16) ^ 0x8000
+}
+
+/// The raw value of a stored form.
+#[inline]
+const fn decode(stored: u16) -> i16 {
+    (stored ^ 0x8000) as i16
+}
 
 /// What a cell says about its place.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -38,45 +53,45 @@ pub enum CellClass {
 }
 
 impl Cell {
-    /// The state of a cell that has never been observed.
-    pub const UNKNOWN: Self = Self(UNKNOWN_RAW);
+    /// The state of a cell that has never been observed (all zero bits in memory).
+    pub const UNKNOWN: Self = Self(0);
 
     /// An observed cell holding `value` (never unknown: the reserved raw value maps to the
     /// smallest stored value).
     #[must_use]
     pub const fn observed(value: LogOddsFixed) -> Self {
         let raw = value.to_bits();
-        Self(if raw == UNKNOWN_RAW {
+        Self(encode(if raw == UNKNOWN_RAW {
             -STORED_MAX_RAW
         } else {
             raw
-        })
+        }))
     }
 
     /// The raw 16-bit representation (`i16::MIN` = unknown), as exported over the link.
     #[must_use]
     pub const fn to_raw(self) -> i16 {
-        self.0
+        decode(self.0)
     }
 
     /// The cell whose raw representation is `raw` (`i16::MIN` = unknown).
     #[must_use]
     pub const fn from_raw(raw: i16) -> Self {
-        Self(raw)
+        Self(encode(raw))
     }
 
     /// Whether the cell has received at least one non-zero increment since it entered the
     /// window.
     #[must_use]
     pub const fn is_observed(self) -> bool {
-        self.0 != UNKNOWN_RAW
+        self.0 != 0
     }
 
     /// The log-odds value, or `None` when unknown.
     #[must_use]
     pub const fn log_odds(self) -> Option<LogOddsFixed> {
         if self.is_observed() {
-            Some(LogOddsFixed::from_bits(self.0))
+            Some(LogOddsFixed::from_bits(decode(self.0)))
         } else {
             None
         }
@@ -85,7 +100,7 @@ impl Cell {
     /// The class of the cell: unknown, undecided (L = 0), obstacle (L > 0), navigable (L < 0).
     #[must_use]
     pub const fn class(self) -> CellClass {
-        match self.0 {
+        match decode(self.0) {
             UNKNOWN_RAW => CellClass::Unknown,
             0 => CellClass::Undecided,
             v if v > 0 => CellClass::Obstacle,
@@ -97,17 +112,18 @@ impl Cell {
     /// become observed); otherwise an unknown cell first takes `initial`, the sum saturates at
     /// ±127.996 nats, and `clamp` applies.
     #[must_use]
+    #[inline]
     pub fn updated(self, g: i16, initial: LogOddsFixed, clamp: Clamp) -> Self {
         if g == 0 {
             return self;
         }
         let start = if self.is_observed() {
-            self.0
+            decode(self.0)
         } else {
             initial.to_bits()
         };
         let sum = start.saturating_add(g).max(-STORED_MAX_RAW);
-        Self(clamp.apply_raw(sum))
+        Self(encode(clamp.apply_raw(sum)))
     }
 }
 
@@ -130,7 +146,7 @@ impl fmt::Debug for Cell {
 impl defmt::Format for Cell {
     fn format(&self, f: defmt::Formatter<'_>) {
         if self.is_observed() {
-            defmt::write!(f, "Cell({=i16} raw Q8.8)", self.0);
+            defmt::write!(f, "Cell({=i16} raw Q8.8)", decode(self.0));
         } else {
             defmt::write!(f, "Cell(unknown)");
         }

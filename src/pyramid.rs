@@ -212,8 +212,10 @@ pub const fn ram_bytes(cells_per_side: usize, layers: usize) -> usize {
 }
 
 impl<const W: usize, const L: usize> Pyramid<W, L> {
-    /// An unconfigured pyramid (no layers; every query answers unknown). `const`, so that
-    /// firmware can place it in a `static` and [`configure`](Self::configure) it in place.
+    /// An unconfigured pyramid (no layers; every query answers unknown). `const` and all zero
+    /// bits, so that firmware can place it in a `static` (in `.bss`: it costs no flash) and
+    /// [`configure`](Self::configure) it in place. Build it in a `static` (e.g. a
+    /// `ConstStaticCell`), not on the stack: a `DefaultPyramid` is 72 KiB.
     #[must_use]
     pub const fn new() -> Self {
         Self {
@@ -221,13 +223,15 @@ impl<const W: usize, const L: usize> Pyramid<W, L> {
             gates: [const { GateTable::ZERO }; L],
             state: State {
                 active: 0,
-                bins: DistanceBins::for_range_const_default(),
+                // Unconfigured: nothing but zero bits, so that a `static` pyramid lands in
+                // `.bss` and costs no flash. `configure` sets every field before use.
+                bins: DistanceBins::UNCONFIGURED,
                 increments: Increments {
-                    obstacle: LogOddsFixed::from_bits(217),
-                    free: LogOddsFixed::from_bits(-104),
+                    obstacle: LogOddsFixed::ZERO,
+                    free: LogOddsFixed::ZERO,
                     initial: LogOddsFixed::ZERO,
                 },
-                clamp: Clamp::OCTOMAP,
+                clamp: Clamp::Off,
                 margin: 0,
                 stats: PyramidStats {
                     applied: 0,
