@@ -1,0 +1,119 @@
+#!/usr/bin/env bash
+# The board crates' checks, for developers and CI alike:
+#   1. tools: the Cortex-M targets, llvm-tools (llvm-size), defmt-print, qemu-system-arm,
+#      each installed only if missing;
+#   2. the root memory.x is the QEMU board's;
+#   3. format and lints (clippy, warnings denied) of both board crates;
+#   4. release builds of both boards;
+#   5. the QEMU firmware: boot, self-check, echo test (bytes into UART0 over a socket, out of
+#      UART1), exit code;
+#   6. the on-target tests (defmt-test) in QEMU, for thumbv7em-none-eabihf and
+#      thumbv6m-none-eabi (both on the mps2-an386);
+#   7. flash, static RAM and stack of each board.
+# Any failure stops the script with a non-zero exit code.
+#
+#   boards/check.sh            everything
+#   boards/check.sh --no-lint  skip step 3
+set -euo pipefail
+boards="$(cd "$(dirname "$0")" && pwd)"
+root="$(dirname "$boards")"
+qemu_dir="$boards/qemu-mps2"
+stm32_dir="$boards/stm32f4"
+
+lint=1
+for arg in "$@"; do
+    case "$arg" in
+        --no-lint) lint=0 ;;
+        *) echo "check.sh: unknown argument $arg" >&2; exit 2 ;;
+    esac
+done
+
+start=$SECONDS
+step() { printf '\n==> [%4ds] %s\n' "$((SECONDS - start))" "$*"; }
+fail() { printf '\ncheck.sh: FAILED: %s\n' "$*" >&2; exit 1; }
+trap 'rc=$?; if [[ $rc -ne 0 ]]; then printf "\ncheck.sh: FAILED (exit %d) after %ds\n" "$rc" "$((SECONDS - start))" >&2; fi' EXIT
+
+step "tools"
+rustup target add thumbv7em-none-eabihf thumbv6m-none-eabi
+rustup component add rustfmt clippy llvm-tools
+host=$(rustc -vV | sed -n 's/^host: //p')
+llvm_size="$(rustc --print sysroot)/lib/rustlib/$host/bin/llvm-size"
+[[ -x "$llvm_size" ]] || fail "llvm-size not found at $llvm_size"
+if ! command -v defmt-print >/dev/null; then
+    cargo install defmt-print --locked
+fi
+if ! command -v qemu-system-arm >/dev/null; then
+    as_root=()
+    [[ $(id -u) -ne 0 ]] && as_root=(sudo)
+    "${as_root[@]}" apt-get update
+    DEBIAN_FRONTEND=noninteractive "${as_root[@]}" apt-get install -y qemu-system-arm
+fi
+command -v python3 >/dev/null || fail "python3 is needed for the UART echo test"
+defmt-print --version
+qemu-system-arm --version | head -1
+
+step "the root memory.x is the default board's (boards/qemu-mps2/memory.x)"
+cmp "$root/memory.x" "$qemu_dir/memory.x" || fail "memory.x and boards/qemu-mps2/memory.x differ"
+
+if [[ $lint -eq 1 ]]; then
+    step "format and lints: qemu-mps2 (thumbv7em and thumbv6m, firmware and tests)"
+    (cd "$qemu_dir" && cargo fmt --check)
+    (cd "$qemu_dir" && cargo clippy --release --all-targets -- -D warnings)
+    (cd "$qemu_dir" && cargo clippy --release --all-targets --target thumbv6m-none-eabi -- -D warnings)
+    step "format and lints: stm32f4"
+    (cd "$stm32_dir" && cargo fmt --check)
+    (cd "$stm32_dir" && cargo clippy --release -- -D warnings)
+fi
+
+step "build: qemu-mps2 (release)"
+(cd "$qemu_dir" && cargo build --release)
+step "build: stm32f4 (release)"
+(cd "$stm32_dir" && cargo build --release)
+
+step "QEMU firmware: self-check, echo UART0 -> UART1, exit code"
+run_log=$(mktemp)
+QEMU_TIMEOUT=60 "$qemu_dir/run.sh" --no-build 2>&1 | tee "$run_log" \
+    || fail "the QEMU firmware run failed (exit codes: 101 panic, 102 HardFault, 124 timeout)"
+grep -q "self-check passed" "$run_log" || fail "no self-check in the firmware's log"
+grep -q "match" "$run_log" || fail "the echo test did not report a match"
+qemu_stack=$(sed -n 's/.*stack: high-water \([0-9]*\) bytes.*/\1/p' "$run_log" | tail -1)
+[[ -n "$qemu_stack" ]] || fail "the firmware did not report its stack"
+
+passed=0
+for target in thumbv7em-none-eabihf thumbv6m-none-eabi; do
+    step "on-target tests: $target (QEMU mps2-an386)"
+    runner_var="CARGO_TARGET_$(echo "$target" | tr 'a-z-' 'A-Z_')_RUNNER"
+    test_log=$(mktemp)
+    (cd "$qemu_dir" && env "$runner_var=$qemu_dir/qemu-run.sh" QEMU_TIMEOUT=120 \
+        cargo test --release --target "$target") 2>&1 | tee "$test_log" \
+        || fail "on-target tests failed for $target"
+    binaries=$(grep -c "Running tests/" "$test_log" || true)
+    ok=$(grep -c "all tests passed!" "$test_log" || true)
+    [[ $binaries -gt 0 && $ok -eq $binaries ]] \
+        || fail "$target: $ok of $binaries test binaries reported success"
+    n=$(grep -Ec '^\([0-9]+/[0-9]+\) running' "$test_log" || true)
+    [[ $n -gt 0 ]] || fail "$target: no test ran"
+    echo "$target: $n tests in $binaries binaries passed"
+    passed=$((passed + n))
+    rm -f "$test_log"
+done
+
+step "sizes (default pyramid: 8 layers of 64 x 64 cells)"
+size_of() { # ELF -> "flash ram"
+    "$llvm_size" -A "$1" | awk '
+        $1 == ".vector_table" || $1 == ".text" || $1 == ".rodata" { flash += $2 }
+        $1 == ".data" { flash += $2; ram += $2 }
+        $1 == ".bss" || $1 == ".uninit" { ram += $2 }
+        END { print flash, ram }'
+}
+read -r qemu_flash qemu_ram < <(size_of "$qemu_dir/target/thumbv7em-none-eabihf/release/qemu-mps2")
+read -r stm_flash stm_ram < <(size_of "$stm32_dir/target/thumbv7em-none-eabihf/release/stm32f4-board")
+printf '%-28s %12s %16s %22s\n' board "flash (B)" "static RAM (B)" "stack high-water (B)"
+printf '%-28s %12s %16s %22s\n' "qemu-mps2 (4M/4M)" "$qemu_flash" "$qemu_ram" "$qemu_stack"
+printf '%-28s %12s %16s %22s\n' "stm32f4 (512K/128K)" "$stm_flash" "$stm_ram" "on the board (RTT log)"
+[[ $stm_flash -le $((512 * 1024)) ]] || fail "stm32f4: the image exceeds the 512 KiB flash"
+[[ $stm_ram -le $((128 * 1024 - 8 * 1024)) ]] || fail "stm32f4: under 8 KiB of RAM left for the stack"
+rm -f "$run_log"
+
+step "done in $((SECONDS - start)) s"
+echo "on-target: $passed passed, 0 failed"

@@ -1,0 +1,134 @@
+//! Interrupt-driven reception into bounded queues.
+//!
+//! Each USART's RXNE interrupt drains its data register into a `heapless` SPSC queue: the
+//! interrupt owns the producer (inside a `critical_section::Mutex`, installed once), the main
+//! loop owns the consumer and never blocks the interrupt. A byte that finds its queue full is
+//! dropped and counted; a framing, noise, parity or overrun error is counted. Nothing panics.
+
+use core::cell::RefCell;
+
+use critical_section::Mutex;
+use embedded_hal_nb::serial::Read;
+use heapless::spsc::{Consumer, Producer, Queue};
+use static_cell::ConstStaticCell;
+use stm32f4xx_hal::pac::{USART1, USART2};
+use stm32f4xx_hal::serial::{Instance, Rx, RxListen};
+
+/// Bytes the laser queue holds: 2047 (about 41 ms at 500 kBd, more than two full LMS
+/// telegrams of 732 bytes).
+pub const LASER_QUEUE: usize = 2048;
+/// Bytes the host-link queue holds: 511 (about 5.5 ms at 921.6 kBd).
+pub const HOST_QUEUE: usize = 512;
+
+/// What a receive path has counted since it was installed. Counters saturate.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, defmt::Format)]
+pub struct RxStats {
+    /// Bytes queued.
+    pub bytes: u32,
+    /// Bytes dropped because the queue was full.
+    pub dropped: u32,
+    /// Receive errors (framing, noise, parity, overrun).
+    pub errors: u32,
+}
+
+struct RxPath<U: Instance> {
+    rx: Rx<U>,
+    producer: Producer<'static, u8>,
+    stats: RxStats,
+}
+
+impl<U: Instance> RxPath<U> {
+    /// Moves every byte the USART holds into the queue.
+    fn drain(&mut self) {
+        loop {
+            match self.rx.read() {
+                Ok(byte) => {
+                    if self.producer.enqueue(byte).is_ok() {
+                        self.stats.bytes = self.stats.bytes.saturating_add(1);
+                    } else {
+                        self.stats.dropped = self.stats.dropped.saturating_add(1);
+                    }
+                }
+                Err(nb::Error::WouldBlock) => break,
+                // The HAL has read the data register, which clears the error flags.
+                Err(nb::Error::Other(_)) => self.stats.errors = self.stats.errors.saturating_add(1),
+            }
+        }
+    }
+}
+
+static LASER_QUEUE_CELL: ConstStaticCell<Queue<u8, LASER_QUEUE>> =
+    ConstStaticCell::new(Queue::new());
+static HOST_QUEUE_CELL: ConstStaticCell<Queue<u8, HOST_QUEUE>> = ConstStaticCell::new(Queue::new());
+
+static LASER: Mutex<RefCell<Option<RxPath<USART1>>>> = Mutex::new(RefCell::new(None));
+static HOST: Mutex<RefCell<Option<RxPath<USART2>>>> = Mutex::new(RefCell::new(None));
+
+/// Hands the laser's receiver to its interrupt (enabling RXNE) and returns the queue's
+/// consumer. Call once, before [`crate::hw::unmask_usart_interrupts`].
+pub fn install_laser(mut rx: Rx<USART1>) -> Consumer<'static, u8> {
+    let (producer, consumer) = LASER_QUEUE_CELL.take().split();
+    rx.listen();
+    critical_section::with(|cs| {
+        LASER.borrow(cs).replace(Some(RxPath {
+            rx,
+            producer,
+            stats: RxStats::default(),
+        }));
+    });
+    consumer
+}
+
+/// Hands the host link's receiver to its interrupt (enabling RXNE) and returns the queue's
+/// consumer. Call once, before [`crate::hw::unmask_usart_interrupts`].
+pub fn install_host(mut rx: Rx<USART2>) -> Consumer<'static, u8> {
+    let (producer, consumer) = HOST_QUEUE_CELL.take().split();
+    rx.listen();
+    critical_section::with(|cs| {
+        HOST.borrow(cs).replace(Some(RxPath {
+            rx,
+            producer,
+            stats: RxStats::default(),
+        }));
+    });
+    consumer
+}
+
+/// The USART1 interrupt's work.
+pub fn on_laser_interrupt() {
+    critical_section::with(|cs| {
+        if let Some(path) = LASER.borrow_ref_mut(cs).as_mut() {
+            path.drain();
+        }
+    });
+}
+
+/// The USART2 interrupt's work.
+pub fn on_host_interrupt() {
+    critical_section::with(|cs| {
+        if let Some(path) = HOST.borrow_ref_mut(cs).as_mut() {
+            path.drain();
+        }
+    });
+}
+
+/// The laser path's counters.
+pub fn laser_stats() -> RxStats {
+    critical_section::with(|cs| {
+        LASER
+            .borrow_ref(cs)
+            .as_ref()
+            .map(|p| p.stats)
+            .unwrap_or_default()
+    })
+}
+
+/// The host path's counters.
+pub fn host_stats() -> RxStats {
+    critical_section::with(|cs| {
+        HOST.borrow_ref(cs)
+            .as_ref()
+            .map(|p| p.stats)
+            .unwrap_or_default()
+    })
+}
