@@ -3,14 +3,17 @@
 //! the library's code — and the helpers that let property tests and the `agreement` example
 //! hold the fixed-point library to it.
 //!
-//! - [`reference`]: the reference itself (no dependency on the library).
+//! - [`mod@reference`]: the reference itself (no dependency on the library).
 //! - [`harness`]: conversions between the library's types and the reference's, and the
 //!   comparison of a library pyramid with a reference pyramid.
 //! - [`workload`]: evidence/recentre sequences that drive both in lock step.
+//! - [`sim`]: a swept-laser ray-casting simulator that writes recordings with real SICK
+//!   telegrams, and the ground truth of its scenes.
 //! - [`classify`]: the classifier's reference (every point kept, the rule applied exactly).
 
 pub mod classify;
 pub mod geometry;
 pub mod harness;
+pub mod sim;
 pub mod reference;
 pub mod workload;
