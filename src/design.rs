@@ -93,6 +93,11 @@ pub struct Schedule {
     pub gamma: f32,
     /// The gate that assigns observations to layers. Default: soft, width factor 0.5.
     pub gate: GateShape,
+    /// Every layer at the base cell size Δd, the bands still those of the linear schedule:
+    /// the paper's stairs experiment ("all levels of the pyramid were chosen to have a fixed
+    /// resolution for the purposes of comparison"), where only the range banding differs
+    /// from a flat grid. Default `false`. Windows must then hold the bands at Δd.
+    pub uniform_resolution: bool,
 }
 
 impl Default for Schedule {
@@ -101,6 +106,7 @@ impl Default for Schedule {
             base_m: 0.1,
             gamma: 2.0,
             gate: GateShape::default(),
+            uniform_resolution: false,
         }
     }
 }
@@ -409,7 +415,9 @@ fn check_in(param: Param, value: f32, max: f32) -> Result<(), DesignError> {
 }
 
 impl Schedule {
-    /// The cell size `r_k` of layer k, metres: `Δd` for k = 0, `k·γ·Δd` otherwise.
+    /// The cell size `r_k` of layer k in the linear schedule, metres: `Δd` for k = 0,
+    /// `k·γ·Δd` otherwise. It sets the band edges; with [`Schedule::uniform_resolution`] every
+    /// layer's cells are nevertheless `Δd`.
     #[must_use]
     pub fn resolution(&self, k: usize) -> f32 {
         if k == 0 {
@@ -523,11 +531,16 @@ impl<const L: usize> Design<L> {
         let mut layers = Vec::new();
         let mut inner = 0.0_f32;
         for k in 0..needed {
-            let resolution_m = schedule.resolution(k);
+            let schedule_m = schedule.resolution(k);
             let outer = if k + 1 == needed {
                 sensor.max_range_m
             } else {
-                sensor.reach(resolution_m)
+                sensor.reach(schedule_m)
+            };
+            let resolution_m = if schedule.uniform_resolution {
+                schedule.base_m
+            } else {
+                schedule_m
             };
             let gate_sigma_m = match schedule.gate {
                 GateShape::Hard => 0.0,
@@ -672,6 +685,33 @@ mod tests {
         for l in &d.layers()[..d.layers().len() - 1] {
             assert!(s.bound(l.band_outer_m).total_m <= l.resolution_m * 1.0001);
             assert!(s.bound(l.band_outer_m + 0.001).total_m > l.resolution_m);
+        }
+    }
+
+    #[test]
+    fn uniform_resolution_keeps_the_bands_and_the_base_cell() {
+        let linear = Design::<16>::new(SensorModel::default(), Schedule::default(), 64).unwrap();
+        let schedule = Schedule {
+            uniform_resolution: true,
+            ..Schedule::default()
+        };
+        // Layer 2's band ends at 3.68 m: 2·(37 + 1) = 76 cells of 0.1 m, more than 64.
+        assert!(matches!(
+            Design::<16>::new(SensorModel::default(), schedule, 64),
+            Err(DesignError::WindowTooSmall {
+                layer: 2,
+                needed: 76,
+                ..
+            })
+        ));
+        let uniform = Design::<16>::new(SensorModel::default(), schedule, 256).unwrap();
+        assert_eq!(uniform.layers().len(), linear.layers().len());
+        for (u, l) in uniform.layers().iter().zip(linear.layers()) {
+            assert_eq!(u.resolution_m, 0.1);
+            assert_eq!(
+                (u.band_inner_m, u.band_outer_m),
+                (l.band_inner_m, l.band_outer_m)
+            );
         }
     }
 

@@ -72,6 +72,7 @@ fn random_config(rng: &mut Rng) -> (tp::SensorModel, tp::Schedule, usize) {
         base_m: base,
         gamma,
         gate,
+        uniform_resolution: false,
     };
     // The smallest window that holds every band (if any), so that most configurations pass.
     let o = bands::design(

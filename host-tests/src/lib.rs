@@ -14,6 +14,6 @@
 pub mod classify;
 pub mod geometry;
 pub mod harness;
-pub mod sim;
 pub mod reference;
+pub mod sim;
 pub mod workload;

@@ -64,6 +64,7 @@ fn design_inputs(which: Which) -> (tp::SensorModel, tp::Schedule, usize) {
                 } else {
                     tp::GateShape::Hard
                 },
+                uniform_resolution: false,
             },
             10,
         ),

@@ -115,6 +115,10 @@ pub struct DesignArgs {
         allow_hyphen_values = true
     )]
     pub gate_width: f64,
+    /// Every layer at the base cell size, the bands still those of the linear schedule (the
+    /// paper's stairs experiment); the window must then hold each band at the base cell.
+    #[arg(long)]
+    pub uniform_resolution: bool,
 }
 
 /// The gate shape, as the command line names it.
@@ -158,6 +162,7 @@ pub fn schedule(args: &DesignArgs) -> Schedule {
         base_m: to_f32(args.base_m),
         gamma: to_f32(args.gamma),
         gate,
+        uniform_resolution: args.uniform_resolution,
     }
 }
 

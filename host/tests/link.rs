@@ -201,6 +201,7 @@ fn commands() -> impl Strategy<Value = Owned> {
                     gate: gate.map_or(GateShape::Hard, |width_factor| GateShape::Soft {
                         width_factor,
                     }),
+                    uniform_resolution: false,
                 },
                 cells_per_side,
                 model: InverseSensorModel {

@@ -59,6 +59,7 @@ pub fn schedule_for(sensor: tp::SensorModel) -> impl Strategy<Value = tp::Schedu
                 base_m: base.min(100.0) as f32,
                 gamma,
                 gate,
+                uniform_resolution: false,
             }
         })
 }

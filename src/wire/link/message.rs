@@ -1135,10 +1135,12 @@ impl<'a> Message<'a> {
                 };
                 Self::Configure(Configure {
                     sensor,
+                    // Version 1 of the link configures the linear schedule only.
                     schedule: Schedule {
                         base_m,
                         gamma,
                         gate,
+                        uniform_resolution: false,
                     },
                     cells_per_side,
                     model,

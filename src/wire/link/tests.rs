@@ -102,6 +102,7 @@ fn configure_golden() {
             base_m: 0.1,
             gamma: 2.0,
             gate: GateShape::Soft { width_factor: 0.5 },
+            uniform_resolution: false,
         },
         cells_per_side: 64,
         model: InverseSensorModel {
