@@ -38,6 +38,99 @@ pub struct FrontendConfig {
     pub lines_per_observation: u32,
     /// The navigability rule's thresholds and options.
     pub classifier: ClassifierConfig,
+    /// Missing ground: a beam that returns nothing although it points down at flat ground
+    /// (the robot's ground plane) closer than this range marks the cell where the ground
+    /// should have been as not navigable (a hole, a drop-off). `None` (the default) treats a
+    /// missing return as no information: dark or wet ground also returns nothing.
+    pub missing_ground_within: Option<Meters>,
+}
+
+/// Why a recording's (or the link's) setup cannot configure the pipeline.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[non_exhaustive]
+pub enum SetupError {
+    /// No scanner variant has this field of view and resolution.
+    UnknownVariant {
+        /// Field of view, degrees.
+        field_deg: u16,
+        /// Angular resolution, hundredths of a degree.
+        resolution_cdeg: u16,
+    },
+    /// The SICK measuring mode is not one the decoder knows.
+    UnknownMeasuringMode {
+        /// The 0x77 mode number.
+        code: u8,
+    },
+    /// A sensor position coordinate is not finite or beyond ±1000 m.
+    BadPosition,
+}
+
+impl fmt::Display for SetupError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match *self {
+            Self::UnknownVariant {
+                field_deg,
+                resolution_cdeg,
+            } => write!(
+                f,
+                "no SICK variant scans {field_deg}° at {resolution_cdeg}/100°"
+            ),
+            Self::UnknownMeasuringMode { code } => {
+                write!(f, "measuring mode {code:#04x} is not supported")
+            }
+            Self::BadPosition => {
+                f.write_str("the sensor position must be finite and within ±1000 m")
+            }
+        }
+    }
+}
+
+impl FrontendConfig {
+    /// The pipeline's configuration from a recording's setup, with the given classifier and
+    /// missing ground off.
+    ///
+    /// # Errors
+    /// An unknown variant or measuring mode, or a sensor position that is not finite or
+    /// beyond ±1000 m.
+    pub fn from_setup(
+        setup: &crate::wire::recording::Setup,
+        classifier: ClassifierConfig,
+    ) -> Result<Self, SetupError> {
+        use crate::geometry::ScanPlane;
+        use crate::wire::recording::MountKind;
+        let variant = Variant::from_sick(setup.field_deg, setup.resolution_cdeg).ok_or(
+            SetupError::UnknownVariant {
+                field_deg: setup.field_deg,
+                resolution_cdeg: setup.resolution_cdeg,
+            },
+        )?;
+        let measuring_mode = MeasuringMode::from_code(setup.measuring_mode).map_err(|_| {
+            SetupError::UnknownMeasuringMode {
+                code: setup.measuring_mode,
+            }
+        })?;
+        if setup
+            .sensor_m
+            .iter()
+            .any(|v| !v.is_finite() || v.abs() > 1000.0)
+        {
+            return Err(SetupError::BadPosition);
+        }
+        let [x, y, z] = setup.sensor_m.map(crate::units::meters_from_f32);
+        let plane = match setup.mount {
+            MountKind::PannedVertical => ScanPlane::PannedVertical,
+            MountKind::TiltedHorizontal => ScanPlane::TiltedHorizontal,
+        };
+        Ok(Self {
+            mount: Mount::new(plane, crate::units::Point3 { x, y, z }),
+            variant,
+            measuring_mode,
+            lines_per_observation: setup.lines_per_observation,
+            classifier,
+            missing_ground_within: None,
+        })
+    }
 }
 
 /// Counters of the pipeline. They saturate at `u32::MAX`.
@@ -54,6 +147,8 @@ pub struct FrontendStats {
     pub no_return: u32,
     /// Returns whose geometry could not be computed (out of the transform's range).
     pub returns_dropped: u32,
+    /// No-return beams taken as missing ground.
+    pub missing_ground: u32,
     /// Observations finished and applied.
     pub observations: u32,
 }
@@ -270,15 +365,26 @@ impl<const C: usize> Frontend<C> {
         let ground_z: Meters = self.pose.z;
         let variant = self.config.variant;
         for (j, range) in values.ranges_mm(self.config.measuring_mode).enumerate() {
-            let Some(range_mm) = range else {
-                self.stats.no_return = self.stats.no_return.saturating_add(1);
-                continue;
-            };
-            self.stats.returns = self.stats.returns.saturating_add(1);
             let beam = match layout {
                 Layout::Full => Some(j),
                 Layout::Partial(p) => variant.partial_scan_beam(p, j),
             };
+            let Some(range_mm) = range else {
+                self.stats.no_return = self.stats.no_return.saturating_add(1);
+                if let (Some(within), Some(b)) = (self.config.missing_ground_within, beam) {
+                    Self::missing_ground(
+                        &mut self.classifier,
+                        &mut self.stats,
+                        pyramid,
+                        &transform,
+                        b,
+                        ground_z,
+                        within,
+                    );
+                }
+                continue;
+            };
+            self.stats.returns = self.stats.returns.saturating_add(1);
             match beam.and_then(|b| transform.locate(b, range_mm)) {
                 Some(located) => {
                     self.classifier
@@ -296,6 +402,46 @@ impl<const C: usize> Frontend<C> {
             self.end_observation(pyramid);
         }
         Ok(())
+    }
+
+    /// Where a no-return beam should have met the ground plane, if it points down at it
+    /// closer than `within`: that cell is marked as missing ground. One division, and only
+    /// for beams that returned nothing.
+    fn missing_ground<const W: usize, const L: usize>(
+        classifier: &mut Classifier<C>,
+        stats: &mut FrontendStats,
+        pyramid: &Pyramid<W, L>,
+        transform: &LineTransform<'_>,
+        beam: usize,
+        ground_z: Meters,
+        within: Meters,
+    ) {
+        const METRE_MM: u32 = 1000;
+        let (Some(unit), origin) = (transform.point(beam, METRE_MM), transform.sensor_origin())
+        else {
+            return;
+        };
+        // The beam's drop per metre of range; beams within ~1° of the horizon never meet the
+        // ground in range and are skipped.
+        let drop = origin.z.saturating_sub(unit.z);
+        let height = origin.z.saturating_sub(ground_z);
+        if drop < Meters::lit("0.02") || height <= Meters::ZERO {
+            return;
+        }
+        let Some(range) = height.checked_div(drop) else {
+            return;
+        };
+        if range > within {
+            return;
+        }
+        let range_mm = range.saturating_mul_int(1000).to_num::<i64>();
+        let Ok(range_mm) = u32::try_from(range_mm) else {
+            return;
+        };
+        if let Some(expected) = transform.locate(beam, range_mm) {
+            classifier.add_missing_ground(pyramid, expected.point, expected.horizontal);
+            stats.missing_ground = stats.missing_ground.saturating_add(1);
+        }
     }
 
     /// Ends the current observation now (if it holds any line): recentres the pyramid on the
@@ -360,6 +506,7 @@ mod tests {
             measuring_mode: MeasuringMode::Mm8Cm80,
             lines_per_observation: lines,
             classifier: ClassifierConfig::default(),
+            missing_ground_within: None,
         };
         (Frontend::new(config), p)
     }
@@ -390,6 +537,40 @@ mod tests {
             "{:?}",
             at(2.02, 0.05)
         );
+    }
+
+    #[test]
+    fn no_return_beams_mark_missing_ground_only_when_asked() {
+        // The floor returns nothing between 1.2 and 1.6 m ahead (a hole), seen at 20° tilt.
+        let holed = |tilt: f64| {
+            let mut v = ranges_mm(tilt);
+            for pair in v.chunks_mut(2) {
+                let r = u16::from_le_bytes([pair[0], pair[1]]);
+                let ahead = f64::from(r) / 1000.0 * tilt.to_radians().cos();
+                if (1.2..1.6).contains(&ahead) {
+                    pair.copy_from_slice(&0x1FFF_u16.to_le_bytes());
+                }
+            }
+            v
+        };
+        for within in [None, Some(Meters::from_num(8))] {
+            let (mut f, mut p) = setup(1);
+            let mut config = *f.config();
+            config.missing_ground_within = within;
+            f.configure(config);
+            let values = holed(20.0);
+            let line = MeasuredValues::new(Unit::Millimetre, 0, &values, None, 0).unwrap();
+            f.set_actuator(FineAngle::from_quarter_degrees(80));
+            f.line(&mut p, &line).unwrap();
+            let at_hole = p.fused(Meters::from_num(1.4), Meters::from_num(0.02));
+            if within.is_some() {
+                assert!(f.stats().missing_ground > 0);
+                assert!(matches!(at_hole, Fused::Obstacle { .. }), "{at_hole:?}");
+            } else {
+                assert_eq!(f.stats().missing_ground, 0);
+                assert_eq!(at_hole, Fused::Unknown);
+            }
+        }
     }
 
     #[test]

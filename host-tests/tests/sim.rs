@@ -3,14 +3,14 @@
 
 use terrain_pyramid::classify::ClassifierConfig;
 use terrain_pyramid::drivers::angle::Angle;
-use terrain_pyramid::geometry::{FineAngle, Mount, Pose, ScanPlane, Variant};
+use terrain_pyramid::geometry::{FineAngle, Pose};
 use terrain_pyramid::pipeline::{Frontend, FrontendConfig};
 use terrain_pyramid::wire::recording::{MountKind, Payload, Reader, Setup};
 use terrain_pyramid::wire::sick::{
     range_mm, Accumulator, FeedResult, MeasuredValues, MeasuringMode, Unit,
 };
 use terrain_pyramid::{
-    Config, DefaultDesign, DefaultPyramid, Fused, Meters, Point3, Schedule, SensorModel,
+    Config, DefaultDesign, DefaultPyramid, Fused, Meters, Schedule, SensorModel,
     DEFAULT_CELLS_PER_SIDE,
 };
 use terrain_pyramid_host_tests::sim::laser::{
@@ -117,24 +117,7 @@ fn decode(bytes: &[u8]) -> Decoded {
 }
 
 fn frontend_config(setup: &Setup) -> FrontendConfig {
-    let [x, y, z] = setup.sensor_m;
-    FrontendConfig {
-        mount: Mount::new(
-            match setup.mount {
-                MountKind::PannedVertical => ScanPlane::PannedVertical,
-                MountKind::TiltedHorizontal => ScanPlane::TiltedHorizontal,
-            },
-            Point3 {
-                x: Meters::from_num(x),
-                y: Meters::from_num(y),
-                z: Meters::from_num(z),
-            },
-        ),
-        variant: Variant::from_sick(setup.field_deg, setup.resolution_cdeg).unwrap(),
-        measuring_mode: MeasuringMode::from_code(setup.measuring_mode).unwrap(),
-        lines_per_observation: setup.lines_per_observation,
-        classifier: ClassifierConfig::default(),
-    }
+    FrontendConfig::from_setup(setup, ClassifierConfig::default()).unwrap()
 }
 
 /// Classifier slots of the test pipeline: 8 lines of 361 beams with room to spare.

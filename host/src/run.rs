@@ -12,13 +12,12 @@ use serde::Serialize;
 use std::path::PathBuf;
 use std::process::ExitCode;
 use terrain_pyramid::classify::ClassifierConfig;
-use terrain_pyramid::geometry::{FineAngle, Mount, Pose, ScanPlane, Variant};
+use terrain_pyramid::geometry::{FineAngle, Pose};
 use terrain_pyramid::pipeline::FrontendConfig;
-use terrain_pyramid::wire::recording::{MountKind, Payload, Reader, Setup};
-use terrain_pyramid::wire::sick::{Accumulator, FeedResult, MeasuredValues, MeasuringMode};
+use terrain_pyramid::wire::recording::{Payload, Reader};
+use terrain_pyramid::wire::sick::{Accumulator, FeedResult, MeasuredValues};
 use terrain_pyramid::{
-    Clamp, Config, DefaultDesign, DefaultFrontend, DefaultPyramid, Meters, Point3,
-    DEFAULT_CELLS_PER_SIDE,
+    Clamp, Config, DefaultDesign, DefaultFrontend, DefaultPyramid, Meters, DEFAULT_CELLS_PER_SIDE,
 };
 
 /// Where the pipeline runs.
@@ -89,30 +88,6 @@ struct Summary<'a> {
     board: &'static str,
 }
 
-/// The pipeline's configuration from a recording's setup.
-fn frontend_config(setup: &Setup, classifier: ClassifierConfig) -> Result<FrontendConfig, String> {
-    let variant = Variant::from_sick(setup.field_deg, setup.resolution_cdeg).ok_or_else(|| {
-        format!(
-            "the recording's scanner variant {}°/{}c° is not supported",
-            setup.field_deg, setup.resolution_cdeg
-        )
-    })?;
-    let measuring_mode = MeasuringMode::from_code(setup.measuring_mode)
-        .map_err(|e| format!("the recording's measuring mode: {e}"))?;
-    let plane = match setup.mount {
-        MountKind::PannedVertical => ScanPlane::PannedVertical,
-        MountKind::TiltedHorizontal => ScanPlane::TiltedHorizontal,
-    };
-    let [x, y, z] = setup.sensor_m.map(Meters::saturating_from_num);
-    Ok(FrontendConfig {
-        mount: Mount::new(plane, Point3 { x, y, z }),
-        variant,
-        measuring_mode,
-        lines_per_observation: setup.lines_per_observation,
-        classifier,
-    })
-}
-
 /// Plays `data` (a whole recording) through the pipeline into `pyramid`.
 ///
 /// # Errors
@@ -131,7 +106,8 @@ pub fn play(
         let event = event.map_err(|e| format!("the recording: {e}"))?;
         match event.payload {
             Payload::Setup(setup) => {
-                let config = frontend_config(&setup, classifier)?;
+                let config = FrontendConfig::from_setup(&setup, classifier)
+                    .map_err(|e| format!("the recording's setup: {e}"))?;
                 frontend = Some(Box::new(DefaultFrontend::new(config)));
             }
             Payload::Angle(turns) => {
