@@ -10,7 +10,7 @@ use std::process::ExitCode;
 use terrain_pyramid::design::BoundTerms;
 use terrain_pyramid::{Design, DesignError, GateShape, Schedule, SensorModel};
 
-mod plot;
+pub(crate) mod plot;
 
 /// The number of layers the pyramid is compiled for: the `L` of `Design::<L>`.
 pub const LAYER_CAPACITY: usize = 16;

@@ -25,6 +25,7 @@ use terrain_pyramid::logodds::round_to_log_odds;
 use terrain_pyramid::{
     Cell, CellClass, Config, Design, Fused, LayerCounts, LogOddsFixed, Meters, Pyramid, Resolution,
 };
+use terrain_pyramid_host::link::Mirror;
 
 pub mod picture;
 
@@ -255,6 +256,45 @@ impl MapSnapshot {
             sensor_xy,
             fused_margin: round_to_log_odds(config.fused_margin),
         }
+    }
+
+    /// The maps of the host's [`Mirror`] of the device's pyramid (`pyramid listen`): the
+    /// windows, cells and cell sizes as the device last sent them, the bands from its Hello
+    /// (zeros when the device did not know its design), and the fused `margin`, which the
+    /// device does not send (0 unless the host knows it). `None` before the first Hello, or
+    /// when a layer's cell size is not one the library can hold.
+    #[must_use]
+    pub fn from_mirror(
+        mirror: &Mirror,
+        margin: LogOddsFixed,
+        sensor_xy: (f64, f64),
+    ) -> Option<Self> {
+        let w = mirror.cells_per_side();
+        mirror.firmware()?;
+        let layers = (0..mirror.layer_count())
+            .map(|k| {
+                let layer = mirror.layer(k)?;
+                let bits = layer.resolution_q16;
+                // The library's own rounding gives back the exact raw value for every cell
+                // size up to 128 m; refuse anything else rather than export a wrong one.
+                #[allow(clippy::cast_precision_loss)]
+                let resolution =
+                    Resolution::from_m(bits as f32 / 65_536.0).filter(|r| r.to_bits() == bits)?;
+                Some(LayerSnapshot {
+                    index: k,
+                    resolution,
+                    band_m: [f64::from(layer.band_m.0), f64::from(layer.band_m.1)],
+                    origin_cells: layer.origin,
+                    cells_per_side: w,
+                    cells: layer.cells().to_vec(),
+                })
+            })
+            .collect::<Option<Vec<_>>>()?;
+        Some(Self {
+            layers,
+            sensor_xy,
+            fused_margin: margin,
+        })
     }
 
     /// The fused answer at world point `(x, y)`: the library's rule
@@ -752,6 +792,53 @@ mod tests {
                 assert_ne!(zero.fused_region(x0, y0, step, w, h), expected);
             }
         }
+    }
+
+    #[test]
+    fn a_synced_mirror_exports_exactly_the_devices_maps() {
+        use terrain_pyramid::link::{Link, LinkConfig, SensorCounters};
+        use terrain_pyramid_host::link::HostLink;
+        let config = Config::default();
+        let design = DefaultDesign::new(
+            SensorModel::default(),
+            Schedule::default(),
+            DEFAULT_CELLS_PER_SIDE,
+        )
+        .unwrap();
+        let mut p = Box::new(DefaultPyramid::new());
+        let mut link: Box<Link> = Box::new(Link::new(LinkConfig::DEFAULT));
+        let mut host = HostLink::new();
+        // Before any Hello the mirror has no maps.
+        assert_eq!(
+            MapSnapshot::from_mirror(host.mirror(), LogOddsFixed::ZERO, (0.0, 0.0)),
+            None
+        );
+        link.configure(&mut p, &design, &config).unwrap();
+        let robot = scramble(&mut p, &mut Rng(0xFEED));
+        let mut uart = vec![0_u8; 4096];
+        let mut now_ms = 0_u32;
+        for _ in 0..100_000 {
+            now_ms += 10;
+            link.poll(now_ms, &mut *p, &SensorCounters::default());
+            let n = link.pop_bytes(&mut uart);
+            host.feed(&uart[..n]);
+            let quiet = link.queue().is_empty()
+                && (0..p.layer_count()).all(|k| p.layer(k).unwrap().dirty() == 0);
+            if quiet {
+                break;
+            }
+        }
+        assert!(host.mirror().is_synced());
+        let mirrored = MapSnapshot::from_mirror(host.mirror(), LogOddsFixed::ZERO, robot).unwrap();
+        let direct = MapSnapshot::from_pyramid(&p, &design, &config, robot);
+        // Cells, windows, cell sizes and bands (from the Hello) all equal the library's.
+        assert_eq!(mirrored, direct);
+        assert!(mirrored.layers.iter().any(|l| l.counts().obstacle > 0));
+        assert!(mirrored.layers.iter().all(|l| l.band_m[1] > l.band_m[0]));
+        // The fused margin is the host's to give: the device does not send it.
+        let margin = round_to_log_odds(0.5);
+        let with = MapSnapshot::from_mirror(host.mirror(), margin, robot).unwrap();
+        assert_eq!(with.fused_margin, margin);
     }
 
     fn layer(cells: Vec<i16>, n: usize) -> LayerSnapshot {

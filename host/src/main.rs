@@ -6,7 +6,9 @@ use clap::{Parser, Subcommand};
 use std::process::ExitCode;
 
 mod design;
+mod experiments;
 mod export;
+mod listen;
 mod record3dtk;
 mod replay;
 mod run;
@@ -30,6 +32,10 @@ enum Command {
     /// Turn a structured 3DTK tilt scan into a recording of SICK telegrams and tilt angles.
     #[command(name = "record-3dtk")]
     Record3dtk(record3dtk::Args),
+    /// Reproduce the paper's experiments on the simulator: Figure 2, stairs, coverage, cost.
+    Experiments(experiments::Args),
+    /// Receive the device's map stream over a serial port or TCP and write the maps.
+    Listen(listen::Args),
     /// Play a recording through the co-processor's pipeline and write the maps it builds.
     Run(run::Args),
     /// Decode a captured SICK LMS2xx byte stream: measured values and framing errors.
@@ -44,5 +50,7 @@ fn main() -> ExitCode {
         Command::SickDecode(args) => sick_decode::run(&args),
         Command::Record3dtk(args) => record3dtk::run(&args),
         Command::Run(args) => run::run(&args),
+        Command::Listen(args) => listen::run(&args),
+        Command::Experiments(args) => experiments::run(&args),
     }
 }

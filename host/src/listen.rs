@@ -1,0 +1,781 @@
+//! `pyramid listen`: receives the device's map stream (`docs/protocol.md`) from a serial port
+//! or a TCP socket (the emulated board), keeps the host's mirror of its pyramid, and writes
+//! the maps when the session ends, in the same files as `pyramid replay` (see
+//! [`crate::export`]) and a `summary.json`.
+//!
+//! # The session
+//! - On connecting it sends one `0x00` (to end whatever the device's receiver holds) and a
+//!   `RequestSnapshot(all)`, so that a device that was already running sends its whole maps.
+//! - It asks again whenever the mirror may be wrong: a frame was lost or refused
+//!   ([`LinkEvent::SnapshotNeeded`], [`Mirror::needs_snapshot`]). While a request is
+//!   outstanding (no Hello has answered it) it does not ask again for [`SNAPSHOT_RETRY`], so
+//!   a lossy line does not restart the resend on every gap.
+//! - A status line on stderr, refreshed every [`STATUS_INTERVAL`]: rewritten in place with `\r`
+//!   when stderr is a terminal, one plain line each time otherwise.
+//! - It ends on Ctrl-C (or SIGTERM), when the device closes the stream, or after
+//!   `--duration-s`; it then writes the last maps. A second Ctrl-C exits at once (status 130).
+//!
+//! # summary.json
+//! The maps' part is `pyramid replay`'s (`layers`, `fused`); the points are not known to the
+//! host, so instead come the link's counters (`frames`, `crc_errors`, `patches`, `gaps`,
+//! `snapshots_requested`, …), whether the mirror was `synced` with the device at the end,
+//! and a hash of each layer's raw cells (`layer_cells_fnv1a64`, FNV-1a 64 of the W × W cells
+//! as `i16` little-endian, row-major from the lowest row), to compare with the device's.
+use crate::export::{self, MapSnapshot, MapSummary};
+use serde::Serialize;
+use std::collections::VecDeque;
+use std::io::{IsTerminal, Read, Write};
+use std::net::{TcpStream, ToSocketAddrs};
+use std::path::PathBuf;
+use std::process::ExitCode;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+use terrain_pyramid::wire::link::{HelloReason, Message, RxCounters, SnapshotScope};
+use terrain_pyramid::LogOddsFixed;
+use terrain_pyramid_host::link::{HostLink, LinkEvent, Mirror};
+
+/// How often the status line is refreshed.
+pub const STATUS_INTERVAL: Duration = Duration::from_millis(250);
+
+/// The window the rates of the status line are measured over.
+pub const RATE_WINDOW: Duration = Duration::from_secs(1);
+
+/// How long an unanswered snapshot request stands before the host asks again.
+pub const SNAPSHOT_RETRY: Duration = Duration::from_secs(2);
+
+/// The protocol's line speed, baud.
+pub const DEFAULT_BAUD: u32 = 921_600;
+
+/// How long one read waits for bytes, so that Ctrl-C and the deadline are seen promptly.
+const READ_TIMEOUT: Duration = Duration::from_millis(50);
+
+/// How long connecting to a TCP address may take.
+const CONNECT_TIMEOUT: Duration = Duration::from_secs(5);
+
+/// Arguments of `pyramid listen`.
+#[derive(clap::Args, Debug, Clone)]
+#[command(group(clap::ArgGroup::new("source").required(true).args(["port", "tcp"])))]
+pub struct Args {
+    /// The device's serial port (8N1).
+    #[arg(long, value_name = "PATH")]
+    pub port: Option<String>,
+    /// The serial port's speed, baud [default: 921600, the protocol's].
+    #[arg(long, value_name = "BD", conflicts_with = "tcp")]
+    pub baud: Option<u32>,
+    /// A TCP address serving the device's stream instead (the emulated board).
+    #[arg(long, value_name = "HOST:PORT")]
+    pub tcp: Option<String>,
+    /// The directory the maps, the picture and `summary.json` are written into (created if
+    /// missing).
+    #[arg(long, value_name = "DIR")]
+    pub out: PathBuf,
+    /// Print the summary as one JSON object on stdout (it is always written to
+    /// `DIR/summary.json`).
+    #[arg(long)]
+    pub json: bool,
+    /// Stop after this many seconds (otherwise at Ctrl-C or the end of the stream).
+    #[arg(long, value_name = "N", value_parser = positive_seconds)]
+    pub duration_s: Option<f64>,
+}
+
+fn positive_seconds(s: &str) -> Result<f64, String> {
+    let v: f64 = s.parse().map_err(|_| format!("{s:?} is not a number"))?;
+    if v.is_finite() && v > 0.0 && v < 1e9 {
+        Ok(v)
+    } else {
+        Err(format!("{s:?} is not a positive number of seconds"))
+    }
+}
+
+// ------------------------------------------------------------------ the byte stream
+
+/// Where the device's bytes come from.
+enum Transport {
+    Serial(Box<dyn serialport::SerialPort>),
+    Tcp(TcpStream),
+}
+
+/// What one read gave.
+enum Received {
+    Bytes(usize),
+    Nothing,
+    /// The stream ended; the reason, when it was an error.
+    Ended(Option<String>),
+}
+
+impl Transport {
+    fn open(args: &Args) -> Result<(Self, String), String> {
+        if let Some(path) = &args.port {
+            let baud = args.baud.unwrap_or(DEFAULT_BAUD);
+            let port = serialport::new(path.as_str(), baud)
+                .data_bits(serialport::DataBits::Eight)
+                .parity(serialport::Parity::None)
+                .stop_bits(serialport::StopBits::One)
+                .flow_control(serialport::FlowControl::None)
+                .timeout(READ_TIMEOUT)
+                .open()
+                .map_err(|e| format!("cannot open the serial port {path}: {e}"))?;
+            return Ok((Self::Serial(port), format!("{path} at {baud} Bd")));
+        }
+        let address = args.tcp.as_deref().unwrap_or_default();
+        let addrs: Vec<_> = address
+            .to_socket_addrs()
+            .map_err(|e| format!("cannot connect to {address}: {e}"))?
+            .collect();
+        let mut last = format!("cannot connect to {address}: no address");
+        for addr in addrs {
+            match TcpStream::connect_timeout(&addr, CONNECT_TIMEOUT) {
+                Ok(stream) => {
+                    stream
+                        .set_read_timeout(Some(READ_TIMEOUT))
+                        .and_then(|()| stream.set_nodelay(true))
+                        .map_err(|e| format!("cannot set up the connection to {address}: {e}"))?;
+                    return Ok((Self::Tcp(stream), format!("tcp {address}")));
+                }
+                Err(e) => last = format!("cannot connect to {address}: {e}"),
+            }
+        }
+        Err(last)
+    }
+
+    fn read(&mut self, buf: &mut [u8]) -> Received {
+        let (result, is_tcp) = match self {
+            Self::Serial(port) => (port.read(buf), false),
+            Self::Tcp(stream) => (stream.read(buf), true),
+        };
+        match result {
+            Ok(0) if is_tcp => Received::Ended(None),
+            Ok(0) => Received::Nothing,
+            Ok(n) => Received::Bytes(n),
+            Err(e) => match e.kind() {
+                std::io::ErrorKind::WouldBlock
+                | std::io::ErrorKind::TimedOut
+                | std::io::ErrorKind::Interrupted => Received::Nothing,
+                _ => Received::Ended(Some(e.to_string())),
+            },
+        }
+    }
+
+    fn write_all(&mut self, bytes: &[u8]) -> std::io::Result<()> {
+        match self {
+            Self::Serial(port) => port.write_all(bytes).and_then(|()| port.flush()),
+            Self::Tcp(stream) => stream.write_all(bytes),
+        }
+    }
+}
+
+// ------------------------------------------------------------------ status line
+
+/// The counters the status line shows, at one moment.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct Counts {
+    /// Good frames applied.
+    pub frames: u64,
+    /// Bad frames dropped (every kind).
+    pub errors: u64,
+    /// Patches applied.
+    pub patches: u64,
+    /// Sequence gaps.
+    pub gaps: u64,
+    /// Snapshots requested.
+    pub snapshots: u64,
+}
+
+/// Rates per second of frames, errors and patches.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Rates {
+    /// Frames per second.
+    pub frames: f64,
+    /// Errors per second.
+    pub errors: f64,
+    /// Patches per second.
+    pub patches: f64,
+}
+
+/// Rates over the last [`RATE_WINDOW`], from samples of the counters.
+#[derive(Debug, Default)]
+pub struct RateMeter {
+    samples: VecDeque<(Instant, Counts)>,
+}
+
+impl RateMeter {
+    /// Adds a sample and returns the rates since the oldest sample within the window (the one
+    /// just before it, so that the span is at least the window once there is history).
+    pub fn sample(&mut self, now: Instant, counts: Counts) -> Rates {
+        self.samples.push_back((now, counts));
+        while self.samples.len() > 2
+            && self
+                .samples
+                .get(1)
+                .is_some_and(|(t, _)| now.duration_since(*t) >= RATE_WINDOW)
+        {
+            self.samples.pop_front();
+        }
+        let Some(&(t0, c0)) = self.samples.front() else {
+            return Rates::default();
+        };
+        let dt = now.duration_since(t0).as_secs_f64();
+        if dt <= 0.0 {
+            return Rates::default();
+        }
+        #[allow(clippy::cast_precision_loss)]
+        let per_s = |a: u64, b: u64| b.saturating_sub(a) as f64 / dt;
+        Rates {
+            frames: per_s(c0.frames, counts.frames),
+            errors: per_s(c0.errors, counts.errors),
+            patches: per_s(c0.patches, counts.patches),
+        }
+    }
+}
+
+/// The mirror's state in a word.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SyncState {
+    /// No Hello yet.
+    Waiting,
+    /// The copy may differ from the device's (frames lost, or a resend under way).
+    Syncing,
+    /// The copy equals the device's as of the last frame.
+    Synced,
+}
+
+impl SyncState {
+    fn of(mirror: &Mirror) -> Self {
+        if mirror.firmware().is_none() {
+            Self::Waiting
+        } else if mirror.is_synced() {
+            Self::Synced
+        } else {
+            Self::Syncing
+        }
+    }
+
+    const fn word(self) -> &'static str {
+        match self {
+            Self::Waiting => "waiting for Hello",
+            Self::Syncing => "syncing",
+            Self::Synced => "synced",
+        }
+    }
+}
+
+/// The status line: elapsed time, frames, errors and patches (totals and per second), gaps,
+/// snapshots requested, and the mirror's state.
+#[must_use]
+pub fn status_line(elapsed: Duration, counts: &Counts, rates: &Rates, state: SyncState) -> String {
+    format!(
+        "{:7.1} s  frames {} ({:.0}/s)  errors {} ({:.0}/s)  patches {} ({:.0}/s)  gaps {}  snapshots {}  {}",
+        elapsed.as_secs_f64(),
+        counts.frames,
+        rates.frames,
+        counts.errors,
+        rates.errors,
+        counts.patches,
+        rates.patches,
+        counts.gaps,
+        counts.snapshots,
+        state.word()
+    )
+}
+
+/// Writes the status line and notices to stderr.
+struct StatusOutput {
+    terminal: bool,
+    /// The length of the line now on the terminal (0 = none).
+    shown: usize,
+}
+
+impl StatusOutput {
+    fn new() -> Self {
+        Self {
+            terminal: std::io::stderr().is_terminal(),
+            shown: 0,
+        }
+    }
+
+    fn status(&mut self, line: &str) {
+        let mut err = std::io::stderr().lock();
+        if self.terminal {
+            let pad = self.shown.saturating_sub(line.len());
+            let _ = write!(err, "\r{line}{:pad$}", "");
+            let _ = err.flush();
+            self.shown = line.len();
+        } else {
+            let _ = writeln!(err, "{line}");
+        }
+    }
+
+    /// A line of its own (the status line, if shown, is ended first).
+    fn notice(&mut self, line: &str) {
+        self.finish();
+        eprintln!("{line}");
+    }
+
+    /// Ends the rewritten line.
+    fn finish(&mut self) {
+        if self.terminal && self.shown > 0 {
+            eprintln!();
+            self.shown = 0;
+        }
+    }
+}
+
+// ------------------------------------------------------------------ the session
+
+/// Why a session ended.
+#[derive(Serialize, Debug, Clone, Copy, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum Ending {
+    /// Ctrl-C or SIGTERM.
+    Interrupted,
+    /// The device closed the stream (or the port failed).
+    EndOfStream,
+    /// `--duration-s` elapsed.
+    Duration,
+}
+
+/// The summary of a session: what `summary.json` holds and `--json` prints.
+#[derive(Serialize, Debug, Clone)]
+pub struct Summary {
+    /// Per layer: counts of the cells of its window (as `pyramid replay`).
+    pub layers: Vec<export::LayerSummary>,
+    /// The fused map's counts (as `pyramid replay`).
+    pub fused: export::FusedSummary,
+    /// Good frames applied.
+    pub frames: u64,
+    /// Frames dropped for a CRC mismatch.
+    pub crc_errors: u64,
+    /// Patches applied.
+    pub patches: u64,
+    /// Sequence gaps (each one or more frames lost).
+    pub gaps: u64,
+    /// Snapshots requested (the first one at the start included).
+    pub snapshots_requested: u64,
+    /// Bad frames of every kind (COBS, length, CRC, version, type, body, range).
+    pub bad_frames: u64,
+    /// Frames missing by their sequence numbers.
+    pub missing_frames: u64,
+    /// Old or repeated frames refused.
+    pub out_of_order: u64,
+    /// Hello frames.
+    pub hellos: u64,
+    /// Patches the mirror could not place.
+    pub patches_refused: u64,
+    /// Whether the maps written equal the device's as of the last frame.
+    pub synced: bool,
+    /// The device's firmware version, from its last Hello.
+    pub firmware: String,
+    /// What ended the session.
+    pub ended_by: Ending,
+    /// The session's length, seconds.
+    pub duration_s: f64,
+    /// Per layer, FNV-1a 64 of its raw cells, hex.
+    pub layer_cells_fnv1a64: Vec<String>,
+    /// The files written.
+    pub files: Vec<String>,
+}
+
+/// FNV-1a 64 of raw cells as `i16` little-endian.
+#[must_use]
+pub fn cells_fnv1a64(cells: &[i16]) -> u64 {
+    let mut h: u64 = 0xCBF2_9CE4_8422_2325;
+    for byte in cells.iter().flat_map(|c| c.to_le_bytes()) {
+        h ^= u64::from(byte);
+        h = h.wrapping_mul(0x0000_0100_0000_01B3);
+    }
+    h
+}
+
+fn total_errors(rx: &RxCounters) -> u64 {
+    [
+        rx.cobs,
+        rx.crc,
+        rx.too_short,
+        rx.too_long,
+        rx.unknown_version,
+        rx.unknown_type,
+        rx.bad_body,
+        rx.out_of_range,
+    ]
+    .iter()
+    .map(|&n| u64::from(n))
+    .sum()
+}
+
+/// The host's end of one session: the link, and when it last asked for a snapshot.
+struct Session {
+    transport: Transport,
+    host: HostLink,
+    /// When the outstanding snapshot request was sent (`None`: none outstanding).
+    requested: Option<Instant>,
+    snapshots_requested: u64,
+}
+
+impl Session {
+    /// Sends `RequestSnapshot(all)`; `Err` when the stream is gone.
+    fn request_snapshot(&mut self, now: Instant) -> Result<(), String> {
+        let bytes = self
+            .host
+            .command(&Message::RequestSnapshot(SnapshotScope::All))
+            .map_err(|e| format!("cannot encode RequestSnapshot: {e:?}"))?;
+        self.transport
+            .write_all(&bytes)
+            .map_err(|e| format!("cannot send to the device: {e}"))?;
+        self.requested = Some(now);
+        self.snapshots_requested += 1;
+        Ok(())
+    }
+
+    fn counts(&self) -> Counts {
+        let c = self.host.mirror().counters();
+        Counts {
+            frames: c.frames,
+            errors: total_errors(&self.host.rx_counters()),
+            patches: c.patches,
+            gaps: c.gaps,
+            snapshots: self.snapshots_requested,
+        }
+    }
+}
+
+/// The sensor's mark on the picture: the host does not know it, so the finest layer's
+/// window centre (the device recentres the windows on the robot).
+fn window_centre(mirror: &Mirror) -> (f64, f64) {
+    mirror.layer(0).map_or((0.0, 0.0), |l| {
+        #[allow(clippy::cast_precision_loss)]
+        let half = mirror.cells_per_side() as f64 / 2.0;
+        let r = f64::from(l.resolution_q16) / 65_536.0;
+        (
+            (f64::from(l.origin.0) + half) * r,
+            (f64::from(l.origin.1) + half) * r,
+        )
+    })
+}
+
+/// Runs the session until it ends; returns the link and why it ended.
+fn receive(
+    mut session: Session,
+    args: &Args,
+    stop: &AtomicBool,
+    out: &mut StatusOutput,
+) -> (Session, Ending, Duration) {
+    let start = Instant::now();
+    let deadline = args.duration_s.map(|s| start + Duration::from_secs_f64(s));
+    let mut meter = RateMeter::default();
+    let mut next_status = start;
+    let mut buf = vec![0_u8; 4096];
+    // One delimiter ends whatever the device's receiver holds, then the first request.
+    let opened = session
+        .transport
+        .write_all(&[0])
+        .map_err(|e| format!("cannot send to the device: {e}"))
+        .and_then(|()| session.request_snapshot(start));
+    if let Err(e) = opened {
+        out.notice(&format!("warning: {e}"));
+    }
+    let ending = loop {
+        if stop.load(Ordering::SeqCst) {
+            break Ending::Interrupted;
+        }
+        let now = Instant::now();
+        if deadline.is_some_and(|d| now >= d) {
+            break Ending::Duration;
+        }
+        if now >= next_status {
+            let counts = session.counts();
+            let rates = meter.sample(now, counts);
+            let state = SyncState::of(session.host.mirror());
+            out.status(&status_line(now - start, &counts, &rates, state));
+            next_status += STATUS_INTERVAL;
+            if next_status < now {
+                next_status = now + STATUS_INTERVAL;
+            }
+        }
+        let n = match session.transport.read(&mut buf) {
+            Received::Bytes(n) => n,
+            Received::Nothing => 0,
+            Received::Ended(error) => {
+                if let Some(e) = error {
+                    out.notice(&format!("warning: the stream ended: {e}"));
+                }
+                break Ending::EndOfStream;
+            }
+        };
+        let mut wants = false;
+        for event in session.host.feed(buf.get(..n).unwrap_or_default()) {
+            match event {
+                LinkEvent::Hello(hello) => {
+                    // Any Hello answers (or supersedes) an outstanding request.
+                    session.requested = None;
+                    if hello.reason != HelloReason::Snapshot {
+                        out.notice(&format!(
+                            "device: Hello ({}), firmware {}.{}.{}, {} layers of {} cells",
+                            match hello.reason {
+                                HelloReason::Boot => "boot",
+                                HelloReason::Configured => "configured",
+                                HelloReason::Reset => "reset",
+                                HelloReason::Snapshot => "snapshot",
+                            },
+                            hello.firmware.major,
+                            hello.firmware.minor,
+                            hello.firmware.patch,
+                            hello.layers.len(),
+                            hello.cells_per_side
+                        ));
+                    }
+                }
+                LinkEvent::SnapshotNeeded => wants = true,
+                LinkEvent::Reply(_) | LinkEvent::Stats(_) | LinkEvent::BadFrame(_) => {}
+            }
+        }
+        let now = Instant::now();
+        let overdue = session
+            .requested
+            .is_none_or(|t| now.duration_since(t) >= SNAPSHOT_RETRY);
+        let needed = wants || session.host.mirror().needs_snapshot();
+        if needed && overdue {
+            if let Err(e) = session.request_snapshot(now) {
+                out.notice(&format!("warning: the stream ended: {e}"));
+                break Ending::EndOfStream;
+            }
+        }
+    };
+    let elapsed = start.elapsed();
+    let counts = session.counts();
+    let rates = meter.sample(Instant::now(), counts);
+    out.status(&status_line(
+        elapsed,
+        &counts,
+        &rates,
+        SyncState::of(session.host.mirror()),
+    ));
+    out.finish();
+    (session, ending, elapsed)
+}
+
+/// Writes the maps and the summary of a finished session.
+fn write_out(
+    session: &Session,
+    args: &Args,
+    source: &str,
+    ending: Ending,
+    elapsed: Duration,
+) -> Result<Summary, String> {
+    let mirror = session.host.mirror();
+    let rx = session.host.rx_counters();
+    let Some(snapshot) =
+        MapSnapshot::from_mirror(mirror, LogOddsFixed::ZERO, window_centre(mirror))
+    else {
+        let hint = if rx.unknown_version > 0 && rx.frames_ok == 0 {
+            " (every frame was of another protocol version: the firmware and this host do not match)"
+        } else {
+            ""
+        };
+        return Err(format!(
+            "no maps to write: the device sent no usable Hello in {:.1} s ({} good frames, {} bad){hint}",
+            elapsed.as_secs_f64(),
+            rx.frames_ok,
+            total_errors(&rx)
+        ));
+    };
+    let title = format!(
+        "pyramid listen: {source} ({:.0} s, {} patches{})",
+        elapsed.as_secs_f64(),
+        mirror.counters().patches,
+        if mirror.is_synced() {
+            ""
+        } else {
+            ", NOT synced"
+        }
+    );
+    let written = export::write_maps(&args.out, &snapshot, &title)?;
+    let MapSummary { layers, fused } = written.summary;
+    let c = mirror.counters();
+    let mut files: Vec<String> = written
+        .files
+        .iter()
+        .filter_map(|p| p.file_name().map(|n| n.to_string_lossy().into_owned()))
+        .collect();
+    files.push("summary.json".to_string());
+    let summary = Summary {
+        layers,
+        fused,
+        frames: c.frames,
+        crc_errors: u64::from(rx.crc),
+        patches: c.patches,
+        gaps: c.gaps,
+        snapshots_requested: session.snapshots_requested,
+        bad_frames: total_errors(&rx),
+        missing_frames: c.missing,
+        out_of_order: c.out_of_order,
+        hellos: c.hellos,
+        patches_refused: c.patches_refused,
+        synced: mirror.is_synced(),
+        firmware: mirror.firmware().map_or_else(String::new, |f| {
+            format!("{}.{}.{}", f.major, f.minor, f.patch)
+        }),
+        ended_by: ending,
+        duration_s: (elapsed.as_secs_f64() * 1000.0).round() / 1000.0,
+        layer_cells_fnv1a64: snapshot
+            .layers
+            .iter()
+            .map(|l| format!("{:016x}", cells_fnv1a64(&l.cells)))
+            .collect(),
+        files,
+    };
+    let json = serde_json::to_string_pretty(&summary)
+        .map_err(|e| format!("cannot encode the summary as JSON: {e}"))?;
+    export::write_file(
+        &args.out.join("summary.json"),
+        format!("{json}\n").as_bytes(),
+    )?;
+    Ok(summary)
+}
+
+/// Runs `pyramid listen`.
+///
+/// Exit status: 0 when the maps were written (a warning on stderr if the mirror was not in
+/// sync at the end); 1 when the port cannot be opened or the address reached (one line), no
+/// Hello came, or an output cannot be written.
+pub fn run(args: &Args) -> ExitCode {
+    let stop = Arc::new(AtomicBool::new(false));
+    let flag = Arc::clone(&stop);
+    let handler = ctrlc::set_handler(move || {
+        if flag.swap(true, Ordering::SeqCst) {
+            // A second Ctrl-C: the user does not want to wait for the maps.
+            std::process::exit(130);
+        }
+    });
+    if let Err(e) = handler {
+        eprintln!("warning: cannot catch Ctrl-C ({e}); use --duration-s to end the session");
+    }
+    let (transport, source) = match Transport::open(args) {
+        Ok(t) => t,
+        Err(e) => {
+            eprintln!("error: {e}");
+            return ExitCode::FAILURE;
+        }
+    };
+    let mut out = StatusOutput::new();
+    out.notice(&format!(
+        "listening on {source}; Ctrl-C ends and writes the maps"
+    ));
+    let session = Session {
+        transport,
+        host: HostLink::new(),
+        requested: None,
+        snapshots_requested: 0,
+    };
+    let (session, ending, elapsed) = receive(session, args, &stop, &mut out);
+    match write_out(&session, args, &source, ending, elapsed) {
+        Ok(summary) => {
+            if !summary.synced {
+                eprintln!(
+                    "warning: the maps may differ from the device's: frames were lost or a resend was incomplete when the session ended"
+                );
+            }
+            if args.json {
+                match serde_json::to_string(&summary) {
+                    Ok(json) => println!("{json}"),
+                    Err(e) => {
+                        eprintln!("error: cannot encode the summary as JSON: {e}");
+                        return ExitCode::FAILURE;
+                    }
+                }
+            } else {
+                eprintln!(
+                    "{} frames, {} patches, {} gaps, {} bad frames, {} snapshots requested; maps written to {}",
+                    summary.frames,
+                    summary.patches,
+                    summary.gaps,
+                    summary.bad_frames,
+                    summary.snapshots_requested,
+                    args.out.display()
+                );
+            }
+            ExitCode::SUCCESS
+        }
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_status_line_shows_totals_rates_and_state() {
+        let counts = Counts {
+            frames: 1234,
+            errors: 3,
+            patches: 1100,
+            gaps: 2,
+            snapshots: 4,
+        };
+        let rates = Rates {
+            frames: 310.4,
+            errors: 0.0,
+            patches: 289.6,
+        };
+        assert_eq!(
+            status_line(Duration::from_millis(12_345), &counts, &rates, SyncState::Synced),
+            "   12.3 s  frames 1234 (310/s)  errors 3 (0/s)  patches 1100 (290/s)  gaps 2  snapshots 4  synced"
+        );
+        let line = status_line(
+            Duration::ZERO,
+            &Counts::default(),
+            &Rates::default(),
+            SyncState::Waiting,
+        );
+        assert!(line.ends_with("snapshots 0  waiting for Hello"), "{line}");
+        assert!(!line.contains('\n') && !line.contains('\r'));
+    }
+
+    #[test]
+    fn rates_are_measured_over_the_last_second() {
+        let mut meter = RateMeter::default();
+        let t0 = Instant::now();
+        let at = |ms: u64| t0 + Duration::from_millis(ms);
+        let c = |frames: u64| Counts {
+            frames,
+            errors: frames / 10,
+            patches: frames / 2,
+            ..Counts::default()
+        };
+        assert_eq!(meter.sample(at(0), c(0)), Rates::default());
+        let r = meter.sample(at(250), c(100));
+        assert!((r.frames - 400.0).abs() < 1e-9, "{r:?}");
+        meter.sample(at(500), c(200));
+        meter.sample(at(750), c(300));
+        meter.sample(at(1000), c(400));
+        // From now on the rate spans the last second: 100 frames per 250 ms, then a stop.
+        let r = meter.sample(at(1250), c(500));
+        assert!((r.frames - 400.0).abs() < 1e-9, "{r:?}");
+        assert!((r.patches - 200.0).abs() < 1e-9, "{r:?}");
+        assert!((r.errors - 40.0).abs() < 1e-9, "{r:?}");
+        let r = meter.sample(at(2250), c(500));
+        assert!(r.frames.abs() < 1e-9, "{r:?}");
+        assert!(meter.samples.len() <= 6);
+    }
+
+    #[test]
+    fn fnv1a64_of_known_bytes() {
+        // FNV-1a 64 of the empty input and of "a" (0x61): the published values.
+        assert_eq!(cells_fnv1a64(&[]), 0xCBF2_9CE4_8422_2325);
+        // Cells 0x6261 little-endian are the bytes "ab".
+        assert_eq!(cells_fnv1a64(&[0x6261]), 0x089C_4407_B545_986A);
+    }
+
+    #[test]
+    fn seconds_must_be_positive() {
+        assert_eq!(positive_seconds("2.5"), Ok(2.5));
+        assert!(positive_seconds("0").is_err());
+        assert!(positive_seconds("-1").is_err());
+        assert!(positive_seconds("nan").is_err());
+        assert!(positive_seconds("x").is_err());
+    }
+}
