@@ -5,8 +5,9 @@
 #   2. the root memory.x is the QEMU board's;
 #   3. format and lints (clippy, warnings denied) of both board crates;
 #   4. release builds of both boards;
-#   5. the QEMU firmware: boot, self-check, echo test (bytes into UART0 over a socket, out of
-#      UART1), exit code;
+#   5. the QEMU firmware: boot, self-check, and a small recording through the real pipeline
+#      (`pyramid run --board qemu`: SICK telegrams into UART0, the host link on UART1,
+#      Shutdown, exit code 0), bit-identical to `--board host`;
 #   6. the on-target tests (defmt-test) in QEMU, for thumbv7em-none-eabihf and
 #      thumbv6m-none-eabi (both on the mps2-an386);
 #   7. flash, static RAM and stack of each board.
@@ -70,12 +71,21 @@ step "build: qemu-mps2 (release)"
 step "build: stm32f4 (release)"
 (cd "$stm32_dir" && cargo build --release)
 
-step "QEMU firmware: self-check, echo UART0 -> UART1, exit code"
-run_log=$(mktemp)
-QEMU_TIMEOUT=60 "$qemu_dir/run.sh" --no-build 2>&1 | tee "$run_log" \
+step "QEMU firmware: self-check, a recording through the pipeline, exit code"
+smoke=$(mktemp -d)
+# The synthetic recording of host/tests/run_qemu.rs through `pyramid run --board qemu` and
+# `--board host`: every cell must be identical, QEMU must exit with 0 after Shutdown.
+(cd "$root" && PYRAMID_QEMU_OUT="$smoke" cargo test --release -p terrain-pyramid-host \
+    --test run_qemu qemu_matches_host_on_a_synthetic_recording -- --nocapture) 2>&1 \
+    | tee "$smoke/test.log" \
     || fail "the QEMU firmware run failed (exit codes: 101 panic, 102 HardFault, 124 timeout)"
+grep -q "identical" "$smoke/test.log" || fail "the emulated run did not match the host pipeline"
+run_log="$smoke/firmware.log"
+defmt-print -e "$qemu_dir/target/thumbv7em-none-eabihf/release/qemu-mps2" \
+    < "$smoke/synthetic/qemu/firmware.defmt" > "$run_log" 2>&1 || true
+cat "$run_log"
 grep -q "self-check passed" "$run_log" || fail "no self-check in the firmware's log"
-grep -q "match" "$run_log" || fail "the echo test did not report a match"
+grep -q "shutdown:" "$run_log" || fail "the firmware did not shut down cleanly"
 qemu_stack=$(sed -n 's/.*stack: high-water \([0-9]*\) bytes.*/\1/p' "$run_log" | tail -1)
 [[ -n "$qemu_stack" ]] || fail "the firmware did not report its stack"
 
@@ -113,7 +123,7 @@ printf '%-28s %12s %16s %22s\n' "qemu-mps2 (4M/4M)" "$qemu_flash" "$qemu_ram" "$
 printf '%-28s %12s %16s %22s\n' "stm32f4 (512K/128K)" "$stm_flash" "$stm_ram" "on the board (RTT log)"
 [[ $stm_flash -le $((512 * 1024)) ]] || fail "stm32f4: the image exceeds the 512 KiB flash"
 [[ $stm_ram -le $((128 * 1024 - 8 * 1024)) ]] || fail "stm32f4: under 8 KiB of RAM left for the stack"
-rm -f "$run_log"
+rm -rf "$smoke"
 
 step "done in $((SECONDS - start)) s"
 echo "on-target: $passed passed, 0 failed"

@@ -12,7 +12,8 @@
 //! A point joins the cell of every layer whose gate gives it a non-zero increment at the
 //! point's horizontal distance from the sensor, so with the hard gate each point feeds exactly
 //! one layer. A record carries the smallest such distance among its points (the closest look),
-//! which the pyramid gates with.
+//! which the pyramid gates with; the scratch keeps it as its gate bin, so the record's distance
+//! is the lower edge of that bin (which the pyramid bins to the same bin again).
 //!
 //! A cell holding a single point always looks navigable: that is the systematic far-range miss
 //! the pyramid exists to fix, and it is deliberately not "fixed" here.
@@ -29,7 +30,7 @@
 //!
 //! # Bounded scratch
 //! The touched cells live in an open-addressing table of `C` slots (a power of two, 20 bytes
-//! each, plus 2 bytes of insertion order). A point that finds the table full is dropped and
+//! each). A point that finds the table full is dropped and
 //! counted in [`ClassifierStats::overflow_points`]; nothing panics. One 361-beam line touches
 //! at most 361 cells per layer it feeds (2 to 4 with the default soft gate); 1024 slots (22 KiB)
 //! hold a line with room to spare, a whole 3-D sweep needs a window's worth.
@@ -41,9 +42,14 @@
 //! the spread can only be underestimated, never invented. The f64 reference keeps every point
 //! and applies the rule exactly; `host-tests` measures the agreement.
 
+use crate::gate::DistanceBins;
 use crate::logodds::gated;
 use crate::pyramid::{Evidence, EvidenceClass, Pyramid};
 use crate::units::{Meters, Point3};
+
+/// The default step threshold, 0.05 m, evaluated at compile time (`fixed`'s `lit` parses a
+/// string: in a non-const context it would run, and weigh 11 KB of code, on the device).
+const DEFAULT_STEP_THRESHOLD: Meters = Meters::lit("0.05");
 
 /// What the classifier looks for, metres.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -65,7 +71,7 @@ impl Default for ClassifierConfig {
     fn default() -> Self {
         Self {
             robot_height: Meters::ONE,
-            step_threshold: Meters::lit("0.05"),
+            step_threshold: DEFAULT_STEP_THRESHOLD,
             drop_threshold: None,
             ceiling: None,
         }
@@ -106,21 +112,22 @@ pub struct ClassifierStats {
     pub records: u32,
 }
 
-/// The marker of an empty slot's layer.
-const EMPTY: u8 = u8::MAX;
+/// The marker of an empty slot: slots store their layer plus one, so that an empty slot (and
+/// a fresh classifier) is all zero bits.
+const EMPTY: u8 = 0;
 
 /// One touched layer cell of the current observation. 20 bytes.
 #[derive(Debug, Clone, Copy)]
 struct Slot {
     cell_x: i32,
     cell_y: i32,
-    /// Smallest horizontal distance of the cell's points from the sensor, raw Q16.16.
-    distance: i32,
+    /// The gate bin of the smallest horizontal distance of the cell's points from the sensor.
+    bin: u16,
     /// Lowest z, millimetres relative to the observation's reference height.
     z_low: i16,
     /// Highest z not above `z_low + robot height`, same units.
     z_high: i16,
-    /// The layer, or [`EMPTY`].
+    /// The layer plus one, or [`EMPTY`].
     layer: u8,
     /// Whether a drop-off or missing ground was seen in the cell.
     hole: bool,
@@ -130,7 +137,7 @@ impl Slot {
     const VACANT: Self = Self {
         cell_x: 0,
         cell_y: 0,
-        distance: 0,
+        bin: 0,
         z_low: 0,
         z_high: 0,
         layer: EMPTY,
@@ -141,8 +148,10 @@ impl Slot {
 /// Scratch and counters for classifying observations with `C` cell slots (a power of two).
 pub struct Classifier<const C: usize> {
     slots: [Slot; C],
-    /// Indices of the used slots, in insertion order (the order records come out).
-    order: heapless::Vec<u16, C>,
+    /// Slots in use.
+    used: usize,
+    /// The pyramid's distance binning, as of the last point (records carry bin edges).
+    bins: DistanceBins,
     config: ClassifierConfig,
     /// The observation's reference height, raw Q16.16: z values are stored relative to it.
     reference_z: i32,
@@ -156,7 +165,7 @@ impl<const C: usize> core::fmt::Debug for Classifier<C> {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
         f.debug_struct("Classifier")
             .field("slots", &C)
-            .field("used", &self.order.len())
+            .field("used", &self.used)
             .field("stats", &self.stats)
             .finish()
     }
@@ -194,16 +203,49 @@ impl<const C: usize> Classifier<C> {
         let _ = Self::MASK;
         Self {
             slots: [Slot::VACANT; C],
-            order: heapless::Vec::new(),
+            used: 0,
+            bins: DistanceBins::UNCONFIGURED,
             config: ClassifierConfig {
                 robot_height: Meters::ONE,
-                step_threshold: Meters::lit("0.05"),
+                step_threshold: DEFAULT_STEP_THRESHOLD,
                 drop_threshold: None,
                 ceiling: None,
             },
             reference_z: 0,
             robot_height_mm: 1000,
             step_mm: 50,
+            stats: ClassifierStats {
+                points: 0,
+                points_used: 0,
+                points_gated_out: 0,
+                overflow_points: 0,
+                overhang_points: 0,
+                drop_points: 0,
+                observations: 0,
+                records: 0,
+            },
+        }
+    }
+
+    /// A classifier whose every byte is zero, to be [`configure`](Self::configure)d before
+    /// use (until then its thresholds are zero): a `static` one sits in `.bss` and costs no
+    /// flash.
+    #[must_use]
+    pub const fn unconfigured() -> Self {
+        let _ = Self::MASK;
+        Self {
+            slots: [Slot::VACANT; C],
+            used: 0,
+            bins: DistanceBins::UNCONFIGURED,
+            config: ClassifierConfig {
+                robot_height: Meters::ZERO,
+                step_threshold: Meters::ZERO,
+                drop_threshold: None,
+                ceiling: None,
+            },
+            reference_z: 0,
+            robot_height_mm: 0,
+            step_mm: 0,
             stats: ClassifierStats {
                 points: 0,
                 points_used: 0,
@@ -241,7 +283,7 @@ impl<const C: usize> Classifier<C> {
     /// Cells touched so far in the current observation.
     #[must_use]
     pub fn cells_in_use(&self) -> usize {
-        self.order.len()
+        self.used
     }
 
     /// Starts an observation whose z values are stored relative to `reference_z` (the
@@ -254,12 +296,10 @@ impl<const C: usize> Classifier<C> {
 
     /// Forgets the current observation without producing evidence.
     pub fn discard(&mut self) {
-        for &i in &self.order {
-            if let Some(slot) = self.slots.get_mut(usize::from(i)) {
-                *slot = Slot::VACANT;
-            }
+        if self.used > 0 {
+            self.slots.fill(Slot::VACANT);
+            self.used = 0;
         }
-        self.order.clear();
     }
 
     /// Adds one world point measured at horizontal distance `distance` from the sensor, with
@@ -314,7 +354,9 @@ impl<const C: usize> Classifier<C> {
         z: i16,
         hole: bool,
     ) -> bool {
-        let bin = pyramid.distance_bins().bin(distance);
+        self.bins = pyramid.distance_bins();
+        let bin = self.bins.bin(distance);
+        let bin_index = u16::try_from(bin).unwrap_or(u16::MAX);
         let increments = pyramid.increments();
         let mut fed = false;
         for k in 0..pyramid.layer_count() {
@@ -326,9 +368,12 @@ impl<const C: usize> Classifier<C> {
                 continue;
             }
             let r = layer.resolution();
-            let layer_index = u8::try_from(k).unwrap_or(EMPTY - 1);
+            // Stored as k + 1 (0 marks an empty slot); k < L ≤ 254.
+            let Ok(layer_index) = u8::try_from(k + 1) else {
+                break;
+            };
             let (cx, cy) = (r.cell_of(point.x), r.cell_of(point.y));
-            if self.accumulate(layer_index, cx, cy, distance.to_bits(), z, hole) {
+            if self.accumulate(layer_index, cx, cy, bin_index, z, hole) {
                 fed = true;
             } else {
                 self.stats.overflow_points = self.stats.overflow_points.saturating_add(1);
@@ -339,31 +384,21 @@ impl<const C: usize> Classifier<C> {
 
     /// Folds one point into the slot of `(layer, cx, cy)`; `false` when the table is full.
     #[inline]
-    fn accumulate(
-        &mut self,
-        layer: u8,
-        cx: i32,
-        cy: i32,
-        distance: i32,
-        z: i16,
-        hole: bool,
-    ) -> bool {
+    fn accumulate(&mut self, layer: u8, cx: i32, cy: i32, bin: u16, z: i16, hole: bool) -> bool {
         let mut index = hash(layer, cx, cy) as usize & Self::MASK;
         for _ in 0..C {
             let Some(slot) = self.slots.get_mut(index) else {
                 return false;
             };
             if slot.layer == EMPTY {
-                let Ok(position) = u16::try_from(index) else {
-                    return false;
-                };
-                if self.order.push(position).is_err() {
+                if self.used >= C {
                     return false;
                 }
+                self.used += 1;
                 *slot = Slot {
                     cell_x: cx,
                     cell_y: cy,
-                    distance,
+                    bin,
                     z_low: z,
                     z_high: z,
                     layer,
@@ -372,7 +407,7 @@ impl<const C: usize> Classifier<C> {
                 return true;
             }
             if slot.layer == layer && slot.cell_x == cx && slot.cell_y == cy {
-                fold(slot, z, distance, hole, self.robot_height_mm);
+                fold(slot, z, bin, hole, self.robot_height_mm);
                 return true;
             }
             index = (index + 1) & Self::MASK;
@@ -380,32 +415,35 @@ impl<const C: usize> Classifier<C> {
         false
     }
 
-    /// Ends the observation: classifies every touched cell, hands each record to `sink` in the
-    /// order the cells were first touched, and clears the scratch.
+    /// Ends the observation: classifies every touched cell, hands each record to `sink` in
+    /// slot order (deterministic: the same points give the same order on every target), and
+    /// clears the scratch.
     pub fn finish(&mut self, mut sink: impl FnMut(Evidence)) {
-        for &i in &self.order {
-            let Some(slot) = self.slots.get_mut(usize::from(i)) else {
-                continue;
-            };
-            let spread = i32::from(slot.z_high) - i32::from(slot.z_low);
-            let class = if slot.hole || spread > i32::from(self.step_mm) {
-                EvidenceClass::Obstacle
-            } else {
-                EvidenceClass::Navigable
-            };
-            sink(Evidence {
-                layer: slot.layer,
-                cell_x: slot.cell_x,
-                cell_y: slot.cell_y,
-                class,
-                distance: Meters::from_bits(slot.distance),
-            });
-            *slot = Slot::VACANT;
+        let records = u32::try_from(self.used).unwrap_or(u32::MAX);
+        if self.used > 0 {
+            for slot in &mut self.slots {
+                if slot.layer == EMPTY {
+                    continue;
+                }
+                let spread = i32::from(slot.z_high) - i32::from(slot.z_low);
+                let class = if slot.hole || spread > i32::from(self.step_mm) {
+                    EvidenceClass::Obstacle
+                } else {
+                    EvidenceClass::Navigable
+                };
+                sink(Evidence {
+                    layer: slot.layer.saturating_sub(1),
+                    cell_x: slot.cell_x,
+                    cell_y: slot.cell_y,
+                    class,
+                    distance: self.bins.lower_edge(usize::from(slot.bin)),
+                });
+                *slot = Slot::VACANT;
+            }
+            self.used = 0;
         }
-        let records = u32::try_from(self.order.len()).unwrap_or(u32::MAX);
         self.stats.records = self.stats.records.saturating_add(records);
         self.stats.observations = self.stats.observations.saturating_add(1);
-        self.order.clear();
     }
 
     /// Ends the observation and integrates its evidence into `pyramid`.
@@ -416,10 +454,10 @@ impl<const C: usize> Classifier<C> {
     }
 }
 
-/// Folds a point (z mm, distance raw) into a used slot under the overhang rule.
+/// Folds a point (z mm, distance bin) into a used slot under the overhang rule.
 #[inline]
-fn fold(slot: &mut Slot, z: i16, distance: i32, hole: bool, robot_height_mm: i16) {
-    slot.distance = slot.distance.min(distance);
+fn fold(slot: &mut Slot, z: i16, bin: u16, hole: bool, robot_height_mm: i16) {
+    slot.bin = slot.bin.min(bin);
     slot.hole |= hole;
     if z < slot.z_low {
         let cut = i32::from(z) + i32::from(robot_height_mm);
@@ -489,11 +527,15 @@ mod tests {
         // Cell (2, 0): a 10 cm step.
         c.add_point(&p, pt(0.21, 0.02, 0.00), d, Meters::ZERO);
         c.add_point(&p, pt(0.25, 0.05, 0.10), d, Meters::ZERO);
-        let r = records(&mut c);
+        let mut r = records(&mut c);
+        r.sort_by_key(|e| e.cell_x);
         assert_eq!(r.len(), 2);
-        assert_eq!((r[0].cell_x, r[0].class), (3, EvidenceClass::Navigable));
-        assert_eq!((r[1].cell_x, r[1].class), (2, EvidenceClass::Obstacle));
-        assert!(r.iter().all(|e| e.layer == 0 && e.distance == d));
+        assert_eq!((r[0].cell_x, r[0].class), (2, EvidenceClass::Obstacle));
+        assert_eq!((r[1].cell_x, r[1].class), (3, EvidenceClass::Navigable));
+        let bins = p.distance_bins();
+        assert!(r
+            .iter()
+            .all(|e| e.layer == 0 && bins.bin(e.distance) == bins.bin(d)));
         assert_eq!(c.cells_in_use(), 0);
     }
 
@@ -530,7 +572,9 @@ mod tests {
         c.add_point(&p, pt(0.05, 0.05, 0.0), Meters::from_num(0.4), Meters::ZERO);
         c.add_point(&p, pt(0.06, 0.05, 0.0), Meters::from_num(0.2), Meters::ZERO);
         c.add_point(&p, pt(0.07, 0.05, 0.0), Meters::from_num(0.3), Meters::ZERO);
-        assert_eq!(records(&mut c)[0].distance, Meters::from_num(0.2));
+        // The closest look, 0.2 m, is kept as its gate bin: 0.2 · 32 = 6.4 → bin 6, whose
+        // lower edge is 6/32 = 0.1875 m.
+        assert_eq!(records(&mut c)[0].distance, Meters::from_num(0.1875));
     }
 
     #[test]

@@ -63,6 +63,14 @@ impl DistanceBins {
         (bin as usize).min(GATE_BINS - 1)
     }
 
+    /// The lower edge of bin `i` as [`Meters`] (exact: a multiple of 2⁻¹⁰ m), saturating; a
+    /// distance there falls in bin `i` again.
+    #[must_use]
+    pub fn lower_edge(self, i: usize) -> Meters {
+        let i = i32::try_from(i.min(GATE_BINS - 1)).unwrap_or(0);
+        Meters::from_bits(i << (16 - self.shift))
+    }
+
     /// The lower edge of bin `i`, metres.
     #[must_use]
     pub fn lower_edge_m(self, i: usize) -> f32 {

@@ -45,6 +45,22 @@ pub struct FrontendConfig {
     pub missing_ground_within: Option<Meters>,
 }
 
+#[cfg(feature = "defmt")]
+impl defmt::Format for FrontendConfig {
+    fn format(&self, f: defmt::Formatter<'_>) {
+        defmt::write!(
+            f,
+            "FrontendConfig {{ mount: {}, variant: {}, mode: {}, lines/observation: {=u32}, classifier: {}, missing ground within: {=i32} raw Q16.16 (0 = off) }}",
+            self.mount,
+            self.variant,
+            self.measuring_mode,
+            self.lines_per_observation,
+            self.classifier,
+            self.missing_ground_within.map_or(0, |m| m.to_bits())
+        );
+    }
+}
+
 /// Why a recording's (or the link's) setup cannot configure the pipeline.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -171,6 +187,8 @@ pub enum LineError {
         /// The index in the telegram.
         partial_index: u8,
     },
+    /// The pipeline has not been configured yet ([`Frontend::unconfigured`]).
+    NotConfigured,
 }
 
 impl fmt::Display for LineError {
@@ -186,6 +204,7 @@ impl fmt::Display for LineError {
                     "partial-scan index {partial_index} does not fit the variant"
                 )
             }
+            Self::NotConfigured => f.write_str("the pipeline is not configured yet"),
         }
     }
 }
@@ -212,6 +231,8 @@ pub struct Frontend<const C: usize> {
     direction: i8,
     lines_in_observation: u32,
     stats: FrontendStats,
+    /// Whether a configuration has been adopted (lines are refused until then).
+    configured: bool,
 }
 
 impl<const C: usize> fmt::Debug for Frontend<C> {
@@ -226,22 +247,60 @@ impl<const C: usize> fmt::Debug for Frontend<C> {
 
 impl<const C: usize> Frontend<C> {
     /// A pipeline for `config`, at the world origin with the actuator at zero.
+    ///
+    /// It returns the pipeline by value (about 24 KiB with 1024 classifier slots): firmware
+    /// keeps it in a `static` built from [`Frontend::unconfigured`] and configures it in place
+    /// instead, so that it never sits on the stack.
     #[must_use]
     pub fn new(config: FrontendConfig) -> Self {
-        let pose = Pose::default();
-        let mut classifier = Classifier::new();
-        classifier.configure(config.classifier);
+        let mut frontend = Self::unconfigured();
+        frontend.configure(config);
+        frontend
+    }
+
+    /// A pipeline that refuses every line until [`configure`](Self::configure)d. `const` and
+    /// all zero bits, so a `static` one sits in `.bss`: no flash, and never built on the stack.
+    #[must_use]
+    pub const fn unconfigured() -> Self {
         Self {
-            config,
-            beams: BeamTable::new(config.variant),
-            classifier,
-            frame: pose.frame(),
-            pose,
+            config: FrontendConfig {
+                mount: Mount::new(
+                    crate::geometry::ScanPlane::PannedVertical,
+                    crate::units::Point3 {
+                        x: Meters::ZERO,
+                        y: Meters::ZERO,
+                        z: Meters::ZERO,
+                    },
+                ),
+                variant: Variant::Fov180Step1,
+                measuring_mode: MeasuringMode::Mm8Cm80,
+                lines_per_observation: 0,
+                classifier: ClassifierConfig {
+                    robot_height: Meters::ZERO,
+                    step_threshold: Meters::ZERO,
+                    drop_threshold: None,
+                    ceiling: None,
+                },
+                missing_ground_within: None,
+            },
+            beams: BeamTable::EMPTY,
+            classifier: Classifier::unconfigured(),
+            pose: Pose::IDENTITY,
+            frame: PoseFrame::ZERO,
             actuator: FineAngle::from_bits(0),
             last_actuator: None,
             direction: 0,
             lines_in_observation: 0,
-            stats: FrontendStats::default(),
+            stats: FrontendStats {
+                lines_applied: 0,
+                lines_rejected: 0,
+                returns: 0,
+                no_return: 0,
+                returns_dropped: 0,
+                missing_ground: 0,
+                observations: 0,
+            },
+            configured: false,
         }
     }
 
@@ -250,6 +309,8 @@ impl<const C: usize> Frontend<C> {
         self.config = config;
         self.beams = BeamTable::new(config.variant);
         self.classifier.configure(config.classifier);
+        self.frame = self.pose.frame();
+        self.configured = true;
         self.lines_in_observation = 0;
         self.last_actuator = None;
         self.direction = 0;
@@ -347,6 +408,10 @@ impl<const C: usize> Frontend<C> {
         pyramid: &mut Pyramid<W, L>,
         values: &MeasuredValues<'_>,
     ) -> Result<(), LineError> {
+        if !self.configured {
+            self.stats.lines_rejected = self.stats.lines_rejected.saturating_add(1);
+            return Err(LineError::NotConfigured);
+        }
         let layout = match self.layout(values) {
             Ok(layout) => layout,
             Err(e) => {
@@ -425,7 +490,9 @@ impl<const C: usize> Frontend<C> {
         // ground in range and are skipped.
         let drop = origin.z.saturating_sub(unit.z);
         let height = origin.z.saturating_sub(ground_z);
-        if drop < Meters::lit("0.02") || height <= Meters::ZERO {
+        // 0.02 m per metre, as a constant evaluated at compile time.
+        const SHALLOWEST_DROP: Meters = Meters::lit("0.02");
+        if drop < SHALLOWEST_DROP || height <= Meters::ZERO {
             return;
         }
         let Some(range) = height.checked_div(drop) else {
@@ -571,6 +638,16 @@ mod tests {
                 assert_eq!(at_hole, Fused::Unknown);
             }
         }
+    }
+
+    #[test]
+    fn an_unconfigured_pipeline_refuses_lines() {
+        let (_, mut p) = setup(1);
+        let mut f = Frontend::<64>::unconfigured();
+        let values = ranges_mm(20.0);
+        let line = MeasuredValues::new(Unit::Millimetre, 0, &values, None, 0).unwrap();
+        assert_eq!(f.line(&mut p, &line), Err(LineError::NotConfigured));
+        assert_eq!(f.stats().lines_rejected, 1);
     }
 
     #[test]

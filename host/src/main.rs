@@ -5,14 +5,17 @@
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
 
+mod demo;
 mod design;
 mod experiments;
 mod export;
 mod listen;
+mod qemu;
 mod record3dtk;
 mod replay;
 mod run;
 mod sick_decode;
+mod size;
 mod uos;
 
 /// The main computer's side of terrain-pyramid.
@@ -40,6 +43,10 @@ enum Command {
     Run(run::Args),
     /// Decode a captured SICK LMS2xx byte stream: measured values and framing errors.
     SickDecode(sick_decode::Args),
+    /// Flash, static RAM and stack high-water mark of each board's firmware.
+    Size(size::Args),
+    /// The main job: the 3DTK scan through the emulated co-processor, maps and pictures.
+    Demo(demo::Args),
 }
 
 fn main() -> ExitCode {
@@ -52,5 +59,7 @@ fn main() -> ExitCode {
         Command::Run(args) => run::run(&args),
         Command::Listen(args) => listen::run(&args),
         Command::Experiments(args) => experiments::run(&args),
+        Command::Size(args) => size::run(&args),
+        Command::Demo(args) => demo::run(&args),
     }
 }

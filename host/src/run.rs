@@ -9,12 +9,12 @@ use crate::design::DesignArgs;
 use crate::export::{write_maps, MapSnapshot};
 use crate::replay::ClampArg;
 use serde::Serialize;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use terrain_pyramid::classify::ClassifierConfig;
 use terrain_pyramid::geometry::{FineAngle, Pose};
 use terrain_pyramid::pipeline::FrontendConfig;
-use terrain_pyramid::wire::recording::{Payload, Reader};
+use terrain_pyramid::wire::recording::{Payload, Reader, Setup};
 use terrain_pyramid::wire::sick::{Accumulator, FeedResult, MeasuredValues};
 use terrain_pyramid::{
     Clamp, Config, DefaultDesign, DefaultFrontend, DefaultPyramid, Meters, DEFAULT_CELLS_PER_SIDE,
@@ -25,6 +25,20 @@ use terrain_pyramid::{
 pub enum Board {
     /// In this process, with the library compiled for the host.
     Host,
+    /// The firmware on QEMU's MPS2 AN386 (`boards/qemu-mps2`), telegrams on UART0, the host
+    /// link on UART1.
+    Qemu,
+}
+
+impl Board {
+    /// The board's name in summaries.
+    #[must_use]
+    pub const fn name(self) -> &'static str {
+        match self {
+            Self::Host => "host",
+            Self::Qemu => "qemu",
+        }
+    }
 }
 
 /// Arguments of `pyramid run`.
@@ -79,13 +93,118 @@ pub struct RunCounts {
     pub overflow_points: u64,
 }
 
+/// What `summary.json` holds.
 #[derive(Serialize)]
-struct Summary<'a> {
+pub struct Summary<'a> {
+    /// The maps' numbers.
     #[serde(flatten)]
-    maps: &'a crate::export::MapSummary,
+    pub maps: &'a crate::export::MapSummary,
+    /// The run's counters.
     #[serde(flatten)]
-    counts: &'a RunCounts,
-    board: &'static str,
+    pub counts: &'a RunCounts,
+    /// Where the pipeline ran.
+    pub board: &'static str,
+    /// FNV-1a (64 bits, hex) of every layer's index, origin, resolution and raw cells: equal
+    /// hashes mean bit-identical maps.
+    pub layers_hash: String,
+    /// The firmware's stack high-water mark, bytes (emulated boards only).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub stack_bytes: Option<u32>,
+}
+
+/// The hash of [`Summary::layers_hash`].
+#[must_use]
+pub fn layers_hash(snapshot: &MapSnapshot) -> String {
+    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+    let mut eat = |bytes: &[u8]| {
+        for &b in bytes {
+            h ^= u64::from(b);
+            h = h.wrapping_mul(0x0100_0000_01b3);
+        }
+    };
+    for l in &snapshot.layers {
+        eat(&(l.index as u64).to_le_bytes());
+        eat(&l.origin_cells.0.to_le_bytes());
+        eat(&l.origin_cells.1.to_le_bytes());
+        eat(&l.resolution.to_bits().to_le_bytes());
+        for c in &l.cells {
+            eat(&c.to_le_bytes());
+        }
+    }
+    format!("{h:016x}")
+}
+
+/// Writes the maps, `cells-K.bin` (each layer's raw cells, i16 little-endian, row-major, row
+/// 0 = lowest y) and `summary.json`; returns the summary's JSON.
+///
+/// # Errors
+/// A file that cannot be written.
+pub fn write_outputs(
+    out: &Path,
+    snapshot: &MapSnapshot,
+    title: &str,
+    counts: &RunCounts,
+    board: Board,
+    stack_bytes: Option<u32>,
+) -> Result<String, String> {
+    let written = write_maps(out, snapshot, title)?;
+    for l in &snapshot.layers {
+        let bytes: Vec<u8> = l.cells.iter().flat_map(|c| c.to_le_bytes()).collect();
+        crate::export::write_file(&out.join(format!("cells-{}.bin", l.index)), &bytes)?;
+    }
+    let summary = Summary {
+        maps: &written.summary,
+        counts,
+        board: board.name(),
+        layers_hash: layers_hash(snapshot),
+        stack_bytes,
+    };
+    let json = serde_json::to_string(&summary).map_err(|e| e.to_string())?;
+    crate::export::write_file(&out.join("summary.json"), json.as_bytes())?;
+    Ok(json)
+}
+
+/// The design, the pyramid's configuration and the classifier's of `pyramid run`'s flags.
+///
+/// # Errors
+/// An invalid design (exit status 2).
+pub fn run_config(args: &Args) -> Result<(DefaultDesign, Config, ClassifierConfig), (u8, String)> {
+    let design: DefaultDesign = DefaultDesign::new(
+        crate::design::sensor_model(&args.design),
+        crate::design::schedule(&args.design),
+        args.design.cells,
+    )
+    .map_err(|e| (2, format!("error: {e}")))?;
+    if design.cells_per_side() != DEFAULT_CELLS_PER_SIDE {
+        return Err((
+            2,
+            format!("error: --cells: the firmware's pyramid has {DEFAULT_CELLS_PER_SIDE} cells per side"),
+        ));
+    }
+    let config = Config {
+        clamp: match args.clamp {
+            ClampArg::Off => Clamp::Off,
+            ClampArg::Octomap => Clamp::OCTOMAP,
+        },
+        ..Config::default()
+    };
+    let classifier = ClassifierConfig {
+        ceiling: args.ceiling_m.map(Meters::saturating_from_num),
+        drop_threshold: args.drop_m.map(Meters::saturating_from_num),
+        ..ClassifierConfig::default()
+    };
+    Ok((design, config, classifier))
+}
+
+/// The pipeline's configuration from a recording's setup (the library's own conversion).
+///
+/// # Errors
+/// The setup names a variant, mode or position the library does not take.
+pub fn frontend_config(
+    setup: &Setup,
+    classifier: ClassifierConfig,
+) -> Result<FrontendConfig, String> {
+    FrontendConfig::from_setup(setup, classifier).map_err(|e| format!("the recording's setup: {e}"))
 }
 
 /// Plays `data` (a whole recording) through the pipeline into `pyramid`.
@@ -169,30 +288,7 @@ pub fn play(
 }
 
 fn run_host(args: &Args) -> Result<String, (u8, String)> {
-    let design: DefaultDesign = DefaultDesign::new(
-        crate::design::sensor_model(&args.design),
-        crate::design::schedule(&args.design),
-        args.design.cells,
-    )
-    .map_err(|e| (2, format!("error: {e}")))?;
-    if design.cells_per_side() != DEFAULT_CELLS_PER_SIDE {
-        return Err((
-            2,
-            format!("error: --cells: the firmware's pyramid has {DEFAULT_CELLS_PER_SIDE} cells per side"),
-        ));
-    }
-    let config = Config {
-        clamp: match args.clamp {
-            ClampArg::Off => Clamp::Off,
-            ClampArg::Octomap => Clamp::OCTOMAP,
-        },
-        ..Config::default()
-    };
-    let classifier = ClassifierConfig {
-        ceiling: args.ceiling_m.map(Meters::saturating_from_num),
-        drop_threshold: args.drop_m.map(Meters::saturating_from_num),
-        ..ClassifierConfig::default()
-    };
+    let (design, config, classifier) = run_config(args)?;
     let data = std::fs::read(&args.recording).map_err(|e| {
         (
             1,
@@ -214,25 +310,24 @@ fn run_host(args: &Args) -> Result<String, (u8, String)> {
         args.recording.display(),
         counts.telegrams_applied
     );
-    let written =
-        write_maps(&args.out, &snapshot, &title).map_err(|e| (1, format!("error: {e}")))?;
-    let summary = Summary {
-        maps: &written.summary,
-        counts: &counts,
-        board: "host",
-    };
-    let json = serde_json::to_string(&summary).map_err(|e| (1, format!("error: {e}")))?;
-    crate::export::write_file(&args.out.join("summary.json"), json.as_bytes())
-        .map_err(|e| (1, format!("error: {e}")))?;
-    Ok(json)
+    write_outputs(&args.out, &snapshot, &title, &counts, Board::Host, None)
+        .map_err(|e| (1, format!("error: {e}")))
+}
+
+/// Runs the pipeline on `args.board`; returns the summary's JSON.
+///
+/// # Errors
+/// The exit status and the message.
+pub fn execute(args: &Args) -> Result<String, (u8, String)> {
+    match args.board {
+        Board::Host => run_host(args),
+        Board::Qemu => crate::qemu::run_qemu(args).map(|(json, _)| json),
+    }
 }
 
 /// Runs `pyramid run`.
 pub fn run(args: &Args) -> ExitCode {
-    let result = match args.board {
-        Board::Host => run_host(args),
-    };
-    match result {
+    match execute(args) {
         Ok(json) => {
             if args.json {
                 println!("{json}");

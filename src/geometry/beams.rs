@@ -270,6 +270,13 @@ pub struct BeamTable {
 }
 
 impl BeamTable {
+    /// A table of zero directions (for the first variant), all zero bits: the placeholder of
+    /// an unconfigured pipeline, which uses no beam until it is configured.
+    pub const EMPTY: Self = Self {
+        variant: Variant::Fov180Step1,
+        dirs: [BeamDir { cos: 0, sin: 0 }; MAX_BEAMS],
+    };
+
     /// The table of `variant`: entry k is [`BeamDir::new`] of θ_k.
     #[must_use]
     pub const fn new(variant: Variant) -> Self {

@@ -372,6 +372,19 @@ pub struct PoseFrame {
     pub translation: Point3,
 }
 
+impl PoseFrame {
+    /// A frame of zero bits (a zero matrix at the origin): the placeholder of an unconfigured
+    /// pipeline, replaced by [`Pose::frame`] before any line uses it.
+    pub const ZERO: Self = Self {
+        rotation: Rotation { rows: [[0; 3]; 3] },
+        translation: Point3 {
+            x: Meters::ZERO,
+            y: Meters::ZERO,
+            z: Meters::ZERO,
+        },
+    };
+}
+
 impl From<&Pose> for PoseFrame {
     fn from(pose: &Pose) -> Self {
         pose.frame()

@@ -46,11 +46,12 @@ pub use queue::FrameQueue;
 
 use crate::grid::{CellRect, TILES_PER_SIDE};
 use crate::logodds::Cell;
+use crate::pipeline::FrontendConfig;
 use crate::pyramid::{Config, Pyramid};
 use crate::wire::link::{
     encode, encode_patch, Accumulator, Configure, DecodeError, FeedResult, FirmwareVersion, Header,
     Hello, HelloReason, LayerInfo, Message, PanAngle, PatchArea, Pose, Reply, ReplyCode,
-    RxCounters, SnapshotScope, Stats, WindowMoved, MAX_COMMAND_FRAME, MAX_ENCODED_FRAME,
+    RxCounters, Setup, SnapshotScope, Stats, WindowMoved, MAX_COMMAND_FRAME, MAX_ENCODED_FRAME,
     MAX_LAYERS, MAX_PATCH_SIDE, MIN_FRAME, VERSION,
 };
 use crate::{Design, DesignError};
@@ -186,6 +187,15 @@ pub enum Event {
     SnapshotRequested(SnapshotScope),
     /// The host pinged.
     Ping,
+    /// A validated setup (Reply Ok queued): reconfigure the pipeline with it.
+    Setup(FrontendConfig),
+    /// The host asked for Stats; it goes out at the next poll, ahead of patches.
+    StatsRequested,
+    /// The host asked to end the current observation now (no Reply).
+    EndObservation,
+    /// The host asked the device to stop: answer it with [`Link::answer`] (Reply Ok, the
+    /// stack's high-water mark in `value` and its size in `a`, bytes), drain the queue, stop.
+    Shutdown(Header),
     /// A command was refused; the Reply says why.
     Refused(Reply),
     /// A bad frame was dropped (and counted).
@@ -214,6 +224,10 @@ enum Command {
     Reset,
     RequestSnapshot(SnapshotScope),
     Ping,
+    Setup(Setup),
+    RequestStats,
+    Shutdown,
+    EndObservation,
 }
 
 /// A host frame, copied out of the receive buffer.
@@ -251,6 +265,8 @@ pub struct Link<const Q: usize = DEFAULT_QUEUE_BYTES> {
     /// Polls each dirty tile has waited (0 = not waiting), for oldest-first sending.
     ages: [[u8; TILES]; MAX_LAYERS],
     last_stats_ms: Option<u32>,
+    /// A Stats frame was requested: it goes out at the next poll whatever the interval.
+    stats_requested: bool,
     counters: LinkCounters,
 }
 
@@ -276,6 +292,7 @@ impl<const Q: usize> Link<Q> {
             cursor: 0,
             ages: [[0; TILES]; MAX_LAYERS],
             last_stats_ms: None,
+            stats_requested: false,
             counters: LinkCounters {
                 frames_sent: 0,
                 bytes_sent: 0,
@@ -396,6 +413,19 @@ impl<const Q: usize> Link<Q> {
         self.counters.snapshots = self.counters.snapshots.saturating_add(1);
         self.want_hello(HelloReason::Snapshot, mask);
         true
+    }
+
+    /// Queues a Reply the firmware composed (e.g. to Shutdown, [`Event::Shutdown`]). Like
+    /// every Reply it is dropped, and its sequence number counted as a gap, when the queue
+    /// has no room.
+    pub fn answer(&mut self, reply: Reply) {
+        self.reply(reply);
+    }
+
+    /// Asks for a Stats frame at the next [`poll`](Self::poll), whatever the interval (it goes
+    /// ahead of patches, after a pending Hello and WindowMoved).
+    pub fn request_stats(&mut self) {
+        self.stats_requested = true;
     }
 
     fn want_hello(&mut self, reason: HelloReason, resend: u16) {
@@ -780,6 +810,7 @@ impl<const Q: usize> Link<Q> {
     ) {
         let interval = self.config.stats_interval_ms;
         let due = match self.last_stats_ms {
+            _ if self.stats_requested => true,
             _ if interval == 0 => false,
             None => true,
             Some(last) => now_ms.wrapping_sub(last) >= interval,
@@ -791,6 +822,7 @@ impl<const Q: usize> Link<Q> {
         let stats = self.stats(now_ms, pyramid, sensor);
         if self.send(&Message::Stats(stats), CONTROL_RESERVE, report) {
             self.last_stats_ms = Some(now_ms);
+            self.stats_requested = false;
         }
     }
 
@@ -955,6 +987,19 @@ impl<const Q: usize> Link<Q> {
                 self.reply(Reply::ok(header));
                 on_event(Event::Ping);
             }
+            Command::Setup(setup) => match setup.frontend_config() {
+                Ok(config) => {
+                    self.reply(Reply::ok(header));
+                    on_event(Event::Setup(config));
+                }
+                Err(e) => self.refuse(Reply::setup_error(header, e), on_event),
+            },
+            Command::RequestStats => {
+                self.request_stats();
+                on_event(Event::StatsRequested);
+            }
+            Command::EndObservation => on_event(Event::EndObservation),
+            Command::Shutdown => on_event(Event::Shutdown(header)),
         }
     }
 }
@@ -974,6 +1019,10 @@ fn owned_command(message: Message<'_>) -> Option<Command> {
         Message::Reset => Command::Reset,
         Message::RequestSnapshot(s) => Command::RequestSnapshot(s),
         Message::Ping => Command::Ping,
+        Message::Setup(s) => Command::Setup(s),
+        Message::RequestStats => Command::RequestStats,
+        Message::Shutdown => Command::Shutdown,
+        Message::EndObservation => Command::EndObservation,
         Message::Hello(_)
         | Message::LayerPatch(_)
         | Message::WindowMoved(_)

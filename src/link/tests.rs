@@ -483,3 +483,86 @@ fn the_default_link_fits_its_budget() {
     let bytes = core::mem::size_of::<Link>();
     assert!(bytes < 6400, "{bytes}");
 }
+
+#[test]
+fn setup_request_stats_end_observation_and_shutdown() {
+    use crate::wire::link::Setup;
+    let (mut pyramid, mut link) = configured();
+    link.poll(0, &mut pyramid, &SensorCounters::default());
+    drain(&mut link);
+    let setup = Setup {
+        mount: 0,
+        measuring_mode: 3,
+        field_deg: 100,
+        resolution_cdeg: 25,
+        sensor_m: [0.1, 0.0, 0.6],
+        lines_per_observation: 20,
+        robot_height_m: 0.4,
+        step_threshold_m: 0.05,
+        drop_threshold_m: 0.3,
+        ceiling_m: 0.0,
+    };
+    let mut bytes = command(0, &Message::Setup(setup));
+    bytes.extend(command(
+        1,
+        &Message::Setup(Setup {
+            measuring_mode: 9,
+            ..setup
+        }),
+    ));
+    bytes.extend(command(2, &Message::EndObservation));
+    bytes.extend(command(3, &Message::RequestStats));
+    bytes.extend(command(4, &Message::Shutdown));
+    let mut events = Vec::new();
+    link.receive(&bytes, &mut pyramid, |e| events.push(e));
+    let Event::Setup(config) = events[0] else {
+        panic!("{events:?}")
+    };
+    assert_eq!(config.lines_per_observation, 20);
+    assert_eq!(
+        config.classifier.drop_threshold,
+        Some(Meters::saturating_from_num(0.3_f32))
+    );
+    assert_eq!(config.classifier.ceiling, None);
+    assert!(
+        matches!(events[1], Event::Refused(r) if r.param == 49 && r.code == ReplyCode::OutOfRange)
+    );
+    assert_eq!(events[2], Event::EndObservation);
+    assert_eq!(events[3], Event::StatsRequested);
+    let Event::Shutdown(header) = events[4] else {
+        panic!("{events:?}")
+    };
+    let mut answer = Reply::ok(header);
+    answer.value = 1234.0;
+    link.answer(answer);
+    // Stats goes out at the next poll although the interval is 0 (never).
+    let sensor = SensorCounters {
+        telegrams_ok: 5,
+        ..SensorCounters::default()
+    };
+    link.poll(10, &mut pyramid, &sensor);
+    let out = drain(&mut link);
+    let replies: Vec<_> = out
+        .iter()
+        .filter_map(|(_, o)| match o {
+            Out::Reply(r) => Some(*r),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(replies.len(), 3, "{out:?}");
+    assert!(replies[0].is_ok() && replies[0].to_type == 0x87);
+    assert_eq!(replies[1].code, ReplyCode::OutOfRange);
+    assert_eq!((replies[2].to_type, replies[2].value), (0x89, 1234.0));
+    let stats: Vec<_> = out
+        .iter()
+        .filter_map(|(_, o)| match o {
+            Out::Stats(s) => Some(*s),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(stats.len(), 1);
+    assert_eq!(stats[0].telegrams_ok, 5);
+    // Only once.
+    link.poll(20, &mut pyramid, &sensor);
+    assert!(drain(&mut link).is_empty());
+}

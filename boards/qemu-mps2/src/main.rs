@@ -1,42 +1,112 @@
-//! The firmware on QEMU's MPS2 AN386: the default pyramid in a `static`, configured with the
-//! default design and self-checked, then the main loop, one [`App::pipeline`] call per step.
+//! The firmware on QEMU's MPS2 AN386: the terrain pyramid's co-processor, fed by real SICK
+//! telegrams on UART0 and driven by the host link (`docs/protocol.md`) on UART1.
 //!
-//! For now the pipeline is a placeholder that proves both UARTs: it echoes the bytes that
-//! arrive on UART0 (the laser's side) to UART1 (the host link) until a byte 0x04 (EOT)
-//! arrives, and the firmware then exits with success. The real step (SICK telegrams →
-//! geometry → classifier → pyramid → link) replaces the body of [`App::pipeline`].
+//! At boot: the default pyramid in a `static` (all zero bits: `.bss`), configured with the
+//! default design and self-checked, then announced to the host (Hello, reason boot). Each
+//! step of the main loop:
 //!
-//! At exit the stack's high-water mark is logged (see `qemu_mps2::stack`).
+//! 1. UART0: every byte that has arrived goes through the SICK accumulator
+//!    (`drivers::uart::SickUart`); each telegram is parsed (`MeasuredValues::parse`) and fed
+//!    to the pipeline (`Frontend::line`) in the same step.
+//! 2. UART1: the host's bytes go to `Link::receive`, one byte at a time so that every command
+//!    is carried out in order with the pipeline's own events (Pose, PanAngle, Setup,
+//!    Configure, Reset, EndObservation, Shutdown).
+//! 3. `Link::poll` with the time and the SICK and classifier counters, then the queue drains
+//!    into UART1.
+//!
+//! Time: SysTick at 1 kHz from the 25 MHz processor clock (QEMU runs it on its virtual clock,
+//! which follows the host's wall clock without `-icount`; DWT's cycle counter reads 0 in QEMU).
+//!
+//! The run ends when the host sends Shutdown (0x89): the firmware answers it with Reply Ok
+//! (the stack's high-water mark in `value`, its size in `a`, bytes), drains its queue, logs
+//! its counters and the stack through defmt, and exits with success.
 #![no_std]
 #![no_main]
 #![deny(unsafe_code)]
 
-use embedded_io::{Read, Write};
+use core::sync::atomic::{AtomicU32, Ordering};
+use cortex_m::peripheral::syst::SystClkSource;
+use embedded_io::{Read, ReadReady, Write};
 use qemu_mps2::stack;
 use qemu_mps2::uart::{Uart0, Uart1, UartError, Uarts};
 use static_cell::ConstStaticCell;
+use terrain_pyramid::classify::ClassifierConfig;
+use terrain_pyramid::drivers::uart::{Event as SickEvent, SickUart, UartError as SickError};
+use terrain_pyramid::geometry::{FineAngle, Mount, Pose, ScanPlane, Variant};
+use terrain_pyramid::link::{Event, Link, LinkConfig, SensorCounters};
+use terrain_pyramid::pipeline::FrontendConfig;
 use terrain_pyramid::pyramid::static_ram_bytes;
+use terrain_pyramid::wire::link::{Header, Reply};
+use terrain_pyramid::wire::sick::{MeasuredValues, MeasuringMode};
 use terrain_pyramid::{
-    Applied, Config, DefaultDesign, DefaultPyramid, DesignError, Evidence, EvidenceClass, Fused,
-    Meters, Schedule, SensorModel, DEFAULT_CELLS_PER_SIDE, DEFAULT_LAYERS,
+    Applied, Config, DefaultDesign, DefaultFrontend, DefaultPyramid, DesignError, Evidence,
+    EvidenceClass, Fused, Meters, Point3, Schedule, SensorModel, DEFAULT_CELLS_PER_SIDE,
+    DEFAULT_LAYERS,
 };
 
 /// The UARTs' baud rate (the SICK LMS's fast mode is 500 kBd on real hardware; QEMU's UARTs
 /// ignore the rate).
 const BAUD: u32 = 500_000;
 
-/// The byte that ends the echo placeholder: ASCII EOT.
-const END_OF_ECHO: u8 = 0x04;
+/// The processor clock of the MPS2 AN386, Hz: SysTick counts it.
+const CPU_HZ: u32 = 25_000_000;
 
-/// The pyramid, about 73 KiB, in a `static`.
+/// SICK accumulator polls per main-loop step before the host link gets its turn.
+const LASER_POLLS_PER_STEP: u32 = 4096;
+
+/// The pyramid, about 72 KiB, in a `static`.
 ///
 /// `ConstStaticCell` because `Pyramid::new` is `const`: the value is built at compile time, so
 /// it is never constructed on the stack (which `StaticCell::init` may do, and a
-/// `cortex_m::singleton!` would do, for a 73 KiB value), there is no `static mut`, no lock
-/// (unlike a `Mutex<RefCell<…>>`) and no run-time check but the one `take`. Its price: the
-/// unknown cells are `0x8000`, not zero, so the initial image sits in `.data` and costs as
-/// much flash as RAM.
+/// `cortex_m::singleton!` would do, for a 72 KiB value), there is no `static mut`, no lock
+/// (unlike a `Mutex<RefCell<…>>`) and no run-time check but the one `take`. A fresh pyramid
+/// is all zero bits, so it lives in `.bss` and costs no flash.
 static PYRAMID: ConstStaticCell<DefaultPyramid> = ConstStaticCell::new(DefaultPyramid::new());
+
+/// The host link (queue, bucket, tile ages: about 4 KiB), `const`-built like the pyramid.
+static LINK: ConstStaticCell<BoardLink> = ConstStaticCell::new(Link::new(LinkConfig::DEFAULT));
+
+/// The link with a 2 KiB frame queue: 22 ms of the UART at 921 600 Bd, ahead of a patch budget
+/// of half the link; it keeps the firmware's static RAM within 96 KiB.
+type BoardLink = Link<2048>;
+
+/// The per-line pipeline (about 24 KiB: the classifier's 1 024 slots and the beam table),
+/// `const`-built unconfigured (all zero bits: `.bss`) and configured in place at boot, so it
+/// never sits on the stack.
+static FRONTEND: ConstStaticCell<DefaultFrontend> =
+    ConstStaticCell::new(DefaultFrontend::unconfigured());
+
+/// Milliseconds since SysTick started, wrapping.
+static MILLIS: AtomicU32 = AtomicU32::new(0);
+
+#[cortex_m_rt::exception]
+fn SysTick() {
+    // The handler is the only writer: a load and a store (ARMv6-M has no atomic add).
+    MILLIS.store(
+        MILLIS.load(Ordering::Relaxed).wrapping_add(1),
+        Ordering::Relaxed,
+    );
+}
+
+/// The pipeline's configuration until the host sends Setup: a SICK LMS 291 at 180°/0.5° in
+/// the 8 m mode, 0.5 m up on a tilt unit, one observation per sweep.
+fn boot_frontend_config() -> FrontendConfig {
+    FrontendConfig {
+        mount: Mount::new(
+            ScanPlane::TiltedHorizontal,
+            Point3 {
+                x: Meters::ZERO,
+                y: Meters::ZERO,
+                z: Meters::from_num(0.5),
+            },
+        ),
+        variant: Variant::Fov180StepHalf,
+        measuring_mode: MeasuringMode::Mm8Cm80,
+        lines_per_observation: 0,
+        classifier: ClassifierConfig::default(),
+        missing_ground_within: None,
+    }
+}
 
 /// Why the firmware stopped early.
 #[derive(Debug, defmt::Format)]
@@ -45,8 +115,8 @@ enum Fault {
     Design(DesignError),
     /// The pyramid answered the self-check wrongly.
     SelfCheck(&'static str),
-    /// The UARTs were taken twice.
-    UartsTaken,
+    /// The UARTs or a static were taken twice.
+    Taken,
 }
 
 impl From<DesignError> for Fault {
@@ -55,54 +125,189 @@ impl From<DesignError> for Fault {
     }
 }
 
-/// What the main loop does after a pipeline step.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-enum Flow {
-    Continue,
-    Stop,
+/// UART0 as a stream that never blocks: `read` returns 0 (end of stream, for `SickUart`:
+/// "nothing now") when no byte has arrived.
+struct Laser(Uart0);
+
+impl embedded_io::ErrorType for Laser {
+    type Error = UartError;
+}
+
+impl Read for Laser {
+    fn read(&mut self, buf: &mut [u8]) -> Result<usize, UartError> {
+        if buf.is_empty() || !self.0.read_ready()? {
+            return Ok(0);
+        }
+        self.0.read(buf)
+    }
+}
+
+/// The firmware's own counters.
+#[derive(Debug, Default, Clone, Copy, defmt::Format)]
+struct Counters {
+    /// Telegrams whose payload was not a measured-values telegram (or did not parse).
+    telegrams_unparsed: u32,
+    /// Lines the pipeline refused (a count that does not fit the variant).
+    lines_rejected: u32,
+    /// Lines applied.
+    lines_applied: u32,
+    /// Poses the geometry refused.
+    poses_refused: u32,
+    /// UART0 overruns.
+    overruns: u32,
+    /// Main-loop steps.
+    steps: u32,
 }
 
 /// Everything the main loop owns.
 struct App {
-    /// Not used by the placeholder step yet; the real pipeline integrates into it.
-    #[allow(dead_code)]
     pyramid: &'static mut DefaultPyramid,
-    /// UART0: the laser's telegrams come in here.
-    laser: Uart0,
-    /// UART1: the link to the main computer.
-    link: Uart1,
-    /// Bytes echoed so far.
-    echoed: u32,
-    /// UART0 overruns seen.
-    overruns: u32,
+    frontend: &'static mut DefaultFrontend,
+    link: &'static mut BoardLink,
+    laser: SickUart<Laser>,
+    host: Uart1,
+    counters: Counters,
 }
 
 impl App {
-    /// One step of the main loop. Placeholder: echo what UART0 has to UART1; stop at EOT.
-    fn pipeline(&mut self) -> Flow {
-        let mut buf = [0_u8; 64];
-        let n = match self.laser.read(&mut buf) {
-            Ok(n) => n,
-            Err(UartError::Overrun) => {
-                self.overruns = self.overruns.saturating_add(1);
-                defmt::warn!("UART0 overrun");
-                return Flow::Continue;
+    /// Step 1: every telegram UART0 holds, through the pipeline.
+    fn laser_step(&mut self) {
+        for _ in 0..LASER_POLLS_PER_STEP {
+            match self.laser.poll() {
+                Ok(Some(SickEvent::Telegram(telegram))) => match MeasuredValues::parse(&telegram) {
+                    Ok(values) => match self.frontend.line(self.pyramid, &values) {
+                        Ok(()) => {
+                            self.counters.lines_applied =
+                                self.counters.lines_applied.saturating_add(1);
+                        }
+                        Err(_) => {
+                            self.counters.lines_rejected =
+                                self.counters.lines_rejected.saturating_add(1);
+                        }
+                    },
+                    Err(_) => {
+                        self.counters.telegrams_unparsed =
+                            self.counters.telegrams_unparsed.saturating_add(1);
+                    }
+                },
+                Ok(_) => {}
+                Err(SickError::EndOfStream) => return,
+                Err(_) => {
+                    self.counters.overruns = self.counters.overruns.saturating_add(1);
+                    defmt::warn!("UART0 overrun");
+                    return;
+                }
             }
-        };
-        let received = buf.get(..n).unwrap_or(&[]);
-        let (payload, flow) = match received.iter().position(|&b| b == END_OF_ECHO) {
-            Some(end) => (received.get(..end).unwrap_or(&[]), Flow::Stop),
-            None => (received, Flow::Continue),
-        };
-        // Writing to UART1 cannot fail (no error but RX overrun exists on this UART).
-        let _ = self.link.write_all(payload);
-        self.echoed = self
-            .echoed
-            .saturating_add(u32::try_from(payload.len()).unwrap_or(u32::MAX));
-        if flow == Flow::Stop {
-            let _ = self.link.flush();
         }
-        flow
+    }
+
+    /// Step 2: the host's bytes, one command at a time. Returns the Shutdown's header when
+    /// the host asked the firmware to stop.
+    fn host_step(&mut self) -> Option<Header> {
+        let mut buf = [0_u8; 64];
+        let n = match self.host.read_ready() {
+            Ok(true) => self.host.read(&mut buf).unwrap_or(0),
+            _ => 0,
+        };
+        let mut shutdown = None;
+        for &byte in buf.get(..n).unwrap_or(&[]) {
+            let mut end_observation = false;
+            let frontend = &mut *self.frontend;
+            let counters = &mut self.counters;
+            self.link
+                .receive(&[byte], self.pyramid, |event| match event {
+                    Event::Pose(p) => {
+                        match Pose::from_f32(
+                            p.x_m,
+                            p.y_m,
+                            p.z_m,
+                            p.roll_rad,
+                            p.pitch_rad,
+                            p.yaw_rad,
+                        ) {
+                            Ok(pose) => frontend.set_pose(pose),
+                            Err(_) => {
+                                counters.poses_refused = counters.poses_refused.saturating_add(1);
+                            }
+                        }
+                    }
+                    Event::PanAngle(a) => {
+                        frontend.set_actuator(FineAngle::from_bits(u32::from(a.turns) << 16));
+                    }
+                    Event::Setup(config) => {
+                        defmt::info!("setup: {}", config);
+                        frontend.configure(config);
+                    }
+                    // The maps were cleared: the observation under way is discarded.
+                    Event::Configured | Event::Reset => frontend.configure(*frontend.config()),
+                    Event::EndObservation => end_observation = true,
+                    Event::Shutdown(header) => shutdown = Some(header),
+                    Event::Refused(reply) => defmt::warn!("refused: {}", reply),
+                    Event::BadFrame(error) => defmt::warn!("bad frame: {}", error),
+                    Event::SnapshotRequested(_) | Event::StatsRequested | Event::Ping => {}
+                });
+            if end_observation {
+                self.frontend.end_observation(self.pyramid);
+            }
+        }
+        shutdown
+    }
+
+    /// The SICK accumulator's and the classifier's counters, for Stats.
+    fn sensor_counters(&self) -> SensorCounters {
+        let sick = self.laser.stats();
+        let classifier = self.frontend.classifier_stats();
+        SensorCounters {
+            telegrams_ok: sick.telegrams_ok,
+            telegrams_bad_checksum: sick.crc_errors,
+            telegrams_bad_framing: sick.length_errors.saturating_add(sick.truncated),
+            telegrams_bad_other: self
+                .counters
+                .telegrams_unparsed
+                .saturating_add(self.counters.lines_rejected),
+            points: classifier.points,
+            classifier_overflows: classifier.overflow_points,
+        }
+    }
+
+    /// Step 3: poll the link and drain its queue into UART1.
+    fn link_step(&mut self) {
+        let sensor = self.sensor_counters();
+        self.link
+            .poll(MILLIS.load(Ordering::Relaxed), self.pyramid, &sensor);
+        self.drain();
+    }
+
+    fn drain(&mut self) {
+        let mut out = [0_u8; 128];
+        loop {
+            let n = self.link.pop_bytes(&mut out);
+            if n == 0 {
+                break;
+            }
+            // Writing to UART1 cannot fail (no error but RX overrun exists on this UART).
+            let _ = self.host.write_all(out.get(..n).unwrap_or(&[]));
+        }
+    }
+
+    /// Answers Shutdown with the stack's high-water mark, drains the queue and logs.
+    fn shutdown(&mut self, header: Header) {
+        let usage = stack::usage();
+        let mut reply = Reply::ok(header);
+        #[allow(clippy::cast_precision_loss)]
+        {
+            reply.value = usage.used as f32;
+            reply.a = usage.size as f32;
+        }
+        self.link.answer(reply);
+        self.drain();
+        let _ = self.host.flush();
+        defmt::info!("shutdown: {}", self.counters);
+        defmt::info!("sick: {}", self.laser.stats());
+        defmt::info!("frontend: {}", self.frontend.stats());
+        defmt::info!("classifier: {}", self.frontend.classifier_stats());
+        defmt::info!("link: {}", self.link.counters());
+        defmt::info!("pyramid: {}", self.pyramid.stats());
     }
 }
 
@@ -136,22 +341,39 @@ fn run() -> Result<(), Fault> {
     log_design(&design);
     self_check(pyramid)?;
 
-    let Uarts { uart0, uart1 } = Uarts::take(BAUD).ok_or(Fault::UartsTaken)?;
+    let link = LINK.take();
+    // Hello (boot) announces the default design at the first poll.
+    link.adopt(&design);
+    let frontend = FRONTEND.take();
+    frontend.configure(boot_frontend_config());
+
+    let mut core = cortex_m::Peripherals::take().ok_or(Fault::Taken)?;
+    core.SYST.set_clock_source(SystClkSource::Core);
+    core.SYST.set_reload(CPU_HZ / 1000 - 1);
+    core.SYST.clear_current();
+    core.SYST.enable_interrupt();
+    core.SYST.enable_counter();
+
+    let Uarts { uart0, uart1 } = Uarts::take(BAUD).ok_or(Fault::Taken)?;
     let mut app = App {
         pyramid,
-        laser: uart0,
-        link: uart1,
-        echoed: 0,
-        overruns: 0,
+        frontend,
+        link,
+        laser: SickUart::new(Laser(uart0)),
+        host: uart1,
+        counters: Counters::default(),
     };
-    defmt::info!("echoing UART0 -> UART1 until 0x04");
-    while app.pipeline() == Flow::Continue {}
-    defmt::info!(
-        "echo done: {=u32} bytes, {=u32} overruns",
-        app.echoed,
-        app.overruns
-    );
-    Ok(())
+    defmt::info!("running: SICK telegrams on UART0, the host link on UART1");
+    loop {
+        app.counters.steps = app.counters.steps.wrapping_add(1);
+        app.laser_step();
+        let shutdown = app.host_step();
+        app.link_step();
+        if let Some(header) = shutdown {
+            app.shutdown(header);
+            return Ok(());
+        }
+    }
 }
 
 fn log_design(design: &DefaultDesign) {

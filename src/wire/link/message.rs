@@ -4,11 +4,17 @@
 use super::cobs;
 use super::crc::Crc32;
 use super::{DecodeError, EncodeError, Frame, Header, MessageType, MAX_LAYERS, MAX_PATCH_SIDE};
+use crate::classify::ClassifierConfig;
 use crate::design::{DesignError, GateShape, Param, Schedule, SensorModel};
 use crate::drivers::angle::Angle;
+use crate::geometry::{Mount, ScanPlane, Variant};
 use crate::logodds::{Clamp, InverseSensorModel};
+use crate::pipeline::FrontendConfig;
 use crate::pyramid::Config;
+use crate::units::Meters;
+use crate::wire::sick::MeasuringMode;
 use crate::Design;
+use crate::Point3;
 use core::fmt;
 
 /// Bytes of a Hello before its layers.
@@ -27,6 +33,8 @@ pub(crate) const POSE_LEN: usize = 28;
 pub(crate) const PAN_LEN: usize = 6;
 /// Bytes of a Configure body.
 pub(crate) const CONFIGURE_LEN: usize = 60;
+/// Bytes of a Setup body.
+pub(crate) const SETUP_LEN: usize = 38;
 /// The number of counters in a [`Stats`].
 pub const STATS_COUNTERS: usize = 27;
 
@@ -601,6 +609,29 @@ impl Reply {
         reply
     }
 
+    /// The refusal of a setup.
+    #[must_use]
+    pub fn setup_error(to: Header, error: SetupError) -> Self {
+        let mut reply = Self::code(to, ReplyCode::Ok);
+        reply.param = error.field() as u8;
+        match error {
+            SetupError::NotFinite { .. } => reply.code = ReplyCode::NotFinite,
+            SetupError::NotPositive { value, .. } => {
+                reply.code = ReplyCode::NotPositive;
+                reply.value = value;
+            }
+            SetupError::OutOfRange {
+                value, min, max, ..
+            } => {
+                reply.code = ReplyCode::OutOfRange;
+                reply.value = value;
+                reply.a = min;
+                reply.b = max;
+            }
+        }
+        reply
+    }
+
     /// The design parameter named by `param`, if any.
     #[must_use]
     pub const fn design_param(&self) -> Option<Param> {
@@ -626,13 +657,18 @@ impl fmt::Display for Reply {
             (None, 36) => "pose pitch",
             (None, 37) => "pose yaw",
             (None, PARAM_LAYER) => "layer",
-            _ => "-",
+            (None, p) => SetupField::from_param(p).map_or("-", SetupField::name),
         };
         let (v, a, b) = (self.value, self.a, self.b);
         match self.code {
             ReplyCode::Ok => f.write_str("ok"),
             ReplyCode::NotFinite => write!(f, "{name}: must be a finite number"),
             ReplyCode::NotPositive => write!(f, "{name}: must be greater than 0 (got {v})"),
+            ReplyCode::OutOfRange if self.param == SetupField::Variant as u8 => write!(
+                f,
+                "{name}: {a} degrees at {v} centidegrees is not a SICK LMS2xx variant \
+                 (180 at 50 or 100; 100 at 25, 50 or 100)"
+            ),
             ReplyCode::OutOfRange => write!(f, "{name}: must lie within [{a}, {b}] (got {v})"),
             ReplyCode::GammaNotAboveOne => write!(f, "{name}: must be greater than 1 (got {v})"),
             ReplyCode::BaseBelowBound => {
@@ -848,6 +884,269 @@ impl Configure {
     }
 }
 
+/// A field of a [`Setup`], as a Reply names it (`param` 48 ..= 57).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[repr(u8)]
+pub enum SetupField {
+    /// The mount: 0 panned vertical, 1 tilted horizontal.
+    Mount = 48,
+    /// The SICK measuring mode (the 0x77 mode number).
+    MeasuringMode = 49,
+    /// The scanner variant: field of view and resolution together.
+    Variant = 50,
+    /// The sensor's x in the robot frame.
+    SensorX = 51,
+    /// The sensor's y in the robot frame.
+    SensorY = 52,
+    /// The sensor's z in the robot frame.
+    SensorZ = 53,
+    /// The robot's height (overhang above the cell's ground).
+    RobotHeight = 54,
+    /// The step threshold.
+    StepThreshold = 55,
+    /// The drop threshold (0 = off).
+    DropThreshold = 56,
+    /// The ceiling (0 = off).
+    Ceiling = 57,
+}
+
+impl SetupField {
+    /// The field a Reply `param` names, if it names one.
+    #[must_use]
+    pub const fn from_param(param: u8) -> Option<Self> {
+        Some(match param {
+            48 => Self::Mount,
+            49 => Self::MeasuringMode,
+            50 => Self::Variant,
+            51 => Self::SensorX,
+            52 => Self::SensorY,
+            53 => Self::SensorZ,
+            54 => Self::RobotHeight,
+            55 => Self::StepThreshold,
+            56 => Self::DropThreshold,
+            57 => Self::Ceiling,
+            _ => return None,
+        })
+    }
+
+    /// The field's name for messages.
+    #[must_use]
+    pub const fn name(self) -> &'static str {
+        match self {
+            Self::Mount => "setup mount",
+            Self::MeasuringMode => "setup measuring mode",
+            Self::Variant => "setup scanner variant",
+            Self::SensorX => "setup sensor x",
+            Self::SensorY => "setup sensor y",
+            Self::SensorZ => "setup sensor z",
+            Self::RobotHeight => "setup robot height",
+            Self::StepThreshold => "setup step threshold",
+            Self::DropThreshold => "setup drop threshold",
+            Self::Ceiling => "setup ceiling",
+        }
+    }
+}
+
+/// Why a [`Setup`] was refused.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum SetupError {
+    /// The field is NaN or infinite.
+    NotFinite {
+        /// The field.
+        field: SetupField,
+    },
+    /// The field must be greater than 0.
+    NotPositive {
+        /// The field.
+        field: SetupField,
+        /// Its value.
+        value: f32,
+    },
+    /// The field lies outside `[min, max]` (for [`SetupField::Variant`]: `value` is the
+    /// resolution in centidegrees, `min` the field of view in degrees, `max` 0).
+    OutOfRange {
+        /// The field.
+        field: SetupField,
+        /// Its value.
+        value: f32,
+        /// The smallest value allowed.
+        min: f32,
+        /// The largest value allowed.
+        max: f32,
+    },
+}
+
+impl SetupError {
+    /// The field concerned.
+    #[must_use]
+    pub const fn field(&self) -> SetupField {
+        match *self {
+            Self::NotFinite { field }
+            | Self::NotPositive { field, .. }
+            | Self::OutOfRange { field, .. } => field,
+        }
+    }
+}
+
+/// Host to device: how the laser is mounted and how its lines make observations, and the
+/// classifier's thresholds. Exactly the fields of a recording's setup event
+/// (`docs/recording.md`) plus the thresholds; validated by [`Setup::frontend_config`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Setup {
+    /// 0 panned vertical, 1 tilted horizontal.
+    pub mount: u8,
+    /// The SICK measuring mode (the 0x77 mode number).
+    pub measuring_mode: u8,
+    /// Field of view, degrees: 100 or 180.
+    pub field_deg: u16,
+    /// Angular resolution, centidegrees: 25, 50 or 100.
+    pub resolution_cdeg: u16,
+    /// The sensor's position in the robot frame, metres: x, y, z.
+    pub sensor_m: [f32; 3],
+    /// Lines per observation; 0 = one observation per sweep.
+    pub lines_per_observation: u32,
+    /// Points higher than the cell's ground plus this are overhang, metres; > 0.
+    pub robot_height_m: f32,
+    /// A spread above this makes a cell not navigable, metres; ≥ 0.
+    pub step_threshold_m: f32,
+    /// A return this far below the robot's ground marks a drop-off, metres; 0 = off.
+    pub drop_threshold_m: f32,
+    /// Returns higher than this above the robot's ground are overhang, metres; 0 = off.
+    pub ceiling_m: f32,
+}
+
+impl Setup {
+    /// The largest |value| of a position or threshold accepted, metres.
+    pub const LIMIT_M: f32 = 1_000.0;
+
+    /// The setup of a recording's setup event and the classifier's thresholds (exact: every
+    /// Q16.16 value below 256 m is exact in `f32`, so [`frontend_config`](Self::frontend_config)
+    /// gives back the same thresholds).
+    #[must_use]
+    pub fn from_recording(
+        setup: &crate::wire::recording::Setup,
+        classifier: &ClassifierConfig,
+    ) -> Self {
+        let m = |v: Meters| v.to_num::<f32>();
+        let off = |v: Option<Meters>| v.map_or(0.0, m);
+        Self {
+            mount: match setup.mount {
+                crate::wire::recording::MountKind::PannedVertical => 0,
+                crate::wire::recording::MountKind::TiltedHorizontal => 1,
+            },
+            measuring_mode: setup.measuring_mode,
+            field_deg: setup.field_deg,
+            resolution_cdeg: setup.resolution_cdeg,
+            sensor_m: setup.sensor_m,
+            lines_per_observation: setup.lines_per_observation,
+            robot_height_m: m(classifier.robot_height),
+            step_threshold_m: m(classifier.step_threshold),
+            drop_threshold_m: off(classifier.drop_threshold),
+            ceiling_m: off(classifier.ceiling),
+        }
+    }
+
+    /// Validates the setup and turns it into the pipeline's configuration: the mount exists
+    /// (0 or 1), the measuring mode is one the SICK knows, the field of view and resolution
+    /// make a variant, positions are finite with |v| < 1 000 m, the robot height is positive,
+    /// the thresholds are ≥ 0 and finite (all below 1 000 m). Fields are checked in wire
+    /// order; the first bad one is reported.
+    ///
+    /// # Errors
+    /// The first bad field.
+    pub fn frontend_config(&self) -> Result<FrontendConfig, SetupError> {
+        let plane = match self.mount {
+            0 => ScanPlane::PannedVertical,
+            1 => ScanPlane::TiltedHorizontal,
+            other => {
+                return Err(SetupError::OutOfRange {
+                    field: SetupField::Mount,
+                    value: f32::from(other),
+                    min: 0.0,
+                    max: 1.0,
+                })
+            }
+        };
+        let measuring_mode =
+            MeasuringMode::from_code(self.measuring_mode).map_err(|_| SetupError::OutOfRange {
+                field: SetupField::MeasuringMode,
+                value: f32::from(self.measuring_mode),
+                min: 0.0,
+                max: 15.0,
+            })?;
+        let variant = Variant::from_sick(self.field_deg, self.resolution_cdeg).ok_or(
+            SetupError::OutOfRange {
+                field: SetupField::Variant,
+                value: f32::from(self.resolution_cdeg),
+                min: f32::from(self.field_deg),
+                max: 0.0,
+            },
+        )?;
+        let [sx, sy, sz] = self.sensor_m;
+        let position = |field, v: f32| -> Result<Meters, SetupError> {
+            if !v.is_finite() {
+                return Err(SetupError::NotFinite { field });
+            }
+            if v.abs() >= Self::LIMIT_M {
+                return Err(SetupError::OutOfRange {
+                    field,
+                    value: v,
+                    min: -Self::LIMIT_M,
+                    max: Self::LIMIT_M,
+                });
+            }
+            Ok(Meters::saturating_from_num(v))
+        };
+        let threshold = |field, v: f32| -> Result<Meters, SetupError> {
+            if !v.is_finite() {
+                return Err(SetupError::NotFinite { field });
+            }
+            if !(0.0..Self::LIMIT_M).contains(&v) {
+                return Err(SetupError::OutOfRange {
+                    field,
+                    value: v,
+                    min: 0.0,
+                    max: Self::LIMIT_M,
+                });
+            }
+            Ok(Meters::saturating_from_num(v))
+        };
+        let position = Point3 {
+            x: position(SetupField::SensorX, sx)?,
+            y: position(SetupField::SensorY, sy)?,
+            z: position(SetupField::SensorZ, sz)?,
+        };
+        let robot_height = threshold(SetupField::RobotHeight, self.robot_height_m)?;
+        if robot_height <= Meters::ZERO {
+            return Err(SetupError::NotPositive {
+                field: SetupField::RobotHeight,
+                value: self.robot_height_m,
+            });
+        }
+        let step_threshold = threshold(SetupField::StepThreshold, self.step_threshold_m)?;
+        let drop = threshold(SetupField::DropThreshold, self.drop_threshold_m)?;
+        let ceiling = threshold(SetupField::Ceiling, self.ceiling_m)?;
+        let optional = |v: Meters| (v > Meters::ZERO).then_some(v);
+        Ok(FrontendConfig {
+            mount: Mount::new(plane, position),
+            variant,
+            measuring_mode,
+            lines_per_observation: self.lines_per_observation,
+            classifier: ClassifierConfig {
+                robot_height,
+                step_threshold,
+                drop_threshold: optional(drop),
+                ceiling: optional(ceiling),
+            },
+            // Version 1's Setup does not carry the missing-ground option: off.
+            missing_ground_within: None,
+        })
+    }
+}
+
 /// Which layers a snapshot covers.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -888,6 +1187,14 @@ pub enum Message<'a> {
     RequestSnapshot(SnapshotScope),
     /// Host to device: answer Ok.
     Ping,
+    /// Host to device: the laser's mounting, its lines' grouping and the classifier.
+    Setup(Setup),
+    /// Host to device: send a Stats frame at once.
+    RequestStats,
+    /// Host to device: flush the queue and stop.
+    Shutdown,
+    /// Host to device: end the current observation now.
+    EndObservation,
 }
 
 /// Reads fixed fields from a body.
@@ -942,6 +1249,10 @@ impl<'a> Message<'a> {
             Self::Reset => MessageType::Reset,
             Self::RequestSnapshot(_) => MessageType::RequestSnapshot,
             Self::Ping => MessageType::Ping,
+            Self::Setup(_) => MessageType::Setup,
+            Self::RequestStats => MessageType::RequestStats,
+            Self::Shutdown => MessageType::Shutdown,
+            Self::EndObservation => MessageType::EndObservation,
         }
     }
 
@@ -957,8 +1268,13 @@ impl<'a> Message<'a> {
             Self::Pose(_) => POSE_LEN,
             Self::PanAngle(_) => PAN_LEN,
             Self::Configure(_) => CONFIGURE_LEN,
-            Self::Reset | Self::Ping => 0,
+            Self::Reset
+            | Self::Ping
+            | Self::RequestStats
+            | Self::Shutdown
+            | Self::EndObservation => 0,
             Self::RequestSnapshot(_) => 1,
+            Self::Setup(_) => SETUP_LEN,
         }
     }
 
@@ -1163,6 +1479,33 @@ impl<'a> Message<'a> {
                 exact(0)?;
                 Self::Ping
             }
+            MessageType::Setup => {
+                exact(SETUP_LEN)?;
+                Self::Setup(Setup {
+                    mount: r.u8(),
+                    measuring_mode: r.u8(),
+                    field_deg: r.u16(),
+                    resolution_cdeg: r.u16(),
+                    sensor_m: [r.f32(), r.f32(), r.f32()],
+                    lines_per_observation: r.u32(),
+                    robot_height_m: r.f32(),
+                    step_threshold_m: r.f32(),
+                    drop_threshold_m: r.f32(),
+                    ceiling_m: r.f32(),
+                })
+            }
+            MessageType::RequestStats => {
+                exact(0)?;
+                Self::RequestStats
+            }
+            MessageType::Shutdown => {
+                exact(0)?;
+                Self::Shutdown
+            }
+            MessageType::EndObservation => {
+                exact(0)?;
+                Self::EndObservation
+            }
         })
     }
 
@@ -1276,7 +1619,29 @@ impl<'a> Message<'a> {
                 }
                 w.f32(c.fused_margin);
             }
-            Self::Reset | Self::Ping => {}
+            Self::Reset
+            | Self::Ping
+            | Self::RequestStats
+            | Self::Shutdown
+            | Self::EndObservation => {}
+            Self::Setup(s) => {
+                w.u8(s.mount);
+                w.u8(s.measuring_mode);
+                w.u16(s.field_deg);
+                w.u16(s.resolution_cdeg);
+                for v in s.sensor_m {
+                    w.f32(v);
+                }
+                w.u32(s.lines_per_observation);
+                for v in [
+                    s.robot_height_m,
+                    s.step_threshold_m,
+                    s.drop_threshold_m,
+                    s.ceiling_m,
+                ] {
+                    w.f32(v);
+                }
+            }
             Self::RequestSnapshot(scope) => w.u8(match *scope {
                 SnapshotScope::All => 0xFF,
                 SnapshotScope::Layer(k) => k,

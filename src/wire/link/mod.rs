@@ -33,7 +33,8 @@ pub use crc::{crc32, Crc32};
 pub use message::{
     decode, encode, encode_patch, ClampRequest, Configure, FirmwareVersion, Hello, HelloReason,
     LayerInfo, LayerPatch, Message, PanAngle, PatchArea, PatchCells, Pose, PoseError, PoseField,
-    Reply, ReplyCode, SnapshotScope, Stats, WindowMoved, STATS_COUNTERS,
+    Reply, ReplyCode, Setup, SetupError, SetupField, SnapshotScope, Stats, WindowMoved,
+    STATS_COUNTERS,
 };
 
 use core::fmt;
@@ -94,6 +95,14 @@ pub enum MessageType {
     RequestSnapshot = 0x85,
     /// Host to device: answer with Reply Ok.
     Ping = 0x86,
+    /// Host to device: how the laser is mounted and how its lines make observations.
+    Setup = 0x87,
+    /// Host to device: send a Stats frame at once.
+    RequestStats = 0x88,
+    /// Host to device: flush the queue and stop (emulated boards and tests).
+    Shutdown = 0x89,
+    /// Host to device: end the current observation now (apply its evidence).
+    EndObservation = 0x8A,
 }
 
 impl MessageType {
@@ -112,6 +121,10 @@ impl MessageType {
             0x84 => Self::Reset,
             0x85 => Self::RequestSnapshot,
             0x86 => Self::Ping,
+            0x87 => Self::Setup,
+            0x88 => Self::RequestStats,
+            0x89 => Self::Shutdown,
+            0x8A => Self::EndObservation,
             _ => return None,
         })
     }

@@ -503,3 +503,85 @@ fn pose_validation_names_the_field() {
         (ReplyCode::OutOfRange, 33, 30_000.0)
     );
 }
+
+/// Setup (`docs/protocol.md`, "0x87 Setup" and the worked example of section 10): tilted
+/// horizontal, mode 0, 180° at 0.5°, sensor (0.25, −0.5, 0.75) m, per sweep, robot height
+/// 1 m, step 0.05 m, drop off, ceiling 2 m; then the empty commands 0x88 ..= 0x8A.
+#[test]
+fn setup_and_the_empty_commands_golden() {
+    let setup = Setup {
+        mount: 1,
+        measuring_mode: 0,
+        field_deg: 180,
+        resolution_cdeg: 50,
+        sensor_m: [0.25, -0.5, 0.75],
+        lines_per_observation: 0,
+        robot_height_m: 1.0,
+        step_threshold_m: 0.05,
+        drop_threshold_m: 0.0,
+        ceiling_m: 2.0,
+    };
+    golden(
+        7,
+        &Message::Setup(setup),
+        "04 01 87 07 02 01 02 b4 02 32 01 01 03 80 3e 01 01 02 bf 01 03 40 3f 01 01 01 01 01 \
+         07 80 3f cd cc 4c 3d 01 01 01 01 01 01 06 40 f6 1f 30 b5 00",
+    );
+    golden(2, &Message::RequestStats, "04 01 88 02 05 c3 90 e8 44 00");
+    golden(2, &Message::Shutdown, "04 01 89 02 05 f4 fa 2a 45 00");
+    golden(2, &Message::EndObservation, "04 01 8a 02 05 ad 44 6c 47 00");
+    // A Setup body one byte short is a bad body.
+    assert!(matches!(
+        Message::parse(0x87, &[0; 37]),
+        Err(DecodeError::BadBody {
+            msg_type: 0x87,
+            len: 37
+        })
+    ));
+    // Validation: the variant, the mode, finiteness, thresholds.
+    let config = setup.frontend_config().unwrap();
+    assert_eq!(config.variant.beam_count(), 361);
+    assert_eq!(config.classifier.drop_threshold, None);
+    assert_eq!(
+        config.classifier.ceiling,
+        Some(crate::units::Meters::from_num(2))
+    );
+    let refused = |s: Setup| s.frontend_config().unwrap_err().field();
+    assert_eq!(refused(Setup { mount: 2, ..setup }), SetupField::Mount);
+    assert_eq!(
+        refused(Setup {
+            measuring_mode: 7,
+            ..setup
+        }),
+        SetupField::MeasuringMode
+    );
+    assert_eq!(
+        refused(Setup {
+            field_deg: 180,
+            resolution_cdeg: 25,
+            ..setup
+        }),
+        SetupField::Variant
+    );
+    assert_eq!(
+        refused(Setup {
+            sensor_m: [0.0, f32::NAN, 0.0],
+            ..setup
+        }),
+        SetupField::SensorY
+    );
+    assert_eq!(
+        refused(Setup {
+            step_threshold_m: -0.01,
+            ..setup
+        }),
+        SetupField::StepThreshold
+    );
+    assert_eq!(
+        refused(Setup {
+            robot_height_m: 0.0,
+            ..setup
+        }),
+        SetupField::RobotHeight
+    );
+}
