@@ -553,6 +553,14 @@ impl<const L: usize> Design<L> {
                 gate_center_m: 0.5 * (inner + outer),
                 gate_sigma_m,
             };
+            // With f32 rounding at extreme inputs the bound can exceed r_0 at every d > 0 even
+            // though Δd > φ·h: an empty band is refused, never kept.
+            if outer <= inner {
+                return Err(DesignError::BaseBelowBound {
+                    base_m: schedule.base_m,
+                    bound_m: sensor.phi_rad * sensor.height_m,
+                });
+            }
             let fit = cells_to_hold(outer, resolution_m);
             if fit > cells_per_side {
                 return Err(DesignError::WindowTooSmall {
@@ -617,18 +625,26 @@ fn layers_needed(sensor: &SensorModel, schedule: &Schedule) -> usize {
     while k > 1 && schedule.resolution(k - 1) >= delta_max {
         k -= 1;
     }
-    while schedule.resolution(k) < delta_max && k < usize::MAX {
+    // The estimate saturates at MAX_COUNT; counting on past it could take up to 2⁶⁴ steps
+    // (δ_max is +∞ for a tiny height, found by fuzzing), so past it the answer is "too many".
+    while schedule.resolution(k) < delta_max {
+        if k >= MAX_COUNT {
+            return usize::MAX;
+        }
         k += 1;
     }
     k.saturating_add(1)
 }
+
+/// Where [`float_to_count`] saturates.
+const MAX_COUNT: usize = 65_535;
 
 /// A non-negative finite float to a count, saturating.
 fn float_to_count(value: f32) -> usize {
     if value.is_nan() || value <= 0.0 {
         0
     } else if value >= 65_535.0 {
-        65_535
+        MAX_COUNT
     } else {
         // In range and non-negative: the conversion truncates an integer-valued float.
         #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
@@ -786,5 +802,25 @@ mod tests {
             bound_m: 0.0087,
         };
         assert!(e.to_string().starts_with("--base-m"));
+    }
+
+    /// Fuzzing (config_validator): a tiny sensor height makes δ(max range) infinite, and
+    /// `layers_needed` counted layers one by one towards `usize::MAX`: a Configure from the
+    /// host hung the device. It must answer TooManyLayers at once.
+    #[test]
+    fn a_tiny_height_is_refused_as_too_many_layers_without_hanging() {
+        for height_m in [f32::MIN_POSITIVE, 1e-30, 1e-6] {
+            let sensor = SensorModel {
+                phi_rad: 0.5_f32.to_radians(),
+                psi_rad: 8.5e-44,
+                sigma_m: 0.15,
+                height_m,
+                max_range_m: 8.0,
+            };
+            assert!(matches!(
+                Design::<8>::new(sensor, Schedule::default(), 64),
+                Err(DesignError::TooManyLayers { capacity: 8, .. })
+            ));
+        }
     }
 }

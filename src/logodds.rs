@@ -203,9 +203,27 @@ impl Clamp {
                 });
             }
         }
+        let (min_q, max_q) = (round_to_log_odds(min), round_to_log_odds(max));
+        // Bounds that round to 0 in Q8.8 would pin every cell at 0: refused, not clamped.
+        if min_q.to_bits() >= 0 {
+            return Err(DesignError::OutOfRange {
+                param: Param::ClampMin,
+                value: min,
+                min: -limit,
+                max: -1.0 / 512.0,
+            });
+        }
+        if max_q.to_bits() <= 0 {
+            return Err(DesignError::OutOfRange {
+                param: Param::ClampMax,
+                value: max,
+                min: 1.0 / 512.0,
+                max: limit,
+            });
+        }
         Ok(Self::Bounds {
-            min: round_to_log_odds(min),
-            max: round_to_log_odds(max),
+            min: min_q,
+            max: max_q,
         })
     }
 
@@ -342,11 +360,30 @@ impl InverseSensorModel {
             });
         }
         let prior = logit(self.prior);
-        Ok(Increments {
+        let increments = Increments {
             obstacle: round_to_log_odds(logit(self.p_obstacle) - prior),
             free: round_to_log_odds(logit(self.p_free) - prior),
             initial: round_to_log_odds(prior),
-        })
+        };
+        // A probability within half a Q8.8 step (in logit) of the prior would add nothing:
+        // refused, so that every observation counts.
+        if increments.obstacle.to_bits() <= 0 {
+            return Err(DesignError::OutOfRange {
+                param: Param::PObstacle,
+                value: self.p_obstacle,
+                min: self.prior,
+                max: 0.999,
+            });
+        }
+        if increments.free.to_bits() >= 0 {
+            return Err(DesignError::OutOfRange {
+                param: Param::PFree,
+                value: self.p_free,
+                min: 0.001,
+                max: self.prior,
+            });
+        }
+        Ok(increments)
     }
 }
 
@@ -480,6 +517,20 @@ mod tests {
             })
         );
         assert!(Clamp::bounds(1.0, 3.0).is_err());
+        // Bounds that round to 0 nats in Q8.8 are refused, not clamped.
+        assert!(Clamp::bounds(-1e-10, 1e-10).is_err());
+        // A p(x|z) so close to the prior that its increment rounds to 0 is refused.
+        let m = InverseSensorModel {
+            p_obstacle: 0.5004,
+            ..InverseSensorModel::default()
+        };
+        assert!(matches!(
+            m.increments(),
+            Err(DesignError::OutOfRange {
+                param: Param::PObstacle,
+                ..
+            })
+        ));
         assert!(Clamp::bounds(-2.0, f32::INFINITY).is_err());
         assert_eq!(Clamp::bounds(-2.0, 3.5), Ok(Clamp::OCTOMAP));
     }

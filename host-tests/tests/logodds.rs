@@ -17,11 +17,17 @@ fn model() -> impl Strategy<Value = tp::InverseSensorModel> {
         |(a, b, c)| {
             let mut v = [a, b, c];
             v.sort_by(f32::total_cmp);
-            (v[0] < v[1] && v[1] < v[2]).then_some(tp::InverseSensorModel {
+            let m = tp::InverseSensorModel {
                 p_free: v[0],
                 prior: v[1],
                 p_obstacle: v[2],
-            })
+            };
+            // Valid by the spec, and not within f32 error of the "increment rounds to 0"
+            // boundary (|l| = 2⁻⁹), which the f32 and f64 logits may decide differently.
+            let r = harness::inverse(&m);
+            let clear = |l: f64| (l.abs() - 1.0 / 512.0).abs() > 1e-5;
+            (v[0] < v[1] && v[1] < v[2] && r.is_valid() && clear(r.l_obs()) && clear(r.l_free()))
+                .then_some(m)
         },
     )
 }

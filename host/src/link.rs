@@ -301,6 +301,17 @@ impl Mirror {
         self.counters.frames += 1;
         let known = self.firmware.is_some();
         match message {
+            // docs/protocol.md: W is even, 4 ..= 1024. The decoder does not check it, and the
+            // mirror allocates W² cells per layer: a Hello with W = 65 534 and 16 layers asked
+            // for about 200 GB and aborted the host (found by fuzzing, link_host_rx). Refuse
+            // it whole and ask for a snapshot.
+            Message::Hello(hello)
+                if !(4..=terrain_pyramid::design::MAX_CELLS_PER_SIDE)
+                    .contains(&usize::from(hello.cells_per_side))
+                    || hello.cells_per_side % 2 != 0 =>
+            {
+                self.advise_snapshot();
+            }
             Message::Hello(hello) => {
                 self.apply_hello(hello);
                 events.push(LinkEvent::Hello(Box::new(hello.clone())));

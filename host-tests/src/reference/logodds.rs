@@ -64,17 +64,20 @@ impl Default for InverseModel {
 }
 
 impl InverseModel {
-    /// Each probability in [0.001, 0.999] and `p_free < prior < p_obstacle` (`docs/core.md`).
-    /// A configuration is given in `f32`, so the bounds are the `f32` values nearest 0.001 and
-    /// 0.999.
+    /// Each probability in [0.001, 0.999], `p_free < prior < p_obstacle`, and neither
+    /// increment rounds to 0 in Q8.8, i.e. `|l| ≥ 2⁻⁹` (`docs/core.md`). A configuration is
+    /// given in `f32`, so the bounds are the `f32` values nearest 0.001 and 0.999.
     #[must_use]
     pub fn is_valid(&self) -> bool {
         let open = |p: f64| p >= f64::from(0.001_f32) && p <= f64::from(0.999_f32);
+        let half_step = 1.0 / 512.0;
         open(self.p_obstacle)
             && open(self.p_free)
             && open(self.prior)
             && self.p_free < self.prior
             && self.prior < self.p_obstacle
+            && self.l_obs() >= half_step
+            && self.l_free() <= -half_step
     }
 
     /// `l_obs = logit(p_obstacle) − logit(prior)`.

@@ -1,0 +1,76 @@
+//! Helpers shared by the fuzz targets.
+#![allow(dead_code)]
+
+/// Cuts `data` into chunks whose sizes cycle through `sizes` (each at least 1).
+pub fn chunks<'a>(data: &'a [u8], sizes: &[u8]) -> Vec<&'a [u8]> {
+    let mut out = Vec::new();
+    let mut rest = data;
+    let mut i = 0;
+    while !rest.is_empty() {
+        let n = if sizes.is_empty() {
+            rest.len()
+        } else {
+            usize::from(sizes[i % sizes.len()]).max(1)
+        };
+        i += 1;
+        let (head, tail) = rest.split_at(n.min(rest.len()));
+        out.push(head);
+        rest = tail;
+    }
+    out
+}
+
+/// Splits the input into a chunking prefix (its first byte says how long, ≤ 8) and the data.
+pub fn split_sizes(data: &[u8]) -> (&[u8], &[u8]) {
+    match data.split_first() {
+        None => (&[], &[]),
+        Some((&n, rest)) => {
+            let n = usize::from(n % 9).min(rest.len());
+            rest.split_at(n)
+        }
+    }
+}
+
+/// A link frame, COBS-encoded with its delimiter: version, type, seq, body, CRC-32.
+pub fn link_frame(version: u8, msg_type: u8, seq: u16, body: &[u8]) -> Vec<u8> {
+    use terrain_pyramid::wire::link::{cobs, crc32};
+    let mut raw = vec![version, msg_type];
+    raw.extend_from_slice(&seq.to_le_bytes());
+    raw.extend_from_slice(body);
+    let crc = crc32(&raw);
+    raw.extend_from_slice(&crc.to_le_bytes());
+    let mut out = vec![0_u8; cobs::max_encoded_len(raw.len()) + 1];
+    let mut enc = cobs::Encoder::new(&mut out);
+    enc.push_all(&raw);
+    let n = enc.finish().expect("sized by max_encoded_len");
+    out.truncate(n);
+    out
+}
+
+/// Turns fuzz input into a link byte stream: segments of `[flags, type, len, body...]`.
+/// flags bit 0: raw bytes (no framing) instead of a valid frame; bit 1: wrong version;
+/// bit 2: flip one bit of the encoded frame (at body[0] mod length); bits 3-7: seq skip.
+pub fn link_stream(data: &[u8]) -> Vec<u8> {
+    let mut out = Vec::new();
+    let mut rest = data;
+    let mut seq: u16 = 0;
+    while let [flags, msg_type, len, tail @ ..] = rest {
+        let n = usize::from(*len).min(tail.len());
+        let (body, tail) = tail.split_at(n);
+        rest = tail;
+        seq = seq.wrapping_add(1 + u16::from(flags >> 3) / 8);
+        if flags & 1 != 0 {
+            out.extend_from_slice(body);
+            continue;
+        }
+        let version = if flags & 2 != 0 { 2 } else { 1 };
+        let mut frame = link_frame(version, *msg_type, seq, body);
+        if flags & 4 != 0 {
+            let at = usize::from(body.first().copied().unwrap_or(0)) % frame.len();
+            frame[at] ^= 1 << (seq % 8);
+        }
+        out.extend_from_slice(&frame);
+    }
+    out.extend_from_slice(rest);
+    out
+}

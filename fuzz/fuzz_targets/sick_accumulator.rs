@@ -1,0 +1,152 @@
+//! Arbitrary bytes, arbitrarily chunked, into the SICK feed accumulator.
+//!
+//! Invariants: no panic; the events do not depend on the chunking (the same stream fed whole
+//! gives the same events); every telegram handed out passes `Telegram::new_checked`, is the
+//! stream's own bytes at its offset, and parses (or is refused) by `Reply::parse` without
+//! panicking; the counters match the events; every byte is accounted for.
+#![no_main]
+
+mod common;
+
+use libfuzzer_sys::fuzz_target;
+use terrain_pyramid::wire::sick::{
+    Accumulator, FeedResult, FrameError, MeasuredValues, Reply, Stats, Telegram, ADDRESS_REPLY,
+};
+
+#[derive(Debug, Clone, PartialEq, Eq)]
+enum Ev {
+    T(u64, Vec<u8>),
+    Ack(u64),
+    Nak(u64),
+    R(u64, FrameError),
+}
+
+fn record(r: &FeedResult<'_, '_>, out: &mut Vec<Ev>) -> bool {
+    match r {
+        FeedResult::Consumed => return false,
+        FeedResult::Telegram {
+            telegram, offset, ..
+        } => {
+            let bytes = telegram.as_bytes();
+            let checked = Telegram::new_checked(bytes).expect("a delivered telegram is valid");
+            assert_eq!(checked.address(), ADDRESS_REPLY);
+            assert_eq!(checked.total_len(), bytes.len());
+            let _ = Reply::parse(&checked);
+            if let Ok(mv) = MeasuredValues::parse(&checked) {
+                let _ = mv.ranges_mm(Default::default()).count();
+                let _ = mv.flags(Default::default()).count();
+                assert_eq!(usize::from(mv.count()) * 2, mv.values_le().len());
+            }
+            out.push(Ev::T(*offset, bytes.to_vec()));
+        }
+        FeedResult::Ack { offset, .. } => out.push(Ev::Ack(*offset)),
+        FeedResult::Nak { offset, .. } => out.push(Ev::Nak(*offset)),
+        FeedResult::Rejected { error, offset, .. } => out.push(Ev::R(*offset, *error)),
+    }
+    true
+}
+
+fn run<const N: usize>(chunks: &[&[u8]]) -> (Vec<Ev>, Stats, u64) {
+    let mut acc = Accumulator::<N>::new();
+    let mut out = Vec::new();
+    for chunk in chunks {
+        let mut window: &[u8] = chunk;
+        let mut calls = 0usize;
+        loop {
+            let r = acc.feed(window);
+            let rest = r.remaining();
+            assert!(rest.len() <= window.len());
+            window = rest;
+            if !record(&r, &mut out) {
+                assert!(window.is_empty());
+                break;
+            }
+            calls += 1;
+            // Each event consumes a byte or resolves a buffered one: bounded by the bytes.
+            assert!(calls <= 2 * (chunk.len() + N) + 2, "feed does not progress");
+        }
+    }
+    loop {
+        let r = acc.flush();
+        if !record(&r, &mut out) {
+            break;
+        }
+    }
+    assert_eq!(acc.buffered(), 0);
+    (out, acc.stats(), acc.position())
+}
+
+fn check(stream: &[u8], events: &[Ev], stats: Stats, position: u64) {
+    assert_eq!(position, stream.len() as u64);
+    let mut ok = 0u32;
+    let (mut ack, mut nak, mut crc, mut length, mut truncated) = (0u32, 0u32, 0u32, 0u32, 0u32);
+    let mut accounted = 0u64;
+    let mut last_end = 0u64;
+    for ev in events {
+        match ev {
+            Ev::T(offset, bytes) => {
+                ok += 1;
+                let start = usize::try_from(*offset).unwrap();
+                assert_eq!(&stream[start..start + bytes.len()], &bytes[..]);
+                assert!(*offset >= last_end, "telegrams overlap");
+                last_end = offset + bytes.len() as u64;
+                accounted += bytes.len() as u64;
+            }
+            Ev::Ack(offset) => {
+                ack += 1;
+                assert_eq!(stream[usize::try_from(*offset).unwrap()], 0x06);
+                accounted += 1;
+            }
+            Ev::Nak(offset) => {
+                nak += 1;
+                assert_eq!(stream[usize::try_from(*offset).unwrap()], 0x15);
+                accounted += 1;
+            }
+            Ev::R(offset, e) => {
+                assert_eq!(stream[usize::try_from(*offset).unwrap()], 0x02);
+                match e {
+                    FrameError::BadLength { .. } | FrameError::TooLong { .. } => length += 1,
+                    FrameError::BadCrc { .. } => crc += 1,
+                    FrameError::Truncated => truncated += 1,
+                    _ => unreachable!(),
+                }
+            }
+        }
+    }
+    assert_eq!(stats.telegrams_ok, ok);
+    assert_eq!(stats.ack, ack);
+    assert_eq!(stats.nak, nak);
+    assert_eq!(stats.crc_errors, crc);
+    assert_eq!(stats.length_errors, length);
+    assert_eq!(stats.truncated, truncated);
+    // Telegrams, ACK/NAK and garbage are disjoint parts of the stream; rejected candidates
+    // hold the rest.
+    accounted += u64::from(stats.garbage_bytes);
+    assert!(
+        accounted <= stream.len() as u64,
+        "{accounted} bytes accounted for in a stream of {}",
+        stream.len()
+    );
+    if crc + length + truncated == 0 {
+        assert_eq!(
+            accounted,
+            stream.len() as u64,
+            "bytes lost without a rejection"
+        );
+    }
+}
+
+fuzz_target!(|data: &[u8]| {
+    let (sizes, stream) = common::split_sizes(data);
+    let whole = [stream];
+    let (reference, stats, position) = run::<818>(&whole);
+    check(stream, &reference, stats, position);
+    let chunked = common::chunks(stream, sizes);
+    let (events, stats2, position2) = run::<818>(&chunked);
+    assert_eq!(events, reference, "the events depend on the chunking");
+    assert_eq!(stats2, stats);
+    assert_eq!(position2, position);
+    // A small accumulator: same invariants, longer telegrams refused as TooLong.
+    let (small, stats3, position3) = run::<64>(&chunked);
+    check(stream, &small, stats3, position3);
+});
