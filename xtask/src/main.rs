@@ -1,0 +1,29 @@
+//! Project automation for terrain-pyramid (the ecosystem's `xtask` convention).
+//!
+//! - `cargo xtask test [--lint]`: the whole test suite on a fresh machine: installs what it
+//!   needs (the Cortex-M targets, QEMU, `defmt-print`), runs every host test (including the
+//!   bit-exact run of the firmware in QEMU), then the boards' checks: release builds, the
+//!   firmware on the emulated board, the on-target tests for thumbv7em and thumbv6m code, and
+//!   the firmware's flash, RAM and stack. `--lint` adds the boards' fmt and clippy.
+use std::process::ExitCode;
+
+mod test;
+
+fn main() -> ExitCode {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let (task, rest) = match args.split_first() {
+        Some((task, rest)) => (task.as_str(), rest),
+        None => ("", &[][..]),
+    };
+    let result = match task {
+        "test" => test::run(rest),
+        _ => Err("usage: cargo xtask test [--lint]".to_string()),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(message) => {
+            eprintln!("xtask {task}: {message}");
+            ExitCode::FAILURE
+        }
+    }
+}
