@@ -39,15 +39,32 @@ pub struct Scenario {
     pub flags: &'static [&'static str],
 }
 
-/// The scenarios, in order. (A simulated stairs scenario is to follow.)
+/// The scenarios, in order.
 #[must_use]
 pub fn scenarios() -> Vec<Scenario> {
-    vec![Scenario {
-        name: "3dtk-tilt-scan",
-        about: "a real tilting SICK scan (3DTK scan000), converted to SICK telegrams",
-        record: record_3dtk,
-        flags: &["--height-m", "0.4", "--max-range-m", "8", "--gamma", "3"],
-    }]
+    vec![
+        Scenario {
+            name: "3dtk-tilt-scan",
+            about: "a real tilting SICK scan (3DTK scan000), converted to SICK telegrams",
+            record: record_3dtk,
+            flags: &["--height-m", "0.4", "--max-range-m", "8", "--gamma", "3"],
+        },
+        Scenario {
+            name: "stairs",
+            about: "the paper's robot (a vertical SICK plane panned at 1 m) simulated in front of \
+                    stairs (5 steps of 17 cm from 5.05 m): 10 s standing, then driving at \
+                    0.5 m/s to 1 m from the first step",
+            record: record_stairs,
+            flags: &[],
+        },
+    ]
+}
+
+/// The simulated stairs: the default pyramid (h = 1.0 m, 10 m, γ = 2), as the firmware has it.
+fn record_stairs(_me: &Path, out: &Path) -> Result<(), String> {
+    use terrain_pyramid_host_tests::sim::record::{simulate, SimConfig};
+    let sim = simulate(&SimConfig::paper_stairs(10.0, 0.5, 1.0)).map_err(|e| e.to_string())?;
+    std::fs::write(out, &sim.bytes).map_err(|e| format!("cannot write {}: {e}", out.display()))
 }
 
 fn record_3dtk(me: &Path, out: &Path) -> Result<(), String> {

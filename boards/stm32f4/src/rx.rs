@@ -14,9 +14,10 @@ use static_cell::ConstStaticCell;
 use stm32f4xx_hal::pac::{USART1, USART2};
 use stm32f4xx_hal::serial::{Instance, Rx, RxListen};
 
-/// Bytes the laser queue holds: 2047 (about 41 ms at 500 kBd, more than two full LMS
-/// telegrams of 732 bytes).
-pub const LASER_QUEUE: usize = 2048;
+/// Bytes the laser queue holds: 1023 (about 20 ms at 500 kBd, more than one full LMS
+/// telegram of 732 bytes; the main loop bounds each step's blocking transmission to less,
+/// and 1 KiB more would take the static RAM past 96 KiB).
+pub const LASER_QUEUE: usize = 1024;
 /// Bytes the host-link queue holds: 511 (about 5.5 ms at 921.6 kBd).
 pub const HOST_QUEUE: usize = 512;
 
