@@ -398,9 +398,12 @@ impl<const W: usize> Layer<W> {
                     n += count * W;
                 }
                 if let Entering::Slots { first, count } = ex {
-                    for row in &mut self.cells {
-                        for t in 0..count {
-                            if let Some(c) = row.get_mut(slot(first, t, W)) {
+                    // Column by column: one strided store per row, the slot computed once
+                    // per column (not per cell).
+                    for t in 0..count {
+                        let col = slot(first, t, W);
+                        for row in &mut self.cells {
+                            if let Some(c) = row.get_mut(col) {
                                 *c = Cell::UNKNOWN;
                             }
                         }

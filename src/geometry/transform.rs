@@ -113,8 +113,8 @@ fn meters_q40(value: i64) -> Meters {
 /// `round(√x)` for any `u64`, by the bit-by-bit (restoring) method: no multiply, no divide.
 /// One iteration per result bit.
 pub(crate) fn isqrt_round(x: u64) -> u64 {
-    if x == 0 {
-        return 0;
+    if x >> 50 == 0 {
+        return u64::from(isqrt_round_below_2_50(x));
     }
     // The highest power of four not above x.
     let mut bit: u64 = 1 << ((63 - x.leading_zeros()) & !1);
@@ -131,6 +131,57 @@ pub(crate) fn isqrt_round(x: u64) -> u64 {
         bit >>= 2;
     }
     // Now root = ⌊√x⌋ and rem = x − root²; √x ≥ root + ½ exactly when rem > root.
+    if rem > root {
+        root + 1
+    } else {
+        root
+    }
+}
+
+/// [`isqrt_round`] for `x < 2⁵⁰` (every horizontal distance of the per-line path), the same
+/// restoring method one result bit at a time, but with 32-bit words only: the root stays
+/// below 2²⁵ and the partial remainder below 2²⁸, so `x` is shifted in two bits at a time
+/// from its two halves and no 64-bit arithmetic is left in the loop.
+#[inline]
+fn isqrt_round_below_2_50(x: u64) -> u32 {
+    #[allow(clippy::cast_possible_truncation)]
+    let (hi, lo) = ((x >> 32) as u32, x as u32);
+    let mut root = 0_u32;
+    let mut rem = 0_u32;
+    // One step: bring down the next two bits of x (`pair`), try the next root bit.
+    let step = |root: &mut u32, rem: &mut u32, pair: u32| {
+        *rem = (*rem << 2) | pair;
+        let trial = (*root << 2) | 1;
+        *root <<= 1;
+        if *rem >= trial {
+            *rem -= trial;
+            *root |= 1;
+        }
+    };
+    if hi != 0 {
+        // The pairs of `hi` from its highest non-zero one (hi < 2¹⁸: at most 9 pairs).
+        let mut shift = (31 - hi.leading_zeros()) & !1;
+        loop {
+            step(&mut root, &mut rem, (hi >> shift) & 3);
+            if shift == 0 {
+                break;
+            }
+            shift -= 2;
+        }
+        let mut bits = lo;
+        for _ in 0..16 {
+            step(&mut root, &mut rem, bits >> 30);
+            bits <<= 2;
+        }
+    } else if lo != 0 {
+        let lead = lo.leading_zeros() & !1;
+        let mut bits = lo << lead;
+        for _ in 0..(32 - lead) / 2 {
+            step(&mut root, &mut rem, bits >> 30);
+            bits <<= 2;
+        }
+    }
+    // root = ⌊√x⌋, rem = x − root²; round up exactly when rem > root.
     if rem > root {
         root + 1
     } else {
@@ -601,6 +652,54 @@ mod tests {
             horizontal_distance(p(-30_000.0, -30_000.0, 0.0), p(30_000.0, 30_000.0, 0.0)),
             Meters::MAX
         );
+    }
+
+    /// The restoring method on `u64` throughout: the reference of the 32-bit fast path.
+    fn isqrt_round_u64(x: u64) -> u64 {
+        if x == 0 {
+            return 0;
+        }
+        let mut bit: u64 = 1 << ((63 - x.leading_zeros()) & !1);
+        let (mut rem, mut root) = (x, 0_u64);
+        while bit != 0 {
+            let trial = root + bit;
+            if rem >= trial {
+                rem -= trial;
+                root = (root >> 1) + bit;
+            } else {
+                root >>= 1;
+            }
+            bit >>= 2;
+        }
+        root + u64::from(rem > root)
+    }
+
+    #[test]
+    fn isqrt_fast_path_matches_the_u64_method() {
+        let mut x = 0x9E37_79B9_7F4A_7C15_u64;
+        for i in 0..200_000_u64 {
+            // Every magnitude below 2⁵⁰, and the edges around squares and half-squares.
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            let v = x >> (14 + i % 50);
+            for y in [v, v.saturating_sub(1), v + 1] {
+                assert_eq!(isqrt_round(y), isqrt_round_u64(y), "{y}");
+            }
+            let r = (v >> 25) | 1;
+            for y in [r * r - 1, r * r, r * r + r, r * r + r + 1] {
+                assert_eq!(isqrt_round(y), isqrt_round_u64(y), "{y}");
+            }
+        }
+        for y in [
+            (1_u64 << 50) - 1,
+            1 << 50,
+            (1 << 32) - 1,
+            1 << 32,
+            (1 << 32) + 1,
+        ] {
+            assert_eq!(isqrt_round(y), isqrt_round_u64(y), "{y}");
+        }
     }
 
     #[test]

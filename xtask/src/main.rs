@@ -5,8 +5,12 @@
 //!   bit-exact run of the firmware in QEMU), then the boards' checks: release builds, the
 //!   firmware on the emulated board, the on-target tests for thumbv7em and thumbv6m code, and
 //!   the firmware's flash, RAM and stack. `--lint` adds the boards' fmt and clippy.
+//! - `cargo xtask bench [--json] [--quick]`: exact per-return instruction counts on the
+//!   emulated Cortex-M (M4F, M0 code, fixed point and f32), host throughput against OctoMap,
+//!   the bench firmware's memory (BENCHMARKS.md).
 use std::process::ExitCode;
 
+mod bench;
 mod test;
 
 fn main() -> ExitCode {
@@ -17,7 +21,10 @@ fn main() -> ExitCode {
     };
     let result = match task {
         "test" => test::run(rest),
-        _ => Err("usage: cargo xtask test [--lint]".to_string()),
+        "bench" => bench::task(rest),
+        _ => Err(
+            "usage: cargo xtask test [--lint] | cargo xtask bench [--json] [--quick]".to_string(),
+        ),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

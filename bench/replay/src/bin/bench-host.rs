@@ -1,0 +1,164 @@
+//! The host side of `cargo xtask bench` (built with `--release`):
+//!
+//! - `bench-host throughput REC SECONDS`: replays the recording through the library's
+//!   pipeline (default pyramid, default frontend, with the link) again and again for at least
+//!   SECONDS and prints `returns_per_second=… returns=… runs=… seconds=…`. Each run starts
+//!   from a fresh pyramid (re-configured outside the timed part).
+//! - `bench-host export REC OUT`: writes the recording's world points as the library's
+//!   geometry computes them, for the OctoMap harness: per line a `u32` point count, the
+//!   scanner's origin (3 × `f32`) and the points (3 × `f32` each), little-endian.
+
+use std::process::ExitCode;
+use std::time::{Duration, Instant};
+use terrain_pyramid::geometry::{BeamTable, FineAngle, LineTransform, Pose, PoseFrame};
+use terrain_pyramid::link::{Link, LinkConfig};
+use terrain_pyramid::pipeline::FrontendConfig;
+use terrain_pyramid::wire::recording::{Payload, Reader};
+use terrain_pyramid::wire::sick::{Accumulator, FeedResult, MeasuredValues};
+use terrain_pyramid::{
+    Config, DefaultDesign, DefaultFrontend, DefaultPyramid, Schedule, SensorModel,
+    DEFAULT_CELLS_PER_SIDE,
+};
+use terrain_pyramid_bench::{frontend_config, replay, setup, Fixed, Pipeline};
+
+fn throughput(rec: &[u8], seconds: f64) -> Result<(), String> {
+    let config = setup(rec)
+        .as_ref()
+        .and_then(frontend_config)
+        .ok_or("the recording has no usable setup")?;
+    let design = DefaultDesign::new(
+        SensorModel::default(),
+        Schedule::default(),
+        DEFAULT_CELLS_PER_SIDE,
+    )
+    .map_err(|e| e.to_string())?;
+    let mut pyramid = Box::new(DefaultPyramid::new());
+    let mut link: Box<Link> = Box::new(Link::new(LinkConfig::DEFAULT));
+    let mut acc: Box<Accumulator> = Box::new(Accumulator::new());
+    let mut frontend = Box::new(DefaultFrontend::new(config));
+    let mut returns = 0_u64;
+    let mut runs = 0_u64;
+    let mut timed = Duration::ZERO;
+    while timed.as_secs_f64() < seconds || runs == 0 {
+        *pyramid = DefaultPyramid::new();
+        *link = Link::new(LinkConfig::DEFAULT);
+        link.configure(&mut pyramid, &design, &Config::default())
+            .map_err(|e| e.to_string())?;
+        *acc = Accumulator::new();
+        frontend.configure(config);
+        frontend.set_pose(Pose::default());
+        let before = frontend.stats().returns;
+        let t = Instant::now();
+        let mut p = Fixed {
+            frontend: &mut frontend,
+            pyramid: &mut pyramid,
+            link: Some(&mut link),
+        };
+        std::hint::black_box(replay(std::hint::black_box(rec), &mut acc, &mut p));
+        timed += t.elapsed();
+        returns += u64::from(p.returns() - before);
+        runs += 1;
+    }
+    let s = timed.as_secs_f64();
+    println!(
+        "returns_per_second={} returns={returns} runs={runs} seconds={s}",
+        returns as f64 / s
+    );
+    Ok(())
+}
+
+fn export(rec: &[u8], out: &str) -> Result<(), String> {
+    let config: FrontendConfig = setup(rec)
+        .as_ref()
+        .and_then(frontend_config)
+        .ok_or("the recording has no usable setup")?;
+    let beams = BeamTable::new(config.variant);
+    let mut frame = PoseFrame::from(&Pose::default());
+    let mut actuator = FineAngle::ZERO;
+    let mut acc: Box<Accumulator> = Box::new(Accumulator::new());
+    let mut bytes = Vec::new();
+    let (mut lines, mut points) = (0_u64, 0_u64);
+    for event in Reader::new(rec).map_err(|e| e.to_string())? {
+        let event = event.map_err(|e| e.to_string())?;
+        match event.payload {
+            Payload::Angle(t) => actuator = FineAngle::from_bits(u32::from(t) << 16),
+            Payload::Pose([x, y, z, r, p, yaw]) => {
+                if let Ok(pose) = Pose::from_f32(x, y, z, r, p, yaw) {
+                    frame = pose.frame();
+                }
+            }
+            Payload::Laser(chunk) => {
+                let mut rest = chunk;
+                loop {
+                    match acc.feed(rest) {
+                        FeedResult::Consumed => break,
+                        FeedResult::Telegram {
+                            telegram,
+                            remaining,
+                            ..
+                        } => {
+                            if let Ok(values) = MeasuredValues::parse(&telegram) {
+                                let tr =
+                                    LineTransform::new(&beams, &config.mount, actuator, &frame);
+                                let o = tr.sensor_origin();
+                                let mut pts = Vec::new();
+                                for (j, r) in values.ranges_mm(config.measuring_mode).enumerate() {
+                                    if let Some(p) = r.and_then(|r| tr.locate(j, r)) {
+                                        pts.push(
+                                            [p.point.x, p.point.y, p.point.z]
+                                                .map(|m| m.to_num::<f32>()),
+                                        );
+                                    }
+                                }
+                                bytes.extend_from_slice(
+                                    &u32::try_from(pts.len()).unwrap_or(0).to_le_bytes(),
+                                );
+                                for v in [o.x, o.y, o.z] {
+                                    bytes.extend_from_slice(&v.to_num::<f32>().to_le_bytes());
+                                }
+                                for p in &pts {
+                                    for v in p {
+                                        bytes.extend_from_slice(&v.to_le_bytes());
+                                    }
+                                }
+                                lines += 1;
+                                points += pts.len() as u64;
+                            }
+                            rest = remaining;
+                        }
+                        other => rest = other.remaining(),
+                    }
+                }
+            }
+            _ => {}
+        }
+    }
+    std::fs::write(out, bytes).map_err(|e| format!("{out}: {e}"))?;
+    println!("lines={lines} points={points}");
+    Ok(())
+}
+
+fn main() -> ExitCode {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let result = match args.as_slice() {
+        [cmd, rec, arg] => match std::fs::read(rec) {
+            Err(e) => Err(format!("{rec}: {e}")),
+            Ok(data) => match cmd.as_str() {
+                "throughput" => arg
+                    .parse::<f64>()
+                    .map_err(|e| e.to_string())
+                    .and_then(|s| throughput(&data, s)),
+                "export" => export(&data, arg),
+                _ => Err(format!("unknown command {cmd}")),
+            },
+        },
+        _ => Err("usage: bench-host throughput REC SECONDS | export REC OUT".into()),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("bench-host: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}

@@ -1,0 +1,123 @@
+//! The benchmark firmware's shared parts: the embedded recording, the two marker functions
+//! between which `cargo xtask bench` counts executed instructions in QEMU's trace, the stack
+//! high-water mark of the measured region, the report line and the panic handler.
+//!
+//! Each binary (`src/bin/`) configures its pipeline, paints the stack, calls
+//! [`bench_start`], runs, calls [`bench_end`], and prints one line on the semihosting console:
+//! `BENCH returns=… lines=… cells=… stack=…`, then exits with 0.
+#![no_std]
+#![deny(missing_docs)]
+
+use core::ptr::{read_volatile, write_volatile};
+use core::sync::atomic::{AtomicU8, Ordering};
+
+/// The recording `cargo xtask bench` generated (`BENCH_RECORDING`), in flash. A named
+/// symbol, so that the xtask can subtract its size from the image's.
+#[no_mangle]
+#[used]
+pub static BENCH_RECORDING: [u8; include_bytes!(env!("BENCH_RECORDING")).len()] =
+    *include_bytes!(env!("BENCH_RECORDING"));
+
+/// The recording as a slice (read through a volatile pointer so that nothing is folded at
+/// compile time).
+#[must_use]
+pub fn recording() -> &'static [u8] {
+    let p = core::hint::black_box(&BENCH_RECORDING);
+    p.as_slice()
+}
+
+/// The start marker: the xtask counts the instructions executed from this function's first
+/// instruction up to (not including) [`bench_end`]'s.
+#[inline(never)]
+#[no_mangle]
+#[allow(unsafe_code)]
+extern "C" fn bench_start() {
+    PHASE.store(1, Ordering::SeqCst);
+    // SAFETY: a no-op; it keeps the two markers' bodies distinct (no identical-code folding).
+    unsafe { core::arch::asm!("nop", options(nomem, nostack, preserves_flags)) };
+}
+
+/// The end marker.
+#[inline(never)]
+#[no_mangle]
+#[allow(unsafe_code)]
+extern "C" fn bench_end() {
+    PHASE.store(2, Ordering::SeqCst);
+    // SAFETY: as in `bench_start`.
+    unsafe { core::arch::asm!("nop", "nop", options(nomem, nostack, preserves_flags)) };
+}
+
+/// Calls [`bench_start`] through an opaque pointer, so that it is never inlined away.
+pub fn start() {
+    core::hint::black_box(bench_start as extern "C" fn())();
+}
+
+/// Calls [`bench_end`] through an opaque pointer.
+pub fn end() {
+    core::hint::black_box(bench_end as extern "C" fn())();
+}
+
+/// Where the run is: 1 between the markers, 2 after. Distinct bodies keep the two marker
+/// functions from being merged into one address.
+static PHASE: AtomicU8 = AtomicU8::new(0);
+
+/// The paint of the measured stack region.
+const PAINT: u32 = 0xDEAD_BEEF;
+/// How far below the caller's frame the stack is painted and measured, bytes.
+pub const PAINTED: usize = 64 * 1024;
+
+fn sp() -> usize {
+    cortex_m::register::msp::read() as usize
+}
+
+/// Paints `PAINTED` bytes below the current stack pointer (minus a little slack), and
+/// returns the painted region's top.
+#[inline(never)]
+#[allow(unsafe_code)]
+pub fn paint_stack() -> usize {
+    let top = (sp() - 256) & !3;
+    let mut a = top - PAINTED;
+    while a < top {
+        // SAFETY: word-aligned RAM below the current stack pointer (minus slack), which no
+        // live object occupies; the stack region is megabytes deep in QEMU's map.
+        unsafe { write_volatile(a as *mut u32, PAINT) };
+        a += 4;
+    }
+    top
+}
+
+/// The bytes of the painted region used since [`paint_stack`] returned `top`.
+#[inline(never)]
+#[allow(unsafe_code)]
+#[must_use]
+pub fn stack_used(top: usize) -> usize {
+    let mut a = top - PAINTED;
+    while a < top {
+        // SAFETY: as in `paint_stack`; the region lies below the current stack pointer.
+        if unsafe { read_volatile(a as *const u32) } != PAINT {
+            break;
+        }
+        a += 4;
+    }
+    top - a
+}
+
+/// Prints the report line and exits with 0.
+pub fn report(returns: u32, lines: u32, cells: u32, stack: usize) -> ! {
+    semihosting::println!(
+        "BENCH returns={} lines={} cells={} stack={}",
+        returns,
+        lines,
+        cells,
+        stack
+    );
+    semihosting::process::exit(0)
+}
+
+#[panic_handler]
+fn panic(info: &core::panic::PanicInfo<'_>) -> ! {
+    if let Some(l) = info.location() {
+        semihosting::eprintln!("panicked at {}:{}", l.file(), l.line());
+    }
+    semihosting::process::exit(101)
+}

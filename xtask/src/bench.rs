@@ -1,0 +1,676 @@
+//! `cargo xtask bench [--json] [--quick]`:
+//!
+//! 1. simulates the paper's stairs (`host-tests`' simulator) into `target/bench/*.rec`;
+//! 2. builds the bench firmware (`boards/bench`) for thumbv7em-none-eabihf (M4F) and
+//!    thumbv6m-none-eabi (M0 code) with that recording embedded;
+//! 3. runs each variant in QEMU (`mps2-an386`) with `-singlestep -d exec,nochain`, streams the
+//!    trace through a FIFO and counts the instructions executed between `bench_start` and
+//!    `bench_end` (one trace line per instruction), with a per-function histogram;
+//! 4. reads flash and static RAM from the ELF (`object`);
+//! 5. times the library's pipeline on the host (`bench-host`, release) and OctoMap
+//!    (`bench/octomap/harness.cpp`, built with g++) on the same returns;
+//! 6. prints a table (stderr) and the results (stdout; one JSON object with `--json`).
+//!
+//! A fresh machine: the missing rustup targets, `qemu-system-arm` and `liboctomap-dev` are
+//! installed (apt-get, through sudo when not root).
+
+use object::{Object, ObjectSection, ObjectSymbol};
+use std::collections::HashMap;
+use std::fs;
+use std::io::{BufRead, BufReader, Read};
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+use std::time::Instant;
+use terrain_pyramid_host_tests::sim::record::{simulate, SimConfig};
+
+type Result<T> = std::result::Result<T, String>;
+
+const M4F: &str = "thumbv7em-none-eabihf";
+const M0: &str = "thumbv6m-none-eabi";
+
+/// `cargo xtask bench [--json] [--quick] [--singlestep]`.
+pub fn task(args: &[String]) -> std::result::Result<(), String> {
+    let mut opts = Opts::default();
+    for a in args {
+        match a.as_str() {
+            "--json" => opts.json = true,
+            "--quick" => opts.quick = true,
+            "--singlestep" => opts.singlestep = true,
+            other => {
+                return Err(format!(
+                    "unknown option {other}; usage: cargo xtask bench [--json] [--quick] [--singlestep]"
+                ))
+            }
+        }
+    }
+    let t = Instant::now();
+    bench(&opts)?;
+    eprintln!("xtask bench: done in {:.1} s", t.elapsed().as_secs_f64());
+    Ok(())
+}
+
+#[derive(Default)]
+struct Opts {
+    json: bool,
+    quick: bool,
+    singlestep: bool,
+}
+
+fn root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .parent()
+        .map_or_else(|| PathBuf::from("."), Path::to_path_buf)
+}
+
+/// Runs a command, failing with its stderr.
+fn run(cmd: &mut Command) -> Result<String> {
+    let out = cmd
+        .output()
+        .map_err(|e| format!("cannot run {cmd:?}: {e}"))?;
+    if !out.status.success() {
+        return Err(format!(
+            "{cmd:?} failed ({}):\n{}{}",
+            out.status,
+            String::from_utf8_lossy(&out.stdout),
+            String::from_utf8_lossy(&out.stderr)
+        ));
+    }
+    Ok(String::from_utf8_lossy(&out.stdout).into_owned())
+}
+
+/// Runs a command with its output on our stderr (builds).
+fn run_loud(cmd: &mut Command) -> Result<()> {
+    let status = cmd
+        .stdout(Stdio::inherit())
+        .stderr(Stdio::inherit())
+        .status()
+        .map_err(|e| format!("cannot run {cmd:?}: {e}"))?;
+    if status.success() {
+        Ok(())
+    } else {
+        Err(format!("{cmd:?} failed ({status})"))
+    }
+}
+
+fn have(program: &str) -> bool {
+    Command::new("sh")
+        .args(["-c", &format!("command -v {program}")])
+        .stdout(Stdio::null())
+        .status()
+        .is_ok_and(|s| s.success())
+}
+
+fn apt_install(packages: &[&str]) -> Result<()> {
+    let root_user = run(Command::new("id").arg("-u")).is_ok_and(|u| u.trim() == "0");
+    let sudo = |args: &[&str]| {
+        let mut c = if root_user {
+            Command::new(args[0])
+        } else {
+            let mut c = Command::new("sudo");
+            c.arg(args[0]);
+            c
+        };
+        c.args(&args[1..]).env("DEBIAN_FRONTEND", "noninteractive");
+        c
+    };
+    eprintln!("xtask bench: installing {packages:?} (apt-get)");
+    run_loud(&mut sudo(&["apt-get", "update", "-qq"]))?;
+    let mut args = vec!["apt-get", "install", "-y", "-qq"];
+    args.extend_from_slice(packages);
+    run_loud(&mut sudo(&args))
+}
+
+/// Installs what a fresh machine lacks.
+fn ensure_tools() -> Result<()> {
+    let installed =
+        run(Command::new("rustup").args(["target", "list", "--installed"])).unwrap_or_default();
+    for target in [M4F, M0] {
+        if !installed.lines().any(|l| l.trim() == target) {
+            eprintln!("xtask bench: rustup target add {target}");
+            run_loud(Command::new("rustup").args(["target", "add", target]))?;
+        }
+    }
+    let mut missing = Vec::new();
+    if !have("qemu-system-arm") {
+        missing.push("qemu-system-arm");
+    }
+    if !Path::new("/usr/include/octomap/octomap.h").exists() {
+        missing.push("liboctomap-dev");
+    }
+    if !have("g++") {
+        missing.push("g++");
+    }
+    if !missing.is_empty() {
+        apt_install(&missing)?;
+    }
+    Ok(())
+}
+
+/// Writes `bytes` to `path` unless it holds them already (so that cargo does not rebuild).
+fn write_if_changed(path: &Path, bytes: &[u8]) -> Result<()> {
+    if fs::read(path).is_ok_and(|old| old == bytes) {
+        return Ok(());
+    }
+    fs::write(path, bytes).map_err(|e| format!("{}: {e}", path.display()))
+}
+
+/// One firmware variant's measurement.
+#[derive(Debug, Clone, Default)]
+struct Run {
+    instructions: u64,
+    returns: u64,
+    lines: u64,
+    cells: u64,
+    stack: u64,
+    histogram: Vec<(String, u64)>,
+}
+
+impl Run {
+    fn per_return(&self) -> f64 {
+        self.instructions as f64 / self.returns.max(1) as f64
+    }
+}
+
+/// Function symbols of an ELF, sorted by address (Thumb bit cleared).
+fn functions(elf: &[u8]) -> Result<Vec<(u32, u32, String)>> {
+    let file = object::File::parse(elf).map_err(|e| e.to_string())?;
+    let mut f: Vec<(u32, u32, String)> = file
+        .symbols()
+        .filter(|s| s.kind() == object::SymbolKind::Text && s.size() > 0)
+        .filter_map(|s| {
+            let name = s.name().ok()?;
+            let addr = u32::try_from(s.address()).ok()? & !1;
+            Some((addr, u32::try_from(s.size()).ok()?, name.to_string()))
+        })
+        .collect();
+    f.sort();
+    Ok(f)
+}
+
+fn symbol_address(elf: &[u8], name: &str) -> Result<(u32, u64)> {
+    let file = object::File::parse(elf).map_err(|e| e.to_string())?;
+    file.symbols()
+        .find(|s| s.name() == Ok(name))
+        .map(|s| (u32::try_from(s.address()).unwrap_or(0) & !1, s.size()))
+        .ok_or_else(|| format!("no symbol {name} in the ELF"))
+}
+
+fn short(name: &str) -> String {
+    // Legacy-mangled Rust: keep the path's last two segments, readable enough.
+    let d = name.strip_prefix("_ZN").map_or_else(
+        || name.to_string(),
+        |rest| {
+            let mut parts = Vec::new();
+            let mut s = rest;
+            while let Some(end) = s.find(|c: char| !c.is_ascii_digit()) {
+                let Ok(n) = s[..end].parse::<usize>() else {
+                    break;
+                };
+                if end + n > s.len() {
+                    break;
+                }
+                parts.push(s[end..end + n].to_string());
+                s = &s[end + n..];
+            }
+            parts.retain(|p| !(p.starts_with('h') && p.len() == 17));
+            let k = parts.len().saturating_sub(3);
+            parts[k..]
+                .join("::")
+                .replace("$LT$", "<")
+                .replace("$GT$", ">")
+                .replace("$u20$", " ")
+                .replace("..", "::")
+        },
+    );
+    d.chars().take(90).collect()
+}
+
+/// Runs `elf` in QEMU with the exec trace streamed through a FIFO; counts the instructions
+/// between the markers.
+///
+/// `singlestep`: QEMU translates one instruction per block (`-singlestep`), so each exec line
+/// is one instruction. Otherwise (much faster) the blocks are logged as they are translated
+/// (`-d in_asm`) with their instruction counts, and each exec line adds its block's count:
+/// the same number as long as every block runs to its end, which holds here (no interrupt
+/// or fault is enabled in the measured region; `cargo xtask bench --singlestep` checks it).
+fn trace(elf_path: &Path, work: &Path, singlestep: bool) -> Result<Run> {
+    let elf = fs::read(elf_path).map_err(|e| format!("{}: {e}", elf_path.display()))?;
+    let (start, _) = symbol_address(&elf, "bench_start")?;
+    let (end, _) = symbol_address(&elf, "bench_end")?;
+    let funcs = functions(&elf)?;
+    let fifo = work.join("trace.fifo");
+    let _ = fs::remove_file(&fifo);
+    run(Command::new("mkfifo").arg(&fifo))?;
+    let mut qemu = Command::new("qemu-system-arm")
+        .args([
+            "-machine",
+            "mps2-an386",
+            "-cpu",
+            "cortex-m4",
+            "-nographic",
+            "-monitor",
+            "none",
+            "-semihosting-config",
+            "enable=on,target=native",
+        ])
+        .args(if singlestep {
+            &["-singlestep"][..]
+        } else {
+            &[][..]
+        })
+        .args([
+            "-d",
+            if singlestep {
+                "exec,nochain"
+            } else {
+                "in_asm,exec,nochain"
+            },
+            "-D",
+        ])
+        .arg(&fifo)
+        .arg("-kernel")
+        .arg(elf_path)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .map_err(|e| format!("cannot start qemu-system-arm: {e}"))?;
+    let reader = fs::File::open(&fifo).map_err(|e| format!("{}: {e}", fifo.display()))?;
+    let mut reader = BufReader::with_capacity(1 << 20, reader);
+    let mut line = Vec::with_capacity(256);
+    let mut counting = false;
+    let mut done = false;
+    let mut count = 0_u64;
+    let mut pcs: HashMap<u32, u64> = HashMap::new();
+    // Blocks as translated: start address → instructions.
+    let mut blocks: HashMap<u32, u64> = HashMap::new();
+    let mut block: Option<(u32, u64)> = None;
+    loop {
+        line.clear();
+        match reader.read_until(b'\n', &mut line) {
+            Ok(0) => break,
+            Ok(_) => {}
+            Err(e) => return Err(format!("reading the trace: {e}")),
+        }
+        if done {
+            continue;
+        }
+        if !singlestep {
+            // "0x00000404:  480e  ldr …" lines of an "IN:" listing.
+            if line.starts_with(b"0x") {
+                if let Some(pc) = std::str::from_utf8(&line[2..10])
+                    .ok()
+                    .and_then(|h| u32::from_str_radix(h, 16).ok())
+                {
+                    let b = block.get_or_insert((pc, 0));
+                    b.1 += 1;
+                }
+                continue;
+            }
+            if let Some((pc, n)) = block.take() {
+                blocks.insert(pc, n);
+            }
+        }
+        // "Trace 0: 0x7f… [00000000/0000abcd/…] symbol"
+        let Some(open) = line.iter().position(|&b| b == b'[') else {
+            continue;
+        };
+        let rest = &line[open + 1..];
+        let Some(slash) = rest.iter().position(|&b| b == b'/') else {
+            continue;
+        };
+        let hex = &rest[slash + 1..];
+        let Some(len) = hex.iter().position(|&b| b == b'/' || b == b']') else {
+            continue;
+        };
+        let Some(pc) = std::str::from_utf8(&hex[..len])
+            .ok()
+            .and_then(|h| u64::from_str_radix(h, 16).ok())
+        else {
+            continue;
+        };
+        let pc = pc as u32;
+        if pc == start {
+            counting = true;
+            count = 0;
+            pcs.clear();
+        } else if pc == end && counting {
+            counting = false;
+            done = true;
+        }
+        if counting {
+            let n = if singlestep {
+                1
+            } else {
+                *blocks
+                    .get(&pc)
+                    .ok_or_else(|| format!("{pc:#010x} ran before its translation was logged"))?
+            };
+            count += n;
+            *pcs.entry(pc).or_insert(0) += n;
+        }
+    }
+    let mut stdout = String::new();
+    if let Some(mut s) = qemu.stdout.take() {
+        let _ = s.read_to_string(&mut stdout);
+    }
+    let status = qemu.wait().map_err(|e| e.to_string())?;
+    let _ = fs::remove_file(&fifo);
+    if !status.success() || !done {
+        let mut stderr = String::new();
+        if let Some(mut s) = qemu.stderr.take() {
+            let _ = s.read_to_string(&mut stderr);
+        }
+        return Err(format!(
+            "{}: QEMU {status}, markers {}found; stdout: {stdout} stderr: {stderr}",
+            elf_path.display(),
+            if done { "" } else { "not " }
+        ));
+    }
+    let field = |key: &str| -> u64 {
+        stdout
+            .split_whitespace()
+            .find_map(|w| w.strip_prefix(key)?.strip_prefix('=')?.parse().ok())
+            .unwrap_or(0)
+    };
+    // The histogram by function.
+    let mut by_fn: HashMap<String, u64> = HashMap::new();
+    for (pc, n) in pcs {
+        let i = funcs.partition_point(|f| f.0 <= pc);
+        let name = i
+            .checked_sub(1)
+            .and_then(|i| funcs.get(i))
+            .filter(|f| pc < f.0 + f.1)
+            .map_or_else(|| format!("{pc:#010x}"), |f| short(&f.2));
+        *by_fn.entry(name).or_insert(0) += n;
+    }
+    let mut histogram: Vec<(String, u64)> = by_fn.into_iter().collect();
+    histogram.sort_by_key(|h| std::cmp::Reverse(h.1));
+    Ok(Run {
+        instructions: count,
+        returns: field("returns"),
+        lines: field("lines"),
+        cells: field("cells"),
+        stack: field("stack"),
+        histogram,
+    })
+}
+
+/// Flash (loadable sections in the FLASH region, less the embedded recording) and static
+/// RAM (allocated sections in RAM) of an ELF.
+fn sizes(elf_path: &Path) -> Result<(u64, u64, u64)> {
+    let elf = fs::read(elf_path).map_err(|e| format!("{}: {e}", elf_path.display()))?;
+    let file = object::File::parse(&*elf).map_err(|e| e.to_string())?;
+    let (mut flash, mut ram) = (0, 0);
+    for s in file.sections() {
+        let name = s.name().unwrap_or("");
+        let size = s.size();
+        if s.address() >= 0x2000_0000 {
+            if matches!(name, ".data" | ".bss" | ".uninit") {
+                ram += size;
+            }
+            if name == ".data" {
+                flash += size; // its initial image
+            }
+        } else if matches!(name, ".vector_table" | ".text" | ".rodata") {
+            flash += size;
+        }
+    }
+    let (_, recording) = symbol_address(&elf, "BENCH_RECORDING")?;
+    Ok((flash - recording, ram, recording))
+}
+
+fn bench(opts: &Opts) -> Result<()> {
+    ensure_tools()?;
+    let root = root();
+    let work = root.join("target").join("bench");
+    fs::create_dir_all(&work).map_err(|e| e.to_string())?;
+
+    // 1. The recording.
+    let (stand_s, distance_m) = if opts.quick { (0.2, 4.2) } else { (1.0, 1.0) };
+    let sim = simulate(&SimConfig::paper_stairs(stand_s, 1.0, distance_m)).map_err(|e| e.0)?;
+    let rec = work.join(if opts.quick {
+        "stairs-quick.rec"
+    } else {
+        "stairs.rec"
+    });
+    write_if_changed(&rec, &sim.bytes)?;
+    eprintln!(
+        "xtask bench: recording {} ({} lines, {} bytes; stairs, stand {stand_s} s, 1 m/s to {distance_m} m)",
+        rec.display(),
+        sim.lines,
+        sim.bytes.len()
+    );
+
+    // 2. The firmware, both targets (one cargo build each).
+    let board = root.join("boards").join("bench");
+    for target in [M4F, M0] {
+        run_loud(
+            Command::new("cargo")
+                .current_dir(&board)
+                .args(["build", "--release", "--quiet", "--target", target])
+                .env("BENCH_RECORDING", &rec)
+                .env_remove("CARGO_TARGET_DIR"),
+        )?;
+    }
+    let elf = |target: &str, bin: &str| board.join("target").join(target).join("release").join(bin);
+
+    // 3. Instruction counts.
+    let mut runs: HashMap<(&str, &str), Run> = HashMap::new();
+    let variants: &[(&str, &str)] = &[
+        (M4F, "pyramid"),
+        (M4F, "flat"),
+        (M4F, "window"),
+        (M4F, "pyramid-nolink"),
+        (M4F, "f32"),
+        (M0, "pyramid"),
+        (M0, "pyramid-nolink"),
+        (M0, "f32"),
+    ];
+    // `BENCH_ONLY=thumbv7em-none-eabihf/pyramid,…` restricts the runs (for profiling).
+    let only = std::env::var("BENCH_ONLY").ok();
+    for &(target, bin) in variants {
+        if only
+            .as_deref()
+            .is_some_and(|o| !o.split(',').any(|v| v == format!("{target}/{bin}")))
+        {
+            continue;
+        }
+        let t = Instant::now();
+        let r = trace(&elf(target, bin), &work, opts.singlestep)?;
+        eprintln!(
+            "xtask bench: {target} {bin}: {} instructions, {} returns, {} lines, {} cells reset, stack {} B ({:.1} s)",
+            r.instructions,
+            r.returns,
+            r.lines,
+            r.cells,
+            r.stack,
+            t.elapsed().as_secs_f64()
+        );
+        let mut profile = String::new();
+        for (name, n) in &r.histogram {
+            profile.push_str(&format!(
+                "{n:>12} {:>6.1}% {:>8.2}/ret  {name}\n",
+                100.0 * *n as f64 / r.instructions.max(1) as f64,
+                *n as f64 / r.returns.max(1) as f64
+            ));
+        }
+        write_if_changed(
+            &work.join(format!("profile-{target}-{bin}.txt")),
+            profile.as_bytes(),
+        )?;
+        runs.insert((target, bin), r);
+    }
+    let get = |t: &str, b: &str| runs.get(&(t, b)).cloned().unwrap_or_default();
+    let (m4, flat, window, m4_nolink, m4_f32) = (
+        get(M4F, "pyramid"),
+        get(M4F, "flat"),
+        get(M4F, "window"),
+        get(M4F, "pyramid-nolink"),
+        get(M4F, "f32"),
+    );
+    let (m0, m0_nolink, m0_f32) = (
+        get(M0, "pyramid"),
+        get(M0, "pyramid-nolink"),
+        get(M0, "f32"),
+    );
+    let window_per_cell = window.instructions as f64 / window.cells.max(1) as f64;
+
+    // 4. Memory of the M4F bench firmware (default pyramid, link).
+    let (flash, ram, recording_bytes) = sizes(&elf(M4F, "pyramid"))?;
+
+    // 5. Host: the library's pipeline, and OctoMap on the same points.
+    run_loud(Command::new("cargo").current_dir(&root).args([
+        "build",
+        "--release",
+        "--quiet",
+        "-p",
+        "terrain-pyramid-bench",
+        "--bin",
+        "bench-host",
+    ]))?;
+    let host_bin = root.join("target").join("release").join("bench-host");
+    let seconds = if opts.quick { "0.3" } else { "3" };
+    let out = run(Command::new(&host_bin)
+        .arg("throughput")
+        .arg(&rec)
+        .arg(seconds))?;
+    let host_rps: f64 = out
+        .split_whitespace()
+        .find_map(|w| w.strip_prefix("returns_per_second=")?.parse().ok())
+        .ok_or_else(|| format!("bench-host said: {out}"))?;
+    let points = work.join(if opts.quick {
+        "points-quick.bin"
+    } else {
+        "points.bin"
+    });
+    run(Command::new(&host_bin).arg("export").arg(&rec).arg(&points))?;
+    let harness_src = root.join("bench").join("octomap").join("harness.cpp");
+    let harness = work.join("octomap-harness");
+    let stale = match (fs::metadata(&harness_src), fs::metadata(&harness)) {
+        (Ok(src), Ok(bin)) => src.modified().ok() > bin.modified().ok(),
+        _ => true,
+    };
+    if stale {
+        run(Command::new("g++")
+            .args(["-O2", "-std=c++17", "-o"])
+            .arg(&harness)
+            .arg(&harness_src)
+            .args(["-loctomap", "-loctomath"]))?;
+    }
+    let mut octomap: Vec<(String, f64, f64)> = Vec::new();
+    let octomap_out = run(Command::new(&harness).arg(&points).arg("0.1"))?;
+    for l in octomap_out.lines() {
+        // "mode=insertPointCloud res=0.1 points=… seconds=… returns_per_second=…"
+        let f = |k: &str| {
+            l.split_whitespace()
+                .find_map(|w| w.strip_prefix(k)?.strip_prefix('='))
+                .unwrap_or("")
+                .to_string()
+        };
+        if let (Ok(res), Ok(rps)) = (
+            f("res").parse::<f64>(),
+            f("returns_per_second").parse::<f64>(),
+        ) {
+            octomap.push((f("mode"), res, rps));
+        }
+    }
+    let octomap_rps = octomap
+        .iter()
+        .find(|o| o.0 == "insertPointCloud")
+        .map_or(0.0, |o| o.2);
+
+    // 6. Report.
+    let ratio = |a: f64, b: f64| if b > 0.0 { a / b } else { 0.0 };
+    eprintln!();
+    eprintln!("| measurement | value |");
+    eprintln!("| --- | --- |");
+    eprintln!(
+        "| M4F instructions / return (default pyramid, pipeline + link) | {:.1} |",
+        m4.per_return()
+    );
+    eprintln!(
+        "| M4F instructions / return, flat 200² grid at 0.1 m (+ link) | {:.1} |",
+        flat.per_return()
+    );
+    eprintln!(
+        "| pyramid / flat | {:.2} |",
+        ratio(m4.per_return(), flat.per_return())
+    );
+    eprintln!(
+        "| M4F instructions / return, no link | {:.1} |",
+        m4_nolink.per_return()
+    );
+    eprintln!(
+        "| M4F f32 instructions / return (no link) | {:.1} |",
+        m4_f32.per_return()
+    );
+    eprintln!(
+        "| M4F f32 / fixed (no link) | {:.2} |",
+        ratio(m4_f32.per_return(), m4_nolink.per_return())
+    );
+    eprintln!(
+        "| M0 instructions / return (pipeline + link) | {:.1} |",
+        m0.per_return()
+    );
+    eprintln!(
+        "| M0 instructions / return, no link | {:.1} |",
+        m0_nolink.per_return()
+    );
+    eprintln!(
+        "| M0 f32 instructions / return (no link) | {:.1} |",
+        m0_f32.per_return()
+    );
+    eprintln!(
+        "| M0 f32 / fixed (no link) | {:.2} |",
+        ratio(m0_f32.per_return(), m0_nolink.per_return())
+    );
+    eprintln!(
+        "| M4F window move: instructions / reset cell ({} cells) | {:.2} |",
+        window.cells, window_per_cell
+    );
+    eprintln!(
+        "| bench firmware flash (M4F, without the {} B recording) | {} B |",
+        recording_bytes, flash
+    );
+    eprintln!("| bench firmware static RAM (M4F) | {} B |", ram);
+    eprintln!(
+        "| stack high-water of the measured pipeline (M4F / M0) | {} / {} B |",
+        m4.stack, m0.stack
+    );
+    eprintln!("| host returns / s (library, release) | {:.3e} |", host_rps);
+    for (mode, res, rps) in &octomap {
+        eprintln!("| OctoMap {mode} at {res} m, returns / s | {rps:.3e} |");
+    }
+    eprintln!(
+        "| host / OctoMap (insertPointCloud, 0.1 m) | {:.1} |",
+        ratio(host_rps, octomap_rps)
+    );
+    eprintln!();
+    eprintln!("profiles: {}/profile-*.txt", work.display());
+
+    let json = serde_json::json!({
+        "m4f": {
+            "instructions_per_return": m4.per_return(),
+            "flat_instructions_per_return": flat.per_return(),
+            "window_move_instructions_per_cell": window_per_cell,
+        },
+        "m0": { "instructions_per_return": m0.per_return() },
+        "m4f_f32": { "instructions_per_return": m4_f32.per_return() },
+        "m0_f32": { "instructions_per_return": m0_f32.per_return() },
+        "host": { "returns_per_second": host_rps },
+        "octomap": { "returns_per_second": octomap_rps },
+        "host_over_octomap": ratio(host_rps, octomap_rps),
+        "flash_bytes": flash,
+        "ram_bytes": ram,
+        "stack_bytes": m4.stack,
+    });
+    if opts.json {
+        println!("{json}");
+    } else {
+        println!(
+            "{}",
+            serde_json::to_string_pretty(&json).map_err(|e| e.to_string())?
+        );
+    }
+    Ok(())
+}
