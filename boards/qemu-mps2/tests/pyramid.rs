@@ -164,15 +164,22 @@ mod tests {
             n += 1;
         });
         assert_eq!(n, 3);
-        let curb = records[0].unwrap();
-        assert_eq!((curb.layer, curb.cell_x, curb.cell_y), (0, 1, 0));
+        // Records come out in slot order: find each by its cell.
+        let find = |layer: u8, x: i32| {
+            records
+                .iter()
+                .flatten()
+                .find(|e| (e.layer, e.cell_x, e.cell_y) == (layer, x, 0))
+                .copied()
+                .unwrap()
+        };
+        let curb = find(0, 1);
         assert_eq!(curb.class, EvidenceClass::Obstacle);
-        assert_eq!(curb.distance.to_bits(), m(0.13).to_bits());
-        let flat = records[1].unwrap();
-        assert_eq!((flat.layer, flat.cell_x, flat.cell_y), (0, 2, 0));
+        // The closest look, 0.13 m, is kept as its gate bin (1/32 m): bin 4, edge 0.125 m.
+        assert_eq!(curb.distance.to_bits(), m(0.125).to_bits());
+        let flat = find(0, 2);
         assert_eq!(flat.class, EvidenceClass::Navigable);
-        let far = records[2].unwrap();
-        assert_eq!((far.layer, far.cell_x, far.cell_y), (2, 2, 0));
+        let far = find(2, 2);
         assert_eq!(far.class, EvidenceClass::Navigable);
         assert_eq!(classifier.cells_in_use(), 0);
 
