@@ -200,31 +200,16 @@ impl<const C: usize> Classifier<C> {
     /// An empty classifier with the default configuration. `const`, for a `static`.
     #[must_use]
     pub const fn new() -> Self {
-        let _ = Self::MASK;
-        Self {
-            slots: [Slot::VACANT; C],
-            used: 0,
-            bins: DistanceBins::UNCONFIGURED,
-            config: ClassifierConfig {
-                robot_height: Meters::ONE,
-                step_threshold: DEFAULT_STEP_THRESHOLD,
-                drop_threshold: None,
-                ceiling: None,
-            },
-            reference_z: 0,
-            robot_height_mm: 1000,
-            step_mm: 50,
-            stats: ClassifierStats {
-                points: 0,
-                points_used: 0,
-                points_gated_out: 0,
-                overflow_points: 0,
-                overhang_points: 0,
-                drop_points: 0,
-                observations: 0,
-                records: 0,
-            },
-        }
+        let mut classifier = Self::unconfigured();
+        classifier.config = ClassifierConfig {
+            robot_height: Meters::ONE,
+            step_threshold: DEFAULT_STEP_THRESHOLD,
+            drop_threshold: None,
+            ceiling: None,
+        };
+        classifier.robot_height_mm = 1000;
+        classifier.step_mm = 50;
+        classifier
     }
 
     /// A classifier whose every byte is zero, to be [`configure`](Self::configure)d before
@@ -553,6 +538,18 @@ mod tests {
             assert_eq!(r.len(), 1);
             assert_eq!(r[0].class, EvidenceClass::Navigable, "{order:?}");
         }
+    }
+
+    #[test]
+    fn new_is_the_default_configuration() {
+        let fresh = Classifier::<8>::new();
+        let mut configured = Classifier::<8>::unconfigured();
+        configured.configure(ClassifierConfig::default());
+        assert_eq!(fresh.config(), configured.config());
+        assert_eq!(
+            (fresh.robot_height_mm, fresh.step_mm),
+            (configured.robot_height_mm, configured.step_mm)
+        );
     }
 
     #[test]
