@@ -43,7 +43,6 @@
 //! and applies the rule exactly; `host-tests` measures the agreement.
 
 use crate::gate::DistanceBins;
-use crate::logodds::gated;
 use crate::pyramid::{Evidence, EvidenceClass, Pyramid};
 use crate::units::{Meters, Point3};
 
@@ -342,14 +341,13 @@ impl<const C: usize> Classifier<C> {
         self.bins = pyramid.distance_bins();
         let bin = self.bins.bin(distance);
         let bin_index = u16::try_from(bin).unwrap_or(u16::MAX);
-        let increments = pyramid.increments();
+        let min_weight = pyramid.min_feeding_weight();
         let mut fed = false;
         for k in 0..pyramid.layer_count() {
             let (Some(layer), Some(gate)) = (pyramid.layer(k), pyramid.gate(k)) else {
                 break;
             };
-            let w = gate.weight(bin);
-            if gated(increments.obstacle, w) == 0 && gated(increments.free, w) == 0 {
+            if gate.weight(bin) < min_weight {
                 continue;
             }
             let r = layer.resolution();

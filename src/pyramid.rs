@@ -166,6 +166,9 @@ struct State {
     clamp: Clamp,
     /// Raw Q8.8, ≥ 0.
     margin: i16,
+    /// The smallest gate weight (raw Q1.15) at which either increment survives rounding:
+    /// a point feeds a layer exactly when its weight reaches it.
+    min_feeding_weight: u16,
     stats: PyramidStats,
 }
 
@@ -196,6 +199,28 @@ impl<const W: usize> DirtyTiles<'_, W> {
     }
 }
 
+/// The smallest raw Q1.15 weight `w` with `gated(l_obs, w) ≠ 0` or `gated(l_free, w) ≠ 0`.
+///
+/// `gated` rounds half up: `g = ⌊(l·w + 2¹⁴) / 2¹⁵⌋` is non-zero exactly when `l·w ≥ 2¹⁴` or
+/// `l·w < −2¹⁴`, i.e. for `l > 0` when `w ≥ ⌈2¹⁴ / l⌉`, and for `l < 0` when
+/// `w ≥ ⌊2¹⁴ / |l|⌋ + 1`. Both conditions grow with `w`, so their union starts at the smaller.
+/// A zero increment never feeds (the validator refuses it); the result is at most 2¹⁵ + 1
+/// (no weight feeds).
+fn min_feeding_weight(increments: Increments) -> u16 {
+    const HALF: u32 = 1 << 14;
+    let never = (1_u32 << 15) + 1;
+    let threshold = |l: i16| -> u32 {
+        let magnitude = u32::from(l.unsigned_abs());
+        match (l > 0, magnitude) {
+            (_, 0) => never,
+            (true, m) => HALF.div_ceil(m),
+            (false, m) => HALF / m + 1,
+        }
+    };
+    let t = threshold(increments.obstacle.to_bits()).min(threshold(increments.free.to_bits()));
+    u16::try_from(t).unwrap_or(u16::MAX)
+}
+
 /// The static RAM of a `Pyramid<W, L>`, bytes: what the firmware reserves for it.
 #[must_use]
 pub const fn static_ram_bytes<const W: usize, const L: usize>() -> usize {
@@ -203,12 +228,16 @@ pub const fn static_ram_bytes<const W: usize, const L: usize>() -> usize {
 }
 
 /// The static RAM of a pyramid of `layers` layers of `cells_per_side` (even) cells per side,
-/// bytes: `layers · (2·W² + 24 + 1024) + 40`. Equal to [`static_ram_bytes`] for the same
+/// bytes: `layers · (2·W² + 24 + 1024) + 44`, rounded up to a multiple of 8. Equal to [`static_ram_bytes`] for the same
 /// shape (a unit test holds them together), for designs chosen at run time.
 #[must_use]
 pub const fn ram_bytes(cells_per_side: usize, layers: usize) -> usize {
-    layers * (crate::grid::layer_bytes(cells_per_side) + core::mem::size_of::<GateTable>())
-        + core::mem::size_of::<State>()
+    let raw = layers
+        * (crate::grid::layer_bytes(cells_per_side) + core::mem::size_of::<GateTable>())
+        + core::mem::size_of::<State>();
+    // The pyramid is aligned like its layers' dirty-tile word (a u64).
+    let align = core::mem::align_of::<u64>();
+    raw.div_ceil(align) * align
 }
 
 impl<const W: usize, const L: usize> Pyramid<W, L> {
@@ -233,6 +262,7 @@ impl<const W: usize, const L: usize> Pyramid<W, L> {
                 },
                 clamp: Clamp::Off,
                 margin: 0,
+                min_feeding_weight: 0,
                 stats: PyramidStats {
                     applied: 0,
                     gated_out: 0,
@@ -313,6 +343,7 @@ impl<const W: usize, const L: usize> Pyramid<W, L> {
             increments,
             clamp: config.clamp,
             margin,
+            min_feeding_weight: min_feeding_weight(increments),
             stats: PyramidStats::default(),
         };
         debug!("pyramid configured: {} layers", active);
@@ -359,6 +390,14 @@ impl<const W: usize, const L: usize> Pyramid<W, L> {
     #[must_use]
     pub const fn distance_bins(&self) -> DistanceBins {
         self.state.bins
+    }
+
+    /// The smallest gate weight at which an observation changes a cell: `gated(l, w) ≠ 0`
+    /// for either class exactly when `w` reaches it. The classifier compares against it
+    /// instead of computing both gated increments for every layer of every point.
+    #[must_use]
+    pub const fn min_feeding_weight(&self) -> crate::units::Weight {
+        crate::units::Weight::from_bits(self.state.min_feeding_weight)
     }
 
     /// The increments in force.
@@ -692,6 +731,23 @@ mod tests {
         };
         assert!(p.configure(&design, &bad).is_err());
         assert_eq!(p.layer(0).unwrap().get(0, 0).unwrap().to_raw(), 217);
+    }
+
+    #[test]
+    fn min_feeding_weight_is_exactly_where_an_increment_survives() {
+        for (obstacle, free) in [(217, -104), (1, -1), (1946, -1946), (3, -500), (200, -2)] {
+            let inc = Increments {
+                obstacle: LogOddsFixed::from_bits(obstacle),
+                free: LogOddsFixed::from_bits(free),
+                initial: LogOddsFixed::ZERO,
+            };
+            let min = min_feeding_weight(inc);
+            for raw in 0..=(1_u16 << 15) {
+                let w = crate::units::Weight::from_bits(raw);
+                let feeds = gated(inc.obstacle, w) != 0 || gated(inc.free, w) != 0;
+                assert_eq!(feeds, raw >= min, "({obstacle}, {free}) at w = {raw}");
+            }
+        }
     }
 
     #[test]
