@@ -287,7 +287,7 @@ proptest! {
         let mut acc = Accumulator::<MAX_FRAME>::new();
         match acc.feed(&bytes) {
             FeedResult::Frame { header, message, remaining } => {
-                prop_assert_eq!(header, Header { version: 1, msg_type: m.message().msg_type().to_u8(), seq });
+                prop_assert_eq!(header, Header { version: terrain_pyramid::wire::link::VERSION, msg_type: m.message().msg_type().to_u8(), seq });
                 prop_assert_eq!(message, m.message());
                 prop_assert!(remaining.is_empty());
             }

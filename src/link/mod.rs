@@ -78,12 +78,13 @@ pub const fn max_tile_bytes(cells_per_side: usize) -> usize {
     pieces * (MIN_FRAME + PATCH_AREA_BYTES + 2) + cells + (pieces * 27 + cells) / 254 + pieces
 }
 
-/// The smallest queue a `Link` of windows of `cells_per_side` may have: room for the largest
-/// tile beside [`CONTROL_RESERVE`], and for a 16-layer Hello. 504 bytes for W = 64.
+/// The smallest queue a `Link` of a pyramid of `layers` layers (≤ [`MAX_LAYERS`]) and windows
+/// of `cells_per_side` may have: room for the largest tile beside [`CONTROL_RESERVE`], and for
+/// a Hello of `layers` layers (12 + 20 bytes a layer, framed). 504 bytes for W = 64, 8 layers.
 #[must_use]
-pub const fn min_queue_bytes(cells_per_side: usize) -> usize {
+pub const fn min_queue_bytes(cells_per_side: usize, layers: usize) -> usize {
     let tile = max_tile_bytes(cells_per_side) + CONTROL_RESERVE;
-    let hello = crate::wire::link::encoded_len_max(MIN_FRAME + 10 + 20 * MAX_LAYERS);
+    let hello = crate::wire::link::encoded_len_max(MIN_FRAME + 12 + 20 * layers);
     if tile > hello {
         tile
     } else {
@@ -239,7 +240,7 @@ enum Incoming {
 
 /// The device's end of the host link, with an outgoing queue of `Q` bytes.
 ///
-/// `Q` must be at least [`min_queue_bytes`]`(W)` (checked at compile time by [`Link::poll`]):
+/// `Q` must be at least [`min_queue_bytes`]`(W, L)` (checked at compile time by [`Link::poll`]):
 /// 504 bytes for W = 64. The default 4 096 bytes hold 26 default patches.
 #[derive(Debug, Clone)]
 pub struct Link<const Q: usize = DEFAULT_QUEUE_BYTES> {
@@ -251,7 +252,7 @@ pub struct Link<const Q: usize = DEFAULT_QUEUE_BYTES> {
     rx_expected: Option<u16>,
     tx_seq: u16,
     /// A Hello to send before anything else: its reason and the layers it announces for resend.
-    hello: Option<(HelloReason, u16)>,
+    hello: Option<(HelloReason, u32)>,
     /// What the host was last told: layers, resolutions, origins.
     sent_layers: usize,
     sent_resolution: [i32; MAX_LAYERS],
@@ -403,7 +404,7 @@ impl<const Q: usize> Link<Q> {
             SnapshotScope::Layer(k) if usize::from(k) < count => usize::from(k)..usize::from(k) + 1,
             SnapshotScope::Layer(_) => return false,
         };
-        let mut mask = 0_u16;
+        let mut mask = 0_u32;
         for k in layers {
             if let Some(mut dirty) = pyramid.layer_dirty_mut(k) {
                 dirty.mark(u64::MAX);
@@ -428,7 +429,7 @@ impl<const Q: usize> Link<Q> {
         self.stats_requested = true;
     }
 
-    fn want_hello(&mut self, reason: HelloReason, resend: u16) {
+    fn want_hello(&mut self, reason: HelloReason, resend: u32) {
         self.hello = Some(match self.hello {
             // A Hello that clears the host's maps stays one; resend masks add up.
             Some((pending, mask)) if pending.clears_maps() => (pending, mask | resend),
@@ -481,6 +482,12 @@ impl<const Q: usize> Link<Q> {
             commands_refused: c.commands_refused,
             snapshots: c.snapshots,
             resyncs: c.resyncs,
+            tiles_dirty: count(
+                (0..layers_of(pyramid))
+                    .filter_map(|k| pyramid.layer(k))
+                    .map(|layer| layer.dirty().count_ones() as usize)
+                    .sum(),
+            ),
         }
     }
 
@@ -839,10 +846,10 @@ impl<const Q: usize> Link<Q> {
         sensor: &SensorCounters,
     ) -> PollReport {
         const {
-            assert!(L <= MAX_LAYERS, "the host link describes at most 16 layers");
+            assert!(L <= MAX_LAYERS, "the host link describes at most 32 layers");
             assert!(
-                Q >= min_queue_bytes(W),
-                "the link's queue must hold min_queue_bytes(W) bytes"
+                Q >= min_queue_bytes(W, L),
+                "the link's queue must hold min_queue_bytes(W, L) bytes"
             );
         }
         let mut report = PollReport::default();

@@ -448,8 +448,13 @@ fn snapshot_reset_ping_and_bad_frames() {
 #[test]
 fn queue_minimum() {
     assert_eq!(max_tile_bytes(64), 248);
-    assert_eq!(min_queue_bytes(64), 504);
-    assert!(min_queue_bytes(1024) > MAX_ENCODED_FRAME);
+    assert_eq!(min_queue_bytes(64, 8), 504);
+    assert_eq!(
+        min_queue_bytes(64, 32),
+        MAX_ENCODED_FRAME,
+        "a 32-layer Hello"
+    );
+    assert!(min_queue_bytes(1024, 8) > MAX_ENCODED_FRAME);
 }
 
 #[test]
@@ -479,9 +484,10 @@ fn stats_go_out_on_their_interval() {
 
 #[test]
 fn the_default_link_fits_its_budget() {
-    // Queue 4 096, encode scratch 543, receive buffer 68, tile ages 1 024, the rest small.
+    // Queue 4 096, encode scratch 664, receive buffer 69, tile ages 2 048 (32 layers of 64
+    // tiles), the rest small.
     let bytes = core::mem::size_of::<Link>();
-    assert!(bytes < 6400, "{bytes}");
+    assert!(bytes < 7800, "{bytes}");
 }
 
 #[test]

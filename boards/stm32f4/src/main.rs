@@ -100,7 +100,7 @@ static PYRAMID: ConstStaticCell<DefaultPyramid> = ConstStaticCell::new(DefaultPy
 static LINK: ConstStaticCell<BoardLink> = ConstStaticCell::new(Link::new(LinkConfig::DEFAULT));
 
 /// The link with a 1 KiB frame queue (11 ms of USART2 at 921 600 Bd; at least
-/// `min_queue_bytes(64)` = 504 bytes: the largest tile beside the control reserve). Half the
+/// `min_queue_bytes(64, 8)` = 504 bytes: the largest tile beside the control reserve). Half the
 /// QEMU board's: with the laser's and the host's receive queues and the RTT buffer, 2 KiB
 /// would take the static RAM past 96 KiB. Tiles that do not fit wait, dirty, for a later poll.
 type BoardLink = Link<1024>;

@@ -18,7 +18,7 @@ use crate::Point3;
 use core::fmt;
 
 /// Bytes of a Hello before its layers.
-pub(crate) const HELLO_FIXED: usize = 10;
+pub(crate) const HELLO_FIXED: usize = 12;
 /// Bytes of one layer in a Hello.
 pub(crate) const HELLO_LAYER: usize = 20;
 /// Bytes of a LayerPatch before its cells.
@@ -32,11 +32,15 @@ pub(crate) const POSE_LEN: usize = 28;
 /// Bytes of a PanAngle body.
 pub(crate) const PAN_LEN: usize = 6;
 /// Bytes of a Configure body.
-pub(crate) const CONFIGURE_LEN: usize = 60;
+pub(crate) const CONFIGURE_LEN: usize = 61;
+/// Configure's `flags` bit 0: every layer at the base cell size ([`Schedule::uniform_resolution`]).
+pub const CONFIGURE_UNIFORM_RESOLUTION: u8 = 1;
+/// Configure's `flags` bits a receiver knows; any other bit set is refused.
+pub(crate) const CONFIGURE_FLAGS_KNOWN: u8 = CONFIGURE_UNIFORM_RESOLUTION;
 /// Bytes of a Setup body.
 pub(crate) const SETUP_LEN: usize = 38;
 /// The number of counters in a [`Stats`].
-pub const STATS_COUNTERS: usize = 27;
+pub const STATS_COUNTERS: usize = 28;
 
 /// A firmware version, `major.minor.patch`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
@@ -112,7 +116,7 @@ pub struct Hello {
     /// W, cells per side of every window.
     pub cells_per_side: u16,
     /// Bit k: every tile of layer k follows (reason [`HelloReason::Snapshot`]).
-    pub resend: u16,
+    pub resend: u32,
     /// The layers in force, finest first.
     pub layers: heapless::Vec<LayerInfo, MAX_LAYERS>,
 }
@@ -239,7 +243,7 @@ pub struct LayerPatch<'a> {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct WindowMoved {
-    mask: u16,
+    mask: u32,
     origins: [(i32, i32); MAX_LAYERS],
 }
 
@@ -253,7 +257,7 @@ impl WindowMoved {
         }
     }
 
-    /// Records layer `layer`'s new origin; `false` for a layer ≥ 16.
+    /// Records layer `layer`'s new origin; `false` for a layer ≥ [`MAX_LAYERS`].
     pub fn set(&mut self, layer: usize, origin: (i32, i32)) -> bool {
         match self.origins.get_mut(layer) {
             Some(slot) => {
@@ -267,7 +271,7 @@ impl WindowMoved {
 
     /// Bit k set: layer k moved.
     #[must_use]
-    pub const fn mask(&self) -> u16 {
+    pub const fn mask(&self) -> u32 {
         self.mask
     }
 
@@ -383,6 +387,10 @@ stats_struct! {
     snapshots,
     /// Full resends after window moves the link did not see one by one.
     resyncs,
+    /// Tiles changed and not yet queued, over every layer, at the time of the Stats (a level,
+    /// 0 ..= 64 · layers): with `queue_used` 0 too, every change made before this Stats is
+    /// already on the wire ahead of it, so the host's copy is current once it has read it.
+    tiles_dirty,
 }
 
 /// A Reply's code (`docs/protocol.md`, "Reply").
@@ -1262,7 +1270,7 @@ impl<'a> Message<'a> {
         match self {
             Self::Hello(h) => HELLO_FIXED + HELLO_LAYER * h.layers.len(),
             Self::LayerPatch(p) => PATCH_FIXED + 2 * p.area.cells(),
-            Self::WindowMoved(w) => 2 + 8 * w.len(),
+            Self::WindowMoved(w) => 4 + 8 * w.len(),
             Self::Stats(_) => STATS_LEN,
             Self::Reply(_) => REPLY_LEN,
             Self::Pose(_) => POSE_LEN,
@@ -1316,7 +1324,7 @@ impl<'a> Message<'a> {
                 }
                 exact(HELLO_FIXED + HELLO_LAYER * count)?;
                 let cells_per_side = r.u16();
-                let resend = r.u16();
+                let resend = r.u32();
                 let mut layers = heapless::Vec::new();
                 for _ in 0..count {
                     let layer = LayerInfo {
@@ -1359,14 +1367,14 @@ impl<'a> Message<'a> {
                 Self::LayerPatch(LayerPatch { area, cells })
             }
             MessageType::WindowMoved => {
-                if len < 2 {
+                if len < 4 {
                     return Err(bad);
                 }
-                let mask = r.u16();
+                let mask = r.u32();
                 if mask == 0 {
                     return Err(range("WindowMoved.mask"));
                 }
-                exact(2 + 8 * mask.count_ones() as usize)?;
+                exact(4 + 8 * mask.count_ones() as usize)?;
                 let mut moved = WindowMoved::new();
                 for k in 0..MAX_LAYERS {
                     if mask & (1 << k) != 0 {
@@ -1449,19 +1457,23 @@ impl<'a> Message<'a> {
                     1 => ClampRequest::Bounds { min, max },
                     _ => return Err(range("Configure.clamp")),
                 };
+                let fused_margin = r.f32();
+                let flags = r.u8();
+                if flags & !CONFIGURE_FLAGS_KNOWN != 0 {
+                    return Err(range("Configure.flags"));
+                }
                 Self::Configure(Configure {
                     sensor,
-                    // Version 1 of the link configures the linear schedule only.
                     schedule: Schedule {
                         base_m,
                         gamma,
                         gate,
-                        uniform_resolution: false,
+                        uniform_resolution: flags & CONFIGURE_UNIFORM_RESOLUTION != 0,
                     },
                     cells_per_side,
                     model,
                     clamp,
-                    fused_margin: r.f32(),
+                    fused_margin,
                 })
             }
             MessageType::Reset => {
@@ -1540,7 +1552,7 @@ impl<'a> Message<'a> {
                 w.u8(h.reason as u8);
                 w.u8(u8::try_from(h.layers.len()).unwrap_or(u8::MAX));
                 w.u16(h.cells_per_side);
-                w.u16(h.resend);
+                w.u32(h.resend);
                 for l in &h.layers {
                     w.i32(l.resolution_q16);
                     w.f32(l.band_inner_m);
@@ -1554,7 +1566,7 @@ impl<'a> Message<'a> {
                 w.bytes(p.cells.as_bytes());
             }
             Self::WindowMoved(m) => {
-                w.u16(m.mask());
+                w.u32(m.mask());
                 for (_, (x, y)) in m.iter() {
                     w.i32(x);
                     w.i32(y);
@@ -1618,6 +1630,11 @@ impl<'a> Message<'a> {
                     }
                 }
                 w.f32(c.fused_margin);
+                w.u8(if c.schedule.uniform_resolution {
+                    CONFIGURE_UNIFORM_RESOLUTION
+                } else {
+                    0
+                });
             }
             Self::Reset
             | Self::Ping

@@ -13,7 +13,7 @@
 //! use terrain_pyramid::wire::link::{encode, Accumulator, FeedResult, Message, MAX_FRAME};
 //! let mut out = [0_u8; 16];
 //! let n = encode(1, &Message::Ping, &mut out).unwrap();
-//! assert_eq!(&out[..n], &[0x04, 0x01, 0x86, 0x01, 0x05, 0x0A, 0xEE, 0x5B, 0x65, 0x00]);
+//! assert_eq!(&out[..n], &[0x04, 0x02, 0x86, 0x01, 0x05, 0xE4, 0x41, 0xEE, 0x77, 0x00]);
 //! let mut acc = Accumulator::<MAX_FRAME>::new();
 //! match acc.feed(&out[..n]) {
 //!     FeedResult::Frame { header, message, remaining } => {
@@ -40,26 +40,35 @@ pub use message::{
 use core::fmt;
 
 /// The protocol version this module speaks (`docs/protocol.md`, section 6).
-pub const VERSION: u8 = 1;
+pub const VERSION: u8 = 2;
 /// Bytes of the header: version, type, sequence number.
 pub const HEADER_LEN: usize = 4;
 /// Bytes of the CRC-32 after the body.
 pub const CRC_LEN: usize = 4;
 /// The shortest decoded frame: a header and a CRC around an empty body.
 pub const MIN_FRAME: usize = HEADER_LEN + CRC_LEN;
-/// The most layers a frame describes.
-pub const MAX_LAYERS: usize = 16;
+/// The most layers a frame describes (the masks of Hello and WindowMoved are 32 bits).
+pub const MAX_LAYERS: usize = 32;
 /// The longest side of a [`LayerPatch`], cells.
 pub const MAX_PATCH_SIDE: usize = 16;
-/// The largest body: a 16 × 16 [`LayerPatch`].
-pub const MAX_BODY: usize = message::PATCH_FIXED + 2 * MAX_PATCH_SIDE * MAX_PATCH_SIDE;
-/// The largest decoded frame (header, body, CRC), device to host: 539 bytes.
+/// The largest LayerPatch body: 16 × 16 cells.
+const MAX_PATCH_BODY: usize = message::PATCH_FIXED + 2 * MAX_PATCH_SIDE * MAX_PATCH_SIDE;
+/// The largest Hello body: 32 layers.
+const MAX_HELLO_BODY: usize = message::HELLO_FIXED + message::HELLO_LAYER * MAX_LAYERS;
+/// The largest body device to host: a Hello of 32 layers (652 bytes; a 16 × 16
+/// [`LayerPatch`] is 531).
+pub const MAX_BODY: usize = if MAX_HELLO_BODY > MAX_PATCH_BODY {
+    MAX_HELLO_BODY
+} else {
+    MAX_PATCH_BODY
+};
+/// The largest decoded frame (header, body, CRC), device to host: 660 bytes.
 pub const MAX_FRAME: usize = MIN_FRAME + MAX_BODY;
-/// The largest decoded frame host to device (a [`Configure`]): 68 bytes.
+/// The largest decoded frame host to device (a [`Configure`]): 69 bytes.
 pub const MAX_COMMAND_FRAME: usize = MIN_FRAME + message::CONFIGURE_LEN;
-/// The largest encoded frame device to host, delimiter included: 543 bytes.
+/// The largest encoded frame device to host, delimiter included: 664 bytes.
 pub const MAX_ENCODED_FRAME: usize = encoded_len_max(MAX_FRAME);
-/// The largest encoded frame host to device, delimiter included: 70 bytes.
+/// The largest encoded frame host to device, delimiter included: 71 bytes.
 pub const MAX_ENCODED_COMMAND: usize = encoded_len_max(MAX_COMMAND_FRAME);
 
 /// The most bytes a decoded frame of `decoded` bytes takes on the wire, delimiter included.

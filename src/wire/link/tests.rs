@@ -30,7 +30,7 @@ fn golden(seq: u16, message: &Message<'_>, encoded: &str) {
             assert_eq!(
                 header,
                 Header {
-                    version: 1,
+                    version: 2,
                     msg_type: message.msg_type().to_u8(),
                     seq
                 }
@@ -43,22 +43,22 @@ fn golden(seq: u16, message: &Message<'_>, encoded: &str) {
 }
 
 fn ping_frame() -> Vec<u8> {
-    hex("04 01 86 01 05 0a ee 5b 65 00")
+    hex("04 02 86 01 05 e4 41 ee 77 00")
 }
 
 #[test]
 fn ping_reset_snapshot_golden() {
-    golden(1, &Message::Ping, "04 01 86 01 05 0a ee 5b 65 00");
-    golden(0x0203, &Message::Reset, "09 01 84 03 02 ca 39 e7 ba 00");
+    golden(1, &Message::Ping, "04 02 86 01 05 e4 41 ee 77 00");
+    golden(0x0203, &Message::Reset, "09 02 84 03 02 24 96 52 a8 00");
     golden(
         7,
         &Message::RequestSnapshot(SnapshotScope::All),
-        "04 01 85 07 06 ff ac 61 88 09 00",
+        "04 02 85 07 06 ff 7c 1b 28 4e 00",
     );
     golden(
         8,
         &Message::RequestSnapshot(SnapshotScope::Layer(2)),
-        "04 01 85 08 06 02 30 a8 d8 c1 00",
+        "04 02 85 08 06 02 e0 d2 78 86 00",
     );
 }
 
@@ -70,7 +70,7 @@ fn pan_and_pose_golden() {
             turns: 0x4000,
             timestamp_ms: 123_456,
         }),
-        "04 01 82 09 01 05 40 40 e2 01 05 51 05 3e 2b 00",
+        "04 02 82 09 01 05 40 40 e2 01 05 52 be 09 c0 00",
     );
     golden(
         10,
@@ -83,8 +83,8 @@ fn pan_and_pose_golden() {
             yaw_rad: 3.140625,
             timestamp_ms: 1000,
         }),
-        "04 01 81 0a 01 01 03 c0 3f 01 03 10 c0 01 01 01 01 01 01 01 01 01 01 01 01 01 05 49 40 \
-         e8 03 01 05 ba f6 41 2a 00",
+        "04 02 81 0a 01 01 03 c0 3f 01 03 10 c0 01 01 01 01 01 01 01 01 01 01 01 01 01 05 49 40 \
+         e8 03 01 05 05 fe 5e e3 00",
     );
 }
 
@@ -119,9 +119,9 @@ fn configure_golden() {
     golden(
         11,
         &Message::Configure(c),
-        "04 01 83 0b 01 01 01 02 3f 01 07 80 3e 9a 99 19 3e 01 03 80 3f 01 07 20 41 cd cc cc 3d \
+        "04 02 83 0b 01 01 01 02 3f 01 07 80 3e 9a 99 19 3e 01 03 80 3f 01 07 20 41 cd cc cc 3d \
          01 01 03 40 01 01 01 03 3f 40 09 33 33 33 3f cd cc cc 3e 01 01 03 3f 01 01 01 02 c0 01 \
-         03 60 40 01 01 01 05 07 e2 b0 cc 00",
+         03 60 40 01 01 01 01 05 a7 3b e5 16 00",
     );
 }
 
@@ -161,9 +161,9 @@ fn hello_golden() {
     golden(
         0,
         &Message::Hello(hello),
-        "03 01 01 01 02 01 03 01 02 03 02 40 01 01 03 9a 19 01 01 01 01 01 01 01 01 0c 3f e0 ff \
-         ff ff e0 ff ff ff 33 33 01 01 01 01 02 3f 01 0f c0 3f e0 ff ff ff e0 ff ff ff e3 d5 3b \
-         b0 00",
+        "03 02 01 01 02 01 03 01 02 03 02 40 01 01 01 01 03 9a 19 01 01 01 01 01 01 01 01 0c 3f \
+         e0 ff ff ff e0 ff ff ff 33 33 01 01 01 01 02 3f 01 0f c0 3f e0 ff ff ff e0 ff ff ff 6c \
+         3b a0 9f 00",
     );
 }
 
@@ -182,8 +182,9 @@ fn layer_patch_golden_is_the_specs_worked_example() {
         },
         cells: PatchCells::from_le_bytes(&cells).unwrap(),
     };
-    let encoded = "11 01 02 02 01 01 02 02 e0 ff ff ff e0 ff ff ff 03 01 01 05 fc ff ff ff \
-                   03 80 d9 01 02 fe 01 05 57 e3 07 47 00";
+    let encoded =
+        "11 02 02 02 01 01 02 02 e0 ff ff ff e0 ff ff ff 03 01 01 05 fc ff ff ff 03 80 d9 01 02 \
+                   fe 01 05 24 da 2f 54 00";
     golden(0x0102, &Message::LayerPatch(patch), encoded);
     let values: Vec<i16> = patch.cells.iter().collect();
     assert_eq!(values, [i16::MIN, 217, -512, 0]);
@@ -210,7 +211,8 @@ fn window_moved_stats_reply_golden() {
     golden(
         0x0103,
         &Message::WindowMoved(moved),
-        "06 01 03 03 01 05 15 e1 ff ff ff e0 ff ff ff f0 ff ff ff df ff ff ff d3 71 9d 4a 00",
+        "06 02 03 03 01 05 01 01 15 e1 ff ff ff e0 ff ff ff f0 ff ff ff df ff ff ff b6 4b 04 93 \
+         00",
     );
     let mut values = [0_u32; STATS_COUNTERS];
     for (i, v) in values.iter_mut().enumerate() {
@@ -219,14 +221,15 @@ fn window_moved_stats_reply_golden() {
     let stats = Stats::from_array(values);
     assert_eq!(stats.uptime_ms, 1);
     assert_eq!(stats.resyncs, 27);
+    assert_eq!(stats.tiles_dirty, 28);
     golden(
         0x0104,
         &Message::Stats(stats),
-        "06 01 04 04 01 01 01 01 02 02 01 01 02 03 01 01 02 04 01 01 02 05 01 01 02 06 01 01 02 \
+        "06 02 04 04 01 01 01 01 02 02 01 01 02 03 01 01 02 04 01 01 02 05 01 01 02 06 01 01 02 \
          07 01 01 02 08 01 01 02 09 01 01 02 0a 01 01 02 0b 01 01 02 0c 01 01 02 0d 01 01 02 0e \
          01 01 02 0f 01 01 02 10 01 01 02 11 01 01 02 12 01 01 02 13 01 01 02 14 01 01 02 15 01 \
-         01 02 16 01 01 02 17 01 01 02 18 01 01 02 19 01 01 02 1a 01 01 02 1b 01 01 05 b0 71 ba \
-         b3 00",
+         01 02 16 01 01 02 17 01 01 02 18 01 01 02 19 01 01 02 1a 01 01 02 1b 01 01 02 1c 01 01 \
+         05 fa 74 20 3d 00",
     );
     let configure = Header {
         version: 1,
@@ -236,7 +239,7 @@ fn window_moved_stats_reply_golden() {
     golden(
         0x0105,
         &Message::Reply(Reply::ok(configure)),
-        "06 01 05 05 01 0b 02 83 01 01 01 01 01 01 01 01 01 01 01 01 01 05 89 23 fc ce 00",
+        "06 02 05 05 01 0b 02 83 01 01 01 01 01 01 01 01 01 01 01 01 01 05 6a a1 e2 b5 00",
     );
     let error = crate::DesignError::OutOfRange {
         param: crate::Param::Gamma,
@@ -256,18 +259,20 @@ fn window_moved_stats_reply_golden() {
     golden(
         0x0106,
         &Message::Reply(reply),
-        "06 01 05 06 01 0c 04 83 03 07 01 03 48 43 01 01 01 01 01 07 c8 42 84 ff a9 bd 00",
+        "06 02 05 06 01 0c 04 83 03 07 01 03 48 43 01 01 01 01 01 07 c8 42 67 7d b7 c6 00",
     );
 }
 
 #[test]
 fn sizes_match_the_spec() {
-    assert_eq!(MAX_FRAME, 539);
-    assert_eq!(MAX_ENCODED_FRAME, 543);
-    assert_eq!(MAX_COMMAND_FRAME, 68);
-    assert_eq!(MAX_ENCODED_COMMAND, 70);
+    // Section 9 of the spec: the largest frame device to host is a 32-layer Hello.
+    assert_eq!(MAX_FRAME, 660);
+    assert_eq!(MAX_ENCODED_FRAME, 664);
+    assert_eq!(MAX_COMMAND_FRAME, 69);
+    assert_eq!(MAX_ENCODED_COMMAND, 71);
+    assert_eq!(encoded_len_max(MIN_FRAME + 19 + 2 * 16 * 16), 543);
     assert_eq!(encoded_len_max(MIN_FRAME + 19 + 128), 157);
-    assert_eq!(encoded_len_max(MIN_FRAME + 10 + 16 * 20), 341);
+    assert_eq!(encoded_len_max(MIN_FRAME + 12 + 8 * 20), 182);
 }
 
 /// A frame with a given header and body, framed by this crate's CRC and COBS (whose own
@@ -324,10 +329,15 @@ fn bad_frames_are_refused_counted_and_the_next_frame_decodes() {
     // 3. Too short: a 3-byte frame.
     stream.extend_from_slice(&hex("04 01 86 01 00"));
     // 4. Unknown version, unknown type, bad body length, out-of-range field.
-    stream.extend_from_slice(&raw_frame(2, 0x86, 3, &[]));
-    stream.extend_from_slice(&raw_frame(1, 0x7E, 4, &[]));
-    stream.extend_from_slice(&raw_frame(1, 0x86, 5, &[0]));
-    stream.extend_from_slice(&raw_frame(1, 0x01, 6, &[1, 0, 0, 0, 9, 0, 64, 0, 0, 0]));
+    stream.extend_from_slice(&raw_frame(1, 0x86, 3, &[]));
+    stream.extend_from_slice(&raw_frame(2, 0x7E, 4, &[]));
+    stream.extend_from_slice(&raw_frame(2, 0x86, 5, &[0]));
+    stream.extend_from_slice(&raw_frame(
+        2,
+        0x01,
+        6,
+        &[2, 0, 0, 0, 9, 0, 64, 0, 0, 0, 0, 0],
+    ));
     // 5. Oversized: more than the buffer holds.
     stream.extend_from_slice(&[0x55; 700]);
     stream.push(0);
@@ -338,7 +348,7 @@ fn bad_frames_are_refused_counted_and_the_next_frame_decodes() {
     assert!(matches!(got[0], Err(DecodeError::Crc { .. })));
     assert_eq!(got[1], Err(DecodeError::Cobs));
     assert_eq!(got[2], Err(DecodeError::TooShort { len: 3 }));
-    assert_eq!(got[3], Err(DecodeError::UnknownVersion(2)));
+    assert_eq!(got[3], Err(DecodeError::UnknownVersion(1)));
     assert_eq!(got[4], Err(DecodeError::UnknownType(0x7E)));
     assert_eq!(
         got[5],
@@ -524,12 +534,12 @@ fn setup_and_the_empty_commands_golden() {
     golden(
         7,
         &Message::Setup(setup),
-        "04 01 87 07 02 01 02 b4 02 32 01 01 03 80 3e 01 01 02 bf 01 03 40 3f 01 01 01 01 01 \
-         07 80 3f cd cc 4c 3d 01 01 01 01 01 01 06 40 f6 1f 30 b5 00",
+        "04 02 87 07 02 01 02 b4 02 32 01 01 03 80 3e 01 01 02 bf 01 03 40 3f 01 01 01 01 01 07 \
+         80 3f cd cc 4c 3d 01 01 01 01 01 01 06 40 85 94 0b 8d 00",
     );
-    golden(2, &Message::RequestStats, "04 01 88 02 05 c3 90 e8 44 00");
-    golden(2, &Message::Shutdown, "04 01 89 02 05 f4 fa 2a 45 00");
-    golden(2, &Message::EndObservation, "04 01 8a 02 05 ad 44 6c 47 00");
+    golden(2, &Message::RequestStats, "04 02 88 02 05 2d 3f 5d 56 00");
+    golden(2, &Message::Shutdown, "04 02 89 02 05 1a 55 9f 57 00");
+    golden(2, &Message::EndObservation, "04 02 8a 02 05 43 eb d9 55 00");
     // A Setup body one byte short is a bad body.
     assert!(matches!(
         Message::parse(0x87, &[0; 37]),
