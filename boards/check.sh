@@ -53,8 +53,8 @@ command -v python3 >/dev/null || fail "python3 is needed for the UART echo test"
 defmt-print --version
 qemu-system-arm --version | head -1
 
-step "the root memory.x is the default board's (boards/qemu-mps2/memory.x)"
-cmp "$root/memory.x" "$qemu_dir/memory.x" || fail "memory.x and boards/qemu-mps2/memory.x differ"
+step "the root memory.x is the default board's (boards/qemu-mps2/memory-an386.x)"
+cmp "$root/memory.x" "$qemu_dir/memory-an386.x" || fail "memory.x and boards/qemu-mps2/memory-an386.x differ"
 
 if [[ $lint -eq 1 ]]; then
     step "format and lints: qemu-mps2 (thumbv7em and thumbv6m, firmware and tests)"

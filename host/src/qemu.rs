@@ -62,6 +62,20 @@ pub fn qemu_available() -> bool {
 /// # Errors
 /// The target is missing or the build failed, with how to fix it.
 pub fn build_firmware(board_dir: &Path, bin: &str) -> Result<PathBuf, String> {
+    build_firmware_variant(board_dir, bin, None)
+}
+
+/// [`build_firmware`] with a cargo feature of the board (`--features F`), built into its own
+/// target directory (`target/F`) so that it and the default build do not overwrite each
+/// other; `None` is the default build.
+///
+/// # Errors
+/// The target is missing or the build failed, with how to fix it.
+pub fn build_firmware_variant(
+    board_dir: &Path,
+    bin: &str,
+    feature: Option<&str>,
+) -> Result<PathBuf, String> {
     let installed = Command::new("rustup")
         .args(["target", "list", "--installed"])
         .output()
@@ -72,9 +86,24 @@ pub fn build_firmware(board_dir: &Path, bin: &str) -> Result<PathBuf, String> {
             "the Cortex-M target {TARGET} is missing: `rustup target add {TARGET}`"
         ));
     }
-    eprintln!("building the firmware in {} ...", board_dir.display());
-    let status = Command::new(std::env::var("CARGO").unwrap_or_else(|_| "cargo".into()))
-        .args(["build", "--release", "--quiet"])
+    eprintln!(
+        "building the firmware in {}{} ...",
+        board_dir.display(),
+        feature.map_or_else(String::new, |f| format!(" with --features {f}"))
+    );
+    let target_dir = feature.map_or_else(
+        || board_dir.join("target"),
+        |f| board_dir.join("target").join(f),
+    );
+    let mut cargo = Command::new(std::env::var("CARGO").unwrap_or_else(|_| "cargo".into()));
+    cargo.args(["build", "--release", "--quiet"]);
+    if let Some(f) = feature {
+        cargo
+            .args(["--features", f])
+            .arg("--target-dir")
+            .arg(&target_dir);
+    }
+    let status = cargo
         .current_dir(board_dir)
         .env_remove("CARGO_TARGET_DIR")
         .env_remove("RUSTFLAGS")
@@ -86,11 +115,7 @@ pub fn build_firmware(board_dir: &Path, bin: &str) -> Result<PathBuf, String> {
             board_dir.display()
         ));
     }
-    let elf = board_dir
-        .join("target")
-        .join(TARGET)
-        .join("release")
-        .join(bin);
+    let elf = target_dir.join(TARGET).join("release").join(bin);
     if elf.is_file() {
         Ok(elf)
     } else {
@@ -319,6 +344,22 @@ impl Emulator {
         stats.ok_or_else(|| "no Stats".to_string())
     }
 
+    /// RequestStats until the device has no changed tile left to queue: every change it
+    /// made before that Stats was then on the wire ahead of it, so the mirror holds the
+    /// device's maps cell for cell (`tiles_dirty`, `docs/protocol.md`).
+    ///
+    /// # Errors
+    /// No Stats in time, or tiles still changing after many rounds.
+    pub fn sync(&mut self) -> Result<Stats, String> {
+        for _ in 0..100_000 {
+            let stats = self.stats()?;
+            if stats.tiles_dirty == 0 {
+                return Ok(stats);
+            }
+        }
+        Err("the firmware's tiles never stopped changing".into())
+    }
+
     /// Shutdown: the Reply's stack high-water mark, then QEMU's exit, which must be 0.
     ///
     /// # Errors
@@ -367,7 +408,10 @@ fn rand_seed() -> u64 {
 }
 
 /// The Configure of a design and a configuration.
-fn configure_message(design: &DefaultDesign, config: &Config) -> Configure {
+pub(crate) fn configure_message<const L: usize>(
+    design: &terrain_pyramid::Design<L>,
+    config: &Config,
+) -> Configure {
     Configure {
         sensor: *design.sensor(),
         schedule: *design.schedule(),
@@ -386,9 +430,11 @@ fn configure_message(design: &DefaultDesign, config: &Config) -> Configure {
 
 /// The state the pipeline should be in when the next telegram arrives.
 #[derive(Default)]
-struct Pending {
-    angle: Option<u16>,
-    pose: Option<[f32; 6]>,
+pub(crate) struct Pending {
+    /// The actuator angle to send before the next telegram, 2⁻¹⁶ turn.
+    pub angle: Option<u16>,
+    /// The pose to send before the next telegram (x, y, z, roll, pitch, yaw).
+    pub pose: Option<[f32; 6]>,
 }
 
 /// Plays a recording through the emulated board; returns the counts, the sensor position,
@@ -499,7 +545,11 @@ fn play_qemu(
 
 /// Brings the device's angle and pose up to date (and waits until they are applied), then
 /// writes `telegram` to UART0.
-fn send_line(emu: &mut Emulator, pending: &mut Pending, telegram: &[u8]) -> Result<(), String> {
+pub(crate) fn send_line(
+    emu: &mut Emulator,
+    pending: &mut Pending,
+    telegram: &[u8],
+) -> Result<(), String> {
     let mut sent = false;
     if let Some(turns) = pending.angle.take() {
         emu.send(&Message::PanAngle(PanAngle {
@@ -543,13 +593,6 @@ pub struct QemuRun {
 /// The exit status and the message.
 pub fn run_qemu(args: &Args) -> Result<(String, QemuRun), (u8, String)> {
     let (design, config, classifier) = run_config(args)?;
-    if design.schedule().uniform_resolution {
-        return Err((
-            2,
-            "error: --uniform-resolution: version 1 of the link configures the linear schedule only"
-                .into(),
-        ));
-    }
     let data = std::fs::read(&args.recording).map_err(|e| {
         (
             1,

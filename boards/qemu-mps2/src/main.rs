@@ -33,16 +33,67 @@ use static_cell::ConstStaticCell;
 use terrain_pyramid::classify::ClassifierConfig;
 use terrain_pyramid::drivers::uart::{Event as SickEvent, SickUart, UartError as SickError};
 use terrain_pyramid::geometry::{FineAngle, Mount, Pose, ScanPlane, Variant};
-use terrain_pyramid::link::{Event, Link, LinkConfig, SensorCounters};
+use terrain_pyramid::link::{Event, Link, SensorCounters};
+use terrain_pyramid::pipeline::Frontend;
 use terrain_pyramid::pipeline::FrontendConfig;
 use terrain_pyramid::pyramid::static_ram_bytes;
 use terrain_pyramid::wire::link::{Header, Reply};
 use terrain_pyramid::wire::sick::{MeasuredValues, MeasuringMode};
 use terrain_pyramid::{
-    Applied, Config, DefaultDesign, DefaultFrontend, DefaultPyramid, DesignError, Evidence,
-    EvidenceClass, Fused, Meters, Point3, Schedule, SensorModel, DEFAULT_CELLS_PER_SIDE,
-    DEFAULT_LAYERS,
+    Applied, Config, Design, DesignError, Evidence, EvidenceClass, Fused, Meters, Point3, Pyramid,
+    Schedule, SensorModel,
 };
+
+/// The sizes this firmware is built with: the library's defaults (W = 64, 8 layers, 1 024
+/// classifier slots: 72 KiB of pyramid in the 4 MiB of SSRAM2/3).
+#[cfg(not(feature = "paper-stairs"))]
+mod sizes {
+    use terrain_pyramid::link::LinkConfig;
+    /// W, cells per side of every window.
+    pub const CELLS: usize = terrain_pyramid::DEFAULT_CELLS_PER_SIDE;
+    /// The pyramid's layer capacity.
+    pub const LAYERS: usize = terrain_pyramid::DEFAULT_LAYERS;
+    /// Classifier slots.
+    pub const SLOTS: usize = terrain_pyramid::DEFAULT_CLASSIFIER_SLOTS;
+    /// The link's queue: 2 KiB, 22 ms of the UART at 921 600 Bd, ahead of a patch budget of
+    /// half the link; it keeps the firmware's static RAM within 96 KiB.
+    pub const QUEUE: usize = 2048;
+    /// The link's settings.
+    pub const LINK: LinkConfig = LinkConfig::DEFAULT;
+}
+
+/// The sizes of the paper's stairs experiment (`--features paper-stairs`): every layer at
+/// 0.1 m to 24 m needs 32 layers of 488 × 488 cells (15.3 MB, in the board's 16 MiB of PSRAM,
+/// see `memory-paper-stairs.x`) and 16 384 classifier slots (a soft-gated point feeds several
+/// layers). QEMU's UARTs have no baud rate, so the link's budget is 16 MB/s: a snapshot of
+/// all layers takes seconds, not minutes.
+#[cfg(feature = "paper-stairs")]
+mod sizes {
+    use terrain_pyramid::link::LinkConfig;
+    /// W, cells per side of every window: a 24 m band at 0.1 m needs 2 · 24 / 0.1 + 2.
+    pub const CELLS: usize = 488;
+    /// The pyramid's layer capacity: the stairs design to 24 m has 32.
+    pub const LAYERS: usize = 32;
+    /// Classifier slots.
+    pub const SLOTS: usize = 16_384;
+    /// The link's queue.
+    pub const QUEUE: usize = 16_384;
+    /// The link's settings.
+    pub const LINK: LinkConfig = LinkConfig {
+        budget_bytes_per_s: 16_000_000,
+        burst_bytes: 65_536,
+        ..LinkConfig::DEFAULT
+    };
+}
+
+use sizes::{CELLS, LAYERS, SLOTS};
+
+/// The pyramid of this build.
+type BoardPyramid = Pyramid<CELLS, LAYERS>;
+/// Its design.
+type BoardDesign = Design<LAYERS>;
+/// The per-line pipeline of this build.
+type BoardFrontend = Frontend<SLOTS>;
 
 /// The UARTs' baud rate (the SICK LMS's fast mode is 500 kBd on real hardware; QEMU's UARTs
 /// ignore the rate).
@@ -54,27 +105,26 @@ const CPU_HZ: u32 = 25_000_000;
 /// SICK accumulator polls per main-loop step before the host link gets its turn.
 const LASER_POLLS_PER_STEP: u32 = 4096;
 
-/// The pyramid, about 72 KiB, in a `static`.
+/// The pyramid, about 72 KiB (15.3 MB with `paper-stairs`), in a `static`.
 ///
 /// `ConstStaticCell` because `Pyramid::new` is `const`: the value is built at compile time, so
 /// it is never constructed on the stack (which `StaticCell::init` may do, and a
 /// `cortex_m::singleton!` would do, for a 72 KiB value), there is no `static mut`, no lock
 /// (unlike a `Mutex<RefCell<…>>`) and no run-time check but the one `take`. A fresh pyramid
 /// is all zero bits, so it lives in `.bss` and costs no flash.
-static PYRAMID: ConstStaticCell<DefaultPyramid> = ConstStaticCell::new(DefaultPyramid::new());
+static PYRAMID: ConstStaticCell<BoardPyramid> = ConstStaticCell::new(BoardPyramid::new());
 
 /// The host link (queue, bucket, tile ages: about 4 KiB), `const`-built like the pyramid.
-static LINK: ConstStaticCell<BoardLink> = ConstStaticCell::new(Link::new(LinkConfig::DEFAULT));
+static LINK: ConstStaticCell<BoardLink> = ConstStaticCell::new(Link::new(sizes::LINK));
 
-/// The link with a 2 KiB frame queue: 22 ms of the UART at 921 600 Bd, ahead of a patch budget
-/// of half the link; it keeps the firmware's static RAM within 96 KiB.
-type BoardLink = Link<2048>;
+/// The link and its frame queue ([`sizes::QUEUE`]).
+type BoardLink = Link<{ sizes::QUEUE }>;
 
 /// The per-line pipeline (about 24 KiB: the classifier's 1 024 slots and the beam table),
 /// `const`-built unconfigured (all zero bits: `.bss`) and configured in place at boot, so it
 /// never sits on the stack.
-static FRONTEND: ConstStaticCell<DefaultFrontend> =
-    ConstStaticCell::new(DefaultFrontend::unconfigured());
+static FRONTEND: ConstStaticCell<BoardFrontend> =
+    ConstStaticCell::new(BoardFrontend::unconfigured());
 
 /// Milliseconds since SysTick started, wrapping.
 static MILLIS: AtomicU32 = AtomicU32::new(0);
@@ -161,8 +211,8 @@ struct Counters {
 
 /// Everything the main loop owns.
 struct App {
-    pyramid: &'static mut DefaultPyramid,
-    frontend: &'static mut DefaultFrontend,
+    pyramid: &'static mut BoardPyramid,
+    frontend: &'static mut BoardFrontend,
     link: &'static mut BoardLink,
     laser: SickUart<Laser>,
     host: Uart1,
@@ -332,11 +382,7 @@ fn main() -> ! {
 
 fn run() -> Result<(), Fault> {
     let pyramid = PYRAMID.take();
-    let design = DefaultDesign::new(
-        SensorModel::default(),
-        Schedule::default(),
-        DEFAULT_CELLS_PER_SIDE,
-    )?;
+    let design = BoardDesign::new(SensorModel::default(), Schedule::default(), CELLS)?;
     pyramid.configure(&design, &Config::default())?;
     log_design(&design);
     self_check(pyramid)?;
@@ -376,12 +422,12 @@ fn run() -> Result<(), Fault> {
     }
 }
 
-fn log_design(design: &DefaultDesign) {
+fn log_design(design: &BoardDesign) {
     defmt::info!(
         "pyramid: {} ({=usize} layers max, {=usize} bytes of static RAM)",
         design,
-        DEFAULT_LAYERS,
-        static_ram_bytes::<DEFAULT_CELLS_PER_SIDE, DEFAULT_LAYERS>()
+        LAYERS,
+        static_ram_bytes::<CELLS, LAYERS>()
     );
     defmt::info!("sensor: {}", design.sensor());
     defmt::info!("schedule: {}", design.schedule());
@@ -399,7 +445,7 @@ fn log_design(design: &DefaultDesign) {
 }
 
 /// Applies a few records and checks what the pyramid makes of them, then forgets them.
-fn self_check(pyramid: &mut DefaultPyramid) -> Result<(), Fault> {
+fn self_check(pyramid: &mut BoardPyramid) -> Result<(), Fault> {
     let records = [
         // An obstacle seen by layer 0 at 0.35 m, in its cell (3, 0).
         (
@@ -426,7 +472,7 @@ fn self_check(pyramid: &mut DefaultPyramid) -> Result<(), Fault> {
         // A layer the design does not have.
         (
             Evidence {
-                layer: DEFAULT_LAYERS as u8,
+                layer: u8::try_from(LAYERS).unwrap_or(u8::MAX),
                 cell_x: 0,
                 cell_y: 0,
                 class: EvidenceClass::Obstacle,

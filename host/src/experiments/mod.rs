@@ -12,14 +12,19 @@
 //! (and the coverage maps as `pyramid run` writes them), `DIR/report.md` and
 //! `DIR/results.json`; `--json` prints the results on stdout too.
 //!
-//! The experiments run on a thread with a large stack: the stairs pyramid (48 layers of 512²
-//! cells, 25 MB) is built in place before it is boxed.
+//! The experiments run on a thread with a large stack: the stairs pyramid (48 layers of 488²
+//! cells, 22 MB) is built in place before it is boxed.
+//!
+//! With `--board qemu`, the stairs recording also runs through the firmware on the emulated
+//! board ([`stairs_board`]), each of the four maps on the device, and the report sets its
+//! figures beside the host's.
 
 pub mod coverage;
 pub mod designs;
 pub mod engine;
 pub mod picture;
 pub mod stairs;
+pub mod stairs_board;
 
 use crate::design::{DesignArgs, GateArg};
 use serde::Serialize;
@@ -46,7 +51,8 @@ pub struct Args {
     /// Stairs: seconds of standing (default 180, 30 with --quick).
     #[arg(long, value_name = "S")]
     pub stand_s: Option<f64>,
-    /// Stairs: the maps' and the laser's maximum range, metres, ≤ 25 (default 25).
+    /// Stairs: the maps' and the laser's maximum range, metres, ≤ 24 (default 24: the window
+    /// of 488 cells holds a 24 m band at 0.1 m).
     #[arg(long, value_name = "M")]
     pub range_m: Option<f64>,
     /// Stairs: the pan rate, degrees per second (default 74; 75 locks the sweep to the lines).
@@ -61,6 +67,19 @@ pub struct Args {
     /// Also write the stairs run's recording (for `pyramid run` and the demo) to this file.
     #[arg(long, value_name = "FILE.rec")]
     pub stairs_recording: Option<PathBuf>,
+    /// `qemu`: also run the stairs recording through the firmware on the emulated board
+    /// (`boards/qemu-mps2 --features paper-stairs`), each map on the device, and compare.
+    #[arg(long, value_enum, default_value_t = ExperimentBoard::Host)]
+    pub board: ExperimentBoard,
+}
+
+/// Where the stairs maps are made.
+#[derive(clap::ValueEnum, Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ExperimentBoard {
+    /// The library on this computer only.
+    Host,
+    /// Also the firmware in QEMU.
+    Qemu,
 }
 
 /// Everything the command measured.
@@ -68,6 +87,9 @@ pub struct Args {
 pub struct Results {
     /// Figs 5-7.
     pub stairs: stairs::StairsResult,
+    /// Figs 5-7 through the firmware (`--board qemu`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub stairs_board: Option<stairs_board::BoardStairsResult>,
     /// Figs 8-9.
     pub coverage: coverage::CoverageResult,
     /// Time per line.
@@ -135,9 +157,14 @@ pub fn run_all(args: &Args) -> Result<Results, String> {
         stairs::write_recording(&stairs_setup, path)?;
     }
     let stairs = stairs::run(&stairs_setup, Some(out))?;
+    let stairs_board = match args.board {
+        ExperimentBoard::Host => None,
+        ExperimentBoard::Qemu => Some(stairs_board::run(&stairs_setup, &stairs, out)?),
+    };
     let (coverage, cost) = coverage::run(&coverage_setup, Some(out))?;
     let results = Results {
         stairs,
+        stairs_board,
         coverage,
         cost,
         quick: args.quick,
@@ -212,7 +239,7 @@ fn report(r: &Results, design: &crate::design::PyramidDesign) -> String {
          their z differ by more than the 5 cm step threshold, and the cell reads obstacle, at \
          every distance up to about 10 m; only beyond about 19.5 m does a riser hold a single \
          point (which always looks flat). Hence the robot stands about 20 m away, with the \
-         laser in its cm (81.9 m) mode and the maps out to 25 m. The pan rate is 74°/s instead \
+         laser in its cm (81.9 m) mode and the maps out to 24 m. The pan rate is 74°/s instead \
          of the simulator's 75°/s: at 75°/s every sweep repeats the same 46 pan angles \
          exactly, so a robot standing still only ever sees one step cell in eight from far \
          away; a real pan unit is not locked to the laser's mirror.\n"
@@ -238,6 +265,42 @@ fn report(r: &Results, design: &crate::design::PyramidDesign) -> String {
             pct(m.far.unknown),
             pct(m.false_obstacle_fraction)
         );
+    }
+    if let Some(b) = &r.stairs_board {
+        let _ = writeln!(
+            s,
+            "\nThe same recording through the firmware on the emulated board \
+             (`pyramid experiments --board qemu`: `boards/qemu-mps2 --features paper-stairs`, \
+             32 layers of 488² cells in the AN386's PSRAM, configured over the link; the \
+             fused query asked of the host's mirror of the device's maps at the same moments): \
+             **{}**.\n\n| map on the device | step cells obstacle | first step seen at | far: \
+             obstacle / free / unknown | cells differing from the host's map | telegrams | \
+             wall time |\n| --- | --- | --- | --- | --- | --- | --- |",
+            if b.same_outcome_as_host {
+                "the same outcome, every cell equal"
+            } else {
+                "NOT the same outcome as the host"
+            }
+        );
+        for (name, m) in [
+            ("flat grid, no clamping", &b.flat),
+            ("flat grid, OctoMap clamping", &b.flat_clamped),
+            ("pyramid, hard gate", &b.pyramid),
+            ("pyramid, soft gate", &b.pyramid_soft),
+        ] {
+            let _ = writeln!(
+                s,
+                "| {name} | {} | {} | {} / {} / {} | {} | {} | {:.0} s |",
+                pct(m.detected_fraction),
+                metres(m.detect_distance_m),
+                pct(m.far.obstacle),
+                pct(m.far.free),
+                pct(m.far.unknown),
+                m.cells_differing,
+                m.telegrams,
+                m.wall_s
+            );
+        }
     }
     let _ = writeln!(
         s,

@@ -16,9 +16,10 @@ use terrain_pyramid_host_tests::sim::record::{simulate, SimConfig};
 use terrain_pyramid_host_tests::sim::scene::{GroundTruthSpec, Scene, StairsSpec};
 use terrain_pyramid_host_tests::sim::trajectory::Trajectory;
 
-/// Window of the stairs maps, cells per side: holds 25 m at 0.1 m.
-pub const CELLS: usize = 512;
-/// Layer capacity of the uniform pyramid (the linear schedule needs 34 layers for 25 m).
+/// Window of the stairs maps, cells per side: holds a 24 m band at 0.1 m (2 · 24 / 0.1 + 2). The same as the stairs
+/// firmware's (`boards/qemu-mps2 --features paper-stairs`), so that the two run the same maps.
+pub const CELLS: usize = 488;
+/// Layer capacity of the uniform pyramid (the linear schedule needs 32 layers for 24 m).
 pub const LAYERS: usize = 48;
 /// Classifier slots: a soft-gated point feeds several 0.1 m layers at once.
 pub const SLOTS: usize = 16_384;
@@ -54,13 +55,14 @@ pub struct Setup {
 }
 
 impl Setup {
-    /// The full experiment: 20 m from the stairs for 3 minutes.
+    /// The full experiment: 20 m from the stairs for 3 minutes, maps out to 24 m (32 layers of
+    /// 488² cells: what the stairs firmware holds in the emulated board's 16 MiB of PSRAM).
     pub const FULL: Self = Self {
         stand_distance_m: 20.05,
         stand_s: 180.0,
         speed_mps: 1.0,
         stop_distance_m: 1.0,
-        range_m: 25.0,
+        range_m: 24.0,
         unit: "cm",
         pan_rate_deg_s: 74.0,
         seed: 1,
@@ -151,6 +153,9 @@ pub struct MapResult {
     /// (distance to the first riser, share of step cells obstacle) while driving.
     #[serde(skip)]
     pub series: Vec<(f64, f64)>,
+    /// The map at the end of the run, for comparison with the firmware's.
+    #[serde(skip)]
+    pub final_map: Option<crate::export::MapSnapshot>,
 }
 
 /// The experiment's result.
@@ -214,13 +219,19 @@ fn centre(c: (i32, i32)) -> (f64, f64) {
 
 /// The fused answers over `cells`.
 pub fn shares(map: &dyn Map, cells: &[(i32, i32)]) -> Shares {
+    shares_by(|x, y| map.fused(x, y), cells)
+}
+
+/// The answers of `fused` (a fused query at world point x, y, metres) at the centres of
+/// `cells`.
+pub fn shares_by(fused: impl Fn(f64, f64) -> Fused, cells: &[(i32, i32)]) -> Shares {
     let mut s = Shares::default();
     if cells.is_empty() {
         return s;
     }
     for &c in cells {
         let (x, y) = centre(c);
-        match map.fused(x, y) {
+        match fused(x, y) {
             Fused::Obstacle { .. } => s.obstacle += 1.0,
             Fused::Navigable { .. } => s.free += 1.0,
             Fused::Unknown => s.unknown += 1.0,
@@ -362,6 +373,7 @@ pub fn run(setup: &Setup, out: Option<&Path>) -> Result<StairsResult, String> {
             applied: u64::from(stats.applied),
             layers: map.layer_count(),
             series: std::mem::take(&mut series[k]),
+            final_map: Some(map.snapshot(robot)),
         });
         near_panels.push(picture::panel(map.as_ref(), &region, robot, &steps));
     }

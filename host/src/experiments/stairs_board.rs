@@ -1,0 +1,389 @@
+//! The stairs experiment through the emulated firmware (`pyramid experiments --board qemu`).
+//!
+//! The same recording, the same four maps, but each one is the firmware's own: QEMU's MPS2
+//! AN386 running `boards/qemu-mps2` built with `--features paper-stairs` (32 layers of 488²
+//! cells in PSRAM), configured over the link exactly as the host experiment configures its
+//! library pyramids (Configure with the design's flags, Setup from the recording), fed the
+//! recording's telegrams on UART0 in lock-step (`crate::qemu`). At every point where the host
+//! experiment looks at its maps (the end of each observation, and the end of standing), the
+//! harness waits until the device has sent every changed tile (`Emulator::sync`) and asks
+//! the fused question of its mirror of the device's maps. At the end, the mirror is compared
+//! cell for cell with the host's library map.
+
+use super::designs;
+use super::stairs::{self, Cell, Setup, Shares, StairsResult, CELLS, CELL_M, FIRST_STEP_SHARE};
+use crate::export::MapSnapshot;
+use crate::qemu::{self, Emulator, Pending};
+use serde::Serialize;
+use std::path::Path;
+use std::time::Instant;
+use terrain_pyramid::classify::ClassifierConfig;
+use terrain_pyramid::grid::cell_of;
+use terrain_pyramid::logodds::round_to_log_odds;
+use terrain_pyramid::wire::link::{Message, Setup as SetupMessage};
+use terrain_pyramid::wire::recording::{Payload, Reader};
+use terrain_pyramid::wire::sick::{Accumulator, FeedResult, MeasuredValues};
+use terrain_pyramid::{Cell as MapCell, Clamp, Config, Design, Fused, GateShape, Meters};
+use terrain_pyramid_host::link::HostLink;
+use terrain_pyramid_host_tests::sim::record::simulate;
+
+/// The board feature that builds the stairs firmware.
+pub const FEATURE: &str = "paper-stairs";
+/// The firmware's layer capacity (`boards/qemu-mps2`, `sizes::LAYERS` of `paper-stairs`).
+pub const BOARD_LAYERS: usize = 32;
+
+/// One map as the firmware made it.
+#[derive(Debug, Clone, Serialize)]
+pub struct BoardMapResult {
+    /// Share of the step cells the firmware's map calls obstacle at the stop.
+    pub detected_fraction: f64,
+    /// Distance to the first riser when half its cells first read obstacle; null when never.
+    pub detect_distance_m: Option<f64>,
+    /// The step cells at the end of standing.
+    pub far: Shares,
+    /// Whether every cell of every layer of the firmware's map equals the host's library map
+    /// at the end of the run.
+    pub map_equal_to_host: bool,
+    /// Cells (over all layers) that differ from the host's map.
+    pub cells_differing: u64,
+    /// Layers of the firmware's map.
+    pub layers: usize,
+    /// Telegrams written to the firmware's laser UART.
+    pub telegrams: u64,
+    /// Evidence records that changed a cell, by the firmware's Stats.
+    pub evidence_applied: u32,
+    /// The firmware's stack high-water mark, bytes.
+    pub stack_bytes: u32,
+    /// Wall-clock time of the run, seconds.
+    pub wall_s: f64,
+}
+
+/// The four maps through the firmware.
+#[derive(Debug, Clone, Serialize)]
+pub struct BoardStairsResult {
+    /// The flat grid, no clamping.
+    pub flat: BoardMapResult,
+    /// The flat grid with OctoMap's clamping.
+    pub flat_clamped: BoardMapResult,
+    /// The uniform pyramid, hard gate.
+    pub pyramid: BoardMapResult,
+    /// The same, soft gate.
+    pub pyramid_soft: BoardMapResult,
+    /// Whether every figure (detected share, detection distance, far shares) and every cell
+    /// equals the host experiment's.
+    pub same_outcome_as_host: bool,
+}
+
+/// The fused answer of the host's mirror of the device's maps at world point `(x, y)`: the
+/// library's rule ([`terrain_pyramid::Pyramid::fused`]) on the mirror's layers.
+fn mirror_fused(link: &HostLink, margin_raw: i16, x: f64, y: f64) -> Fused {
+    let mirror = link.mirror();
+    let w = mirror.cells_per_side();
+    let (xb, yb) = (
+        Meters::saturating_from_num(x).to_bits(),
+        Meters::saturating_from_num(y).to_bits(),
+    );
+    for k in 0..mirror.layer_count() {
+        let Some(layer) = mirror.layer(k) else {
+            continue;
+        };
+        let r = layer.resolution_q16;
+        let offset = |bits: i32, origin: i32| {
+            usize::try_from(i64::from(cell_of(bits, r)) - i64::from(origin))
+                .ok()
+                .filter(|&o| o < w)
+        };
+        let (Some(dx), Some(dy)) = (offset(xb, layer.origin.0), offset(yb, layer.origin.1)) else {
+            continue;
+        };
+        let Some(value) = layer
+            .cells()
+            .get(dy * w + dx)
+            .and_then(|&raw| MapCell::from_raw(raw).log_odds())
+        else {
+            continue;
+        };
+        let raw = value.to_bits();
+        let layer = u8::try_from(k).unwrap_or(u8::MAX);
+        if raw > 0 {
+            return Fused::Obstacle { layer };
+        }
+        if raw < -margin_raw {
+            return Fused::Navigable { layer };
+        }
+    }
+    Fused::Unknown
+}
+
+fn mirror_shares(link: &HostLink, margin_raw: i16, cells: &[Cell]) -> Shares {
+    stairs::shares_by(|x, y| mirror_fused(link, margin_raw, x, y), cells)
+}
+
+/// Cells of the mirror that differ from `host` (origins, cell sizes and every cell).
+fn differing_cells(link: &HostLink, host: &MapSnapshot) -> u64 {
+    let mirror = link.mirror();
+    let mut differing = 0_u64;
+    if mirror.layer_count() != host.layers.len() {
+        return u64::MAX;
+    }
+    for (k, h) in host.layers.iter().enumerate() {
+        let Some(m) = mirror.layer(k) else {
+            return u64::MAX;
+        };
+        if m.origin != h.origin_cells || m.resolution_q16 != h.resolution.to_bits() {
+            differing += h.cells.len() as u64;
+            continue;
+        }
+        differing += m
+            .cells()
+            .iter()
+            .zip(&h.cells)
+            .filter(|(a, b)| a != b)
+            .count() as u64;
+    }
+    differing
+}
+
+/// What the four maps are: name, design, configuration (as `stairs::maps` builds them).
+fn map_specs(range_m: f64) -> Result<Vec<(&'static str, Design<BOARD_LAYERS>, Config)>, String> {
+    #[allow(clippy::cast_possible_truncation)]
+    let (r, cell) = (range_m as f32, CELL_M as f32);
+    let off = Config {
+        clamp: Clamp::Off,
+        ..Config::default()
+    };
+    let clamped = Config {
+        clamp: Clamp::OCTOMAP,
+        ..Config::default()
+    };
+    let e = |e: terrain_pyramid::DesignError| e.to_string();
+    Ok(vec![
+        ("flat", designs::flat(r, cell, CELLS).map_err(e)?, off),
+        (
+            "flat_clamped",
+            designs::flat(r, cell, CELLS).map_err(e)?,
+            clamped,
+        ),
+        (
+            "pyramid",
+            designs::pyramid(r, GateShape::Hard, true, CELLS).map_err(e)?,
+            off,
+        ),
+        (
+            "pyramid_soft",
+            designs::pyramid(r, GateShape::default(), true, CELLS).map_err(e)?,
+            off,
+        ),
+    ])
+}
+
+/// Runs the stairs recording of `setup` through the firmware, one emulator per map, and
+/// compares each with `host` (the host experiment's result of the same setup). The firmware's
+/// defmt logs go to `out/stairs-board-<map>.defmt`.
+///
+/// # Errors
+/// QEMU or the target missing, the firmware refusing a command, or a run that stalls.
+pub fn run(setup: &Setup, host: &StairsResult, out: &Path) -> Result<BoardStairsResult, String> {
+    let elf = qemu::build_firmware_variant(Path::new(qemu::BOARD_DIR), "qemu-mps2", Some(FEATURE))?;
+    let sim_config = setup.sim();
+    let sim = simulate(&sim_config).map_err(|e| e.to_string())?;
+    let (steps, first) = stairs::step_cells(&sim_config);
+    let riser_x = sim_config.scene.target_x.unwrap_or(0.0);
+    let drive_start_us = (sim_config.trajectory.drive_start_s() * 1e6).round();
+    let host_maps = [
+        &host.flat,
+        &host.flat_clamped,
+        &host.pyramid,
+        &host.pyramid_soft,
+    ];
+    let mut results = Vec::new();
+    for ((name, design, config), host_map) in map_specs(setup.range_m)?.into_iter().zip(host_maps) {
+        eprintln!("stairs through the firmware: {name} ...");
+        let started = Instant::now();
+        let mut emu = Emulator::start(&elf, &out.join(format!("stairs-board-{name}.defmt")))?;
+        emu.wait_for("Hello", |link, _| link.mirror().firmware().is_some())?;
+        emu.command(
+            "Configure",
+            &Message::Configure(qemu::configure_message(&design, &config)),
+        )?;
+        let margin = round_to_log_odds(config.fused_margin).to_bits();
+        let mut play = Play {
+            emu: &mut emu,
+            pending: Pending::default(),
+            steps: &steps,
+            first: &first,
+            riser_x,
+            drive_start_us,
+            margin,
+            robot_x: 0.0,
+            lines: 0,
+            per: 0,
+            detect: None,
+            far: None,
+        };
+        play.recording(&sim.bytes)?;
+        let Play {
+            detect,
+            far,
+            lines,
+            robot_x,
+            ..
+        } = play;
+        emu.send(&Message::EndObservation)?;
+        let stats = emu.sync()?;
+        let mut detect = detect;
+        if detect.is_none()
+            && mirror_shares(emu.link(), margin, &first).obstacle >= FIRST_STEP_SHARE
+        {
+            detect = Some(stairs::round3(riser_x - robot_x));
+        }
+        let near = mirror_shares(emu.link(), margin, &steps);
+        let differing = host_map
+            .final_map
+            .as_ref()
+            .map_or(u64::MAX, |h| differing_cells(emu.link(), h));
+        let layers = emu.link().mirror().layer_count();
+        let stack_bytes = emu.shutdown()?;
+        let result = BoardMapResult {
+            detected_fraction: stairs::round4(near.obstacle),
+            detect_distance_m: detect,
+            far: far.unwrap_or_default(),
+            map_equal_to_host: differing == 0,
+            cells_differing: differing,
+            layers,
+            telegrams: lines,
+            evidence_applied: stats.evidence_applied,
+            stack_bytes,
+            wall_s: started.elapsed().as_secs_f64(),
+        };
+        eprintln!(
+            "  {name}: {} telegrams in {:.1} s; step cells obstacle {:.1} % (host {:.1} %), \
+             first step at {:?} (host {:?}), {} cells differ from the host's map",
+            result.telegrams,
+            result.wall_s,
+            100.0 * result.detected_fraction,
+            100.0 * host_map.detected_fraction,
+            result.detect_distance_m,
+            host_map.detect_distance_m,
+            result.cells_differing
+        );
+        results.push(result);
+    }
+    let same = results.iter().zip(host_maps).all(|(b, h)| {
+        b.map_equal_to_host
+            && b.detected_fraction == h.detected_fraction
+            && b.detect_distance_m == h.detect_distance_m
+            && b.far == h.far
+            && b.layers == h.layers
+    });
+    let mut it = results.into_iter();
+    let mut next = || it.next().ok_or_else(|| "missing map".to_string());
+    Ok(BoardStairsResult {
+        flat: next()?,
+        flat_clamped: next()?,
+        pyramid: next()?,
+        pyramid_soft: next()?,
+        same_outcome_as_host: same,
+    })
+}
+
+/// One map's lock-step replay, with the host experiment's looks at the map.
+struct Play<'a> {
+    emu: &'a mut Emulator,
+    pending: Pending,
+    steps: &'a [Cell],
+    first: &'a [Cell],
+    riser_x: f64,
+    drive_start_us: f64,
+    margin: i16,
+    robot_x: f64,
+    lines: u64,
+    per: u64,
+    detect: Option<f64>,
+    far: Option<Shares>,
+}
+
+impl Play<'_> {
+    fn recording(&mut self, data: &[u8]) -> Result<(), String> {
+        let reader = Reader::new(data).map_err(|e| format!("the recording: {e}"))?;
+        let mut accumulator: Box<Accumulator> = Box::new(Accumulator::new());
+        for event in reader {
+            let event = event.map_err(|e| format!("the recording: {e}"))?;
+            match event.payload {
+                Payload::Setup(setup) => {
+                    let classifier = ClassifierConfig::default();
+                    let frontend = crate::run::frontend_config(&setup, classifier)?;
+                    self.per = u64::from(frontend.lines_per_observation.max(1));
+                    self.emu.command(
+                        "Setup",
+                        &Message::Setup(SetupMessage::from_recording(&setup, &classifier)),
+                    )?;
+                }
+                Payload::Angle(turns) => self.pending.angle = Some(turns),
+                Payload::Pose(p) => {
+                    self.robot_x = f64::from(p[0]);
+                    self.pending.pose = Some(p);
+                }
+                Payload::Laser(bytes) => {
+                    let mut rest = bytes;
+                    loop {
+                        match accumulator.feed(rest) {
+                            FeedResult::Consumed => break,
+                            FeedResult::Telegram {
+                                telegram,
+                                remaining,
+                                ..
+                            } => {
+                                rest = remaining;
+                                if MeasuredValues::parse(&telegram).is_ok() {
+                                    #[allow(clippy::cast_precision_loss)]
+                                    let time = event.time_us as f64;
+                                    self.line(telegram.as_bytes(), time)?;
+                                }
+                            }
+                            other => rest = other.remaining(),
+                        }
+                    }
+                }
+                Payload::Marker(_) | Payload::Unknown { .. } => {}
+            }
+        }
+        Ok(())
+    }
+
+    /// One telegram, and the looks the host experiment takes around it.
+    fn line(&mut self, telegram: &[u8], time_us: f64) -> Result<(), String> {
+        if time_us >= self.drive_start_us && self.far.is_none() {
+            // The end of standing, before the first driving line (as the host looks).
+            self.emu.sync()?;
+            self.far = Some(mirror_shares(self.emu.link(), self.margin, self.steps));
+        }
+        qemu::send_line(self.emu, &mut self.pending, telegram)?;
+        self.lines += 1;
+        let target = self.lines;
+        let mut tries = 0_u32;
+        loop {
+            let s = self.emu.stats()?;
+            let counted = u64::from(s.telegrams_ok)
+                + u64::from(s.telegrams_bad_checksum)
+                + u64::from(s.telegrams_bad_framing);
+            if counted >= target {
+                break;
+            }
+            tries += 1;
+            if tries > 100_000 {
+                return Err(format!(
+                    "telegram {target}: the firmware counts only {counted}"
+                ));
+            }
+        }
+        if self.lines % self.per == 0 && self.detect.is_none() {
+            self.emu.sync()?;
+            let first = mirror_shares(self.emu.link(), self.margin, self.first);
+            if first.obstacle >= FIRST_STEP_SHARE {
+                self.detect = Some(stairs::round3(self.riser_x - self.robot_x));
+            }
+        }
+        Ok(())
+    }
+}
