@@ -9,6 +9,7 @@ mod demo;
 mod design;
 mod experiments;
 mod export;
+mod faults;
 mod listen;
 mod qemu;
 mod record3dtk;
@@ -47,6 +48,8 @@ enum Command {
     Size(size::Args),
     /// The main job: the 3DTK scan through the emulated co-processor, maps and pictures.
     Demo(demo::Args),
+    /// Fault injection through the emulated board: every fault kind against the reference.
+    Faults(faults::Args),
 }
 
 fn main() -> ExitCode {
@@ -61,5 +64,6 @@ fn main() -> ExitCode {
         Command::Experiments(args) => experiments::run(&args),
         Command::Size(args) => size::run(&args),
         Command::Demo(args) => demo::run(&args),
+        Command::Faults(args) => faults::run(&args),
     }
 }

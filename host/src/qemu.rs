@@ -133,6 +133,13 @@ pub struct Emulator {
     uart1: UnixStream,
     rx: Receiver<Vec<u8>>,
     link: HostLink,
+    /// While the host "does not listen": UART1's bytes go here, not to the mirror (a test
+    /// harness still sees the Stats it needs to keep in step).
+    tap: Option<HostLink>,
+    /// Frames the tap decoded since the host stopped listening.
+    tapped: u64,
+    /// UART1's socket, to reconnect to.
+    uart1_path: PathBuf,
     /// Bytes received from UART1.
     pub bytes_received: u64,
     _dir: TempDir,
@@ -201,32 +208,58 @@ impl Emulator {
             .map_err(|e| format!("cannot start qemu-system-arm: {e} ({INSTALL_HINT})"))?;
         let uart0 = connect(&s0, &mut child)?;
         let uart1 = connect(&s1, &mut child)?;
-        let mut reader = uart1
-            .try_clone()
-            .map_err(|e| format!("UART1 socket: {e}"))?;
-        let (tx, rx) = channel();
-        std::thread::spawn(move || {
-            let mut buf = vec![0_u8; 4096];
-            loop {
-                match reader.read(&mut buf) {
-                    Ok(0) | Err(_) => return,
-                    Ok(n) => {
-                        if tx.send(buf[..n].to_vec()).is_err() {
-                            return;
-                        }
-                    }
-                }
-            }
-        });
+        let rx = spawn_reader(&uart1)?;
         Ok(Self {
             child,
             uart0,
             uart1,
             rx,
             link: HostLink::new(),
+            tap: None,
+            tapped: 0,
+            uart1_path: s1,
             bytes_received: 0,
             _dir: dir,
         })
+    }
+
+    /// Stops (`true`) or resumes (`false`) feeding UART1's bytes to the mirror, as a host that
+    /// stalls and loses what the device sent meanwhile. While deaf, [`wait_for`](Self::wait_for)
+    /// sees the frames through a separate decoder (the harness's tap).
+    pub fn set_deaf(&mut self, deaf: bool) {
+        if deaf {
+            if self.tap.is_none() {
+                self.tap = Some(HostLink::new());
+                self.tapped = 0;
+            }
+        } else if let Some(tap) = self.tap.take() {
+            self.tapped = tap.mirror().counters().frames + tap.mirror().counters().out_of_order;
+        }
+    }
+
+    /// Frames the tap decoded during the last deaf stretch.
+    #[must_use]
+    pub fn tapped_frames(&self) -> u64 {
+        self.tapped
+    }
+
+    /// Closes the host link's connection (QEMU drops what the device sends meanwhile).
+    pub fn disconnect_link(&mut self) {
+        let _ = self.uart1.shutdown(std::net::Shutdown::Both);
+    }
+
+    /// Connects to UART1 again, as a host that reopens its port: a fresh link and mirror
+    /// (sequence numbers from 0, no Hello yet).
+    ///
+    /// # Errors
+    /// QEMU does not accept the connection.
+    pub fn reconnect_link(&mut self) -> Result<(), String> {
+        let uart1 = connect(&self.uart1_path, &mut self.child)?;
+        self.rx = spawn_reader(&uart1)?;
+        self.uart1 = uart1;
+        self.link = HostLink::new();
+        self.tap = None;
+        Ok(())
     }
 
     /// The host's end of the link.
@@ -277,13 +310,14 @@ impl Emulator {
             match self.rx.recv_timeout(left) {
                 Ok(bytes) => {
                     self.bytes_received += bytes.len() as u64;
-                    let events = self.link.feed(&bytes);
+                    let link = self.tap.as_mut().unwrap_or(&mut self.link);
+                    let events = link.feed(&bytes);
                     for event in &events {
-                        if done(&self.link, Some(event)) {
+                        if done(link, Some(event)) {
                             return Ok(());
                         }
                     }
-                    if done(&self.link, None) {
+                    if done(link, None) {
                         return Ok(());
                     }
                 }
@@ -399,6 +433,28 @@ impl Drop for Emulator {
             let _ = self.child.wait();
         }
     }
+}
+
+/// A thread that reads UART1 into a channel until the socket closes.
+fn spawn_reader(uart1: &UnixStream) -> Result<Receiver<Vec<u8>>, String> {
+    let mut reader = uart1
+        .try_clone()
+        .map_err(|e| format!("UART1 socket: {e}"))?;
+    let (tx, rx) = channel();
+    std::thread::spawn(move || {
+        let mut buf = vec![0_u8; 4096];
+        loop {
+            match reader.read(&mut buf) {
+                Ok(0) | Err(_) => return,
+                Ok(n) => {
+                    if tx.send(buf[..n].to_vec()).is_err() {
+                        return;
+                    }
+                }
+            }
+        }
+    });
+    Ok(rx)
 }
 
 fn rand_seed() -> u64 {

@@ -148,6 +148,13 @@ impl<R: Read, const N: usize, const C: usize> SickUart<R, N, C> {
         self.accumulator.stats()
     }
 
+    /// Bytes fed to the accumulator so far (wrapping at 2⁶⁴): every byte `read` returned,
+    /// once the poll that read it has handed out its events.
+    #[must_use]
+    pub const fn position(&self) -> u64 {
+        self.accumulator.position()
+    }
+
     /// The accumulator, to flush it at the end of a stream, reset it after a baud-rate change,
     /// or clear its counters.
     pub fn accumulator_mut(&mut self) -> &mut Accumulator<N> {

@@ -146,6 +146,8 @@ pub struct SensorCounters {
     pub points: u32,
     /// Points dropped by a full classifier scratch table.
     pub classifier_overflows: u32,
+    /// Bytes the laser's UART delivered to the SICK decoder (wrapping).
+    pub laser_bytes: u32,
 }
 
 /// The link's own counters. They saturate.
@@ -482,6 +484,7 @@ impl<const Q: usize> Link<Q> {
             commands_refused: c.commands_refused,
             snapshots: c.snapshots,
             resyncs: c.resyncs,
+            laser_bytes: sensor.laser_bytes,
             tiles_dirty: count(
                 (0..layers_of(pyramid))
                     .filter_map(|k| pyramid.layer(k))

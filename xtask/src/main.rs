@@ -8,9 +8,13 @@
 //! - `cargo xtask bench [--json] [--quick]`: exact per-return instruction counts on the
 //!   emulated Cortex-M (M4F, M0 code, fixed point and f32), host throughput against OctoMap,
 //!   the bench firmware's memory (BENCHMARKS.md).
+//! - `cargo xtask faults [--json] [--quick]`: fault injection through the emulated board, one
+//!   run per fault kind against the host's reference map (RELIABILITY.md); fails when any
+//!   outcome is bad.
 use std::process::ExitCode;
 
 mod bench;
+mod faults;
 mod test;
 
 fn main() -> ExitCode {
@@ -22,8 +26,11 @@ fn main() -> ExitCode {
     let result = match task {
         "test" => test::run(rest),
         "bench" => bench::task(rest),
+        "faults" => faults::task(rest),
         _ => Err(
-            "usage: cargo xtask test [--lint] | cargo xtask bench [--json] [--quick]".to_string(),
+            "usage: cargo xtask test [--lint] | cargo xtask bench [--json] [--quick] \
+                  | cargo xtask faults [--json] [--quick]"
+                .to_string(),
         ),
     };
     match result {

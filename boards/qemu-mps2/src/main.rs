@@ -317,6 +317,9 @@ impl App {
                 .saturating_add(self.counters.lines_rejected),
             points: classifier.points,
             classifier_overflows: classifier.overflow_points,
+            // Stats carries the low 32 bits (it wraps).
+            laser_bytes: u32::try_from(self.laser.position() & u64::from(u32::MAX))
+                .unwrap_or(u32::MAX),
         }
     }
 

@@ -40,7 +40,7 @@ pub(crate) const CONFIGURE_FLAGS_KNOWN: u8 = CONFIGURE_UNIFORM_RESOLUTION;
 /// Bytes of a Setup body.
 pub(crate) const SETUP_LEN: usize = 38;
 /// The number of counters in a [`Stats`].
-pub const STATS_COUNTERS: usize = 28;
+pub const STATS_COUNTERS: usize = 29;
 
 /// A firmware version, `major.minor.patch`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
@@ -387,6 +387,9 @@ stats_struct! {
     snapshots,
     /// Full resends after window moves the link did not see one by one.
     resyncs,
+    /// Bytes the laser's UART delivered to the SICK decoder (wraps at 2³²; a test harness
+    /// uses it to know the device has taken every byte it wrote, whatever became of them).
+    laser_bytes,
     /// Tiles changed and not yet queued, over every layer, at the time of the Stats (a level,
     /// 0 ..= 64 · layers): with `queue_used` 0 too, every change made before this Stats is
     /// already on the wire ahead of it, so the host's copy is current once it has read it.
@@ -741,11 +744,11 @@ pub struct Pose {
     pub y_m: f32,
     /// z, metres; |z| < 1 000.
     pub z_m: f32,
-    /// Roll about x, radians; finite.
+    /// Roll about x, radians; finite, |v| < 32 768.
     pub roll_rad: f32,
-    /// Pitch about y, radians; finite.
+    /// Pitch about y, radians; finite, |v| < 32 768.
     pub pitch_rad: f32,
-    /// Yaw about z, radians, counter-clockwise from +x; finite.
+    /// Yaw about z, radians, counter-clockwise from +x; finite, |v| < 32 768.
     pub yaw_rad: f32,
     /// The host's clock when the pose was valid, ms.
     pub timestamp_ms: u32,
@@ -753,23 +756,37 @@ pub struct Pose {
 
 impl Pose {
     /// The largest |x| and |y| accepted (exclusive), metres.
-    pub const XY_LIMIT_M: f32 = 30_000.0;
+    pub const XY_LIMIT_M: f32 = crate::geometry::pose::MAX_HORIZONTAL_M;
     /// The largest |z| accepted (exclusive), metres.
-    pub const Z_LIMIT_M: f32 = 1_000.0;
+    pub const Z_LIMIT_M: f32 = crate::geometry::pose::MAX_VERTICAL_M;
+    /// The largest |roll|, |pitch| and |yaw| accepted (exclusive), radians: the geometry's
+    /// limit ([`crate::geometry::Pose::from_f32`]).
+    pub const ANGLE_LIMIT_RAD: f32 = crate::geometry::pose::MAX_ANGLE_RAD;
 
-    /// Checks the pose: every field finite, |x|, |y| < 30 000 m, |z| < 1 000 m. Fields are
-    /// checked in order x, y, z, roll, pitch, yaw; the first bad one is reported.
+    /// Checks the pose with exactly the rule of [`crate::geometry::Pose::from_f32`]: every
+    /// field finite, |x|, |y| < 30 000 m, |z| < 1 000 m, |roll|, |pitch|, |yaw| < 32 768 rad.
+    /// Fields are checked in order x, y, z, roll, pitch, yaw; the first bad one is reported.
+    /// A pose that passes converts with [`to_geometry`](Self::to_geometry).
     ///
     /// # Errors
     /// The first bad field.
     pub fn validate(&self) -> Result<(), PoseError> {
+        self.to_geometry().map(|_| ())
+    }
+
+    /// The pose as the geometry takes it (positions rounded to 2⁻¹⁶ m, angles reduced modulo
+    /// a turn), after [`validate`](Self::validate)'s checks.
+    ///
+    /// # Errors
+    /// The first bad field.
+    pub fn to_geometry(&self) -> Result<crate::geometry::Pose, PoseError> {
         let limited = [
             (PoseField::X, self.x_m, Self::XY_LIMIT_M),
             (PoseField::Y, self.y_m, Self::XY_LIMIT_M),
             (PoseField::Z, self.z_m, Self::Z_LIMIT_M),
-            (PoseField::Roll, self.roll_rad, f32::INFINITY),
-            (PoseField::Pitch, self.pitch_rad, f32::INFINITY),
-            (PoseField::Yaw, self.yaw_rad, f32::INFINITY),
+            (PoseField::Roll, self.roll_rad, Self::ANGLE_LIMIT_RAD),
+            (PoseField::Pitch, self.pitch_rad, Self::ANGLE_LIMIT_RAD),
+            (PoseField::Yaw, self.yaw_rad, Self::ANGLE_LIMIT_RAD),
         ];
         for (field, value, limit) in limited {
             if !value.is_finite() {
@@ -783,7 +800,36 @@ impl Pose {
                 });
             }
         }
-        Ok(())
+        // The geometry's own conversion, so that the two rules cannot drift apart: a pose
+        // the checks above pass and the geometry refused would be refused here, by field.
+        crate::geometry::Pose::from_f32(
+            self.x_m,
+            self.y_m,
+            self.z_m,
+            self.roll_rad,
+            self.pitch_rad,
+            self.yaw_rad,
+        )
+        .map_err(|e| {
+            let field = match e.field() {
+                crate::geometry::PoseField::X => PoseField::X,
+                crate::geometry::PoseField::Y => PoseField::Y,
+                crate::geometry::PoseField::Z => PoseField::Z,
+                crate::geometry::PoseField::Roll => PoseField::Roll,
+                crate::geometry::PoseField::Pitch => PoseField::Pitch,
+                _ => PoseField::Yaw,
+            };
+            match e {
+                crate::geometry::PoseError::OutOfRange { value, limit, .. } => {
+                    PoseError::OutOfRange {
+                        field,
+                        value,
+                        limit,
+                    }
+                }
+                _ => PoseError::NotFinite { field },
+            }
+        })
     }
 
     /// The position as [`crate::Point3`] (exact to 2⁻¹⁶ m after rounding; a validated pose

@@ -221,7 +221,8 @@ fn window_moved_stats_reply_golden() {
     let stats = Stats::from_array(values);
     assert_eq!(stats.uptime_ms, 1);
     assert_eq!(stats.resyncs, 27);
-    assert_eq!(stats.tiles_dirty, 28);
+    assert_eq!(stats.laser_bytes, 28);
+    assert_eq!(stats.tiles_dirty, 29);
     golden(
         0x0104,
         &Message::Stats(stats),
@@ -229,7 +230,7 @@ fn window_moved_stats_reply_golden() {
          07 01 01 02 08 01 01 02 09 01 01 02 0a 01 01 02 0b 01 01 02 0c 01 01 02 0d 01 01 02 0e \
          01 01 02 0f 01 01 02 10 01 01 02 11 01 01 02 12 01 01 02 13 01 01 02 14 01 01 02 15 01 \
          01 02 16 01 01 02 17 01 01 02 18 01 01 02 19 01 01 02 1a 01 01 02 1b 01 01 02 1c 01 01 \
-         05 fa 74 20 3d 00",
+         02 1d 01 01 05 a2 0e f8 f4 00",
     );
     let configure = Header {
         version: 1,
@@ -511,6 +512,76 @@ fn pose_validation_names_the_field() {
     assert_eq!(
         (reply.code, reply.param, reply.b),
         (ReplyCode::OutOfRange, 33, 30_000.0)
+    );
+}
+
+/// The link refuses exactly the poses the geometry refuses: angles of 32 768 rad or more in
+/// magnitude (the geometry cannot reduce them) get a Reply naming the field, like NaN.
+#[test]
+fn pose_validation_is_the_geometry_rule() {
+    let header = Header {
+        version: 1,
+        msg_type: 0x81,
+        seq: 4,
+    };
+    let base = [1.0_f32, -2.0, 0.5, 0.1, -0.2, 3.0];
+    let edge = [
+        29_999.99,
+        30_000.0,
+        -1e30,
+        999.9,
+        1000.0,
+        32_767.0,
+        32_768.0,
+        -32_768.0,
+        -32_767.99,
+        4.0e4,
+        f32::MAX,
+        f32::MIN_POSITIVE,
+        -0.0,
+        f32::NAN,
+        f32::INFINITY,
+        f32::NEG_INFINITY,
+    ];
+    for field in 0..6 {
+        for &value in &edge {
+            let mut v = base;
+            v[field] = value;
+            let pose = Pose {
+                x_m: v[0],
+                y_m: v[1],
+                z_m: v[2],
+                roll_rad: v[3],
+                pitch_rad: v[4],
+                yaw_rad: v[5],
+                timestamp_ms: 0,
+            };
+            let geometry = crate::geometry::Pose::from_f32(v[0], v[1], v[2], v[3], v[4], v[5]);
+            let link = pose.to_geometry();
+            match (&link, &geometry) {
+                (Ok(a), Ok(b)) => assert_eq!(a, b, "{field} {value}"),
+                (Err(e), _) => {
+                    assert_eq!(e.field() as u8, 32 + field as u8, "{field} {value}");
+                    let reply = Reply::pose_error(header, *e);
+                    assert!(!reply.is_ok());
+                    assert_eq!(reply.param, 32 + field as u8);
+                }
+                (Ok(_), Err(e)) => panic!("the link took {field} = {value}, the geometry: {e}"),
+            }
+            assert_eq!(pose.validate().is_ok(), link.is_ok());
+        }
+    }
+    let spin = Pose {
+        yaw_rad: 40_000.0,
+        ..Pose::default()
+    };
+    assert_eq!(
+        spin.validate(),
+        Err(PoseError::OutOfRange {
+            field: PoseField::Yaw,
+            value: 40_000.0,
+            limit: 32_768.0
+        })
     );
 }
 
