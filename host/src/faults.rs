@@ -1,4 +1,4 @@
-//! `pyramid faults`: fault injection through the emulated board (issue 8).
+//! `pyramid faults`: fault injection through the emulated board.
 //!
 //! One run of the firmware in QEMU (`boards/qemu-mps2`, as `pyramid run --board qemu`) per
 //! fault kind, on the simulated stairs drive (the paper's robot, a vertical SICK plane panned
@@ -1049,7 +1049,7 @@ fn known_cells(pyramid: &DefaultPyramid) -> u64 {
         .sum()
 }
 
-/// The requirements of issue 8 on one outcome.
+/// What every fault run must show.
 fn judge(o: &mut Outcome) {
     if o.crashed {
         o.failures.push("the firmware crashed or hung".into());

@@ -17,6 +17,7 @@ mod replay;
 mod run;
 mod sick_decode;
 mod size;
+mod soak;
 mod uos;
 
 /// The main computer's side of terrain-pyramid.
@@ -50,6 +51,9 @@ enum Command {
     Demo(demo::Args),
     /// Fault injection through the emulated board: every fault kind against the reference.
     Faults(faults::Args),
+    /// A long simulated drive through the host pipeline and the emulated board: counters,
+    /// memory, map bounds, throughput.
+    Soak(soak::Args),
 }
 
 fn main() -> ExitCode {
@@ -65,5 +69,6 @@ fn main() -> ExitCode {
         Command::Size(args) => size::run(&args),
         Command::Demo(args) => demo::run(&args),
         Command::Faults(args) => faults::run(&args),
+        Command::Soak(args) => soak::run(&args),
     }
 }

@@ -590,6 +590,7 @@ fn play_qemu(
     counts.telegrams_applied = u64::from(s.telegrams_ok.saturating_sub(s.telegrams_bad_other));
     counts.lines_rejected = u64::from(s.telegrams_bad_other);
     counts.overflow_points = u64::from(s.classifier_overflows);
+    counts.observations = u64::from(s.observations);
     if counted != counts.telegrams_sent {
         return Err(format!(
             "the firmware counted {counted} telegrams of {} sent",

@@ -76,6 +76,8 @@ fn compare(recording: &Path, dir: &Path, flags: &[&str]) -> usize {
     assert_eq!(host["telegrams_sent"], qemu["telegrams_sent"]);
     assert_eq!(host["telegrams_applied"], qemu["telegrams_applied"]);
     assert_eq!(qemu["telegrams_applied"], qemu["telegrams_sent"]);
+    // Stats carries the observations (protocol version 2).
+    assert_eq!(host["observations"], qemu["observations"]);
     assert_eq!(qemu["link_crc_errors"], 0);
     assert_eq!(
         host["layers"], qemu["layers"],

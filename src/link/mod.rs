@@ -148,6 +148,8 @@ pub struct SensorCounters {
     pub classifier_overflows: u32,
     /// Bytes the laser's UART delivered to the SICK decoder (wrapping).
     pub laser_bytes: u32,
+    /// Observations finished and applied (`FrontendStats::observations`).
+    pub observations: u32,
 }
 
 /// The link's own counters. They saturate.
@@ -160,7 +162,9 @@ pub struct LinkCounters {
     pub bytes_sent: u32,
     /// LayerPatch frames queued.
     pub patches_sent: u32,
-    /// Tile sends put back for lack of budget or room.
+    /// Tiles whose send was put back for lack of budget or room, each counted once per dirty
+    /// period (the first poll that could not send it since it changed or was last sent), not
+    /// at every poll it keeps waiting.
     pub patches_deferred: u32,
     /// Control frames dropped for lack of room.
     pub frames_dropped: u32,
@@ -485,6 +489,7 @@ impl<const Q: usize> Link<Q> {
             snapshots: c.snapshots,
             resyncs: c.resyncs,
             laser_bytes: sensor.laser_bytes,
+            observations: sensor.observations,
             tiles_dirty: count(
                 (0..layers_of(pyramid))
                     .filter_map(|k| pyramid.layer(k))
@@ -741,16 +746,27 @@ impl<const Q: usize> Link<Q> {
             level = top - 1;
         }
         let mut deferred = 0_u32;
-        for (k, &bits) in dirty.iter().enumerate().take(count) {
+        let mut newly_deferred = 0_u32;
+        for ((k, &bits), ages) in dirty.iter().enumerate().zip(self.ages.iter()).take(count) {
             if bits != 0 {
                 if let Some(mut tiles) = pyramid.layer_dirty_mut(k) {
                     tiles.mark(bits);
                 }
                 deferred += bits.count_ones();
+                // Age 1: the tile's first poll since it changed (or was last sent). A tile
+                // that keeps waiting is counted once, not at every poll.
+                newly_deferred += ages
+                    .iter()
+                    .enumerate()
+                    .filter(|&(tile, &age)| bits & (1 << tile) != 0 && age == 1)
+                    .count() as u32;
             }
         }
         report.deferred_tiles = deferred;
-        self.counters.patches_deferred = self.counters.patches_deferred.saturating_add(deferred);
+        self.counters.patches_deferred = self
+            .counters
+            .patches_deferred
+            .saturating_add(newly_deferred);
     }
 
     /// Sends one tile of layer `k` as one or more patches, all or none.

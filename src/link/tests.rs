@@ -203,7 +203,9 @@ fn the_budget_holds_and_deferred_tiles_go_later() {
         "every tile went out once, later rather than never"
     );
     assert_eq!(pyramid.layer(0).unwrap().dirty(), 0);
-    assert!(link.counters().patches_deferred > 0);
+    // Each tile is counted once however many polls it waited (200 polls here).
+    let deferred = link.counters().patches_deferred;
+    assert!(deferred > 0 && deferred <= 64, "{deferred}");
 }
 
 #[test]
@@ -232,6 +234,32 @@ fn a_full_queue_puts_tiles_back_and_drops_no_patch() {
     let seqs: Vec<u16> = all.iter().map(|(s, _)| *s).collect();
     assert_eq!(seqs, (1..9).collect::<Vec<u16>>(), "no gap");
     assert_eq!(link.counters().frames_dropped, 0);
+    // The 7 tiles put back waited over several polls: each counted once.
+    assert_eq!(link.counters().patches_deferred, 7);
+}
+
+#[test]
+fn a_tile_that_keeps_changing_while_it_waits_is_deferred_once_per_dirty_period() {
+    let (mut pyramid, _) = configured();
+    let mut link: Link<512> = Link::new(LinkConfig {
+        stats_interval_ms: 0,
+        ..LinkConfig::DEFAULT
+    });
+    link.poll(0, &mut pyramid, &SensorCounters::default());
+    drain(&mut link);
+    // Two tiles; the queue takes one per poll while nothing drains it.
+    pyramid.apply(&obstacle(0, -32, 0));
+    pyramid.apply(&obstacle(0, 0, 0));
+    for t in 1..100 {
+        // The waiting tile keeps changing.
+        pyramid.apply(&obstacle(0, 0, 0));
+        pyramid.apply(&obstacle(0, -32, 0));
+        link.poll(t, &mut pyramid, &SensorCounters::default());
+    }
+    // Polled 99 times with a full queue: the counter measures tiles, not polls.
+    let deferred = link.counters().patches_deferred;
+    assert!((1..=2).contains(&deferred), "{deferred}");
+    drain(&mut link);
 }
 
 #[test]

@@ -1,5 +1,5 @@
 //! `cargo xtask faults [--json] [--quick] [--only KIND,..] [--lines N]`: fault injection through
-//! the emulated board (issue 8; RELIABILITY.md). Builds the host tool and the QEMU firmware
+//! the emulated board (RELIABILITY.md). Builds the host tool and the QEMU firmware
 //! (release) and runs `pyramid faults`: one run of the firmware in QEMU per fault kind, each
 //! compared with the host's reference map. The table goes to stderr; with `--json`, stdout
 //! holds `{"faults":[...]}`. Fails when any kind's outcome is bad.

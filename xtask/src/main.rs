@@ -11,10 +11,14 @@
 //! - `cargo xtask faults [--json] [--quick]`: fault injection through the emulated board, one
 //!   run per fault kind against the host's reference map (RELIABILITY.md); fails when any
 //!   outcome is bad.
+//! - `cargo xtask soak [--json] [--quick]`: an hour of simulated driving through the host
+//!   pipeline and ten minutes through the firmware on QEMU: counters, memory, map bounds,
+//!   throughput (RELIABILITY.md, "Soak"); `--quick` is CI's five and half a minute.
 use std::process::ExitCode;
 
 mod bench;
 mod faults;
+mod soak;
 mod test;
 
 fn main() -> ExitCode {
@@ -27,9 +31,10 @@ fn main() -> ExitCode {
         "test" => test::run(rest),
         "bench" => bench::task(rest),
         "faults" => faults::task(rest),
+        "soak" => soak::task(rest),
         _ => Err(
             "usage: cargo xtask test [--lint] | cargo xtask bench [--json] [--quick] \
-                  | cargo xtask faults [--json] [--quick]"
+                  | cargo xtask faults [--json] [--quick] | cargo xtask soak [--json] [--quick]"
                 .to_string(),
         ),
     };

@@ -149,6 +149,7 @@ impl<const C: usize, const W: usize, const L: usize, const Q: usize> Pipeline
                 telegrams_ok: s.lines_applied,
                 points: c.points,
                 classifier_overflows: c.overflow_points,
+                observations: s.observations,
                 ..SensorCounters::default()
             };
             link.poll(now_ms, self.pyramid, &sensor);

@@ -320,6 +320,7 @@ impl App {
             // Stats carries the low 32 bits (it wraps).
             laser_bytes: u32::try_from(self.laser.position() & u64::from(u32::MAX))
                 .unwrap_or(u32::MAX),
+            observations: self.frontend.stats().observations,
         }
     }
 

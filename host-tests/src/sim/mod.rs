@@ -18,6 +18,7 @@
 //! assert!(!sim.ground_truth.is_empty());
 //! ```
 
+pub mod drive;
 pub mod laser;
 pub mod record;
 pub mod rng;

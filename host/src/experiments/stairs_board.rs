@@ -196,22 +196,96 @@ pub fn run(setup: &Setup, host: &StairsResult, out: &Path) -> Result<BoardStairs
         &host.pyramid,
         &host.pyramid_soft,
     ];
-    let mut results = Vec::new();
-    for ((name, design, config), host_map) in map_specs(setup.range_m)?.into_iter().zip(host_maps) {
+    let specs = map_specs(setup.range_m)?;
+    // One emulator per map, all at once: each run waits on its UARTs far more than it computes.
+    let results: Vec<Result<BoardMapResult, String>> = std::thread::scope(|scope| {
+        let handles: Vec<_> = specs
+            .iter()
+            .zip(host_maps)
+            .map(|((name, design, config), host_map)| {
+                let ctx = BoardRun {
+                    elf: &elf,
+                    out,
+                    bytes: &sim.bytes,
+                    steps: &steps,
+                    first: &first,
+                    riser_x,
+                    drive_start_us,
+                };
+                scope.spawn(move || ctx.map(name, design, config, host_map))
+            })
+            .collect();
+        handles
+            .into_iter()
+            .map(|h| {
+                h.join()
+                    .unwrap_or_else(|_| Err("a firmware run panicked".to_string()))
+            })
+            .collect()
+    });
+    let results = results.into_iter().collect::<Result<Vec<_>, _>>()?;
+    let same = results.iter().zip(host_maps).all(|(b, h)| {
+        b.map_equal_to_host
+            && b.detected_fraction == h.detected_fraction
+            && b.detect_distance_m == h.detect_distance_m
+            && b.far == h.far
+            && b.layers == h.layers
+    });
+    let mut it = results.into_iter();
+    let mut next = || it.next().ok_or_else(|| "missing map".to_string());
+    Ok(BoardStairsResult {
+        flat: next()?,
+        flat_clamped: next()?,
+        pyramid: next()?,
+        pyramid_soft: next()?,
+        same_outcome_as_host: same,
+    })
+}
+
+/// What every map's run shares.
+#[derive(Clone, Copy)]
+struct BoardRun<'a> {
+    elf: &'a Path,
+    out: &'a Path,
+    bytes: &'a [u8],
+    steps: &'a [Cell],
+    first: &'a [Cell],
+    riser_x: f64,
+    drive_start_us: f64,
+}
+
+impl BoardRun<'_> {
+    /// One map through its own emulator.
+    fn map(
+        self,
+        name: &str,
+        design: &Design<BOARD_LAYERS>,
+        config: &Config,
+        host_map: &stairs::MapResult,
+    ) -> Result<BoardMapResult, String> {
+        let BoardRun {
+            elf,
+            out,
+            bytes,
+            steps,
+            first,
+            riser_x,
+            drive_start_us,
+        } = self;
         eprintln!("stairs through the firmware: {name} ...");
         let started = Instant::now();
         let mut emu = Emulator::start(&elf, &out.join(format!("stairs-board-{name}.defmt")))?;
         emu.wait_for("Hello", |link, _| link.mirror().firmware().is_some())?;
         emu.command(
             "Configure",
-            &Message::Configure(qemu::configure_message(&design, &config)),
+            &Message::Configure(qemu::configure_message(design, config)),
         )?;
         let margin = round_to_log_odds(config.fused_margin).to_bits();
         let mut play = Play {
             emu: &mut emu,
             pending: Pending::default(),
-            steps: &steps,
-            first: &first,
+            steps,
+            first,
             riser_x,
             drive_start_us,
             margin,
@@ -221,7 +295,7 @@ pub fn run(setup: &Setup, host: &StairsResult, out: &Path) -> Result<BoardStairs
             detect: None,
             far: None,
         };
-        play.recording(&sim.bytes)?;
+        play.recording(bytes)?;
         let Play {
             detect,
             far,
@@ -232,12 +306,11 @@ pub fn run(setup: &Setup, host: &StairsResult, out: &Path) -> Result<BoardStairs
         emu.send(&Message::EndObservation)?;
         let stats = emu.sync()?;
         let mut detect = detect;
-        if detect.is_none()
-            && mirror_shares(emu.link(), margin, &first).obstacle >= FIRST_STEP_SHARE
+        if detect.is_none() && mirror_shares(emu.link(), margin, first).obstacle >= FIRST_STEP_SHARE
         {
             detect = Some(stairs::round3(riser_x - robot_x));
         }
-        let near = mirror_shares(emu.link(), margin, &steps);
+        let near = mirror_shares(emu.link(), margin, steps);
         let differing = host_map
             .final_map
             .as_ref()
@@ -258,7 +331,7 @@ pub fn run(setup: &Setup, host: &StairsResult, out: &Path) -> Result<BoardStairs
         };
         eprintln!(
             "  {name}: {} telegrams in {:.1} s; step cells obstacle {:.1} % (host {:.1} %), \
-             first step at {:?} (host {:?}), {} cells differ from the host's map",
+         first step at {:?} (host {:?}), {} cells differ from the host's map",
             result.telegrams,
             result.wall_s,
             100.0 * result.detected_fraction,
@@ -267,24 +340,8 @@ pub fn run(setup: &Setup, host: &StairsResult, out: &Path) -> Result<BoardStairs
             host_map.detect_distance_m,
             result.cells_differing
         );
-        results.push(result);
+        Ok(result)
     }
-    let same = results.iter().zip(host_maps).all(|(b, h)| {
-        b.map_equal_to_host
-            && b.detected_fraction == h.detected_fraction
-            && b.detect_distance_m == h.detect_distance_m
-            && b.far == h.far
-            && b.layers == h.layers
-    });
-    let mut it = results.into_iter();
-    let mut next = || it.next().ok_or_else(|| "missing map".to_string());
-    Ok(BoardStairsResult {
-        flat: next()?,
-        flat_clamped: next()?,
-        pyramid: next()?,
-        pyramid_soft: next()?,
-        same_outcome_as_host: same,
-    })
 }
 
 /// One map's lock-step replay, with the host experiment's looks at the map.

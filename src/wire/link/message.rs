@@ -40,7 +40,7 @@ pub(crate) const CONFIGURE_FLAGS_KNOWN: u8 = CONFIGURE_UNIFORM_RESOLUTION;
 /// Bytes of a Setup body.
 pub(crate) const SETUP_LEN: usize = 38;
 /// The number of counters in a [`Stats`].
-pub const STATS_COUNTERS: usize = 29;
+pub const STATS_COUNTERS: usize = 30;
 
 /// A firmware version, `major.minor.patch`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
@@ -359,7 +359,8 @@ stats_struct! {
     bytes_sent,
     /// LayerPatch frames queued.
     patches_sent,
-    /// Tile sends put back for lack of budget or queue room.
+    /// Tiles whose send was put back for lack of budget or queue room, once per dirty period
+    /// (not once per poll while they wait).
     patches_deferred,
     /// Control frames dropped for lack of queue room (each used a sequence number).
     frames_dropped,
@@ -387,6 +388,8 @@ stats_struct! {
     snapshots,
     /// Full resends after window moves the link did not see one by one.
     resyncs,
+    /// Observations finished and applied to the pyramid.
+    observations,
     /// Bytes the laser's UART delivered to the SICK decoder (wraps at 2³²; a test harness
     /// uses it to know the device has taken every byte it wrote, whatever became of them).
     laser_bytes,

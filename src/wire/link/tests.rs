@@ -221,8 +221,9 @@ fn window_moved_stats_reply_golden() {
     let stats = Stats::from_array(values);
     assert_eq!(stats.uptime_ms, 1);
     assert_eq!(stats.resyncs, 27);
-    assert_eq!(stats.laser_bytes, 28);
-    assert_eq!(stats.tiles_dirty, 29);
+    assert_eq!(stats.observations, 28);
+    assert_eq!(stats.laser_bytes, 29);
+    assert_eq!(stats.tiles_dirty, 30);
     golden(
         0x0104,
         &Message::Stats(stats),
