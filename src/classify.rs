@@ -111,6 +111,9 @@ pub struct ClassifierStats {
     pub records: u32,
 }
 
+/// The layers for which the classifier remembers the slot of their last point.
+const RECENT_LAYERS: usize = 8;
+
 /// The marker of an empty slot: slots store their layer plus one, so that an empty slot (and
 /// a fresh classifier) is all zero bits.
 const EMPTY: u8 = 0;
@@ -149,6 +152,17 @@ pub struct Classifier<const C: usize> {
     slots: [Slot; C],
     /// Slots in use.
     used: usize,
+    /// Per layer (the first [`RECENT_LAYERS`]), the slot its last point went to: consecutive
+    /// returns of a line mostly fall in the same cell, and a slot whose key matches is that
+    /// cell's slot whatever happened since (keys are unique in the table), so a hit skips the
+    /// hash and the probe and a stale index merely misses.
+    recent: [u16; RECENT_LAYERS],
+    /// The gate bin of the last point given by its squared distance (a first guess only).
+    last_bin: u16,
+    /// Per layer (the first [`RECENT_LAYERS`]), a cell size (raw) and its reciprocal
+    /// ([`crate::grid::cell_reciprocal`]), recomputed when the size changes: where there is
+    /// no hardware division, cell indices are found by a multiplication.
+    reciprocals: [(i32, u32); RECENT_LAYERS],
     /// The pyramid's distance binning, as of the last point (records carry bin edges).
     bins: DistanceBins,
     config: ClassifierConfig,
@@ -170,9 +184,16 @@ impl<const C: usize> core::fmt::Debug for Classifier<C> {
     }
 }
 
-/// Metres (raw Q16.16) to millimetres, saturated to `i16`.
+/// Metres (raw Q16.16) to millimetres, `⌊raw · 1000 / 2¹⁶⌋`, saturated to `i16`.
+///
+/// In 32-bit words (no 64-bit multiply, a library call on a Cortex-M0): 1000/2¹⁶ = 125/2¹³,
+/// and with `raw = hi·2¹³ + lo` (0 ≤ lo < 2¹³) the floor is `hi·125 + ⌊lo·125 / 2¹³⌋`
+/// exactly (|hi·125| < 2²⁵).
+#[inline]
 fn mm_i16(raw: i32) -> i16 {
-    let mm = (i64::from(raw) * 1000) >> 16;
+    let hi = raw >> 13;
+    let lo = raw & 0x1FFF;
+    let mm = hi * 125 + ((lo * 125) >> 13);
     i16::try_from(mm).unwrap_or(if mm < 0 { i16::MIN } else { i16::MAX })
 }
 
@@ -220,6 +241,9 @@ impl<const C: usize> Classifier<C> {
         Self {
             slots: [Slot::VACANT; C],
             used: 0,
+            recent: [0; RECENT_LAYERS],
+            last_bin: 0,
+            reciprocals: [(0, 0); RECENT_LAYERS],
             bins: DistanceBins::UNCONFIGURED,
             config: ClassifierConfig {
                 robot_height: Meters::ZERO,
@@ -295,6 +319,44 @@ impl<const C: usize> Classifier<C> {
         distance: Meters,
         ground_z: Meters,
     ) {
+        let bin = pyramid.distance_bins().bin(distance);
+        self.add_point_in_bin(pyramid, point, bin, ground_z);
+    }
+
+    /// [`add_point`](Self::add_point) with the horizontal distance given by its square
+    /// (raw Q16.16 units squared, 2⁻³² m², as
+    /// [`LineTransform::locate_squared`](crate::geometry::LineTransform::locate_squared)
+    /// gives it): exactly the same as `add_point` with the rounded square root, without
+    /// computing the root ([`DistanceBins::bin_of_squared`]).
+    #[inline]
+    pub fn add_point_squared<const W: usize, const L: usize>(
+        &mut self,
+        pyramid: &Pyramid<W, L>,
+        point: Point3,
+        horizontal_squared: u64,
+        ground_z: Meters,
+    ) {
+        // The previous point's bin first: neighbouring returns mostly share it.
+        let bin = pyramid
+            .distance_bins()
+            .bin_of_squared_near(horizontal_squared, usize::from(self.last_bin));
+        // bin < GATE_BINS = 512.
+        #[allow(clippy::cast_possible_truncation)]
+        {
+            self.last_bin = bin as u16;
+        }
+        self.add_point_in_bin(pyramid, point, bin, ground_z);
+    }
+
+    /// [`add_point`](Self::add_point) for a distance already binned.
+    #[inline]
+    fn add_point_in_bin<const W: usize, const L: usize>(
+        &mut self,
+        pyramid: &Pyramid<W, L>,
+        point: Point3,
+        bin: usize,
+        ground_z: Meters,
+    ) {
         self.stats.points = self.stats.points.saturating_add(1);
         if let Some(ceiling) = self.config.ceiling {
             if point.z > ground_z.saturating_add(ceiling) {
@@ -310,7 +372,7 @@ impl<const C: usize> Classifier<C> {
             self.stats.drop_points = self.stats.drop_points.saturating_add(1);
         }
         let z = mm_i16(point.z.to_bits().saturating_sub(self.reference_z));
-        if self.feed(pyramid, point, distance, z, hole) {
+        if self.feed(pyramid, point, bin, z, hole) {
             self.stats.points_used = self.stats.points_used.saturating_add(1);
         } else {
             self.stats.points_gated_out = self.stats.points_gated_out.saturating_add(1);
@@ -326,48 +388,162 @@ impl<const C: usize> Classifier<C> {
         distance: Meters,
     ) {
         let z = mm_i16(expected.z.to_bits().saturating_sub(self.reference_z));
-        self.feed(pyramid, expected, distance, z, true);
+        let bin = pyramid.distance_bins().bin(distance);
+        self.feed(pyramid, expected, bin, z, true);
     }
 
-    /// Adds a point to every layer cell whose gate passes it; `true` when at least one did.
+    /// Adds a point (its distance in gate bin `bin`) to every layer cell whose gate passes
+    /// it; `true` when at least one did.
+    #[inline]
     fn feed<const W: usize, const L: usize>(
         &mut self,
         pyramid: &Pyramid<W, L>,
         point: Point3,
-        distance: Meters,
+        bin: usize,
         z: i16,
         hole: bool,
     ) -> bool {
         self.bins = pyramid.distance_bins();
-        let bin = self.bins.bin(distance);
+        let bin_index = u16::try_from(bin).unwrap_or(u16::MAX);
+        let mut fed = false;
+        let layers = pyramid.active_layers();
+        let gates = pyramid.active_gates();
+        let min_weight = pyramid.min_feeding_weight();
+        // The first eight layers from the precomputed mask of the bin's group: only layers
+        // that may be fed are visited, and their weights checked.
+        let mut mask = pyramid.fed_layers(bin);
+        let mut k = 0_u8;
+        while mask != 0 {
+            if mask & 1 != 0 {
+                if let (Some(layer), Some(gate)) =
+                    (layers.get(usize::from(k)), gates.get(usize::from(k)))
+                {
+                    if gate.weight(bin) >= min_weight {
+                        let (cx, cy) = self.cell_of(usize::from(k), layer.resolution(), point);
+                        // Stored as k + 1 (0 marks an empty slot); k < 8.
+                        fed |= self.feed_cell(k + 1, cx, cy, bin_index, z, hole);
+                    }
+                }
+            }
+            mask >>= 1;
+            k += 1;
+        }
+        // Layers from the ninth on (pyramids of more than eight), by their weights.
+        if layers.len() > 8 {
+            fed |= self.feed_beyond_eight(pyramid, point, bin, z, hole);
+        }
+        fed
+    }
+
+    /// [`Classifier::feed`] for layers 8 and up, by their gate weights (out of line: the
+    /// default pyramid has eight layers).
+    #[inline(never)]
+    fn feed_beyond_eight<const W: usize, const L: usize>(
+        &mut self,
+        pyramid: &Pyramid<W, L>,
+        point: Point3,
+        bin: usize,
+        z: i16,
+        hole: bool,
+    ) -> bool {
         let bin_index = u16::try_from(bin).unwrap_or(u16::MAX);
         let min_weight = pyramid.min_feeding_weight();
         let mut fed = false;
-        for k in 0..pyramid.layer_count() {
+        for k in 8..pyramid.layer_count() {
             let (Some(layer), Some(gate)) = (pyramid.layer(k), pyramid.gate(k)) else {
                 break;
             };
             if gate.weight(bin) < min_weight {
                 continue;
             }
-            let r = layer.resolution();
-            // Stored as k + 1 (0 marks an empty slot); k < L ≤ 254.
+            // Stored as k + 1; k < L ≤ 254.
             let Ok(layer_index) = u8::try_from(k + 1) else {
                 break;
             };
-            let (cx, cy) = (r.cell_of(point.x), r.cell_of(point.y));
-            if self.accumulate(layer_index, cx, cy, bin_index, z, hole) {
-                fed = true;
-            } else {
-                self.stats.overflow_points = self.stats.overflow_points.saturating_add(1);
-            }
+            fed |= self.feed_layer(layer_index, layer.resolution(), point, bin_index, z, hole);
         }
         fed
+    }
+
+    /// The cell of `point` in layer `k` (< [`RECENT_LAYERS`]) of cell size `r`: a hardware
+    /// division where the target has one (ARMv7-M, told apart from ARMv6-M by its atomic
+    /// compare-and-swap: stable Rust has no `cfg` for the divide instruction), a
+    /// multiplication by the cached reciprocal elsewhere (Cortex-M0, the host). Both are
+    /// exactly `r.cell_of`.
+    #[inline]
+    fn cell_of(&mut self, k: usize, r: crate::grid::Resolution, point: Point3) -> (i32, i32) {
+        if cfg!(all(target_arch = "arm", target_has_atomic = "32")) {
+            return (r.cell_of(point.x), r.cell_of(point.y));
+        }
+        let bits = r.to_bits();
+        let Some(entry) = self.reciprocals.get_mut(k) else {
+            return (r.cell_of(point.x), r.cell_of(point.y));
+        };
+        if entry.0 != bits {
+            *entry = (bits, crate::grid::cell_reciprocal(bits));
+        }
+        let m = entry.1;
+        (
+            crate::grid::cell_of_reciprocal(point.x.to_bits(), bits, m),
+            crate::grid::cell_of_reciprocal(point.y.to_bits(), bits, m),
+        )
+    }
+
+    /// Adds a point to its cell of one layer (stored as `layer_index` = k + 1); `false` when
+    /// the table is full (counted).
+    #[inline]
+    fn feed_layer(
+        &mut self,
+        layer_index: u8,
+        r: crate::grid::Resolution,
+        point: Point3,
+        bin: u16,
+        z: i16,
+        hole: bool,
+    ) -> bool {
+        self.feed_cell(
+            layer_index,
+            r.cell_of(point.x),
+            r.cell_of(point.y),
+            bin,
+            z,
+            hole,
+        )
+    }
+
+    /// Adds a point to cell `(cx, cy)` of one layer (stored as `layer_index` = k + 1); `false`
+    /// when the table is full (counted).
+    #[inline]
+    fn feed_cell(
+        &mut self,
+        layer_index: u8,
+        cx: i32,
+        cy: i32,
+        bin: u16,
+        z: i16,
+        hole: bool,
+    ) -> bool {
+        if self.accumulate(layer_index, cx, cy, bin, z, hole) {
+            true
+        } else {
+            self.stats.overflow_points = self.stats.overflow_points.saturating_add(1);
+            false
+        }
     }
 
     /// Folds one point into the slot of `(layer, cx, cy)`; `false` when the table is full.
     #[inline]
     fn accumulate(&mut self, layer: u8, cx: i32, cy: i32, bin: u16, z: i16, hole: bool) -> bool {
+        // The layer's last slot first (layer ≥ 1: entry layer − 1).
+        let recent = usize::from(layer).wrapping_sub(1);
+        if let Some(&last) = self.recent.get(recent) {
+            if let Some(slot) = self.slots.get_mut(usize::from(last)) {
+                if slot.layer == layer && slot.cell_x == cx && slot.cell_y == cy {
+                    fold(slot, z, bin, hole, self.robot_height_mm);
+                    return true;
+                }
+            }
+        }
         let mut index = hash(layer, cx, cy) as usize & Self::MASK;
         for _ in 0..C {
             let Some(slot) = self.slots.get_mut(index) else {
@@ -387,15 +563,29 @@ impl<const C: usize> Classifier<C> {
                     layer,
                     hole,
                 };
+                self.remember(recent, index);
                 return true;
             }
             if slot.layer == layer && slot.cell_x == cx && slot.cell_y == cy {
                 fold(slot, z, bin, hole, self.robot_height_mm);
+                self.remember(recent, index);
                 return true;
             }
             index = (index + 1) & Self::MASK;
         }
         false
+    }
+
+    /// Remembers `index` (< C ≤ 65 536) as the slot of the last point of layer entry `recent`.
+    #[inline]
+    fn remember(&mut self, recent: usize, index: usize) {
+        if let Some(entry) = self.recent.get_mut(recent) {
+            // C ≤ 65 536: a slot index fits a u16.
+            #[allow(clippy::cast_possible_truncation)]
+            {
+                *entry = index as u16;
+            }
+        }
     }
 
     /// Ends the observation: classifies every touched cell, hands each record to `sink` in
@@ -536,6 +726,52 @@ mod tests {
             assert_eq!(r.len(), 1);
             assert_eq!(r[0].class, EvidenceClass::Navigable, "{order:?}");
         }
+    }
+
+    #[test]
+    fn mm_i16_is_the_64_bit_floor() {
+        let reference = |raw: i32| {
+            let mm = (i64::from(raw) * 1000) >> 16;
+            i16::try_from(mm).unwrap_or(if mm < 0 { i16::MIN } else { i16::MAX })
+        };
+        let mut state = 0x9E37_79B9_u32;
+        for raw in (-300_000..300_000)
+            .chain([i32::MIN, i32::MIN + 1, i32::MAX, i32::MAX - 1])
+            .chain((0..200_000).map(|_| {
+                state ^= state << 13;
+                state ^= state >> 17;
+                state ^= state << 5;
+                state as i32
+            }))
+        {
+            assert_eq!(mm_i16(raw), reference(raw), "{raw}");
+        }
+        // Around the saturation points ±32 768 mm.
+        for raw in 2_147_000_i32..2_148_000 {
+            assert_eq!(mm_i16(raw), reference(raw));
+            assert_eq!(mm_i16(-raw), reference(-raw));
+        }
+    }
+
+    #[test]
+    fn add_point_squared_is_add_point_with_the_rounded_root() {
+        use crate::geometry::transform::isqrt_round;
+        let p = pyramid(GateShape::default());
+        let mut a = Classifier::<256>::new();
+        let mut b = Classifier::<256>::new();
+        a.begin(Meters::ZERO);
+        b.begin(Meters::ZERO);
+        for i in 0..2000_u64 {
+            let sq = (i * 7_919_u64).pow(2) * 37 + i;
+            let d = Meters::from_bits(i32::try_from(isqrt_round(sq)).unwrap());
+            let q = pt(0.01 * i as f32 - 10.0, 0.3, 0.001 * (i % 97) as f32);
+            a.add_point(&p, q, d, Meters::ZERO);
+            b.add_point_squared(&p, q, sq, Meters::ZERO);
+        }
+        let (ra, rb) = (records(&mut a), records(&mut b));
+        assert!(!ra.is_empty());
+        assert_eq!(ra, rb);
+        assert_eq!(a.stats(), b.stats());
     }
 
     #[test]

@@ -63,6 +63,70 @@ impl DistanceBins {
         (bin as usize).min(GATE_BINS - 1)
     }
 
+    /// The bin of a distance given by its square: exactly
+    /// `self.bin(Meters::from_bits(round(√squared)))` (with `√` rounded as
+    /// [`crate::geometry::horizontal_distance`] does, halves up), for every `u64`, but without
+    /// the square root of the distance itself: `squared` is in raw Q16.16 units squared
+    /// (2⁻³² m²).
+    ///
+    /// How: `round(√S) ≥ T` exactly when `S > (T − 1)·T` (integers), so bin `k` (edge
+    /// `T = k·2ᵐ`, m = 16 − s) is reached exactly when `S > (T − 1)·T`. The square root of
+    /// `S >> 2m` (below 512², nine result bits) gives `f` with `f²·2²ᵐ ≤ S < (f + 1)²·2²ᵐ`,
+    /// so the bin is `f` or `f + 1`, decided by one compare.
+    #[must_use]
+    #[inline]
+    pub fn bin_of_squared(self, squared: u64) -> usize {
+        const LAST: u32 = GATE_BINS as u32 - 1;
+        // m = 16 − s, 6 ..= 16.
+        let m = 16 - self.shift.min(MAX_BIN_SHIFT);
+        let coarse = squared >> (2 * m);
+        if coarse >= u64::from((LAST + 1) * (LAST + 1)) {
+            return GATE_BINS - 1;
+        }
+        // coarse < 2¹⁸.
+        #[allow(clippy::cast_possible_truncation)]
+        let f = isqrt_floor_below_2_18(coarse as u32);
+        // The next edge T = (f + 1)·2ᵐ ≤ 2²⁵: (T − 1)·T < 2⁵⁰.
+        let edge = u64::from(f + 1) << m;
+        let bin = if squared > (edge - 1) * edge {
+            f + 1
+        } else {
+            f
+        };
+        bin.min(LAST) as usize
+    }
+
+    /// [`DistanceBins::bin_of_squared`] (the same result for every input), trying bin `hint`
+    /// and its two neighbours first: consecutive returns of a line mostly fall in the same
+    /// or the next bin, and checking a bin costs two products and compares where the search
+    /// costs a nine-bit square root.
+    #[must_use]
+    #[inline]
+    pub fn bin_of_squared_near(self, squared: u64, hint: usize) -> usize {
+        let m = 16 - self.shift.min(MAX_BIN_SHIFT);
+        // Whether the distance reaches bin k's lower edge T = k·2ᵐ: S > (T − 1)·T (k ≤ 512,
+        // T ≤ 2²⁵). Bin 0 is always reached.
+        let reaches = |k: usize| {
+            // k ≤ GATE_BINS + 1 < 2³².
+            #[allow(clippy::cast_possible_truncation)]
+            let edge = u64::from(k as u32) << m;
+            k == 0 || squared > (edge - 1) * edge
+        };
+        let h = hint.min(GATE_BINS - 1);
+        if reaches(h) {
+            if h == GATE_BINS - 1 || !reaches(h + 1) {
+                return h;
+            }
+            if h + 1 == GATE_BINS - 1 || !reaches(h + 2) {
+                return h + 1;
+            }
+        } else if reaches(h - 1) {
+            // h ≥ 1 here (bin 0 is always reached).
+            return h - 1;
+        }
+        self.bin_of_squared(squared)
+    }
+
     /// The lower edge of bin `i` as [`Meters`] (exact: a multiple of 2⁻¹⁰ m), saturating; a
     /// distance there falls in bin `i` again.
     #[must_use]
@@ -86,6 +150,29 @@ impl DistanceBins {
         let fi = i as f32;
         (fi + 0.5) * self.width_m()
     }
+}
+
+/// `⌊√x⌋` for `x < 2¹⁸` (nine result bits), by the restoring method in 32-bit words.
+#[inline]
+fn isqrt_floor_below_2_18(x: u32) -> u32 {
+    let mut rem = x;
+    let mut root = 0_u32;
+    // The highest power of four not above x (x < 2¹⁸: at most 2¹⁶).
+    let mut bit = if x == 0 {
+        0
+    } else {
+        1_u32 << ((31 - x.leading_zeros()) & !1)
+    };
+    while bit != 0 {
+        let trial = root + bit;
+        root >>= 1;
+        if rem >= trial {
+            rem -= trial;
+            root += bit;
+        }
+        bit >>= 2;
+    }
+    root
 }
 
 /// 2⁻ˢ as `f32`, s ≤ 10.
@@ -225,6 +312,58 @@ mod tests {
         assert_eq!(b.bin(Meters::from_num(1000)), GATE_BINS - 1);
         assert_eq!(DistanceBins::for_range(81.92).width_m(), 0.25);
         assert_eq!(DistanceBins::for_range(0.4).width_m(), 1.0 / 1024.0);
+    }
+
+    #[test]
+    fn bin_of_squared_is_the_bin_of_the_rounded_root() {
+        use crate::geometry::transform::isqrt_round;
+        let reference = |b: DistanceBins, sq: u64| {
+            let root = i32::try_from(isqrt_round(sq)).unwrap_or(i32::MAX);
+            b.bin(Meters::from_bits(root))
+        };
+        let mut state = 0x2545_F491_4F6C_DD1D_u64;
+        for shift in 0..=MAX_BIN_SHIFT {
+            let b = DistanceBins { shift };
+            let m = 16 - shift;
+            // Around every bin edge's threshold (T − 1)·T and the coarse square's steps.
+            for k in 0..=(GATE_BINS as u64 + 2) {
+                let t = k << m;
+                for base in [t.saturating_sub(1) * t, t * t, (t + 1) * (t + 1)] {
+                    for sq in base.saturating_sub(3)..=base + 3 {
+                        assert_eq!(b.bin_of_squared(sq), reference(b, sq), "s {shift} sq {sq}");
+                    }
+                }
+            }
+            // Every magnitude.
+            for _ in 0..20_000 {
+                state ^= state << 13;
+                state ^= state >> 7;
+                state ^= state << 17;
+                let sq = state >> (state % 64);
+                assert_eq!(b.bin_of_squared(sq), reference(b, sq), "s {shift} sq {sq}");
+            }
+        }
+        // With every hint: the same bins.
+        for shift in [0, 5, 10] {
+            let b = DistanceBins { shift };
+            for _ in 0..20_000 {
+                state ^= state << 13;
+                state ^= state >> 7;
+                state ^= state << 17;
+                let sq = (state >> 20) >> (state % 40);
+                let exact = b.bin_of_squared(sq);
+                for hint in [0, 1, 2, 510, 511, 600, exact.saturating_sub(3)] {
+                    assert_eq!(b.bin_of_squared_near(sq, hint), exact);
+                }
+                for hint in exact.saturating_sub(2)..=exact + 2 {
+                    assert_eq!(b.bin_of_squared_near(sq, hint), exact, "{sq} {hint}");
+                }
+            }
+        }
+        for x in 0..(1_u32 << 18) {
+            let r = isqrt_floor_below_2_18(x);
+            assert!(r * r <= x && (r + 1) * (r + 1) > x, "{x}");
+        }
     }
 
     #[test]

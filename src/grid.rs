@@ -72,6 +72,44 @@ pub fn cell_of(x_bits: i32, r_bits: i32) -> i32 {
     x_bits.checked_div_euclid(r_bits).unwrap_or(0)
 }
 
+/// `⌊2³² / r_bits⌋`, the reciprocal [`cell_of_reciprocal`] multiplies by (0 for a
+/// non-positive `r_bits`). One division: compute it once per cell size.
+#[must_use]
+pub fn cell_reciprocal(r_bits: i32) -> u32 {
+    if r_bits <= 0 {
+        return 0;
+    }
+    u32::try_from((1_u64 << 32) / u64::from(r_bits.unsigned_abs())).unwrap_or(u32::MAX)
+}
+
+/// [`cell_of`] by a multiplication instead of a division (a library call of about 100
+/// instructions on a Cortex-M0, and slow on x86), given `reciprocal = cell_reciprocal(r_bits)`:
+/// equal to `cell_of(x_bits, r_bits)` for every `x_bits` and every positive `r_bits` (cell
+/// sizes of 2¹⁴ m and more, and a reciprocal that does not match, fall back to the division
+/// only when `r_bits` is outside 655 ..< 2³⁰; a wrong reciprocal gives a wrong cell).
+///
+/// With m = ⌊2³²/r⌋ = 2³²/r − ε (0 ≤ ε < 1) and |x| ≤ 2³¹, q₀ = ⌊x·m / 2³²⌋ lies in
+/// (x/r − 3/2, x/r + 1/2], so ⌊x/r⌋ is q₀ − 1, q₀ or q₀ + 1, told apart by the remainder
+/// x − q₀·r ∈ (−r/2, 3r/2), which fits an `i32` for r < 2³⁰ (the wrapping arithmetic below
+/// gives it exactly).
+#[must_use]
+#[inline]
+pub fn cell_of_reciprocal(x_bits: i32, r_bits: i32, reciprocal: u32) -> i32 {
+    if !(655..1 << 30).contains(&r_bits) {
+        return cell_of(x_bits, r_bits);
+    }
+    #[allow(clippy::cast_possible_truncation)]
+    let q = ((i64::from(x_bits) * i64::from(reciprocal)) >> 32) as i32;
+    let rem = x_bits.wrapping_sub(q.wrapping_mul(r_bits));
+    if rem < 0 {
+        q.wrapping_sub(1)
+    } else if rem >= r_bits {
+        q.wrapping_add(1)
+    } else {
+        q
+    }
+}
+
 /// The offset of world index `index` inside a window that starts at `origin` and spans
 /// `width` cells, or `None` outside it.
 #[must_use]
@@ -514,6 +552,58 @@ mod tests {
         assert_eq!(cell_of(-11, 10), -2);
         assert_eq!(cell_of(i32::MIN, 655), i32::MIN / 655 - 1);
         assert_eq!(cell_of(5, 0), 0);
+    }
+
+    #[test]
+    fn cell_of_reciprocal_is_the_floor_division() {
+        let mut state = 0x1234_5678_9ABC_DEF1_u64;
+        let mut next = || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            state
+        };
+        let mut sizes = std::vec![655, 656, 1000, 6554, 13107, 26214, 52429, 65536, 104_858];
+        sizes.extend([(1 << 30) - 1, 1 << 30, 2_097_152_000, 0, -5]);
+        for _ in 0..200 {
+            #[allow(clippy::cast_possible_truncation)]
+            sizes.push(655 + (next() % 50_000_000) as i32);
+        }
+        for bits in sizes {
+            let m = cell_reciprocal(bits);
+            let check = |x: i32| {
+                assert_eq!(
+                    cell_of_reciprocal(x, bits, m),
+                    cell_of(x, bits),
+                    "{x} / {bits}"
+                );
+            };
+            for x in [i32::MIN, i32::MIN + 1, i32::MAX, i32::MAX - 1, -1, 0, 1] {
+                check(x);
+            }
+            // Around multiples of the cell size, all magnitudes.
+            for k in [0_i64, 1, 2, 3, 100, 1000, 65_535, 1 << 20] {
+                for sign in [-1_i64, 1] {
+                    let edge = sign * k * i64::from(bits);
+                    for d in -2..=2 {
+                        if let Ok(x) = i32::try_from(edge + d) {
+                            check(x);
+                        }
+                    }
+                }
+            }
+            for _ in 0..5_000 {
+                #[allow(clippy::cast_possible_truncation)]
+                let x = next() as i32 >> (next() % 31);
+                check(x);
+            }
+        }
+        // A sweep of the default design's finest cell size over ±100 m.
+        let bits = Resolution::from_m(0.1).unwrap().to_bits();
+        let m = cell_reciprocal(bits);
+        for x in (-6_553_600..6_553_600).step_by(7) {
+            assert_eq!(cell_of_reciprocal(x, bits, m), cell_of(x, bits));
+        }
     }
 
     #[test]

@@ -450,10 +450,15 @@ impl<const C: usize> Frontend<C> {
                 continue;
             };
             self.stats.returns = self.stats.returns.saturating_add(1);
-            match beam.and_then(|b| transform.locate(b, range_mm)) {
+            match beam.and_then(|b| transform.locate_squared(b, range_mm)) {
                 Some(located) => {
-                    self.classifier
-                        .add_point(pyramid, located.point, located.horizontal, ground_z);
+                    // The distance is needed only for its gate bin: no square root.
+                    self.classifier.add_point_squared(
+                        pyramid,
+                        located.point,
+                        located.horizontal_squared,
+                        ground_z,
+                    );
                 }
                 None => {
                     self.stats.returns_dropped = self.stats.returns_dropped.saturating_add(1);

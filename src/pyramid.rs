@@ -2,11 +2,11 @@
 //! the fused query, and per-layer counts. Rules in `docs/core.md`.
 //!
 //! A `Pyramid<W, L>` holds up to `L` layers of W × W cells and their gate tables, about
-//! `L · (2·W² + 1 KiB)` bytes, all inline: put it in a `static` (its constructor is `const`)
+//! `L · (2·W² + 1 KiB)` bytes (plus a few words per layer), all inline: put it in a `static` (its constructor is `const`)
 //! and [`Pyramid::configure`] it in place, so that it never sits on the stack.
 
 use crate::design::{Design, DesignError, Param};
-use crate::gate::{DistanceBins, GateTable};
+use crate::gate::{DistanceBins, GateTable, GATE_BINS};
 use crate::grid::{Layer, LayerCounts, Resolution};
 use crate::logodds::{gated, Clamp, Increments, InverseSensorModel};
 use crate::units::{LogOddsFixed, Meters};
@@ -169,6 +169,10 @@ struct State {
     /// The smallest gate weight (raw Q1.15) at which either increment survives rounding:
     /// a point feeds a layer exactly when its weight reaches it.
     min_feeding_weight: u16,
+    /// Per group of [`FED_GROUP_BINS`] gate bins, bit k set when layer k < 8 is fed at some
+    /// bin of the group (its weight reaches `min_feeding_weight` there): the classifier
+    /// visits only those layers (and checks the weight).
+    fed: [u8; FED_GROUPS],
     stats: PyramidStats,
 }
 
@@ -199,6 +203,13 @@ impl<const W: usize> DirtyTiles<'_, W> {
     }
 }
 
+/// Gate bins per byte of the fed-layer mask ([`Pyramid::fed_layers`]): 8 bins of 1/32 m
+/// (25 cm) with the default range, so 64 bytes for the whole table.
+pub const FED_GROUP_BINS: usize = 8;
+
+/// Bytes of the fed-layer mask.
+const FED_GROUPS: usize = GATE_BINS / FED_GROUP_BINS;
+
 /// The smallest raw Q1.15 weight `w` with `gated(l_obs, w) ≠ 0` or `gated(l_free, w) ≠ 0`.
 ///
 /// `gated` rounds half up: `g = ⌊(l·w + 2¹⁴) / 2¹⁵⌋` is non-zero exactly when `l·w ≥ 2¹⁴` or
@@ -228,7 +239,7 @@ pub const fn static_ram_bytes<const W: usize, const L: usize>() -> usize {
 }
 
 /// The static RAM of a pyramid of `layers` layers of `cells_per_side` (even) cells per side,
-/// bytes: `layers · (2·W² + 24 + 1024) + 44`, rounded up to a multiple of 8. Equal to [`static_ram_bytes`] for the same
+/// bytes: `layers · (2·W² + 24 + 1024) + 108`, rounded up to a multiple of 8. Equal to [`static_ram_bytes`] for the same
 /// shape (a unit test holds them together), for designs chosen at run time.
 #[must_use]
 pub const fn ram_bytes(cells_per_side: usize, layers: usize) -> usize {
@@ -263,6 +274,7 @@ impl<const W: usize, const L: usize> Pyramid<W, L> {
                 clamp: Clamp::Off,
                 margin: 0,
                 min_feeding_weight: 0,
+                fed: [0; FED_GROUPS],
                 stats: PyramidStats {
                     applied: 0,
                     gated_out: 0,
@@ -337,13 +349,25 @@ impl<const W: usize, const L: usize> Pyramid<W, L> {
                 }
             }
         }
+        let min_weight = min_feeding_weight(increments);
+        let mut fed = [0_u8; FED_GROUPS];
+        for bin in 0..GATE_BINS {
+            for (k, gate) in self.gates.iter().take(active.min(8)).enumerate() {
+                if gate.weight(bin) >= crate::units::Weight::from_bits(min_weight) {
+                    if let Some(mask) = fed.get_mut(bin / FED_GROUP_BINS) {
+                        *mask |= 1 << k;
+                    }
+                }
+            }
+        }
         self.state = State {
             active: u8::try_from(active).unwrap_or(u8::MAX),
             bins,
             increments,
             clamp: config.clamp,
             margin,
-            min_feeding_weight: min_feeding_weight(increments),
+            min_feeding_weight: min_weight,
+            fed,
             stats: PyramidStats::default(),
         };
         debug!("pyramid configured: {} layers", active);
@@ -378,6 +402,34 @@ impl<const W: usize, const L: usize> Pyramid<W, L> {
     pub fn layer_dirty_mut(&mut self, k: usize) -> Option<DirtyTiles<'_, W>> {
         let active = self.layer_count();
         self.layers.get_mut(..active)?.get_mut(k).map(DirtyTiles)
+    }
+
+    /// The layers among the first eight that a distance in gate bin `bin` may feed, bit k
+    /// for layer k: bit k is set when `gate(k).weight(b) ≥ min_feeding_weight()` for some
+    /// bin `b` of `bin`'s group of [`FED_GROUP_BINS`] (precomputed by
+    /// [`configure`](Self::configure); 0 for bins past the table). A clear bit means the
+    /// layer is not fed; a set bit still needs the weight check. Layers from the ninth on
+    /// are not in the mask: check their weights.
+    #[must_use]
+    #[inline]
+    pub fn fed_layers(&self, bin: usize) -> u8 {
+        self.state
+            .fed
+            .get(bin / FED_GROUP_BINS)
+            .copied()
+            .unwrap_or(0)
+    }
+
+    /// The layers in force, finest first, as a slice (the classifier's per-point loop).
+    #[inline]
+    pub(crate) fn active_layers(&self) -> &[Layer<W>] {
+        self.layers.get(..self.layer_count()).unwrap_or(&[])
+    }
+
+    /// The gate tables of the layers in force, finest first.
+    #[inline]
+    pub(crate) fn active_gates(&self) -> &[GateTable] {
+        self.gates.get(..self.layer_count()).unwrap_or(&[])
     }
 
     /// Layer `k`'s gate table, or `None` beyond the layers in force.
@@ -751,6 +803,28 @@ mod tests {
     }
 
     #[test]
+    fn the_fed_mask_is_exactly_where_the_weight_feeds() {
+        for shape in [GateShape::Hard, GateShape::default()] {
+            let p = pyramid(shape, Clamp::Off);
+            let min = p.min_feeding_weight();
+            let mut fed = 0;
+            for k in 0..8 {
+                let gate = p.gate(k).unwrap();
+                for bin in 0..GATE_BINS + 3 {
+                    let feeds = gate.weight(bin) >= min;
+                    let group = bin / FED_GROUP_BINS * FED_GROUP_BINS;
+                    let any = (group..group + FED_GROUP_BINS).any(|b| gate.weight(b) >= min);
+                    let bit = p.fed_layers(bin) >> k & 1 == 1;
+                    assert_eq!(bit, any, "{shape:?} layer {k} bin {bin}");
+                    assert!(bit || !feeds);
+                    fed += usize::from(feeds);
+                }
+            }
+            assert!(fed > GATE_BINS / 2);
+        }
+    }
+
+    #[test]
     fn ram_bytes_matches_the_layout() {
         assert_eq!(ram_bytes(64, 8), static_ram_bytes::<64, 8>());
         assert_eq!(ram_bytes(8, 2), static_ram_bytes::<8, 2>());
@@ -761,9 +835,12 @@ mod tests {
 
     #[test]
     fn the_default_pyramid_fits_its_budget() {
-        // 8 layers × (2 · 64² cells + 1 KiB gate) plus a few words.
+        // 8 layers × (2 · 64² cells + 1 KiB gate), the fed-layer mask plus a few words.
         let bytes = static_ram_bytes::<64, 8>();
-        assert!(bytes >= 8 * (2 * 64 * 64 + 1024));
-        assert!(bytes < 8 * (2 * 64 * 64 + 1024) + 8 * 64 + 256, "{bytes}");
+        assert!(bytes >= 8 * (2 * 64 * 64 + 1024) + FED_GROUPS);
+        assert!(
+            bytes < 8 * (2 * 64 * 64 + 1024) + FED_GROUPS + 8 * 64 + 256,
+            "{bytes}"
+        );
     }
 }

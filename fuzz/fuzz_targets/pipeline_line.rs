@@ -72,6 +72,8 @@ fuzz_target!(|data: &[u8]| {
         measuring_mode,
         lines_per_observation: u32::from(header[3] % 5),
         classifier,
+        // The header has no room left: the drop threshold's bytes double as the distance.
+        missing_ground_within: (header[0] & 8 != 0).then(|| cm(i16_at(&header, 8))),
     };
     // A pose from the header when valid (x, y, yaw as f32; z from cm), else the origin.
     let pose = Pose::from_f32(

@@ -212,7 +212,11 @@ fn check<const W: usize>(
     // The increments themselves are tested in tests/logodds.rs; a model whose logits sit on a
     // rounding tie is not this test's business.
     let (q_obs, q_free, q_l0) = inverse.quantised();
-    let inc = config.model.increments().expect("a valid model");
+    // A model whose increment rounds to zero (p_obstacle a hair above the prior) is refused by
+    // the library, by design (tests/logodds.rs): not this test's business either.
+    let inc = config.model.increments();
+    prop_assume!(inc.is_ok());
+    let inc = inc.expect("checked above");
     prop_assume!(
         (
             i32::from(inc.obstacle.to_bits()),

@@ -57,8 +57,8 @@ fn hello() -> impl Strategy<Value = Owned> {
         any::<[u8; 4]>(),
         0_u8..4,
         any::<u16>(),
-        any::<u16>(),
-        prop::collection::vec(layer, 0..=16),
+        any::<u32>(),
+        prop::collection::vec(layer, 0..=32),
     )
         .prop_map(|(v, reason, cells_per_side, resend, layers)| {
             let reason = [
@@ -113,15 +113,20 @@ fn patch() -> impl Strategy<Value = Owned> {
 }
 
 fn moved() -> impl Strategy<Value = Owned> {
-    (1_u16..=u16::MAX, any::<[(i32, i32); 16]>()).prop_map(|(mask, origins)| {
-        let mut m = WindowMoved::new();
-        for (k, o) in origins.iter().enumerate() {
-            if mask & (1 << k) != 0 {
-                m.set(k, *o);
+    (
+        1_u32..=u32::MAX,
+        any::<[(i32, i32); 16]>(),
+        any::<[(i32, i32); 16]>(),
+    )
+        .prop_map(|(mask, low, high)| {
+            let mut m = WindowMoved::new();
+            for (k, o) in low.iter().chain(&high).enumerate() {
+                if mask & (1 << k) != 0 {
+                    m.set(k, *o);
+                }
             }
-        }
-        Owned::Msg(Message::WindowMoved(m))
-    })
+            Owned::Msg(Message::WindowMoved(m))
+        })
 }
 
 fn stats() -> impl Strategy<Value = Owned> {

@@ -33,7 +33,7 @@
 //! | configuration (or compile time) | [`BeamTable::new`]: (cos θ, sin θ) per beam, Q1.15 | integer trig |
 //! | pose change | [`Pose::frame`]: the rotation matrix, Q2.30 | 3 × integer sin/cos |
 //! | scan line | [`LineTransform::new`]: pose × actuator × plane, one 3 × 2 matrix | 1 × integer sin/cos |
-//! | point | [`LineTransform::point`] / [`LineTransform::locate`] | 9 multiplies (+ √ for d) |
+//! | point | [`LineTransform::point`] / [`LineTransform::locate`] / [`LineTransform::locate_squared`] | 9 multiplies (+ √ for d with `locate`; the pipeline bins d² instead) |
 //!
 //! No float runs per point or per line: the trigonometry is a quarter-wave table with a
 //! short Taylor correction in integers ([`trig`]), so the host and every Cortex-M produce the
@@ -62,5 +62,7 @@ pub mod trig;
 pub use beams::{BeamDir, BeamTable, Variant, MAX_BEAMS};
 pub use mount::{Mount, ScanPlane};
 pub use pose::{Pose, PoseError, PoseField, PoseFrame, Rotation};
-pub use transform::{horizontal_distance, LinePoint, LineTransform, MAX_RANGE_MM};
+pub use transform::{
+    horizontal_distance, LinePoint, LinePointSquared, LineTransform, MAX_RANGE_MM,
+};
 pub use trig::{FineAngle, SinCos};

@@ -211,6 +211,20 @@ impl defmt::Format for LinePoint {
     }
 }
 
+/// A world point and the square of its horizontal distance from the scanner: what
+/// [`LineTransform::locate_squared`] gives for the per-point path, which needs the distance
+/// only to find its gate bin ([`crate::gate::DistanceBins::bin_of_squared`]), not the
+/// distance itself.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct LinePointSquared {
+    /// The point in the world frame, metres (saturated at ±32 768 m).
+    pub point: Point3,
+    /// `Δx² + Δy²` with Δx, Δy the point's offsets from the scanner's centre rounded to
+    /// Q16.16 metres: raw units squared (2⁻³² m²), below 2⁵⁰ (the range is at most
+    /// 131.071 m). [`LinePoint::horizontal`] is its rounded square root.
+    pub horizontal_squared: u64,
+}
+
 /// The geometry of one scan line: built once per line from the beam table, the mount, the
 /// actuator angle and the robot's pose; then [`LineTransform::point`] places each return.
 ///
@@ -353,6 +367,20 @@ impl<'a> LineTransform<'a> {
         })
     }
 
+    /// [`LineTransform::locate`] without the square root: the world point of beam
+    /// `beam_index` at `range_mm` and the square of its horizontal distance; `None` as for
+    /// [`LineTransform::point`].
+    #[must_use]
+    #[inline]
+    pub fn locate_squared(&self, beam_index: usize, range_mm: u32) -> Option<LinePointSquared> {
+        let offsets = self.offsets(self.beams.get(beam_index)?, range_mm)?;
+        let [dx, dy, _] = offsets;
+        Some(LinePointSquared {
+            point: self.world(offsets),
+            horizontal_squared: horizontal_squared(dx, dy),
+        })
+    }
+
     /// The offsets from the scanner's centre, metres Q40 (each below 2⁴⁸ in magnitude).
     #[inline]
     fn offsets(&self, dir: BeamDir, range_mm: u32) -> Option<[i64; 3]> {
@@ -395,13 +423,19 @@ pub fn horizontal_distance(from: Point3, to: Point3) -> Meters {
     Meters::from_bits(sat_i32(i64::try_from(isqrt_round(sum)).unwrap_or(i64::MAX)))
 }
 
-/// `√(Δx² + Δy²)` of two Q40 offsets (each below 2⁴⁸), as Q16.16 metres.
+/// `Δx² + Δy²` of two Q40 offsets (each below 2⁴⁸) rounded to Q16: raw Q16.16 units squared.
 #[inline]
-fn horizontal(dx: i64, dy: i64) -> Meters {
+fn horizontal_squared(dx: i64, dy: i64) -> u64 {
     // Q40 → Q16, rounded: |Δ| < 2²⁴, so each square is < 2⁴⁸ and their sum < 2⁴⁹.
     let dx = (dx + (1 << 23)) >> 24;
     let dy = (dy + (1 << 23)) >> 24;
-    let sum = dx.unsigned_abs().pow(2) + dy.unsigned_abs().pow(2);
+    dx.unsigned_abs().pow(2) + dy.unsigned_abs().pow(2)
+}
+
+/// `√(Δx² + Δy²)` of two Q40 offsets (each below 2⁴⁸), as Q16.16 metres.
+#[inline]
+fn horizontal(dx: i64, dy: i64) -> Meters {
+    let sum = horizontal_squared(dx, dy);
     // The root of a sum below 2⁴⁹ is below 2²⁵: it fits an i32.
     Meters::from_bits(sat_i32(i64::try_from(isqrt_round(sum)).unwrap_or(i64::MAX)))
 }

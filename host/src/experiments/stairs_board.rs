@@ -274,7 +274,7 @@ impl BoardRun<'_> {
         } = self;
         eprintln!("stairs through the firmware: {name} ...");
         let started = Instant::now();
-        let mut emu = Emulator::start(&elf, &out.join(format!("stairs-board-{name}.defmt")))?;
+        let mut emu = Emulator::start(elf, &out.join(format!("stairs-board-{name}.defmt")))?;
         emu.wait_for("Hello", |link, _| link.mirror().firmware().is_some())?;
         emu.command(
             "Configure",
@@ -434,7 +434,7 @@ impl Play<'_> {
                 ));
             }
         }
-        if self.lines % self.per == 0 && self.detect.is_none() {
+        if self.lines.is_multiple_of(self.per) && self.detect.is_none() {
             self.emu.sync()?;
             let first = mirror_shares(self.emu.link(), self.margin, self.first);
             if first.obstacle >= FIRST_STEP_SHARE {
