@@ -244,12 +244,15 @@ enum Incoming {
     Bad(DecodeError, Option<Header>),
 }
 
-/// The device's end of the host link, with an outgoing queue of `Q` bytes.
+/// The device's end of the host link, with an outgoing queue of `Q` bytes, for pyramids of at
+/// most `N` layers (≤ [`MAX_LAYERS`]; default [`crate::DEFAULT_LAYERS`]: its per-layer state,
+/// about 100 bytes a layer, is sized by `N`).
 ///
-/// `Q` must be at least [`min_queue_bytes`]`(W, L)` (checked at compile time by [`Link::poll`]):
-/// 504 bytes for W = 64. The default 4 096 bytes hold 26 default patches.
+/// `Q` must be at least [`min_queue_bytes`]`(W, L)` and `L` at most `N` (both checked at
+/// compile time by [`Link::poll`]): 504 bytes for W = 64, 8 layers. The default 4 096 bytes
+/// hold 26 default patches.
 #[derive(Debug, Clone)]
-pub struct Link<const Q: usize = DEFAULT_QUEUE_BYTES> {
+pub struct Link<const Q: usize = DEFAULT_QUEUE_BYTES, const N: usize = { crate::DEFAULT_LAYERS }> {
     config: LinkConfig,
     queue: FrameQueue<Q>,
     scratch: [u8; MAX_ENCODED_FRAME],
@@ -261,23 +264,23 @@ pub struct Link<const Q: usize = DEFAULT_QUEUE_BYTES> {
     hello: Option<(HelloReason, u32)>,
     /// What the host was last told: layers, resolutions, origins.
     sent_layers: usize,
-    sent_resolution: [i32; MAX_LAYERS],
-    sent_origin: [(i32, i32); MAX_LAYERS],
+    sent_resolution: [i32; N],
+    sent_origin: [(i32, i32); N],
     /// The pyramid's `cells_reset` counter when the host's origins were last brought up to date.
     reset_baseline: u32,
     /// Band edges of the design in force, metres (zeros until the link is told).
-    bands: [(f32, f32); MAX_LAYERS],
+    bands: [(f32, f32); N],
     /// Where the round-robin over `layer · 64 + tile` resumes.
     cursor: usize,
     /// Polls each dirty tile has waited (0 = not waiting), for oldest-first sending.
-    ages: [[u8; TILES]; MAX_LAYERS],
+    ages: [[u8; TILES]; N],
     last_stats_ms: Option<u32>,
     /// A Stats frame was requested: it goes out at the next poll whatever the interval.
     stats_requested: bool,
     counters: LinkCounters,
 }
 
-impl<const Q: usize> Link<Q> {
+impl<const Q: usize, const N: usize> Link<Q, N> {
     /// A link that will announce itself with Hello (reason boot) at its first poll. `const`,
     /// for a `static`.
     #[must_use]
@@ -292,12 +295,12 @@ impl<const Q: usize> Link<Q> {
             tx_seq: 0,
             hello: Some((HelloReason::Boot, 0)),
             sent_layers: 0,
-            sent_resolution: [0; MAX_LAYERS],
-            sent_origin: [(0, 0); MAX_LAYERS],
+            sent_resolution: [0; N],
+            sent_origin: [(0, 0); N],
             reset_baseline: 0,
-            bands: [(0.0, 0.0); MAX_LAYERS],
+            bands: [(0.0, 0.0); N],
             cursor: 0,
-            ages: [[0; TILES]; MAX_LAYERS],
+            ages: [[0; TILES]; N],
             last_stats_ms: None,
             stats_requested: false,
             counters: LinkCounters {
@@ -369,7 +372,7 @@ impl<const Q: usize> Link<Q> {
     /// Tells the link that the pyramid now runs `design` (configured outside the link, e.g.
     /// at boot): records its bands and announces it with Hello (maps cleared).
     pub fn adopt<const L: usize>(&mut self, design: &Design<L>) {
-        self.bands = [(0.0, 0.0); MAX_LAYERS];
+        self.bands = [(0.0, 0.0); N];
         for (band, layer) in self.bands.iter_mut().zip(design.layers()) {
             *band = (layer.band_inner_m, layer.band_outer_m);
         }
@@ -404,7 +407,7 @@ impl<const Q: usize> Link<Q> {
         pyramid: &mut Pyramid<W, L>,
         scope: SnapshotScope,
     ) -> bool {
-        let count = layers_of(pyramid);
+        let count = layers_of(pyramid).min(N);
         let layers = match scope {
             SnapshotScope::All => 0..count,
             SnapshotScope::Layer(k) if usize::from(k) < count => usize::from(k)..usize::from(k) + 1,
@@ -491,7 +494,7 @@ impl<const Q: usize> Link<Q> {
             laser_bytes: sensor.laser_bytes,
             observations: sensor.observations,
             tiles_dirty: count(
-                (0..layers_of(pyramid))
+                (0..layers_of(pyramid).min(N))
                     .filter_map(|k| pyramid.layer(k))
                     .map(|layer| layer.dirty().count_ones() as usize)
                     .sum(),
@@ -553,7 +556,7 @@ impl<const Q: usize> Link<Q> {
         let Some((reason, resend)) = self.hello else {
             return true;
         };
-        let count = layers_of(pyramid);
+        let count = layers_of(pyramid).min(N);
         let mut layers = heapless::Vec::new();
         for k in 0..count {
             let (Some(layer), Some(&(inner, outer))) = (pyramid.layer(k), self.bands.get(k)) else {
@@ -589,8 +592,8 @@ impl<const Q: usize> Link<Q> {
 
     /// Records what the host now knows: layers, resolutions, origins, the reset counter.
     fn remember_geometry<const W: usize, const L: usize>(&mut self, pyramid: &Pyramid<W, L>) {
-        self.sent_layers = layers_of(pyramid);
-        for k in 0..MAX_LAYERS {
+        self.sent_layers = layers_of(pyramid).min(N);
+        for k in 0..N {
             let (res, origin) = pyramid
                 .layer(k)
                 .map_or((0, (0, 0)), |l| (l.resolution().to_bits(), l.origin()));
@@ -607,7 +610,7 @@ impl<const Q: usize> Link<Q> {
     /// Whether the pyramid's layers differ from what the host was told, or its counters went
     /// back: it was configured without the link's knowledge.
     fn reconfigured<const W: usize, const L: usize>(&self, pyramid: &Pyramid<W, L>) -> bool {
-        let count = layers_of(pyramid);
+        let count = layers_of(pyramid).min(N);
         if count != self.sent_layers || pyramid.stats().cells_reset < self.reset_baseline {
             return true;
         }
@@ -624,7 +627,7 @@ impl<const Q: usize> Link<Q> {
         pyramid: &mut Pyramid<W, L>,
         report: &mut PollReport,
     ) -> bool {
-        let count = layers_of(pyramid);
+        let count = layers_of(pyramid).min(N);
         let mut moved = WindowMoved::new();
         let mut expected: u64 = 0;
         for k in 0..count {
@@ -668,7 +671,7 @@ impl<const Q: usize> Link<Q> {
     /// The waiting tiles as `(layer, tile, age)`.
     fn waiting<'a>(
         &'a self,
-        dirty: &'a [u64; MAX_LAYERS],
+        dirty: &'a [u64; N],
         count: usize,
     ) -> impl Iterator<Item = (usize, usize, u8)> + 'a {
         dirty
@@ -691,12 +694,12 @@ impl<const Q: usize> Link<Q> {
         pyramid: &mut Pyramid<W, L>,
         report: &mut PollReport,
     ) {
-        let count = layers_of(pyramid);
+        let count = layers_of(pyramid).min(N);
         let total = count * TILES;
         if total == 0 {
             return;
         }
-        let mut dirty = [0_u64; MAX_LAYERS];
+        let mut dirty = [0_u64; N];
         for (k, bits) in dirty.iter_mut().enumerate().take(count) {
             if let Some(mut tiles) = pyramid.layer_dirty_mut(k) {
                 *bits = tiles.take();
@@ -865,7 +868,8 @@ impl<const Q: usize> Link<Q> {
         sensor: &SensorCounters,
     ) -> PollReport {
         const {
-            assert!(L <= MAX_LAYERS, "the host link describes at most 32 layers");
+            assert!(N <= MAX_LAYERS, "the host link describes at most 32 layers");
+            assert!(L <= N, "the link holds state for at most N layers");
             assert!(
                 Q >= min_queue_bytes(W, L),
                 "the link's queue must hold min_queue_bytes(W, L) bytes"
@@ -1005,7 +1009,7 @@ impl<const Q: usize> Link<Q> {
                     let mut reply = Reply::code(header, ReplyCode::BadLayer);
                     reply.param = 40;
                     reply.value = asked;
-                    reply.a = f32::from(u8::try_from(layers_of(pyramid)).unwrap_or(u8::MAX));
+                    reply.a = f32::from(u8::try_from(layers_of(pyramid).min(N)).unwrap_or(u8::MAX));
                     self.refuse(reply, on_event);
                 }
             }
@@ -1030,7 +1034,7 @@ impl<const Q: usize> Link<Q> {
     }
 }
 
-impl<const Q: usize> Default for Link<Q> {
+impl<const Q: usize, const N: usize> Default for Link<Q, N> {
     fn default() -> Self {
         Self::new(LinkConfig::DEFAULT)
     }

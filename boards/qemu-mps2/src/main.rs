@@ -117,8 +117,8 @@ static PYRAMID: ConstStaticCell<BoardPyramid> = ConstStaticCell::new(BoardPyrami
 /// The host link (queue, bucket, tile ages: about 4 KiB), `const`-built like the pyramid.
 static LINK: ConstStaticCell<BoardLink> = ConstStaticCell::new(Link::new(sizes::LINK));
 
-/// The link and its frame queue ([`sizes::QUEUE`]).
-type BoardLink = Link<{ sizes::QUEUE }>;
+/// The link, its frame queue ([`sizes::QUEUE`]) and its per-layer state for [`LAYERS`] layers.
+type BoardLink = Link<{ sizes::QUEUE }, LAYERS>;
 
 /// The per-line pipeline (about 24 KiB: the classifier's 1 024 slots and the beam table),
 /// `const`-built unconfigured (all zero bits: `.bss`) and configured in place at boot, so it
