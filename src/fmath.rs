@@ -41,7 +41,7 @@ pub fn sqrt(x: f32) -> f32 {
 /// arctan(x), radians, for any finite x (NaN gives NaN).
 ///
 /// No recursion: the two reductions (`atan(−x) = −atan(x)`, `atan(x) = π/2 − atan(1/x)` for
-/// x > 1) are applied in a straight line around [`atan_unit`].
+/// x > 1) are applied in a straight line around `atan_unit`.
 #[must_use]
 pub fn atan(x: f32) -> f32 {
     use core::f32::consts::FRAC_PI_2;
