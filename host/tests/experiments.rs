@@ -14,14 +14,16 @@ use serde_json::Value;
 use std::path::PathBuf;
 use std::process::Command;
 
-fn out_dir() -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("pyramid-experiments-{}", std::process::id()));
+/// A fresh output directory of this test process, one per test (they run in parallel).
+fn out_dir(test: &str) -> PathBuf {
+    let dir =
+        std::env::temp_dir().join(format!("pyramid-experiments-{}-{test}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     dir
 }
 
 fn run_quick() -> (Value, PathBuf) {
-    let dir = out_dir();
+    let dir = out_dir("quick");
     let output = Command::new(env!("CARGO_BIN_EXE_pyramid"))
         .args(["experiments", "--quick", "--json", "--out"])
         .arg(&dir)
@@ -128,7 +130,7 @@ fn the_firmware_reaches_the_same_stairs_outcome_as_the_host() {
     if !qemu_ready() {
         return;
     }
-    let dir = out_dir().with_extension("board");
+    let dir = out_dir("board");
     let output = Command::new(env!("CARGO_BIN_EXE_pyramid"))
         .args(["experiments", "--stairs-only", "--board", "qemu", "--json"])
         .args(["--stand-s", "2", "--speed", "2", "--out"])
