@@ -124,7 +124,7 @@ fn qemu_ready() -> bool {
 /// The stairs recording through the firmware on the emulated board (`--board qemu`): each of
 /// the four maps on the device, asked at the same moments as the host's, must give the same
 /// figures, and its maps must equal the host's cell for cell. A short approach (2 s of
-/// standing, 2 m/s) keeps it to a few minutes; the README's figures are from `--quick`.
+/// standing, 2 m/s) keeps it to a few minutes; the README's figures are from a 10 s stand.
 #[test]
 fn the_firmware_reaches_the_same_stairs_outcome_as_the_host() {
     if !qemu_ready() {

@@ -348,7 +348,7 @@ proptest! {
         messages in prop::collection::vec(any_message(), 2..10),
         flips in prop::collection::vec((any::<prop::sample::Index>(), 1_u8..=255), 0..4),
         cut in prop::option::of((any::<prop::sample::Index>(), 1_usize..40)),
-        garbage in prop::option::of((any::<prop::sample::Index>(), 600_usize..900)),
+        garbage in prop::option::of((any::<prop::sample::Index>(), (MAX_FRAME + 40)..(MAX_FRAME + 340))),
     ) {
         let frames: Vec<Vec<u8>> = messages.iter().enumerate()
             .map(|(i, m)| encoded(i as u16, m)).collect();
@@ -380,7 +380,7 @@ proptest! {
         }
         let mut garbage_ends = false;
         if let Some((index, len)) = garbage {
-            // Oversized: a run of non-zero bytes inside some frame.
+            // Oversized: a run of non-zero bytes inside some frame, longer than any frame.
             let at = index.index(stream.len());
             let owner = stream[at].1;
             if let Some(i) = owner {
