@@ -204,11 +204,12 @@ pub struct Report {
 }
 
 /// Stats counters that are levels or the clock, not counters.
-const NOT_COUNTERS: [&str; 4] = [
+const NOT_COUNTERS: [&str; 5] = [
     "uptime_ms",
     "queue_used",
     "queue_high_water",
     "queue_capacity",
+    "tiles_dirty",
 ];
 
 /// Lines per sample of the host soak: one simulated minute at 75 lines/s.
