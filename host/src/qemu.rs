@@ -378,6 +378,28 @@ impl Emulator {
         stats.ok_or_else(|| "no Stats".to_string())
     }
 
+    /// RequestStats until the device has counted `target` telegrams (decoded or refused for
+    /// their checksum or framing: a telegram is counted in the main-loop step that decodes
+    /// it); returns its count.
+    ///
+    /// # Errors
+    /// No Stats in time, or the count never reaching `target`.
+    pub fn wait_for_telegrams(&mut self, target: u64) -> Result<u64, String> {
+        let mut counted = 0;
+        for _ in 0..100_000 {
+            let s = self.stats()?;
+            counted = u64::from(s.telegrams_ok)
+                + u64::from(s.telegrams_bad_checksum)
+                + u64::from(s.telegrams_bad_framing);
+            if counted >= target {
+                return Ok(counted);
+            }
+        }
+        Err(format!(
+            "telegram {target}: the firmware counts only {counted} telegrams"
+        ))
+    }
+
     /// RequestStats until the device has no changed tile left to queue: every change it
     /// made before that Stats was then on the wire ahead of it, so the mirror holds the
     /// device's maps cell for cell (`tiles_dirty`, `docs/protocol.md`).
@@ -560,23 +582,7 @@ fn play_qemu(
                     };
                     send_line(emu, &mut pending, &telegram)?;
                     counts.telegrams_sent += 1;
-                    let target = counts.telegrams_sent;
-                    let mut tries = 0_u32;
-                    loop {
-                        let s = emu.stats()?;
-                        counted = u64::from(s.telegrams_ok)
-                            + u64::from(s.telegrams_bad_checksum)
-                            + u64::from(s.telegrams_bad_framing);
-                        if counted >= target {
-                            break;
-                        }
-                        tries += 1;
-                        if tries > 100_000 {
-                            return Err(format!(
-                                "telegram {target}: the firmware counts only {counted} telegrams"
-                            ));
-                        }
-                    }
+                    counted = emu.wait_for_telegrams(counts.telegrams_sent)?;
                 }
             }
             Payload::Marker(_) | Payload::Unknown { .. } => {}

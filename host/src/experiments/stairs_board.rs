@@ -417,23 +417,7 @@ impl Play<'_> {
         }
         qemu::send_line(self.emu, &mut self.pending, telegram)?;
         self.lines += 1;
-        let target = self.lines;
-        let mut tries = 0_u32;
-        loop {
-            let s = self.emu.stats()?;
-            let counted = u64::from(s.telegrams_ok)
-                + u64::from(s.telegrams_bad_checksum)
-                + u64::from(s.telegrams_bad_framing);
-            if counted >= target {
-                break;
-            }
-            tries += 1;
-            if tries > 100_000 {
-                return Err(format!(
-                    "telegram {target}: the firmware counts only {counted}"
-                ));
-            }
-        }
+        self.emu.wait_for_telegrams(self.lines)?;
         if self.lines.is_multiple_of(self.per) && self.detect.is_none() {
             self.emu.sync()?;
             let first = mirror_shares(self.emu.link(), self.margin, self.first);
