@@ -13,6 +13,8 @@
 //! ```
 //!
 //! The core rooms, each with one job:
+//! - [`angle`]: angles as fractions of a turn ([`angle::Angle`], [`angle::FineAngle`]) and
+//!   their integer sine and cosine.
 //! - [`units`]: the fixed-point number types and their ranges.
 //! - [`design`]: the sensor model, the cell-size bound δ(d) (eq. 17), the resolution schedule
 //!   and the range bands (eq. 20), and the validation of a configuration.
@@ -31,7 +33,7 @@
 //!   rate-limited patches of changed tiles, commands in, replies out.
 //! - [`drivers`]: thin adapters from embedded-io / embedded-hal to the pure code:
 //!   [`drivers::uart`] (telegrams from any `embedded_io::Read`), [`drivers::angle`] and
-//!   [`drivers::as5047`] (the pan angle).
+//!   [`drivers::as5047`] (sources of the pan angle).
 //!
 //! # Panic contract
 //! No function in this crate panics on any input, as smoltcp's `wire` promises: parsers and
@@ -41,6 +43,7 @@
 #![deny(unsafe_code)]
 #![deny(missing_docs)]
 
+pub mod angle;
 pub mod fmath;
 #[macro_use]
 mod fmt;

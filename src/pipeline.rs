@@ -18,8 +18,9 @@
 //! when the actuator turns back (the end of a sweep). At its end the pyramid is recentred on
 //! the robot and the observation's evidence is applied.
 
+use crate::angle::FineAngle;
 use crate::classify::{Classifier, ClassifierConfig, ClassifierStats};
-use crate::geometry::{BeamTable, FineAngle, LineTransform, Mount, Pose, PoseFrame, Variant};
+use crate::geometry::{BeamTable, LineTransform, Mount, Pose, PoseFrame, Variant};
 use crate::pyramid::Pyramid;
 use crate::units::Meters;
 use crate::wire::sick::{MeasuredValues, MeasuringMode};

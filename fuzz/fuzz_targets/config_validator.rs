@@ -135,10 +135,7 @@ fuzz_target!(|data: &[u8]| {
     };
     if let Ok(Clamp::Bounds { min, max }) = clamp {
         // Documented: min < 0 < max (bounds that round to 0 are refused).
-        assert!(
-            min.to_bits() < 0 && max.to_bits() > 0,
-            "bounds {min} {max}"
-        );
+        assert!(min.to_bits() < 0 && max.to_bits() > 0, "bounds {min} {max}");
     }
 
     if let (Ok(design), Ok(clamp)) = (design, clamp) {

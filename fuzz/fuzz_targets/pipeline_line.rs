@@ -14,8 +14,9 @@
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
+use terrain_pyramid::angle::FineAngle;
 use terrain_pyramid::classify::ClassifierConfig;
-use terrain_pyramid::geometry::{FineAngle, Mount, Pose, ScanPlane, Variant};
+use terrain_pyramid::geometry::{Mount, Pose, ScanPlane, Variant};
 use terrain_pyramid::pipeline::{Frontend, FrontendConfig};
 use terrain_pyramid::wire::sick::{
     emit_telegram, MeasuredValues, MeasuringMode, Telegram, ADDRESS_REPLY,

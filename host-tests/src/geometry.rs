@@ -237,7 +237,7 @@ pub fn evaluate(table: &lib::BeamTable, case: &Case) -> Option<CaseError> {
             z: terrain_pyramid::Meters::from_bits(mz),
         },
     );
-    let actuator = lib::FineAngle::from_bits(case.actuator_bits);
+    let actuator = terrain_pyramid::angle::FineAngle::from_bits(case.actuator_bits);
     let line = lib::LineTransform::from_pose(table, &mount, actuator, &pose);
     let got = line.locate(case.beam, case.range_mm)?;
 

@@ -1,9 +1,10 @@
 //! The simulator's recordings, read back with the library: the recording reader, the SICK
 //! telegram accumulator, the per-line pipeline and the default pyramid.
 
+use terrain_pyramid::angle::Angle;
+use terrain_pyramid::angle::FineAngle;
 use terrain_pyramid::classify::ClassifierConfig;
-use terrain_pyramid::drivers::angle::Angle;
-use terrain_pyramid::geometry::{FineAngle, Pose};
+use terrain_pyramid::geometry::Pose;
 use terrain_pyramid::pipeline::{Frontend, FrontendConfig};
 use terrain_pyramid::wire::recording::{MountKind, Payload, Reader, Setup};
 use terrain_pyramid::wire::sick::{

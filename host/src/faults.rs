@@ -36,8 +36,8 @@ use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::Instant;
+use terrain_pyramid::angle::FineAngle;
 use terrain_pyramid::classify::ClassifierConfig;
-use terrain_pyramid::geometry::FineAngle;
 use terrain_pyramid::pipeline::FrontendConfig;
 use terrain_pyramid::wire::link::{
     ClampRequest, Configure, Message, PanAngle, Pose, Reply, Setup, SnapshotScope, Stats,

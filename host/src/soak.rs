@@ -26,8 +26,9 @@ use serde::Serialize;
 use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::Instant;
+use terrain_pyramid::angle::FineAngle;
 use terrain_pyramid::classify::ClassifierConfig;
-use terrain_pyramid::geometry::{FineAngle, Pose as GeoPose};
+use terrain_pyramid::geometry::Pose as GeoPose;
 use terrain_pyramid::link::{Event, Link, LinkConfig, SensorCounters};
 use terrain_pyramid::pipeline::FrontendConfig;
 use terrain_pyramid::wire::link::{

@@ -31,7 +31,8 @@ use core::fmt;
 
 use embedded_hal::spi::{Mode, SpiDevice, MODE_1};
 
-use super::angle::{Angle, AngleSource, EncoderMount};
+use super::angle::{AngleSource, EncoderMount};
+use crate::angle::Angle;
 
 /// The SPI mode of the device: mode 1 (clock idle low, data sampled on the falling edge).
 pub const MODE: Mode = MODE_1;

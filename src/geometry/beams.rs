@@ -42,7 +42,7 @@ use core::fmt;
 
 use fixed::types::I1F15;
 
-use super::trig::FineAngle;
+use crate::angle::FineAngle;
 
 /// The most beams a scan line has: 401 (100° at 0.25°).
 pub const MAX_BEAMS: usize = 401;

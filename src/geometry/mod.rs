@@ -23,7 +23,7 @@
 //!   Positive angles turn counter-clockwise about their axis: positive yaw turns forward into
 //!   left, positive pitch puts the nose down.
 //! - **Angles** are [`FineAngle`]s, a Q0.32 fraction of a turn (an encoder's
-//!   [`crate::drivers::angle::Angle`] converts exactly); wrap-around is free.
+//!   [`crate::angle::Angle`] converts exactly); wrap-around is free.
 //! - **Ranges** are millimetres as `u32` (the 80 m mode's centimetres × 10), up to
 //!   [`MAX_RANGE_MM`]. "No echo" is filtered out before geometry.
 //!
@@ -36,7 +36,7 @@
 //! | point | [`LineTransform::point`] / [`LineTransform::locate`] / [`LineTransform::locate_squared`] | 9 multiplies (+ √ for d with `locate`; the pipeline bins d² instead) |
 //!
 //! No float runs per point or per line: the trigonometry is a quarter-wave table with a
-//! short Taylor correction in integers ([`trig`]), so the host and every Cortex-M produce the
+//! short Taylor correction in integers ([`crate::angle`]), so the host and every Cortex-M produce the
 //! same bits. Floats appear only in [`Pose::from_f32`], which takes the host's values apart
 //! exactly into fixed point, in display helpers, and in the compiler's evaluation of the sine
 //! table.
@@ -57,7 +57,6 @@ pub mod beams;
 pub mod mount;
 pub mod pose;
 pub mod transform;
-pub mod trig;
 
 pub use beams::{BeamDir, BeamTable, Variant, MAX_BEAMS};
 pub use mount::{Mount, ScanPlane};
@@ -65,4 +64,3 @@ pub use pose::{Pose, PoseError, PoseField, PoseFrame, Rotation};
 pub use transform::{
     horizontal_distance, LinePoint, LinePointSquared, LineTransform, MAX_RANGE_MM,
 };
-pub use trig::{FineAngle, SinCos};

@@ -11,7 +11,7 @@ use core::fmt;
 
 use fixed::types::I2F30;
 
-use super::trig::{FineAngle, SinCos};
+use crate::angle::{FineAngle, SinCos};
 use crate::units::{meters_from_f32, Meters, Point3};
 
 /// The largest horizontal coordinate a pose may have, metres (exclusive): |x|, |y| < 30 000,

@@ -44,7 +44,7 @@ use core::fmt;
 use super::beams::{BeamDir, BeamTable};
 use super::mount::{Mount, ScanPlane};
 use super::pose::{Pose, PoseFrame};
-use super::trig::FineAngle;
+use crate::angle::FineAngle;
 use crate::units::{Meters, Point3};
 
 /// The longest range [`LineTransform::point`] places, millimetres: 2¹⁷ − 1 = 131 071

@@ -13,8 +13,9 @@
 #![deny(unsafe_code)]
 #![deny(missing_docs)]
 
+use terrain_pyramid::angle::FineAngle;
 use terrain_pyramid::classify::ClassifierConfig;
-use terrain_pyramid::geometry::{FineAngle, Pose};
+use terrain_pyramid::geometry::Pose;
 use terrain_pyramid::link::{Link, SensorCounters};
 use terrain_pyramid::pipeline::{Frontend, FrontendConfig};
 use terrain_pyramid::wire::recording::{Payload, Reader, Setup};

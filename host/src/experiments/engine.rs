@@ -6,8 +6,9 @@
 //! line; each map then parses the stored measured-values payload itself, so a timed line
 //! costs the parse, the geometry, the classifier and the pyramid updates, and nothing else.
 
+use terrain_pyramid::angle::FineAngle;
 use terrain_pyramid::classify::ClassifierConfig;
-use terrain_pyramid::geometry::{FineAngle, Pose};
+use terrain_pyramid::geometry::Pose;
 use terrain_pyramid::pipeline::{Frontend, FrontendConfig};
 use terrain_pyramid::wire::recording::{Payload, Reader, Setup};
 use terrain_pyramid::wire::sick::{Accumulator, FeedResult, MeasuredValues};

@@ -4,9 +4,9 @@
 use super::cobs;
 use super::crc::Crc32;
 use super::{DecodeError, EncodeError, Frame, Header, MessageType, MAX_LAYERS, MAX_PATCH_SIDE};
+use crate::angle::Angle;
 use crate::classify::ClassifierConfig;
 use crate::design::{DesignError, GateShape, Param, Schedule, SensorModel};
-use crate::drivers::angle::Angle;
 use crate::geometry::{Mount, ScanPlane, Variant};
 use crate::logodds::{Clamp, InverseSensorModel};
 use crate::pipeline::FrontendConfig;

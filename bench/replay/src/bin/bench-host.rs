@@ -10,7 +10,8 @@
 
 use std::process::ExitCode;
 use std::time::{Duration, Instant};
-use terrain_pyramid::geometry::{BeamTable, FineAngle, LineTransform, Pose, PoseFrame};
+use terrain_pyramid::angle::FineAngle;
+use terrain_pyramid::geometry::{BeamTable, LineTransform, Pose, PoseFrame};
 use terrain_pyramid::link::{Link, LinkConfig};
 use terrain_pyramid::pipeline::FrontendConfig;
 use terrain_pyramid::wire::recording::{Payload, Reader};

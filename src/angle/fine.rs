@@ -22,7 +22,7 @@ use core::fmt;
 
 use fixed::types::{I16F48, I2F30};
 
-use crate::drivers::angle::Angle;
+use super::Angle;
 
 /// Segments per quarter turn in the sine table (a power of two).
 const SEGMENTS_LOG2: u32 = 8;
