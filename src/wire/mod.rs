@@ -10,6 +10,8 @@
 //! - [`link`]: the framed, checksummed, versioned host link (`docs/protocol.md`).
 //! - [`recording`]: the recording file format (`docs/recording.md`).
 //!
+//! Every accumulator hands out a [`FeedResult`].
+//!
 //! # Panic contract
 //! No function in this module panics, on any input and on any buffer:
 //! - `new_checked` validates a buffer once (length, limits, checksum) and returns an error
@@ -25,6 +27,9 @@
 //! Clippy denies `unwrap`, `expect`, `panic!`, `unreachable!` and unchecked indexing outside
 //! tests, and every arithmetic on a value read from the wire is checked or saturating.
 
+mod feed;
 pub mod link;
 pub mod recording;
 pub mod sick;
+
+pub use feed::FeedResult;
