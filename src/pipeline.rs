@@ -20,9 +20,10 @@
 
 use crate::angle::FineAngle;
 use crate::classify::{Classifier, ClassifierConfig, ClassifierStats};
-use crate::geometry::{BeamTable, LineTransform, Mount, Pose, PoseFrame, Variant};
+use crate::geometry::{BeamTable, LineTransform, Mount, Pose, PoseFrame};
 use crate::pyramid::Pyramid;
 use crate::units::Meters;
+use crate::wire::sick::Variant;
 use crate::wire::sick::{MeasuredValues, MeasuringMode};
 use core::fmt;
 

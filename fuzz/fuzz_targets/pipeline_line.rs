@@ -16,8 +16,9 @@
 use libfuzzer_sys::fuzz_target;
 use terrain_pyramid::angle::FineAngle;
 use terrain_pyramid::classify::ClassifierConfig;
-use terrain_pyramid::geometry::{Mount, Pose, ScanPlane, Variant};
+use terrain_pyramid::geometry::{Mount, Pose, ScanPlane};
 use terrain_pyramid::pipeline::{Frontend, FrontendConfig};
+use terrain_pyramid::wire::sick::Variant;
 use terrain_pyramid::wire::sick::{
     emit_telegram, MeasuredValues, MeasuringMode, Telegram, ADDRESS_REPLY,
 };

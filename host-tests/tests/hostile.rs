@@ -29,8 +29,9 @@ use terrain_pyramid::wire::link::{
 };
 use terrain_pyramid::wire::recording::{emit_header, Event, MountKind, Payload, Reader, Setup};
 use terrain_pyramid::wire::sick::{
-    emit_telegram, Accumulator, FeedResult, Telegram, ADDRESS_REPLY, DEFAULT_CAPACITY,
+    emit_telegram, SickAccumulator, SickFeed, SickItem, Telegram, ADDRESS_REPLY, DEFAULT_CAPACITY,
 };
+use terrain_pyramid::wire::FeedResult;
 use terrain_pyramid::{
     Clamp, Config, Design, GateShape, InverseSensorModel, Pyramid, Schedule, SensorModel,
 };
@@ -169,20 +170,26 @@ proptest! {
             }
         }
 
-        let mut acc: Box<Accumulator> = Box::default();
+        let mut acc: Box<SickAccumulator> = Box::default();
         let mut delivered = Vec::new();
         let (mut ack_events, mut nak_events, mut rejected) = (0_u32, 0_u32, 0_u32);
-        let mut handle = |r: &FeedResult<'_, '_>,
+        let mut handle = |r: &SickFeed<'_, '_>,
                           delivered: &mut Vec<(u64, Vec<u8>)>|
          -> Result<bool, TestCaseError> {
             match r {
                 FeedResult::Consumed => return Ok(false),
-                FeedResult::Telegram { telegram, offset, .. } => {
+                FeedResult::Item {
+ item: SickItem::Telegram(telegram),
+ offset, .. } => {
                     prop_assert!(Telegram::new_checked(telegram.as_bytes()).is_ok());
                     delivered.push((*offset, telegram.as_bytes().to_vec()));
                 }
-                FeedResult::Ack { .. } => ack_events += 1,
-                FeedResult::Nak { .. } => nak_events += 1,
+                FeedResult::Item {
+ item: SickItem::Ack,
+ .. } => ack_events += 1,
+                FeedResult::Item {
+ item: SickItem::Nak,
+ .. } => nak_events += 1,
                 FeedResult::Rejected { .. } => rejected += 1,
             }
             Ok(true)

@@ -8,8 +8,9 @@ use terrain_pyramid::geometry::Pose;
 use terrain_pyramid::pipeline::{Frontend, FrontendConfig};
 use terrain_pyramid::wire::recording::{MountKind, Payload, Reader, Setup};
 use terrain_pyramid::wire::sick::{
-    range_mm, Accumulator, FeedResult, MeasuredValues, MeasuringMode, Unit,
+    range_mm, MeasuredValues, MeasuringMode, SickAccumulator, SickItem, Unit,
 };
+use terrain_pyramid::wire::FeedResult;
 use terrain_pyramid::{
     Config, DefaultDesign, DefaultPyramid, Fused, Meters, Schedule, SensorModel,
     DEFAULT_CELLS_PER_SIDE,
@@ -53,7 +54,7 @@ fn decode(bytes: &[u8]) -> Decoded {
     let (mut laser_events, mut pose_events, mut rejected) = (0, 0, 0);
     let mut angle = None;
     let mut pose = None;
-    let mut acc: Accumulator = Accumulator::new();
+    let mut acc: SickAccumulator = SickAccumulator::new();
     for event in Reader::new(bytes).unwrap() {
         let event = event.unwrap();
         match event.payload {
@@ -77,8 +78,8 @@ fn decode(bytes: &[u8]) -> Decoded {
                 loop {
                     match acc.feed(chunk) {
                         FeedResult::Consumed => break,
-                        FeedResult::Telegram {
-                            telegram,
+                        FeedResult::Item {
+                            item: SickItem::Telegram(telegram),
                             remaining,
                             ..
                         } => {
@@ -266,8 +267,12 @@ fn a_noise_free_vertical_scan_over_the_stairs_gives_the_step_heights() {
     };
     let line = laser.scan(&scene, &pose, angle_to_u16(0.0));
     let bytes = laser.telegram(&line).unwrap();
-    let mut acc: Accumulator = Accumulator::new();
-    let FeedResult::Telegram { telegram, .. } = acc.feed(&bytes) else {
+    let mut acc: SickAccumulator = SickAccumulator::new();
+    let FeedResult::Item {
+        item: SickItem::Telegram(telegram),
+        ..
+    } = acc.feed(&bytes)
+    else {
         panic!("one telegram");
     };
     let mv = MeasuredValues::parse(&telegram).unwrap();

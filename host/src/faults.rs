@@ -9,7 +9,7 @@
 //! - laser faults (`bit_flips_*`, `dropped_bytes`, `garbage_bursts`, `truncated`,
 //!   `lone_ack_nak`): each telegram's bytes are damaged (or not) before they go to UART0.
 //!   The harness feeds the very same damaged bytes, chunk for chunk, to the library's SICK
-//!   `Accumulator` on the host: it knows exactly which telegrams the firmware will decode, and
+//!   `SickAccumulator` on the host: it knows exactly which telegrams the firmware will decode, and
 //!   when. A decoded telegram equal byte for byte to an original telegram at that
 //!   telegram's own position in the damaged stream is **intact**; anything else decoded is
 //!   **corrupt** (it passed the 16-bit CRC by chance). The reference map is the host
@@ -43,7 +43,8 @@ use terrain_pyramid::wire::link::{
     ClampRequest, Configure, Message, PanAngle, Pose, Reply, Setup, SnapshotScope, Stats,
 };
 use terrain_pyramid::wire::recording::{Payload, Reader};
-use terrain_pyramid::wire::sick::{Accumulator, FeedResult, MeasuredValues};
+use terrain_pyramid::wire::sick::{MeasuredValues, SickAccumulator, SickItem};
+use terrain_pyramid::wire::FeedResult;
 use terrain_pyramid::{
     Config, DefaultDesign, DefaultFrontend, DefaultPyramid, Schedule, SensorModel,
     DEFAULT_CELLS_PER_SIDE,
@@ -262,7 +263,7 @@ fn recording(lines: usize) -> Result<(terrain_pyramid::wire::recording::Setup, V
     use terrain_pyramid_host_tests::sim::record::{simulate, SimConfig};
     let sim = simulate(&SimConfig::paper_stairs(0.5, 0.5, 1.0)).map_err(|e| e.0)?;
     let reader = Reader::new(&sim.bytes).map_err(|e| format!("the recording: {e}"))?;
-    let mut acc: Box<Accumulator> = Box::new(Accumulator::new());
+    let mut acc: Box<SickAccumulator> = Box::new(SickAccumulator::new());
     let mut setup = None;
     let (mut angle, mut pose) = (None, None);
     let mut out = Vec::new();
@@ -277,8 +278,8 @@ fn recording(lines: usize) -> Result<(terrain_pyramid::wire::recording::Setup, V
                 loop {
                     match acc.feed(rest) {
                         FeedResult::Consumed => break,
-                        FeedResult::Telegram {
-                            telegram,
+                        FeedResult::Item {
+                            item: SickItem::Telegram(telegram),
                             remaining,
                             ..
                         } => {
@@ -585,7 +586,7 @@ fn default_design() -> DefaultDesign {
 struct Reference {
     pyramid: Box<DefaultPyramid>,
     frontend: Box<DefaultFrontend>,
-    acc: Box<Accumulator>,
+    acc: Box<SickAccumulator>,
     /// Stream offset of each intact telegram's STX → its line.
     expected: HashMap<u64, usize>,
     written: u64,
@@ -609,7 +610,7 @@ impl Reference {
         Ok(Self {
             pyramid,
             frontend: Box::new(DefaultFrontend::new(config)),
-            acc: Box::new(Accumulator::new()),
+            acc: Box::new(SickAccumulator::new()),
             expected: HashMap::new(),
             written: 0,
             intact: vec![false; lines],
@@ -640,8 +641,8 @@ impl Reference {
         loop {
             let (bytes, offset) = match self.acc.feed(rest) {
                 FeedResult::Consumed => break,
-                FeedResult::Telegram {
-                    telegram,
+                FeedResult::Item {
+                    item: SickItem::Telegram(telegram),
                     offset,
                     remaining,
                 } => {

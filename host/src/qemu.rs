@@ -30,7 +30,8 @@ use terrain_pyramid::wire::link::{
     ClampRequest, Configure, Message, PanAngle, Pose, Reply, Setup, SnapshotScope, Stats,
 };
 use terrain_pyramid::wire::recording::{Payload, Reader};
-use terrain_pyramid::wire::sick::{Accumulator, FeedResult, MeasuredValues};
+use terrain_pyramid::wire::sick::{MeasuredValues, SickAccumulator, SickItem};
+use terrain_pyramid::wire::FeedResult;
 use terrain_pyramid::{Clamp, Config, DefaultDesign};
 use terrain_pyramid_host::link::{HostLink, LinkEvent};
 
@@ -523,7 +524,7 @@ fn play_qemu(
     classifier: &ClassifierConfig,
 ) -> Result<(RunCounts, (f64, f64)), String> {
     let reader = Reader::new(data).map_err(|e| format!("the recording: {e}"))?;
-    let mut accumulator: Box<Accumulator> = Box::new(Accumulator::new());
+    let mut accumulator: Box<SickAccumulator> = Box::new(SickAccumulator::new());
     let mut counts = RunCounts::default();
     let mut sensor_xy = (0.0, 0.0);
     let mut pending = Pending::default();
@@ -559,8 +560,8 @@ fn play_qemu(
                 loop {
                     let telegram = match accumulator.feed(rest) {
                         FeedResult::Consumed => break,
-                        FeedResult::Telegram {
-                            telegram,
+                        FeedResult::Item {
+                            item: SickItem::Telegram(telegram),
                             remaining,
                             ..
                         } => {

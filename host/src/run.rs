@@ -16,7 +16,8 @@ use terrain_pyramid::classify::ClassifierConfig;
 use terrain_pyramid::geometry::Pose;
 use terrain_pyramid::pipeline::FrontendConfig;
 use terrain_pyramid::wire::recording::{Payload, Reader, Setup};
-use terrain_pyramid::wire::sick::{Accumulator, FeedResult, MeasuredValues};
+use terrain_pyramid::wire::sick::{MeasuredValues, SickAccumulator, SickItem};
+use terrain_pyramid::wire::FeedResult;
 use terrain_pyramid::{
     Clamp, Config, DefaultDesign, DefaultFrontend, DefaultPyramid, Meters, DEFAULT_CELLS_PER_SIDE,
 };
@@ -219,7 +220,7 @@ pub fn play(
 ) -> Result<(RunCounts, (f64, f64)), String> {
     let reader = Reader::new(data).map_err(|e| format!("the recording: {e}"))?;
     let mut frontend: Option<Box<DefaultFrontend>> = None;
-    let mut accumulator: Box<Accumulator> = Box::new(Accumulator::new());
+    let mut accumulator: Box<SickAccumulator> = Box::new(SickAccumulator::new());
     let mut counts = RunCounts::default();
     let mut sensor_xy = (0.0, 0.0);
     for event in reader {
@@ -254,8 +255,8 @@ pub fn play(
                 loop {
                     match accumulator.feed(rest) {
                         FeedResult::Consumed => break,
-                        FeedResult::Telegram {
-                            telegram,
+                        FeedResult::Item {
+                            item: SickItem::Telegram(telegram),
                             remaining,
                             ..
                         } => {

@@ -1,6 +1,6 @@
 //! `pyramid sick-decode`: decodes a captured SICK LMS2xx byte stream.
 //!
-//! The file is fed through the library's [`Accumulator`] exactly as the firmware feeds UART
+//! The file is fed through the library's [`SickAccumulator`] exactly as the firmware feeds UART
 //! chunks, then flushed. Every measured-values telegram (0xB0) that passes every check is
 //! listed with its ranges in millimetres; framing errors are counted. A damaged stream is not
 //! a failure: the command exits 0 and reports the counts, and 1 only when the file cannot be
@@ -10,8 +10,10 @@ use serde::Serialize;
 use std::path::PathBuf;
 use std::process::ExitCode;
 use terrain_pyramid::wire::sick::{
-    Accumulator, FeedResult, MeasuredValues, MeasuringMode, Stats, Telegram, MEASURED_VALUES_REPLY,
+    MeasuredValues, MeasuringMode, SickAccumulator, SickCounters, SickItem, Telegram,
+    MEASURED_VALUES_REPLY,
 };
+use terrain_pyramid::wire::FeedResult;
 
 /// Arguments of `pyramid sick-decode`.
 #[derive(clap::Args)]
@@ -116,8 +118,8 @@ pub fn run(args: &Args) -> ExitCode {
 }
 
 /// Feeds the whole stream through the accumulator and keeps the measured-values telegrams.
-fn decode(bytes: &[u8], mode: MeasuringMode) -> (Vec<TelegramOut>, Vec<Refused>, Stats) {
-    let mut acc: Accumulator = Accumulator::new();
+fn decode(bytes: &[u8], mode: MeasuringMode) -> (Vec<TelegramOut>, Vec<Refused>, SickCounters) {
+    let mut acc: SickAccumulator = SickAccumulator::new();
     let mut telegrams = Vec::new();
     let mut refused = Vec::new();
     let mut window = bytes;
@@ -126,8 +128,10 @@ fn decode(bytes: &[u8], mode: MeasuringMode) -> (Vec<TelegramOut>, Vec<Refused>,
         window = result.remaining();
         match result {
             FeedResult::Consumed => break,
-            FeedResult::Telegram {
-                telegram, offset, ..
+            FeedResult::Item {
+                item: SickItem::Telegram(telegram),
+                offset,
+                ..
             } => keep(&telegram, offset, mode, &mut telegrams, &mut refused),
             _ => {}
         }
@@ -135,8 +139,10 @@ fn decode(bytes: &[u8], mode: MeasuringMode) -> (Vec<TelegramOut>, Vec<Refused>,
     loop {
         match acc.flush() {
             FeedResult::Consumed => break,
-            FeedResult::Telegram {
-                telegram, offset, ..
+            FeedResult::Item {
+                item: SickItem::Telegram(telegram),
+                offset,
+                ..
             } => keep(&telegram, offset, mode, &mut telegrams, &mut refused),
             _ => {}
         }
@@ -171,7 +177,7 @@ fn keep(
     }
 }
 
-fn print_summary(telegrams: &[TelegramOut], refused: usize, stats: &Stats) {
+fn print_summary(telegrams: &[TelegramOut], refused: usize, stats: &SickCounters) {
     const SHOWN: usize = 5;
     for t in telegrams {
         let first: Vec<String> = t

@@ -34,7 +34,8 @@ use terrain_pyramid::pipeline::FrontendConfig;
 use terrain_pyramid::wire::link::{
     Message, PanAngle, Pose, Setup, SnapshotScope, Stats, STATS_COUNTERS,
 };
-use terrain_pyramid::wire::sick::{Accumulator, FeedResult, MeasuredValues};
+use terrain_pyramid::wire::sick::{MeasuredValues, SickAccumulator, SickItem};
+use terrain_pyramid::wire::FeedResult;
 use terrain_pyramid::{
     Clamp, Config, DefaultDesign, DefaultFrontend, DefaultPyramid, Schedule, SensorModel,
     DEFAULT_CELLS_PER_SIDE,
@@ -236,7 +237,7 @@ struct Device {
     pyramid: Box<DefaultPyramid>,
     frontend: Box<DefaultFrontend>,
     link: Box<Link>,
-    sick: Box<Accumulator>,
+    sick: Box<SickAccumulator>,
     telegrams_unparsed: u32,
     lines_rejected: u32,
     poses_refused: u32,
@@ -259,7 +260,7 @@ impl Device {
             pyramid,
             frontend: Box::new(DefaultFrontend::new(frontend)),
             link,
-            sick: Box::new(Accumulator::new()),
+            sick: Box::new(SickAccumulator::new()),
             telegrams_unparsed: 0,
             lines_rejected: 0,
             poses_refused: 0,
@@ -304,8 +305,8 @@ impl Device {
         loop {
             match self.sick.feed(rest) {
                 FeedResult::Consumed => return,
-                FeedResult::Telegram {
-                    telegram,
+                FeedResult::Item {
+                    item: SickItem::Telegram(telegram),
                     remaining,
                     ..
                 } => {

@@ -1,7 +1,7 @@
 //! The SICK `LMS2xx` over a UART: telegrams out of any [`embedded_io::Read`].
 //!
 //! [`SickUart`] owns the reader, a small read buffer of `C` bytes and an
-//! [`Accumulator`]. A board's main loop calls [`SickUart::poll`]: it hands out the next event
+//! [`SickAccumulator`]. A board's main loop calls [`SickUart::poll`]: it hands out the next event
 //! the bytes already read complete, and only when they complete none does it call
 //! [`Read::read`] once, so one poll blocks at most as long as one read. (`embedded_io::Read`
 //! blocks until at least one byte is available; a board that must never wait checks
@@ -11,7 +11,10 @@
 //! reader (or the serial port, when it also implements `Write`) to send
 //! [`crate::wire::sick::Request`] bytes with.
 
-use crate::wire::sick::{Accumulator, FeedResult, FrameError, Stats, Telegram, DEFAULT_CAPACITY};
+use crate::wire::sick::{
+    SickAccumulator, SickCounters, SickFrameError, SickItem, Telegram, DEFAULT_CAPACITY,
+};
+use crate::wire::FeedResult;
 use core::fmt;
 use embedded_io::{Error as _, ErrorKind, Read};
 
@@ -29,8 +32,8 @@ pub enum Event<'a> {
     Ack,
     /// A lone NAK byte (0x15): the scanner refused a request.
     Nak,
-    /// A candidate telegram was rejected (and counted in [`Stats`]).
-    Rejected(FrameError),
+    /// A candidate telegram was rejected (and counted in [`SickCounters`]).
+    Rejected(SickFrameError),
 }
 
 /// Why a poll could not proceed.
@@ -71,16 +74,16 @@ enum Kind {
     Telegram,
     Ack,
     Nak,
-    Rejected(FrameError),
+    Rejected(SickFrameError),
 }
 
 /// `LMS2xx` telegrams from a reader: a read buffer of `C` bytes (default [`DEFAULT_CHUNK`])
-/// feeding an [`Accumulator`] of `N` bytes (default [`DEFAULT_CAPACITY`], the largest
+/// feeding an [`SickAccumulator`] of `N` bytes (default [`DEFAULT_CAPACITY`], the largest
 /// telegram). No allocation; about `N + C` bytes of RAM plus the reader.
 #[derive(Debug)]
 pub struct SickUart<R, const N: usize = DEFAULT_CAPACITY, const C: usize = DEFAULT_CHUNK> {
     reader: R,
-    accumulator: Accumulator<N>,
+    accumulator: SickAccumulator<N>,
     chunk: [u8; C],
     /// Unfed bytes of `chunk`: `head..tail`.
     head: usize,
@@ -95,7 +98,7 @@ impl<R: Read, const N: usize, const C: usize> SickUart<R, N, C> {
         let () = Self::CHUNK_OK;
         Self {
             reader,
-            accumulator: Accumulator::new(),
+            accumulator: SickAccumulator::new(),
             chunk: [0; C],
             head: 0,
             tail: 0,
@@ -144,7 +147,7 @@ impl<R: Read, const N: usize, const C: usize> SickUart<R, N, C> {
 
     /// The accumulator's counters.
     #[must_use]
-    pub fn stats(&self) -> Stats {
+    pub fn stats(&self) -> SickCounters {
         self.accumulator.stats()
     }
 
@@ -157,7 +160,7 @@ impl<R: Read, const N: usize, const C: usize> SickUart<R, N, C> {
 
     /// The accumulator, to flush it at the end of a stream, reset it after a baud-rate change,
     /// or clear its counters.
-    pub fn accumulator_mut(&mut self) -> &mut Accumulator<N> {
+    pub fn accumulator_mut(&mut self) -> &mut SickAccumulator<N> {
         &mut self.accumulator
     }
 
@@ -178,9 +181,11 @@ impl<R: Read, const N: usize, const C: usize> SickUart<R, N, C> {
         let left = result.remaining().len();
         let kind = match result {
             FeedResult::Consumed => None,
-            FeedResult::Telegram { .. } => Some(Kind::Telegram),
-            FeedResult::Ack { .. } => Some(Kind::Ack),
-            FeedResult::Nak { .. } => Some(Kind::Nak),
+            FeedResult::Item { item, .. } => Some(match item {
+                SickItem::Telegram(_) => Kind::Telegram,
+                SickItem::Ack => Kind::Ack,
+                SickItem::Nak => Kind::Nak,
+            }),
             FeedResult::Rejected { error, .. } => Some(Kind::Rejected(error)),
         };
         self.head = self.tail.saturating_sub(left);
@@ -296,10 +301,10 @@ mod tests {
         T(Vec<u8>),
         Ack,
         Nak,
-        R(FrameError),
+        R(SickFrameError),
     }
 
-    fn poll_all<const C: usize>(sizes: &[usize]) -> (Vec<Seen>, Stats, UartError) {
+    fn poll_all<const C: usize>(sizes: &[usize]) -> (Vec<Seen>, SickCounters, UartError) {
         let (data, _) = stream();
         let reader = FakeReader {
             data: &data,
@@ -327,11 +332,11 @@ mod tests {
         let expected = vec![
             Seen::Ack,
             Seen::T(telegrams[0].clone()),
-            Seen::R(FrameError::BadLength { len: 0 }),
+            Seen::R(SickFrameError::BadLength { len: 0 }),
             Seen::Ack,
             Seen::T(telegrams[1].clone()),
             Seen::Nak,
-            Seen::R(FrameError::Truncated),
+            Seen::R(SickFrameError::Truncated),
             Seen::T(telegrams[2].clone()),
         ];
         for sizes in [&[1][..], &[3, 1, 7], &[64], &[usize::MAX]] {

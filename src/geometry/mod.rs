@@ -58,7 +58,7 @@ pub mod mount;
 pub mod pose;
 pub mod transform;
 
-pub use beams::{BeamDir, BeamTable, Variant, MAX_BEAMS};
+pub use beams::{BeamDir, BeamTable};
 pub use mount::{Mount, ScanPlane};
 pub use pose::{Pose, PoseError, PoseField, PoseFrame, Rotation};
 pub use transform::{

@@ -24,10 +24,12 @@ use micromath::F32Ext;
 use terrain_pyramid::design::Design;
 use terrain_pyramid::gate::{DistanceBins, GateTable, GATE_BINS};
 use terrain_pyramid::geometry::ScanPlane;
-use terrain_pyramid::geometry::{BeamDir, Variant, MAX_BEAMS, MAX_RANGE_MM};
+use terrain_pyramid::geometry::{BeamDir, MAX_RANGE_MM};
 use terrain_pyramid::logodds::gated;
 use terrain_pyramid::pipeline::FrontendConfig;
 use terrain_pyramid::wire::sick::MeasuredValues;
+use terrain_pyramid::wire::sick::Variant;
+use terrain_pyramid::wire::sick::MAX_BEAMS;
 use terrain_pyramid::{Config, DesignError};
 
 /// Tiles per side of a layer's dirty map (as the library's).

@@ -7,7 +7,7 @@
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use std::hint::black_box;
 use terrain_pyramid::link::{Link, LinkConfig};
-use terrain_pyramid::wire::sick::Accumulator;
+use terrain_pyramid::wire::sick::SickAccumulator;
 use terrain_pyramid::{
     Config, DefaultDesign, DefaultFrontend, DefaultPyramid, Schedule, SensorModel,
     DEFAULT_CELLS_PER_SIDE,
@@ -35,7 +35,7 @@ fn pipeline(c: &mut Criterion) {
     };
     let mut pyramid = Box::new(DefaultPyramid::new());
     let mut link: Box<Link> = Box::new(Link::new(LinkConfig::DEFAULT));
-    let mut acc: Box<Accumulator> = Box::new(Accumulator::new());
+    let mut acc: Box<SickAccumulator> = Box::new(SickAccumulator::new());
     let mut frontend = Box::new(DefaultFrontend::new(config));
     // One pass to count the returns.
     let returns = {
@@ -55,7 +55,7 @@ fn pipeline(c: &mut Criterion) {
             *pyramid = DefaultPyramid::new();
             *link = Link::new(LinkConfig::DEFAULT);
             let _ = link.configure(&mut pyramid, &design, &Config::default());
-            *acc = Accumulator::new();
+            *acc = SickAccumulator::new();
             frontend.configure(config);
             let mut p = Fixed {
                 frontend: &mut frontend,

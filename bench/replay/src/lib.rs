@@ -3,7 +3,7 @@
 //! bench firmware (`boards/bench`) and the host timing (`bench-host`, `benches/pipeline.rs`)
 //! run the same code.
 //!
-//! - [`replay`]: the event loop: laser bytes through the SICK [`Accumulator`], each valid
+//! - [`replay`]: the event loop: laser bytes through the SICK [`SickAccumulator`], each valid
 //!   measured-values telegram to [`Pipeline::line`], angles and poses handed in, the link
 //!   ticked after every line.
 //! - [`Fixed`]: the library's pipeline ([`Frontend`] → [`Pyramid`]) and, optionally, the
@@ -19,7 +19,8 @@ use terrain_pyramid::geometry::Pose;
 use terrain_pyramid::link::{Link, SensorCounters};
 use terrain_pyramid::pipeline::{Frontend, FrontendConfig};
 use terrain_pyramid::wire::recording::{Payload, Reader, Setup};
-use terrain_pyramid::wire::sick::{Accumulator, FeedResult, MeasuredValues};
+use terrain_pyramid::wire::sick::{MeasuredValues, SickAccumulator, SickItem};
+use terrain_pyramid::wire::FeedResult;
 use terrain_pyramid::Pyramid;
 
 pub use terrain_pyramid_f32 as f32_pipeline;
@@ -69,7 +70,7 @@ pub fn frontend_config(setup: &Setup) -> Option<FrontendConfig> {
 /// Plays `recording` through `pipeline`, feeding its laser bytes to `accumulator`.
 pub fn replay<P: Pipeline, const N: usize>(
     recording: &[u8],
-    accumulator: &mut Accumulator<N>,
+    accumulator: &mut SickAccumulator<N>,
     pipeline: &mut P,
 ) -> Counts {
     let mut counts = Counts::default();
@@ -87,8 +88,8 @@ pub fn replay<P: Pipeline, const N: usize>(
                 loop {
                     match accumulator.feed(rest) {
                         FeedResult::Consumed => break,
-                        FeedResult::Telegram {
-                            telegram,
+                        FeedResult::Item {
+                            item: SickItem::Telegram(telegram),
                             remaining,
                             ..
                         } => {

@@ -33,12 +33,13 @@ use static_cell::ConstStaticCell;
 use terrain_pyramid::angle::FineAngle;
 use terrain_pyramid::classify::ClassifierConfig;
 use terrain_pyramid::drivers::uart::{Event as SickEvent, SickUart, UartError as SickError};
-use terrain_pyramid::geometry::{Mount, Pose, ScanPlane, Variant};
+use terrain_pyramid::geometry::{Mount, Pose, ScanPlane};
 use terrain_pyramid::link::{Event, Link, SensorCounters};
 use terrain_pyramid::pipeline::Frontend;
 use terrain_pyramid::pipeline::FrontendConfig;
 use terrain_pyramid::pyramid::static_ram_bytes;
 use terrain_pyramid::wire::link::{Header, Reply};
+use terrain_pyramid::wire::sick::Variant;
 use terrain_pyramid::wire::sick::{MeasuredValues, MeasuringMode};
 use terrain_pyramid::{
     Applied, Config, Design, DesignError, Evidence, EvidenceClass, Fused, Meters, Point3, Pyramid,

@@ -62,11 +62,12 @@ use terrain_pyramid::classify::ClassifierConfig;
 use terrain_pyramid::drivers::angle::{AngleSource, EncoderMount, HostSuppliedAngle};
 use terrain_pyramid::drivers::as5047::{self, As5047};
 use terrain_pyramid::drivers::uart::{Event as SickEvent, SickUart};
-use terrain_pyramid::geometry::{Mount, Pose, ScanPlane, Variant};
+use terrain_pyramid::geometry::{Mount, Pose, ScanPlane};
 use terrain_pyramid::link::{Event, Link, LinkConfig, SensorCounters};
 use terrain_pyramid::pipeline::FrontendConfig;
 use terrain_pyramid::pyramid::static_ram_bytes;
 use terrain_pyramid::wire::link::{Header, Reply};
+use terrain_pyramid::wire::sick::Variant;
 use terrain_pyramid::wire::sick::{MeasuredValues, MeasuringMode};
 use terrain_pyramid::{
     Config, DefaultDesign, DefaultFrontend, DefaultPyramid, Meters, Point3, Schedule, SensorModel,

@@ -11,7 +11,8 @@ use terrain_pyramid::classify::ClassifierConfig;
 use terrain_pyramid::geometry::Pose;
 use terrain_pyramid::pipeline::{Frontend, FrontendConfig};
 use terrain_pyramid::wire::recording::{Payload, Reader, Setup};
-use terrain_pyramid::wire::sick::{Accumulator, FeedResult, MeasuredValues};
+use terrain_pyramid::wire::sick::{MeasuredValues, SickAccumulator, SickItem};
+use terrain_pyramid::wire::FeedResult;
 use terrain_pyramid::{Config, Design, Fused, Meters, Pyramid, PyramidStats};
 
 use crate::export::MapSnapshot;
@@ -52,7 +53,7 @@ fn frontend_config(setup: &Setup) -> Result<FrontendConfig, String> {
 /// A recording that cannot be read, or lines before the setup.
 pub fn decode(data: &[u8]) -> Result<Decoded, String> {
     let reader = Reader::new(data).map_err(|e| format!("the recording: {e}"))?;
-    let mut accumulator: Box<Accumulator> = Box::new(Accumulator::new());
+    let mut accumulator: Box<SickAccumulator> = Box::new(SickAccumulator::new());
     let mut frontend = None;
     let mut lines = Vec::new();
     let mut pending_pose: Option<[f32; 6]> = None;
@@ -75,8 +76,8 @@ pub fn decode(data: &[u8]) -> Result<Decoded, String> {
                 loop {
                     match accumulator.feed(rest) {
                         FeedResult::Consumed => break,
-                        FeedResult::Telegram {
-                            telegram,
+                        FeedResult::Item {
+                            item: SickItem::Telegram(telegram),
                             remaining,
                             ..
                         } => {

@@ -22,7 +22,8 @@ use terrain_pyramid::grid::cell_of;
 use terrain_pyramid::logodds::round_to_log_odds;
 use terrain_pyramid::wire::link::{Message, Setup as SetupMessage};
 use terrain_pyramid::wire::recording::{Payload, Reader};
-use terrain_pyramid::wire::sick::{Accumulator, FeedResult, MeasuredValues};
+use terrain_pyramid::wire::sick::{MeasuredValues, SickAccumulator, SickItem};
+use terrain_pyramid::wire::FeedResult;
 use terrain_pyramid::{Cell as MapCell, Clamp, Config, Design, Fused, GateShape, Meters};
 use terrain_pyramid_host::link::HostLink;
 use terrain_pyramid_host_tests::sim::record::simulate;
@@ -363,7 +364,7 @@ struct Play<'a> {
 impl Play<'_> {
     fn recording(&mut self, data: &[u8]) -> Result<(), String> {
         let reader = Reader::new(data).map_err(|e| format!("the recording: {e}"))?;
-        let mut accumulator: Box<Accumulator> = Box::new(Accumulator::new());
+        let mut accumulator: Box<SickAccumulator> = Box::new(SickAccumulator::new());
         for event in reader {
             let event = event.map_err(|e| format!("the recording: {e}"))?;
             match event.payload {
@@ -386,8 +387,8 @@ impl Play<'_> {
                     loop {
                         match accumulator.feed(rest) {
                             FeedResult::Consumed => break,
-                            FeedResult::Telegram {
-                                telegram,
+                            FeedResult::Item {
+                                item: SickItem::Telegram(telegram),
                                 remaining,
                                 ..
                             } => {

@@ -7,12 +7,13 @@ use super::{DecodeError, EncodeError, Frame, Header, MessageType, MAX_LAYERS, MA
 use crate::angle::Angle;
 use crate::classify::ClassifierConfig;
 use crate::design::{DesignError, GateShape, Param, Schedule, SensorModel};
-use crate::geometry::{Mount, ScanPlane, Variant};
+use crate::geometry::{Mount, ScanPlane};
 use crate::logodds::{Clamp, InverseSensorModel};
 use crate::pipeline::FrontendConfig;
 use crate::pyramid::Config;
 use crate::units::Meters;
 use crate::wire::sick::MeasuringMode;
+use crate::wire::sick::Variant;
 use crate::Design;
 use crate::Point3;
 use core::fmt;

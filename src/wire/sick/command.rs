@@ -21,6 +21,7 @@
 
 use super::measured::MeasuredValues;
 use super::telegram::{emit_with, Telegram, ADDRESS_HOST, ADDRESS_REPLY, CRC_LEN, HEADER_LEN};
+use super::variant::Variant;
 use super::{read_u16_le, Error};
 
 /// The scanner's positive acknowledgement, one byte sent before a reply.
@@ -141,181 +142,6 @@ impl OperatingMode {
     }
 }
 
-/// The scan angle (field of view) of a variant.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub enum ScanAngle {
-    /// 100°: from 40° to 140° of the 180° frame (the 40° start is unverified).
-    Deg100,
-    /// 180°: from 0° (first value) to 180° (last value).
-    Deg180,
-}
-
-impl ScanAngle {
-    /// The angle, degrees, as command 0x3B carries it.
-    #[must_use]
-    pub const fn degrees(self) -> u16 {
-        match self {
-            Self::Deg100 => 100,
-            Self::Deg180 => 180,
-        }
-    }
-
-    /// The angle of the first value, hundredths of a degree in the 0°..180° frame:
-    /// 0 for 180°, 4000 for 100° (unverified).
-    #[must_use]
-    pub const fn start_centideg(self) -> u32 {
-        match self {
-            Self::Deg100 => 4_000,
-            Self::Deg180 => 0,
-        }
-    }
-
-    /// The scan angle with this many degrees.
-    ///
-    /// # Errors
-    /// [`Error::UnknownScanAngle`] for anything but 100 or 180.
-    pub const fn from_degrees(degrees: u16) -> Result<Self, Error> {
-        match degrees {
-            100 => Ok(Self::Deg100),
-            180 => Ok(Self::Deg180),
-            _ => Err(Error::UnknownScanAngle { degrees }),
-        }
-    }
-}
-
-/// The angular resolution of a variant. 0.5° and 0.25° are produced by interlacing 1° scans.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub enum Resolution {
-    /// 0.25° (only with the 100° angle).
-    Quarter,
-    /// 0.5°.
-    Half,
-    /// 1°.
-    One,
-}
-
-impl Resolution {
-    /// The resolution, hundredths of a degree (25, 50 or 100), as command 0x3B carries it.
-    #[must_use]
-    pub const fn centideg(self) -> u16 {
-        match self {
-            Self::Quarter => 25,
-            Self::Half => 50,
-            Self::One => 100,
-        }
-    }
-
-    /// The resolution with this many hundredths of a degree.
-    ///
-    /// # Errors
-    /// [`Error::UnknownResolution`] for anything but 25, 50 or 100.
-    pub const fn from_centideg(centideg: u16) -> Result<Self, Error> {
-        match centideg {
-            25 => Ok(Self::Quarter),
-            50 => Ok(Self::Half),
-            100 => Ok(Self::One),
-            _ => Err(Error::UnknownResolution { centideg }),
-        }
-    }
-}
-
-/// A variant: scan angle and angular resolution (command 0x3B). Every combination but
-/// 180° at 0.25° exists: 101/201/401 values over 100°, 181/361 over 180°.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub struct Variant {
-    angle: ScanAngle,
-    resolution: Resolution,
-}
-
-impl Variant {
-    /// 180° at 0.5°: 361 values, the paper's configuration.
-    pub const DEG180_HALF: Self = Self {
-        angle: ScanAngle::Deg180,
-        resolution: Resolution::Half,
-    };
-
-    /// A variant, if the scanner offers it.
-    ///
-    /// # Errors
-    /// [`Error::UnsupportedVariant`] for 180° at 0.25° (721 values do not fit a telegram).
-    pub const fn new(angle: ScanAngle, resolution: Resolution) -> Result<Self, Error> {
-        if matches!(
-            (angle, resolution),
-            (ScanAngle::Deg180, Resolution::Quarter)
-        ) {
-            return Err(Error::UnsupportedVariant {
-                degrees: angle.degrees(),
-                centideg: resolution.centideg(),
-            });
-        }
-        Ok(Self { angle, resolution })
-    }
-
-    /// The variant command 0x3B's fields describe.
-    ///
-    /// # Errors
-    /// [`Error::UnknownScanAngle`], [`Error::UnknownResolution`] or
-    /// [`Error::UnsupportedVariant`].
-    pub const fn from_fields(degrees: u16, centideg: u16) -> Result<Self, Error> {
-        let angle = match ScanAngle::from_degrees(degrees) {
-            Ok(angle) => angle,
-            Err(e) => return Err(e),
-        };
-        let resolution = match Resolution::from_centideg(centideg) {
-            Ok(resolution) => resolution,
-            Err(e) => return Err(e),
-        };
-        Self::new(angle, resolution)
-    }
-
-    /// The scan angle.
-    #[must_use]
-    pub const fn angle(self) -> ScanAngle {
-        self.angle
-    }
-
-    /// The angular resolution.
-    #[must_use]
-    pub const fn resolution(self) -> Resolution {
-        self.resolution
-    }
-
-    /// Values in a full scan: `angle / resolution + 1` (101, 181, 201, 361 or 401).
-    #[must_use]
-    pub const fn value_count(self) -> u16 {
-        self.angle.degrees() * 100 / self.resolution.centideg() + 1
-    }
-
-    /// The beam angle of value `index` of a measured-values reply with `count` values and
-    /// partial-scan index `partial_index`, hundredths of a degree in the scanner's 0°..180°
-    /// frame (90° straight ahead):
-    ///
-    /// `start + index · (angle · 100) / (count − 1) + 25 · partial_index`
-    ///
-    /// - `start` is 0° for 180° and 40° for 100° (unverified);
-    /// - the step is the scan angle over `count − 1`, so a full scan (181 values at 1°, 361 at
-    ///   0.5°, 401 at 0.25° over 100°) steps by the resolution, and a 1° partial scan of an
-    ///   interlaced 0.5°/0.25° mode (181 or 101 values) steps by 1°; the integer division is
-    ///   exact for every count a variant produces, and rounds down otherwise;
-    /// - an interlaced partial scan is offset by its index times 0.25° (as the public ROS
-    ///   drivers read it; unverified), so indexes 0..=3 cover the four 0.25° phases; a full
-    ///   scan carries index 0.
-    ///
-    /// `None` when `index >= count`, when `count < 2`, or when `partial_index > 3`.
-    #[must_use]
-    pub fn beam_angle_centideg(self, count: u16, partial_index: u8, index: u16) -> Option<u32> {
-        if index >= count || count < 2 || partial_index > 3 {
-            return None;
-        }
-        let span = u32::from(self.angle.degrees()) * 100;
-        let step = u32::from(index).checked_mul(span)? / u32::from(count - 1);
-        Some(self.angle.start_centideg() + step + 25 * u32::from(partial_index))
-    }
-}
-
 /// A request from the host to the scanner: a validated representation of the telegrams this
 /// module can send.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -419,8 +245,8 @@ impl Request {
                 }
             }
             Self::SetVariant(variant) => {
-                let [a0, a1] = variant.angle.degrees().to_le_bytes();
-                let [r0, r1] = variant.resolution.centideg().to_le_bytes();
+                let [a0, a1] = variant.scan_angle_deg().to_le_bytes();
+                let [r0, r1] = variant.resolution_centideg().to_le_bytes();
                 payload[..5].copy_from_slice(&[VARIANT, a0, a1, r0, r1]);
             }
             Self::MeasuredValues => {
@@ -647,7 +473,7 @@ mod tests {
 
     #[test]
     fn variant_bytes_match_the_documented_vector() {
-        let bytes = emit(Request::SetVariant(Variant::DEG180_HALF));
+        let bytes = emit(Request::SetVariant(Variant::Fov180StepHalf));
         assert_eq!(
             bytes,
             [0x02, 0x00, 0x05, 0x00, 0x3B, 0xB4, 0x00, 0x32, 0x00, 0x3B, 0x1F]
@@ -655,7 +481,7 @@ mod tests {
         let t = Telegram::new_checked(&bytes[..]).unwrap();
         assert_eq!(
             Request::parse(&t),
-            Ok(Request::SetVariant(Variant::DEG180_HALF))
+            Ok(Request::SetVariant(Variant::Fov180StepHalf))
         );
     }
 
@@ -754,7 +580,7 @@ mod tests {
         let t = Telegram::new_checked(&buf[..n]).unwrap();
         assert_eq!(Reply::parse(&t), Ok(Reply::Variant(bb)));
         assert!(bb.accepted());
-        assert_eq!(bb.variant(), Ok(Variant::DEG180_HALF));
+        assert_eq!(bb.variant(), Ok(Variant::Fov180StepHalf));
 
         let n = emit_with(&mut buf, ADDRESS_REPLY, 2, |d| {
             d.copy_from_slice(&[0xB1, 0])
@@ -779,8 +605,8 @@ mod tests {
 
     #[test]
     fn beam_angles() {
-        let v = Variant::DEG180_HALF;
-        assert_eq!(v.value_count(), 361);
+        let v = Variant::Fov180StepHalf;
+        assert_eq!(v.beam_count(), 361);
         assert_eq!(v.beam_angle_centideg(361, 0, 0), Some(0));
         assert_eq!(v.beam_angle_centideg(361, 0, 1), Some(50));
         assert_eq!(v.beam_angle_centideg(361, 0, 180), Some(9_000));
@@ -792,16 +618,16 @@ mod tests {
         assert_eq!(v.beam_angle_centideg(181, 4, 1), None);
         assert_eq!(v.beam_angle_centideg(1, 0, 0), None);
 
-        let q = Variant::new(ScanAngle::Deg100, Resolution::Quarter).unwrap();
-        assert_eq!(q.value_count(), 401);
+        let q = Variant::Fov100StepQuarter;
+        assert_eq!(q.beam_count(), 401);
         assert_eq!(q.beam_angle_centideg(401, 0, 0), Some(4_000));
         assert_eq!(q.beam_angle_centideg(401, 0, 1), Some(4_025));
         assert_eq!(q.beam_angle_centideg(401, 0, 400), Some(14_000));
         assert_eq!(q.beam_angle_centideg(101, 3, 0), Some(4_075));
-        let one = Variant::new(ScanAngle::Deg180, Resolution::One).unwrap();
-        assert_eq!(one.value_count(), 181);
+        let one = Variant::Fov180Step1;
+        assert_eq!(one.beam_count(), 181);
         assert_eq!(one.beam_angle_centideg(181, 0, 90), Some(9_000));
-        assert!(Variant::new(ScanAngle::Deg180, Resolution::Quarter).is_err());
+        assert!(Variant::from_fields(180, 25).is_err());
         assert_eq!(reply_command(VARIANT), VARIANT_REPLY);
         assert_eq!(reply_command(OPERATING_MODE), OPERATING_MODE_REPLY);
     }

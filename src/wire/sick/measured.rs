@@ -12,8 +12,8 @@
 //!   the measuring mode set with command 0x77 ([`MeasuringMode`]). The all-ones distance of
 //!   the mode means "no echo" and yields no range.
 
-use super::command::Variant;
 use super::telegram::{emit_with, Telegram, ADDRESS_REPLY, CRC_LEN, HEADER_LEN, MAX_PAYLOAD_LEN};
+use super::variant::Variant;
 use super::Error;
 use core::iter::FusedIterator;
 
@@ -667,6 +667,6 @@ mod tests {
     fn beam_angle_of_a_reply() {
         let values = [0u8; 2 * 361];
         let m = MeasuredValues::new(Unit::Millimetre, 0, &values, None, 0).unwrap();
-        assert_eq!(m.beam_angle_centideg(Variant::DEG180_HALF, 3), Some(150));
+        assert_eq!(m.beam_angle_centideg(Variant::Fov180StepHalf, 3), Some(150));
     }
 }

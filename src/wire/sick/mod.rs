@@ -33,12 +33,15 @@ mod command;
 mod crc;
 mod measured;
 mod telegram;
+mod variant;
 
-pub use accumulator::{Accumulator, FeedResult, FrameError, Stats, DEFAULT_CAPACITY};
+pub use accumulator::{
+    SickAccumulator, SickCounters, SickFeed, SickFrameError, SickItem, DEFAULT_CAPACITY,
+};
 pub use command::{
-    reply_command, Baud, OperatingMode, OperatingModeReply, Reply, Request, Resolution, ScanAngle,
-    Variant, VariantReply, ACK, INSTALLATION_PASSWORD, NAK, OPERATING_MODE, OPERATING_MODE_REPLY,
-    REQUEST_MEASURED_VALUES, VARIANT, VARIANT_REPLY,
+    reply_command, Baud, OperatingMode, OperatingModeReply, Reply, Request, VariantReply, ACK,
+    INSTALLATION_PASSWORD, NAK, OPERATING_MODE, OPERATING_MODE_REPLY, REQUEST_MEASURED_VALUES,
+    VARIANT, VARIANT_REPLY,
 };
 pub use crc::{crc16, Crc};
 pub use measured::{
@@ -49,6 +52,7 @@ pub use telegram::{
     emit_telegram, Telegram, ADDRESS_HOST, ADDRESS_REPLY, CRC_LEN, HEADER_LEN, MAX_PAYLOAD_LEN,
     MAX_TELEGRAM_LEN, STX,
 };
+pub use variant::{Variant, MAX_BEAMS};
 
 /// Why a telegram or one of its fields was refused, or why an emit could not proceed.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -15,7 +15,8 @@ use terrain_pyramid::geometry::{BeamTable, LineTransform, Pose, PoseFrame};
 use terrain_pyramid::link::{Link, LinkConfig};
 use terrain_pyramid::pipeline::FrontendConfig;
 use terrain_pyramid::wire::recording::{Payload, Reader};
-use terrain_pyramid::wire::sick::{Accumulator, FeedResult, MeasuredValues};
+use terrain_pyramid::wire::sick::{MeasuredValues, SickAccumulator, SickItem};
+use terrain_pyramid::wire::FeedResult;
 use terrain_pyramid::{
     Config, DefaultDesign, DefaultFrontend, DefaultPyramid, Schedule, SensorModel,
     DEFAULT_CELLS_PER_SIDE,
@@ -35,7 +36,7 @@ fn throughput(rec: &[u8], seconds: f64) -> Result<(), String> {
     .map_err(|e| e.to_string())?;
     let mut pyramid = Box::new(DefaultPyramid::new());
     let mut link: Box<Link> = Box::new(Link::new(LinkConfig::DEFAULT));
-    let mut acc: Box<Accumulator> = Box::new(Accumulator::new());
+    let mut acc: Box<SickAccumulator> = Box::new(SickAccumulator::new());
     let mut frontend = Box::new(DefaultFrontend::new(config));
     let mut returns = 0_u64;
     let mut runs = 0_u64;
@@ -45,7 +46,7 @@ fn throughput(rec: &[u8], seconds: f64) -> Result<(), String> {
         *link = Link::new(LinkConfig::DEFAULT);
         link.configure(&mut pyramid, &design, &Config::default())
             .map_err(|e| e.to_string())?;
-        *acc = Accumulator::new();
+        *acc = SickAccumulator::new();
         frontend.configure(config);
         frontend.set_pose(Pose::default());
         let before = frontend.stats().returns;
@@ -76,7 +77,7 @@ fn export(rec: &[u8], out: &str) -> Result<(), String> {
     let beams = BeamTable::new(config.variant);
     let mut frame = PoseFrame::from(&Pose::default());
     let mut actuator = FineAngle::ZERO;
-    let mut acc: Box<Accumulator> = Box::new(Accumulator::new());
+    let mut acc: Box<SickAccumulator> = Box::new(SickAccumulator::new());
     let mut bytes = Vec::new();
     let (mut lines, mut points) = (0_u64, 0_u64);
     for event in Reader::new(rec).map_err(|e| e.to_string())? {
@@ -93,8 +94,8 @@ fn export(rec: &[u8], out: &str) -> Result<(), String> {
                 loop {
                     match acc.feed(rest) {
                         FeedResult::Consumed => break,
-                        FeedResult::Telegram {
-                            telegram,
+                        FeedResult::Item {
+                            item: SickItem::Telegram(telegram),
                             remaining,
                             ..
                         } => {
