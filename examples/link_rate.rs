@@ -152,7 +152,10 @@ fn run(lines_per_s: f64, returns: usize, seconds: f64, config: LinkConfig) -> Re
     let mut link: Box<Link> = Box::new(Link::new(config));
     link.configure(&mut pyramid, &design, &Config::default())
         .unwrap();
-    let mut classifier: Box<Classifier<1024>> = Box::new(Classifier::new());
+    let mut classifier: Box<Classifier<1024, 8>> = Box::new(Classifier::new());
+    classifier
+        .adopt_design(&design, Config::default().model.increments().unwrap())
+        .unwrap();
     let layers = pyramid.layer_count();
     // The time each tile's oldest unsent change arrived, seconds.
     let mut pending: Vec<[Option<f64>; 64]> = vec![[None; 64]; layers];
@@ -235,7 +238,6 @@ fn run(lines_per_s: f64, returns: usize, seconds: f64, config: LinkConfig) -> Re
             ];
             let horizontal = (range * el.cos()).abs();
             classifier.add_point(
-                &pyramid,
                 Point3 {
                     x: Meters::from_num(p[0]),
                     y: Meters::from_num(p[1]),

@@ -80,7 +80,7 @@ pub type DefaultDesign = Design<DEFAULT_LAYERS>;
 /// for a whole 226-line sweep of the real 3DTK scan (about 860 cells with the soft gate).
 pub const DEFAULT_CLASSIFIER_SLOTS: usize = 1024;
 /// The default pipeline, as the firmware runs it.
-pub type DefaultFrontend = pipeline::Frontend<DEFAULT_CLASSIFIER_SLOTS>;
+pub type DefaultFrontend = pipeline::Frontend<DEFAULT_CLASSIFIER_SLOTS, DEFAULT_LAYERS>;
 
 // The README's example is compiled and run as a doctest, so it stays true.
 #[cfg(doctest)]

@@ -20,8 +20,9 @@
 
 use crate::angle::FineAngle;
 use crate::classify::{Classifier, ClassifierConfig, ClassifierStats};
+use crate::design::{Design, DesignError};
 use crate::geometry::{BeamTable, LineTransform, Mount, Pose, PoseFrame};
-use crate::pyramid::Pyramid;
+use crate::pyramid::{Config, Pyramid};
 use crate::units::Meters;
 use crate::wire::sick::Variant;
 use crate::wire::sick::{MeasuredValues, MeasuringMode};
@@ -189,7 +190,8 @@ pub enum LineError {
         /// The index in the telegram.
         partial_index: u8,
     },
-    /// The pipeline has not been configured yet ([`Frontend::unconfigured`]).
+    /// The pipeline has no setup yet ([`Frontend::unconfigured`]) or no design to feed
+    /// ([`Frontend::adopt_design`]).
     NotConfigured,
 }
 
@@ -206,7 +208,9 @@ impl fmt::Display for LineError {
                     "partial-scan index {partial_index} does not fit the variant"
                 )
             }
-            Self::NotConfigured => f.write_str("the pipeline is not configured yet"),
+            Self::NotConfigured => {
+                f.write_str("the pipeline has no setup or no design to feed yet")
+            }
         }
     }
 }
@@ -220,11 +224,11 @@ enum Layout {
     Partial(u8),
 }
 
-/// The per-line pipeline, with `C` classifier slots.
-pub struct Frontend<const C: usize> {
+/// The per-line pipeline, with `C` classifier slots, for designs of up to `L` layers.
+pub struct Frontend<const C: usize, const L: usize> {
     config: FrontendConfig,
     beams: BeamTable,
-    classifier: Classifier<C>,
+    classifier: Classifier<C, L>,
     pose: Pose,
     frame: PoseFrame,
     actuator: FineAngle,
@@ -237,7 +241,7 @@ pub struct Frontend<const C: usize> {
     configured: bool,
 }
 
-impl<const C: usize> fmt::Debug for Frontend<C> {
+impl<const C: usize, const L: usize> fmt::Debug for Frontend<C, L> {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.debug_struct("Frontend")
             .field("config", &self.config)
@@ -247,7 +251,7 @@ impl<const C: usize> fmt::Debug for Frontend<C> {
     }
 }
 
-impl<const C: usize> Frontend<C> {
+impl<const C: usize, const L: usize> Frontend<C, L> {
     /// A pipeline for `config`, at the world origin with the actuator at zero.
     ///
     /// It returns the pipeline by value (about 24 KiB with 1024 classifier slots): firmware
@@ -322,6 +326,26 @@ impl<const C: usize> Frontend<C> {
     #[must_use]
     pub const fn config(&self) -> &FrontendConfig {
         &self.config
+    }
+
+    /// Adopts the gating of the pyramid's design and configuration (the classifier's
+    /// [`Classifier::adopt_design`]); the current observation is discarded. On error nothing
+    /// changes.
+    ///
+    /// # Errors
+    /// The configuration's increments are invalid, or a layer's resolution cannot be
+    /// represented.
+    pub fn adopt_design(&mut self, design: &Design<L>, config: &Config) -> Result<(), DesignError> {
+        let increments = config.model.increments()?;
+        self.classifier.adopt_design(design, increments)?;
+        self.lines_in_observation = 0;
+        Ok(())
+    }
+
+    /// The gating in force.
+    #[must_use]
+    pub const fn gates(&self) -> &crate::gate::Gates<L> {
+        self.classifier.gates()
     }
 
     /// The robot's pose from now on (validated by [`Pose::from_f32`] where it came in).
@@ -405,12 +429,12 @@ impl<const C: usize> Frontend<C> {
     ///
     /// # Errors
     /// The line does not fit the configured variant; nothing of it was used.
-    pub fn line<const W: usize, const L: usize>(
+    pub fn line<const W: usize>(
         &mut self,
         pyramid: &mut Pyramid<W, L>,
         values: &MeasuredValues<'_>,
     ) -> Result<(), LineError> {
-        if !self.configured {
+        if !self.configured || self.classifier.gates().layer_count() == 0 {
             self.stats.lines_rejected = self.stats.lines_rejected.saturating_add(1);
             return Err(LineError::NotConfigured);
         }
@@ -442,7 +466,6 @@ impl<const C: usize> Frontend<C> {
                     Self::missing_ground(
                         &mut self.classifier,
                         &mut self.stats,
-                        pyramid,
                         &transform,
                         b,
                         ground_z,
@@ -456,7 +479,6 @@ impl<const C: usize> Frontend<C> {
                 Some(located) => {
                     // The distance is needed only for its gate bin: no square root.
                     self.classifier.add_point_squared(
-                        pyramid,
                         located.point,
                         located.horizontal_squared,
                         ground_z,
@@ -479,10 +501,9 @@ impl<const C: usize> Frontend<C> {
     /// Where a no-return beam should have met the ground plane, if it points down at it
     /// closer than `within`: that cell is marked as missing ground. One division, and only
     /// for beams that returned nothing.
-    fn missing_ground<const W: usize, const L: usize>(
-        classifier: &mut Classifier<C>,
+    fn missing_ground(
+        classifier: &mut Classifier<C, L>,
         stats: &mut FrontendStats,
-        pyramid: &Pyramid<W, L>,
         transform: &LineTransform<'_>,
         beam: usize,
         ground_z: Meters,
@@ -513,14 +534,14 @@ impl<const C: usize> Frontend<C> {
             return;
         };
         if let Some(expected) = transform.locate(beam, range_mm) {
-            classifier.add_missing_ground(pyramid, expected.point, expected.horizontal);
+            classifier.add_missing_ground(expected.point, expected.horizontal);
             stats.missing_ground = stats.missing_ground.saturating_add(1);
         }
     }
 
     /// Ends the current observation now (if it holds any line): recentres the pyramid on the
     /// robot and applies the evidence.
-    pub fn end_observation<const W: usize, const L: usize>(&mut self, pyramid: &mut Pyramid<W, L>) {
+    pub fn end_observation<const W: usize>(&mut self, pyramid: &mut Pyramid<W, L>) {
         if self.lines_in_observation == 0 {
             return;
         }
@@ -564,7 +585,7 @@ mod tests {
         bytes
     }
 
-    fn setup(lines: u32) -> (Frontend<4096>, std::boxed::Box<Pyramid<64, 8>>) {
+    fn setup(lines: u32) -> (Frontend<4096, 8>, std::boxed::Box<Pyramid<64, 8>>) {
         let design = Design::<8>::new(SensorModel::default(), Schedule::default(), 64).unwrap();
         let mut p = std::boxed::Box::new(Pyramid::new());
         p.configure(&design, &Config::default()).unwrap();
@@ -582,10 +603,16 @@ mod tests {
             classifier: ClassifierConfig::default(),
             missing_ground_within: None,
         };
-        (Frontend::new(config), p)
+        let mut f = Frontend::new(config);
+        f.adopt_design(&design, &Config::default()).unwrap();
+        (f, p)
     }
 
-    fn sweep(f: &mut Frontend<4096>, p: &mut Pyramid<64, 8>, degrees: impl Iterator<Item = u32>) {
+    fn sweep(
+        f: &mut Frontend<4096, 8>,
+        p: &mut Pyramid<64, 8>,
+        degrees: impl Iterator<Item = u32>,
+    ) {
         for tilt in degrees {
             let values = ranges_mm(f64::from(tilt));
             let line = MeasuredValues::new(Unit::Millimetre, 0, &values, None, 0).unwrap();
@@ -650,7 +677,7 @@ mod tests {
     #[test]
     fn an_unconfigured_pipeline_refuses_lines() {
         let (_, mut p) = setup(1);
-        let mut f = Frontend::<64>::unconfigured();
+        let mut f = Frontend::<64, 8>::unconfigured();
         let values = ranges_mm(20.0);
         let line = MeasuredValues::new(Unit::Millimetre, 0, &values, None, 0).unwrap();
         assert_eq!(f.line(&mut p, &line), Err(LineError::NotConfigured));

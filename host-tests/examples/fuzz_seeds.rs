@@ -110,7 +110,7 @@ fn device_output() -> Vec<u8> {
             cell_x: i,
             cell_y: -i,
             class: EvidenceClass::Obstacle,
-            distance: Meters::from_num(1),
+            weight: terrain_pyramid::Weight::ONE,
         });
     }
     let mut out = Vec::new();

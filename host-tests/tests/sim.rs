@@ -13,7 +13,7 @@ use terrain_pyramid::wire::sick::{
 use terrain_pyramid::wire::FeedResult;
 use terrain_pyramid::{
     Config, DefaultDesign, DefaultPyramid, Fused, Meters, Schedule, SensorModel,
-    DEFAULT_CELLS_PER_SIDE,
+    DEFAULT_CELLS_PER_SIDE, DEFAULT_LAYERS,
 };
 use terrain_pyramid_host_tests::sim::laser::{
     angle_to_u16, u16_to_angle_deg, Actuator, Laser, LaserConfig, RETURN_FLAG,
@@ -126,13 +126,18 @@ fn frontend_config(setup: &Setup) -> FrontendConfig {
 const SLOTS: usize = 8192;
 
 /// The default pyramid design (10 m, Δd = 0.1 m, γ = 2, soft gate) over the default window.
-fn default_pyramid() -> Box<DefaultPyramid> {
-    let design = DefaultDesign::new(
+fn default_design() -> DefaultDesign {
+    DefaultDesign::new(
         SensorModel::default(),
         Schedule::default(),
         DEFAULT_CELLS_PER_SIDE,
     )
-    .unwrap();
+    .unwrap()
+}
+
+/// A pyramid of the default design.
+fn default_pyramid() -> Box<DefaultPyramid> {
+    let design = default_design();
     let mut pyramid = Box::new(DefaultPyramid::new());
     pyramid.configure(&design, &Config::default()).unwrap();
     pyramid
@@ -140,8 +145,13 @@ fn default_pyramid() -> Box<DefaultPyramid> {
 
 /// Replays a decoded recording through the pipeline into `pyramid`, as a board would: the
 /// pose and angle in force, then the line. Ends the last observation.
-fn replay(decoded: &Decoded, pyramid: &mut DefaultPyramid) -> Box<Frontend<SLOTS>> {
-    let mut frontend = Box::new(Frontend::<SLOTS>::new(frontend_config(&decoded.setup)));
+fn replay(decoded: &Decoded, pyramid: &mut DefaultPyramid) -> Box<Frontend<SLOTS, DEFAULT_LAYERS>> {
+    let mut frontend = Box::new(Frontend::<SLOTS, DEFAULT_LAYERS>::new(frontend_config(
+        &decoded.setup,
+    )));
+    frontend
+        .adopt_design(&default_design(), &Config::default())
+        .unwrap();
     for line in &decoded.lines {
         let [x, y, z, roll, pitch, yaw] = line.pose;
         frontend.set_pose(Pose::from_f32(x, y, z, roll, pitch, yaw).unwrap());

@@ -69,13 +69,19 @@ fn configured() -> (DefaultPyramid, Link) {
     (pyramid, link)
 }
 
+/// An obstacle seen by `layer` at 0.2 m, weighted by the default design's gate.
 fn obstacle(layer: u8, x: i32, y: i32) -> Evidence {
+    let design = DefaultDesign::new(SensorModel::default(), Schedule::default(), 64).unwrap();
+    let mut gates = crate::gate::Gates::<8>::new();
+    gates
+        .configure(&design, Config::default().model.increments().unwrap())
+        .unwrap();
     Evidence {
         layer,
         cell_x: x,
         cell_y: y,
         class: EvidenceClass::Obstacle,
-        distance: Meters::from_num(0.2),
+        weight: gates.weight_at(usize::from(layer), Meters::from_num(0.2)),
     }
 }
 
