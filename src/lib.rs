@@ -48,6 +48,7 @@ pub mod fmath;
 #[macro_use]
 mod fmt;
 
+pub mod app;
 pub mod classify;
 pub mod design;
 pub mod drivers;
@@ -81,6 +82,11 @@ pub type DefaultDesign = Design<DEFAULT_LAYERS>;
 pub const DEFAULT_CLASSIFIER_SLOTS: usize = 1024;
 /// The default pipeline, as the firmware runs it.
 pub type DefaultFrontend = pipeline::Frontend<DEFAULT_CLASSIFIER_SLOTS, DEFAULT_LAYERS>;
+
+/// The default co-processor: the default pyramid and pipeline, and a link with a 2 KiB queue
+/// (22 ms of the link at 921 600 Bd ahead of a budget of half of it), about 94 KiB.
+pub type DefaultCoProcessor =
+    app::CoProcessor<DEFAULT_CELLS_PER_SIDE, DEFAULT_LAYERS, DEFAULT_CLASSIFIER_SLOTS, 2048>;
 
 // The README's example is compiled and run as a doctest, so it stays true.
 #[cfg(doctest)]

@@ -64,94 +64,6 @@ impl defmt::Format for FrontendConfig {
     }
 }
 
-/// Why a recording's (or the link's) setup cannot configure the pipeline.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-#[non_exhaustive]
-pub enum SetupError {
-    /// No scanner variant has this field of view and resolution.
-    UnknownVariant {
-        /// Field of view, degrees.
-        field_deg: u16,
-        /// Angular resolution, hundredths of a degree.
-        resolution_cdeg: u16,
-    },
-    /// The SICK measuring mode is not one the decoder knows.
-    UnknownMeasuringMode {
-        /// The 0x77 mode number.
-        code: u8,
-    },
-    /// A sensor position coordinate is not finite or beyond ±1000 m.
-    BadPosition,
-}
-
-impl fmt::Display for SetupError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match *self {
-            Self::UnknownVariant {
-                field_deg,
-                resolution_cdeg,
-            } => write!(
-                f,
-                "no SICK variant scans {field_deg}° at {resolution_cdeg}/100°"
-            ),
-            Self::UnknownMeasuringMode { code } => {
-                write!(f, "measuring mode {code:#04x} is not supported")
-            }
-            Self::BadPosition => {
-                f.write_str("the sensor position must be finite and within ±1000 m")
-            }
-        }
-    }
-}
-
-impl FrontendConfig {
-    /// The pipeline's configuration from a recording's setup, with the given classifier and
-    /// missing ground off.
-    ///
-    /// # Errors
-    /// An unknown variant or measuring mode, or a sensor position that is not finite or
-    /// beyond ±1000 m.
-    pub fn from_setup(
-        setup: &crate::wire::recording::Setup,
-        classifier: ClassifierConfig,
-    ) -> Result<Self, SetupError> {
-        use crate::geometry::ScanPlane;
-        use crate::wire::recording::MountKind;
-        let variant = Variant::from_sick(setup.field_deg, setup.resolution_cdeg).ok_or(
-            SetupError::UnknownVariant {
-                field_deg: setup.field_deg,
-                resolution_cdeg: setup.resolution_cdeg,
-            },
-        )?;
-        let measuring_mode = MeasuringMode::from_code(setup.measuring_mode).map_err(|_| {
-            SetupError::UnknownMeasuringMode {
-                code: setup.measuring_mode,
-            }
-        })?;
-        if setup
-            .sensor_m
-            .iter()
-            .any(|v| !v.is_finite() || v.abs() > 1000.0)
-        {
-            return Err(SetupError::BadPosition);
-        }
-        let [x, y, z] = setup.sensor_m.map(crate::units::meters_from_f32);
-        let plane = match setup.mount {
-            MountKind::PannedVertical => ScanPlane::PannedVertical,
-            MountKind::TiltedHorizontal => ScanPlane::TiltedHorizontal,
-        };
-        Ok(Self {
-            mount: Mount::new(plane, crate::units::Point3 { x, y, z }),
-            variant,
-            measuring_mode,
-            lines_per_observation: setup.lines_per_observation,
-            classifier,
-            missing_ground_within: None,
-        })
-    }
-}
-
 /// Counters of the pipeline. They saturate at `u32::MAX`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -317,6 +229,13 @@ impl<const C: usize, const L: usize> Frontend<C, L> {
         self.classifier.configure(config.classifier);
         self.frame = self.pose.frame();
         self.configured = true;
+        self.restart_observation();
+    }
+
+    /// Discards the observation under way and forgets the sweep's direction: the next line
+    /// starts a new observation (after the maps were cleared, say).
+    pub fn restart_observation(&mut self) {
+        self.classifier.discard();
         self.lines_in_observation = 0;
         self.last_actuator = None;
         self.direction = 0;

@@ -489,9 +489,10 @@ mod tests {
 
     type P = Pyramid<64, 8>;
 
-    /// The gating of the last pyramid built by [`pyramid`] (tests run on their own threads).
+    // The gating of the last pyramid built by `pyramid` (tests run on their own threads).
     std::thread_local! {
-        static GATES: core::cell::RefCell<Gates<8>> = core::cell::RefCell::new(Gates::new());
+        static GATES: core::cell::RefCell<Gates<8>> =
+            const { core::cell::RefCell::new(Gates::new()) };
     }
 
     fn pyramid(gate: GateShape, clamp: Clamp) -> P {

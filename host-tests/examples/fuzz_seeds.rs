@@ -12,7 +12,8 @@ use terrain_pyramid::wire::link::{
     cobs, encode, ClampRequest, Configure, Message, PanAngle, Pose, SnapshotScope,
     MAX_ENCODED_FRAME,
 };
-use terrain_pyramid::wire::recording::{emit_header, Event, MountKind, Payload, Setup};
+use terrain_pyramid::wire::recording::SetupEvent as Setup;
+use terrain_pyramid::wire::recording::{emit_header, Event, MountKind, Payload};
 use terrain_pyramid::wire::sick::{emit_telegram, ADDRESS_REPLY};
 use terrain_pyramid::{
     Config, DefaultDesign, DefaultPyramid, Evidence, EvidenceClass, GateShape, Meters, Schedule,

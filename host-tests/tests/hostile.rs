@@ -27,7 +27,8 @@ use terrain_pyramid::wire::link::{
     encode, Accumulator as LinkAccumulator, FeedResult as LinkFeed, Message, PanAngle, Pose,
     SnapshotScope, Stats, MAX_ENCODED_FRAME, MAX_FRAME, STATS_COUNTERS,
 };
-use terrain_pyramid::wire::recording::{emit_header, Event, MountKind, Payload, Reader, Setup};
+use terrain_pyramid::wire::recording::SetupEvent as Setup;
+use terrain_pyramid::wire::recording::{emit_header, Event, MountKind, Payload, Reader};
 use terrain_pyramid::wire::sick::{
     emit_telegram, SickAccumulator, SickFeed, SickItem, Telegram, ADDRESS_REPLY, DEFAULT_CAPACITY,
 };

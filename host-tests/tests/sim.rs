@@ -6,7 +6,8 @@ use terrain_pyramid::angle::FineAngle;
 use terrain_pyramid::classify::ClassifierConfig;
 use terrain_pyramid::geometry::Pose;
 use terrain_pyramid::pipeline::{Frontend, FrontendConfig};
-use terrain_pyramid::wire::recording::{MountKind, Payload, Reader, Setup};
+use terrain_pyramid::wire::recording::SetupEvent as Setup;
+use terrain_pyramid::wire::recording::{MountKind, Payload, Reader};
 use terrain_pyramid::wire::sick::{
     range_mm, MeasuredValues, MeasuringMode, SickAccumulator, SickItem, Unit,
 };

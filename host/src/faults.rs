@@ -259,7 +259,9 @@ impl Rng {
 }
 
 /// The recording: the simulated stairs drive (as the demo's), its setup and first lines.
-fn recording(lines: usize) -> Result<(terrain_pyramid::wire::recording::Setup, Vec<Line>), String> {
+fn recording(
+    lines: usize,
+) -> Result<(terrain_pyramid::wire::recording::SetupEvent, Vec<Line>), String> {
     use terrain_pyramid_host_tests::sim::record::{simulate, SimConfig};
     let sim = simulate(&SimConfig::paper_stairs(0.5, 0.5, 1.0)).map_err(|e| e.0)?;
     let reader = Reader::new(&sim.bytes).map_err(|e| format!("the recording: {e}"))?;
@@ -600,7 +602,10 @@ struct Reference {
 
 impl Reference {
     /// The default pyramid and the recording's pipeline, nothing fed yet.
-    fn new(setup: &terrain_pyramid::wire::recording::Setup, lines: usize) -> Result<Self, String> {
+    fn new(
+        setup: &terrain_pyramid::wire::recording::SetupEvent,
+        lines: usize,
+    ) -> Result<Self, String> {
         let config = FrontendConfig::from_setup(setup, ClassifierConfig::default())
             .map_err(|e| format!("the recording's setup: {e}"))?;
         let mut pyramid = Box::new(DefaultPyramid::new());
@@ -695,7 +700,7 @@ fn run_kind(
     kind: &str,
     elf: &Path,
     out: &Path,
-    setup_rec: &terrain_pyramid::wire::recording::Setup,
+    setup_rec: &terrain_pyramid::wire::recording::SetupEvent,
     lines: &[Line],
     outcome: &mut Outcome,
 ) -> Result<(), String> {
@@ -1222,7 +1227,7 @@ pub fn run(args: &Args) -> ExitCode {
 mod tests {
     use super::*;
 
-    fn lines(n: usize) -> (terrain_pyramid::wire::recording::Setup, Vec<Line>) {
+    fn lines(n: usize) -> (terrain_pyramid::wire::recording::SetupEvent, Vec<Line>) {
         recording(n).unwrap()
     }
 

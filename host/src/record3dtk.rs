@@ -14,7 +14,8 @@ use std::fs::File;
 use std::io::BufReader;
 use std::path::PathBuf;
 use std::process::ExitCode;
-use terrain_pyramid::wire::recording::{emit_header, Event, MountKind, Payload, Setup};
+use terrain_pyramid::wire::recording::SetupEvent as Setup;
+use terrain_pyramid::wire::recording::{emit_header, Event, MountKind, Payload};
 use terrain_pyramid::wire::sick::{MeasuredValues, Unit};
 
 /// Values of a 180°/0.5° line.

@@ -15,7 +15,8 @@ use terrain_pyramid::angle::FineAngle;
 use terrain_pyramid::classify::ClassifierConfig;
 use terrain_pyramid::geometry::Pose;
 use terrain_pyramid::pipeline::FrontendConfig;
-use terrain_pyramid::wire::recording::{Payload, Reader, Setup};
+use terrain_pyramid::wire::recording::SetupEvent as Setup;
+use terrain_pyramid::wire::recording::{Payload, Reader};
 use terrain_pyramid::wire::sick::{MeasuredValues, SickAccumulator, SickItem};
 use terrain_pyramid::wire::FeedResult;
 use terrain_pyramid::{

@@ -7,7 +7,8 @@
 //! used when present; a small synthetic recording written here always runs.
 use std::path::{Path, PathBuf};
 use std::process::Command;
-use terrain_pyramid::wire::recording::{emit_header, Event, MountKind, Payload, Setup};
+use terrain_pyramid::wire::recording::SetupEvent as Setup;
+use terrain_pyramid::wire::recording::{emit_header, Event, MountKind, Payload};
 use terrain_pyramid::wire::sick::{MeasuredValues, Unit};
 
 const PYRAMID: &str = env!("CARGO_BIN_EXE_pyramid");
