@@ -48,6 +48,31 @@ pub struct FrontendConfig {
     pub missing_ground_within: Option<Meters>,
 }
 
+impl FrontendConfig {
+    /// The setup a co-processor boots with until the host sends its own: a SICK LMS 291 at
+    /// 180°/0.5° in the 8 m mode, its scan centre 0.5 m above the ground at the robot's
+    /// origin, on a mount of the given kind, one observation per sweep, the default
+    /// classifier, missing ground off.
+    #[must_use]
+    pub fn lms291_boot(plane: crate::geometry::ScanPlane) -> Self {
+        Self {
+            mount: Mount::new(
+                plane,
+                crate::units::Point3 {
+                    x: Meters::ZERO,
+                    y: Meters::ZERO,
+                    z: Meters::from_bits(1 << 15),
+                },
+            ),
+            variant: Variant::Fov180StepHalf,
+            measuring_mode: MeasuringMode::Mm8Cm80,
+            lines_per_observation: 0,
+            classifier: ClassifierConfig::default(),
+            missing_ground_within: None,
+        }
+    }
+}
+
 #[cfg(feature = "defmt")]
 impl defmt::Format for FrontendConfig {
     fn format(&self, f: defmt::Formatter<'_>) {

@@ -98,7 +98,10 @@ fuzz_target!(|data: &[u8]| {
     pyramid
         .configure(&design, &Config::default())
         .expect("the default config");
-    let mut frontend = Box::new(Frontend::<1024>::new(config));
+    let mut frontend = Box::new(Frontend::<1024, 8>::new(config));
+    frontend
+        .adopt_design(&design, &Config::default())
+        .expect("the default design's gating");
     frontend.set_pose(pose);
 
     let mut offered = 0_u32;

@@ -22,6 +22,7 @@
 //! and a hash of each layer's raw cells (`layer_cells_fnv1a64`, FNV-1a 64 of the W × W cells
 //! as `i16` little-endian, row-major from the lowest row), to compare with the device's.
 use crate::export::{self, MapSnapshot, MapSummary};
+use crate::link::{HostLink, LinkEvent, Mirror};
 use serde::Serialize;
 use std::collections::VecDeque;
 use std::io::{IsTerminal, Read, Write};
@@ -33,7 +34,6 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 use terrain_pyramid::wire::link::{HelloReason, Message, RxCounters, SnapshotScope};
 use terrain_pyramid::LogOddsFixed;
-use terrain_pyramid_host::link::{HostLink, LinkEvent, Mirror};
 
 /// How often the status line is refreshed.
 pub const STATUS_INTERVAL: Duration = Duration::from_millis(250);

@@ -14,6 +14,8 @@ use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 use terrain_pyramid::design::{Schedule, SensorModel};
 use terrain_pyramid::link::{Link, LinkConfig, SensorCounters};
+use terrain_pyramid::wire::link::Reply;
+use terrain_pyramid::wire::FeedResult;
 use terrain_pyramid::{
     Config, DefaultDesign, DefaultPyramid, Evidence, EvidenceClass, Fused, Meters,
     DEFAULT_CELLS_PER_SIDE,
@@ -148,8 +150,8 @@ fn serve(listener: TcpListener, plan: Plan, settled: mpsc::Sender<()>) -> Served
         stats_interval_ms: 200,
         ..LinkConfig::DEFAULT
     }));
-    link.configure(&mut pyramid, &design(), &Config::default())
-        .unwrap();
+    pyramid.configure(&design(), &Config::default()).unwrap();
+    link.adopt(&design());
     let mut channel = Channel {
         pending: Vec::new(),
         dropped: 0,
@@ -188,7 +190,7 @@ fn serve(listener: TcpListener, plan: Plan, settled: mpsc::Sender<()>) -> Served
                     } else {
                         EvidenceClass::Navigable
                     },
-                    distance: Meters::from_num(rng.unit() * 10.0),
+                    weight: terrain_pyramid::Weight::from_num(rng.unit()),
                 });
             }
         }
@@ -215,7 +217,7 @@ fn serve(listener: TcpListener, plan: Plan, settled: mpsc::Sender<()>) -> Served
                 }
                 Ok(n) => {
                     last_command = Instant::now();
-                    link.receive(&rx[..n], &mut *pyramid, |_| {});
+                    serve_commands(&mut link, &mut pyramid, &rx[..n]);
                 }
                 Err(e) if e.kind() == ErrorKind::WouldBlock => break,
                 Err(e) if e.kind() == ErrorKind::Interrupted => {}
@@ -251,6 +253,26 @@ fn serve(listener: TcpListener, plan: Plan, settled: mpsc::Sender<()>) -> Served
         dropped: channel.dropped,
         flipped: channel.flipped,
         snapshots: c.snapshots,
+    }
+}
+
+/// Carries out the commands `pyramid listen` sends a device (snapshots, Stats, pings), as
+/// the application core does ([`Link::serve`]).
+fn serve_commands(link: &mut Link, pyramid: &mut DefaultPyramid, bytes: &[u8]) {
+    let mut input = bytes;
+    loop {
+        input = match link.receive(input) {
+            FeedResult::Consumed => return,
+            FeedResult::Item {
+                item, remaining, ..
+            } => {
+                if let Some(other) = link.serve(pyramid, item) {
+                    link.answer(Reply::ok(other.header));
+                }
+                remaining
+            }
+            FeedResult::Rejected { remaining, .. } => remaining,
+        };
     }
 }
 

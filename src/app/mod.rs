@@ -191,15 +191,24 @@ impl<const W: usize, const L: usize, const C: usize, const Q: usize> fmt::Debug
     }
 }
 
+impl<const W: usize, const L: usize, const C: usize, const Q: usize> Default
+    for CoProcessor<W, L, C, Q>
+{
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
 impl<const W: usize, const L: usize, const C: usize, const Q: usize> CoProcessor<W, L, C, Q> {
-    /// An unconfigured co-processor with the link's settings: it refuses every line until
-    /// [`boot`](Self::boot)ed. `const` and all zero bits but the link's settings.
+    /// An unconfigured co-processor: it refuses every line and sends nothing until
+    /// [`boot`](Self::boot)ed. `const` and all zero bits, so a `static` one sits in `.bss` and
+    /// costs no flash.
     #[must_use]
-    pub const fn new(link: LinkConfig) -> Self {
+    pub const fn new() -> Self {
         Self {
             pyramid: Pyramid::new(),
             frontend: Frontend::unconfigured(),
-            link: Link::new(link),
+            link: Link::unconfigured(),
             sick: SickAccumulator::new(),
             host_angle: None,
             shutdown: Shutdown::Running,
@@ -214,13 +223,15 @@ impl<const W: usize, const L: usize, const C: usize, const Q: usize> CoProcessor
         }
     }
 
-    /// Adopts the boot design, configuration and setup, checks the pyramid (three records,
-    /// three fused answers, then forgotten) and queues Hello (reason boot) for the first poll.
+    /// Starts the link with its settings, adopts the boot design, configuration and setup,
+    /// checks the pyramid (three records, three fused answers, then forgotten) and queues
+    /// Hello (reason boot) for the first poll.
     ///
     /// # Errors
     /// The design or configuration was refused, or the self-check failed.
     pub fn boot(
         &mut self,
+        link: LinkConfig,
         design: &Design<L>,
         config: &Config,
         setup: FrontendConfig,
@@ -228,7 +239,20 @@ impl<const W: usize, const L: usize, const C: usize, const Q: usize> CoProcessor
         self.configure(design, config)?;
         self.self_check()?;
         self.frontend.configure(setup);
-        // A fresh link announces itself with Hello (reason boot), whatever was adopted.
+        info!(
+            "booted: {:?} ({} layers max, {} bytes of pyramid)",
+            design,
+            L,
+            crate::pyramid::static_ram_bytes::<W, L>()
+        );
+        for (k, layer) in design.layers().iter().enumerate() {
+            info!(
+                "layer {}: cell {} m, band [{}, {}) m",
+                k, layer.resolution_m, layer.band_inner_m, layer.band_outer_m
+            );
+        }
+        // The link announces itself with Hello (reason boot), whatever was adopted.
+        self.link.start(link);
         Ok(())
     }
 
@@ -254,6 +278,18 @@ impl<const W: usize, const L: usize, const C: usize, const Q: usize> CoProcessor
     /// under way is discarded.
     pub fn setup(&mut self, setup: FrontendConfig) {
         self.frontend.configure(setup);
+    }
+
+    /// Ends the observation under way now and applies it (the host's EndObservation does
+    /// the same).
+    pub fn end_observation(&mut self) {
+        self.frontend.end_observation(&mut self.pyramid);
+    }
+
+    /// The robot's pose from now on, from a source on the board (odometry, an IMU); the
+    /// host's Pose frames do the same.
+    pub fn set_pose(&mut self, pose: crate::geometry::Pose) {
+        self.frontend.set_pose(pose);
     }
 
     /// Applies a few records and checks what the pyramid makes of them, then forgets them.
@@ -401,7 +437,9 @@ impl<const W: usize, const L: usize, const C: usize, const Q: usize> CoProcessor
     /// Carries out one validated command and answers it.
     fn execute(&mut self, request: Request<L>) {
         bump(&mut self.counters.commands);
-        let Request { header, command } = request;
+        let Some(Request { header, command }) = self.link.serve(&mut self.pyramid, request) else {
+            return;
+        };
         match command {
             Command::Pose(pose) => self.frontend.set_pose(pose),
             Command::PanAngle(angle) => self.host_angle = Some(angle),
@@ -419,24 +457,14 @@ impl<const W: usize, const L: usize, const C: usize, const Q: usize> CoProcessor
                 self.link.maps_cleared();
                 self.link.announce(&self.pyramid);
             }
-            Command::Snapshot(scope) => {
-                if self.link.snapshot(&mut self.pyramid, scope) {
-                    self.link.answer(Reply::ok(header));
-                    self.link.announce(&self.pyramid);
-                } else {
-                    let layers = self.pyramid.layer_count();
-                    self.link
-                        .refuse(convert::layer_refusal(header, scope, layers));
-                }
-            }
-            Command::Ping => self.link.answer(Reply::ok(header)),
             Command::Setup(setup) => {
                 self.link.answer(Reply::ok(header));
                 self.frontend.configure(setup);
             }
-            Command::RequestStats => self.link.request_stats(),
-            Command::EndObservation => self.frontend.end_observation(&mut self.pyramid),
+            Command::EndObservation => self.end_observation(),
             Command::Shutdown => self.shutdown = Shutdown::Requested(header),
+            // Carried out by the link (`Link::serve`).
+            Command::Snapshot(_) | Command::Ping | Command::RequestStats => {}
         }
     }
 

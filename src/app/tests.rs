@@ -41,11 +41,13 @@ fn setup() -> FrontendConfig {
 
 /// A booted co-processor whose boot Hello has been drained, Stats off.
 fn booted() -> Box<Core> {
-    let mut core = Box::new(Core::new(LinkConfig {
+    let mut core = Box::new(Core::new());
+    let link = LinkConfig {
         stats_interval_ms: 0,
         ..LinkConfig::DEFAULT
-    }));
-    core.boot(&design(), &Config::default(), setup()).unwrap();
+    };
+    core.boot(link, &design(), &Config::default(), setup())
+        .unwrap();
     core.poll(0);
     output(&mut core);
     core
@@ -126,8 +128,9 @@ impl AngleSource for Encoder {
 
 #[test]
 fn boot_checks_the_pyramid_and_says_hello() {
-    let mut core = Box::new(Core::new(LinkConfig::DEFAULT));
-    core.boot(&design(), &Config::default(), setup()).unwrap();
+    let mut core = Box::new(Core::new());
+    core.boot(LinkConfig::DEFAULT, &design(), &Config::default(), setup())
+        .unwrap();
     // The self-check's records are forgotten.
     assert_eq!(core.pyramid().counts(0).unwrap().observed, 0);
     assert_eq!(core.pyramid().stats().bad_layer, 1);
@@ -145,10 +148,10 @@ fn boot_checks_the_pyramid_and_says_hello() {
         version
     );
     // A design the window does not fit is refused, and nothing is configured.
-    let mut other = Box::new(Core::new(LinkConfig::DEFAULT));
+    let mut other = Box::new(Core::new());
     let wide = DefaultDesign::new(SensorModel::default(), Schedule::default(), 128).unwrap();
     assert!(matches!(
-        other.boot(&wide, &Config::default(), setup()),
+        other.boot(LinkConfig::DEFAULT, &wide, &Config::default(), setup()),
         Err(BootError::Design(DesignError::OutOfRange {
             param: Param::Cells,
             ..
@@ -476,8 +479,9 @@ fn drain_writes_what_the_writer_takes_within_the_limit() {
             Ok(())
         }
     }
-    let mut core = Box::new(Core::new(LinkConfig::DEFAULT));
-    core.boot(&design(), &Config::default(), setup()).unwrap();
+    let mut core = Box::new(Core::new());
+    core.boot(LinkConfig::DEFAULT, &design(), &Config::default(), setup())
+        .unwrap();
     core.poll(0);
     let mut slow = Slow {
         taken: Vec::new(),

@@ -276,6 +276,49 @@ pub struct PollReport {
     pub deferred_tiles: u32,
 }
 
+/// A Hello waiting to be sent, stored so that "none waiting" is all zero bits (an
+/// `Option<(HelloReason, u32)>` would put `None` in the reason's niche, a non-zero byte, and a
+/// `static` link into `.data`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+struct PendingHello {
+    waiting: bool,
+    reason: HelloReason,
+    resend: u32,
+}
+
+impl PendingHello {
+    /// Nothing waiting.
+    const NONE: Self = Self {
+        waiting: false,
+        reason: HelloReason::Boot,
+        resend: 0,
+    };
+
+    /// A Hello for `reason`, announcing the layers of `resend`.
+    const fn some(reason: HelloReason, resend: u32) -> Self {
+        Self {
+            waiting: true,
+            reason,
+            resend,
+        }
+    }
+
+    /// The waiting Hello's reason and resend mask.
+    const fn get(self) -> Option<(HelloReason, u32)> {
+        if self.waiting {
+            Some((self.reason, self.resend))
+        } else {
+            None
+        }
+    }
+}
+
+impl From<(HelloReason, u32)> for PendingHello {
+    fn from((reason, resend): (HelloReason, u32)) -> Self {
+        Self::some(reason, resend)
+    }
+}
+
 /// The device's end of the host link, with an outgoing queue of `Q` bytes, for pyramids of at
 /// most `N` layers (≤ [`MAX_LAYERS`]; default [`crate::DEFAULT_LAYERS`]: its per-layer state,
 /// about 100 bytes a layer, is sized by `N`).
@@ -293,7 +336,7 @@ pub struct Link<const Q: usize = DEFAULT_QUEUE_BYTES, const N: usize = { crate::
     rx_expected: Option<u16>,
     tx_seq: u16,
     /// A Hello to send before anything else: its reason and the layers it announces for resend.
-    hello: Option<(HelloReason, u32)>,
+    hello: PendingHello,
     /// What the host was last told: layers, resolutions, origins.
     sent_layers: usize,
     sent_resolution: [i32; N],
@@ -325,7 +368,7 @@ impl<const Q: usize, const N: usize> Link<Q, N> {
             rx: FrameAccumulator::new(),
             rx_expected: None,
             tx_seq: 0,
-            hello: Some((HelloReason::Boot, 0)),
+            hello: PendingHello::some(HelloReason::Boot, 0),
             sent_layers: 0,
             sent_resolution: [0; N],
             sent_origin: [(0, 0); N],
@@ -347,6 +390,33 @@ impl<const Q: usize, const N: usize> Link<Q, N> {
                 resyncs: 0,
             },
         }
+    }
+
+    /// A link with no settings and nothing to say, all zero bits (a `static` holding one sits
+    /// in `.bss`): [`start`](Self::start) it before use. Until then its budget is zero, so it
+    /// queues no map traffic.
+    #[must_use]
+    pub const fn unconfigured() -> Self {
+        let mut link = Self::new(LinkConfig {
+            budget_bytes_per_s: 0,
+            burst_bytes: 0,
+            stats_interval_ms: 0,
+            firmware: FirmwareVersion {
+                major: 0,
+                minor: 0,
+                patch: 0,
+            },
+        });
+        link.hello = PendingHello::NONE;
+        link
+    }
+
+    /// Starts the link with its settings, as [`new`](Self::new) would have built it: Hello
+    /// (reason boot) at the next poll, a full bucket; counters and sequence numbers are kept.
+    pub fn start(&mut self, config: LinkConfig) {
+        self.config = config;
+        self.bucket = TokenBucket::new(config.budget_bytes_per_s, config.burst_bytes);
+        self.hello = PendingHello::some(HelloReason::Boot, 0);
     }
 
     /// The settings.
@@ -470,7 +540,7 @@ impl<const Q: usize, const N: usize> Link<Q, N> {
     }
 
     fn want_hello(&mut self, reason: HelloReason, resend: u32) {
-        self.hello = Some(match self.hello {
+        self.hello = PendingHello::from(match self.hello.get() {
             // A Hello that clears the host's maps stays one; resend masks add up.
             Some((pending, mask)) if pending.clears_maps() => (pending, mask | resend),
             Some((_, mask)) => (reason, mask | resend),
@@ -584,7 +654,7 @@ impl<const Q: usize, const N: usize> Link<Q, N> {
         pyramid: &Pyramid<W, L>,
         report: &mut PollReport,
     ) -> bool {
-        let Some((reason, resend)) = self.hello else {
+        let Some((reason, resend)) = self.hello.get() else {
             return true;
         };
         let count = layers_of(pyramid).min(N);
@@ -616,7 +686,7 @@ impl<const Q: usize, const N: usize> Link<Q, N> {
         if !self.send(&Message::Hello(hello), 0, report) {
             return false;
         }
-        self.hello = None;
+        self.hello = PendingHello::NONE;
         self.remember_geometry(pyramid);
         true
     }
@@ -908,7 +978,7 @@ impl<const Q: usize, const N: usize> Link<Q, N> {
         }
         let mut report = PollReport::default();
         self.bucket.refill(now_ms);
-        if self.hello.is_none() && self.reconfigured(pyramid) {
+        if self.hello.get().is_none() && self.reconfigured(pyramid) {
             warn!("link: the pyramid was configured behind the link's back");
             self.want_hello(HelloReason::Configured, 0);
         }
@@ -924,6 +994,38 @@ impl<const Q: usize, const N: usize> Link<Q, N> {
     }
 
     // ---------------------------------------------------------------- receiving
+
+    /// Carries out and answers the commands that concern only the link and the maps (a
+    /// snapshot, a Stats request, a ping) and hands back the others, which are the
+    /// application's ([`crate::app::CoProcessor`] carries them out).
+    pub fn serve<const W: usize>(
+        &mut self,
+        pyramid: &mut Pyramid<W, N>,
+        request: Request<N>,
+    ) -> Option<Request<N>> {
+        let header = request.header;
+        match request.command {
+            Command::Snapshot(scope) => {
+                if self.snapshot(pyramid, scope) {
+                    self.answer(Reply::ok(header));
+                    self.announce(pyramid);
+                } else {
+                    let layers = layers_of(pyramid).min(N);
+                    self.refuse(convert::layer_refusal(header, scope, layers));
+                }
+                None
+            }
+            Command::RequestStats => {
+                self.request_stats();
+                None
+            }
+            Command::Ping => {
+                self.answer(Reply::ok(header));
+                None
+            }
+            _ => Some(request),
+        }
+    }
 
     /// Takes bytes from the host and returns the first thing they complete, postcard-style:
     /// a validated [`Request`] to carry out, or a [`Rejection`] (counted, and answered where

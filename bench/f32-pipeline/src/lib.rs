@@ -364,6 +364,8 @@ pub struct Frontend<const C: usize> {
     direction: i8,
     lines_in_observation: u32,
     returns: u32,
+    /// Lines taken.
+    lines: u32,
 }
 
 impl<const C: usize> Frontend<C> {
@@ -400,6 +402,7 @@ impl<const C: usize> Frontend<C> {
             direction: 0,
             lines_in_observation: 0,
             returns: 0,
+            lines: 0,
         };
         f.set_pose([0.0; 6]);
         f
@@ -409,6 +412,12 @@ impl<const C: usize> Frontend<C> {
     #[must_use]
     pub const fn returns(&self) -> u32 {
         self.returns
+    }
+
+    /// Lines taken so far.
+    #[must_use]
+    pub const fn lines(&self) -> u32 {
+        self.lines
     }
 
     /// The actuator angle, a fraction of a turn.
@@ -459,6 +468,7 @@ impl<const C: usize> Frontend<C> {
         } else {
             return;
         };
+        self.lines = self.lines.saturating_add(1);
         if self.config.lines_per_observation == 0 && self.sweep_turned() {
             self.end_observation(pyramid);
         }
