@@ -7,17 +7,18 @@
 use std::fs;
 use std::path::Path;
 
+use terrain_pyramid::link::convert::configure_of_design;
 use terrain_pyramid::link::{Link, SensorCounters};
 use terrain_pyramid::wire::link::{
-    cobs, encode, ClampRequest, Configure, Message, PanAngle, Pose, SnapshotScope,
-    MAX_ENCODED_FRAME,
+    cobs, encode, ClampRequest, Configure, GateRequest, Message, PanAngle, PoseReport,
+    SnapshotScope, MAX_ENCODED_FRAME,
 };
 use terrain_pyramid::wire::recording::SetupEvent as Setup;
 use terrain_pyramid::wire::recording::{emit_header, Event, MountKind, Payload};
 use terrain_pyramid::wire::sick::{emit_telegram, ADDRESS_REPLY};
 use terrain_pyramid::{
-    Config, DefaultDesign, DefaultPyramid, Evidence, EvidenceClass, GateShape, Meters, Schedule,
-    SensorModel, DEFAULT_CELLS_PER_SIDE,
+    Config, DefaultDesign, DefaultPyramid, Evidence, EvidenceClass, Meters, Schedule, SensorModel,
+    DEFAULT_CELLS_PER_SIDE,
 };
 
 /// The SICK CRC test vectors (requests, address 0x00) of `src/wire/sick/crc.rs`, CRC appended.
@@ -103,8 +104,8 @@ fn device_output() -> Vec<u8> {
     .unwrap();
     let mut pyramid = Box::new(DefaultPyramid::new());
     let mut link: Box<Link> = Box::default();
-    link.configure(&mut pyramid, &design, &Config::default())
-        .unwrap();
+    pyramid.configure(&design, &Config::default()).unwrap();
+    link.adopt(&design);
     for i in 0..8 {
         pyramid.apply(&Evidence {
             layer: 0,
@@ -167,26 +168,29 @@ fn main() {
     write(&dir, "damaged", &damaged);
 
     // link_device_rx: [n][sizes][segments]; link_host_rx: [n][sizes][mode][segments or raw].
-    let configure = Configure::default();
+    let default_design = DefaultDesign::new(
+        SensorModel::default(),
+        Schedule::default(),
+        DEFAULT_CELLS_PER_SIDE,
+    )
+    .unwrap();
+    let configure = configure_of_design(&default_design, &Config::default());
     let hard = Configure {
-        schedule: Schedule {
-            gate: GateShape::Hard,
-            gamma: 3.0,
-            ..Schedule::default()
-        },
+        gate: GateRequest::Hard,
+        gamma: 3.0,
         clamp: ClampRequest::Off,
-        ..Configure::default()
+        ..configure
     };
     let bad = Configure {
         cells_per_side: 63,
-        ..Configure::default()
+        ..configure
     };
     let commands = [
         Message::Ping,
         Message::Reset,
         Message::RequestSnapshot(SnapshotScope::All),
         Message::RequestSnapshot(SnapshotScope::Layer(2)),
-        Message::Pose(Pose {
+        Message::Pose(PoseReport {
             x_m: 1.5,
             y_m: -2.0,
             z_m: 0.0,

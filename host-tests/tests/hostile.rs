@@ -24,8 +24,8 @@ use proptest::prelude::*;
 use proptest::test_runner::{Config as PtConfig, RngSeed};
 use terrain_pyramid::design::cells_to_hold;
 use terrain_pyramid::wire::link::{
-    encode, Accumulator as LinkAccumulator, FeedResult as LinkFeed, Message, PanAngle, Pose,
-    SnapshotScope, Stats, MAX_ENCODED_FRAME, MAX_FRAME, STATS_COUNTERS,
+    encode, Decoded, FrameAccumulator, Message, PanAngle, PoseReport, SnapshotScope, Stats,
+    MAX_ENCODED_FRAME, MAX_FRAME, STATS_COUNTERS,
 };
 use terrain_pyramid::wire::recording::SetupEvent as Setup;
 use terrain_pyramid::wire::recording::{emit_header, Event, MountKind, Payload, Reader};
@@ -275,7 +275,7 @@ fn link_message() -> impl Strategy<Value = Message<'static>> {
             -3.0_f32..3.0,
             any::<u32>()
         )
-            .prop_map(|(x, y, yaw, t)| Message::Pose(Pose {
+            .prop_map(|(x, y, yaw, t)| Message::Pose(PoseReport {
                 x_m: x,
                 y_m: y,
                 z_m: 0.0,
@@ -356,19 +356,19 @@ proptest! {
             .filter(|s| !s.is_empty())
             .count();
 
-        let mut acc = Box::new(LinkAccumulator::<MAX_FRAME>::new());
+        let mut acc = Box::new(FrameAccumulator::<MAX_FRAME>::new());
         let mut decoded = Vec::new();
         let mut errors = 0_usize;
         for chunk in chunks(&stream, &sizes) {
             let mut window = chunk;
             loop {
                 match acc.feed(window) {
-                    LinkFeed::Consumed => break,
-                    LinkFeed::Frame { header, message, remaining } => {
+                    FeedResult::Consumed => break,
+                    FeedResult::Item { item: Decoded { header, message }, remaining, .. } => {
                         decoded.push(link_frame(header.seq, &message));
                         window = remaining;
                     }
-                    LinkFeed::Error { remaining, .. } => {
+                    FeedResult::Rejected { remaining, .. } => {
                         errors += 1;
                         window = remaining;
                     }

@@ -120,7 +120,8 @@ fn decode(bytes: &[u8]) -> Decoded {
 }
 
 fn frontend_config(setup: &Setup) -> FrontendConfig {
-    FrontendConfig::from_setup(setup, ClassifierConfig::default()).unwrap()
+    terrain_pyramid::link::convert::frontend_config_of_event(setup, &ClassifierConfig::default())
+        .unwrap()
 }
 
 /// Classifier slots of the test pipeline: 8 lines of 361 beams with room to spare.
