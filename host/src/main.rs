@@ -11,6 +11,7 @@ mod experiments;
 mod export;
 mod faults;
 mod listen;
+mod publish;
 mod qemu;
 mod record3dtk;
 mod replay;
