@@ -1,0 +1,369 @@
+//! `pyramid listen`'s live outputs against independent implementations, with a simulated
+//! device on 127.0.0.1 (`support/device.rs`):
+//! - the MCAP file read back by Python's `mcap` with `mcap-ros2-support` (CDR) and
+//!   `mcap-protobuf-support` (foxglove.*): every message decodes, and the last grids equal the
+//!   maps the same session writes (`fused.pgm`, the layers' cells);
+//! - the Foxglove WebSocket server through a `foxglove.websocket.v1` client (Python
+//!   `websockets`), while another client subscribes to everything and never reads: no frame
+//!   of the link is lost and the maps stay in sync;
+//! - the ROS 2 topics received by Eclipse Cyclone DDS (Python `cyclonedds`), publisher and
+//!   subscriber inside a network namespace of their own (`unshare -n`);
+//! - the bad situations: an address in use, a device that goes away and comes back.
+//!
+//! The Python readers are installed by `host/tests/py/setup.sh`.
+use serde_json::Value;
+use std::io::{BufRead, BufReader, Read};
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Output, Stdio};
+use std::sync::atomic::Ordering;
+use std::sync::mpsc;
+use std::time::{Duration, Instant};
+
+#[path = "support/device.rs"]
+mod support;
+use support::{device, fnv1a64, fused_occupancy, raw_cells, Plan, PATIENCE, W};
+
+fn py_dir() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/py")
+}
+
+/// Python with the readers installed, or a failure that says how to install them.
+fn python() -> &'static str {
+    let ok = Command::new("python3")
+        .args([
+            "-c",
+            "import mcap, mcap_ros2, mcap_protobuf, websockets, cyclonedds",
+        ])
+        .status()
+        .is_ok_and(|s| s.success());
+    assert!(
+        ok,
+        "the Python readers are missing: run host/tests/py/setup.sh (pip install -r host/tests/py/requirements.txt)"
+    );
+    "python3"
+}
+
+fn scratch(name: &str) -> PathBuf {
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("outputs-{name}"));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+fn listen(args: &[&str]) -> Child {
+    Command::new(env!("CARGO_BIN_EXE_pyramid"))
+        .arg("listen")
+        .args(args)
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("the pyramid binary runs")
+}
+
+/// Stderr lines as they come, and the collected output at the end.
+struct Running {
+    child: Child,
+    lines: mpsc::Receiver<String>,
+    stderr: std::thread::JoinHandle<String>,
+    stdout: std::thread::JoinHandle<Vec<u8>>,
+}
+
+fn running(mut child: Child) -> Running {
+    let err = child.stderr.take().unwrap();
+    let mut out = child.stdout.take().unwrap();
+    let (tx, rx) = mpsc::channel();
+    let stderr = std::thread::spawn(move || {
+        let mut all = String::new();
+        for line in BufReader::new(err).lines() {
+            let Ok(line) = line else { break };
+            let _ = tx.send(line.clone());
+            all.push_str(&line);
+            all.push('\n');
+        }
+        all
+    });
+    let stdout = std::thread::spawn(move || {
+        let mut v = Vec::new();
+        let _ = out.read_to_end(&mut v);
+        v
+    });
+    Running {
+        child,
+        lines: rx,
+        stderr,
+        stdout,
+    }
+}
+
+impl Running {
+    /// Waits for a stderr line containing `needle`; returns it.
+    fn wait_for(&self, needle: &str) -> String {
+        let start = Instant::now();
+        loop {
+            let left = PATIENCE.saturating_sub(start.elapsed());
+            match self.lines.recv_timeout(left) {
+                Ok(line) if line.contains(needle) => return line,
+                Ok(_) => {}
+                Err(_) => panic!("no line with {needle:?} on stderr"),
+            }
+        }
+    }
+
+    fn interrupt(&self) {
+        let pid = self.child.id().to_string();
+        assert!(Command::new("kill")
+            .args(["-INT", &pid])
+            .status()
+            .unwrap()
+            .success());
+    }
+
+    fn finish(mut self) -> Output {
+        let start = Instant::now();
+        let status = loop {
+            if let Some(s) = self.child.try_wait().unwrap() {
+                break s;
+            }
+            if start.elapsed() > PATIENCE {
+                let _ = self.child.kill();
+                break self.child.wait().unwrap();
+            }
+            std::thread::sleep(Duration::from_millis(20));
+        };
+        Output {
+            status,
+            stdout: self.stdout.join().unwrap(),
+            stderr: self.stderr.join().unwrap().into_bytes(),
+        }
+    }
+}
+
+fn summary(out: &Output) -> Value {
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "pyramid listen failed: {stderr}");
+    serde_json::from_slice(out.stdout.trim_ascii()).unwrap()
+}
+
+/// A binary PGM's pixels, rows from the lowest y (as the grids are).
+fn pgm_rows_bottom_up(path: &Path) -> (usize, usize, Vec<u8>) {
+    let bytes = std::fs::read(path).unwrap();
+    let text_end = {
+        // "P5\nW H\n255\n"
+        let mut newlines = 0;
+        let mut at = 0;
+        for (i, &b) in bytes.iter().enumerate() {
+            if b == b'\n' {
+                newlines += 1;
+                if newlines == 3 {
+                    at = i + 1;
+                    break;
+                }
+            }
+        }
+        at
+    };
+    let header = std::str::from_utf8(&bytes[..text_end]).unwrap();
+    let mut it = header.split_whitespace().skip(1);
+    let w: usize = it.next().unwrap().parse().unwrap();
+    let h: usize = it.next().unwrap().parse().unwrap();
+    let pixels = &bytes[text_end..];
+    assert_eq!(pixels.len(), w * h);
+    let mut rows = Vec::with_capacity(w * h);
+    for row in pixels.chunks(w).rev() {
+        rows.extend_from_slice(row);
+    }
+    (w, h, rows)
+}
+
+/// The PGM value of an OccupancyGrid value of the fused map.
+fn grey(v: i64) -> u8 {
+    match v {
+        100 => 0,
+        0 => 254,
+        -1 => 205,
+        other => panic!("fused value {other}"),
+    }
+}
+
+fn ints(v: &Value) -> Vec<i64> {
+    v.as_array()
+        .unwrap()
+        .iter()
+        .map(|x| x.as_i64().unwrap())
+        .collect()
+}
+
+/// Checks a bounded fused grid (OccupancyGrid or foxglove.Grid as decoded) against `fused.pgm`
+/// and its YAML: same cell size, lattices that coincide, equal cells where both lie, unknown
+/// elsewhere. Returns how many cells both cover.
+fn assert_fused_matches_pgm(dir: &Path, origin: (f64, f64), r: f64, width: usize, cells: &[i64]) -> usize {
+    let (pw, ph, pixels) = pgm_rows_bottom_up(&dir.join("fused.pgm"));
+    let yaml = std::fs::read_to_string(dir.join("fused.yaml")).unwrap();
+    let field = |key: &str| -> String {
+        yaml.lines()
+            .find_map(|l| l.strip_prefix(key))
+            .unwrap()
+            .trim()
+            .to_string()
+    };
+    let pr: f64 = field("resolution:").parse().unwrap();
+    let o = field("origin:");
+    let o: Vec<f64> = o
+        .trim_matches(|c| c == '[' || c == ']')
+        .split(',')
+        .map(|s| s.trim().parse().unwrap())
+        .collect();
+    assert!((pr - r).abs() < 1e-6, "resolution {r} against {pr}");
+    let height = cells.len() / width;
+    let mut both = 0;
+    for j in 0..height {
+        for i in 0..width {
+            let v = cells[j * width + i];
+            let x = origin.0 + (i as f64 + 0.5) * r;
+            let y = origin.1 + (j as f64 + 0.5) * r;
+            let fx = (x - o[0]) / r;
+            let fy = (y - o[1]) / r;
+            assert!((fx - fx.floor() - 0.5).abs() < 1e-3, "lattices differ: {fx}");
+            let (pi, pj) = (fx.floor(), fy.floor());
+            if pi >= 0.0 && pj >= 0.0 && (pi as usize) < pw && (pj as usize) < ph {
+                both += 1;
+                assert_eq!(
+                    grey(v),
+                    pixels[pj as usize * pw + pi as usize],
+                    "fused cell ({i}, {j})"
+                );
+            } else {
+                assert_eq!(v, -1, "outside the coarsest window: unknown");
+            }
+        }
+    }
+    both
+}
+
+// ------------------------------------------------------------------ MCAP
+
+#[test]
+fn the_mcap_recording_reads_back_with_another_reader_and_equals_the_maps_written() {
+    let py = python();
+    let dev = device(Plan::clean(3), true);
+    let dir = scratch("mcap");
+    let mcap = dir.join("session.mcap");
+    let addr = format!("127.0.0.1:{}", dev.port);
+    let child = listen(&[
+        "--tcp",
+        &addr,
+        "--out",
+        dir.to_str().unwrap(),
+        "--json",
+        "--mcap",
+        mcap.to_str().unwrap(),
+    ]);
+    let served = dev.handle.join().unwrap();
+    let out = running(child).finish();
+    let s = summary(&out);
+    assert_eq!(s["synced"], true);
+    let outputs = &s["outputs"];
+    assert!(outputs["frames_published"].as_u64().unwrap() >= 1, "{outputs}");
+    let read = Command::new(py)
+        .arg(py_dir().join("read_mcap.py"))
+        .arg(&mcap)
+        .output()
+        .unwrap();
+    assert!(
+        read.status.success(),
+        "read_mcap.py: {}",
+        String::from_utf8_lossy(&read.stderr)
+    );
+    let m: Value = serde_json::from_slice(&read.stdout).unwrap();
+    assert_eq!(m["errors"], Value::Array(vec![]), "{}", m["errors"]);
+    // Indexed and chunked, compressed.
+    assert!(m["summary"]["chunks"].as_u64().unwrap() >= 1, "{}", m["summary"]);
+    assert_eq!(m["summary"]["compression"], serde_json::json!(["zstd"]));
+    // Every message the session counts was read back and decoded.
+    let counts = m["counts"].as_object().unwrap();
+    let decoded: u64 = counts.values().map(|v| v.as_u64().unwrap()).sum();
+    assert_eq!(Some(decoded), m["summary"]["message_count"].as_u64());
+    let written: u64 = outputs["messages"]
+        .as_object()
+        .unwrap()
+        .iter()
+        .filter(|(k, _)| k.starts_with("foxglove "))
+        .map(|(_, v)| v.as_u64().unwrap())
+        .sum();
+    assert_eq!(decoded, written, "{counts:?} against {}", outputs["messages"]);
+    for topic in [
+        "/terrain/fused",
+        "/terrain/grid/fused",
+        "/terrain/pose",
+        "/terrain/windows",
+        "/diagnostics",
+        "/terrain/layer_0",
+        "/terrain/grid/layer_7",
+    ] {
+        assert!(counts.contains_key(topic), "{topic} in {counts:?}");
+    }
+    let schemas = &m["schemas"];
+    assert_eq!(
+        schemas["/terrain/fused"],
+        serde_json::json!(["nav_msgs/msg/OccupancyGrid", "ros2msg", "cdr"])
+    );
+    assert_eq!(
+        schemas["/terrain/grid/fused"],
+        serde_json::json!(["foxglove.Grid", "protobuf", "protobuf"])
+    );
+    let last = &m["last"];
+    // The last fused grid (ROS and Foxglove) against fused.pgm, cell for cell.
+    let f = &last["/terrain/fused"];
+    assert_eq!(f["frame_id"], "odom");
+    let width = f["width"].as_u64().unwrap() as usize;
+    let r = f["resolution"].as_f64().unwrap();
+    let origin = (f["origin"][0].as_f64().unwrap(), f["origin"][1].as_f64().unwrap());
+    let cells = ints(&f["data"]);
+    // ±10 m at 0.1 m: 200 cells.
+    assert_eq!(width, 200);
+    assert_eq!(cells.len(), 200 * 200);
+    let both = assert_fused_matches_pgm(&dir, origin, r, width, &cells);
+    assert!(both > 10_000, "{both} cells in common");
+    assert!(cells.contains(&100) && cells.contains(&0));
+    let g = &last["/terrain/grid/fused"];
+    assert_eq!(ints(&g["occupancy"]), cells);
+    assert_eq!(g["origin"][0].as_f64().unwrap(), origin.0);
+    // And the device's own fused query agrees with fused.pgm (so with both grids).
+    let (device_fused, n) = fused_occupancy(&served.pyramid);
+    let (pw, _, pixels) = pgm_rows_bottom_up(&dir.join("fused.pgm"));
+    assert_eq!(pw, n);
+    assert!(device_fused.iter().zip(&pixels).all(|(&v, &p)| grey(i64::from(v)) == p));
+    // Every layer's last grid: the device's cells (Foxglove's log-odds are the raw Q8.8 / 256).
+    for k in 0..served.pyramid.layer_count() {
+        let cells = raw_cells(&served.pyramid, k);
+        let grid = &last[&format!("/terrain/grid/layer_{k}")];
+        let raw: Vec<i16> = ints(&grid["raw"]).iter().map(|&v| v as i16).collect();
+        assert_eq!(fnv1a64(&raw), fnv1a64(&cells), "layer {k}");
+        assert_eq!(s["layer_cells_fnv1a64"][k].as_str().unwrap(), fnv1a64(&cells));
+        let ros = &last[&format!("/terrain/layer_{k}")];
+        assert_eq!(ros["width"].as_u64().unwrap() as usize, W);
+        let occ = ints(&ros["data"]);
+        for (o, c) in occ.iter().zip(&cells) {
+            match *c {
+                i16::MIN => assert_eq!(*o, -1),
+                c if c > 0 => assert!(*o >= 50 && *o <= 100),
+                c if c < 0 => assert!(*o >= 0 && *o <= 50),
+                _ => assert_eq!(*o, 50),
+            }
+        }
+        assert_eq!(ints(&grid["occupancy"]), occ, "layer {k}");
+    }
+    // The pose: the finest window's centre (listen hears no pose), in the windows' middle.
+    let pose = &last["/terrain/pose"]["xy"];
+    let layer0 = served.pyramid.layer(0).unwrap();
+    let r0 = f64::from(layer0.resolution().to_bits()) / 65_536.0;
+    let cx = (f64::from(layer0.origin().0) + W as f64 / 2.0) * r0;
+    assert!((pose[0].as_f64().unwrap() - cx).abs() < 1e-9, "{pose}");
+    assert_eq!(outputs["pose_source"], "window_centre");
+    let loops = last["/terrain/windows"]["loops"].as_array().unwrap();
+    assert_eq!(loops.len(), served.pyramid.layer_count());
+    // The diagnostics carry the device's counters.
+    let d = &last["/diagnostics"]["terrain_pyramid: device"];
+    assert!(d["frames_sent"].as_str().unwrap().parse::<u64>().unwrap() > 0, "{d}");
+}
