@@ -367,3 +367,142 @@ fn the_mcap_recording_reads_back_with_another_reader_and_equals_the_maps_written
     let d = &last["/diagnostics"]["terrain_pyramid: device"];
     assert!(d["frames_sent"].as_str().unwrap().parse::<u64>().unwrap() > 0, "{d}");
 }
+
+// ------------------------------------------------------------------ Foxglove
+
+/// The `ws://` address `pyramid listen` says it serves.
+fn served_url(run: &Running) -> String {
+    let line = run.wait_for("foxglove: serving ");
+    line.rsplit(' ').next().unwrap().to_string()
+}
+
+#[test]
+fn a_foxglove_client_decodes_grids_while_a_stuck_client_holds_nothing_up() {
+    let py = python();
+    let plan = Plan {
+        steps: 2500,
+        close_when_settled: false,
+        ..Plan::clean(17)
+    };
+    let dev = device(plan, false);
+    let dir = scratch("foxglove");
+    let addr = format!("127.0.0.1:{}", dev.port);
+    let run = running(listen(&[
+        "--tcp",
+        &addr,
+        "--out",
+        dir.to_str().unwrap(),
+        "--json",
+        "--foxglove",
+        "127.0.0.1:0",
+        "--publish-hz",
+        "50",
+    ]));
+    let url = served_url(&run);
+    assert!(url.starts_with("ws://127.0.0.1:"), "{url}");
+    // The device's first Hello and snapshot have been published once the status says synced.
+    run.wait_for("synced");
+    let mut client = Command::new(py)
+        .arg(py_dir().join("foxglove_client.py"))
+        .arg(&url)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut lines = BufReader::new(client.stdout.take().unwrap()).lines();
+    let first = lines.next().and_then(Result::ok);
+    if first.as_deref() != Some("ready") {
+        let mut err = String::new();
+        client.stderr.take().unwrap().read_to_string(&mut err).unwrap();
+        panic!("foxglove_client.py: {first:?}: {err}");
+    }
+    // Now the device drives: thousands of frames while one client never reads.
+    let start = Instant::now();
+    dev.go.store(true, Ordering::SeqCst);
+    dev.settled.recv_timeout(PATIENCE).expect("the device settled");
+    let driving = start.elapsed();
+    run.interrupt();
+    let out = run.finish();
+    let served = dev.handle.join().unwrap();
+    let result = lines.next().unwrap().unwrap();
+    let status = client.wait().unwrap();
+    let mut err = String::new();
+    client.stderr.take().unwrap().read_to_string(&mut err).unwrap();
+    assert!(status.success(), "foxglove_client.py: {err}");
+    let s = summary(&out);
+    // No frame of the link was lost, the mirror is the device's.
+    assert_eq!(s["synced"], true);
+    assert_eq!(s["gaps"], 0);
+    assert_eq!(s["missing_frames"], 0);
+    assert_eq!(s["bad_frames"], 0);
+    assert_eq!(s["snapshots_requested"], 1);
+    assert!(s["frames"].as_u64().unwrap() > 1000, "{s}");
+    for k in 0..served.pyramid.layer_count() {
+        assert_eq!(
+            s["layer_cells_fnv1a64"][k].as_str().unwrap(),
+            fnv1a64(&raw_cells(&served.pyramid, k)),
+            "layer {k}"
+        );
+    }
+    // The outputs went on publishing while the stuck client sat there (a publisher blocked by
+    // it would have published a frame or two; a debug build publishes some 10 a second).
+    let outputs = &s["outputs"];
+    let published = outputs["frames_published"].as_u64().unwrap();
+    assert!(
+        published as f64 >= driving.as_secs_f64() * 3.0,
+        "{published} frames published in {driving:?}: {outputs}"
+    );
+    let c: Value = serde_json::from_str(&result).unwrap();
+    assert_eq!(c["errors"], Value::Array(vec![]), "{}", c["errors"]);
+    assert_eq!(c["server"], "terrain-pyramid");
+    // The protocol of foxglove/ws-protocol, under the name the Foxglove SDK gives it now.
+    assert_eq!(c["subprotocol"], "foxglove.sdk.v1");
+    let topics: Vec<&str> = c["topics"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|t| t.as_str().unwrap())
+        .collect();
+    for t in [
+        "/terrain/grid/fused",
+        "/terrain/grid/layer_0",
+        "/terrain/grid/layer_7",
+        "/terrain/pose",
+        "/terrain/windows",
+        "/terrain/fused",
+        "/diagnostics",
+    ] {
+        assert!(topics.contains(&t), "{t} in {topics:?}");
+    }
+    assert_eq!(
+        c["schemas"]["/terrain/grid/fused"],
+        serde_json::json!(["foxglove.Grid", "protobuf"])
+    );
+    assert_eq!(
+        c["schemas"]["/terrain/fused"],
+        serde_json::json!(["nav_msgs/msg/OccupancyGrid", "cdr"])
+    );
+    let received = c["received"].as_u64().unwrap();
+    let stuck = c["stuck_received"].as_u64().unwrap();
+    assert!(received > 100, "{received}");
+    // The server dropped for the stuck client what it could not take.
+    assert!(stuck < received, "stuck {stuck}, reading {received}");
+    // A Grid decoded: the fused map ±10 m around the robot, equal to fused.pgm where both lie.
+    let g = &c["last"]["/terrain/grid/fused"];
+    assert_eq!(g["frame_id"], "odom");
+    assert_eq!(g["fields"], serde_json::json!(["occupancy"]));
+    let width = g["column_count"].as_u64().unwrap() as usize;
+    let cells = ints(&g["occupancy"]);
+    assert_eq!((width, cells.len()), (200, 200 * 200));
+    let both = assert_fused_matches_pgm(
+        &dir,
+        (g["origin"][0].as_f64().unwrap(), g["origin"][1].as_f64().unwrap()),
+        g["cell_size"][0].as_f64().unwrap(),
+        width,
+        &cells,
+    );
+    assert!(both > 10_000, "{both}");
+    let l = &c["last"]["/terrain/grid/layer_3"];
+    assert_eq!(l["fields"], serde_json::json!(["log_odds", "occupancy"]));
+    assert_eq!(l["column_count"].as_u64().unwrap() as usize, W);
+}
