@@ -506,3 +506,147 @@ fn a_foxglove_client_decodes_grids_while_a_stuck_client_holds_nothing_up() {
     assert_eq!(l["fields"], serde_json::json!(["log_odds", "occupancy"]));
     assert_eq!(l["column_count"].as_u64().unwrap() as usize, W);
 }
+
+// ------------------------------------------------------------------ ROS 2
+
+/// The environment variable that marks the inner test's run inside its network namespace.
+const NETNS_MARK: &str = "TERRAIN_PYRAMID_TEST_NETNS";
+
+/// Whether this process sees no network interface but loopback (a namespace of its own).
+fn only_loopback() -> bool {
+    // /proc/net/dev lists the interfaces of the reader's network namespace (sysfs would show
+    // those of the namespace it was mounted in).
+    std::fs::read_to_string("/proc/net/dev").is_ok_and(|t| {
+        t.lines()
+            .skip(2)
+            .filter_map(|l| l.split(':').next())
+            .all(|name| name.trim() == "lo")
+    })
+}
+
+#[test]
+fn ros2_topics_reach_cyclone_dds_inside_a_network_namespace() {
+    python();
+    // This test binary again, inside a new network namespace with only loopback (multicast
+    // on, routed to lo), running the inner test: device, publisher and subscriber all there.
+    let exe = std::env::current_exe().unwrap();
+    let out = Command::new("unshare")
+        .args([
+            "-n",
+            "sh",
+            "-c",
+            "ip link set lo up multicast on && ip route add 224.0.0.0/4 dev lo && exec \"$0\" ros2_inner --exact --ignored --nocapture",
+        ])
+        .arg(&exe)
+        .env(NETNS_MARK, "1")
+        .output()
+        .expect("unshare runs");
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        out.status.success() && stdout.contains("1 passed"),
+        "the test inside `unshare -n` (root needed) failed:\n{stdout}\n{stderr}"
+    );
+}
+
+#[test]
+#[ignore = "runs inside its own network namespace: ros2_topics_reach_cyclone_dds_inside_a_network_namespace"]
+fn ros2_inner() {
+    // DDS multicast must never leave the machine: refuse anywhere but an isolated namespace.
+    assert!(
+        std::env::var_os(NETNS_MARK).is_some() && only_loopback(),
+        "ros2_inner runs only inside `unshare -n` (see the test that calls it)"
+    );
+    let py = python();
+    let plan = Plan {
+        steps: 300,
+        close_when_settled: false,
+        ..Plan::clean(29)
+    };
+    let dev = device(plan, true);
+    let dir = scratch("ros2");
+    let addr = format!("127.0.0.1:{}", dev.port);
+    let run = running(listen(&[
+        "--tcp",
+        &addr,
+        "--out",
+        dir.to_str().unwrap(),
+        "--json",
+        "--ros2",
+        "--ros-domain-id",
+        "7",
+    ]));
+    dev.settled.recv_timeout(PATIENCE).expect("the device settled");
+    // Settled: the last maps have been published. A subscriber that joins now gets them
+    // (transient local, as Nav2's static layer subscribes).
+    let sub = Command::new(py)
+        .arg(py_dir().join("dds_sub.py"))
+        .args(["8", "30", "7"])
+        .output()
+        .unwrap();
+    run.interrupt();
+    let out = run.finish();
+    let served = dev.handle.join().unwrap();
+    assert!(
+        sub.status.success(),
+        "dds_sub.py: {}\n{}",
+        String::from_utf8_lossy(&sub.stdout),
+        String::from_utf8_lossy(&sub.stderr)
+    );
+    let s = summary(&out);
+    assert_eq!(s["synced"], true);
+    let r: Value = serde_json::from_slice(&sub.stdout).unwrap();
+    eprintln!("late joiner: samples per topic {}", r["samples"]);
+    let last = &r["last"];
+    // The maps came at once, from the publisher's history (not from a later update).
+    for k in 0..8 {
+        let first = r["first_after_s"][format!("/terrain/layer_{k}")].as_f64().unwrap();
+        assert!(first < 10.0, "layer {k} after {first} s");
+    }
+    // Each layer: the device's cells as occupancy percent.
+    for k in 0..served.pyramid.layer_count() {
+        let l = &last[&format!("/terrain/layer_{k}")];
+        let raw = raw_cells(&served.pyramid, k);
+        let expected: Vec<i64> = raw
+            .iter()
+            .map(|&c| {
+                if c == i16::MIN {
+                    -1
+                } else {
+                    (100.0 / (1.0 + (-f64::from(c) / 256.0).exp())).round() as i64
+                }
+            })
+            .collect();
+        let got = ints(&l["data"]);
+        let differ = got.iter().zip(&expected).filter(|(a, b)| a != b).count();
+        assert!(
+            got.len() == expected.len() && differ == 0,
+            "layer {k}: {differ} of {} cells differ; samples {}",
+            expected.len(),
+            r["samples"]
+        );
+        let layer = served.pyramid.layer(k).unwrap();
+        let r = f64::from(layer.resolution().to_bits()) / 65_536.0;
+        assert!((l["resolution"].as_f64().unwrap() - r).abs() < 1e-6);
+        let ox = f64::from(layer.origin().0) * r;
+        assert!((l["origin"][0].as_f64().unwrap() - ox).abs() < 1e-6, "layer {k}");
+    }
+    let f = &last["/terrain/fused"];
+    assert_eq!(f["frame_id"], "odom");
+    assert_eq!((f["width"].as_u64(), f["height"].as_u64()), (Some(200), Some(200)));
+    let cells = ints(&f["data"]);
+    let both = assert_fused_matches_pgm(
+        &dir,
+        (f["origin"][0].as_f64().unwrap(), f["origin"][1].as_f64().unwrap()),
+        f["resolution"].as_f64().unwrap(),
+        200,
+        &cells,
+    );
+    assert!(both > 10_000, "{both}");
+    assert!(cells.contains(&100) && cells.contains(&0));
+    let d = &last["/diagnostics"];
+    assert!(d["terrain_pyramid: device"]["frames_sent"].as_str().is_some(), "{d}");
+    assert_eq!(d["terrain_pyramid: host link"]["gaps"], "0");
+    let outputs = &s["outputs"]["messages"];
+    assert!(outputs["ros2 /terrain/fused"].as_u64().unwrap() >= 1, "{outputs}");
+}
