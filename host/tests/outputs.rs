@@ -650,3 +650,142 @@ fn ros2_inner() {
     let outputs = &s["outputs"]["messages"];
     assert!(outputs["ros2 /terrain/fused"].as_u64().unwrap() >= 1, "{outputs}");
 }
+
+// ------------------------------------------------------------------ bad situations
+
+#[test]
+fn an_address_in_use_is_an_error_naming_the_flag() {
+    let taken = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
+    let addr = taken.local_addr().unwrap().to_string();
+    let dir = scratch("in-use");
+    // The outputs start before the device is opened: no device is needed to see the error.
+    let out = running(listen(&[
+        "--tcp",
+        "127.0.0.1:1",
+        "--out",
+        dir.to_str().unwrap(),
+        "--foxglove",
+        &addr,
+    ]))
+    .finish();
+    assert_eq!(out.status.code(), Some(1));
+    let stderr = String::from_utf8(out.stderr).unwrap();
+    assert_eq!(
+        stderr.trim(),
+        format!("error: --foxglove: {addr} is already in use")
+    );
+    // An MCAP file that cannot be created names its flag too.
+    let out = running(listen(&[
+        "--tcp",
+        "127.0.0.1:1",
+        "--out",
+        dir.to_str().unwrap(),
+        "--mcap",
+        dir.join("no/such/dir/x.mcap").to_str().unwrap(),
+    ]))
+    .finish();
+    assert_eq!(out.status.code(), Some(1));
+    let stderr = String::from_utf8(out.stderr).unwrap();
+    assert!(stderr.starts_with("error: --mcap: cannot create "), "{stderr}");
+    assert_eq!(stderr.lines().count(), 1, "{stderr}");
+}
+
+#[test]
+fn a_device_that_goes_away_and_comes_back_keeps_the_maps_and_resyncs() {
+    // The TCP analogue of a USB adapter unplugged and plugged in again: the device drops the
+    // connection mid-drive, drives on unheard (its maps change), then accepts again.
+    let plan = Plan {
+        steps: 400,
+        unplug_at: Some(150),
+        unplugged_steps: 150,
+        close_when_settled: true,
+        quiet_after: Duration::from_millis(1500),
+        ..Plan::clean(23)
+    };
+    let dev = device(plan, true);
+    let dir = scratch("reconnect");
+    let mcap = dir.join("s.mcap");
+    let addr = format!("127.0.0.1:{}", dev.port);
+    let run = running(listen(&[
+        "--tcp",
+        &addr,
+        "--out",
+        dir.to_str().unwrap(),
+        "--json",
+        "--reconnect",
+        "--mcap",
+        mcap.to_str().unwrap(),
+    ]));
+    let gone = run.wait_for("stream ended");
+    assert!(gone.contains("trying to reconnect every 1 s; the maps are kept"), "{gone}");
+    let back = run.wait_for("reconnected to tcp ");
+    assert!(back.contains("snapshot requested"), "{back}");
+    // The device closes at the end: the host keeps trying until its session ends.
+    let served = dev.handle.join().unwrap();
+    run.wait_for("stream ended");
+    run.interrupt();
+    let out = run.finish();
+    let s = summary(&out);
+    assert_eq!(served.connections, 2);
+    assert_eq!(s["reconnects"], 1);
+    assert_eq!(s["ended_by"], "interrupted");
+    assert_eq!(s["synced"], true, "{}", String::from_utf8_lossy(&out.stderr));
+    // The request at the start and the one after the reconnection (at least).
+    assert!(s["snapshots_requested"].as_u64().unwrap() >= 2, "{s}");
+    assert!(served.snapshots >= 2);
+    for k in 0..served.pyramid.layer_count() {
+        assert_eq!(
+            s["layer_cells_fnv1a64"][k].as_str().unwrap(),
+            fnv1a64(&raw_cells(&served.pyramid, k)),
+            "layer {k}"
+        );
+    }
+    assert!(s["outputs"]["frames_published"].as_u64().unwrap() > 1);
+}
+
+#[test]
+fn a_serial_port_open_elsewhere_is_refused_and_one_that_vanishes_is_waited_for() {
+    // A pseudo-terminal stands for the USB adapter: Python holds its master side.
+    let mut holder = Command::new("python3")
+        .args([
+            "-c",
+            "import os, pty, sys, time\nm, s = pty.openpty()\nprint(os.ttyname(s), flush=True)\nsys.stdin.read()\n",
+        ])
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut path = String::new();
+    BufReader::new(holder.stdout.take().unwrap())
+        .read_line(&mut path)
+        .unwrap();
+    let path = path.trim().to_string();
+    assert!(path.starts_with("/dev/pts/"), "{path}");
+    let dir = scratch("serial");
+    let first = running(listen(&["--port", &path, "--out", dir.to_str().unwrap()]));
+    first.wait_for("listening on ");
+    // A second listener is refused: the port is exclusive (TIOCEXCL and flock).
+    let second = running(listen(&["--port", &path, "--out", dir.to_str().unwrap()])).finish();
+    assert_eq!(second.status.code(), Some(1));
+    let stderr = String::from_utf8(second.stderr).unwrap();
+    assert!(
+        stderr.starts_with(&format!(
+            "error: cannot open the serial port {path}: it is already open in another process"
+        )),
+        "{stderr}"
+    );
+    // The adapter goes away: a message, and the listener waits for it.
+    drop(holder.stdin.take());
+    holder.wait().unwrap();
+    let gone = first.wait_for("stream ended");
+    assert!(gone.contains("trying to reconnect every 1 s"), "{gone}");
+    std::thread::sleep(Duration::from_millis(1500));
+    assert!(first.child.id() > 0);
+    first.interrupt();
+    let out = first.finish();
+    // No Hello ever came: nothing to write, said so; nothing panicked.
+    assert_eq!(out.status.code(), Some(1));
+    let stderr = String::from_utf8(out.stderr).unwrap();
+    assert!(stderr.contains("error: no maps to write"), "{stderr}");
+    assert!(!stderr.contains("panicked"), "{stderr}");
+}
