@@ -197,7 +197,13 @@ fn ints(v: &Value) -> Vec<i64> {
 /// Checks a bounded fused grid (OccupancyGrid or foxglove.Grid as decoded) against `fused.pgm`
 /// and its YAML: same cell size, lattices that coincide, equal cells where both lie, unknown
 /// elsewhere. Returns how many cells both cover.
-fn assert_fused_matches_pgm(dir: &Path, origin: (f64, f64), r: f64, width: usize, cells: &[i64]) -> usize {
+fn assert_fused_matches_pgm(
+    dir: &Path,
+    origin: (f64, f64),
+    r: f64,
+    width: usize,
+    cells: &[i64],
+) -> usize {
     let (pw, ph, pixels) = pgm_rows_bottom_up(&dir.join("fused.pgm"));
     let yaml = std::fs::read_to_string(dir.join("fused.yaml")).unwrap();
     let field = |key: &str| -> String {
@@ -224,7 +230,10 @@ fn assert_fused_matches_pgm(dir: &Path, origin: (f64, f64), r: f64, width: usize
             let y = origin.1 + (j as f64 + 0.5) * r;
             let fx = (x - o[0]) / r;
             let fy = (y - o[1]) / r;
-            assert!((fx - fx.floor() - 0.5).abs() < 1e-3, "lattices differ: {fx}");
+            assert!(
+                (fx - fx.floor() - 0.5).abs() < 1e-3,
+                "lattices differ: {fx}"
+            );
             let (pi, pj) = (fx.floor(), fy.floor());
             if pi >= 0.0 && pj >= 0.0 && (pi as usize) < pw && (pj as usize) < ph {
                 both += 1;
@@ -264,7 +273,10 @@ fn the_mcap_recording_reads_back_with_another_reader_and_equals_the_maps_written
     let s = summary(&out);
     assert_eq!(s["synced"], true);
     let outputs = &s["outputs"];
-    assert!(outputs["frames_published"].as_u64().unwrap() >= 1, "{outputs}");
+    assert!(
+        outputs["frames_published"].as_u64().unwrap() >= 1,
+        "{outputs}"
+    );
     let read = Command::new(py)
         .arg(py_dir().join("read_mcap.py"))
         .arg(&mcap)
@@ -278,7 +290,11 @@ fn the_mcap_recording_reads_back_with_another_reader_and_equals_the_maps_written
     let m: Value = serde_json::from_slice(&read.stdout).unwrap();
     assert_eq!(m["errors"], Value::Array(vec![]), "{}", m["errors"]);
     // Indexed and chunked, compressed.
-    assert!(m["summary"]["chunks"].as_u64().unwrap() >= 1, "{}", m["summary"]);
+    assert!(
+        m["summary"]["chunks"].as_u64().unwrap() >= 1,
+        "{}",
+        m["summary"]
+    );
     assert_eq!(m["summary"]["compression"], serde_json::json!(["zstd"]));
     // Every message the session counts was read back and decoded.
     let counts = m["counts"].as_object().unwrap();
@@ -291,7 +307,11 @@ fn the_mcap_recording_reads_back_with_another_reader_and_equals_the_maps_written
         .filter(|(k, _)| k.starts_with("foxglove "))
         .map(|(_, v)| v.as_u64().unwrap())
         .sum();
-    assert_eq!(decoded, written, "{counts:?} against {}", outputs["messages"]);
+    assert_eq!(
+        decoded, written,
+        "{counts:?} against {}",
+        outputs["messages"]
+    );
     for topic in [
         "/terrain/fused",
         "/terrain/grid/fused",
@@ -318,7 +338,10 @@ fn the_mcap_recording_reads_back_with_another_reader_and_equals_the_maps_written
     assert_eq!(f["frame_id"], "odom");
     let width = f["width"].as_u64().unwrap() as usize;
     let r = f["resolution"].as_f64().unwrap();
-    let origin = (f["origin"][0].as_f64().unwrap(), f["origin"][1].as_f64().unwrap());
+    let origin = (
+        f["origin"][0].as_f64().unwrap(),
+        f["origin"][1].as_f64().unwrap(),
+    );
     let cells = ints(&f["data"]);
     // ±10 m at 0.1 m: 200 cells.
     assert_eq!(width, 200);
@@ -333,14 +356,20 @@ fn the_mcap_recording_reads_back_with_another_reader_and_equals_the_maps_written
     let (device_fused, n) = fused_occupancy(&served.pyramid);
     let (pw, _, pixels) = pgm_rows_bottom_up(&dir.join("fused.pgm"));
     assert_eq!(pw, n);
-    assert!(device_fused.iter().zip(&pixels).all(|(&v, &p)| grey(i64::from(v)) == p));
+    assert!(device_fused
+        .iter()
+        .zip(&pixels)
+        .all(|(&v, &p)| grey(i64::from(v)) == p));
     // Every layer's last grid: the device's cells (Foxglove's log-odds are the raw Q8.8 / 256).
     for k in 0..served.pyramid.layer_count() {
         let cells = raw_cells(&served.pyramid, k);
         let grid = &last[&format!("/terrain/grid/layer_{k}")];
         let raw: Vec<i16> = ints(&grid["raw"]).iter().map(|&v| v as i16).collect();
         assert_eq!(fnv1a64(&raw), fnv1a64(&cells), "layer {k}");
-        assert_eq!(s["layer_cells_fnv1a64"][k].as_str().unwrap(), fnv1a64(&cells));
+        assert_eq!(
+            s["layer_cells_fnv1a64"][k].as_str().unwrap(),
+            fnv1a64(&cells)
+        );
         let ros = &last[&format!("/terrain/layer_{k}")];
         assert_eq!(ros["width"].as_u64().unwrap() as usize, W);
         let occ = ints(&ros["data"]);
@@ -365,7 +394,10 @@ fn the_mcap_recording_reads_back_with_another_reader_and_equals_the_maps_written
     assert_eq!(loops.len(), served.pyramid.layer_count());
     // The diagnostics carry the device's counters.
     let d = &last["/diagnostics"]["terrain_pyramid: device"];
-    assert!(d["frames_sent"].as_str().unwrap().parse::<u64>().unwrap() > 0, "{d}");
+    assert!(
+        d["frames_sent"].as_str().unwrap().parse::<u64>().unwrap() > 0,
+        "{d}"
+    );
 }
 
 // ------------------------------------------------------------------ Foxglove
@@ -413,13 +445,20 @@ fn a_foxglove_client_decodes_grids_while_a_stuck_client_holds_nothing_up() {
     let first = lines.next().and_then(Result::ok);
     if first.as_deref() != Some("ready") {
         let mut err = String::new();
-        client.stderr.take().unwrap().read_to_string(&mut err).unwrap();
+        client
+            .stderr
+            .take()
+            .unwrap()
+            .read_to_string(&mut err)
+            .unwrap();
         panic!("foxglove_client.py: {first:?}: {err}");
     }
     // Now the device drives: thousands of frames while one client never reads.
     let start = Instant::now();
     dev.go.store(true, Ordering::SeqCst);
-    dev.settled.recv_timeout(PATIENCE).expect("the device settled");
+    dev.settled
+        .recv_timeout(PATIENCE)
+        .expect("the device settled");
     let driving = start.elapsed();
     run.interrupt();
     let out = run.finish();
@@ -427,7 +466,12 @@ fn a_foxglove_client_decodes_grids_while_a_stuck_client_holds_nothing_up() {
     let result = lines.next().unwrap().unwrap();
     let status = client.wait().unwrap();
     let mut err = String::new();
-    client.stderr.take().unwrap().read_to_string(&mut err).unwrap();
+    client
+        .stderr
+        .take()
+        .unwrap()
+        .read_to_string(&mut err)
+        .unwrap();
     assert!(status.success(), "foxglove_client.py: {err}");
     let s = summary(&out);
     // No frame of the link was lost, the mirror is the device's.
@@ -496,7 +540,10 @@ fn a_foxglove_client_decodes_grids_while_a_stuck_client_holds_nothing_up() {
     assert_eq!((width, cells.len()), (200, 200 * 200));
     let both = assert_fused_matches_pgm(
         &dir,
-        (g["origin"][0].as_f64().unwrap(), g["origin"][1].as_f64().unwrap()),
+        (
+            g["origin"][0].as_f64().unwrap(),
+            g["origin"][1].as_f64().unwrap(),
+        ),
         g["cell_size"][0].as_f64().unwrap(),
         width,
         &cells,
@@ -576,7 +623,9 @@ fn ros2_inner() {
         "--ros-domain-id",
         "7",
     ]));
-    dev.settled.recv_timeout(PATIENCE).expect("the device settled");
+    dev.settled
+        .recv_timeout(PATIENCE)
+        .expect("the device settled");
     // Settled: the last maps have been published. A subscriber that joins now gets them
     // (transient local, as Nav2's static layer subscribes).
     let sub = Command::new(py)
@@ -600,7 +649,9 @@ fn ros2_inner() {
     let last = &r["last"];
     // The maps came at once, from the publisher's history (not from a later update).
     for k in 0..8 {
-        let first = r["first_after_s"][format!("/terrain/layer_{k}")].as_f64().unwrap();
+        let first = r["first_after_s"][format!("/terrain/layer_{k}")]
+            .as_f64()
+            .unwrap();
         assert!(first < 10.0, "layer {k} after {first} s");
     }
     // Each layer: the device's cells as occupancy percent.
@@ -629,15 +680,24 @@ fn ros2_inner() {
         let r = f64::from(layer.resolution().to_bits()) / 65_536.0;
         assert!((l["resolution"].as_f64().unwrap() - r).abs() < 1e-6);
         let ox = f64::from(layer.origin().0) * r;
-        assert!((l["origin"][0].as_f64().unwrap() - ox).abs() < 1e-6, "layer {k}");
+        assert!(
+            (l["origin"][0].as_f64().unwrap() - ox).abs() < 1e-6,
+            "layer {k}"
+        );
     }
     let f = &last["/terrain/fused"];
     assert_eq!(f["frame_id"], "odom");
-    assert_eq!((f["width"].as_u64(), f["height"].as_u64()), (Some(200), Some(200)));
+    assert_eq!(
+        (f["width"].as_u64(), f["height"].as_u64()),
+        (Some(200), Some(200))
+    );
     let cells = ints(&f["data"]);
     let both = assert_fused_matches_pgm(
         &dir,
-        (f["origin"][0].as_f64().unwrap(), f["origin"][1].as_f64().unwrap()),
+        (
+            f["origin"][0].as_f64().unwrap(),
+            f["origin"][1].as_f64().unwrap(),
+        ),
         f["resolution"].as_f64().unwrap(),
         200,
         &cells,
@@ -645,10 +705,18 @@ fn ros2_inner() {
     assert!(both > 10_000, "{both}");
     assert!(cells.contains(&100) && cells.contains(&0));
     let d = &last["/diagnostics"];
-    assert!(d["terrain_pyramid: device"]["frames_sent"].as_str().is_some(), "{d}");
+    assert!(
+        d["terrain_pyramid: device"]["frames_sent"]
+            .as_str()
+            .is_some(),
+        "{d}"
+    );
     assert_eq!(d["terrain_pyramid: host link"]["gaps"], "0");
     let outputs = &s["outputs"]["messages"];
-    assert!(outputs["ros2 /terrain/fused"].as_u64().unwrap() >= 1, "{outputs}");
+    assert!(
+        outputs["ros2 /terrain/fused"].as_u64().unwrap() >= 1,
+        "{outputs}"
+    );
 }
 
 // ------------------------------------------------------------------ bad situations
@@ -686,7 +754,10 @@ fn an_address_in_use_is_an_error_naming_the_flag() {
     .finish();
     assert_eq!(out.status.code(), Some(1));
     let stderr = String::from_utf8(out.stderr).unwrap();
-    assert!(stderr.starts_with("error: --mcap: cannot create "), "{stderr}");
+    assert!(
+        stderr.starts_with("error: --mcap: cannot create "),
+        "{stderr}"
+    );
     assert_eq!(stderr.lines().count(), 1, "{stderr}");
 }
 
@@ -717,7 +788,10 @@ fn a_device_that_goes_away_and_comes_back_keeps_the_maps_and_resyncs() {
         mcap.to_str().unwrap(),
     ]));
     let gone = run.wait_for("stream ended");
-    assert!(gone.contains("trying to reconnect every 1 s; the maps are kept"), "{gone}");
+    assert!(
+        gone.contains("trying to reconnect every 1 s; the maps are kept"),
+        "{gone}"
+    );
     let back = run.wait_for("reconnected to tcp ");
     assert!(back.contains("snapshot requested"), "{back}");
     // The device closes at the end: the host keeps trying until its session ends.
@@ -729,7 +803,12 @@ fn a_device_that_goes_away_and_comes_back_keeps_the_maps_and_resyncs() {
     assert_eq!(served.connections, 2);
     assert_eq!(s["reconnects"], 1);
     assert_eq!(s["ended_by"], "interrupted");
-    assert_eq!(s["synced"], true, "{}", String::from_utf8_lossy(&out.stderr));
+    assert_eq!(
+        s["synced"],
+        true,
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     // The request at the start and the one after the reconnection (at least).
     assert!(s["snapshots_requested"].as_u64().unwrap() >= 2, "{s}");
     assert!(served.snapshots >= 2);

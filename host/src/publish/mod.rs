@@ -154,6 +154,8 @@ pub struct Config {
 
 impl Config {
     /// No outputs, the defaults otherwise.
+    // For callers that build a configuration by hand (the tests; `pyramid run` next).
+    #[cfg_attr(not(test), allow(dead_code))]
     #[must_use]
     pub fn off() -> Self {
         Self {
@@ -620,6 +622,9 @@ pub struct OutputsReport {
     pub mcap: Option<String>,
 }
 
+/// What makes a hand-off news: the mirror's frame count and the pose's bits.
+type OfferKey = (u64, Option<(u64, u64, u64)>);
+
 /// The running outputs. See the module's documentation.
 pub struct Outputs {
     shared: Arc<Shared>,
@@ -627,7 +632,7 @@ pub struct Outputs {
     config: Config,
     period: Duration,
     last_handoff: Option<Instant>,
-    last_key: Option<(u64, Option<(u64, u64, u64)>)>,
+    last_key: Option<OfferKey>,
     handoffs: u64,
     pose_source: Option<PoseSource>,
     foxglove_addr: Option<String>,

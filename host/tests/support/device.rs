@@ -130,7 +130,12 @@ pub fn design() -> DefaultDesign {
     DefaultDesign::new(SensorModel::default(), Schedule::default(), W).unwrap()
 }
 
-fn serve(listener: TcpListener, plan: Plan, settled: mpsc::Sender<()>, go: Arc<AtomicBool>) -> Served {
+fn serve(
+    listener: TcpListener,
+    plan: Plan,
+    settled: mpsc::Sender<()>,
+    go: Arc<AtomicBool>,
+) -> Served {
     listener.set_nonblocking(true).unwrap();
     let start = Instant::now();
     let mut stream = Some(accept(&listener));
