@@ -59,6 +59,8 @@ pub struct Plan {
     /// accept the host's next connection.
     pub unplug_at: Option<usize>,
     pub unplugged_steps: usize,
+    /// Evidence updates per step (176 per 13 ms is the SICK LMS2xx's 13 575 points/s).
+    pub evidence_per_step: usize,
 }
 
 impl Plan {
@@ -71,6 +73,7 @@ impl Plan {
             close_when_settled: true,
             unplug_at: None,
             unplugged_steps: 0,
+            evidence_per_step: 60,
         }
     }
 }
@@ -176,7 +179,7 @@ fn serve(
             }
             let (mx, my) = (Meters::from_num(x), Meters::from_num(y));
             pyramid.recentre(mx, my);
-            for _ in 0..60 {
+            for _ in 0..plan.evidence_per_step {
                 let k = rng.below(pyramid.layer_count() as u64) as usize;
                 let r = pyramid.layer(k).unwrap().resolution();
                 pyramid.apply(&Evidence {
