@@ -142,6 +142,9 @@ def main():
         got = False
         for topic, (reader, convert) in readers.items():
             for s in reader.take(N=100):
+                # Instance state changes (a writer gone) come as samples without data.
+                if type(s).__name__ == "InvalidSample":
+                    continue
                 last[topic] = convert(s)
                 counts[topic] = counts.get(topic, 0) + 1
                 first_at.setdefault(topic, round(time.monotonic() - start, 3))
