@@ -15,12 +15,20 @@
 //! - It ends on Ctrl-C (or SIGTERM), when the device closes the stream, or after
 //!   `--duration-s`; it then writes the last maps. A second Ctrl-C exits at once (status 130).
 //!
+//! - Live outputs (`--ros2`, `--foxglove`, `--mcap`, [`crate::publish`], `docs/ros2.md`): the
+//!   mirror is offered to them after every read; they never hold up the reader.
+//! - When the stream ends on a serial port (or on TCP with `--reconnect`) the session goes on:
+//!   the device is looked for every [`RECONNECT_INTERVAL`], the maps are kept, and a snapshot
+//!   is requested once it is back.
+//!
 //! # summary.json
 //! The maps' part is `pyramid replay`'s (`layers`, `fused`); the points are not known to the
 //! host, so instead come the link's counters (`frames`, `crc_errors`, `patches`, `gaps`,
 //! `snapshots_requested`, …), whether the mirror was `synced` with the device at the end,
 //! and a hash of each layer's raw cells (`layer_cells_fnv1a64`, FNV-1a 64 of the W × W cells
-//! as `i16` little-endian, row-major from the lowest row), to compare with the device's.
+//! as `i16` little-endian, row-major from the lowest row), to compare with the device's;
+//! `reconnects`, and `outputs` (hand-offs, coalesced, messages per output and topic) when an
+//! output was on.
 use crate::export::{self, MapSnapshot, MapSummary};
 use crate::publish::{OutputArgs, Outputs, OutputsReport};
 use serde::Serialize;
