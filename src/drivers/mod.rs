@@ -11,7 +11,10 @@
 //! - [`as5047`]: the AS5047P-kind 14-bit magnetic encoder over SPI.
 //! - [`uart`]: SICK LMS2xx telegrams from any `embedded_io::Read` (a UART), through
 //!   [`crate::wire::sick::Accumulator`].
+//! - [`lidar`]: requests to the spinning UART lidars (RPLIDAR, YDLIDAR) through any
+//!   `embedded_io::Write`.
 
 pub mod angle;
 pub mod as5047;
+pub mod lidar;
 pub mod uart;
