@@ -26,6 +26,8 @@
 //! the SICK CRC-16 by chance about once in 65 536 candidates, and a fixed seed keeps that
 //! from making CI flaky. Debug build (`cargo test --workspace`), 2-core machine: about 12 s
 //! with the default test threads, 35 s with `--test-threads=1`; the case counts below set it.
+//! The four lidar properties add about 15 % (measured with `--test-threads=1` on a loaded
+//! machine: 20.3 s without them, 23.5 s with them).
 
 use proptest::prelude::*;
 use proptest::test_runner::{Config as PtConfig, RngSeed};

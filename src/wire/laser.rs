@@ -58,6 +58,14 @@ pub(crate) fn turn_fraction(numerator: u64, denominator: u64) -> FineAngle {
     if denominator == 0 {
         return FineAngle::ZERO;
     }
+    // Every caller's numerator is below 2³² (a turn in wire units times a step count), so
+    // the scaled value fits a u64 and the division is a 64-bit one; u128 otherwise.
+    if numerator >> 32 == 0 {
+        if let Some(scaled) = (numerator << 32).checked_add(denominator / 2) {
+            #[allow(clippy::cast_possible_truncation)]
+            return FineAngle::from_bits((scaled / denominator) as u32);
+        }
+    }
     let scaled = (u128::from(numerator) << 32) + u128::from(denominator / 2);
     let turns = scaled / u128::from(denominator);
     // Modulo one turn: the low 32 bits.
@@ -104,5 +112,9 @@ mod tests {
         assert_eq!(turn_fraction(2, 3).to_bits(), 2_863_311_531);
         // 0.01° = 2³²/36 000 = 119 304.647… LSB → 119 305.
         assert_eq!(turn_fraction(1, 36_000).to_bits(), 119_305);
+        // The u64 and u128 paths agree (a numerator of 2³² takes the u128 one).
+        assert_eq!(turn_fraction(1 << 32, 3 << 32), turn_fraction(1, 3));
+        assert_eq!(turn_fraction(u64::MAX >> 32, u64::MAX).to_bits(), 1);
+        assert_eq!(turn_fraction(7, u64::MAX), FineAngle::ZERO);
     }
 }
