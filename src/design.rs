@@ -144,6 +144,13 @@ pub enum Param {
     ClampMin,
     /// The upper clamping bound.
     ClampMax,
+    /// The decay mode ([`crate::decay::Decay::mode`]).
+    DecayMode,
+    /// The decay's time constant of a layer ([`crate::decay::Decay::tau`]).
+    DecayTau {
+        /// The layer, 0 = finest.
+        layer: u8,
+    },
 }
 
 impl Param {
@@ -165,6 +172,8 @@ impl Param {
             Self::Prior => "--prior",
             Self::ClampMin => "--clamp-min",
             Self::ClampMax => "--clamp-max",
+            Self::DecayMode => "--decay",
+            Self::DecayTau { .. } => "--decay-tau-s",
         }
     }
 }
@@ -269,6 +278,19 @@ impl fmt::Display for DesignError {
                 } else {
                     (value, min, max)
                 };
+                if let Param::DecayTau { layer } = param {
+                    return if max <= 0.0 {
+                        write!(
+                            f,
+                            "{flag} (layer {layer}): the design has no layer {layer}, so it takes no time constant (got {value} s)"
+                        )
+                    } else {
+                        write!(
+                            f,
+                            "{flag} (layer {layer}): must lie within [{min}, {max}] s, the sweep's budget for this window (got {value} s)"
+                        )
+                    };
+                }
                 write!(f, "{flag}: must lie within [{min}, {max}] (got {value})")
             }
             Self::BadWindow { cells } => write!(

@@ -6,6 +6,7 @@
 //! unknown, and nothing is copied (grid_map's `GridMap::move`). The index maths are small free
 //! functions: [`cell_of`], [`window_offset`], [`slot`], [`entering`].
 
+use crate::decay::{decayed, DecayMode};
 use crate::logodds::{Cell, CellClass, Clamp};
 use crate::units::{LogOddsFixed, Meters};
 
@@ -461,6 +462,28 @@ impl<const W: usize> Layer<W> {
         };
         self.set_origin(new_x, new_y);
         reset
+    }
+
+    /// One decay step ([`crate::decay::decayed`]) for every cell of `count` storage rows
+    /// from row `first` (wrapping modulo W; every world row j of the window with
+    /// `j mod W` among them). Returns the cells that became unknown. Decay does not mark
+    /// tiles dirty: a consumer that mirrors the layer applies the same step to the same rows.
+    pub fn decay_rows(&mut self, first: usize, count: usize, mode: DecayMode) -> u32 {
+        let mut faded = 0_u32;
+        for t in 0..count.min(W) {
+            let Some(row) = self.cells.get_mut(slot(first % W.max(1), t, W)) else {
+                continue;
+            };
+            for cell in row.iter_mut() {
+                if !cell.is_observed() {
+                    continue;
+                }
+                let new = decayed(*cell, mode);
+                faded += u32::from(!new.is_observed());
+                *cell = new;
+            }
+        }
+        faded
     }
 
     /// The tiles changed by updates since [`take_dirty`](Self::take_dirty) last ran: bit

@@ -50,6 +50,7 @@ mod fmt;
 
 pub mod app;
 pub mod classify;
+pub mod decay;
 pub mod design;
 pub mod drivers;
 pub mod gate;
@@ -62,6 +63,7 @@ pub mod pyramid;
 pub mod units;
 pub mod wire;
 
+pub use decay::{Decay, DecayMode, TimeConstant};
 pub use design::{Design, DesignError, GateShape, Param, Schedule, SensorModel};
 
 pub use grid::{Layer, LayerCounts, Resolution};

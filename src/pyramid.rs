@@ -9,6 +9,7 @@
 //! hands each record over with its gate weight already looked up; the pyramid only applies
 //! it, with the inverse sensor model's increments and clamping.
 
+use crate::decay::{Decay, DecayMode, DecayRows, Sweep, TimeConstant};
 use crate::design::{Design, DesignError, Param};
 use crate::grid::{Layer, LayerCounts, Resolution};
 use crate::logodds::{gated, Clamp, Increments, InverseSensorModel};
@@ -84,6 +85,9 @@ pub struct Config {
     pub clamp: Clamp,
     /// The fused query's confidence margin for "navigable", nats, ≥ 0. Default 0.
     pub fused_margin: f32,
+    /// Decay of stale evidence toward unknown ([`crate::decay`]). Default: off, the paper's
+    /// behaviour.
+    pub decay: Decay,
 }
 
 impl Default for Config {
@@ -92,6 +96,7 @@ impl Default for Config {
             model: InverseSensorModel::default(),
             clamp: Clamp::default(),
             fused_margin: 0.0,
+            decay: Decay::OFF,
         }
     }
 }
@@ -110,6 +115,10 @@ pub struct PyramidStats {
     pub bad_layer: u32,
     /// Cells reset to unknown by window moves.
     pub cells_reset: u32,
+    /// Storage rows that took a decay step (a row is W cells).
+    pub rows_decayed: u32,
+    /// Cells that became unknown by decay.
+    pub cells_faded: u32,
 }
 
 /// What became of one evidence record.
@@ -158,6 +167,7 @@ impl core::fmt::Display for RegionError {
 pub struct Pyramid<const W: usize, const L: usize> {
     layers: [Layer<W>; L],
     state: State,
+    sweep: Sweep<L>,
 }
 
 /// Everything of a pyramid but its layers and gates; its size is the same on every target.
@@ -206,11 +216,14 @@ pub const fn static_ram_bytes<const W: usize, const L: usize>() -> usize {
 }
 
 /// The static RAM of a pyramid of `layers` layers of `cells_per_side` (even) cells per side,
-/// bytes: `layers · (2·W² + 24) + 24`, rounded up to a multiple of 8. Equal to [`static_ram_bytes`] for the same
-/// shape (a unit test holds them together), for designs chosen at run time.
+/// bytes: `layers · (2·W² + 24) + 32`, plus the decay sweep's `6 + 7 · layers` rounded up to a
+/// multiple of 4, all rounded up to a multiple of 8. Equal to [`static_ram_bytes`] for the
+/// same shape (a unit test holds them together), for designs chosen at run time.
 #[must_use]
 pub const fn ram_bytes(cells_per_side: usize, layers: usize) -> usize {
-    let raw = layers * crate::grid::layer_bytes(cells_per_side) + core::mem::size_of::<State>();
+    let raw = layers * crate::grid::layer_bytes(cells_per_side)
+        + core::mem::size_of::<State>()
+        + crate::decay::sweep_bytes(layers);
     // The pyramid is aligned like its layers' dirty-tile word (a u64).
     let align = core::mem::align_of::<u64>();
     raw.div_ceil(align) * align
@@ -242,8 +255,11 @@ impl<const W: usize, const L: usize> Pyramid<W, L> {
                     outside_window: 0,
                     bad_layer: 0,
                     cells_reset: 0,
+                    rows_decayed: 0,
+                    cells_faded: 0,
                 },
             },
+            sweep: Sweep::OFF,
         }
     }
 
@@ -293,6 +309,7 @@ impl<const W: usize, const L: usize> Pyramid<W, L> {
             )?);
         }
         let active = design.layers().len().min(L).min(usize::from(u8::MAX));
+        config.decay.validate(W, active)?;
         for (k, (layer, resolution)) in self.layers.iter_mut().zip(resolutions).enumerate() {
             match resolution {
                 Some(r) if k < active => layer.reset(r),
@@ -306,6 +323,7 @@ impl<const W: usize, const L: usize> Pyramid<W, L> {
             margin,
             stats: PyramidStats::default(),
         };
+        self.sweep = Sweep::new(&config.decay, active);
         debug!("pyramid configured: {} layers", active);
         Ok(())
     }
@@ -470,6 +488,76 @@ impl<const W: usize, const L: usize> Pyramid<W, L> {
     #[must_use]
     pub fn counts(&self, k: usize) -> Option<LayerCounts> {
         self.layer(k).map(Layer::counts)
+    }
+
+    // ------------------------------------------------------------ decay
+
+    /// The decay mode in force ([`DecayMode::Off`] unless configured).
+    #[must_use]
+    pub const fn decay_mode(&self) -> DecayMode {
+        self.sweep.mode
+    }
+
+    /// Layer `k`'s decay time constant in force ([`TimeConstant::NONE`]: it does not decay).
+    #[must_use]
+    pub fn time_constant(&self, k: usize) -> TimeConstant {
+        if k < self.layer_count() {
+            self.sweep.tau(k)
+        } else {
+            TimeConstant::NONE
+        }
+    }
+
+    /// Accrues the decay owed since the last call, by the caller's clock (`now_ms`, ms,
+    /// wrapping; the first call only starts the clock). Nothing is decayed until
+    /// [`decay_layer`](Self::decay_layer) (or [`decay`](Self::decay)) pays it.
+    pub fn accrue_decay(&mut self, now_ms: u32) {
+        self.sweep.accrue(now_ms, W);
+    }
+
+    /// The storage rows layer `k` owes now (0 ..= W): what [`decay_layer`](Self::decay_layer)
+    /// would decay.
+    #[must_use]
+    pub fn decay_due(&self, k: usize) -> usize {
+        if k < self.layer_count() {
+            self.sweep.due(k, W)
+        } else {
+            0
+        }
+    }
+
+    /// Pays layer `k`'s decay: one step for every cell of the rows owed, from the sweep's
+    /// cursor on. Returns the rows and the cells that became unknown; `None` when nothing is
+    /// owed. Tiles are not marked dirty (see [`Layer::decay_rows`]).
+    pub fn decay_layer(&mut self, k: usize) -> Option<DecayRows> {
+        let mode = self.sweep.mode;
+        let active = self.layer_count();
+        let layer = self.layers.get_mut(..active)?.get_mut(k)?;
+        let (first, rows) = self.sweep.take(k, W)?;
+        let faded = layer.decay_rows(first, rows, mode);
+        let stats = &mut self.state.stats;
+        let rows32 = u32::try_from(rows).unwrap_or(u32::MAX);
+        stats.rows_decayed = stats.rows_decayed.saturating_add(rows32);
+        stats.cells_faded = stats.cells_faded.saturating_add(faded);
+        Some(DecayRows {
+            first: u16::try_from(first).unwrap_or(u16::MAX),
+            rows: u16::try_from(rows).unwrap_or(u16::MAX),
+            faded,
+        })
+    }
+
+    /// Accrues and pays every layer's decay at `now_ms`, for a pyramid without a host link
+    /// (the link pays it itself and tells the host, `crate::link::Link::poll`). Returns the
+    /// cells that became unknown.
+    pub fn decay(&mut self, now_ms: u32) -> u32 {
+        self.accrue_decay(now_ms);
+        let mut faded = 0_u32;
+        for k in 0..self.layer_count() {
+            if let Some(rows) = self.decay_layer(k) {
+                faded = faded.saturating_add(rows.faded);
+            }
+        }
+        faded
     }
 }
 
@@ -676,6 +764,119 @@ mod tests {
         };
         assert!(p.configure(&design, &bad).is_err());
         assert_eq!(p.layer(0).unwrap().get(0, 0).unwrap().to_raw(), 217);
+    }
+
+    fn decaying(mode: DecayMode, tau_s: f32) -> P {
+        let design = Design::<8>::new(SensorModel::default(), Schedule::default(), 64).unwrap();
+        let tau = TimeConstant::from_seconds(tau_s).unwrap();
+        let config = Config {
+            decay: Decay::uniform(mode, tau, 8),
+            ..Config::default()
+        };
+        let mut p = P::new();
+        p.configure(&design, &config).unwrap();
+        p
+    }
+
+    #[test]
+    fn decay_fades_evidence_to_unknown_without_dirtying_tiles() {
+        let mut p = decaying(DecayMode::All, 1.0);
+        let obstacle = Evidence {
+            layer: 0,
+            cell_x: 3,
+            cell_y: 0,
+            class: EvidenceClass::Obstacle,
+            weight: Weight::ONE,
+        };
+        for _ in 0..10 {
+            p.apply(&obstacle);
+        }
+        let free = Evidence {
+            cell_x: 5,
+            class: EvidenceClass::Navigable,
+            ..obstacle
+        };
+        for _ in 0..10 {
+            p.apply(&free);
+        }
+        assert_eq!(p.layer(0).unwrap().get(3, 0).unwrap().to_raw(), 896); // clamped at 3.5
+        assert_eq!(p.layer(0).unwrap().get(5, 0).unwrap().to_raw(), -512);
+        p.layer_dirty_mut(0).unwrap().take();
+        assert_eq!(p.decay(0), 0, "the first call starts the clock");
+        // One step period (125 ms): every row of every layer, one step.
+        assert_eq!(p.decay(125), 0);
+        assert_eq!(p.layer(0).unwrap().get(3, 0).unwrap().to_raw(), 791);
+        assert_eq!(p.layer(0).unwrap().get(5, 0).unwrap().to_raw(), -452);
+        assert_eq!(p.layer(0).unwrap().dirty(), 0);
+        assert_eq!(p.stats().rows_decayed, 8 * 64);
+        // 47 more steps fade 3.5 nats (the exponential, then one raw unit a step).
+        let mut t = 125;
+        let mut faded = 0;
+        while p.layer(0).unwrap().get(3, 0).unwrap().is_observed() {
+            t += 125;
+            faded += p.decay(t);
+            assert!(t < 125 * 60, "never faded");
+        }
+        assert_eq!(faded, 2);
+        assert_eq!(p.stats().cells_faded, 2);
+        assert_eq!(
+            p.fused(Meters::from_num(0.35), Meters::from_num(0.05)),
+            Fused::Unknown
+        );
+    }
+
+    #[test]
+    fn decay_modes_and_fresh_evidence() {
+        let mut p = decaying(DecayMode::Obstacle, 1.0);
+        let at = |x| Evidence {
+            layer: 0,
+            cell_x: x,
+            cell_y: 0,
+            class: EvidenceClass::Obstacle,
+            weight: Weight::ONE,
+        };
+        for _ in 0..10 {
+            p.apply(&at(3));
+            p.apply(&Evidence {
+                class: EvidenceClass::Navigable,
+                ..at(5)
+            });
+        }
+        p.decay(0);
+        for step in 1..=16 {
+            p.decay(125 * step);
+        }
+        // Two time constants: 3.5 nats to about 3.5·e⁻² = 0.47 nats; free ground untouched.
+        let obstacle = p.layer(0).unwrap().get(3, 0).unwrap().to_raw();
+        assert!((110..=130).contains(&obstacle), "{obstacle}");
+        assert_eq!(p.layer(0).unwrap().get(5, 0).unwrap().to_raw(), -512);
+        // Fresh free evidence now outweighs the aged obstacle at once (without decay it would
+        // take 9 observations to cross 0).
+        p.apply(&Evidence {
+            class: EvidenceClass::Navigable,
+            ..at(3)
+        });
+        p.apply(&Evidence {
+            class: EvidenceClass::Navigable,
+            ..at(3)
+        });
+        assert_eq!(
+            p.layer(0).unwrap().get(3, 0).unwrap().class(),
+            CellClass::Navigable
+        );
+        // A refused decay (a time constant for a ninth layer) changes nothing.
+        let design = Design::<8>::new(SensorModel::default(), Schedule::default(), 64).unwrap();
+        let mut bad = Decay::uniform(DecayMode::All, TimeConstant::MIN, 8);
+        bad.tau[8] = TimeConstant::MIN;
+        let config = Config {
+            decay: bad,
+            ..Config::default()
+        };
+        assert_eq!(
+            p.configure(&design, &config).map_err(|e| e.param()),
+            Err(Param::DecayTau { layer: 8 })
+        );
+        assert_eq!(p.decay_mode(), DecayMode::Obstacle);
     }
 
     #[test]

@@ -16,6 +16,7 @@
 use core::fmt;
 
 use crate::classify::ClassifierConfig;
+use crate::decay::{Decay, DecayMode, TimeConstant, DECAY_LAYERS};
 use crate::design::{Design, DesignError, GateShape, Param, Schedule, SensorModel};
 use crate::geometry::{Mount, Pose, PoseError, PoseField, ScanPlane};
 use crate::logodds::{Clamp, InverseSensorModel};
@@ -65,6 +66,8 @@ pub fn configure_message(
         },
         fused_margin: config.fused_margin,
         uniform_resolution: schedule.uniform_resolution,
+        decay_mode: config.decay.mode.to_u8(),
+        decay_tau: config.decay.tau.map(TimeConstant::code),
     }
 }
 
@@ -123,7 +126,27 @@ pub fn config_of(c: &Configure) -> Result<Config, DesignError> {
         model,
         clamp,
         fused_margin: c.fused_margin,
+        decay: decay_of(c)?,
     })
+}
+
+/// The decay a Configure asks for: its mode and time constants (checked against the design
+/// and the window by [`Decay::validate`], when the pyramid adopts it).
+///
+/// # Errors
+/// A mode byte above 3 ([`Param::DecayMode`]; the wire's parser already refuses it).
+pub fn decay_of(c: &Configure) -> Result<Decay, DesignError> {
+    let mode = DecayMode::from_u8(c.decay_mode).ok_or(DesignError::OutOfRange {
+        param: Param::DecayMode,
+        value: f32::from(c.decay_mode),
+        min: 0.0,
+        max: 3.0,
+    })?;
+    let mut tau = [TimeConstant::NONE; DECAY_LAYERS];
+    for (t, &code) in tau.iter_mut().zip(&c.decay_tau) {
+        *t = TimeConstant::from_code(code);
+    }
+    Ok(Decay { mode, tau })
 }
 
 // ---------------------------------------------------------------- Pose
@@ -419,7 +442,8 @@ pub fn frontend_config(setup: &Setup) -> Result<FrontendConfig, SetupError> {
 
 // ---------------------------------------------------------------- refusals
 
-/// The Reply `param` code of a design parameter: 1 ..= 14.
+/// The Reply `param` code of a design parameter: 1 ..= 15, and 64 + k (64 ..= 95) for layer
+/// k's decay time constant.
 #[must_use]
 pub const fn param_code(param: Param) -> u8 {
     match param {
@@ -437,6 +461,8 @@ pub const fn param_code(param: Param) -> u8 {
         Param::Prior => 12,
         Param::ClampMin => 13,
         Param::ClampMax => 14,
+        Param::DecayMode => 15,
+        Param::DecayTau { layer } => 64_u8.saturating_add(layer),
     }
 }
 
@@ -458,6 +484,8 @@ pub const fn param_of_code(code: u8) -> Option<Param> {
         12 => Param::Prior,
         13 => Param::ClampMin,
         14 => Param::ClampMax,
+        15 => Param::DecayMode,
+        64..=95 => Param::DecayTau { layer: code - 64 },
         _ => return None,
     })
 }
@@ -612,7 +640,20 @@ impl fmt::Display for ReplyReason {
                 "{name}: {a} degrees at {v} centidegrees is not a SICK LMS2xx variant \
                  (180 at 50 or 100; 100 at 25, 50 or 100)"
             ),
-            ReplyCode::OutOfRange => write!(f, "{name}: must lie within [{a}, {b}] (got {v})"),
+            ReplyCode::OutOfRange => match param_of_code(reply.param) {
+                // The library's own sentence, which names the layer.
+                Some(param @ Param::DecayTau { .. }) => write!(
+                    f,
+                    "{}",
+                    DesignError::OutOfRange {
+                        param,
+                        value: v,
+                        min: a,
+                        max: b
+                    }
+                ),
+                _ => write!(f, "{name}: must lie within [{a}, {b}] (got {v})"),
+            },
             ReplyCode::GammaNotAboveOne => write!(f, "{name}: must be greater than 1 (got {v})"),
             ReplyCode::BaseBelowBound => {
                 write!(f, "{name}: must exceed phi*h = {a} m (got {v} m)")
@@ -665,13 +706,13 @@ mod tests {
         let reply = design_refusal(configure, &error);
         assert_eq!(reply.code, ReplyCode::OutOfRange);
         assert_eq!(reply.param, 7);
-        // The spec's worked example of a refusal (section 10).
+        // The spec's worked example of a refusal (section 10; `docs/link_golden.py`).
         let mut out = [0_u8; 64];
         let n = encode(0x0106, &Message::Reply(reply), &mut out).unwrap();
         assert_eq!(
             &out[..n],
             &hex(
-                "06 02 05 06 01 0c 04 83 03 07 01 03 48 43 01 01 01 01 01 07 c8 42 67 7d b7 c6 00"
+                "06 03 05 06 01 0c 04 83 03 07 01 03 48 43 01 01 01 01 01 07 c8 42 f9 fe 6d 59 00"
             )[..]
         );
         assert_eq!(

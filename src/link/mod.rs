@@ -53,16 +53,17 @@ pub use bucket::TokenBucket;
 pub use queue::FrameQueue;
 
 use crate::angle::Angle;
+use crate::decay::DecayMode;
 use crate::geometry::Pose;
 use crate::grid::{CellRect, TILES_PER_SIDE};
 use crate::logodds::Cell;
 use crate::pipeline::FrontendConfig;
 use crate::pyramid::{Config, Pyramid};
 use crate::wire::link::{
-    encode, encode_patch, DecodeError, Decoded, FirmwareVersion, FrameAccumulator, Header, Hello,
-    HelloReason, LayerInfo, Message, PatchArea, Reply, ReplyCode, RxCounters, SnapshotScope, Stats,
-    Undecoded, WindowMoved, MAX_COMMAND_FRAME, MAX_ENCODED_FRAME, MAX_LAYERS, MAX_PATCH_SIDE,
-    MIN_FRAME, VERSION,
+    encode, encode_patch, Decayed, DecayedRows, DecodeError, Decoded, FirmwareVersion,
+    FrameAccumulator, Header, Hello, HelloReason, LayerInfo, Message, PatchArea, Reply, ReplyCode,
+    RxCounters, SnapshotScope, Stats, Undecoded, WindowMoved, MAX_COMMAND_FRAME, MAX_ENCODED_FRAME,
+    MAX_LAYERS, MAX_PATCH_SIDE, MIN_FRAME, VERSION,
 };
 use crate::wire::FeedResult;
 use crate::Design;
@@ -209,6 +210,10 @@ pub struct LinkCounters {
     pub snapshots: u32,
     /// Full resends after window moves collapsed between two polls.
     pub resyncs: u32,
+    /// Decayed frames queued (each announces the decay steps it accompanies).
+    pub decay_frames: u32,
+    /// Polls whose owed decay waited for queue room (it is paid at a later poll).
+    pub decay_deferred: u32,
 }
 
 /// A host command, decoded, validated and converted into the core's types by the link
@@ -388,6 +393,8 @@ impl<const Q: usize, const N: usize> Link<Q, N> {
                 commands_refused: 0,
                 snapshots: 0,
                 resyncs: 0,
+                decay_frames: 0,
+                decay_deferred: 0,
             },
         }
     }
@@ -956,9 +963,57 @@ impl<const Q: usize, const N: usize> Link<Q, N> {
         }
     }
 
+    /// Pays the pyramid's decay owed at `now_ms` and announces it with one Decayed frame, or,
+    /// when the queue has no room for that frame beside [`CONTROL_RESERVE`], pays nothing now
+    /// (the debt waits for a later poll, up to one step a layer).
+    fn send_decay<const W: usize, const L: usize>(
+        &mut self,
+        now_ms: u32,
+        pyramid: &mut Pyramid<W, L>,
+        report: &mut PollReport,
+    ) {
+        pyramid.accrue_decay(now_ms);
+        let mode = pyramid.decay_mode();
+        if mode == DecayMode::Off {
+            return;
+        }
+        let count = layers_of(pyramid).min(N);
+        let due = (0..count).filter(|&k| pyramid.decay_due(k) > 0).count();
+        if due == 0 {
+            return;
+        }
+        let len = crate::wire::link::encoded_len_max(MIN_FRAME + 5 + 8 * due);
+        if self.queue.free() < len.saturating_add(CONTROL_RESERVE) {
+            self.counters.decay_deferred = self.counters.decay_deferred.saturating_add(1);
+            return;
+        }
+        let mut decayed = Decayed::new(mode.to_u8());
+        for k in 0..count {
+            if let Some(rows) = pyramid.decay_layer(k) {
+                decayed.set(
+                    k,
+                    DecayedRows {
+                        first: rows.first,
+                        rows: rows.rows,
+                        faded: rows.faded,
+                    },
+                );
+            }
+        }
+        if self.send(&Message::Decayed(decayed), 0, report) {
+            self.counters.decay_frames = self.counters.decay_frames.saturating_add(1);
+        } else {
+            // Room was checked: never. Should it happen, the number is used, so the host
+            // sees a gap and asks for a snapshot.
+            self.tx_seq = self.tx_seq.wrapping_add(1);
+            self.counters.frames_dropped = self.counters.frames_dropped.saturating_add(1);
+        }
+    }
+
     /// Refills the budget from `now_ms` (the caller's clock, ms, wrapping) and queues what is
-    /// due, in order: a pending Hello, WindowMoved, Stats, then changed tiles oldest first while
-    /// the budget and the queue allow (the rest stay dirty for a later poll).
+    /// due, in order: a pending Hello, WindowMoved, Stats, the decay owed (Decayed, see
+    /// [`Pyramid::accrue_decay`]), then changed tiles oldest first while the budget and the
+    /// queue allow (the rest stay dirty for a later poll).
     ///
     /// Call it after every [`Pyramid::recentre`]: the host replays each window move, and moves
     /// that collapse between two polls cost a full resend.
@@ -989,6 +1044,7 @@ impl<const Q: usize, const N: usize> Link<Q, N> {
             return report;
         }
         self.send_stats(now_ms, pyramid, sensor, &mut report);
+        self.send_decay(now_ms, pyramid, &mut report);
         self.send_patches(pyramid, &mut report);
         report
     }
@@ -1124,7 +1180,8 @@ fn command<const L: usize>(header: Header, message: Message<'_>) -> Result<Comma
         | Message::LayerPatch(_)
         | Message::WindowMoved(_)
         | Message::Stats(_)
-        | Message::Reply(_) => return Err(Reply::code(header, ReplyCode::Unsupported)),
+        | Message::Reply(_)
+        | Message::Decayed(_) => return Err(Reply::code(header, ReplyCode::Unsupported)),
     })
 }
 

@@ -1,7 +1,7 @@
 //! `cargo xtask layers [--json]`: the shape of the code, checked.
 //!
 //! - **Layers** (`../shared/docs/design.md`): the library's rooms, bottom up — 1: `units`,
-//!   `fmath`, `angle`, `fmt`; 2: `wire`; 3: `design`, `gate`, `logodds`, `grid`, `pyramid`,
+//!   `fmath`, `angle`, `fmt`; 2: `wire`; 3: `design`, `gate`, `logodds`, `decay`, `grid`, `pyramid`,
 //!   `geometry`, `classify`; 4: `pipeline`, `link`, `app`; 5: `drivers`. A module may use its
 //!   own layer and those below; `wire` uses nothing but layer 1.
 //! - **No import cycle** between the modules (files) of the library, of the `pyramid` tool
@@ -315,7 +315,7 @@ fn layer(m: &ModPath) -> Option<u8> {
     Some(match m.first().map(String::as_str)? {
         "units" | "fmath" | "angle" | "fmt" => 1,
         "wire" => 2,
-        "design" | "gate" | "logodds" | "grid" | "pyramid" | "geometry" | "classify" => 3,
+        "design" | "gate" | "logodds" | "decay" | "grid" | "pyramid" | "geometry" | "classify" => 3,
         "pipeline" | "link" | "app" => 4,
         "drivers" => 5,
         _ => return None,

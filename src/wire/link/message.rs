@@ -20,8 +20,12 @@ pub(crate) const REPLY_LEN: usize = 17;
 pub(crate) const POSE_LEN: usize = 28;
 /// Bytes of a PanAngle body.
 pub(crate) const PAN_LEN: usize = 6;
-/// Bytes of a Configure body.
-pub(crate) const CONFIGURE_LEN: usize = 61;
+/// Bytes of a Configure body: 61 of version 2, the decay mode and 32 time-constant codes.
+pub(crate) const CONFIGURE_LEN: usize = 61 + 1 + MAX_LAYERS;
+/// Bytes of a Decayed body before its layers.
+pub(crate) const DECAYED_FIXED: usize = 5;
+/// Bytes of one layer in a Decayed body.
+pub(crate) const DECAYED_LAYER: usize = 8;
 /// Configure's `flags` bit 0: every layer at the base cell size ([`Configure::uniform_resolution`]).
 pub const CONFIGURE_UNIFORM_RESOLUTION: u8 = 1;
 /// Configure's `flags` bits a receiver knows; any other bit set is refused.
@@ -593,6 +597,97 @@ pub struct Configure {
     pub fused_margin: f32,
     /// Every layer at the base cell size (`flags` bit 0).
     pub uniform_resolution: bool,
+    /// The decay mode: 0 off, 1 all evidence, 2 obstacle evidence only, 3 free evidence only
+    /// (*checked*; `crate::decay::DecayMode`).
+    pub decay_mode: u8,
+    /// Each layer's decay time constant as a code: 0 = none, c = τ of 8 · ⌊(125 · 2^q · T_r +
+    /// 2¹⁵) / 2¹⁶⌋ ms with c − 1 = 16q + r (`crate::decay::TimeConstant`).
+    pub decay_tau: [u8; MAX_LAYERS],
+}
+
+/// One layer's rows in a [`Decayed`]: `rows` storage rows from `first` (wrapping modulo W)
+/// took one decay step each.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct DecayedRows {
+    /// The first storage row: the world rows j of the window with `j mod W` = `first`, …
+    pub first: u16,
+    /// How many consecutive storage rows (modulo W), ≥ 1.
+    pub rows: u16,
+    /// Cells of those rows that became unknown on the device.
+    pub faded: u32,
+}
+
+/// Device to host: the rows of the layers in `mask` took one decay step each, in `mode`
+/// (1 all, 2 obstacle only, 3 free only), at this point of the stream.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Decayed {
+    /// The decay mode in force, 1 ..= 3.
+    pub mode: u8,
+    mask: u32,
+    rows: [DecayedRows; MAX_LAYERS],
+}
+
+impl Decayed {
+    /// No rows yet, in `mode`.
+    #[must_use]
+    pub const fn new(mode: u8) -> Self {
+        Self {
+            mode,
+            mask: 0,
+            rows: [DecayedRows {
+                first: 0,
+                rows: 0,
+                faded: 0,
+            }; MAX_LAYERS],
+        }
+    }
+
+    /// Records layer `layer`'s rows; `false` for a layer ≥ [`MAX_LAYERS`].
+    pub fn set(&mut self, layer: usize, rows: DecayedRows) -> bool {
+        match self.rows.get_mut(layer) {
+            Some(slot) => {
+                *slot = rows;
+                self.mask |= 1 << layer;
+                true
+            }
+            None => false,
+        }
+    }
+
+    /// Bit k set: layer k decayed rows.
+    #[must_use]
+    pub const fn mask(&self) -> u32 {
+        self.mask
+    }
+
+    /// Layer `layer`'s rows, or `None` when it decayed none.
+    #[must_use]
+    pub fn rows(&self, layer: usize) -> Option<DecayedRows> {
+        if layer < MAX_LAYERS && self.mask & (1 << layer) != 0 {
+            self.rows.get(layer).copied()
+        } else {
+            None
+        }
+    }
+
+    /// The layers that decayed and their rows, ascending.
+    pub fn iter(&self) -> impl Iterator<Item = (usize, DecayedRows)> + '_ {
+        (0..MAX_LAYERS).filter_map(|k| self.rows(k).map(|r| (k, r)))
+    }
+
+    /// The number of layers.
+    #[must_use]
+    pub const fn len(&self) -> usize {
+        self.mask.count_ones() as usize
+    }
+
+    /// Whether no layer decayed.
+    #[must_use]
+    pub const fn is_empty(&self) -> bool {
+        self.mask == 0
+    }
 }
 
 /// Host to device: how the laser is mounted and how its lines make observations, and the
@@ -652,6 +747,8 @@ pub enum Message<'a> {
     Stats(Stats),
     /// Device to host: the answer to a command.
     Reply(Reply),
+    /// Device to host: rows that took a decay step.
+    Decayed(Decayed),
     /// Host to device: the robot's pose.
     Pose(PoseReport),
     /// Host to device: the pan angle.
@@ -720,6 +817,7 @@ impl<'a> Message<'a> {
             Self::WindowMoved(_) => MessageType::WindowMoved,
             Self::Stats(_) => MessageType::Stats,
             Self::Reply(_) => MessageType::Reply,
+            Self::Decayed(_) => MessageType::Decayed,
             Self::Pose(_) => MessageType::Pose,
             Self::PanAngle(_) => MessageType::PanAngle,
             Self::Configure(_) => MessageType::Configure,
@@ -742,6 +840,7 @@ impl<'a> Message<'a> {
             Self::WindowMoved(w) => 4 + 8 * w.len(),
             Self::Stats(_) => STATS_LEN,
             Self::Reply(_) => REPLY_LEN,
+            Self::Decayed(d) => DECAYED_FIXED + DECAYED_LAYER * d.len(),
             Self::Pose(_) => POSE_LEN,
             Self::PanAngle(_) => PAN_LEN,
             Self::Configure(_) => CONFIGURE_LEN,
@@ -876,6 +975,35 @@ impl<'a> Message<'a> {
                     b: r.f32(),
                 })
             }
+            MessageType::Decayed => {
+                if len < DECAYED_FIXED {
+                    return Err(bad);
+                }
+                let mode = r.u8();
+                if !(1..=3).contains(&mode) {
+                    return Err(range("Decayed.mode"));
+                }
+                let mask = r.u32();
+                if mask == 0 {
+                    return Err(range("Decayed.mask"));
+                }
+                exact(DECAYED_FIXED + DECAYED_LAYER * mask.count_ones() as usize)?;
+                let mut decayed = Decayed::new(mode);
+                for k in 0..MAX_LAYERS {
+                    if mask & (1 << k) != 0 {
+                        let rows = DecayedRows {
+                            first: r.u16(),
+                            rows: r.u16(),
+                            faded: r.u32(),
+                        };
+                        if rows.rows == 0 {
+                            return Err(range("Decayed.rows"));
+                        }
+                        decayed.set(k, rows);
+                    }
+                }
+                Self::Decayed(decayed)
+            }
             MessageType::Pose => {
                 exact(POSE_LEN)?;
                 Self::Pose(PoseReport {
@@ -922,6 +1050,11 @@ impl<'a> Message<'a> {
                 if flags & !CONFIGURE_FLAGS_KNOWN != 0 {
                     return Err(range("Configure.flags"));
                 }
+                let decay_mode = r.u8();
+                if decay_mode > 3 {
+                    return Err(range("Configure.decay"));
+                }
+                let decay_tau = r.take::<MAX_LAYERS>();
                 Self::Configure(Configure {
                     phi_rad,
                     psi_rad,
@@ -938,6 +1071,8 @@ impl<'a> Message<'a> {
                     clamp,
                     fused_margin,
                     uniform_resolution: flags & CONFIGURE_UNIFORM_RESOLUTION != 0,
+                    decay_mode,
+                    decay_tau,
                 })
             }
             MessageType::Reset => {
@@ -998,6 +1133,12 @@ impl<'a> Message<'a> {
                 }
             }
             Self::WindowMoved(w) if w.is_empty() => return invalid("WindowMoved.mask"),
+            Self::Decayed(d) if d.is_empty() => return invalid("Decayed.mask"),
+            Self::Decayed(d) if !(1..=3).contains(&d.mode) => return invalid("Decayed.mode"),
+            Self::Decayed(d) if d.iter().any(|(_, r)| r.rows == 0) => {
+                return invalid("Decayed.rows")
+            }
+            Self::Configure(c) if c.decay_mode > 3 => return invalid("Configure.decay"),
             Self::RequestSnapshot(SnapshotScope::Layer(0xFF)) => {
                 return invalid("RequestSnapshot.layer")
             }
@@ -1050,6 +1191,15 @@ impl<'a> Message<'a> {
                 w.f32(r.a);
                 w.f32(r.b);
             }
+            Self::Decayed(d) => {
+                w.u8(d.mode);
+                w.u32(d.mask());
+                for (_, rows) in d.iter() {
+                    w.u16(rows.first);
+                    w.u16(rows.rows);
+                    w.u32(rows.faded);
+                }
+            }
             Self::Pose(p) => {
                 for v in [p.x_m, p.y_m, p.z_m, p.roll_rad, p.pitch_rad, p.yaw_rad] {
                     w.f32(v);
@@ -1098,6 +1248,8 @@ impl<'a> Message<'a> {
                 } else {
                     0
                 });
+                w.u8(c.decay_mode);
+                w.bytes(&c.decay_tau);
             }
             Self::Reset
             | Self::Ping

@@ -32,15 +32,16 @@ mod message;
 pub use accumulator::{Decoded, FrameAccumulator, FrameFeed, RxCounters, Undecoded};
 pub use crc::{crc32, Crc32};
 pub use message::{
-    decode, encode, encode_patch, ClampRequest, Configure, FirmwareVersion, GateRequest, Hello,
-    HelloReason, LayerInfo, LayerPatch, Message, PanAngle, PatchArea, PatchCells, PoseReport,
-    Reply, ReplyCode, Setup, SnapshotScope, Stats, WindowMoved, PARAM_LAYER, STATS_COUNTERS,
+    decode, encode, encode_patch, ClampRequest, Configure, Decayed, DecayedRows, FirmwareVersion,
+    GateRequest, Hello, HelloReason, LayerInfo, LayerPatch, Message, PanAngle, PatchArea,
+    PatchCells, PoseReport, Reply, ReplyCode, Setup, SnapshotScope, Stats, WindowMoved,
+    PARAM_LAYER, STATS_COUNTERS,
 };
 
 use core::fmt;
 
 /// The protocol version this module speaks (`docs/protocol.md`, section 6).
-pub const VERSION: u8 = 2;
+pub const VERSION: u8 = 3;
 /// Bytes of the header: version, type, sequence number.
 pub const HEADER_LEN: usize = 4;
 /// Bytes of the CRC-32 after the body.
@@ -64,11 +65,11 @@ pub const MAX_BODY: usize = if MAX_HELLO_BODY > MAX_PATCH_BODY {
 };
 /// The largest decoded frame (header, body, CRC), device to host: 660 bytes.
 pub const MAX_FRAME: usize = MIN_FRAME + MAX_BODY;
-/// The largest decoded frame host to device (a [`Configure`]): 69 bytes.
+/// The largest decoded frame host to device (a [`Configure`]): 102 bytes.
 pub const MAX_COMMAND_FRAME: usize = MIN_FRAME + message::CONFIGURE_LEN;
 /// The largest encoded frame device to host, delimiter included: 664 bytes.
 pub const MAX_ENCODED_FRAME: usize = encoded_len_max(MAX_FRAME);
-/// The largest encoded frame host to device, delimiter included: 71 bytes.
+/// The largest encoded frame host to device, delimiter included: 104 bytes.
 pub const MAX_ENCODED_COMMAND: usize = encoded_len_max(MAX_COMMAND_FRAME);
 
 /// The most bytes a decoded frame of `decoded` bytes takes on the wire, delimiter included.
@@ -92,6 +93,8 @@ pub enum MessageType {
     Stats = 0x04,
     /// Device to host: the answer to a command.
     Reply = 0x05,
+    /// Device to host: rows that took a decay step.
+    Decayed = 0x06,
     /// Host to device: the robot's pose.
     Pose = 0x81,
     /// Host to device: the pan angle.
@@ -124,6 +127,7 @@ impl MessageType {
             0x03 => Self::WindowMoved,
             0x04 => Self::Stats,
             0x05 => Self::Reply,
+            0x06 => Self::Decayed,
             0x81 => Self::Pose,
             0x82 => Self::PanAngle,
             0x83 => Self::Configure,

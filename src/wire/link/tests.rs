@@ -1,5 +1,6 @@
 //! Golden frames of every message type, as hex written from `docs/protocol.md` (section 10 and
-//! an independent encoder of the spec), and the accumulator's handling of bad input.
+//! an independent encoder of the spec, `docs/link_golden.py`: Python's `zlib.crc32` and a COBS
+//! encoder written from section 3), and the accumulator's handling of bad input.
 extern crate std;
 use super::*;
 use crate::wire::FeedResult;
@@ -32,7 +33,7 @@ fn golden(seq: u16, message: &Message<'_>, encoded: &str) {
             assert_eq!(
                 header,
                 Header {
-                    version: 2,
+                    version: 3,
                     msg_type: message.msg_type().to_u8(),
                     seq
                 }
@@ -45,22 +46,22 @@ fn golden(seq: u16, message: &Message<'_>, encoded: &str) {
 }
 
 fn ping_frame() -> Vec<u8> {
-    hex("04 02 86 01 05 e4 41 ee 77 00")
+    hex("04 03 86 01 05 81 26 52 cf 00")
 }
 
 #[test]
 fn ping_reset_snapshot_golden() {
-    golden(1, &Message::Ping, "04 02 86 01 05 e4 41 ee 77 00");
-    golden(0x0203, &Message::Reset, "09 02 84 03 02 24 96 52 a8 00");
+    golden(1, &Message::Ping, "04 03 86 01 05 81 26 52 cf 00");
+    golden(0x0203, &Message::Reset, "09 03 84 03 02 41 f1 ee 10 00");
     golden(
         7,
         &Message::RequestSnapshot(SnapshotScope::All),
-        "04 02 85 07 06 ff 7c 1b 28 4e 00",
+        "04 03 85 07 06 ff cc 32 48 73 00",
     );
     golden(
         8,
         &Message::RequestSnapshot(SnapshotScope::Layer(2)),
-        "04 02 85 08 06 02 e0 d2 78 86 00",
+        "04 03 85 08 06 02 50 fb 18 bb 00",
     );
 }
 
@@ -72,7 +73,7 @@ fn pan_and_pose_golden() {
             turns: 0x4000,
             timestamp_ms: 123_456,
         }),
-        "04 02 82 09 01 05 40 40 e2 01 05 52 be 09 c0 00",
+        "04 03 82 09 01 05 40 40 e2 01 05 6c d5 cb 2f 00",
     );
     golden(
         10,
@@ -85,8 +86,8 @@ fn pan_and_pose_golden() {
             yaw_rad: 3.140625,
             timestamp_ms: 1000,
         }),
-        "04 02 81 0a 01 01 03 c0 3f 01 03 10 c0 01 01 01 01 01 01 01 01 01 01 01 01 01 05 49 40 \
-         e8 03 01 05 05 fe 5e e3 00",
+        "04 03 81 0a 01 01 03 c0 3f 01 03 10 c0 01 01 01 01 01 01 01 01 01 01 01 01 01 05 49 40 \
+         e8 03 01 05 af fb 84 12 00",
     );
 }
 
@@ -111,14 +112,107 @@ fn configure_golden() {
         },
         fused_margin: 0.0,
         uniform_resolution: false,
+        decay_mode: 0,
+        decay_tau: [0; 32],
     };
     golden(
         11,
         &Message::Configure(c),
-        "04 02 83 0b 01 01 01 02 3f 01 07 80 3e 9a 99 19 3e 01 03 80 3f 01 07 20 41 cd cc cc 3d \
+        "04 03 83 0b 01 01 01 02 3f 01 07 80 3e 9a 99 19 3e 01 03 80 3f 01 07 20 41 cd cc cc 3d \
          01 01 03 40 01 01 01 03 3f 40 09 33 33 33 3f cd cc cc 3e 01 01 03 3f 01 01 01 02 c0 01 \
-         03 60 40 01 01 01 01 05 a7 3b e5 16 00",
+         03 60 40 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 \
+         01 01 01 01 01 01 01 01 01 01 01 05 a3 b9 fc 57 00",
     );
+    // Decay on (obstacle evidence only), codes 54, 54, 70, 70, 86, 86 for layers 0 ..= 5.
+    let mut tau = [0_u8; 32];
+    tau[..6].copy_from_slice(&[54, 54, 70, 70, 86, 86]);
+    let decaying = Configure {
+        decay_mode: 2,
+        decay_tau: tau,
+        ..c
+    };
+    golden(
+        12,
+        &Message::Configure(decaying),
+        "04 03 83 0c 01 01 01 02 3f 01 07 80 3e 9a 99 19 3e 01 03 80 3f 01 07 20 41 cd cc cc 3d \
+         01 01 03 40 01 01 01 03 3f 40 09 33 33 33 3f cd cc cc 3e 01 01 03 3f 01 01 01 02 c0 01 \
+         03 60 40 01 01 01 01 08 02 36 36 46 46 56 56 01 01 01 01 01 01 01 01 01 01 01 01 01 01 \
+         01 01 01 01 01 01 01 01 01 01 01 05 35 e3 dc ae 00",
+    );
+    // A mode above 3 is out of range (the body is otherwise the one above).
+    let mut body = [0_u8; 94];
+    body[61] = 4;
+    assert_eq!(
+        Message::parse(0x83, &body),
+        Err(DecodeError::OutOfRange {
+            field: "Configure.decay"
+        })
+    );
+    // A version-2 Configure (61 bytes) is a bad body.
+    assert!(matches!(
+        Message::parse(0x83, &body[..61]),
+        Err(DecodeError::BadBody {
+            msg_type: 0x83,
+            len: 61
+        })
+    ));
+}
+
+/// Decayed (0x06): layer 0's storage rows 62, 63 and 0 (5 cells faded) and layer 3's row 10,
+/// all evidence.
+#[test]
+fn decayed_golden() {
+    let mut d = Decayed::new(1);
+    assert!(d.set(
+        0,
+        DecayedRows {
+            first: 62,
+            rows: 3,
+            faded: 5
+        }
+    ));
+    assert!(d.set(
+        3,
+        DecayedRows {
+            first: 10,
+            rows: 1,
+            faded: 0
+        }
+    ));
+    assert!(!d.set(32, DecayedRows::default()));
+    golden(
+        0x0107,
+        &Message::Decayed(d),
+        "07 03 06 07 01 01 09 01 01 02 3e 02 03 02 05 01 01 02 0a 02 01 01 01 01 01 05 66 56 2c \
+         05 00",
+    );
+    assert_eq!(d.len(), 2);
+    assert_eq!(d.rows(3).map(|r| r.first), Some(10));
+    assert_eq!(d.rows(1), None);
+    // Refused: mode 0 or 4, an empty mask, a layer of no rows, a wrong length.
+    let body = |mode: u8, mask: u32, rows: u16| {
+        let mut b = std::vec![mode];
+        b.extend_from_slice(&mask.to_le_bytes());
+        for _ in 0..mask.count_ones() {
+            b.extend_from_slice(&7_u16.to_le_bytes());
+            b.extend_from_slice(&rows.to_le_bytes());
+            b.extend_from_slice(&0_u32.to_le_bytes());
+        }
+        b
+    };
+    let range = |field| Err(DecodeError::OutOfRange { field });
+    assert_eq!(Message::parse(0x06, &body(0, 1, 1)), range("Decayed.mode"));
+    assert_eq!(Message::parse(0x06, &body(4, 1, 1)), range("Decayed.mode"));
+    assert_eq!(Message::parse(0x06, &body(1, 0, 1)), range("Decayed.mask"));
+    assert_eq!(Message::parse(0x06, &body(3, 6, 0)), range("Decayed.rows"));
+    assert!(matches!(
+        Message::parse(0x06, &body(1, 1, 1)[..12]),
+        Err(DecodeError::BadBody { msg_type: 6, .. })
+    ));
+    assert!(Message::parse(0x06, &body(3, 0x8000_0001, 1024)).is_ok());
+    let mut out = [0_u8; MAX_ENCODED_FRAME];
+    assert!(encode(0, &Message::Decayed(Decayed::new(1)), &mut out).is_err());
+    assert!(encode(0, &Message::Decayed(Decayed::new(0)), &mut out).is_err());
 }
 
 #[test]
@@ -157,9 +251,9 @@ fn hello_golden() {
     golden(
         0,
         &Message::Hello(hello),
-        "03 02 01 01 02 01 03 01 02 03 02 40 01 01 01 01 03 9a 19 01 01 01 01 01 01 01 01 0c 3f \
-         e0 ff ff ff e0 ff ff ff 33 33 01 01 01 01 02 3f 01 0f c0 3f e0 ff ff ff e0 ff ff ff 6c \
-         3b a0 9f 00",
+        "03 03 01 01 02 01 03 01 02 03 02 40 01 01 01 01 03 9a 19 01 01 01 01 01 01 01 01 0c 3f \
+         e0 ff ff ff e0 ff ff ff 33 33 01 01 01 01 02 3f 01 0f c0 3f e0 ff ff ff e0 ff ff ff bb \
+         28 35 82 00",
     );
 }
 
@@ -179,8 +273,8 @@ fn layer_patch_golden_is_the_specs_worked_example() {
         cells: PatchCells::from_le_bytes(&cells).unwrap(),
     };
     let encoded =
-        "11 02 02 02 01 01 02 02 e0 ff ff ff e0 ff ff ff 03 01 01 05 fc ff ff ff 03 80 d9 01 02 \
-                   fe 01 05 24 da 2f 54 00";
+        "11 03 02 02 01 01 02 02 e0 ff ff ff e0 ff ff ff 03 01 01 05 fc ff ff ff 03 80 d9 01 02 \
+                   fe 01 05 f5 32 c8 5a 00";
     golden(0x0102, &Message::LayerPatch(patch), encoded);
     let values: Vec<i16> = patch.cells.iter().collect();
     assert_eq!(values, [i16::MIN, 217, -512, 0]);
@@ -207,7 +301,7 @@ fn window_moved_stats_reply_golden() {
     golden(
         0x0103,
         &Message::WindowMoved(moved),
-        "06 02 03 03 01 05 01 01 15 e1 ff ff ff e0 ff ff ff f0 ff ff ff df ff ff ff b6 4b 04 93 \
+        "06 03 03 03 01 05 01 01 15 e1 ff ff ff e0 ff ff ff f0 ff ff ff df ff ff ff 91 2e 21 12 \
          00",
     );
     let mut values = [0_u32; STATS_COUNTERS];
@@ -223,11 +317,11 @@ fn window_moved_stats_reply_golden() {
     golden(
         0x0104,
         &Message::Stats(stats),
-        "06 02 04 04 01 01 01 01 02 02 01 01 02 03 01 01 02 04 01 01 02 05 01 01 02 06 01 01 02 \
+        "06 03 04 04 01 01 01 01 02 02 01 01 02 03 01 01 02 04 01 01 02 05 01 01 02 06 01 01 02 \
          07 01 01 02 08 01 01 02 09 01 01 02 0a 01 01 02 0b 01 01 02 0c 01 01 02 0d 01 01 02 0e \
          01 01 02 0f 01 01 02 10 01 01 02 11 01 01 02 12 01 01 02 13 01 01 02 14 01 01 02 15 01 \
          01 02 16 01 01 02 17 01 01 02 18 01 01 02 19 01 01 02 1a 01 01 02 1b 01 01 02 1c 01 01 \
-         02 1d 01 01 02 1e 01 01 05 84 5e cb 1a 00",
+         02 1d 01 01 02 1e 01 01 05 11 a4 cd 6e 00",
     );
     let configure = Header {
         version: 1,
@@ -237,7 +331,23 @@ fn window_moved_stats_reply_golden() {
     golden(
         0x0105,
         &Message::Reply(Reply::ok(configure)),
-        "06 02 05 05 01 0b 02 83 01 01 01 01 01 01 01 01 01 01 01 01 01 05 6a a1 e2 b5 00",
+        "06 03 05 05 01 0b 02 83 01 01 01 01 01 01 01 01 01 01 01 01 01 05 f4 22 38 2a 00",
+    );
+    // The refusal of layer 3's decay time constant: param 64 + 3, OutOfRange, 1 s against
+    // [4, 60 097] s.
+    let refusal = Reply {
+        to_seq: 12,
+        to_type: 0x83,
+        code: ReplyCode::OutOfRange,
+        param: 67,
+        value: 1.0,
+        a: 4.0,
+        b: 60_097.0,
+    };
+    golden(
+        0x0106,
+        &Message::Reply(refusal),
+        "06 03 05 06 01 0c 04 83 03 43 01 03 80 3f 01 03 80 40 08 c1 6a 47 52 e1 d3 63 00",
     );
 }
 
@@ -246,8 +356,8 @@ fn sizes_match_the_spec() {
     // Section 9 of the spec: the largest frame device to host is a 32-layer Hello.
     assert_eq!(MAX_FRAME, 660);
     assert_eq!(MAX_ENCODED_FRAME, 664);
-    assert_eq!(MAX_COMMAND_FRAME, 69);
-    assert_eq!(MAX_ENCODED_COMMAND, 71);
+    assert_eq!(MAX_COMMAND_FRAME, 102);
+    assert_eq!(MAX_ENCODED_COMMAND, 104);
     assert_eq!(encoded_len_max(MIN_FRAME + 19 + 2 * 16 * 16), 543);
     assert_eq!(encoded_len_max(MIN_FRAME + 19 + 128), 157);
     assert_eq!(encoded_len_max(MIN_FRAME + 12 + 8 * 20), 182);
@@ -312,10 +422,10 @@ fn bad_frames_are_refused_counted_and_the_next_frame_decodes() {
     stream.extend_from_slice(&hex("04 01 86 01 00"));
     // 4. Unknown version, unknown type, bad body length, out-of-range field.
     stream.extend_from_slice(&raw_frame(1, 0x86, 3, &[]));
-    stream.extend_from_slice(&raw_frame(2, 0x7E, 4, &[]));
-    stream.extend_from_slice(&raw_frame(2, 0x86, 5, &[0]));
+    stream.extend_from_slice(&raw_frame(3, 0x7E, 4, &[]));
+    stream.extend_from_slice(&raw_frame(3, 0x86, 5, &[0]));
     stream.extend_from_slice(&raw_frame(
-        2,
+        3,
         0x01,
         6,
         &[2, 0, 0, 0, 9, 0, 64, 0, 0, 0, 0, 0],
@@ -462,12 +572,12 @@ fn setup_and_the_empty_commands_golden() {
     golden(
         7,
         &Message::Setup(setup),
-        "04 02 87 07 02 01 02 b4 02 32 01 01 03 80 3e 01 01 02 bf 01 03 40 3f 01 01 01 01 01 07 \
-         80 3f cd cc 4c 3d 01 01 01 01 01 01 06 40 85 94 0b 8d 00",
+        "04 03 87 07 02 01 02 b4 02 32 01 01 03 80 3e 01 01 02 bf 01 03 40 3f 01 01 01 01 01 07 \
+         80 3f cd cc 4c 3d 01 01 01 01 01 01 06 40 6b 10 32 2c 00",
     );
-    golden(2, &Message::RequestStats, "04 02 88 02 05 2d 3f 5d 56 00");
-    golden(2, &Message::Shutdown, "04 02 89 02 05 1a 55 9f 57 00");
-    golden(2, &Message::EndObservation, "04 02 8a 02 05 43 eb d9 55 00");
+    golden(2, &Message::RequestStats, "04 03 88 02 05 48 58 e1 ee 00");
+    golden(2, &Message::Shutdown, "04 03 89 02 05 7f 32 23 ef 00");
+    golden(2, &Message::EndObservation, "04 03 8a 02 05 26 8c 65 ed 00");
     // A Setup body one byte short is a bad body.
     assert!(matches!(
         Message::parse(0x87, &[0; 37]),
@@ -476,4 +586,14 @@ fn setup_and_the_empty_commands_golden() {
             len: 37
         })
     ));
+}
+
+/// A version-2 frame (the Ping of version 2's worked example, whose CRC is good) is refused
+/// whole as an unknown version.
+#[test]
+fn a_version_2_frame_is_refused() {
+    let mut acc = FrameAccumulator::<MAX_FRAME>::new();
+    let got = feed_all(&mut acc, &hex("04 02 86 01 05 e4 41 ee 77 00"));
+    assert_eq!(got, [Err(DecodeError::UnknownVersion(2))]);
+    assert_eq!(acc.counters().unknown_version, 1);
 }

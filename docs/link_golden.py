@@ -1,0 +1,120 @@
+#!/usr/bin/env python3
+"""The golden frames of the host link's tests, computed from docs/protocol.md alone.
+
+An encoder written from the specification, independent of the Rust code: the header and the
+fixed little-endian bodies with `struct`, the CRC with Python's `zlib.crc32` (CRC-32/ISO-HDLC),
+COBS as section 3 describes it (eager 254-byte blocks). `src/wire/link/tests.rs` holds its
+output as hex literals; run it to see them again:
+
+    python3 docs/link_golden.py
+"""
+import struct
+import zlib
+
+VERSION = 3
+
+
+def cobs(data: bytes) -> bytes:
+    """COBS, section 3: runs of non-zero bytes, each with its code byte; a run of 254 bytes is
+    written at once with code 0xFF, which implies no zero."""
+    out = bytearray()
+    run = bytearray()
+    for b in data:
+        if b == 0:
+            out.append(len(run) + 1)
+            out += run
+            run = bytearray()
+        else:
+            run.append(b)
+            if len(run) == 254:
+                out.append(0xFF)
+                out += run
+                run = bytearray()
+    out.append(len(run) + 1)
+    out += run
+    return bytes(out)
+
+
+def frame(msg_type: int, seq: int, body: bytes, version: int = VERSION) -> bytes:
+    decoded = struct.pack("<BBH", version, msg_type, seq) + body
+    decoded += struct.pack("<I", zlib.crc32(decoded) & 0xFFFFFFFF)
+    return cobs(decoded) + b"\x00"
+
+
+def hexs(b: bytes) -> str:
+    return " ".join(f"{x:02x}" for x in b)
+
+
+def configure_body(decay_mode=0, decay_tau=(0,) * 32) -> bytes:
+    body = struct.pack("<7f", 0.5, 0.25, 0.15, 1.0, 10.0, 0.1, 2.0)
+    body += struct.pack("<Bf", 1, 0.5)  # soft gate, width 0.5
+    body += struct.pack("<H", 64)
+    body += struct.pack("<3f", 0.7, 0.4, 0.5)
+    body += struct.pack("<Bff", 1, -2.0, 3.5)  # clamp bounds
+    body += struct.pack("<f", 0.0)  # fused margin
+    body += struct.pack("<B", 0)  # flags
+    body += struct.pack("<B", decay_mode)
+    body += bytes(decay_tau)
+    assert len(body) == 94
+    return body
+
+
+def hello_body() -> bytes:
+    body = struct.pack("<BBBBBBHI", 1, 0, 1, 2, 0, 2, 64, 0)
+    body += struct.pack("<iffii", 6554, 0.0, 0.5, -32, -32)
+    body += struct.pack("<iffii", 13107, 0.5, 1.5, -32, -32)
+    return body
+
+
+def main() -> None:
+    g = {}
+    g["ping 1"] = frame(0x86, 1, b"")
+    g["reset 0x0203"] = frame(0x84, 0x0203, b"")
+    g["snapshot all 7"] = frame(0x85, 7, b"\xff")
+    g["snapshot layer 2, 8"] = frame(0x85, 8, b"\x02")
+    g["pan 9"] = frame(0x82, 9, struct.pack("<HI", 0x4000, 123_456))
+    g["pose 10"] = frame(0x81, 10, struct.pack("<6fI", 1.5, -2.25, 0, 0, 0, 3.140625, 1000))
+    g["configure 11 (decay off)"] = frame(0x83, 11, configure_body())
+    tau = [54, 54, 70, 70, 86, 86, 0, 0] + [0] * 24
+    g["configure 12 (decay obstacle, tau 9.9 s / 19.9 s / 39.7 s)"] = frame(
+        0x83, 12, configure_body(2, tau)
+    )
+    g["hello 0"] = frame(0x01, 0, hello_body())
+    cells = struct.pack("<4h", -32768, 217, -512, 0)
+    patch = struct.pack("<BBBiiii", 1, 2, 2, -32, -32, 3, -4) + cells
+    g["patch 0x0102"] = frame(0x02, 0x0102, patch)
+    moved = struct.pack("<I", 0b101) + struct.pack("<ii", -31, -32) + struct.pack("<ii", -16, -33)
+    g["moved 0x0103"] = frame(0x03, 0x0103, moved)
+    g["stats 0x0104"] = frame(0x04, 0x0104, struct.pack("<30I", *range(1, 31)))
+    g["reply ok to configure 11, 0x0105"] = frame(
+        0x05, 0x0105, struct.pack("<HBBBfff", 11, 0x83, 0, 0, 0, 0, 0)
+    )
+    # The refusal of a gamma of 200 (param 7, OutOfRange 3, limits 0 and 100).
+    g["reply refusing gamma, 0x0106"] = frame(
+        0x05, 0x0106, struct.pack("<HBBBfff", 12, 0x83, 3, 7, 200.0, 0.0, 100.0)
+    )
+    # A refusal of layer 3's decay time constant (param 64 + 3 = 67, OutOfRange 3): tau
+    # 1 s with a window that needs at least 4 s (W = 128), up to 60 097 s.
+    g["reply refusing decay tau of layer 3, 0x0106"] = frame(
+        0x05, 0x0106, struct.pack("<HBBBfff", 12, 0x83, 3, 67, 1.0, 4.0, 60097.0)
+    )
+    decayed = struct.pack("<BI", 1, 0b1001)
+    decayed += struct.pack("<HHI", 62, 3, 5)  # layer 0: rows 62, 63, 0; 5 cells faded
+    decayed += struct.pack("<HHI", 10, 1, 0)  # layer 3: row 10; none faded
+    g["decayed 0x0107"] = frame(0x06, 0x0107, decayed)
+    setup = struct.pack("<BBHH3fI4f", 1, 0, 180, 50, 0.25, -0.5, 0.75, 0, 1.0, 0.05, 0.0, 2.0)
+    g["setup 7"] = frame(0x87, 7, setup)
+    g["request stats 2"] = frame(0x88, 2, b"")
+    g["shutdown 2"] = frame(0x89, 2, b"")
+    g["end observation 2"] = frame(0x8A, 2, b"")
+    g["ping 1, version 2"] = frame(0x86, 1, b"", version=2)
+    for name, b in g.items():
+        print(f"{name}:\n  {hexs(b)}")
+    # The CRC's check value (section 2).
+    assert zlib.crc32(b"123456789") == 0xCBF43926
+    # COBS: a frame that ends on a 254-byte block ends with the empty run 0x01.
+    assert cobs(b"\x01" * 254) == b"\xff" + b"\x01" * 254 + b"\x01"
+
+
+if __name__ == "__main__":
+    main()
