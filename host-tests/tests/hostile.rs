@@ -512,7 +512,7 @@ proptest! {
         let clamp = Clamp::bounds(c.clamp.0, c.clamp.1);
         if let (Ok(design), Ok(clamp)) = (design, clamp) {
             let mut pyramid = Box::new(Pyramid::<64, 8>::new());
-            let config = Config { model: c.model, clamp, fused_margin: c.margin };
+            let config = Config { model: c.model, clamp, fused_margin: c.margin, decay: terrain_pyramid::Decay::OFF };
             match pyramid.configure(&design, &config) {
                 Ok(()) => prop_assert_eq!(pyramid.layer_count(), design.layers().len()),
                 Err(_) => prop_assert_eq!(pyramid.layer_count(), 0),

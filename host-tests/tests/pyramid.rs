@@ -207,6 +207,7 @@ fn check<const W: usize>(
                 max: tp::LogOddsFixed::from_bits(hi),
             }),
         fused_margin: f32::from(settings.margin_raw) / 256.0,
+        decay: tp::Decay::OFF,
     };
     let inverse = harness::inverse(&config.model);
     // The increments themselves are tested in tests/logodds.rs; a model whose logits sit on a

@@ -3,7 +3,10 @@
 //! layer from Hello, WindowMoved and LayerPatch, and an encoder for the host's commands.
 //!
 //! The mirror applies window moves with its own copy of the rule of `docs/core.md` (cells in
-//! both windows keep their value, the rest become unknown), checks the sequence numbers, and
+//! both windows keep their value, the rest become unknown), applies each decay step the device
+//! announces (`Decayed`) to the same rows with the library's own step
+//! ([`terrain_pyramid::decay::decayed`]), so that it ages alike with no patch in between, and
+//! reports the cells that faded ([`LinkEvent::Faded`]); it checks the sequence numbers, and
 //! says when its copy may be wrong and a snapshot should be requested
 //! ([`LinkEvent::SnapshotNeeded`]).
 //!
@@ -20,12 +23,14 @@
 //! assert!(host.mirror().needs_snapshot());
 //! ```
 
+use terrain_pyramid::decay::{decayed, DecayMode};
 use terrain_pyramid::wire::link::{
-    encode, DecodeError, Decoded, EncodeError, FirmwareVersion, FrameAccumulator, Header, Hello,
-    HelloReason, LayerPatch, Message, Reply, RxCounters, Stats, Undecoded, WindowMoved,
+    encode, Decayed, DecodeError, Decoded, EncodeError, FirmwareVersion, FrameAccumulator, Header,
+    Hello, HelloReason, LayerPatch, Message, Reply, RxCounters, Stats, Undecoded, WindowMoved,
     MAX_ENCODED_FRAME, MAX_FRAME,
 };
 use terrain_pyramid::wire::FeedResult;
+use terrain_pyramid::Cell;
 
 /// The raw value of an unknown cell.
 pub const UNKNOWN: i16 = i16::MIN;
@@ -44,6 +49,22 @@ pub enum LinkEvent {
     SnapshotNeeded,
     /// A bad frame was dropped (and counted).
     BadFrame(DecodeError),
+    /// A decay step made these cells unknown (they held evidence before): what a planner that
+    /// keeps its own map must forget.
+    Faded(Vec<FadedCell>),
+}
+
+/// A cell that decay made unknown.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub struct FadedCell {
+    /// The layer, 0 = finest.
+    pub layer: usize,
+    /// World cell index along x, in the layer's cells.
+    pub x: i32,
+    /// World cell index along y.
+    pub y: i32,
+    /// Its raw log-odds before the step (Q8.8: > 0 it was an obstacle, < 0 navigable).
+    pub was: i16,
 }
 
 /// Counters of the mirror. They saturate.
@@ -69,6 +90,15 @@ pub struct MirrorCounters {
     pub implicit_moves: u64,
     /// Snapshot requests advised.
     pub snapshots_advised: u64,
+    /// Decayed frames applied.
+    pub decay_frames: u64,
+    /// Storage rows decayed (a row is W cells).
+    pub rows_decayed: u64,
+    /// Cells the mirror's decay made unknown.
+    pub cells_faded: u64,
+    /// Cells the device said its decay made unknown (equal to `cells_faded` when no change
+    /// was in flight while the rows decayed).
+    pub cells_faded_device: u64,
 }
 
 /// One layer as the host knows it.
@@ -149,6 +179,38 @@ impl MirrorLayer {
         self.cells = cells;
         self.covered = covered;
         self.origin = origin;
+    }
+
+    /// One decay step in `mode` for every cell of `count` storage rows from `first` (the
+    /// world rows j of the window with `j mod w` among them); the cells that became unknown
+    /// are appended to `faded`.
+    fn decay_rows(
+        &mut self,
+        w: usize,
+        layer: usize,
+        (first, count): (usize, usize),
+        mode: DecayMode,
+        faded: &mut Vec<FadedCell>,
+    ) {
+        let wi = w as i64;
+        for t in 0..count.min(w) {
+            let storage = ((first + t) % w) as i64;
+            let dy = (storage - i64::from(self.origin.1)).rem_euclid(wi) as usize;
+            for dx in 0..w {
+                let at = dy * w + dx;
+                let before = Cell::from_raw(self.cells[at]);
+                let after = decayed(before, mode);
+                if before.is_observed() && !after.is_observed() {
+                    faded.push(FadedCell {
+                        layer,
+                        x: self.origin.0.saturating_add(dx as i32),
+                        y: self.origin.1.saturating_add(dy as i32),
+                        was: before.to_raw(),
+                    });
+                }
+                self.cells[at] = after.to_raw();
+            }
+        }
     }
 
     /// Writes a patch's cells; `false` when the rectangle is not inside the window.
@@ -319,7 +381,13 @@ impl Mirror {
             }
             Message::WindowMoved(moved) if known => self.apply_moves(moved),
             Message::LayerPatch(patch) if known => self.apply_patch(patch),
-            Message::WindowMoved(_) | Message::LayerPatch(_) => {
+            Message::Decayed(decay) if known => {
+                let faded = self.apply_decay(decay);
+                if !faded.is_empty() {
+                    events.push(LinkEvent::Faded(faded));
+                }
+            }
+            Message::WindowMoved(_) | Message::LayerPatch(_) | Message::Decayed(_) => {
                 self.counters.patches_refused +=
                     u64::from(matches!(message, Message::LayerPatch(_)));
                 if !self.snapshot_advised {
@@ -399,6 +467,31 @@ impl Mirror {
                 None => self.advise_snapshot(),
             }
         }
+    }
+
+    /// Applies a decay step to the rows it names; returns the cells that faded. A layer the
+    /// mirror does not have, or rows outside its window, ask for a snapshot.
+    fn apply_decay(&mut self, decay: &Decayed) -> Vec<FadedCell> {
+        let w = self.cells_per_side;
+        let mut faded = Vec::new();
+        let Some(mode) = DecayMode::from_u8(decay.mode) else {
+            self.advise_snapshot();
+            return faded;
+        };
+        self.counters.decay_frames += 1;
+        for (k, rows) in decay.iter() {
+            let (first, count) = (usize::from(rows.first), usize::from(rows.rows));
+            let Some(layer) = self.layers.get_mut(k).filter(|_| first < w && count <= w) else {
+                self.advise_snapshot();
+                continue;
+            };
+            let before = faded.len();
+            layer.decay_rows(w, k, (first, count), mode, &mut faded);
+            self.counters.rows_decayed += count as u64;
+            self.counters.cells_faded += (faded.len() - before) as u64;
+            self.counters.cells_faded_device += u64::from(rows.faded);
+        }
+        faded
     }
 
     fn apply_patch(&mut self, patch: &LayerPatch<'_>) {

@@ -631,7 +631,10 @@ fn receive(
                     }
                 }
                 LinkEvent::SnapshotNeeded => wants = true,
-                LinkEvent::Reply(_) | LinkEvent::Stats(_) | LinkEvent::BadFrame(_) => {}
+                LinkEvent::Reply(_)
+                | LinkEvent::Stats(_)
+                | LinkEvent::BadFrame(_)
+                | LinkEvent::Faded(_) => {}
             }
         }
         if let Some(outputs) = &mut session.outputs {

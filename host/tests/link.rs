@@ -6,14 +6,15 @@ use proptest::prelude::*;
 use terrain_pyramid::design::{Schedule, SensorModel};
 use terrain_pyramid::link::{Command, Link, LinkConfig, SensorCounters};
 use terrain_pyramid::wire::link::{
-    encode, ClampRequest, Configure, DecodeError, Decoded, FirmwareVersion, FrameAccumulator,
-    GateRequest, Header, Hello, HelloReason, LayerInfo, LayerPatch, Message, PanAngle, PatchArea,
-    PatchCells, PoseReport, Reply, ReplyCode, SnapshotScope, Stats, Undecoded, WindowMoved,
-    MAX_ENCODED_FRAME, MAX_FRAME, STATS_COUNTERS,
+    encode, ClampRequest, Configure, Decayed, DecayedRows, DecodeError, Decoded, FirmwareVersion,
+    FrameAccumulator, GateRequest, Header, Hello, HelloReason, LayerInfo, LayerPatch, Message,
+    PanAngle, PatchArea, PatchCells, PoseReport, Reply, ReplyCode, SnapshotScope, Stats, Undecoded,
+    WindowMoved, MAX_ENCODED_FRAME, MAX_FRAME, STATS_COUNTERS,
 };
 use terrain_pyramid::wire::FeedResult;
 use terrain_pyramid::{
-    Config, DefaultDesign, DefaultPyramid, Evidence, EvidenceClass, Meters, DEFAULT_CELLS_PER_SIDE,
+    Config, Decay, DecayMode, DefaultDesign, DefaultPyramid, Evidence, EvidenceClass, Meters,
+    TimeConstant, DEFAULT_CELLS_PER_SIDE,
 };
 use terrain_pyramid_host::link::{HostLink, LinkEvent};
 
@@ -190,8 +191,9 @@ fn commands() -> impl Strategy<Value = Owned> {
         prop::array::uniform3(float()),
         prop::option::of((float(), float())),
         float(),
+        (0_u8..4, any::<[u8; 32]>()),
     )
-        .prop_map(|(f, gate, cells_per_side, p, clamp, fused_margin)| {
+        .prop_map(|(f, gate, cells_per_side, p, clamp, fused_margin, decay)| {
             Owned::Msg(Message::Configure(Configure {
                 phi_rad: f[0],
                 psi_rad: f[1],
@@ -213,6 +215,8 @@ fn commands() -> impl Strategy<Value = Owned> {
                     max,
                 }),
                 fused_margin,
+                decay_mode: decay.0,
+                decay_tau: decay.1,
             }))
         });
     let snapshot = prop::option::of(0_u8..255).prop_map(|k| {
@@ -230,8 +234,33 @@ fn commands() -> impl Strategy<Value = Owned> {
     ]
 }
 
+fn decayed() -> impl Strategy<Value = Owned> {
+    (
+        1_u8..4,
+        prop::collection::vec(
+            (0_usize..32, any::<u16>(), 1_u16..=1024, any::<u32>()),
+            1..6,
+        ),
+    )
+        .prop_map(|(mode, layers)| {
+            let mut d = Decayed::new(mode);
+            for (k, first, rows, faded) in layers {
+                d.set(k, DecayedRows { first, rows, faded });
+            }
+            Owned::Msg(Message::Decayed(d))
+        })
+}
+
 fn any_message() -> impl Strategy<Value = Owned> {
-    prop_oneof![hello(), patch(), moved(), stats(), reply(), commands()]
+    prop_oneof![
+        hello(),
+        patch(),
+        moved(),
+        stats(),
+        reply(),
+        decayed(),
+        commands()
+    ]
 }
 
 fn encoded(seq: u16, m: &Owned) -> Vec<u8> {
@@ -577,6 +606,8 @@ impl Channel {
 }
 
 struct Outcome {
+    decay_frames: u32,
+    cells_faded: u64,
     dropped: u32,
     flipped: u32,
     snapshots: u32,
@@ -611,13 +642,25 @@ fn deliver<const Q: usize>(
 
 /// Drives a default pyramid with random evidence and moves, streams its link through a lossy
 /// channel to a host mirror that asks for snapshots, then lets everything settle and compares
-/// the mirror with the pyramid cell for cell.
+/// the mirror with the pyramid cell for cell. With `decay` on, the pyramid decays at the
+/// link's polls and the mirror ages from the Decayed frames alone.
 fn scenario<const Q: usize>(
     seed: u64,
     steps: usize,
     channel: Channel,
     pings: bool,
     collapse: bool,
+) -> Outcome {
+    scenario_with::<Q>(seed, steps, channel, pings, collapse, Decay::OFF)
+}
+
+fn scenario_with<const Q: usize>(
+    seed: u64,
+    steps: usize,
+    channel: Channel,
+    pings: bool,
+    collapse: bool,
+    decay: Decay,
 ) -> Outcome {
     let mut rng = Rng(seed | 1);
     let mut pyramid = Box::new(DefaultPyramid::new());
@@ -631,7 +674,11 @@ fn scenario<const Q: usize>(
         DEFAULT_CELLS_PER_SIDE,
     )
     .unwrap();
-    pyramid.configure(&design, &Config::default()).unwrap();
+    let config = Config {
+        decay,
+        ..Config::default()
+    };
+    pyramid.configure(&design, &config).unwrap();
     link.adopt(&design);
     let mut host = HostLink::new();
     let mut channel = channel;
@@ -772,7 +819,15 @@ fn scenario<const Q: usize>(
         }
     }
     let c = link.counters();
+    assert_eq!(
+        host.mirror().counters().decay_frames > 0,
+        decay.is_on(),
+        "{:?}",
+        host.mirror().counters()
+    );
     Outcome {
+        decay_frames: c.decay_frames,
+        cells_faded: host.mirror().counters().cells_faded,
         dropped: channel.dropped,
         flipped: channel.flipped,
         snapshots: c.snapshots,
@@ -825,6 +880,42 @@ fn moves_that_collapse_between_polls_are_resent() {
     assert!(out.resyncs > 0);
 }
 
+/// Decay at τ = 1 s (a step every 125 ms) on every layer, all evidence.
+fn fast_decay(mode: DecayMode) -> Decay {
+    Decay::uniform(mode, TimeConstant::MIN, 8)
+}
+
+#[test]
+fn the_mirror_ages_alike_with_no_patch_in_between() {
+    let out = scenario_with::<4096>(7, 300, clean(), false, false, fast_decay(DecayMode::All));
+    // Equal cell for cell (checked in the scenario) with no snapshot: the mirror aged from
+    // the Decayed frames alone.
+    assert_eq!(out.snapshots, 0);
+    assert!(out.decay_frames > 20, "{}", out.decay_frames);
+    assert!(out.cells_faded > 1000, "{}", out.cells_faded);
+}
+
+#[test]
+fn decay_with_lost_frames_is_recovered_by_snapshots() {
+    let lossy = Channel {
+        drop_per_mille: 20,
+        flip_per_mille: 20,
+        ..clean()
+    };
+    let out = scenario_with::<4096>(42, 400, lossy, false, false, fast_decay(DecayMode::All));
+    assert!(out.dropped > 0 && out.flipped > 0);
+    assert!(out.snapshots > 0);
+    assert!(out.cells_faded > 0);
+}
+
+#[test]
+fn decay_of_one_kind_with_a_small_queue_and_collapsed_moves() {
+    for mode in [DecayMode::Obstacle, DecayMode::Free] {
+        scenario_with::<512>(3, 200, clean(), true, false, fast_decay(mode));
+        scenario_with::<4096>(11, 150, clean(), false, true, fast_decay(mode));
+    }
+}
+
 proptest! {
     #![proptest_config(ProptestConfig { cases: 6, ..ProptestConfig::default() })]
 
@@ -832,5 +923,22 @@ proptest! {
     fn any_lossy_stream_converges(seed in any::<u64>(), drop in 0_u32..60, flip in 0_u32..60) {
         let lossy = Channel { drop_per_mille: drop, flip_per_mille: flip, ..clean() };
         scenario::<4096>(seed, 150, lossy, false, false);
+    }
+
+    #[test]
+    fn any_lossy_stream_with_decay_converges(
+        seed in any::<u64>(),
+        drop in 0_u32..60,
+        flip in 0_u32..60,
+        mode in 1_u8..4,
+        code in 1_u8..60,
+    ) {
+        let lossy = Channel { drop_per_mille: drop, flip_per_mille: flip, ..clean() };
+        let decay = Decay::uniform(
+            DecayMode::from_u8(mode).unwrap(),
+            TimeConstant::from_code(code),
+            8,
+        );
+        scenario_with::<4096>(seed, 150, lossy, false, false, decay);
     }
 }

@@ -964,8 +964,9 @@ impl<const Q: usize, const N: usize> Link<Q, N> {
     }
 
     /// Pays the pyramid's decay owed at `now_ms` and announces it with one Decayed frame, or,
-    /// when the queue has no room for that frame beside [`CONTROL_RESERVE`], pays nothing now
-    /// (the debt waits for a later poll, up to one step a layer).
+    /// when the queue has no room for that frame beside half the [`CONTROL_RESERVE`], pays
+    /// nothing now (the debt waits for a later poll, up to one step a layer). It goes after the
+    /// patches, so that a busy link delays the decay, never the map.
     fn send_decay<const W: usize, const L: usize>(
         &mut self,
         now_ms: u32,
@@ -983,7 +984,7 @@ impl<const Q: usize, const N: usize> Link<Q, N> {
             return;
         }
         let len = crate::wire::link::encoded_len_max(MIN_FRAME + 5 + 8 * due);
-        if self.queue.free() < len.saturating_add(CONTROL_RESERVE) {
+        if self.queue.free() < len.saturating_add(CONTROL_RESERVE / 2) {
             self.counters.decay_deferred = self.counters.decay_deferred.saturating_add(1);
             return;
         }
@@ -1011,9 +1012,9 @@ impl<const Q: usize, const N: usize> Link<Q, N> {
     }
 
     /// Refills the budget from `now_ms` (the caller's clock, ms, wrapping) and queues what is
-    /// due, in order: a pending Hello, WindowMoved, Stats, the decay owed (Decayed, see
-    /// [`Pyramid::accrue_decay`]), then changed tiles oldest first while the budget and the
-    /// queue allow (the rest stay dirty for a later poll).
+    /// due, in order: a pending Hello, WindowMoved, Stats, changed tiles oldest first while
+    /// the budget and the queue allow (the rest stay dirty for a later poll), then the decay
+    /// owed (one Decayed frame, see [`Pyramid::accrue_decay`]).
     ///
     /// Call it after every [`Pyramid::recentre`]: the host replays each window move, and moves
     /// that collapse between two polls cost a full resend.
@@ -1044,8 +1045,8 @@ impl<const Q: usize, const N: usize> Link<Q, N> {
             return report;
         }
         self.send_stats(now_ms, pyramid, sensor, &mut report);
-        self.send_decay(now_ms, pyramid, &mut report);
         self.send_patches(pyramid, &mut report);
+        self.send_decay(now_ms, pyramid, &mut report);
         report
     }
 
