@@ -352,7 +352,7 @@ fn pyramid(
         let (mut agree, mut total, mut fused_violations) = (0u64, 0u64, 0usize);
         let robot = steps.iter().rev().find_map(|s| match s {
             workload::Step::Recentre(x, y) => Some((*x, *y)),
-            workload::Step::Update(_) => None,
+            workload::Step::Update(_) | workload::Step::Decay(_) => None,
         });
         let (rx, ry) = robot.unwrap_or((0, 0));
         for _ in 0..20_000 {

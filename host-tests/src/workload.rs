@@ -15,6 +15,8 @@ pub enum Step {
     Update(harness::Observation),
     /// Recentre on the robot at raw Q16.16 (x, y).
     Recentre(i32, i32),
+    /// Accrue and pay the decay owed at this clock, ms (the library's `Pyramid::decay`).
+    Decay(u32),
 }
 
 /// Runs `steps` on the library pyramid and on every reference pyramid.
@@ -75,6 +77,12 @@ pub fn run<const W: usize, const L: usize>(
                 lib.recentre(Meters::from_bits(x), Meters::from_bits(y));
                 for reference in references.iter_mut() {
                     reference.recentre(x, y);
+                }
+            }
+            Step::Decay(now_ms) => {
+                lib.decay(now_ms);
+                for reference in references.iter_mut() {
+                    reference.decay(now_ms);
                 }
             }
         }

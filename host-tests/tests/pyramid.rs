@@ -12,6 +12,11 @@
 //!   its tracked error budget, classes equal wherever |L| exceeds it, the fused query equal
 //!   wherever no cell on its path is within its budget.
 //!
+//! With decay on (a random mode and random time constants per layer), the workload also
+//! advances a clock that wraps, and pays the decay owed (`Pyramid::decay`): the quantised
+//! reference's sweep and step (`reference::decay`) must give the same cells, bit for bit, and
+//! the ideal reference's exponential stays within its budget.
+//!
 //! Designs: the default (`Design::<8>`, W = 64) with the soft and the hard gate, and a coarse
 //! one (φ = 2°, ψ = 4°, σ = 0.3 m, h = 0.5 m, R = 5 m, Δd = 0.2 m, γ = 3: 6 layers) in a
 //! window of W = 10 cells (not a power of two), where recentres keep crossing the window.
@@ -20,6 +25,7 @@ use proptest::prelude::*;
 use terrain_pyramid as tp;
 use terrain_pyramid_host_tests::harness;
 use terrain_pyramid_host_tests::reference::bands;
+use terrain_pyramid_host_tests::reference::decay;
 use terrain_pyramid_host_tests::reference::fused::Fused;
 use terrain_pyramid_host_tests::reference::logodds::{Arithmetic, Model};
 use terrain_pyramid_host_tests::reference::window::{resolution_raw, Pyramid};
@@ -90,6 +96,8 @@ enum Action {
     Corner { layer: u8, nx: i32, ny: i32 },
     /// Jump far away (kilometres, possibly to negative coordinates).
     Jump { x_m: i32, y_m: i32 },
+    /// Advance the clock by `dt_ms` and pay the decay owed.
+    Decay { dt_ms: u32 },
 }
 
 fn action(half: i32) -> impl Strategy<Value = Action> {
@@ -103,14 +111,20 @@ fn action(half: i32) -> impl Strategy<Value = Action> {
         4 => (-200_000i32..200_000, -200_000i32..200_000).prop_map(|(dx, dy)| Action::Move { dx, dy }),
         1 => (any::<u8>(), -20i32..20, -20i32..20).prop_map(|(layer, nx, ny)| Action::Corner { layer, nx, ny }),
         1 => (-5_000i32..5_000, -5_000i32..5_000).prop_map(|(x_m, y_m)| Action::Jump { x_m, y_m }),
+        6 => prop_oneof![
+            8 => 0_u32..200,
+            1 => 200_u32..5_000,
+            1 => Just(u32::MAX - 40), // the clock went back: nothing accrues
+        ].prop_map(|dt_ms| Action::Decay { dt_ms }),
     ]
 }
 
-/// Turns actions into steps, following the robot.
-fn steps(actions: &[Action], rq: &[i64], max_range: f64) -> Vec<Step> {
+/// Turns actions into steps, following the robot and the clock (which starts at `clock`).
+fn steps(actions: &[Action], rq: &[i64], max_range: f64, clock: u32) -> Vec<Step> {
     let n = rq.len();
     let (mut x, mut y) = (0_i64, 0_i64);
-    let mut out = Vec::new();
+    let mut now = clock;
+    let mut out = vec![Step::Decay(now)];
     for a in actions {
         match *a {
             Action::Update {
@@ -150,6 +164,10 @@ fn steps(actions: &[Action], rq: &[i64], max_range: f64) -> Vec<Step> {
                 y = i64::from(y_m) * 65_536 + y.rem_euclid(65_536);
                 out.push(Step::Recentre(x as i32, y as i32));
             }
+            Action::Decay { dt_ms } => {
+                now = now.wrapping_add(dt_ms);
+                out.push(Step::Decay(now));
+            }
         }
     }
     out
@@ -160,6 +178,9 @@ struct Settings {
     clamp: Option<(i16, i16)>,
     model: (f32, f32, f32),
     margin_raw: i16,
+    /// Decay: the mode (1 all, 2 obstacle, 3 free), each layer's time-constant byte, and
+    /// where the clock starts.
+    decay: Option<(u8, [u8; 8], u32)>,
 }
 
 fn settings() -> impl Strategy<Value = Settings> {
@@ -175,12 +196,35 @@ fn settings() -> impl Strategy<Value = Settings> {
                 .prop_filter("order", |(o, f, p)| f < p && p < o),
         ],
         prop_oneof![3 => Just(0i16), 1 => 0i16..=256],
+        prop_oneof![
+            1 => Just(None),
+            2 => (
+                1_u8..4,
+                prop::array::uniform8(prop_oneof![1 => Just(0_u8), 4 => 1_u8..40]),
+                prop_oneof![any::<u32>(), Just(u32::MAX - 1_000)],
+            )
+                .prop_map(Some),
+        ],
     )
-        .prop_map(|(clamp, model, margin_raw)| Settings {
+        .prop_map(|(clamp, model, margin_raw, decay)| Settings {
             clamp,
             model,
             margin_raw,
+            decay,
         })
+}
+
+/// The library's decay of a settings' decay, for a design of `layers` layers.
+fn decay_of(settings: &Settings, layers: usize) -> tp::Decay {
+    let Some((mode, codes, _)) = settings.decay else {
+        return tp::Decay::OFF;
+    };
+    let mut decay = tp::Decay::OFF;
+    decay.mode = tp::DecayMode::from_u8(mode).expect("1 ..= 3");
+    for (t, &c) in decay.tau.iter_mut().zip(&codes).take(layers) {
+        *t = tp::TimeConstant::from_code(c);
+    }
+    decay
 }
 
 /// Runs one case: configures everything, runs the workload, compares.
@@ -207,7 +251,7 @@ fn check<const W: usize>(
                 max: tp::LogOddsFixed::from_bits(hi),
             }),
         fused_margin: f32::from(settings.margin_raw) / 256.0,
-        decay: tp::Decay::OFF,
+        decay: decay_of(&settings, design.layers().len()),
     };
     let inverse = harness::inverse(&config.model);
     // The increments themselves are tested in tests/logodds.rs; a model whose logits sit on a
@@ -259,8 +303,19 @@ fn check<const W: usize>(
     let margin = f64::from(settings.margin_raw) / 256.0;
     let mut quantised = Pyramid::new(&rd, model(Arithmetic::Quantised), margin);
     let mut ideal = Pyramid::new(&rd, model(Arithmetic::Ideal), margin);
+    let clock = settings.decay.map_or(0, |(_, _, c)| c);
+    if let Some((mode, codes, _)) = settings.decay {
+        let mode = match mode {
+            1 => decay::Mode::All,
+            2 => decay::Mode::Obstacle,
+            _ => decay::Mode::Free,
+        };
+        let codes = &codes[..rd.layers.len().min(8)];
+        quantised.set_decay(mode, codes);
+        ideal.set_decay(mode, codes);
+    }
 
-    let steps = steps(actions, &rq, rd.sensor.max_range);
+    let steps = steps(actions, &rq, rd.sensor.max_range, clock);
     let gates = harness::gates(&design, &config);
     let mismatches = workload::run(&steps, &mut lib, &gates, &mut [&mut quantised, &mut ideal]);
     prop_assert!(
@@ -297,7 +352,7 @@ fn check<const W: usize>(
         .rev()
         .find_map(|s| match s {
             Step::Recentre(x, y) => Some((*x, *y)),
-            Step::Update(_) => None,
+            Step::Update(_) | Step::Decay(_) => None,
         })
         .unwrap_or((0, 0));
     let span = (W as i64 / 2 + 2) * rq[rq.len() - 1];
@@ -387,6 +442,7 @@ fn scripted_scenario() {
         clamp: None,
         model: (0.7, 0.4, 0.5),
         margin_raw: 0,
+        decay: None,
     };
     let near = tp::Meters::from_num(0.25).to_bits();
     let mut actions = Vec::new();
@@ -497,4 +553,44 @@ fn the_comparison_catches_a_wrong_reference() {
     assert_eq!(good.fused(x, y), got);
     good.margin = 0.5;
     assert_ne!(good.fused(x, y), got);
+}
+
+/// A fixed scenario with decay: evidence in a few cells, then a second of clock in small
+/// steps at τ = 1 s (all layers), then fresh evidence; and the same with only obstacles
+/// ageing.
+#[test]
+fn scripted_decay() {
+    let near = f64::from(tp::Meters::from_num(0.25).to_bits()) / 65_536.0 / 10.0;
+    let mut actions = Vec::new();
+    for dx in 0..4 {
+        for _ in 0..6 {
+            actions.push(Action::Update {
+                layer: 0,
+                dx,
+                dy: 1,
+                obstacle: dx % 2 == 0,
+                distance: near,
+            });
+        }
+    }
+    for _ in 0..150 {
+        actions.push(Action::Decay { dt_ms: 13 });
+    }
+    actions.push(Action::Update {
+        layer: 0,
+        dx: 0,
+        dy: 1,
+        obstacle: false,
+        distance: near,
+    });
+    let probes: Vec<(i32, i32)> = (-5..5).map(|i| (i * 50_000, i * 30_000)).collect();
+    for mode in 1..=3 {
+        let settings = Settings {
+            clamp: Some((-512, 896)),
+            model: (0.7, 0.4, 0.5),
+            margin_raw: 0,
+            decay: Some((mode, [1; 8], u32::MAX - 500)),
+        };
+        check::<64>(Which::DefaultSoft, settings, &actions, &probes).unwrap();
+    }
 }

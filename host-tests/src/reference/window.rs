@@ -6,8 +6,9 @@
 use std::collections::HashMap;
 
 use super::bands::Design;
+use super::decay::{self, Mode};
 use super::gate::Tables;
-use super::logodds::{Cell, Class, Model};
+use super::logodds::{Arithmetic, Cell, Class, Model, ULP};
 
 /// `round(r·2¹⁶)` (ties away from zero): a cell size in raw Q16.16, as all cell maths uses it.
 #[must_use]
@@ -91,6 +92,8 @@ pub struct Pyramid {
     pub bad_layer: u64,
     /// The fused query's margin, nats (≥ 0).
     pub margin: f64,
+    /// Decay: the mode and the sweep (`None`: no decay, the paper's behaviour).
+    pub decay: Option<(Mode, decay::Sweep)>,
 }
 
 impl Pyramid {
@@ -116,7 +119,36 @@ impl Pyramid {
             outside: 0,
             bad_layer: 0,
             margin,
+            decay: None,
         }
+    }
+
+    /// Decays in `mode` with each layer's time-constant byte (`codes[k]`, 0 = none; missing
+    /// entries none), from a fresh sweep.
+    pub fn set_decay(&mut self, mode: Mode, codes: &[u8]) {
+        let mut all = vec![0_u8; self.layers.len()];
+        for (a, c) in all.iter_mut().zip(codes) {
+            *a = *c;
+        }
+        self.decay =
+            (mode != Mode::Off).then(|| (mode, decay::Sweep::new(self.cells as usize, &all)));
+    }
+
+    /// Accrues the decay owed at `now_ms` and pays it, layer by layer (`docs/core.md`,
+    /// "Decay"). Returns the cells that became unknown.
+    pub fn decay(&mut self, now_ms: u32) -> usize {
+        let Some((mode, mut sweep)) = self.decay.take() else {
+            return 0;
+        };
+        sweep.accrue(now_ms);
+        let mut faded = 0;
+        for k in 0..self.layers.len() {
+            if let Some((first, count)) = sweep.take(k) {
+                faded += self.decay_rows(k, first as i64, count as i64, mode);
+            }
+        }
+        self.decay = Some((mode, sweep));
+        faded
     }
 
     /// Is world cell (i, j) inside layer k's window?
@@ -180,6 +212,63 @@ impl Pyramid {
                 (ox..ox + cells).contains(&i) && (oy..oy + cells).contains(&j)
             });
         }
+    }
+
+    /// One decay step (`docs/core.md`, "Decay") for every cell of layer k whose world row j
+    /// has `j mod W` among the `count` storage rows from `first` (modulo W). Quantised
+    /// arithmetic: the fixed-point step; ideal: `L·e^{−1/8}`, a value under 2⁻⁹ nats reads
+    /// unknown, and the cell's error budget shrinks by the factor and grows by one raw unit
+    /// (a conforming device's step rounds by at most that). Returns the cells that became
+    /// unknown.
+    pub fn decay_rows(&mut self, k: usize, first: i64, count: i64, mode: Mode) -> usize {
+        let w = self.cells;
+        let arithmetic = self.model.arithmetic;
+        let l0 = self.model.inverse.l0();
+        let rows = |j: i64| (j.rem_euclid(w) - first).rem_euclid(w) < count.min(w);
+        let mut faded = 0;
+        self.layers[k].cells.retain(|&(_, j), cell| {
+            if !rows(j) || !cell.is_observed() {
+                return true;
+            }
+            let next = match arithmetic {
+                Arithmetic::Quantised => {
+                    let raw = cell.value.map(|v| (v * 256.0).round() as i64);
+                    decay::step_quantised(raw, mode).map(|r| r as f64 / 256.0)
+                }
+                Arithmetic::Ideal => {
+                    let before = cell.value.unwrap_or(0.0);
+                    if !mode.ages(before) {
+                        return true;
+                    }
+                    let stepped = decay::step_ideal(cell.value, mode);
+                    // |q' − F·x| ≤ 1 raw unit + F_q·|q − x| + |F − F_q|·|x|, F_q < F and
+                    // |F − F_q| < 3·10⁻⁷.
+                    cell.budget = cell.budget * decay::factor() + ULP + 3e-7 * before.abs();
+                    let next = if decay::ideal_is_unknown(stepped) {
+                        // A device that has not faded yet continues from its value (within
+                        // the budget of 0), this cell from L_0.
+                        cell.budget += l0.abs();
+                        None
+                    } else {
+                        stepped
+                    };
+                    if next.is_none_or(|v| v.abs() <= cell.budget) {
+                        // A conforming device may have faded, or not.
+                        cell.threshold_case = true;
+                        cell.surely_observed = false;
+                    }
+                    next
+                }
+            };
+            if next.is_none() {
+                faded += 1;
+            }
+            cell.value = next;
+            // A cell that became unknown keeps its entry (its error budget and flags), as
+            // one that never became observed does.
+            true
+        });
+        faded
     }
 
     /// Counts over layer k's window.
