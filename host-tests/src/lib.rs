@@ -10,8 +10,11 @@
 //! - [`sim`]: a swept-laser ray-casting simulator that writes recordings with real SICK
 //!   telegrams, and the ground truth of its scenes.
 //! - [`classify`]: the classifier's reference (every point kept, the rule applied exactly).
+//! - [`fading`]: how ghosts fade — the changing scenes through the application core, with and
+//!   without decay: clearing times per layer and fused, static obstacles wrongly cleared.
 
 pub mod classify;
+pub mod fading;
 pub mod geometry;
 pub mod harness;
 pub mod reference;

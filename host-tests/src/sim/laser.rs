@@ -362,6 +362,13 @@ impl Laser {
             .collect()
     }
 
+    /// Forgets the cached true ranges: the scene changed (a simulator of a world that moves
+    /// calls it before a line whose scene differs from the last).
+    pub fn forget(&mut self) {
+        self.cache.clear();
+        self.cached_pose = None;
+    }
+
     /// Scans one line of `scene` from `pose` with the actuator at `angle` (2⁻¹⁶ turn):
     /// the ray cast, the noise, the encoding. Draws one Gaussian per beam that hits, in beam
     /// order. The scene must not change between calls with the same pose (the true ranges

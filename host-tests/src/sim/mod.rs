@@ -8,6 +8,8 @@
 //! - [`trajectory`]: the robot standing, then driving along +x to a stop.
 //! - [`record`]: a whole run as a recording (`docs/recording.md`) with markers, and its
 //!   ground truth.
+//! - [`changing`]: scenes that change — a pedestrian, a door, a car leaving — and their
+//!   truth over time.
 //! - [`rng`]: the seeded generator.
 //!
 //! ```
@@ -18,6 +20,7 @@
 //! assert!(!sim.ground_truth.is_empty());
 //! ```
 
+pub mod changing;
 pub mod drive;
 pub mod laser;
 pub mod record;

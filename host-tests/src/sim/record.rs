@@ -37,7 +37,7 @@
 use super::laser::{angle_to_u16, measuring_mode_code, Laser, LaserConfig};
 use super::rng::Rng;
 use super::scene::{GroundTruthSpec, ObstacleCell, Scene, StairsSpec};
-use super::trajectory::{Phase, Trajectory};
+use super::trajectory::{Phase, Pose, Trajectory};
 use core::fmt;
 use terrain_pyramid::wire::recording::SetupEvent as Setup;
 use terrain_pyramid::wire::recording::{emit_header, Event, MountKind, Payload};
@@ -189,6 +189,38 @@ const SPLIT_SALT: u64 = 0x5EED_C0DE_5EED_C0DE;
 /// # Errors
 /// A configuration that [`SimConfig::validate`] refuses.
 pub fn simulate(config: &SimConfig) -> Result<Simulation, SimError> {
+    simulate_with(config, &|_| None, &mut |_| {})
+}
+
+/// One scan line as the simulator made it, for a caller that watches ([`simulate_with`]).
+#[derive(Debug)]
+pub struct LineView<'a> {
+    /// The line's index, from 0.
+    pub index: u32,
+    /// Its time, seconds.
+    pub t_s: f64,
+    /// The robot's pose (as the recording has it).
+    pub pose: &'a Pose,
+    /// The actuator angle, 2⁻¹⁶ turn.
+    pub angle: u16,
+    /// The scene the line was cast into.
+    pub scene: &'a Scene,
+    /// The laser (its rays: [`Laser::rays`]).
+    pub laser: &'a Laser,
+}
+
+/// [`simulate`] in a world that changes: `scene_at(t)` gives the scene of the line at `t`
+/// seconds (`None`: the configuration's own, unchanged), and `on_line` sees every line after
+/// it is scanned. The configuration's scene still gives the setup, the markers' target and the
+/// ground truth.
+///
+/// # Errors
+/// A configuration that [`SimConfig::validate`] refuses.
+pub fn simulate_with(
+    config: &SimConfig,
+    scene_at: &dyn Fn(f64) -> Option<Scene>,
+    on_line: &mut dyn FnMut(&LineView<'_>),
+) -> Result<Simulation, SimError> {
     config.validate()?;
     let setup = config.setup();
     // The laser sits where the setup says (f32), so the recording is self-consistent.
@@ -292,7 +324,21 @@ pub fn simulate(config: &SimConfig) -> Result<Simulation, SimError> {
                 payload: Payload::Angle(angle),
             },
         )?;
-        let line = laser.scan(scene, &pose, angle);
+        let changed = scene_at(t);
+        if changed.is_some() {
+            // The world moved: what was cast from this pose before no longer holds.
+            laser.forget();
+        }
+        let line_scene = changed.as_ref().unwrap_or(scene);
+        let line = laser.scan(line_scene, &pose, angle);
+        on_line(&LineView {
+            index: i,
+            t_s: t,
+            pose: &pose,
+            angle,
+            scene: line_scene,
+            laser: &laser,
+        });
         let telegram = laser.telegram(&line).map_err(SimError)?;
         let split = config.split_every != 0 && (i + 1) % config.split_every == 0;
         let cut = if split {
