@@ -5,6 +5,7 @@
 //!
 //! Nothing here simulates, injects faults or runs experiments: that is the lab's.
 
+pub mod decay;
 pub mod decode;
 pub mod design;
 pub mod device;

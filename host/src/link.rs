@@ -99,6 +99,13 @@ pub struct MirrorCounters {
     /// Cells the device said its decay made unknown (equal to `cells_faded` when no change
     /// was in flight while the rows decayed).
     pub cells_faded_device: u64,
+    /// Cells a snapshot resent into a layer that was in step before it (not stale): each is
+    /// compared with the mirror's own value before it is overwritten.
+    pub resent_cells_compared: u64,
+    /// Of those, the cells whose resent value differed from the mirror's: 0 when the device
+    /// and the mirror were equal cell for cell (the mirror's decay, computed here, against the
+    /// device's, for cells that changed only by decay since they were last sent).
+    pub resent_cells_differing: u64,
 }
 
 /// One layer as the host knows it.
@@ -118,6 +125,8 @@ pub struct MirrorLayer {
     stale: bool,
     /// A snapshot's Hello came: the layer is complete once every cell has been resent.
     resyncing: bool,
+    /// The resend under way is into a layer that was in step: resent cells are compared.
+    verifying: bool,
 }
 
 impl MirrorLayer {
@@ -130,6 +139,7 @@ impl MirrorLayer {
             covered: vec![true; w * w],
             stale: false,
             resyncing: false,
+            verifying: false,
         }
     }
 
@@ -146,8 +156,10 @@ impl MirrorLayer {
         self.stale || self.resyncing
     }
 
-    /// Starts waiting for every cell of a resend.
+    /// Starts waiting for every cell of a resend; a layer that was in step has its resent
+    /// cells compared with its own.
     fn start_resync(&mut self) {
+        self.verifying = !self.stale && !self.resyncing;
         self.stale = false;
         self.resyncing = true;
         self.covered.fill(false);
@@ -213,8 +225,10 @@ impl MirrorLayer {
         }
     }
 
-    /// Writes a patch's cells; `false` when the rectangle is not inside the window.
-    fn write(&mut self, w: usize, patch: &LayerPatch<'_>) -> bool {
+    /// Writes a patch's cells; `false` when the rectangle is not inside the window. During a
+    /// verified resend, each cell not yet resent is compared first: `(compared, differing)`
+    /// are added to `check`.
+    fn write(&mut self, w: usize, patch: &LayerPatch<'_>, check: &mut (u64, u64)) -> bool {
         let a = &patch.area;
         let ox = i64::from(a.x) - i64::from(self.origin.0);
         let oy = i64::from(a.y) - i64::from(self.origin.1);
@@ -227,11 +241,16 @@ impl MirrorLayer {
         for (i, value) in patch.cells.iter().enumerate() {
             let (c, r) = (i % usize::from(a.width), i / usize::from(a.width));
             let at = (oy as usize + r) * w + ox as usize + c;
+            if self.verifying && !self.covered[at] {
+                check.0 += 1;
+                check.1 += u64::from(self.cells[at] != value);
+            }
             self.cells[at] = value;
             self.covered[at] = true;
         }
         if self.resyncing && self.covered.iter().all(|&c| c) {
             self.resyncing = false;
+            self.verifying = false;
         }
         true
     }
@@ -344,6 +363,7 @@ impl Mirror {
             self.counters.missing += u64::from(d);
             for layer in &mut self.layers {
                 layer.stale = true;
+                layer.verifying = false;
             }
             if !is_hello {
                 self.advise_snapshot();
@@ -441,6 +461,8 @@ impl Mirror {
                         layer.stale = true;
                     } else {
                         layer.start_resync();
+                        // Nothing of it was known: nothing to compare.
+                        layer.verifying = false;
                     }
                 }
             }
@@ -508,7 +530,11 @@ impl Mirror {
             self.counters.moves += 1;
             self.counters.implicit_moves += 1;
         }
-        if layer.write(w, patch) {
+        let mut check = (0, 0);
+        let written = layer.write(w, patch, &mut check);
+        self.counters.resent_cells_compared += check.0;
+        self.counters.resent_cells_differing += check.1;
+        if written {
             self.counters.patches += 1;
         } else {
             self.counters.patches_refused += 1;

@@ -5,7 +5,15 @@
 //! driven the same way ([`crate::play`]): boot, Hello, Configure with the flags' design,
 //! Setup from the recording, the recording's frames and telegrams lock-step, EndObservation,
 //! a snapshot, and the maps written from the host's mirror of the device's layers.
+//!
+//! With `--decay`, the device decays by its own clock (QEMU's follows the wall clock, the
+//! in-process device's moves 10 ms a poll), so the maps of the two boards differ by when the
+//! decay ran; what must hold on both is that the mirror, which applies every decay step the
+//! device announces with the host's build of the library, equals the device cell for cell:
+//! before the final snapshot the device sends every change (`sync`), and the snapshot then
+//! compares every resent cell with the mirror's own (`mirror.resent_cells_differing`, 0).
 
+use crate::decay::{DecayArgs, DecaySummary};
 use crate::design::DesignArgs;
 use crate::device::{Device, InProcess};
 use crate::emulator::{build_firmware, qemu_available, Emulator, BOARD_DIR, INSTALL_HINT};
@@ -75,6 +83,42 @@ pub struct Args {
     /// Returns this far below the robot's ground plane mark a drop-off, metres.
     #[arg(long, value_name = "M")]
     pub drop_m: Option<f64>,
+    /// Decay of stale evidence (off by default).
+    #[command(flatten)]
+    pub decay: DecayArgs,
+}
+
+/// What the mirror made of the device's frames: its decay and the comparison at the final
+/// snapshot.
+#[derive(Serialize, Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct MirrorCheck {
+    /// Decayed frames the mirror applied.
+    pub decay_frames: u64,
+    /// Storage rows the mirror decayed.
+    pub rows_decayed: u64,
+    /// Cells the mirror's decay made unknown.
+    pub cells_faded: u64,
+    /// Cells the device said its decay made unknown.
+    pub cells_faded_device: u64,
+    /// Cells a snapshot resent into a mirror in step, compared with the mirror's own.
+    pub resent_cells_compared: u64,
+    /// Of those, the cells that differed (0: device and mirror equal cell for cell).
+    pub resent_cells_differing: u64,
+}
+
+impl MirrorCheck {
+    /// The check of a mirror's counters.
+    #[must_use]
+    pub fn of(c: &crate::link::MirrorCounters) -> Self {
+        Self {
+            decay_frames: c.decay_frames,
+            rows_decayed: c.rows_decayed,
+            cells_faded: c.cells_faded,
+            cells_faded_device: c.cells_faded_device,
+            resent_cells_compared: c.resent_cells_compared,
+            resent_cells_differing: c.resent_cells_differing,
+        }
+    }
 }
 
 /// What `summary.json` holds.
@@ -94,6 +138,10 @@ pub struct Summary<'a> {
     /// The firmware's stack high-water mark, bytes (emulated boards only).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub stack_bytes: Option<u32>,
+    /// The decay configured on the device.
+    pub decay: &'a DecaySummary,
+    /// The mirror's decay and its comparison with the device at the final snapshot.
+    pub mirror: MirrorCheck,
 }
 
 /// The hash of [`Summary::layers_hash`].
@@ -130,6 +178,7 @@ pub fn write_outputs(
     counts: &RunCounts,
     board: Board,
     stack_bytes: Option<u32>,
+    (decay, mirror): (&DecaySummary, MirrorCheck),
 ) -> Result<String, String> {
     let written = write_maps(out, snapshot, title)?;
     for l in &snapshot.layers {
@@ -142,6 +191,8 @@ pub fn write_outputs(
         board: board.name(),
         layers_hash: layers_hash(snapshot),
         stack_bytes,
+        decay,
+        mirror,
     };
     let json = serde_json::to_string(&summary).map_err(|e| e.to_string())?;
     crate::export::write_file(&out.join("summary.json"), json.as_bytes())?;
@@ -170,6 +221,10 @@ pub fn run_config(args: &Args) -> Result<(DefaultDesign, Config, ClassifierConfi
             ClampArg::Off => Clamp::Off,
             ClampArg::Octomap => Clamp::OCTOMAP,
         },
+        decay: args
+            .decay
+            .decay(design.layers().len(), design.cells_per_side())
+            .map_err(|e| (2, format!("error: {e}")))?,
         ..Config::default()
     };
     let classifier = ClassifierConfig {
@@ -234,6 +289,11 @@ pub fn drive(
         &Message::Configure(configure_of_design(design, config)),
     )?;
     let (mut counts, sensor_xy) = play(device, steps, classifier)?;
+    if config.decay.is_on() {
+        // Every change on the wire, so that the snapshot compares cells that changed only by
+        // decay since they were sent.
+        device.sync()?;
+    }
     device.snapshot()?;
     let snapshot = mirror_snapshot(device, design, config, sensor_xy)?;
     counts.frames_received = device.link().mirror().counters().frames;
@@ -265,26 +325,29 @@ pub fn execute(args: &Args) -> Result<String, (u8, String)> {
     let fail = |e: String| (1, format!("error: {e}"));
     let steps = steps(&data).map_err(fail)?;
     let started = Instant::now();
-    let (counts, snapshot, stack_bytes) = match args.board {
+    let (counts, snapshot, stack_bytes, mirror) = match args.board {
         Board::Host => {
             let mut device = boot_host_device().map_err(fail)?;
             let (counts, snapshot) =
                 drive(&mut device, &steps, &design, &config, &classifier).map_err(fail)?;
-            (counts, snapshot, None)
+            let mirror = MirrorCheck::of(&device.link().mirror().counters());
+            (counts, snapshot, None, mirror)
         }
         Board::Qemu => {
             let mut emu = boot_emulator(&args.out.join("firmware.defmt")).map_err(fail)?;
             let (counts, snapshot) =
                 drive(&mut emu, &steps, &design, &config, &classifier).map_err(fail)?;
+            let mirror = MirrorCheck::of(&emu.link().mirror().counters());
             let stack = emu.shutdown().map_err(fail)?;
             eprintln!(
                 "qemu: {} telegrams in {:.1} s, firmware stack high-water {stack} bytes",
                 counts.telegrams_sent,
                 started.elapsed().as_secs_f64()
             );
-            (counts, snapshot, Some(stack))
+            (counts, snapshot, Some(stack), mirror)
         }
     };
+    let decay = DecaySummary::of(&config.decay, design.layers().len());
     let title = format!(
         "pyramid run --board {}: {} ({} telegrams applied)",
         args.board.name(),
@@ -298,6 +361,7 @@ pub fn execute(args: &Args) -> Result<String, (u8, String)> {
         &counts,
         args.board,
         stack_bytes,
+        (&decay, mirror),
     )
     .map_err(fail)
 }

@@ -819,6 +819,31 @@ fn scenario_with<const Q: usize>(
         }
     }
     let c = link.counters();
+    // A snapshot now resends every cell into a mirror in step: each compared with the
+    // mirror's own (for cells that only decayed since they were sent: the mirror's decay
+    // against the device's), none different.
+    let before = host.mirror().counters();
+    let cmd = host
+        .command(&Message::RequestSnapshot(SnapshotScope::All))
+        .unwrap();
+    deliver(&mut link, &mut pyramid, &cmd);
+    for _ in 0..5000 {
+        now_ms += 13;
+        link.poll(now_ms, &mut pyramid, &SensorCounters::default());
+        let mut uart = vec![0_u8; 92_160 * 13 / 1000];
+        let n = link.pop_bytes(&mut uart);
+        host.feed(&uart[..n]);
+        if host.mirror().is_synced() && host.mirror().counters().hellos > before.hellos {
+            break;
+        }
+    }
+    let after = host.mirror().counters();
+    assert_eq!(
+        after.resent_cells_compared - before.resent_cells_compared,
+        (w * w * pyramid.layer_count()) as u64,
+        "{after:?}"
+    );
+    assert_eq!(after.resent_cells_differing, 0, "{after:?}");
     assert_eq!(
         host.mirror().counters().decay_frames > 0,
         decay.is_on(),

@@ -966,7 +966,9 @@ impl<const Q: usize, const N: usize> Link<Q, N> {
     /// Pays the pyramid's decay owed at `now_ms` and announces it with one Decayed frame, or,
     /// when the queue has no room for that frame beside half the [`CONTROL_RESERVE`], pays
     /// nothing now (the debt waits for a later poll, up to one step a layer). It goes after the
-    /// patches, so that a busy link delays the decay, never the map.
+    /// patches, so that a busy link delays the decay, never the map. A layer is paid once it
+    /// owes a row of tiles (W/8 storage rows): a board that polls in a tight loop sends a few
+    /// Decayed frames per step period, not one per poll.
     fn send_decay<const W: usize, const L: usize>(
         &mut self,
         now_ms: u32,
@@ -979,7 +981,9 @@ impl<const Q: usize, const N: usize> Link<Q, N> {
             return;
         }
         let count = layers_of(pyramid).min(N);
-        let due = (0..count).filter(|&k| pyramid.decay_due(k) > 0).count();
+        let batch = (W / TILES_PER_SIDE).max(1);
+        let owes = |k: usize| pyramid.decay_due(k) >= batch;
+        let due = (0..count).filter(|&k| owes(k)).count();
         if due == 0 {
             return;
         }
@@ -990,6 +994,9 @@ impl<const Q: usize, const N: usize> Link<Q, N> {
         }
         let mut decayed = Decayed::new(mode.to_u8());
         for k in 0..count {
+            if pyramid.decay_due(k) < batch {
+                continue;
+            }
             if let Some(rows) = pyramid.decay_layer(k) {
                 decayed.set(
                     k,
