@@ -523,8 +523,8 @@ mod tests {
                 v = next;
                 n += 1;
             }
-            // ⌈8·ln(32 767/4)⌉ + 4 = 77: the exponential part, then the tail.
-            assert!(n <= 80, "{raw}: {n} steps");
+            // ⌈8·ln(32 767/4)⌉ + 4 = 77 bounds it: the exponential part, then the tail.
+            assert!(n <= 77, "{raw}: {n} steps");
         }
     }
 

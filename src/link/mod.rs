@@ -10,7 +10,7 @@
 //! with [`Link::pop_bytes`] (or [`Link::peek`] + [`Link::consume`] for DMA).
 //!
 //! RAM: a `Link` with the default 4 096-byte queue takes about 6.2 KiB (queue, a 543-byte
-//! encode scratch, the 69-byte receive buffer, 1 KiB of tile ages, counters).
+//! encode scratch, the 102-byte receive buffer, 1 KiB of tile ages, counters).
 //!
 //! Scan intake never waits for the link: [`Link::poll`] sends a changed tile only while the
 //! budget and the queue allow, and **puts the tile's dirty bit back** otherwise, so the tile
