@@ -465,6 +465,10 @@ fn bench(opts: &Opts) -> Result<()> {
         (M0, "pyramid"),
         (M0, "pyramid-nolink"),
         (M0, "f32"),
+        (M4F, "pyramid-decay"),
+        (M4F, "decay"),
+        (M0, "pyramid-decay"),
+        (M0, "decay"),
     ];
     // `BENCH_ONLY=thumbv7em-none-eabihf/pyramid,…` restricts the runs (for profiling).
     let only = std::env::var("BENCH_ONLY").ok();
@@ -514,6 +518,9 @@ fn bench(opts: &Opts) -> Result<()> {
         get(M0, "f32"),
     );
     let window_per_cell = window.instructions as f64 / window.cells.max(1) as f64;
+    let per_cell = |r: &Run| r.instructions as f64 / r.cells.max(1) as f64;
+    let (m4_decay, m0_decay) = (get(M4F, "pyramid-decay"), get(M0, "pyramid-decay"));
+    let (m4_sweep, m0_sweep) = (get(M4F, "decay"), get(M0, "decay"));
 
     // 4. Memory of the M4F bench firmware (default pyramid, link).
     let (flash, ram, recording_bytes) = sizes(&elf(M4F, "pyramid"))?;
@@ -628,6 +635,22 @@ fn bench(opts: &Opts) -> Result<()> {
         "| M4F window move: instructions / reset cell ({} cells) | {:.2} |",
         window.cells, window_per_cell
     );
+    for (name, with, without, sweep) in [
+        ("M4F", &m4_decay, &m4, &m4_sweep),
+        ("M0", &m0_decay, &m0, &m0_sweep),
+    ] {
+        eprintln!(
+            "| {name} instructions / return with decay (all, τ = 1 s every layer; {} cells decayed) | {:.1} (+{:.1}) |",
+            with.cells,
+            with.per_return(),
+            with.per_return() - without.per_return()
+        );
+        eprintln!(
+            "| {name} decay sweep: instructions / decayed cell ({} observed cells) | {:.2} |",
+            sweep.cells,
+            per_cell(sweep)
+        );
+    }
     eprintln!(
         "| bench firmware flash (M4F, without the {} B recording) | {} B |",
         recording_bytes, flash
@@ -653,8 +676,14 @@ fn bench(opts: &Opts) -> Result<()> {
             "instructions_per_return": m4.per_return(),
             "flat_instructions_per_return": flat.per_return(),
             "window_move_instructions_per_cell": window_per_cell,
+            "decay_instructions_per_return": m4_decay.per_return(),
+            "decay_instructions_per_cell": per_cell(&m4_sweep),
         },
-        "m0": { "instructions_per_return": m0.per_return() },
+        "m0": {
+            "instructions_per_return": m0.per_return(),
+            "decay_instructions_per_return": m0_decay.per_return(),
+            "decay_instructions_per_cell": per_cell(&m0_sweep),
+        },
         "m4f_f32": { "instructions_per_return": m4_f32.per_return() },
         "m0_f32": { "instructions_per_return": m0_f32.per_return() },
         "host": { "returns_per_second": host_rps },

@@ -255,13 +255,23 @@ pub fn boot<const W: usize, const L: usize, const C: usize, const Q: usize>(
     recording: &[u8],
     design: &terrain_pyramid::Design<L>,
 ) -> bool {
+    boot_with(core, recording, design, &terrain_pyramid::Config::default())
+}
+
+/// [`boot`] with a configuration of the pyramid (the decay bench's, with decay on).
+pub fn boot_with<const W: usize, const L: usize, const C: usize, const Q: usize>(
+    core: &mut CoProcessor<W, L, C, Q>,
+    recording: &[u8],
+    design: &terrain_pyramid::Design<L>,
+    config: &terrain_pyramid::Config,
+) -> bool {
     let Some(setup) = setup(recording).as_ref().and_then(frontend_config) else {
         return false;
     };
     core.boot(
         terrain_pyramid::link::LinkConfig::DEFAULT,
         design,
-        &terrain_pyramid::Config::default(),
+        config,
         setup,
     )
     .is_ok()
