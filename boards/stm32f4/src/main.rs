@@ -2,10 +2,12 @@
 //! ([`terrain_pyramid::app::CoProcessor`]). The laser on USART1 (500 kBd, RS-422), the host
 //! link (`docs/protocol.md`) on USART2 (the ST-LINK virtual COM port, 921 600 Bd), the AS5047P
 //! pan encoder on SPI1, both USARTs received by interrupt into bounded queues ([`rx`]), the
-//! independent watchdog fed from the main loop, defmt over RTT. Wiring and bring-up:
-//! `README.md`.
+//! independent watchdog fed from the main loop, defmt over RTT (over semihosting on QEMU's
+//! `netduinoplus2`: [`logging`]). Wiring, bring-up and the emulated run: `README.md`.
 //!
-//! At boot the co-processor (in a `static`, all zero bits: `.bss`) adopts the default design
+//! At boot the clocks start with bounded waits and fallbacks ([`rcc`]; the source is logged:
+//! protocol version 2 has no field for it), SysTick counts milliseconds ([`clock`]), and the
+//! co-processor (in a `static`, all zero bits: `.bss`) adopts the default design
 //! and a panned-vertical setup and checks its pyramid; the scanner is brought up
 //! ([`scanner`]); Hello (reason boot) goes out at the first poll. Each step of the main loop
 //! feeds the watchdog, hands the core the bytes the two interrupts queued (the encoder is read
@@ -22,21 +24,15 @@ mod encoder;
 #[allow(unsafe_code)]
 mod hw;
 mod link;
+mod logging;
+mod rcc;
 mod rx;
 mod scanner;
 
-use defmt_rtt as _;
-use panic_probe as _;
-
-use core::sync::atomic::{AtomicU32, Ordering};
-
-use cortex_m::peripheral::syst::SystClkSource;
 use embedded_io::Write as _;
 use static_cell::ConstStaticCell;
-use stm32f4xx_hal::dwt::MonoTimer;
 use stm32f4xx_hal::pac;
 use stm32f4xx_hal::prelude::*;
-use stm32f4xx_hal::rcc::Config as ClockConfig;
 use stm32f4xx_hal::serial;
 use stm32f4xx_hal::watchdog::IndependentWatchdog;
 use terrain_pyramid::app::{BootError, CoProcessor, StackUsage};
@@ -48,7 +44,6 @@ use terrain_pyramid::{
     DEFAULT_LAYERS,
 };
 
-use crate::clock::Clock;
 use crate::link::BlockingTx;
 
 /// The host link's baud rate (USART2, ST-LINK VCP). 45 MHz / 921 600 → divider 48.8 → −0.35 %.
@@ -69,32 +64,20 @@ type Board = CoProcessor<DEFAULT_CELLS_PER_SIDE, DEFAULT_LAYERS, DEFAULT_CLASSIF
 /// The co-processor, `const`-built (never on the stack of this 128 KiB part).
 static CORE: ConstStaticCell<Board> = ConstStaticCell::new(Board::new());
 
-/// Milliseconds since SysTick started, wrapping.
-static MILLIS: AtomicU32 = AtomicU32::new(0);
-
-#[cortex_m_rt::exception]
-fn SysTick() {
-    MILLIS.fetch_add(1, Ordering::Relaxed);
-}
-
 #[cortex_m_rt::entry]
 fn main() -> ! {
     let (Some(dp), Some(cp)) = (pac::Peripherals::take(), cortex_m::Peripherals::take()) else {
         defmt::panic!("peripherals taken twice");
     };
     // 8 MHz from the ST-LINK's MCO (HSE bypass) → 180 MHz; APB1 45 MHz, APB2 90 MHz
-    // (USART1: 90 MHz / 500 kBd = 180, exact).
-    let mut rcc = dp.RCC.freeze(
-        ClockConfig::hse(8.MHz())
-            .bypass_hse_oscillator()
-            .sysclk(180.MHz())
-            .pclk1(45.MHz())
-            .pclk2(90.MHz()),
-    );
+    // (USART1: 90 MHz / 500 kBd = 180, exact); falls back to the HSI (`rcc.rs`).
+    let (mut rcc, clocks) = rcc::start(dp.RCC);
+    defmt::info!("clocks: {}", clocks);
     let mut watchdog = IndependentWatchdog::new(dp.IWDG);
     watchdog.stop_on_debug(&dp.DBGMCU, true);
     watchdog.start(WATCHDOG_MS.millis());
-    let clock = Clock::new(MonoTimer::new(cp.DWT, cp.DCB, &rcc.clocks));
+    // SysTick: 1 kHz from the core clock, the link's milliseconds.
+    let clock = clock::start(cp.SYST, clocks.core_hz);
 
     let core = CORE.take();
     let setup = FrontendConfig::lms291_boot(ScanPlane::PannedVertical);
@@ -105,14 +88,6 @@ fn main() -> ! {
         defmt::panic!("boot: {}", e);
     }
     watchdog.feed();
-
-    // SysTick: 1 kHz from the core clock, the link's milliseconds.
-    let mut syst = cp.SYST;
-    syst.set_clock_source(SystClkSource::Core);
-    syst.set_reload(rcc.clocks.sysclk().raw() / 1000 - 1);
-    syst.clear_current();
-    syst.enable_interrupt();
-    syst.enable_counter();
 
     let gpioa = dp.GPIOA.split(&mut rcc);
     let gpiob = dp.GPIOB.split(&mut rcc);
@@ -166,7 +141,7 @@ fn main() -> ! {
         }
         let n = rx::take(&mut host_rx, buf.get_mut(..64).unwrap_or(&mut []));
         core.host(buf.get(..n).unwrap_or(&[]));
-        core.poll(MILLIS.load(Ordering::Relaxed));
+        core.poll(clock::millis());
         if let Err(e) = core.drain(&mut host_tx, TX_BYTES_PER_STEP) {
             defmt::warn!("USART2: {}", defmt::Debug2Format(&e));
         }
@@ -188,11 +163,16 @@ fn main() -> ! {
             core.answer_shutdown(StackUsage { used, size });
             let _ = core.drain(&mut host_tx, usize::MAX);
             let _ = host_tx.flush();
-            defmt::info!("shutdown: {}", core.counters());
+            defmt::info!(
+                "shutdown: {}; clock source {}",
+                core.counters(),
+                clocks.source
+            );
             break;
         }
     }
     defmt::info!("stopped (Shutdown): parked until reset");
+    logging::stopped();
     loop {
         watchdog.feed();
         cortex_m::asm::wfi();
