@@ -291,8 +291,10 @@ def main() -> int:
     wall_ms = (samples[-1][0] - samples[0][0]) * 1000
     device_ms = (samples[-1][1] - samples[0][1]) & 0xFFFFFFFF
     # SysTick at 1 kHz from the core clock the firmware assumes: a wrong assumption shows as a
-    # ratio of 10.5 (16 MHz assumed) or 8 (SysTick's /8 reference); QEMU loses ticks when the
-    # host is loaded (a late timer fires once for several periods), so below 1 is expected.
+    # ratio of 10.5 (16 MHz assumed) or 0.125 (SysTick's /8 reference). The device's clock
+    # falls behind the host's as the host's load rises (0.94 measured on an idle machine, 0.49
+    # on one with a load average near 8): QEMU's SysTick loses periods when the emulator runs
+    # late, so only the gross errors fail the check.
     print(f"clock: the device's uptime advanced {device_ms} ms while the host's clock advanced "
           f"{wall_ms:.0f} ms (ratio {device_ms / wall_ms:.3f})")
 
@@ -306,7 +308,7 @@ def main() -> int:
 
     ok = (stats["telegrams_ok"] == args.telegrams and stats["laser_bytes"] == args.telegrams * len(telegram)
           and code == 0 and host.bad == 0 and stats["rx_bad_cobs"] + stats["rx_bad_length"]
-          + stats["rx_bad_crc"] + stats["rx_bad_other"] == 0 and 0.5 < device_ms / wall_ms < 1.5)
+          + stats["rx_bad_crc"] + stats["rx_bad_other"] == 0 and 0.2 < device_ms / wall_ms < 2.0)
     print("link check: " + ("passed" if ok else "FAILED"))
     return 0 if ok else 1
 
