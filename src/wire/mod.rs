@@ -9,6 +9,8 @@
 //!   that bring a scanner up) and the stream reassembly over UART chunks.
 //! - [`link`]: the framed, checksummed, versioned host link (`docs/protocol.md`).
 //! - [`recording`]: the recording file format (`docs/recording.md`).
+//! - [`shared_line`]: one UART carrying both the SICK telegrams and the host link, split at
+//!   frame boundaries (a board with a single UART).
 //!
 //! Every accumulator hands out a [`FeedResult`].
 //!
@@ -30,6 +32,7 @@
 mod feed;
 pub mod link;
 pub mod recording;
+pub mod shared_line;
 pub mod sick;
 
 pub use feed::FeedResult;

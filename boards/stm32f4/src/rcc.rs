@@ -104,10 +104,11 @@ pub enum Source {
 }
 
 impl Source {
-    /// A one-byte code for the link's Hello or Stats: 1 HSE + PLL, 2 HSI + PLL, 3 HSI,
-    /// 4 unmodelled RCC.
+    /// A one-byte code for the host link: 1 HSE + PLL, 2 HSI + PLL, 3 HSI, 4 unmodelled
+    /// RCC. Protocol version 2 has no field for it (Hello, Stats and the Reply to Shutdown
+    /// are full), so the firmware logs the source instead; a later version may carry this.
     #[must_use]
-    #[allow(dead_code)] // For the application core's Hello and Stats.
+    #[allow(dead_code)] // Until the protocol has a field for it.
     pub const fn code(self) -> u8 {
         match self {
             Self::HsePll => 1,
