@@ -250,7 +250,8 @@ impl<const C: usize, const L: usize> Frontend<C, L> {
     /// Adopts a new configuration; the current observation is discarded.
     pub fn configure(&mut self, config: FrontendConfig) {
         self.config = config;
-        self.beams = BeamTable::new(config.variant);
+        // In place: a second beam table on the stack would not fit a 16 KiB part.
+        self.beams.rebuild(config.variant);
         self.classifier.configure(config.classifier);
         self.frame = self.pose.frame();
         self.configured = true;
