@@ -1,6 +1,6 @@
 //! Board support for the BBC micro:bit (v1: nRF51822, Cortex-M0, 16 MHz, 256 KiB of flash,
-//! 16 KiB of RAM) as QEMU 7.2's `microbit` models it: the UART, the stack measurement, and the
-//! runtime glue of the firmware (`src/main.rs`):
+//! 16 KiB of RAM) as QEMU 7.2's `microbit` models it: the UART, TIMER0's milliseconds, the
+//! stack measurement, and the runtime glue of the firmware (`src/main.rs`):
 //!
 //! - defmt over semihosting (`defmt-semihosting`): frames go to QEMU's stdout for
 //!   `defmt-print` (RTT needs a probe; QEMU has none);
@@ -8,7 +8,7 @@
 //!   a failing exit code ([`EXIT_PANIC`], [`EXIT_HARDFAULT`]).
 //!
 //! No SysTick: the nRF51's Cortex-M0 has none (QEMU's model adds one anyway; code that used
-//! it would not run on the part). Nothing here needs time.
+//! it would not run on the part). Time comes from TIMER0 ([`timer`]).
 #![no_std]
 #![deny(unsafe_code)]
 #![deny(missing_docs)]
@@ -18,6 +18,8 @@ use defmt_semihosting as _;
 
 #[allow(unsafe_code)]
 pub mod stack;
+#[allow(unsafe_code)]
+pub mod timer;
 #[allow(unsafe_code)]
 pub mod uart;
 

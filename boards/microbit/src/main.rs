@@ -1,183 +1,101 @@
-//! The firmware on QEMU's `microbit` (nRF51822: Cortex-M0 at 16 MHz, 16 KiB of RAM), its one
-//! UART for everything:
+//! The firmware on QEMU's `microbit` (nRF51822: Cortex-M0 at 16 MHz, 16 KiB of RAM): the
+//! terrain pyramid's co-processor ([`terrain_pyramid::app::CoProcessor`]) in a small
+//! configuration ([`Board`]), on the part's one UART.
 //!
-//! 1. **Echo**: every byte received is sent back until EOT (0x04), which ends the echo and is
-//!    not echoed: the UART's I/O both ways.
-//! 2. **Pipeline**: then the UART carries SICK LMS2xx measured-values telegrams (a LMS 291 at
-//!    180°/0.5° in the 8 m mode, [`LINES`] of them). Each goes through the library's real
-//!    per-line pipeline (`drivers::uart::SickUart` → `MeasuredValues::parse` →
-//!    `Frontend::line`: geometry, classifier, pyramid), the scan plane vertical and panned by
-//!    [`PAN_STEP`] per line (line i at `(i − LINES/2) · PAN_STEP`), the scanner 1 m up; after
-//!    the last line the observation ends (`Frontend::end_observation`). The sizes are chosen
-//!    to fit 16 KiB with a stack margin: a [`Pyramid<16, 4>`] and [`SLOTS`] classifier slots.
-//! 3. **Summary**: one text line on the UART, `PIPELINE lines=… points=… applied=…
-//!    obstacle=… free=… observed=… stack=… digest=0x…` (the digest: FNV-1a over every layer's window
-//!    origin and raw Q8.8 cells, for a bit-exact comparison with the host pipeline), the same
-//!    and the stack's high-water mark through defmt, then semihosting exit 0.
+//! **One UART, two streams** (`README.md`, "One UART"): the robot's main computer writes the
+//! laser's SICK telegrams onto the line whole, between its own host-link frames; the firmware
+//! splits the line at frame boundaries ([`terrain_pyramid::wire::shared_line`]: an STX starts
+//! a telegram, anything else is a link frame up to its `0x00`) and hands each piece to the
+//! core's laser or host side. The UART's transmit side carries the link's frames alone.
+//!
+//! At boot the co-processor (in a `static`, all zero bits: `.bss`) adopts a design of four
+//! 16-cell layers ([`boot_design`]) and a tilt-unit setup and checks its pyramid; Hello
+//! (reason boot) goes out at the first poll. Each step of the main loop takes what the UART
+//! holds, polls the core with TIMER0's milliseconds ([`microbit_board::timer`]) and drains its
+//! queue into the UART. This board has no angle source: the host's PanAngle is the actuator
+//! angle. Shutdown (0x89) is answered with the stack's high-water mark, the counters are
+//! logged (defmt over semihosting) and the emulator exits with 0.
 #![no_std]
 #![no_main]
 #![deny(unsafe_code)]
 
-use embedded_io::{Read, Write};
+use embedded_io::{Read, ReadReady};
 use microbit_board::stack;
+use microbit_board::timer::Clock;
 use microbit_board::uart::{Baud, Uart};
 use static_cell::ConstStaticCell;
-use terrain_pyramid::angle::{Angle, FineAngle};
-use terrain_pyramid::classify::ClassifierConfig;
-use terrain_pyramid::drivers::uart::SickUart;
-use terrain_pyramid::geometry::{Mount, ScanPlane, Variant};
-use terrain_pyramid::pipeline::{Frontend, FrontendConfig};
-use terrain_pyramid::pyramid::static_ram_bytes;
-use terrain_pyramid::wire::sick::{MeasuredValues, MeasuringMode};
-use terrain_pyramid::{
-    Config, Design, DesignError, GateShape, Meters, Point3, Pyramid, Schedule, SensorModel,
-};
+use terrain_pyramid::app::{BootError, CoProcessor, NoAngleSource, StackUsage};
+use terrain_pyramid::geometry::ScanPlane;
+use terrain_pyramid::link::LinkConfig;
+use terrain_pyramid::pipeline::FrontendConfig;
+use terrain_pyramid::wire::shared_line::{Route, SharedLine};
+use terrain_pyramid::{Config, Design, Schedule, SensorModel};
 
 /// W, cells per side of every layer's window.
-const CELLS: usize = 16;
-/// The pyramid's layers.
-const LAYERS: usize = 4;
-/// Classifier slots (a power of two): distinct cells one observation can touch before the
-/// classifier counts overflows.
-const SLOTS: usize = 256;
-/// Telegrams (lines) of the observation.
-pub const LINES: u32 = 30;
-/// The pan step between lines: 364 / 65 536 turn (1.9995°, ψ of the design: 2°), exact in
-/// the encoder's unit.
-pub const PAN_STEP: u16 = 364;
-/// End of the echo.
-const EOT: u8 = 0x04;
+pub const CELLS: usize = 16;
+/// The pyramid's layers, at most.
+pub const LAYERS: usize = 4;
+/// Classifier slots: distinct cells one observation can touch before the classifier counts
+/// overflows. 64 (1.3 KiB): with 128 the statics leave 3.3 KiB of stack, below the 3.7 KiB
+/// the deepest path (a host command that queues Hello) takes.
+pub const SLOTS: usize = 64;
+/// The link's outgoing queue, bytes (at least `min_queue_bytes(16, 4)`).
+pub const QUEUE: usize = 512;
 
-type SmallPyramid = Pyramid<CELLS, LAYERS>;
+/// The co-processor of this board.
+pub type Board = CoProcessor<CELLS, LAYERS, SLOTS, QUEUE>;
 
-/// The pyramid in a `static` (all zero bits: `.bss`), configured in place.
-static PYRAMID: ConstStaticCell<SmallPyramid> = ConstStaticCell::new(SmallPyramid::new());
-/// The per-line pipeline, likewise.
-static FRONTEND: ConstStaticCell<Frontend<SLOTS>> = ConstStaticCell::new(Frontend::unconfigured());
+/// The co-processor, `const`-built: never on the stack, all zero bits, in `.bss`.
+static CORE: ConstStaticCell<Board> = ConstStaticCell::new(Board::new());
 
-/// A design whose four layers fit 16-cell windows (as the on-target tests' `small_design`):
-/// σ = 0.3 m, 3 m range, Δd = 0.1 m, γ = 2, hard gates; the sensor 1 m up (the default h).
-fn design() -> Result<Design<LAYERS>, DesignError> {
+/// Bytes taken from the UART per step, at most.
+const CHUNK: usize = 64;
+
+/// The boot design: four layers of 16 cells, 4 m of range, γ = 3, the rest the defaults
+/// (the host sends Configure with its own before any line).
+fn boot_design() -> Result<Design<LAYERS>, terrain_pyramid::DesignError> {
     let sensor = SensorModel {
-        sigma_m: 0.3,
-        max_range_m: 3.0,
+        max_range_m: 4.0,
+        height_m: 0.4,
         ..SensorModel::default()
     };
     let schedule = Schedule {
-        gate: GateShape::Hard,
+        gamma: 3.0,
         ..Schedule::default()
     };
     Design::new(sensor, schedule, CELLS)
 }
 
-/// The pipeline: an LMS 291 at 180°/0.5°, 8 m mode, scan plane vertical and panned, 1 m up.
-fn frontend_config() -> FrontendConfig {
-    FrontendConfig {
-        mount: Mount::new(
-            ScanPlane::PannedVertical,
-            Point3 {
-                x: Meters::ZERO,
-                y: Meters::ZERO,
-                z: Meters::ONE,
-            },
-        ),
-        variant: Variant::Fov180StepHalf,
-        measuring_mode: MeasuringMode::Mm8Cm80,
-        lines_per_observation: 0,
-        classifier: ClassifierConfig::default(),
-        missing_ground_within: None,
-    }
-}
-
-/// Echoes until EOT; returns the bytes echoed. Reads one byte at a time: what follows EOT
-/// (the telegrams) stays in the UART for the pipeline.
+/// Boots the core in a frame of its own: the configuration's tables are built on the stack,
+/// which on 16 KiB must not hold the main loop's buffers at the same time.
 #[inline(never)]
-fn echo(uart: &mut Uart) -> u32 {
-    let mut echoed = 0_u32;
-    let mut buf = [0_u8; 1];
-    loop {
-        let n = match uart.read(&mut buf) {
-            Ok(n) => n,
-            Err(e) => {
-                defmt::warn!("UART: {}", e);
-                continue;
-            }
-        };
-        for &byte in buf.get(..n).unwrap_or(&[]) {
-            if byte == EOT {
-                return echoed;
-            }
-            // Infallible: the UART's write never fails.
-            let _ = uart.write_all(&[byte]);
-            echoed += 1;
-        }
-    }
+fn boot(core: &mut Board) -> Result<(), BootError> {
+    let design = boot_design()?;
+    let setup = FrontendConfig::lms291_boot(ScanPlane::TiltedHorizontal);
+    core.boot(LinkConfig::DEFAULT, &design, &Config::default(), setup)
 }
 
-/// FNV-1a, 32 bits.
-struct Fnv(u32);
+// The core's entry points, each in a frame of its own: inlined into the main loop together,
+// their locals would add up to one frame of 2 KiB; apart, the deepest one counts.
 
-impl Fnv {
-    fn bytes(&mut self, bytes: &[u8]) {
-        for &b in bytes {
-            self.0 = (self.0 ^ u32::from(b)).wrapping_mul(0x0100_0193);
-        }
-    }
+/// Laser bytes (one piece of a telegram) to the core.
+#[inline(never)]
+fn laser(core: &mut Board, bytes: &[u8]) {
+    core.laser(bytes, &mut NoAngleSource);
 }
 
-/// FNV-1a over every layer: its window origin (two i32 LE), then its cells (raw Q8.8, i16 LE;
-/// unknown is −32 768) row by row from the window's lower-left offset.
-fn digest(pyramid: &SmallPyramid) -> u32 {
-    let mut h = Fnv(0x811C_9DC5);
-    for k in 0..pyramid.layer_count() {
-        let Some(layer) = pyramid.layer(k) else {
-            continue;
-        };
-        let (ox, oy) = layer.origin();
-        h.bytes(&ox.to_le_bytes());
-        h.bytes(&oy.to_le_bytes());
-        for dy in 0..CELLS {
-            for dx in 0..CELLS {
-                let raw = layer.at_offset(dx, dy).map_or(i16::MIN, |c| c.to_raw());
-                h.bytes(&raw.to_le_bytes());
-            }
-        }
-    }
-    h.0
+/// Host bytes (one piece of a link frame) to the core.
+#[inline(never)]
+fn host(core: &mut Board, bytes: &[u8]) {
+    core.host(bytes);
 }
 
-/// Writes `n` in decimal.
-fn write_u32(uart: &mut Uart, n: u32) {
-    let mut digits = [0_u8; 10];
-    let mut i = digits.len();
-    let mut v = n;
-    loop {
-        i -= 1;
-        if let Some(d) = digits.get_mut(i) {
-            // `v % 10` < 10: the cast keeps it.
-            #[allow(clippy::cast_possible_truncation)]
-            {
-                *d = b'0' + (v % 10) as u8;
-            }
-        }
-        v /= 10;
-        if v == 0 || i == 0 {
-            break;
-        }
-    }
-    let _ = uart.write_all(digits.get(i..).unwrap_or(&[]));
-}
-
-fn write_hex(uart: &mut Uart, n: u32) {
-    let mut text = *b"0x00000000";
-    for (i, slot) in text.iter_mut().skip(2).enumerate() {
-        let nibble = (n >> (28 - 4 * i)) & 0xF;
-        *slot = b"0123456789abcdef"
-            .get(nibble as usize)
-            .copied()
-            .unwrap_or(b'?');
-    }
-    let _ = uart.write_all(&text);
+/// Polls the core and drains its queue into the UART.
+#[inline(never)]
+fn poll(core: &mut Board, now_ms: u32, uart: &mut Uart) {
+    core.poll(now_ms);
+    // The UART's write never fails.
+    let _ = core.drain(uart, usize::MAX);
 }
 
 #[cortex_m_rt::entry]
@@ -185,133 +103,62 @@ fn main() -> ! {
     let Some(mut uart) = Uart::take(Baud::B115200) else {
         defmt::panic!("UART taken twice");
     };
-    defmt::info!("micro:bit (nRF51822, Cortex-M0): echo until EOT");
-    let echoed = echo(&mut uart);
-    defmt::info!("echoed {=u32} bytes", echoed);
-
-    let pyramid = PYRAMID.take();
-    let frontend = FRONTEND.take();
-    configure(pyramid, frontend);
-    run(uart, pyramid, frontend)
-}
-
-/// Configures the pyramid and the pipeline in place, each in a frame of its own (not inlined
-/// into `main`, nor into each other): `Pyramid::configure` and `Frontend::configure` build
-/// tables on the way (the beam table alone is 1.6 KiB), and on 16 KiB only one of them fits on
-/// the stack at a time, never together with the telegram accumulator of [`run`].
-#[inline(never)]
-fn configure(pyramid: &mut SmallPyramid, frontend: &mut Frontend<SLOTS>) {
-    let design = configure_pyramid(pyramid);
-    configure_frontend(frontend);
-    defmt::info!(
-        "pipeline: {}, pyramid {=usize} B, frontend {=usize} B ({=usize} slots); {=u32} lines",
-        design,
-        static_ram_bytes::<CELLS, LAYERS>(),
-        core::mem::size_of::<Frontend<SLOTS>>(),
-        SLOTS,
-        LINES
-    );
-}
-
-#[inline(never)]
-fn configure_pyramid(pyramid: &mut SmallPyramid) -> Design<LAYERS> {
-    let design = match design() {
-        Ok(d) => d,
-        Err(e) => defmt::panic!("design refused: {}", e),
-    };
-    if let Err(e) = pyramid.configure(&design, &Config::default()) {
-        defmt::panic!("configuration refused: {}", e);
+    let mut clock = Clock::start();
+    let core = CORE.take();
+    if let Err(e) = boot(core) {
+        defmt::error!("boot: {}", e);
+        microbit_board::exit(microbit_board::EXIT_FAILURE);
     }
-    design
-}
-
-#[inline(never)]
-fn configure_frontend(frontend: &mut Frontend<SLOTS>) {
-    frontend.configure(frontend_config());
-}
-
-/// The telegrams through the pipeline, then the summary and the exit.
-#[inline(never)]
-fn run(uart: Uart, pyramid: &mut SmallPyramid, frontend: &mut Frontend<SLOTS>) -> ! {
-    let mut laser: SickUart<Uart> = SickUart::new(uart);
-    let mut unparsed = 0_u32;
-    let mut rejected = 0_u32;
-    let mut line = 0_u32;
-    while line < LINES {
-        let telegram = match laser.next_telegram() {
-            Ok(t) => t,
-            Err(e) => {
-                defmt::warn!("laser: {}", e);
-                continue;
-            }
-        };
-        let Ok(values) = MeasuredValues::parse(&telegram) else {
-            unparsed += 1;
-            continue;
-        };
-        // Line i at (i − LINES/2) · PAN_STEP, wrapping like the angle.
-        #[allow(clippy::cast_possible_truncation, clippy::cast_possible_wrap)]
-        let steps = line as i32 - (LINES / 2) as i32;
-        #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
-        let pan = Angle::from_bits((steps * i32::from(PAN_STEP)) as u16);
-        frontend.set_actuator(FineAngle::from(pan));
-        if frontend.line(pyramid, &values).is_err() {
-            rejected += 1;
-        }
-        line += 1;
-    }
-    frontend.end_observation(pyramid);
-
-    let sick = laser.stats();
-    let classifier = frontend.classifier_stats();
-    let stats = pyramid.stats();
-    let (mut obstacle, mut free, mut observed) = (0_u32, 0_u32, 0_u32);
-    for k in 0..pyramid.layer_count() {
-        if let Some(c) = pyramid.counts(k) {
-            obstacle += c.obstacle;
-            free += c.free;
-            observed += c.observed;
-        }
-    }
-    let hash = digest(pyramid);
     let usage = stack::usage();
-    defmt::info!("sick: {}", sick);
-    defmt::info!("frontend: {}", frontend.stats());
-    defmt::info!("classifier: {}", classifier);
-    defmt::info!("pyramid: {}", stats);
     defmt::info!(
-        "cells: {=u32} obstacle, {=u32} free, {=u32} observed; digest {=u32:#010x}; unparsed {=u32}, rejected {=u32}",
-        obstacle,
-        free,
-        observed,
-        hash,
-        unparsed,
-        rejected
-    );
-    defmt::info!(
-        "stack: high-water {=u32} bytes of {=u32} ({=u32} never touched)",
+        "co-processor <{=usize}, {=usize}, {=usize}, {=usize}>: {=usize} B (pyramid {=usize}, pipeline {=usize}, link {=usize}); boot stack {=u32} B of {=u32}; crystal {=bool}",
+        CELLS,
+        LAYERS,
+        SLOTS,
+        QUEUE,
+        core::mem::size_of::<Board>(),
+        core::mem::size_of_val(core.pyramid()),
+        core::mem::size_of_val(core.frontend()),
+        core::mem::size_of_val(core.link()),
         usage.used,
         usage.size,
-        usage.untouched
+        clock.crystal
     );
-
-    let uart = laser.reader_mut();
-    let fields: [(&[u8], u32); 8] = [
-        (b"PIPELINE lines=", line),
-        (b" points=", classifier.points),
-        (b" overflows=", classifier.overflow_points),
-        (b" applied=", stats.applied),
-        (b" obstacle=", obstacle),
-        (b" free=", free),
-        (b" observed=", observed),
-        (b" stack=", usage.used),
-    ];
-    for (name, value) in fields {
-        let _ = uart.write_all(name);
-        write_u32(uart, value);
+    let mut line = SharedLine::new();
+    let mut buf = [0_u8; CHUNK];
+    loop {
+        // What the UART holds, split into telegram and frame pieces.
+        if let Ok(true) = uart.read_ready() {
+            match uart.read(&mut buf) {
+                Ok(n) => {
+                    let mut rest = buf.get(..n).unwrap_or(&[]);
+                    while let Some((route, piece, next)) = line.split(rest) {
+                        match route {
+                            Route::Laser => laser(core, piece),
+                            Route::Host => host(core, piece),
+                        }
+                        rest = next;
+                    }
+                }
+                Err(_) => core.laser_overrun(),
+            }
+        }
+        poll(core, clock.millis(), &mut uart);
+        if core.shutdown_requested() {
+            let usage = stack::usage();
+            core.answer_shutdown(StackUsage {
+                used: usage.used,
+                size: usage.size,
+            });
+            let _ = core.drain(&mut uart, usize::MAX);
+            defmt::info!("shutdown: {}; line {}", core.counters(), line.counters());
+            defmt::info!(
+                "stack: high-water {=u32} bytes of {=u32} ({=u32} never touched)",
+                usage.used,
+                usage.size,
+                usage.untouched
+            );
+            microbit_board::exit(microbit_board::EXIT_SUCCESS);
+        }
     }
-    let _ = uart.write_all(b" digest=");
-    write_hex(uart, hash);
-    let _ = uart.write_all(b"\n");
-    microbit_board::exit(microbit_board::EXIT_SUCCESS)
 }
