@@ -9,7 +9,7 @@
 //! then writes the telegram. The micro:bit has one UART: the laser's telegrams go onto it
 //! whole, between the link's frames (`terrain_pyramid::wire::shared_line`), which the
 //! lock-step play does by construction. On the netduinoplus2 a stand-in scanner answers the
-//! firmware's scanner bring-up on USART1 ([`stand_in_scanner`]).
+//! firmware's scanner bring-up on USART1.
 
 use crate::device::Device;
 use crate::link::{HostLink, LinkEvent};
