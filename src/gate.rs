@@ -489,6 +489,19 @@ impl<const L: usize> Gates<L> {
     }
 }
 
+/// The static RAM of the gating of `layers` layers, bytes: a 1 KiB table and a cell size per
+/// layer, and the fed-layer mask: the part of a design's RAM that sits with the classifier
+/// (equal to `size_of::<Gates<L>>()` for `layers = L`, up to alignment; a unit test holds them
+/// together).
+#[must_use]
+pub const fn ram_bytes(layers: usize) -> usize {
+    let raw = layers * (core::mem::size_of::<GateTable>() + core::mem::size_of::<Resolution>())
+        + core::mem::size_of::<DistanceBins>()
+        + 4
+        + FED_GROUPS;
+    raw.div_ceil(4) * 4
+}
+
 /// A layer's cell size as the grid holds it.
 fn resolution_of(layer: &LayerDesign) -> Result<Resolution, DesignError> {
     Resolution::from_m(layer.resolution_m).ok_or(DesignError::OutOfRange {
@@ -582,6 +595,13 @@ mod tests {
             }
             assert!(fed > GATE_BINS / 2);
         }
+    }
+
+    #[test]
+    fn ram_bytes_matches_the_layout() {
+        assert_eq!(ram_bytes(8), core::mem::size_of::<Gates<8>>());
+        assert_eq!(ram_bytes(1), core::mem::size_of::<Gates<1>>());
+        assert_eq!(ram_bytes(32), core::mem::size_of::<Gates<32>>());
     }
 
     #[test]

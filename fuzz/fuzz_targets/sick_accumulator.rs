@@ -2,7 +2,7 @@
 //!
 //! Invariants: no panic; the events do not depend on the chunking (the same stream fed whole
 //! gives the same events); every telegram handed out passes `Telegram::new_checked`, is the
-//! stream's own bytes at its offset, and parses (or is refused) by `Reply::parse` without
+//! stream's own bytes at its offset, and parses (or is refused) by `SickReply::parse` without
 //! panicking; the counters match the events; every byte is accounted for.
 #![no_main]
 
@@ -10,8 +10,8 @@ mod common;
 
 use libfuzzer_sys::fuzz_target;
 use terrain_pyramid::wire::sick::{
-    MeasuredValues, Reply, SickAccumulator, SickCounters, SickFeed, SickFrameError, SickItem,
-    Telegram, ADDRESS_REPLY,
+    MeasuredValues, SickAccumulator, SickCounters, SickFeed, SickFrameError, SickItem,
+    SickReply, Telegram, ADDRESS_REPLY,
 };
 use terrain_pyramid::wire::FeedResult;
 
@@ -35,7 +35,7 @@ fn record(r: &SickFeed<'_, '_>, out: &mut Vec<Ev>) -> bool {
             let checked = Telegram::new_checked(bytes).expect("a delivered telegram is valid");
             assert_eq!(checked.address(), ADDRESS_REPLY);
             assert_eq!(checked.total_len(), bytes.len());
-            let _ = Reply::parse(&checked);
+            let _ = SickReply::parse(&checked);
             if let Ok(mv) = MeasuredValues::parse(&checked) {
                 let _ = mv.ranges_mm(Default::default()).count();
                 let _ = mv.flags(Default::default()).count();

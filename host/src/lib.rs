@@ -13,6 +13,7 @@ pub mod export;
 pub mod link;
 pub mod listen;
 pub mod play;
+pub mod publish;
 pub mod record3dtk;
 pub mod replay;
 pub mod run;

@@ -4,6 +4,9 @@
 //! stream ends, `--duration-s` elapses or it is interrupted. The maps written must equal the
 //! device's pyramid cell for cell, also when the device's frames are lost or corrupted on the
 //! way and the host recovers through snapshots.
+#[path = "support/device.rs"]
+mod support;
+
 use serde_json::Value;
 use std::io::{ErrorKind, Read, Write};
 use std::net::{TcpListener, TcpStream};
@@ -12,10 +15,9 @@ use std::process::{Child, Command, Output, Stdio};
 use std::sync::mpsc;
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
+use support::serve_commands;
 use terrain_pyramid::design::{Schedule, SensorModel};
 use terrain_pyramid::link::{Link, LinkConfig, SensorCounters};
-use terrain_pyramid::wire::link::Reply;
-use terrain_pyramid::wire::FeedResult;
 use terrain_pyramid::{
     Config, DefaultDesign, DefaultPyramid, Evidence, EvidenceClass, Fused, Meters,
     DEFAULT_CELLS_PER_SIDE,
@@ -253,26 +255,6 @@ fn serve(listener: TcpListener, plan: Plan, settled: mpsc::Sender<()>) -> Served
         dropped: channel.dropped,
         flipped: channel.flipped,
         snapshots: c.snapshots,
-    }
-}
-
-/// Carries out the commands `pyramid listen` sends a device (snapshots, Stats, pings), as
-/// the application core does ([`Link::serve`]).
-fn serve_commands(link: &mut Link, pyramid: &mut DefaultPyramid, bytes: &[u8]) {
-    let mut input = bytes;
-    loop {
-        input = match link.receive(input) {
-            FeedResult::Consumed => return,
-            FeedResult::Item {
-                item, remaining, ..
-            } => {
-                if let Some(other) = link.serve(pyramid, item) {
-                    link.answer(Reply::ok(other.header));
-                }
-                remaining
-            }
-            FeedResult::Rejected { remaining, .. } => remaining,
-        };
     }
 }
 

@@ -9,9 +9,12 @@
 //! - [`angle`]: the [`angle::AngleSource`] trait, encoder mounting, and the host-supplied
 //!   angle for boards without an encoder.
 //! - [`as5047`]: the AS5047P-kind 14-bit magnetic encoder over SPI.
+//! - [`lidar`]: requests to the spinning UART lidars (RPLIDAR, YDLIDAR) through any
+//!   `embedded_io::Write`.
 //!
 //! (A laser's bytes need no driver: a board hands whatever its UART received to
 //! [`crate::app::CoProcessor::laser`].)
 
 pub mod angle;
 pub mod as5047;
+pub mod lidar;

@@ -14,10 +14,13 @@
 //! - `cargo xtask soak [--json] [--quick]`: an hour of simulated driving through the host
 //!   pipeline and ten minutes through the firmware on QEMU: counters, memory, map bounds,
 //!   throughput (RELIABILITY.md, "Soak"); `--quick` is CI's five and half a minute.
+//! - `cargo xtask layers [--json]`: the code's shape, checked: imports only point down the
+//!   library's layers, no import cycle, one definition per public type name.
 use std::process::ExitCode;
 
 mod bench;
 mod faults;
+mod layers;
 mod soak;
 mod test;
 
@@ -32,9 +35,11 @@ fn main() -> ExitCode {
         "bench" => bench::task(rest),
         "faults" => faults::task(rest),
         "soak" => soak::task(rest),
+        "layers" => layers::task(rest),
         _ => Err(
             "usage: cargo xtask test [--lint] | cargo xtask bench [--json] [--quick] \
-                  | cargo xtask faults [--json] [--quick] | cargo xtask soak [--json] [--quick]"
+                  | cargo xtask faults [--json] [--quick] | cargo xtask soak [--json] [--quick] \
+                  | cargo xtask layers [--json]"
                 .to_string(),
         ),
     };

@@ -114,7 +114,7 @@ pub struct Hello {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct PatchArea {
-    /// The layer, 0 = finest.
+    /// The layer, 0 = finest; below [`MAX_LAYERS`] (32).
     pub layer: u8,
     /// The layer's window origin when the patch was made, x.
     pub origin_x: i32,
@@ -636,7 +636,7 @@ pub enum SnapshotScope {
 
 /// One message of the protocol.
 ///
-/// Its size is that of a 16-layer [`Hello`], about 350 bytes: bounded, and boxed nowhere (the
+/// Its size is that of a 32-layer [`Hello`], about 660 bytes: bounded, and boxed nowhere (the
 /// library has no heap).
 #[derive(Debug, Clone, PartialEq)]
 #[allow(clippy::large_enum_variant)]

@@ -28,15 +28,15 @@ use super::{read_u16_le, Error};
 pub const ACK: u8 = 0x06;
 /// The scanner's negative acknowledgement, one byte sent instead of a reply.
 pub const NAK: u8 = 0x15;
-/// Request: select the operating mode.
+/// SickRequest: select the operating mode.
 pub const OPERATING_MODE: u8 = 0x20;
-/// Request: send measured values.
+/// SickRequest: send measured values.
 pub const REQUEST_MEASURED_VALUES: u8 = 0x30;
-/// Request: select the variant (scan angle and resolution).
+/// SickRequest: select the variant (scan angle and resolution).
 pub const VARIANT: u8 = 0x3B;
-/// Reply to [`OPERATING_MODE`].
+/// SickReply to [`OPERATING_MODE`].
 pub const OPERATING_MODE_REPLY: u8 = 0xA0;
-/// Reply to [`VARIANT`].
+/// SickReply to [`VARIANT`].
 pub const VARIANT_REPLY: u8 = 0xBB;
 /// The password of installation mode, 8 ASCII bytes.
 pub const INSTALLATION_PASSWORD: [u8; 8] = *b"SICK_LMS";
@@ -146,7 +146,7 @@ impl OperatingMode {
 /// module can send.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub enum Request {
+pub enum SickRequest {
     /// 0x20: select an operating mode (payload `20 mode [password]`).
     SetOperatingMode(OperatingMode),
     /// 0x3B: select a variant (payload `3B angle(u16 LE) resolution(u16 LE)`).
@@ -155,7 +155,7 @@ pub enum Request {
     MeasuredValues,
 }
 
-impl Request {
+impl SickRequest {
     /// Reads a request from a telegram's payload (ADR and CRC are the caller's: construct the
     /// telegram with [`Telegram::new_checked`]).
     ///
@@ -259,7 +259,7 @@ impl Request {
     }
 }
 
-/// Reply 0xA0 to an operating-mode request: `A0 result status`.
+/// SickReply 0xA0 to an operating-mode request: `A0 result status`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct OperatingModeReply {
@@ -277,7 +277,7 @@ impl OperatingModeReply {
         self.result == 0x00
     }
 
-    /// Reads the reply from a telegram's payload (CRC is the caller's, as for [`Request::parse`]).
+    /// Reads the reply from a telegram's payload (CRC is the caller's, as for [`SickRequest::parse`]).
     ///
     /// # Errors
     /// [`Error::UnexpectedCommand`] for another command, [`Error::BadPayloadLength`] unless
@@ -314,7 +314,7 @@ impl OperatingModeReply {
     }
 }
 
-/// Reply 0xBB to a variant request: `BB result angle(u16 LE) resolution(u16 LE) status`.
+/// SickReply 0xBB to a variant request: `BB result angle(u16 LE) resolution(u16 LE) status`.
 ///
 /// The angle and resolution are kept raw: they report the configuration in force, which a
 /// refused request leaves as it was; [`VariantReply::variant`] validates them.
@@ -393,7 +393,7 @@ impl VariantReply {
 /// Any reply this module reads, by command byte.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub enum Reply<'a> {
+pub enum SickReply<'a> {
     /// 0xA0.
     OperatingMode(OperatingModeReply),
     /// 0xBB.
@@ -407,13 +407,13 @@ pub enum Reply<'a> {
     },
 }
 
-impl<'a> Reply<'a> {
+impl<'a> SickReply<'a> {
     /// Reads a reply by its command byte (CRC is the caller's: the accumulator and
     /// [`Telegram::new_checked`] verify it).
     ///
     /// # Errors
     /// The errors of the reply's own `parse`; an unknown command is not an error but
-    /// [`Reply::Other`].
+    /// [`SickReply::Other`].
     pub fn parse<T: AsRef<[u8]> + ?Sized>(telegram: &Telegram<&'a T>) -> Result<Self, Error> {
         telegram.check_len()?;
         match telegram.command() {
@@ -434,7 +434,7 @@ mod tests {
     use super::*;
     use std::vec::Vec;
 
-    fn emit(request: Request) -> Vec<u8> {
+    fn emit(request: SickRequest) -> Vec<u8> {
         let mut buf = [0u8; 32];
         let n = request.emit(&mut buf).unwrap();
         assert_eq!(n, request.buffer_len());
@@ -464,40 +464,43 @@ mod tests {
             ),
         ];
         for (mode, wire) in cases {
-            let bytes = emit(Request::SetOperatingMode(mode));
+            let bytes = emit(SickRequest::SetOperatingMode(mode));
             assert_eq!(bytes, wire, "{mode:?}");
             let t = Telegram::new_checked(&bytes[..]).unwrap();
-            assert_eq!(Request::parse(&t), Ok(Request::SetOperatingMode(mode)));
+            assert_eq!(
+                SickRequest::parse(&t),
+                Ok(SickRequest::SetOperatingMode(mode))
+            );
         }
     }
 
     #[test]
     fn variant_bytes_match_the_documented_vector() {
-        let bytes = emit(Request::SetVariant(Variant::Fov180StepHalf));
+        let bytes = emit(SickRequest::SetVariant(Variant::Fov180StepHalf));
         assert_eq!(
             bytes,
             [0x02, 0x00, 0x05, 0x00, 0x3B, 0xB4, 0x00, 0x32, 0x00, 0x3B, 0x1F]
         );
         let t = Telegram::new_checked(&bytes[..]).unwrap();
         assert_eq!(
-            Request::parse(&t),
-            Ok(Request::SetVariant(Variant::Fov180StepHalf))
+            SickRequest::parse(&t),
+            Ok(SickRequest::SetVariant(Variant::Fov180StepHalf))
         );
     }
 
     #[test]
     fn installation_and_measured_values_round_trip() {
-        let install = Request::SetOperatingMode(OperatingMode::INSTALLATION);
+        let install = SickRequest::SetOperatingMode(OperatingMode::INSTALLATION);
         let bytes = emit(install);
         assert_eq!(&bytes[..6], &[0x02, 0x00, 0x0A, 0x00, 0x20, 0x00]);
         assert_eq!(&bytes[6..14], b"SICK_LMS");
         let t = Telegram::new_checked(&bytes[..]).unwrap();
-        assert_eq!(Request::parse(&t), Ok(install));
+        assert_eq!(SickRequest::parse(&t), Ok(install));
 
-        let bytes = emit(Request::MeasuredValues);
+        let bytes = emit(SickRequest::MeasuredValues);
         assert_eq!(&bytes[..6], &[0x02, 0x00, 0x02, 0x00, 0x30, 0x01]);
         let t = Telegram::new_checked(&bytes[..]).unwrap();
-        assert_eq!(Request::parse(&t), Ok(Request::MeasuredValues));
+        assert_eq!(SickRequest::parse(&t), Ok(SickRequest::MeasuredValues));
     }
 
     #[test]
@@ -538,7 +541,7 @@ mod tests {
             })
             .unwrap();
             let t = Telegram::new_checked(&buf[..n]).unwrap();
-            assert_eq!(Request::parse(&t), Err(error), "{payload:02x?}");
+            assert_eq!(SickRequest::parse(&t), Err(error), "{payload:02x?}");
         }
     }
 
@@ -546,7 +549,7 @@ mod tests {
     fn emit_into_a_short_buffer_writes_nothing() {
         let mut buf = [0xEE_u8; 7];
         assert_eq!(
-            Request::SetOperatingMode(OperatingMode::ContinuousAll).emit(&mut buf),
+            SickRequest::SetOperatingMode(OperatingMode::ContinuousAll).emit(&mut buf),
             Err(Error::BufferTooSmall {
                 needed: 8,
                 available: 7
@@ -566,7 +569,7 @@ mod tests {
         assert_eq!(n, a0.buffer_len());
         assert_eq!(&buf[..7], &[0x02, 0x80, 0x03, 0x00, 0xA0, 0x00, 0x10]);
         let t = Telegram::new_checked(&buf[..n]).unwrap();
-        assert_eq!(Reply::parse(&t), Ok(Reply::OperatingMode(a0)));
+        assert_eq!(SickReply::parse(&t), Ok(SickReply::OperatingMode(a0)));
         assert!(a0.accepted());
 
         let bb = VariantReply {
@@ -578,7 +581,7 @@ mod tests {
         let n = bb.emit(&mut buf).unwrap();
         assert_eq!(n, bb.buffer_len());
         let t = Telegram::new_checked(&buf[..n]).unwrap();
-        assert_eq!(Reply::parse(&t), Ok(Reply::Variant(bb)));
+        assert_eq!(SickReply::parse(&t), Ok(SickReply::Variant(bb)));
         assert!(bb.accepted());
         assert_eq!(bb.variant(), Ok(Variant::Fov180StepHalf));
 
@@ -587,7 +590,7 @@ mod tests {
         })
         .unwrap();
         let t = Telegram::new_checked(&buf[..n]).unwrap();
-        assert_eq!(Reply::parse(&t), Ok(Reply::Other { command: 0xB1 }));
+        assert_eq!(SickReply::parse(&t), Ok(SickReply::Other { command: 0xB1 }));
 
         let n = emit_with(&mut buf, ADDRESS_REPLY, 2, |d| {
             d.copy_from_slice(&[0xA0, 0])
@@ -595,7 +598,7 @@ mod tests {
         .unwrap();
         let t = Telegram::new_checked(&buf[..n]).unwrap();
         assert_eq!(
-            Reply::parse(&t),
+            SickReply::parse(&t),
             Err(Error::BadPayloadLength {
                 command: 0xA0,
                 len: 2

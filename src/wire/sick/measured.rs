@@ -1,4 +1,4 @@
-//! Reply 0xB0: the measured values of one scan.
+//! SickReply 0xB0: the measured values of one scan.
 //!
 //! ```text
 //! B0 | count word (u16 LE) | N x value (u16 LE) | [real-time scan index (u8)] | status (u8)
@@ -468,7 +468,7 @@ mod tests {
     extern crate std;
 
     use super::*;
-    use crate::wire::sick::{emit_telegram, Reply};
+    use crate::wire::sick::{emit_telegram, SickReply};
     use std::vec::Vec;
 
     fn le(values: &[u16]) -> Vec<u8> {
@@ -501,7 +501,7 @@ mod tests {
             assert_eq!(p.scan_index(), scan_index);
             assert_eq!(p.status(), 0x10);
             assert_eq!(p.count_word(), 4 | (2 << 11) | (1 << 14));
-            assert_eq!(Reply::parse(&t), Ok(Reply::MeasuredValues(m)));
+            assert_eq!(SickReply::parse(&t), Ok(SickReply::MeasuredValues(m)));
         }
     }
 

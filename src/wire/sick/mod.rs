@@ -17,8 +17,8 @@
 //!
 //! # Layers
 //! - [`Telegram`]: a zero-copy view over one framed telegram, with checked construction.
-//! - [`MeasuredValues`] (reply 0xB0), [`Request`] (0x20, 0x3B, 0x30), [`OperatingModeReply`]
-//!   (0xA0), [`VariantReply`] (0xBB), and [`Reply`] over all of them: validated
+//! - [`MeasuredValues`] (reply 0xB0), [`SickRequest`] (0x20, 0x3B, 0x30), [`OperatingModeReply`]
+//!   (0xA0), [`VariantReply`] (0xBB), and [`SickReply`] over all of them: validated
 //!   representations with `parse`, `emit` and `buffer_len`.
 //! - [`Accumulator`]: synchronisation and reassembly over arbitrary chunks of a byte stream,
 //!   with the counters of everything it rejects ([`Stats`]).
@@ -39,8 +39,8 @@ pub use accumulator::{
     SickAccumulator, SickCounters, SickFeed, SickFrameError, SickItem, DEFAULT_CAPACITY,
 };
 pub use command::{
-    reply_command, Baud, OperatingMode, OperatingModeReply, Reply, Request, VariantReply, ACK,
-    INSTALLATION_PASSWORD, NAK, OPERATING_MODE, OPERATING_MODE_REPLY, REQUEST_MEASURED_VALUES,
+    reply_command, Baud, OperatingMode, OperatingModeReply, SickReply, SickRequest, VariantReply,
+    ACK, INSTALLATION_PASSWORD, NAK, OPERATING_MODE, OPERATING_MODE_REPLY, REQUEST_MEASURED_VALUES,
     VARIANT, VARIANT_REPLY,
 };
 pub use crc::{crc16, Crc};
