@@ -21,7 +21,7 @@ use std::sync::mpsc::{channel, Receiver, RecvTimeoutError};
 use std::time::{Duration, Instant};
 use terrain_pyramid::wire::link::Message;
 use terrain_pyramid::wire::sick::{
-    OperatingMode, OperatingModeReply, Request, Telegram, ACK, ADDRESS_HOST, STX,
+    OperatingMode, OperatingModeReply, SickRequest, Telegram, ACK, ADDRESS_HOST, STX,
 };
 
 /// The firmware's crate, from this crate's manifest.
@@ -539,9 +539,9 @@ fn stand_in_scanner(mut port: UnixStream) {
             }
             let answer = match Telegram::new_checked(&pending[..total])
                 .ok()
-                .and_then(|t| Request::parse(&t).ok())
+                .and_then(|t| SickRequest::parse(&t).ok())
             {
-                Some(Request::SetOperatingMode(OperatingMode::Baud(_))) => {
+                Some(SickRequest::SetOperatingMode(OperatingMode::Baud(_))) => {
                     let reply = OperatingModeReply {
                         result: 0x00,
                         status: 0x10,
@@ -550,7 +550,7 @@ fn stand_in_scanner(mut port: UnixStream) {
                     let _ = reply.emit(&mut bytes[1..]);
                     bytes
                 }
-                Some(Request::SetOperatingMode(OperatingMode::ContinuousAll)) => vec![ACK],
+                Some(SickRequest::SetOperatingMode(OperatingMode::ContinuousAll)) => vec![ACK],
                 _ => Vec::new(),
             };
             pending.drain(..total);
