@@ -32,8 +32,9 @@
 //! - [`link`]: the device side of the serial link to the main computer (`docs/protocol.md`):
 //!   rate-limited patches of changed tiles, commands in, replies out.
 //! - [`drivers`]: thin adapters from embedded-io / embedded-hal to the pure code:
-//!   [`drivers::uart`] (telegrams from any `embedded_io::Read`), [`drivers::angle`] and
-//!   [`drivers::as5047`] (sources of the pan angle).
+//!   [`drivers::angle`] and [`drivers::as5047`] (sources of the pan angle),
+//!   [`drivers::lidar`] (requests to the spinning lidars). A laser's received bytes go
+//!   straight to [`app::CoProcessor::laser`].
 //!
 //! # Panic contract
 //! No function in this crate panics on any input, as smoltcp's `wire` promises: parsers and
