@@ -12,7 +12,7 @@
 use crate::link::{HostLink, LinkEvent};
 use terrain_pyramid::app::{CoProcessor, NoAngleSource, StackUsage};
 use terrain_pyramid::link::convert::ReplyText;
-use terrain_pyramid::link::LinkConfig;
+use terrain_pyramid::link::{LinkConfig, PollReport};
 use terrain_pyramid::pipeline::FrontendConfig;
 use terrain_pyramid::wire::link::{Message, Reply, SnapshotScope, Stats};
 use terrain_pyramid::{Config, Design};
@@ -152,6 +152,7 @@ pub struct InProcess<const W: usize, const L: usize, const C: usize, const Q: us
     host: HostLink,
     now_ms: u32,
     out: Vec<u8>,
+    last_poll: PollReport,
 }
 
 impl<const W: usize, const L: usize, const C: usize, const Q: usize> InProcess<W, L, C, Q> {
@@ -178,6 +179,7 @@ impl<const W: usize, const L: usize, const C: usize, const Q: usize> InProcess<W
             host: HostLink::new(),
             now_ms: 0,
             out: Vec::with_capacity(4096),
+            last_poll: PollReport::default(),
         })
     }
 
@@ -201,7 +203,7 @@ impl<const W: usize, const L: usize, const C: usize, const Q: usize> InProcess<W
     /// Polls the device at its clock, drains everything it queued into the mirror and returns
     /// what the mirror made of it.
     pub fn poll(&mut self) -> Vec<LinkEvent> {
-        self.core.poll(self.now_ms);
+        self.last_poll = self.core.poll(self.now_ms);
         self.out.clear();
         let mut buf = [0_u8; 1024];
         loop {
@@ -212,6 +214,12 @@ impl<const W: usize, const L: usize, const C: usize, const Q: usize> InProcess<W
             self.out.extend_from_slice(&buf[..n]);
         }
         self.host.feed(&self.out)
+    }
+
+    /// What the device's last poll queued (and what it left for later).
+    #[must_use]
+    pub fn last_poll(&self) -> PollReport {
+        self.last_poll
     }
 
     /// Answers a Shutdown the host sent, as a board does (a host process has no stack to

@@ -85,8 +85,10 @@ pub fn build_firmware_variant(
             .arg("--target-dir")
             .arg(&target_dir);
     }
+    // Anything the build prints goes to stderr: a caller's stdout may be its JSON.
     let status = cargo
         .current_dir(board_dir)
+        .stdout(std::io::stderr())
         .env_remove("CARGO_TARGET_DIR")
         .env_remove("RUSTFLAGS")
         .status()
