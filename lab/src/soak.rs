@@ -26,19 +26,23 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::Instant;
 use terrain_pyramid::classify::ClassifierConfig;
+use terrain_pyramid::geometry::ScanPlane;
 use terrain_pyramid::link::convert::{
     configure_of_design, frontend_config_of_event, setup_message,
 };
+use terrain_pyramid::link::{LinkConfig, DEFAULT_QUEUE_BYTES};
+use terrain_pyramid::pipeline::FrontendConfig;
 use terrain_pyramid::wire::link::{Message, PanAngle, PoseReport, Stats, STATS_COUNTERS};
 use terrain_pyramid::{
     Clamp, Config, DefaultDesign, Schedule, SensorModel, DEFAULT_CELLS_PER_SIDE,
+    DEFAULT_CLASSIFIER_SLOTS, DEFAULT_LAYERS,
 };
 use terrain_pyramid_host::device::Device;
+use terrain_pyramid_host::device::InProcess;
 use terrain_pyramid_host::emulator::{
     build_firmware, qemu_available, Emulator, BOARD_DIR, INSTALL_HINT,
 };
 use terrain_pyramid_host::link::{HostLink, LinkEvent, UNKNOWN};
-use terrain_pyramid_host::run::{boot_host_device, HostDevice};
 use terrain_pyramid_host_tests::sim::drive::{Drive, DriveConfig, DriveLine};
 
 /// Where the soak runs.
@@ -229,6 +233,15 @@ fn design_and_config() -> Result<(DefaultDesign, Config), String> {
     Ok((design, Config::default()))
 }
 
+/// The soak's in-process co-processor: the firmware's pyramid and classifier, and the link's
+/// default 4 KiB queue (the host soak's, as before the core existed; the QEMU board's is 2 KiB).
+type HostDevice = InProcess<
+    DEFAULT_CELLS_PER_SIDE,
+    DEFAULT_LAYERS,
+    DEFAULT_CLASSIFIER_SLOTS,
+    DEFAULT_QUEUE_BYTES,
+>;
+
 /// The in-process co-processor booted as the firmware boots, then configured over its link
 /// as the harness configures the board: Configure with the firmware's design, Setup from the
 /// drive.
@@ -239,7 +252,12 @@ fn in_process(
 ) -> Result<HostDevice, String> {
     let classifier = ClassifierConfig::default();
     frontend_config_of_event(setup, &classifier).map_err(|e| format!("the drive's setup: {e}"))?;
-    let mut device = boot_host_device()?;
+    let mut device = HostDevice::boot(
+        LinkConfig::DEFAULT,
+        design,
+        config,
+        FrontendConfig::lms291_boot(ScanPlane::TiltedHorizontal),
+    )?;
     device.wait_for("Hello", |link, _| link.mirror().firmware().is_some())?;
     device.command(
         "Configure",
