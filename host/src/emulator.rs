@@ -126,6 +126,8 @@ pub struct Emulator {
     uart1_path: PathBuf,
     /// Bytes received from UART1.
     pub bytes_received: u64,
+    /// Frames written to UART1 since boot, over every connection.
+    frames_sent: u64,
     _dir: TempDir,
 }
 
@@ -203,6 +205,7 @@ impl Emulator {
             tapped: 0,
             uart1_path: s1,
             bytes_received: 0,
+            frames_sent: 0,
             _dir: dir,
         })
     }
@@ -285,6 +288,7 @@ impl Device for Emulator {
         self.uart1
             .write_all(&bytes)
             .map_err(|e| format!("UART1: {e}"))?;
+        self.frames_sent += 1;
         Ok(seq)
     }
 
@@ -338,6 +342,10 @@ impl Device for Emulator {
 
     fn link(&self) -> &HostLink {
         &self.link
+    }
+
+    fn frames_sent(&self) -> u64 {
+        self.frames_sent
     }
 }
 
