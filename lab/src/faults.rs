@@ -863,6 +863,14 @@ fn run_kind(
     outcome.unaccounted_damage = reference.unaccounted;
     outcome.cells_differing = diff;
     outcome.reference_known_cells = known_cells(reference.pyramid());
+    // Every intact telegram reached the reference at an angle (a line before any angle
+    // would be dropped, by the reference and the firmware alike).
+    let without_angle = reference.device.core().counters().app.lines_without_angle;
+    if without_angle > 0 {
+        outcome.failures.push(format!(
+            "{without_angle} intact telegrams reached the reference before any pan angle"
+        ));
+    }
     outcome.map_equal_to_reference = diff == 0;
 
     // The firmware's counters against the accumulator's on the host, over the same bytes.
