@@ -225,8 +225,10 @@ pub fn build_firmware_variant(
             .arg("--target-dir")
             .arg(&target_dir);
     }
+    // Anything the build prints goes to stderr: a caller's stdout may be its JSON.
     let status = cargo
         .current_dir(board_dir)
+        .stdout(std::io::stderr())
         .env_remove("CARGO_TARGET_DIR")
         .env_remove("RUSTFLAGS")
         .status()
@@ -264,6 +266,8 @@ pub struct Emulator {
     uart1_path: PathBuf,
     /// Bytes received from UART1.
     pub bytes_received: u64,
+    /// Frames written to UART1 since boot, over every connection.
+    frames_sent: u64,
     _dir: TempDir,
 }
 
@@ -356,6 +360,7 @@ impl Emulator {
             tapped: 0,
             uart1_path: s1,
             bytes_received: 0,
+            frames_sent: 0,
             _dir: dir,
         })
     }
@@ -438,6 +443,7 @@ impl Device for Emulator {
         self.uart1
             .write_all(&bytes)
             .map_err(|e| format!("UART1: {e}"))?;
+        self.frames_sent += 1;
         Ok(seq)
     }
 
@@ -491,6 +497,10 @@ impl Device for Emulator {
 
     fn link(&self) -> &HostLink {
         &self.link
+    }
+
+    fn frames_sent(&self) -> u64 {
+        self.frames_sent
     }
 }
 

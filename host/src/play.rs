@@ -13,6 +13,9 @@
 //!    stream, and RequestStats until the device has counted it;
 //! 3. at the end, EndObservation (the last observation is applied) and the Stats that counts
 //!    everything.
+//!
+//! [`play_watched`] is the same loop with a look at the device before and after each
+//! telegram (the lab's stairs experiment asks the device's maps what it asks its own).
 
 use crate::device::Device;
 use crate::export::{LayerSnapshot, MapSnapshot};
@@ -180,15 +183,49 @@ fn send_pending(device: &mut impl Device, pending: &mut Pending) -> Result<(), S
 /// The robot's position of the last valid pose, metres (the maps' picture centres on it).
 pub type SensorXy = (f64, f64);
 
+/// A moment of [`play_watched`] at which the harness looks at the device.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Moment {
+    /// Before a telegram (and the angle and pose in force for it) is sent.
+    Before {
+        /// The recording's time of the telegram, µs.
+        time_us: u64,
+        /// The robot's position in force for it (the last valid pose), metres.
+        robot_xy: SensorXy,
+    },
+    /// After the device counted the telegram.
+    After {
+        /// Telegrams sent so far, this one included.
+        telegrams: u64,
+        /// The robot's position in force for it (the last valid pose), metres.
+        robot_xy: SensorXy,
+    },
+}
+
 /// Plays decoded `steps` through `device` (already configured with the design) with the
 /// classifier's thresholds; returns the counts and the last robot position.
 ///
 /// # Errors
 /// The device refused the setup or stopped answering; the recording's setup is invalid.
-pub fn play(
-    device: &mut impl Device,
+pub fn play<D: Device>(
+    device: &mut D,
     steps: &Steps,
     classifier: &ClassifierConfig,
+) -> Result<(RunCounts, SensorXy), String> {
+    play_watched(device, steps, classifier, |_, _| Ok(()))
+}
+
+/// [`play`], handing the device to `watch` before and after each telegram (to look at its
+/// maps at the moments an experiment looks at its own).
+///
+/// # Errors
+/// The device refused the setup or stopped answering; the recording's setup is invalid;
+/// `watch` failed.
+pub fn play_watched<D: Device>(
+    device: &mut D,
+    steps: &Steps,
+    classifier: &ClassifierConfig,
+    mut watch: impl FnMut(&mut D, Moment) -> Result<(), String>,
 ) -> Result<(RunCounts, SensorXy), String> {
     let mut counts = RunCounts {
         telegrams_rejected: steps.telegrams_rejected,
@@ -225,15 +262,32 @@ pub fn play(
                 }
             }
             Step::Telegram {
-                bytes, measured, ..
+                bytes,
+                measured,
+                time_us,
             } => {
                 if !measured {
                     continue;
                 }
+                let robot_xy = sensor_xy;
+                watch(
+                    device,
+                    Moment::Before {
+                        time_us: *time_us,
+                        robot_xy,
+                    },
+                )?;
                 send_pending(device, &mut pending)?;
                 device.laser(bytes)?;
                 counts.telegrams_sent += 1;
                 counted = device.wait_for_telegrams(counts.telegrams_sent)?;
+                watch(
+                    device,
+                    Moment::After {
+                        telegrams: counts.telegrams_sent,
+                        robot_xy,
+                    },
+                )?;
             }
         }
     }
