@@ -43,6 +43,7 @@
 #![deny(unsafe_code)]
 #![deny(missing_docs)]
 
+pub mod actuator;
 pub mod angle;
 pub mod fmath;
 #[macro_use]

@@ -36,9 +36,9 @@
 //! | pose change | [`Pose::frame`]: the rotation matrix, Q2.30 | 3 × integer sin/cos |
 //! | scan line | [`LineTransform::new`]: pose × actuator × plane, one 3 × 2 matrix | 1 × integer sin/cos |
 //! | point | [`LineTransform::point`] / [`LineTransform::locate`] / [`LineTransform::locate_squared`] | 9 multiplies (+ √ for d with `locate`; the pipeline bins d² instead) |
-| spinning lidar: pose change | [`SweepTransform::new`]: the pose and the mount | none beyond the pose's |
-| spinning lidar: actuator angle | [`SweepTransform::at`]: the plane at that angle | 1 × integer sin/cos, 6 multiplies |
-| spinning lidar: return | [`ActuatedPlane::locate_squared`]: its own beam angle θ | 1 × integer sin/cos, 12 multiplies |
+//! | spinning lidar: pose change | [`SweepTransform::new`]: the pose and the mount | none beyond the pose's |
+//! | spinning lidar: actuator angle | [`SweepTransform::at`]: the plane at that angle | 1 × integer sin/cos, 6 multiplies |
+//! | spinning lidar: return | [`ActuatedPlane::locate_squared`]: its own beam angle θ | 1 × integer sin/cos, 12 multiplies |
 //!
 //! No float runs per point or per line: the trigonometry is a quarter-wave table with a
 //! short Taylor correction in integers ([`crate::angle`]), so the host and every Cortex-M produce the

@@ -77,7 +77,10 @@ mod tests {
     fn clockwise_angles_map_onto_the_beam_angle() {
         assert_eq!(beam_angle_of_clockwise(FineAngle::ZERO), FineAngle::QUARTER);
         assert_eq!(beam_angle_of_clockwise(FineAngle::QUARTER), FineAngle::ZERO);
-        assert_eq!(beam_angle_of_clockwise(FineAngle::HALF), FineAngle::QUARTER.reversed());
+        assert_eq!(
+            beam_angle_of_clockwise(FineAngle::HALF),
+            FineAngle::QUARTER.reversed()
+        );
         assert_eq!(
             beam_angle_of_clockwise(FineAngle::from_bits(3 << 30)),
             FineAngle::HALF

@@ -99,12 +99,7 @@ impl SweepTransform {
             (i64::from(t.y.to_bits()) << 24) + rotated(1),
             (i64::from(t.z.to_bits()) << 24) + rotated(2),
         ];
-        Self {
-            c,
-            r0,
-            aux,
-            origin,
-        }
+        Self { c, r0, aux, origin }
     }
 
     /// The scanner's centre in the world frame, metres (saturated at ±32 768 m).
@@ -380,8 +375,9 @@ mod tests {
                 f64::from(range_mm) / 1000.0,
             );
             let g = [got.point.x, got.point.y, got.point.z].map(q16);
-            let e = ((g[0] - want[0]).powi(2) + (g[1] - want[1]).powi(2) + (g[2] - want[2]).powi(2))
-                .sqrt();
+            let e =
+                ((g[0] - want[0]).powi(2) + (g[1] - want[1]).powi(2) + (g[2] - want[2]).powi(2))
+                    .sqrt();
             let r = f64::from(range_mm) / 1000.0;
             assert!(e <= 3.0e-5 + 1e-8 * r, "{e} at {r} m");
             let origin = reference(
