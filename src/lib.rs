@@ -56,6 +56,7 @@ pub mod drivers;
 pub mod gate;
 pub mod geometry;
 pub mod grid;
+pub mod laser;
 pub mod link;
 pub mod logodds;
 pub mod pipeline;
