@@ -28,6 +28,19 @@
 
 use crate::angle::FineAngle;
 
+/// What moves the scan plane, as the setup says.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Actuator {
+    /// An actuator the co-processor does not command: its angle comes from the board's angle
+    /// source (an encoder) or, failing that, from the host's PanAngle.
+    #[default]
+    External,
+    /// A nodding servo the co-processor commands along this sweep; its angle comes from the
+    /// board's angle source when there is one (feedback), else from the sweep model.
+    Servo(ServoProfile),
+}
+
 /// How long a servo sweep holds its lower end after [`ServoSweep::begin`] before it starts:
 /// 500 ms, enough for a hobby servo to cross 180° (about 0.3 s unloaded) and settle.
 pub const SERVO_SETTLE_US: u32 = 500_000;

@@ -31,6 +31,9 @@ fn setup() -> FrontendConfig {
                 ..Point3::default()
             },
         ),
+        sensor: crate::laser::Sensor::Sick,
+        baud: 500_000,
+        actuator: crate::actuator::Actuator::External,
         variant: Variant::Fov180StepHalf,
         measuring_mode: MeasuringMode::Mm8Cm80,
         lines_per_observation: 1,
@@ -414,6 +417,7 @@ fn setup_request_stats_end_observation_and_shutdown() {
         step_threshold_m: 0.05,
         drop_threshold_m: 0.3,
         ceiling_m: 0.0,
+        laser: crate::wire::link::LaserSetup::SICK,
     };
     let mut bytes = command(0, &Message::Setup(setup));
     bytes.extend(command(
