@@ -352,6 +352,12 @@ impl<const C: usize, const L: usize> Frontend<C, L> {
         self.direction = 0;
     }
 
+    /// Whether a setup has been adopted ([`configure`](Self::configure)).
+    #[must_use]
+    pub const fn is_configured(&self) -> bool {
+        self.configured
+    }
+
     /// The configuration in force.
     #[must_use]
     pub const fn config(&self) -> &FrontendConfig {
@@ -854,6 +860,164 @@ mod tests {
         assert_eq!(f.stats().lines_rejected, 1);
         assert_eq!(f.classifier_stats().points, 0);
         assert_eq!(p.stats().applied, 0);
+    }
+
+    /// The same frontend set up for an LD06 on the tilt unit, 0.5 m up.
+    fn lidar(revolutions: u32) -> (Frontend<4096, 8>, std::boxed::Box<Pyramid<64, 8>>) {
+        let (mut f, p) = setup(revolutions);
+        let mut config = *f.config();
+        config.sensor = Sensor::Ld06;
+        config.baud = 230_400;
+        f.configure(config);
+        (f, p)
+    }
+
+    /// Twelve returns from `start_deg` clockwise 0.8° apart, as a lidar 0.5 m up tilted by
+    /// `tilt_deg` sees flat floor (no return where the beam does not meet it within 8 m).
+    fn floor_returns(start_deg: f64, tilt_deg: f64) -> Vec<LaserReturn> {
+        let tau = tilt_deg.to_radians();
+        (0..12)
+            .map(|k| {
+                let phi = start_deg + 0.8 * f64::from(k);
+                let theta = (90.0 - phi).to_radians();
+                let dz = -theta.sin() * tau.sin();
+                let r = if dz < -1e-6 { 0.5 / -dz } else { f64::INFINITY };
+                LaserReturn {
+                    angle: FineAngle::from_bits(
+                        (phi.rem_euclid(360.0) / 360.0 * 4_294_967_296.0) as u32,
+                    ),
+                    range_mm: if r < 8.0 {
+                        (r * 1000.0).round() as u32
+                    } else {
+                        0
+                    },
+                    quality: Some(100),
+                }
+            })
+            .collect()
+    }
+
+    fn all_cells(p: &Pyramid<64, 8>) -> Vec<Option<crate::Cell>> {
+        let mut cells = Vec::new();
+        for k in 0..p.layer_count() {
+            let layer = p.layer(k).unwrap();
+            let (ox, oy) = layer.origin();
+            for j in 0..64 {
+                for i in 0..64 {
+                    cells.push(layer.get(ox + i, oy + j));
+                }
+            }
+        }
+        cells
+    }
+
+    #[test]
+    fn lidar_packets_mark_the_floor_ahead() {
+        let (mut f, mut p) = lidar(1);
+        // A revolution: 0° ahead, packets of 9.6° all the way round, tilted 25° down.
+        for n in 0..38 {
+            let start = f64::from(n) * 9.6 - 4.8;
+            let returns = floor_returns(start, 25.0);
+            let wraps = n == 0 || n == 37;
+            f.packet(
+                &mut p,
+                returns,
+                wraps,
+                PacketActuator::still(FineAngle::from_quarter_degrees(100)),
+            )
+            .unwrap();
+        }
+        assert_eq!(f.stats().packets_applied, 38);
+        assert_eq!(f.stats().revolutions, 2);
+        // The second start closed the first observation.
+        assert_eq!(f.stats().observations, 1);
+        assert!(f.stats().returns > 100 && f.stats().no_return > 100);
+        let at = |x: f32, y: f32| p.fused(Meters::from_num(x), Meters::from_num(y));
+        // 0.5 m up at 25°: the floor ahead at 1.07 m, behind the beams go up (no return).
+        assert!(
+            matches!(at(1.07, 0.0), Fused::Navigable { .. }),
+            "{:?}",
+            at(1.07, 0.0)
+        );
+        assert_eq!(at(-1.07, 0.0), Fused::Unknown);
+        // A SICK line is refused while a lidar is set up, and a packet while a SICK is.
+        let values = ranges_mm(20.0);
+        let line = MeasuredValues::new(Unit::Millimetre, 0, &values, None, 0).unwrap();
+        assert_eq!(
+            f.line(&mut p, &line),
+            Err(LineError::WrongSensor {
+                configured: SensorKind::Ld06
+            })
+        );
+        let (mut sick, mut q) = setup(1);
+        assert_eq!(
+            sick.packet(
+                &mut q,
+                floor_returns(0.0, 20.0),
+                false,
+                PacketActuator::default()
+            ),
+            Err(LineError::WrongSensor {
+                configured: SensorKind::Sick
+            })
+        );
+        assert_eq!(sick.stats().lines_rejected, 1);
+    }
+
+    #[test]
+    fn each_return_gets_its_own_actuator_angle() {
+        // One packet while the actuator turns from 10° to 21°, against twelve packets of one
+        // return each at the interpolated angle (1° apart): the same points, the same cells.
+        let first = FineAngle::from_quarter_degrees(40);
+        let step = FineAngle::from_quarter_degrees(4).to_bits();
+        let last = FineAngle::from_bits(first.to_bits() + 11 * step);
+        let returns = floor_returns(-4.8, 15.0);
+        let (mut whole, mut p) = lidar(0);
+        whole
+            .packet(
+                &mut p,
+                returns.clone(),
+                false,
+                PacketActuator { first, last },
+            )
+            .unwrap();
+        whole.end_observation(&mut p);
+        let (mut single, mut q) = lidar(0);
+        for (k, r) in returns.iter().enumerate() {
+            let a = FineAngle::from_bits(first.to_bits() + k as u32 * step);
+            single
+                .packet(&mut q, [*r], false, PacketActuator::still(a))
+                .unwrap();
+        }
+        single.end_observation(&mut q);
+        assert_eq!(whole.classifier_stats(), single.classifier_stats());
+        assert_eq!(all_cells(&p), all_cells(&q));
+        // And not the cells of a packet at one angle throughout.
+        let (mut still, mut r) = lidar(0);
+        still
+            .packet(&mut r, returns, false, PacketActuator::still(first))
+            .unwrap();
+        still.end_observation(&mut r);
+        assert_ne!(all_cells(&p), all_cells(&r));
+    }
+
+    #[test]
+    fn a_lidar_sweep_ends_when_the_actuator_turns_back() {
+        let (mut f, mut p) = lidar(0);
+        let packet = |f: &mut Frontend<4096, 8>, p: &mut Pyramid<64, 8>, a: u32, b: u32| {
+            let act = PacketActuator {
+                first: FineAngle::from_quarter_degrees(a),
+                last: FineAngle::from_quarter_degrees(b),
+            };
+            f.packet(p, floor_returns(0.0, 20.0), false, act).unwrap();
+        };
+        for a in 40..60 {
+            packet(&mut f, &mut p, 4 * a, 4 * a + 2);
+        }
+        assert_eq!(f.stats().observations, 0);
+        packet(&mut f, &mut p, 240, 236);
+        assert_eq!(f.stats().observations, 1);
+        assert_eq!(f.lines_in_observation(), 1);
     }
 
     #[test]

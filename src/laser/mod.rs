@@ -257,7 +257,8 @@ impl Packet<'_> {
 
     /// Whether a revolution (the sensor's 0°) starts within the packet: LD06 a packet that
     /// crosses 0°; RPLIDAR a node with its S flag, a capsule whose points pass 360°; YDLIDAR
-    /// the zero packet (CT bit 0).
+    /// the zero packet (CT bit 0). An LD06 revolution that starts between two packets is
+    /// seen only across packets: [`RevolutionTracker`].
     #[must_use]
     pub fn starts_revolution(&self) -> bool {
         match self {
@@ -328,6 +329,40 @@ impl Packet<'_> {
         match self {
             Self::Ld06(p) => Some(p.speed_deg_per_s()),
             _ => None,
+        }
+    }
+}
+
+/// Where revolutions start, across packets: a packet's own flag (an RPLIDAR node's S, a
+/// capsule passing 360°, the YDLIDAR zero packet, an LD06 packet crossing 0°), or, for the
+/// LD06 whose packets carry no flag, a packet whose start angle lies below the previous
+/// packet's end angle (the revolution began between the two).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct RevolutionTracker {
+    /// The last LD06 packet's end angle, hundredths of a degree (below 36 000).
+    last_end: Option<u16>,
+}
+
+impl RevolutionTracker {
+    /// No packet seen.
+    #[must_use]
+    pub const fn new() -> Self {
+        Self { last_end: None }
+    }
+
+    /// Whether a revolution starts with or within `packet` (the packets in stream order).
+    pub fn starts(&mut self, packet: &Packet<'_>) -> bool {
+        match packet {
+            Packet::Ld06(p) => {
+                let turn = crate::wire::ld06::LD06_CENTIDEG_PER_TURN;
+                let start = p.start_angle_centideg() % turn;
+                let end = p.end_angle_centideg() % turn;
+                let between = self.last_end.is_some_and(|last| start < last);
+                self.last_end = Some(end);
+                between || p.starts_revolution()
+            }
+            other => other.starts_revolution(),
         }
     }
 }
@@ -447,6 +482,13 @@ pub enum LaserCounters {
     Rplidar(RplidarCounters),
     /// The YDLIDAR accumulator's.
     Ydlidar(YdlidarCounters),
+}
+
+impl Default for LaserCounters {
+    /// A SICK accumulator's, zero.
+    fn default() -> Self {
+        Self::Sick(SickCounters::default())
+    }
 }
 
 impl LaserCounters {

@@ -251,7 +251,7 @@ fn packet_times_follow_the_rate_and_the_wire() {
     let mut timer = PacketTimer::new(230_400);
     // 47 bytes at 230 400 Bd: 2 040 µs.
     assert_eq!(timer.bytes_us(47), 2_039);
-    let (first, last) = timer.times(&p, 1_000_000);
+    let (first, last) = timer.times(&p, 1_000_000, false);
     assert_eq!(last, 1_000_000 - 2_039);
     assert_eq!(last - first, 2_666);
 
@@ -269,7 +269,7 @@ fn packet_times_follow_the_rate_and_the_wire() {
         else {
             panic!()
         };
-        times.push(timer.times(&p, t));
+        times.push(timer.times(&p, t, p.starts_revolution()));
     }
     // 140 ms, then the mean of 140 and 142.
     assert_eq!(timer.revolution_us(), (141_000, true));
@@ -282,7 +282,7 @@ fn packet_times_follow_the_rate_and_the_wire() {
     else {
         panic!()
     };
-    let (first, last) = timer.times(&p, 500_000);
+    let (first, last) = timer.times(&p, 500_000, false);
     assert_eq!(last, 500_000 - timer.bytes_us(90));
     assert_eq!(last - first, 14_100);
     // A period outside 20 ms ..= 1 s is ignored.
@@ -293,7 +293,7 @@ fn packet_times_follow_the_rate_and_the_wire() {
     else {
         panic!()
     };
-    timer.times(&p, 282_000 + 5_000_000);
+    timer.times(&p, 282_000 + 5_000_000, true);
     assert_eq!(timer.revolution_us(), (141_000, true));
     timer.reset(115_200);
     assert_eq!(timer.revolution_us(), (DEFAULT_REVOLUTION_US, false));
@@ -320,4 +320,25 @@ fn sensors_kinds_and_modes() {
     assert_eq!(SensorKind::from_code(4), None);
     assert_eq!(SensorKind::Rplidar.default_baud(), 115_200);
     assert_eq!(std::format!("{}", SensorKind::Ydlidar), "ydlidar");
+}
+
+#[test]
+fn an_ld06_revolution_between_two_packets_is_seen() {
+    let mut d = LaserDecoder::new(Sensor::Ld06);
+    let mut tracker = RevolutionTracker::new();
+    let mut starts = Vec::new();
+    // 350.4 → 359.2, then 0.0 → 8.8 (the turn between them), then 9.6 → 18.4, then one
+    // crossing 0° inside.
+    for (a, b) in [(35_040, 35_920), (0, 880), (960, 1_840), (35_500, 380)] {
+        let bytes = ld06(a, b, 3_600);
+        let FeedResult::Item {
+            item: LaserItem::Packet(p),
+            ..
+        } = d.feed(&bytes)
+        else {
+            panic!()
+        };
+        starts.push(tracker.starts(&p));
+    }
+    assert_eq!(starts, [false, true, false, true]);
 }

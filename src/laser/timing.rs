@@ -96,15 +96,21 @@ impl PacketTimer {
     }
 
     /// The times of the packet's first and last return, µs (the board's clock), for a packet
-    /// whose last byte arrived at `end_us`; notes a revolution start.
-    pub fn times(&mut self, packet: &Packet<'_>, end_us: u32) -> (u32, u32) {
+    /// whose last byte arrived at `end_us`; notes a revolution start when `starts_revolution`
+    /// ([`super::RevolutionTracker`]).
+    pub fn times(
+        &mut self,
+        packet: &Packet<'_>,
+        end_us: u32,
+        starts_revolution: bool,
+    ) -> (u32, u32) {
         let mut end = end_us;
         if let Some(lag) = packet.lag() {
             end = end.wrapping_sub(self.duration_us(packet, lag));
         }
         let last = end.wrapping_sub(self.bytes_us(packet.wire_len()));
         let first = last.wrapping_sub(self.duration_us(packet, packet.span()));
-        if packet.starts_revolution() {
+        if starts_revolution {
             self.note_start(last);
         }
         (first, last)
