@@ -29,7 +29,7 @@ use crate::wire::link::{
     ClampRequest, Configure, GateRequest, Header, LaserSetup, PoseReport, Reply, ReplyCode, Setup,
     SnapshotScope, PARAM_LAYER,
 };
-use crate::wire::recording::{MountKind, SetupEvent};
+use crate::wire::recording::{MountKind, SensorEvent, SetupEvent};
 use crate::wire::sick::{MeasuringMode, Variant};
 
 // ---------------------------------------------------------------- Configure
@@ -352,6 +352,24 @@ pub fn setup_message(event: &SetupEvent, classifier: &ClassifierConfig) -> Setup
         ceiling_m: off(classifier.ceiling),
         laser: LaserSetup::SICK,
     }
+}
+
+/// The link's Setup of a recording's setup event, its sensor event (version 2; use
+/// [`SensorEvent::SICK`] for a version-1 recording) and the classifier's thresholds: the
+/// laser block names the sensor at its default baud rate on an external actuator (the
+/// recording's angle events are the angle), and byte 1 is the sensor's mode for a lidar.
+#[must_use]
+pub fn setup_message_with_sensor(
+    event: &SetupEvent,
+    sensor: &SensorEvent,
+    classifier: &ClassifierConfig,
+) -> Setup {
+    let mut setup = setup_message(event, classifier);
+    setup.laser.sensor = sensor.sensor;
+    if sensor.sensor != SensorKind::Sick.code() {
+        setup.measuring_mode = sensor.mode;
+    }
+    setup
 }
 
 /// The pipeline's configuration of a recording's setup event and the classifier's
