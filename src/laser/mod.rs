@@ -28,7 +28,7 @@
 //! counts every byte taken. When the setup switches sensors, the old decoder's counts are
 //! kept, so Stats' counters never go back.
 
-mod timing;
+pub mod timing;
 
 pub use timing::{PacketTimer, DEFAULT_REVOLUTION_US};
 
