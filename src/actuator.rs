@@ -105,40 +105,63 @@ fn rate_q48(mdeg_per_s: u32) -> u64 {
     u64::try_from(scaled).unwrap_or(u64::MAX)
 }
 
-/// Where a sweep's clock stands: the phase (2⁻⁴⁸ turn along the triangle, 0 = at `min`
-/// going up) at a time (µs).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-struct Anchor {
-    time_us: u32,
-    phase: u64,
-    /// Whether the settling hold is over (the anchor may then move).
-    settled: bool,
-}
-
 /// The commanded and the estimated angle of a servo swept by a [`ServoProfile`] (see the
-/// [module documentation](self)).
+/// [module documentation](self)). [`ServoSweep::OFF`], all zero bits, stands for no servo.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct ServoSweep {
     profile: ServoProfile,
+    /// Whether a profile is in force (not [`ServoSweep::OFF`]).
+    on: bool,
     /// 2⁻⁴⁸ turn per µs.
     rate: u64,
     /// One whole period (up and down), 2⁻⁴⁸ turn: 2 · span · 2¹⁶.
     period: u64,
-    anchor: Option<Anchor>,
+    /// Whether [`begin`](Self::begin) was called.
+    begun: bool,
+    /// Where the sweep's clock stands: the phase (2⁻⁴⁸ turn along the triangle, 0 = at `min`
+    /// going up) at a time (µs).
+    anchor_us: u32,
+    anchor_phase: u64,
+    /// Whether the settling hold is over (the anchor may then move).
+    settled: bool,
 }
 
 impl ServoSweep {
+    /// No servo: zero bits (a `const`-built co-processor holding it stays in `.bss`); it
+    /// commands and estimates nothing.
+    pub const OFF: Self = Self {
+        profile: ServoProfile {
+            min: FineAngle::ZERO,
+            max: FineAngle::ZERO,
+            rate_mdeg_per_s: 0,
+            latency_us: 0,
+        },
+        on: false,
+        rate: 0,
+        period: 0,
+        begun: false,
+        anchor_us: 0,
+        anchor_phase: 0,
+        settled: false,
+    };
+
     /// A sweep of `profile`, not begun: it commands nothing until [`begin`](Self::begin).
     #[must_use]
     pub fn new(profile: ServoProfile) -> Self {
         Self {
             profile,
+            on: true,
             rate: rate_q48(profile.rate_mdeg_per_s),
             period: profile.span_bits() << 17,
-            anchor: None,
+            ..Self::OFF
         }
+    }
+
+    /// Whether a profile is in force (not [`ServoSweep::OFF`]).
+    #[must_use]
+    pub const fn is_on(&self) -> bool {
+        self.on
     }
 
     /// The profile.
@@ -150,28 +173,27 @@ impl ServoSweep {
     /// Whether [`begin`](Self::begin) was called.
     #[must_use]
     pub const fn begun(&self) -> bool {
-        self.anchor.is_some()
+        self.begun
     }
 
     /// Starts the sweep at `now_us`: the command holds `min` for [`SERVO_SETTLE_US`], then
     /// sweeps. A second call restarts it.
     pub fn begin(&mut self, now_us: u32) {
-        self.anchor = Some(Anchor {
-            time_us: now_us.wrapping_add(SERVO_SETTLE_US),
-            phase: 0,
-            settled: false,
-        });
+        self.begun = true;
+        self.anchor_us = now_us.wrapping_add(SERVO_SETTLE_US);
+        self.anchor_phase = 0;
+        self.settled = false;
     }
 
     /// The phase at `t_us`, from the anchor (within ±2³¹ µs of it).
-    fn phase_at(&self, anchor: Anchor, t_us: u32) -> u64 {
+    fn phase_at(&self, t_us: u32) -> u64 {
         if self.period == 0 {
             return 0;
         }
         #[allow(clippy::cast_possible_wrap)]
-        let dt = i128::from(t_us.wrapping_sub(anchor.time_us) as i32);
+        let dt = i128::from(t_us.wrapping_sub(self.anchor_us) as i32);
         // In i128 whatever the rate: |dt| ≤ 2³¹, the rate below 2⁶⁴, the period below 2⁵⁰.
-        let p = (i128::from(anchor.phase) + dt * i128::from(self.rate))
+        let p = (i128::from(self.anchor_phase) + dt * i128::from(self.rate))
             .rem_euclid(i128::from(self.period));
         u64::try_from(p).unwrap_or(0)
     }
@@ -197,30 +219,26 @@ impl ServoSweep {
     /// ends the settling hold once it is over; call it with the current time at least every
     /// half hour.
     fn advance(&mut self, now_us: u32) {
-        let Some(anchor) = self.anchor else { return };
+        if !self.begun {
+            return;
+        }
         #[allow(clippy::cast_possible_wrap)]
-        let since = now_us.wrapping_sub(anchor.time_us) as i32;
-        if !anchor.settled {
+        let since = now_us.wrapping_sub(self.anchor_us) as i32;
+        if !self.settled {
             // Settled one second after the hold: every packet still to come is later than it.
             if since > 1_000_000 {
-                self.anchor = Some(Anchor {
-                    settled: true,
-                    ..anchor
-                });
+                self.settled = true;
             }
         } else if since > 1 << 29 {
-            self.anchor = Some(Anchor {
-                time_us: now_us,
-                phase: self.phase_at(anchor, now_us),
-                settled: true,
-            });
+            self.anchor_phase = self.phase_at(now_us);
+            self.anchor_us = now_us;
         }
     }
 
     /// The angle to command at `now_us` (begins the sweep if it was not): `min` during the
     /// settling hold, then the triangle wave.
     pub fn command(&mut self, now_us: u32) -> FineAngle {
-        if self.anchor.is_none() {
+        if !self.begun {
             self.begin(now_us);
         }
         self.advance(now_us);
@@ -230,12 +248,14 @@ impl ServoSweep {
     /// The command at `t_us` (within 2³¹ µs of the last call), `None` before
     /// [`begin`](Self::begin).
     fn command_at(&self, t_us: u32) -> Option<FineAngle> {
-        let anchor = self.anchor?;
+        if !self.begun {
+            return None;
+        }
         #[allow(clippy::cast_possible_wrap)]
-        if !anchor.settled && (t_us.wrapping_sub(anchor.time_us) as i32) < 0 {
+        if !self.settled && (t_us.wrapping_sub(self.anchor_us) as i32) < 0 {
             return Some(self.profile.min);
         }
-        Some(self.angle_at(self.phase_at(anchor, t_us)))
+        Some(self.angle_at(self.phase_at(t_us)))
     }
 
     /// The servo's estimated angle at `t_us`: the command at `t_us − latency`; `None` before
@@ -243,9 +263,11 @@ impl ServoSweep {
     /// of the last [`command`](Self::command) or [`track`](Self::track).
     #[must_use]
     pub fn estimate(&self, t_us: u32) -> Option<FineAngle> {
-        let anchor = self.anchor?;
+        if !self.begun {
+            return None;
+        }
         #[allow(clippy::cast_possible_wrap)]
-        if !anchor.settled && (t_us.wrapping_sub(anchor.time_us) as i32) < 0 {
+        if !self.settled && (t_us.wrapping_sub(self.anchor_us) as i32) < 0 {
             return None;
         }
         self.command_at(t_us.wrapping_sub(self.profile.latency_us))
@@ -254,7 +276,7 @@ impl ServoSweep {
     /// Keeps the model's clock with the board's at `now_us` when nothing commands the servo
     /// (an emulated board: the model runs open loop); begins the sweep if it was not.
     pub fn track(&mut self, now_us: u32) {
-        if self.anchor.is_none() {
+        if !self.begun {
             self.begin(now_us);
         }
         self.advance(now_us);

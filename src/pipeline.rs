@@ -293,7 +293,7 @@ impl<const C: usize, const L: usize> Frontend<C, L> {
                     },
                 ),
                 sensor: Sensor::Sick,
-                baud: SensorKind::Sick.default_baud(),
+                baud: 0,
                 actuator: Actuator::External,
                 variant: Variant::Fov180Step1,
                 measuring_mode: MeasuringMode::Mm8Cm80,

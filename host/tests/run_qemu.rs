@@ -225,7 +225,10 @@ fn synthetic_ld06_recording(path: &Path) {
         }
         r
     };
-    let tilts: Vec<f64> = (0..12).chain((1..11).rev()).map(|k| 8.0 + 2.0 * f64::from(k)).collect();
+    let tilts: Vec<f64> = (0..12)
+        .chain((1..11).rev())
+        .map(|k| 8.0 + 2.0 * f64::from(k))
+        .collect();
     let mut stream_packets = 0_u32;
     for n in 0..180_u32 {
         if n == 90 {
@@ -243,7 +246,11 @@ fn synthetic_ld06_recording(path: &Path) {
             let (s, c) = (phi.sin(), phi.cos());
             let dir = [c * tau.cos(), -s, -c * tau.sin()];
             let r = range(dir);
-            p.distance_mm = if r < 12.0 { (r * 1000.0).round() as u16 } else { 0 };
+            p.distance_mm = if r < 12.0 {
+                (r * 1000.0).round() as u16
+            } else {
+                0
+            };
             p.intensity = 100 + (j as u8);
         }
         let repr = Ld06Repr {

@@ -66,7 +66,7 @@ use crate::classify::ClassifierStats;
 use crate::design::{Design, DesignError};
 use crate::drivers::angle::AngleSource;
 use crate::laser::{
-    LaserCounters, LaserDecoder, LaserItem, PacketTimer, RevolutionTracker, Sensor, SensorKind,
+    LaserCounters, LaserDecoder, LaserItem, PacketTimer, RevolutionTracker, Sensor,
 };
 use crate::link::convert;
 use crate::link::{
@@ -214,8 +214,9 @@ pub struct CoProcessor<const W: usize, const L: usize, const C: usize, const Q: 
     revolutions: RevolutionTracker,
     /// The board's angle source's last readings.
     track: AngleTrack,
-    /// The nodding servo's model, when the setup has one.
-    servo: Option<ServoSweep>,
+    /// The nodding servo's model ([`ServoSweep::OFF`] without one; not an `Option`, whose
+    /// `None` may not be zero bits).
+    servo: ServoSweep,
     /// Whether the board has yet to set its laser UART up for the sensor in force.
     laser_change: bool,
     /// The host's last PanAngle: stands in when the board's angle source fails.
@@ -256,10 +257,10 @@ impl<const W: usize, const L: usize, const C: usize, const Q: usize> CoProcessor
             frontend: Frontend::unconfigured(),
             link: Link::unconfigured(),
             laser: LaserDecoder::new(Sensor::Sick),
-            timer: PacketTimer::new(SensorKind::Sick.default_baud()),
+            timer: PacketTimer::ZERO,
             revolutions: RevolutionTracker::new(),
             track: AngleTrack::new(),
-            servo: None,
+            servo: ServoSweep::OFF,
             laser_change: false,
             host_angle: None,
             shutdown: Shutdown::Running,
@@ -344,10 +345,10 @@ impl<const W: usize, const L: usize, const C: usize, const Q: usize> CoProcessor
             self.laser_change = true;
         }
         match setup.actuator {
-            Actuator::External => self.servo = None,
+            Actuator::External => self.servo = ServoSweep::OFF,
             Actuator::Servo(profile) => {
-                if self.servo.map(|s| *s.profile()) != Some(profile) {
-                    self.servo = Some(ServoSweep::new(profile));
+                if !self.servo.is_on() || *self.servo.profile() != profile {
+                    self.servo = ServoSweep::new(profile);
                 }
             }
         }
@@ -437,11 +438,25 @@ impl<const W: usize, const L: usize, const C: usize, const Q: usize> CoProcessor
     /// telegram or packet are kept for the next call. Nothing is taken while a Shutdown waits
     /// for its answer.
     pub fn laser(&mut self, bytes: &[u8], now_us: u32, angle: &mut impl AngleSource) {
+        self.laser_timed(bytes, now_us, now_us, angle);
+    }
+
+    /// [`laser`](Self::laser) for a board that knows when the chunk's last byte arrived
+    /// (`arrival_us`, from its receive interrupt) apart from the time of the call (`now_us`,
+    /// when the angle source is read): packets are timed back from `arrival_us`, the source's
+    /// reading is kept with `now_us`. Both on the board's µs clock.
+    pub fn laser_timed(
+        &mut self,
+        bytes: &[u8],
+        arrival_us: u32,
+        now_us: u32,
+        angle: &mut impl AngleSource,
+    ) {
         if self.shutdown != Shutdown::Running {
             return;
         }
-        if let Some(servo) = &mut self.servo {
-            servo.track(now_us);
+        if self.servo.is_on() {
+            self.servo.track(now_us);
         }
         // The board's source, read at most once per call (at `now_us`).
         let mut reading = Reading::NotYet;
@@ -458,9 +473,14 @@ impl<const W: usize, const L: usize, const C: usize, const Q: usize> CoProcessor
             match item {
                 LaserItem::Telegram(telegram) => match MeasuredValues::parse(&telegram) {
                     Ok(values) => {
-                        let servo = self.servo.as_ref();
-                        match line_angle(angle, self.host_angle, servo, now_us, &mut self.counters)
-                        {
+                        let servo = self.servo.is_on().then_some(&self.servo);
+                        match line_angle(
+                            angle,
+                            self.host_angle,
+                            servo,
+                            arrival_us,
+                            &mut self.counters,
+                        ) {
                             Some(a) => {
                                 self.frontend.set_actuator(a);
                                 // A refused line is counted by the pipeline.
@@ -473,7 +493,7 @@ impl<const W: usize, const L: usize, const C: usize, const Q: usize> CoProcessor
                 },
                 LaserItem::Packet(packet) => {
                     // The packet's last byte arrived before the bytes still in the chunk.
-                    let end = now_us.wrapping_sub(self.timer.bytes_us(chunk.len()));
+                    let end = arrival_us.wrapping_sub(self.timer.bytes_us(chunk.len()));
                     let starts = self.revolutions.starts(&packet);
                     let (first, last) = self.timer.times(&packet, end, starts);
                     if reading == Reading::NotYet {
@@ -490,13 +510,13 @@ impl<const W: usize, const L: usize, const C: usize, const Q: usize> CoProcessor
                     }
                     let actuator = match reading {
                         Reading::Read => self.track.at(first).zip(self.track.at(last)),
-                        _ => match &self.servo {
-                            Some(servo) => servo.estimate(first).zip(servo.estimate(last)),
-                            None => self.host_angle.map(|a| {
-                                let a = FineAngle::from(a);
-                                (a, a)
-                            }),
-                        },
+                        _ if self.servo.is_on() => {
+                            self.servo.estimate(first).zip(self.servo.estimate(last))
+                        }
+                        _ => self.host_angle.map(|a| {
+                            let a = FineAngle::from(a);
+                            (a, a)
+                        }),
                     };
                     match actuator {
                         Some((first, last)) => {
@@ -522,7 +542,7 @@ impl<const W: usize, const L: usize, const C: usize, const Q: usize> CoProcessor
     /// its main loop. The first call begins the sweep (a settling hold at its lower end);
     /// `None` without a servo.
     pub fn actuator_command(&mut self, now_us: u32) -> Option<FineAngle> {
-        self.servo.as_mut().map(|s| s.command(now_us))
+        self.servo.is_on().then(|| self.servo.command(now_us))
     }
 
     /// The laser the setup in force names and its UART's baud rate.

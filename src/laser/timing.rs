@@ -54,6 +54,16 @@ impl Default for PacketTimer {
 }
 
 impl PacketTimer {
+    /// A timer of zero bits (no baud rate: every byte takes "forever"; no period), the
+    /// placeholder of a `const`-built co-processor until its setup [`reset`](Self::reset)s
+    /// it: a `static` holding it stays in `.bss`.
+    pub const ZERO: Self = Self {
+        byte_q16: 0,
+        period_us: 0,
+        measured: false,
+        last_start_us: None,
+    };
+
     /// A timer for a UART at `baud` (at least 1), with no revolution seen.
     #[must_use]
     pub const fn new(baud: u32) -> Self {
