@@ -93,17 +93,25 @@ def main() -> None:
     g["reply refusing gamma, 0x0106"] = frame(
         0x05, 0x0106, struct.pack("<HBBBfff", 12, 0x83, 3, 7, 200.0, 0.0, 100.0)
     )
-    # A refusal of layer 3's decay time constant (param 64 + 3 = 67, OutOfRange 3): tau
+    # A refusal of layer 3's decay time constant (param 96 + 3 = 99, OutOfRange 3): tau
     # 1 s with a window that needs at least 4 s (W = 128), up to 60 097 s.
     g["reply refusing decay tau of layer 3, 0x0106"] = frame(
-        0x05, 0x0106, struct.pack("<HBBBfff", 12, 0x83, 3, 67, 1.0, 4.0, 60097.0)
+        0x05, 0x0106, struct.pack("<HBBBfff", 12, 0x83, 3, 99, 1.0, 4.0, 60097.0)
     )
     decayed = struct.pack("<BI", 1, 0b1001)
     decayed += struct.pack("<HHI", 62, 3, 5)  # layer 0: rows 62, 63, 0; 5 cells faded
     decayed += struct.pack("<HHI", 10, 1, 0)  # layer 3: row 10; none faded
     g["decayed 0x0107"] = frame(0x06, 0x0107, decayed)
+    # Setup: the base part (38 bytes) and the laser block (22 bytes: sensor, actuator, baud,
+    # servo min, max, rate, latency).
     setup = struct.pack("<BBHH3fI4f", 1, 0, 180, 50, 0.25, -0.5, 0.75, 0, 1.0, 0.05, 0.0, 2.0)
-    g["setup 7"] = frame(0x87, 7, setup)
+    setup += struct.pack("<BBI4f", 0, 0, 0, 0.0, 0.0, 0.0, 0.0)
+    assert len(setup) == 60
+    g["setup 7 (a SICK, external actuator)"] = frame(0x87, 7, setup)
+    lidar = struct.pack("<BBHH3fI4f", 1, 0, 0, 0, 0.1, 0.0, 0.4, 2, 0.5, 0.08, 0.0, 0.0)
+    lidar += struct.pack("<BBI4f", 1, 1, 0, -10.0, 30.0, 60.0, 25.0)
+    assert len(lidar) == 60
+    g["setup 8 (an LD06 on a nodding servo)"] = frame(0x87, 8, lidar)
     g["request stats 2"] = frame(0x88, 2, b"")
     g["shutdown 2"] = frame(0x89, 2, b"")
     g["end observation 2"] = frame(0x8A, 2, b"")

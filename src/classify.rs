@@ -346,7 +346,7 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
     /// (raw Q16.16 units squared, 2⁻³² m², as
     /// [`LineTransform::locate_squared`](crate::geometry::LineTransform::locate_squared)
     /// gives it): exactly the same as `add_point` with the rounded square root, without
-    /// computing the root ([`DistanceBins::bin_of_squared`]).
+    /// computing the root ([`DistanceBins::bin_of_squared`](crate::gate::DistanceBins::bin_of_squared)).
     #[inline]
     pub fn add_point_squared(&mut self, point: Point3, horizontal_squared: u64, ground_z: Meters) {
         // The previous point's bin first: neighbouring returns mostly share it.

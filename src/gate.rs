@@ -224,14 +224,22 @@ impl GateTable {
     #[must_use]
     pub fn build<const L: usize>(design: &Design<L>, k: usize, bins: DistanceBins) -> Self {
         let mut table = Self::ZERO;
+        table.rebuild(design, k, bins);
+        table
+    }
+
+    /// Rebuilds this table as [`GateTable::build`] of layer `k` (all zero if the design has no
+    /// layer `k`), in place: without a second 1 KiB table on the stack.
+    pub fn rebuild<const L: usize>(&mut self, design: &Design<L>, k: usize, bins: DistanceBins) {
+        self.weights.fill(Weight::ZERO);
         let layers = design.layers();
         let Some(layer) = layers.get(k) else {
-            return table;
+            return;
         };
         let last = k + 1 == layers.len();
         let shape = design.schedule().gate;
         let range = design.sensor().max_range_m;
-        for (i, w) in table.weights.iter_mut().enumerate() {
+        for (i, w) in self.weights.iter_mut().enumerate() {
             // Nothing is measured beyond the maximum range: bins that start past it feed no
             // layer (the last band is closed at R).
             if bins.lower_edge_m(i) > range {
@@ -239,7 +247,6 @@ impl GateTable {
             }
             *w = round_weight(weight_at(layer, last, shape, bins.center_m(i)));
         }
-        table
     }
 
     /// The weight of a distance bin (0 past the table, which [`DistanceBins::bin`] never
@@ -398,11 +405,12 @@ impl<const L: usize> Gates<L> {
         let bins = DistanceBins::for_range(design.sensor().max_range_m);
         let active = design.layers().len().min(L).min(usize::from(u8::MAX));
         for (k, table) in self.tables.iter_mut().enumerate() {
-            *table = if k < active {
-                GateTable::build(design, k, bins)
+            // In place: a table built on the stack and copied would cost 1 KiB of frame.
+            if k < active {
+                table.rebuild(design, k, bins);
             } else {
-                GateTable::ZERO
-            };
+                table.weights.fill(Weight::ZERO);
+            }
         }
         let min_weight = min_feeding_weight(increments);
         let mut fed = [0_u8; FED_GROUPS];
@@ -524,6 +532,38 @@ mod tests {
                 let w = Weight::from_bits(raw);
                 let feeds = gated(inc.obstacle, w) != 0 || gated(inc.free, w) != 0;
                 assert_eq!(feeds, raw >= min, "({obstacle}, {free}) at w = {raw}");
+            }
+        }
+    }
+
+    #[test]
+    fn rebuild_in_place_is_build() {
+        let designs = [
+            Design::<8>::new(SensorModel::default(), Schedule::default(), 64).unwrap(),
+            Design::<8>::new(
+                SensorModel {
+                    max_range_m: 4.0,
+                    ..SensorModel::default()
+                },
+                Schedule {
+                    gate: GateShape::Hard,
+                    ..Schedule::default()
+                },
+                64,
+            )
+            .unwrap(),
+        ];
+        for a in &designs {
+            for b in &designs {
+                let (bins_a, bins_b) = (
+                    DistanceBins::for_range(a.sensor().max_range_m),
+                    DistanceBins::for_range(b.sensor().max_range_m),
+                );
+                for k in 0..9 {
+                    let mut t = GateTable::build(a, k, bins_a);
+                    t.rebuild(b, k, bins_b);
+                    assert_eq!(t.weights(), GateTable::build(b, k, bins_b).weights(), "{k}");
+                }
             }
         }
     }

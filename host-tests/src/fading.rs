@@ -303,9 +303,11 @@ pub fn run(sim: &ChangingSimulation, decay: DecaySetting) -> Result<RunResult, S
             }
             Payload::Angle(turns) => angle.set(Angle::from_bits(turns)),
             Payload::Laser(bytes) => {
-                core.laser(bytes, &mut angle);
+                // The board's clocks: µs for the laser (wrapping), ms for the poll.
                 #[allow(clippy::cast_possible_truncation)]
-                core.poll((event.time_us / 1000) as u32);
+                let (now_us, now_ms) = (event.time_us as u32, (event.time_us / 1000) as u32);
+                core.laser(bytes, now_us, &mut angle);
+                core.poll(now_ms);
                 while core.take_output(&mut sink) > 0 {}
                 if t > last_eval {
                     last_eval = t;
@@ -319,7 +321,8 @@ pub fn run(sim: &ChangingSimulation, decay: DecaySetting) -> Result<RunResult, S
                     );
                 }
             }
-            Payload::Marker(_) | Payload::Unknown { .. } => {}
+            // The simulated scenes are a SICK's: no sensor event to follow.
+            Payload::Marker(_) | Payload::Sensor(_) | Payload::Unknown { .. } => {}
         }
     }
 

@@ -10,7 +10,8 @@ use std::process::ExitCode;
 use terrain_pyramid::design::BoundTerms;
 use terrain_pyramid::{Design, DesignError, GateShape, Schedule, SensorModel};
 
-pub(crate) mod plot;
+/// Figure 2 as a PNG (`pyramid design --plot`, and the lab's experiments).
+pub mod plot;
 
 /// The number of layers the pyramid is compiled for: the `L` of `Design::<L>`.
 pub const LAYER_CAPACITY: usize = 16;

@@ -12,7 +12,7 @@
 use crate::link::{HostLink, LinkEvent};
 use terrain_pyramid::app::{CoProcessor, NoAngleSource, StackUsage};
 use terrain_pyramid::link::convert::ReplyText;
-use terrain_pyramid::link::LinkConfig;
+use terrain_pyramid::link::{LinkConfig, PollReport};
 use terrain_pyramid::pipeline::FrontendConfig;
 use terrain_pyramid::wire::link::{Message, Reply, SnapshotScope, Stats};
 use terrain_pyramid::{Config, Design};
@@ -48,6 +48,10 @@ pub trait Device {
     /// The host's end of the link: the decoder and the mirror.
     fn link(&self) -> &HostLink;
 
+    /// Frames sent to the device since it booted, over every connection: the Stats that
+    /// answers the last RequestStats counts at least as many received frames.
+    fn frames_sent(&self) -> u64;
+
     /// Sends `message` and waits for its Reply; a refusal is an error that reads as the
     /// Reply's sentence.
     ///
@@ -73,14 +77,17 @@ pub trait Device {
     }
 
     /// RequestStats, and the Stats that answers it (every frame sent before it is applied).
+    /// The device also sends Stats on its own (every `stats_interval_ms`): one made before
+    /// it had taken every frame sent (by its receive counters) is not the answer.
     ///
     /// # Errors
     /// No Stats in time.
     fn stats(&mut self) -> Result<Stats, String> {
         self.send(&Message::RequestStats)?;
+        let sent = self.frames_sent();
         let mut stats = None;
         self.wait_for("Stats", |_, e| match e {
-            Some(LinkEvent::Stats(s)) => {
+            Some(LinkEvent::Stats(s)) if frames_received(s) >= sent => {
                 stats = Some(*s);
                 true
             }
@@ -108,6 +115,26 @@ pub trait Device {
         }
         Err(format!(
             "telegram {target}: the device counts only {counted} telegrams"
+        ))
+    }
+
+    /// RequestStats until the device has taken `target` laser bytes since it booted
+    /// (`laser_bytes`, compared modulo 2³²); returns its count.
+    ///
+    /// # Errors
+    /// No Stats in time, or the count never reaching `target`.
+    fn wait_for_laser_bytes(&mut self, target: u64) -> Result<u64, String> {
+        let mut taken = 0;
+        for _ in 0..100_000 {
+            let s = self.stats()?;
+            taken = s.laser_bytes;
+            #[allow(clippy::cast_possible_truncation, clippy::cast_possible_wrap)]
+            if taken.wrapping_sub(target as u32) as i32 >= 0 {
+                return Ok(u64::from(taken));
+            }
+        }
+        Err(format!(
+            "laser byte {target}: the device has taken only {taken} (mod 2^32)"
         ))
     }
 
@@ -144,6 +171,17 @@ pub trait Device {
     }
 }
 
+/// Host frames a Stats counts as received (good or refused for their framing), as the
+/// device's frame accumulator counts them: each frame exactly once.
+#[must_use]
+pub fn frames_received(s: &Stats) -> u64 {
+    u64::from(s.rx_frames_ok)
+        + u64::from(s.rx_bad_cobs)
+        + u64::from(s.rx_bad_crc)
+        + u64::from(s.rx_bad_length)
+        + u64::from(s.rx_bad_other)
+}
+
 /// The library's co-processor in this process, with a host link's mirror of its maps and a
 /// clock the harness moves ([`InProcess::set_time`]). Its queue is drained completely at every
 /// poll, as a UART faster than the link's budget would.
@@ -152,6 +190,8 @@ pub struct InProcess<const W: usize, const L: usize, const C: usize, const Q: us
     host: HostLink,
     now_ms: u32,
     out: Vec<u8>,
+    last_poll: PollReport,
+    frames_sent: u64,
 }
 
 impl<const W: usize, const L: usize, const C: usize, const Q: usize> InProcess<W, L, C, Q> {
@@ -178,6 +218,8 @@ impl<const W: usize, const L: usize, const C: usize, const Q: usize> InProcess<W
             host: HostLink::new(),
             now_ms: 0,
             out: Vec::with_capacity(4096),
+            last_poll: PollReport::default(),
+            frames_sent: 0,
         })
     }
 
@@ -201,7 +243,7 @@ impl<const W: usize, const L: usize, const C: usize, const Q: usize> InProcess<W
     /// Polls the device at its clock, drains everything it queued into the mirror and returns
     /// what the mirror made of it.
     pub fn poll(&mut self) -> Vec<LinkEvent> {
-        self.core.poll(self.now_ms);
+        self.last_poll = self.core.poll(self.now_ms);
         self.out.clear();
         let mut buf = [0_u8; 1024];
         loop {
@@ -212,6 +254,12 @@ impl<const W: usize, const L: usize, const C: usize, const Q: usize> InProcess<W
             self.out.extend_from_slice(&buf[..n]);
         }
         self.host.feed(&self.out)
+    }
+
+    /// What the device's last poll queued (and what it left for later).
+    #[must_use]
+    pub fn last_poll(&self) -> PollReport {
+        self.last_poll
     }
 
     /// Answers a Shutdown the host sent, as a board does (a host process has no stack to
@@ -226,7 +274,9 @@ impl<const W: usize, const L: usize, const C: usize, const Q: usize> Device
     for InProcess<W, L, C, Q>
 {
     fn laser(&mut self, bytes: &[u8]) -> Result<(), String> {
-        self.core.laser(bytes, &mut NoAngleSource);
+        // The in-process clock, in µs (it wraps with the board's every 71.6 minutes).
+        let now_us = self.now_ms.wrapping_mul(1_000);
+        self.core.laser(bytes, now_us, &mut NoAngleSource);
         Ok(())
     }
 
@@ -234,6 +284,7 @@ impl<const W: usize, const L: usize, const C: usize, const Q: usize> Device
         let seq = self.host.next_seq();
         let bytes = self.host.command(message).map_err(|e| e.to_string())?;
         self.core.host(&bytes);
+        self.frames_sent += 1;
         if self.core.shutdown_requested() {
             self.core.answer_shutdown(StackUsage::default());
         }
@@ -281,5 +332,9 @@ impl<const W: usize, const L: usize, const C: usize, const Q: usize> Device
             self.now_ms = self.now_ms.wrapping_add(Self::POLL_STEP_MS);
         }
         Err("the device's tiles never stopped changing".into())
+    }
+
+    fn frames_sent(&self) -> u64 {
+        self.frames_sent
     }
 }

@@ -1,8 +1,10 @@
 //! `pyramid run`: a recording through the co-processor, and the maps it builds.
 //!
 //! `--board host` runs the library's application core ([`terrain_pyramid::app::CoProcessor`])
-//! in this process; `--board qemu` runs the firmware on QEMU's emulated Cortex-M4F. Both are
-//! driven the same way ([`crate::play`]): boot, Hello, Configure with the flags' design,
+//! in this process; `--board qemu` runs the firmware on QEMU's emulated Cortex-M4F,
+//! `netduinoplus2` the STM32F4 firmware on QEMU's STM32F405, `microbit` the micro:bit firmware
+//! (16-cell windows, at most 4 layers: `--cells 16`) on QEMU's nRF51822. All are driven the
+//! same way ([`crate::play`]): boot, Hello, Configure with the flags' design,
 //! Setup from the recording, the recording's frames and telegrams lock-step, EndObservation,
 //! a snapshot, and the maps written from the host's mirror of the device's layers.
 //!
@@ -16,7 +18,7 @@
 use crate::decay::{DecayArgs, DecaySummary};
 use crate::design::DesignArgs;
 use crate::device::{Device, InProcess};
-use crate::emulator::{build_firmware, qemu_available, Emulator, BOARD_DIR, INSTALL_HINT};
+use crate::emulator::{qemu_available, Emulator, Machine, INSTALL_HINT};
 use crate::export::{write_maps, MapSnapshot};
 use crate::play::{mirror_snapshot, play, steps, RunCounts, Steps};
 use crate::replay::ClampArg;
@@ -43,6 +45,13 @@ pub enum Board {
     /// The firmware on QEMU's MPS2 AN386 (`boards/qemu-mps2`), telegrams on UART0, the host
     /// link on UART1.
     Qemu,
+    /// The STM32F4 firmware (`boards/stm32f4`) on QEMU's `netduinoplus2` (STM32F405),
+    /// telegrams on USART1, the host link on USART2.
+    Netduinoplus2,
+    /// The micro:bit firmware (`boards/microbit`) on QEMU's `microbit` (nRF51822, Cortex-M0,
+    /// 16 KiB of RAM): 16-cell windows, at most 4 layers; telegrams and the host link on its
+    /// one UART.
+    Microbit,
 }
 
 impl Board {
@@ -52,6 +61,28 @@ impl Board {
         match self {
             Self::Host => "host",
             Self::Qemu => "qemu",
+            Self::Netduinoplus2 => "netduinoplus2",
+            Self::Microbit => "microbit",
+        }
+    }
+
+    /// The emulated machine, or `None` for the host.
+    #[must_use]
+    pub const fn machine(self) -> Option<Machine> {
+        match self {
+            Self::Host => None,
+            Self::Qemu => Some(Machine::Mps2An386),
+            Self::Netduinoplus2 => Some(Machine::Netduinoplus2),
+            Self::Microbit => Some(Machine::Microbit),
+        }
+    }
+
+    /// The cells per side of the board's pyramid (the design's `--cells` must match).
+    #[must_use]
+    pub const fn cells_per_side(self) -> usize {
+        match self {
+            Self::Microbit => 16,
+            _ => DEFAULT_CELLS_PER_SIDE,
         }
     }
 }
@@ -210,10 +241,14 @@ pub fn run_config(args: &Args) -> Result<(DefaultDesign, Config, ClassifierConfi
         args.design.cells,
     )
     .map_err(|e| (2, format!("error: {e}")))?;
-    if design.cells_per_side() != DEFAULT_CELLS_PER_SIDE {
+    let cells = args.board.cells_per_side();
+    if design.cells_per_side() != cells {
         return Err((
             2,
-            format!("error: --cells: the firmware's pyramid has {DEFAULT_CELLS_PER_SIDE} cells per side"),
+            format!(
+                "error: --cells: the {} pyramid has {cells} cells per side",
+                args.board.name()
+            ),
         ));
     }
     let config = Config {
@@ -259,16 +294,17 @@ pub fn boot_host_device() -> Result<HostDevice, String> {
     )
 }
 
-/// Boots the firmware on QEMU (building it if needed), its defmt log into `defmt_log`.
+/// Boots a board's firmware on its emulated machine (building it if needed), its defmt log
+/// into `defmt_log`.
 ///
 /// # Errors
 /// QEMU or the target missing, the build or the boot failing.
-pub fn boot_emulator(defmt_log: &Path) -> Result<Emulator, String> {
+pub fn boot_emulator(machine: Machine, defmt_log: &Path) -> Result<Emulator, String> {
     if !qemu_available() {
         return Err(format!("qemu-system-arm is missing: {INSTALL_HINT}"));
     }
-    let elf = build_firmware(Path::new(BOARD_DIR), "qemu-mps2")?;
-    Emulator::start(&elf, defmt_log)
+    let elf = machine.build()?;
+    Emulator::start(machine, &elf, defmt_log)
 }
 
 /// A recording through a device: Hello, Configure, the recording, a snapshot; returns the
@@ -325,22 +361,23 @@ pub fn execute(args: &Args) -> Result<String, (u8, String)> {
     let fail = |e: String| (1, format!("error: {e}"));
     let steps = steps(&data).map_err(fail)?;
     let started = Instant::now();
-    let (counts, snapshot, stack_bytes, mirror) = match args.board {
-        Board::Host => {
+    let (counts, snapshot, stack_bytes, mirror) = match args.board.machine() {
+        None => {
             let mut device = boot_host_device().map_err(fail)?;
             let (counts, snapshot) =
                 drive(&mut device, &steps, &design, &config, &classifier).map_err(fail)?;
             let mirror = MirrorCheck::of(&device.link().mirror().counters());
             (counts, snapshot, None, mirror)
         }
-        Board::Qemu => {
-            let mut emu = boot_emulator(&args.out.join("firmware.defmt")).map_err(fail)?;
+        Some(machine) => {
+            let mut emu = boot_emulator(machine, &args.out.join("firmware.defmt")).map_err(fail)?;
             let (counts, snapshot) =
                 drive(&mut emu, &steps, &design, &config, &classifier).map_err(fail)?;
             let mirror = MirrorCheck::of(&emu.link().mirror().counters());
             let stack = emu.shutdown().map_err(fail)?;
             eprintln!(
-                "qemu: {} telegrams in {:.1} s, firmware stack high-water {stack} bytes",
+                "{}: {} telegrams in {:.1} s, firmware stack high-water {stack} bytes",
+                args.board.name(),
                 counts.telegrams_sent,
                 started.elapsed().as_secs_f64()
             );

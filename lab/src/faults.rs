@@ -1,4 +1,4 @@
-//! `pyramid faults`: fault injection through the emulated board.
+//! `lab faults`: fault injection through the emulated board.
 //!
 //! One run of the firmware in QEMU (`boards/qemu-mps2`, as `pyramid run --board qemu`) per
 //! fault kind, on the simulated stairs drive (the paper's robot, a vertical SICK plane panned
@@ -12,16 +12,18 @@
 //!   `SickAccumulator` on the host: it knows exactly which telegrams the firmware will decode, and
 //!   when. A decoded telegram equal byte for byte to an original telegram at that
 //!   telegram's own position in the damaged stream is **intact**; anything else decoded is
-//!   **corrupt** (it passed the 16-bit CRC by chance). The reference map is the host
-//!   pipeline (the same `DefaultFrontend` and `DefaultPyramid` as `run --board host`) fed
-//!   exactly the intact telegrams, each with the pan angle and pose the firmware had when it
-//!   decoded it. After each chunk the harness waits until the firmware's `laser_bytes`
+//!   **corrupt** (it passed the 16-bit CRC by chance). The reference map is the library's
+//!   co-processor in this process (`InProcess`, as `run --board host` runs it), sent the same
+//!   PanAngle and Pose frames as the board and fed exactly the intact telegrams, each when the
+//!   firmware decodes it, so with the pan angle and pose the firmware had then. After each chunk the harness waits until the firmware's `laser_bytes`
 //!   counter (Stats) says it has taken every byte written, so nothing is in flight.
 //! - pose faults (`pose_gaps_jumps`, `bad_pose`): poses left out for runs of lines, jumps of
 //!   tens to thousands of metres and back; NaN, infinite and out-of-range poses, each of
-//!   which must be refused with the Reply the library's own rule gives (code and field).
+//!   which must be refused with the Reply the library's own rule gives (code and field:
+//!   `link::convert::pose_refusal`).
 //! - `bad_config`: invalid Configure and Setup commands mid-run, each refused with the
-//!   library's Reply and no Hello (the maps are not cleared).
+//!   library's Reply (`design_refusal`, `setup_refusal`) and no Hello (the maps are not
+//!   cleared).
 //! - `link_disconnect`: the host stops listening (the mirror gets nothing) for a stretch of
 //!   lines, then the UART1 connection is closed while lines keep coming on UART0, then the
 //!   host reconnects with a fresh link and mirror and asks for a snapshot.
@@ -30,28 +32,37 @@
 //! reference cell for cell on every layer, the firmware's SICK counters compared with the
 //! host accumulator's, Shutdown and QEMU's exit status (0; 101 panic, 102 HardFault).
 
-use crate::qemu::{build_firmware, configure_message, qemu_available, Emulator, BOARD_DIR};
 use serde::Serialize;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::Instant;
-use terrain_pyramid::angle::FineAngle;
 use terrain_pyramid::classify::ClassifierConfig;
-use terrain_pyramid::pipeline::FrontendConfig;
-use terrain_pyramid::wire::link::{
-    ClampRequest, Configure, Message, PanAngle, Pose, Reply, Setup, SnapshotScope, Stats,
+use terrain_pyramid::link::convert::{
+    config_of, configure_of_design, design_of, design_refusal, frontend_config, pose_of,
+    pose_refusal, setup_message, setup_refusal, ReplyText,
 };
-use terrain_pyramid::wire::recording::{Payload, Reader};
-use terrain_pyramid::wire::sick::{MeasuredValues, SickAccumulator, SickItem};
+use terrain_pyramid::wire::link::{
+    ClampRequest, Configure, Header, Message, PanAngle, PoseReport, Reply, Setup, Stats,
+};
+use terrain_pyramid::wire::recording::SetupEvent;
+use terrain_pyramid::wire::sick::{SickAccumulator, SickItem};
 use terrain_pyramid::wire::FeedResult;
 use terrain_pyramid::{
-    Config, DefaultDesign, DefaultFrontend, DefaultPyramid, Schedule, SensorModel,
-    DEFAULT_CELLS_PER_SIDE,
+    Config, DefaultDesign, DefaultPyramid, DesignError, Schedule, SensorModel,
+    DEFAULT_CELLS_PER_SIDE, DEFAULT_LAYERS,
 };
+use terrain_pyramid_host::device::Device;
+use terrain_pyramid_host::emulator::{
+    build_firmware, qemu_available, Emulator, Machine, BOARD_DIR, INSTALL_HINT,
+};
+use terrain_pyramid_host::export::MapSnapshot;
 use terrain_pyramid_host::link::LinkEvent;
+use terrain_pyramid_host::play::{steps, Step as PlayStep};
+use terrain_pyramid_host::run::{boot_host_device, HostDevice};
+use terrain_pyramid_host_tests::sim::record::{simulate, SimConfig};
 
-/// Arguments of `pyramid faults`.
+/// Arguments of `lab faults`.
 #[derive(clap::Args, Debug, Clone)]
 pub struct Args {
     /// Print `{"faults":[...]}` on stdout.
@@ -258,53 +269,36 @@ impl Rng {
     }
 }
 
-/// The recording: the simulated stairs drive (as the demo's), its setup and first lines.
-fn recording(
-    lines: usize,
-) -> Result<(terrain_pyramid::wire::recording::SetupEvent, Vec<Line>), String> {
-    use terrain_pyramid_host_tests::sim::record::{simulate, SimConfig};
+/// The recording: the simulated stairs drive (as the demo's), its setup and first lines,
+/// decoded by the host tool's player.
+fn recording(lines: usize) -> Result<(SetupEvent, Vec<Line>), String> {
     let sim = simulate(&SimConfig::paper_stairs(0.5, 0.5, 1.0)).map_err(|e| e.0)?;
-    let reader = Reader::new(&sim.bytes).map_err(|e| format!("the recording: {e}"))?;
-    let mut acc: Box<SickAccumulator> = Box::new(SickAccumulator::new());
-    let mut setup = None;
+    let decoded = steps(&sim.bytes)?;
+    let setup = decoded.setup().ok_or("the recording has no setup")?;
     let (mut angle, mut pose) = (None, None);
     let mut out = Vec::new();
-    'events: for event in reader {
-        let event = event.map_err(|e| format!("the recording: {e}"))?;
-        match event.payload {
-            Payload::Setup(s) => setup = Some(s),
-            Payload::Angle(t) => angle = Some(t),
-            Payload::Pose(p) => pose = Some(p),
-            Payload::Laser(bytes) => {
-                let mut rest = bytes;
-                loop {
-                    match acc.feed(rest) {
-                        FeedResult::Consumed => break,
-                        FeedResult::Item {
-                            item: SickItem::Telegram(telegram),
-                            remaining,
-                            ..
-                        } => {
-                            rest = remaining;
-                            if MeasuredValues::parse(&telegram).is_ok() {
-                                out.push(Line {
-                                    angle: angle.take(),
-                                    pose: pose.take(),
-                                    telegram: telegram.as_bytes().to_vec(),
-                                });
-                                if out.len() >= lines {
-                                    break 'events;
-                                }
-                            }
-                        }
-                        other => rest = other.remaining(),
-                    }
+    for step in &decoded.steps {
+        match step {
+            PlayStep::Angle(t) => angle = Some(*t),
+            PlayStep::Pose(p) => pose = Some(*p),
+            PlayStep::Telegram {
+                bytes,
+                measured: true,
+                ..
+            } => {
+                out.push(Line {
+                    angle: angle.take(),
+                    pose: pose.take(),
+                    telegram: bytes.clone(),
+                });
+                if out.len() >= lines {
+                    break;
                 }
             }
-            Payload::Marker(_) | Payload::Unknown { .. } => {}
+            PlayStep::Setup(_) | PlayStep::Telegram { .. } | PlayStep::Laser { .. } => {}
         }
     }
-    Ok((setup.ok_or("the recording has no setup")?, out))
+    Ok((setup, out))
 }
 
 /// The steps of one fault kind: the lines with their commands and damaged bytes.
@@ -524,7 +518,7 @@ fn plan_bad_poses(steps: &mut [Step], rng: &mut Rng) {
 
 /// Invalid configurations and setups, mid-run.
 fn plan_bad_configs(steps: &mut [Step], setup: &Setup) {
-    let good = configure_message(&default_design(), &Config::default());
+    let good = configure_of_design(&default_design(), &Config::default());
     let c = |f: &dyn Fn(&mut Configure)| {
         let mut m = good;
         f(&mut m);
@@ -536,16 +530,16 @@ fn plan_bad_configs(steps: &mut [Step], setup: &Setup) {
         Cmd::Setup(m)
     };
     let bad = vec![
-        c(&|m| m.schedule.gamma = 1.0),
-        c(&|m| m.sensor.phi_rad = f32::NAN),
-        c(&|m| m.sensor.height_m = -1.0),
-        c(&|m| m.sensor.max_range_m = f32::INFINITY),
-        c(&|m| m.sensor.height_m = 1.2e-38),
-        c(&|m| m.schedule.base_m = 1e-4),
+        c(&|m| m.gamma = 1.0),
+        c(&|m| m.phi_rad = f32::NAN),
+        c(&|m| m.height_m = -1.0),
+        c(&|m| m.max_range_m = f32::INFINITY),
+        c(&|m| m.height_m = 1.2e-38),
+        c(&|m| m.base_m = 1e-4),
         c(&|m| m.cells_per_side = 32),
         c(&|m| m.cells_per_side = 63),
-        c(&|m| m.model.p_obstacle = 0.5),
-        c(&|m| m.model.p_free = 1.5),
+        c(&|m| m.p_obstacle = 0.5),
+        c(&|m| m.p_free = 1.5),
         c(&|m| {
             m.clamp = ClampRequest::Bounds {
                 min: 1.0,
@@ -553,7 +547,7 @@ fn plan_bad_configs(steps: &mut [Step], setup: &Setup) {
             }
         }),
         c(&|m| m.fused_margin = -1.0),
-        c(&|m| m.sensor.max_range_m = 200.0),
+        c(&|m| m.max_range_m = 200.0),
         s(&|m| m.measuring_mode = 7),
         s(&|m| m.mount = 2),
         s(&|m| m.resolution_cdeg = 30),
@@ -583,11 +577,12 @@ fn default_design() -> DefaultDesign {
     .unwrap_or_else(|e| unreachable!("the default design is valid: {e}"))
 }
 
-/// The host's reference: the same pipeline as `run --board host`, and the same accumulator
-/// the firmware runs, over the same bytes.
+/// The host's reference: the library's co-processor in this process, configured as the
+/// board, sent the same PanAngle and Pose frames and fed exactly the intact telegrams; and
+/// the accumulator the firmware runs, over the same (damaged) bytes, which tells the intact
+/// telegrams from the corrupt ones and when each is decoded.
 struct Reference {
-    pyramid: Box<DefaultPyramid>,
-    frontend: Box<DefaultFrontend>,
+    device: HostDevice,
     acc: Box<SickAccumulator>,
     /// Stream offset of each intact telegram's STX → its line.
     expected: HashMap<u64, usize>,
@@ -601,20 +596,21 @@ struct Reference {
 }
 
 impl Reference {
-    /// The default pyramid and the recording's pipeline, nothing fed yet.
-    fn new(
-        setup: &terrain_pyramid::wire::recording::SetupEvent,
-        lines: usize,
-    ) -> Result<Self, String> {
-        let config = FrontendConfig::from_setup(setup, ClassifierConfig::default())
-            .map_err(|e| format!("the recording's setup: {e}"))?;
-        let mut pyramid = Box::new(DefaultPyramid::new());
-        pyramid
-            .configure(&default_design(), &Config::default())
-            .map_err(|e| e.to_string())?;
+    /// The co-processor booted as the board, configured with the default design and the
+    /// recording's setup (as the harness configures the board), nothing fed yet.
+    fn new(setup: &SetupEvent, lines: usize) -> Result<Self, String> {
+        let mut device = boot_host_device()?;
+        device.wait_for("Hello", |link, _| link.mirror().firmware().is_some())?;
+        device.command(
+            "Configure",
+            &Message::Configure(configure_of_design(&default_design(), &Config::default())),
+        )?;
+        device.command(
+            "Setup",
+            &Message::Setup(setup_message(setup, &ClassifierConfig::default())),
+        )?;
         Ok(Self {
-            pyramid,
-            frontend: Box::new(DefaultFrontend::new(config)),
+            device,
             acc: Box::new(SickAccumulator::new()),
             expected: HashMap::new(),
             written: 0,
@@ -624,6 +620,16 @@ impl Reference {
             unaccounted: 0,
             resync_max: 0,
         })
+    }
+
+    /// A host frame, as the board gets it.
+    fn send(&mut self, message: &Message<'_>) -> Result<(), String> {
+        self.device.send(message).map(|_| ())
+    }
+
+    /// The pyramid the intact telegrams built.
+    fn pyramid(&self) -> &DefaultPyramid {
+        self.device.core().pyramid()
     }
 
     fn trace(&self) -> u64 {
@@ -636,8 +642,9 @@ impl Reference {
             + u64::from(s.nak)
     }
 
-    /// Feeds line `i`'s chunk, as the firmware will take it.
-    fn feed(&mut self, i: usize, step: &Step, lines: &[Line]) {
+    /// Feeds line `i`'s chunk, as the firmware will take it: the intact telegrams it decodes
+    /// go to the co-processor.
+    fn feed(&mut self, i: usize, step: &Step, lines: &[Line]) -> Result<(), String> {
         if let Some(at) = step.intact_at {
             self.expected.insert(self.written + at as u64, i);
         }
@@ -645,7 +652,7 @@ impl Reference {
         let mut rest = &step.chunk[..];
         loop {
             let (bytes, offset) = match self.acc.feed(rest) {
-                FeedResult::Consumed => break,
+                FeedResult::Consumed => return Ok(()),
                 FeedResult::Item {
                     item: SickItem::Telegram(telegram),
                     offset,
@@ -665,13 +672,7 @@ impl Reference {
                         self.delayed += 1;
                     }
                     self.intact[k] = true;
-                    let telegram = terrain_pyramid::wire::sick::Telegram::new_checked(&bytes[..]);
-                    if let Ok(values) = telegram
-                        .map_err(|_| ())
-                        .and_then(|t| MeasuredValues::parse(&t).map_err(|_| ()))
-                    {
-                        let _ = self.frontend.line(&mut self.pyramid, &values);
-                    }
+                    self.device.laser(&bytes)?;
                 }
                 _ => self.corrupt += 1,
             }
@@ -700,23 +701,23 @@ fn run_kind(
     kind: &str,
     elf: &Path,
     out: &Path,
-    setup_rec: &terrain_pyramid::wire::recording::SetupEvent,
+    setup_rec: &SetupEvent,
     lines: &[Line],
     outcome: &mut Outcome,
 ) -> Result<(), String> {
     let classifier = ClassifierConfig::default();
     let design = default_design();
     let config = Config::default();
-    let setup = Setup::from_recording(setup_rec, &classifier);
+    let setup = setup_message(setup_rec, &classifier);
     let steps = plan(kind, lines, &setup);
     let mut reference = Reference::new(setup_rec, steps.len())?;
     outcome.telegrams_total = lines.len() as u64;
 
-    let mut emu = Emulator::start(elf, &out.join(format!("{kind}.defmt")))?;
+    let mut emu = Emulator::start(Machine::Mps2An386, elf, &out.join(format!("{kind}.defmt")))?;
     emu.wait_for("Hello", |link, _| link.mirror().firmware().is_some())?;
     emu.command(
         "Configure",
-        &Message::Configure(configure_message(&design, &config)),
+        &Message::Configure(configure_of_design(&design, &config)),
     )?;
     emu.command("Setup", &Message::Setup(setup))?;
 
@@ -744,7 +745,7 @@ fn run_kind(
                         ));
                     }
                     if emu.link().mirror().needs_snapshot() {
-                        resnapshot(&mut emu)?;
+                        emu.snapshot()?;
                     } else {
                         outcome
                             .failures
@@ -755,9 +756,9 @@ fn run_kind(
                 (Phase::Disconnected, Phase::Normal) => {
                     emu.reconnect_link()?;
                     barrier(&mut emu, reference.written)?;
-                    resnapshot(&mut emu)?;
+                    emu.snapshot()?;
                     // The mirror must be the reference again, now.
-                    let diff = compare(&emu, &reference.pyramid, &design, &config)?;
+                    let diff = compare(&emu, reference.pyramid(), &design, &config)?;
                     if diff != 0 {
                         outcome.failures.push(format!(
                             "after reconnecting, {diff} cells differ from the reference"
@@ -774,53 +775,49 @@ fn run_kind(
             for cmd in &step.cmds {
                 match cmd {
                     Cmd::Angle(turns) => {
-                        emu.send(&Message::PanAngle(PanAngle {
+                        let message = Message::PanAngle(PanAngle {
                             turns: *turns,
                             timestamp_ms: 0,
-                        }))?;
-                        reference
-                            .frontend
-                            .set_actuator(FineAngle::from_bits(u32::from(*turns) << 16));
+                        });
+                        emu.send(&message)?;
+                        reference.send(&message)?;
                         sent = true;
                     }
                     Cmd::Pose(p) => {
-                        let pose = wire_pose(*p);
-                        match pose.to_geometry() {
-                            Ok(g) => {
-                                emu.send(&Message::Pose(pose))?;
-                                reference.frontend.set_pose(g);
+                        let report = wire_pose(*p);
+                        let message = Message::Pose(report);
+                        match pose_of(&report) {
+                            Ok(_) => {
+                                emu.send(&message)?;
                                 sent = true;
                             }
                             Err(e) => {
-                                let seq = emu.link().next_seq();
-                                let expected = Reply::pose_error(header(seq, 0x81), e);
-                                refused(&mut emu, &Message::Pose(pose), expected, outcome)?;
+                                let expected = pose_refusal(next_header(&emu, &message), &e);
+                                refused(&mut emu, &message, expected, outcome)?;
                             }
                         }
+                        // The reference gets the same frame (and refuses it the same way).
+                        reference.send(&message)?;
                     }
                     Cmd::Configure(c) => {
-                        let seq = emu.link().next_seq();
-                        let expected = match configure_outcome(c) {
-                            Ok(()) => {
-                                outcome
-                                    .failures
-                                    .push("the plan holds a valid Configure".into());
-                                continue;
-                            }
-                            Err(e) => Reply::design_error(header(seq, 0x83), &e),
+                        let message = Message::Configure(**c);
+                        let Some(e) = configure_error(c) else {
+                            outcome
+                                .failures
+                                .push("the plan holds a valid Configure".into());
+                            continue;
                         };
-                        refused(&mut emu, &Message::Configure(**c), expected, outcome)?;
+                        let expected = design_refusal(next_header(&emu, &message), &e);
+                        refused(&mut emu, &message, expected, outcome)?;
                     }
                     Cmd::Setup(s) => {
-                        let seq = emu.link().next_seq();
-                        let expected = match s.frontend_config() {
-                            Ok(_) => {
-                                outcome.failures.push("the plan holds a valid Setup".into());
-                                continue;
-                            }
-                            Err(e) => Reply::setup_error(header(seq, 0x87), e),
+                        let message = Message::Setup(*s);
+                        let Err(e) = frontend_config(s) else {
+                            outcome.failures.push("the plan holds a valid Setup".into());
+                            continue;
                         };
-                        refused(&mut emu, &Message::Setup(*s), expected, outcome)?;
+                        let expected = setup_refusal(next_header(&emu, &message), &e);
+                        refused(&mut emu, &message, expected, outcome)?;
                     }
                 }
             }
@@ -829,7 +826,7 @@ fn run_kind(
             }
         }
         emu.laser(&step.chunk)?;
-        reference.feed(i, step, lines);
+        reference.feed(i, step, lines)?;
         if phase != Phase::Disconnected {
             barrier(&mut emu, reference.written)?;
         }
@@ -848,10 +845,10 @@ fn run_kind(
     reference.settle(&steps);
 
     emu.send(&Message::EndObservation)?;
-    reference.frontend.end_observation(&mut reference.pyramid);
+    reference.send(&Message::EndObservation)?;
     let stats = barrier(&mut emu, reference.written)?;
-    resnapshot(&mut emu)?;
-    let diff = compare(&emu, &reference.pyramid, &design, &config)?;
+    emu.snapshot()?;
+    let diff = compare(&emu, reference.pyramid(), &design, &config)?;
     let mirror = emu.link().mirror().counters();
     outcome.mirror_gaps = mirror.gaps;
     outcome.mirror_missing = mirror.missing;
@@ -865,7 +862,15 @@ fn run_kind(
     outcome.resync_max_telegrams = reference.resync_max;
     outcome.unaccounted_damage = reference.unaccounted;
     outcome.cells_differing = diff;
-    outcome.reference_known_cells = known_cells(&reference.pyramid);
+    outcome.reference_known_cells = known_cells(reference.pyramid());
+    // Every intact telegram reached the reference at an angle (a line before any angle
+    // would be dropped, by the reference and the firmware alike).
+    let without_angle = reference.device.core().counters().app.lines_without_angle;
+    if without_angle > 0 {
+        outcome.failures.push(format!(
+            "{without_angle} intact telegrams reached the reference before any pan angle"
+        ));
+    }
     outcome.map_equal_to_reference = diff == 0;
 
     // The firmware's counters against the accumulator's on the host, over the same bytes.
@@ -904,19 +909,6 @@ fn barrier(emu: &mut Emulator, written: u64) -> Result<Stats, String> {
     Err(format!(
         "the firmware never took the {written} laser bytes written"
     ))
-}
-
-/// RequestSnapshot(all), then wait until the mirror is complete.
-fn resnapshot(emu: &mut Emulator) -> Result<(), String> {
-    let hellos = emu.link().mirror().counters().hellos;
-    emu.command(
-        "RequestSnapshot",
-        &Message::RequestSnapshot(SnapshotScope::All),
-    )?;
-    emu.wait_for("the snapshot", |link, _| {
-        let m = link.mirror();
-        m.counters().hellos > hellos && m.is_synced()
-    })
 }
 
 /// Sends a command that must be refused with `expected` (code, field, value) and must not
@@ -959,7 +951,9 @@ fn refused(
         outcome.commands_refused_as_expected += 1;
     } else {
         outcome.failures.push(format!(
-            "{message:?}: answered {reply} (expected {expected}){}",
+            "{message:?}: answered {} (expected {}){}",
+            ReplyText(&reply),
+            ReplyText(&expected),
             if hello {
                 ", and the maps were cleared"
             } else {
@@ -970,26 +964,38 @@ fn refused(
     Ok(())
 }
 
-/// A Reply header for the expected answer to host frame `seq` of type `msg_type`.
-fn header(seq: u16, msg_type: u8) -> terrain_pyramid::wire::link::Header {
-    terrain_pyramid::wire::link::Header {
+/// The header of the next frame the harness sends on the emulator's link: what a Reply to
+/// `message` answers.
+fn next_header(emu: &Emulator, message: &Message<'_>) -> Header {
+    Header {
         version: terrain_pyramid::wire::link::VERSION,
-        msg_type,
-        seq,
+        msg_type: message.msg_type().to_u8(),
+        seq: emu.link().next_seq(),
     }
 }
 
-/// What the device's Configure handler does with `c`, on the host: the same three steps.
-fn configure_outcome(c: &Configure) -> Result<(), terrain_pyramid::DesignError> {
-    let design = c.design::<{ terrain_pyramid::DEFAULT_LAYERS }>()?;
-    let config = c.config()?;
+/// Why the device refuses the Configure `c`, on the host: the link's conversion
+/// ([`design_of`], [`config_of`]), then what the co-processor checks when it adopts it (the
+/// increments, the window, the clamp, the margin); `None` when it would be accepted.
+fn configure_error(c: &Configure) -> Option<DesignError> {
+    let design = match design_of::<DEFAULT_LAYERS>(c) {
+        Ok(d) => d,
+        Err(e) => return Some(e),
+    };
+    let config = match config_of(c) {
+        Ok(config) => config,
+        Err(e) => return Some(e),
+    };
+    if let Err(e) = config.model.increments() {
+        return Some(e);
+    }
     let mut scratch = Box::new(DefaultPyramid::new());
-    scratch.configure(&design, &config)
+    scratch.configure(&design, &config).err()
 }
 
-fn wire_pose(p: [f32; 6]) -> Pose {
+fn wire_pose(p: [f32; 6]) -> PoseReport {
     let [x_m, y_m, z_m, roll_rad, pitch_rad, yaw_rad] = p;
-    Pose {
+    PoseReport {
         x_m,
         y_m,
         z_m,
@@ -1008,7 +1014,7 @@ fn compare(
     design: &DefaultDesign,
     config: &Config,
 ) -> Result<u64, String> {
-    let snapshot = crate::export::MapSnapshot::from_pyramid(pyramid, design, config, (0.0, 0.0));
+    let snapshot = MapSnapshot::from_pyramid(pyramid, design, config, (0.0, 0.0));
     let mirror = emu.link().mirror();
     let mut diff = 0_u64;
     for layer in &snapshot.layers {
@@ -1111,10 +1117,7 @@ fn judge(o: &mut Outcome) {
 /// The firmware cannot be built or the recording made.
 pub fn execute(args: &Args) -> Result<Vec<Outcome>, String> {
     if !qemu_available() {
-        return Err(format!(
-            "qemu-system-arm is missing: {}",
-            crate::qemu::INSTALL_HINT
-        ));
+        return Err(format!("qemu-system-arm is missing: {INSTALL_HINT}"));
     }
     for name in &args.only {
         if !KINDS.contains(&name.as_str()) {
@@ -1181,7 +1184,7 @@ struct Report<'a> {
     faults: &'a [Outcome],
 }
 
-/// Runs `pyramid faults`: exit 0 when every kind's outcome is good, 1 otherwise.
+/// Runs `lab faults`: exit 0 when every kind's outcome is good, 1 otherwise.
 pub fn run(args: &Args) -> ExitCode {
     let started = Instant::now();
     match execute(args) {
@@ -1227,13 +1230,27 @@ pub fn run(args: &Args) -> ExitCode {
 mod tests {
     use super::*;
 
-    fn lines(n: usize) -> (terrain_pyramid::wire::recording::SetupEvent, Vec<Line>) {
+    fn lines(n: usize) -> (SetupEvent, Vec<Line>) {
         recording(n).unwrap()
     }
 
+    /// Every line's angle and pose, then its chunk, as `run_kind` hands them to the
+    /// reference.
     fn feed_all(reference: &mut Reference, steps: &[Step], lines: &[Line]) {
         for (i, step) in steps.iter().enumerate() {
-            reference.feed(i, step, lines);
+            for cmd in &step.cmds {
+                match cmd {
+                    Cmd::Angle(turns) => reference
+                        .send(&Message::PanAngle(PanAngle {
+                            turns: *turns,
+                            timestamp_ms: 0,
+                        }))
+                        .unwrap(),
+                    Cmd::Pose(p) => reference.send(&Message::Pose(wire_pose(*p))).unwrap(),
+                    Cmd::Configure(_) | Cmd::Setup(_) => {}
+                }
+            }
+            reference.feed(i, step, lines).unwrap();
         }
         reference.settle(steps);
     }
@@ -1242,7 +1259,7 @@ mod tests {
     fn untouched_telegrams_are_intact_and_damaged_ones_are_not() {
         let (setup_rec, lines) = lines(40);
         assert_eq!(lines.len(), 40);
-        let setup = Setup::from_recording(&setup_rec, &ClassifierConfig::default());
+        let setup = setup_message(&setup_rec, &ClassifierConfig::default());
         for kind in [
             "truncated",
             "dropped_bytes",
@@ -1262,8 +1279,13 @@ mod tests {
                 );
             }
             assert_eq!((reference.corrupt, reference.resync_max), (0, 0), "{kind}");
-            reference.frontend.end_observation(&mut reference.pyramid);
-            assert!(known_cells(&reference.pyramid) > 0, "{kind}");
+            reference.send(&Message::EndObservation).unwrap();
+            assert!(known_cells(reference.pyramid()) > 0, "{kind}");
+            // Every intact telegram reached the co-processor, at an angle.
+            let counters = reference.device.core().counters();
+            let intact = reference.intact.iter().filter(|&&b| b).count();
+            assert_eq!(counters.frontend.lines_applied as usize, intact, "{kind}");
+            assert_eq!(counters.app.lines_without_angle, 0, "{kind}");
         }
     }
 
@@ -1272,7 +1294,7 @@ mod tests {
     #[test]
     fn a_wrong_telegram_is_corrupt_and_a_lost_one_counts() {
         let (setup_rec, lines) = lines(12);
-        let setup = Setup::from_recording(&setup_rec, &ClassifierConfig::default());
+        let setup = setup_message(&setup_rec, &ClassifierConfig::default());
         let mut steps = plan("none", &lines, &setup);
         assert_ne!(lines[4].telegram, lines[5].telegram);
         steps[5].chunk.clone_from(&lines[4].telegram);

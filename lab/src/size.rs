@@ -1,15 +1,19 @@
-//! `pyramid size`: flash, static RAM and stack of each board's firmware.
+//! `lab size`: flash, static RAM and stack of each board's firmware.
 //!
 //! Flash and RAM come from the ELF's section headers (parsed here, no tool needed): flash =
 //! `.vector_table + .text + .rodata + .data`, RAM = `.data + .bss + .uninit`. The stack is
 //! the high-water mark the firmware measures by stack painting: for `qemu-mps2` after a real
-//! run (the 3DTK recording through `pyramid run --board qemu`); `stm32f4` needs its board
-//! (`null`).
+//! run (the 3DTK recording through `pyramid run --board qemu`, as the demo runs it);
+//! `stm32f4` needs its board (`null`). With `--json` the one JSON object is all that goes to
+//! stdout; progress goes to stderr.
+use crate::demo::{record_3dtk, run_args, shared_data, FLAGS_3DTK};
 use serde::Serialize;
 use std::path::Path;
-use std::process::{Command, ExitCode};
+use std::process::ExitCode;
+use terrain_pyramid_host::emulator::{build_firmware, qemu_available, BOARD_DIR, INSTALL_HINT};
+use terrain_pyramid_host::run::{self, Board};
 
-/// Arguments of `pyramid size`.
+/// Arguments of `lab size`.
 #[derive(clap::Args, Debug, Clone)]
 pub struct Args {
     /// Print one JSON object.
@@ -83,54 +87,30 @@ fn sizes_of(elf: &Path) -> Result<(u64, u64), String> {
 
 /// The qemu-mps2 firmware's stack after the 3DTK recording (or `None` without the data).
 fn qemu_stack() -> Result<Option<u64>, String> {
-    let data = crate::demo::shared_data().join("3dtk-tilt-scan");
-    let (scan, pose) = (data.join("scan000.3d"), data.join("scan000.pose"));
+    let scan = shared_data().join("3dtk-tilt-scan").join("scan000.3d");
     if !scan.is_file() {
         eprintln!("note: {} is absent: no stack measurement", scan.display());
         return Ok(None);
     }
-    let dir = std::env::temp_dir().join(format!("pyramid-size-{}", std::process::id()));
+    let dir = std::env::temp_dir().join(format!("lab-size-{}", std::process::id()));
     std::fs::create_dir_all(&dir).map_err(|e| e.to_string())?;
-    let me = std::env::current_exe().map_err(|e| e.to_string())?;
     let rec = dir.join("scan000.rec");
-    let ok = Command::new(&me)
-        .arg("record-3dtk")
-        .arg(&scan)
-        .arg("--pose")
-        .arg(&pose)
-        .arg("--out")
-        .arg(&rec)
-        .stderr(std::process::Stdio::null())
-        .status()
-        .is_ok_and(|s| s.success());
-    if !ok {
-        return Err("cannot record the 3DTK scan".into());
-    }
-    let out = Command::new(&me)
-        .args(["run", "--board", "qemu", "--json", "--height-m", "0.4"])
-        .args(["--max-range-m", "8", "--gamma", "3", "--recording"])
-        .arg(&rec)
-        .arg("--out")
-        .arg(dir.join("maps"))
-        .output()
-        .map_err(|e| e.to_string())?;
+    let run = record_3dtk(&rec)
+        .and_then(|()| run_args(Board::Qemu, &rec, &dir.join("maps"), FLAGS_3DTK))
+        .and_then(|args| run::execute(&args).map_err(|(_, message)| message));
     let _ = std::fs::remove_dir_all(&dir);
-    if !out.status.success() {
-        return Err(String::from_utf8_lossy(&out.stderr).trim().to_string());
-    }
-    let summary: serde_json::Value =
-        serde_json::from_slice(&out.stdout).map_err(|e| e.to_string())?;
+    let summary: serde_json::Value = serde_json::from_str(&run?).map_err(|e| e.to_string())?;
     Ok(summary["stack_bytes"].as_u64())
 }
 
 fn measure() -> Result<Sizes, String> {
-    let qemu_dir = Path::new(crate::qemu::BOARD_DIR);
-    let qemu_elf = crate::qemu::build_firmware(qemu_dir, "qemu-mps2")?;
+    let qemu_dir = Path::new(BOARD_DIR);
+    let qemu_elf = build_firmware(qemu_dir, "qemu-mps2")?;
     let (flash, ram) = sizes_of(&qemu_elf)?;
-    let stack = if crate::qemu::qemu_available() {
+    let stack = if qemu_available() {
         qemu_stack()?
     } else {
-        eprintln!("note: {}", crate::qemu::INSTALL_HINT);
+        eprintln!("note: {INSTALL_HINT}");
         None
     };
     let mut boards = vec![BoardSize {
@@ -140,7 +120,7 @@ fn measure() -> Result<Sizes, String> {
         stack_bytes: stack,
     }];
     let stm_dir = qemu_dir.join("../stm32f4");
-    let stm_elf = crate::qemu::build_firmware(&stm_dir, "stm32f4-board")?;
+    let stm_elf = build_firmware(&stm_dir, "stm32f4-board")?;
     let (flash, ram) = sizes_of(&stm_elf)?;
     boards.push(BoardSize {
         name: "stm32f4",
@@ -151,12 +131,18 @@ fn measure() -> Result<Sizes, String> {
     Ok(Sizes { boards })
 }
 
-/// Runs `pyramid size`.
+/// Runs `lab size`.
 pub fn run(args: &Args) -> ExitCode {
     match measure() {
         Ok(sizes) => {
             if args.json {
-                println!("{}", serde_json::to_string(&sizes).unwrap_or_default());
+                match serde_json::to_string(&sizes) {
+                    Ok(json) => println!("{json}"),
+                    Err(e) => {
+                        eprintln!("error: {e}");
+                        return ExitCode::FAILURE;
+                    }
+                }
             } else {
                 println!(
                     "{:<12} {:>10} {:>14} {:>18}",

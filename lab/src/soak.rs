@@ -1,13 +1,13 @@
-//! `pyramid soak`: a long simulated drive through the co-processor's pipeline, watching for
+//! `lab soak`: a long simulated drive through the co-processor's pipeline, watching for
 //! what only shows over time: counters that wrap or go back, drift, memory growth,
 //! maps leaving their bounds, throughput that falls.
 //!
 //! - **Host** (`--board host`): an hour of driving (270 000 telegrams at 75 lines/s, the
-//!   simulator's [`Drive`], generated one line at a time) through the library's own pipeline
-//!   in this process, as the firmware runs it: the host's PanAngle and Pose frames through the
-//!   device's [`Link`], the telegram's bytes through the SICK accumulator, the frontend and the
-//!   pyramid, the link's poll (token bucket, queue, rate-limited patches) drained into a host
-//!   [`HostLink`] mirror. Every simulated minute: throughput, the process's RSS, every Stats
+//!   simulator's [`Drive`], generated one line at a time) through the library's co-processor
+//!   in this process ([`InProcess`], the application core the firmware runs): the host's
+//!   PanAngle and Pose frames on its link, the telegram's bytes on its laser stream, its poll
+//!   at the drive's clock after every telegram (token bucket, queue, rate-limited patches)
+//!   drained into a host [`HostLink`] mirror. Every simulated minute: throughput, the process's RSS, every Stats
 //!   counter (monotonic, not saturated), every cell (unknown or within the clamping bounds), the
 //!   mirror's counters (no gap, nothing refused). At the end: the link flushed, the mirror equal
 //!   to the device's pyramid cell for cell, each counter's projected saturation time.
@@ -15,32 +15,34 @@
 //!   on QEMU (`boards/qemu-mps2`), in bursts of `--hold-lines` telegrams that share one angle
 //!   and pose (the drive holds them, so the data is what the board is told): PanAngle, Pose
 //!   and RequestStats, wait for the Stats that counts those frames, write the burst to UART0,
-//!   RequestStats until the device counts the burst. The same lines go through an in-process
-//!   reference. Every 15 simulated seconds: the device's counters (monotonic, equal to the
+//!   RequestStats until the device counts the burst. The same frames and lines go through an
+//!   in-process co-processor, the reference. Every 15 simulated seconds: the device's counters (monotonic, equal to the
 //!   reference's for telegrams, points, evidence and observations). At the end: the mirror
 //!   built from the patches equal to the reference, then after a snapshot too, and the
 //!   firmware's stack high-water mark from its Shutdown Reply.
 
-use crate::qemu::{build_firmware, configure_message, qemu_available, Emulator, BOARD_DIR};
 use serde::Serialize;
 use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::Instant;
-use terrain_pyramid::angle::FineAngle;
 use terrain_pyramid::classify::ClassifierConfig;
-use terrain_pyramid::geometry::Pose as GeoPose;
-use terrain_pyramid::link::{Event, Link, LinkConfig, SensorCounters};
+use terrain_pyramid::geometry::ScanPlane;
+use terrain_pyramid::link::convert::{
+    configure_of_design, frontend_config_of_event, setup_message,
+};
+use terrain_pyramid::link::{LinkConfig, DEFAULT_QUEUE_BYTES};
 use terrain_pyramid::pipeline::FrontendConfig;
-use terrain_pyramid::wire::link::{
-    Message, PanAngle, Pose, Setup, SnapshotScope, Stats, STATS_COUNTERS,
-};
-use terrain_pyramid::wire::sick::{MeasuredValues, SickAccumulator, SickItem};
-use terrain_pyramid::wire::FeedResult;
+use terrain_pyramid::wire::link::{Message, PanAngle, PoseReport, Stats, STATS_COUNTERS};
 use terrain_pyramid::{
-    Clamp, Config, DefaultDesign, DefaultFrontend, DefaultPyramid, Schedule, SensorModel,
-    DEFAULT_CELLS_PER_SIDE,
+    Clamp, Config, DefaultDesign, Schedule, SensorModel, DEFAULT_CELLS_PER_SIDE,
+    DEFAULT_CLASSIFIER_SLOTS, DEFAULT_LAYERS,
 };
-use terrain_pyramid_host::link::{HostLink, LinkEvent, UNKNOWN};
+use terrain_pyramid_host::device::Device;
+use terrain_pyramid_host::device::InProcess;
+use terrain_pyramid_host::emulator::{
+    build_firmware, qemu_available, Emulator, Machine, BOARD_DIR, INSTALL_HINT,
+};
+use terrain_pyramid_host::link::{HostLink, UNKNOWN};
 use terrain_pyramid_host_tests::sim::drive::{Drive, DriveConfig, DriveLine};
 
 /// Where the soak runs.
@@ -54,7 +56,7 @@ pub enum SoakBoard {
     Both,
 }
 
-/// Arguments of `pyramid soak`.
+/// Arguments of `lab soak`.
 #[derive(clap::Args, Debug, Clone)]
 pub struct Args {
     /// Which soak to run.
@@ -231,161 +233,63 @@ fn design_and_config() -> Result<(DefaultDesign, Config), String> {
     Ok((design, Config::default()))
 }
 
-/// The device's side in this process: the same parts, in the same order, as the firmware's
-/// main loop (`boards/qemu-mps2/src/main.rs`).
-struct Device {
-    pyramid: Box<DefaultPyramid>,
-    frontend: Box<DefaultFrontend>,
-    link: Box<Link>,
-    sick: Box<SickAccumulator>,
-    telegrams_unparsed: u32,
-    lines_rejected: u32,
-    poses_refused: u32,
-    refused: u32,
-    /// Waiting tiles summed over every poll: what `patches_deferred` counted before protocol version 2.
-    deferred_tile_polls: u64,
+/// The soak's in-process co-processor: the firmware's pyramid and classifier, and the link's
+/// default 4 KiB queue (the host soak's, as before the core existed; the QEMU board's is 2 KiB).
+type HostDevice = InProcess<
+    DEFAULT_CELLS_PER_SIDE,
+    DEFAULT_LAYERS,
+    DEFAULT_CLASSIFIER_SLOTS,
+    DEFAULT_QUEUE_BYTES,
+>;
+
+/// The in-process co-processor booted as the firmware boots, then configured over its link
+/// as the harness configures the board: Configure with the firmware's design, Setup from the
+/// drive.
+fn in_process(
+    design: &DefaultDesign,
+    config: &Config,
+    setup: &terrain_pyramid::wire::recording::SetupEvent,
+) -> Result<HostDevice, String> {
+    let classifier = ClassifierConfig::default();
+    frontend_config_of_event(setup, &classifier).map_err(|e| format!("the drive's setup: {e}"))?;
+    let mut device = HostDevice::boot(
+        LinkConfig::DEFAULT,
+        design,
+        config,
+        FrontendConfig::lms291_boot(ScanPlane::TiltedHorizontal),
+    )?;
+    device.wait_for("Hello", |link, _| link.mirror().firmware().is_some())?;
+    device.command(
+        "Configure",
+        &Message::Configure(configure_of_design(design, config)),
+    )?;
+    device.command("Setup", &Message::Setup(setup_message(setup, &classifier)))?;
+    Ok(device)
 }
 
-impl Device {
-    fn new(
-        design: &DefaultDesign,
-        config: &Config,
-        frontend: FrontendConfig,
-    ) -> Result<Self, String> {
-        let mut pyramid = Box::new(DefaultPyramid::new());
-        let mut link: Box<Link> = Box::new(Link::new(LinkConfig::DEFAULT));
-        link.configure(&mut pyramid, design, config)
-            .map_err(|e| e.to_string())?;
-        Ok(Self {
-            pyramid,
-            frontend: Box::new(DefaultFrontend::new(frontend)),
-            link,
-            sick: Box::new(SickAccumulator::new()),
-            telegrams_unparsed: 0,
-            lines_rejected: 0,
-            poses_refused: 0,
-            refused: 0,
-            deferred_tile_polls: 0,
+/// Whether any layer of the co-processor's pyramid has a changed tile not yet sent.
+fn dirty(device: &HostDevice) -> bool {
+    let pyramid = device.core().pyramid();
+    (0..pyramid.layer_count()).any(|k| pyramid.layer(k).is_some_and(|l| l.dirty() != 0))
+}
+
+/// Every layer's origin and raw cells, row-major from the lowest row (the mirror's order).
+fn layers(device: &HostDevice) -> Vec<((i32, i32), Vec<i16>)> {
+    let pyramid = device.core().pyramid();
+    let w = DEFAULT_CELLS_PER_SIDE;
+    (0..pyramid.layer_count())
+        .filter_map(|k| {
+            let layer = pyramid.layer(k)?;
+            let cells = (0..w * w)
+                .map(|n| {
+                    layer
+                        .at_offset(n % w, n / w)
+                        .map_or(UNKNOWN, |c| c.to_raw())
+                })
+                .collect();
+            Some((layer.origin(), cells))
         })
-    }
-
-    /// Host bytes, one frame's events at a time (as the firmware's host step).
-    fn receive(&mut self, bytes: &[u8]) {
-        let frontend = &mut *self.frontend;
-        let mut end_observation = false;
-        let (mut poses_refused, mut refused) = (0_u32, 0_u32);
-        self.link
-            .receive(bytes, &mut *self.pyramid, |event| match event {
-                Event::Pose(p) => {
-                    match GeoPose::from_f32(p.x_m, p.y_m, p.z_m, p.roll_rad, p.pitch_rad, p.yaw_rad)
-                    {
-                        Ok(pose) => frontend.set_pose(pose),
-                        Err(_) => poses_refused += 1,
-                    }
-                }
-                Event::PanAngle(a) => {
-                    frontend.set_actuator(FineAngle::from_bits(u32::from(a.turns) << 16));
-                }
-                Event::Setup(config) => frontend.configure(config),
-                Event::Configured | Event::Reset => frontend.configure(*frontend.config()),
-                Event::EndObservation => end_observation = true,
-                Event::Refused(_) | Event::BadFrame(_) => refused += 1,
-                _ => {}
-            });
-        if end_observation {
-            self.frontend.end_observation(&mut self.pyramid);
-        }
-        self.poses_refused = self.poses_refused.saturating_add(poses_refused);
-        self.refused = self.refused.saturating_add(refused);
-    }
-
-    /// Laser bytes through the SICK accumulator and the pipeline.
-    fn laser(&mut self, bytes: &[u8]) {
-        let mut rest = bytes;
-        loop {
-            match self.sick.feed(rest) {
-                FeedResult::Consumed => return,
-                FeedResult::Item {
-                    item: SickItem::Telegram(telegram),
-                    remaining,
-                    ..
-                } => {
-                    match MeasuredValues::parse(&telegram) {
-                        Ok(values) => {
-                            if self.frontend.line(&mut self.pyramid, &values).is_err() {
-                                self.lines_rejected = self.lines_rejected.saturating_add(1);
-                            }
-                        }
-                        Err(_) => {
-                            self.telegrams_unparsed = self.telegrams_unparsed.saturating_add(1);
-                        }
-                    }
-                    rest = remaining;
-                }
-                other => rest = other.remaining(),
-            }
-        }
-    }
-
-    fn sensor(&self) -> SensorCounters {
-        let sick = self.sick.stats();
-        let classifier = self.frontend.classifier_stats();
-        SensorCounters {
-            telegrams_ok: sick.telegrams_ok,
-            telegrams_bad_checksum: sick.crc_errors,
-            telegrams_bad_framing: sick.length_errors.saturating_add(sick.truncated),
-            telegrams_bad_other: self.telegrams_unparsed.saturating_add(self.lines_rejected),
-            points: classifier.points,
-            classifier_overflows: classifier.overflow_points,
-            observations: self.frontend.stats().observations,
-            // Stats carries the low 32 bits (it wraps).
-            laser_bytes: u32::try_from(self.sick.position() & u64::from(u32::MAX))
-                .unwrap_or(u32::MAX),
-        }
-    }
-
-    /// The link's poll at `now_ms`; returns every byte it queued (the UART takes them all:
-    /// 921 600 Bd is twice the link's budget).
-    fn poll(&mut self, now_ms: u32, out: &mut Vec<u8>) {
-        let sensor = self.sensor();
-        let report = self.link.poll(now_ms, &mut self.pyramid, &sensor);
-        self.deferred_tile_polls += u64::from(report.deferred_tiles);
-        let mut buf = [0_u8; 512];
-        loop {
-            let n = self.link.pop_bytes(&mut buf);
-            if n == 0 {
-                return;
-            }
-            out.extend_from_slice(&buf[..n]);
-        }
-    }
-
-    fn stats(&self, now_ms: u32) -> Stats {
-        self.link.stats(now_ms, &self.pyramid, &self.sensor())
-    }
-
-    fn dirty(&self) -> bool {
-        (0..self.pyramid.layer_count())
-            .any(|k| self.pyramid.layer(k).is_some_and(|l| l.dirty() != 0))
-    }
-
-    /// Every layer's origin and raw cells, row-major from the lowest row (the mirror's order).
-    fn layers(&self) -> Vec<((i32, i32), Vec<i16>)> {
-        let w = DEFAULT_CELLS_PER_SIDE;
-        (0..self.pyramid.layer_count())
-            .filter_map(|k| {
-                let layer = self.pyramid.layer(k)?;
-                let cells = (0..w * w)
-                    .map(|n| {
-                        layer
-                            .at_offset(n % w, n / w)
-                            .map_or(UNKNOWN, |c| c.to_raw())
-                    })
-                    .collect();
-                Some((layer.origin(), cells))
-            })
-            .collect()
-    }
+        .collect()
 }
 
 /// Whether the mirror holds exactly `layers`.
@@ -480,7 +384,7 @@ fn hold_frames(line: &DriveLine, last_pose: &mut Option<[f32; 6]>) -> Vec<Messag
     })];
     if *last_pose != Some(line.pose) {
         let [x_m, y_m, z_m, roll_rad, pitch_rad, yaw_rad] = line.pose;
-        frames.push(Message::Pose(Pose {
+        frames.push(Message::Pose(PoseReport {
             x_m,
             y_m,
             z_m,
@@ -512,10 +416,7 @@ fn host_soak(minutes: f64, failures: &mut Vec<String>) -> Result<HostReport, Str
     let (design, config) = design_and_config()?;
     let drive_config = DriveConfig::new(minutes * 60.0);
     let setup = drive_config.setup();
-    let frontend = FrontendConfig::from_setup(&setup, ClassifierConfig::default())
-        .map_err(|e| format!("the drive's setup: {e}"))?;
-    let mut device = Device::new(&design, &config, frontend)?;
-    let mut host = HostLink::new();
+    let mut device = in_process(&design, &config, &setup)?;
     let mut report = HostReport {
         cell_raw_min: i16::MAX,
         cell_raw_max: i16::MIN,
@@ -525,14 +426,6 @@ fn host_soak(minutes: f64, failures: &mut Vec<String>) -> Result<HostReport, Str
         Clamp::Bounds { min, max } => (min.to_bits(), max.to_bits()),
         Clamp::Off => (i16::MIN + 1, i16::MAX),
     };
-    // The host configures the device's pipeline as `run --board qemu` does: Setup.
-    let bytes = host
-        .command(&Message::Setup(Setup::from_recording(
-            &setup,
-            &ClassifierConfig::default(),
-        )))
-        .map_err(|e| e.to_string())?;
-    device.receive(&bytes);
 
     let drive = Drive::new(drive_config);
     let total = drive.lines();
@@ -540,24 +433,23 @@ fn host_soak(minutes: f64, failures: &mut Vec<String>) -> Result<HostReport, Str
     let started = Instant::now();
     let mut interval_start = Instant::now();
     let mut last_pose = None;
-    let mut out = Vec::with_capacity(8192);
-    let mut previous = device.stats(0);
+    let mut previous = device.stats()?;
     let mut now_ms = 0;
     let mut sim_s = 0.0;
     for line in drive {
         now_ms = line_ms(&line);
+        device.set_time(now_ms);
         if line.new_hold {
             for frame in hold_frames(&line, &mut last_pose) {
-                let bytes = host.command(&frame).map_err(|e| e.to_string())?;
-                device.receive(&bytes);
+                device.send(&frame)?;
             }
         }
         let at = cut(&line);
-        device.laser(&line.telegram[..at]);
-        device.laser(&line.telegram[at..]);
-        out.clear();
-        device.poll(now_ms, &mut out);
-        host.feed(&out);
+        device.laser(&line.telegram[..at])?;
+        device.laser(&line.telegram[at..])?;
+        // The link's poll after every telegram, drained into the mirror.
+        device.poll();
+        report.deferred_tile_polls += u64::from(device.last_poll().deferred_tiles);
         report.telegrams += 1;
         sim_s = line.time_us as f64 / 1e6;
         if report.telegrams.is_multiple_of(LINES_PER_MINUTE) || report.telegrams == total {
@@ -567,11 +459,11 @@ fn host_soak(minutes: f64, failures: &mut Vec<String>) -> Result<HostReport, Str
                 0 => LINES_PER_MINUTE,
                 n => n,
             };
-            let stats = device.stats(now_ms);
+            let stats = device.stats()?;
             check_counters("host", &previous, &stats, failures);
             previous = stats;
             // Every cell: unknown, or within the clamping bounds.
-            for (_, cells) in device.layers() {
+            for (_, cells) in layers(&device) {
                 for &c in &cells {
                     report.cells_checked += 1;
                     if c == UNKNOWN {
@@ -584,7 +476,7 @@ fn host_soak(minutes: f64, failures: &mut Vec<String>) -> Result<HostReport, Str
                     }
                 }
             }
-            let m = host.mirror().counters();
+            let m = device.link().mirror().counters();
             if m.gaps + m.missing + m.patches_refused + m.snapshots_advised > 0 {
                 failures.push(format!("host: the mirror lost frames: {m:?}"));
             }
@@ -615,19 +507,15 @@ fn host_soak(minutes: f64, failures: &mut Vec<String>) -> Result<HostReport, Str
     report.wall_s = started.elapsed().as_secs_f64();
     report.telegrams_per_s = report.telegrams as f64 / report.wall_s.max(1e-9);
     // The last observation, then the link until every changed tile is out.
-    let bytes = host
-        .command(&Message::EndObservation)
-        .map_err(|e| e.to_string())?;
-    device.receive(&bytes);
+    device.send(&Message::EndObservation)?;
     let flush_from = now_ms;
     let mut waited = 0;
     loop {
         now_ms = now_ms.wrapping_add(10);
-        out.clear();
-        device.poll(now_ms, &mut out);
-        host.feed(&out);
+        device.set_time(now_ms);
+        device.poll();
         waited += 10;
-        if !device.dirty() && device.link.queue().is_empty() {
+        if !dirty(&device) && device.core().link().queue().is_empty() {
             break;
         }
         if waited > 120_000 {
@@ -636,14 +524,14 @@ fn host_soak(minutes: f64, failures: &mut Vec<String>) -> Result<HostReport, Str
         }
     }
     report.flush_s = f64::from(now_ms.wrapping_sub(flush_from)) / 1000.0;
-    report.mirror_equal = mirror_equals(&host, &device.layers());
+    report.mirror_equal = mirror_equals(device.link(), &layers(&device));
     if !report.mirror_equal {
         failures.push("host: the mirror differs from the device's pyramid".into());
     }
-    if !host.mirror().is_synced() {
+    if !device.link().mirror().is_synced() {
         failures.push("host: the mirror is not synced".into());
     }
-    let stats = device.stats(now_ms);
+    let stats = device.stats()?;
     check_counters("host (end)", &previous, &stats, failures);
     if u64::from(stats.telegrams_ok) != report.telegrams {
         failures.push(format!(
@@ -651,15 +539,22 @@ fn host_soak(minutes: f64, failures: &mut Vec<String>) -> Result<HostReport, Str
             report.telegrams, stats.telegrams_ok
         ));
     }
-    if device.poses_refused + device.refused + device.lines_rejected + device.telegrams_unparsed > 0
-    {
+    let counters = device.core().counters();
+    let refused = u64::from(counters.app.telegrams_unparsed)
+        + u64::from(counters.app.lines_without_angle)
+        + u64::from(counters.frontend.lines_rejected)
+        + u64::from(stats.commands_refused)
+        + u64::from(stats.rx_bad_cobs)
+        + u64::from(stats.rx_bad_crc)
+        + u64::from(stats.rx_bad_length)
+        + u64::from(stats.rx_bad_other);
+    if refused > 0 {
         failures.push("host: the device refused a pose, a frame or a line".into());
     }
     report.observations = stats.observations;
-    report.deferred_tile_polls = device.deferred_tile_polls;
     report.final_stats = named(&stats);
-    let p = device.pyramid.stats();
-    let f = device.frontend.stats();
+    let p = counters.pyramid;
+    let f = counters.frontend;
     report.internal_counters = vec![
         ("pyramid.cells_reset".into(), p.cells_reset),
         ("pyramid.bad_layer".into(), p.bad_layer),
@@ -712,41 +607,26 @@ const SHARED: [&str; 9] = [
     "observations",
 ];
 
-/// Sends frames on the emulator's UART1 and counts them.
+/// The emulated board, counting the Stats round trips.
 struct Board {
     emu: Emulator,
-    frames: u64,
     round_trips: u64,
 }
 
 impl Board {
     fn send(&mut self, message: &Message<'_>) -> Result<(), String> {
-        self.emu.send(message)?;
-        self.frames += 1;
-        Ok(())
+        self.emu.send(message).map(|_| ())
     }
 
-    /// RequestStats, and the first Stats that counts every frame sent so far (so every one
-    /// of them, the RequestStats included, has been carried out).
+    /// RequestStats, and the Stats that answers it (every frame sent so far, the RequestStats
+    /// included, has been carried out: [`Device::stats`]).
     fn stats(&mut self) -> Result<Stats, String> {
-        self.send(&Message::RequestStats)?;
         self.round_trips += 1;
-        let frames = self.frames;
-        let mut stats = None;
-        self.emu.wait_for("Stats", |_, e| match e {
-            Some(LinkEvent::Stats(s)) if u64::from(s.rx_frames_ok) >= frames => {
-                stats = Some(*s);
-                true
-            }
-            _ => false,
-        })?;
-        stats.ok_or_else(|| "no Stats".to_string())
+        self.emu.stats()
     }
 
     fn command(&mut self, name: &str, message: &Message<'_>) -> Result<(), String> {
-        self.emu.command(name, message)?;
-        self.frames += 1;
-        Ok(())
+        self.emu.command(name, message).map(|_| ())
     }
 }
 
@@ -765,10 +645,7 @@ fn board_soak(
     failures: &mut Vec<String>,
 ) -> Result<BoardReport, String> {
     if !qemu_available() {
-        return Err(format!(
-            "qemu-system-arm is missing: {}",
-            crate::qemu::INSTALL_HINT
-        ));
+        return Err(format!("qemu-system-arm is missing: {INSTALL_HINT}"));
     }
     let (design, config) = design_and_config()?;
     let drive_config = DriveConfig {
@@ -777,22 +654,14 @@ fn board_soak(
     };
     let setup = drive_config.setup();
     let classifier = ClassifierConfig::default();
-    let frontend = FrontendConfig::from_setup(&setup, classifier)
-        .map_err(|e| format!("the drive's setup: {e}"))?;
-    let mut reference = Device::new(&design, &config, frontend)?;
-    let mut reference_host = HostLink::new();
-    let bytes = reference_host
-        .command(&Message::Setup(Setup::from_recording(&setup, &classifier)))
-        .map_err(|e| e.to_string())?;
-    reference.receive(&bytes);
+    let mut reference = in_process(&design, &config, &setup)?;
 
     std::fs::create_dir_all(out_dir).map_err(|e| format!("{}: {e}", out_dir.display()))?;
     let elf = build_firmware(std::path::Path::new(BOARD_DIR), "qemu-mps2")?;
     let started = Instant::now();
-    let emu = Emulator::start(&elf, &out_dir.join("firmware.defmt"))?;
+    let emu = Emulator::start(Machine::Mps2An386, &elf, &out_dir.join("firmware.defmt"))?;
     let mut board = Board {
         emu,
-        frames: 0,
         round_trips: 0,
     };
     board
@@ -800,12 +669,9 @@ fn board_soak(
         .wait_for("Hello", |link, _| link.mirror().firmware().is_some())?;
     board.command(
         "Configure",
-        &Message::Configure(configure_message(&design, &config)),
+        &Message::Configure(configure_of_design(&design, &config)),
     )?;
-    board.command(
-        "Setup",
-        &Message::Setup(Setup::from_recording(&setup, &classifier)),
-    )?;
+    board.command("Setup", &Message::Setup(setup_message(&setup, &classifier)))?;
 
     let drive = Drive::new(drive_config);
     let total = drive.lines();
@@ -831,8 +697,7 @@ fn board_soak(
         // The burst's angle and pose, applied before its telegrams.
         for frame in hold_frames(&first, &mut last_pose) {
             board.send(&frame)?;
-            let bytes = reference_host.command(&frame).map_err(|e| e.to_string())?;
-            reference.receive(&bytes);
+            reference.send(&frame)?;
         }
         board.stats()?;
         burst.clear();
@@ -842,7 +707,7 @@ fn board_soak(
         }
         for line in &burst_lines {
             burst.extend_from_slice(&line.telegram);
-            reference.laser(&line.telegram);
+            reference.laser(&line.telegram)?;
             sent += 1;
             sim_s = line.time_us as f64 / 1e6;
         }
@@ -885,7 +750,7 @@ fn board_soak(
             check_counters("qemu", &previous, &stats, failures);
             previous = stats;
             // The reference has seen exactly the same frames and telegrams.
-            let r = reference.stats(0);
+            let r = reference.stats()?;
             let (dev, refv) = (named(&stats), named(&r));
             for name in SHARED {
                 let d = dev.iter().find(|(n, _)| n == name).map(|x| x.1);
@@ -927,11 +792,8 @@ fn board_soak(
     // The last observation on both sides, then the mirror must converge to the reference
     // from the patches alone.
     board.send(&Message::EndObservation)?;
-    let bytes = reference_host
-        .command(&Message::EndObservation)
-        .map_err(|e| e.to_string())?;
-    reference.receive(&bytes);
-    let expected = reference.layers();
+    reference.send(&Message::EndObservation)?;
+    let expected = layers(&reference);
     report.incremental_mirror_equal = board
         .emu
         .wait_for("the patches to bring the mirror up to date", |link, _| {
@@ -941,15 +803,7 @@ fn board_soak(
     if !report.incremental_mirror_equal {
         failures.push("qemu: the mirror built from patches differs from the reference".into());
     }
-    let hellos = board.emu.link().mirror().counters().hellos;
-    board.command(
-        "RequestSnapshot",
-        &Message::RequestSnapshot(SnapshotScope::All),
-    )?;
-    board.emu.wait_for("the snapshot", |link, _| {
-        let m = link.mirror();
-        m.counters().hellos > hellos && m.is_synced()
-    })?;
+    board.emu.snapshot()?;
     report.snapshot_mirror_equal = mirror_equals(board.emu.link(), &expected);
     if !report.snapshot_mirror_equal {
         failures.push("qemu: the device's maps (snapshot) differ from the reference".into());
@@ -1057,7 +911,7 @@ fn print_summary(report: &Report) {
     eprintln!("soak: {}", if report.passed { "passed" } else { "FAILED" });
 }
 
-/// Runs `pyramid soak`.
+/// Runs `lab soak`.
 pub fn run(args: &Args) -> ExitCode {
     match execute(args) {
         Ok(report) => {

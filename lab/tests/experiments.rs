@@ -1,4 +1,4 @@
-//! `pyramid experiments --quick`: the paper's three claims, held on the simulator.
+//! `lab experiments --quick`: the paper's three claims, held on the simulator.
 //!
 //! - Stairs (Figs 5-7): after standing 20 m from the stairs for 2 minutes and driving up to
 //!   1.0 m, the pyramid (all layers at 0.1 m) marks at least 90 % of the step cells, the
@@ -24,14 +24,14 @@ fn out_dir(test: &str) -> PathBuf {
 
 fn run_quick() -> (Value, PathBuf) {
     let dir = out_dir("quick");
-    let output = Command::new(env!("CARGO_BIN_EXE_pyramid"))
+    let output = Command::new(env!("CARGO_BIN_EXE_lab"))
         .args(["experiments", "--quick", "--json", "--out"])
         .arg(&dir)
         .output()
-        .expect("pyramid runs");
+        .expect("lab runs");
     assert!(
         output.status.success(),
-        "pyramid experiments failed: {}",
+        "lab experiments failed: {}",
         String::from_utf8_lossy(&output.stderr)
     );
     let json: Value = serde_json::from_slice(&output.stdout).expect("one JSON object");
@@ -131,15 +131,15 @@ fn the_firmware_reaches_the_same_stairs_outcome_as_the_host() {
         return;
     }
     let dir = out_dir("board");
-    let output = Command::new(env!("CARGO_BIN_EXE_pyramid"))
+    let output = Command::new(env!("CARGO_BIN_EXE_lab"))
         .args(["experiments", "--stairs-only", "--board", "qemu", "--json"])
         .args(["--stand-s", "2", "--speed", "2", "--out"])
         .arg(&dir)
         .output()
-        .expect("pyramid runs");
+        .expect("lab runs");
     assert!(
         output.status.success(),
-        "pyramid experiments --board qemu failed: {}",
+        "lab experiments --board qemu failed: {}",
         String::from_utf8_lossy(&output.stderr)
     );
     let r: Value = serde_json::from_slice(&output.stdout).expect("one JSON object");

@@ -115,6 +115,19 @@ impl BeamTable {
         Self { variant, dirs }
     }
 
+    /// Rebuilds the table for `variant` in place: the same table as [`BeamTable::new`], without
+    /// a second 1.6 KiB table on the stack (`*table = BeamTable::new(v)` builds one there and
+    /// copies it; a 16 KiB part has no room for that).
+    pub fn rebuild(&mut self, variant: Variant) {
+        self.variant = variant;
+        for (k, slot) in self.dirs.iter_mut().enumerate() {
+            *slot = match variant.beam_angle(k) {
+                Some(theta) if k < variant.beam_count() => BeamDir::new(theta),
+                _ => BeamDir { cos: 0, sin: 0 },
+            };
+        }
+    }
+
     /// The variant this table was built for.
     #[must_use]
     pub const fn variant(&self) -> Variant {
@@ -177,6 +190,18 @@ mod tests {
         let th = 40_f64.to_radians();
         assert!((f64::from(c) / 32_768.0 - th.cos()).abs() <= 0.5 / 32_768.0);
         assert!((f64::from(s) / 32_768.0 - th.sin()).abs() <= 0.5 / 32_768.0);
+    }
+
+    #[test]
+    fn rebuild_in_place_is_new() {
+        // From every variant to every other (a larger table leaves no stale entries behind).
+        for from in Variant::ALL {
+            for to in Variant::ALL {
+                let mut t = BeamTable::new(from);
+                t.rebuild(to);
+                assert_eq!(t, BeamTable::new(to), "{from:?} -> {to:?}");
+            }
+        }
     }
 
     #[test]

@@ -13,6 +13,8 @@
 //!   Slamtec RPLIDAR A1/A2/A3/C1/S, YDLIDAR X4/X2): packet views, commands and resynchronising
 //!   accumulators, all decoding to [`LaserReturn`]s in the sensor's own (clockwise) angle
 //!   convention ([`laser`]).
+//! - [`shared_line`]: one UART carrying both the SICK telegrams and the host link, split at
+//!   frame boundaries (a board with a single UART).
 //!
 //! Every accumulator hands out a [`FeedResult`].
 //!
@@ -37,6 +39,7 @@ pub mod ld06;
 pub mod link;
 pub mod recording;
 pub mod rplidar;
+pub mod shared_line;
 pub mod sick;
 mod window;
 pub mod ydlidar;

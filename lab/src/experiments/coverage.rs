@@ -292,7 +292,7 @@ pub fn run(setup: &Setup, out: Option<&Path>) -> Result<(CoverageResult, CostRes
         // The maps themselves as `pyramid run` writes them (PGM/YAML per layer, maps.png).
         for (name, map) in [("coverage-fixed", &fixed), ("coverage-pyramid", &pyramid)] {
             let snapshot = map.snapshot(sensor);
-            crate::export::write_maps(&dir.join(name), &snapshot, name)?;
+            terrain_pyramid_host::export::write_maps(&dir.join(name), &snapshot, name)?;
         }
     }
     Ok((coverage, cost))

@@ -1,22 +1,22 @@
 //! The machinery every experiment shares: a simulated recording decoded once into its scan
-//! lines, and maps (library pyramids of any shape) fed line by line through the library's own
-//! pipeline ([`Frontend::line`]), exactly as `pyramid run` and the firmware feed them.
+//! lines (by the host tool's player, [`terrain_pyramid_host::play::steps`]), and maps (library
+//! pyramids of any shape) fed line by line through the library's own pipeline
+//! ([`Frontend::line`]) with the design's gating, as the co-processor feeds them.
 //!
 //! Decoding the recording (events, SICK reassembly, CRC) happens once, before any map sees a
 //! line; each map then parses the stored measured-values payload itself, so a timed line
 //! costs the parse, the geometry, the classifier and the pyramid updates, and nothing else.
+//! As in the co-processor, a line that comes before any actuator angle is dropped.
 
 use terrain_pyramid::angle::FineAngle;
 use terrain_pyramid::classify::ClassifierConfig;
 use terrain_pyramid::geometry::Pose;
+use terrain_pyramid::link::convert::frontend_config_of_event;
 use terrain_pyramid::pipeline::{Frontend, FrontendConfig};
-use terrain_pyramid::wire::recording::SetupEvent as Setup;
-use terrain_pyramid::wire::recording::{Payload, Reader};
-use terrain_pyramid::wire::sick::{MeasuredValues, SickAccumulator, SickItem};
-use terrain_pyramid::wire::FeedResult;
+use terrain_pyramid::wire::sick::{MeasuredValues, Telegram};
 use terrain_pyramid::{Config, Design, Fused, Meters, Pyramid, PyramidStats};
-
-use crate::export::MapSnapshot;
+use terrain_pyramid_host::export::MapSnapshot;
+use terrain_pyramid_host::play::{steps, Step};
 
 /// One scan line of a recording, with the pose and actuator angle in force for it.
 #[derive(Debug, Clone)]
@@ -27,8 +27,8 @@ pub struct Line {
     pub pose: Option<[f32; 6]>,
     /// The robot's pose in force for this line.
     pub robot_xy: (f64, f64),
-    /// The actuator angle, 2⁻¹⁶ turn.
-    pub angle: u16,
+    /// The actuator angle, 2⁻¹⁶ turn; `None` before the recording's first angle.
+    pub angle: Option<u16>,
     /// The measured-values payload of the line's telegram.
     pub payload: Vec<u8>,
 }
@@ -42,65 +42,50 @@ pub struct Decoded {
     pub lines: Vec<Line>,
 }
 
-/// The pipeline's configuration from a recording's setup (as `pyramid run` derives it).
-fn frontend_config(setup: &Setup) -> Result<FrontendConfig, String> {
-    FrontendConfig::from_setup(setup, ClassifierConfig::default())
-        .map_err(|e| format!("the recording's setup: {e}"))
-}
-
 /// Decodes a whole recording: its setup and every valid measured-values telegram as a line.
 ///
 /// # Errors
-/// A recording that cannot be read, or lines before the setup.
+/// A recording that cannot be read, lines before the setup, or an invalid setup.
 pub fn decode(data: &[u8]) -> Result<Decoded, String> {
-    let reader = Reader::new(data).map_err(|e| format!("the recording: {e}"))?;
-    let mut accumulator: Box<SickAccumulator> = Box::new(SickAccumulator::new());
-    let mut frontend = None;
+    let decoded = steps(data)?;
+    let setup = decoded.setup().ok_or("the recording has no setup")?;
+    let frontend = frontend_config_of_event(&setup, &ClassifierConfig::default())
+        .map_err(|e| format!("the recording's setup: {e}"))?;
     let mut lines = Vec::new();
     let mut pending_pose: Option<[f32; 6]> = None;
     let mut robot_xy = (0.0, 0.0);
-    let mut angle = 0_u16;
-    for event in reader {
-        let event = event.map_err(|e| format!("the recording: {e}"))?;
-        match event.payload {
-            Payload::Setup(setup) => frontend = Some(frontend_config(&setup)?),
-            Payload::Angle(turns) => angle = turns,
-            Payload::Pose(pose) => {
+    let mut angle = None;
+    for step in &decoded.steps {
+        match step {
+            Step::Setup(_) => {}
+            Step::Laser { .. } => {
+                return Err("the experiments' engine takes SICK recordings, not a lidar's".into())
+            }
+            Step::Angle(turns) => angle = Some(*turns),
+            Step::Pose(pose) => {
                 robot_xy = (f64::from(pose[0]), f64::from(pose[1]));
-                pending_pose = Some(pose);
+                pending_pose = Some(*pose);
             }
-            Payload::Laser(bytes) => {
-                if frontend.is_none() {
-                    return Err("the recording has laser bytes before its setup".into());
+            Step::Telegram {
+                bytes,
+                measured,
+                time_us,
+            } => {
+                if !measured {
+                    continue;
                 }
-                let mut rest = bytes;
-                loop {
-                    match accumulator.feed(rest) {
-                        FeedResult::Consumed => break,
-                        FeedResult::Item {
-                            item: SickItem::Telegram(telegram),
-                            remaining,
-                            ..
-                        } => {
-                            if MeasuredValues::parse(&telegram).is_ok() {
-                                lines.push(Line {
-                                    time_us: event.time_us,
-                                    pose: pending_pose.take(),
-                                    robot_xy,
-                                    angle,
-                                    payload: telegram.payload().to_vec(),
-                                });
-                            }
-                            rest = remaining;
-                        }
-                        other => rest = other.remaining(),
-                    }
-                }
+                let telegram = Telegram::new_checked(&bytes[..])
+                    .map_err(|e| format!("a decoded telegram: {e:?}"))?;
+                lines.push(Line {
+                    time_us: *time_us,
+                    pose: pending_pose.take(),
+                    robot_xy,
+                    angle,
+                    payload: telegram.payload().to_vec(),
+                });
             }
-            Payload::Marker(_) | Payload::Unknown { .. } => {}
         }
     }
-    let frontend = frontend.ok_or("the recording has no setup")?;
     Ok(Decoded { frontend, lines })
 }
 
@@ -134,7 +119,7 @@ pub struct Runner<const W: usize, const L: usize, const C: usize> {
     config: Config,
     frontend_config: FrontendConfig,
     pyramid: Box<Pyramid<W, L>>,
-    frontend: Box<Frontend<C>>,
+    frontend: Box<Frontend<C, L>>,
 }
 
 impl<const W: usize, const L: usize, const C: usize> Runner<W, L, C> {
@@ -153,13 +138,20 @@ impl<const W: usize, const L: usize, const C: usize> Runner<W, L, C> {
         pyramid
             .configure(&design, &config)
             .map_err(|e| format!("{name}: {e}"))?;
+        // As the co-processor's Configure, then Setup: the design's gating, the recording's
+        // mount, scanner and classifier.
+        let mut frontend: Box<Frontend<C, L>> = Box::new(Frontend::unconfigured());
+        frontend
+            .adopt_design(&design, &config)
+            .map_err(|e| format!("{name}: {e}"))?;
+        frontend.configure(frontend_config);
         Ok(Self {
             name: name.to_string(),
             design,
             config,
             frontend_config,
             pyramid,
-            frontend: Box::new(Frontend::new(frontend_config)),
+            frontend,
         })
     }
 }
@@ -175,8 +167,12 @@ impl<const W: usize, const L: usize, const C: usize> Map for Runner<W, L, C> {
                 self.frontend.set_pose(pose);
             }
         }
+        // No angle yet: the co-processor drops the line (it would be placed at a wrong angle).
+        let Some(angle) = line.angle else {
+            return;
+        };
         self.frontend
-            .set_actuator(FineAngle::from_bits(u32::from(line.angle) << 16));
+            .set_actuator(FineAngle::from_bits(u32::from(angle) << 16));
         if let Ok(values) = MeasuredValues::parse_payload(&line.payload) {
             // A line the variant refuses is counted by the pipeline; nothing else to do.
             let _ = self.frontend.line(&mut self.pyramid, &values);

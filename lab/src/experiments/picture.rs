@@ -3,11 +3,11 @@
 //! the robot and the ground-truth cells marked; and detection curves.
 
 use super::engine::Map;
-use crate::export::picture::{FREE_RGB, OBSTACLE_RGB, UNKNOWN_RGB};
 use plotters::prelude::*;
 use plotters::style::{register_font, FontStyle};
 use std::path::Path;
 use terrain_pyramid::Fused;
+use terrain_pyramid_host::export::picture::{FREE_RGB, OBSTACLE_RGB, UNKNOWN_RGB};
 
 const FONT: &str = "sans-serif";
 /// Pixels per sample, at most; panels are scaled down to fit [`PANEL_W`].

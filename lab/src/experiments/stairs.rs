@@ -155,7 +155,7 @@ pub struct MapResult {
     pub series: Vec<(f64, f64)>,
     /// The map at the end of the run, for comparison with the firmware's.
     #[serde(skip)]
-    pub final_map: Option<crate::export::MapSnapshot>,
+    pub final_map: Option<terrain_pyramid_host::export::MapSnapshot>,
 }
 
 /// The experiment's result.
@@ -432,13 +432,13 @@ pub fn run(setup: &Setup, out: Option<&Path>) -> Result<StairsResult, String> {
 }
 
 /// Writes the stairs recording of `setup` (the paper's robot in front of the stairs, then
-/// driving up to them) to `path`, for `pyramid demo`. Returns the number of lines.
+/// driving up to them) to `path`, for `lab demo`. Returns the number of lines.
 ///
 /// # Errors
 /// The simulator refused the setup, or the file could not be written.
 pub fn write_recording(setup: &Setup, path: &Path) -> Result<u32, String> {
     let sim = simulate(&setup.sim()).map_err(|e| e.to_string())?;
-    crate::export::write_file(path, &sim.bytes)?;
+    terrain_pyramid_host::export::write_file(path, &sim.bytes)?;
     Ok(sim.lines)
 }
 

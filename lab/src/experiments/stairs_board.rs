@@ -1,31 +1,32 @@
-//! The stairs experiment through the emulated firmware (`pyramid experiments --board qemu`).
+//! The stairs experiment through the emulated firmware (`lab experiments --board qemu`).
 //!
 //! The same recording, the same four maps, but each one is the firmware's own: QEMU's MPS2
 //! AN386 running `boards/qemu-mps2` built with `--features paper-stairs` (32 layers of 488²
 //! cells in PSRAM), configured over the link exactly as the host experiment configures its
 //! library pyramids (Configure with the design's flags, Setup from the recording), fed the
-//! recording's telegrams on UART0 in lock-step (`crate::qemu`). At every point where the host
-//! experiment looks at its maps (the end of each observation, and the end of standing), the
-//! harness waits until the device has sent every changed tile (`Emulator::sync`) and asks
+//! recording's telegrams on UART0 lock-step by the host tool's player
+//! ([`terrain_pyramid_host::play::play_watched`]). At every point where the host experiment
+//! looks at its maps (the end of each observation, and the end of standing), the harness
+//! waits until the device has sent every changed tile ([`Device::sync`]) and asks
 //! the fused question of its mirror of the device's maps. At the end, the mirror is compared
 //! cell for cell with the host's library map.
 
 use super::designs;
 use super::stairs::{self, Cell, Setup, Shares, StairsResult, CELLS, CELL_M, FIRST_STEP_SHARE};
-use crate::export::MapSnapshot;
-use crate::qemu::{self, Emulator, Pending};
 use serde::Serialize;
 use std::path::Path;
 use std::time::Instant;
 use terrain_pyramid::classify::ClassifierConfig;
 use terrain_pyramid::grid::cell_of;
+use terrain_pyramid::link::convert::{configure_of_design, frontend_config_of_event};
 use terrain_pyramid::logodds::round_to_log_odds;
-use terrain_pyramid::wire::link::{Message, Setup as SetupMessage};
-use terrain_pyramid::wire::recording::{Payload, Reader};
-use terrain_pyramid::wire::sick::{MeasuredValues, SickAccumulator, SickItem};
-use terrain_pyramid::wire::FeedResult;
+use terrain_pyramid::wire::link::Message;
 use terrain_pyramid::{Cell as MapCell, Clamp, Config, Design, Fused, GateShape, Meters};
+use terrain_pyramid_host::device::Device;
+use terrain_pyramid_host::emulator::{build_firmware_variant, Emulator, Machine, BOARD_DIR};
+use terrain_pyramid_host::export::MapSnapshot;
 use terrain_pyramid_host::link::HostLink;
+use terrain_pyramid_host::play::{play_watched, steps, Moment, Steps};
 use terrain_pyramid_host_tests::sim::record::simulate;
 
 /// The board feature that builds the stairs firmware.
@@ -185,9 +186,18 @@ fn map_specs(range_m: f64) -> Result<Vec<(&'static str, Design<BOARD_LAYERS>, Co
 /// # Errors
 /// QEMU or the target missing, the firmware refusing a command, or a run that stalls.
 pub fn run(setup: &Setup, host: &StairsResult, out: &Path) -> Result<BoardStairsResult, String> {
-    let elf = qemu::build_firmware_variant(Path::new(qemu::BOARD_DIR), "qemu-mps2", Some(FEATURE))?;
+    let elf = build_firmware_variant(Path::new(BOARD_DIR), "qemu-mps2", Some(FEATURE))?;
     let sim_config = setup.sim();
     let sim = simulate(&sim_config).map_err(|e| e.to_string())?;
+    let decoded = steps(&sim.bytes)?;
+    let setup_event = decoded.setup().ok_or("the recording has no setup")?;
+    let classifier = ClassifierConfig::default();
+    let per = u64::from(
+        frontend_config_of_event(&setup_event, &classifier)
+            .map_err(|e| format!("the recording's setup: {e}"))?
+            .lines_per_observation
+            .max(1),
+    );
     let (steps, first) = stairs::step_cells(&sim_config);
     let riser_x = sim_config.scene.target_x.unwrap_or(0.0);
     let drive_start_us = (sim_config.trajectory.drive_start_s() * 1e6).round();
@@ -207,7 +217,9 @@ pub fn run(setup: &Setup, host: &StairsResult, out: &Path) -> Result<BoardStairs
                 let ctx = BoardRun {
                     elf: &elf,
                     out,
-                    bytes: &sim.bytes,
+                    recording: &decoded,
+                    classifier: &classifier,
+                    per,
                     steps: &steps,
                     first: &first,
                     riser_x,
@@ -248,7 +260,10 @@ pub fn run(setup: &Setup, host: &StairsResult, out: &Path) -> Result<BoardStairs
 struct BoardRun<'a> {
     elf: &'a Path,
     out: &'a Path,
-    bytes: &'a [u8],
+    recording: &'a Steps,
+    classifier: &'a ClassifierConfig,
+    /// Lines per observation: the host experiment looks at its maps after every `per` lines.
+    per: u64,
     steps: &'a [Cell],
     first: &'a [Cell],
     riser_x: f64,
@@ -267,7 +282,9 @@ impl BoardRun<'_> {
         let BoardRun {
             elf,
             out,
-            bytes,
+            recording,
+            classifier,
+            per,
             steps,
             first,
             riser_x,
@@ -275,41 +292,50 @@ impl BoardRun<'_> {
         } = self;
         eprintln!("stairs through the firmware: {name} ...");
         let started = Instant::now();
-        let mut emu = Emulator::start(elf, &out.join(format!("stairs-board-{name}.defmt")))?;
+        let mut emu = Emulator::start(
+            Machine::Mps2An386,
+            elf,
+            &out.join(format!("stairs-board-{name}.defmt")),
+        )?;
         emu.wait_for("Hello", |link, _| link.mirror().firmware().is_some())?;
         emu.command(
             "Configure",
-            &Message::Configure(qemu::configure_message(design, config)),
+            &Message::Configure(configure_of_design(design, config)),
         )?;
         let margin = round_to_log_odds(config.fused_margin).to_bits();
-        let mut play = Play {
-            emu: &mut emu,
-            pending: Pending::default(),
-            steps,
-            first,
-            riser_x,
-            drive_start_us,
-            margin,
-            robot_x: 0.0,
-            lines: 0,
-            per: 0,
-            detect: None,
-            far: None,
-        };
-        play.recording(bytes)?;
-        let Play {
-            detect,
-            far,
-            lines,
-            robot_x,
-            ..
-        } = play;
-        emu.send(&Message::EndObservation)?;
+        // The host experiment's looks at its maps: the step cells at the end of standing
+        // (before the first driving line), and whether the first step is seen after every
+        // observation.
+        let mut far = None;
+        let mut detect = None;
+        let (counts, robot_xy) = play_watched(&mut emu, recording, classifier, |emu, moment| {
+            match moment {
+                Moment::Before { time_us, .. } => {
+                    #[allow(clippy::cast_precision_loss)]
+                    let driving = time_us as f64 >= drive_start_us;
+                    if driving && far.is_none() {
+                        emu.sync()?;
+                        far = Some(mirror_shares(emu.link(), margin, steps));
+                    }
+                }
+                Moment::After {
+                    telegrams,
+                    robot_xy,
+                } => {
+                    if telegrams.is_multiple_of(per) && detect.is_none() {
+                        emu.sync()?;
+                        if mirror_shares(emu.link(), margin, first).obstacle >= FIRST_STEP_SHARE {
+                            detect = Some(stairs::round3(riser_x - robot_xy.0));
+                        }
+                    }
+                }
+            }
+            Ok(())
+        })?;
         let stats = emu.sync()?;
-        let mut detect = detect;
         if detect.is_none() && mirror_shares(emu.link(), margin, first).obstacle >= FIRST_STEP_SHARE
         {
-            detect = Some(stairs::round3(riser_x - robot_x));
+            detect = Some(stairs::round3(riser_x - robot_xy.0));
         }
         let near = mirror_shares(emu.link(), margin, steps);
         let differing = host_map
@@ -325,7 +351,7 @@ impl BoardRun<'_> {
             map_equal_to_host: differing == 0,
             cells_differing: differing,
             layers,
-            telegrams: lines,
+            telegrams: counts.telegrams_sent,
             evidence_applied: stats.evidence_applied,
             stack_bytes,
             wall_s: started.elapsed().as_secs_f64(),
@@ -342,90 +368,5 @@ impl BoardRun<'_> {
             result.cells_differing
         );
         Ok(result)
-    }
-}
-
-/// One map's lock-step replay, with the host experiment's looks at the map.
-struct Play<'a> {
-    emu: &'a mut Emulator,
-    pending: Pending,
-    steps: &'a [Cell],
-    first: &'a [Cell],
-    riser_x: f64,
-    drive_start_us: f64,
-    margin: i16,
-    robot_x: f64,
-    lines: u64,
-    per: u64,
-    detect: Option<f64>,
-    far: Option<Shares>,
-}
-
-impl Play<'_> {
-    fn recording(&mut self, data: &[u8]) -> Result<(), String> {
-        let reader = Reader::new(data).map_err(|e| format!("the recording: {e}"))?;
-        let mut accumulator: Box<SickAccumulator> = Box::new(SickAccumulator::new());
-        for event in reader {
-            let event = event.map_err(|e| format!("the recording: {e}"))?;
-            match event.payload {
-                Payload::Setup(setup) => {
-                    let classifier = ClassifierConfig::default();
-                    let frontend = crate::run::frontend_config(&setup, classifier)?;
-                    self.per = u64::from(frontend.lines_per_observation.max(1));
-                    self.emu.command(
-                        "Setup",
-                        &Message::Setup(SetupMessage::from_recording(&setup, &classifier)),
-                    )?;
-                }
-                Payload::Angle(turns) => self.pending.angle = Some(turns),
-                Payload::Pose(p) => {
-                    self.robot_x = f64::from(p[0]);
-                    self.pending.pose = Some(p);
-                }
-                Payload::Laser(bytes) => {
-                    let mut rest = bytes;
-                    loop {
-                        match accumulator.feed(rest) {
-                            FeedResult::Consumed => break,
-                            FeedResult::Item {
-                                item: SickItem::Telegram(telegram),
-                                remaining,
-                                ..
-                            } => {
-                                rest = remaining;
-                                if MeasuredValues::parse(&telegram).is_ok() {
-                                    #[allow(clippy::cast_precision_loss)]
-                                    let time = event.time_us as f64;
-                                    self.line(telegram.as_bytes(), time)?;
-                                }
-                            }
-                            other => rest = other.remaining(),
-                        }
-                    }
-                }
-                Payload::Marker(_) | Payload::Unknown { .. } => {}
-            }
-        }
-        Ok(())
-    }
-
-    /// One telegram, and the looks the host experiment takes around it.
-    fn line(&mut self, telegram: &[u8], time_us: f64) -> Result<(), String> {
-        if time_us >= self.drive_start_us && self.far.is_none() {
-            // The end of standing, before the first driving line (as the host looks).
-            self.emu.sync()?;
-            self.far = Some(mirror_shares(self.emu.link(), self.margin, self.steps));
-        }
-        qemu::send_line(self.emu, &mut self.pending, telegram)?;
-        self.lines += 1;
-        self.emu.wait_for_telegrams(self.lines)?;
-        if self.lines.is_multiple_of(self.per) && self.detect.is_none() {
-            self.emu.sync()?;
-            let first = mirror_shares(self.emu.link(), self.margin, self.first);
-            if first.obstacle >= FIRST_STEP_SHARE {
-                self.detect = Some(stairs::round3(self.riser_x - self.robot_x));
-            }
-        }
-        Ok(())
     }
 }

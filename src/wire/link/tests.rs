@@ -274,7 +274,7 @@ fn layer_patch_golden_is_the_specs_worked_example() {
     };
     let encoded =
         "11 03 02 02 01 01 02 02 e0 ff ff ff e0 ff ff ff 03 01 01 05 fc ff ff ff 03 80 d9 01 02 \
-                   fe 01 05 f5 32 c8 5a 00";
+         fe 01 05 f5 32 c8 5a 00";
     golden(0x0102, &Message::LayerPatch(patch), encoded);
     let values: Vec<i16> = patch.cells.iter().collect();
     assert_eq!(values, [i16::MIN, 217, -512, 0]);
@@ -333,13 +333,13 @@ fn window_moved_stats_reply_golden() {
         &Message::Reply(Reply::ok(configure)),
         "06 03 05 05 01 0b 02 83 01 01 01 01 01 01 01 01 01 01 01 01 01 05 f4 22 38 2a 00",
     );
-    // The refusal of layer 3's decay time constant: param 64 + 3, OutOfRange, 1 s against
+    // The refusal of layer 3's decay time constant: param 96 + 3, OutOfRange, 1 s against
     // [4, 60 097] s.
     let refusal = Reply {
         to_seq: 12,
         to_type: 0x83,
         code: ReplyCode::OutOfRange,
-        param: 67,
+        param: 99,
         value: 1.0,
         a: 4.0,
         b: 60_097.0,
@@ -347,7 +347,7 @@ fn window_moved_stats_reply_golden() {
     golden(
         0x0106,
         &Message::Reply(refusal),
-        "06 03 05 06 01 0c 04 83 03 43 01 03 80 3f 01 03 80 40 08 c1 6a 47 52 e1 d3 63 00",
+        "06 03 05 06 01 0c 04 83 03 63 01 03 80 3f 01 03 80 40 08 c1 6a 47 a7 aa ad d0 00",
     );
 }
 
@@ -421,7 +421,8 @@ fn bad_frames_are_refused_counted_and_the_next_frame_decodes() {
     // 3. Too short: a 3-byte frame.
     stream.extend_from_slice(&hex("04 01 86 01 00"));
     // 4. Unknown version, unknown type, bad body length, out-of-range field.
-    stream.extend_from_slice(&raw_frame(1, 0x86, 3, &[]));
+    // A version-2 frame (an older peer): refused whole.
+    stream.extend_from_slice(&raw_frame(2, 0x86, 3, &[]));
     stream.extend_from_slice(&raw_frame(3, 0x7E, 4, &[]));
     stream.extend_from_slice(&raw_frame(3, 0x86, 5, &[0]));
     stream.extend_from_slice(&raw_frame(
@@ -440,7 +441,7 @@ fn bad_frames_are_refused_counted_and_the_next_frame_decodes() {
     assert!(matches!(got[0], Err(DecodeError::Crc { .. })));
     assert_eq!(got[1], Err(DecodeError::Cobs));
     assert_eq!(got[2], Err(DecodeError::TooShort { len: 3 }));
-    assert_eq!(got[3], Err(DecodeError::UnknownVersion(1)));
+    assert_eq!(got[3], Err(DecodeError::UnknownVersion(2)));
     assert_eq!(got[4], Err(DecodeError::UnknownType(0x7E)));
     assert_eq!(
         got[5],
@@ -568,24 +569,62 @@ fn setup_and_the_empty_commands_golden() {
         step_threshold_m: 0.05,
         drop_threshold_m: 0.0,
         ceiling_m: 2.0,
+        laser: LaserSetup::SICK,
     };
     golden(
         7,
         &Message::Setup(setup),
         "04 03 87 07 02 01 02 b4 02 32 01 01 03 80 3e 01 01 02 bf 01 03 40 3f 01 01 01 01 01 07 \
-         80 3f cd cc 4c 3d 01 01 01 01 01 01 06 40 6b 10 32 2c 00",
+         80 3f cd cc 4c 3d 01 01 01 01 01 01 02 40 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 \
+         01 01 01 01 01 01 05 99 72 9e d7 00",
     );
     golden(2, &Message::RequestStats, "04 03 88 02 05 48 58 e1 ee 00");
     golden(2, &Message::Shutdown, "04 03 89 02 05 7f 32 23 ef 00");
     golden(2, &Message::EndObservation, "04 03 8a 02 05 26 8c 65 ed 00");
-    // A Setup body one byte short is a bad body.
-    assert!(matches!(
-        Message::parse(0x87, &[0; 37]),
-        Err(DecodeError::BadBody {
-            msg_type: 0x87,
-            len: 37
-        })
-    ));
+    // A Setup body one byte short is a bad body; so is a version-2 Setup (38 bytes).
+    for len in [59, 38] {
+        assert!(matches!(
+            Message::parse(0x87, &[0; 60][..len]),
+            Err(DecodeError::BadBody { msg_type: 0x87, len: l }) if l == len
+        ));
+    }
+}
+
+/// The laser block of version 3 (`docs/protocol.md`, "0x87 Setup", the second worked
+/// example): an LD06 at its default rate on a nodding servo from −10° to 30° at 60 °/s with
+/// 25 ms of latency, tilted horizontal, 0.4 m up, two revolutions per observation, robot
+/// height 0.5 m, step 0.08 m, drop and ceiling off; the SICK fields zero (ignored).
+#[test]
+fn setup_with_a_lidar_on_a_servo_golden() {
+    let setup = Setup {
+        mount: 1,
+        measuring_mode: 0,
+        field_deg: 0,
+        resolution_cdeg: 0,
+        sensor_m: [0.1, 0.0, 0.4],
+        lines_per_observation: 2,
+        robot_height_m: 0.5,
+        step_threshold_m: 0.08,
+        drop_threshold_m: 0.0,
+        ceiling_m: 0.0,
+        laser: LaserSetup {
+            sensor: 1,
+            actuator: 1,
+            baud: 0,
+            servo_min_deg: -10.0,
+            servo_max_deg: 30.0,
+            servo_rate_deg_s: 60.0,
+            servo_latency_ms: 25.0,
+        },
+    };
+    golden(
+        8,
+        &Message::Setup(setup),
+        "04 03 87 08 02 01 01 01 01 01 05 cd cc cc 3d 01 01 01 06 cd cc cc 3e 02 01 01 01 01 01 \
+         06 3f 0a d7 a3 3d 01 01 01 01 01 01 01 03 01 01 01 01 01 01 01 03 20 c1 01 03 f0 41 01 \
+         03 70 42 01 07 c8 41 cf 61 7a 01 00",
+    );
+    assert_eq!(SETUP_LASER_LEN, 22);
 }
 
 /// A version-2 frame (the Ping of version 2's worked example, whose CRC is good) is refused
