@@ -9,8 +9,7 @@ use terrain_pyramid::wire::link::{
     encode, ClampRequest, Configure, Decayed, DecayedRows, DecodeError, Decoded, FirmwareVersion,
     FrameAccumulator, GateRequest, Header, Hello, HelloReason, LaserSetup, LayerInfo, LayerPatch,
     Message, PanAngle, PatchArea, PatchCells, PoseReport, Reply, ReplyCode, Setup, SnapshotScope,
-    Stats, Undecoded,
-    WindowMoved, MAX_ENCODED_FRAME, MAX_FRAME, STATS_COUNTERS,
+    Stats, Undecoded, WindowMoved, MAX_ENCODED_FRAME, MAX_FRAME, STATS_COUNTERS,
 };
 use terrain_pyramid::wire::FeedResult;
 use terrain_pyramid::{
