@@ -21,6 +21,7 @@ use crate::device::{Device, InProcess};
 use crate::emulator::{qemu_available, Emulator, Machine, INSTALL_HINT};
 use crate::export::{write_maps, MapSnapshot};
 use crate::play::{mirror_snapshot, play, steps, RunCounts, Steps};
+use crate::publish::{OutputArgs, Outputs, OutputsReport, Publishing};
 use crate::replay::ClampArg;
 use serde::Serialize;
 use std::path::{Path, PathBuf};
@@ -33,8 +34,8 @@ use terrain_pyramid::link::LinkConfig;
 use terrain_pyramid::pipeline::FrontendConfig;
 use terrain_pyramid::wire::link::Message;
 use terrain_pyramid::{
-    Clamp, Config, DefaultDesign, Meters, Schedule, SensorModel, DEFAULT_CELLS_PER_SIDE,
-    DEFAULT_CLASSIFIER_SLOTS, DEFAULT_LAYERS,
+    Clamp, Config, DefaultDesign, LogOddsFixed, Meters, Schedule, SensorModel,
+    DEFAULT_CELLS_PER_SIDE, DEFAULT_CLASSIFIER_SLOTS, DEFAULT_LAYERS,
 };
 
 /// Where the pipeline runs.
@@ -114,6 +115,10 @@ pub struct Args {
     /// Returns this far below the robot's ground plane mark a drop-off, metres.
     #[arg(long, value_name = "M")]
     pub drop_m: Option<f64>,
+    /// The live outputs, as `pyramid listen`'s: the maps as the device sends them while the
+    /// recording plays.
+    #[command(flatten)]
+    pub outputs: OutputArgs,
     /// Decay of stale evidence (off by default).
     #[command(flatten)]
     pub decay: DecayArgs,
@@ -173,6 +178,9 @@ pub struct Summary<'a> {
     pub decay: &'a DecaySummary,
     /// The mirror's decay and its comparison with the device at the final snapshot.
     pub mirror: MirrorCheck,
+    /// What the live outputs published (when any was on).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub outputs: Option<&'a OutputsReport>,
 }
 
 /// The hash of [`Summary::layers_hash`].
@@ -197,6 +205,19 @@ pub fn layers_hash(snapshot: &MapSnapshot) -> String {
     format!("{h:016x}")
 }
 
+/// What `summary.json` reports beside the maps and the counts.
+#[derive(Debug, Clone, Copy)]
+pub struct Beside<'a> {
+    /// The firmware's stack high-water mark, bytes (emulated boards only).
+    pub stack_bytes: Option<u32>,
+    /// The decay configured on the device.
+    pub decay: &'a DecaySummary,
+    /// The mirror's decay and its comparison with the device at the final snapshot.
+    pub mirror: MirrorCheck,
+    /// What the live outputs published (when any was on).
+    pub outputs: Option<&'a OutputsReport>,
+}
+
 /// Writes the maps, `cells-K.bin` (each layer's raw cells, i16 little-endian, row-major, row
 /// 0 = lowest y) and `summary.json`; returns the summary's JSON.
 ///
@@ -208,9 +229,14 @@ pub fn write_outputs(
     title: &str,
     counts: &RunCounts,
     board: Board,
-    stack_bytes: Option<u32>,
-    (decay, mirror): (&DecaySummary, MirrorCheck),
+    beside: Beside<'_>,
 ) -> Result<String, String> {
+    let Beside {
+        stack_bytes,
+        decay,
+        mirror,
+        outputs,
+    } = beside;
     let written = write_maps(out, snapshot, title)?;
     for l in &snapshot.layers {
         let bytes: Vec<u8> = l.cells.iter().flat_map(|c| c.to_le_bytes()).collect();
@@ -224,6 +250,7 @@ pub fn write_outputs(
         stack_bytes,
         decay,
         mirror,
+        outputs,
     };
     let json = serde_json::to_string(&summary).map_err(|e| e.to_string())?;
     crate::export::write_file(&out.join("summary.json"), json.as_bytes())?;
@@ -337,6 +364,29 @@ pub fn drive(
     Ok((counts, snapshot))
 }
 
+/// [`drive`] with the device's maps offered to `outputs` as they arrive, the outputs finished
+/// with the final maps; their report when any was on.
+///
+/// # Errors
+/// The device refused something or stopped answering, or an output failed.
+pub fn drive_published(
+    device: &mut impl Device,
+    mut outputs: Outputs,
+    steps: &Steps,
+    design: &DefaultDesign,
+    config: &Config,
+    classifier: &ClassifierConfig,
+) -> Result<(RunCounts, MapSnapshot, Option<OutputsReport>), String> {
+    let mut published = Publishing::new(device, &mut outputs);
+    let (counts, snapshot) = drive(&mut published, steps, design, config, classifier)?;
+    let pose = published.pose();
+    if !outputs.is_on() {
+        return Ok((counts, snapshot, None));
+    }
+    let report = outputs.finish(device.link().mirror(), pose)?;
+    Ok((counts, snapshot, Some(report)))
+}
+
 /// Runs the pipeline on `args.board`; returns the summary's JSON.
 ///
 /// # Errors
@@ -360,19 +410,27 @@ pub fn execute(args: &Args) -> Result<String, (u8, String)> {
     })?;
     let fail = |e: String| (1, format!("error: {e}"));
     let steps = steps(&data).map_err(fail)?;
+    // The outputs first: an address already in use ends the command before a board boots.
+    let outputs = Outputs::start(&args.outputs.config(LogOddsFixed::ZERO))
+        .map_err(|e| (1, format!("error: {e}")))?;
+    if let Some(addr) = outputs.foxglove_addr() {
+        eprintln!("foxglove: serving ws://{addr}");
+    }
     let started = Instant::now();
-    let (counts, snapshot, stack_bytes, mirror) = match args.board.machine() {
+    let (counts, snapshot, stack_bytes, published, mirror) = match args.board.machine() {
         None => {
             let mut device = boot_host_device().map_err(fail)?;
-            let (counts, snapshot) =
-                drive(&mut device, &steps, &design, &config, &classifier).map_err(fail)?;
+            let (counts, snapshot, published) =
+                drive_published(&mut device, outputs, &steps, &design, &config, &classifier)
+                    .map_err(fail)?;
             let mirror = MirrorCheck::of(&device.link().mirror().counters());
-            (counts, snapshot, None, mirror)
+            (counts, snapshot, None, published, mirror)
         }
         Some(machine) => {
             let mut emu = boot_emulator(machine, &args.out.join("firmware.defmt")).map_err(fail)?;
-            let (counts, snapshot) =
-                drive(&mut emu, &steps, &design, &config, &classifier).map_err(fail)?;
+            let (counts, snapshot, published) =
+                drive_published(&mut emu, outputs, &steps, &design, &config, &classifier)
+                    .map_err(fail)?;
             let mirror = MirrorCheck::of(&emu.link().mirror().counters());
             let stack = emu.shutdown().map_err(fail)?;
             eprintln!(
@@ -381,7 +439,7 @@ pub fn execute(args: &Args) -> Result<String, (u8, String)> {
                 counts.telegrams_sent,
                 started.elapsed().as_secs_f64()
             );
-            (counts, snapshot, Some(stack), mirror)
+            (counts, snapshot, Some(stack), published, mirror)
         }
     };
     let decay = DecaySummary::of(&config.decay, design.layers().len());
@@ -397,8 +455,12 @@ pub fn execute(args: &Args) -> Result<String, (u8, String)> {
         &title,
         &counts,
         args.board,
-        stack_bytes,
-        (&decay, mirror),
+        Beside {
+            stack_bytes,
+            decay: &decay,
+            mirror,
+            outputs: published.as_ref(),
+        },
     )
     .map_err(fail)
 }
