@@ -162,6 +162,11 @@ impl<const W: usize, const L: usize, const C: usize> Map for Runner<W, L, C> {
     }
 
     fn line(&mut self, line: &Line) {
+        if self.config.decay.is_on() {
+            // The decay owed by the line's time, as a board's poll pays it (ms, wrapping).
+            #[allow(clippy::cast_possible_truncation)]
+            self.pyramid.decay((line.time_us / 1_000) as u32);
+        }
         if let Some([x, y, z, roll, pitch, yaw]) = line.pose {
             if let Ok(pose) = Pose::from_f32(x, y, z, roll, pitch, yaw) {
                 self.frontend.set_pose(pose);

@@ -7,6 +7,9 @@
 //! - **Coverage** (Figs 8-9, [`coverage`]): the fixed 0.1 m grid is full of holes, the
 //!   multi-resolution pyramid fills them.
 //! - **Cost**: the pyramid's time per scan line against the single grid's, same lines.
+//! - **Dynamic** ([`dynamic`]): scenes that change (a pedestrian, a door, a car) with and
+//!   without the decay of stale evidence: how long a mover's ghost lasts, which static
+//!   obstacles decay wrongly clears; and the stairs with decay on.
 //!
 //! Writes `DIR/fig2.png`, `DIR/stairs.png`, `DIR/stairs-detection.png`, `DIR/coverage.png`
 //! (and the coverage maps as `pyramid run` writes them), `DIR/report.md` and
@@ -21,6 +24,7 @@
 
 pub mod coverage;
 pub mod designs;
+pub mod dynamic;
 pub mod engine;
 pub mod picture;
 pub mod stairs;
@@ -71,7 +75,7 @@ pub struct Args {
     /// (`boards/qemu-mps2 --features paper-stairs`), each map on the device, and compare.
     #[arg(long, value_enum, default_value_t = ExperimentBoard::Host)]
     pub board: ExperimentBoard,
-    /// Figure 2 and the stairs only (no coverage, no cost): with `--board qemu`, the check
+    /// Figure 2 and the stairs only (no coverage, no cost, no dynamic scenes): with `--board qemu`, the check
     /// that the firmware reaches the host's outcome, without the rest.
     #[arg(long)]
     pub stairs_only: bool,
@@ -100,6 +104,10 @@ pub struct Results {
     /// Time per line (absent with `--stairs-only`).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub cost: Option<coverage::CostResult>,
+    /// Changing scenes with and without decay, the stairs with decay (absent with
+    /// `--stairs-only`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub dynamic: Option<dynamic::DynamicResult>,
     /// Whether `--quick` was given.
     pub quick: bool,
 }
@@ -167,17 +175,19 @@ pub fn run_all(args: &Args) -> Result<Results, String> {
         ExperimentBoard::Host => None,
         ExperimentBoard::Qemu => Some(stairs_board::run(&stairs_setup, &stairs, out)?),
     };
-    let (coverage, cost) = if args.stairs_only {
-        (None, None)
+    let (coverage, cost, dynamic) = if args.stairs_only {
+        (None, None, None)
     } else {
         let (coverage, cost) = coverage::run(&coverage_setup, Some(out))?;
-        (Some(coverage), Some(cost))
+        let dynamic = dynamic::run(&stairs_setup, &stairs.pyramid_soft)?;
+        (Some(coverage), Some(cost), Some(dynamic))
     };
     let results = Results {
         stairs,
         stairs_board,
         coverage,
         cost,
+        dynamic,
         quick: args.quick,
     };
     let json = serde_json::to_string_pretty(&results).map_err(|e| e.to_string())?;
@@ -377,7 +387,73 @@ fn report(r: &Results, design: &terrain_pyramid_host::design::PyramidDesign) -> 
          Cortex-M4F (BENCHMARKS.md)."
         );
     }
+    if let Some(d) = &r.dynamic {
+        dynamic_report(&mut s, d);
+    }
     s
+}
+
+fn secs(v: Option<f64>) -> String {
+    v.map_or_else(|| "-".to_string(), |t| format!("{t:.1}"))
+}
+
+/// The `dynamic` section of `report.md`.
+fn dynamic_report(s: &mut String, d: &dynamic::DynamicResult) {
+    let _ = writeln!(
+        s,
+        "
+## Dynamic: a world that changes
+
+Each scene through the default co-processor          (8 layers of 64 × 64 cells, OctoMap clamping), decay off and all evidence decaying          at τ on every layer (`docs/core.md`, \"Decay\"). Ghost cells: the mover's 0.1 m          cells (covered and left, each for at least 1 s) that the map read as obstacle when          the mover left; cleared: from some line on, unknown or navigable until the end;          times from leaving to clearing. Wrongly cleared: the static obstacles' cells hit by          the laser that the fused map reads unknown or navigable at the end, in view (hit          within the last 2.5 s, one pan sweep) and out of view.\n"
+    );
+    for scene in &d.scenes {
+        let _ = writeln!(
+            s,
+            "### {} ({:.0} s, {} lines, {} mover cells)\n\n| decay | fused: cleared / ghosts |              median | p90 | max (s) | finest layer: cleared / ghosts, median (s) | static in              view wrongly cleared | out of view | cells faded |\n| --- | --- | --- | --- | --- |              --- | --- | --- | --- |",
+            scene.scene, scene.duration_s, scene.lines, scene.mover_cells
+        );
+        for run in &scene.runs {
+            let decay = run.decay.tau_s.map_or_else(
+                || "off".to_string(),
+                |t| format!("{} τ {t:.2} s", run.decay.mode),
+            );
+            let l0 = run.layers.first().cloned().unwrap_or_default();
+            let _ = writeln!(
+                s,
+                "| {decay} | {} / {} | {} | {} | {} | {} / {}, {} | {} ({} / {}) | {} ({} / {}) | {} |",
+                run.fused.cleared,
+                run.fused.cells,
+                secs(run.fused.median_s),
+                secs(run.fused.p90_s),
+                secs(run.fused.max_s),
+                l0.cleared,
+                l0.cells,
+                secs(l0.median_s),
+                pct(run.static_in_view.share),
+                run.static_in_view.cleared,
+                run.static_in_view.cells,
+                pct(run.static_out_of_view.share),
+                run.static_out_of_view.cleared,
+                run.static_out_of_view.cells,
+                run.cells_faded
+            );
+        }
+        let _ = writeln!(s);
+    }
+    let st = &d.stairs;
+    let _ = writeln!(
+        s,
+        "### Stairs with decay\n\nThe stairs' soft-gated pyramid with all evidence decaying at          τ = {:.1} s on every layer (the shortest its 488-cell window allows), against the          same pyramid without decay: step cells obstacle at the end {} (without: {}); first          step seen at {} (without: {}); step cells at the end of standing: {} obstacle, {}          unknown; flat ground wrongly obstacle {}; {} cells faded.",
+        st.tau_s,
+        pct(st.detected_fraction),
+        pct(st.detected_fraction_without),
+        metres(st.detect_distance_m),
+        metres(st.detect_distance_m_without),
+        pct(st.far.obstacle),
+        pct(st.far.unknown),
+        pct(st.false_obstacle_fraction),
+        st.cells_faded
+    );
 }
 
 /// Runs `lab experiments`.
