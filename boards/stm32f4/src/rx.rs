@@ -20,7 +20,7 @@ use stm32f4xx_hal::serial::{Instance, Rx, RxListen};
 /// and 1 KiB more would take the static RAM past 96 KiB).
 pub const LASER_QUEUE: usize = 1024;
 /// Bytes the host-link queue holds: 255 (about 2.8 ms at 921.6 kBd; the host's largest
-/// command is 71 bytes, and the main loop takes 64 bytes a step).
+/// command, a Configure, is 104 bytes encoded, and the main loop takes 64 bytes a step).
 pub const HOST_QUEUE: usize = 256;
 
 /// What a receive path has counted since it was installed. Counters saturate.
