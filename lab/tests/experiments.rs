@@ -9,6 +9,8 @@
 //!   ratio is reported in `results.json` but not asserted (a timed test on a shared machine
 //!   would be a coin toss); the exact instruction counts of `cargo xtask bench` give the
 //!   pyramid 1.40× the flat grid on the Cortex-M4F (BENCHMARKS.md).
+//! - Dynamic: with decay the stairs are still found (≥ 90 % of the step cells), and the open
+//!   door's ghost clears sooner than without, the wall in view kept.
 //! - Stairs through the firmware: the same figures and every cell equal (`--board qemu`).
 use serde_json::Value;
 use std::path::PathBuf;
@@ -50,6 +52,32 @@ fn f(v: &Value, path: &[&str]) -> f64 {
 #[test]
 fn the_papers_claims_hold_on_the_simulator() {
     let (r, dir) = run_quick();
+
+    // Dynamic: the stairs are still found with decay on, and the open door's ghost clears
+    // sooner with decay without clearing the wall in view.
+    let decayed = f(&r, &["dynamic", "stairs", "detected_fraction"]);
+    assert!(
+        decayed >= 0.9,
+        "with decay the stairs are {decayed} obstacle"
+    );
+    let door = r["dynamic"]["scenes"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|s| s["scene"] == "door")
+        .expect("the door scene");
+    let (off, on) = (&door["runs"][0], &door["runs"][1]);
+    assert_eq!(off["decay"]["mode"], "off");
+    assert!(
+        f(on, &["fused", "max_s"]) < f(off, &["fused", "max_s"]),
+        "{door}"
+    );
+    assert_eq!(
+        f(on, &["fused", "cleared"]),
+        f(on, &["fused", "cells"]),
+        "{door}"
+    );
+    assert_eq!(f(on, &["static_in_view", "cleared"]), 0.0, "{door}");
 
     // Stairs.
     let pyramid = f(&r, &["stairs", "pyramid", "detected_fraction"]);

@@ -401,15 +401,22 @@ fn secs(v: Option<f64>) -> String {
 fn dynamic_report(s: &mut String, d: &dynamic::DynamicResult) {
     let _ = writeln!(
         s,
-        "
-## Dynamic: a world that changes
-
-Each scene through the default co-processor          (8 layers of 64 × 64 cells, OctoMap clamping), decay off and all evidence decaying          at τ on every layer (`docs/core.md`, \"Decay\"). Ghost cells: the mover's 0.1 m          cells (covered and left, each for at least 1 s) that the map read as obstacle when          the mover left; cleared: from some line on, unknown or navigable until the end;          times from leaving to clearing. Wrongly cleared: the static obstacles' cells hit by          the laser that the fused map reads unknown or navigable at the end, in view (hit          within the last 2.5 s, one pan sweep) and out of view.\n"
+        "\n## Dynamic: a world that changes\n\nEach scene through the default co-processor \
+         (8 layers of 64 × 64 cells, OctoMap clamping), decay off and all evidence decaying \
+         at τ on every layer (`docs/core.md`, \"Decay\"). Ghost cells: the mover's 0.1 m \
+         cells (covered and left, each for at least 1 s) that the map read as obstacle when \
+         the mover left; cleared: from some line on, unknown or navigable until the end; \
+         times from leaving to clearing, seconds. Wrongly cleared: the static obstacles' \
+         cells hit by the laser that the fused map reads unknown or navigable at the end, in \
+         view (hit within the last 2.5 s, one pan sweep) and out of view.\n"
     );
     for scene in &d.scenes {
         let _ = writeln!(
             s,
-            "### {} ({:.0} s, {} lines, {} mover cells)\n\n| decay | fused: cleared / ghosts |              median | p90 | max (s) | finest layer: cleared / ghosts, median (s) | static in              view wrongly cleared | out of view | cells faded |\n| --- | --- | --- | --- | --- |              --- | --- | --- | --- |",
+            "### {} ({:.0} s, {} lines, {} mover cells)\n\n| decay | fused: cleared / ghosts \
+             | median | p90 | max | layers k: cleared / ghosts, median | static in view \
+             wrongly cleared | out of view | cells faded |\n| --- | --- | --- | --- | --- | \
+             --- | --- | --- | --- |",
             scene.scene, scene.duration_s, scene.lines, scene.mover_cells
         );
         for run in &scene.runs {
@@ -417,18 +424,22 @@ Each scene through the default co-processor          (8 layers of 64 × 64 cells
                 || "off".to_string(),
                 |t| format!("{} τ {t:.2} s", run.decay.mode),
             );
-            let l0 = run.layers.first().cloned().unwrap_or_default();
+            let layers: Vec<String> = run
+                .layers
+                .iter()
+                .enumerate()
+                .filter(|(_, l)| l.cells > 0)
+                .map(|(k, l)| format!("{k}: {} / {}, {}", l.cleared, l.cells, secs(l.median_s)))
+                .collect();
             let _ = writeln!(
                 s,
-                "| {decay} | {} / {} | {} | {} | {} | {} / {}, {} | {} ({} / {}) | {} ({} / {}) | {} |",
+                "| {decay} | {} / {} | {} | {} | {} | {} | {} ({} / {}) | {} ({} / {}) | {} |",
                 run.fused.cleared,
                 run.fused.cells,
                 secs(run.fused.median_s),
                 secs(run.fused.p90_s),
                 secs(run.fused.max_s),
-                l0.cleared,
-                l0.cells,
-                secs(l0.median_s),
+                layers.join("; "),
                 pct(run.static_in_view.share),
                 run.static_in_view.cleared,
                 run.static_in_view.cells,
@@ -443,7 +454,11 @@ Each scene through the default co-processor          (8 layers of 64 × 64 cells
     let st = &d.stairs;
     let _ = writeln!(
         s,
-        "### Stairs with decay\n\nThe stairs' soft-gated pyramid with all evidence decaying at          τ = {:.1} s on every layer (the shortest its 488-cell window allows), against the          same pyramid without decay: step cells obstacle at the end {} (without: {}); first          step seen at {} (without: {}); step cells at the end of standing: {} obstacle, {}          unknown; flat ground wrongly obstacle {}; {} cells faded.",
+        "### Stairs with decay\n\nThe stairs' soft-gated pyramid with all evidence decaying \
+         at τ = {:.1} s on every layer (the shortest its 488-cell window allows), against the \
+         same pyramid without decay: step cells obstacle at the end {} (without: {}); first \
+         step seen at {} (without: {}); step cells at the end of standing: {} obstacle, {} \
+         unknown; flat ground wrongly obstacle {}; {} cells faded.",
         st.tau_s,
         pct(st.detected_fraction),
         pct(st.detected_fraction_without),
