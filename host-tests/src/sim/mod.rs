@@ -8,6 +8,10 @@
 //! - [`trajectory`]: the robot standing, then driving along +x to a stop.
 //! - [`record`]: a whole run as a recording (`docs/recording.md`) with markers, and its
 //!   ground truth.
+//! - [`terrain`]: slopes, camber, roughness, gravel, curbs with kerb cuts, ramps, and the
+//!   ground truth of every cell of any grid, for the navigability rules.
+//! - [`cloud`]: point clouds straight from the ray cast (a car's ring laser, the paper's
+//!   panned plane), the observations the navigability rules are measured on.
 //! - [`rng`]: the seeded generator.
 //!
 //! ```
@@ -18,9 +22,11 @@
 //! assert!(!sim.ground_truth.is_empty());
 //! ```
 
+pub mod cloud;
 pub mod drive;
 pub mod laser;
 pub mod record;
 pub mod rng;
 pub mod scene;
+pub mod terrain;
 pub mod trajectory;
