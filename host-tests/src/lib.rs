@@ -10,10 +10,17 @@
 //! - [`sim`]: a swept-laser ray-casting simulator that writes recordings with real SICK
 //!   telegrams, and the ground truth of its scenes.
 //! - [`classify`]: the classifier's reference (every point kept, the rule applied exactly).
+//! - [`navigability`]: candidate navigability rules in `f64` and the bench that measures them
+//!   on simulated terrain and real scans.
+//! - [`scan3dtk`]: the real 3-D scan of `../shared/data` and its hand labelling.
+//! - [`png`]: a minimal PNG writer for the pictures the examples draw.
 
 pub mod classify;
 pub mod geometry;
 pub mod harness;
+pub mod navigability;
+pub mod png;
 pub mod reference;
+pub mod scan3dtk;
 pub mod sim;
 pub mod workload;
