@@ -281,6 +281,7 @@ impl<const C: usize> Frontend<C> {
                     step_threshold: Meters::ZERO,
                     drop_threshold: None,
                     ceiling: None,
+                    rule: crate::classify::NavigabilityRule::Spread,
                 },
                 missing_ground_within: None,
             },

@@ -1197,6 +1197,8 @@ impl Setup {
                 step_threshold,
                 drop_threshold: optional(drop),
                 ceiling: optional(ceiling),
+                // The link does not carry the rule: the default.
+                rule: crate::classify::NavigabilityRule::DEFAULT,
             },
             // Version 1's Setup does not carry the missing-ground option: off.
             missing_ground_within: None,
