@@ -53,6 +53,18 @@ pub struct CellView {
 }
 
 impl CellView {
+    /// `σ_z(d)` with an angular noise `σ_a` (radians) on top of the range noise:
+    /// `√((σ·h/r)² + (σ_a·r)²)`, `r = √(h² + d²)` (the height error of a beam whose elevation
+    /// is off by σ_a).
+    #[must_use]
+    pub fn sigma_z_angular(&self, sigma_m: f64, angle_rad: f64) -> f64 {
+        let r = self
+            .sensor_height_m
+            .max(0.0)
+            .hypot(self.distance_m.max(0.0));
+        self.sigma_z(sigma_m).hypot(angle_rad * r)
+    }
+
     /// `σ_z(d) = σ·h/√(h² + d²)` for range noise σ (metres).
     #[must_use]
     pub fn sigma_z(&self, sigma_m: f64) -> f64 {
@@ -90,6 +102,8 @@ pub enum Rule {
         rise_over_cell: bool,
         /// Also an obstacle when the tolerant spread (d) says so.
         backstop: bool,
+        /// An angular noise σ_a (degrees) added to σ_z ([`CellView::sigma_z_angular`]).
+        angle_sigma_deg: f64,
     },
     /// (c) The largest jump between consecutive close points.
     Jump {
@@ -249,13 +263,19 @@ impl Rule {
                 k,
                 rise_over_cell,
                 backstop,
+                angle_sigma_deg,
             } => format!(
-                "(b) plane{}{}, step {:.0} cm, {max_slope_deg:.0}°, res {:.1} cm, {k}·σ_z(σ {:.0} cm)",
+                "(b) plane{}{}, step {:.0} cm, {max_slope_deg:.0}°, res {:.1} cm, {k}·σ_z(σ {:.0} cm{})",
                 if rise_over_cell { " c" } else { "" },
                 if backstop { "|(d)" } else { "" },
                 step_m * 100.0,
                 residual_m * 100.0,
-                sigma_m * 100.0
+                sigma_m * 100.0,
+                if angle_sigma_deg > 0.0 {
+                    format!(", σ_a {angle_sigma_deg}°")
+                } else {
+                    String::new()
+                }
             ),
             Self::Jump {
                 step_m,
@@ -319,9 +339,10 @@ impl Rule {
                 k,
                 rise_over_cell,
                 backstop,
+                angle_sigma_deg,
             } => {
                 let fit = fit_plane(points, view);
-                let noise = k * view.sigma_z(sigma_m);
+                let noise = k * view.sigma_z_angular(sigma_m, angle_sigma_deg.to_radians());
                 let tan = max_slope_deg.to_radians().tan();
                 #[allow(clippy::cast_precision_loss)]
                 let n = fit.n.max(1) as f64;
@@ -484,6 +505,35 @@ pub fn integrate<const W: usize, const L: usize>(
             distance: Meters::saturating_from_num(cell.distance_m),
         });
     }
+}
+
+/// Integrates one observation through the library's classifier (fixed point, the rule its
+/// configuration names) into `pyramid`, as the firmware's pipeline does: recentre on the
+/// sensor, every return with its horizontal distance from the sensor and the robot's ground
+/// plane, then the observation's evidence.
+pub fn integrate_library<const W: usize, const L: usize, const C: usize>(
+    pyramid: &mut Pyramid<W, L>,
+    obs: &Observation,
+    classifier: &mut terrain_pyramid::classify::Classifier<C>,
+) {
+    let m = Meters::saturating_from_num;
+    let sensor = terrain_pyramid::Point3 {
+        x: m(obs.sensor[0]),
+        y: m(obs.sensor[1]),
+        z: m(obs.sensor[2]),
+    };
+    pyramid.recentre(sensor.x, sensor.y);
+    classifier.begin(sensor.z);
+    for p in &obs.points {
+        let point = terrain_pyramid::Point3 {
+            x: m(p[0]),
+            y: m(p[1]),
+            z: m(p[2]),
+        };
+        let distance = terrain_pyramid::geometry::horizontal_distance(sensor, point);
+        classifier.add_point(pyramid, point, distance, m(obs.ground_z));
+    }
+    classifier.finish_into(pyramid);
 }
 
 /// Counts of one comparison with the truth.
@@ -882,6 +932,7 @@ mod tests {
             k: 0.0,
             rise_over_cell: true,
             backstop: false,
+            angle_sigma_deg: 0.0,
         };
         assert!(!plane.obstacle(&slope, &v));
         let jump = Rule::Jump {

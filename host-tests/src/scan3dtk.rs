@@ -231,6 +231,10 @@ pub struct Evaluation {
     pub obstacle: usize,
     /// Of those, with an obstacle cell of the fused map within 0.2 m.
     pub obstacle_found: usize,
+    /// The 0.1 m cells of the fused map's grid that hold clear ground points.
+    pub ground_cells: usize,
+    /// Of those, navigable in the fused map.
+    pub ground_cells_navigable: usize,
     /// Step points within range.
     pub step: usize,
     /// Of those, with an obstacle cell within 0.2 m.
@@ -321,26 +325,48 @@ pub fn evaluate(
     let mut p = pyramid::<64, 16>(design);
     let cells = observation_cells(&p, &obs, 1.0);
     integrate(&mut p, &obs, &cells, rule);
+    (score(&p, labelled), p)
+}
+
+/// Measures a fused map against the labelled points: clear ground on navigable cells (per
+/// return and per 0.1 m cell), obstacle and step returns with an obstacle cell within 0.2 m.
+#[must_use]
+pub fn score<const W: usize, const L: usize>(
+    p: &terrain_pyramid::Pyramid<W, L>,
+    labelled: &[([f64; 3], Label)],
+) -> Evaluation {
     let mut e = Evaluation::default();
+    let mut cells = std::collections::BTreeSet::new();
     for &(q, label) in labelled {
         match label {
             Label::Ground => {
                 e.ground += 1;
-                e.ground_navigable +=
-                    usize::from(matches!(fused_at(&p, q[0], q[1]), Fused::Navigable { .. }));
+                let navigable = matches!(fused_at(p, q[0], q[1]), Fused::Navigable { .. });
+                e.ground_navigable += usize::from(navigable);
+                #[allow(clippy::cast_possible_truncation)]
+                let cell = ((q[0] / 0.1).floor() as i64, (q[1] / 0.1).floor() as i64);
+                if cells.insert(cell) {
+                    e.ground_cells += 1;
+                    #[allow(clippy::cast_precision_loss)]
+                    let centre = ((cell.0 as f64 + 0.5) * 0.1, (cell.1 as f64 + 0.5) * 0.1);
+                    e.ground_cells_navigable += usize::from(matches!(
+                        fused_at(p, centre.0, centre.1),
+                        Fused::Navigable { .. }
+                    ));
+                }
             }
             Label::Obstacle => {
                 e.obstacle += 1;
-                e.obstacle_found += usize::from(obstacle_near(&p, q[0], q[1]));
+                e.obstacle_found += usize::from(obstacle_near(p, q[0], q[1]));
             }
             Label::Step => {
                 e.step += 1;
-                e.step_found += usize::from(obstacle_near(&p, q[0], q[1]));
+                e.step_found += usize::from(obstacle_near(p, q[0], q[1]));
             }
             Label::Ignore => {}
         }
     }
-    (e, p)
+    e
 }
 
 /// A top view of the scan (x up, y to the left, one pixel per `pixel_m`) over

@@ -746,8 +746,7 @@ impl<const C: usize> Classifier<C> {
 }
 
 /// Folds a point (z mm, position `sub` in the cell, distance bin) into a used slot under the
-/// overhang rule; with `plane`, into the plane rule's sums too (restarted from this point when
-/// it puts summed points above the overhang cut).
+/// overhang rule; with `plane`, into the plane rule's sums too when it lies below the cut.
 #[inline]
 fn fold(
     slot: &mut Slot,
@@ -764,13 +763,16 @@ fn fold(
         let cut = i32::from(z) + i32::from(robot_height_mm);
         if i32::from(slot.z_high) > cut {
             // The stored highest is overhang now; the best bound still known below the cut.
-            slot.z_high = if i32::from(slot.z_low) <= cut {
-                slot.z_low
-            } else {
-                z
-            };
+            let low_stays = i32::from(slot.z_low) <= cut;
+            slot.z_high = if low_stays { slot.z_low } else { z };
             if plane {
-                slot.plane.restart(sub.0, sub.1, z);
+                // Summed points lie above the cut now: the sums restart from this point and,
+                // when still below the cut, the previous lowest (where this point is: its
+                // position was not kept).
+                slot.plane = PlaneState::first(sub.0, sub.1, z);
+                if low_stays {
+                    slot.plane.add(sub.0, sub.1, slot.z_low);
+                }
             }
         } else if plane {
             slot.plane.add(sub.0, sub.1, z);
@@ -1009,46 +1011,113 @@ mod tests {
     #[test]
     fn drop_offs_and_missing_ground_are_obstacles_when_enabled() {
         let p = pyramid(GateShape::Hard);
-        let mut c = Classifier::<256>::new();
         let d = Meters::from_num(0.3);
-        c.begin(Meters::ZERO);
-        c.add_point(&p, pt(0.35, 0.05, -0.5), d, Meters::ZERO);
-        assert_eq!(records(&mut c)[0].class, EvidenceClass::Navigable);
-        c.configure(ClassifierConfig {
-            drop_threshold: Some(Meters::from_num(0.3)),
-            ..ClassifierConfig::default()
-        });
-        c.begin(Meters::ZERO);
-        c.add_point(&p, pt(0.35, 0.05, -0.5), d, Meters::ZERO);
-        c.add_missing_ground(&p, pt(0.15, 0.05, 0.0), d);
-        let r = records(&mut c);
-        assert!(r.iter().all(|e| e.class == EvidenceClass::Obstacle));
-        assert_eq!(r.len(), 2);
-        assert_eq!(c.stats().drop_points, 1);
+        for rule in [NavigabilityRule::DEFAULT, NavigabilityRule::Spread] {
+            let mut c = Classifier::<256>::new();
+            c.configure(ClassifierConfig {
+                rule,
+                ..ClassifierConfig::default()
+            });
+            // A flat patch of ground 0.5 m below the robot's ground plane, and no return where
+            // the ground should have been next to it.
+            let patch = [
+                pt(0.31, 0.01, -0.5),
+                pt(0.39, 0.01, -0.5),
+                pt(0.31, 0.09, -0.5),
+                pt(0.39, 0.09, -0.5),
+            ];
+            c.begin(Meters::ZERO);
+            for q in patch {
+                c.add_point(&p, q, d, Meters::ZERO);
+            }
+            assert_eq!(records(&mut c)[0].class, EvidenceClass::Navigable);
+            c.configure(ClassifierConfig {
+                drop_threshold: Some(Meters::from_num(0.3)),
+                rule,
+                ..ClassifierConfig::default()
+            });
+            c.begin(Meters::ZERO);
+            for q in patch {
+                c.add_point(&p, q, d, Meters::ZERO);
+            }
+            c.add_missing_ground(&p, pt(0.15, 0.05, 0.0), d);
+            let r = records(&mut c);
+            assert!(
+                r.iter().all(|e| e.class == EvidenceClass::Obstacle),
+                "{rule:?}"
+            );
+            assert_eq!(r.len(), 2);
+            assert_eq!(c.stats().drop_points, 4);
+        }
     }
 
     #[test]
     fn a_ceiling_cut_drops_roof_points_before_any_cell_sees_them() {
         let p = pyramid(GateShape::Hard);
-        let mut c = Classifier::<256>::new();
         let d = Meters::from_num(0.3);
         // A cell that saw only an uneven roof, 2.0 to 2.2 m above the robot's ground.
         let roof = [pt(0.35, 0.05, 2.0), pt(0.36, 0.05, 2.2)];
+        for rule in [NavigabilityRule::DEFAULT, NavigabilityRule::Spread] {
+            let mut c = Classifier::<256>::new();
+            c.configure(ClassifierConfig {
+                rule,
+                ..ClassifierConfig::default()
+            });
+            c.begin(Meters::ZERO);
+            for r in roof {
+                c.add_point(&p, r, d, Meters::ZERO);
+            }
+            assert_eq!(
+                records(&mut c)[0].class,
+                EvidenceClass::Obstacle,
+                "{rule:?}"
+            );
+            c.configure(ClassifierConfig {
+                ceiling: Some(Meters::from_num(1.5)),
+                rule,
+                ..ClassifierConfig::default()
+            });
+            c.begin(Meters::ZERO);
+            for r in roof {
+                c.add_point(&p, r, d, Meters::ZERO);
+            }
+            assert!(records(&mut c).is_empty());
+            assert_eq!(c.stats().overhang_points, 2);
+        }
+    }
+
+    #[test]
+    fn a_new_lowest_point_keeps_the_best_bound_in_the_plane_sums() {
+        let p = pyramid(GateShape::Hard);
+        let d = Meters::from_num(0.3);
+        let mut c = Classifier::<256>::new();
+        let ground = [
+            pt(0.31, 0.01, 0.0),
+            pt(0.39, 0.01, 0.0),
+            pt(0.31, 0.09, 0.0),
+            pt(0.39, 0.09, 0.0),
+        ];
+        // A branch over flat ground, in either order: navigable.
+        let branch = [pt(0.33, 0.04, 1.6), pt(0.37, 0.06, 1.7)];
+        for order in [[&ground[..], &branch[..]], [&branch[..], &ground[..]]] {
+            c.begin(Meters::ZERO);
+            for q in order.concat() {
+                c.add_point(&p, q, d, Meters::ZERO);
+            }
+            assert_eq!(records(&mut c)[0].class, EvidenceClass::Navigable);
+        }
+        // A 0.3 m block top seen before a lower point moves the cut below a roof point: the
+        // sums restart with the lowest and the block's top (the best bound below the new cut).
+        let cell = [
+            pt(0.33, 0.04, 0.3),
+            pt(0.35, 0.05, 1.25),
+            pt(0.37, 0.06, 0.0),
+        ];
         c.begin(Meters::ZERO);
-        for r in roof {
-            c.add_point(&p, r, d, Meters::ZERO);
+        for q in cell {
+            c.add_point(&p, q, d, Meters::ZERO);
         }
         assert_eq!(records(&mut c)[0].class, EvidenceClass::Obstacle);
-        c.configure(ClassifierConfig {
-            ceiling: Some(Meters::from_num(1.5)),
-            ..ClassifierConfig::default()
-        });
-        c.begin(Meters::ZERO);
-        for r in roof {
-            c.add_point(&p, r, d, Meters::ZERO);
-        }
-        assert!(records(&mut c).is_empty());
-        assert_eq!(c.stats().overhang_points, 2);
     }
 
     #[test]

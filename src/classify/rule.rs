@@ -8,7 +8,9 @@
 //!   of the points below the overhang cut. Not navigable when the points stray from their
 //!   plane by more than a residual allowance, or when the plane rises across the points'
 //!   extent by more than the largest traversable slope and a step allow. The allowances grow
-//!   with the sensor's height noise at the cell's distance, `σ_z(d) = σ·h/√(h² + d²)`.
+//!   with the sensor's height noise at the cell's distance,
+//!   `σ_z(d) = √((σ·h/r)² + (σ_a·r)²)`, `r = √(h² + d²)`: the range noise σ along the beam and
+//!   the beam's elevation error σ_a, each seen in the vertical.
 //!
 //! # Fixed point ([`PlaneState`], 32 bytes a slot)
 //! Per point: its position in the cell as two 6-bit coordinates `u, v ∈ −32 ..= 31` (units of
@@ -18,8 +20,10 @@
 //! Σuz, Σvz, Σzz. No float, no division. When n reaches 62 every sum is halved and from then
 //! on only every 2nd point is summed (then every 4th, …): the sums stay a uniform sample of
 //! the cell's points within their widths (|Σu| ≤ 62·32, Σuu ≤ 62·32², |Σuz| ≤ 62·32·8191,
-//! Σzz ≤ 62·8191² < 2³²). A new lowest point that puts summed points above the overhang cut
-//! restarts the sums from it (the spread rule's state keeps its own bound).
+//! Σzz ≤ 62·8191² < 2³²). A point is summed when it lies below the overhang cut as it arrives. A new lowest
+//! point that puts summed points above the cut restarts the sums from it and from the previous
+//! lowest when that is still below the cut (the best bound still known, as the spread rule
+//! keeps it; its position was not kept, so it is summed where the new point is).
 //!
 //! Per cell, when the observation finishes, in 128-bit integers: the centred moments, the
 //! ridge-regularised plane `w = (C + λI)⁻¹c` with `λ = 1` (one unit², `(c/64)²`, so points
@@ -42,6 +46,8 @@ const DEFAULT_RESIDUAL: Meters = Meters::lit("0.015");
 const DEFAULT_RANGE_SIGMA: Meters = Meters::lit("0.02");
 /// The default noise factor k, 2.
 const DEFAULT_NOISE_FACTOR: Ratio = Ratio::lit("2");
+/// The default angular noise σ_a, 0.09° in radians.
+const DEFAULT_ANGLE_SIGMA: Ratio = Ratio::lit("0.0015708");
 
 /// How a layer cell's points are judged.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -71,8 +77,9 @@ impl Default for NavigabilityRule {
 /// [`step_threshold`](super::ClassifierConfig::step_threshold).
 ///
 /// A cell is not navigable when (d the cell's closest look, h the sensor's height above the
-/// robot's ground plane, `σ_z = range_sigma·h/√(h² + d²)`, `a = noise_factor·σ_z`, n the
-/// summed points):
+/// robot's ground plane, `r = √(h² + d²)`,
+/// `σ_z = √((range_sigma·h/r)² + (angle_sigma·r)²)`, `a = noise_factor·σ_z`, n the summed
+/// points):
 /// - the RMS of the points about their plane exceeds `√(residual² + a²)`, or
 /// - the plane rises across the points' extent D by more than `step + D·max_grade +
 ///   a·√(12/n)`.
@@ -86,17 +93,21 @@ pub struct PlaneRule {
     pub residual: Meters,
     /// The standard deviation of the sensor's range noise, metres, ≥ 0. Default 0.02 m.
     pub range_sigma: Meters,
+    /// The standard deviation of a beam's elevation error (its calibration), radians, ≥ 0.
+    /// Default 0.0015708 (0.09°).
+    pub angle_sigma: Ratio,
     /// How many σ_z the noise allowance is, ≥ 0. Default 2.
     pub noise_factor: Ratio,
 }
 
 impl PlaneRule {
-    /// The defaults: 20°, 1.5 cm, σ = 2 cm, k = 2 (chosen by measurement,
+    /// The defaults: 20°, 1.5 cm, σ = 2 cm, σ_a = 0.09°, k = 2 (chosen by measurement,
     /// `host-tests/examples/terrain_rules.rs`).
     pub const DEFAULT: Self = Self {
         max_grade: DEFAULT_MAX_GRADE,
         residual: DEFAULT_RESIDUAL,
         range_sigma: DEFAULT_RANGE_SIGMA,
+        angle_sigma: DEFAULT_ANGLE_SIGMA,
         noise_factor: DEFAULT_NOISE_FACTOR,
     };
 }
@@ -112,10 +123,11 @@ impl defmt::Format for PlaneRule {
     fn format(&self, f: defmt::Formatter<'_>) {
         defmt::write!(
             f,
-            "PlaneRule {{ max_grade: {=i32}, residual: {=i32}, range_sigma: {=i32}, noise_factor: {=i32} }} (raw Q16.16)",
+            "PlaneRule {{ max_grade: {=i32}, residual: {=i32}, range_sigma: {=i32}, angle_sigma: {=i32}, noise_factor: {=i32} }} (raw Q16.16)",
             self.max_grade.to_bits(),
             self.residual.to_bits(),
             self.range_sigma.to_bits(),
+            self.angle_sigma.to_bits(),
             self.noise_factor.to_bits()
         );
     }
@@ -173,11 +185,6 @@ impl PlaneState {
         let mut s = Self::EMPTY;
         s.add(u, v, z);
         s
-    }
-
-    /// Forgets every point (a new lowest point put summed points above the overhang cut).
-    pub(super) fn restart(&mut self, u: i8, v: i8, z: i16) {
-        *self = Self::first(u, v, z);
     }
 
     /// Offers a point below the overhang cut: summed unless the decimation skips it.
@@ -264,6 +271,8 @@ pub(super) struct PlaneParams {
     residual_q16: i64,
     /// σ, mm Q16.
     sigma_q16: i64,
+    /// σ_a, radians Q16.
+    angle_q16: i64,
     /// k, Q16.
     factor_q16: i64,
     /// The step allowance, mm Q16.
@@ -282,6 +291,7 @@ impl PlaneParams {
         grade_q16: DEFAULT_MAX_GRADE.to_bits() as i64,
         residual_q16: DEFAULT_RESIDUAL.to_bits() as i64 * 1000,
         sigma_q16: DEFAULT_RANGE_SIGMA.to_bits() as i64 * 1000,
+        angle_q16: DEFAULT_ANGLE_SIGMA.to_bits() as i64,
         factor_q16: DEFAULT_NOISE_FACTOR.to_bits() as i64,
         step_q16: Meters::lit("0.05").to_bits() as i64 * 1000,
     };
@@ -292,6 +302,7 @@ impl PlaneParams {
             grade_q16: i64::from(rule.max_grade.to_bits()).max(0),
             residual_q16: mm_q16(rule.residual),
             sigma_q16: mm_q16(rule.range_sigma),
+            angle_q16: i64::from(rule.angle_sigma.to_bits()).max(0),
             factor_q16: i64::from(rule.noise_factor.to_bits()).max(0),
             step_q16: mm_q16(step),
         }
@@ -316,18 +327,26 @@ fn isqrt(x: u128) -> u128 {
 
 /// The noise allowance `k·σ_z(d)`, mm Q16.
 fn noise_q16(params: &PlaneParams, geometry: &CellGeometry) -> i64 {
-    let h = i64::from(geometry.sensor_height_mm.max(0));
-    let d = (i64::from(geometry.distance.to_bits()).max(0) * 1000) >> 16;
-    // σ_z = σ·h/√(h² + d²): 0 for a sensor at the ground plane's height, σ itself at d = 0.
-    #[allow(clippy::cast_sign_loss)]
-    let hyp = isqrt((h * h + d * d) as u128);
-    #[allow(clippy::cast_possible_truncation, clippy::cast_possible_wrap)]
-    let sigma_z = if hyp == 0 {
-        params.sigma_q16
+    let h = i128::from(geometry.sensor_height_mm.max(0));
+    let d = (i128::from(geometry.distance.to_bits()).max(0) * 1000) >> 16;
+    // r = √(h² + d²), mm.
+    #[allow(clippy::cast_sign_loss, clippy::cast_possible_wrap)]
+    let r = isqrt((h * h + d * d) as u128) as i128;
+    // The range noise seen in the vertical, σ·h/r (σ itself at r = 0), and the elevation
+    // error's, σ_a·r; mm Q16.
+    let range = if r == 0 {
+        i128::from(params.sigma_q16)
     } else {
-        (i128::from(params.sigma_q16) * i128::from(h) / hyp as i128) as i64
+        i128::from(params.sigma_q16) * h / r
     };
-    ((i128::from(sigma_z) * i128::from(params.factor_q16)) >> 16)
+    let angle = i128::from(params.angle_q16).saturating_mul(r);
+    #[allow(clippy::cast_sign_loss, clippy::cast_possible_wrap)]
+    let sigma_z = isqrt(
+        range
+            .saturating_mul(range)
+            .saturating_add(angle.saturating_mul(angle)) as u128,
+    ) as i128;
+    ((sigma_z * i128::from(params.factor_q16)) >> 16)
         .clamp(0, i128::from(i64::MAX))
         .try_into()
         .unwrap_or(i64::MAX)
@@ -412,6 +431,7 @@ mod tests {
         PlaneParams::new(
             &PlaneRule {
                 range_sigma: Meters::from_num(sigma),
+                angle_sigma: Ratio::ZERO,
                 ..PlaneRule::DEFAULT
             },
             Meters::from_num(0.05),
@@ -494,6 +514,21 @@ mod tests {
         assert!(!plane_obstacle(&flat, &p, &g));
         assert!(plane_obstacle(&step, &p, &g));
         assert!(step.szz <= 62 * 8191 * 8191);
+    }
+
+    #[test]
+    fn the_elevation_error_widens_the_allowance_with_range() {
+        let with_angle = PlaneParams::new(&PlaneRule::DEFAULT, Meters::from_num(0.05));
+        let at = |d: f32| CellGeometry {
+            cell: Meters::from_num(1).to_bits(),
+            sensor_height_mm: 1300,
+            distance: Meters::from_num(d),
+        };
+        // k·σ_z at 3 m: √((20·1.3/3.27)² + (1.5708e-3·3270)²) = 9.5 mm, times 2; at 20 m:
+        // √(1.3² + 31.5²) = 31.5 mm, times 2.
+        let mm = |v: i64| v as f64 / 65_536.0;
+        assert!((mm(noise_q16(&with_angle, &at(3.0))) - 19.0).abs() < 0.2);
+        assert!((mm(noise_q16(&with_angle, &at(20.0))) - 63.1).abs() < 0.3);
     }
 
     #[test]

@@ -93,7 +93,8 @@ impl RingLaser {
         // The beams as they really point (the calibration error), with their range offsets;
         // the returns are placed where the nominal beam says.
         let calibration = self.calibration();
-        let beams: Vec<((f64, f64), (f64, f64), f64)> = self
+        type Beam = ((f64, f64), (f64, f64), f64);
+        let beams: Vec<Beam> = self
             .elevations_deg
             .iter()
             .zip(&calibration)

@@ -346,13 +346,7 @@ impl TerrainTerm {
 pub fn macro_gradient(scene: &Scene, x: f64, y: f64) -> (f64, f64) {
     scene.ground.iter().fold((0.0, 0.0), |(gx, gy), term| {
         let (dx, dy) = match *term {
-            GroundTerm::Slope { x0, angle_rad } => {
-                if x > x0 {
-                    (angle_rad.tan(), 0.0)
-                } else {
-                    (0.0, 0.0)
-                }
-            }
+            GroundTerm::Slope { x0, angle_rad } if x > x0 => (angle_rad.tan(), 0.0),
             GroundTerm::Terrain(t) => t.gradient(x, y),
             _ => (0.0, 0.0),
         };
