@@ -72,7 +72,7 @@ impl Judge {
     }
 }
 
-/// The plane rule in f64 (extent-based rise, no backstop, σ_a = 0.09° unless set otherwise).
+/// The plane rule in f64 (extent-based rise, no backstop, σ_a = 0.075° unless set otherwise).
 fn plane(max_slope_deg: f64, residual_m: f64, sigma_m: f64, k: f64) -> Rule {
     Rule::Plane {
         step_m: 0.05,
@@ -82,7 +82,7 @@ fn plane(max_slope_deg: f64, residual_m: f64, sigma_m: f64, k: f64) -> Rule {
         k,
         rise_over_cell: false,
         backstop: false,
-        angle_sigma_deg: 0.09,
+        angle_sigma_deg: 0.075,
     }
 }
 
@@ -158,9 +158,9 @@ fn judges(sensitivity: bool) -> Vec<Judge> {
             k: 2.0,
             rise_over_cell: true,
             backstop: false,
-            angle_sigma_deg: 0.09,
+            angle_sigma_deg: 0.075,
         }));
-        for a in [0.0, 0.05, 0.075, 0.1] {
+        for a in [0.0, 0.05, 0.09, 0.1] {
             v.push(Judge::F64(plane_angular(a)));
         }
     }

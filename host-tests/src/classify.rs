@@ -54,14 +54,14 @@ pub enum RefRule {
 
 impl RefRule {
     /// The plane rule with the defaults of `docs/core.md`: 20°, 1.5 cm, σ = 2 cm,
-    /// σ_a = 0.09°, k = 2.
+    /// σ_a = 0.075°, k = 2.
     #[must_use]
     pub fn plane() -> Self {
         Self::Plane {
             max_grade: 20f64.to_radians().tan(),
             residual: 0.015,
             range_sigma: 0.02,
-            angle_sigma: 0.09f64.to_radians(),
+            angle_sigma: 0.075f64.to_radians(),
             noise_factor: 2.0,
         }
     }

@@ -200,8 +200,10 @@ pub struct Classifier<const C: usize> {
     step_mm: i16,
     /// The plane rule's parameters in its units, and whether it is in force.
     plane: Option<PlaneParams>,
-    /// Per layer (the first [`RULE_LAYERS`]), its cell size (raw), as of its last point.
-    layer_cells: [i32; RULE_LAYERS],
+    /// Per layer (the first [`RULE_LAYERS`]), its cell size (raw) as of its last point, and
+    /// for layers 8 and up its reciprocal ([`crate::grid::cell_reciprocal`]; the first eight
+    /// keep theirs in `reciprocals`).
+    layer_cells: [(i32, u32); RULE_LAYERS],
     /// The robot's ground plane as of the last point (raw Q16.16).
     ground_z: i32,
     stats: ClassifierStats,
@@ -285,7 +287,7 @@ impl<const C: usize> Classifier<C> {
             robot_height_mm: 0,
             step_mm: 0,
             plane: None,
-            layer_cells: [0; RULE_LAYERS],
+            layer_cells: [(0, 0); RULE_LAYERS],
             ground_z: 0,
             stats: ClassifierStats {
                 points: 0,
@@ -498,10 +500,25 @@ impl<const C: usize> Classifier<C> {
             let Ok(layer_index) = u8::try_from(k + 1) else {
                 break;
             };
-            if let Some(cell) = self.layer_cells.get_mut(k) {
-                *cell = layer.resolution().to_bits();
-            }
-            fed |= self.feed_layer(layer_index, layer.resolution(), point, bin_index, z, hole);
+            let bits = layer.resolution().to_bits();
+            let reciprocal = match self.layer_cells.get_mut(k) {
+                Some(cell) => {
+                    if cell.0 != bits || cell.1 == 0 {
+                        *cell = (bits, crate::grid::cell_reciprocal(bits));
+                    }
+                    cell.1
+                }
+                None => crate::grid::cell_reciprocal(bits),
+            };
+            fed |= self.feed_layer(
+                layer_index,
+                layer.resolution(),
+                reciprocal,
+                point,
+                bin_index,
+                z,
+                hole,
+            );
         }
         fed
     }
@@ -521,14 +538,14 @@ impl<const C: usize> Classifier<C> {
     ) -> (i32, i32, (i8, i8)) {
         let bits = r.to_bits();
         if let Some(cell) = self.layer_cells.get_mut(k) {
-            *cell = bits;
+            cell.0 = bits;
         }
         let plane = self.plane.is_some();
         if cfg!(all(target_arch = "arm", target_has_atomic = "32")) && !plane {
             return (r.cell_of(point.x), r.cell_of(point.y), (0, 0));
         }
         let Some(entry) = self.reciprocals.get_mut(k) else {
-            return Self::locate(r, point, plane);
+            return Self::locate(r, crate::grid::cell_reciprocal(bits), point, plane);
         };
         if entry.0 != bits {
             *entry = (bits, crate::grid::cell_reciprocal(bits));
@@ -556,15 +573,19 @@ impl<const C: usize> Classifier<C> {
         )
     }
 
-    /// [`Classifier::cell_of`] without the cache (layers 8 and up): the cell by `r.cell_of`,
-    /// the position (when `plane`) by a reciprocal computed here.
-    fn locate(r: crate::grid::Resolution, point: Point3, plane: bool) -> (i32, i32, (i8, i8)) {
+    /// [`Classifier::cell_of`] for layers 8 and up: the cell by `r.cell_of`, the position
+    /// (when `plane`) by the layer's reciprocal `m`.
+    fn locate(
+        r: crate::grid::Resolution,
+        m: u32,
+        point: Point3,
+        plane: bool,
+    ) -> (i32, i32, (i8, i8)) {
         let (cx, cy) = (r.cell_of(point.x), r.cell_of(point.y));
         if !plane {
             return (cx, cy, (0, 0));
         }
         let bits = r.to_bits();
-        let m = crate::grid::cell_reciprocal(bits);
         let rem = |v: Meters, c: i32| i64::from(v.to_bits()) - i64::from(c) * i64::from(bits);
         (
             cx,
@@ -579,16 +600,18 @@ impl<const C: usize> Classifier<C> {
     /// Adds a point to its cell of one layer (stored as `layer_index` = k + 1); `false` when
     /// the table is full (counted).
     #[inline]
+    #[allow(clippy::too_many_arguments)]
     fn feed_layer(
         &mut self,
         layer_index: u8,
         r: crate::grid::Resolution,
+        reciprocal: u32,
         point: Point3,
         bin: u16,
         z: i16,
         hole: bool,
     ) -> bool {
-        let (cx, cy, sub) = Self::locate(r, point, self.plane.is_some());
+        let (cx, cy, sub) = Self::locate(r, reciprocal, point, self.plane.is_some());
         self.feed_cell(layer_index, cx, cy, sub, bin, z, hole)
     }
 
@@ -701,7 +724,7 @@ impl<const C: usize> Classifier<C> {
                 let distance = self.bins.lower_edge(usize::from(slot.bin));
                 let spread = i32::from(slot.z_high) - i32::from(slot.z_low);
                 let layer = slot.layer.saturating_sub(1);
-                let cell = self.layer_cells.get(usize::from(layer)).copied();
+                let cell = self.layer_cells.get(usize::from(layer)).map(|c| c.0);
                 let obstacle = slot.hole
                     || match (&self.plane, cell) {
                         (Some(params), Some(cell)) => rule::plane_obstacle(

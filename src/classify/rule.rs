@@ -46,8 +46,8 @@ const DEFAULT_RESIDUAL: Meters = Meters::lit("0.015");
 const DEFAULT_RANGE_SIGMA: Meters = Meters::lit("0.02");
 /// The default noise factor k, 2.
 const DEFAULT_NOISE_FACTOR: Ratio = Ratio::lit("2");
-/// The default angular noise σ_a, 0.09° in radians.
-const DEFAULT_ANGLE_SIGMA: Ratio = Ratio::lit("0.0015708");
+/// The default angular noise σ_a, 0.075° in radians.
+const DEFAULT_ANGLE_SIGMA: Ratio = Ratio::lit("0.001309");
 
 /// How a layer cell's points are judged.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -94,14 +94,14 @@ pub struct PlaneRule {
     /// The standard deviation of the sensor's range noise, metres, ≥ 0. Default 0.02 m.
     pub range_sigma: Meters,
     /// The standard deviation of a beam's elevation error (its calibration), radians, ≥ 0.
-    /// Default 0.0015708 (0.09°).
+    /// Default 0.001309 (0.075°).
     pub angle_sigma: Ratio,
     /// How many σ_z the noise allowance is, ≥ 0. Default 2.
     pub noise_factor: Ratio,
 }
 
 impl PlaneRule {
-    /// The defaults: 20°, 1.5 cm, σ = 2 cm, σ_a = 0.09°, k = 2 (chosen by measurement,
+    /// The defaults: 20°, 1.5 cm, σ = 2 cm, σ_a = 0.075°, k = 2 (chosen by measurement,
     /// `host-tests/examples/terrain_rules.rs`).
     pub const DEFAULT: Self = Self {
         max_grade: DEFAULT_MAX_GRADE,
@@ -320,10 +320,39 @@ pub(super) struct CellGeometry {
     pub(super) distance: Meters,
 }
 
-/// `⌊√x⌋`.
+/// `⌊√x⌋`, through 64 bits when `x` fits them.
 fn isqrt(x: u128) -> u128 {
-    x.isqrt()
+    match u64::try_from(x) {
+        Ok(small) => u128::from(small.isqrt()),
+        Err(_) => x.isqrt(),
+    }
 }
+
+/// `⌊√(12/n)·2¹⁶⌋` for n = 0 ..= [`HALVE_AT`] (0 at n = 0), computed at compile time.
+const ROOT_12_OVER_N: [u32; HALVE_AT as usize + 1] = {
+    let mut table = [0_u32; HALVE_AT as usize + 1];
+    let mut n = 1;
+    while n <= HALVE_AT as usize {
+        // ⌊√(12·2³²/n)⌋ by bisection (below 2²²).
+        let x = (12_u64 << 32) / n as u64;
+        let (mut lo, mut hi) = (0_u64, 1_u64 << 22);
+        while hi - lo > 1 {
+            let mid = (lo + hi) / 2;
+            if mid * mid <= x {
+                lo = mid;
+            } else {
+                hi = mid;
+            }
+        }
+        // Evaluated at compile time: an index out of range would fail the build, not panic.
+        #[allow(clippy::cast_possible_truncation, clippy::indexing_slicing)]
+        {
+            table[n] = lo as u32;
+        }
+        n += 1;
+    }
+    table
+};
 
 /// The noise allowance `k·σ_z(d)`, mm Q16.
 fn noise_q16(params: &PlaneParams, geometry: &CellGeometry) -> i64 {
@@ -352,7 +381,8 @@ fn noise_q16(params: &PlaneParams, geometry: &CellGeometry) -> i64 {
         .unwrap_or(i64::MAX)
 }
 
-/// Whether the plane rule calls the cell of `state` not navigable.
+/// Whether the plane rule calls the cell of `state` not navigable: two 128-bit divisions
+/// (the plane), four integer square roots (the noise, the gradient, the rise).
 pub(super) fn plane_obstacle(
     state: &PlaneState,
     params: &PlaneParams,
@@ -371,9 +401,9 @@ pub(super) fn plane_obstacle(
     let cuz = n * i128::from(state.suz) - su * sz;
     let cvz = n * i128::from(state.svz) - sv * sz;
     let czz = n * i128::from(state.szz) - sz * sz;
+    let n2 = n * n;
     // The ridge λ = 1 unit², times n².
-    let lambda = n * n;
-    let (a, b) = (cuu + lambda, cvv + lambda);
+    let (a, b) = (cuu + n2, cvv + n2);
     let det = a * b - cuv * cuv;
     if det <= 0 {
         return false;
@@ -390,28 +420,27 @@ pub(super) fn plane_obstacle(
     let allowed = i128::from(params.residual_q16)
         .saturating_mul(i128::from(params.residual_q16))
         .saturating_add(noise.saturating_mul(noise));
-    if residual > allowed.saturating_mul(n * n) {
+    if residual > allowed.saturating_mul(n2) {
         return true;
     }
-    // The rise R = √(12·wᵀCw) (mm, Q16), the gradient g = |w|·64/c (Q16).
-    #[allow(clippy::cast_sign_loss)]
-    let rise = isqrt((12 * explained.max(0) / (n * n)) as u128);
-    #[allow(clippy::cast_sign_loss)]
-    let slope_units = isqrt((wa * wa + wb * wb) as u128);
+    // The gradient G = |w| (mm per unit, Q16), g = 64·G/c: steeper than the largest slope
+    // when 64·G > tan·c (c in mm; both sides mm, Q16).
+    #[allow(clippy::cast_sign_loss, clippy::cast_possible_wrap)]
+    let slope = isqrt((wa * wa + wb * wb) as u128) as i128;
     let cell_mm_q16 = i128::from(geometry.cell.max(1)) * 1000;
-    #[allow(clippy::cast_possible_wrap)]
-    let g = ((slope_units as i128) << 22) / cell_mm_q16;
-    let grade = i128::from(params.grade_q16);
-    if g <= grade {
+    let steep = 64 * slope - ((i128::from(params.grade_q16) * cell_mm_q16) >> 16);
+    if steep <= 0 {
         return false;
     }
-    // R·(g − tan) > g·(step + a·√(12/n)).
+    // The rise times n, R·n = √(12·wᵀCw·n²) (mm, Q16). R·(g − tan) > g·(step + a·√(12/n)),
+    // times n·c/64: R·n·(64·G − tan·c) > 64·G·n·(step + a·√(12/n)).
     #[allow(clippy::cast_sign_loss, clippy::cast_possible_wrap)]
-    let root = isqrt(((12_i128 << 32) / n) as u128) as i128;
+    let rise_n = isqrt((12 * explained.max(0)) as u128) as i128;
+    let root = ROOT_12_OVER_N
+        .get(usize::from(state.n))
+        .map_or(0, |&r| i128::from(r));
     let allowance = i128::from(params.step_q16).saturating_add(noise.saturating_mul(root) >> 16);
-    #[allow(clippy::cast_possible_wrap)]
-    let lhs = (rise as i128).saturating_mul(g - grade);
-    lhs > g.saturating_mul(allowance)
+    rise_n.saturating_mul(steep) > (64 * slope * n).saturating_mul(allowance)
 }
 
 #[cfg(test)]
@@ -524,11 +553,21 @@ mod tests {
             sensor_height_mm: 1300,
             distance: Meters::from_num(d),
         };
-        // k·σ_z at 3 m: √((20·1.3/3.27)² + (1.5708e-3·3270)²) = 9.5 mm, times 2; at 20 m:
-        // √(1.3² + 31.5²) = 31.5 mm, times 2.
+        // k·σ_z at 3 m: √((20·1.3/3.27)² + (1.309e-3·3270)²) = 9.0 mm, times 2; at 20 m:
+        // √(1.3² + 26.2²) = 26.3 mm, times 2.
         let mm = |v: i64| v as f64 / 65_536.0;
-        assert!((mm(noise_q16(&with_angle, &at(3.0))) - 19.0).abs() < 0.2);
-        assert!((mm(noise_q16(&with_angle, &at(20.0))) - 63.1).abs() < 0.3);
+        assert!((mm(noise_q16(&with_angle, &at(3.0))) - 18.0).abs() < 0.2);
+        assert!((mm(noise_q16(&with_angle, &at(20.0))) - 52.5).abs() < 0.3);
+    }
+
+    #[test]
+    fn the_root_table_is_the_square_root_of_12_over_n() {
+        for (n, &root) in ROOT_12_OVER_N.iter().enumerate().skip(1) {
+            let exact = (12.0 / n as f64).sqrt() * 65_536.0;
+            assert!((f64::from(root) - exact).abs() <= 1.0, "{n}");
+        }
+        assert_eq!(isqrt(u128::from(u64::MAX) + 1), 1 << 32);
+        assert_eq!(isqrt(99), 9);
     }
 
     #[test]
