@@ -259,7 +259,11 @@ impl<const C: usize> Classifier<C> {
         classifier.config = ClassifierConfig::DEFAULT;
         classifier.robot_height_mm = 1000;
         classifier.step_mm = 50;
-        classifier.plane = Some(PlaneParams::DEFAULT);
+        // The default rule's parameters (PlaneParams::DEFAULT is PlaneRule::DEFAULT's).
+        classifier.plane = match ClassifierConfig::DEFAULT.rule {
+            NavigabilityRule::Spread => None,
+            NavigabilityRule::Plane(_) => Some(PlaneParams::DEFAULT),
+        };
         classifier
     }
 
