@@ -739,7 +739,9 @@ fn main() {
                 part_car(&judges(true));
             }
             if all || part == "gallery" {
-                part_gallery(&judges(false));
+                let mut j = judges(false);
+                j.insert(2, Judge::F64(plane_angular(0.0)));
+                part_gallery(&j);
             }
             if all || part == "pan" {
                 part_pan(&judges(false));

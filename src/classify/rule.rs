@@ -12,7 +12,7 @@
 //!   `σ_z(d) = √((σ·h/r)² + (σ_a·r)²)`, `r = √(h² + d²)`: the range noise σ along the beam and
 //!   the beam's elevation error σ_a, each seen in the vertical.
 //!
-//! # Fixed point ([`PlaneState`], 32 bytes a slot)
+//! # Fixed point (`PlaneState`, 32 bytes a slot)
 //! Per point: its position in the cell as two 6-bit coordinates `u, v ∈ −32 ..= 31` (units of
 //! the cell's side / 64, from the cell's centre: `⌊64·(x − x_cell)/c⌋ − 32`, by a multiplication
 //! with the layer's cached reciprocal), its height `z − z₀` in millimetres relative to the
@@ -320,11 +320,16 @@ pub(super) struct CellGeometry {
     pub(super) distance: Meters,
 }
 
-/// `⌊√x⌋`, through 64 bits when `x` fits them.
+/// `√x` through 64 bits: exact (`⌊√x⌋`) when `x` fits them, else `⌊√(x/4ˢ)⌋·2ˢ` with the
+/// smallest s that makes `x/4ˢ` fit (at most 2ˢ below `⌊√x⌋`, a relative error under 2⁻³¹).
 fn isqrt(x: u128) -> u128 {
     match u64::try_from(x) {
         Ok(small) => u128::from(small.isqrt()),
-        Err(_) => x.isqrt(),
+        Err(_) => {
+            let s = (128 - x.leading_zeros() - 63) / 2;
+            let scaled = u64::try_from(x >> (2 * s)).unwrap_or(u64::MAX);
+            u128::from(scaled.isqrt()) << s
+        }
     }
 }
 
@@ -362,11 +367,15 @@ fn noise_q16(params: &PlaneParams, geometry: &CellGeometry) -> i64 {
     #[allow(clippy::cast_sign_loss, clippy::cast_possible_wrap)]
     let r = isqrt((h * h + d * d) as u128) as i128;
     // The range noise seen in the vertical, σ·h/r (σ itself at r = 0), and the elevation
-    // error's, σ_a·r; mm Q16.
+    // error's, σ_a·r; mm Q16. σ·h/r in 64 bits when σ·h fits them (any σ below 32 km).
     let range = if r == 0 {
         i128::from(params.sigma_q16)
     } else {
-        i128::from(params.sigma_q16) * h / r
+        let product = i128::from(params.sigma_q16) * h;
+        match (i64::try_from(product), i64::try_from(r)) {
+            (Ok(p), Ok(r)) => i128::from(p / r),
+            _ => product / r,
+        }
     };
     let angle = i128::from(params.angle_q16).saturating_mul(r);
     #[allow(clippy::cast_sign_loss, clippy::cast_possible_wrap)]
@@ -381,8 +390,22 @@ fn noise_q16(params: &PlaneParams, geometry: &CellGeometry) -> i64 {
         .unwrap_or(i64::MAX)
 }
 
-/// Whether the plane rule calls the cell of `state` not navigable: two 128-bit divisions
-/// (the plane), four integer square roots (the noise, the gradient, the rise).
+/// `⌊num·2¹⁶/den⌉` towards zero, for `den > 0`: in 64-bit divisions when `num` and `den` fit
+/// 64 bits (always for the plane's sums: |num| < 2⁵⁴, den < 2⁴⁵), as the integer quotient and
+/// the quotient of the remainder times 2¹⁶ (< 2⁶¹); in 128 bits otherwise.
+fn q16_quotient(num: i128, den: i128) -> i128 {
+    match (i64::try_from(num), i64::try_from(den)) {
+        (Ok(n), Ok(d)) if d > 0 && d < (1_i64 << 46) => {
+            let (q, r) = (n / d, n % d);
+            (i128::from(q) << 16) + i128::from((r << 16) / d)
+        }
+        _ => (num << 16) / den,
+    }
+}
+
+/// Whether the plane rule calls the cell of `state` not navigable: four 64-bit divisions
+/// (the plane), one for the noise, four integer square roots (the noise, the gradient, the
+/// rise).
 pub(super) fn plane_obstacle(
     state: &PlaneState,
     params: &PlaneParams,
@@ -409,8 +432,8 @@ pub(super) fn plane_obstacle(
         return false;
     }
     // w = (C + λI)⁻¹ c, mm per unit, Q16.
-    let wa = ((b * cuz - cuv * cvz) << 16) / det;
-    let wb = ((a * cvz - cuv * cuz) << 16) / det;
+    let wa = q16_quotient(b * cuz - cuv * cvz, det);
+    let wb = q16_quotient(a * cvz - cuv * cuz, det);
     // wᵀCw and wᵀc, times n²: Q32 and Q16 mm².
     let explained = wa * wa * cuu + 2 * wa * wb * cuv + wb * wb * cvv;
     let wc = wa * cuz + wb * cvz;
@@ -561,6 +584,26 @@ mod tests {
     }
 
     #[test]
+    fn the_q16_quotient_is_the_128_bit_one() {
+        let mut state = 0x2545_F491_4F6C_DD1D_u64;
+        let mut next = || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            state
+        };
+        for _ in 0..100_000 {
+            let num = i128::from((next() as i64) >> (next() % 20));
+            let den = i128::from((next() >> (20 + next() % 40)).max(1) as i64);
+            assert_eq!(q16_quotient(num, den), (num << 16) / den, "{num} / {den}");
+        }
+        assert_eq!(
+            q16_quotient(i128::MAX >> 17, 3),
+            (i128::MAX >> 17 << 16) / 3
+        );
+    }
+
+    #[test]
     fn the_root_table_is_the_square_root_of_12_over_n() {
         for (n, &root) in ROOT_12_OVER_N.iter().enumerate().skip(1) {
             let exact = (12.0 / n as f64).sqrt() * 65_536.0;
@@ -568,6 +611,13 @@ mod tests {
         }
         assert_eq!(isqrt(u128::from(u64::MAX) + 1), 1 << 32);
         assert_eq!(isqrt(99), 9);
+        for x in [1_u128 << 70, (1 << 100) + 12_345, u128::MAX, 3 << 90] {
+            let (got, exact) = (isqrt(x), x.isqrt());
+            assert!(
+                got <= exact && exact - got <= exact >> 31,
+                "{x}: {got} {exact}"
+            );
+        }
     }
 
     #[test]
