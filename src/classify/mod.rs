@@ -731,6 +731,7 @@ impl<const C: usize> Classifier<C> {
                 let cell = self.layer_cells.get(usize::from(layer)).map(|c| c.0);
                 let obstacle = slot.hole
                     || match (&self.plane, cell) {
+                        (Some(params), _) if params.flat_enough(spread) => false,
                         (Some(params), Some(cell)) => rule::plane_obstacle(
                             &slot.plane,
                             params,

@@ -277,6 +277,10 @@ pub(super) struct PlaneParams {
     factor_q16: i64,
     /// The step allowance, mm Q16.
     step_q16: i64,
+    /// A spread (highest − lowest summed z) of at most this many mm is navigable without the
+    /// plane: the residual's RMS is at most half the spread and the rise at most √3 times it,
+    /// so both tests fail below `min(2·residual, step/√3)` (less a millimetre of rounding).
+    quick_mm: i32,
 }
 
 /// Metres (raw Q16.16) to millimetres in Q16, `raw·1000`, never negative.
@@ -294,18 +298,30 @@ impl PlaneParams {
         angle_q16: DEFAULT_ANGLE_SIGMA.to_bits() as i64,
         factor_q16: DEFAULT_NOISE_FACTOR.to_bits() as i64,
         step_q16: Meters::lit("0.05").to_bits() as i64 * 1000,
+        // min(2·15, ⌊50·1000/1732⌋) − 1 = 27 mm.
+        quick_mm: 27,
     };
 
     /// From the rule and the step threshold; negative values are taken as zero.
     pub(super) fn new(rule: &PlaneRule, step: Meters) -> Self {
+        let residual_q16 = mm_q16(rule.residual);
+        let step_q16 = mm_q16(step);
+        let quick = (2 * residual_q16).min(step_q16 * 1000 / 1732) >> 16;
         Self {
             grade_q16: i64::from(rule.max_grade.to_bits()).max(0),
-            residual_q16: mm_q16(rule.residual),
+            residual_q16,
             sigma_q16: mm_q16(rule.range_sigma),
             angle_q16: i64::from(rule.angle_sigma.to_bits()).max(0),
             factor_q16: i64::from(rule.noise_factor.to_bits()).max(0),
-            step_q16: mm_q16(step),
+            step_q16,
+            quick_mm: i32::try_from(quick - 1).unwrap_or(i32::MAX).max(-1),
         }
+    }
+
+    /// Whether a spread of `spread_mm` (the slot's highest − lowest summed z) is navigable
+    /// whatever the plane ([`PlaneParams::quick_mm`]).
+    pub(super) const fn flat_enough(&self, spread_mm: i32) -> bool {
+        spread_mm <= self.quick_mm
     }
 }
 
@@ -581,6 +597,33 @@ mod tests {
         let mm = |v: i64| v as f64 / 65_536.0;
         assert!((mm(noise_q16(&with_angle, &at(3.0))) - 18.0).abs() < 0.2);
         assert!((mm(noise_q16(&with_angle, &at(20.0))) - 52.5).abs() < 0.3);
+    }
+
+    #[test]
+    fn the_quick_bound_is_the_default_and_never_hides_an_obstacle() {
+        assert_eq!(
+            PlaneParams::new(&PlaneRule::DEFAULT, Meters::from_num(0.05)),
+            PlaneParams::DEFAULT
+        );
+        // Cells whose spread is at the bound: no plane through them is an obstacle, whatever
+        // their layout, with no noise allowance at all.
+        let p = params(0.0);
+        let g = geometry(0.1);
+        let top = i16::try_from(p.quick_mm).unwrap();
+        let mut state = 0x9E37_79B9_u32;
+        for _ in 0..2000 {
+            let mut s = PlaneState::EMPTY;
+            for _ in 0..(2 + state % 40) {
+                state ^= state << 13;
+                state ^= state >> 17;
+                state ^= state << 5;
+                let u = i8::try_from(state % 64).unwrap() - 32;
+                let v = i8::try_from((state >> 8) % 64).unwrap() - 32;
+                let z = if (state >> 16) % 2 == 0 { 0 } else { top };
+                s.add(u, v, z);
+            }
+            assert!(!plane_obstacle(&s, &p, &g));
+        }
     }
 
     #[test]
