@@ -3,13 +3,21 @@
 #   1. tools: the Cortex-M targets, llvm-tools (llvm-size), defmt-print, qemu-system-arm,
 #      each installed only if missing;
 #   2. the root memory.x is the QEMU board's;
-#   3. format and lints (clippy, warnings denied) of both board crates;
-#   4. release builds of both boards;
-#   5. the QEMU firmware: boot, self-check, and a small recording through the real pipeline
-#      (`pyramid run --board qemu`: SICK telegrams into UART0, the host link on UART1,
-#      Shutdown, exit code 0), bit-identical to `--board host`;
+#   3. format and lints (clippy, warnings denied) of the board crates;
+#   4. release builds: qemu-mps2, stm32f4 (the NUCLEO-F446RE, and the STM32F405 build for
+#      QEMU's netduinoplus2), microbit;
+#   5. each firmware in QEMU: boot, self-check, and a small recording through the real
+#      pipeline, Shutdown, exit code 0, bit-identical to the library in process:
+#      - qemu-mps2 on mps2-an386 (`pyramid run --board qemu`: telegrams on UART0, the link on
+#        UART1) against `--board host`;
+#      - stm32f4 on netduinoplus2 (`--board netduinoplus2`: a stand-in scanner answers the
+#        bring-up on USART1, the link on USART2) against `--board host`, and the link checked
+#        by an independent implementation of both formats (stm32f4/qemu-check.sh);
+#      - microbit on microbit (telegrams and the link on its one UART) against the library's
+#        co-processor of the same configuration (host/tests/run_microbit.rs);
 #   6. the on-target tests (defmt-test) in QEMU, for thumbv7em-none-eabihf and
-#      thumbv6m-none-eabi (both on the mps2-an386);
+#      thumbv6m-none-eabi (both on the mps2-an386), and the thumbv6m ones on the microbit's
+#      real Cortex-M0;
 #   7. flash, static RAM and stack of each board.
 # Any failure stops the script with a non-zero exit code.
 #
@@ -20,6 +28,9 @@ boards="$(cd "$(dirname "$0")" && pwd)"
 root="$(dirname "$boards")"
 qemu_dir="$boards/qemu-mps2"
 stm32_dir="$boards/stm32f4"
+microbit_dir="$boards/microbit"
+# The STM32F4 firmware for QEMU's netduinoplus2 (STM32F405), in its own target directory.
+nd_features=(--no-default-features --features chip-f405,log-semihosting --target-dir target/netduinoplus2)
 
 lint=1
 for arg in "$@"; do
@@ -61,15 +72,22 @@ if [[ $lint -eq 1 ]]; then
     (cd "$qemu_dir" && cargo fmt --check)
     (cd "$qemu_dir" && cargo clippy --release --all-targets -- -D warnings)
     (cd "$qemu_dir" && cargo clippy --release --all-targets --target thumbv6m-none-eabi -- -D warnings)
-    step "format and lints: stm32f4"
+    step "format and lints: stm32f4 (NUCLEO-F446RE and netduinoplus2 builds)"
     (cd "$stm32_dir" && cargo fmt --check)
     (cd "$stm32_dir" && cargo clippy --release -- -D warnings)
+    (cd "$stm32_dir" && cargo clippy --release "${nd_features[@]}" -- -D warnings)
+    step "format and lints: microbit"
+    (cd "$microbit_dir" && cargo fmt --check)
+    (cd "$microbit_dir" && cargo clippy --release -- -D warnings)
 fi
 
 step "build: qemu-mps2 (release)"
 (cd "$qemu_dir" && cargo build --release)
-step "build: stm32f4 (release)"
+step "build: stm32f4 (release; NUCLEO-F446RE and netduinoplus2)"
 (cd "$stm32_dir" && cargo build --release)
+(cd "$stm32_dir" && cargo build --release "${nd_features[@]}")
+step "build: microbit (release)"
+(cd "$microbit_dir" && cargo build --release)
 
 step "QEMU firmware: self-check, a recording through the pipeline, exit code"
 smoke=$(mktemp -d)
@@ -82,12 +100,38 @@ smoke=$(mktemp -d)
 grep -q "identical" "$smoke/test.log" || fail "the emulated run did not match the host pipeline"
 run_log="$smoke/firmware.log"
 defmt-print -e "$qemu_dir/target/thumbv7em-none-eabihf/release/qemu-mps2" \
-    < "$smoke/synthetic/qemu/firmware.defmt" > "$run_log" 2>&1 || true
+    < "$smoke/synthetic-qemu/qemu/firmware.defmt" > "$run_log" 2>&1 || true
 cat "$run_log"
 grep -q "self-check passed" "$run_log" || fail "no self-check in the firmware's log"
 grep -q "shutdown:" "$run_log" || fail "the firmware did not shut down cleanly"
 qemu_stack=$(sed -n 's/.*stack: high-water \([0-9]*\) bytes.*/\1/p' "$run_log" | tail -1)
 [[ -n "$qemu_stack" ]] || fail "the firmware did not report its stack"
+
+step "stm32f4 on QEMU's netduinoplus2: the synthetic recording, bit-identical to the host"
+(cd "$root" && PYRAMID_QEMU_OUT="$smoke" cargo test --release -p terrain-pyramid-host \
+    --test run_qemu netduinoplus2_matches_host_on_a_synthetic_recording -- --nocapture) 2>&1 \
+    | tee "$smoke/nd.log" \
+    || fail "the netduinoplus2 run failed (exit codes: 101 panic, 102 HardFault)"
+grep -q "netduinoplus2: .* identical" "$smoke/nd.log" || fail "netduinoplus2 did not match the host"
+nd_stack=$(sed -n 's/.*"stack_bytes":\([0-9]*\).*/\1/p' \
+    "$smoke/synthetic-netduinoplus2/netduinoplus2/summary.json")
+[[ -n "$nd_stack" ]] || fail "netduinoplus2: no stack high-water mark"
+step "stm32f4 on QEMU's netduinoplus2: the link against an independent implementation"
+(cd "$stm32_dir" && ./qemu-check.sh --no-build) || fail "stm32f4/qemu-check.sh"
+
+step "microbit on QEMU's microbit: the synthetic recording, bit-identical to the library"
+(cd "$root" && PYRAMID_QEMU_OUT="$smoke" cargo test --release -p terrain-pyramid-host \
+    --test run_microbit microbit_matches_the_host_on_a_synthetic_recording -- --nocapture) 2>&1 \
+    | tee "$smoke/mb.log" \
+    || fail "the microbit run failed (exit codes: 101 panic, 102 HardFault)"
+grep -q "microbit: .* on both" "$smoke/mb.log" || fail "microbit did not match the library"
+mb_log="$smoke/microbit-firmware.log"
+defmt-print -e "$microbit_dir/target/thumbv6m-none-eabi/release/microbit-board" \
+    < "$smoke/microbit-synthetic/firmware.defmt" > "$mb_log" 2>&1 || true
+cat "$mb_log"
+grep -q "shutdown:" "$mb_log" || fail "the microbit firmware did not shut down cleanly"
+mb_stack=$(sed -n 's/.*stack: high-water \([0-9]*\) bytes.*/\1/p' "$mb_log" | tail -1)
+[[ -n "$mb_stack" ]] || fail "the microbit firmware did not report its stack"
 
 passed=0
 for target in thumbv7em-none-eabihf thumbv6m-none-eabi; do
@@ -108,7 +152,16 @@ for target in thumbv7em-none-eabihf thumbv6m-none-eabi; do
     rm -f "$test_log"
 done
 
-step "sizes (default pyramid: 8 layers of 64 x 64 cells)"
+step "on-target tests: thumbv6m-none-eabi on QEMU's microbit (a real Cortex-M0, 16 KiB)"
+test_log=$(mktemp)
+"$microbit_dir/run-mps2-tests.sh" 2>&1 | tee "$test_log" || fail "on-target tests failed on the microbit"
+n=$(grep -Ec '^\([0-9]+/[0-9]+\) running' "$test_log" || true)
+[[ $n -gt 0 ]] || fail "microbit: no test ran"
+echo "microbit (Cortex-M0): $n tests passed"
+passed=$((passed + n))
+rm -f "$test_log"
+
+step "sizes (default pyramid: 8 layers of 64 x 64 cells; microbit: 4 layers of 16 x 16)"
 size_of() { # ELF -> "flash ram"
     "$llvm_size" -A "$1" | awk '
         $1 == ".vector_table" || $1 == ".text" || $1 == ".rodata" { flash += $2 }
@@ -118,11 +171,22 @@ size_of() { # ELF -> "flash ram"
 }
 read -r qemu_flash qemu_ram < <(size_of "$qemu_dir/target/thumbv7em-none-eabihf/release/qemu-mps2")
 read -r stm_flash stm_ram < <(size_of "$stm32_dir/target/thumbv7em-none-eabihf/release/stm32f4-board")
-printf '%-28s %12s %16s %22s\n' board "flash (B)" "static RAM (B)" "stack high-water (B)"
-printf '%-28s %12s %16s %22s\n' "qemu-mps2 (4M/4M)" "$qemu_flash" "$qemu_ram" "$qemu_stack"
-printf '%-28s %12s %16s %22s\n' "stm32f4 (512K/128K)" "$stm_flash" "$stm_ram" "on the board (RTT log)"
+read -r nd_flash nd_ram < <(size_of "$stm32_dir/target/netduinoplus2/thumbv7em-none-eabihf/release/stm32f4-board")
+read -r mb_flash mb_ram < <(size_of "$microbit_dir/target/thumbv6m-none-eabi/release/microbit-board")
+# The stack column: each firmware's high-water mark over the synthetic recording (the Reply to
+# Shutdown); the NUCLEO build runs the netduinoplus2 build's code but for the clock and logging.
+printf '%-34s %12s %16s %22s\n' board "flash (B)" "static RAM (B)" "stack high-water (B)"
+printf '%-34s %12s %16s %22s\n' "qemu-mps2 (4M/4M)" "$qemu_flash" "$qemu_ram" "$qemu_stack"
+printf '%-34s %12s %16s %22s\n' "stm32f4 NUCLEO-F446RE (512K/128K)" "$stm_flash" "$stm_ram" "on the board (RTT log)"
+printf '%-34s %12s %16s %22s\n' "stm32f4 netduinoplus2 (1M/128K)" "$nd_flash" "$nd_ram" "$nd_stack"
+printf '%-34s %12s %16s %22s\n' "microbit nRF51822 (256K/16K)" "$mb_flash" "$mb_ram" "$mb_stack"
 [[ $stm_flash -le $((512 * 1024)) ]] || fail "stm32f4: the image exceeds the 512 KiB flash"
 [[ $stm_ram -le $((128 * 1024 - 8 * 1024)) ]] || fail "stm32f4: under 8 KiB of RAM left for the stack"
+[[ $nd_ram -le $((128 * 1024 - 8 * 1024)) ]] || fail "netduinoplus2: under 8 KiB of RAM left for the stack"
+[[ $mb_flash -le $((256 * 1024)) ]] || fail "microbit: the image exceeds the 256 KiB flash"
+# The painted stack cannot see past its region: keep 256 bytes never touched.
+[[ $((mb_ram + mb_stack)) -le $((16 * 1024 - 256)) ]] \
+    || fail "microbit: statics $mb_ram + stack $mb_stack B leave under 256 B of its 16 KiB"
 rm -rf "$smoke"
 
 step "done in $((SECONDS - start)) s"

@@ -27,7 +27,8 @@
 use std::collections::VecDeque;
 use terrain_pyramid::classify::Classifier;
 use terrain_pyramid::link::{Link, LinkConfig, SensorCounters};
-use terrain_pyramid::wire::link::{Accumulator, FeedResult, Message, MAX_FRAME};
+use terrain_pyramid::wire::link::{Decoded, FrameAccumulator, Message, MAX_FRAME};
+use terrain_pyramid::wire::FeedResult;
 use terrain_pyramid::{
     Config, DefaultDesign, DefaultPyramid, Meters, Point3, Schedule, SensorModel,
     DEFAULT_CELLS_PER_SIDE,
@@ -150,9 +151,12 @@ fn run(lines_per_s: f64, returns: usize, seconds: f64, config: LinkConfig) -> Re
     )
     .unwrap();
     let mut link: Box<Link> = Box::new(Link::new(config));
-    link.configure(&mut pyramid, &design, &Config::default())
+    pyramid.configure(&design, &Config::default()).unwrap();
+    link.adopt(&design);
+    let mut classifier: Box<Classifier<1024, 8>> = Box::new(Classifier::new());
+    classifier
+        .adopt_design(&design, Config::default().model.increments().unwrap())
         .unwrap();
-    let mut classifier: Box<Classifier<1024>> = Box::new(Classifier::new());
     let layers = pyramid.layer_count();
     // The time each tile's oldest unsent change arrived, seconds.
     let mut pending: Vec<[Option<f64>; 64]> = vec![[None; 64]; layers];
@@ -165,7 +169,7 @@ fn run(lines_per_s: f64, returns: usize, seconds: f64, config: LinkConfig) -> Re
     let mut uart = vec![0_u8; 4096];
     let fan_step = 180.0 / (returns - 1) as f64;
     // What the host decodes as the UART sends it.
-    let mut host = Box::new(Accumulator::<MAX_FRAME>::new());
+    let mut host = Box::new(FrameAccumulator::<MAX_FRAME>::new());
     // Per tile, the arrival times of the changes carried by patches queued but not yet out.
     let mut in_flight: Vec<Vec<VecDeque<f64>>> = vec![vec![VecDeque::new(); 64]; layers];
     // The delivery whose further pieces update its delay: (layer, tile, index in delays).
@@ -181,8 +185,10 @@ fn run(lines_per_s: f64, returns: usize, seconds: f64, config: LinkConfig) -> Re
             let start = n - input.len();
             match host.feed(input) {
                 FeedResult::Consumed => break,
-                FeedResult::Frame {
-                    message, remaining, ..
+                FeedResult::Item {
+                    item: Decoded { message, .. },
+                    remaining,
+                    ..
                 } => {
                     let end = n - remaining.len();
                     let leaves = last_t + end as f64 / UART_BYTES_PER_S;
@@ -209,7 +215,7 @@ fn run(lines_per_s: f64, returns: usize, seconds: f64, config: LinkConfig) -> Re
                     }
                     input = remaining;
                 }
-                FeedResult::Error { error, .. } => panic!("{error}"),
+                FeedResult::Rejected { error, .. } => panic!("{error:?}"),
             }
         }
         last_t = t;
@@ -235,7 +241,6 @@ fn run(lines_per_s: f64, returns: usize, seconds: f64, config: LinkConfig) -> Re
             ];
             let horizontal = (range * el.cos()).abs();
             classifier.add_point(
-                &pyramid,
                 Point3 {
                     x: Meters::from_num(p[0]),
                     y: Meters::from_num(p[1]),

@@ -11,8 +11,9 @@ use std::error::Error;
 use std::hint::black_box;
 use std::time::{Duration, Instant};
 use terrain_pyramid::wire::sick::{
-    Accumulator, FeedResult, MeasuredValues, MeasuringMode, Stats, Unit,
+    MeasuredValues, MeasuringMode, SickAccumulator, SickCounters, SickItem, Unit,
 };
+use terrain_pyramid::wire::FeedResult;
 
 /// Bytes of stream to build.
 const TARGET_BYTES: usize = 50_000_000;
@@ -68,8 +69,8 @@ fn build(rng: &mut XorShift) -> Result<(Vec<u8>, u64), Box<dyn Error>> {
 }
 
 /// Feeds the stream in chunks; `parse` also decodes every range.
-fn run(stream: &[u8], parse: bool) -> (Duration, Stats, u64) {
-    let mut acc: Accumulator = Accumulator::new();
+fn run(stream: &[u8], parse: bool) -> (Duration, SickCounters, u64) {
+    let mut acc: SickAccumulator = SickAccumulator::new();
     let mut sum = 0u64;
     let start = Instant::now();
     for chunk in stream.chunks(CHUNK) {
@@ -79,7 +80,10 @@ fn run(stream: &[u8], parse: bool) -> (Duration, Stats, u64) {
             window = result.remaining();
             match result {
                 FeedResult::Consumed => break,
-                FeedResult::Telegram { telegram, .. } => {
+                FeedResult::Item {
+                    item: SickItem::Telegram(telegram),
+                    ..
+                } => {
                     if parse {
                         if let Ok(m) = MeasuredValues::parse(&telegram) {
                             sum += m
@@ -116,7 +120,7 @@ fn main() -> Result<(), Box<dyn Error>> {
         // One warm-up pass, then the best of three.
         let _ = run(&stream, parse);
         let mut best = Duration::MAX;
-        let mut stats = Stats::default();
+        let mut stats = SickCounters::default();
         for _ in 0..3 {
             let (elapsed, s, _) = run(&stream, parse);
             best = best.min(elapsed);

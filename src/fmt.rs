@@ -7,11 +7,15 @@ macro_rules! trace { ($($t:tt)*) => { ::defmt::trace!($($t)*) }; }
 #[cfg(feature = "defmt")]
 macro_rules! debug { ($($t:tt)*) => { ::defmt::debug!($($t)*) }; }
 #[cfg(feature = "defmt")]
+macro_rules! info { ($($t:tt)*) => { ::defmt::info!($($t)*) }; }
+#[cfg(feature = "defmt")]
 macro_rules! warn { ($($t:tt)*) => { ::defmt::warn!($($t)*) }; }
 
 #[cfg(not(feature = "defmt"))]
 macro_rules! trace { ($($t:tt)*) => {{ let _ = || { ::core::format_args!($($t)*); }; }}; }
 #[cfg(not(feature = "defmt"))]
 macro_rules! debug { ($($t:tt)*) => {{ let _ = || { ::core::format_args!($($t)*); }; }}; }
+#[cfg(not(feature = "defmt"))]
+macro_rules! info { ($($t:tt)*) => {{ let _ = || { ::core::format_args!($($t)*); }; }}; }
 #[cfg(not(feature = "defmt"))]
 macro_rules! warn { ($($t:tt)*) => {{ let _ = || { ::core::format_args!($($t)*); }; }}; }

@@ -1,4 +1,6 @@
-//! The precomputed gating tables: `w_k(d)` for every layer over quantised distance.
+//! The precomputed gating tables: `w_k(d)` for every layer over quantised distance, and
+//! [`Gates`], everything a point needs to know to feed the layers of a design: their cell
+//! sizes, their tables, and which layers a distance may feed at all.
 //!
 //! The per-point path never calls `exp`: it quantises the distance at measurement into one of
 //! [`GATE_BINS`] bins with a shift ([`DistanceBins::bin`]) and reads a Q1.15 weight.
@@ -14,8 +16,10 @@
 //!   (σ_g = 0.265 m, b = 1/32 m). The hard gate's band edges move to bin boundaries:
 //!   by at most b/2.
 
-use crate::design::{Design, GateShape, LayerDesign};
+use crate::design::{Design, DesignError, GateShape, LayerDesign, Param};
 use crate::fmath;
+use crate::grid::Resolution;
+use crate::logodds::Increments;
 use crate::units::{Meters, Weight};
 
 /// Number of distance bins in every gate table.
@@ -220,14 +224,22 @@ impl GateTable {
     #[must_use]
     pub fn build<const L: usize>(design: &Design<L>, k: usize, bins: DistanceBins) -> Self {
         let mut table = Self::ZERO;
+        table.rebuild(design, k, bins);
+        table
+    }
+
+    /// Rebuilds this table as [`GateTable::build`] of layer `k` (all zero if the design has no
+    /// layer `k`), in place: without a second 1 KiB table on the stack.
+    pub fn rebuild<const L: usize>(&mut self, design: &Design<L>, k: usize, bins: DistanceBins) {
+        self.weights.fill(Weight::ZERO);
         let layers = design.layers();
         let Some(layer) = layers.get(k) else {
-            return table;
+            return;
         };
         let last = k + 1 == layers.len();
         let shape = design.schedule().gate;
         let range = design.sensor().max_range_m;
-        for (i, w) in table.weights.iter_mut().enumerate() {
+        for (i, w) in self.weights.iter_mut().enumerate() {
             // Nothing is measured beyond the maximum range: bins that start past it feed no
             // layer (the last band is closed at R).
             if bins.lower_edge_m(i) > range {
@@ -235,7 +247,6 @@ impl GateTable {
             }
             *w = round_weight(weight_at(layer, last, shape, bins.center_m(i)));
         }
-        table
     }
 
     /// The weight of a distance bin (0 past the table, which [`DistanceBins::bin`] never
@@ -296,10 +307,302 @@ pub fn binning_error_bound(layer: &LayerDesign, bins: DistanceBins) -> f32 {
     }
 }
 
+/// Gate bins per byte of the fed-layer mask ([`Gates::fed_layers`]): 8 bins of 1/32 m
+/// (25 cm) with the default range, so 64 bytes for the whole table.
+pub const FED_GROUP_BINS: usize = 8;
+
+/// Bytes of the fed-layer mask.
+const FED_GROUPS: usize = GATE_BINS / FED_GROUP_BINS;
+
+/// The smallest raw Q1.15 weight `w` with `gated(l_obs, w) ≠ 0` or `gated(l_free, w) ≠ 0`.
+///
+/// `gated` rounds half up: `g = ⌊(l·w + 2¹⁴) / 2¹⁵⌋` is non-zero exactly when `l·w ≥ 2¹⁴` or
+/// `l·w < −2¹⁴`, i.e. for `l > 0` when `w ≥ ⌈2¹⁴ / l⌉`, and for `l < 0` when
+/// `w ≥ ⌊2¹⁴ / |l|⌋ + 1`. Both conditions grow with `w`, so their union starts at the smaller.
+/// A zero increment never feeds (the validator refuses it); the result is at most 2¹⁵ + 1
+/// (no weight feeds).
+fn min_feeding_weight(increments: Increments) -> u16 {
+    const HALF: u32 = 1 << 14;
+    let never = (1_u32 << 15) + 1;
+    let threshold = |l: i16| -> u32 {
+        let magnitude = u32::from(l.unsigned_abs());
+        match (l > 0, magnitude) {
+            (_, 0) => never,
+            (true, m) => HALF.div_ceil(m),
+            (false, m) => HALF / m + 1,
+        }
+    };
+    let t = threshold(increments.obstacle.to_bits()).min(threshold(increments.free.to_bits()));
+    u16::try_from(t).unwrap_or(u16::MAX)
+}
+
+/// The gating of a design, for up to `L` layers: each layer's cell size and gate table, the
+/// distance binning, the smallest weight that changes a cell, and per group of
+/// [`FED_GROUP_BINS`] bins the layers it may feed. About `L · 1 KiB + 4·L + 72` bytes.
+///
+/// The classifier owns it and reads it for every point; the pyramid never does: evidence
+/// reaches the pyramid with its weight already looked up ([`crate::pyramid::Evidence`]).
+/// `const`-built all zero bits ([`Gates::new`]: no layers, nothing fed), so a `static` holding
+/// one sits in `.bss`.
+#[derive(Clone)]
+pub struct Gates<const L: usize> {
+    tables: [GateTable; L],
+    resolutions: [Resolution; L],
+    /// Layers in force, ≤ L ≤ 255.
+    active: u8,
+    bins: DistanceBins,
+    /// Raw Q1.15; 2¹⁵ + 1 and above: nothing feeds.
+    min_feeding_weight: u16,
+    /// Per group of [`FED_GROUP_BINS`] gate bins, bit k set when layer k < 8 is fed at some
+    /// bin of the group (its weight reaches `min_feeding_weight` there).
+    fed: [u8; FED_GROUPS],
+}
+
+impl<const L: usize> core::fmt::Debug for Gates<L> {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.debug_struct("Gates")
+            .field("layers", &self.active)
+            .field("bins", &self.bins)
+            .field("min_feeding_weight", &self.min_feeding_weight)
+            .finish()
+    }
+}
+
+impl<const L: usize> Default for Gates<L> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl<const L: usize> Gates<L> {
+    /// No layers: every point feeds nothing. `const` and all zero bits.
+    #[must_use]
+    pub const fn new() -> Self {
+        Self {
+            tables: [const { GateTable::ZERO }; L],
+            resolutions: [Resolution::UNSET; L],
+            active: 0,
+            bins: DistanceBins::UNCONFIGURED,
+            min_feeding_weight: 0,
+            fed: [0; FED_GROUPS],
+        }
+    }
+
+    /// Builds the gating of `design` with the increments in force (they decide which weights
+    /// can change a cell). On error nothing changes.
+    ///
+    /// # Errors
+    /// A layer's resolution cannot be represented ([`Param::Base`]).
+    pub fn configure(
+        &mut self,
+        design: &Design<L>,
+        increments: Increments,
+    ) -> Result<(), DesignError> {
+        let mut resolutions = [Resolution::UNSET; L];
+        for (slot, layer) in resolutions.iter_mut().zip(design.layers()) {
+            *slot = resolution_of(layer)?;
+        }
+        let bins = DistanceBins::for_range(design.sensor().max_range_m);
+        let active = design.layers().len().min(L).min(usize::from(u8::MAX));
+        for (k, table) in self.tables.iter_mut().enumerate() {
+            // In place: a table built on the stack and copied would cost 1 KiB of frame.
+            if k < active {
+                table.rebuild(design, k, bins);
+            } else {
+                table.weights.fill(Weight::ZERO);
+            }
+        }
+        let min_weight = min_feeding_weight(increments);
+        let mut fed = [0_u8; FED_GROUPS];
+        for bin in 0..GATE_BINS {
+            for (k, table) in self.tables.iter().take(active.min(8)).enumerate() {
+                if table.weight(bin) >= Weight::from_bits(min_weight) {
+                    if let Some(mask) = fed.get_mut(bin / FED_GROUP_BINS) {
+                        *mask |= 1 << k;
+                    }
+                }
+            }
+        }
+        self.resolutions = resolutions;
+        self.active = u8::try_from(active).unwrap_or(u8::MAX);
+        self.bins = bins;
+        self.min_feeding_weight = min_weight;
+        self.fed = fed;
+        Ok(())
+    }
+
+    /// The number of layers in force (0 before [`configure`](Self::configure)).
+    #[must_use]
+    pub const fn layer_count(&self) -> usize {
+        self.active as usize
+    }
+
+    /// The distance binning of the tables.
+    #[must_use]
+    pub const fn distance_bins(&self) -> DistanceBins {
+        self.bins
+    }
+
+    /// Layer `k`'s gate table, or `None` beyond the layers in force.
+    #[must_use]
+    pub fn table(&self, k: usize) -> Option<&GateTable> {
+        self.tables.get(..self.layer_count())?.get(k)
+    }
+
+    /// The tables of the layers in force, finest first.
+    #[must_use]
+    #[inline]
+    pub fn tables(&self) -> &[GateTable] {
+        self.tables.get(..self.layer_count()).unwrap_or(&[])
+    }
+
+    /// Layer `k`'s cell size, or `None` beyond the layers in force.
+    #[must_use]
+    #[inline]
+    pub fn resolution(&self, k: usize) -> Option<Resolution> {
+        self.resolutions.get(..self.layer_count())?.get(k).copied()
+    }
+
+    /// Layer `k`'s weight at a distance (0 beyond the layers in force).
+    #[must_use]
+    pub fn weight_at(&self, k: usize, distance: Meters) -> Weight {
+        self.table(k)
+            .map_or(Weight::ZERO, |t| t.weight(self.bins.bin(distance)))
+    }
+
+    /// The smallest gate weight at which an observation changes a cell: `gated(l, w) ≠ 0`
+    /// for either class exactly when `w` reaches it.
+    #[must_use]
+    pub const fn min_feeding_weight(&self) -> Weight {
+        Weight::from_bits(self.min_feeding_weight)
+    }
+
+    /// The layers among the first eight that a distance in gate bin `bin` may feed, bit k
+    /// for layer k: bit k is set when `table(k).weight(b) ≥ min_feeding_weight()` for some
+    /// bin `b` of `bin`'s group of [`FED_GROUP_BINS`] (0 for bins past the table). A clear
+    /// bit means the layer is not fed; a set bit still needs the weight check. Layers from
+    /// the ninth on are not in the mask: check their weights.
+    #[must_use]
+    #[inline]
+    pub fn fed_layers(&self, bin: usize) -> u8 {
+        self.fed.get(bin / FED_GROUP_BINS).copied().unwrap_or(0)
+    }
+}
+
+/// The static RAM of the gating of `layers` layers, bytes: a 1 KiB table and a cell size per
+/// layer, and the fed-layer mask: the part of a design's RAM that sits with the classifier
+/// (equal to `size_of::<Gates<L>>()` for `layers = L`, up to alignment; a unit test holds them
+/// together).
+#[must_use]
+pub const fn ram_bytes(layers: usize) -> usize {
+    let raw = layers * (core::mem::size_of::<GateTable>() + core::mem::size_of::<Resolution>())
+        + core::mem::size_of::<DistanceBins>()
+        + 4
+        + FED_GROUPS;
+    raw.div_ceil(4) * 4
+}
+
+/// A layer's cell size as the grid holds it.
+fn resolution_of(layer: &LayerDesign) -> Result<Resolution, DesignError> {
+    Resolution::from_m(layer.resolution_m).ok_or(DesignError::OutOfRange {
+        param: Param::Base,
+        value: layer.resolution_m,
+        min: crate::design::MIN_RESOLUTION_M,
+        max: 32_000.0,
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::design::{Schedule, SensorModel};
+    use crate::logodds::{gated, InverseSensorModel};
+    use crate::units::LogOddsFixed;
+
+    #[test]
+    fn min_feeding_weight_is_exactly_where_an_increment_survives() {
+        for (obstacle, free) in [(217, -104), (1, -1), (1946, -1946), (3, -500), (200, -2)] {
+            let inc = Increments {
+                obstacle: LogOddsFixed::from_bits(obstacle),
+                free: LogOddsFixed::from_bits(free),
+                initial: LogOddsFixed::ZERO,
+            };
+            let min = min_feeding_weight(inc);
+            for raw in 0..=(1_u16 << 15) {
+                let w = Weight::from_bits(raw);
+                let feeds = gated(inc.obstacle, w) != 0 || gated(inc.free, w) != 0;
+                assert_eq!(feeds, raw >= min, "({obstacle}, {free}) at w = {raw}");
+            }
+        }
+    }
+
+    #[test]
+    fn rebuild_in_place_is_build() {
+        let designs = [
+            Design::<8>::new(SensorModel::default(), Schedule::default(), 64).unwrap(),
+            Design::<8>::new(
+                SensorModel {
+                    max_range_m: 4.0,
+                    ..SensorModel::default()
+                },
+                Schedule {
+                    gate: GateShape::Hard,
+                    ..Schedule::default()
+                },
+                64,
+            )
+            .unwrap(),
+        ];
+        for a in &designs {
+            for b in &designs {
+                let (bins_a, bins_b) = (
+                    DistanceBins::for_range(a.sensor().max_range_m),
+                    DistanceBins::for_range(b.sensor().max_range_m),
+                );
+                for k in 0..9 {
+                    let mut t = GateTable::build(a, k, bins_a);
+                    t.rebuild(b, k, bins_b);
+                    assert_eq!(t.weights(), GateTable::build(b, k, bins_b).weights(), "{k}");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn the_fed_mask_is_exactly_where_the_weight_feeds() {
+        for shape in [GateShape::Hard, GateShape::default()] {
+            let schedule = Schedule {
+                gate: shape,
+                ..Schedule::default()
+            };
+            let design = Design::<8>::new(SensorModel::default(), schedule, 64).unwrap();
+            let mut p = Gates::<8>::new();
+            p.configure(&design, InverseSensorModel::default().increments().unwrap())
+                .unwrap();
+            let min = p.min_feeding_weight();
+            let mut fed = 0;
+            for k in 0..8 {
+                let gate = p.table(k).unwrap();
+                for bin in 0..GATE_BINS + 3 {
+                    let feeds = gate.weight(bin) >= min;
+                    let group = bin / FED_GROUP_BINS * FED_GROUP_BINS;
+                    let any = (group..group + FED_GROUP_BINS).any(|b| gate.weight(b) >= min);
+                    let bit = p.fed_layers(bin) >> k & 1 == 1;
+                    assert_eq!(bit, any, "{shape:?} layer {k} bin {bin}");
+                    assert!(bit || !feeds);
+                    fed += usize::from(feeds);
+                }
+            }
+            assert!(fed > GATE_BINS / 2);
+        }
+    }
+
+    #[test]
+    fn ram_bytes_matches_the_layout() {
+        assert_eq!(ram_bytes(8), core::mem::size_of::<Gates<8>>());
+        assert_eq!(ram_bytes(1), core::mem::size_of::<Gates<1>>());
+        assert_eq!(ram_bytes(32), core::mem::size_of::<Gates<32>>());
+    }
 
     #[test]
     fn bins_for_ten_metres_are_1_32_m() {

@@ -21,6 +21,10 @@ impl Resolution {
     /// The smallest raw value accepted: 0.01 m.
     const MIN_BITS: i32 = 655;
 
+    /// No cell size: the resolution of an unconfigured layer (every coordinate maps to cell
+    /// 0, see [`cell_of`]). All zero bits.
+    pub const UNSET: Self = Self { bits: 0 };
+
     /// Rounds a cell size in metres to Q16.16 (ties away from zero), refusing sizes below
     /// 1 cm, above 32 000 m, or not finite.
     #[must_use]
@@ -303,7 +307,7 @@ impl<const W: usize> Layer<W> {
                 origin_y: 0,
                 start_x: 0,
                 start_y: 0,
-                resolution: Resolution { bits: 0 },
+                resolution: Resolution::UNSET,
             },
             dirty: 0,
         }

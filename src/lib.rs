@@ -32,8 +32,9 @@
 //! - [`link`]: the device side of the serial link to the main computer (`docs/protocol.md`):
 //!   rate-limited patches of changed tiles, commands in, replies out.
 //! - [`drivers`]: thin adapters from embedded-io / embedded-hal to the pure code:
-//!   [`drivers::uart`] (telegrams from any `embedded_io::Read`), [`drivers::angle`] and
-//!   [`drivers::as5047`] (sources of the pan angle).
+//!   [`drivers::angle`] and [`drivers::as5047`] (sources of the pan angle),
+//!   [`drivers::lidar`] (requests to the spinning lidars). A laser's received bytes go
+//!   straight to [`app::CoProcessor::laser`].
 //!
 //! # Panic contract
 //! No function in this crate panics on any input, as smoltcp's `wire` promises: parsers and
@@ -48,6 +49,7 @@ pub mod fmath;
 #[macro_use]
 mod fmt;
 
+pub mod app;
 pub mod classify;
 pub mod design;
 pub mod drivers;
@@ -80,7 +82,12 @@ pub type DefaultDesign = Design<DEFAULT_LAYERS>;
 /// for a whole 226-line sweep of the real 3DTK scan (about 860 cells with the soft gate).
 pub const DEFAULT_CLASSIFIER_SLOTS: usize = 1024;
 /// The default pipeline, as the firmware runs it.
-pub type DefaultFrontend = pipeline::Frontend<DEFAULT_CLASSIFIER_SLOTS>;
+pub type DefaultFrontend = pipeline::Frontend<DEFAULT_CLASSIFIER_SLOTS, DEFAULT_LAYERS>;
+
+/// The default co-processor: the default pyramid and pipeline, and a link with a 2 KiB queue
+/// (22 ms of the link at 921 600 Bd ahead of a budget of half of it), about 94 KiB.
+pub type DefaultCoProcessor =
+    app::CoProcessor<DEFAULT_CELLS_PER_SIDE, DEFAULT_LAYERS, DEFAULT_CLASSIFIER_SLOTS, 2048>;
 
 // The README's example is compiled and run as a doctest, so it stays true.
 #[cfg(doctest)]

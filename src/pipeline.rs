@@ -20,9 +20,11 @@
 
 use crate::angle::FineAngle;
 use crate::classify::{Classifier, ClassifierConfig, ClassifierStats};
-use crate::geometry::{BeamTable, LineTransform, Mount, Pose, PoseFrame, Variant};
-use crate::pyramid::Pyramid;
+use crate::design::{Design, DesignError};
+use crate::geometry::{BeamTable, LineTransform, Mount, Pose, PoseFrame};
+use crate::pyramid::{Config, Pyramid};
 use crate::units::Meters;
+use crate::wire::sick::Variant;
 use crate::wire::sick::{MeasuredValues, MeasuringMode};
 use core::fmt;
 
@@ -46,6 +48,31 @@ pub struct FrontendConfig {
     pub missing_ground_within: Option<Meters>,
 }
 
+impl FrontendConfig {
+    /// The setup a co-processor boots with until the host sends its own: a SICK LMS 291 at
+    /// 180°/0.5° in the 8 m mode, its scan centre 0.5 m above the ground at the robot's
+    /// origin, on a mount of the given kind, one observation per sweep, the default
+    /// classifier, missing ground off.
+    #[must_use]
+    pub fn lms291_boot(plane: crate::geometry::ScanPlane) -> Self {
+        Self {
+            mount: Mount::new(
+                plane,
+                crate::units::Point3 {
+                    x: Meters::ZERO,
+                    y: Meters::ZERO,
+                    z: Meters::from_bits(1 << 15),
+                },
+            ),
+            variant: Variant::Fov180StepHalf,
+            measuring_mode: MeasuringMode::Mm8Cm80,
+            lines_per_observation: 0,
+            classifier: ClassifierConfig::default(),
+            missing_ground_within: None,
+        }
+    }
+}
+
 #[cfg(feature = "defmt")]
 impl defmt::Format for FrontendConfig {
     fn format(&self, f: defmt::Formatter<'_>) {
@@ -59,94 +86,6 @@ impl defmt::Format for FrontendConfig {
             self.classifier,
             self.missing_ground_within.map_or(0, |m| m.to_bits())
         );
-    }
-}
-
-/// Why a recording's (or the link's) setup cannot configure the pipeline.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-#[non_exhaustive]
-pub enum SetupError {
-    /// No scanner variant has this field of view and resolution.
-    UnknownVariant {
-        /// Field of view, degrees.
-        field_deg: u16,
-        /// Angular resolution, hundredths of a degree.
-        resolution_cdeg: u16,
-    },
-    /// The SICK measuring mode is not one the decoder knows.
-    UnknownMeasuringMode {
-        /// The 0x77 mode number.
-        code: u8,
-    },
-    /// A sensor position coordinate is not finite or beyond ±1000 m.
-    BadPosition,
-}
-
-impl fmt::Display for SetupError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match *self {
-            Self::UnknownVariant {
-                field_deg,
-                resolution_cdeg,
-            } => write!(
-                f,
-                "no SICK variant scans {field_deg}° at {resolution_cdeg}/100°"
-            ),
-            Self::UnknownMeasuringMode { code } => {
-                write!(f, "measuring mode {code:#04x} is not supported")
-            }
-            Self::BadPosition => {
-                f.write_str("the sensor position must be finite and within ±1000 m")
-            }
-        }
-    }
-}
-
-impl FrontendConfig {
-    /// The pipeline's configuration from a recording's setup, with the given classifier and
-    /// missing ground off.
-    ///
-    /// # Errors
-    /// An unknown variant or measuring mode, or a sensor position that is not finite or
-    /// beyond ±1000 m.
-    pub fn from_setup(
-        setup: &crate::wire::recording::Setup,
-        classifier: ClassifierConfig,
-    ) -> Result<Self, SetupError> {
-        use crate::geometry::ScanPlane;
-        use crate::wire::recording::MountKind;
-        let variant = Variant::from_sick(setup.field_deg, setup.resolution_cdeg).ok_or(
-            SetupError::UnknownVariant {
-                field_deg: setup.field_deg,
-                resolution_cdeg: setup.resolution_cdeg,
-            },
-        )?;
-        let measuring_mode = MeasuringMode::from_code(setup.measuring_mode).map_err(|_| {
-            SetupError::UnknownMeasuringMode {
-                code: setup.measuring_mode,
-            }
-        })?;
-        if setup
-            .sensor_m
-            .iter()
-            .any(|v| !v.is_finite() || v.abs() > 1000.0)
-        {
-            return Err(SetupError::BadPosition);
-        }
-        let [x, y, z] = setup.sensor_m.map(crate::units::meters_from_f32);
-        let plane = match setup.mount {
-            MountKind::PannedVertical => ScanPlane::PannedVertical,
-            MountKind::TiltedHorizontal => ScanPlane::TiltedHorizontal,
-        };
-        Ok(Self {
-            mount: Mount::new(plane, crate::units::Point3 { x, y, z }),
-            variant,
-            measuring_mode,
-            lines_per_observation: setup.lines_per_observation,
-            classifier,
-            missing_ground_within: None,
-        })
     }
 }
 
@@ -188,7 +127,8 @@ pub enum LineError {
         /// The index in the telegram.
         partial_index: u8,
     },
-    /// The pipeline has not been configured yet ([`Frontend::unconfigured`]).
+    /// The pipeline has no setup yet ([`Frontend::unconfigured`]) or no design to feed
+    /// ([`Frontend::adopt_design`]).
     NotConfigured,
 }
 
@@ -205,7 +145,9 @@ impl fmt::Display for LineError {
                     "partial-scan index {partial_index} does not fit the variant"
                 )
             }
-            Self::NotConfigured => f.write_str("the pipeline is not configured yet"),
+            Self::NotConfigured => {
+                f.write_str("the pipeline has no setup or no design to feed yet")
+            }
         }
     }
 }
@@ -219,11 +161,11 @@ enum Layout {
     Partial(u8),
 }
 
-/// The per-line pipeline, with `C` classifier slots.
-pub struct Frontend<const C: usize> {
+/// The per-line pipeline, with `C` classifier slots, for designs of up to `L` layers.
+pub struct Frontend<const C: usize, const L: usize> {
     config: FrontendConfig,
     beams: BeamTable,
-    classifier: Classifier<C>,
+    classifier: Classifier<C, L>,
     pose: Pose,
     frame: PoseFrame,
     actuator: FineAngle,
@@ -236,7 +178,7 @@ pub struct Frontend<const C: usize> {
     configured: bool,
 }
 
-impl<const C: usize> fmt::Debug for Frontend<C> {
+impl<const C: usize, const L: usize> fmt::Debug for Frontend<C, L> {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.debug_struct("Frontend")
             .field("config", &self.config)
@@ -246,7 +188,7 @@ impl<const C: usize> fmt::Debug for Frontend<C> {
     }
 }
 
-impl<const C: usize> Frontend<C> {
+impl<const C: usize, const L: usize> Frontend<C, L> {
     /// A pipeline for `config`, at the world origin with the actuator at zero.
     ///
     /// It returns the pipeline by value (about 24 KiB with 1024 classifier slots): firmware
@@ -309,10 +251,18 @@ impl<const C: usize> Frontend<C> {
     /// Adopts a new configuration; the current observation is discarded.
     pub fn configure(&mut self, config: FrontendConfig) {
         self.config = config;
-        self.beams = BeamTable::new(config.variant);
+        // In place: a second beam table on the stack would not fit a 16 KiB part.
+        self.beams.rebuild(config.variant);
         self.classifier.configure(config.classifier);
         self.frame = self.pose.frame();
         self.configured = true;
+        self.restart_observation();
+    }
+
+    /// Discards the observation under way and forgets the sweep's direction: the next line
+    /// starts a new observation (after the maps were cleared, say).
+    pub fn restart_observation(&mut self) {
+        self.classifier.discard();
         self.lines_in_observation = 0;
         self.last_actuator = None;
         self.direction = 0;
@@ -322,6 +272,26 @@ impl<const C: usize> Frontend<C> {
     #[must_use]
     pub const fn config(&self) -> &FrontendConfig {
         &self.config
+    }
+
+    /// Adopts the gating of the pyramid's design and configuration (the classifier's
+    /// [`Classifier::adopt_design`]); the current observation is discarded. On error nothing
+    /// changes.
+    ///
+    /// # Errors
+    /// The configuration's increments are invalid, or a layer's resolution cannot be
+    /// represented.
+    pub fn adopt_design(&mut self, design: &Design<L>, config: &Config) -> Result<(), DesignError> {
+        let increments = config.model.increments()?;
+        self.classifier.adopt_design(design, increments)?;
+        self.lines_in_observation = 0;
+        Ok(())
+    }
+
+    /// The gating in force.
+    #[must_use]
+    pub const fn gates(&self) -> &crate::gate::Gates<L> {
+        self.classifier.gates()
     }
 
     /// The robot's pose from now on (validated by [`Pose::from_f32`] where it came in).
@@ -405,12 +375,12 @@ impl<const C: usize> Frontend<C> {
     ///
     /// # Errors
     /// The line does not fit the configured variant; nothing of it was used.
-    pub fn line<const W: usize, const L: usize>(
+    pub fn line<const W: usize>(
         &mut self,
         pyramid: &mut Pyramid<W, L>,
         values: &MeasuredValues<'_>,
     ) -> Result<(), LineError> {
-        if !self.configured {
+        if !self.configured || self.classifier.gates().layer_count() == 0 {
             self.stats.lines_rejected = self.stats.lines_rejected.saturating_add(1);
             return Err(LineError::NotConfigured);
         }
@@ -442,7 +412,6 @@ impl<const C: usize> Frontend<C> {
                     Self::missing_ground(
                         &mut self.classifier,
                         &mut self.stats,
-                        pyramid,
                         &transform,
                         b,
                         ground_z,
@@ -456,7 +425,6 @@ impl<const C: usize> Frontend<C> {
                 Some(located) => {
                     // The distance is needed only for its gate bin: no square root.
                     self.classifier.add_point_squared(
-                        pyramid,
                         located.point,
                         located.horizontal_squared,
                         ground_z,
@@ -479,10 +447,9 @@ impl<const C: usize> Frontend<C> {
     /// Where a no-return beam should have met the ground plane, if it points down at it
     /// closer than `within`: that cell is marked as missing ground. One division, and only
     /// for beams that returned nothing.
-    fn missing_ground<const W: usize, const L: usize>(
-        classifier: &mut Classifier<C>,
+    fn missing_ground(
+        classifier: &mut Classifier<C, L>,
         stats: &mut FrontendStats,
-        pyramid: &Pyramid<W, L>,
         transform: &LineTransform<'_>,
         beam: usize,
         ground_z: Meters,
@@ -513,14 +480,14 @@ impl<const C: usize> Frontend<C> {
             return;
         };
         if let Some(expected) = transform.locate(beam, range_mm) {
-            classifier.add_missing_ground(pyramid, expected.point, expected.horizontal);
+            classifier.add_missing_ground(expected.point, expected.horizontal);
             stats.missing_ground = stats.missing_ground.saturating_add(1);
         }
     }
 
     /// Ends the current observation now (if it holds any line): recentres the pyramid on the
     /// robot and applies the evidence.
-    pub fn end_observation<const W: usize, const L: usize>(&mut self, pyramid: &mut Pyramid<W, L>) {
+    pub fn end_observation<const W: usize>(&mut self, pyramid: &mut Pyramid<W, L>) {
         if self.lines_in_observation == 0 {
             return;
         }
@@ -564,7 +531,7 @@ mod tests {
         bytes
     }
 
-    fn setup(lines: u32) -> (Frontend<4096>, std::boxed::Box<Pyramid<64, 8>>) {
+    fn setup(lines: u32) -> (Frontend<4096, 8>, std::boxed::Box<Pyramid<64, 8>>) {
         let design = Design::<8>::new(SensorModel::default(), Schedule::default(), 64).unwrap();
         let mut p = std::boxed::Box::new(Pyramid::new());
         p.configure(&design, &Config::default()).unwrap();
@@ -582,10 +549,16 @@ mod tests {
             classifier: ClassifierConfig::default(),
             missing_ground_within: None,
         };
-        (Frontend::new(config), p)
+        let mut f = Frontend::new(config);
+        f.adopt_design(&design, &Config::default()).unwrap();
+        (f, p)
     }
 
-    fn sweep(f: &mut Frontend<4096>, p: &mut Pyramid<64, 8>, degrees: impl Iterator<Item = u32>) {
+    fn sweep(
+        f: &mut Frontend<4096, 8>,
+        p: &mut Pyramid<64, 8>,
+        degrees: impl Iterator<Item = u32>,
+    ) {
         for tilt in degrees {
             let values = ranges_mm(f64::from(tilt));
             let line = MeasuredValues::new(Unit::Millimetre, 0, &values, None, 0).unwrap();
@@ -650,7 +623,7 @@ mod tests {
     #[test]
     fn an_unconfigured_pipeline_refuses_lines() {
         let (_, mut p) = setup(1);
-        let mut f = Frontend::<64>::unconfigured();
+        let mut f = Frontend::<64, 8>::unconfigured();
         let values = ranges_mm(20.0);
         let line = MeasuredValues::new(Unit::Millimetre, 0, &values, None, 0).unwrap();
         assert_eq!(f.line(&mut p, &line), Err(LineError::NotConfigured));

@@ -74,3 +74,33 @@ pub fn link_stream(data: &[u8]) -> Vec<u8> {
     out.extend_from_slice(rest);
     out
 }
+
+/// One 361-value measured-values telegram of a SICK 0.5 m above flat floor, tilted 20° down
+/// (every beam below the horizon meets the floor; the others return nothing).
+pub fn floor_telegram() -> Vec<u8> {
+    let tau = 20_f64.to_radians();
+    let mut values = Vec::new();
+    for i in 0..361 {
+        let theta = (f64::from(i) * 0.5).to_radians();
+        let dz = -theta.sin() * tau.sin();
+        let r = if dz < -1e-6 { 0.5 / -dz } else { f64::INFINITY };
+        let raw: u16 = if r < 8.0 {
+            (r * 1000.0).round() as u16
+        } else {
+            0x1FFF
+        };
+        values.extend_from_slice(&raw.to_le_bytes());
+    }
+    let line = terrain_pyramid::wire::sick::MeasuredValues::new(
+        terrain_pyramid::wire::sick::Unit::Millimetre,
+        0,
+        &values,
+        None,
+        0,
+    )
+    .expect("a valid line");
+    let mut buf = vec![0_u8; line.buffer_len()];
+    let n = line.emit(&mut buf).expect("room for the telegram");
+    buf.truncate(n);
+    buf
+}

@@ -1,28 +1,29 @@
-//! Host-to-device bytes into the device's receive path (`Link::receive`) with a real
-//! `DefaultPyramid`.
+//! Host-to-device bytes into the application core's host side (`CoProcessor::host`: the link's
+//! receive path, then the commands carried out) with the default co-processor.
 //!
 //! The input is a list of segments `[flags, type, len, body...]` that the harness turns into
 //! valid frames (or raw bytes, a wrong version, a flipped bit: see `common::link_stream`), so
 //! the fuzzer reaches every command's parser, not only the COBS and CRC checks.
 //!
-//! Invariants: no panic; the pyramid (layers, resolutions, origins, cells, increments, gates)
-//! changes only in a `receive` call that reported `Configured` or `Reset`; after `Configured`
-//! the pyramid has at least one layer; every byte the device queues decodes on the host side
-//! as a whole frame.
+//! Invariants: no panic; the maps (layers, resolutions, origins, cells, increments, gates)
+//! change only in a chunk after which the device announces it to the host with a Hello that
+//! clears the host's maps (reason configured or reset); after such a Hello the pyramid has at
+//! least one layer; every byte the device queues decodes on the host side as a whole frame.
 #![no_main]
 
 mod common;
 
 use libfuzzer_sys::fuzz_target;
-use terrain_pyramid::link::{Event, Link, SensorCounters};
-use terrain_pyramid::wire::link::{Accumulator, FeedResult, MAX_FRAME};
-use terrain_pyramid::{
-    Config, DefaultDesign, DefaultPyramid, Evidence, EvidenceClass, Meters, Schedule, SensorModel,
-    DEFAULT_CELLS_PER_SIDE,
-};
+use terrain_pyramid::geometry::ScanPlane;
+use terrain_pyramid::link::LinkConfig;
+use terrain_pyramid::pipeline::FrontendConfig;
+use terrain_pyramid::wire::link::{Decoded, FrameAccumulator, Message, MAX_FRAME};
+use terrain_pyramid::wire::FeedResult;
+use terrain_pyramid::{Config, DefaultCoProcessor, DefaultDesign, Schedule, SensorModel};
 
-/// Everything of the pyramid a command may change, as plain numbers.
-fn fingerprint(p: &DefaultPyramid) -> Vec<i64> {
+/// Everything of the maps a command may change, as plain numbers.
+fn fingerprint(core: &DefaultCoProcessor) -> Vec<i64> {
+    let p = core.pyramid();
     let mut out = vec![p.layer_count() as i64];
     let inc = p.increments();
     out.extend([
@@ -30,17 +31,18 @@ fn fingerprint(p: &DefaultPyramid) -> Vec<i64> {
         i64::from(inc.free.to_bits()),
         i64::from(inc.initial.to_bits()),
     ]);
+    let w = terrain_pyramid::DEFAULT_CELLS_PER_SIDE;
     for k in 0..p.layer_count() {
         let layer = p.layer(k).expect("an active layer");
         out.push(i64::from(layer.resolution().to_bits()));
         let (ox, oy) = layer.origin();
         out.extend([i64::from(ox), i64::from(oy)]);
-        for dy in 0..DEFAULT_CELLS_PER_SIDE {
-            for dx in 0..DEFAULT_CELLS_PER_SIDE {
+        for dy in 0..w {
+            for dx in 0..w {
                 out.push(i64::from(layer.at_offset(dx, dy).expect("inside").to_raw()));
             }
         }
-        let gate = p.gate(k).expect("an active gate");
+        let gate = core.frontend().gates().table(k).expect("an active gate");
         out.extend(gate.weights().iter().map(|w| i64::from(w.to_bits())));
     }
     out
@@ -50,64 +52,45 @@ fuzz_target!(|data: &[u8]| {
     let (sizes, rest) = common::split_sizes(data);
     let stream = common::link_stream(rest);
 
-    let mut pyramid = Box::new(DefaultPyramid::new());
+    let mut core: Box<DefaultCoProcessor> = Box::default();
     let design = DefaultDesign::new(
         SensorModel::default(),
         Schedule::default(),
-        DEFAULT_CELLS_PER_SIDE,
+        terrain_pyramid::DEFAULT_CELLS_PER_SIDE,
     )
     .expect("the default design");
-    pyramid
-        .configure(&design, &Config::default())
-        .expect("the default config");
-    // Some evidence, so that a reset is visible.
-    for i in 0..20 {
-        pyramid.apply(&Evidence {
-            layer: (i % 3) as u8,
-            cell_x: i - 10,
-            cell_y: 3 - i,
-            class: if i % 2 == 0 {
-                EvidenceClass::Obstacle
-            } else {
-                EvidenceClass::Navigable
-            },
-            distance: Meters::from_num(0.5 + f64::from(i) * 0.3),
-        });
-    }
-    let mut link: Box<Link> = Box::default();
-    link.configure(&mut pyramid, &design, &Config::default())
-        .expect("the default config");
+    let setup = FrontendConfig::lms291_boot(ScanPlane::TiltedHorizontal);
+    core.boot(LinkConfig::DEFAULT, &design, &Config::default(), setup)
+        .expect("the default boot");
+    // Some evidence, so that a reset is visible: a line of floor seen at a known angle.
+    let mut frame = [0_u8; 32];
+    let n = terrain_pyramid::wire::link::encode(
+        0,
+        &Message::PanAngle(terrain_pyramid::wire::link::PanAngle {
+            turns: 0x0E39,
+            timestamp_ms: 0,
+        }),
+        &mut frame,
+    )
+    .expect("a PanAngle frame");
+    core.host(&frame[..n]);
+    core.laser(
+        &common::floor_telegram(),
+        &mut terrain_pyramid::app::NoAngleSource,
+    );
 
-    let mut host = Box::new(Accumulator::<MAX_FRAME>::new());
+    let mut host = Box::new(FrameAccumulator::<MAX_FRAME>::new());
     let mut uart = [0_u8; 256];
     let mut now_ms = 0_u32;
     for chunk in common::chunks(&stream, sizes) {
-        let before = fingerprint(&pyramid);
-        let mut changed_by_command = false;
-        let mut configured = false;
-        link.receive(chunk, &mut pyramid, |event| match event {
-            Event::Configured => {
-                changed_by_command = true;
-                configured = true;
-            }
-            Event::Reset => changed_by_command = true,
-            _ => {}
-        });
-        if !changed_by_command {
-            assert_eq!(
-                fingerprint(&pyramid),
-                before,
-                "the pyramid changed without a command"
-            );
-        }
-        if configured {
-            assert!(pyramid.layer_count() >= 1);
-        }
+        let before = fingerprint(&core);
+        core.host(chunk);
         now_ms = now_ms.wrapping_add(7);
-        link.poll(now_ms, &mut pyramid, &SensorCounters::default());
+        core.poll(now_ms);
         // What the device sends must decode whole on the host's side.
+        let mut announced = false;
         loop {
-            let n = link.pop_bytes(&mut uart);
+            let n = core.take_output(&mut uart);
             if n == 0 {
                 break;
             }
@@ -115,12 +98,33 @@ fuzz_target!(|data: &[u8]| {
             loop {
                 match host.feed(window) {
                     FeedResult::Consumed => break,
-                    FeedResult::Frame { remaining, .. } => window = remaining,
-                    FeedResult::Error { error, .. } => {
+                    FeedResult::Item {
+                        item: Decoded { message, .. },
+                        remaining,
+                        ..
+                    } => {
+                        if let Message::Hello(hello) = message {
+                            announced |= hello.reason.clears_maps();
+                        }
+                        window = remaining;
+                    }
+                    FeedResult::Rejected { error, .. } => {
                         panic!("the device sent a bad frame: {error:?}")
                     }
                 }
             }
+        }
+        if !announced {
+            assert_eq!(
+                fingerprint(&core),
+                before,
+                "the maps changed without the host being told"
+            );
+        } else {
+            assert!(core.pyramid().layer_count() >= 1);
+        }
+        if core.shutdown_requested() {
+            core.answer_shutdown(terrain_pyramid::app::StackUsage::default());
         }
     }
 });

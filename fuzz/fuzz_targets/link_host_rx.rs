@@ -14,9 +14,10 @@ mod common;
 
 use libfuzzer_sys::fuzz_target;
 use terrain_pyramid::wire::link::{
-    cobs, decode, encode, Accumulator, DecodeError, FeedResult, Header, MAX_ENCODED_FRAME,
-    MAX_FRAME,
+    cobs, decode, encode, DecodeError, Decoded, FrameAccumulator, Header, Undecoded,
+    MAX_ENCODED_FRAME, MAX_FRAME,
 };
+use terrain_pyramid::wire::FeedResult;
 use terrain_pyramid_host::link::{HostLink, LinkEvent};
 
 #[derive(Debug, PartialEq)]
@@ -42,7 +43,7 @@ fn unstuff(encoded: &[u8]) -> Vec<u8> {
 }
 
 fn run(chunks: &[&[u8]]) -> Vec<Ev> {
-    let mut acc = Box::new(Accumulator::<MAX_FRAME>::new());
+    let mut acc = Box::new(FrameAccumulator::<MAX_FRAME>::new());
     let mut out = Vec::new();
     let mut scratch = vec![0_u8; MAX_ENCODED_FRAME];
     for chunk in chunks {
@@ -50,10 +51,10 @@ fn run(chunks: &[&[u8]]) -> Vec<Ev> {
         loop {
             match acc.feed(window) {
                 FeedResult::Consumed => break,
-                FeedResult::Frame {
-                    header,
-                    message,
+                FeedResult::Item {
+                    item: Decoded { header, message },
                     remaining,
+                    ..
                 } => {
                     assert!(remaining.len() < window.len());
                     window = remaining;
@@ -69,10 +70,10 @@ fn run(chunks: &[&[u8]]) -> Vec<Ev> {
                     assert_eq!(&scratch[..n2], &encoded[..]);
                     out.push(Ev::Frame(header, encoded));
                 }
-                FeedResult::Error {
-                    error,
-                    header,
+                FeedResult::Rejected {
+                    error: Undecoded { error, header },
                     remaining,
+                    ..
                 } => {
                     assert!(remaining.len() < window.len());
                     window = remaining;

@@ -16,8 +16,9 @@
 use libfuzzer_sys::fuzz_target;
 use terrain_pyramid::angle::FineAngle;
 use terrain_pyramid::classify::{ClassifierConfig, NavigabilityRule, PlaneRule};
-use terrain_pyramid::geometry::{Mount, Pose, ScanPlane, Variant};
+use terrain_pyramid::geometry::{Mount, Pose, ScanPlane};
 use terrain_pyramid::pipeline::{Frontend, FrontendConfig};
+use terrain_pyramid::wire::sick::Variant;
 use terrain_pyramid::wire::sick::{
     emit_telegram, MeasuredValues, MeasuringMode, Telegram, ADDRESS_REPLY,
 };
@@ -108,7 +109,10 @@ fuzz_target!(|data: &[u8]| {
     pyramid
         .configure(&design, &Config::default())
         .expect("the default config");
-    let mut frontend = Box::new(Frontend::<1024>::new(config));
+    let mut frontend = Box::new(Frontend::<1024, 8>::new(config));
+    frontend
+        .adopt_design(&design, &Config::default())
+        .expect("the default design's gating");
     frontend.set_pose(pose);
 
     let mut offered = 0_u32;

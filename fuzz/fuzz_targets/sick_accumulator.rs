@@ -2,7 +2,7 @@
 //!
 //! Invariants: no panic; the events do not depend on the chunking (the same stream fed whole
 //! gives the same events); every telegram handed out passes `Telegram::new_checked`, is the
-//! stream's own bytes at its offset, and parses (or is refused) by `Reply::parse` without
+//! stream's own bytes at its offset, and parses (or is refused) by `SickReply::parse` without
 //! panicking; the counters match the events; every byte is accounted for.
 #![no_main]
 
@@ -10,28 +10,32 @@ mod common;
 
 use libfuzzer_sys::fuzz_target;
 use terrain_pyramid::wire::sick::{
-    Accumulator, FeedResult, FrameError, MeasuredValues, Reply, Stats, Telegram, ADDRESS_REPLY,
+    MeasuredValues, SickAccumulator, SickCounters, SickFeed, SickFrameError, SickItem,
+    SickReply, Telegram, ADDRESS_REPLY,
 };
+use terrain_pyramid::wire::FeedResult;
 
 #[derive(Debug, Clone, PartialEq, Eq)]
 enum Ev {
     T(u64, Vec<u8>),
     Ack(u64),
     Nak(u64),
-    R(u64, FrameError),
+    R(u64, SickFrameError),
 }
 
-fn record(r: &FeedResult<'_, '_>, out: &mut Vec<Ev>) -> bool {
+fn record(r: &SickFeed<'_, '_>, out: &mut Vec<Ev>) -> bool {
     match r {
         FeedResult::Consumed => return false,
-        FeedResult::Telegram {
-            telegram, offset, ..
+        FeedResult::Item {
+            item: SickItem::Telegram(telegram),
+            offset,
+            ..
         } => {
             let bytes = telegram.as_bytes();
             let checked = Telegram::new_checked(bytes).expect("a delivered telegram is valid");
             assert_eq!(checked.address(), ADDRESS_REPLY);
             assert_eq!(checked.total_len(), bytes.len());
-            let _ = Reply::parse(&checked);
+            let _ = SickReply::parse(&checked);
             if let Ok(mv) = MeasuredValues::parse(&checked) {
                 let _ = mv.ranges_mm(Default::default()).count();
                 let _ = mv.flags(Default::default()).count();
@@ -39,15 +43,23 @@ fn record(r: &FeedResult<'_, '_>, out: &mut Vec<Ev>) -> bool {
             }
             out.push(Ev::T(*offset, bytes.to_vec()));
         }
-        FeedResult::Ack { offset, .. } => out.push(Ev::Ack(*offset)),
-        FeedResult::Nak { offset, .. } => out.push(Ev::Nak(*offset)),
+        FeedResult::Item {
+            item: SickItem::Ack,
+            offset,
+            ..
+        } => out.push(Ev::Ack(*offset)),
+        FeedResult::Item {
+            item: SickItem::Nak,
+            offset,
+            ..
+        } => out.push(Ev::Nak(*offset)),
         FeedResult::Rejected { error, offset, .. } => out.push(Ev::R(*offset, *error)),
     }
     true
 }
 
-fn run<const N: usize>(chunks: &[&[u8]]) -> (Vec<Ev>, Stats, u64) {
-    let mut acc = Accumulator::<N>::new();
+fn run<const N: usize>(chunks: &[&[u8]]) -> (Vec<Ev>, SickCounters, u64) {
+    let mut acc = SickAccumulator::<N>::new();
     let mut out = Vec::new();
     for chunk in chunks {
         let mut window: &[u8] = chunk;
@@ -76,7 +88,7 @@ fn run<const N: usize>(chunks: &[&[u8]]) -> (Vec<Ev>, Stats, u64) {
     (out, acc.stats(), acc.position())
 }
 
-fn check(stream: &[u8], events: &[Ev], stats: Stats, position: u64) {
+fn check(stream: &[u8], events: &[Ev], stats: SickCounters, position: u64) {
     assert_eq!(position, stream.len() as u64);
     let mut ok = 0u32;
     let (mut ack, mut nak, mut crc, mut length, mut truncated) = (0u32, 0u32, 0u32, 0u32, 0u32);
@@ -105,9 +117,11 @@ fn check(stream: &[u8], events: &[Ev], stats: Stats, position: u64) {
             Ev::R(offset, e) => {
                 assert_eq!(stream[usize::try_from(*offset).unwrap()], 0x02);
                 match e {
-                    FrameError::BadLength { .. } | FrameError::TooLong { .. } => length += 1,
-                    FrameError::BadCrc { .. } => crc += 1,
-                    FrameError::Truncated => truncated += 1,
+                    SickFrameError::BadLength { .. } | SickFrameError::TooLong { .. } => {
+                        length += 1
+                    }
+                    SickFrameError::BadCrc { .. } => crc += 1,
+                    SickFrameError::Truncated => truncated += 1,
                     _ => unreachable!(),
                 }
             }

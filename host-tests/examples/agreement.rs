@@ -343,7 +343,8 @@ fn pyramid(
         .collect();
     let mut rng = Rng::new(seed);
     let steps = workload::random(&mut rng, updates, &rq, rd.sensor.max_range, shape);
-    let mismatches = workload::run(&steps, &mut lib, &mut [&mut quantised, &mut ideal]);
+    let gates = harness::gates(&design, &config);
+    let mismatches = workload::run(&steps, &mut lib, &gates, &mut [&mut quantised, &mut ideal]);
     let mut rows = Vec::new();
     for (reference, versus) in [(&quantised, "quantised spec"), (&ideal, "ideal f64")] {
         let cmp = harness::compare(&lib, reference);

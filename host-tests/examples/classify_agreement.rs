@@ -64,11 +64,12 @@ fn main() {
         let design = DefaultDesign::new(SensorModel::default(), schedule, 64).unwrap();
         let mut p = Box::new(DefaultPyramid::new());
         p.configure(&design, &Config::default()).unwrap();
-        let mut c = Box::new(Classifier::<65536>::new());
+        let mut c = Box::new(Classifier::<65536, 8>::new());
         c.configure(ClassifierConfig {
             rule: NavigabilityRule::Spread,
             ..ClassifierConfig::default()
         });
+        c.adopt_design(&design, p.increments()).unwrap();
         c.begin(Meters::ZERO);
         for r in &points {
             let point = Point3 {
@@ -76,12 +77,7 @@ fn main() {
                 y: Meters::from_num(r.y),
                 z: Meters::from_num(r.z),
             };
-            c.add_point(
-                &p,
-                point,
-                Meters::from_num(r.distance),
-                Meters::from_num(-1.0),
-            );
+            c.add_point(point, Meters::from_num(r.distance), Meters::from_num(-1.0));
         }
         let mut lib = BTreeMap::new();
         c.finish(|e| {
@@ -97,10 +93,10 @@ fn main() {
         let resolutions: Vec<f64> = (0..p.layer_count())
             .map(|k| f64::from(p.layer(k).unwrap().resolution().to_bits()) / 65536.0)
             .collect();
-        let bins = p.distance_bins();
         let inc = p.increments();
+        let gates = c.gates();
         let feeds = |k: usize, d: f64| {
-            let w = p.gate(k).unwrap().weight(bins.bin(Meters::from_num(d)));
+            let w = gates.weight_at(k, Meters::from_num(d));
             terrain_pyramid::logodds::gated(inc.obstacle, w) != 0
                 || terrain_pyramid::logodds::gated(inc.free, w) != 0
         };

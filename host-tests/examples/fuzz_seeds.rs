@@ -1,22 +1,26 @@
 //! Writes the seed corpus of the cargo-fuzz targets (`fuzz/README.md`) from the library's own
 //! encoders: SICK telegrams (the CRC test vectors, a 0xB0 scan, replies), link frames of every
-//! message type (commands, and a real device's Hello, patches and Stats), configurations and a
-//! small recording. Each file is in its target's input format (see the target's doc comment).
+//! message type (commands, and a real device's Hello, patches and Stats), configurations, a
+//! small recording, and spinning-lidar streams (the LD06 manual's example packet, RPLIDAR
+//! descriptors, responses, nodes and capsules, YDLIDAR X4 packets). Each file is in its
+//! target's input format (see the target's doc comment).
 //!
 //! `cargo run -p terrain-pyramid-host-tests --example fuzz_seeds -- fuzz/corpus`
 use std::fs;
 use std::path::Path;
 
+use terrain_pyramid::link::convert::configure_of_design;
 use terrain_pyramid::link::{Link, SensorCounters};
 use terrain_pyramid::wire::link::{
-    cobs, encode, ClampRequest, Configure, Message, PanAngle, Pose, SnapshotScope,
-    MAX_ENCODED_FRAME,
+    cobs, encode, ClampRequest, Configure, GateRequest, Message, PanAngle, PoseReport,
+    SnapshotScope, MAX_ENCODED_FRAME,
 };
-use terrain_pyramid::wire::recording::{emit_header, Event, MountKind, Payload, Setup};
+use terrain_pyramid::wire::recording::SetupEvent as Setup;
+use terrain_pyramid::wire::recording::{emit_header, Event, MountKind, Payload};
 use terrain_pyramid::wire::sick::{emit_telegram, ADDRESS_REPLY};
 use terrain_pyramid::{
-    Config, DefaultDesign, DefaultPyramid, Evidence, EvidenceClass, GateShape, Meters, Schedule,
-    SensorModel, DEFAULT_CELLS_PER_SIDE,
+    Config, DefaultDesign, DefaultPyramid, Evidence, EvidenceClass, Meters, Schedule, SensorModel,
+    DEFAULT_CELLS_PER_SIDE,
 };
 
 /// The SICK CRC test vectors (requests, address 0x00) of `src/wire/sick/crc.rs`, CRC appended.
@@ -102,15 +106,15 @@ fn device_output() -> Vec<u8> {
     .unwrap();
     let mut pyramid = Box::new(DefaultPyramid::new());
     let mut link: Box<Link> = Box::default();
-    link.configure(&mut pyramid, &design, &Config::default())
-        .unwrap();
+    pyramid.configure(&design, &Config::default()).unwrap();
+    link.adopt(&design);
     for i in 0..8 {
         pyramid.apply(&Evidence {
             layer: 0,
             cell_x: i,
             cell_y: -i,
             class: EvidenceClass::Obstacle,
-            distance: Meters::from_num(1),
+            weight: terrain_pyramid::Weight::ONE,
         });
     }
     let mut out = Vec::new();
@@ -166,26 +170,29 @@ fn main() {
     write(&dir, "damaged", &damaged);
 
     // link_device_rx: [n][sizes][segments]; link_host_rx: [n][sizes][mode][segments or raw].
-    let configure = Configure::default();
+    let default_design = DefaultDesign::new(
+        SensorModel::default(),
+        Schedule::default(),
+        DEFAULT_CELLS_PER_SIDE,
+    )
+    .unwrap();
+    let configure = configure_of_design(&default_design, &Config::default());
     let hard = Configure {
-        schedule: Schedule {
-            gate: GateShape::Hard,
-            gamma: 3.0,
-            ..Schedule::default()
-        },
+        gate: GateRequest::Hard,
+        gamma: 3.0,
         clamp: ClampRequest::Off,
-        ..Configure::default()
+        ..configure
     };
     let bad = Configure {
         cells_per_side: 63,
-        ..Configure::default()
+        ..configure
     };
     let commands = [
         Message::Ping,
         Message::Reset,
         Message::RequestSnapshot(SnapshotScope::All),
         Message::RequestSnapshot(SnapshotScope::Layer(2)),
-        Message::Pose(Pose {
+        Message::Pose(PoseReport {
             x_m: 1.5,
             y_m: -2.0,
             z_m: 0.0,
@@ -338,4 +345,169 @@ fn main() {
         seed.extend_from_slice(&[0x20, 0x23, 0xE8, 0x03]);
     }
     write(&dir, "synth", &seed);
+
+    lidar_seeds(root);
+}
+
+/// The LD06 manual's example packet (§3.3).
+const LD06_EXAMPLE: [u8; 47] = [
+    0x54, 0x2C, 0x68, 0x08, 0xAB, 0x7E, 0xE0, 0x00, 0xE4, 0xDC, 0x00, 0xE2, 0xD9, 0x00, 0xE5, 0xD5,
+    0x00, 0xE3, 0xD3, 0x00, 0xE4, 0xD0, 0x00, 0xE9, 0xCD, 0x00, 0xE4, 0xCA, 0x00, 0xE2, 0xC7, 0x00,
+    0xE9, 0xC5, 0x00, 0xE5, 0xC2, 0x00, 0xE5, 0xC0, 0x00, 0xE5, 0xBE, 0x82, 0x3A, 0x1A, 0x50,
+];
+
+/// Seeds of `ld06_accumulator`, `rplidar_accumulator` and `ydlidar_accumulator`:
+/// `[n % 9][n chunk sizes][stream]`, and for the RPLIDAR target a mode byte before the stream
+/// (0 expects a descriptor, 1 joins a node stream, 2 a capsule stream).
+fn lidar_seeds(root: &Path) {
+    use terrain_pyramid::wire::ld06::{Ld06Point, Ld06Repr};
+    use terrain_pyramid::wire::rplidar::{
+        RplidarCapsuleRepr, RplidarDescriptorRepr, RplidarHealthRepr, RplidarInfoRepr,
+        RplidarNodeRepr,
+    };
+    use terrain_pyramid::wire::ydlidar::YdlidarRepr;
+
+    // ld06_accumulator.
+    let dir = root.join("ld06_accumulator");
+    write(&dir, "manual_example", &[&[0][..], &LD06_EXAMPLE].concat());
+    let mut revolution = vec![3, 1, 46, 5];
+    for k in 0..8_u16 {
+        let start = (35_000 + 500 * k) % 36_000;
+        let repr = Ld06Repr {
+            speed_deg_per_s: 3600,
+            start_angle_centideg: start,
+            end_angle_centideg: (start + 480) % 36_000,
+            timestamp_ms: 100 * k,
+            points: [Ld06Point {
+                distance_mm: 1000 + k,
+                intensity: 200,
+            }; 12],
+        };
+        let mut b = [0; 47];
+        repr.emit(&mut b).unwrap();
+        revolution.extend_from_slice(&b);
+    }
+    write(&dir, "across_360", &revolution);
+    let mut damaged = vec![2, 7, 13, 0x54, 0x2C, 0x54, 0x00];
+    damaged.extend_from_slice(&LD06_EXAMPLE[..30]);
+    let mut flipped = LD06_EXAMPLE;
+    flipped[20] ^= 0x04;
+    damaged.extend_from_slice(&flipped);
+    damaged.extend_from_slice(&LD06_EXAMPLE);
+    damaged.extend_from_slice(&LD06_EXAMPLE[..12]);
+    write(&dir, "damaged", &damaged);
+
+    // ydlidar_accumulator: the scan descriptor, a zero packet, the X4 manual's example
+    // header (LSN 0x28, FSA 0x6FE5, LSA 0x79BD) with 40 samples, device information.
+    let dir = root.join("ydlidar_accumulator");
+    let packet = |ct: u8, first: u16, last: u16, samples: &[u16]| {
+        let repr = YdlidarRepr {
+            packet_type: ct,
+            first_angle_q6: first,
+            last_angle_q6: last,
+            samples,
+        };
+        let mut b = vec![0; repr.buffer_len()];
+        repr.emit(&mut b).unwrap();
+        b
+    };
+    let samples: Vec<u16> = (0..40).map(|i| 4000 + 37 * i).collect();
+    let mut scan = vec![0, 0xA5, 0x5A, 0x05, 0x00, 0x00, 0x40, 0x81];
+    scan.extend(packet(1, 0x37F2, 0x37F2, &[800]));
+    scan.extend(packet(0, 0x6FE5 >> 1, 0x79BD >> 1, &samples));
+    scan.extend(packet(0, 22_900, 200, &samples[..20]));
+    write(&dir, "scan", &scan);
+    let mut info = vec![1, 5, 0xA5, 0x5A, 0x14, 0x00, 0x00, 0x00, 0x04, 0x04];
+    info.extend((0..19).map(|i| i as u8));
+    info.extend_from_slice(&[0xA5, 0x5A, 0x03, 0x00, 0x00, 0x00, 0x06, 0, 0, 0]);
+    write(&dir, "info_health", &info);
+    let mut damaged = vec![3, 1, 9, 90, 0xAA, 0x55, 0x00, 0x00, 0xAA];
+    let good = packet(0, 100, 740, &samples);
+    let mut flipped = good.clone();
+    flipped[33] ^= 0x80;
+    damaged.extend_from_slice(&flipped);
+    damaged.extend_from_slice(&good);
+    damaged.extend_from_slice(&good[..50]);
+    write(&dir, "damaged", &damaged);
+
+    // rplidar_accumulator.
+    let dir = root.join("rplidar_accumulator");
+    let descriptor = |d: RplidarDescriptorRepr| {
+        let mut b = vec![0; 7];
+        d.emit(&mut b).unwrap();
+        b
+    };
+    let node = |i: u16| {
+        let mut b = [0; 5];
+        RplidarNodeRepr {
+            quality: (i % 64) as u8,
+            start: i == 0,
+            angle_q6: (i * 53) % 23_040,
+            distance_q2: 2000 + 7 * i,
+        }
+        .emit(&mut b)
+        .unwrap();
+        b
+    };
+    let capsule = |start: u16, flag: bool| {
+        let mut repr = RplidarCapsuleRepr {
+            start_angle_q6: start,
+            start_flag: flag,
+            ..RplidarCapsuleRepr::default()
+        };
+        for k in 0..32 {
+            repr.distances_mm[k] = 1500 + 3 * k as u16;
+            repr.angle_offsets_q3[k] = (k as u8 * 5) % 64;
+        }
+        let mut b = [0; 84];
+        repr.emit(&mut b).unwrap();
+        b
+    };
+    let mut session = vec![0, 0];
+    session.extend(descriptor(RplidarDescriptorRepr::HEALTH));
+    let mut h = [0; 3];
+    RplidarHealthRepr::default().emit(&mut h).unwrap();
+    session.extend_from_slice(&h);
+    session.extend(descriptor(RplidarDescriptorRepr::INFO));
+    let mut info = [0; 20];
+    RplidarInfoRepr {
+        model: 0x18,
+        firmware_minor: 29,
+        firmware_major: 1,
+        hardware: 7,
+        serial_number: [0xAB; 16],
+    }
+    .emit(&mut info)
+    .unwrap();
+    session.extend_from_slice(&info);
+    session.extend(descriptor(RplidarDescriptorRepr::SCAN));
+    for i in 0..40 {
+        session.extend_from_slice(&node(i));
+    }
+    write(&dir, "health_info_scan", &session);
+    let mut express = vec![2, 84, 3, 0];
+    express.extend(descriptor(RplidarDescriptorRepr::EXPRESS_SCAN));
+    for (i, s) in [23_000_u16, 22, 300, 620, 940].into_iter().enumerate() {
+        express.extend_from_slice(&capsule(s, i == 0));
+    }
+    write(&dir, "express", &express);
+    let mut nodes = vec![1, 3, 1, 0x00, 0x13];
+    for i in 0..60 {
+        let mut n = node(i);
+        if i == 20 {
+            n[1] ^= 1;
+        }
+        nodes.extend_from_slice(&n);
+    }
+    write(&dir, "joined_nodes", &nodes);
+    let mut caps = vec![0, 2];
+    caps.extend_from_slice(&capsule(100, false)[40..]);
+    for s in [200_u16, 520, 840] {
+        caps.extend_from_slice(&capsule(s, false));
+    }
+    let mut flipped = capsule(1160, false);
+    flipped[50] ^= 0x20;
+    caps.extend_from_slice(&flipped);
+    caps.extend_from_slice(&capsule(1480, false));
+    write(&dir, "joined_capsules", &caps);
 }

@@ -11,7 +11,8 @@
 //! ±29 999 m, z within ±999 m, roll and pitch within ±30°, yaw within ±20 rad. The seed is
 //! fixed, so runs repeat.
 
-use terrain_pyramid::geometry::{BeamTable, ScanPlane, Variant};
+use terrain_pyramid::geometry::{BeamTable, ScanPlane};
+use terrain_pyramid::wire::sick::Variant;
 use terrain_pyramid_host_tests::geometry::{error_bound_m, evaluate, Case};
 
 /// SplitMix64: a small, fixed-seed generator (no dependency).

@@ -33,8 +33,8 @@ use terrain_pyramid::classify::{Classifier, ClassifierConfig, NavigabilityRule};
 use terrain_pyramid::{Design, EvidenceClass, GateShape, Meters, Pyramid, Schedule, SensorModel};
 use terrain_pyramid_host_tests::classify::{classify, RefClassifierConfig, RefPoint, RefRule};
 use terrain_pyramid_host_tests::navigability::{
-    flat_spread, fused_points, fused_tally, integrate, integrate_library, layer_tally, mark_seen,
-    observation_cells, pyramid, step_detection, CellPoints, Rule, Tally,
+    self, flat_spread, fused_points, fused_tally, gates, integrate, integrate_library, layer_tally,
+    mark_seen, observation_cells, pyramid, step_detection, CellPoints, Rule, Tally,
 };
 use terrain_pyramid_host_tests::scan3dtk::{
     self, labelled, read_uos, readme_design, render, Label, Labels, LABELS, SCAN_PATH,
@@ -255,17 +255,18 @@ fn run<const W: usize>(
             steps: vec![vec![(0, 0); GALLERY_STEPS_M.len()]; layers],
         })
         .collect();
-    let mut classifier: Box<Classifier<SLOTS>> = Box::new(Classifier::new());
+    let mut classifier: Box<Classifier<SLOTS, L>> = navigability::classifier(design);
+    let g = gates(design);
     for observations in runs {
         let mut seen = BTreeSet::new();
         let mut pyramids: Vec<Box<Pyramid<W, L>>> =
             judges.iter().map(|_| pyramid::<W, L>(design)).collect();
         for obs in observations {
             mark_seen(obs, max_range, &mut seen);
-            let cells = observation_cells(&pyramids[0], obs, ROBOT_HEIGHT);
+            let cells = observation_cells(&pyramids[0], &g, obs, ROBOT_HEIGHT);
             for (p, judge) in pyramids.iter_mut().zip(judges) {
                 match judge {
-                    Judge::F64(rule) => integrate(p, obs, &cells, rule),
+                    Judge::F64(rule) => integrate(p, &g, obs, &cells, rule),
                     Judge::Library(rule) => {
                         classifier.configure(ClassifierConfig {
                             rule: *rule,
@@ -551,13 +552,14 @@ fn part_3dtk(judges: &[Judge]) {
     println!("| --- | --- | --- | --- | --- |");
     let design = readme_design();
     let obs = scan3dtk::observation(&points);
-    let mut classifier: Box<Classifier<SLOTS>> = Box::new(Classifier::new());
+    let mut classifier: Box<Classifier<SLOTS, L>> = navigability::classifier(&design);
+    let g = gates(&design);
     for judge in judges {
         let mut p = pyramid::<64, L>(&design);
         match judge {
             Judge::F64(rule) => {
-                let cells = observation_cells(&p, &obs, ROBOT_HEIGHT);
-                integrate(&mut p, &obs, &cells, rule);
+                let cells = observation_cells(&p, &g, &obs, ROBOT_HEIGHT);
+                integrate(&mut p, &g, &obs, &cells, rule);
             }
             Judge::Library(rule) => {
                 classifier.configure(ClassifierConfig {
@@ -599,7 +601,8 @@ fn agreement<const W: usize>(
     ceiling: Option<f64>,
 ) -> (usize, usize, usize, usize) {
     let pyr = pyramid::<W, L>(design);
-    let mut c: Box<Classifier<SLOTS>> = Box::new(Classifier::new());
+    let mut c: Box<Classifier<SLOTS, L>> = navigability::classifier(design);
+    let g = gates(design);
     c.configure(ClassifierConfig {
         ceiling: ceiling.map(Meters::from_num),
         ..ClassifierConfig::default()
@@ -625,7 +628,7 @@ fn agreement<const W: usize>(
             z: Meters::saturating_from_num(k[2]),
         };
         let d = terrain_pyramid::geometry::horizontal_distance(sensor, point);
-        c.add_point(&pyr, point, d, Meters::saturating_from_num(obs.ground_z));
+        c.add_point(point, d, Meters::saturating_from_num(obs.ground_z));
         pts.push(RefPoint {
             x: point.x.to_num(),
             y: point.y.to_num(),
@@ -644,14 +647,14 @@ fn agreement<const W: usize>(
             e.class == EvidenceClass::Obstacle,
         );
     });
-    let resolutions: Vec<f64> = (0..pyr.layer_count())
-        .filter_map(|k| pyr.layer(k))
-        .map(|l| f64::from(l.resolution().to_bits()) / 65_536.0)
+    let resolutions: Vec<f64> = (0..g.layer_count())
+        .filter_map(|k| g.resolution(k))
+        .map(|r| f64::from(r.to_bits()) / 65_536.0)
         .collect();
-    let bins = pyr.distance_bins();
+    let bins = g.distance_bins();
     let inc = pyr.increments();
     let feeds = |k: usize, d: f64| {
-        pyr.gate(k).is_some_and(|g| {
+        g.table(k).is_some_and(|g| {
             let w = g.weight(bins.bin(Meters::saturating_from_num(d)));
             terrain_pyramid::logodds::gated(inc.obstacle, w) != 0
                 || terrain_pyramid::logodds::gated(inc.free, w) != 0

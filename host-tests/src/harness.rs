@@ -104,15 +104,63 @@ pub fn clamp(c: &tp::Clamp) -> logodds::Clamp {
     }
 }
 
-/// A library evidence record as the reference's.
+/// One layer's look at one cell from a distance: an evidence record before its gate weight
+/// is looked up. The library weighs it with its own gating ([`Observation::evidence`]), the
+/// reference with its own tables ([`evidence`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Observation {
+    /// The layer, 0 = finest.
+    pub layer: u8,
+    /// The cell's world index along x in that layer.
+    pub cell_x: i32,
+    /// The cell's world index along y in that layer.
+    pub cell_y: i32,
+    /// What the observation says about the cell.
+    pub class: tp::EvidenceClass,
+    /// The horizontal distance from the sensor at the time of measurement.
+    pub distance: tp::Meters,
+}
+
+impl Observation {
+    /// The library's record: the layer's weight at the distance from the library's gating.
+    #[must_use]
+    pub fn evidence<const L: usize>(&self, gates: &tp::gate::Gates<L>) -> tp::Evidence {
+        tp::Evidence {
+            layer: self.layer,
+            cell_x: self.cell_x,
+            cell_y: self.cell_y,
+            class: self.class,
+            weight: gates.weight_at(usize::from(self.layer), self.distance),
+        }
+    }
+}
+
+/// The library's gating of a design and configuration (boxed: `L` KiB of tables).
+///
+/// # Panics
+/// When the configuration's increments or the design's resolutions are invalid (a test's
+/// own setup).
 #[must_use]
-pub fn evidence(e: &tp::Evidence) -> window::Evidence {
+pub fn gates<const L: usize>(
+    design: &tp::Design<L>,
+    config: &tp::Config,
+) -> Box<tp::gate::Gates<L>> {
+    let mut gates = Box::new(tp::gate::Gates::new());
+    gates
+        .configure(design, config.model.increments().expect("valid increments"))
+        .expect("representable resolutions");
+    gates
+}
+
+/// An observation as the reference's evidence record.
+#[must_use]
+pub fn evidence(o: &Observation) -> window::Evidence {
     window::Evidence {
-        layer: usize::from(e.layer),
-        i: i64::from(e.cell_x),
-        j: i64::from(e.cell_y),
-        obstacle: e.class == tp::EvidenceClass::Obstacle,
-        distance_raw: e.distance.to_bits(),
+        layer: usize::from(o.layer),
+        i: i64::from(o.cell_x),
+        j: i64::from(o.cell_y),
+        obstacle: o.class == tp::EvidenceClass::Obstacle,
+        distance_raw: o.distance.to_bits(),
     }
 }
 

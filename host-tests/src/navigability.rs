@@ -36,6 +36,7 @@ use crate::sim::cloud::Observation;
 use crate::sim::scene::Scene;
 use crate::sim::terrain::{cell_truth, Truth};
 use std::collections::{BTreeMap, BTreeSet};
+use terrain_pyramid::gate::Gates;
 use terrain_pyramid::{CellClass, Config, Design, Evidence, EvidenceClass, Fused, Meters, Pyramid};
 
 /// What a rule knows about the cell it judges.
@@ -416,14 +417,15 @@ pub struct CellPoints {
 #[must_use]
 pub fn observation_cells<const W: usize, const L: usize>(
     pyramid: &Pyramid<W, L>,
+    gates: &Gates<L>,
     obs: &Observation,
     robot_height_m: f64,
 ) -> BTreeMap<(usize, i64, i64), CellPoints> {
-    let bins = pyramid.distance_bins();
+    let bins = gates.distance_bins();
     let inc = pyramid.increments();
-    let resolutions: Vec<f64> = (0..pyramid.layer_count())
-        .filter_map(|k| pyramid.layer(k))
-        .map(|l| f64::from(l.resolution().to_bits()) / 65_536.0)
+    let resolutions: Vec<f64> = (0..gates.layer_count())
+        .filter_map(|k| gates.resolution(k))
+        .map(|r| f64::from(r.to_bits()) / 65_536.0)
         .collect();
     let q = |v: f64| Meters::saturating_from_num(v).to_num::<f64>();
     let mut cells: BTreeMap<(usize, i64, i64), CellPoints> = BTreeMap::new();
@@ -432,7 +434,7 @@ pub fn observation_cells<const W: usize, const L: usize>(
         let distance = (x - obs.sensor[0]).hypot(y - obs.sensor[1]);
         let bin = bins.bin(Meters::saturating_from_num(distance));
         for (k, &r) in resolutions.iter().enumerate() {
-            let Some(gate) = pyramid.gate(k) else {
+            let Some(gate) = gates.table(k) else {
                 continue;
             };
             let w = gate.weight(bin);
@@ -462,9 +464,11 @@ pub fn observation_cells<const W: usize, const L: usize>(
     cells
 }
 
-/// Integrates one observation judged by `rule` into `pyramid` (recentred on the sensor).
+/// Integrates one observation judged by `rule` into `pyramid` (recentred on the sensor), each
+/// record weighed by `gates` at its closest look as the library's classifier weighs it.
 pub fn integrate<const W: usize, const L: usize>(
     pyramid: &mut Pyramid<W, L>,
+    gates: &Gates<L>,
     obs: &Observation,
     cells: &BTreeMap<(usize, i64, i64), CellPoints>,
     rule: &Rule,
@@ -473,9 +477,9 @@ pub fn integrate<const W: usize, const L: usize>(
         Meters::saturating_from_num(obs.sensor[0]),
         Meters::saturating_from_num(obs.sensor[1]),
     );
-    let resolutions: Vec<f64> = (0..pyramid.layer_count())
-        .filter_map(|k| pyramid.layer(k))
-        .map(|l| f64::from(l.resolution().to_bits()) / 65_536.0)
+    let resolutions: Vec<f64> = (0..gates.layer_count())
+        .filter_map(|k| gates.resolution(k))
+        .map(|r| f64::from(r.to_bits()) / 65_536.0)
         .collect();
     for (&(k, ix, iy), cell) in cells {
         let Some(&c) = resolutions.get(k) else {
@@ -502,7 +506,7 @@ pub fn integrate<const W: usize, const L: usize>(
             cell_x: cx,
             cell_y: cy,
             class,
-            distance: Meters::saturating_from_num(cell.distance_m),
+            weight: gates.weight_at(k, Meters::saturating_from_num(cell.distance_m)),
         });
     }
 }
@@ -510,11 +514,12 @@ pub fn integrate<const W: usize, const L: usize>(
 /// Integrates one observation through the library's classifier (fixed point, the rule its
 /// configuration names) into `pyramid`, as the firmware's pipeline does: recentre on the
 /// sensor, every return with its horizontal distance from the sensor and the robot's ground
-/// plane, then the observation's evidence.
+/// plane, then the observation's evidence. The classifier must have adopted the pyramid's
+/// design ([`classifier`]).
 pub fn integrate_library<const W: usize, const L: usize, const C: usize>(
     pyramid: &mut Pyramid<W, L>,
     obs: &Observation,
-    classifier: &mut terrain_pyramid::classify::Classifier<C>,
+    classifier: &mut terrain_pyramid::classify::Classifier<C, L>,
 ) {
     let m = Meters::saturating_from_num;
     let sensor = terrain_pyramid::Point3 {
@@ -531,7 +536,7 @@ pub fn integrate_library<const W: usize, const L: usize, const C: usize>(
             z: m(p[2]),
         };
         let distance = terrain_pyramid::geometry::horizontal_distance(sensor, point);
-        classifier.add_point(pyramid, point, distance, m(obs.ground_z));
+        classifier.add_point(point, distance, m(obs.ground_z));
     }
     classifier.finish_into(pyramid);
 }
@@ -857,6 +862,42 @@ pub fn pyramid<const W: usize, const L: usize>(design: &Design<L>) -> Box<Pyrami
     p.configure(design, &Config::default())
         .expect("the bench's design fits its pyramid");
     p
+}
+
+/// The gating of `design` with the default increments, boxed (as the library's classifier
+/// adopts it).
+///
+/// # Panics
+/// When the design's resolutions cannot be represented (a bench set-up error).
+#[must_use]
+pub fn gates<const L: usize>(design: &Design<L>) -> Box<Gates<L>> {
+    let mut g = Box::new(Gates::new());
+    let increments = Config::default()
+        .model
+        .increments()
+        .expect("the default model's increments");
+    g.configure(design, increments)
+        .expect("the bench's design has representable resolutions");
+    g
+}
+
+/// A library classifier of `C` slots with the default configuration, having adopted the
+/// gating of `design` with the default increments, boxed.
+///
+/// # Panics
+/// When the design's resolutions cannot be represented (a bench set-up error).
+#[must_use]
+pub fn classifier<const C: usize, const L: usize>(
+    design: &Design<L>,
+) -> Box<terrain_pyramid::classify::Classifier<C, L>> {
+    let mut c = Box::new(terrain_pyramid::classify::Classifier::new());
+    let increments = Config::default()
+        .model
+        .increments()
+        .expect("the default model's increments");
+    c.adopt_design(design, increments)
+        .expect("the bench's design has representable resolutions");
+    c
 }
 
 #[cfg(test)]

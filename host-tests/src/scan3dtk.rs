@@ -30,7 +30,7 @@
 //! `obstacle` point.
 
 use crate::classify::RefPoint;
-use crate::navigability::{integrate, observation_cells, pyramid, Rule};
+use crate::navigability::{gates, integrate, observation_cells, pyramid, Rule};
 use crate::png::Image;
 use crate::sim::cloud::Observation;
 use std::collections::HashMap;
@@ -323,8 +323,9 @@ pub fn evaluate(
 ) -> (Evaluation, Box<terrain_pyramid::Pyramid<64, 16>>) {
     let obs = observation(points);
     let mut p = pyramid::<64, 16>(design);
-    let cells = observation_cells(&p, &obs, 1.0);
-    integrate(&mut p, &obs, &cells, rule);
+    let g = gates(design);
+    let cells = observation_cells(&p, &g, &obs, 1.0);
+    integrate(&mut p, &g, &obs, &cells, rule);
     (score(&p, labelled), p)
 }
 

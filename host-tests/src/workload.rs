@@ -11,8 +11,8 @@ use crate::reference::window::Pyramid;
 /// One step of a workload.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Step {
-    /// Apply one evidence record.
-    Update(tp::Evidence),
+    /// Apply one observation (the library weighs it with its gating).
+    Update(harness::Observation),
     /// Recentre on the robot at raw Q16.16 (x, y).
     Recentre(i32, i32),
 }
@@ -25,6 +25,7 @@ pub enum Step {
 pub fn run<const W: usize, const L: usize>(
     steps: &[Step],
     lib: &mut tp::Pyramid<W, L>,
+    gates: &tp::gate::Gates<L>,
     references: &mut [&mut Pyramid],
 ) -> Vec<(usize, String)> {
     use crate::reference::window::Applied as R;
@@ -32,7 +33,7 @@ pub fn run<const W: usize, const L: usize>(
     for (n, step) in steps.iter().enumerate() {
         match *step {
             Step::Update(e) => {
-                let got = lib.apply(&e);
+                let got = lib.apply(&e.evidence(gates));
                 let re = harness::evidence(&e);
                 for (r, reference) in references.iter_mut().enumerate() {
                     let want = reference.apply(&re);
@@ -155,7 +156,7 @@ pub fn random(
         let k = rng.range_i64(0, resolutions_raw.len() as i64 - 1) as usize;
         let rq = resolutions_raw[k];
         let (cx, cy) = (x.div_euclid(rq), y.div_euclid(rq));
-        let e = tp::Evidence {
+        let e = harness::Observation {
             layer: k as u8,
             cell_x: (cx + rng.range_i64(-shape.spread, shape.spread)) as i32,
             cell_y: (cy + rng.range_i64(-shape.spread, shape.spread)) as i32,

@@ -24,14 +24,17 @@ use terrain_pyramid::{
 };
 use terrain_pyramid_host_tests::classify::{classify, RefClassifierConfig, RefPoint, RefRule};
 
-fn pyramid(gate: GateShape) -> Box<DefaultPyramid> {
+fn design(gate: GateShape) -> DefaultDesign {
     let schedule = Schedule {
         gate,
         ..Schedule::default()
     };
-    let design = DefaultDesign::new(SensorModel::default(), schedule, 64).unwrap();
+    DefaultDesign::new(SensorModel::default(), schedule, 64).unwrap()
+}
+
+fn pyramid(design: &DefaultDesign) -> Box<DefaultPyramid> {
     let mut p = Box::new(DefaultPyramid::new());
-    p.configure(&design, &Config::default()).unwrap();
+    p.configure(design, &Config::default()).unwrap();
     p
 }
 
@@ -48,7 +51,8 @@ enum Rule {
 
 /// Runs both classifiers; returns (compared cells, disagreements).
 fn compare(points: &[(f64, f64, f64)], gate: GateShape, rule: Rule) -> (usize, usize) {
-    let p = pyramid(gate);
+    let design = design(gate);
+    let p = pyramid(&design);
     let pts: Vec<RefPoint> = points
         .iter()
         .map(|&(x, y, z)| {
@@ -61,7 +65,7 @@ fn compare(points: &[(f64, f64, f64)], gate: GateShape, rule: Rule) -> (usize, u
             }
         })
         .collect();
-    let mut c = Box::new(Classifier::<4096>::new());
+    let mut c = Box::new(Classifier::<4096, 8>::new());
     c.configure(ClassifierConfig {
         rule: match rule {
             Rule::Spread => NavigabilityRule::Spread,
@@ -69,6 +73,7 @@ fn compare(points: &[(f64, f64, f64)], gate: GateShape, rule: Rule) -> (usize, u
         },
         ..ClassifierConfig::default()
     });
+    c.adopt_design(&design, p.increments()).unwrap();
     c.begin(Meters::ZERO);
     for r in &pts {
         let point = Point3 {
@@ -76,12 +81,7 @@ fn compare(points: &[(f64, f64, f64)], gate: GateShape, rule: Rule) -> (usize, u
             y: Meters::from_num(r.y),
             z: Meters::from_num(r.z),
         };
-        c.add_point(
-            &p,
-            point,
-            Meters::from_num(r.distance),
-            Meters::from_num(-1.0),
-        );
+        c.add_point(point, Meters::from_num(r.distance), Meters::from_num(-1.0));
     }
     let mut lib = std::collections::BTreeMap::new();
     c.finish(|e| {
@@ -91,17 +91,17 @@ fn compare(points: &[(f64, f64, f64)], gate: GateShape, rule: Rule) -> (usize, u
                 i64::from(e.cell_x),
                 i64::from(e.cell_y),
             ),
-            (e.class, e.distance),
+            (e.class, e.weight),
         );
     });
     assert_eq!(c.stats().overflow_points, 0);
     let resolutions: Vec<f64> = (0..p.layer_count())
         .map(|k| f64::from(p.layer(k).unwrap().resolution().to_bits()) / 65536.0)
         .collect();
-    let bins = p.distance_bins();
     let inc = p.increments();
+    let gates = c.gates();
     let feeds = |k: usize, d: f64| {
-        let w = p.gate(k).unwrap().weight(bins.bin(Meters::from_num(d)));
+        let w = gates.weight_at(k, Meters::from_num(d));
         terrain_pyramid::logodds::gated(inc.obstacle, w) != 0
             || terrain_pyramid::logodds::gated(inc.free, w) != 0
     };
@@ -121,11 +121,11 @@ fn compare(points: &[(f64, f64, f64)], gate: GateShape, rule: Rule) -> (usize, u
     let mut compared = 0;
     let mut differ = 0;
     for (key, r) in &reference {
-        let (class, distance) = lib[key];
-        // The library keeps the closest look as its gate bin.
+        let (class, weight) = lib[key];
+        // The library weighs the record at the closest look.
         assert_eq!(
-            bins.bin(distance),
-            bins.bin(Meters::from_num(r.distance)),
+            weight,
+            gates.weight_at(key.0, Meters::from_num(r.distance)),
             "closest look"
         );
         let near = match rule {

@@ -3,7 +3,8 @@
 //! point and horizontal distance must lie within `error_bound_m(range)` of the reference.
 
 use proptest::prelude::*;
-use terrain_pyramid::geometry::{BeamTable, ScanPlane, Variant};
+use terrain_pyramid::geometry::{BeamTable, ScanPlane};
+use terrain_pyramid::wire::sick::Variant;
 use terrain_pyramid_host_tests::geometry::{error_bound_m, evaluate, Case};
 
 /// The five beam tables, built once.

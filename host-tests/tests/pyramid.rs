@@ -122,7 +122,7 @@ fn steps(actions: &[Action], rq: &[i64], max_range: f64) -> Vec<Step> {
             } => {
                 let k = usize::from(layer) % (n + 1);
                 let r = rq[k.min(n - 1)];
-                out.push(Step::Update(tp::Evidence {
+                out.push(Step::Update(harness::Observation {
                     layer: k as u8,
                     cell_x: (x.div_euclid(r) + i64::from(dx)) as i32,
                     cell_y: (y.div_euclid(r) + i64::from(dy)) as i32,
@@ -260,7 +260,8 @@ fn check<const W: usize>(
     let mut ideal = Pyramid::new(&rd, model(Arithmetic::Ideal), margin);
 
     let steps = steps(actions, &rq, rd.sensor.max_range);
-    let mismatches = workload::run(&steps, &mut lib, &mut [&mut quantised, &mut ideal]);
+    let gates = harness::gates(&design, &config);
+    let mismatches = workload::run(&steps, &mut lib, &gates, &mut [&mut quantised, &mut ideal]);
     prop_assert!(
         mismatches.is_empty(),
         "record outcomes differ: {:?}",
@@ -439,7 +440,8 @@ fn the_comparison_catches_a_wrong_reference() {
         inverse: harness::inverse(&config.model),
         clamp: harness::clamp(&config.clamp),
     };
-    let e = tp::Evidence {
+    let gates = harness::gates(&design, &config);
+    let e = harness::Observation {
         layer: 0,
         cell_x: 3,
         cell_y: -2,
@@ -450,7 +452,7 @@ fn the_comparison_catches_a_wrong_reference() {
     let mut skipped = Pyramid::new(&rd, model, 0.0);
     // Three obstacle updates: 3·217 raw, below the 3.5-nat clamp.
     for n in 0..3 {
-        lib.apply(&e);
+        lib.apply(&e.evidence(&gates));
         good.apply(&harness::evidence(&e));
         if n != 1 {
             skipped.apply(&harness::evidence(&e));
@@ -472,7 +474,7 @@ fn the_comparison_catches_a_wrong_reference() {
         0.0,
     );
     for _ in 0..10 {
-        lib.apply(&e);
+        lib.apply(&e.evidence(&gates));
         good.apply(&harness::evidence(&e));
     }
     for _ in 0..13 {
@@ -481,12 +483,12 @@ fn the_comparison_catches_a_wrong_reference() {
     assert!(harness::compare(&lib, &good).violations.is_empty());
     assert_eq!(harness::compare(&lib, &wrong_clamp).violations.len(), 1);
     // The fused query: a free cell with L = −0.406 is navigable at margin 0, not at 0.5.
-    let free = tp::Evidence {
+    let free = harness::Observation {
         class: tp::EvidenceClass::Navigable,
         cell_x: -7,
         ..e
     };
-    lib.apply(&free);
+    lib.apply(&free.evidence(&gates));
     good.apply(&harness::evidence(&free));
     let (x, y) = (-7 * 6_554 + 100, -2 * 6_554 + 100);
     let got = harness::fused(lib.fused(Meters::from_bits(x), Meters::from_bits(y)));

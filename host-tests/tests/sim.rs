@@ -6,13 +6,15 @@ use terrain_pyramid::angle::FineAngle;
 use terrain_pyramid::classify::ClassifierConfig;
 use terrain_pyramid::geometry::Pose;
 use terrain_pyramid::pipeline::{Frontend, FrontendConfig};
-use terrain_pyramid::wire::recording::{MountKind, Payload, Reader, Setup};
+use terrain_pyramid::wire::recording::SetupEvent as Setup;
+use terrain_pyramid::wire::recording::{MountKind, Payload, Reader};
 use terrain_pyramid::wire::sick::{
-    range_mm, Accumulator, FeedResult, MeasuredValues, MeasuringMode, Unit,
+    range_mm, MeasuredValues, MeasuringMode, SickAccumulator, SickItem, Unit,
 };
+use terrain_pyramid::wire::FeedResult;
 use terrain_pyramid::{
     Config, DefaultDesign, DefaultPyramid, Fused, Meters, Schedule, SensorModel,
-    DEFAULT_CELLS_PER_SIDE,
+    DEFAULT_CELLS_PER_SIDE, DEFAULT_LAYERS,
 };
 use terrain_pyramid_host_tests::sim::laser::{
     angle_to_u16, u16_to_angle_deg, Actuator, Laser, LaserConfig, RETURN_FLAG,
@@ -53,7 +55,7 @@ fn decode(bytes: &[u8]) -> Decoded {
     let (mut laser_events, mut pose_events, mut rejected) = (0, 0, 0);
     let mut angle = None;
     let mut pose = None;
-    let mut acc: Accumulator = Accumulator::new();
+    let mut acc: SickAccumulator = SickAccumulator::new();
     for event in Reader::new(bytes).unwrap() {
         let event = event.unwrap();
         match event.payload {
@@ -77,8 +79,8 @@ fn decode(bytes: &[u8]) -> Decoded {
                 loop {
                     match acc.feed(chunk) {
                         FeedResult::Consumed => break,
-                        FeedResult::Telegram {
-                            telegram,
+                        FeedResult::Item {
+                            item: SickItem::Telegram(telegram),
                             remaining,
                             ..
                         } => {
@@ -118,20 +120,26 @@ fn decode(bytes: &[u8]) -> Decoded {
 }
 
 fn frontend_config(setup: &Setup) -> FrontendConfig {
-    FrontendConfig::from_setup(setup, ClassifierConfig::default()).unwrap()
+    terrain_pyramid::link::convert::frontend_config_of_event(setup, &ClassifierConfig::default())
+        .unwrap()
 }
 
 /// Classifier slots of the test pipeline: 8 lines of 361 beams with room to spare.
 const SLOTS: usize = 8192;
 
 /// The default pyramid design (10 m, Δd = 0.1 m, γ = 2, soft gate) over the default window.
-fn default_pyramid() -> Box<DefaultPyramid> {
-    let design = DefaultDesign::new(
+fn default_design() -> DefaultDesign {
+    DefaultDesign::new(
         SensorModel::default(),
         Schedule::default(),
         DEFAULT_CELLS_PER_SIDE,
     )
-    .unwrap();
+    .unwrap()
+}
+
+/// A pyramid of the default design.
+fn default_pyramid() -> Box<DefaultPyramid> {
+    let design = default_design();
     let mut pyramid = Box::new(DefaultPyramid::new());
     pyramid.configure(&design, &Config::default()).unwrap();
     pyramid
@@ -139,8 +147,13 @@ fn default_pyramid() -> Box<DefaultPyramid> {
 
 /// Replays a decoded recording through the pipeline into `pyramid`, as a board would: the
 /// pose and angle in force, then the line. Ends the last observation.
-fn replay(decoded: &Decoded, pyramid: &mut DefaultPyramid) -> Box<Frontend<SLOTS>> {
-    let mut frontend = Box::new(Frontend::<SLOTS>::new(frontend_config(&decoded.setup)));
+fn replay(decoded: &Decoded, pyramid: &mut DefaultPyramid) -> Box<Frontend<SLOTS, DEFAULT_LAYERS>> {
+    let mut frontend = Box::new(Frontend::<SLOTS, DEFAULT_LAYERS>::new(frontend_config(
+        &decoded.setup,
+    )));
+    frontend
+        .adopt_design(&default_design(), &Config::default())
+        .unwrap();
     for line in &decoded.lines {
         let [x, y, z, roll, pitch, yaw] = line.pose;
         frontend.set_pose(Pose::from_f32(x, y, z, roll, pitch, yaw).unwrap());
@@ -266,8 +279,12 @@ fn a_noise_free_vertical_scan_over_the_stairs_gives_the_step_heights() {
     };
     let line = laser.scan(&scene, &pose, angle_to_u16(0.0));
     let bytes = laser.telegram(&line).unwrap();
-    let mut acc: Accumulator = Accumulator::new();
-    let FeedResult::Telegram { telegram, .. } = acc.feed(&bytes) else {
+    let mut acc: SickAccumulator = SickAccumulator::new();
+    let FeedResult::Item {
+        item: SickItem::Telegram(telegram),
+        ..
+    } = acc.feed(&bytes)
+    else {
         panic!("one telegram");
     };
     let mv = MeasuredValues::parse(&telegram).unwrap();

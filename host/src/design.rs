@@ -10,7 +10,8 @@ use std::process::ExitCode;
 use terrain_pyramid::design::BoundTerms;
 use terrain_pyramid::{Design, DesignError, GateShape, Schedule, SensorModel};
 
-pub(crate) mod plot;
+/// Figure 2 as a PNG (`pyramid design --plot`, and the lab's experiments).
+pub mod plot;
 
 /// The number of layers the pyramid is compiled for: the `L` of `Design::<L>`.
 pub const LAYER_CAPACITY: usize = 16;
@@ -174,11 +175,14 @@ pub fn build(args: &DesignArgs) -> Result<PyramidDesign, DesignError> {
     Design::new(sensor_model(args), schedule(args), args.cells)
 }
 
-/// The static RAM, bytes, of a pyramid holding exactly this design's layers: the library's
-/// own layout ([`terrain_pyramid::pyramid::ram_bytes`]).
+/// The static RAM, bytes, of exactly this design's layers: the pyramid's cells and windows
+/// and the classifier's gating, by the library's own layouts
+/// ([`terrain_pyramid::pyramid::ram_bytes`], [`terrain_pyramid::gate::ram_bytes`]).
 #[must_use]
 pub fn static_ram_bytes<const L: usize>(design: &Design<L>) -> usize {
-    terrain_pyramid::pyramid::ram_bytes(design.cells_per_side(), design.layers().len())
+    let layers = design.layers().len();
+    terrain_pyramid::pyramid::ram_bytes(design.cells_per_side(), layers)
+        + terrain_pyramid::gate::ram_bytes(layers)
 }
 
 /// The distances at which the bound is listed: [`BOUND_DISTANCES_M`] up to the maximum range,
@@ -254,7 +258,8 @@ pub struct Report {
     pub layers: Vec<LayerReport>,
     /// The bound at the listed distances.
     pub bound: Vec<BoundReport>,
-    /// The static RAM the pyramid needs, bytes.
+    /// The static RAM the design's layers need, bytes: the pyramid's cells and windows and
+    /// the classifier's gating.
     pub static_ram_bytes: usize,
 }
 
@@ -352,7 +357,7 @@ fn table<const L: usize>(args: &DesignArgs, design: &Design<L>, report: &Report)
     let kib = report.static_ram_bytes as f64 / 1024.0;
     let _ = writeln!(
         s,
-        "\nStatic RAM: {} bytes ({kib:.1} KiB) for {} layers of {} x {} cells (2 B each) + gate tables + headers",
+        "\nStatic RAM: {} bytes ({kib:.1} KiB) for {} layers of {} x {} cells (2 B each) + the classifier's gate tables + headers",
         report.static_ram_bytes,
         report.layers.len(),
         design.cells_per_side(),
@@ -435,12 +440,13 @@ mod tests {
     }
 
     #[test]
-    fn static_ram_is_the_size_of_the_compiled_default_pyramid() {
+    fn static_ram_is_the_size_of_the_compiled_default_pyramid_and_gating() {
         let d = Design::<16>::new(SensorModel::default(), Schedule::default(), 64).unwrap();
         assert_eq!(d.layers().len(), terrain_pyramid::DEFAULT_LAYERS);
         assert_eq!(
             static_ram_bytes(&d),
             core::mem::size_of::<terrain_pyramid::DefaultPyramid>()
+                + core::mem::size_of::<terrain_pyramid::gate::Gates<8>>()
         );
     }
 

@@ -17,6 +17,7 @@
 //! Layer K's map (`layer-K`) is its whole window. The fused map (`fused`) samples the fused
 //! query at the finest layer's resolution over the coarsest layer's window, exactly as the
 //! library's [`Pyramid::fused_region`] does.
+use crate::link::Mirror;
 use serde::Serialize;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -25,7 +26,6 @@ use terrain_pyramid::logodds::round_to_log_odds;
 use terrain_pyramid::{
     Cell, CellClass, Config, Design, Fused, LayerCounts, LogOddsFixed, Meters, Pyramid, Resolution,
 };
-use terrain_pyramid_host::link::Mirror;
 
 pub mod picture;
 
@@ -720,7 +720,7 @@ mod tests {
                     cell_x: res.cell_of(Meters::from_num(x)),
                     cell_y: res.cell_of(Meters::from_num(y)),
                     class,
-                    distance: Meters::from_num(rng.range(0.0, 12.0)),
+                    weight: terrain_pyramid::Weight::from_num(rng.range(0.0, 1.0)),
                 });
             }
         }
@@ -796,8 +796,8 @@ mod tests {
 
     #[test]
     fn a_synced_mirror_exports_exactly_the_devices_maps() {
+        use crate::link::HostLink;
         use terrain_pyramid::link::{Link, LinkConfig, SensorCounters};
-        use terrain_pyramid_host::link::HostLink;
         let config = Config::default();
         let design = DefaultDesign::new(
             SensorModel::default(),
@@ -813,7 +813,8 @@ mod tests {
             MapSnapshot::from_mirror(host.mirror(), LogOddsFixed::ZERO, (0.0, 0.0)),
             None
         );
-        link.configure(&mut p, &design, &config).unwrap();
+        p.configure(&design, &config).unwrap();
+        link.adopt(&design);
         let robot = scramble(&mut p, &mut Rng(0xFEED));
         let mut uart = vec![0_u8; 4096];
         let mut now_ms = 0_u32;

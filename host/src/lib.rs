@@ -1,4 +1,20 @@
-//! The main computer's side of terrain-pyramid, as a library for the `pyramid` command and its
-//! tests: the host link's decoder and layer mirror.
+//! The main computer's side of terrain-pyramid, as a library for the `pyramid` command, its
+//! tests and the lab (`lab/`): the host link's decoder and mirror, the devices a host drives
+//! (the library's co-processor in process, or the firmware on QEMU), the recording player,
+//! the map export, and each command of `pyramid`.
+//!
+//! Nothing here simulates, injects faults or runs experiments: that is the lab's.
 
+pub mod decode;
+pub mod design;
+pub mod device;
+pub mod emulator;
+pub mod export;
 pub mod link;
+pub mod listen;
+pub mod play;
+pub mod publish;
+pub mod record3dtk;
+pub mod replay;
+pub mod run;
+pub mod uos;

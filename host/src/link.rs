@@ -21,10 +21,11 @@
 //! ```
 
 use terrain_pyramid::wire::link::{
-    encode, Accumulator, DecodeError, EncodeError, FeedResult, FirmwareVersion, Header, Hello,
-    HelloReason, LayerPatch, Message, Reply, RxCounters, Stats, WindowMoved, MAX_ENCODED_FRAME,
-    MAX_FRAME,
+    encode, DecodeError, Decoded, EncodeError, FirmwareVersion, FrameAccumulator, Header, Hello,
+    HelloReason, LayerPatch, Message, Reply, RxCounters, Stats, Undecoded, WindowMoved,
+    MAX_ENCODED_FRAME, MAX_FRAME,
 };
+use terrain_pyramid::wire::FeedResult;
 
 /// The raw value of an unknown cell.
 pub const UNKNOWN: i16 = i16::MIN;
@@ -426,7 +427,7 @@ impl Mirror {
 /// The host's end: decoder, mirror, and the sequence numbers of its own commands.
 #[derive(Debug, Clone)]
 pub struct HostLink {
-    decoder: Box<Accumulator<MAX_FRAME>>,
+    decoder: Box<FrameAccumulator<MAX_FRAME>>,
     mirror: Mirror,
     tx_seq: u16,
 }
@@ -442,7 +443,7 @@ impl HostLink {
     #[must_use]
     pub fn new() -> Self {
         Self {
-            decoder: Box::new(Accumulator::new()),
+            decoder: Box::new(FrameAccumulator::new()),
             mirror: Mirror::new(),
             tx_seq: 0,
         }
@@ -467,16 +468,18 @@ impl HostLink {
         loop {
             match self.decoder.feed(input) {
                 FeedResult::Consumed => return events,
-                FeedResult::Frame {
-                    header,
-                    message,
+                FeedResult::Item {
+                    item: Decoded { header, message },
                     remaining,
+                    ..
                 } => {
                     input = remaining;
                     events.extend(self.mirror.apply(&header, &message));
                 }
-                FeedResult::Error {
-                    error, remaining, ..
+                FeedResult::Rejected {
+                    error: Undecoded { error, .. },
+                    remaining,
+                    ..
                 } => {
                     input = remaining;
                     events.push(LinkEvent::BadFrame(error));

@@ -15,13 +15,23 @@
 //! - It ends on Ctrl-C (or SIGTERM), when the device closes the stream, or after
 //!   `--duration-s`; it then writes the last maps. A second Ctrl-C exits at once (status 130).
 //!
+//! - Live outputs (`--ros2`, `--foxglove`, `--mcap`, [`crate::publish`], `docs/ros2.md`): the
+//!   mirror is offered to them after every read; they never hold up the reader.
+//! - When the stream ends on a serial port (or on TCP with `--reconnect`) the session goes on:
+//!   the device is looked for every [`RECONNECT_INTERVAL`], the maps are kept, and a snapshot
+//!   is requested once it is back.
+//!
 //! # summary.json
 //! The maps' part is `pyramid replay`'s (`layers`, `fused`); the points are not known to the
 //! host, so instead come the link's counters (`frames`, `crc_errors`, `patches`, `gaps`,
 //! `snapshots_requested`, …), whether the mirror was `synced` with the device at the end,
 //! and a hash of each layer's raw cells (`layer_cells_fnv1a64`, FNV-1a 64 of the W × W cells
-//! as `i16` little-endian, row-major from the lowest row), to compare with the device's.
+//! as `i16` little-endian, row-major from the lowest row), to compare with the device's;
+//! `reconnects`, and `outputs` (hand-offs, coalesced, messages per output and topic) when an
+//! output was on.
 use crate::export::{self, MapSnapshot, MapSummary};
+use crate::link::{HostLink, LinkEvent, Mirror};
+use crate::publish::{OutputArgs, Outputs, OutputsReport};
 use serde::Serialize;
 use std::collections::VecDeque;
 use std::io::{IsTerminal, Read, Write};
@@ -33,7 +43,6 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 use terrain_pyramid::wire::link::{HelloReason, Message, RxCounters, SnapshotScope};
 use terrain_pyramid::LogOddsFixed;
-use terrain_pyramid_host::link::{HostLink, LinkEvent, Mirror};
 
 /// How often the status line is refreshed.
 pub const STATUS_INTERVAL: Duration = Duration::from_millis(250);
@@ -77,7 +86,17 @@ pub struct Args {
     /// Stop after this many seconds (otherwise at Ctrl-C or the end of the stream).
     #[arg(long, value_name = "N", value_parser = positive_seconds)]
     pub duration_s: Option<f64>,
+    /// When the stream ends, try to reconnect every second (keeping the maps) until the session
+    /// ends, instead of ending it. Always so for a serial port (a USB adapter unplugged).
+    #[arg(long)]
+    pub reconnect: bool,
+    /// The live outputs.
+    #[command(flatten)]
+    pub outputs: OutputArgs,
 }
+
+/// How often a lost device is looked for again.
+pub const RECONNECT_INTERVAL: Duration = Duration::from_secs(1);
 
 fn positive_seconds(s: &str) -> Result<f64, String> {
     let v: f64 = s.parse().map_err(|_| format!("{s:?} is not a number"))?;
@@ -94,6 +113,9 @@ fn positive_seconds(s: &str) -> Result<f64, String> {
 enum Transport {
     Serial(Box<dyn serialport::SerialPort>),
     Tcp(TcpStream),
+    /// Released while the device is looked for again (a serial port must be closed, and its
+    /// lock released, before it can be opened again).
+    Closed,
 }
 
 /// What one read gave.
@@ -115,7 +137,7 @@ impl Transport {
                 .flow_control(serialport::FlowControl::None)
                 .timeout(READ_TIMEOUT)
                 .open()
-                .map_err(|e| format!("cannot open the serial port {path}: {e}"))?;
+                .map_err(|e| serial_open_error(path, &e))?;
             return Ok((Self::Serial(port), format!("{path} at {baud} Bd")));
         }
         let address = args.tcp.as_deref().unwrap_or_default();
@@ -143,6 +165,7 @@ impl Transport {
         let (result, is_tcp) = match self {
             Self::Serial(port) => (port.read(buf), false),
             Self::Tcp(stream) => (stream.read(buf), true),
+            Self::Closed => return Received::Ended(None),
         };
         match result {
             Ok(0) if is_tcp => Received::Ended(None),
@@ -161,7 +184,21 @@ impl Transport {
         match self {
             Self::Serial(port) => port.write_all(bytes).and_then(|()| port.flush()),
             Self::Tcp(stream) => stream.write_all(bytes),
+            Self::Closed => Err(std::io::ErrorKind::NotConnected.into()),
         }
+    }
+}
+
+/// Why a serial port cannot be opened, in words: the port is exclusive (TIOCEXCL and an
+/// exclusive `flock`, serialport's default), so another process holding it is named as such.
+fn serial_open_error(path: &str, e: &serialport::Error) -> String {
+    let busy = e.description.contains("exclusive lock")
+        || e.description.contains("busy")
+        || e.description.contains("EBUSY");
+    if busy {
+        format!("cannot open the serial port {path}: it is already open in another process ({e})")
+    } else {
+        format!("cannot open the serial port {path}: {e}")
     }
 }
 
@@ -374,6 +411,11 @@ pub struct Summary {
     pub layer_cells_fnv1a64: Vec<String>,
     /// The files written.
     pub files: Vec<String>,
+    /// Times the device was reconnected after its stream ended (`--reconnect`, serial ports).
+    pub reconnects: u64,
+    /// The live outputs (`--ros2`, `--foxglove`, `--mcap`), when any was on.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub outputs: Option<OutputsReport>,
 }
 
 /// FNV-1a 64 of raw cells as `i16` little-endian.
@@ -407,6 +449,9 @@ fn total_errors(rx: &RxCounters) -> u64 {
 struct Session {
     transport: Transport,
     host: HostLink,
+    /// The live outputs, when any is on.
+    outputs: Option<Outputs>,
+    reconnects: u64,
     /// When the outstanding snapshot request was sent (`None`: none outstanding).
     requested: Option<Instant>,
     snapshots_requested: u64,
@@ -453,6 +498,55 @@ fn window_centre(mirror: &Mirror) -> (f64, f64) {
     })
 }
 
+/// Looks for the device again every [`RECONNECT_INTERVAL`], keeping the mirror; once it is
+/// back, asks for a snapshot (whatever happened meanwhile, the mirror may be behind). `Some`
+/// when the session ends first.
+fn reconnect(
+    session: &mut Session,
+    args: &Args,
+    stop: &AtomicBool,
+    deadline: Option<Instant>,
+    out: &mut StatusOutput,
+) -> Option<Ending> {
+    // Close the old connection (and a serial port's lock) first.
+    session.transport = Transport::Closed;
+    session.requested = None;
+    let mut next_try = Instant::now() + RECONNECT_INTERVAL;
+    let mut attempts = 0_u64;
+    loop {
+        if stop.load(Ordering::SeqCst) {
+            return Some(Ending::Interrupted);
+        }
+        let now = Instant::now();
+        if deadline.is_some_and(|d| now >= d) {
+            return Some(Ending::Duration);
+        }
+        if now >= next_try {
+            attempts += 1;
+            match Transport::open(args) {
+                Ok((transport, source)) => {
+                    session.transport = transport;
+                    session.reconnects += 1;
+                    let resumed = session
+                        .transport
+                        .write_all(&[0])
+                        .map_err(|e| format!("cannot send to the device: {e}"))
+                        .and_then(|()| session.request_snapshot(Instant::now()));
+                    match resumed {
+                        Ok(()) => out.notice(&format!(
+                            "reconnected to {source} after {attempts} attempts; snapshot requested"
+                        )),
+                        Err(e) => out.notice(&format!("warning: {e}")),
+                    }
+                    return None;
+                }
+                Err(_) => next_try = Instant::now() + RECONNECT_INTERVAL,
+            }
+        }
+        std::thread::sleep(READ_TIMEOUT);
+    }
+}
+
 /// Runs the session until it ends; returns the link and why it ended.
 fn receive(
     mut session: Session,
@@ -496,10 +590,21 @@ fn receive(
             Received::Bytes(n) => n,
             Received::Nothing => 0,
             Received::Ended(error) => {
-                if let Some(e) = error {
-                    out.notice(&format!("warning: the stream ended: {e}"));
+                if !(args.reconnect || args.port.is_some()) {
+                    if let Some(e) = error {
+                        out.notice(&format!("warning: the stream ended: {e}"));
+                    }
+                    break Ending::EndOfStream;
                 }
-                break Ending::EndOfStream;
+                out.notice(&format!(
+                    "warning: the device's stream ended ({}): trying to reconnect every {} s; the maps are kept",
+                    error.as_deref().unwrap_or("closed by the device"),
+                    RECONNECT_INTERVAL.as_secs()
+                ));
+                match reconnect(&mut session, args, stop, deadline, out) {
+                    Some(ending) => break ending,
+                    None => continue,
+                }
             }
         };
         let mut wants = false;
@@ -528,6 +633,9 @@ fn receive(
                 LinkEvent::SnapshotNeeded => wants = true,
                 LinkEvent::Reply(_) | LinkEvent::Stats(_) | LinkEvent::BadFrame(_) => {}
             }
+        }
+        if let Some(outputs) = &mut session.outputs {
+            outputs.offer(session.host.mirror(), None);
         }
         let now = Instant::now();
         let overdue = session
@@ -561,6 +669,7 @@ fn write_out(
     source: &str,
     ending: Ending,
     elapsed: Duration,
+    outputs: Option<OutputsReport>,
 ) -> Result<Summary, String> {
     let mirror = session.host.mirror();
     let rx = session.host.rx_counters();
@@ -623,6 +732,8 @@ fn write_out(
             .map(|l| format!("{:016x}", cells_fnv1a64(&l.cells)))
             .collect(),
         files,
+        reconnects: session.reconnects,
+        outputs,
     };
     let json = serde_json::to_string_pretty(&summary)
         .map_err(|e| format!("cannot encode the summary as JSON: {e}"))?;
@@ -650,6 +761,14 @@ pub fn run(args: &Args) -> ExitCode {
     if let Err(e) = handler {
         eprintln!("warning: cannot catch Ctrl-C ({e}); use --duration-s to end the session");
     }
+    // The outputs first: a port already in use ends the command before the device is opened.
+    let outputs = match Outputs::start(&args.outputs.config(LogOddsFixed::ZERO)) {
+        Ok(o) => o.is_on().then_some(o),
+        Err(e) => {
+            eprintln!("error: {e}");
+            return ExitCode::FAILURE;
+        }
+    };
     let (transport, source) = match Transport::open(args) {
         Ok(t) => t,
         Err(e) => {
@@ -661,14 +780,29 @@ pub fn run(args: &Args) -> ExitCode {
     out.notice(&format!(
         "listening on {source}; Ctrl-C ends and writes the maps"
     ));
+    if let Some(addr) = outputs.as_ref().and_then(Outputs::foxglove_addr) {
+        out.notice(&format!("foxglove: serving ws://{addr}"));
+    }
     let session = Session {
         transport,
         host: HostLink::new(),
+        outputs,
+        reconnects: 0,
         requested: None,
         snapshots_requested: 0,
     };
-    let (session, ending, elapsed) = receive(session, args, &stop, &mut out);
-    match write_out(&session, args, &source, ending, elapsed) {
+    let (mut session, ending, elapsed) = receive(session, args, &stop, &mut out);
+    let report = match session.outputs.take() {
+        Some(outputs) => match outputs.finish(session.host.mirror(), None) {
+            Ok(report) => Some(report),
+            Err(e) => {
+                eprintln!("error: {e}");
+                return ExitCode::FAILURE;
+            }
+        },
+        None => None,
+    };
+    match write_out(&session, args, &source, ending, elapsed, report) {
         Ok(summary) => {
             if !summary.synced {
                 eprintln!(

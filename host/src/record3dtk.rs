@@ -14,7 +14,8 @@ use std::fs::File;
 use std::io::BufReader;
 use std::path::PathBuf;
 use std::process::ExitCode;
-use terrain_pyramid::wire::recording::{emit_header, Event, MountKind, Payload, Setup};
+use terrain_pyramid::wire::recording::SetupEvent as Setup;
+use terrain_pyramid::wire::recording::{emit_header, Event, MountKind, Payload};
 use terrain_pyramid::wire::sick::{MeasuredValues, Unit};
 
 /// Values of a 180°/0.5° line.
@@ -54,15 +55,23 @@ pub struct Args {
 
 /// What the conversion produced.
 #[derive(serde::Serialize, Debug)]
-struct Report {
-    lines: usize,
-    telegrams: usize,
-    points: usize,
-    no_echo: usize,
-    bytes: usize,
-    tilt_deg: [f64; 2],
-    max_beam_angle_error_deg: f64,
-    out: PathBuf,
+pub struct Report {
+    /// Scan lines read.
+    pub lines: usize,
+    /// Telegrams written.
+    pub telegrams: usize,
+    /// Points read.
+    pub points: usize,
+    /// Points without echo.
+    pub no_echo: usize,
+    /// Bytes of the recording.
+    pub bytes: usize,
+    /// The smallest and largest tilt, degrees.
+    pub tilt_deg: [f64; 2],
+    /// The largest deviation of a beam's angle from `i · 0.5°`, degrees.
+    pub max_beam_angle_error_deg: f64,
+    /// The recording written.
+    pub out: PathBuf,
 }
 
 /// Runs `pyramid record-3dtk`.
@@ -94,7 +103,11 @@ pub fn run(args: &Args) -> ExitCode {
     }
 }
 
-fn convert(args: &Args) -> Result<Report, String> {
+/// Converts the scan of `args` and writes the recording; prints nothing.
+///
+/// # Errors
+/// Invalid flags, a file that cannot be read or parsed, or the recording not written.
+pub fn convert(args: &Args) -> Result<Report, String> {
     if args.beams_per_line == 0 || args.beams_per_line > VALUES_PER_LINE {
         return Err(format!(
             "--beams-per-line: must be 1 ..= {VALUES_PER_LINE} (got {})",

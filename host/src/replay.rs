@@ -308,12 +308,20 @@ fn integrate<const W: usize>(args: &Args, plan: &Plan) -> Result<Integrated, Fai
     pyramid
         .configure(&plan.design, &plan.config)
         .map_err(|e| Failure::config(e.to_string()))?;
-    let mut classifier: Box<Classifier<CLASSIFIER_SLOTS>> = Box::new(Classifier::new());
+    let mut classifier: Box<Classifier<CLASSIFIER_SLOTS, L>> = Box::new(Classifier::new());
     classifier.configure(ClassifierConfig {
         ceiling: args.ceiling_m.map(meters),
         drop_threshold: args.drop_m.map(meters),
         ..ClassifierConfig::default()
     });
+    let increments = plan
+        .config
+        .model
+        .increments()
+        .map_err(|e| Failure::config(e.to_string()))?;
+    classifier
+        .adopt_design(&plan.design, increments)
+        .map_err(|e| Failure::config(e.to_string()))?;
     let sensor = point3(plan.sensor);
     pyramid.recentre(sensor.x, sensor.y);
     classifier.begin(sensor.z);
@@ -340,7 +348,7 @@ fn integrate<const W: usize>(args: &Args, plan: &Plan) -> Result<Integrated, Fai
         if distance.to_num::<f64>() > max_range {
             beyond += 1;
         }
-        classifier.add_point(&pyramid, world, distance, ground_z);
+        classifier.add_point(world, distance, ground_z);
     }
     classifier.finish_into(&mut pyramid);
     let snapshot = MapSnapshot::from_pyramid(

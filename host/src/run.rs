@@ -1,24 +1,32 @@
-//! `pyramid run`: a recording through the co-processor's pipeline, and the maps it builds.
+//! `pyramid run`: a recording through the co-processor, and the maps it builds.
 //!
-//! With `--board host` the library's pipeline runs in this process exactly as the firmware
-//! runs it (the same `DefaultFrontend` and `DefaultPyramid`): the recording's laser bytes go
-//! through the SICK accumulator, each valid measured-values telegram through
-//! `Frontend::line`, and the actuator angles and poses are handed in as they come.
+//! `--board host` runs the library's application core ([`terrain_pyramid::app::CoProcessor`])
+//! in this process; `--board qemu` runs the firmware on QEMU's emulated Cortex-M4F,
+//! `netduinoplus2` the STM32F4 firmware on QEMU's STM32F405, `microbit` the micro:bit firmware
+//! (16-cell windows, at most 4 layers: `--cells 16`) on QEMU's nRF51822. All are driven the
+//! same way ([`crate::play`]): boot, Hello, Configure with the flags' design,
+//! Setup from the recording, the recording's frames and telegrams lock-step, EndObservation,
+//! a snapshot, and the maps written from the host's mirror of the device's layers.
 
 use crate::design::DesignArgs;
+use crate::device::{Device, InProcess};
+use crate::emulator::{qemu_available, Emulator, Machine, INSTALL_HINT};
 use crate::export::{write_maps, MapSnapshot};
+use crate::play::{mirror_snapshot, play, steps, RunCounts, Steps};
 use crate::replay::ClampArg;
 use serde::Serialize;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
-use terrain_pyramid::angle::FineAngle;
+use std::time::Instant;
 use terrain_pyramid::classify::ClassifierConfig;
-use terrain_pyramid::geometry::Pose;
+use terrain_pyramid::geometry::ScanPlane;
+use terrain_pyramid::link::convert::configure_of_design;
+use terrain_pyramid::link::LinkConfig;
 use terrain_pyramid::pipeline::FrontendConfig;
-use terrain_pyramid::wire::recording::{Payload, Reader, Setup};
-use terrain_pyramid::wire::sick::{Accumulator, FeedResult, MeasuredValues};
+use terrain_pyramid::wire::link::Message;
 use terrain_pyramid::{
-    Clamp, Config, DefaultDesign, DefaultFrontend, DefaultPyramid, Meters, DEFAULT_CELLS_PER_SIDE,
+    Clamp, Config, DefaultDesign, Meters, Schedule, SensorModel, DEFAULT_CELLS_PER_SIDE,
+    DEFAULT_CLASSIFIER_SLOTS, DEFAULT_LAYERS,
 };
 
 /// Where the pipeline runs.
@@ -29,6 +37,13 @@ pub enum Board {
     /// The firmware on QEMU's MPS2 AN386 (`boards/qemu-mps2`), telegrams on UART0, the host
     /// link on UART1.
     Qemu,
+    /// The STM32F4 firmware (`boards/stm32f4`) on QEMU's `netduinoplus2` (STM32F405),
+    /// telegrams on USART1, the host link on USART2.
+    Netduinoplus2,
+    /// The micro:bit firmware (`boards/microbit`) on QEMU's `microbit` (nRF51822, Cortex-M0,
+    /// 16 KiB of RAM): 16-cell windows, at most 4 layers; telegrams and the host link on its
+    /// one UART.
+    Microbit,
 }
 
 impl Board {
@@ -38,6 +53,28 @@ impl Board {
         match self {
             Self::Host => "host",
             Self::Qemu => "qemu",
+            Self::Netduinoplus2 => "netduinoplus2",
+            Self::Microbit => "microbit",
+        }
+    }
+
+    /// The emulated machine, or `None` for the host.
+    #[must_use]
+    pub const fn machine(self) -> Option<Machine> {
+        match self {
+            Self::Host => None,
+            Self::Qemu => Some(Machine::Mps2An386),
+            Self::Netduinoplus2 => Some(Machine::Netduinoplus2),
+            Self::Microbit => Some(Machine::Microbit),
+        }
+    }
+
+    /// The cells per side of the board's pyramid (the design's `--cells` must match).
+    #[must_use]
+    pub const fn cells_per_side(self) -> usize {
+        match self {
+            Self::Microbit => 16,
+            _ => DEFAULT_CELLS_PER_SIDE,
         }
     }
 }
@@ -69,29 +106,6 @@ pub struct Args {
     /// Returns this far below the robot's ground plane mark a drop-off, metres.
     #[arg(long, value_name = "M")]
     pub drop_m: Option<f64>,
-}
-
-/// What a run did, beyond the maps.
-#[derive(Serialize, Debug, Default, Clone, PartialEq, Eq)]
-pub struct RunCounts {
-    /// Valid measured-values telegrams in the recording's laser bytes.
-    pub telegrams_sent: u64,
-    /// Telegrams the pipeline applied.
-    pub telegrams_applied: u64,
-    /// Link frames received from the board (0 in-process).
-    pub frames_received: u64,
-    /// Link frames with a bad checksum (0 in-process).
-    pub link_crc_errors: u64,
-    /// Telegrams the SICK accumulator rejected (CRC, length, truncation).
-    pub telegrams_rejected: u64,
-    /// Lines the pipeline refused (a count that does not fit the variant).
-    pub lines_rejected: u64,
-    /// Poses refused (not finite or out of range).
-    pub poses_rejected: u64,
-    /// Observations applied.
-    pub observations: u64,
-    /// Points the classifier could not hold (its scratch was full).
-    pub overflow_points: u64,
 }
 
 /// What `summary.json` holds.
@@ -176,10 +190,14 @@ pub fn run_config(args: &Args) -> Result<(DefaultDesign, Config, ClassifierConfi
         args.design.cells,
     )
     .map_err(|e| (2, format!("error: {e}")))?;
-    if design.cells_per_side() != DEFAULT_CELLS_PER_SIDE {
+    let cells = args.board.cells_per_side();
+    if design.cells_per_side() != cells {
         return Err((
             2,
-            format!("error: --cells: the firmware's pyramid has {DEFAULT_CELLS_PER_SIDE} cells per side"),
+            format!(
+                "error: --cells: the {} pyramid has {cells} cells per side",
+                args.board.name()
+            ),
         ));
     }
     let config = Config {
@@ -197,98 +215,73 @@ pub fn run_config(args: &Args) -> Result<(DefaultDesign, Config, ClassifierConfi
     Ok((design, config, classifier))
 }
 
-/// The pipeline's configuration from a recording's setup (the library's own conversion).
+/// The co-processor `--board host` runs: the library's defaults, as the QEMU firmware.
+pub type HostDevice =
+    InProcess<DEFAULT_CELLS_PER_SIDE, DEFAULT_LAYERS, DEFAULT_CLASSIFIER_SLOTS, 2048>;
+
+/// Boots the in-process co-processor as the QEMU firmware boots: the default design, a
+/// tilt-unit setup, the default link settings.
 ///
 /// # Errors
-/// The setup names a variant, mode or position the library does not take.
-pub fn frontend_config(
-    setup: &Setup,
-    classifier: ClassifierConfig,
-) -> Result<FrontendConfig, String> {
-    FrontendConfig::from_setup(setup, classifier).map_err(|e| format!("the recording's setup: {e}"))
+/// The boot was refused.
+pub fn boot_host_device() -> Result<HostDevice, String> {
+    let design = DefaultDesign::new(
+        SensorModel::default(),
+        Schedule::default(),
+        DEFAULT_CELLS_PER_SIDE,
+    )
+    .map_err(|e| e.to_string())?;
+    HostDevice::boot(
+        LinkConfig::DEFAULT,
+        &design,
+        &Config::default(),
+        FrontendConfig::lms291_boot(ScanPlane::TiltedHorizontal),
+    )
 }
 
-/// Plays `data` (a whole recording) through the pipeline into `pyramid`.
+/// Boots a board's firmware on its emulated machine (building it if needed), its defmt log
+/// into `defmt_log`.
 ///
 /// # Errors
-/// A recording that cannot be read, or laser bytes before the setup.
-pub fn play(
-    data: &[u8],
-    pyramid: &mut DefaultPyramid,
-    classifier: ClassifierConfig,
-) -> Result<(RunCounts, (f64, f64)), String> {
-    let reader = Reader::new(data).map_err(|e| format!("the recording: {e}"))?;
-    let mut frontend: Option<Box<DefaultFrontend>> = None;
-    let mut accumulator: Box<Accumulator> = Box::new(Accumulator::new());
-    let mut counts = RunCounts::default();
-    let mut sensor_xy = (0.0, 0.0);
-    for event in reader {
-        let event = event.map_err(|e| format!("the recording: {e}"))?;
-        match event.payload {
-            Payload::Setup(setup) => {
-                let config = FrontendConfig::from_setup(&setup, classifier)
-                    .map_err(|e| format!("the recording's setup: {e}"))?;
-                frontend = Some(Box::new(DefaultFrontend::new(config)));
-            }
-            Payload::Angle(turns) => {
-                if let Some(f) = frontend.as_mut() {
-                    f.set_actuator(FineAngle::from_bits(u32::from(turns) << 16));
-                }
-            }
-            Payload::Pose([x, y, z, roll, pitch, yaw]) => {
-                match Pose::from_f32(x, y, z, roll, pitch, yaw) {
-                    Ok(pose) => {
-                        sensor_xy = (f64::from(x), f64::from(y));
-                        if let Some(f) = frontend.as_mut() {
-                            f.set_pose(pose);
-                        }
-                    }
-                    Err(_) => counts.poses_rejected += 1,
-                }
-            }
-            Payload::Laser(bytes) => {
-                let f = frontend
-                    .as_mut()
-                    .ok_or("the recording has laser bytes before its setup event")?;
-                let mut rest = bytes;
-                loop {
-                    match accumulator.feed(rest) {
-                        FeedResult::Consumed => break,
-                        FeedResult::Telegram {
-                            telegram,
-                            remaining,
-                            ..
-                        } => {
-                            if let Ok(values) = MeasuredValues::parse(&telegram) {
-                                counts.telegrams_sent += 1;
-                                if f.line(pyramid, &values).is_ok() {
-                                    counts.telegrams_applied += 1;
-                                } else {
-                                    counts.lines_rejected += 1;
-                                }
-                            }
-                            rest = remaining;
-                        }
-                        FeedResult::Rejected { remaining, .. } => {
-                            counts.telegrams_rejected += 1;
-                            rest = remaining;
-                        }
-                        other => rest = other.remaining(),
-                    }
-                }
-            }
-            Payload::Marker(_) | Payload::Unknown { .. } => {}
-        }
+/// QEMU or the target missing, the build or the boot failing.
+pub fn boot_emulator(machine: Machine, defmt_log: &Path) -> Result<Emulator, String> {
+    if !qemu_available() {
+        return Err(format!("qemu-system-arm is missing: {INSTALL_HINT}"));
     }
-    if let Some(f) = frontend.as_mut() {
-        f.end_observation(pyramid);
-        counts.observations = u64::from(f.stats().observations);
-        counts.overflow_points = u64::from(f.classifier_stats().overflow_points);
-    }
-    Ok((counts, sensor_xy))
+    let elf = machine.build()?;
+    Emulator::start(machine, &elf, defmt_log)
 }
 
-fn run_host(args: &Args) -> Result<String, (u8, String)> {
+/// A recording through a device: Hello, Configure, the recording, a snapshot; returns the
+/// counts and the maps.
+///
+/// # Errors
+/// The device refused something or stopped answering.
+pub fn drive(
+    device: &mut impl Device,
+    steps: &Steps,
+    design: &DefaultDesign,
+    config: &Config,
+    classifier: &ClassifierConfig,
+) -> Result<(RunCounts, MapSnapshot), String> {
+    device.wait_for("Hello", |link, _| link.mirror().firmware().is_some())?;
+    device.command(
+        "Configure",
+        &Message::Configure(configure_of_design(design, config)),
+    )?;
+    let (mut counts, sensor_xy) = play(device, steps, classifier)?;
+    device.snapshot()?;
+    let snapshot = mirror_snapshot(device, design, config, sensor_xy)?;
+    counts.frames_received = device.link().mirror().counters().frames;
+    counts.link_crc_errors = u64::from(device.link().rx_counters().crc);
+    Ok((counts, snapshot))
+}
+
+/// Runs the pipeline on `args.board`; returns the summary's JSON.
+///
+/// # Errors
+/// The exit status and the message.
+pub fn execute(args: &Args) -> Result<String, (u8, String)> {
     let (design, config, classifier) = run_config(args)?;
     let data = std::fs::read(&args.recording).map_err(|e| {
         (
@@ -299,31 +292,51 @@ fn run_host(args: &Args) -> Result<String, (u8, String)> {
             ),
         )
     })?;
-    let mut pyramid = Box::new(DefaultPyramid::new());
-    pyramid
-        .configure(&design, &config)
-        .map_err(|e| (2, format!("error: {e}")))?;
-    let (counts, sensor_xy) =
-        play(&data, &mut pyramid, classifier).map_err(|e| (1, format!("error: {e}")))?;
-    let snapshot = MapSnapshot::from_pyramid(&pyramid, &design, &config, sensor_xy);
+    std::fs::create_dir_all(&args.out).map_err(|e| {
+        (
+            1,
+            format!("error: cannot create {}: {e}", args.out.display()),
+        )
+    })?;
+    let fail = |e: String| (1, format!("error: {e}"));
+    let steps = steps(&data).map_err(fail)?;
+    let started = Instant::now();
+    let (counts, snapshot, stack_bytes) = match args.board.machine() {
+        None => {
+            let mut device = boot_host_device().map_err(fail)?;
+            let (counts, snapshot) =
+                drive(&mut device, &steps, &design, &config, &classifier).map_err(fail)?;
+            (counts, snapshot, None)
+        }
+        Some(machine) => {
+            let mut emu = boot_emulator(machine, &args.out.join("firmware.defmt")).map_err(fail)?;
+            let (counts, snapshot) =
+                drive(&mut emu, &steps, &design, &config, &classifier).map_err(fail)?;
+            let stack = emu.shutdown().map_err(fail)?;
+            eprintln!(
+                "{}: {} telegrams in {:.1} s, firmware stack high-water {stack} bytes",
+                args.board.name(),
+                counts.telegrams_sent,
+                started.elapsed().as_secs_f64()
+            );
+            (counts, snapshot, Some(stack))
+        }
+    };
     let title = format!(
-        "pyramid run --board host: {} ({} telegrams applied)",
+        "pyramid run --board {}: {} ({} telegrams applied)",
+        args.board.name(),
         args.recording.display(),
         counts.telegrams_applied
     );
-    write_outputs(&args.out, &snapshot, &title, &counts, Board::Host, None)
-        .map_err(|e| (1, format!("error: {e}")))
-}
-
-/// Runs the pipeline on `args.board`; returns the summary's JSON.
-///
-/// # Errors
-/// The exit status and the message.
-pub fn execute(args: &Args) -> Result<String, (u8, String)> {
-    match args.board {
-        Board::Host => run_host(args),
-        Board::Qemu => crate::qemu::run_qemu(args).map(|(json, _)| json),
-    }
+    write_outputs(
+        &args.out,
+        &snapshot,
+        &title,
+        &counts,
+        args.board,
+        stack_bytes,
+    )
+    .map_err(fail)
 }
 
 /// Runs `pyramid run`.

@@ -3,15 +3,15 @@
 //! the next frame still decodes; and after lossy streams and snapshot recovery the host's
 //! mirror equals the device's pyramid cell for cell.
 use proptest::prelude::*;
-use terrain_pyramid::design::{GateShape, Schedule, SensorModel};
-use terrain_pyramid::link::{Event, Link, LinkConfig, SensorCounters};
-use terrain_pyramid::logodds::InverseSensorModel;
+use terrain_pyramid::design::{Schedule, SensorModel};
+use terrain_pyramid::link::{Command, Link, LinkConfig, SensorCounters};
 use terrain_pyramid::wire::link::{
-    encode, Accumulator, ClampRequest, Configure, DecodeError, FeedResult, FirmwareVersion, Header,
-    Hello, HelloReason, LayerInfo, LayerPatch, Message, PanAngle, PatchArea, PatchCells, Pose,
-    Reply, ReplyCode, SnapshotScope, Stats, WindowMoved, MAX_ENCODED_FRAME, MAX_FRAME,
-    STATS_COUNTERS,
+    encode, ClampRequest, Configure, DecodeError, Decoded, FirmwareVersion, FrameAccumulator,
+    GateRequest, Header, Hello, HelloReason, LayerInfo, LayerPatch, Message, PanAngle, PatchArea,
+    PatchCells, PoseReport, Reply, ReplyCode, SnapshotScope, Stats, Undecoded, WindowMoved,
+    MAX_ENCODED_FRAME, MAX_FRAME, STATS_COUNTERS,
 };
+use terrain_pyramid::wire::FeedResult;
 use terrain_pyramid::{
     Config, DefaultDesign, DefaultPyramid, Evidence, EvidenceClass, Meters, DEFAULT_CELLS_PER_SIDE,
 };
@@ -167,7 +167,7 @@ fn reply() -> impl Strategy<Value = Owned> {
 
 fn commands() -> impl Strategy<Value = Owned> {
     let pose = (prop::array::uniform6(float()), any::<u32>()).prop_map(|(f, timestamp_ms)| {
-        Owned::Msg(Message::Pose(Pose {
+        Owned::Msg(Message::Pose(PoseReport {
             x_m: f[0],
             y_m: f[1],
             z_m: f[2],
@@ -193,27 +193,21 @@ fn commands() -> impl Strategy<Value = Owned> {
     )
         .prop_map(|(f, gate, cells_per_side, p, clamp, fused_margin)| {
             Owned::Msg(Message::Configure(Configure {
-                sensor: SensorModel {
-                    phi_rad: f[0],
-                    psi_rad: f[1],
-                    sigma_m: f[2],
-                    height_m: f[3],
-                    max_range_m: f[4],
-                },
-                schedule: Schedule {
-                    base_m: f[5],
-                    gamma: f[6],
-                    gate: gate.map_or(GateShape::Hard, |width_factor| GateShape::Soft {
-                        width_factor,
-                    }),
-                    uniform_resolution: false,
-                },
+                phi_rad: f[0],
+                psi_rad: f[1],
+                sigma_m: f[2],
+                height_m: f[3],
+                max_range_m: f[4],
+                base_m: f[5],
+                gamma: f[6],
+                gate: gate.map_or(GateRequest::Hard, |width_factor| GateRequest::Soft {
+                    width_factor,
+                }),
                 cells_per_side,
-                model: InverseSensorModel {
-                    p_obstacle: p[0],
-                    p_free: p[1],
-                    prior: p[2],
-                },
+                p_obstacle: p[0],
+                p_free: p[1],
+                prior: p[2],
+                uniform_resolution: false,
                 clamp: clamp.map_or(ClampRequest::Off, |(min, max)| ClampRequest::Bounds {
                     min,
                     max,
@@ -250,7 +244,7 @@ fn encoded(seq: u16, m: &Owned) -> Vec<u8> {
 
 /// Feeds `chunks` and returns (seq, re-encoded message) of every frame, and the errors.
 fn decode_stream<'c>(
-    acc: &mut Accumulator<MAX_FRAME>,
+    acc: &mut FrameAccumulator<MAX_FRAME>,
     chunks: impl IntoIterator<Item = &'c [u8]>,
 ) -> (Vec<(u16, Vec<u8>)>, Vec<DecodeError>) {
     let (mut ok, mut bad) = (Vec::new(), Vec::new());
@@ -259,10 +253,10 @@ fn decode_stream<'c>(
         loop {
             match acc.feed(input) {
                 FeedResult::Consumed => break,
-                FeedResult::Frame {
-                    header,
-                    message,
+                FeedResult::Item {
+                    item: Decoded { header, message },
                     remaining,
+                    ..
                 } => {
                     let mut out = vec![0_u8; MAX_ENCODED_FRAME];
                     let n = encode(header.seq, &message, &mut out).unwrap();
@@ -270,8 +264,10 @@ fn decode_stream<'c>(
                     ok.push((header.seq, out));
                     input = remaining;
                 }
-                FeedResult::Error {
-                    error, remaining, ..
+                FeedResult::Rejected {
+                    error: Undecoded { error, .. },
+                    remaining,
+                    ..
                 } => {
                     bad.push(error);
                     input = remaining;
@@ -289,9 +285,9 @@ proptest! {
     fn every_message_round_trips(m in any_message(), seq in any::<u16>()) {
         let bytes = encoded(seq, &m);
         prop_assert_eq!(bytes.iter().filter(|&&b| b == 0).count(), 1);
-        let mut acc = Accumulator::<MAX_FRAME>::new();
+        let mut acc = FrameAccumulator::<MAX_FRAME>::new();
         match acc.feed(&bytes) {
-            FeedResult::Frame { header, message, remaining } => {
+            FeedResult::Item { item: Decoded { header, message }, remaining, .. } => {
                 prop_assert_eq!(header, Header { version: terrain_pyramid::wire::link::VERSION, msg_type: m.message().msg_type().to_u8(), seq });
                 prop_assert_eq!(message, m.message());
                 prop_assert!(remaining.is_empty());
@@ -304,12 +300,12 @@ proptest! {
     fn floats_survive_bit_for_bit(bits in prop::array::uniform6(any::<u32>())) {
         // NaN payloads included: decode(encode(x)) re-encodes to the same bytes.
         let f = bits.map(f32::from_bits);
-        let pose = Owned::Msg(Message::Pose(Pose {
+        let pose = Owned::Msg(Message::Pose(PoseReport {
             x_m: f[0], y_m: f[1], z_m: f[2], roll_rad: f[3], pitch_rad: f[4], yaw_rad: f[5],
             timestamp_ms: 0,
         }));
         let bytes = encoded(3, &pose);
-        let mut acc = Accumulator::<MAX_FRAME>::new();
+        let mut acc = FrameAccumulator::<MAX_FRAME>::new();
         let (ok, bad) = decode_stream(&mut acc, [&bytes[..]]);
         prop_assert!(bad.is_empty());
         prop_assert_eq!(&ok[0].1, &bytes);
@@ -331,7 +327,7 @@ proptest! {
             at += n;
             i += 1;
         }
-        let mut acc = Accumulator::<MAX_FRAME>::new();
+        let mut acc = FrameAccumulator::<MAX_FRAME>::new();
         let (ok, bad) = decode_stream(&mut acc, chunks);
         prop_assert!(bad.is_empty());
         prop_assert_eq!(ok.len(), frames.len());
@@ -391,7 +387,7 @@ proptest! {
             garbage_ends = stream[at + len..].iter().any(|(b, _)| *b == 0);
         }
         let bytes: Vec<u8> = stream.iter().map(|(b, _)| *b).collect();
-        let mut acc = Accumulator::<MAX_FRAME>::new();
+        let mut acc = FrameAccumulator::<MAX_FRAME>::new();
         let (ok, bad) = decode_stream(&mut acc, bytes.chunks(37));
         // A frame is intact exactly when its encoded bytes (ending in their delimiter) stand
         // whole in the damaged stream, at its start or right after a delimiter: a cut that
@@ -589,6 +585,30 @@ struct Outcome {
     patches_deferred: u32,
 }
 
+/// Hands host bytes to the device's link and carries out what concerns the link and the maps
+/// ([`Link::serve`]), as the application core does; returns every command received.
+fn deliver<const Q: usize>(
+    link: &mut Link<Q>,
+    pyramid: &mut DefaultPyramid,
+    bytes: &[u8],
+) -> Vec<Command<8>> {
+    let mut commands = Vec::new();
+    let mut input = bytes;
+    loop {
+        input = match link.receive(input) {
+            FeedResult::Consumed => return commands,
+            FeedResult::Item {
+                item, remaining, ..
+            } => {
+                commands.push(item.command.clone());
+                link.serve(pyramid, item);
+                remaining
+            }
+            FeedResult::Rejected { remaining, .. } => remaining,
+        };
+    }
+}
+
 /// Drives a default pyramid with random evidence and moves, streams its link through a lossy
 /// channel to a host mirror that asks for snapshots, then lets everything settle and compares
 /// the mirror with the pyramid cell for cell.
@@ -611,8 +631,8 @@ fn scenario<const Q: usize>(
         DEFAULT_CELLS_PER_SIDE,
     )
     .unwrap();
-    link.configure(&mut pyramid, &design, &Config::default())
-        .unwrap();
+    pyramid.configure(&design, &Config::default()).unwrap();
+    link.adopt(&design);
     let mut host = HostLink::new();
     let mut channel = channel;
     let (mut x, mut y) = (0.0_f64, 0.0_f64);
@@ -646,11 +666,8 @@ fn scenario<const Q: usize>(
                 .command(&Message::RequestSnapshot(SnapshotScope::All))
                 .unwrap();
             last_request = Some(now_ms);
-            let mut acked = false;
-            link.receive(&cmd, pyramid, |e| {
-                acked |= e == Event::SnapshotRequested(SnapshotScope::All)
-            });
-            assert!(acked);
+            let commands = deliver(link, pyramid, &cmd);
+            assert_eq!(commands, [Command::Snapshot(SnapshotScope::All)]);
         }
     };
 
@@ -682,7 +699,7 @@ fn scenario<const Q: usize>(
                 } else {
                     EvidenceClass::Navigable
                 },
-                distance: Meters::from_num(rng.unit() * 10.0),
+                weight: terrain_pyramid::Weight::from_num(rng.unit()),
             };
             pyramid.apply(&evidence);
         }
@@ -690,7 +707,7 @@ fn scenario<const Q: usize>(
             // Bursts of commands whose replies may find the small queue full.
             for _ in 0..20 {
                 let cmd = host.command(&Message::Ping).unwrap();
-                link.receive(&cmd, &mut pyramid, |_| {});
+                deliver(&mut link, &mut pyramid, &cmd);
             }
         }
         now_ms += 13;

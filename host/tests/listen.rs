@@ -4,6 +4,9 @@
 //! stream ends, `--duration-s` elapses or it is interrupted. The maps written must equal the
 //! device's pyramid cell for cell, also when the device's frames are lost or corrupted on the
 //! way and the host recovers through snapshots.
+#[path = "support/device.rs"]
+mod support;
+
 use serde_json::Value;
 use std::io::{ErrorKind, Read, Write};
 use std::net::{TcpListener, TcpStream};
@@ -12,6 +15,7 @@ use std::process::{Child, Command, Output, Stdio};
 use std::sync::mpsc;
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
+use support::serve_commands;
 use terrain_pyramid::design::{Schedule, SensorModel};
 use terrain_pyramid::link::{Link, LinkConfig, SensorCounters};
 use terrain_pyramid::{
@@ -148,8 +152,8 @@ fn serve(listener: TcpListener, plan: Plan, settled: mpsc::Sender<()>) -> Served
         stats_interval_ms: 200,
         ..LinkConfig::DEFAULT
     }));
-    link.configure(&mut pyramid, &design(), &Config::default())
-        .unwrap();
+    pyramid.configure(&design(), &Config::default()).unwrap();
+    link.adopt(&design());
     let mut channel = Channel {
         pending: Vec::new(),
         dropped: 0,
@@ -188,7 +192,7 @@ fn serve(listener: TcpListener, plan: Plan, settled: mpsc::Sender<()>) -> Served
                     } else {
                         EvidenceClass::Navigable
                     },
-                    distance: Meters::from_num(rng.unit() * 10.0),
+                    weight: terrain_pyramid::Weight::from_num(rng.unit()),
                 });
             }
         }
@@ -215,7 +219,7 @@ fn serve(listener: TcpListener, plan: Plan, settled: mpsc::Sender<()>) -> Served
                 }
                 Ok(n) => {
                     last_command = Instant::now();
-                    link.receive(&rx[..n], &mut *pyramid, |_| {});
+                    serve_commands(&mut link, &mut pyramid, &rx[..n]);
                 }
                 Err(e) if e.kind() == ErrorKind::WouldBlock => break,
                 Err(e) if e.kind() == ErrorKind::Interrupted => {}

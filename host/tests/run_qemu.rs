@@ -1,55 +1,16 @@
-//! The emulated co-processor against the in-process pipeline: `pyramid run --board qemu` and
-//! `--board host` on the same recording and flags must give bit-identical layers (every raw
-//! cell of every layer, the windows' origins and resolutions).
+//! The emulated co-processor against the in-process pipeline: `pyramid run --board qemu` (and
+//! `--board netduinoplus2`, the STM32F4 firmware) and `--board host` on the same recording and
+//! flags must give bit-identical layers (every raw cell of every layer, the windows' origins
+//! and resolutions). The micro:bit, whose pyramid is smaller, has its own: `run_microbit.rs`.
 //!
 //! QEMU (`qemu-system-arm`) and the `thumbv7em-none-eabihf` target are required: without them
 //! the test FAILS, unless `PYRAMID_SKIP_QEMU=1` is set. The 3DTK scan (`../shared/data`) is
 //! used when present; a small synthetic recording written here always runs.
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::Command;
-use terrain_pyramid::wire::recording::{emit_header, Event, MountKind, Payload, Setup};
-use terrain_pyramid::wire::sick::{MeasuredValues, Unit};
 
-const PYRAMID: &str = env!("CARGO_BIN_EXE_pyramid");
-const SHARED: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../shared/data");
-
-/// The shared data directory: `PYRAMID_SHARED_DATA` if set, else `../shared/data` beside the
-/// workspace.
-fn shared(file: &str) -> PathBuf {
-    let dir = std::env::var_os("PYRAMID_SHARED_DATA")
-        .map_or_else(|| PathBuf::from(SHARED), PathBuf::from);
-    dir.join("3dtk-tilt-scan").join(file)
-}
-
-fn skip_qemu() -> bool {
-    std::env::var("PYRAMID_SKIP_QEMU").is_ok_and(|v| v == "1")
-}
-
-fn qemu_ready() -> bool {
-    let qemu = Command::new("qemu-system-arm")
-        .arg("--version")
-        .output()
-        .is_ok_and(|o| o.status.success());
-    assert!(
-        qemu || skip_qemu(),
-        "qemu-system-arm is missing: `sudo apt-get install -y qemu-system-arm` and \
-         `rustup target add thumbv7em-none-eabihf` (or set PYRAMID_SKIP_QEMU=1 to skip)"
-    );
-    qemu
-}
-
-/// A fresh directory; under `PYRAMID_QEMU_OUT` when set (and then kept).
-fn tmp(name: &str) -> PathBuf {
-    let dir = match std::env::var_os("PYRAMID_QEMU_OUT") {
-        Some(base) => PathBuf::from(base).join(name),
-        None => {
-            std::env::temp_dir().join(format!("pyramid-run-qemu-{}-{name}", std::process::id()))
-        }
-    };
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
+mod common;
+use common::{qemu_ready, record_3dtk, synthetic_recording, tmp, PYRAMID};
 
 fn run(board: &str, recording: &Path, out: &Path, flags: &[&str]) -> serde_json::Value {
     let output = Command::new(PYRAMID)
@@ -68,11 +29,12 @@ fn run(board: &str, recording: &Path, out: &Path, flags: &[&str]) -> serde_json:
     serde_json::from_slice(&output.stdout).unwrap()
 }
 
-/// Runs both boards and compares every raw cell; returns the number of cells compared.
-fn compare(recording: &Path, dir: &Path, flags: &[&str]) -> usize {
-    let (host_dir, qemu_dir) = (dir.join("host"), dir.join("qemu"));
+/// Runs `--board host` and `--board board` and compares every raw cell; returns the number of
+/// cells compared.
+fn compare(board: &str, recording: &Path, dir: &Path, flags: &[&str]) -> usize {
+    let (host_dir, qemu_dir) = (dir.join("host"), dir.join(board));
     let host = run("host", recording, &host_dir, flags);
-    let qemu = run("qemu", recording, &qemu_dir, flags);
+    let qemu = run(board, recording, &qemu_dir, flags);
     assert_eq!(host["telegrams_sent"], qemu["telegrams_sent"]);
     assert_eq!(host["telegrams_applied"], qemu["telegrams_applied"]);
     assert_eq!(qemu["telegrams_applied"], qemu["telegrams_sent"]);
@@ -106,119 +68,69 @@ fn compare(recording: &Path, dir: &Path, flags: &[&str]) -> usize {
         observed > 0,
         "nothing was observed: the comparison is empty"
     );
-    eprintln!("{cells} cells compared ({observed} observed): identical");
+    let stack = qemu["stack_bytes"].as_u64().unwrap_or(0);
+    assert!(
+        stack > 0,
+        "{board}: no stack high-water mark in the Reply to Shutdown"
+    );
+    eprintln!(
+        "{board}: {cells} cells compared ({observed} observed): identical, layers_hash {}, \
+         stack high-water {stack} bytes",
+        host["layers_hash"]
+    );
     cells
 }
 
-/// A SICK at 0.5 m on a tilt unit over flat floor with a wall 2 m ahead, 40 lines of one
-/// sweep, two poses: written with the library's recording writer.
-fn synthetic_recording(path: &Path) {
-    let mut file = vec![0_u8; 16];
-    emit_header(&mut file).unwrap();
-    let mut clock = 0_u64;
-    let mut push = |payload: Payload<'_>, _time_us: u64| {
-        clock += 1000;
-        let event = Event {
-            time_us: clock,
-            payload,
-        };
-        let mut buf = vec![0_u8; event.buffer_len()];
-        let n = event.emit(&mut buf).unwrap();
-        file.extend_from_slice(&buf[..n]);
-    };
-    push(
-        Payload::Setup(Setup {
-            mount: MountKind::TiltedHorizontal,
-            measuring_mode: 0,
-            field_deg: 180,
-            resolution_cdeg: 50,
-            sensor_m: [0.1, 0.0, 0.5],
-            lines_per_observation: 20,
-        }),
-        0,
-    );
-    push(Payload::Pose([0.0, 0.0, 0.0, 0.0, 0.0, 0.0]), 1);
-    for line in 0..40_u32 {
-        let tilt_deg = 5.0 + f64::from(line);
-        if line == 20 {
-            push(
-                Payload::Pose([0.35, 0.1, 0.0, 0.0, 0.0, 0.2]),
-                2 + u64::from(line),
-            );
-        }
-        let turns = (tilt_deg / 360.0 * 65_536.0).round() as u16;
-        push(Payload::Angle(turns), 10 + u64::from(line) * 1000);
-        let tau = tilt_deg.to_radians();
-        let mut values = Vec::new();
-        for i in 0..361 {
-            let theta = (f64::from(i) * 0.5).to_radians();
-            let (dx, dz) = (theta.sin() * tau.cos(), -theta.sin() * tau.sin());
-            let floor = if dz < -1e-6 { 0.5 / -dz } else { f64::INFINITY };
-            let wall = if dx > 1e-6 { 2.0 / dx } else { f64::INFINITY };
-            let r = floor.min(wall);
-            let raw: u16 = if r < 8.0 {
-                (r * 1000.0).round() as u16
-            } else {
-                0x1FFF
-            };
-            values.extend_from_slice(&raw.to_le_bytes());
-        }
-        let measured = MeasuredValues::new(Unit::Millimetre, 0, &values, None, 0x10).unwrap();
-        let mut telegram = vec![0_u8; measured.buffer_len()];
-        let n = measured.emit(&mut telegram).unwrap();
-        // Cut in two chunks, as a UART delivers them.
-        let (a, b) = telegram[..n].split_at(n / 3);
-        push(Payload::Laser(a), 20 + u64::from(line) * 1000);
-        push(Payload::Laser(b), 21 + u64::from(line) * 1000);
-    }
-    std::fs::write(path, file).unwrap();
-}
-
-#[test]
-fn qemu_matches_host_on_a_synthetic_recording() {
+/// The synthetic recording through `board` and the host, compared cell for cell.
+fn synthetic(board: &str) {
     if !qemu_ready() {
         eprintln!("PYRAMID_SKIP_QEMU=1: skipped");
         return;
     }
-    let dir = tmp("synthetic");
+    let dir = tmp(&format!("synthetic-{board}"));
     let recording = dir.join("synthetic.rec");
     synthetic_recording(&recording);
-    let cells = compare(&recording, &dir, &["--drop-m", "0.3"]);
+    let cells = compare(board, &recording, &dir, &["--drop-m", "0.3"]);
     assert_eq!(cells, 8 * 64 * 64);
     if std::env::var_os("PYRAMID_QEMU_OUT").is_none() {
         let _ = std::fs::remove_dir_all(&dir);
     }
 }
 
-#[test]
-fn qemu_matches_host_on_the_3dtk_scan() {
-    let (scan, pose) = (shared("scan000.3d"), shared("scan000.pose"));
-    if !scan.is_file() || !pose.is_file() {
-        eprintln!(
-            "note: {} is absent: the 3DTK comparison is skipped",
-            scan.display()
-        );
-        return;
-    }
+/// The 3DTK scan (when present) through `board` and the host, compared cell for cell.
+fn scan_3dtk(board: &str) {
     if !qemu_ready() {
         eprintln!("PYRAMID_SKIP_QEMU=1: skipped");
         return;
     }
-    let dir = tmp("3dtk");
-    let recording = dir.join("scan000.rec");
-    let status = Command::new(PYRAMID)
-        .arg("record-3dtk")
-        .arg(&scan)
-        .arg("--pose")
-        .arg(&pose)
-        .arg("--out")
-        .arg(&recording)
-        .status()
-        .unwrap();
-    assert!(status.success());
+    let dir = tmp(&format!("3dtk-{board}"));
+    let Some(recording) = record_3dtk(&dir) else {
+        return;
+    };
     let flags = ["--height-m", "0.4", "--max-range-m", "8", "--gamma", "3"];
-    compare(&recording, &dir, &flags);
+    compare(board, &recording, &dir, &flags);
     if std::env::var_os("PYRAMID_QEMU_OUT").is_none() {
         let _ = std::fs::remove_dir_all(&dir);
     }
+}
+
+#[test]
+fn qemu_matches_host_on_a_synthetic_recording() {
+    synthetic("qemu");
+}
+
+#[test]
+fn qemu_matches_host_on_the_3dtk_scan() {
+    scan_3dtk("qemu");
+}
+
+/// The STM32F4 firmware on QEMU's STM32F405 (a stand-in scanner answers its bring-up).
+#[test]
+fn netduinoplus2_matches_host_on_a_synthetic_recording() {
+    synthetic("netduinoplus2");
+}
+
+#[test]
+fn netduinoplus2_matches_host_on_the_3dtk_scan() {
+    scan_3dtk("netduinoplus2");
 }

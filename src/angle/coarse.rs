@@ -29,7 +29,7 @@ const FRAC_1_TAU_Q32: u32 = U0F32::FRAC_1_TAU.to_bits();
 ///
 /// Resolution 2⁻¹⁶ turn (≈ 0.0055°, ≈ 95.9 µrad); every value of the type is a valid angle,
 /// and all arithmetic on it wraps modulo one turn. Zero is the mechanical zero of whatever
-/// supplies it (for an encoder: after its [`EncoderMount`]); angles grow in the direction the
+/// supplies it (for an encoder: after its [`EncoderMount`](crate::drivers::angle::EncoderMount)); angles grow in the direction the
 /// source defines as positive (for the pan axis: counter-clockwise seen from above, by the
 /// convention of the board's mounting).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Default)]

@@ -45,7 +45,9 @@
 //! the spread can only be underestimated, never invented. The f64 reference keeps every point
 //! and applies the rule exactly; `host-tests` measures the agreement.
 
-use crate::gate::DistanceBins;
+use crate::design::{Design, DesignError};
+use crate::gate::Gates;
+use crate::logodds::Increments;
 use crate::pyramid::{Evidence, EvidenceClass, Pyramid};
 use crate::units::{Meters, Point3};
 
@@ -138,8 +140,8 @@ const RECENT_LAYERS: usize = 8;
 /// a fresh classifier) is all zero bits.
 const EMPTY: u8 = 0;
 
-/// The layers whose cell size the classifier keeps for the plane rule's decision: the cells of
-/// layers 32 and up (pyramids of more than 32 layers) are judged by the spread.
+/// The layers whose cell reciprocal the classifier caches for the plane rule's position in the
+/// cell (layers 32 and up, in pyramids of more than 32 layers, compute it per point).
 const RULE_LAYERS: usize = 32;
 
 /// One touched layer cell of the current observation. 48 bytes.
@@ -174,8 +176,9 @@ impl Slot {
     };
 }
 
-/// Scratch and counters for classifying observations with `C` cell slots (a power of two).
-pub struct Classifier<const C: usize> {
+/// Scratch and counters for classifying observations with `C` cell slots (a power of two),
+/// and the gating of a design of up to `L` layers.
+pub struct Classifier<const C: usize, const L: usize> {
     slots: [Slot; C],
     /// Slots in use.
     used: usize,
@@ -190,8 +193,8 @@ pub struct Classifier<const C: usize> {
     /// ([`crate::grid::cell_reciprocal`]), recomputed when the size changes: where there is
     /// no hardware division, cell indices are found by a multiplication.
     reciprocals: [(i32, u32); RECENT_LAYERS],
-    /// The pyramid's distance binning, as of the last point (records carry bin edges).
-    bins: DistanceBins,
+    /// The design's gating: which layers a point feeds, with which weight.
+    gates: Gates<L>,
     config: ClassifierConfig,
     /// The observation's reference height, raw Q16.16: z values are stored relative to it.
     reference_z: i32,
@@ -200,16 +203,16 @@ pub struct Classifier<const C: usize> {
     step_mm: i16,
     /// The plane rule's parameters in its units, and whether it is in force.
     plane: Option<PlaneParams>,
-    /// Per layer (the first [`RULE_LAYERS`]), its cell size (raw) as of its last point, and
-    /// for layers 8 and up its reciprocal ([`crate::grid::cell_reciprocal`]; the first eight
-    /// keep theirs in `reciprocals`).
+    /// For layers 8 up to [`RULE_LAYERS`], the cell size (raw) of its last point and its
+    /// reciprocal ([`crate::grid::cell_reciprocal`]; the first eight keep theirs in
+    /// `reciprocals`, layers beyond compute it per point).
     layer_cells: [(i32, u32); RULE_LAYERS],
     /// The robot's ground plane as of the last point (raw Q16.16).
     ground_z: i32,
     stats: ClassifierStats,
 }
 
-impl<const C: usize> core::fmt::Debug for Classifier<C> {
+impl<const C: usize, const L: usize> core::fmt::Debug for Classifier<C, L> {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
         f.debug_struct("Classifier")
             .field("slots", &C)
@@ -243,7 +246,7 @@ fn hash(layer: u8, x: i32, y: i32) -> u32 {
     h ^ (h >> 15)
 }
 
-impl<const C: usize> Classifier<C> {
+impl<const C: usize, const L: usize> Classifier<C, L> {
     const MASK: usize = {
         assert!(
             C.is_power_of_two() && C <= 65_536,
@@ -252,7 +255,8 @@ impl<const C: usize> Classifier<C> {
         C - 1
     };
 
-    /// An empty classifier with the default configuration. `const`, for a `static`.
+    /// An empty classifier with the default configuration and no gating yet
+    /// ([`adopt_design`](Self::adopt_design) gives it one). `const`, for a `static`.
     #[must_use]
     pub const fn new() -> Self {
         let mut classifier = Self::unconfigured();
@@ -279,7 +283,7 @@ impl<const C: usize> Classifier<C> {
             recent: [0; RECENT_LAYERS],
             last_bin: 0,
             reciprocals: [(0, 0); RECENT_LAYERS],
-            bins: DistanceBins::UNCONFIGURED,
+            gates: Gates::new(),
             config: ClassifierConfig {
                 robot_height: Meters::ZERO,
                 step_threshold: Meters::ZERO,
@@ -325,6 +329,27 @@ impl<const C: usize> Classifier<C> {
         self.config
     }
 
+    /// Adopts the gating of a design with the increments in force, and forgets the current
+    /// observation. On error nothing changes.
+    ///
+    /// # Errors
+    /// A layer's resolution cannot be represented.
+    pub fn adopt_design(
+        &mut self,
+        design: &Design<L>,
+        increments: Increments,
+    ) -> Result<(), DesignError> {
+        self.gates.configure(design, increments)?;
+        self.discard();
+        Ok(())
+    }
+
+    /// The gating in force.
+    #[must_use]
+    pub const fn gates(&self) -> &Gates<L> {
+        &self.gates
+    }
+
     /// The counters since construction.
     #[must_use]
     pub const fn stats(&self) -> ClassifierStats {
@@ -355,32 +380,21 @@ impl<const C: usize> Classifier<C> {
 
     /// Adds one world point measured at horizontal distance `distance` from the sensor, with
     /// the robot's ground plane at `ground_z`.
-    pub fn add_point<const W: usize, const L: usize>(
-        &mut self,
-        pyramid: &Pyramid<W, L>,
-        point: Point3,
-        distance: Meters,
-        ground_z: Meters,
-    ) {
-        let bin = pyramid.distance_bins().bin(distance);
-        self.add_point_in_bin(pyramid, point, bin, ground_z);
+    pub fn add_point(&mut self, point: Point3, distance: Meters, ground_z: Meters) {
+        let bin = self.gates.distance_bins().bin(distance);
+        self.add_point_in_bin(point, bin, ground_z);
     }
 
     /// [`add_point`](Self::add_point) with the horizontal distance given by its square
     /// (raw Q16.16 units squared, 2⁻³² m², as
     /// [`LineTransform::locate_squared`](crate::geometry::LineTransform::locate_squared)
     /// gives it): exactly the same as `add_point` with the rounded square root, without
-    /// computing the root ([`DistanceBins::bin_of_squared`]).
+    /// computing the root ([`DistanceBins::bin_of_squared`](crate::gate::DistanceBins::bin_of_squared)).
     #[inline]
-    pub fn add_point_squared<const W: usize, const L: usize>(
-        &mut self,
-        pyramid: &Pyramid<W, L>,
-        point: Point3,
-        horizontal_squared: u64,
-        ground_z: Meters,
-    ) {
+    pub fn add_point_squared(&mut self, point: Point3, horizontal_squared: u64, ground_z: Meters) {
         // The previous point's bin first: neighbouring returns mostly share it.
-        let bin = pyramid
+        let bin = self
+            .gates
             .distance_bins()
             .bin_of_squared_near(horizontal_squared, usize::from(self.last_bin));
         // bin < GATE_BINS = 512.
@@ -388,18 +402,12 @@ impl<const C: usize> Classifier<C> {
         {
             self.last_bin = bin as u16;
         }
-        self.add_point_in_bin(pyramid, point, bin, ground_z);
+        self.add_point_in_bin(point, bin, ground_z);
     }
 
     /// [`add_point`](Self::add_point) for a distance already binned.
     #[inline]
-    fn add_point_in_bin<const W: usize, const L: usize>(
-        &mut self,
-        pyramid: &Pyramid<W, L>,
-        point: Point3,
-        bin: usize,
-        ground_z: Meters,
-    ) {
+    fn add_point_in_bin(&mut self, point: Point3, bin: usize, ground_z: Meters) {
         self.stats.points = self.stats.points.saturating_add(1);
         self.ground_z = ground_z.to_bits();
         if let Some(ceiling) = self.config.ceiling {
@@ -416,7 +424,7 @@ impl<const C: usize> Classifier<C> {
             self.stats.drop_points = self.stats.drop_points.saturating_add(1);
         }
         let z = mm_i16(point.z.to_bits().saturating_sub(self.reference_z));
-        if self.feed(pyramid, point, bin, z, hole) {
+        if self.feed(point, bin, z, hole) {
             self.stats.points_used = self.stats.points_used.saturating_add(1);
         } else {
             self.stats.points_gated_out = self.stats.points_gated_out.saturating_add(1);
@@ -425,45 +433,29 @@ impl<const C: usize> Classifier<C> {
 
     /// Marks the cells at `expected` (where a beam should have met the ground, at horizontal
     /// distance `distance`) as missing ground: not navigable, whatever else they hold.
-    pub fn add_missing_ground<const W: usize, const L: usize>(
-        &mut self,
-        pyramid: &Pyramid<W, L>,
-        expected: Point3,
-        distance: Meters,
-    ) {
+    pub fn add_missing_ground(&mut self, expected: Point3, distance: Meters) {
         let z = mm_i16(expected.z.to_bits().saturating_sub(self.reference_z));
-        let bin = pyramid.distance_bins().bin(distance);
-        self.feed(pyramid, expected, bin, z, true);
+        let bin = self.gates.distance_bins().bin(distance);
+        self.feed(expected, bin, z, true);
     }
 
     /// Adds a point (its distance in gate bin `bin`) to every layer cell whose gate passes
     /// it; `true` when at least one did.
     #[inline]
-    fn feed<const W: usize, const L: usize>(
-        &mut self,
-        pyramid: &Pyramid<W, L>,
-        point: Point3,
-        bin: usize,
-        z: i16,
-        hole: bool,
-    ) -> bool {
-        self.bins = pyramid.distance_bins();
+    fn feed(&mut self, point: Point3, bin: usize, z: i16, hole: bool) -> bool {
         let bin_index = u16::try_from(bin).unwrap_or(u16::MAX);
         let mut fed = false;
-        let layers = pyramid.active_layers();
-        let gates = pyramid.active_gates();
-        let min_weight = pyramid.min_feeding_weight();
+        let min_weight = self.gates.min_feeding_weight();
         // The first eight layers from the precomputed mask of the bin's group: only layers
         // that may be fed are visited, and their weights checked.
-        let mut mask = pyramid.fed_layers(bin);
+        let mut mask = self.gates.fed_layers(bin);
         let mut k = 0_u8;
         while mask != 0 {
             if mask & 1 != 0 {
-                if let (Some(layer), Some(gate)) =
-                    (layers.get(usize::from(k)), gates.get(usize::from(k)))
-                {
+                let gate = self.gates.tables().get(usize::from(k));
+                if let (Some(r), Some(gate)) = (self.gates.resolution(usize::from(k)), gate) {
                     if gate.weight(bin) >= min_weight {
-                        let (cx, cy, sub) = self.cell_of(usize::from(k), layer.resolution(), point);
+                        let (cx, cy, sub) = self.cell_of(usize::from(k), r, point);
                         // Stored as k + 1 (0 marks an empty slot); k < 8.
                         fed |= self.feed_cell(k + 1, cx, cy, sub, bin_index, z, hole);
                     }
@@ -473,8 +465,8 @@ impl<const C: usize> Classifier<C> {
             k += 1;
         }
         // Layers from the ninth on (pyramids of more than eight), by their weights.
-        if layers.len() > 8 {
-            fed |= self.feed_beyond_eight(pyramid, point, bin, z, hole);
+        if self.gates.layer_count() > 8 {
+            fed |= self.feed_beyond_eight(point, bin, z, hole);
         }
         fed
     }
@@ -482,19 +474,12 @@ impl<const C: usize> Classifier<C> {
     /// [`Classifier::feed`] for layers 8 and up, by their gate weights (out of line: the
     /// default pyramid has eight layers).
     #[inline(never)]
-    fn feed_beyond_eight<const W: usize, const L: usize>(
-        &mut self,
-        pyramid: &Pyramid<W, L>,
-        point: Point3,
-        bin: usize,
-        z: i16,
-        hole: bool,
-    ) -> bool {
+    fn feed_beyond_eight(&mut self, point: Point3, bin: usize, z: i16, hole: bool) -> bool {
         let bin_index = u16::try_from(bin).unwrap_or(u16::MAX);
-        let min_weight = pyramid.min_feeding_weight();
+        let min_weight = self.gates.min_feeding_weight();
         let mut fed = false;
-        for k in 8..pyramid.layer_count() {
-            let (Some(layer), Some(gate)) = (pyramid.layer(k), pyramid.gate(k)) else {
+        for k in 8..self.gates.layer_count() {
+            let (Some(r), Some(gate)) = (self.gates.resolution(k), self.gates.table(k)) else {
                 break;
             };
             if gate.weight(bin) < min_weight {
@@ -504,7 +489,7 @@ impl<const C: usize> Classifier<C> {
             let Ok(layer_index) = u8::try_from(k + 1) else {
                 break;
             };
-            let bits = layer.resolution().to_bits();
+            let bits = r.to_bits();
             let reciprocal = match self.layer_cells.get_mut(k) {
                 Some(cell) => {
                     if cell.0 != bits || cell.1 == 0 {
@@ -514,15 +499,7 @@ impl<const C: usize> Classifier<C> {
                 }
                 None => crate::grid::cell_reciprocal(bits),
             };
-            fed |= self.feed_layer(
-                layer_index,
-                layer.resolution(),
-                reciprocal,
-                point,
-                bin_index,
-                z,
-                hole,
-            );
+            fed |= self.feed_layer(layer_index, r, reciprocal, point, bin_index, z, hole);
         }
         fed
     }
@@ -541,9 +518,6 @@ impl<const C: usize> Classifier<C> {
         point: Point3,
     ) -> (i32, i32, (i8, i8)) {
         let bits = r.to_bits();
-        if let Some(cell) = self.layer_cells.get_mut(k) {
-            cell.0 = bits;
-        }
         let plane = self.plane.is_some();
         if cfg!(all(target_arch = "arm", target_has_atomic = "32")) && !plane {
             return (r.cell_of(point.x), r.cell_of(point.y), (0, 0));
@@ -725,10 +699,13 @@ impl<const C: usize> Classifier<C> {
                 if slot.layer == EMPTY {
                     continue;
                 }
-                let distance = self.bins.lower_edge(usize::from(slot.bin));
+                let distance = self.gates.distance_bins().lower_edge(usize::from(slot.bin));
                 let spread = i32::from(slot.z_high) - i32::from(slot.z_low);
                 let layer = slot.layer.saturating_sub(1);
-                let cell = self.layer_cells.get(usize::from(layer)).map(|c| c.0);
+                let cell = self
+                    .gates
+                    .resolution(usize::from(layer))
+                    .map(crate::grid::Resolution::to_bits);
                 let obstacle = slot.hole
                     || match (&self.plane, cell) {
                         (Some(params), _) if params.flat_enough(spread) => false,
@@ -750,12 +727,19 @@ impl<const C: usize> Classifier<C> {
                 } else {
                     EvidenceClass::Navigable
                 };
+                let layer = slot.layer.saturating_sub(1);
+                let weight = self
+                    .gates
+                    .table(usize::from(layer))
+                    .map_or(crate::units::Weight::ZERO, |t| {
+                        t.weight(usize::from(slot.bin))
+                    });
                 sink(Evidence {
                     layer,
                     cell_x: slot.cell_x,
                     cell_y: slot.cell_y,
                     class,
-                    distance,
+                    weight,
                 });
                 *slot = Slot::VACANT;
             }
@@ -766,7 +750,7 @@ impl<const C: usize> Classifier<C> {
     }
 
     /// Ends the observation and integrates its evidence into `pyramid`.
-    pub fn finish_into<const W: usize, const L: usize>(&mut self, pyramid: &mut Pyramid<W, L>) {
+    pub fn finish_into<const W: usize>(&mut self, pyramid: &mut Pyramid<W, L>) {
         self.finish(|record| {
             pyramid.apply(&record);
         });
@@ -814,7 +798,7 @@ fn fold(
     }
 }
 
-impl<const C: usize> Default for Classifier<C> {
+impl<const C: usize, const L: usize> Default for Classifier<C, L> {
     fn default() -> Self {
         Self::new()
     }
@@ -829,15 +813,31 @@ mod tests {
     extern crate std;
     use std::vec::Vec;
 
-    fn pyramid(gate: GateShape) -> Pyramid<64, 8> {
+    fn design(gate: GateShape) -> Design<8> {
         let schedule = Schedule {
             gate,
             ..Schedule::default()
         };
-        let design = Design::<8>::new(SensorModel::default(), schedule, 64).unwrap();
+        Design::<8>::new(SensorModel::default(), schedule, 64).unwrap()
+    }
+
+    fn pyramid(gate: GateShape) -> Pyramid<64, 8> {
         let mut p = Pyramid::new();
-        p.configure(&design, &Config::default()).unwrap();
+        p.configure(&design(gate), &Config::default()).unwrap();
         p
+    }
+
+    /// A classifier of `C` slots with the default thresholds and the gating of the default
+    /// design with `gate`.
+    fn classifier<const C: usize>(gate: GateShape) -> Classifier<C, 8> {
+        let mut c = Classifier::new();
+        adopt(&mut c, gate);
+        c
+    }
+
+    fn adopt<const C: usize>(c: &mut Classifier<C, 8>, gate: GateShape) {
+        let increments = Config::default().model.increments().unwrap();
+        c.adopt_design(&design(gate), increments).unwrap();
     }
 
     fn pt(x: f32, y: f32, z: f32) -> Point3 {
@@ -848,7 +848,7 @@ mod tests {
         }
     }
 
-    fn records(c: &mut Classifier<256>) -> Vec<Evidence> {
+    fn records(c: &mut Classifier<256, 8>) -> Vec<Evidence> {
         let mut out = Vec::new();
         c.finish(|r| out.push(r));
         out
@@ -856,37 +856,33 @@ mod tests {
 
     #[test]
     fn flat_ground_is_navigable_and_a_step_is_an_obstacle() {
-        let p = pyramid(GateShape::Hard);
-        let mut c = Classifier::<256>::new();
+        let mut c = classifier::<256>(GateShape::Hard);
         c.begin(Meters::ZERO);
         let d = Meters::from_num(0.3);
         // Cell (3, 0) of layer 0: flat within 2 cm.
-        c.add_point(&p, pt(0.31, 0.02, 0.00), d, Meters::ZERO);
-        c.add_point(&p, pt(0.35, 0.05, 0.02), d, Meters::ZERO);
+        c.add_point(pt(0.31, 0.02, 0.00), d, Meters::ZERO);
+        c.add_point(pt(0.35, 0.05, 0.02), d, Meters::ZERO);
         // Cell (2, 0): a 10 cm step.
-        c.add_point(&p, pt(0.21, 0.02, 0.00), d, Meters::ZERO);
-        c.add_point(&p, pt(0.25, 0.05, 0.10), d, Meters::ZERO);
+        c.add_point(pt(0.21, 0.02, 0.00), d, Meters::ZERO);
+        c.add_point(pt(0.25, 0.05, 0.10), d, Meters::ZERO);
         let mut r = records(&mut c);
         r.sort_by_key(|e| e.cell_x);
         assert_eq!(r.len(), 2);
         assert_eq!((r[0].cell_x, r[0].class), (2, EvidenceClass::Obstacle));
         assert_eq!((r[1].cell_x, r[1].class), (3, EvidenceClass::Navigable));
-        let bins = p.distance_bins();
-        assert!(r
-            .iter()
-            .all(|e| e.layer == 0 && bins.bin(e.distance) == bins.bin(d)));
+        let w = c.gates().weight_at(0, d);
+        assert!(r.iter().all(|e| e.layer == 0 && e.weight == w));
         assert_eq!(c.cells_in_use(), 0);
     }
 
     #[test]
     fn overhang_above_the_robot_is_ignored_in_any_order() {
-        let p = pyramid(GateShape::Hard);
         let d = Meters::from_num(0.2);
         for order in [[0.0, 1.5, 0.01], [1.5, 0.0, 0.01], [1.5, 0.01, 0.0]] {
-            let mut c = Classifier::<256>::new();
+            let mut c = classifier::<256>(GateShape::Hard);
             c.begin(Meters::ZERO);
             for z in order {
-                c.add_point(&p, pt(0.05, 0.05, z), d, Meters::ZERO);
+                c.add_point(pt(0.05, 0.05, z), d, Meters::ZERO);
             }
             let r = records(&mut c);
             assert_eq!(r.len(), 1);
@@ -922,17 +918,16 @@ mod tests {
     #[test]
     fn add_point_squared_is_add_point_with_the_rounded_root() {
         use crate::geometry::transform::isqrt_round;
-        let p = pyramid(GateShape::default());
-        let mut a = Classifier::<256>::new();
-        let mut b = Classifier::<256>::new();
+        let mut a = classifier::<256>(GateShape::default());
+        let mut b = classifier::<256>(GateShape::default());
         a.begin(Meters::ZERO);
         b.begin(Meters::ZERO);
         for i in 0..2000_u64 {
             let sq = (i * 7_919_u64).pow(2) * 37 + i;
             let d = Meters::from_bits(i32::try_from(isqrt_round(sq)).unwrap());
             let q = pt(0.01 * i as f32 - 10.0, 0.3, 0.001 * (i % 97) as f32);
-            a.add_point(&p, q, d, Meters::ZERO);
-            b.add_point_squared(&p, q, sq, Meters::ZERO);
+            a.add_point(q, d, Meters::ZERO);
+            b.add_point_squared(q, sq, Meters::ZERO);
         }
         let (ra, rb) = (records(&mut a), records(&mut b));
         assert!(!ra.is_empty());
@@ -948,7 +943,6 @@ mod tests {
 
     #[test]
     fn the_paper_rule_stays_available() {
-        let p = pyramid(GateShape::Hard);
         let d = Meters::from_num(0.3);
         // A plane rising 6 cm across the cell's 0.1 m (31°), four points at its corners.
         let cell = [
@@ -957,11 +951,11 @@ mod tests {
             pt(0.301, 0.09, 0.00),
             pt(0.399, 0.09, 0.06),
         ];
-        let mut c = Classifier::<256>::new();
-        let classify = |c: &mut Classifier<256>| {
+        let mut c = classifier::<256>(GateShape::Hard);
+        let classify = |c: &mut Classifier<256, 8>| {
             c.begin(Meters::ZERO);
             for q in cell {
-                c.add_point(&p, q, d, Meters::ZERO);
+                c.add_point(q, d, Meters::ZERO);
             }
             records(c)[0].class
         };
@@ -978,8 +972,8 @@ mod tests {
 
     #[test]
     fn new_is_the_default_configuration() {
-        let fresh = Classifier::<8>::new();
-        let mut configured = Classifier::<8>::unconfigured();
+        let fresh = Classifier::<8, 8>::new();
+        let mut configured = Classifier::<8, 8>::unconfigured();
         configured.configure(ClassifierConfig::default());
         assert_eq!(fresh.config(), configured.config());
         assert_eq!(
@@ -994,54 +988,44 @@ mod tests {
 
     #[test]
     fn a_single_point_always_looks_navigable() {
-        let p = pyramid(GateShape::Hard);
-        let mut c = Classifier::<256>::new();
+        let mut c = classifier::<256>(GateShape::Hard);
         c.begin(Meters::ZERO);
-        c.add_point(&p, pt(0.05, 0.05, 0.4), Meters::from_num(0.2), Meters::ZERO);
+        c.add_point(pt(0.05, 0.05, 0.4), Meters::from_num(0.2), Meters::ZERO);
         assert_eq!(records(&mut c)[0].class, EvidenceClass::Navigable);
     }
 
     #[test]
-    fn record_distance_is_the_closest_look() {
-        let p = pyramid(GateShape::Hard);
-        let mut c = Classifier::<256>::new();
+    fn record_weight_is_the_gate_at_the_closest_look() {
+        let mut c = classifier::<256>(GateShape::default());
         c.begin(Meters::ZERO);
-        c.add_point(&p, pt(0.05, 0.05, 0.0), Meters::from_num(0.4), Meters::ZERO);
-        c.add_point(&p, pt(0.06, 0.05, 0.0), Meters::from_num(0.2), Meters::ZERO);
-        c.add_point(&p, pt(0.07, 0.05, 0.0), Meters::from_num(0.3), Meters::ZERO);
+        c.add_point(pt(0.05, 0.05, 0.0), Meters::from_num(0.4), Meters::ZERO);
+        c.add_point(pt(0.06, 0.05, 0.0), Meters::from_num(0.2), Meters::ZERO);
+        c.add_point(pt(0.07, 0.05, 0.0), Meters::from_num(0.3), Meters::ZERO);
         // The closest look, 0.2 m, is kept as its gate bin: 0.2 · 32 = 6.4 → bin 6, whose
-        // lower edge is 6/32 = 0.1875 m.
-        assert_eq!(records(&mut c)[0].distance, Meters::from_num(0.1875));
+        // lower edge is 6/32 = 0.1875 m; the record carries layer 0's weight there.
+        let r = records(&mut c);
+        let layer0 = r.iter().find(|e| e.layer == 0).unwrap();
+        let gates = c.gates();
+        assert_eq!(layer0.weight, gates.weight_at(0, Meters::from_num(0.1875)));
+        assert_ne!(layer0.weight, gates.weight_at(0, Meters::from_num(0.4)));
     }
 
     #[test]
     fn hard_gate_sends_each_point_to_one_layer_soft_to_several() {
-        let hard = pyramid(GateShape::Hard);
-        let soft = pyramid(GateShape::default());
-        let mut c = Classifier::<256>::new();
+        let mut c = classifier::<256>(GateShape::Hard);
         c.begin(Meters::ZERO);
-        c.add_point(
-            &hard,
-            pt(2.0, 0.0, 0.0),
-            Meters::from_num(2.0),
-            Meters::ZERO,
-        );
+        c.add_point(pt(2.0, 0.0, 0.0), Meters::from_num(2.0), Meters::ZERO);
         assert_eq!(records(&mut c).len(), 1);
-        c.add_point(
-            &soft,
-            pt(2.0, 0.0, 0.0),
-            Meters::from_num(2.0),
-            Meters::ZERO,
-        );
+        adopt(&mut c, GateShape::default());
+        c.add_point(pt(2.0, 0.0, 0.0), Meters::from_num(2.0), Meters::ZERO);
         assert!(records(&mut c).len() >= 2);
     }
 
     #[test]
     fn drop_offs_and_missing_ground_are_obstacles_when_enabled() {
-        let p = pyramid(GateShape::Hard);
         let d = Meters::from_num(0.3);
         for rule in [NavigabilityRule::DEFAULT, NavigabilityRule::Spread] {
-            let mut c = Classifier::<256>::new();
+            let mut c = classifier::<256>(GateShape::Hard);
             c.configure(ClassifierConfig {
                 rule,
                 ..ClassifierConfig::default()
@@ -1056,7 +1040,7 @@ mod tests {
             ];
             c.begin(Meters::ZERO);
             for q in patch {
-                c.add_point(&p, q, d, Meters::ZERO);
+                c.add_point(q, d, Meters::ZERO);
             }
             assert_eq!(records(&mut c)[0].class, EvidenceClass::Navigable);
             c.configure(ClassifierConfig {
@@ -1066,9 +1050,9 @@ mod tests {
             });
             c.begin(Meters::ZERO);
             for q in patch {
-                c.add_point(&p, q, d, Meters::ZERO);
+                c.add_point(q, d, Meters::ZERO);
             }
-            c.add_missing_ground(&p, pt(0.15, 0.05, 0.0), d);
+            c.add_missing_ground(pt(0.15, 0.05, 0.0), d);
             let r = records(&mut c);
             assert!(
                 r.iter().all(|e| e.class == EvidenceClass::Obstacle),
@@ -1081,19 +1065,18 @@ mod tests {
 
     #[test]
     fn a_ceiling_cut_drops_roof_points_before_any_cell_sees_them() {
-        let p = pyramid(GateShape::Hard);
         let d = Meters::from_num(0.3);
         // A cell that saw only an uneven roof, 2.0 to 2.2 m above the robot's ground.
         let roof = [pt(0.35, 0.05, 2.0), pt(0.36, 0.05, 2.2)];
         for rule in [NavigabilityRule::DEFAULT, NavigabilityRule::Spread] {
-            let mut c = Classifier::<256>::new();
+            let mut c = classifier::<256>(GateShape::Hard);
             c.configure(ClassifierConfig {
                 rule,
                 ..ClassifierConfig::default()
             });
             c.begin(Meters::ZERO);
             for r in roof {
-                c.add_point(&p, r, d, Meters::ZERO);
+                c.add_point(r, d, Meters::ZERO);
             }
             assert_eq!(
                 records(&mut c)[0].class,
@@ -1107,7 +1090,7 @@ mod tests {
             });
             c.begin(Meters::ZERO);
             for r in roof {
-                c.add_point(&p, r, d, Meters::ZERO);
+                c.add_point(r, d, Meters::ZERO);
             }
             assert!(records(&mut c).is_empty());
             assert_eq!(c.stats().overhang_points, 2);
@@ -1116,9 +1099,8 @@ mod tests {
 
     #[test]
     fn a_new_lowest_point_keeps_the_best_bound_in_the_plane_sums() {
-        let p = pyramid(GateShape::Hard);
         let d = Meters::from_num(0.3);
-        let mut c = Classifier::<256>::new();
+        let mut c = classifier::<256>(GateShape::Hard);
         let ground = [
             pt(0.31, 0.01, 0.0),
             pt(0.39, 0.01, 0.0),
@@ -1130,7 +1112,7 @@ mod tests {
         for order in [[&ground[..], &branch[..]], [&branch[..], &ground[..]]] {
             c.begin(Meters::ZERO);
             for q in order.concat() {
-                c.add_point(&p, q, d, Meters::ZERO);
+                c.add_point(q, d, Meters::ZERO);
             }
             assert_eq!(records(&mut c)[0].class, EvidenceClass::Navigable);
         }
@@ -1143,24 +1125,18 @@ mod tests {
         ];
         c.begin(Meters::ZERO);
         for q in cell {
-            c.add_point(&p, q, d, Meters::ZERO);
+            c.add_point(q, d, Meters::ZERO);
         }
         assert_eq!(records(&mut c)[0].class, EvidenceClass::Obstacle);
     }
 
     #[test]
     fn a_full_table_drops_and_counts_instead_of_panicking() {
-        let p = pyramid(GateShape::Hard);
-        let mut c = Classifier::<8>::new();
+        let mut c = classifier::<8>(GateShape::Hard);
         c.begin(Meters::ZERO);
         for i in 0..20 {
             let x = 0.05 + 0.1 * i as f32;
-            c.add_point(
-                &p,
-                pt(x - 3.0, 0.05, 0.0),
-                Meters::from_num(0.2),
-                Meters::ZERO,
-            );
+            c.add_point(pt(x - 3.0, 0.05, 0.0), Meters::from_num(0.2), Meters::ZERO);
         }
         assert_eq!(c.cells_in_use(), 8);
         assert_eq!(c.stats().overflow_points, 12);
@@ -1172,11 +1148,11 @@ mod tests {
     #[test]
     fn finish_into_updates_the_pyramid() {
         let mut p = pyramid(GateShape::Hard);
-        let mut c = Classifier::<256>::new();
+        let mut c = classifier::<256>(GateShape::Hard);
         c.begin(Meters::ZERO);
         let d = Meters::from_num(0.3);
-        c.add_point(&p, pt(0.21, 0.02, 0.00), d, Meters::ZERO);
-        c.add_point(&p, pt(0.25, 0.05, 0.12), d, Meters::ZERO);
+        c.add_point(pt(0.21, 0.02, 0.00), d, Meters::ZERO);
+        c.add_point(pt(0.25, 0.05, 0.12), d, Meters::ZERO);
         c.finish_into(&mut p);
         assert_eq!(
             p.fused(Meters::from_num(0.25), Meters::from_num(0.05)),

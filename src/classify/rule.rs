@@ -619,7 +619,11 @@ mod tests {
                 state ^= state << 5;
                 let u = i8::try_from(state % 64).unwrap() - 32;
                 let v = i8::try_from((state >> 8) % 64).unwrap() - 32;
-                let z = if (state >> 16).is_multiple_of(2) { 0 } else { top };
+                let z = if (state >> 16).is_multiple_of(2) {
+                    0
+                } else {
+                    top
+                };
                 s.add(u, v, z);
             }
             assert!(!plane_obstacle(&s, &p, &g));

@@ -119,14 +119,14 @@ pub const fn read_command(register: Register) -> u16 {
 /// A read data frame whose parity checked out.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub struct Reply {
+pub struct ReadFrame {
     /// EF, bit 14: the device saw a bad command frame since ERRFL was last read.
     pub error_flag: bool,
     /// Bits 13..0: the data of the command sent one frame earlier, `0 ..= 0x3FFF`.
     pub data: u16,
 }
 
-impl Reply {
+impl ReadFrame {
     /// Checks the parity of a 16-bit read data frame and splits it.
     ///
     /// # Errors
@@ -378,7 +378,7 @@ impl<SPI: SpiDevice> As5047<SPI> {
         let mut data = [0_u16; N];
         let mut error_flag = false;
         for (frame, slot) in replies.iter().zip(data.iter_mut()) {
-            let reply = Reply::parse(*frame)?;
+            let reply = ReadFrame::parse(*frame)?;
             error_flag |= reply.error_flag;
             *slot = reply.data;
         }
@@ -395,8 +395,8 @@ impl<SPI: SpiDevice> As5047<SPI> {
     fn read_errfl_raw(&mut self) -> Result<u16, As5047Error<SPI::Error>> {
         let first = self.exchange(read_command(Register::Errfl))?;
         let second = self.exchange(read_command(Register::Nop))?;
-        Reply::parse(first)?;
-        Ok(Reply::parse(second)?.data)
+        ReadFrame::parse(first)?;
+        Ok(ReadFrame::parse(second)?.data)
     }
 
     /// Reads one register: its read command, then a NOP whose reply carries the 14-bit data
@@ -558,7 +558,7 @@ mod tests {
     #[test]
     fn reply_parsing_agrees_with_count_ones_on_every_frame() {
         for f in 0..=u16::MAX {
-            match Reply::parse::<()>(f) {
+            match ReadFrame::parse::<()>(f) {
                 Ok(r) => {
                     assert_eq!(f.count_ones() % 2, 0);
                     assert_eq!(r.data, f & 0x3FFF);

@@ -6,12 +6,15 @@
 //! allocator, and are handed the data these adapters produce. Like the rest of the crate, no
 //! driver panics on any input from its bus.
 //!
-//! - [`angle`]: the pan [`angle::Angle`] type, the [`angle::AngleSource`] trait, encoder
-//!   mounting, and the host-supplied angle for boards without an encoder.
+//! - [`angle`]: the [`angle::AngleSource`] trait, encoder mounting, and the host-supplied
+//!   angle for boards without an encoder.
 //! - [`as5047`]: the AS5047P-kind 14-bit magnetic encoder over SPI.
-//! - [`uart`]: SICK LMS2xx telegrams from any `embedded_io::Read` (a UART), through
-//!   [`crate::wire::sick::Accumulator`].
+//! - [`lidar`]: requests to the spinning UART lidars (RPLIDAR, YDLIDAR) through any
+//!   `embedded_io::Write`.
+//!
+//! (A laser's bytes need no driver: a board hands whatever its UART received to
+//! [`crate::app::CoProcessor::laser`].)
 
 pub mod angle;
 pub mod as5047;
-pub mod uart;
+pub mod lidar;

@@ -22,7 +22,7 @@
 //! - **Pose** ([`Pose`]): world = T + `R_z(yaw)·R_y(pitch)·R_x(roll)`·robot, T = (x, y, z).
 //!   Positive angles turn counter-clockwise about their axis: positive yaw turns forward into
 //!   left, positive pitch puts the nose down.
-//! - **Angles** are [`FineAngle`]s, a Q0.32 fraction of a turn (an encoder's
+//! - **Angles** are [`FineAngle`](crate::angle::FineAngle)s, a Q0.32 fraction of a turn (an encoder's
 //!   [`crate::angle::Angle`] converts exactly); wrap-around is free.
 //! - **Ranges** are millimetres as `u32` (the 80 m mode's centimetres × 10), up to
 //!   [`MAX_RANGE_MM`]. "No echo" is filtered out before geometry.
@@ -58,7 +58,7 @@ pub mod mount;
 pub mod pose;
 pub mod transform;
 
-pub use beams::{BeamDir, BeamTable, Variant, MAX_BEAMS};
+pub use beams::{BeamDir, BeamTable};
 pub use mount::{Mount, ScanPlane};
 pub use pose::{Pose, PoseError, PoseField, PoseFrame, Rotation};
 pub use transform::{

@@ -465,7 +465,7 @@ impl defmt::Format for LineTransform<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::geometry::Variant;
+    use crate::wire::sick::Variant;
 
     const TOL: f64 = 1e-4;
 
@@ -657,7 +657,7 @@ mod tests {
             for beam in 0..table.len() {
                 assert!(line.locate(beam, 8_000).is_some());
             }
-            let past = (table.len()..=crate::geometry::MAX_BEAMS + 8).chain([
+            let past = (table.len()..=crate::wire::sick::MAX_BEAMS + 8).chain([
                 1_000,
                 65_535,
                 usize::MAX / 2,
@@ -765,7 +765,7 @@ mod tests {
 #[cfg(test)]
 mod golden {
     use super::*;
-    use crate::geometry::Variant;
+    use crate::wire::sick::Variant;
 
     /// A checksum of every point and distance of one line per variant and mount: the
     /// integer pipeline must give these bits on every target (the host and the Cortex-M

@@ -1,14 +1,16 @@
 //! The device's side of the host link (`docs/protocol.md`): an outgoing frame queue, the
 //! token bucket that holds map traffic to a byte budget, the patches of changed tiles, window
-//! moves, Hello and Stats, and the handler of the host's commands.
+//! moves, Hello and Stats; and the receive side, which decodes the host's frames and hands
+//! back validated commands ([`Command`], converted by [`convert`]).
 //!
 //! Like smoltcp's `Interface::poll`, the [`Link`] is handed everything: the time, the pyramid,
 //! the bytes the UART received, the counters of other modules. It reads no clock, touches no
-//! peripheral and allocates nothing; a board drains its queue into the UART with
-//! [`Link::pop_bytes`] (or [`Link::peek`] + [`Link::consume`] for DMA).
+//! peripheral and allocates nothing. What to do with a command is the application's
+//! ([`crate::app::CoProcessor`] carries them out); a board drains the queue into the UART
+//! with [`Link::pop_bytes`] (or [`Link::peek`] + [`Link::consume`] for DMA).
 //!
 //! RAM: a `Link` with the default 4 096-byte queue takes about 6.2 KiB (queue, a 543-byte
-//! encode scratch, the 68-byte receive buffer, 1 KiB of tile ages, counters).
+//! encode scratch, the 69-byte receive buffer, 1 KiB of tile ages, counters).
 //!
 //! Scan intake never waits for the link: [`Link::poll`] sends a changed tile only while the
 //! budget and the queue allow, and **puts the tile's dirty bit back** otherwise, so the tile
@@ -16,45 +18,54 @@
 //! control frame (a Reply) that finds no room is dropped, and it still uses its sequence
 //! number, so the host sees the gap and asks for a snapshot.
 //!
-//! The firmware's loop:
 //! ```
-//! use terrain_pyramid::link::{Link, LinkConfig, SensorCounters};
+//! use terrain_pyramid::link::{Command, Link, LinkConfig, SensorCounters};
+//! use terrain_pyramid::wire::link::{encode, Message, Reply};
+//! use terrain_pyramid::wire::FeedResult;
 //! use terrain_pyramid::{Config, DefaultDesign, DefaultPyramid, Schedule, SensorModel, Meters};
 //!
 //! let mut pyramid = DefaultPyramid::new();
 //! let mut link: Link = Link::new(LinkConfig::default());
 //! let design = DefaultDesign::new(SensorModel::default(), Schedule::default(), 64).unwrap();
-//! link.configure(&mut pyramid, &design, &Config::default()).unwrap();
-//! let mut now_ms = 0;
-//! for _line in 0..3 {
-//!     // UART bytes from the host: poses, commands.
-//!     link.receive(&[], &mut pyramid, |_event| {});
-//!     // ... integrate the line's evidence, then recentre on the pose ...
-//!     pyramid.recentre(Meters::from_num(0.1), Meters::ZERO);
-//!     link.poll(now_ms, &mut pyramid, &SensorCounters::default());
-//!     let mut uart = [0_u8; 64];
-//!     while link.pop_bytes(&mut uart) > 0 { /* write to the UART */ }
-//!     now_ms += 13;
+//! pyramid.configure(&design, &Config::default()).unwrap();
+//! link.adopt(&design);
+//! // Bytes from the host: a Ping.
+//! let mut frame = [0_u8; 16];
+//! let n = encode(0, &Message::Ping, &mut frame).unwrap();
+//! let mut input = &frame[..n];
+//! while let FeedResult::Item { item, remaining, .. } = link.receive(input) {
+//!     assert_eq!(item.command, Command::Ping);
+//!     link.answer(Reply::ok(item.header));
+//!     input = remaining;
 //! }
+//! // ... evidence integrated, the pyramid recentred on the robot ...
+//! pyramid.recentre(Meters::from_num(0.1), Meters::ZERO);
+//! link.poll(0, &mut pyramid, &SensorCounters::default());
+//! let mut uart = [0_u8; 64];
+//! while link.pop_bytes(&mut uart) > 0 { /* write to the UART */ }
 //! ```
 
 mod bucket;
+pub mod convert;
 mod queue;
 
 pub use bucket::TokenBucket;
 pub use queue::FrameQueue;
 
+use crate::angle::Angle;
+use crate::geometry::Pose;
 use crate::grid::{CellRect, TILES_PER_SIDE};
 use crate::logodds::Cell;
 use crate::pipeline::FrontendConfig;
 use crate::pyramid::{Config, Pyramid};
 use crate::wire::link::{
-    encode, encode_patch, Accumulator, Configure, DecodeError, FeedResult, FirmwareVersion, Header,
-    Hello, HelloReason, LayerInfo, Message, PanAngle, PatchArea, Pose, Reply, ReplyCode,
-    RxCounters, Setup, SnapshotScope, Stats, WindowMoved, MAX_COMMAND_FRAME, MAX_ENCODED_FRAME,
-    MAX_LAYERS, MAX_PATCH_SIDE, MIN_FRAME, VERSION,
+    encode, encode_patch, DecodeError, Decoded, FirmwareVersion, FrameAccumulator, Header, Hello,
+    HelloReason, LayerInfo, Message, PatchArea, Reply, ReplyCode, RxCounters, SnapshotScope, Stats,
+    Undecoded, WindowMoved, MAX_COMMAND_FRAME, MAX_ENCODED_FRAME, MAX_LAYERS, MAX_PATCH_SIDE,
+    MIN_FRAME, VERSION,
 };
-use crate::{Design, DesignError};
+use crate::wire::FeedResult;
+use crate::Design;
 
 /// The default outgoing queue, bytes: 26 default patches, 44 ms of the link at 921 600 Bd.
 pub const DEFAULT_QUEUE_BYTES: usize = 4096;
@@ -106,8 +117,34 @@ pub struct LinkConfig {
     pub burst_bytes: u32,
     /// How often a Stats frame goes out, ms; 0 = never. Default 1 000.
     pub stats_interval_ms: u32,
-    /// The firmware's version, for Hello.
+    /// The firmware's version, for Hello. Default: this crate's version
+    /// ([`LIBRARY_VERSION`]).
     pub firmware: FirmwareVersion,
+}
+
+/// This crate's version (`CARGO_PKG_VERSION`), as Hello carries it.
+pub const LIBRARY_VERSION: FirmwareVersion = FirmwareVersion {
+    major: version_part(env!("CARGO_PKG_VERSION_MAJOR")),
+    minor: version_part(env!("CARGO_PKG_VERSION_MINOR")),
+    patch: version_part(env!("CARGO_PKG_VERSION_PATCH")),
+};
+
+/// A decimal version number as a `u8`, evaluated at compile time; a number past 255
+/// saturates, a non-digit ends it.
+const fn version_part(digits: &str) -> u8 {
+    let mut rest = digits.as_bytes();
+    let mut value: u32 = 0;
+    while let [b, tail @ ..] = rest {
+        if !b.is_ascii_digit() {
+            break;
+        }
+        value = value * 10 + (*b - b'0') as u32;
+        if value > 255 {
+            return u8::MAX;
+        }
+        rest = tail;
+    }
+    value as u8
 }
 
 impl LinkConfig {
@@ -116,11 +153,7 @@ impl LinkConfig {
         budget_bytes_per_s: 46_080,
         burst_bytes: 2048,
         stats_interval_ms: 1000,
-        firmware: FirmwareVersion {
-            major: 0,
-            minor: 1,
-            patch: 0,
-        },
+        firmware: LIBRARY_VERSION,
     };
 }
 
@@ -178,35 +211,55 @@ pub struct LinkCounters {
     pub resyncs: u32,
 }
 
-/// What a host frame asked of the firmware, after the link did its part.
+/// A host command, decoded, validated and converted into the core's types by the link
+/// ([`convert`]): what the application carries out. Commands that fail validation never
+/// become one: the link refuses them itself ([`Rejection::Refused`]).
+#[derive(Debug, Clone, PartialEq)]
+pub enum Command<const L: usize> {
+    /// The robot's pose from now on (checked by [`Pose::from_f32`]'s rule).
+    Pose(Pose),
+    /// The actuator angle from the host (boards without an encoder, or when it fails).
+    PanAngle(Angle),
+    /// A new design and configuration (checked by [`Design::new`] and the increments' and
+    /// clamp's rules; the window and the margin are checked when it is applied).
+    Configure(Design<L>, Config),
+    /// Forget every observation.
+    Reset,
+    /// Send every tile of these layers again.
+    Snapshot(SnapshotScope),
+    /// Answer Ok.
+    Ping,
+    /// The laser's mounting, its lines' grouping and the classifier (checked by
+    /// [`convert::frontend_config`]).
+    Setup(FrontendConfig),
+    /// Send a Stats frame at the next poll, whatever the interval.
+    RequestStats,
+    /// End the current observation now (no Reply).
+    EndObservation,
+    /// Answer with the stack's high-water mark (Reply Ok, `value` the bytes used, `a` the
+    /// stack's size), drain the queue, stop.
+    Shutdown,
+}
+
+/// A command and the header of the frame that carried it (its Reply names it).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Request<const L: usize> {
+    /// The frame's header.
+    pub header: Header,
+    /// What it asks.
+    pub command: Command<L>,
+}
+
+/// Why a host frame became no [`Request`]. Both are counted; a Reply has been queued where
+/// the frame could be answered.
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub enum Event {
-    /// A validated pose (finite, within range): use it for the geometry and to recentre.
-    Pose(Pose),
-    /// A pan angle from the host (boards without an encoder).
-    PanAngle(PanAngle),
-    /// The pyramid was reconfigured (maps cleared); a Hello follows.
-    Configured,
-    /// The maps were cleared.
-    Reset,
-    /// Every tile of these layers will be sent again.
-    SnapshotRequested(SnapshotScope),
-    /// The host pinged.
-    Ping,
-    /// A validated setup (Reply Ok queued): reconfigure the pipeline with it.
-    Setup(FrontendConfig),
-    /// The host asked for Stats; it goes out at the next poll, ahead of patches.
-    StatsRequested,
-    /// The host asked to end the current observation now (no Reply).
-    EndObservation,
-    /// The host asked the device to stop: answer it with [`Link::answer`] (Reply Ok, the
-    /// stack's high-water mark in `value` and its size in `a`, bytes), drain the queue, stop.
-    Shutdown(Header),
-    /// A command was refused; the Reply says why.
-    Refused(Reply),
-    /// A bad frame was dropped (and counted).
+pub enum Rejection {
+    /// The frame did not decode (framing, CRC, version, type, body); answered when its header
+    /// was readable.
     BadFrame(DecodeError),
+    /// The command failed validation; this Reply, queued, says why.
+    Refused(Reply),
 }
 
 /// What one [`Link::poll`] queued.
@@ -223,25 +276,47 @@ pub struct PollReport {
     pub deferred_tiles: u32,
 }
 
-/// A host command, copied out of the receive buffer.
-enum Command {
-    Pose(Pose),
-    PanAngle(PanAngle),
-    Configure(Configure),
-    Reset,
-    RequestSnapshot(SnapshotScope),
-    Ping,
-    Setup(Setup),
-    RequestStats,
-    Shutdown,
-    EndObservation,
+/// A Hello waiting to be sent, stored so that "none waiting" is all zero bits (an
+/// `Option<(HelloReason, u32)>` would put `None` in the reason's niche, a non-zero byte, and a
+/// `static` link into `.data`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+struct PendingHello {
+    waiting: bool,
+    reason: HelloReason,
+    resend: u32,
 }
 
-/// A host frame, copied out of the receive buffer.
-enum Incoming {
-    Command(Header, Command),
-    Unsupported(Header),
-    Bad(DecodeError, Option<Header>),
+impl PendingHello {
+    /// Nothing waiting.
+    const NONE: Self = Self {
+        waiting: false,
+        reason: HelloReason::Boot,
+        resend: 0,
+    };
+
+    /// A Hello for `reason`, announcing the layers of `resend`.
+    const fn some(reason: HelloReason, resend: u32) -> Self {
+        Self {
+            waiting: true,
+            reason,
+            resend,
+        }
+    }
+
+    /// The waiting Hello's reason and resend mask.
+    const fn get(self) -> Option<(HelloReason, u32)> {
+        if self.waiting {
+            Some((self.reason, self.resend))
+        } else {
+            None
+        }
+    }
+}
+
+impl From<(HelloReason, u32)> for PendingHello {
+    fn from((reason, resend): (HelloReason, u32)) -> Self {
+        Self::some(reason, resend)
+    }
 }
 
 /// The device's end of the host link, with an outgoing queue of `Q` bytes, for pyramids of at
@@ -257,11 +332,11 @@ pub struct Link<const Q: usize = DEFAULT_QUEUE_BYTES, const N: usize = { crate::
     queue: FrameQueue<Q>,
     scratch: [u8; MAX_ENCODED_FRAME],
     bucket: TokenBucket,
-    rx: Accumulator<MAX_COMMAND_FRAME>,
+    rx: FrameAccumulator<MAX_COMMAND_FRAME>,
     rx_expected: Option<u16>,
     tx_seq: u16,
     /// A Hello to send before anything else: its reason and the layers it announces for resend.
-    hello: Option<(HelloReason, u32)>,
+    hello: PendingHello,
     /// What the host was last told: layers, resolutions, origins.
     sent_layers: usize,
     sent_resolution: [i32; N],
@@ -290,10 +365,10 @@ impl<const Q: usize, const N: usize> Link<Q, N> {
             queue: FrameQueue::new(),
             scratch: [0; MAX_ENCODED_FRAME],
             bucket: TokenBucket::new(config.budget_bytes_per_s, config.burst_bytes),
-            rx: Accumulator::new(),
+            rx: FrameAccumulator::new(),
             rx_expected: None,
             tx_seq: 0,
-            hello: Some((HelloReason::Boot, 0)),
+            hello: PendingHello::some(HelloReason::Boot, 0),
             sent_layers: 0,
             sent_resolution: [0; N],
             sent_origin: [(0, 0); N],
@@ -315,6 +390,33 @@ impl<const Q: usize, const N: usize> Link<Q, N> {
                 resyncs: 0,
             },
         }
+    }
+
+    /// A link with no settings and nothing to say, all zero bits (a `static` holding one sits
+    /// in `.bss`): [`start`](Self::start) it before use. Until then its budget is zero, so it
+    /// queues no map traffic.
+    #[must_use]
+    pub const fn unconfigured() -> Self {
+        let mut link = Self::new(LinkConfig {
+            budget_bytes_per_s: 0,
+            burst_bytes: 0,
+            stats_interval_ms: 0,
+            firmware: FirmwareVersion {
+                major: 0,
+                minor: 0,
+                patch: 0,
+            },
+        });
+        link.hello = PendingHello::NONE;
+        link
+    }
+
+    /// Starts the link with its settings, as [`new`](Self::new) would have built it: Hello
+    /// (reason boot) at the next poll, a full bucket; counters and sequence numbers are kept.
+    pub fn start(&mut self, config: LinkConfig) {
+        self.config = config;
+        self.bucket = TokenBucket::new(config.budget_bytes_per_s, config.burst_bytes);
+        self.hello = PendingHello::some(HelloReason::Boot, 0);
     }
 
     /// The settings.
@@ -379,29 +481,15 @@ impl<const Q: usize, const N: usize> Link<Q, N> {
         self.want_hello(HelloReason::Configured, 0);
     }
 
-    /// Configures the pyramid and [`adopt`](Self::adopt)s the design.
-    ///
-    /// # Errors
-    /// [`Pyramid::configure`]'s; nothing changes then.
-    pub fn configure<const W: usize, const L: usize>(
-        &mut self,
-        pyramid: &mut Pyramid<W, L>,
-        design: &Design<L>,
-        config: &Config,
-    ) -> Result<(), DesignError> {
-        pyramid.configure(design, config)?;
-        self.adopt(design);
-        Ok(())
-    }
-
-    /// Clears the maps (windows stay) and tells the host with Hello (reason reset).
-    pub fn reset<const W: usize, const L: usize>(&mut self, pyramid: &mut Pyramid<W, L>) {
-        pyramid.clear();
+    /// Tells the link that the maps were cleared (windows kept): the host is told with Hello
+    /// (reason reset).
+    pub fn maps_cleared(&mut self) {
         self.want_hello(HelloReason::Reset, 0);
     }
 
     /// Marks every tile of the layers in `scope` for sending again and announces it with
-    /// Hello (reason snapshot); `false` for a layer the pyramid does not have.
+    /// Hello (reason snapshot); `false` for a layer the pyramid does not have (nothing
+    /// changes then: refuse it with [`convert::layer_refusal`]).
     pub fn snapshot<const W: usize, const L: usize>(
         &mut self,
         pyramid: &mut Pyramid<W, L>,
@@ -425,11 +513,24 @@ impl<const Q: usize, const N: usize> Link<Q, N> {
         true
     }
 
-    /// Queues a Reply the firmware composed (e.g. to Shutdown, [`Event::Shutdown`]). Like
-    /// every Reply it is dropped, and its sequence number counted as a gap, when the queue
-    /// has no room.
+    /// Queues a Reply the application composed (Ok to a command it carried out, or Ok to
+    /// Shutdown with the stack's figures). Like every Reply it is dropped, and its sequence
+    /// number counted as a gap, when the queue has no room.
     pub fn answer(&mut self, reply: Reply) {
         self.reply(reply);
+    }
+
+    /// Queues a refusal the application composed (a command that validated but could not be
+    /// carried out, e.g. a Configure whose window the pyramid does not have) and counts it.
+    pub fn refuse(&mut self, reply: Reply) {
+        self.counters.commands_refused = self.counters.commands_refused.saturating_add(1);
+        self.reply(reply);
+    }
+
+    /// Sends a pending Hello now, ahead of anything else (after a command that changed the
+    /// maps), if the queue has room; otherwise it goes at the next poll.
+    pub fn announce<const W: usize, const L: usize>(&mut self, pyramid: &Pyramid<W, L>) {
+        self.flush_hello(pyramid, &mut PollReport::default());
     }
 
     /// Asks for a Stats frame at the next [`poll`](Self::poll), whatever the interval (it goes
@@ -439,7 +540,7 @@ impl<const Q: usize, const N: usize> Link<Q, N> {
     }
 
     fn want_hello(&mut self, reason: HelloReason, resend: u32) {
-        self.hello = Some(match self.hello {
+        self.hello = PendingHello::from(match self.hello.get() {
             // A Hello that clears the host's maps stays one; resend masks add up.
             Some((pending, mask)) if pending.clears_maps() => (pending, mask | resend),
             Some((_, mask)) => (reason, mask | resend),
@@ -553,7 +654,7 @@ impl<const Q: usize, const N: usize> Link<Q, N> {
         pyramid: &Pyramid<W, L>,
         report: &mut PollReport,
     ) -> bool {
-        let Some((reason, resend)) = self.hello else {
+        let Some((reason, resend)) = self.hello.get() else {
             return true;
         };
         let count = layers_of(pyramid).min(N);
@@ -585,7 +686,7 @@ impl<const Q: usize, const N: usize> Link<Q, N> {
         if !self.send(&Message::Hello(hello), 0, report) {
             return false;
         }
-        self.hello = None;
+        self.hello = PendingHello::NONE;
         self.remember_geometry(pyramid);
         true
     }
@@ -877,7 +978,7 @@ impl<const Q: usize, const N: usize> Link<Q, N> {
         }
         let mut report = PollReport::default();
         self.bucket.refill(now_ms);
-        if self.hello.is_none() && self.reconfigured(pyramid) {
+        if self.hello.get().is_none() && self.reconfigured(pyramid) {
             warn!("link: the pyramid was configured behind the link's back");
             self.want_hello(HelloReason::Configured, 0);
         }
@@ -894,40 +995,94 @@ impl<const Q: usize, const N: usize> Link<Q, N> {
 
     // ---------------------------------------------------------------- receiving
 
-    /// Takes bytes from the host: decodes every complete frame, carries out its command
-    /// (queueing its Reply and, for Configure, Reset and RequestSnapshot, a Hello), and hands
-    /// the firmware what concerns it through `on_event`.
-    pub fn receive<const W: usize, const L: usize>(
+    /// Carries out and answers the commands that concern only the link and the maps (a
+    /// snapshot, a Stats request, a ping) and hands back the others, which are the
+    /// application's ([`crate::app::CoProcessor`] carries them out).
+    pub fn serve<const W: usize>(
         &mut self,
-        bytes: &[u8],
-        pyramid: &mut Pyramid<W, L>,
-        mut on_event: impl FnMut(Event),
-    ) {
-        let mut input = bytes;
-        loop {
-            let incoming = match self.rx.feed(input) {
-                FeedResult::Consumed => return,
-                FeedResult::Frame {
-                    header,
-                    message,
-                    remaining,
-                } => {
-                    input = remaining;
-                    match owned_command(message) {
-                        Some(command) => Incoming::Command(header, command),
-                        None => Incoming::Unsupported(header),
-                    }
+        pyramid: &mut Pyramid<W, N>,
+        request: Request<N>,
+    ) -> Option<Request<N>> {
+        let header = request.header;
+        match request.command {
+            Command::Snapshot(scope) => {
+                if self.snapshot(pyramid, scope) {
+                    self.answer(Reply::ok(header));
+                    self.announce(pyramid);
+                } else {
+                    let layers = layers_of(pyramid).min(N);
+                    self.refuse(convert::layer_refusal(header, scope, layers));
                 }
-                FeedResult::Error {
-                    error,
-                    header,
+                None
+            }
+            Command::RequestStats => {
+                self.request_stats();
+                None
+            }
+            Command::Ping => {
+                self.answer(Reply::ok(header));
+                None
+            }
+            _ => Some(request),
+        }
+    }
+
+    /// Takes bytes from the host and returns the first thing they complete, postcard-style:
+    /// a validated [`Request`] to carry out, or a [`Rejection`] (counted, and answered where
+    /// possible), each with the bytes not yet taken; [`FeedResult::Consumed`] when the bytes
+    /// complete nothing. Call it again with `remaining` until `Consumed`.
+    ///
+    /// Invalid commands are refused here, by the rule that converts them, with a Reply that
+    /// names the field; a valid one is the application's to carry out and to answer
+    /// ([`answer`](Self::answer), [`refuse`](Self::refuse)).
+    pub fn receive<'c>(&mut self, bytes: &'c [u8]) -> FeedResult<'c, Request<N>, Rejection> {
+        // The message borrows the receive buffer: convert it into an owned command first.
+        let (frame, offset, remaining) = match self.rx.feed(bytes) {
+            FeedResult::Consumed => return FeedResult::Consumed,
+            FeedResult::Item {
+                item: Decoded { header, message },
+                offset,
+                remaining,
+            } => (Ok((header, command(header, message))), offset, remaining),
+            FeedResult::Rejected {
+                error: Undecoded { error, header },
+                offset,
+                remaining,
+            } => (Err((error, header)), offset, remaining),
+        };
+        match frame {
+            Ok((header, Ok(command))) => {
+                self.track_seq(header.seq);
+                FeedResult::Item {
+                    item: Request { header, command },
+                    offset,
                     remaining,
-                } => {
-                    input = remaining;
-                    Incoming::Bad(error, header)
                 }
-            };
-            self.handle(incoming, pyramid, &mut on_event);
+            }
+            Ok((header, Err(reply))) => {
+                self.track_seq(header.seq);
+                self.refuse(reply);
+                FeedResult::Rejected {
+                    error: Rejection::Refused(reply),
+                    offset,
+                    remaining,
+                }
+            }
+            Err((error, header)) => {
+                if let Some(header) = header {
+                    self.track_seq(header.seq);
+                    let code = match error {
+                        DecodeError::UnknownType(_) => ReplyCode::Unsupported,
+                        _ => ReplyCode::Malformed,
+                    };
+                    self.refuse(Reply::code(header, code));
+                }
+                FeedResult::Rejected {
+                    error: Rejection::BadFrame(error),
+                    offset,
+                    remaining,
+                }
+            }
         }
     }
 
@@ -941,97 +1096,36 @@ impl<const Q: usize, const N: usize> Link<Q, N> {
         }
         self.rx_expected = Some(seq.wrapping_add(1));
     }
+}
 
-    fn refuse(&mut self, reply: Reply, on_event: &mut impl FnMut(Event)) {
-        self.counters.commands_refused = self.counters.commands_refused.saturating_add(1);
-        self.reply(reply);
-        on_event(Event::Refused(reply));
-    }
-
-    fn handle<const W: usize, const L: usize>(
-        &mut self,
-        incoming: Incoming,
-        pyramid: &mut Pyramid<W, L>,
-        on_event: &mut impl FnMut(Event),
-    ) {
-        let (header, command) = match incoming {
-            Incoming::Command(header, command) => (header, command),
-            Incoming::Unsupported(header) => {
-                self.track_seq(header.seq);
-                self.refuse(Reply::code(header, ReplyCode::Unsupported), on_event);
-                return;
-            }
-            Incoming::Bad(error, header) => {
-                if let Some(header) = header {
-                    self.track_seq(header.seq);
-                    let code = match error {
-                        DecodeError::UnknownType(_) => ReplyCode::Unsupported,
-                        _ => ReplyCode::Malformed,
-                    };
-                    self.refuse(Reply::code(header, code), on_event);
-                }
-                on_event(Event::BadFrame(error));
-                return;
-            }
-        };
-        self.track_seq(header.seq);
-        match command {
-            Command::Pose(pose) => match pose.validate() {
-                Ok(()) => on_event(Event::Pose(pose)),
-                Err(e) => self.refuse(Reply::pose_error(header, e), on_event),
-            },
-            Command::PanAngle(pan) => on_event(Event::PanAngle(pan)),
-            Command::Configure(c) => match configure_checked(pyramid, &c) {
-                Ok(design) => {
-                    self.reply(Reply::ok(header));
-                    self.adopt(&design);
-                    self.flush_hello(pyramid, &mut PollReport::default());
-                    on_event(Event::Configured);
-                }
-                Err(e) => self.refuse(Reply::design_error(header, &e), on_event),
-            },
-            Command::Reset => {
-                self.reply(Reply::ok(header));
-                self.reset(pyramid);
-                self.flush_hello(pyramid, &mut PollReport::default());
-                on_event(Event::Reset);
-            }
-            Command::RequestSnapshot(scope) => {
-                if self.snapshot(pyramid, scope) {
-                    self.reply(Reply::ok(header));
-                    self.flush_hello(pyramid, &mut PollReport::default());
-                    on_event(Event::SnapshotRequested(scope));
-                } else {
-                    let asked = match scope {
-                        SnapshotScope::Layer(k) => f32::from(k),
-                        SnapshotScope::All => 255.0,
-                    };
-                    let mut reply = Reply::code(header, ReplyCode::BadLayer);
-                    reply.param = 40;
-                    reply.value = asked;
-                    reply.a = f32::from(u8::try_from(layers_of(pyramid).min(N)).unwrap_or(u8::MAX));
-                    self.refuse(reply, on_event);
-                }
-            }
-            Command::Ping => {
-                self.reply(Reply::ok(header));
-                on_event(Event::Ping);
-            }
-            Command::Setup(setup) => match setup.frontend_config() {
-                Ok(config) => {
-                    self.reply(Reply::ok(header));
-                    on_event(Event::Setup(config));
-                }
-                Err(e) => self.refuse(Reply::setup_error(header, e), on_event),
-            },
-            Command::RequestStats => {
-                self.request_stats();
-                on_event(Event::StatsRequested);
-            }
-            Command::EndObservation => on_event(Event::EndObservation),
-            Command::Shutdown => on_event(Event::Shutdown(header)),
+/// A host message as a validated command, or the Reply that refuses it.
+fn command<const L: usize>(header: Header, message: Message<'_>) -> Result<Command<L>, Reply> {
+    Ok(match message {
+        Message::Pose(report) => {
+            Command::Pose(convert::pose_of(&report).map_err(|e| convert::pose_refusal(header, &e))?)
         }
-    }
+        Message::PanAngle(pan) => Command::PanAngle(pan.angle()),
+        Message::Configure(c) => {
+            let refuse = |e: crate::DesignError| convert::design_refusal(header, &e);
+            let design = convert::design_of::<L>(&c).map_err(refuse)?;
+            let config = convert::config_of(&c).map_err(refuse)?;
+            Command::Configure(design, config)
+        }
+        Message::Reset => Command::Reset,
+        Message::RequestSnapshot(scope) => Command::Snapshot(scope),
+        Message::Ping => Command::Ping,
+        Message::Setup(setup) => Command::Setup(
+            convert::frontend_config(&setup).map_err(|e| convert::setup_refusal(header, &e))?,
+        ),
+        Message::RequestStats => Command::RequestStats,
+        Message::EndObservation => Command::EndObservation,
+        Message::Shutdown => Command::Shutdown,
+        Message::Hello(_)
+        | Message::LayerPatch(_)
+        | Message::WindowMoved(_)
+        | Message::Stats(_)
+        | Message::Reply(_) => return Err(Reply::code(header, ReplyCode::Unsupported)),
+    })
 }
 
 impl<const Q: usize, const N: usize> Default for Link<Q, N> {
@@ -1040,41 +1134,7 @@ impl<const Q: usize, const N: usize> Default for Link<Q, N> {
     }
 }
 
-/// A command copied out of the receive buffer, or `None` for a type the device does not take.
-fn owned_command(message: Message<'_>) -> Option<Command> {
-    Some(match message {
-        Message::Pose(p) => Command::Pose(p),
-        Message::PanAngle(p) => Command::PanAngle(p),
-        Message::Configure(c) => Command::Configure(c),
-        Message::Reset => Command::Reset,
-        Message::RequestSnapshot(s) => Command::RequestSnapshot(s),
-        Message::Ping => Command::Ping,
-        Message::Setup(s) => Command::Setup(s),
-        Message::RequestStats => Command::RequestStats,
-        Message::Shutdown => Command::Shutdown,
-        Message::EndObservation => Command::EndObservation,
-        Message::Hello(_)
-        | Message::LayerPatch(_)
-        | Message::WindowMoved(_)
-        | Message::Stats(_)
-        | Message::Reply(_) => return None,
-    })
-}
-
-/// Validates a Configure with the library's own rules, in order: `Design::new`, the
-/// increments, the clamping bounds, then `Pyramid::configure` (window, margin). On success
-/// the pyramid runs the new design (maps cleared).
-fn configure_checked<const W: usize, const L: usize>(
-    pyramid: &mut Pyramid<W, L>,
-    request: &Configure,
-) -> Result<Design<L>, DesignError> {
-    let design = request.design::<L>()?;
-    let config = request.config()?;
-    pyramid.configure(&design, &config)?;
-    Ok(design)
-}
-
-/// The layers the link describes: the pyramid's, at most 16.
+/// The layers the link describes: the pyramid's, at most 32.
 fn layers_of<const W: usize, const L: usize>(pyramid: &Pyramid<W, L>) -> usize {
     pyramid.layer_count().min(MAX_LAYERS)
 }
@@ -1117,4 +1177,4 @@ fn patch_frame_len(rect: &CellRect) -> usize {
 }
 
 #[cfg(test)]
-mod tests;
+pub(crate) mod tests;

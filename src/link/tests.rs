@@ -1,15 +1,16 @@
-//! The device's side against the wire decoder: what goes out, when, and in what order.
+//! The device's side against the wire decoder: what goes out, when, and in what order. (What
+//! the application does with the commands it receives is tested in `crate::app`.)
 extern crate std;
 use super::*;
 use crate::pyramid::{Evidence, EvidenceClass};
 use crate::units::Meters;
-use crate::wire::link::{ClampRequest, MessageType, MAX_FRAME};
-use crate::{DefaultDesign, DefaultPyramid, Param, Schedule, SensorModel};
+use crate::wire::link::MAX_FRAME;
+use crate::{DefaultDesign, DefaultPyramid, Schedule, SensorModel};
 use std::vec::Vec;
 
 /// What came out of the queue, owned.
 #[derive(Debug, Clone, PartialEq)]
-enum Out {
+pub(crate) enum Out {
     Hello(std::boxed::Box<Hello>),
     Patch(PatchArea, Vec<i16>),
     Moved(WindowMoved),
@@ -30,16 +31,17 @@ fn drain<const Q: usize>(link: &mut Link<Q>) -> Vec<(u16, Out)> {
     decode_all(&bytes)
 }
 
-fn decode_all(mut input: &[u8]) -> Vec<(u16, Out)> {
-    let mut acc = Accumulator::<MAX_FRAME>::new();
+/// Every frame of a device's output, owned, with its sequence number.
+pub(crate) fn decode_all(mut input: &[u8]) -> Vec<(u16, Out)> {
+    let mut acc = FrameAccumulator::<MAX_FRAME>::new();
     let mut out = Vec::new();
     loop {
         match acc.feed(input) {
             FeedResult::Consumed => return out,
-            FeedResult::Frame {
-                header,
-                message,
+            FeedResult::Item {
+                item: Decoded { header, message },
                 remaining,
+                ..
             } => {
                 input = remaining;
                 let item = match message {
@@ -52,7 +54,7 @@ fn decode_all(mut input: &[u8]) -> Vec<(u16, Out)> {
                 };
                 out.push((header.seq, item));
             }
-            FeedResult::Error { error, .. } => panic!("{error}"),
+            FeedResult::Rejected { error, .. } => panic!("{error:?}"),
         }
     }
 }
@@ -64,22 +66,29 @@ fn configured() -> (DefaultPyramid, Link) {
         ..LinkConfig::DEFAULT
     });
     let design = DefaultDesign::new(SensorModel::default(), Schedule::default(), 64).unwrap();
-    link.configure(&mut pyramid, &design, &Config::default())
-        .unwrap();
+    pyramid.configure(&design, &Config::default()).unwrap();
+    link.adopt(&design);
     (pyramid, link)
 }
 
+/// An obstacle seen by `layer` at 0.2 m, weighted by the default design's gate.
 fn obstacle(layer: u8, x: i32, y: i32) -> Evidence {
+    let design = DefaultDesign::new(SensorModel::default(), Schedule::default(), 64).unwrap();
+    let mut gates = crate::gate::Gates::<8>::new();
+    gates
+        .configure(&design, Config::default().model.increments().unwrap())
+        .unwrap();
     Evidence {
         layer,
         cell_x: x,
         cell_y: y,
         class: EvidenceClass::Obstacle,
-        distance: Meters::from_num(0.2),
+        weight: gates.weight_at(usize::from(layer), Meters::from_num(0.2)),
     }
 }
 
-fn command(seq: u16, message: &Message<'_>) -> Vec<u8> {
+/// One host frame, encoded.
+pub(crate) fn command(seq: u16, message: &Message<'_>) -> Vec<u8> {
     let mut out = [0_u8; 128];
     let n = encode(seq, message, &mut out).unwrap();
     out[..n].to_vec()
@@ -277,9 +286,16 @@ fn a_reply_that_finds_no_room_is_dropped_and_leaves_a_gap() {
         bytes.extend(command(seq, &Message::Ping));
     }
     let mut pings = 0;
-    link.receive(&bytes, &mut pyramid, |e| {
-        pings += u32::from(e == Event::Ping)
-    });
+    let mut input = &bytes[..];
+    while let FeedResult::Item {
+        item, remaining, ..
+    } = link.receive(input)
+    {
+        assert_eq!(item.command, Command::Ping);
+        link.answer(Reply::ok(item.header));
+        pings += 1;
+        input = remaining;
+    }
     assert_eq!(pings, 30);
     let dropped = link.counters().frames_dropped;
     assert!(dropped > 0);
@@ -290,187 +306,6 @@ fn a_reply_that_finds_no_room_is_dropped_and_leaves_a_gap() {
     );
     let out = drain(&mut link);
     assert_eq!(out.len() as u32 + dropped, 30);
-}
-
-#[test]
-fn configure_is_validated_by_the_librarys_rules() {
-    let (mut pyramid, mut link) = configured();
-    link.poll(0, &mut pyramid, &SensorCounters::default());
-    drain(&mut link);
-    pyramid.apply(&obstacle(0, 0, 0));
-    let before = pyramid.layer(0).unwrap().get(0, 0).unwrap().to_raw();
-    // γ = 1: Design::new refuses it by name.
-    let mut bad = Configure::default();
-    bad.schedule.gamma = 1.0;
-    let mut events = Vec::new();
-    link.receive(&command(5, &Message::Configure(bad)), &mut pyramid, |e| {
-        events.push(e)
-    });
-    let out = drain(&mut link);
-    let Out::Reply(reply) = out[0].1 else {
-        panic!("{out:?}")
-    };
-    assert_eq!(reply.to_seq, 5);
-    assert_eq!(reply.to_type, MessageType::Configure.to_u8());
-    assert_eq!(reply.code, ReplyCode::GammaNotAboveOne);
-    assert_eq!(reply.design_param(), Some(Param::Gamma));
-    assert!(matches!(events[..], [Event::Refused(_)]));
-    assert_eq!(
-        pyramid.layer(0).unwrap().get(0, 0).unwrap().to_raw(),
-        before,
-        "nothing changed"
-    );
-    // The clamp's bounds, by Clamp::bounds.
-    let bad = Configure {
-        clamp: ClampRequest::Bounds { min: 1.0, max: 3.5 },
-        ..Configure::default()
-    };
-    link.receive(&command(6, &Message::Configure(bad)), &mut pyramid, |_| {});
-    let Out::Reply(reply) = drain(&mut link)[0].1 else {
-        panic!()
-    };
-    assert_eq!(
-        (reply.code, reply.design_param()),
-        (ReplyCode::OutOfRange, Some(Param::ClampMin))
-    );
-    // The probabilities' order, by InverseSensorModel::increments.
-    let mut bad = Configure::default();
-    bad.model.p_free = 0.6;
-    link.receive(&command(7, &Message::Configure(bad)), &mut pyramid, |_| {});
-    let Out::Reply(reply) = drain(&mut link)[0].1 else {
-        panic!()
-    };
-    assert_eq!(reply.design_param(), Some(Param::PFree));
-    // A window the pyramid was not compiled for.
-    let bad = Configure {
-        cells_per_side: 128,
-        ..Configure::default()
-    };
-    link.receive(&command(8, &Message::Configure(bad)), &mut pyramid, |_| {});
-    let Out::Reply(reply) = drain(&mut link)[0].1 else {
-        panic!()
-    };
-    assert_eq!(reply.design_param(), Some(Param::Cells));
-    // A good one: Reply Ok, then Hello(configured), maps cleared.
-    let mut good = Configure::default();
-    good.schedule.gate = crate::GateShape::Hard;
-    let mut events = Vec::new();
-    link.receive(&command(9, &Message::Configure(good)), &mut pyramid, |e| {
-        events.push(e)
-    });
-    assert_eq!(events, [Event::Configured]);
-    let out = drain(&mut link);
-    assert!(matches!(out[0].1, Out::Reply(r) if r.is_ok() && r.to_seq == 9));
-    assert!(matches!(&out[1].1, Out::Hello(h) if h.reason == HelloReason::Configured));
-    assert!(!pyramid.layer(0).unwrap().get(0, 0).unwrap().is_observed());
-    assert_eq!(link.counters().commands_refused, 4);
-}
-
-#[test]
-fn poses_are_validated_and_handed_over() {
-    let (mut pyramid, mut link) = configured();
-    link.poll(0, &mut pyramid, &SensorCounters::default());
-    drain(&mut link);
-    let good = Pose {
-        x_m: 12.5,
-        y_m: -3.0,
-        z_m: 0.2,
-        yaw_rad: 1.0,
-        timestamp_ms: 77,
-        ..Pose::default()
-    };
-    let bad = Pose {
-        x_m: f32::INFINITY,
-        ..good
-    };
-    let mut bytes = command(0, &Message::Pose(good));
-    bytes.extend(command(1, &Message::Pose(bad)));
-    bytes.extend(command(
-        2,
-        &Message::PanAngle(PanAngle {
-            turns: 0x8000,
-            timestamp_ms: 78,
-        }),
-    ));
-    let mut events = Vec::new();
-    link.receive(&bytes, &mut pyramid, |e| events.push(e));
-    assert_eq!(events[0], Event::Pose(good));
-    assert!(
-        matches!(events[1], Event::Refused(r) if r.param == 32 && r.code == ReplyCode::NotFinite)
-    );
-    assert!(matches!(events[2], Event::PanAngle(p) if p.angle().to_bits() == 0x8000));
-    let out = drain(&mut link);
-    assert_eq!(out.len(), 1, "only the refusal is answered");
-}
-
-#[test]
-fn snapshot_reset_ping_and_bad_frames() {
-    let (mut pyramid, mut link) = configured();
-    link.poll(0, &mut pyramid, &SensorCounters::default());
-    drain(&mut link);
-    pyramid.apply(&obstacle(0, 0, 0));
-    link.poll(1, &mut pyramid, &SensorCounters::default());
-    drain(&mut link);
-    // Snapshot of layer 2: Reply, Hello(snapshot, resend bit 2), then its 64 tiles.
-    link.receive(
-        &command(0, &Message::RequestSnapshot(SnapshotScope::Layer(2))),
-        &mut pyramid,
-        |_| {},
-    );
-    let mut out = drain(&mut link);
-    for t in 0..40 {
-        link.poll(100 + t * 100, &mut pyramid, &SensorCounters::default());
-        out.extend(drain(&mut link));
-    }
-    assert!(matches!(out[0].1, Out::Reply(r) if r.is_ok()));
-    assert!(
-        matches!(&out[1].1, Out::Hello(h) if h.reason == HelloReason::Snapshot && h.resend == 4)
-    );
-    let patches = out
-        .iter()
-        .filter(|(_, o)| matches!(o, Out::Patch(a, _) if a.layer == 2))
-        .count();
-    assert_eq!(patches, 64);
-    // A layer the pyramid does not have.
-    link.receive(
-        &command(1, &Message::RequestSnapshot(SnapshotScope::Layer(9))),
-        &mut pyramid,
-        |_| {},
-    );
-    let Out::Reply(r) = drain(&mut link)[0].1 else {
-        panic!()
-    };
-    assert_eq!((r.code, r.param, r.value), (ReplyCode::BadLayer, 40, 9.0));
-    // Reset: Reply, Hello(reset), maps cleared.
-    link.receive(&command(2, &Message::Reset), &mut pyramid, |_| {});
-    let out = drain(&mut link);
-    assert!(matches!(&out[1].1, Out::Hello(h) if h.reason == HelloReason::Reset));
-    assert_eq!(pyramid.counts(0).unwrap().observed, 0);
-    // A corrupted frame: no answer, counted; a gap in the host's numbers is counted.
-    let mut bytes = command(3, &Message::Ping);
-    bytes[3] ^= 1;
-    bytes.extend(command(5, &Message::Ping));
-    // A device-bound type from the host: Unsupported.
-    bytes.extend(command(
-        6,
-        &Message::Reply(Reply::ok(Header {
-            version: 1,
-            msg_type: 0x86,
-            seq: 0,
-        })),
-    ));
-    let mut events = Vec::new();
-    link.receive(&bytes, &mut pyramid, |e| events.push(e));
-    assert!(matches!(
-        events[0],
-        Event::BadFrame(DecodeError::Crc { .. })
-    ));
-    assert_eq!(events[1], Event::Ping);
-    let out = drain(&mut link);
-    assert!(matches!(out[0].1, Out::Reply(r) if r.is_ok() && r.to_seq == 5));
-    assert!(matches!(out[1].1, Out::Reply(r) if r.code == ReplyCode::Unsupported));
-    assert_eq!(link.rx_counters().crc, 1);
-    assert_eq!(link.counters().rx_seq_gaps, 2, "3 and 4 missing");
 }
 
 #[test]
@@ -519,87 +354,4 @@ fn the_default_link_fits_its_budget() {
     // The per-layer state grows with the layers it is sized for.
     let per_layer = (core::mem::size_of::<Link<4096, 32>>() - bytes) / 24;
     assert!((64..128).contains(&per_layer), "{per_layer}");
-}
-
-#[test]
-fn setup_request_stats_end_observation_and_shutdown() {
-    use crate::wire::link::Setup;
-    let (mut pyramid, mut link) = configured();
-    link.poll(0, &mut pyramid, &SensorCounters::default());
-    drain(&mut link);
-    let setup = Setup {
-        mount: 0,
-        measuring_mode: 3,
-        field_deg: 100,
-        resolution_cdeg: 25,
-        sensor_m: [0.1, 0.0, 0.6],
-        lines_per_observation: 20,
-        robot_height_m: 0.4,
-        step_threshold_m: 0.05,
-        drop_threshold_m: 0.3,
-        ceiling_m: 0.0,
-    };
-    let mut bytes = command(0, &Message::Setup(setup));
-    bytes.extend(command(
-        1,
-        &Message::Setup(Setup {
-            measuring_mode: 9,
-            ..setup
-        }),
-    ));
-    bytes.extend(command(2, &Message::EndObservation));
-    bytes.extend(command(3, &Message::RequestStats));
-    bytes.extend(command(4, &Message::Shutdown));
-    let mut events = Vec::new();
-    link.receive(&bytes, &mut pyramid, |e| events.push(e));
-    let Event::Setup(config) = events[0] else {
-        panic!("{events:?}")
-    };
-    assert_eq!(config.lines_per_observation, 20);
-    assert_eq!(
-        config.classifier.drop_threshold,
-        Some(Meters::saturating_from_num(0.3_f32))
-    );
-    assert_eq!(config.classifier.ceiling, None);
-    assert!(
-        matches!(events[1], Event::Refused(r) if r.param == 49 && r.code == ReplyCode::OutOfRange)
-    );
-    assert_eq!(events[2], Event::EndObservation);
-    assert_eq!(events[3], Event::StatsRequested);
-    let Event::Shutdown(header) = events[4] else {
-        panic!("{events:?}")
-    };
-    let mut answer = Reply::ok(header);
-    answer.value = 1234.0;
-    link.answer(answer);
-    // Stats goes out at the next poll although the interval is 0 (never).
-    let sensor = SensorCounters {
-        telegrams_ok: 5,
-        ..SensorCounters::default()
-    };
-    link.poll(10, &mut pyramid, &sensor);
-    let out = drain(&mut link);
-    let replies: Vec<_> = out
-        .iter()
-        .filter_map(|(_, o)| match o {
-            Out::Reply(r) => Some(*r),
-            _ => None,
-        })
-        .collect();
-    assert_eq!(replies.len(), 3, "{out:?}");
-    assert!(replies[0].is_ok() && replies[0].to_type == 0x87);
-    assert_eq!(replies[1].code, ReplyCode::OutOfRange);
-    assert_eq!((replies[2].to_type, replies[2].value), (0x89, 1234.0));
-    let stats: Vec<_> = out
-        .iter()
-        .filter_map(|(_, o)| match o {
-            Out::Stats(s) => Some(*s),
-            _ => None,
-        })
-        .collect();
-    assert_eq!(stats.len(), 1);
-    assert_eq!(stats[0].telegrams_ok, 5);
-    // Only once.
-    link.poll(20, &mut pyramid, &sensor);
-    assert!(drain(&mut link).is_empty());
 }

@@ -9,6 +9,12 @@
 //!   that bring a scanner up) and the stream reassembly over UART chunks.
 //! - [`link`]: the framed, checksummed, versioned host link (`docs/protocol.md`).
 //! - [`recording`]: the recording file format (`docs/recording.md`).
+//! - [`ld06`], [`rplidar`], [`ydlidar`]: the spinning UART lidars (LDROBOT LD06/LD19/STL-19P,
+//!   Slamtec RPLIDAR A1/A2/A3/C1/S, YDLIDAR X4/X2): packet views, commands and resynchronising
+//!   accumulators, all decoding to [`LaserReturn`]s in the sensor's own (clockwise) angle
+//!   convention ([`laser`]).
+//! - [`shared_line`]: one UART carrying both the SICK telegrams and the host link, split at
+//!   frame boundaries (a board with a single UART).
 //!
 //! Every accumulator hands out a [`FeedResult`].
 //!
@@ -28,8 +34,15 @@
 //! tests, and every arithmetic on a value read from the wire is checked or saturating.
 
 mod feed;
+pub mod laser;
+pub mod ld06;
 pub mod link;
 pub mod recording;
+pub mod rplidar;
+pub mod shared_line;
 pub mod sick;
+mod window;
+pub mod ydlidar;
 
 pub use feed::FeedResult;
+pub use laser::LaserReturn;

@@ -41,7 +41,7 @@ pub enum MountKind {
 /// The setup a recording was taken with.
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub struct Setup {
+pub struct SetupEvent {
     /// How the laser is mounted.
     pub mount: MountKind,
     /// The SICK measuring mode (0x77 mode number; 0 = factory default).
@@ -66,7 +66,7 @@ pub enum Payload<'a> {
     /// The robot pose: x, y, z (m), roll, pitch, yaw (rad).
     Pose([f32; 6]),
     /// The setup.
-    Setup(Setup),
+    Setup(SetupEvent),
     /// A marker id.
     Marker(u32),
     /// An event of a kind this version does not know; skipped by its length.
@@ -181,7 +181,7 @@ fn f32_at(data: &[u8], at: usize) -> Option<f32> {
     take::<4>(data, at).map(f32::from_le_bytes)
 }
 
-impl Setup {
+impl SetupEvent {
     fn parse(data: &[u8]) -> Option<Self> {
         if data.len() != SETUP_LEN {
             return None;
@@ -382,7 +382,7 @@ impl<'a> Reader<'a> {
                 Payload::Pose(p)
             }
             kind::SETUP => {
-                Payload::Setup(Setup::parse(body).ok_or(RecordingError::BadSetup { offset })?)
+                Payload::Setup(SetupEvent::parse(body).ok_or(RecordingError::BadSetup { offset })?)
             }
             kind::MARKER if len == 4 => {
                 Payload::Marker(take::<4>(body, 0).map(u32::from_le_bytes).ok_or(bad_len)?)
@@ -435,8 +435,8 @@ mod tests {
         0x01, 0x15, 0x34, 0, 0, 0, 0, 0, 0, 0x04, 0x00, 0x06, 0x02, 0x80, 0xD6,
     ];
 
-    fn setup() -> Setup {
-        Setup {
+    fn setup() -> SetupEvent {
+        SetupEvent {
             mount: MountKind::TiltedHorizontal,
             measuring_mode: 0,
             field_deg: 180,

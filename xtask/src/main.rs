@@ -8,17 +8,28 @@
 //! - `cargo xtask bench [--json] [--quick]`: exact per-return instruction counts on the
 //!   emulated Cortex-M (M4F, M0 code, fixed point and f32), host throughput against OctoMap,
 //!   the bench firmware's memory (BENCHMARKS.md).
+//! - `cargo xtask demo [--board qemu|host] [--out DIR]`: the main job on the emulated board
+//!   (installing what it needs as `test` does): the 3DTK scan and the simulated stairs
+//!   through the firmware in QEMU, maps and pictures.
+//! - `cargo xtask experiments [FLAGS]`: the paper's claims on the simulator (`lab experiments`).
 //! - `cargo xtask faults [--json] [--quick]`: fault injection through the emulated board, one
-//!   run per fault kind against the host's reference map (RELIABILITY.md); fails when any
+//!   run per fault kind against a reference co-processor (RELIABILITY.md); fails when any
 //!   outcome is bad.
-//! - `cargo xtask soak [--json] [--quick]`: an hour of simulated driving through the host
-//!   pipeline and ten minutes through the firmware on QEMU: counters, memory, map bounds,
-//!   throughput (RELIABILITY.md, "Soak"); `--quick` is CI's five and half a minute.
+//! - `cargo xtask soak [--json] [--quick]`: an hour of simulated driving through the
+//!   in-process co-processor and ten minutes through the firmware on QEMU: counters, memory,
+//!   map bounds, throughput (RELIABILITY.md, "Soak"); `--quick` is CI's five and half a minute.
+//! - `cargo xtask size [--json]`: the firmware's flash, static RAM and stack (`lab size`).
+//!
+//! - `cargo xtask layers [--json]`: the code's shape, checked: imports only point down the
+//!   library's layers, no import cycle, one definition per public type name.
+//!
+//! The lab's tasks run `cargo run --release -p terrain-pyramid-lab -- COMMAND FLAGS`.
 use std::process::ExitCode;
 
 mod bench;
-mod faults;
-mod soak;
+mod install;
+mod lab;
+mod layers;
 mod test;
 
 fn main() -> ExitCode {
@@ -30,11 +41,18 @@ fn main() -> ExitCode {
     let result = match task {
         "test" => test::run(rest),
         "bench" => bench::task(rest),
-        "faults" => faults::task(rest),
-        "soak" => soak::task(rest),
+        "demo" => lab::demo(rest),
+        "experiments" => lab::experiments(rest),
+        "faults" => lab::faults(rest),
+        "soak" => lab::soak(rest),
+        "size" => lab::size(rest),
+        "layers" => layers::task(rest),
         _ => Err(
             "usage: cargo xtask test [--lint] | cargo xtask bench [--json] [--quick] \
-                  | cargo xtask faults [--json] [--quick] | cargo xtask soak [--json] [--quick]"
+                  | cargo xtask demo [--board qemu|host] [--out DIR] \
+                  | cargo xtask experiments [--out DIR] [--quick] [--json] [...] \
+                  | cargo xtask faults [--json] [--quick] | cargo xtask soak [--json] [--quick] \
+                  | cargo xtask size [--json] | cargo xtask layers [--json]"
                 .to_string(),
         ),
     };

@@ -24,10 +24,12 @@ use micromath::F32Ext;
 use terrain_pyramid::design::Design;
 use terrain_pyramid::gate::{DistanceBins, GateTable, GATE_BINS};
 use terrain_pyramid::geometry::ScanPlane;
-use terrain_pyramid::geometry::{BeamDir, Variant, MAX_BEAMS, MAX_RANGE_MM};
+use terrain_pyramid::geometry::{BeamDir, MAX_RANGE_MM};
 use terrain_pyramid::logodds::gated;
 use terrain_pyramid::pipeline::FrontendConfig;
 use terrain_pyramid::wire::sick::MeasuredValues;
+use terrain_pyramid::wire::sick::Variant;
+use terrain_pyramid::wire::sick::MAX_BEAMS;
 use terrain_pyramid::{Config, DesignError};
 
 /// Tiles per side of a layer's dirty map (as the library's).
@@ -362,6 +364,8 @@ pub struct Frontend<const C: usize> {
     direction: i8,
     lines_in_observation: u32,
     returns: u32,
+    /// Lines taken.
+    lines: u32,
 }
 
 impl<const C: usize> Frontend<C> {
@@ -398,6 +402,7 @@ impl<const C: usize> Frontend<C> {
             direction: 0,
             lines_in_observation: 0,
             returns: 0,
+            lines: 0,
         };
         f.set_pose([0.0; 6]);
         f
@@ -407,6 +412,12 @@ impl<const C: usize> Frontend<C> {
     #[must_use]
     pub const fn returns(&self) -> u32 {
         self.returns
+    }
+
+    /// Lines taken so far.
+    #[must_use]
+    pub const fn lines(&self) -> u32 {
+        self.lines
     }
 
     /// The actuator angle, a fraction of a turn.
@@ -457,6 +468,7 @@ impl<const C: usize> Frontend<C> {
         } else {
             return;
         };
+        self.lines = self.lines.saturating_add(1);
         if self.config.lines_per_observation == 0 && self.sweep_turned() {
             self.end_observation(pyramid);
         }

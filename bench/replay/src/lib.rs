@@ -1,25 +1,30 @@
-//! The benchmark's replay loop: a recording (`docs/recording.md`) through a per-line pipeline,
-//! exactly as the firmware's main loop would run it. `no_std` and allocation-free, so the
-//! bench firmware (`boards/bench`) and the host timing (`bench-host`, `benches/pipeline.rs`)
-//! run the same code.
+//! The benchmark's replay loop: a recording (`docs/recording.md`) through a pipeline, exactly
+//! as the firmware's main loop would run it. `no_std` and allocation-free, so the bench
+//! firmware (`boards/bench`) and the host timing (`bench-host`, `benches/pipeline.rs`) run the
+//! same code.
 //!
-//! - [`replay`]: the event loop: laser bytes through the SICK [`Accumulator`], each valid
-//!   measured-values telegram to [`Pipeline::line`], angles and poses handed in, the link
-//!   ticked after every line.
-//! - [`Fixed`]: the library's pipeline ([`Frontend`] → [`Pyramid`]) and, optionally, the
-//!   host link's patch bookkeeping ([`Link::poll`] into a queue that is drained at once).
+//! - [`replay`]: the event loop: laser bytes, angles and poses handed to a [`Pipeline`] in the
+//!   recording's order.
+//! - [`Core`]: the application core ([`CoProcessor`]) as the firmware runs it: the laser's
+//!   bytes, the recording's angle as the board's angle source, the host link polled after
+//!   every chunk and its queue drained at once.
+//! - [`Fixed`]: the library's per-line pipeline ([`Frontend`] → [`Pyramid`]) without the link
+//!   or the application: the fixed-point side of the f32 comparison.
 //! - [`F32`]: the f32 counterpart (`terrain-pyramid-f32`).
 #![no_std]
 #![deny(unsafe_code)]
 #![deny(missing_docs)]
 
-use terrain_pyramid::angle::FineAngle;
+use terrain_pyramid::angle::{Angle, FineAngle};
+use terrain_pyramid::app::CoProcessor;
 use terrain_pyramid::classify::ClassifierConfig;
+use terrain_pyramid::drivers::angle::HostSuppliedAngle;
 use terrain_pyramid::geometry::Pose;
-use terrain_pyramid::link::{Link, SensorCounters};
+use terrain_pyramid::link::convert::frontend_config_of_event;
 use terrain_pyramid::pipeline::{Frontend, FrontendConfig};
-use terrain_pyramid::wire::recording::{Payload, Reader, Setup};
-use terrain_pyramid::wire::sick::{Accumulator, FeedResult, MeasuredValues};
+use terrain_pyramid::wire::recording::{Payload, Reader, SetupEvent};
+use terrain_pyramid::wire::sick::{MeasuredValues, SickAccumulator, SickItem};
+use terrain_pyramid::wire::FeedResult;
 use terrain_pyramid::Pyramid;
 
 pub use terrain_pyramid_f32 as f32_pipeline;
@@ -30,28 +35,19 @@ pub trait Pipeline {
     fn set_actuator(&mut self, turns: u16);
     /// A pose event: x, y, z (m), roll, pitch, yaw (rad).
     fn set_pose(&mut self, pose: [f32; 6]);
-    /// One valid measured-values telegram.
-    fn line(&mut self, values: &MeasuredValues<'_>);
-    /// After each line: the link's turn (the recording's clock, ms).
-    fn tick(&mut self, now_ms: u32);
+    /// Laser bytes as the UART delivers them, at the recording's clock (ms).
+    fn laser(&mut self, bytes: &[u8], now_ms: u32);
     /// The end of the recording: the last observation is applied.
     fn finish(&mut self);
     /// Laser returns (values with a distance) seen so far.
     fn returns(&self) -> u32;
-}
-
-/// What a replay went through.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
-pub struct Counts {
-    /// Valid measured-values telegrams.
-    pub lines: u32,
-    /// Telegrams the accumulator rejected.
-    pub rejected: u32,
+    /// Measured-values telegrams taken so far.
+    fn lines(&self) -> u32;
 }
 
 /// The recording's setup event, if it has one.
 #[must_use]
-pub fn setup(recording: &[u8]) -> Option<Setup> {
+pub fn setup(recording: &[u8]) -> Option<SetupEvent> {
     Reader::new(recording)
         .ok()?
         .find_map(|e| match e.ok()?.payload {
@@ -62,19 +58,14 @@ pub fn setup(recording: &[u8]) -> Option<Setup> {
 
 /// The library pipeline's configuration from a recording's setup (as `pyramid run`'s).
 #[must_use]
-pub fn frontend_config(setup: &Setup) -> Option<FrontendConfig> {
-    FrontendConfig::from_setup(setup, ClassifierConfig::default()).ok()
+pub fn frontend_config(setup: &SetupEvent) -> Option<FrontendConfig> {
+    frontend_config_of_event(setup, &ClassifierConfig::default()).ok()
 }
 
-/// Plays `recording` through `pipeline`, feeding its laser bytes to `accumulator`.
-pub fn replay<P: Pipeline, const N: usize>(
-    recording: &[u8],
-    accumulator: &mut Accumulator<N>,
-    pipeline: &mut P,
-) -> Counts {
-    let mut counts = Counts::default();
+/// Plays `recording` through `pipeline`.
+pub fn replay<P: Pipeline>(recording: &[u8], pipeline: &mut P) {
     let Ok(reader) = Reader::new(recording) else {
-        return counts;
+        return;
     };
     for event in reader {
         let Ok(event) = event else { break };
@@ -83,81 +74,114 @@ pub fn replay<P: Pipeline, const N: usize>(
             Payload::Pose(pose) => pipeline.set_pose(pose),
             Payload::Laser(bytes) => {
                 let now_ms = u32::try_from(event.time_us / 1000).unwrap_or(u32::MAX);
-                let mut rest = bytes;
-                loop {
-                    match accumulator.feed(rest) {
-                        FeedResult::Consumed => break,
-                        FeedResult::Telegram {
-                            telegram,
-                            remaining,
-                            ..
-                        } => {
-                            if let Ok(values) = MeasuredValues::parse(&telegram) {
-                                counts.lines = counts.lines.saturating_add(1);
-                                pipeline.line(&values);
-                                pipeline.tick(now_ms);
-                            }
-                            rest = remaining;
-                        }
-                        FeedResult::Rejected { remaining, .. } => {
-                            counts.rejected = counts.rejected.saturating_add(1);
-                            rest = remaining;
-                        }
-                        other => rest = other.remaining(),
-                    }
-                }
+                pipeline.laser(bytes, now_ms);
             }
             Payload::Setup(_) | Payload::Marker(_) | Payload::Unknown { .. } => {}
         }
     }
     pipeline.finish();
-    counts
 }
 
-/// The library's pipeline into a pyramid, with or without the host link.
-pub struct Fixed<'a, const C: usize, const W: usize, const L: usize, const Q: usize> {
-    /// The per-line pipeline.
-    pub frontend: &'a mut Frontend<C>,
-    /// The pyramid.
-    pub pyramid: &'a mut Pyramid<W, L>,
-    /// The host link, whose queue is drained after every poll; `None`: no link.
-    pub link: Option<&'a mut Link<Q>>,
+/// A pose event as the geometry takes it (`None`: refused).
+fn pose_of([x, y, z, roll, pitch, yaw]: [f32; 6]) -> Option<Pose> {
+    Pose::from_f32(x, y, z, roll, pitch, yaw).ok()
 }
 
-impl<const C: usize, const W: usize, const L: usize, const Q: usize> Pipeline
-    for Fixed<'_, C, W, L, Q>
+/// The application core as the firmware runs it.
+pub struct Core<'a, const W: usize, const L: usize, const C: usize, const Q: usize> {
+    /// The co-processor, booted.
+    pub core: &'a mut CoProcessor<W, L, C, Q>,
+    /// The recording's actuator angle, read as a board reads its encoder.
+    pub angle: HostSuppliedAngle,
+}
+
+impl<const W: usize, const L: usize, const C: usize, const Q: usize> Pipeline
+    for Core<'_, W, L, C, Q>
 {
     fn set_actuator(&mut self, turns: u16) {
-        self.frontend
-            .set_actuator(FineAngle::from_bits(u32::from(turns) << 16));
+        self.angle.set(Angle::from_bits(turns));
     }
 
-    fn set_pose(&mut self, [x, y, z, roll, pitch, yaw]: [f32; 6]) {
-        if let Ok(pose) = Pose::from_f32(x, y, z, roll, pitch, yaw) {
+    fn set_pose(&mut self, pose: [f32; 6]) {
+        if let Some(pose) = pose_of(pose) {
+            self.core.set_pose(pose);
+        }
+    }
+
+    fn laser(&mut self, bytes: &[u8], now_ms: u32) {
+        self.core.laser(bytes, &mut self.angle);
+        self.core.poll(now_ms);
+        // The UART takes everything at once: a drained queue.
+        let mut uart = [0_u8; 64];
+        while self.core.take_output(&mut uart) > 0 {}
+    }
+
+    fn finish(&mut self) {
+        self.core.end_observation();
+    }
+
+    fn returns(&self) -> u32 {
+        self.core.frontend().stats().returns
+    }
+
+    fn lines(&self) -> u32 {
+        self.core.frontend().stats().lines_applied
+    }
+}
+
+/// Every measured-values telegram `bytes` complete, parsed, to `line`.
+fn each_line<const N: usize>(
+    accumulator: &mut SickAccumulator<N>,
+    bytes: &[u8],
+    mut line: impl FnMut(&MeasuredValues<'_>),
+) {
+    let mut rest = bytes;
+    loop {
+        rest = match accumulator.feed(rest) {
+            FeedResult::Consumed => return,
+            FeedResult::Item {
+                item: SickItem::Telegram(telegram),
+                remaining,
+                ..
+            } => {
+                if let Ok(values) = MeasuredValues::parse(&telegram) {
+                    line(&values);
+                }
+                remaining
+            }
+            other => other.remaining(),
+        };
+    }
+}
+
+/// The library's per-line pipeline into a pyramid, no link, no application.
+pub struct Fixed<'a, const C: usize, const W: usize, const L: usize> {
+    /// The laser's accumulator.
+    pub accumulator: &'a mut SickAccumulator,
+    /// The per-line pipeline (its design adopted).
+    pub frontend: &'a mut Frontend<C, L>,
+    /// The pyramid.
+    pub pyramid: &'a mut Pyramid<W, L>,
+}
+
+impl<const C: usize, const W: usize, const L: usize> Pipeline for Fixed<'_, C, W, L> {
+    fn set_actuator(&mut self, turns: u16) {
+        self.frontend
+            .set_actuator(FineAngle::from(Angle::from_bits(turns)));
+    }
+
+    fn set_pose(&mut self, pose: [f32; 6]) {
+        if let Some(pose) = pose_of(pose) {
             self.frontend.set_pose(pose);
         }
     }
 
-    fn line(&mut self, values: &MeasuredValues<'_>) {
-        let _ = self.frontend.line(self.pyramid, values);
-    }
-
-    fn tick(&mut self, now_ms: u32) {
-        if let Some(link) = self.link.as_deref_mut() {
-            let s = self.frontend.stats();
-            let c = self.frontend.classifier_stats();
-            let sensor = SensorCounters {
-                telegrams_ok: s.lines_applied,
-                points: c.points,
-                classifier_overflows: c.overflow_points,
-                observations: s.observations,
-                ..SensorCounters::default()
-            };
-            link.poll(now_ms, self.pyramid, &sensor);
-            // The UART takes everything at once: a drained queue.
-            let mut uart = [0_u8; 64];
-            while link.pop_bytes(&mut uart) > 0 {}
-        }
+    fn laser(&mut self, bytes: &[u8], _now_ms: u32) {
+        let (frontend, pyramid) = (&mut *self.frontend, &mut *self.pyramid);
+        each_line(self.accumulator, bytes, |values| {
+            // A refused line is counted by the pipeline.
+            let _ = frontend.line(pyramid, values);
+        });
     }
 
     fn finish(&mut self) {
@@ -167,10 +191,16 @@ impl<const C: usize, const W: usize, const L: usize, const Q: usize> Pipeline
     fn returns(&self) -> u32 {
         self.frontend.stats().returns
     }
+
+    fn lines(&self) -> u32 {
+        self.frontend.stats().lines_applied
+    }
 }
 
 /// The f32 counterpart as a [`Pipeline`].
 pub struct F32<'a, const C: usize, const W: usize, const L: usize> {
+    /// The laser's accumulator.
+    pub accumulator: &'a mut SickAccumulator,
     /// The f32 pipeline.
     pub frontend: &'a mut terrain_pyramid_f32::Frontend<C>,
     /// Its pyramid.
@@ -186,11 +216,12 @@ impl<const C: usize, const W: usize, const L: usize> Pipeline for F32<'_, C, W, 
         self.frontend.set_pose(pose);
     }
 
-    fn line(&mut self, values: &MeasuredValues<'_>) {
-        self.frontend.line(self.pyramid, values);
+    fn laser(&mut self, bytes: &[u8], _now_ms: u32) {
+        let (frontend, pyramid) = (&mut *self.frontend, &mut *self.pyramid);
+        each_line(self.accumulator, bytes, |values| {
+            frontend.line(pyramid, values)
+        });
     }
-
-    fn tick(&mut self, _now_ms: u32) {}
 
     fn finish(&mut self) {
         self.frontend.end_observation(self.pyramid);
@@ -199,4 +230,39 @@ impl<const C: usize, const W: usize, const L: usize> Pipeline for F32<'_, C, W, 
     fn returns(&self) -> u32 {
         self.frontend.returns()
     }
+
+    fn lines(&self) -> u32 {
+        self.frontend.lines()
+    }
+}
+
+/// The default design (sensor model and schedule) at a window of `W` cells.
+#[must_use]
+pub fn default_design<const W: usize, const L: usize>() -> Option<terrain_pyramid::Design<L>> {
+    terrain_pyramid::Design::new(
+        terrain_pyramid::SensorModel::default(),
+        terrain_pyramid::Schedule::default(),
+        W,
+    )
+    .ok()
+}
+
+/// Boots `core` as the bench firmware does: `design`, the default configuration and link,
+/// the recording's setup. `false` when the recording has no usable setup or the design does
+/// not fit the core.
+pub fn boot<const W: usize, const L: usize, const C: usize, const Q: usize>(
+    core: &mut CoProcessor<W, L, C, Q>,
+    recording: &[u8],
+    design: &terrain_pyramid::Design<L>,
+) -> bool {
+    let Some(setup) = setup(recording).as_ref().and_then(frontend_config) else {
+        return false;
+    };
+    core.boot(
+        terrain_pyramid::link::LinkConfig::DEFAULT,
+        design,
+        &terrain_pyramid::Config::default(),
+        setup,
+    )
+    .is_ok()
 }

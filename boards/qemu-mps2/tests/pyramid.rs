@@ -8,7 +8,10 @@
 
 use qemu_mps2 as _; // defmt logger, panic and HardFault handlers, semihosting exit
 
-use terrain_pyramid::{Design, Evidence, EvidenceClass, GateShape, Meters, Schedule, SensorModel};
+use terrain_pyramid::gate::Gates;
+use terrain_pyramid::{
+    Config, Design, Evidence, EvidenceClass, GateShape, Meters, Schedule, SensorModel,
+};
 
 /// A 4-layer design whose windows fit 16 cells: σ = 0.3 m, 3 m range, Δd = 0.1 m, γ = 2,
 /// hard gates. Layers of 0.1 / 0.2 / 0.4 / 0.6 m over [0, 0.280), [0.280, 0.656),
@@ -34,19 +37,28 @@ fn m(v: f32) -> Meters {
     Meters::from_num(v)
 }
 
-fn record(layer: u8, x: i32, y: i32, class: EvidenceClass, d: f32) -> Evidence {
+/// The gating of [`small_design`] with the default increments.
+fn small_gates() -> Gates<4> {
+    let mut gates = Gates::new();
+    let increments = Config::default().model.increments().unwrap();
+    gates.configure(&small_design(), increments).unwrap();
+    gates
+}
+
+/// A record of `layer` seen at distance `d`, weighted by the small design's gate.
+fn record(gates: &Gates<4>, layer: u8, x: i32, y: i32, class: EvidenceClass, d: f32) -> Evidence {
     Evidence {
         layer,
         cell_x: x,
         cell_y: y,
         class,
-        distance: m(d),
+        weight: gates.weight_at(usize::from(layer), m(d)),
     }
 }
 
 #[defmt_test::tests]
 mod tests {
-    use super::{close, m, record, small_design};
+    use super::{close, m, record, small_design, small_gates};
     use defmt::{assert, assert_eq};
     use terrain_pyramid::classify::{Classifier, ClassifierConfig};
     use terrain_pyramid::gate::{DistanceBins, GateTable, GATE_BINS};
@@ -136,8 +148,12 @@ mod tests {
         pyramid
             .configure(&small_design(), &Config::default())
             .unwrap();
-        let mut classifier: Classifier<64> = Classifier::new();
+        let mut classifier: Classifier<64, 4> = Classifier::new();
         classifier.configure(ClassifierConfig::default());
+        let increments = Config::default().model.increments().unwrap();
+        classifier
+            .adopt_design(&small_design(), increments)
+            .unwrap();
         classifier.begin(Meters::ZERO);
         let ground = Meters::ZERO;
         let point = |x: f32, y: f32, z: f32| Point3 {
@@ -146,14 +162,14 @@ mod tests {
             z: m(z),
         };
         // Layer 0 (0.1 m cells, band [0, 0.28) m): a 12 cm curb in cell (1, 0) ...
-        classifier.add_point(&pyramid, point(0.12, 0.05, 0.0), m(0.13), ground);
-        classifier.add_point(&pyramid, point(0.18, 0.05, 0.12), m(0.187), ground);
+        classifier.add_point(point(0.12, 0.05, 0.0), m(0.13), ground);
+        classifier.add_point(point(0.18, 0.05, 0.12), m(0.187), ground);
         // ... flat ground in cell (2, 0), with a branch overhead (ignored: above 1 m).
-        classifier.add_point(&pyramid, point(0.22, 0.02, 0.0), m(0.221), ground);
-        classifier.add_point(&pyramid, point(0.26, 0.04, 0.01), m(0.263), ground);
-        classifier.add_point(&pyramid, point(0.25, 0.05, 1.6), m(0.255), ground);
+        classifier.add_point(point(0.22, 0.02, 0.0), m(0.221), ground);
+        classifier.add_point(point(0.26, 0.04, 0.01), m(0.263), ground);
+        classifier.add_point(point(0.25, 0.05, 1.6), m(0.255), ground);
         // Layer 2 (0.4 m cells, band [0.656, 2.191) m): one far point in cell (2, 0).
-        classifier.add_point(&pyramid, point(1.0, 0.1, 0.3), m(1.005), ground);
+        classifier.add_point(point(1.0, 0.1, 0.3), m(1.005), ground);
         assert_eq!(classifier.cells_in_use(), 3);
         assert_eq!(classifier.stats().points_used, 6);
 
@@ -175,8 +191,8 @@ mod tests {
         };
         let curb = find(0, 1);
         assert_eq!(curb.class, EvidenceClass::Obstacle);
-        // The closest look, 0.13 m, is kept as its gate bin (1/32 m): bin 4, edge 0.125 m.
-        assert_eq!(curb.distance.to_bits(), m(0.125).to_bits());
+        // The closest look, 0.13 m, lies in layer 0's band: full weight.
+        assert!(curb.weight == Weight::ONE);
         let flat = find(0, 2);
         assert_eq!(flat.class, EvidenceClass::Navigable);
         let far = find(2, 2);
@@ -185,9 +201,9 @@ mod tests {
 
         // The same scene straight into the pyramid.
         classifier.begin(Meters::ZERO);
-        classifier.add_point(&pyramid, point(0.12, 0.05, 0.0), m(0.13), ground);
-        classifier.add_point(&pyramid, point(0.18, 0.05, 0.12), m(0.187), ground);
-        classifier.add_point(&pyramid, point(0.22, 0.02, 0.0), m(0.221), ground);
+        classifier.add_point(point(0.12, 0.05, 0.0), m(0.13), ground);
+        classifier.add_point(point(0.18, 0.05, 0.12), m(0.187), ground);
+        classifier.add_point(point(0.22, 0.02, 0.0), m(0.221), ground);
         classifier.finish_into(&mut pyramid);
         assert_eq!(
             pyramid.fused(m(0.15), m(0.05)),
@@ -202,6 +218,8 @@ mod tests {
 
     #[test]
     fn pyramid_16x4_integration() {
+        let gates = small_gates();
+        let record = |layer, x, y, class, d| record(&gates, layer, x, y, class, d);
         let mut p = Small::new();
         assert_eq!(p.layer_count(), 0);
         assert_eq!(

@@ -1,42 +1,69 @@
-//! Time from the DWT cycle counter: timeouts for the scanner bring-up, periods of the main
-//! loop, and short busy-wait delays. The counter wraps every 2³² cycles (23.9 s at 180 MHz):
-//! every interval measured here is shorter.
+//! Time from SysTick: the link's milliseconds, timeouts for the scanner bring-up, periods of
+//! the main loop, and short busy-wait delays.
+//!
+//! SysTick interrupts at 1 kHz from the core clock that [`crate::rcc::start`] reported, and
+//! its handler counts milliseconds ([`millis`], wrapping after 49.7 days; every interval
+//! measured here is shorter). Not DWT's cycle counter: QEMU does not model the DWT (its
+//! registers read 0, so a timeout on it would never expire), and SysTick is the one timer
+//! the firmware needs on both the board and the emulator. Busy-wait delays count
+//! instructions (`cortex_m::asm::delay`, at least the cycles asked for).
 
+use core::sync::atomic::{AtomicU32, Ordering};
+
+use cortex_m::peripheral::syst::SystClkSource;
+use cortex_m::peripheral::SYST;
 use embedded_hal::delay::DelayNs;
-use stm32f4xx_hal::dwt::{Instant, MonoTimer};
 
-/// The cycle counter and its frequency.
-#[derive(Clone, Copy)]
+/// Milliseconds since SysTick started, wrapping.
+static MILLIS: AtomicU32 = AtomicU32::new(0);
+
+#[cortex_m_rt::exception]
+fn SysTick() {
+    MILLIS.fetch_add(1, Ordering::Relaxed);
+}
+
+/// Milliseconds since [`start`], wrapping: the link's time base.
+pub fn millis() -> u32 {
+    MILLIS.load(Ordering::Relaxed)
+}
+
+/// A point in time, in [`millis`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Instant(u32);
+
+/// The time source: SysTick's milliseconds and the core clock for delays.
+#[derive(Debug, Clone, Copy)]
 pub struct Clock {
-    timer: MonoTimer,
+    core_hz: u32,
+}
+
+/// Starts SysTick at 1 kHz from the core clock (`core_hz`, hertz, at most 2²⁴ kHz) and
+/// returns the clock.
+pub fn start(mut syst: SYST, core_hz: u32) -> Clock {
+    let reload = (core_hz / 1000).clamp(2, 1 << 24) - 1;
+    syst.set_clock_source(SystClkSource::Core);
+    syst.set_reload(reload);
+    syst.clear_current();
+    syst.enable_interrupt();
+    syst.enable_counter();
+    Clock { core_hz }
 }
 
 impl Clock {
-    /// Wraps a started `MonoTimer` (which enabled the DWT cycle counter).
-    pub fn new(timer: MonoTimer) -> Self {
-        Self { timer }
-    }
-
     /// Now, for [`Clock::elapsed_ms`].
     pub fn now(&self) -> Instant {
-        self.timer.now()
+        Instant(millis())
     }
 
-    /// Milliseconds since `since` (intervals below 23 s).
+    /// Milliseconds since `since` (intervals below 49 days).
     pub fn elapsed_ms(&self, since: Instant) -> u32 {
-        let per_ms = (self.timer.frequency().raw() / 1000).max(1);
-        since.elapsed() / per_ms
+        millis().wrapping_sub(since.0)
     }
 }
 
 impl DelayNs for Clock {
     fn delay_ns(&mut self, ns: u32) {
-        let start = self.timer.now();
-        let hz = u64::from(self.timer.frequency().raw());
-        let ticks = (u64::from(ns) * hz).div_ceil(1_000_000_000);
-        let ticks = u32::try_from(ticks)
-            .unwrap_or(u32::MAX / 2)
-            .min(u32::MAX / 2);
-        while start.elapsed() < ticks {}
+        let cycles = (u64::from(ns) * u64::from(self.core_hz)).div_ceil(1_000_000_000);
+        cortex_m::asm::delay(u32::try_from(cycles).unwrap_or(u32::MAX));
     }
 }

@@ -6,6 +6,8 @@
 //! - The interrupt handlers' entry points (`#[interrupt]`), which hand over to [`crate::rx`].
 //! - Reading the painted stack for its high-water mark (`cortex-m-rt`'s `paint-stack` fills
 //!   the stack with a pattern in the reset handler, before any Rust runs).
+//! - Volatile access to the five clock-tree registers [`crate::rcc`] drives itself ([`Reg`]).
+//! - Under `log-semihosting`, the HardFault handler that ends an emulated run.
 
 use core::ptr::{addr_of, read_volatile};
 
@@ -60,4 +62,76 @@ pub fn stack_high_water() -> (u32, u32) {
     let used = size - (address - bottom);
     let as_u32 = |n: usize| u32::try_from(n).unwrap_or(u32::MAX);
     (as_u32(used), as_u32(size))
+}
+
+/// The clock-tree registers the start-up sequence ([`crate::rcc`]) drives itself, with their
+/// addresses (RM0390 for the STM32F446, RM0090 for the STM32F405: the same offsets and bits
+/// for everything used here; the over-drive bits exist on the F446 only).
+///
+/// | register | address | bits used |
+/// | --- | --- | --- |
+/// | `RCC_CR` | 0x4002_3800 | 0 HSION, 1 HSIRDY, 16 HSEON, 17 HSERDY, 18 HSEBYP, 24 PLLON, 25 PLLRDY |
+/// | `RCC_PLLCFGR` | 0x4002_3804 | 5..0 PLLM, 14..6 PLLN, 17..16 PLLP, 22 PLLSRC, 27..24 PLLQ (F446: 30..28 PLLR) |
+/// | `RCC_APB1ENR` | 0x4002_3840 | 28 PWREN |
+/// | `PWR_CR` | 0x4000_7000 | 16 ODEN, 17 ODSWEN (F446) |
+/// | `PWR_CSR` | 0x4000_7004 | 16 ODRDY, 17 ODSWRDY (F446) |
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "chip-f405", allow(dead_code))] // The F405 has no over-drive.
+pub enum Reg {
+    /// `RCC_CR`: oscillator and PLL enables and ready flags.
+    RccCr,
+    /// `RCC_PLLCFGR`: the main PLL's source and dividers.
+    RccPllcfgr,
+    /// `RCC_APB1ENR`: the APB1 clock enables (the PWR block's).
+    RccApb1enr,
+    /// `PWR_CR`: the regulator's over-drive enables.
+    PwrCr,
+    /// `PWR_CSR`: the regulator's over-drive ready flags.
+    PwrCsr,
+}
+
+impl Reg {
+    const fn address(self) -> usize {
+        match self {
+            Self::RccCr => 0x4002_3800,
+            Self::RccPllcfgr => 0x4002_3804,
+            Self::RccApb1enr => 0x4002_3840,
+            Self::PwrCr => 0x4000_7000,
+            Self::PwrCsr => 0x4000_7004,
+        }
+    }
+}
+
+/// Reads a clock-tree register.
+pub fn read(reg: Reg) -> u32 {
+    // SAFETY: one of the five aligned 32-bit registers of `Reg`, always mapped on the
+    // STM32F4 (in QEMU's netduinoplus2 they are "unimplemented" regions that read 0); reading
+    // has no side effect.
+    unsafe { read_volatile(reg.address() as *const u32) }
+}
+
+/// Writes a clock-tree register. Only [`crate::rcc::start`] calls it, while it owns the RCC
+/// (before the HAL gets it), so nothing else writes these registers meanwhile.
+pub fn write(reg: Reg, value: u32) {
+    // SAFETY: as in `read`; a write changes clocks, not memory Rust owns. The caller holds
+    // the `RCC` peripheral by value, so no other code drives these registers concurrently.
+    unsafe { core::ptr::write_volatile(reg.address() as *mut u32, value) }
+}
+
+/// Read-modify-write: clears the bits of `clear`, then sets those of `set`.
+pub fn modify(reg: Reg, clear: u32, set: u32) {
+    write(reg, (read(reg) & !clear) | set);
+}
+
+/// A HardFault ends an emulated run with exit code 102 (the stacked program counter logged).
+#[cfg(feature = "log-semihosting")]
+#[cortex_m_rt::exception]
+unsafe fn HardFault(frame: &cortex_m_rt::ExceptionFrame) -> ! {
+    defmt::error!(
+        "HardFault at pc {=u32:#010x} (lr {=u32:#010x}, xpsr {=u32:#010x})",
+        frame.pc(),
+        frame.lr(),
+        frame.xpsr()
+    );
+    semihosting::process::exit(crate::logging::EXIT_HARDFAULT)
 }

@@ -18,8 +18,9 @@ use stm32f4xx_hal::serial::{Instance, Rx, RxListen};
 /// telegram of 732 bytes; the main loop bounds each step's blocking transmission to less,
 /// and 1 KiB more would take the static RAM past 96 KiB).
 pub const LASER_QUEUE: usize = 1024;
-/// Bytes the host-link queue holds: 511 (about 5.5 ms at 921.6 kBd).
-pub const HOST_QUEUE: usize = 512;
+/// Bytes the host-link queue holds: 255 (about 2.8 ms at 921.6 kBd; the host's largest
+/// command is 71 bytes, and the main loop takes 64 bytes a step).
+pub const HOST_QUEUE: usize = 256;
 
 /// What a receive path has counted since it was installed. Counters saturate.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, defmt::Format)]
@@ -132,4 +133,18 @@ pub fn host_stats() -> RxStats {
             .map(|p| p.stats)
             .unwrap_or_default()
     })
+}
+
+/// Moves up to `buf.len()` queued bytes into `buf`; returns how many (0 when the interrupt has
+/// queued nothing).
+pub fn take(consumer: &mut Consumer<'static, u8>, buf: &mut [u8]) -> usize {
+    let mut n = 0;
+    for slot in buf.iter_mut() {
+        let Some(byte) = consumer.dequeue() else {
+            break;
+        };
+        *slot = byte;
+        n += 1;
+    }
+    n
 }

@@ -29,8 +29,8 @@ use super::laser::{angle_to_u16, measuring_mode_code, Actuator, Laser, LaserConf
 use super::record::PAN_LINES_PER_OBSERVATION;
 use super::scene::{Scene, Solid};
 use super::trajectory::Pose;
-use terrain_pyramid::geometry::Variant;
-use terrain_pyramid::wire::recording::Setup;
+use terrain_pyramid::wire::recording::SetupEvent as Setup;
+use terrain_pyramid::wire::sick::Variant;
 
 /// Scenes around one lap.
 pub const STATIONS: usize = 24;

@@ -33,8 +33,8 @@ use super::rng::Rng;
 use super::scene::{Ray, Scene};
 use super::trajectory::Pose;
 use std::collections::HashMap;
-use terrain_pyramid::geometry::Variant;
 use terrain_pyramid::wire::recording::MountKind;
+use terrain_pyramid::wire::sick::Variant;
 use terrain_pyramid::wire::sick::{MeasuredValues, MeasuringMode, Unit};
 
 /// The flag bit real captures carry on ordinary returns in the 8 m / 80 m modes.

@@ -39,7 +39,8 @@ use super::rng::Rng;
 use super::scene::{GroundTruthSpec, ObstacleCell, Scene, StairsSpec};
 use super::trajectory::{Phase, Trajectory};
 use core::fmt;
-use terrain_pyramid::wire::recording::{emit_header, Event, MountKind, Payload, Setup};
+use terrain_pyramid::wire::recording::SetupEvent as Setup;
+use terrain_pyramid::wire::recording::{emit_header, Event, MountKind, Payload};
 
 /// Marker id: the robot starts driving.
 pub const MARKER_DRIVE_START: u32 = 1;

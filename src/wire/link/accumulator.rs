@@ -4,8 +4,9 @@
 use super::cobs::{Decoder, Step};
 use super::message::decode;
 use super::{DecodeError, Header, Message};
+use crate::wire::FeedResult;
 
-/// Counters of what an [`Accumulator`] saw. They saturate.
+/// Counters of what a [`FrameAccumulator`] saw. They saturate.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct RxCounters {
@@ -59,51 +60,55 @@ impl RxCounters {
     }
 }
 
-/// What one [`Accumulator::feed`] did.
-#[derive(Debug, PartialEq)]
-#[allow(clippy::large_enum_variant)] // a Message, unboxed: the library has no heap
-pub enum FeedResult<'a, 'b> {
-    /// Every input byte was taken and no frame ended.
-    Consumed,
-    /// A frame ended and decoded whole.
-    Frame {
-        /// Its header.
-        header: Header,
-        /// Its message, borrowing the accumulator's buffer.
-        message: Message<'a>,
-        /// The input after the frame's delimiter.
-        remaining: &'b [u8],
-    },
-    /// A frame ended and was refused (and counted).
-    Error {
-        /// Why.
-        error: DecodeError,
-        /// Its header, when the CRC and version were good.
-        header: Option<Header>,
-        /// The input after the frame's delimiter.
-        remaining: &'b [u8],
-    },
+/// A frame that decoded whole: its header and its message, borrowing the accumulator's
+/// buffer until the next call.
+#[derive(Debug, Clone, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Decoded<'a> {
+    /// Its header.
+    pub header: Header,
+    /// Its message.
+    pub message: Message<'a>,
 }
+
+/// A frame that ended and was refused (and counted).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Undecoded {
+    /// Why.
+    pub error: DecodeError,
+    /// Its header, when the CRC and version were good.
+    pub header: Option<Header>,
+}
+
+/// What one [`FrameAccumulator::feed`] did: the generic [`FeedResult`] with [`Decoded`]
+/// frames and [`Undecoded`] refusals; `offset` is the stream position of the frame's first
+/// byte, `remaining` the input after its delimiter.
+pub type FrameFeed<'a, 'b> = FeedResult<'b, Decoded<'a>, Undecoded>;
 
 /// Reassembles frames of at most `N` decoded bytes (header, body, CRC) from a byte stream,
 /// decoding COBS as the bytes arrive. A frame that outgrows `N` is refused as too long when
 /// its delimiter comes; every error resynchronises on the next `0x00`.
 #[derive(Debug, Clone)]
-pub struct Accumulator<const N: usize> {
+pub struct FrameAccumulator<const N: usize> {
     buf: [u8; N],
     len: usize,
     overflow: bool,
     cobs: Decoder,
     counters: RxCounters,
+    /// Bytes taken so far (wrapping): the stream position of the next byte.
+    consumed: u64,
+    /// The stream position of the current frame's first byte.
+    frame_start: u64,
 }
 
-impl<const N: usize> Default for Accumulator<N> {
+impl<const N: usize> Default for FrameAccumulator<N> {
     fn default() -> Self {
         Self::new()
     }
 }
 
-impl<const N: usize> Accumulator<N> {
+impl<const N: usize> FrameAccumulator<N> {
     /// An empty accumulator. `const`, for a `static`.
     #[must_use]
     pub const fn new() -> Self {
@@ -123,6 +128,8 @@ impl<const N: usize> Accumulator<N> {
                 bad_body: 0,
                 out_of_range: 0,
             },
+            consumed: 0,
+            frame_start: 0,
         }
     }
 
@@ -139,11 +146,22 @@ impl<const N: usize> Accumulator<N> {
         self.cobs = Decoder::new();
     }
 
+    /// Bytes taken since the accumulator was made (wrapping at 2⁶⁴): the stream position of
+    /// the next byte fed.
+    #[must_use]
+    pub const fn position(&self) -> u64 {
+        self.consumed
+    }
+
     /// Takes bytes until a frame ends or the input runs out. Call again with `remaining`
     /// until it answers [`FeedResult::Consumed`].
-    pub fn feed<'a, 'b>(&'a mut self, input: &'b [u8]) -> FeedResult<'a, 'b> {
+    pub fn feed<'a, 'b>(&'a mut self, input: &'b [u8]) -> FrameFeed<'a, 'b> {
         for (i, &byte) in input.iter().enumerate() {
             let idle = self.cobs.is_idle();
+            if idle {
+                self.frame_start = self.consumed;
+            }
+            self.consumed = self.consumed.wrapping_add(1);
             match self.cobs.step(byte) {
                 Step::None => {}
                 Step::Byte(b) => match self.buf.get_mut(self.len) {
@@ -168,20 +186,21 @@ impl<const N: usize> Accumulator<N> {
                     } else {
                         decode(buf.get(..len).unwrap_or(&[]))
                     };
+                    let offset = self.frame_start;
                     return match result {
                         Ok((header, message)) => {
                             counters.frames_ok = counters.frames_ok.saturating_add(1);
-                            FeedResult::Frame {
-                                header,
-                                message,
+                            FeedResult::Item {
+                                item: Decoded { header, message },
+                                offset,
                                 remaining,
                             }
                         }
                         Err((error, header)) => {
                             counters.count(&error);
-                            FeedResult::Error {
-                                error,
-                                header,
+                            FeedResult::Rejected {
+                                error: Undecoded { error, header },
+                                offset,
                                 remaining,
                             }
                         }

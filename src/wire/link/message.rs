@@ -5,17 +5,6 @@ use super::cobs;
 use super::crc::Crc32;
 use super::{DecodeError, EncodeError, Frame, Header, MessageType, MAX_LAYERS, MAX_PATCH_SIDE};
 use crate::angle::Angle;
-use crate::classify::ClassifierConfig;
-use crate::design::{DesignError, GateShape, Param, Schedule, SensorModel};
-use crate::geometry::{Mount, ScanPlane, Variant};
-use crate::logodds::{Clamp, InverseSensorModel};
-use crate::pipeline::FrontendConfig;
-use crate::pyramid::Config;
-use crate::units::Meters;
-use crate::wire::sick::MeasuringMode;
-use crate::Design;
-use crate::Point3;
-use core::fmt;
 
 /// Bytes of a Hello before its layers.
 pub(crate) const HELLO_FIXED: usize = 12;
@@ -33,7 +22,7 @@ pub(crate) const POSE_LEN: usize = 28;
 pub(crate) const PAN_LEN: usize = 6;
 /// Bytes of a Configure body.
 pub(crate) const CONFIGURE_LEN: usize = 61;
-/// Configure's `flags` bit 0: every layer at the base cell size ([`Schedule::uniform_resolution`]).
+/// Configure's `flags` bit 0: every layer at the base cell size ([`Configure::uniform_resolution`]).
 pub const CONFIGURE_UNIFORM_RESOLUTION: u8 = 1;
 /// Configure's `flags` bits a receiver knows; any other bit set is refused.
 pub(crate) const CONFIGURE_FLAGS_KNOWN: u8 = CONFIGURE_UNIFORM_RESOLUTION;
@@ -125,7 +114,7 @@ pub struct Hello {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct PatchArea {
-    /// The layer, 0 = finest.
+    /// The layer, 0 = finest; below [`MAX_LAYERS`] (32).
     pub layer: u8,
     /// The layer's window origin when the patch was made, x.
     pub origin_x: i32,
@@ -450,70 +439,8 @@ impl ReplyCode {
     }
 }
 
-/// A Pose field, as a Reply names it.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-#[repr(u8)]
-pub enum PoseField {
-    /// x.
-    X = 32,
-    /// y.
-    Y = 33,
-    /// z.
-    Z = 34,
-    /// Roll.
-    Roll = 35,
-    /// Pitch.
-    Pitch = 36,
-    /// Yaw.
-    Yaw = 37,
-}
-
 /// The Reply `param` of the snapshot's layer.
-pub(crate) const PARAM_LAYER: u8 = 40;
-
-/// The Reply `param` code of a design parameter.
-#[must_use]
-pub const fn param_code(param: Param) -> u8 {
-    match param {
-        Param::Phi => 1,
-        Param::Psi => 2,
-        Param::Sigma => 3,
-        Param::Height => 4,
-        Param::MaxRange => 5,
-        Param::Base => 6,
-        Param::Gamma => 7,
-        Param::GateWidth => 8,
-        Param::Cells => 9,
-        Param::PObstacle => 10,
-        Param::PFree => 11,
-        Param::Prior => 12,
-        Param::ClampMin => 13,
-        Param::ClampMax => 14,
-    }
-}
-
-/// The design parameter of a Reply `param` code, if it names one.
-#[must_use]
-pub const fn param_of_code(code: u8) -> Option<Param> {
-    Some(match code {
-        1 => Param::Phi,
-        2 => Param::Psi,
-        3 => Param::Sigma,
-        4 => Param::Height,
-        5 => Param::MaxRange,
-        6 => Param::Base,
-        7 => Param::Gamma,
-        8 => Param::GateWidth,
-        9 => Param::Cells,
-        10 => Param::PObstacle,
-        11 => Param::PFree,
-        12 => Param::Prior,
-        13 => Param::ClampMin,
-        14 => Param::ClampMax,
-        _ => return None,
-    })
-}
+pub const PARAM_LAYER: u8 = 40;
 
 /// Device to host: the answer to one host frame.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -533,14 +460,6 @@ pub struct Reply {
     pub a: f32,
     /// The second limit (by code).
     pub b: f32,
-}
-
-/// A small count as `f32` (exact below 2²⁴; larger counts saturate there).
-fn count_f32(n: usize) -> f32 {
-    let n = u32::try_from(n).unwrap_or(u32::MAX).min(1 << 24);
-    #[allow(clippy::cast_precision_loss)]
-    let f = n as f32;
-    f
 }
 
 impl Reply {
@@ -564,94 +483,6 @@ impl Reply {
         }
     }
 
-    /// The refusal of a configuration, one code per [`DesignError`] variant.
-    #[must_use]
-    pub fn design_error(to: Header, error: &DesignError) -> Self {
-        let mut reply = Self::code(to, ReplyCode::Ok);
-        reply.param = param_code(error.param());
-        let (code, value, a, b) = match *error {
-            DesignError::NotFinite { .. } => (ReplyCode::NotFinite, 0.0, 0.0, 0.0),
-            DesignError::NotPositive { value, .. } => (ReplyCode::NotPositive, value, 0.0, 0.0),
-            DesignError::OutOfRange {
-                value, min, max, ..
-            } => (ReplyCode::OutOfRange, value, min, max),
-            DesignError::GammaNotAboveOne { gamma } => {
-                (ReplyCode::GammaNotAboveOne, gamma, 0.0, 0.0)
-            }
-            DesignError::BaseBelowBound { base_m, bound_m } => {
-                (ReplyCode::BaseBelowBound, base_m, bound_m, 0.0)
-            }
-            DesignError::TooManyLayers { needed, capacity } => (
-                ReplyCode::TooManyLayers,
-                0.0,
-                count_f32(needed),
-                count_f32(capacity),
-            ),
-            DesignError::BadWindow { cells } => (ReplyCode::BadWindow, count_f32(cells), 0.0, 0.0),
-            DesignError::WindowTooSmall {
-                layer,
-                cells,
-                needed,
-            } => (
-                ReplyCode::WindowTooSmall,
-                count_f32(layer),
-                count_f32(cells),
-                count_f32(needed),
-            ),
-        };
-        reply.code = code;
-        reply.value = value;
-        reply.a = a;
-        reply.b = b;
-        reply
-    }
-
-    /// The refusal of a pose.
-    #[must_use]
-    pub fn pose_error(to: Header, error: PoseError) -> Self {
-        let mut reply = Self::code(to, ReplyCode::Ok);
-        reply.param = error.field() as u8;
-        match error {
-            PoseError::NotFinite { .. } => reply.code = ReplyCode::NotFinite,
-            PoseError::OutOfRange { value, limit, .. } => {
-                reply.code = ReplyCode::OutOfRange;
-                reply.value = value;
-                reply.a = -limit;
-                reply.b = limit;
-            }
-        }
-        reply
-    }
-
-    /// The refusal of a setup.
-    #[must_use]
-    pub fn setup_error(to: Header, error: SetupError) -> Self {
-        let mut reply = Self::code(to, ReplyCode::Ok);
-        reply.param = error.field() as u8;
-        match error {
-            SetupError::NotFinite { .. } => reply.code = ReplyCode::NotFinite,
-            SetupError::NotPositive { value, .. } => {
-                reply.code = ReplyCode::NotPositive;
-                reply.value = value;
-            }
-            SetupError::OutOfRange {
-                value, min, max, ..
-            } => {
-                reply.code = ReplyCode::OutOfRange;
-                reply.value = value;
-                reply.a = min;
-                reply.b = max;
-            }
-        }
-        reply
-    }
-
-    /// The design parameter named by `param`, if any.
-    #[must_use]
-    pub const fn design_param(&self) -> Option<Param> {
-        param_of_code(self.param)
-    }
-
     /// Whether the command was done.
     #[must_use]
     pub fn is_ok(&self) -> bool {
@@ -659,88 +490,12 @@ impl Reply {
     }
 }
 
-impl fmt::Display for Reply {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "reply to #{} ({:#04x}): ", self.to_seq, self.to_type)?;
-        let name: &str = match (self.design_param(), self.param) {
-            (Some(p), _) => p.flag(),
-            (None, 32) => "pose x",
-            (None, 33) => "pose y",
-            (None, 34) => "pose z",
-            (None, 35) => "pose roll",
-            (None, 36) => "pose pitch",
-            (None, 37) => "pose yaw",
-            (None, PARAM_LAYER) => "layer",
-            (None, p) => SetupField::from_param(p).map_or("-", SetupField::name),
-        };
-        let (v, a, b) = (self.value, self.a, self.b);
-        match self.code {
-            ReplyCode::Ok => f.write_str("ok"),
-            ReplyCode::NotFinite => write!(f, "{name}: must be a finite number"),
-            ReplyCode::NotPositive => write!(f, "{name}: must be greater than 0 (got {v})"),
-            ReplyCode::OutOfRange if self.param == SetupField::Variant as u8 => write!(
-                f,
-                "{name}: {a} degrees at {v} centidegrees is not a SICK LMS2xx variant \
-                 (180 at 50 or 100; 100 at 25, 50 or 100)"
-            ),
-            ReplyCode::OutOfRange => write!(f, "{name}: must lie within [{a}, {b}] (got {v})"),
-            ReplyCode::GammaNotAboveOne => write!(f, "{name}: must be greater than 1 (got {v})"),
-            ReplyCode::BaseBelowBound => {
-                write!(f, "{name}: must exceed phi*h = {a} m (got {v} m)")
-            }
-            ReplyCode::TooManyLayers => {
-                write!(f, "{name}: needs {a} layers, the device holds {b}")
-            }
-            ReplyCode::BadWindow => {
-                write!(f, "{name}: must be an even number from 4 to 1024 (got {v})")
-            }
-            ReplyCode::WindowTooSmall => {
-                write!(
-                    f,
-                    "{name}: layer {v} needs at least {b} cells per side (got {a})"
-                )
-            }
-            ReplyCode::BadLayer => write!(f, "layer {v} does not exist ({a} layers)"),
-            ReplyCode::Unsupported => f.write_str("the device does not take this message"),
-            ReplyCode::Malformed => f.write_str("the device could not parse the message body"),
-        }
-    }
-}
-
-/// Why a pose was refused.
-#[derive(Debug, Clone, Copy, PartialEq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub enum PoseError {
-    /// The field is NaN or infinite.
-    NotFinite {
-        /// The field.
-        field: PoseField,
-    },
-    /// |value| ≥ limit.
-    OutOfRange {
-        /// The field.
-        field: PoseField,
-        /// Its value.
-        value: f32,
-        /// The bound on its magnitude (exclusive).
-        limit: f32,
-    },
-}
-
-impl PoseError {
-    /// The field concerned.
-    #[must_use]
-    pub const fn field(&self) -> PoseField {
-        match *self {
-            Self::NotFinite { field } | Self::OutOfRange { field, .. } => field,
-        }
-    }
-}
-
-/// Host to device: the robot's pose in the world frame.
+/// Host to device: the robot's pose in the world frame, as the host reports it (unvalidated
+/// `f32`s: the device converts it with the geometry's own rule,
+/// [`crate::geometry::Pose::from_f32`]).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub struct Pose {
+pub struct PoseReport {
     /// x, metres; |x| < 30 000.
     pub x_m: f32,
     /// y, metres; |y| < 30 000.
@@ -757,96 +512,6 @@ pub struct Pose {
     pub timestamp_ms: u32,
 }
 
-impl Pose {
-    /// The largest |x| and |y| accepted (exclusive), metres.
-    pub const XY_LIMIT_M: f32 = crate::geometry::pose::MAX_HORIZONTAL_M;
-    /// The largest |z| accepted (exclusive), metres.
-    pub const Z_LIMIT_M: f32 = crate::geometry::pose::MAX_VERTICAL_M;
-    /// The largest |roll|, |pitch| and |yaw| accepted (exclusive), radians: the geometry's
-    /// limit ([`crate::geometry::Pose::from_f32`]).
-    pub const ANGLE_LIMIT_RAD: f32 = crate::geometry::pose::MAX_ANGLE_RAD;
-
-    /// Checks the pose with exactly the rule of [`crate::geometry::Pose::from_f32`]: every
-    /// field finite, |x|, |y| < 30 000 m, |z| < 1 000 m, |roll|, |pitch|, |yaw| < 32 768 rad.
-    /// Fields are checked in order x, y, z, roll, pitch, yaw; the first bad one is reported.
-    /// A pose that passes converts with [`to_geometry`](Self::to_geometry).
-    ///
-    /// # Errors
-    /// The first bad field.
-    pub fn validate(&self) -> Result<(), PoseError> {
-        self.to_geometry().map(|_| ())
-    }
-
-    /// The pose as the geometry takes it (positions rounded to 2⁻¹⁶ m, angles reduced modulo
-    /// a turn), after [`validate`](Self::validate)'s checks.
-    ///
-    /// # Errors
-    /// The first bad field.
-    pub fn to_geometry(&self) -> Result<crate::geometry::Pose, PoseError> {
-        let limited = [
-            (PoseField::X, self.x_m, Self::XY_LIMIT_M),
-            (PoseField::Y, self.y_m, Self::XY_LIMIT_M),
-            (PoseField::Z, self.z_m, Self::Z_LIMIT_M),
-            (PoseField::Roll, self.roll_rad, Self::ANGLE_LIMIT_RAD),
-            (PoseField::Pitch, self.pitch_rad, Self::ANGLE_LIMIT_RAD),
-            (PoseField::Yaw, self.yaw_rad, Self::ANGLE_LIMIT_RAD),
-        ];
-        for (field, value, limit) in limited {
-            if !value.is_finite() {
-                return Err(PoseError::NotFinite { field });
-            }
-            if value.abs() >= limit {
-                return Err(PoseError::OutOfRange {
-                    field,
-                    value,
-                    limit,
-                });
-            }
-        }
-        // The geometry's own conversion, so that the two rules cannot drift apart: a pose
-        // the checks above pass and the geometry refused would be refused here, by field.
-        crate::geometry::Pose::from_f32(
-            self.x_m,
-            self.y_m,
-            self.z_m,
-            self.roll_rad,
-            self.pitch_rad,
-            self.yaw_rad,
-        )
-        .map_err(|e| {
-            let field = match e.field() {
-                crate::geometry::PoseField::X => PoseField::X,
-                crate::geometry::PoseField::Y => PoseField::Y,
-                crate::geometry::PoseField::Z => PoseField::Z,
-                crate::geometry::PoseField::Roll => PoseField::Roll,
-                crate::geometry::PoseField::Pitch => PoseField::Pitch,
-                _ => PoseField::Yaw,
-            };
-            match e {
-                crate::geometry::PoseError::OutOfRange { value, limit, .. } => {
-                    PoseError::OutOfRange {
-                        field,
-                        value,
-                        limit,
-                    }
-                }
-                _ => PoseError::NotFinite { field },
-            }
-        })
-    }
-
-    /// The position as [`crate::Point3`] (exact to 2⁻¹⁶ m after rounding; a validated pose
-    /// always fits).
-    #[must_use]
-    pub fn position(&self) -> crate::Point3 {
-        crate::Point3 {
-            x: crate::units::meters_from_f32(self.x_m),
-            y: crate::units::meters_from_f32(self.y_m),
-            z: crate::units::meters_from_f32(self.z_m),
-        }
-    }
-}
-
 /// Host to device: the pan angle.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -858,14 +523,14 @@ pub struct PanAngle {
 }
 
 impl PanAngle {
-    /// The angle as the drivers' [`Angle`].
+    /// The angle as an [`Angle`].
     #[must_use]
     pub const fn angle(&self) -> Angle {
         Angle::from_bits(self.turns)
     }
 }
 
-/// Clamping as a Configure asks for it, nats (validated by [`Clamp::bounds`]).
+/// Clamping as a Configure asks for it, nats (validated by [`crate::Clamp::bounds`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum ClampRequest {
@@ -880,176 +545,60 @@ pub enum ClampRequest {
     },
 }
 
-/// Host to device: a new design and configuration.
+/// The gate as a Configure asks for it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum GateRequest {
+    /// The top-hat over each band (tag 0).
+    Hard,
+    /// The Gaussian around each band's centre (tag 1), its σ this factor of the band's width.
+    Soft {
+        /// σ_g / band width.
+        width_factor: f32,
+    },
+}
+
+/// Host to device: a new design and configuration, as the wire carries it (unvalidated: the
+/// device checks it with the library's own rules, [`crate::link::convert`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Configure {
-    /// The sensor model.
-    pub sensor: SensorModel,
-    /// The resolution schedule and gate.
-    pub schedule: Schedule,
+    /// φ, the vertical angular resolution, radians.
+    pub phi_rad: f32,
+    /// ψ, the horizontal angular resolution, radians.
+    pub psi_rad: f32,
+    /// σ, the range noise, metres.
+    pub sigma_m: f32,
+    /// h, the sensor's height above the ground, metres.
+    pub height_m: f32,
+    /// The sensor's maximum range, metres.
+    pub max_range_m: f32,
+    /// Δd, the base cell size, metres.
+    pub base_m: f32,
+    /// γ, the linear scaling of the resolution schedule.
+    pub gamma: f32,
+    /// The gate.
+    pub gate: GateRequest,
     /// W, cells per side.
     pub cells_per_side: u16,
-    /// The inverse sensor model.
-    pub model: InverseSensorModel,
+    /// p(x | obstacle seen).
+    pub p_obstacle: f32,
+    /// p(x | navigable seen).
+    pub p_free: f32,
+    /// The prior p(x).
+    pub prior: f32,
     /// Clamping.
     pub clamp: ClampRequest,
     /// The fused query's margin, nats.
     pub fused_margin: f32,
-}
-
-impl Default for Configure {
-    fn default() -> Self {
-        Self {
-            sensor: SensorModel::default(),
-            schedule: Schedule::default(),
-            cells_per_side: 64,
-            model: InverseSensorModel::default(),
-            clamp: ClampRequest::Bounds {
-                min: -2.0,
-                max: 3.5,
-            },
-            fused_margin: 0.0,
-        }
-    }
-}
-
-impl Configure {
-    /// The design, by [`Design::new`]'s rules.
-    ///
-    /// # Errors
-    /// The first rule broken.
-    pub fn design<const L: usize>(&self) -> Result<Design<L>, DesignError> {
-        Design::new(self.sensor, self.schedule, usize::from(self.cells_per_side))
-    }
-
-    /// The configuration, by [`InverseSensorModel::increments`] and [`Clamp::bounds`] rules.
-    ///
-    /// # Errors
-    /// The first rule broken.
-    pub fn config(&self) -> Result<Config, DesignError> {
-        self.model.increments()?;
-        let clamp = match self.clamp {
-            ClampRequest::Off => Clamp::Off,
-            ClampRequest::Bounds { min, max } => Clamp::bounds(min, max)?,
-        };
-        Ok(Config {
-            model: self.model,
-            clamp,
-            fused_margin: self.fused_margin,
-        })
-    }
-}
-
-/// A field of a [`Setup`], as a Reply names it (`param` 48 ..= 57).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-#[repr(u8)]
-pub enum SetupField {
-    /// The mount: 0 panned vertical, 1 tilted horizontal.
-    Mount = 48,
-    /// The SICK measuring mode (the 0x77 mode number).
-    MeasuringMode = 49,
-    /// The scanner variant: field of view and resolution together.
-    Variant = 50,
-    /// The sensor's x in the robot frame.
-    SensorX = 51,
-    /// The sensor's y in the robot frame.
-    SensorY = 52,
-    /// The sensor's z in the robot frame.
-    SensorZ = 53,
-    /// The robot's height (overhang above the cell's ground).
-    RobotHeight = 54,
-    /// The step threshold.
-    StepThreshold = 55,
-    /// The drop threshold (0 = off).
-    DropThreshold = 56,
-    /// The ceiling (0 = off).
-    Ceiling = 57,
-}
-
-impl SetupField {
-    /// The field a Reply `param` names, if it names one.
-    #[must_use]
-    pub const fn from_param(param: u8) -> Option<Self> {
-        Some(match param {
-            48 => Self::Mount,
-            49 => Self::MeasuringMode,
-            50 => Self::Variant,
-            51 => Self::SensorX,
-            52 => Self::SensorY,
-            53 => Self::SensorZ,
-            54 => Self::RobotHeight,
-            55 => Self::StepThreshold,
-            56 => Self::DropThreshold,
-            57 => Self::Ceiling,
-            _ => return None,
-        })
-    }
-
-    /// The field's name for messages.
-    #[must_use]
-    pub const fn name(self) -> &'static str {
-        match self {
-            Self::Mount => "setup mount",
-            Self::MeasuringMode => "setup measuring mode",
-            Self::Variant => "setup scanner variant",
-            Self::SensorX => "setup sensor x",
-            Self::SensorY => "setup sensor y",
-            Self::SensorZ => "setup sensor z",
-            Self::RobotHeight => "setup robot height",
-            Self::StepThreshold => "setup step threshold",
-            Self::DropThreshold => "setup drop threshold",
-            Self::Ceiling => "setup ceiling",
-        }
-    }
-}
-
-/// Why a [`Setup`] was refused.
-#[derive(Debug, Clone, Copy, PartialEq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub enum SetupError {
-    /// The field is NaN or infinite.
-    NotFinite {
-        /// The field.
-        field: SetupField,
-    },
-    /// The field must be greater than 0.
-    NotPositive {
-        /// The field.
-        field: SetupField,
-        /// Its value.
-        value: f32,
-    },
-    /// The field lies outside `[min, max]` (for [`SetupField::Variant`]: `value` is the
-    /// resolution in centidegrees, `min` the field of view in degrees, `max` 0).
-    OutOfRange {
-        /// The field.
-        field: SetupField,
-        /// Its value.
-        value: f32,
-        /// The smallest value allowed.
-        min: f32,
-        /// The largest value allowed.
-        max: f32,
-    },
-}
-
-impl SetupError {
-    /// The field concerned.
-    #[must_use]
-    pub const fn field(&self) -> SetupField {
-        match *self {
-            Self::NotFinite { field }
-            | Self::NotPositive { field, .. }
-            | Self::OutOfRange { field, .. } => field,
-        }
-    }
+    /// Every layer at the base cell size (`flags` bit 0).
+    pub uniform_resolution: bool,
 }
 
 /// Host to device: how the laser is mounted and how its lines make observations, and the
 /// classifier's thresholds. Exactly the fields of a recording's setup event
-/// (`docs/recording.md`) plus the thresholds; validated by [`Setup::frontend_config`].
+/// (`docs/recording.md`) plus the thresholds; unvalidated (the device checks it with
+/// [`crate::link::convert::frontend_config`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Setup {
@@ -1075,137 +624,6 @@ pub struct Setup {
     pub ceiling_m: f32,
 }
 
-impl Setup {
-    /// The largest |value| of a position or threshold accepted, metres.
-    pub const LIMIT_M: f32 = 1_000.0;
-
-    /// The setup of a recording's setup event and the classifier's thresholds (exact: every
-    /// Q16.16 value below 256 m is exact in `f32`, so [`frontend_config`](Self::frontend_config)
-    /// gives back the same thresholds).
-    #[must_use]
-    pub fn from_recording(
-        setup: &crate::wire::recording::Setup,
-        classifier: &ClassifierConfig,
-    ) -> Self {
-        let m = |v: Meters| v.to_num::<f32>();
-        let off = |v: Option<Meters>| v.map_or(0.0, m);
-        Self {
-            mount: match setup.mount {
-                crate::wire::recording::MountKind::PannedVertical => 0,
-                crate::wire::recording::MountKind::TiltedHorizontal => 1,
-            },
-            measuring_mode: setup.measuring_mode,
-            field_deg: setup.field_deg,
-            resolution_cdeg: setup.resolution_cdeg,
-            sensor_m: setup.sensor_m,
-            lines_per_observation: setup.lines_per_observation,
-            robot_height_m: m(classifier.robot_height),
-            step_threshold_m: m(classifier.step_threshold),
-            drop_threshold_m: off(classifier.drop_threshold),
-            ceiling_m: off(classifier.ceiling),
-        }
-    }
-
-    /// Validates the setup and turns it into the pipeline's configuration: the mount exists
-    /// (0 or 1), the measuring mode is one the SICK knows, the field of view and resolution
-    /// make a variant, positions are finite with |v| < 1 000 m, the robot height is positive,
-    /// the thresholds are ≥ 0 and finite (all below 1 000 m). Fields are checked in wire
-    /// order; the first bad one is reported.
-    ///
-    /// # Errors
-    /// The first bad field.
-    pub fn frontend_config(&self) -> Result<FrontendConfig, SetupError> {
-        let plane = match self.mount {
-            0 => ScanPlane::PannedVertical,
-            1 => ScanPlane::TiltedHorizontal,
-            other => {
-                return Err(SetupError::OutOfRange {
-                    field: SetupField::Mount,
-                    value: f32::from(other),
-                    min: 0.0,
-                    max: 1.0,
-                })
-            }
-        };
-        let measuring_mode =
-            MeasuringMode::from_code(self.measuring_mode).map_err(|_| SetupError::OutOfRange {
-                field: SetupField::MeasuringMode,
-                value: f32::from(self.measuring_mode),
-                min: 0.0,
-                max: 15.0,
-            })?;
-        let variant = Variant::from_sick(self.field_deg, self.resolution_cdeg).ok_or(
-            SetupError::OutOfRange {
-                field: SetupField::Variant,
-                value: f32::from(self.resolution_cdeg),
-                min: f32::from(self.field_deg),
-                max: 0.0,
-            },
-        )?;
-        let [sx, sy, sz] = self.sensor_m;
-        let position = |field, v: f32| -> Result<Meters, SetupError> {
-            if !v.is_finite() {
-                return Err(SetupError::NotFinite { field });
-            }
-            if v.abs() >= Self::LIMIT_M {
-                return Err(SetupError::OutOfRange {
-                    field,
-                    value: v,
-                    min: -Self::LIMIT_M,
-                    max: Self::LIMIT_M,
-                });
-            }
-            Ok(Meters::saturating_from_num(v))
-        };
-        let threshold = |field, v: f32| -> Result<Meters, SetupError> {
-            if !v.is_finite() {
-                return Err(SetupError::NotFinite { field });
-            }
-            if !(0.0..Self::LIMIT_M).contains(&v) {
-                return Err(SetupError::OutOfRange {
-                    field,
-                    value: v,
-                    min: 0.0,
-                    max: Self::LIMIT_M,
-                });
-            }
-            Ok(Meters::saturating_from_num(v))
-        };
-        let position = Point3 {
-            x: position(SetupField::SensorX, sx)?,
-            y: position(SetupField::SensorY, sy)?,
-            z: position(SetupField::SensorZ, sz)?,
-        };
-        let robot_height = threshold(SetupField::RobotHeight, self.robot_height_m)?;
-        if robot_height <= Meters::ZERO {
-            return Err(SetupError::NotPositive {
-                field: SetupField::RobotHeight,
-                value: self.robot_height_m,
-            });
-        }
-        let step_threshold = threshold(SetupField::StepThreshold, self.step_threshold_m)?;
-        let drop = threshold(SetupField::DropThreshold, self.drop_threshold_m)?;
-        let ceiling = threshold(SetupField::Ceiling, self.ceiling_m)?;
-        let optional = |v: Meters| (v > Meters::ZERO).then_some(v);
-        Ok(FrontendConfig {
-            mount: Mount::new(plane, position),
-            variant,
-            measuring_mode,
-            lines_per_observation: self.lines_per_observation,
-            classifier: ClassifierConfig {
-                robot_height,
-                step_threshold,
-                drop_threshold: optional(drop),
-                ceiling: optional(ceiling),
-                // The link does not carry the rule: the default.
-                rule: crate::classify::NavigabilityRule::DEFAULT,
-            },
-            // Version 1's Setup does not carry the missing-ground option: off.
-            missing_ground_within: None,
-        })
-    }
-}
-
 /// Which layers a snapshot covers.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -1218,7 +636,7 @@ pub enum SnapshotScope {
 
 /// One message of the protocol.
 ///
-/// Its size is that of a 16-layer [`Hello`], about 350 bytes: bounded, and boxed nowhere (the
+/// Its size is that of a 32-layer [`Hello`], about 660 bytes: bounded, and boxed nowhere (the
 /// library has no heap).
 #[derive(Debug, Clone, PartialEq)]
 #[allow(clippy::large_enum_variant)]
@@ -1235,7 +653,7 @@ pub enum Message<'a> {
     /// Device to host: the answer to a command.
     Reply(Reply),
     /// Host to device: the robot's pose.
-    Pose(Pose),
+    Pose(PoseReport),
     /// Host to device: the pan angle.
     PanAngle(PanAngle),
     /// Host to device: a new design and configuration.
@@ -1460,7 +878,7 @@ impl<'a> Message<'a> {
             }
             MessageType::Pose => {
                 exact(POSE_LEN)?;
-                Self::Pose(Pose {
+                Self::Pose(PoseReport {
                     x_m: r.f32(),
                     y_m: r.f32(),
                     z_m: r.f32(),
@@ -1479,28 +897,19 @@ impl<'a> Message<'a> {
             }
             MessageType::Configure => {
                 exact(CONFIGURE_LEN)?;
-                let sensor = SensorModel {
-                    phi_rad: r.f32(),
-                    psi_rad: r.f32(),
-                    sigma_m: r.f32(),
-                    height_m: r.f32(),
-                    max_range_m: r.f32(),
-                };
+                let (phi_rad, psi_rad, sigma_m) = (r.f32(), r.f32(), r.f32());
+                let (height_m, max_range_m) = (r.f32(), r.f32());
                 let base_m = r.f32();
                 let gamma = r.f32();
                 let gate_tag = r.u8();
                 let width_factor = r.f32();
                 let gate = match gate_tag {
-                    0 => GateShape::Hard,
-                    1 => GateShape::Soft { width_factor },
+                    0 => GateRequest::Hard,
+                    1 => GateRequest::Soft { width_factor },
                     _ => return Err(range("Configure.gate")),
                 };
                 let cells_per_side = r.u16();
-                let model = InverseSensorModel {
-                    p_obstacle: r.f32(),
-                    p_free: r.f32(),
-                    prior: r.f32(),
-                };
+                let (p_obstacle, p_free, prior) = (r.f32(), r.f32(), r.f32());
                 let clamp_tag = r.u8();
                 let (min, max) = (r.f32(), r.f32());
                 let clamp = match clamp_tag {
@@ -1514,17 +923,21 @@ impl<'a> Message<'a> {
                     return Err(range("Configure.flags"));
                 }
                 Self::Configure(Configure {
-                    sensor,
-                    schedule: Schedule {
-                        base_m,
-                        gamma,
-                        gate,
-                        uniform_resolution: flags & CONFIGURE_UNIFORM_RESOLUTION != 0,
-                    },
+                    phi_rad,
+                    psi_rad,
+                    sigma_m,
+                    height_m,
+                    max_range_m,
+                    base_m,
+                    gamma,
+                    gate,
                     cells_per_side,
-                    model,
+                    p_obstacle,
+                    p_free,
+                    prior,
                     clamp,
                     fused_margin,
+                    uniform_resolution: flags & CONFIGURE_UNIFORM_RESOLUTION != 0,
                 })
             }
             MessageType::Reset => {
@@ -1648,26 +1061,25 @@ impl<'a> Message<'a> {
                 w.u32(p.timestamp_ms);
             }
             Self::Configure(c) => {
-                let s = &c.sensor;
-                for v in [s.phi_rad, s.psi_rad, s.sigma_m, s.height_m, s.max_range_m] {
+                for v in [c.phi_rad, c.psi_rad, c.sigma_m, c.height_m, c.max_range_m] {
                     w.f32(v);
                 }
-                w.f32(c.schedule.base_m);
-                w.f32(c.schedule.gamma);
-                match c.schedule.gate {
-                    GateShape::Hard => {
+                w.f32(c.base_m);
+                w.f32(c.gamma);
+                match c.gate {
+                    GateRequest::Hard => {
                         w.u8(0);
                         w.f32(0.0);
                     }
-                    GateShape::Soft { width_factor } => {
+                    GateRequest::Soft { width_factor } => {
                         w.u8(1);
                         w.f32(width_factor);
                     }
                 }
                 w.u16(c.cells_per_side);
-                w.f32(c.model.p_obstacle);
-                w.f32(c.model.p_free);
-                w.f32(c.model.prior);
+                w.f32(c.p_obstacle);
+                w.f32(c.p_free);
+                w.f32(c.prior);
                 match c.clamp {
                     ClampRequest::Off => {
                         w.u8(0);
@@ -1681,7 +1093,7 @@ impl<'a> Message<'a> {
                     }
                 }
                 w.f32(c.fused_margin);
-                w.u8(if c.schedule.uniform_resolution {
+                w.u8(if c.uniform_resolution {
                     CONFIGURE_UNIFORM_RESOLUTION
                 } else {
                     0

@@ -2,7 +2,7 @@
 //! bodies. `docs/protocol.md` is the specification; this module is its pure, zero-copy
 //! implementation (no I/O, no clock, no allocation), after smoltcp's `wire`: a checked view
 //! over a decoded frame ([`Frame`]), a typed [`Message`] with `parse`/`encode`, and a
-//! [`Accumulator`] that reassembles frames from byte chunks, after postcard's.
+//! [`FrameAccumulator`] that reassembles frames from byte chunks, after postcard's.
 //!
 //! # Panic contract
 //! Nothing here panics on any input: lengths are checked before every read, encoders report a
@@ -10,13 +10,14 @@
 //!
 //! # Example
 //! ```
-//! use terrain_pyramid::wire::link::{encode, Accumulator, FeedResult, Message, MAX_FRAME};
+//! use terrain_pyramid::wire::link::{encode, Decoded, FrameAccumulator, Message, MAX_FRAME};
+//! use terrain_pyramid::wire::FeedResult;
 //! let mut out = [0_u8; 16];
 //! let n = encode(1, &Message::Ping, &mut out).unwrap();
 //! assert_eq!(&out[..n], &[0x04, 0x02, 0x86, 0x01, 0x05, 0xE4, 0x41, 0xEE, 0x77, 0x00]);
-//! let mut acc = Accumulator::<MAX_FRAME>::new();
+//! let mut acc = FrameAccumulator::<MAX_FRAME>::new();
 //! match acc.feed(&out[..n]) {
-//!     FeedResult::Frame { header, message, remaining } => {
+//!     FeedResult::Item { item: Decoded { header, message }, remaining, .. } => {
 //!         assert_eq!((header.seq, message, remaining.len()), (1, Message::Ping, 0));
 //!     }
 //!     other => panic!("{other:?}"),
@@ -28,13 +29,12 @@ pub mod cobs;
 mod crc;
 mod message;
 
-pub use accumulator::{Accumulator, FeedResult, RxCounters};
+pub use accumulator::{Decoded, FrameAccumulator, FrameFeed, RxCounters, Undecoded};
 pub use crc::{crc32, Crc32};
 pub use message::{
-    decode, encode, encode_patch, ClampRequest, Configure, FirmwareVersion, Hello, HelloReason,
-    LayerInfo, LayerPatch, Message, PanAngle, PatchArea, PatchCells, Pose, PoseError, PoseField,
-    Reply, ReplyCode, Setup, SetupError, SetupField, SnapshotScope, Stats, WindowMoved,
-    STATS_COUNTERS,
+    decode, encode, encode_patch, ClampRequest, Configure, FirmwareVersion, GateRequest, Hello,
+    HelloReason, LayerInfo, LayerPatch, Message, PanAngle, PatchArea, PatchCells, PoseReport,
+    Reply, ReplyCode, Setup, SnapshotScope, Stats, WindowMoved, PARAM_LAYER, STATS_COUNTERS,
 };
 
 use core::fmt;

@@ -2,8 +2,7 @@
 //! an independent encoder of the spec), and the accumulator's handling of bad input.
 extern crate std;
 use super::*;
-use crate::design::{GateShape, Schedule, SensorModel};
-use crate::logodds::InverseSensorModel;
+use crate::wire::FeedResult;
 use std::vec::Vec;
 
 fn hex(s: &str) -> Vec<u8> {
@@ -20,12 +19,15 @@ fn golden(seq: u16, message: &Message<'_>, encoded: &str) {
     let n = encode(seq, message, &mut out).unwrap();
     assert_eq!(&out[..n], &expected[..], "{message:?}");
     assert!(n <= message.encoded_len_max());
-    let mut acc = Accumulator::<MAX_FRAME>::new();
+    let mut acc = FrameAccumulator::<MAX_FRAME>::new();
     match acc.feed(&expected) {
-        FeedResult::Frame {
-            header,
-            message: decoded,
+        FeedResult::Item {
+            item: Decoded {
+                header,
+                message: decoded,
+            },
             remaining,
+            ..
         } => {
             assert_eq!(
                 header,
@@ -74,7 +76,7 @@ fn pan_and_pose_golden() {
     );
     golden(
         10,
-        &Message::Pose(Pose {
+        &Message::Pose(PoseReport {
             x_m: 1.5,
             y_m: -2.25,
             z_m: 0.0,
@@ -91,30 +93,24 @@ fn pan_and_pose_golden() {
 #[test]
 fn configure_golden() {
     let c = Configure {
-        sensor: SensorModel {
-            phi_rad: 0.5,
-            psi_rad: 0.25,
-            sigma_m: 0.15,
-            height_m: 1.0,
-            max_range_m: 10.0,
-        },
-        schedule: Schedule {
-            base_m: 0.1,
-            gamma: 2.0,
-            gate: GateShape::Soft { width_factor: 0.5 },
-            uniform_resolution: false,
-        },
+        phi_rad: 0.5,
+        psi_rad: 0.25,
+        sigma_m: 0.15,
+        height_m: 1.0,
+        max_range_m: 10.0,
+        base_m: 0.1,
+        gamma: 2.0,
+        gate: GateRequest::Soft { width_factor: 0.5 },
         cells_per_side: 64,
-        model: InverseSensorModel {
-            p_obstacle: 0.7,
-            p_free: 0.4,
-            prior: 0.5,
-        },
+        p_obstacle: 0.7,
+        p_free: 0.4,
+        prior: 0.5,
         clamp: ClampRequest::Bounds {
             min: -2.0,
             max: 3.5,
         },
         fused_margin: 0.0,
+        uniform_resolution: false,
     };
     golden(
         11,
@@ -243,26 +239,6 @@ fn window_moved_stats_reply_golden() {
         &Message::Reply(Reply::ok(configure)),
         "06 02 05 05 01 0b 02 83 01 01 01 01 01 01 01 01 01 01 01 01 01 05 6a a1 e2 b5 00",
     );
-    let error = crate::DesignError::OutOfRange {
-        param: crate::Param::Gamma,
-        value: 200.0,
-        min: 0.0,
-        max: 100.0,
-    };
-    let reply = Reply::design_error(
-        Header {
-            seq: 12,
-            ..configure
-        },
-        &error,
-    );
-    assert_eq!(reply.code, ReplyCode::OutOfRange);
-    assert_eq!(reply.param, 7);
-    golden(
-        0x0106,
-        &Message::Reply(reply),
-        "06 02 05 06 01 0c 04 83 03 07 01 03 48 43 01 01 01 01 01 07 c8 42 67 7d b7 c6 00",
-    );
 }
 
 #[test]
@@ -295,21 +271,25 @@ fn raw_frame(version: u8, msg_type: u8, seq: u16, body: &[u8]) -> Vec<u8> {
 
 /// Feeds `input` in one go and collects what came out.
 fn feed_all<const N: usize>(
-    acc: &mut Accumulator<N>,
+    acc: &mut FrameAccumulator<N>,
     mut input: &[u8],
 ) -> Vec<Result<u16, DecodeError>> {
     let mut out = Vec::new();
     loop {
         match acc.feed(input) {
             FeedResult::Consumed => return out,
-            FeedResult::Frame {
-                header, remaining, ..
+            FeedResult::Item {
+                item: Decoded { header, .. },
+                remaining,
+                ..
             } => {
                 out.push(Ok(header.seq));
                 input = remaining;
             }
-            FeedResult::Error {
-                error, remaining, ..
+            FeedResult::Rejected {
+                error: Undecoded { error, .. },
+                remaining,
+                ..
             } => {
                 out.push(Err(error));
                 input = remaining;
@@ -320,7 +300,7 @@ fn feed_all<const N: usize>(
 
 #[test]
 fn bad_frames_are_refused_counted_and_the_next_frame_decodes() {
-    let mut acc = Accumulator::<MAX_FRAME>::new();
+    let mut acc = FrameAccumulator::<MAX_FRAME>::new();
     let mut stream = Vec::new();
     // 1. A corrupted byte: CRC.
     let mut bad = ping_frame();
@@ -397,7 +377,7 @@ fn frames_split_anywhere_reassemble() {
         stream.extend_from_slice(&out[..n]);
     }
     for chunk in 1..stream.len() {
-        let mut acc = Accumulator::<MAX_COMMAND_FRAME>::new();
+        let mut acc = FrameAccumulator::<MAX_COMMAND_FRAME>::new();
         let mut seqs = Vec::new();
         for piece in stream.chunks(chunk) {
             seqs.extend(feed_all(&mut acc, piece));
@@ -412,7 +392,7 @@ fn a_garbage_prefix_costs_one_frame() {
     let mut stream = hex("13 77 02 41");
     stream.extend_from_slice(&ping_frame());
     stream.extend_from_slice(&ping_frame());
-    let mut acc = Accumulator::<MAX_FRAME>::new();
+    let mut acc = FrameAccumulator::<MAX_FRAME>::new();
     let got = feed_all(&mut acc, &stream);
     assert_eq!(got.len(), 2);
     assert!(got[0].is_err());
@@ -462,130 +442,6 @@ fn encoders_refuse_what_the_format_cannot_carry() {
     );
 }
 
-#[test]
-fn pose_validation_names_the_field() {
-    let ok = Pose {
-        x_m: 29_999.0,
-        y_m: -29_999.0,
-        z_m: 999.0,
-        roll_rad: 10.0,
-        pitch_rad: -10.0,
-        yaw_rad: 100.0,
-        timestamp_ms: 0,
-    };
-    assert_eq!(ok.validate(), Ok(()));
-    let far = Pose {
-        y_m: 30_000.0,
-        ..ok
-    };
-    assert_eq!(
-        far.validate(),
-        Err(PoseError::OutOfRange {
-            field: PoseField::Y,
-            value: 30_000.0,
-            limit: 30_000.0
-        })
-    );
-    let nan = Pose {
-        pitch_rad: f32::NAN,
-        ..ok
-    };
-    assert_eq!(
-        nan.validate(),
-        Err(PoseError::NotFinite {
-            field: PoseField::Pitch
-        })
-    );
-    let high = Pose { z_m: -1000.0, ..ok };
-    assert!(matches!(
-        high.validate(),
-        Err(PoseError::OutOfRange {
-            field: PoseField::Z,
-            ..
-        })
-    ));
-    let header = Header {
-        version: 1,
-        msg_type: 0x81,
-        seq: 3,
-    };
-    let reply = Reply::pose_error(header, far.validate().unwrap_err());
-    assert_eq!(
-        (reply.code, reply.param, reply.b),
-        (ReplyCode::OutOfRange, 33, 30_000.0)
-    );
-}
-
-/// The link refuses exactly the poses the geometry refuses: angles of 32 768 rad or more in
-/// magnitude (the geometry cannot reduce them) get a Reply naming the field, like NaN.
-#[test]
-fn pose_validation_is_the_geometry_rule() {
-    let header = Header {
-        version: 1,
-        msg_type: 0x81,
-        seq: 4,
-    };
-    let base = [1.0_f32, -2.0, 0.5, 0.1, -0.2, 3.0];
-    let edge = [
-        29_999.99,
-        30_000.0,
-        -1e30,
-        999.9,
-        1000.0,
-        32_767.0,
-        32_768.0,
-        -32_768.0,
-        -32_767.99,
-        4.0e4,
-        f32::MAX,
-        f32::MIN_POSITIVE,
-        -0.0,
-        f32::NAN,
-        f32::INFINITY,
-        f32::NEG_INFINITY,
-    ];
-    for field in 0..6 {
-        for &value in &edge {
-            let mut v = base;
-            v[field] = value;
-            let pose = Pose {
-                x_m: v[0],
-                y_m: v[1],
-                z_m: v[2],
-                roll_rad: v[3],
-                pitch_rad: v[4],
-                yaw_rad: v[5],
-                timestamp_ms: 0,
-            };
-            let geometry = crate::geometry::Pose::from_f32(v[0], v[1], v[2], v[3], v[4], v[5]);
-            let link = pose.to_geometry();
-            match (&link, &geometry) {
-                (Ok(a), Ok(b)) => assert_eq!(a, b, "{field} {value}"),
-                (Err(e), _) => {
-                    assert_eq!(e.field() as u8, 32 + field as u8, "{field} {value}");
-                    let reply = Reply::pose_error(header, *e);
-                    assert!(!reply.is_ok());
-                    assert_eq!(reply.param, 32 + field as u8);
-                }
-                (Ok(_), Err(e)) => panic!("the link took {field} = {value}, the geometry: {e}"),
-            }
-            assert_eq!(pose.validate().is_ok(), link.is_ok());
-        }
-    }
-    let spin = Pose {
-        yaw_rad: 40_000.0,
-        ..Pose::default()
-    };
-    assert_eq!(
-        spin.validate(),
-        Err(PoseError::OutOfRange {
-            field: PoseField::Yaw,
-            value: 40_000.0,
-            limit: 32_768.0
-        })
-    );
-}
-
 /// Setup (`docs/protocol.md`, "0x87 Setup" and the worked example of section 10): tilted
 /// horizontal, mode 0, 180° at 0.5°, sensor (0.25, −0.5, 0.75) m, per sweep, robot height
 /// 1 m, step 0.05 m, drop off, ceiling 2 m; then the empty commands 0x88 ..= 0x8A.
@@ -620,50 +476,4 @@ fn setup_and_the_empty_commands_golden() {
             len: 37
         })
     ));
-    // Validation: the variant, the mode, finiteness, thresholds.
-    let config = setup.frontend_config().unwrap();
-    assert_eq!(config.variant.beam_count(), 361);
-    assert_eq!(config.classifier.drop_threshold, None);
-    assert_eq!(
-        config.classifier.ceiling,
-        Some(crate::units::Meters::from_num(2))
-    );
-    let refused = |s: Setup| s.frontend_config().unwrap_err().field();
-    assert_eq!(refused(Setup { mount: 2, ..setup }), SetupField::Mount);
-    assert_eq!(
-        refused(Setup {
-            measuring_mode: 7,
-            ..setup
-        }),
-        SetupField::MeasuringMode
-    );
-    assert_eq!(
-        refused(Setup {
-            field_deg: 180,
-            resolution_cdeg: 25,
-            ..setup
-        }),
-        SetupField::Variant
-    );
-    assert_eq!(
-        refused(Setup {
-            sensor_m: [0.0, f32::NAN, 0.0],
-            ..setup
-        }),
-        SetupField::SensorY
-    );
-    assert_eq!(
-        refused(Setup {
-            step_threshold_m: -0.01,
-            ..setup
-        }),
-        SetupField::StepThreshold
-    );
-    assert_eq!(
-        refused(Setup {
-            robot_height_m: 0.0,
-            ..setup
-        }),
-        SetupField::RobotHeight
-    );
 }

@@ -11,7 +11,7 @@
 //! - lone ACK (0x06) and NAK (0x15) bytes between telegrams are reported;
 //! - everything else is garbage, counted and dropped without being buffered.
 //!
-//! Every outcome is counted in [`Stats`] (saturating u32 counters). The buffer holds one
+//! Every outcome is counted in [`SickCounters`] (saturating u32 counters). The buffer holds one
 //! telegram at most ([`DEFAULT_CAPACITY`] = 818 bytes, the largest); bytes are copied once,
 //! into it, and garbage is skipped in place.
 //!
@@ -22,19 +22,20 @@ use super::telegram::{
     Telegram, ADDRESS_REPLY, CRC_LEN, HEADER_LEN, MAX_PAYLOAD_LEN, MAX_TELEGRAM_LEN, STX,
 };
 use super::{crc16, read_u16_le, ACK, NAK};
+use crate::wire::FeedResult;
 use core::fmt;
 
-/// The default capacity of an [`Accumulator`]: the largest telegram, 818 bytes.
+/// The default capacity of an [`SickAccumulator`]: the largest telegram, 818 bytes.
 pub const DEFAULT_CAPACITY: usize = MAX_TELEGRAM_LEN;
 
 /// The smallest capacity: the smallest telegram (header, one payload byte, CRC), 7 bytes.
 const MIN_CAPACITY: usize = HEADER_LEN + 1 + CRC_LEN;
 
-/// What the accumulator has seen since it was made (or since [`Accumulator::clear_stats`]).
+/// What the accumulator has seen since it was made (or since [`SickAccumulator::clear_stats`]).
 /// Every counter saturates at `u32::MAX`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub struct Stats {
+pub struct SickCounters {
     /// Telegrams handed out: header `02 80`, LEN in 1..=812, CRC matching.
     pub telegrams_ok: u32,
     /// Candidates whose CRC did not match, with no `02 80` inside them.
@@ -42,7 +43,7 @@ pub struct Stats {
     /// Candidates with LEN 0 or above 812, or longer than the accumulator's capacity.
     pub length_errors: u32,
     /// Candidates cut short: the CRC did not match and a `02 80` header starts inside them,
-    /// or the stream ended inside them ([`Accumulator::flush`]).
+    /// or the stream ended inside them ([`SickAccumulator::flush`]).
     pub truncated: u32,
     /// Bytes outside every candidate, dropped while hunting for `02 80` (a STX not followed
     /// by 0x80 included). Bytes inside a rejected candidate, up to the next `02 80` in it, are
@@ -58,21 +59,21 @@ pub struct Stats {
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 #[non_exhaustive]
-pub enum FrameError {
-    /// LEN is 0 or above 812 ([`Stats::length_errors`]).
+pub enum SickFrameError {
+    /// LEN is 0 or above 812 ([`SickCounters::length_errors`]).
     BadLength {
         /// The LEN read, bytes.
         len: u16,
     },
     /// LEN is valid but the telegram exceeds the accumulator's capacity
-    /// ([`Stats::length_errors`]).
+    /// ([`SickCounters::length_errors`]).
     TooLong {
         /// The LEN read, bytes.
         len: u16,
         /// The accumulator's capacity, bytes.
         capacity: usize,
     },
-    /// The CRC did not match ([`Stats::crc_errors`]).
+    /// The CRC did not match ([`SickCounters::crc_errors`]).
     BadCrc {
         /// The CRC carried by the candidate.
         stored: u16,
@@ -80,11 +81,11 @@ pub enum FrameError {
         computed: u16,
     },
     /// The candidate was cut short by a new `02 80` header or by the end of the stream
-    /// ([`Stats::truncated`]).
+    /// ([`SickCounters::truncated`]).
     Truncated,
 }
 
-impl fmt::Display for FrameError {
+impl fmt::Display for SickFrameError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match *self {
             Self::BadLength { len } => write!(f, "impossible telegram length {len}"),
@@ -101,15 +102,15 @@ impl fmt::Display for FrameError {
     }
 }
 
-impl core::error::Error for FrameError {}
+impl core::error::Error for SickFrameError {}
 
 #[cfg(feature = "defmt")]
-impl<const N: usize> defmt::Format for Accumulator<N> {
+impl<const N: usize> defmt::Format for SickAccumulator<N> {
     fn format(&self, f: defmt::Formatter<'_>) {
         // The buffer itself is not worth a log line; its fill level and counters are.
         defmt::write!(
             f,
-            "Accumulator {{ buffered: {=usize}, capacity: {=usize}, stats: {} }}",
+            "SickAccumulator {{ buffered: {=usize}, capacity: {=usize}, stats: {} }}",
             self.end.saturating_sub(self.start),
             N,
             self.stats
@@ -117,64 +118,24 @@ impl<const N: usize> defmt::Format for Accumulator<N> {
     }
 }
 
-/// The outcome of one [`Accumulator::feed`] (or [`Accumulator::flush`]) call. Every variant
-/// but `Consumed` carries the part of the chunk not yet consumed: feed it again.
-///
-/// `offset` is the position in the stream (bytes fed since the accumulator was made, wrapping
-/// at 2⁶⁴) of the telegram's or candidate's STX, or of the ACK/NAK byte.
-#[derive(Debug, PartialEq, Eq)]
+/// What the SICK accumulator hands out in a [`FeedResult::Item`]: a telegram that passed its
+/// checks, or a lone acknowledgement byte between telegrams.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub enum FeedResult<'s, 'c> {
-    /// The whole chunk was consumed and nothing complete is buffered: feed the next chunk.
-    Consumed,
+pub enum SickItem<'s> {
     /// A valid telegram (reply header `02 80`, LEN in 1..=812, CRC checked), borrowing the
     /// accumulator's buffer until the next call.
-    Telegram {
-        /// The telegram.
-        telegram: Telegram<&'s [u8]>,
-        /// Stream position of its STX.
-        offset: u64,
-        /// The rest of the chunk.
-        remaining: &'c [u8],
-    },
+    Telegram(Telegram<&'s [u8]>),
     /// A lone ACK byte (0x06).
-    Ack {
-        /// Stream position of the byte.
-        offset: u64,
-        /// The rest of the chunk.
-        remaining: &'c [u8],
-    },
+    Ack,
     /// A lone NAK byte (0x15).
-    Nak {
-        /// Stream position of the byte.
-        offset: u64,
-        /// The rest of the chunk.
-        remaining: &'c [u8],
-    },
-    /// A candidate telegram was rejected (and counted); the hunt goes on after its STX.
-    Rejected {
-        /// Why.
-        error: FrameError,
-        /// Stream position of its STX.
-        offset: u64,
-        /// The rest of the chunk.
-        remaining: &'c [u8],
-    },
+    Nak,
 }
 
-impl<'c> FeedResult<'_, 'c> {
-    /// The part of the chunk not yet consumed (empty for `Consumed`).
-    #[must_use]
-    pub fn remaining(&self) -> &'c [u8] {
-        match self {
-            Self::Consumed => &[],
-            Self::Telegram { remaining, .. }
-            | Self::Ack { remaining, .. }
-            | Self::Nak { remaining, .. }
-            | Self::Rejected { remaining, .. } => remaining,
-        }
-    }
-}
+/// The outcome of one [`SickAccumulator::feed`]: the generic [`FeedResult`] with SICK items
+/// and [`SickFrameError`] refusals. `offset` is the stream position of the telegram's or
+/// candidate's STX, or of the ACK/NAK byte.
+pub type SickFeed<'s, 'c> = FeedResult<'c, SickItem<'s>, SickFrameError>;
 
 /// One event found in the buffer.
 #[derive(Debug, Clone, Copy)]
@@ -183,7 +144,7 @@ enum Step {
     Telegram(usize),
     Ack,
     Nak,
-    Rejected(FrameError),
+    Rejected(SickFrameError),
 }
 
 /// What the buffer holds.
@@ -200,23 +161,24 @@ enum Scan {
 /// Reassembles LMS2xx reply telegrams from a byte stream fed in chunks of any size.
 ///
 /// `N` is the capacity in bytes: [`DEFAULT_CAPACITY`] (818) holds every telegram; a smaller
-/// one (at least 7) saves RAM and rejects longer telegrams as [`FrameError::TooLong`].
+/// one (at least 7) saves RAM and rejects longer telegrams as [`SickFrameError::TooLong`].
 ///
 /// ```
-/// use terrain_pyramid::wire::sick::{emit_telegram, Accumulator, FeedResult, ADDRESS_REPLY};
+/// use terrain_pyramid::wire::sick::{emit_telegram, SickAccumulator, SickItem, ADDRESS_REPLY};
+/// use terrain_pyramid::wire::FeedResult;
 ///
 /// // Noise, an ACK, then an 0xA0 reply.
 /// let mut stream = [0u8; 12];
 /// stream[..3].copy_from_slice(&[0xFF, 0x06, 0x00]);
 /// emit_telegram(ADDRESS_REPLY, &[0xA0, 0x00, 0x10], &mut stream[3..]).unwrap();
 ///
-/// let mut acc: Accumulator = Accumulator::new();
+/// let mut acc: SickAccumulator = SickAccumulator::new();
 /// for chunk in stream.chunks(5) {
 ///     let mut window = chunk;
 ///     loop {
 ///         window = match acc.feed(window) {
 ///             FeedResult::Consumed => break,
-///             FeedResult::Telegram { telegram, offset, remaining } => {
+///             FeedResult::Item { item: SickItem::Telegram(telegram), offset, remaining } => {
 ///                 assert_eq!((telegram.command(), offset), (0xA0, 3));
 ///                 remaining
 ///             }
@@ -228,7 +190,7 @@ enum Scan {
 /// assert_eq!((stats.telegrams_ok, stats.ack, stats.garbage_bytes), (1, 1, 2));
 /// ```
 #[derive(Debug, Clone)]
-pub struct Accumulator<const N: usize = DEFAULT_CAPACITY> {
+pub struct SickAccumulator<const N: usize = DEFAULT_CAPACITY> {
     buf: [u8; N],
     /// First live byte; when the buffer is not empty, where the candidate (or the bytes still
     /// to hunt through, after a rejection) starts.
@@ -242,16 +204,16 @@ pub struct Accumulator<const N: usize = DEFAULT_CAPACITY> {
     delivered: usize,
     /// Bytes taken from chunks so far.
     consumed: u64,
-    stats: Stats,
+    stats: SickCounters,
 }
 
-impl<const N: usize> Default for Accumulator<N> {
+impl<const N: usize> Default for SickAccumulator<N> {
     fn default() -> Self {
         Self::new()
     }
 }
 
-impl<const N: usize> Accumulator<N> {
+impl<const N: usize> SickAccumulator<N> {
     const CAPACITY_OK: () = assert!(N >= MIN_CAPACITY, "capacity below the smallest telegram");
 
     /// An empty accumulator with zeroed counters. `N` below 7 does not compile.
@@ -265,7 +227,7 @@ impl<const N: usize> Accumulator<N> {
             shadow: 0,
             delivered: 0,
             consumed: 0,
-            stats: Stats {
+            stats: SickCounters {
                 telegrams_ok: 0,
                 crc_errors: 0,
                 length_errors: 0,
@@ -282,7 +244,7 @@ impl<const N: usize> Accumulator<N> {
     /// empty chunk is fine (it drains events already buffered).
     ///
     /// A telegram handed out stays valid until the next call; the one after drops it.
-    pub fn feed<'s, 'c>(&'s mut self, chunk: &'c [u8]) -> FeedResult<'s, 'c> {
+    pub fn feed<'s, 'c>(&'s mut self, chunk: &'c [u8]) -> SickFeed<'s, 'c> {
         self.release();
         let mut chunk = chunk;
         loop {
@@ -306,7 +268,8 @@ impl<const N: usize> Accumulator<N> {
                         ACK => {
                             self.take(1);
                             bump(&mut self.stats.ack);
-                            return FeedResult::Ack {
+                            return FeedResult::Item {
+                                item: SickItem::Ack,
                                 offset,
                                 remaining: rest,
                             };
@@ -314,7 +277,8 @@ impl<const N: usize> Accumulator<N> {
                         NAK => {
                             self.take(1);
                             bump(&mut self.stats.nak);
-                            return FeedResult::Nak {
+                            return FeedResult::Item {
+                                item: SickItem::Nak,
                                 offset,
                                 remaining: rest,
                             };
@@ -338,7 +302,7 @@ impl<const N: usize> Accumulator<N> {
                 Some(dst) if take > 0 && dst.len() == head.len() => dst.copy_from_slice(head),
                 // Unreachable by the capacity checks; drop the candidate to keep moving.
                 _ => {
-                    let (step, offset) = self.reject(1, FrameError::Truncated);
+                    let (step, offset) = self.reject(1, SickFrameError::Truncated);
                     return self.result(step, offset, chunk);
                 }
             }
@@ -349,10 +313,10 @@ impl<const N: usize> Accumulator<N> {
     }
 
     /// Ends the stream: rejects the candidate still incomplete, if any, as
-    /// [`FrameError::Truncated`] (a lone STX as garbage), and returns the events its bytes
+    /// [`SickFrameError::Truncated`] (a lone STX as garbage), and returns the events its bytes
     /// still hold, one per call, until [`FeedResult::Consumed`]. A telegram that started
     /// inside a bogus candidate and is complete is delivered.
-    pub fn flush(&mut self) -> FeedResult<'_, 'static> {
+    pub fn flush(&mut self) -> SickFeed<'_, 'static> {
         self.release();
         loop {
             match self.scan() {
@@ -361,7 +325,7 @@ impl<const N: usize> Accumulator<N> {
                 Scan::Need(_) => {
                     let live = self.end.saturating_sub(self.start);
                     if live >= 2 {
-                        let (step, offset) = self.reject(live, FrameError::Truncated);
+                        let (step, offset) = self.reject(live, SickFrameError::Truncated);
                         return self.result(step, offset, &[]);
                     }
                     self.discard(live);
@@ -384,13 +348,13 @@ impl<const N: usize> Accumulator<N> {
 
     /// The counters.
     #[must_use]
-    pub const fn stats(&self) -> Stats {
+    pub const fn stats(&self) -> SickCounters {
         self.stats
     }
 
     /// Zeroes the counters.
     pub fn clear_stats(&mut self) {
-        self.stats = Stats::default();
+        self.stats = SickCounters::default();
     }
 
     /// Bytes buffered and not yet resolved (a candidate in progress, or bytes still to hunt
@@ -475,13 +439,14 @@ impl<const N: usize> Accumulator<N> {
             let payload = usize::from(len_field);
             if payload == 0 || payload > MAX_PAYLOAD_LEN {
                 let span = first_inner_header(live, HEADER_LEN);
-                let (step, offset) = self.reject(span, FrameError::BadLength { len: len_field });
+                let (step, offset) =
+                    self.reject(span, SickFrameError::BadLength { len: len_field });
                 return Scan::Step(step, offset);
             }
             let total = payload + HEADER_LEN + CRC_LEN;
             if total > N {
                 let span = first_inner_header(live, HEADER_LEN);
-                let error = FrameError::TooLong {
+                let error = SickFrameError::TooLong {
                     len: len_field,
                     capacity: N,
                 };
@@ -504,9 +469,9 @@ impl<const N: usize> Accumulator<N> {
             }
             let span = first_inner_header(live, total);
             let error = if span < total {
-                FrameError::Truncated
+                SickFrameError::Truncated
             } else {
-                FrameError::BadCrc { stored, computed }
+                SickFrameError::BadCrc { stored, computed }
             };
             let (step, offset) = self.reject(span, error);
             return Scan::Step(step, offset);
@@ -515,13 +480,13 @@ impl<const N: usize> Accumulator<N> {
 
     /// Rejects the candidate at `start`, whose own bytes are the first `span`: counts it, and
     /// resumes the hunt at the byte after its STX.
-    fn reject(&mut self, span: usize, error: FrameError) -> (Step, u64) {
+    fn reject(&mut self, span: usize, error: SickFrameError) -> (Step, u64) {
         let counter = match error {
-            FrameError::BadLength { .. } | FrameError::TooLong { .. } => {
+            SickFrameError::BadLength { .. } | SickFrameError::TooLong { .. } => {
                 &mut self.stats.length_errors
             }
-            FrameError::BadCrc { .. } => &mut self.stats.crc_errors,
-            FrameError::Truncated => &mut self.stats.truncated,
+            SickFrameError::BadCrc { .. } => &mut self.stats.crc_errors,
+            SickFrameError::Truncated => &mut self.stats.truncated,
         };
         bump(counter);
         let offset = self.offset_of(self.start);
@@ -571,24 +536,27 @@ impl<const N: usize> Accumulator<N> {
         self.delivered = 0;
     }
 
-    fn result<'s, 'c>(
-        &'s self,
-        step: Step,
-        offset: u64,
-        remaining: &'c [u8],
-    ) -> FeedResult<'s, 'c> {
+    fn result<'s, 'c>(&'s self, step: Step, offset: u64, remaining: &'c [u8]) -> SickFeed<'s, 'c> {
         match step {
-            Step::Telegram(len) => FeedResult::Telegram {
-                telegram: Telegram::new_unchecked(
+            Step::Telegram(len) => FeedResult::Item {
+                item: SickItem::Telegram(Telegram::new_unchecked(
                     self.buf
                         .get(self.start..self.start.saturating_add(len))
                         .unwrap_or(&[]),
-                ),
+                )),
                 offset,
                 remaining,
             },
-            Step::Ack => FeedResult::Ack { offset, remaining },
-            Step::Nak => FeedResult::Nak { offset, remaining },
+            Step::Ack => FeedResult::Item {
+                item: SickItem::Ack,
+                offset,
+                remaining,
+            },
+            Step::Nak => FeedResult::Item {
+                item: SickItem::Nak,
+                offset,
+                remaining,
+            },
             Step::Rejected(error) => FeedResult::Rejected {
                 error,
                 offset,
@@ -631,26 +599,36 @@ mod tests {
         T(u64, Vec<u8>),
         Ack(u64),
         Nak(u64),
-        R(u64, FrameError),
+        R(u64, SickFrameError),
     }
 
-    fn record(r: &FeedResult<'_, '_>, out: &mut Vec<Ev>) -> bool {
+    fn record(r: &SickFeed<'_, '_>, out: &mut Vec<Ev>) -> bool {
         match r {
             FeedResult::Consumed => return false,
-            FeedResult::Telegram {
-                telegram, offset, ..
+            FeedResult::Item {
+                item: SickItem::Telegram(telegram),
+                offset,
+                ..
             } => {
                 assert!(Telegram::new_checked(telegram.as_bytes()).is_ok());
                 out.push(Ev::T(*offset, telegram.as_bytes().to_vec()));
             }
-            FeedResult::Ack { offset, .. } => out.push(Ev::Ack(*offset)),
-            FeedResult::Nak { offset, .. } => out.push(Ev::Nak(*offset)),
+            FeedResult::Item {
+                item: SickItem::Ack,
+                offset,
+                ..
+            } => out.push(Ev::Ack(*offset)),
+            FeedResult::Item {
+                item: SickItem::Nak,
+                offset,
+                ..
+            } => out.push(Ev::Nak(*offset)),
             FeedResult::Rejected { error, offset, .. } => out.push(Ev::R(*offset, *error)),
         }
         true
     }
 
-    fn drive<const N: usize>(acc: &mut Accumulator<N>, chunk: &[u8], out: &mut Vec<Ev>) {
+    fn drive<const N: usize>(acc: &mut SickAccumulator<N>, chunk: &[u8], out: &mut Vec<Ev>) {
         let mut window = chunk;
         loop {
             let r = acc.feed(window);
@@ -662,7 +640,7 @@ mod tests {
         }
     }
 
-    fn finish<const N: usize>(acc: &mut Accumulator<N>, out: &mut Vec<Ev>) {
+    fn finish<const N: usize>(acc: &mut SickAccumulator<N>, out: &mut Vec<Ev>) {
         loop {
             let r = acc.flush();
             if !record(&r, out) {
@@ -673,8 +651,8 @@ mod tests {
     }
 
     /// Feeds `stream` cut at the given chunk sizes (cycled), then flushes.
-    fn run<const N: usize>(stream: &[u8], sizes: &[usize]) -> (Vec<Ev>, Stats) {
-        let mut acc = Accumulator::<N>::new();
+    fn run<const N: usize>(stream: &[u8], sizes: &[usize]) -> (Vec<Ev>, SickCounters) {
+        let mut acc = SickAccumulator::<N>::new();
         let mut out = Vec::new();
         let mut rest = stream;
         let mut i = 0;
@@ -690,7 +668,7 @@ mod tests {
         (out, acc.stats())
     }
 
-    fn whole(stream: &[u8]) -> (Vec<Ev>, Stats) {
+    fn whole(stream: &[u8]) -> (Vec<Ev>, SickCounters) {
         run::<DEFAULT_CAPACITY>(stream, &[usize::MAX])
     }
 
@@ -716,8 +694,8 @@ mod tests {
         buf
     }
 
-    fn stats(f: impl FnOnce(&mut Stats)) -> Stats {
-        let mut s = Stats::default();
+    fn stats(f: impl FnOnce(&mut SickCounters)) -> SickCounters {
+        let mut s = SickCounters::default();
         f(&mut s);
         s
     }
@@ -727,10 +705,10 @@ mod tests {
         name: &'static str,
         damage: Vec<u8>,
         /// Rejections expected, at offsets relative to the damage's start.
-        rejected: Vec<(u64, FrameError)>,
+        rejected: Vec<(u64, SickFrameError)>,
         /// ACK/NAK events expected, relative offsets.
         acks: Vec<Ev>,
-        expect: Stats,
+        expect: SickCounters,
     }
 
     fn cases() -> Vec<Case> {
@@ -769,7 +747,7 @@ mod tests {
             let last = t.len() - 1;
             t[last] = STX;
             let t = Telegram::new_unchecked(&t[..]);
-            FrameError::BadCrc {
+            SickFrameError::BadCrc {
                 stored: t.crc(),
                 computed: t.computed_crc(),
             }
@@ -813,14 +791,14 @@ mod tests {
             Case {
                 name: "false header with a short LEN",
                 damage: vec![0x02, 0x80, 0x05, 0x00],
-                rejected: vec![(0, FrameError::Truncated)],
+                rejected: vec![(0, SickFrameError::Truncated)],
                 acks: vec![],
                 expect: stats(|s| s.truncated = 1),
             },
             Case {
                 name: "false header inside garbage",
                 damage: vec![0xAA, 0x02, 0x80, 0x10, 0x00, 0xBB, 0x06],
-                rejected: vec![(1, FrameError::Truncated)],
+                rejected: vec![(1, SickFrameError::Truncated)],
                 acks: vec![],
                 expect: stats(|s| {
                     s.truncated = 1;
@@ -830,14 +808,14 @@ mod tests {
             Case {
                 name: "LEN 0",
                 damage: vec![0x02, 0x80, 0x00, 0x00],
-                rejected: vec![(0, FrameError::BadLength { len: 0 })],
+                rejected: vec![(0, SickFrameError::BadLength { len: 0 })],
                 acks: vec![],
                 expect: stats(|s| s.length_errors = 1),
             },
             Case {
                 name: "LEN 813",
                 damage: vec![0x02, 0x80, 0x2D, 0x03, 0x99],
-                rejected: vec![(0, FrameError::BadLength { len: 813 })],
+                rejected: vec![(0, SickFrameError::BadLength { len: 813 })],
                 acks: vec![],
                 expect: stats(|s| {
                     s.length_errors = 1;
@@ -847,35 +825,35 @@ mod tests {
             Case {
                 name: "LEN 0xFFFF",
                 damage: vec![0x02, 0x80, 0xFF, 0xFF],
-                rejected: vec![(0, FrameError::BadLength { len: 0xFFFF })],
+                rejected: vec![(0, SickFrameError::BadLength { len: 0xFFFF })],
                 acks: vec![],
                 expect: stats(|s| s.length_errors = 1),
             },
             Case {
                 name: "header cut after 02 80",
                 damage: vec![0x02, 0x80],
-                rejected: vec![(0, FrameError::BadLength { len: 0x8002 })],
+                rejected: vec![(0, SickFrameError::BadLength { len: 0x8002 })],
                 acks: vec![],
                 expect: stats(|s| s.length_errors = 1),
             },
             Case {
                 name: "header cut after LEN's first byte",
                 damage: v[..3].to_vec(),
-                rejected: vec![(0, FrameError::Truncated)],
+                rejected: vec![(0, SickFrameError::Truncated)],
                 acks: vec![],
                 expect: stats(|s| s.truncated = 1),
             },
             Case {
                 name: "telegram cut in its header",
                 damage: v[..4].to_vec(),
-                rejected: vec![(0, FrameError::Truncated)],
+                rejected: vec![(0, SickFrameError::Truncated)],
                 acks: vec![],
                 expect: stats(|s| s.truncated = 1),
             },
             Case {
                 name: "telegram cut in its payload",
                 damage: v[..300].to_vec(),
-                rejected: vec![(0, FrameError::Truncated)],
+                rejected: vec![(0, SickFrameError::Truncated)],
                 acks: vec![],
                 expect: stats(|s| s.truncated = 1),
             },
@@ -890,7 +868,7 @@ mod tests {
             Case {
                 name: "bad CRC",
                 damage: bad_crc,
-                rejected: vec![(0, FrameError::BadCrc { stored, computed })],
+                rejected: vec![(0, SickFrameError::BadCrc { stored, computed })],
                 acks: vec![],
                 expect: stats(|s| s.crc_errors = 1),
             },
@@ -899,7 +877,7 @@ mod tests {
                 damage: bad_payload,
                 rejected: vec![(
                     0,
-                    FrameError::BadCrc {
+                    SickFrameError::BadCrc {
                         stored: stored_p,
                         computed: computed_p,
                     },
@@ -912,7 +890,7 @@ mod tests {
                 damage: acky,
                 rejected: vec![(
                     0,
-                    FrameError::BadCrc {
+                    SickFrameError::BadCrc {
                         stored: stored_a,
                         computed: computed_a,
                     },
@@ -924,8 +902,8 @@ mod tests {
                 name: "two false headers in a row",
                 damage: [&[0x02, 0x80, 0x02, 0x80][..], &len_v.to_le_bytes()].concat(),
                 rejected: vec![
-                    (0, FrameError::BadLength { len: 0x8002 }),
-                    (2, FrameError::Truncated),
+                    (0, SickFrameError::BadLength { len: 0x8002 }),
+                    (2, SickFrameError::Truncated),
                 ],
                 acks: vec![],
                 expect: stats(|s| {
@@ -945,8 +923,8 @@ mod tests {
         }
     }
 
-    fn sum(a: Stats, b: Stats) -> Stats {
-        Stats {
+    fn sum(a: SickCounters, b: SickCounters) -> SickCounters {
+        SickCounters {
             telegrams_ok: a.telegrams_ok + b.telegrams_ok,
             crc_errors: a.crc_errors + b.crc_errors,
             length_errors: a.length_errors + b.length_errors,
@@ -959,7 +937,7 @@ mod tests {
 
     /// The stream of every case (damage then a valid telegram), with the events and stats it
     /// must produce.
-    fn combined() -> (Vec<u8>, Vec<Ev>, Stats) {
+    fn combined() -> (Vec<u8>, Vec<Ev>, SickCounters) {
         let mut stream = a0();
         let mut events = vec![Ev::T(0, stream.clone())];
         let mut total = stats(|s| s.telegrams_ok = 1);
@@ -1124,13 +1102,13 @@ mod tests {
     #[test]
     fn flush_reports_a_telegram_cut_by_the_end_of_the_stream() {
         let v = scan(10, 5);
-        let mut acc = Accumulator::<DEFAULT_CAPACITY>::new();
+        let mut acc = SickAccumulator::<DEFAULT_CAPACITY>::new();
         let mut out = Vec::new();
         drive(&mut acc, &v[..v.len() - 3], &mut out);
         assert!(out.is_empty());
         assert_eq!(acc.buffered(), v.len() - 3);
         finish(&mut acc, &mut out);
-        assert_eq!(out, [Ev::R(0, FrameError::Truncated)]);
+        assert_eq!(out, [Ev::R(0, SickFrameError::Truncated)]);
         assert_eq!(acc.stats(), stats(|s| s.truncated = 1));
     }
 
@@ -1141,14 +1119,14 @@ mod tests {
         let good = a0();
         stream.extend_from_slice(&good);
         stream.push(0x02);
-        let mut acc = Accumulator::<DEFAULT_CAPACITY>::new();
+        let mut acc = SickAccumulator::<DEFAULT_CAPACITY>::new();
         let mut out = Vec::new();
         drive(&mut acc, &stream, &mut out);
         assert!(out.is_empty());
         finish(&mut acc, &mut out);
         assert_eq!(
             out,
-            [Ev::R(0, FrameError::Truncated), Ev::T(5, good.clone())]
+            [Ev::R(0, SickFrameError::Truncated), Ev::T(5, good.clone())]
         );
         // The lone STX at the end is garbage; the false candidate's bytes are not.
         assert_eq!(
@@ -1172,7 +1150,7 @@ mod tests {
                 events.first(),
                 Some(&Ev::R(
                     0,
-                    FrameError::TooLong {
+                    SickFrameError::TooLong {
                         len: 204,
                         capacity: 64
                     }
@@ -1201,10 +1179,16 @@ mod tests {
     #[test]
     fn telegram_accessor_and_reset() {
         let good = a0();
-        let mut acc = Accumulator::<DEFAULT_CAPACITY>::new();
+        let mut acc = SickAccumulator::<DEFAULT_CAPACITY>::new();
         assert!(acc.telegram().is_none());
         let r = acc.feed(&good);
-        assert!(matches!(r, FeedResult::Telegram { .. }));
+        assert!(matches!(
+            r,
+            FeedResult::Item {
+                item: SickItem::Telegram(_),
+                ..
+            }
+        ));
         assert_eq!(
             acc.telegram().map(|t| t.as_bytes().to_vec()),
             Some(good.clone())
@@ -1219,12 +1203,12 @@ mod tests {
         drive(&mut acc, &good, &mut out);
         assert_eq!(out, [Ev::T(14, good)]);
         acc.clear_stats();
-        assert_eq!(acc.stats(), Stats::default());
+        assert_eq!(acc.stats(), SickCounters::default());
     }
 
     #[test]
     fn counters_saturate() {
-        let mut acc = Accumulator::<DEFAULT_CAPACITY>::new();
+        let mut acc = SickAccumulator::<DEFAULT_CAPACITY>::new();
         acc.stats.garbage_bytes = u32::MAX - 1;
         acc.stats.ack = u32::MAX;
         drive(&mut acc, &[0x11, 0x22, 0x33, 0x06], &mut Vec::new());
@@ -1254,9 +1238,9 @@ mod tests {
         extern crate std;
         use std::string::ToString;
         assert_eq!(
-            FrameError::BadLength { len: 0 }.to_string(),
+            SickFrameError::BadLength { len: 0 }.to_string(),
             "impossible telegram length 0"
         );
-        assert_eq!(FrameError::Truncated.to_string(), "telegram truncated");
+        assert_eq!(SickFrameError::Truncated.to_string(), "telegram truncated");
     }
 }

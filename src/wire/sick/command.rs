@@ -21,21 +21,22 @@
 
 use super::measured::MeasuredValues;
 use super::telegram::{emit_with, Telegram, ADDRESS_HOST, ADDRESS_REPLY, CRC_LEN, HEADER_LEN};
+use super::variant::Variant;
 use super::{read_u16_le, Error};
 
 /// The scanner's positive acknowledgement, one byte sent before a reply.
 pub const ACK: u8 = 0x06;
 /// The scanner's negative acknowledgement, one byte sent instead of a reply.
 pub const NAK: u8 = 0x15;
-/// Request: select the operating mode.
+/// SickRequest: select the operating mode.
 pub const OPERATING_MODE: u8 = 0x20;
-/// Request: send measured values.
+/// SickRequest: send measured values.
 pub const REQUEST_MEASURED_VALUES: u8 = 0x30;
-/// Request: select the variant (scan angle and resolution).
+/// SickRequest: select the variant (scan angle and resolution).
 pub const VARIANT: u8 = 0x3B;
-/// Reply to [`OPERATING_MODE`].
+/// SickReply to [`OPERATING_MODE`].
 pub const OPERATING_MODE_REPLY: u8 = 0xA0;
-/// Reply to [`VARIANT`].
+/// SickReply to [`VARIANT`].
 pub const VARIANT_REPLY: u8 = 0xBB;
 /// The password of installation mode, 8 ASCII bytes.
 pub const INSTALLATION_PASSWORD: [u8; 8] = *b"SICK_LMS";
@@ -141,186 +142,11 @@ impl OperatingMode {
     }
 }
 
-/// The scan angle (field of view) of a variant.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub enum ScanAngle {
-    /// 100°: from 40° to 140° of the 180° frame (the 40° start is unverified).
-    Deg100,
-    /// 180°: from 0° (first value) to 180° (last value).
-    Deg180,
-}
-
-impl ScanAngle {
-    /// The angle, degrees, as command 0x3B carries it.
-    #[must_use]
-    pub const fn degrees(self) -> u16 {
-        match self {
-            Self::Deg100 => 100,
-            Self::Deg180 => 180,
-        }
-    }
-
-    /// The angle of the first value, hundredths of a degree in the 0°..180° frame:
-    /// 0 for 180°, 4000 for 100° (unverified).
-    #[must_use]
-    pub const fn start_centideg(self) -> u32 {
-        match self {
-            Self::Deg100 => 4_000,
-            Self::Deg180 => 0,
-        }
-    }
-
-    /// The scan angle with this many degrees.
-    ///
-    /// # Errors
-    /// [`Error::UnknownScanAngle`] for anything but 100 or 180.
-    pub const fn from_degrees(degrees: u16) -> Result<Self, Error> {
-        match degrees {
-            100 => Ok(Self::Deg100),
-            180 => Ok(Self::Deg180),
-            _ => Err(Error::UnknownScanAngle { degrees }),
-        }
-    }
-}
-
-/// The angular resolution of a variant. 0.5° and 0.25° are produced by interlacing 1° scans.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub enum Resolution {
-    /// 0.25° (only with the 100° angle).
-    Quarter,
-    /// 0.5°.
-    Half,
-    /// 1°.
-    One,
-}
-
-impl Resolution {
-    /// The resolution, hundredths of a degree (25, 50 or 100), as command 0x3B carries it.
-    #[must_use]
-    pub const fn centideg(self) -> u16 {
-        match self {
-            Self::Quarter => 25,
-            Self::Half => 50,
-            Self::One => 100,
-        }
-    }
-
-    /// The resolution with this many hundredths of a degree.
-    ///
-    /// # Errors
-    /// [`Error::UnknownResolution`] for anything but 25, 50 or 100.
-    pub const fn from_centideg(centideg: u16) -> Result<Self, Error> {
-        match centideg {
-            25 => Ok(Self::Quarter),
-            50 => Ok(Self::Half),
-            100 => Ok(Self::One),
-            _ => Err(Error::UnknownResolution { centideg }),
-        }
-    }
-}
-
-/// A variant: scan angle and angular resolution (command 0x3B). Every combination but
-/// 180° at 0.25° exists: 101/201/401 values over 100°, 181/361 over 180°.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub struct Variant {
-    angle: ScanAngle,
-    resolution: Resolution,
-}
-
-impl Variant {
-    /// 180° at 0.5°: 361 values, the paper's configuration.
-    pub const DEG180_HALF: Self = Self {
-        angle: ScanAngle::Deg180,
-        resolution: Resolution::Half,
-    };
-
-    /// A variant, if the scanner offers it.
-    ///
-    /// # Errors
-    /// [`Error::UnsupportedVariant`] for 180° at 0.25° (721 values do not fit a telegram).
-    pub const fn new(angle: ScanAngle, resolution: Resolution) -> Result<Self, Error> {
-        if matches!(
-            (angle, resolution),
-            (ScanAngle::Deg180, Resolution::Quarter)
-        ) {
-            return Err(Error::UnsupportedVariant {
-                degrees: angle.degrees(),
-                centideg: resolution.centideg(),
-            });
-        }
-        Ok(Self { angle, resolution })
-    }
-
-    /// The variant command 0x3B's fields describe.
-    ///
-    /// # Errors
-    /// [`Error::UnknownScanAngle`], [`Error::UnknownResolution`] or
-    /// [`Error::UnsupportedVariant`].
-    pub const fn from_fields(degrees: u16, centideg: u16) -> Result<Self, Error> {
-        let angle = match ScanAngle::from_degrees(degrees) {
-            Ok(angle) => angle,
-            Err(e) => return Err(e),
-        };
-        let resolution = match Resolution::from_centideg(centideg) {
-            Ok(resolution) => resolution,
-            Err(e) => return Err(e),
-        };
-        Self::new(angle, resolution)
-    }
-
-    /// The scan angle.
-    #[must_use]
-    pub const fn angle(self) -> ScanAngle {
-        self.angle
-    }
-
-    /// The angular resolution.
-    #[must_use]
-    pub const fn resolution(self) -> Resolution {
-        self.resolution
-    }
-
-    /// Values in a full scan: `angle / resolution + 1` (101, 181, 201, 361 or 401).
-    #[must_use]
-    pub const fn value_count(self) -> u16 {
-        self.angle.degrees() * 100 / self.resolution.centideg() + 1
-    }
-
-    /// The beam angle of value `index` of a measured-values reply with `count` values and
-    /// partial-scan index `partial_index`, hundredths of a degree in the scanner's 0°..180°
-    /// frame (90° straight ahead):
-    ///
-    /// `start + index · (angle · 100) / (count − 1) + 25 · partial_index`
-    ///
-    /// - `start` is 0° for 180° and 40° for 100° (unverified);
-    /// - the step is the scan angle over `count − 1`, so a full scan (181 values at 1°, 361 at
-    ///   0.5°, 401 at 0.25° over 100°) steps by the resolution, and a 1° partial scan of an
-    ///   interlaced 0.5°/0.25° mode (181 or 101 values) steps by 1°; the integer division is
-    ///   exact for every count a variant produces, and rounds down otherwise;
-    /// - an interlaced partial scan is offset by its index times 0.25° (as the public ROS
-    ///   drivers read it; unverified), so indexes 0..=3 cover the four 0.25° phases; a full
-    ///   scan carries index 0.
-    ///
-    /// `None` when `index >= count`, when `count < 2`, or when `partial_index > 3`.
-    #[must_use]
-    pub fn beam_angle_centideg(self, count: u16, partial_index: u8, index: u16) -> Option<u32> {
-        if index >= count || count < 2 || partial_index > 3 {
-            return None;
-        }
-        let span = u32::from(self.angle.degrees()) * 100;
-        let step = u32::from(index).checked_mul(span)? / u32::from(count - 1);
-        Some(self.angle.start_centideg() + step + 25 * u32::from(partial_index))
-    }
-}
-
 /// A request from the host to the scanner: a validated representation of the telegrams this
 /// module can send.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub enum Request {
+pub enum SickRequest {
     /// 0x20: select an operating mode (payload `20 mode [password]`).
     SetOperatingMode(OperatingMode),
     /// 0x3B: select a variant (payload `3B angle(u16 LE) resolution(u16 LE)`).
@@ -329,7 +155,7 @@ pub enum Request {
     MeasuredValues,
 }
 
-impl Request {
+impl SickRequest {
     /// Reads a request from a telegram's payload (ADR and CRC are the caller's: construct the
     /// telegram with [`Telegram::new_checked`]).
     ///
@@ -419,8 +245,8 @@ impl Request {
                 }
             }
             Self::SetVariant(variant) => {
-                let [a0, a1] = variant.angle.degrees().to_le_bytes();
-                let [r0, r1] = variant.resolution.centideg().to_le_bytes();
+                let [a0, a1] = variant.scan_angle_deg().to_le_bytes();
+                let [r0, r1] = variant.resolution_centideg().to_le_bytes();
                 payload[..5].copy_from_slice(&[VARIANT, a0, a1, r0, r1]);
             }
             Self::MeasuredValues => {
@@ -433,7 +259,7 @@ impl Request {
     }
 }
 
-/// Reply 0xA0 to an operating-mode request: `A0 result status`.
+/// SickReply 0xA0 to an operating-mode request: `A0 result status`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct OperatingModeReply {
@@ -451,7 +277,7 @@ impl OperatingModeReply {
         self.result == 0x00
     }
 
-    /// Reads the reply from a telegram's payload (CRC is the caller's, as for [`Request::parse`]).
+    /// Reads the reply from a telegram's payload (CRC is the caller's, as for [`SickRequest::parse`]).
     ///
     /// # Errors
     /// [`Error::UnexpectedCommand`] for another command, [`Error::BadPayloadLength`] unless
@@ -488,7 +314,7 @@ impl OperatingModeReply {
     }
 }
 
-/// Reply 0xBB to a variant request: `BB result angle(u16 LE) resolution(u16 LE) status`.
+/// SickReply 0xBB to a variant request: `BB result angle(u16 LE) resolution(u16 LE) status`.
 ///
 /// The angle and resolution are kept raw: they report the configuration in force, which a
 /// refused request leaves as it was; [`VariantReply::variant`] validates them.
@@ -567,7 +393,7 @@ impl VariantReply {
 /// Any reply this module reads, by command byte.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub enum Reply<'a> {
+pub enum SickReply<'a> {
     /// 0xA0.
     OperatingMode(OperatingModeReply),
     /// 0xBB.
@@ -581,13 +407,13 @@ pub enum Reply<'a> {
     },
 }
 
-impl<'a> Reply<'a> {
+impl<'a> SickReply<'a> {
     /// Reads a reply by its command byte (CRC is the caller's: the accumulator and
     /// [`Telegram::new_checked`] verify it).
     ///
     /// # Errors
     /// The errors of the reply's own `parse`; an unknown command is not an error but
-    /// [`Reply::Other`].
+    /// [`SickReply::Other`].
     pub fn parse<T: AsRef<[u8]> + ?Sized>(telegram: &Telegram<&'a T>) -> Result<Self, Error> {
         telegram.check_len()?;
         match telegram.command() {
@@ -608,7 +434,7 @@ mod tests {
     use super::*;
     use std::vec::Vec;
 
-    fn emit(request: Request) -> Vec<u8> {
+    fn emit(request: SickRequest) -> Vec<u8> {
         let mut buf = [0u8; 32];
         let n = request.emit(&mut buf).unwrap();
         assert_eq!(n, request.buffer_len());
@@ -638,40 +464,43 @@ mod tests {
             ),
         ];
         for (mode, wire) in cases {
-            let bytes = emit(Request::SetOperatingMode(mode));
+            let bytes = emit(SickRequest::SetOperatingMode(mode));
             assert_eq!(bytes, wire, "{mode:?}");
             let t = Telegram::new_checked(&bytes[..]).unwrap();
-            assert_eq!(Request::parse(&t), Ok(Request::SetOperatingMode(mode)));
+            assert_eq!(
+                SickRequest::parse(&t),
+                Ok(SickRequest::SetOperatingMode(mode))
+            );
         }
     }
 
     #[test]
     fn variant_bytes_match_the_documented_vector() {
-        let bytes = emit(Request::SetVariant(Variant::DEG180_HALF));
+        let bytes = emit(SickRequest::SetVariant(Variant::Fov180StepHalf));
         assert_eq!(
             bytes,
             [0x02, 0x00, 0x05, 0x00, 0x3B, 0xB4, 0x00, 0x32, 0x00, 0x3B, 0x1F]
         );
         let t = Telegram::new_checked(&bytes[..]).unwrap();
         assert_eq!(
-            Request::parse(&t),
-            Ok(Request::SetVariant(Variant::DEG180_HALF))
+            SickRequest::parse(&t),
+            Ok(SickRequest::SetVariant(Variant::Fov180StepHalf))
         );
     }
 
     #[test]
     fn installation_and_measured_values_round_trip() {
-        let install = Request::SetOperatingMode(OperatingMode::INSTALLATION);
+        let install = SickRequest::SetOperatingMode(OperatingMode::INSTALLATION);
         let bytes = emit(install);
         assert_eq!(&bytes[..6], &[0x02, 0x00, 0x0A, 0x00, 0x20, 0x00]);
         assert_eq!(&bytes[6..14], b"SICK_LMS");
         let t = Telegram::new_checked(&bytes[..]).unwrap();
-        assert_eq!(Request::parse(&t), Ok(install));
+        assert_eq!(SickRequest::parse(&t), Ok(install));
 
-        let bytes = emit(Request::MeasuredValues);
+        let bytes = emit(SickRequest::MeasuredValues);
         assert_eq!(&bytes[..6], &[0x02, 0x00, 0x02, 0x00, 0x30, 0x01]);
         let t = Telegram::new_checked(&bytes[..]).unwrap();
-        assert_eq!(Request::parse(&t), Ok(Request::MeasuredValues));
+        assert_eq!(SickRequest::parse(&t), Ok(SickRequest::MeasuredValues));
     }
 
     #[test]
@@ -712,7 +541,7 @@ mod tests {
             })
             .unwrap();
             let t = Telegram::new_checked(&buf[..n]).unwrap();
-            assert_eq!(Request::parse(&t), Err(error), "{payload:02x?}");
+            assert_eq!(SickRequest::parse(&t), Err(error), "{payload:02x?}");
         }
     }
 
@@ -720,7 +549,7 @@ mod tests {
     fn emit_into_a_short_buffer_writes_nothing() {
         let mut buf = [0xEE_u8; 7];
         assert_eq!(
-            Request::SetOperatingMode(OperatingMode::ContinuousAll).emit(&mut buf),
+            SickRequest::SetOperatingMode(OperatingMode::ContinuousAll).emit(&mut buf),
             Err(Error::BufferTooSmall {
                 needed: 8,
                 available: 7
@@ -740,7 +569,7 @@ mod tests {
         assert_eq!(n, a0.buffer_len());
         assert_eq!(&buf[..7], &[0x02, 0x80, 0x03, 0x00, 0xA0, 0x00, 0x10]);
         let t = Telegram::new_checked(&buf[..n]).unwrap();
-        assert_eq!(Reply::parse(&t), Ok(Reply::OperatingMode(a0)));
+        assert_eq!(SickReply::parse(&t), Ok(SickReply::OperatingMode(a0)));
         assert!(a0.accepted());
 
         let bb = VariantReply {
@@ -752,16 +581,16 @@ mod tests {
         let n = bb.emit(&mut buf).unwrap();
         assert_eq!(n, bb.buffer_len());
         let t = Telegram::new_checked(&buf[..n]).unwrap();
-        assert_eq!(Reply::parse(&t), Ok(Reply::Variant(bb)));
+        assert_eq!(SickReply::parse(&t), Ok(SickReply::Variant(bb)));
         assert!(bb.accepted());
-        assert_eq!(bb.variant(), Ok(Variant::DEG180_HALF));
+        assert_eq!(bb.variant(), Ok(Variant::Fov180StepHalf));
 
         let n = emit_with(&mut buf, ADDRESS_REPLY, 2, |d| {
             d.copy_from_slice(&[0xB1, 0])
         })
         .unwrap();
         let t = Telegram::new_checked(&buf[..n]).unwrap();
-        assert_eq!(Reply::parse(&t), Ok(Reply::Other { command: 0xB1 }));
+        assert_eq!(SickReply::parse(&t), Ok(SickReply::Other { command: 0xB1 }));
 
         let n = emit_with(&mut buf, ADDRESS_REPLY, 2, |d| {
             d.copy_from_slice(&[0xA0, 0])
@@ -769,7 +598,7 @@ mod tests {
         .unwrap();
         let t = Telegram::new_checked(&buf[..n]).unwrap();
         assert_eq!(
-            Reply::parse(&t),
+            SickReply::parse(&t),
             Err(Error::BadPayloadLength {
                 command: 0xA0,
                 len: 2
@@ -779,8 +608,8 @@ mod tests {
 
     #[test]
     fn beam_angles() {
-        let v = Variant::DEG180_HALF;
-        assert_eq!(v.value_count(), 361);
+        let v = Variant::Fov180StepHalf;
+        assert_eq!(v.beam_count(), 361);
         assert_eq!(v.beam_angle_centideg(361, 0, 0), Some(0));
         assert_eq!(v.beam_angle_centideg(361, 0, 1), Some(50));
         assert_eq!(v.beam_angle_centideg(361, 0, 180), Some(9_000));
@@ -792,16 +621,16 @@ mod tests {
         assert_eq!(v.beam_angle_centideg(181, 4, 1), None);
         assert_eq!(v.beam_angle_centideg(1, 0, 0), None);
 
-        let q = Variant::new(ScanAngle::Deg100, Resolution::Quarter).unwrap();
-        assert_eq!(q.value_count(), 401);
+        let q = Variant::Fov100StepQuarter;
+        assert_eq!(q.beam_count(), 401);
         assert_eq!(q.beam_angle_centideg(401, 0, 0), Some(4_000));
         assert_eq!(q.beam_angle_centideg(401, 0, 1), Some(4_025));
         assert_eq!(q.beam_angle_centideg(401, 0, 400), Some(14_000));
         assert_eq!(q.beam_angle_centideg(101, 3, 0), Some(4_075));
-        let one = Variant::new(ScanAngle::Deg180, Resolution::One).unwrap();
-        assert_eq!(one.value_count(), 181);
+        let one = Variant::Fov180Step1;
+        assert_eq!(one.beam_count(), 181);
         assert_eq!(one.beam_angle_centideg(181, 0, 90), Some(9_000));
-        assert!(Variant::new(ScanAngle::Deg180, Resolution::Quarter).is_err());
+        assert!(Variant::from_fields(180, 25).is_err());
         assert_eq!(reply_command(VARIANT), VARIANT_REPLY);
         assert_eq!(reply_command(OPERATING_MODE), OPERATING_MODE_REPLY);
     }

@@ -1,4 +1,4 @@
-//! Reply 0xB0: the measured values of one scan.
+//! SickReply 0xB0: the measured values of one scan.
 //!
 //! ```text
 //! B0 | count word (u16 LE) | N x value (u16 LE) | [real-time scan index (u8)] | status (u8)
@@ -12,8 +12,8 @@
 //!   the measuring mode set with command 0x77 ([`MeasuringMode`]). The all-ones distance of
 //!   the mode means "no echo" and yields no range.
 
-use super::command::Variant;
 use super::telegram::{emit_with, Telegram, ADDRESS_REPLY, CRC_LEN, HEADER_LEN, MAX_PAYLOAD_LEN};
+use super::variant::Variant;
 use super::Error;
 use core::iter::FusedIterator;
 
@@ -468,7 +468,7 @@ mod tests {
     extern crate std;
 
     use super::*;
-    use crate::wire::sick::{emit_telegram, Reply};
+    use crate::wire::sick::{emit_telegram, SickReply};
     use std::vec::Vec;
 
     fn le(values: &[u16]) -> Vec<u8> {
@@ -501,7 +501,7 @@ mod tests {
             assert_eq!(p.scan_index(), scan_index);
             assert_eq!(p.status(), 0x10);
             assert_eq!(p.count_word(), 4 | (2 << 11) | (1 << 14));
-            assert_eq!(Reply::parse(&t), Ok(Reply::MeasuredValues(m)));
+            assert_eq!(SickReply::parse(&t), Ok(SickReply::MeasuredValues(m)));
         }
     }
 
@@ -667,6 +667,6 @@ mod tests {
     fn beam_angle_of_a_reply() {
         let values = [0u8; 2 * 361];
         let m = MeasuredValues::new(Unit::Millimetre, 0, &values, None, 0).unwrap();
-        assert_eq!(m.beam_angle_centideg(Variant::DEG180_HALF, 3), Some(150));
+        assert_eq!(m.beam_angle_centideg(Variant::Fov180StepHalf, 3), Some(150));
     }
 }

@@ -17,11 +17,11 @@
 //!
 //! # Layers
 //! - [`Telegram`]: a zero-copy view over one framed telegram, with checked construction.
-//! - [`MeasuredValues`] (reply 0xB0), [`Request`] (0x20, 0x3B, 0x30), [`OperatingModeReply`]
-//!   (0xA0), [`VariantReply`] (0xBB), and [`Reply`] over all of them: validated
+//! - [`MeasuredValues`] (reply 0xB0), [`SickRequest`] (0x20, 0x3B, 0x30), [`OperatingModeReply`]
+//!   (0xA0), [`VariantReply`] (0xBB), and [`SickReply`] over all of them: validated
 //!   representations with `parse`, `emit` and `buffer_len`.
-//! - [`Accumulator`]: synchronisation and reassembly over arbitrary chunks of a byte stream,
-//!   with the counters of everything it rejects ([`Stats`]).
+//! - [`SickAccumulator`]: synchronisation and reassembly over arbitrary chunks of a byte stream,
+//!   with the counters of everything it rejects ([`SickCounters`]).
 //!
 //! Facts marked *unverified* in the project's protocol notes are marked so where they are
 //! used (the 100° start angle, the interlacing offsets).
@@ -33,12 +33,15 @@ mod command;
 mod crc;
 mod measured;
 mod telegram;
+mod variant;
 
-pub use accumulator::{Accumulator, FeedResult, FrameError, Stats, DEFAULT_CAPACITY};
+pub use accumulator::{
+    SickAccumulator, SickCounters, SickFeed, SickFrameError, SickItem, DEFAULT_CAPACITY,
+};
 pub use command::{
-    reply_command, Baud, OperatingMode, OperatingModeReply, Reply, Request, Resolution, ScanAngle,
-    Variant, VariantReply, ACK, INSTALLATION_PASSWORD, NAK, OPERATING_MODE, OPERATING_MODE_REPLY,
-    REQUEST_MEASURED_VALUES, VARIANT, VARIANT_REPLY,
+    reply_command, Baud, OperatingMode, OperatingModeReply, SickReply, SickRequest, VariantReply,
+    ACK, INSTALLATION_PASSWORD, NAK, OPERATING_MODE, OPERATING_MODE_REPLY, REQUEST_MEASURED_VALUES,
+    VARIANT, VARIANT_REPLY,
 };
 pub use crc::{crc16, Crc};
 pub use measured::{
@@ -49,6 +52,7 @@ pub use telegram::{
     emit_telegram, Telegram, ADDRESS_HOST, ADDRESS_REPLY, CRC_LEN, HEADER_LEN, MAX_PAYLOAD_LEN,
     MAX_TELEGRAM_LEN, STX,
 };
+pub use variant::{Variant, MAX_BEAMS};
 
 /// Why a telegram or one of its fields was refused, or why an emit could not proceed.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

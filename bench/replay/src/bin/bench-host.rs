@@ -1,9 +1,9 @@
 //! The host side of `cargo xtask bench` (built with `--release`):
 //!
-//! - `bench-host throughput REC SECONDS`: replays the recording through the library's
-//!   pipeline (default pyramid, default frontend, with the link) again and again for at least
-//!   SECONDS and prints `returns_per_second=… returns=… runs=… seconds=…`. Each run starts
-//!   from a fresh pyramid (re-configured outside the timed part).
+//! - `bench-host throughput REC SECONDS`: replays the recording through the application core
+//!   (the default co-processor: pyramid, pipeline and link, as the firmware runs them) again
+//!   and again for at least SECONDS and prints `returns_per_second=… returns=… runs=…
+//!   seconds=…`. Each run starts from a freshly booted core (outside the timed part).
 //! - `bench-host export REC OUT`: writes the recording's world points as the library's
 //!   geometry computes them, for the OctoMap harness: per line a `u32` point count, the
 //!   scanner's origin (3 × `f32`) and the points (3 × `f32` each), little-endian.
@@ -11,53 +11,34 @@
 use std::process::ExitCode;
 use std::time::{Duration, Instant};
 use terrain_pyramid::angle::FineAngle;
+use terrain_pyramid::drivers::angle::HostSuppliedAngle;
 use terrain_pyramid::geometry::{BeamTable, LineTransform, Pose, PoseFrame};
-use terrain_pyramid::link::{Link, LinkConfig};
 use terrain_pyramid::pipeline::FrontendConfig;
 use terrain_pyramid::wire::recording::{Payload, Reader};
-use terrain_pyramid::wire::sick::{Accumulator, FeedResult, MeasuredValues};
-use terrain_pyramid::{
-    Config, DefaultDesign, DefaultFrontend, DefaultPyramid, Schedule, SensorModel,
-    DEFAULT_CELLS_PER_SIDE,
-};
-use terrain_pyramid_bench::{frontend_config, replay, setup, Fixed, Pipeline};
+use terrain_pyramid::wire::sick::{MeasuredValues, SickAccumulator, SickItem};
+use terrain_pyramid::wire::FeedResult;
+use terrain_pyramid::DefaultCoProcessor;
+use terrain_pyramid_bench::{boot, default_design, frontend_config, replay, setup, Core, Pipeline};
 
 fn throughput(rec: &[u8], seconds: f64) -> Result<(), String> {
-    let config = setup(rec)
-        .as_ref()
-        .and_then(frontend_config)
-        .ok_or("the recording has no usable setup")?;
-    let design = DefaultDesign::new(
-        SensorModel::default(),
-        Schedule::default(),
-        DEFAULT_CELLS_PER_SIDE,
-    )
-    .map_err(|e| e.to_string())?;
-    let mut pyramid = Box::new(DefaultPyramid::new());
-    let mut link: Box<Link> = Box::new(Link::new(LinkConfig::DEFAULT));
-    let mut acc: Box<Accumulator> = Box::new(Accumulator::new());
-    let mut frontend = Box::new(DefaultFrontend::new(config));
+    let design = default_design::<64, 8>().ok_or("the default design")?;
+    let mut core: Box<DefaultCoProcessor> = Box::default();
     let mut returns = 0_u64;
     let mut runs = 0_u64;
     let mut timed = Duration::ZERO;
     while timed.as_secs_f64() < seconds || runs == 0 {
-        *pyramid = DefaultPyramid::new();
-        *link = Link::new(LinkConfig::DEFAULT);
-        link.configure(&mut pyramid, &design, &Config::default())
-            .map_err(|e| e.to_string())?;
-        *acc = Accumulator::new();
-        frontend.configure(config);
-        frontend.set_pose(Pose::default());
-        let before = frontend.stats().returns;
+        *core = DefaultCoProcessor::new();
+        if !boot(&mut core, rec, &design) {
+            return Err("the recording has no usable setup".into());
+        }
         let t = Instant::now();
-        let mut p = Fixed {
-            frontend: &mut frontend,
-            pyramid: &mut pyramid,
-            link: Some(&mut link),
+        let mut p = Core {
+            core: &mut core,
+            angle: HostSuppliedAngle::new(),
         };
-        std::hint::black_box(replay(std::hint::black_box(rec), &mut acc, &mut p));
+        replay(std::hint::black_box(rec), &mut p);
         timed += t.elapsed();
-        returns += u64::from(p.returns() - before);
+        returns += u64::from(std::hint::black_box(p.returns()));
         runs += 1;
     }
     let s = timed.as_secs_f64();
@@ -76,7 +57,7 @@ fn export(rec: &[u8], out: &str) -> Result<(), String> {
     let beams = BeamTable::new(config.variant);
     let mut frame = PoseFrame::from(&Pose::default());
     let mut actuator = FineAngle::ZERO;
-    let mut acc: Box<Accumulator> = Box::new(Accumulator::new());
+    let mut acc: Box<SickAccumulator> = Box::new(SickAccumulator::new());
     let mut bytes = Vec::new();
     let (mut lines, mut points) = (0_u64, 0_u64);
     for event in Reader::new(rec).map_err(|e| e.to_string())? {
@@ -93,8 +74,8 @@ fn export(rec: &[u8], out: &str) -> Result<(), String> {
                 loop {
                     match acc.feed(rest) {
                         FeedResult::Consumed => break,
-                        FeedResult::Telegram {
-                            telegram,
+                        FeedResult::Item {
+                            item: SickItem::Telegram(telegram),
                             remaining,
                             ..
                         } => {

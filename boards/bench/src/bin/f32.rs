@@ -5,13 +5,13 @@
 
 use bench_firmware as b;
 use static_cell::{ConstStaticCell, StaticCell};
-use terrain_pyramid::wire::sick::Accumulator;
+use terrain_pyramid::wire::sick::SickAccumulator;
 use terrain_pyramid::{Config, DefaultDesign, Schedule, SensorModel, DEFAULT_CELLS_PER_SIDE};
 use terrain_pyramid_bench::f32_pipeline::{Frontend, Pyramid};
 use terrain_pyramid_bench::{frontend_config, replay, setup, Pipeline, F32};
 
 static PYRAMID: ConstStaticCell<Pyramid<64, 8>> = ConstStaticCell::new(Pyramid::new());
-static ACC: ConstStaticCell<Accumulator> = ConstStaticCell::new(Accumulator::new());
+static ACC: ConstStaticCell<SickAccumulator> = ConstStaticCell::new(SickAccumulator::new());
 static FRONTEND: StaticCell<Frontend<1024>> = StaticCell::new();
 
 #[cortex_m_rt::entry]
@@ -32,12 +32,15 @@ fn main() -> ! {
         panic!("configure");
     }
     let frontend = FRONTEND.init(Frontend::new(config));
-    let acc = ACC.take();
-    let mut p = F32 { frontend, pyramid };
+    let mut p = F32 {
+        accumulator: ACC.take(),
+        frontend,
+        pyramid,
+    };
     let top = b::paint_stack();
     b::start();
-    let counts = replay(rec, acc, &mut p);
+    replay(rec, &mut p);
     b::end();
     let stack = b::stack_used(top);
-    b::report(p.returns(), counts.lines, 0, stack)
+    b::report(p.returns(), p.lines(), 0, stack)
 }

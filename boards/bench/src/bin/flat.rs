@@ -1,30 +1,22 @@
-//! The single flat map: one layer of 200 × 200 cells at 0.1 m (±10 m, the whole range), fed
-//! every point (hard gate, one layer), with the default pipeline and the host link.
+//! The same application core into a single flat map: one layer of 200 × 200 cells at 0.1 m
+//! (±10 m), every point fed (hard gate, one layer), with the pipeline and the link.
 #![no_std]
 #![no_main]
 
 use bench_firmware as b;
-use static_cell::{ConstStaticCell, StaticCell};
-use terrain_pyramid::link::{Link, LinkConfig};
-use terrain_pyramid::wire::sick::Accumulator;
-use terrain_pyramid::{Config, DefaultFrontend, Design, GateShape, Pyramid, Schedule, SensorModel};
-use terrain_pyramid_bench::{frontend_config, replay, setup, Fixed, Pipeline};
+use static_cell::ConstStaticCell;
+use terrain_pyramid::app::CoProcessor;
+use terrain_pyramid::drivers::angle::HostSuppliedAngle;
+use terrain_pyramid::{Design, GateShape, Schedule, SensorModel, DEFAULT_CLASSIFIER_SLOTS};
+use terrain_pyramid_bench::{boot, replay, Core, Pipeline};
 
-/// One layer of 200 × 200 cells: 0.1 m cells over ±10 m.
-type Flat = Pyramid<200, 1>;
-static PYRAMID: ConstStaticCell<Flat> = ConstStaticCell::new(Flat::new());
-static LINK: ConstStaticCell<Link> = ConstStaticCell::new(Link::new(LinkConfig::DEFAULT));
-static ACC: ConstStaticCell<Accumulator> = ConstStaticCell::new(Accumulator::new());
-static FRONTEND: StaticCell<DefaultFrontend> = StaticCell::new();
+type Flat = CoProcessor<200, 1, DEFAULT_CLASSIFIER_SLOTS, 2048>;
+static CORE: ConstStaticCell<Flat> = ConstStaticCell::new(Flat::new());
 
 #[cortex_m_rt::entry]
 fn main() -> ! {
     let rec = b::recording();
-    let Some(config) = setup(rec).as_ref().and_then(frontend_config) else {
-        panic!("the recording has no usable setup");
-    };
-    let pyramid = PYRAMID.take();
-    let link = LINK.take();
+    let core = CORE.take();
     // A design of exactly one layer at Δd = 0.1 m: a sensor model whose range (0.5 m) the
     // base layer already reaches. Hard gate; the only layer is the last, so its weight is 1 at
     // every distance (distances past 0.5 m fall in the last bin): every point feeds it.
@@ -37,25 +29,19 @@ fn main() -> ! {
         ..Schedule::default()
     };
     let Ok(design) = Design::<1>::new(sensor, schedule, 200) else {
-        panic!("default design");
+        panic!("flat design");
     };
-    if link
-        .configure(pyramid, &design, &Config::default())
-        .is_err()
-    {
-        panic!("configure");
+    if !boot(core, rec, &design) {
+        panic!("boot");
     }
-    let frontend = FRONTEND.init(DefaultFrontend::new(config));
-    let acc = ACC.take();
-    let mut p = Fixed {
-        frontend,
-        pyramid,
-        link: Some(link),
+    let mut p = Core {
+        core,
+        angle: HostSuppliedAngle::new(),
     };
     let top = b::paint_stack();
     b::start();
-    let counts = replay(rec, acc, &mut p);
+    replay(rec, &mut p);
     b::end();
     let stack = b::stack_used(top);
-    b::report(p.returns(), counts.lines, 0, stack)
+    b::report(p.returns(), p.lines(), 0, stack)
 }

@@ -3,18 +3,15 @@
 #![no_main]
 
 use bench_firmware as b;
-use static_cell::{ConstStaticCell, StaticCell};
-use terrain_pyramid::link::Link;
-use terrain_pyramid::wire::sick::Accumulator;
-use terrain_pyramid::{
-    Config, DefaultDesign, DefaultFrontend, DefaultPyramid, Schedule, SensorModel,
-    DEFAULT_CELLS_PER_SIDE,
-};
-use terrain_pyramid_bench::{frontend_config, replay, setup, Fixed, Pipeline};
+use static_cell::ConstStaticCell;
+use terrain_pyramid::wire::sick::SickAccumulator;
+use terrain_pyramid::{Config, DefaultFrontend, DefaultPyramid};
+use terrain_pyramid_bench::{default_design, frontend_config, replay, setup, Fixed, Pipeline};
 
 static PYRAMID: ConstStaticCell<DefaultPyramid> = ConstStaticCell::new(DefaultPyramid::new());
-static ACC: ConstStaticCell<Accumulator> = ConstStaticCell::new(Accumulator::new());
-static FRONTEND: StaticCell<DefaultFrontend> = StaticCell::new();
+static ACC: ConstStaticCell<SickAccumulator> = ConstStaticCell::new(SickAccumulator::new());
+static FRONTEND: ConstStaticCell<DefaultFrontend> =
+    ConstStaticCell::new(DefaultFrontend::unconfigured());
 
 #[cortex_m_rt::entry]
 fn main() -> ! {
@@ -23,27 +20,25 @@ fn main() -> ! {
         panic!("the recording has no usable setup");
     };
     let pyramid = PYRAMID.take();
-    let Ok(design) = DefaultDesign::new(
-        SensorModel::default(),
-        Schedule::default(),
-        DEFAULT_CELLS_PER_SIDE,
-    ) else {
+    let Some(design) = default_design::<64, 8>() else {
         panic!("default design");
     };
-    if pyramid.configure(&design, &Config::default()).is_err() {
+    let frontend = FRONTEND.take();
+    frontend.configure(config);
+    if pyramid.configure(&design, &Config::default()).is_err()
+        || frontend.adopt_design(&design, &Config::default()).is_err()
+    {
         panic!("configure");
     }
-    let frontend = FRONTEND.init(DefaultFrontend::new(config));
-    let acc = ACC.take();
     let mut p = Fixed {
+        accumulator: ACC.take(),
         frontend,
         pyramid,
-        link: None::<&mut Link>,
     };
     let top = b::paint_stack();
     b::start();
-    let counts = replay(rec, acc, &mut p);
+    replay(rec, &mut p);
     b::end();
     let stack = b::stack_used(top);
-    b::report(p.returns(), counts.lines, 0, stack)
+    b::report(p.returns(), p.lines(), 0, stack)
 }

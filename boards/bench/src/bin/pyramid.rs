@@ -1,54 +1,34 @@
-//! The default pyramid (8 × 64², soft gate) with the default pipeline and the host link.
+//! The default co-processor (8 × 64², soft gate, the default pipeline and the host link), as
+//! the firmware runs it: the application core.
 #![no_std]
 #![no_main]
 
 use bench_firmware as b;
-use static_cell::{ConstStaticCell, StaticCell};
-use terrain_pyramid::link::{Link, LinkConfig};
-use terrain_pyramid::wire::sick::Accumulator;
-use terrain_pyramid::{
-    Config, DefaultDesign, DefaultFrontend, DefaultPyramid, Schedule, SensorModel,
-    DEFAULT_CELLS_PER_SIDE,
-};
-use terrain_pyramid_bench::{frontend_config, replay, setup, Fixed, Pipeline};
+use static_cell::ConstStaticCell;
+use terrain_pyramid::drivers::angle::HostSuppliedAngle;
+use terrain_pyramid::DefaultCoProcessor;
+use terrain_pyramid_bench::{boot, default_design, replay, Core, Pipeline};
 
-static PYRAMID: ConstStaticCell<DefaultPyramid> = ConstStaticCell::new(DefaultPyramid::new());
-static LINK: ConstStaticCell<Link> = ConstStaticCell::new(Link::new(LinkConfig::DEFAULT));
-static ACC: ConstStaticCell<Accumulator> = ConstStaticCell::new(Accumulator::new());
-static FRONTEND: StaticCell<DefaultFrontend> = StaticCell::new();
+static CORE: ConstStaticCell<DefaultCoProcessor> = ConstStaticCell::new(DefaultCoProcessor::new());
 
 #[cortex_m_rt::entry]
 fn main() -> ! {
     let rec = b::recording();
-    let Some(config) = setup(rec).as_ref().and_then(frontend_config) else {
-        panic!("the recording has no usable setup");
-    };
-    let pyramid = PYRAMID.take();
-    let link = LINK.take();
-    let Ok(design) = DefaultDesign::new(
-        SensorModel::default(),
-        Schedule::default(),
-        DEFAULT_CELLS_PER_SIDE,
-    ) else {
+    let core = CORE.take();
+    let Some(design) = default_design::<64, 8>() else {
         panic!("default design");
     };
-    if link
-        .configure(pyramid, &design, &Config::default())
-        .is_err()
-    {
-        panic!("configure");
+    if !boot(core, rec, &design) {
+        panic!("boot");
     }
-    let frontend = FRONTEND.init(DefaultFrontend::new(config));
-    let acc = ACC.take();
-    let mut p = Fixed {
-        frontend,
-        pyramid,
-        link: Some(link),
+    let mut p = Core {
+        core,
+        angle: HostSuppliedAngle::new(),
     };
     let top = b::paint_stack();
     b::start();
-    let counts = replay(rec, acc, &mut p);
+    replay(rec, &mut p);
     b::end();
     let stack = b::stack_used(top);
-    b::report(p.returns(), counts.lines, 0, stack)
+    b::report(p.returns(), p.lines(), 0, stack)
 }

@@ -1,0 +1,105 @@
+//! Arbitrary bytes, arbitrarily chunked, into the LD06 accumulator.
+//!
+//! Invariants: no panic; the events do not depend on the chunking; every packet handed out
+//! passes `Ld06Packet::new_checked`, is the stream's own 47 bytes at its offset, does not
+//! overlap the previous one, and yields 12 returns; the counters match the events; every
+//! byte is accounted for exactly (47·packets + rejections + garbage = stream length).
+#![no_main]
+
+mod common;
+
+use libfuzzer_sys::fuzz_target;
+use terrain_pyramid::wire::ld06::{Ld06Accumulator, Ld06Counters, Ld06Error, Ld06Packet};
+use terrain_pyramid::wire::FeedResult;
+
+#[derive(Debug, Clone, PartialEq, Eq)]
+enum Ev {
+    P(u64, Vec<u8>),
+    R(u64, Ld06Error),
+}
+
+fn record(r: FeedResult<'_, Ld06Packet<&[u8]>, Ld06Error>, out: &mut Vec<Ev>) -> bool {
+    match r {
+        FeedResult::Consumed => return false,
+        FeedResult::Item { item, offset, .. } => {
+            let bytes = item.as_bytes();
+            let checked = Ld06Packet::new_checked(bytes).expect("a delivered packet is valid");
+            assert_eq!(checked.returns().count(), 12);
+            let _ = checked.wrap_index();
+            out.push(Ev::P(offset, bytes.to_vec()));
+        }
+        FeedResult::Rejected { error, offset, .. } => out.push(Ev::R(offset, error)),
+    }
+    true
+}
+
+fn run(chunks: &[&[u8]]) -> (Vec<Ev>, Ld06Counters, u64) {
+    let mut acc = Ld06Accumulator::new();
+    let mut out = Vec::new();
+    for chunk in chunks {
+        let mut window: &[u8] = chunk;
+        let mut calls = 0usize;
+        loop {
+            let r = acc.feed(window);
+            let rest = r.remaining();
+            assert!(rest.len() <= window.len());
+            window = rest;
+            if !record(r, &mut out) {
+                assert!(window.is_empty());
+                break;
+            }
+            calls += 1;
+            assert!(
+                calls <= 2 * (chunk.len() + 47) + 2,
+                "feed does not progress"
+            );
+        }
+    }
+    while record(acc.flush(), &mut out) {}
+    assert_eq!(acc.buffered(), 0);
+    (out, acc.counters(), acc.position())
+}
+
+fn check(stream: &[u8], events: &[Ev], c: Ld06Counters, position: u64) {
+    assert_eq!(position, stream.len() as u64);
+    let (mut packets, mut crc, mut truncated) = (0u32, 0u32, 0u32);
+    let mut last_end = 0u64;
+    for ev in events {
+        match ev {
+            Ev::P(offset, bytes) => {
+                packets += 1;
+                let at = usize::try_from(*offset).unwrap();
+                assert_eq!(&stream[at..at + bytes.len()], &bytes[..]);
+                assert!(*offset >= last_end, "packets overlap");
+                last_end = offset + bytes.len() as u64;
+            }
+            Ev::R(offset, e) => {
+                assert_eq!(stream[usize::try_from(*offset).unwrap()], 0x54);
+                match e {
+                    Ld06Error::BadCrc { .. } => crc += 1,
+                    Ld06Error::Truncated => truncated += 1,
+                    other => panic!("unexpected rejection {other:?}"),
+                }
+            }
+        }
+    }
+    assert_eq!(
+        (c.packets, c.checksum, c.truncated),
+        (packets, crc, truncated)
+    );
+    let accounted = 47 * u64::from(c.packets)
+        + u64::from(c.checksum)
+        + u64::from(c.truncated)
+        + u64::from(c.garbage_bytes);
+    assert_eq!(accounted, stream.len() as u64, "bytes not accounted for");
+}
+
+fuzz_target!(|data: &[u8]| {
+    let (sizes, stream) = common::split_sizes(data);
+    let (reference, c, position) = run(&[stream]);
+    check(stream, &reference, c, position);
+    let chunked = common::chunks(stream, sizes);
+    let (events, c2, position2) = run(&chunked);
+    assert_eq!(events, reference, "the events depend on the chunking");
+    assert_eq!((c2, position2), (c, position));
+});

@@ -1,0 +1,135 @@
+//! Arbitrary bytes, arbitrarily chunked, into the YDLIDAR accumulator (default capacity and a
+//! 32-byte one).
+//!
+//! Invariants: no panic; the events do not depend on the chunking; every packet handed out
+//! passes `YdlidarPacket::new_checked`, is the stream's own bytes at its offset, does not
+//! overlap the previous item, and yields LSN returns with either correction; every
+//! descriptor is a known one with its content; the counters match the events; every byte is
+//! accounted for exactly.
+#![no_main]
+
+mod common;
+
+use libfuzzer_sys::fuzz_target;
+use terrain_pyramid::wire::ydlidar::{
+    YdlidarAccumulator, YdlidarAngleCorrection, YdlidarCounters, YdlidarDescriptor, YdlidarError,
+    YdlidarItem, YdlidarPacket,
+};
+use terrain_pyramid::wire::FeedResult;
+
+#[derive(Debug, Clone, PartialEq, Eq)]
+enum Ev {
+    P(u64, Vec<u8>),
+    D(u64, Vec<u8>),
+    R(u64, YdlidarError),
+}
+
+fn record(r: FeedResult<'_, YdlidarItem<'_>, YdlidarError>, out: &mut Vec<Ev>) -> bool {
+    match r {
+        FeedResult::Consumed => return false,
+        FeedResult::Item {
+            item: YdlidarItem::Packet(p),
+            offset,
+            ..
+        } => {
+            let bytes = p.into_inner();
+            let checked = YdlidarPacket::new_checked(bytes).expect("a delivered packet is valid");
+            assert_eq!(checked.total_len(), bytes.len());
+            let n = usize::from(checked.sample_count());
+            assert_eq!(checked.returns().count(), n);
+            assert_eq!(checked.returns_with(YdlidarAngleCorrection::Off).count(), n);
+            out.push(Ev::P(offset, bytes.to_vec()));
+        }
+        FeedResult::Item {
+            item: YdlidarItem::Descriptor(d),
+            offset,
+            ..
+        } => {
+            let bytes = d.into_inner();
+            let checked = YdlidarDescriptor::new_checked(bytes).expect("a known descriptor");
+            assert_eq!(checked.as_bytes().len(), bytes.len());
+            out.push(Ev::D(offset, bytes.to_vec()));
+        }
+        FeedResult::Rejected { error, offset, .. } => out.push(Ev::R(offset, error)),
+    }
+    true
+}
+
+fn run<const N: usize>(chunks: &[&[u8]]) -> (Vec<Ev>, YdlidarCounters, u64) {
+    let mut acc = YdlidarAccumulator::<N>::new();
+    let mut out = Vec::new();
+    for chunk in chunks {
+        let mut window: &[u8] = chunk;
+        let mut calls = 0usize;
+        loop {
+            let r = acc.feed(window);
+            let rest = r.remaining();
+            assert!(rest.len() <= window.len());
+            window = rest;
+            if !record(r, &mut out) {
+                assert!(window.is_empty());
+                break;
+            }
+            calls += 1;
+            assert!(calls <= 2 * (chunk.len() + N) + 2, "feed does not progress");
+        }
+    }
+    while record(acc.flush(), &mut out) {}
+    assert_eq!(acc.buffered(), 0);
+    (out, acc.counters(), acc.position())
+}
+
+fn check(stream: &[u8], events: &[Ev], c: YdlidarCounters, position: u64) {
+    assert_eq!(position, stream.len() as u64);
+    let mut seen = YdlidarCounters::default();
+    let mut items = 0u64;
+    let mut last_end = 0u64;
+    for ev in events {
+        match ev {
+            Ev::P(offset, bytes) | Ev::D(offset, bytes) => {
+                if matches!(ev, Ev::P(..)) {
+                    seen.packets += 1;
+                } else {
+                    seen.descriptors += 1;
+                }
+                let at = usize::try_from(*offset).unwrap();
+                assert_eq!(&stream[at..at + bytes.len()], &bytes[..]);
+                assert!(*offset >= last_end, "items overlap");
+                last_end = offset + bytes.len() as u64;
+                items += bytes.len() as u64;
+            }
+            Ev::R(offset, e) => {
+                let at = usize::try_from(*offset).unwrap();
+                assert!(matches!(stream[at], 0xAA | 0xA5));
+                match e {
+                    YdlidarError::BadChecksum { .. } => seen.checksum += 1,
+                    YdlidarError::BadCheckBit { .. } => seen.check_bits += 1,
+                    YdlidarError::NoSamples | YdlidarError::TooLong { .. } => seen.bad_length += 1,
+                    YdlidarError::Truncated => seen.truncated += 1,
+                    other => panic!("unexpected rejection {other:?}"),
+                }
+            }
+        }
+    }
+    seen.garbage_bytes = c.garbage_bytes;
+    assert_eq!(seen, c);
+    let accounted = items
+        + u64::from(c.checksum)
+        + u64::from(c.check_bits)
+        + u64::from(c.bad_length)
+        + u64::from(c.truncated)
+        + u64::from(c.garbage_bytes);
+    assert_eq!(accounted, stream.len() as u64, "bytes not accounted for");
+}
+
+fuzz_target!(|data: &[u8]| {
+    let (sizes, stream) = common::split_sizes(data);
+    let (reference, c, position) = run::<520>(&[stream]);
+    check(stream, &reference, c, position);
+    let chunked = common::chunks(stream, sizes);
+    let (events, c2, position2) = run::<520>(&chunked);
+    assert_eq!(events, reference, "the events depend on the chunking");
+    assert_eq!((c2, position2), (c, position));
+    let (small, c3, position3) = run::<32>(&chunked);
+    check(stream, &small, c3, position3);
+});

@@ -1,0 +1,600 @@
+//! A board's firmware on an emulated machine ([`Machine`]: QEMU's MPS2 AN386 with
+//! `boards/qemu-mps2`, the default; `netduinoplus2` with `boards/stm32f4`; `microbit` with
+//! `boards/microbit`), as a [`Device`]: built if needed, booted in `qemu-system-arm` with its
+//! UARTs on Unix sockets, and driven as a main computer would drive the real board.
+//!
+//! Two UARTs (mps2, netduinoplus2) are independent streams, the laser's and the host link's,
+//! so a harness that must keep the pose and angle in step with the telegrams works lock-step
+//! ([`crate::play`]): it sends the host frames, waits for the Stats that shows them applied,
+//! then writes the telegram. The micro:bit has one UART: the laser's telegrams go onto it
+//! whole, between the link's frames (`terrain_pyramid::wire::shared_line`), which the
+//! lock-step play does by construction. On the netduinoplus2 a stand-in scanner answers the
+//! firmware's scanner bring-up on USART1.
+
+use crate::device::Device;
+use crate::link::{HostLink, LinkEvent};
+use std::io::{Read, Write};
+use std::os::unix::net::UnixStream;
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::sync::mpsc::{channel, Receiver, RecvTimeoutError};
+use std::time::{Duration, Instant};
+use terrain_pyramid::wire::link::Message;
+use terrain_pyramid::wire::sick::{
+    OperatingMode, OperatingModeReply, SickRequest, Telegram, ACK, ADDRESS_HOST, STX,
+};
+
+/// The firmware's crate, from this crate's manifest.
+pub const BOARD_DIR: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../boards/qemu-mps2");
+/// The Cortex-M4F target the firmware is built for.
+pub const TARGET: &str = "thumbv7em-none-eabihf";
+/// How to install what an emulated run needs.
+pub const INSTALL_HINT: &str = "install QEMU and the Cortex-M target: \
+     `sudo apt-get install -y qemu-system-arm` and `rustup target add thumbv7em-none-eabihf`";
+
+/// An emulated machine and the board crate whose firmware it runs.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Machine {
+    /// QEMU's `mps2-an386` (Cortex-M4F, 25 MHz) with `boards/qemu-mps2`: the laser on UART0,
+    /// the host link on UART1.
+    #[default]
+    Mps2An386,
+    /// QEMU's `netduinoplus2` (STM32F405, Cortex-M4F at 168 MHz) with `boards/stm32f4` built
+    /// for it (`chip-f405`, `log-semihosting`): the laser on USART1, the host link on USART2.
+    Netduinoplus2,
+    /// QEMU's `microbit` (nRF51822, Cortex-M0 at 16 MHz, 16 KiB of RAM) with
+    /// `boards/microbit`: the laser's telegrams and the host link on its one UART.
+    Microbit,
+}
+
+impl Machine {
+    /// The board crate's directory.
+    #[must_use]
+    pub fn board_dir(self) -> PathBuf {
+        let crate_dir = match self {
+            Self::Mps2An386 => "qemu-mps2",
+            Self::Netduinoplus2 => "stm32f4",
+            Self::Microbit => "microbit",
+        };
+        Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../boards")).join(crate_dir)
+    }
+
+    /// The firmware binary's name.
+    #[must_use]
+    pub const fn bin(self) -> &'static str {
+        match self {
+            Self::Mps2An386 => "qemu-mps2",
+            Self::Netduinoplus2 => "stm32f4-board",
+            Self::Microbit => "microbit-board",
+        }
+    }
+
+    /// The Rust target the firmware is built for.
+    #[must_use]
+    pub const fn target(self) -> &'static str {
+        match self {
+            Self::Mps2An386 | Self::Netduinoplus2 => TARGET,
+            Self::Microbit => "thumbv6m-none-eabi",
+        }
+    }
+
+    /// QEMU's `-machine`.
+    #[must_use]
+    pub const fn qemu_machine(self) -> &'static str {
+        match self {
+            Self::Mps2An386 => "mps2-an386",
+            Self::Netduinoplus2 => "netduinoplus2",
+            Self::Microbit => "microbit",
+        }
+    }
+
+    /// The cargo features of the build (without the board's defaults when `Some`), and the
+    /// directory under the board's `target/` it is built into.
+    #[must_use]
+    pub const fn features(self) -> Option<(&'static str, &'static str)> {
+        match self {
+            Self::Netduinoplus2 => Some(("chip-f405,log-semihosting", "netduinoplus2")),
+            Self::Mps2An386 | Self::Microbit => None,
+        }
+    }
+
+    /// The UARTs the emulator connects: two independent ones, or one shared by both streams.
+    #[must_use]
+    pub const fn uarts(self) -> usize {
+        match self {
+            Self::Mps2An386 | Self::Netduinoplus2 => 2,
+            Self::Microbit => 1,
+        }
+    }
+
+    /// Builds the firmware (`cargo build --release`, which does nothing when it is up to
+    /// date); returns its ELF.
+    ///
+    /// # Errors
+    /// The target is missing or the build failed, with how to fix it.
+    pub fn build(self) -> Result<PathBuf, String> {
+        let target = self.target();
+        let installed = Command::new("rustup")
+            .args(["target", "list", "--installed"])
+            .output()
+            .map(|o| String::from_utf8_lossy(&o.stdout).contains(target))
+            .unwrap_or(true);
+        if !installed {
+            return Err(format!(
+                "the target {target} is missing: `rustup target add {target}`"
+            ));
+        }
+        let dir = self.board_dir();
+        eprintln!(
+            "building the {} firmware in {} ...",
+            self.qemu_machine(),
+            dir.display()
+        );
+        let mut target_dir = dir.join("target");
+        let mut cargo = Command::new(std::env::var("CARGO").unwrap_or_else(|_| "cargo".into()));
+        cargo.args(["build", "--release", "--quiet", "--target", target]);
+        if let Some((features, sub)) = self.features() {
+            target_dir = target_dir.join(sub);
+            cargo
+                .args(["--no-default-features", "--features", features])
+                .arg("--target-dir")
+                .arg(&target_dir);
+        }
+        let status = cargo
+            .current_dir(&dir)
+            .env_remove("CARGO_TARGET_DIR")
+            .env_remove("RUSTFLAGS")
+            .status()
+            .map_err(|e| format!("cannot run cargo: {e}"))?;
+        if !status.success() {
+            return Err(format!(
+                "the firmware build failed in {} (`rustup target add {target}`)",
+                dir.display()
+            ));
+        }
+        let elf = target_dir.join(target).join("release").join(self.bin());
+        if elf.is_file() {
+            Ok(elf)
+        } else {
+            Err(format!(
+                "the firmware build left no ELF at {}",
+                elf.display()
+            ))
+        }
+    }
+}
+
+/// How long any single answer of the firmware may take.
+const ANSWER_TIMEOUT: Duration = Duration::from_secs(20);
+
+/// Whether `qemu-system-arm` can be run.
+#[must_use]
+pub fn qemu_available() -> bool {
+    Command::new("qemu-system-arm")
+        .arg("--version")
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .status()
+        .is_ok_and(|s| s.success())
+}
+
+/// The firmware's ELF, built with `cargo build --release` in `boards/qemu-mps2` (cargo does
+/// nothing when it is up to date). `board_dir` is a board crate, `bin` its binary.
+///
+/// # Errors
+/// The target is missing or the build failed, with how to fix it.
+pub fn build_firmware(board_dir: &Path, bin: &str) -> Result<PathBuf, String> {
+    build_firmware_variant(board_dir, bin, None)
+}
+
+/// [`build_firmware`] with a cargo feature of the board (`--features F`), built into its own
+/// target directory (`target/F`) so that it and the default build do not overwrite each
+/// other; `None` is the default build.
+///
+/// # Errors
+/// The target is missing or the build failed, with how to fix it.
+pub fn build_firmware_variant(
+    board_dir: &Path,
+    bin: &str,
+    feature: Option<&str>,
+) -> Result<PathBuf, String> {
+    let installed = Command::new("rustup")
+        .args(["target", "list", "--installed"])
+        .output()
+        .map(|o| String::from_utf8_lossy(&o.stdout).contains(TARGET))
+        .unwrap_or(true);
+    if !installed {
+        return Err(format!(
+            "the Cortex-M target {TARGET} is missing: `rustup target add {TARGET}`"
+        ));
+    }
+    eprintln!(
+        "building the firmware in {}{} ...",
+        board_dir.display(),
+        feature.map_or_else(String::new, |f| format!(" with --features {f}"))
+    );
+    let target_dir = feature.map_or_else(
+        || board_dir.join("target"),
+        |f| board_dir.join("target").join(f),
+    );
+    let mut cargo = Command::new(std::env::var("CARGO").unwrap_or_else(|_| "cargo".into()));
+    cargo.args(["build", "--release", "--quiet"]);
+    if let Some(f) = feature {
+        cargo
+            .args(["--features", f])
+            .arg("--target-dir")
+            .arg(&target_dir);
+    }
+    // Anything the build prints goes to stderr: a caller's stdout may be its JSON.
+    let status = cargo
+        .current_dir(board_dir)
+        .stdout(std::io::stderr())
+        .env_remove("CARGO_TARGET_DIR")
+        .env_remove("RUSTFLAGS")
+        .status()
+        .map_err(|e| format!("cannot run cargo: {e}"))?;
+    if !status.success() {
+        return Err(format!(
+            "the firmware build failed in {} ({INSTALL_HINT})",
+            board_dir.display()
+        ));
+    }
+    let elf = target_dir.join(TARGET).join("release").join(bin);
+    if elf.is_file() {
+        Ok(elf)
+    } else {
+        Err(format!(
+            "the firmware build left no ELF at {}",
+            elf.display()
+        ))
+    }
+}
+
+/// A running QEMU with the firmware, its UARTs connected.
+pub struct Emulator {
+    child: Child,
+    uart0: UnixStream,
+    uart1: UnixStream,
+    rx: Receiver<Vec<u8>>,
+    link: HostLink,
+    /// While the host "does not listen": UART1's bytes go here, not to the mirror (a test
+    /// harness still sees the Stats it needs to keep in step).
+    tap: Option<HostLink>,
+    /// Frames the tap decoded since the host stopped listening.
+    tapped: u64,
+    /// UART1's socket, to reconnect to.
+    uart1_path: PathBuf,
+    /// Bytes received from UART1.
+    pub bytes_received: u64,
+    /// Frames written to UART1 since boot, over every connection.
+    frames_sent: u64,
+    _dir: TempDir,
+}
+
+/// A temporary directory removed on drop.
+struct TempDir(PathBuf);
+
+impl Drop for TempDir {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.0);
+    }
+}
+
+fn connect(path: &Path, child: &mut Child) -> Result<UnixStream, String> {
+    let start = Instant::now();
+    loop {
+        match UnixStream::connect(path) {
+            Ok(s) => return Ok(s),
+            Err(e) => {
+                if let Ok(Some(status)) = child.try_wait() {
+                    return Err(format!("QEMU exited before its UARTs opened ({status})"));
+                }
+                if start.elapsed() > Duration::from_secs(20) {
+                    return Err(format!("cannot connect to {}: {e}", path.display()));
+                }
+                std::thread::sleep(Duration::from_millis(20));
+            }
+        }
+    }
+}
+
+impl Emulator {
+    /// Boots `elf` on `machine` in QEMU; the raw defmt log goes to `defmt_log`.
+    ///
+    /// # Errors
+    /// QEMU missing or failing to start.
+    pub fn start(machine: Machine, elf: &Path, defmt_log: &Path) -> Result<Self, String> {
+        if !qemu_available() {
+            return Err(format!("qemu-system-arm is missing: {INSTALL_HINT}"));
+        }
+        let dir = std::env::temp_dir().join(format!(
+            "pyramid-qemu-{}-{}",
+            std::process::id(),
+            Instant::now().elapsed().as_nanos() ^ u128::from(rand_seed())
+        ));
+        std::fs::create_dir_all(&dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+        let dir = TempDir(dir);
+        let (s0, s1) = (dir.0.join("uart0.sock"), dir.0.join("uart1.sock"));
+        let log = std::fs::File::create(defmt_log)
+            .map_err(|e| format!("cannot create {}: {e}", defmt_log.display()))?;
+        let mut qemu = Command::new("qemu-system-arm");
+        qemu.args(["-machine", machine.qemu_machine(), "-nographic"]);
+        if machine == Machine::Mps2An386 {
+            qemu.args(["-cpu", "cortex-m4"]);
+        }
+        qemu.args(["-monitor", "none", "-semihosting-config"])
+            .arg("enable=on,target=native");
+        for socket in [&s0, &s1].into_iter().take(machine.uarts()) {
+            qemu.arg("-serial")
+                .arg(format!("unix:{},server=on,wait=on", socket.display()));
+        }
+        let mut child = qemu
+            .arg("-kernel")
+            .arg(elf)
+            .stdin(Stdio::null())
+            .stdout(log)
+            .stderr(Stdio::piped())
+            .spawn()
+            .map_err(|e| format!("cannot start qemu-system-arm: {e} ({INSTALL_HINT})"))?;
+        let uart0 = connect(&s0, &mut child)?;
+        let (uart1, s1) = if machine.uarts() == 1 {
+            let one = uart0.try_clone().map_err(|e| format!("UART socket: {e}"))?;
+            (one, s0)
+        } else {
+            (connect(&s1, &mut child)?, s1)
+        };
+        if machine == Machine::Netduinoplus2 {
+            let port = uart0
+                .try_clone()
+                .map_err(|e| format!("USART1 socket: {e}"))?;
+            std::thread::spawn(move || stand_in_scanner(port));
+        }
+        let rx = spawn_reader(&uart1)?;
+        Ok(Self {
+            child,
+            uart0,
+            uart1,
+            rx,
+            link: HostLink::new(),
+            tap: None,
+            tapped: 0,
+            uart1_path: s1,
+            bytes_received: 0,
+            frames_sent: 0,
+            _dir: dir,
+        })
+    }
+
+    /// Stops (`true`) or resumes (`false`) feeding UART1's bytes to the mirror, as a host that
+    /// stalls and loses what the device sent meanwhile. While deaf, [`wait_for`](Self::wait_for)
+    /// sees the frames through a separate decoder (the harness's tap).
+    pub fn set_deaf(&mut self, deaf: bool) {
+        if deaf {
+            if self.tap.is_none() {
+                self.tap = Some(HostLink::new());
+                self.tapped = 0;
+            }
+        } else if let Some(tap) = self.tap.take() {
+            self.tapped = tap.mirror().counters().frames + tap.mirror().counters().out_of_order;
+        }
+    }
+
+    /// Frames the tap decoded during the last deaf stretch.
+    #[must_use]
+    pub fn tapped_frames(&self) -> u64 {
+        self.tapped
+    }
+
+    /// Closes the host link's connection (QEMU drops what the device sends meanwhile).
+    pub fn disconnect_link(&mut self) {
+        let _ = self.uart1.shutdown(std::net::Shutdown::Both);
+    }
+
+    /// Connects to UART1 again, as a host that reopens its port: a fresh link and mirror
+    /// (sequence numbers from 0, no Hello yet).
+    ///
+    /// # Errors
+    /// QEMU does not accept the connection.
+    pub fn reconnect_link(&mut self) -> Result<(), String> {
+        let uart1 = connect(&self.uart1_path, &mut self.child)?;
+        self.rx = spawn_reader(&uart1)?;
+        self.uart1 = uart1;
+        self.link = HostLink::new();
+        self.tap = None;
+        Ok(())
+    }
+
+    /// Shutdown: the Reply's stack high-water mark, then QEMU's exit, which must be 0.
+    ///
+    /// # Errors
+    /// No Reply, or QEMU failed or did not stop.
+    pub fn shutdown(mut self) -> Result<u32, String> {
+        let reply = self.command("Shutdown", &Message::Shutdown)?;
+        let deadline = Instant::now() + Duration::from_secs(20);
+        let status = loop {
+            if let Some(status) = self.child.try_wait().map_err(|e| e.to_string())? {
+                break status;
+            }
+            if Instant::now() > deadline {
+                let _ = self.child.kill();
+                return Err("QEMU did not exit after Shutdown".into());
+            }
+            std::thread::sleep(Duration::from_millis(10));
+        };
+        if !status.success() {
+            let mut err = String::new();
+            if let Some(mut e) = self.child.stderr.take() {
+                let _ = e.read_to_string(&mut err);
+            }
+            return Err(format!(
+                "QEMU exited with {status} (101 panic, 102 HardFault) {}",
+                err.trim()
+            ));
+        }
+        #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+        Ok(reply.value as u32)
+    }
+}
+
+impl Device for Emulator {
+    fn send(&mut self, message: &Message<'_>) -> Result<u16, String> {
+        let seq = self.link.next_seq();
+        let bytes = self.link.command(message).map_err(|e| e.to_string())?;
+        self.uart1
+            .write_all(&bytes)
+            .map_err(|e| format!("UART1: {e}"))?;
+        self.frames_sent += 1;
+        Ok(seq)
+    }
+
+    fn laser(&mut self, bytes: &[u8]) -> Result<(), String> {
+        self.uart0
+            .write_all(bytes)
+            .map_err(|e| format!("UART0: {e}"))
+    }
+
+    fn wait_for(
+        &mut self,
+        what: &str,
+        mut done: impl FnMut(&HostLink, Option<&LinkEvent>) -> bool,
+    ) -> Result<(), String> {
+        let deadline = Instant::now() + ANSWER_TIMEOUT;
+        if done(&self.link, None) {
+            return Ok(());
+        }
+        loop {
+            let left = deadline.saturating_duration_since(Instant::now());
+            match self.rx.recv_timeout(left) {
+                Ok(bytes) => {
+                    self.bytes_received += bytes.len() as u64;
+                    let link = self.tap.as_mut().unwrap_or(&mut self.link);
+                    let events = link.feed(&bytes);
+                    for event in &events {
+                        if done(link, Some(event)) {
+                            return Ok(());
+                        }
+                    }
+                    if done(link, None) {
+                        return Ok(());
+                    }
+                }
+                Err(RecvTimeoutError::Timeout) => {
+                    return Err(format!(
+                        "timed out after {} s waiting for {what} from the firmware",
+                        ANSWER_TIMEOUT.as_secs()
+                    ))
+                }
+                Err(RecvTimeoutError::Disconnected) => {
+                    let status = self.child.try_wait().ok().flatten();
+                    return Err(format!(
+                        "the firmware's UART1 closed while waiting for {what} (QEMU: {})",
+                        status.map_or("running".to_string(), |s| s.to_string())
+                    ));
+                }
+            }
+        }
+    }
+
+    fn link(&self) -> &HostLink {
+        &self.link
+    }
+
+    fn frames_sent(&self) -> u64 {
+        self.frames_sent
+    }
+}
+
+impl Drop for Emulator {
+    fn drop(&mut self) {
+        if matches!(self.child.try_wait(), Ok(None)) {
+            let _ = self.child.kill();
+            let _ = self.child.wait();
+        }
+    }
+}
+
+/// The stand-in for a SICK LMS2xx on the laser's UART, until the socket closes: answers the
+/// firmware's scanner bring-up (`boards/stm32f4/src/scanner.rs`) as a scanner would. A speed
+/// change (command 0x20 with a baud-rate mode) gets ACK and the mode-change reply telegram;
+/// "continuous output" gets the ACK alone (a real LMS also sends a reply, which the firmware's
+/// main loop would count as a telegram that is no measured values, upsetting a harness that
+/// counts telegrams). Other bytes are ignored; the firmware sends nothing else on this UART.
+fn stand_in_scanner(mut port: UnixStream) {
+    let mut pending: Vec<u8> = Vec::new();
+    let mut buf = [0_u8; 256];
+    loop {
+        let n = match port.read(&mut buf) {
+            Ok(0) | Err(_) => return,
+            Ok(n) => n,
+        };
+        pending.extend_from_slice(&buf[..n]);
+        // Every whole request telegram (STX, address 0, length, payload, CRC) in `pending`.
+        loop {
+            let Some(at) = pending
+                .windows(2)
+                .position(|w| w[0] == STX && w[1] == ADDRESS_HOST)
+            else {
+                // Keep a trailing STX: its address byte has not come yet.
+                let keep = usize::from(pending.last() == Some(&STX));
+                pending.drain(..pending.len() - keep);
+                break;
+            };
+            pending.drain(..at);
+            let Some(&[lo, hi]) = pending.get(2..4).and_then(|s| s.first_chunk::<2>()) else {
+                break;
+            };
+            let total = 6 + usize::from(u16::from_le_bytes([lo, hi]));
+            if pending.len() < total {
+                break;
+            }
+            let answer = match Telegram::new_checked(&pending[..total])
+                .ok()
+                .and_then(|t| SickRequest::parse(&t).ok())
+            {
+                Some(SickRequest::SetOperatingMode(OperatingMode::Baud(_))) => {
+                    let reply = OperatingModeReply {
+                        result: 0x00,
+                        status: 0x10,
+                    };
+                    let mut bytes = vec![ACK; 1 + reply.buffer_len()];
+                    let _ = reply.emit(&mut bytes[1..]);
+                    bytes
+                }
+                Some(SickRequest::SetOperatingMode(OperatingMode::ContinuousAll)) => vec![ACK],
+                _ => Vec::new(),
+            };
+            pending.drain(..total);
+            if !answer.is_empty() && port.write_all(&answer).is_err() {
+                return;
+            }
+        }
+    }
+}
+
+/// A thread that reads UART1 into a channel until the socket closes.
+fn spawn_reader(uart1: &UnixStream) -> Result<Receiver<Vec<u8>>, String> {
+    let mut reader = uart1
+        .try_clone()
+        .map_err(|e| format!("UART1 socket: {e}"))?;
+    let (tx, rx) = channel();
+    std::thread::spawn(move || {
+        let mut buf = vec![0_u8; 4096];
+        loop {
+            match reader.read(&mut buf) {
+                Ok(0) | Err(_) => return,
+                Ok(n) => {
+                    if tx.send(buf[..n].to_vec()).is_err() {
+                        return;
+                    }
+                }
+            }
+        }
+    });
+    Ok(rx)
+}
+
+fn rand_seed() -> u64 {
+    std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| d.as_nanos() as u64)
+}

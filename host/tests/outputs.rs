@@ -1,0 +1,870 @@
+//! `pyramid listen`'s live outputs against independent implementations, with a simulated
+//! device on 127.0.0.1 (`support/device.rs`):
+//! - the MCAP file read back by Python's `mcap` with `mcap-ros2-support` (CDR) and
+//!   `mcap-protobuf-support` (foxglove.*): every message decodes, and the last grids equal the
+//!   maps the same session writes (`fused.pgm`, the layers' cells);
+//! - the Foxglove WebSocket server through a `foxglove.websocket.v1` client (Python
+//!   `websockets`), while another client subscribes to everything and never reads: no frame
+//!   of the link is lost and the maps stay in sync;
+//! - the ROS 2 topics received by Eclipse Cyclone DDS (Python `cyclonedds`), publisher and
+//!   subscriber inside a network namespace of their own (`unshare -n`);
+//! - the bad situations: an address in use, a device that goes away and comes back.
+//!
+//! The Python readers are installed by `host/tests/py/setup.sh`.
+use serde_json::Value;
+use std::io::{BufRead, BufReader, Read};
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Output, Stdio};
+use std::sync::atomic::Ordering;
+use std::sync::mpsc;
+use std::time::{Duration, Instant};
+
+#[path = "support/device.rs"]
+mod support;
+use support::{device, fnv1a64, fused_occupancy, raw_cells, Plan, PATIENCE, W};
+
+fn py_dir() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/py")
+}
+
+/// Python with the readers installed, or a failure that says how to install them.
+fn python() -> &'static str {
+    let ok = Command::new("python3")
+        .args([
+            "-c",
+            "import mcap, mcap_ros2, mcap_protobuf, websockets, cyclonedds",
+        ])
+        .status()
+        .is_ok_and(|s| s.success());
+    assert!(
+        ok,
+        "the Python readers are missing: run host/tests/py/setup.sh (pip install -r host/tests/py/requirements.txt)"
+    );
+    "python3"
+}
+
+fn scratch(name: &str) -> PathBuf {
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("outputs-{name}"));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+fn listen(args: &[&str]) -> Child {
+    Command::new(env!("CARGO_BIN_EXE_pyramid"))
+        .arg("listen")
+        .args(args)
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("the pyramid binary runs")
+}
+
+/// Stderr lines as they come, and the collected output at the end.
+struct Running {
+    child: Child,
+    lines: mpsc::Receiver<String>,
+    stderr: std::thread::JoinHandle<String>,
+    stdout: std::thread::JoinHandle<Vec<u8>>,
+}
+
+fn running(mut child: Child) -> Running {
+    let err = child.stderr.take().unwrap();
+    let mut out = child.stdout.take().unwrap();
+    let (tx, rx) = mpsc::channel();
+    let stderr = std::thread::spawn(move || {
+        let mut all = String::new();
+        for line in BufReader::new(err).lines() {
+            let Ok(line) = line else { break };
+            let _ = tx.send(line.clone());
+            all.push_str(&line);
+            all.push('\n');
+        }
+        all
+    });
+    let stdout = std::thread::spawn(move || {
+        let mut v = Vec::new();
+        let _ = out.read_to_end(&mut v);
+        v
+    });
+    Running {
+        child,
+        lines: rx,
+        stderr,
+        stdout,
+    }
+}
+
+impl Running {
+    /// Waits for a stderr line containing `needle`; returns it.
+    fn wait_for(&self, needle: &str) -> String {
+        let start = Instant::now();
+        loop {
+            let left = PATIENCE.saturating_sub(start.elapsed());
+            match self.lines.recv_timeout(left) {
+                Ok(line) if line.contains(needle) => return line,
+                Ok(_) => {}
+                Err(_) => panic!("no line with {needle:?} on stderr"),
+            }
+        }
+    }
+
+    fn interrupt(&self) {
+        let pid = self.child.id().to_string();
+        assert!(Command::new("kill")
+            .args(["-INT", &pid])
+            .status()
+            .unwrap()
+            .success());
+    }
+
+    fn finish(mut self) -> Output {
+        let start = Instant::now();
+        let status = loop {
+            if let Some(s) = self.child.try_wait().unwrap() {
+                break s;
+            }
+            if start.elapsed() > PATIENCE {
+                let _ = self.child.kill();
+                break self.child.wait().unwrap();
+            }
+            std::thread::sleep(Duration::from_millis(20));
+        };
+        Output {
+            status,
+            stdout: self.stdout.join().unwrap(),
+            stderr: self.stderr.join().unwrap().into_bytes(),
+        }
+    }
+}
+
+fn summary(out: &Output) -> Value {
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "pyramid listen failed: {stderr}");
+    serde_json::from_slice(out.stdout.trim_ascii()).unwrap()
+}
+
+/// A binary PGM's pixels, rows from the lowest y (as the grids are).
+fn pgm_rows_bottom_up(path: &Path) -> (usize, usize, Vec<u8>) {
+    let bytes = std::fs::read(path).unwrap();
+    let text_end = {
+        // "P5\nW H\n255\n"
+        let mut newlines = 0;
+        let mut at = 0;
+        for (i, &b) in bytes.iter().enumerate() {
+            if b == b'\n' {
+                newlines += 1;
+                if newlines == 3 {
+                    at = i + 1;
+                    break;
+                }
+            }
+        }
+        at
+    };
+    let header = std::str::from_utf8(&bytes[..text_end]).unwrap();
+    let mut it = header.split_whitespace().skip(1);
+    let w: usize = it.next().unwrap().parse().unwrap();
+    let h: usize = it.next().unwrap().parse().unwrap();
+    let pixels = &bytes[text_end..];
+    assert_eq!(pixels.len(), w * h);
+    let mut rows = Vec::with_capacity(w * h);
+    for row in pixels.chunks(w).rev() {
+        rows.extend_from_slice(row);
+    }
+    (w, h, rows)
+}
+
+/// The PGM value of an OccupancyGrid value of the fused map.
+fn grey(v: i64) -> u8 {
+    match v {
+        100 => 0,
+        0 => 254,
+        -1 => 205,
+        other => panic!("fused value {other}"),
+    }
+}
+
+fn ints(v: &Value) -> Vec<i64> {
+    v.as_array()
+        .unwrap()
+        .iter()
+        .map(|x| x.as_i64().unwrap())
+        .collect()
+}
+
+/// Checks a bounded fused grid (OccupancyGrid or foxglove.Grid as decoded) against `fused.pgm`
+/// and its YAML: same cell size, lattices that coincide, equal cells where both lie, unknown
+/// elsewhere. Returns how many cells both cover.
+fn assert_fused_matches_pgm(
+    dir: &Path,
+    origin: (f64, f64),
+    r: f64,
+    width: usize,
+    cells: &[i64],
+) -> usize {
+    let (pw, ph, pixels) = pgm_rows_bottom_up(&dir.join("fused.pgm"));
+    let yaml = std::fs::read_to_string(dir.join("fused.yaml")).unwrap();
+    let field = |key: &str| -> String {
+        yaml.lines()
+            .find_map(|l| l.strip_prefix(key))
+            .unwrap()
+            .trim()
+            .to_string()
+    };
+    let pr: f64 = field("resolution:").parse().unwrap();
+    let o = field("origin:");
+    let o: Vec<f64> = o
+        .trim_matches(|c| c == '[' || c == ']')
+        .split(',')
+        .map(|s| s.trim().parse().unwrap())
+        .collect();
+    assert!((pr - r).abs() < 1e-6, "resolution {r} against {pr}");
+    let height = cells.len() / width;
+    let mut both = 0;
+    for j in 0..height {
+        for i in 0..width {
+            let v = cells[j * width + i];
+            let x = origin.0 + (i as f64 + 0.5) * r;
+            let y = origin.1 + (j as f64 + 0.5) * r;
+            let fx = (x - o[0]) / r;
+            let fy = (y - o[1]) / r;
+            assert!(
+                (fx - fx.floor() - 0.5).abs() < 1e-3,
+                "lattices differ: {fx}"
+            );
+            let (pi, pj) = (fx.floor(), fy.floor());
+            if pi >= 0.0 && pj >= 0.0 && (pi as usize) < pw && (pj as usize) < ph {
+                both += 1;
+                assert_eq!(
+                    grey(v),
+                    pixels[pj as usize * pw + pi as usize],
+                    "fused cell ({i}, {j})"
+                );
+            } else {
+                assert_eq!(v, -1, "outside the coarsest window: unknown");
+            }
+        }
+    }
+    both
+}
+
+// ------------------------------------------------------------------ MCAP
+
+#[test]
+fn the_mcap_recording_reads_back_with_another_reader_and_equals_the_maps_written() {
+    let py = python();
+    let dev = device(Plan::clean(3), true);
+    let dir = scratch("mcap");
+    let mcap = dir.join("session.mcap");
+    let addr = format!("127.0.0.1:{}", dev.port);
+    let child = listen(&[
+        "--tcp",
+        &addr,
+        "--out",
+        dir.to_str().unwrap(),
+        "--json",
+        "--mcap",
+        mcap.to_str().unwrap(),
+    ]);
+    let served = dev.handle.join().unwrap();
+    let out = running(child).finish();
+    let s = summary(&out);
+    assert_eq!(s["synced"], true);
+    let outputs = &s["outputs"];
+    assert!(
+        outputs["frames_published"].as_u64().unwrap() >= 1,
+        "{outputs}"
+    );
+    let read = Command::new(py)
+        .arg(py_dir().join("read_mcap.py"))
+        .arg(&mcap)
+        .output()
+        .unwrap();
+    assert!(
+        read.status.success(),
+        "read_mcap.py: {}",
+        String::from_utf8_lossy(&read.stderr)
+    );
+    let m: Value = serde_json::from_slice(&read.stdout).unwrap();
+    assert_eq!(m["errors"], Value::Array(vec![]), "{}", m["errors"]);
+    // Indexed and chunked, compressed.
+    assert!(
+        m["summary"]["chunks"].as_u64().unwrap() >= 1,
+        "{}",
+        m["summary"]
+    );
+    assert_eq!(m["summary"]["compression"], serde_json::json!(["zstd"]));
+    // Every message the session counts was read back and decoded.
+    let counts = m["counts"].as_object().unwrap();
+    let decoded: u64 = counts.values().map(|v| v.as_u64().unwrap()).sum();
+    assert_eq!(Some(decoded), m["summary"]["message_count"].as_u64());
+    let written: u64 = outputs["messages"]
+        .as_object()
+        .unwrap()
+        .iter()
+        .filter(|(k, _)| k.starts_with("foxglove "))
+        .map(|(_, v)| v.as_u64().unwrap())
+        .sum();
+    assert_eq!(
+        decoded, written,
+        "{counts:?} against {}",
+        outputs["messages"]
+    );
+    for topic in [
+        "/terrain/fused",
+        "/terrain/grid/fused",
+        "/terrain/pose",
+        "/terrain/windows",
+        "/diagnostics",
+        "/terrain/layer_0",
+        "/terrain/grid/layer_7",
+    ] {
+        assert!(counts.contains_key(topic), "{topic} in {counts:?}");
+    }
+    let schemas = &m["schemas"];
+    assert_eq!(
+        schemas["/terrain/fused"],
+        serde_json::json!(["nav_msgs/msg/OccupancyGrid", "ros2msg", "cdr"])
+    );
+    assert_eq!(
+        schemas["/terrain/grid/fused"],
+        serde_json::json!(["foxglove.Grid", "protobuf", "protobuf"])
+    );
+    let last = &m["last"];
+    // The last fused grid (ROS and Foxglove) against fused.pgm, cell for cell.
+    let f = &last["/terrain/fused"];
+    assert_eq!(f["frame_id"], "odom");
+    let width = f["width"].as_u64().unwrap() as usize;
+    let r = f["resolution"].as_f64().unwrap();
+    let origin = (
+        f["origin"][0].as_f64().unwrap(),
+        f["origin"][1].as_f64().unwrap(),
+    );
+    let cells = ints(&f["data"]);
+    // ±10 m at 0.1 m: 200 cells.
+    assert_eq!(width, 200);
+    assert_eq!(cells.len(), 200 * 200);
+    let both = assert_fused_matches_pgm(&dir, origin, r, width, &cells);
+    assert!(both > 10_000, "{both} cells in common");
+    assert!(cells.contains(&100) && cells.contains(&0));
+    let g = &last["/terrain/grid/fused"];
+    assert_eq!(ints(&g["occupancy"]), cells);
+    assert_eq!(g["origin"][0].as_f64().unwrap(), origin.0);
+    // And the device's own fused query agrees with fused.pgm (so with both grids).
+    let (device_fused, n) = fused_occupancy(&served.pyramid);
+    let (pw, _, pixels) = pgm_rows_bottom_up(&dir.join("fused.pgm"));
+    assert_eq!(pw, n);
+    assert!(device_fused
+        .iter()
+        .zip(&pixels)
+        .all(|(&v, &p)| grey(i64::from(v)) == p));
+    // Every layer's last grid: the device's cells (Foxglove's log-odds are the raw Q8.8 / 256).
+    for k in 0..served.pyramid.layer_count() {
+        let cells = raw_cells(&served.pyramid, k);
+        let grid = &last[&format!("/terrain/grid/layer_{k}")];
+        let raw: Vec<i16> = ints(&grid["raw"]).iter().map(|&v| v as i16).collect();
+        assert_eq!(fnv1a64(&raw), fnv1a64(&cells), "layer {k}");
+        assert_eq!(
+            s["layer_cells_fnv1a64"][k].as_str().unwrap(),
+            fnv1a64(&cells)
+        );
+        let ros = &last[&format!("/terrain/layer_{k}")];
+        assert_eq!(ros["width"].as_u64().unwrap() as usize, W);
+        let occ = ints(&ros["data"]);
+        for (o, c) in occ.iter().zip(&cells) {
+            match *c {
+                i16::MIN => assert_eq!(*o, -1),
+                c if c > 0 => assert!(*o >= 50 && *o <= 100),
+                c if c < 0 => assert!(*o >= 0 && *o <= 50),
+                _ => assert_eq!(*o, 50),
+            }
+        }
+        assert_eq!(ints(&grid["occupancy"]), occ, "layer {k}");
+    }
+    // The pose: the finest window's centre (listen hears no pose), in the windows' middle.
+    let pose = &last["/terrain/pose"]["xy"];
+    let layer0 = served.pyramid.layer(0).unwrap();
+    let r0 = f64::from(layer0.resolution().to_bits()) / 65_536.0;
+    let cx = (f64::from(layer0.origin().0) + W as f64 / 2.0) * r0;
+    assert!((pose[0].as_f64().unwrap() - cx).abs() < 1e-9, "{pose}");
+    assert_eq!(outputs["pose_source"], "window_centre");
+    let loops = last["/terrain/windows"]["loops"].as_array().unwrap();
+    assert_eq!(loops.len(), served.pyramid.layer_count());
+    // The diagnostics carry the device's counters.
+    let d = &last["/diagnostics"]["terrain_pyramid: device"];
+    assert!(
+        d["frames_sent"].as_str().unwrap().parse::<u64>().unwrap() > 0,
+        "{d}"
+    );
+}
+
+// ------------------------------------------------------------------ Foxglove
+
+/// The `ws://` address `pyramid listen` says it serves.
+fn served_url(run: &Running) -> String {
+    let line = run.wait_for("foxglove: serving ");
+    line.rsplit(' ').next().unwrap().to_string()
+}
+
+#[test]
+fn a_foxglove_client_decodes_grids_while_a_stuck_client_holds_nothing_up() {
+    let py = python();
+    let plan = Plan {
+        steps: 2500,
+        close_when_settled: false,
+        ..Plan::clean(17)
+    };
+    let dev = device(plan, false);
+    let dir = scratch("foxglove");
+    let addr = format!("127.0.0.1:{}", dev.port);
+    let run = running(listen(&[
+        "--tcp",
+        &addr,
+        "--out",
+        dir.to_str().unwrap(),
+        "--json",
+        "--foxglove",
+        "127.0.0.1:0",
+        "--publish-hz",
+        "50",
+    ]));
+    let url = served_url(&run);
+    assert!(url.starts_with("ws://127.0.0.1:"), "{url}");
+    // The device's first Hello and snapshot have been published once the status says synced.
+    run.wait_for("synced");
+    let mut client = Command::new(py)
+        .arg(py_dir().join("foxglove_client.py"))
+        .arg(&url)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut lines = BufReader::new(client.stdout.take().unwrap()).lines();
+    let first = lines.next().and_then(Result::ok);
+    if first.as_deref() != Some("ready") {
+        let mut err = String::new();
+        client
+            .stderr
+            .take()
+            .unwrap()
+            .read_to_string(&mut err)
+            .unwrap();
+        panic!("foxglove_client.py: {first:?}: {err}");
+    }
+    // Now the device drives: thousands of frames while one client never reads.
+    let start = Instant::now();
+    dev.go.store(true, Ordering::SeqCst);
+    dev.settled
+        .recv_timeout(PATIENCE)
+        .expect("the device settled");
+    let driving = start.elapsed();
+    run.interrupt();
+    let out = run.finish();
+    let served = dev.handle.join().unwrap();
+    let result = lines.next().unwrap().unwrap();
+    let status = client.wait().unwrap();
+    let mut err = String::new();
+    client
+        .stderr
+        .take()
+        .unwrap()
+        .read_to_string(&mut err)
+        .unwrap();
+    assert!(status.success(), "foxglove_client.py: {err}");
+    let s = summary(&out);
+    // No frame of the link was lost, the mirror is the device's.
+    assert_eq!(s["synced"], true);
+    assert_eq!(s["gaps"], 0);
+    assert_eq!(s["missing_frames"], 0);
+    assert_eq!(s["bad_frames"], 0);
+    assert_eq!(s["snapshots_requested"], 1);
+    assert!(s["frames"].as_u64().unwrap() > 1000, "{s}");
+    for k in 0..served.pyramid.layer_count() {
+        assert_eq!(
+            s["layer_cells_fnv1a64"][k].as_str().unwrap(),
+            fnv1a64(&raw_cells(&served.pyramid, k)),
+            "layer {k}"
+        );
+    }
+    // The outputs went on publishing while the stuck client sat there (a publisher blocked by
+    // it would have published a frame or two; a debug build publishes some 10 a second).
+    let outputs = &s["outputs"];
+    let published = outputs["frames_published"].as_u64().unwrap();
+    assert!(
+        published as f64 >= driving.as_secs_f64() * 3.0,
+        "{published} frames published in {driving:?}: {outputs}"
+    );
+    let c: Value = serde_json::from_str(&result).unwrap();
+    assert_eq!(c["errors"], Value::Array(vec![]), "{}", c["errors"]);
+    assert_eq!(c["server"], "terrain-pyramid");
+    // The protocol of foxglove/ws-protocol, under the name the Foxglove SDK gives it now.
+    assert_eq!(c["subprotocol"], "foxglove.sdk.v1");
+    let topics: Vec<&str> = c["topics"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|t| t.as_str().unwrap())
+        .collect();
+    for t in [
+        "/terrain/grid/fused",
+        "/terrain/grid/layer_0",
+        "/terrain/grid/layer_7",
+        "/terrain/pose",
+        "/terrain/windows",
+        "/terrain/fused",
+        "/diagnostics",
+    ] {
+        assert!(topics.contains(&t), "{t} in {topics:?}");
+    }
+    assert_eq!(
+        c["schemas"]["/terrain/grid/fused"],
+        serde_json::json!(["foxglove.Grid", "protobuf"])
+    );
+    assert_eq!(
+        c["schemas"]["/terrain/fused"],
+        serde_json::json!(["nav_msgs/msg/OccupancyGrid", "cdr"])
+    );
+    let received = c["received"].as_u64().unwrap();
+    let stuck = c["stuck_received"].as_u64().unwrap();
+    assert!(received > 100, "{received}");
+    // The server dropped for the stuck client what it could not take.
+    assert!(stuck < received, "stuck {stuck}, reading {received}");
+    // A Grid decoded: the fused map ±10 m around the robot, equal to fused.pgm where both lie.
+    let g = &c["last"]["/terrain/grid/fused"];
+    assert_eq!(g["frame_id"], "odom");
+    assert_eq!(g["fields"], serde_json::json!(["occupancy"]));
+    let width = g["column_count"].as_u64().unwrap() as usize;
+    let cells = ints(&g["occupancy"]);
+    assert_eq!((width, cells.len()), (200, 200 * 200));
+    let both = assert_fused_matches_pgm(
+        &dir,
+        (
+            g["origin"][0].as_f64().unwrap(),
+            g["origin"][1].as_f64().unwrap(),
+        ),
+        g["cell_size"][0].as_f64().unwrap(),
+        width,
+        &cells,
+    );
+    assert!(both > 10_000, "{both}");
+    let l = &c["last"]["/terrain/grid/layer_3"];
+    assert_eq!(l["fields"], serde_json::json!(["log_odds", "occupancy"]));
+    assert_eq!(l["column_count"].as_u64().unwrap() as usize, W);
+}
+
+// ------------------------------------------------------------------ ROS 2
+
+/// The environment variable that marks the inner test's run inside its network namespace.
+const NETNS_MARK: &str = "TERRAIN_PYRAMID_TEST_NETNS";
+
+/// Whether this process sees no network interface but loopback (a namespace of its own).
+fn only_loopback() -> bool {
+    // /proc/net/dev lists the interfaces of the reader's network namespace (sysfs would show
+    // those of the namespace it was mounted in).
+    std::fs::read_to_string("/proc/net/dev").is_ok_and(|t| {
+        t.lines()
+            .skip(2)
+            .filter_map(|l| l.split(':').next())
+            .all(|name| name.trim() == "lo")
+    })
+}
+
+#[test]
+fn ros2_topics_reach_cyclone_dds_inside_a_network_namespace() {
+    python();
+    // This test binary again, inside a new network namespace with only loopback (multicast
+    // on, routed to lo), running the inner test: device, publisher and subscriber all there.
+    let exe = std::env::current_exe().unwrap();
+    let out = Command::new("unshare")
+        .args([
+            "-n",
+            "sh",
+            "-c",
+            "ip link set lo up multicast on && ip route add 224.0.0.0/4 dev lo && exec \"$0\" ros2_inner --exact --ignored --nocapture",
+        ])
+        .arg(&exe)
+        .env(NETNS_MARK, "1")
+        .output()
+        .expect("unshare runs");
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        out.status.success() && stdout.contains("1 passed"),
+        "the test inside `unshare -n` (root needed) failed:\n{stdout}\n{stderr}"
+    );
+}
+
+#[test]
+#[ignore = "runs inside its own network namespace: ros2_topics_reach_cyclone_dds_inside_a_network_namespace"]
+fn ros2_inner() {
+    // DDS multicast must never leave the machine: refuse anywhere but an isolated namespace.
+    assert!(
+        std::env::var_os(NETNS_MARK).is_some() && only_loopback(),
+        "ros2_inner runs only inside `unshare -n` (see the test that calls it)"
+    );
+    let py = python();
+    let plan = Plan {
+        steps: 300,
+        close_when_settled: false,
+        ..Plan::clean(29)
+    };
+    let dev = device(plan, true);
+    let dir = scratch("ros2");
+    let addr = format!("127.0.0.1:{}", dev.port);
+    let run = running(listen(&[
+        "--tcp",
+        &addr,
+        "--out",
+        dir.to_str().unwrap(),
+        "--json",
+        "--ros2",
+        "--ros-domain-id",
+        "7",
+    ]));
+    dev.settled
+        .recv_timeout(PATIENCE)
+        .expect("the device settled");
+    // Settled: the last maps have been published. A subscriber that joins now gets them
+    // (transient local, as Nav2's static layer subscribes).
+    let sub = Command::new(py)
+        .arg(py_dir().join("dds_sub.py"))
+        .args(["8", "30", "7"])
+        .output()
+        .unwrap();
+    run.interrupt();
+    let out = run.finish();
+    let served = dev.handle.join().unwrap();
+    assert!(
+        sub.status.success(),
+        "dds_sub.py: {}\n{}",
+        String::from_utf8_lossy(&sub.stdout),
+        String::from_utf8_lossy(&sub.stderr)
+    );
+    let s = summary(&out);
+    assert_eq!(s["synced"], true);
+    let r: Value = serde_json::from_slice(&sub.stdout).unwrap();
+    eprintln!("late joiner: samples per topic {}", r["samples"]);
+    let last = &r["last"];
+    // The maps came at once, from the publisher's history (not from a later update).
+    for k in 0..8 {
+        let first = r["first_after_s"][format!("/terrain/layer_{k}")]
+            .as_f64()
+            .unwrap();
+        assert!(first < 10.0, "layer {k} after {first} s");
+    }
+    // Each layer: the device's cells as occupancy percent.
+    for k in 0..served.pyramid.layer_count() {
+        let l = &last[&format!("/terrain/layer_{k}")];
+        let raw = raw_cells(&served.pyramid, k);
+        let expected: Vec<i64> = raw
+            .iter()
+            .map(|&c| {
+                if c == i16::MIN {
+                    -1
+                } else {
+                    (100.0 / (1.0 + (-f64::from(c) / 256.0).exp())).round() as i64
+                }
+            })
+            .collect();
+        let got = ints(&l["data"]);
+        let differ = got.iter().zip(&expected).filter(|(a, b)| a != b).count();
+        assert!(
+            got.len() == expected.len() && differ == 0,
+            "layer {k}: {differ} of {} cells differ; samples {}",
+            expected.len(),
+            r["samples"]
+        );
+        let layer = served.pyramid.layer(k).unwrap();
+        let r = f64::from(layer.resolution().to_bits()) / 65_536.0;
+        assert!((l["resolution"].as_f64().unwrap() - r).abs() < 1e-6);
+        let ox = f64::from(layer.origin().0) * r;
+        assert!(
+            (l["origin"][0].as_f64().unwrap() - ox).abs() < 1e-6,
+            "layer {k}"
+        );
+    }
+    let f = &last["/terrain/fused"];
+    assert_eq!(f["frame_id"], "odom");
+    assert_eq!(
+        (f["width"].as_u64(), f["height"].as_u64()),
+        (Some(200), Some(200))
+    );
+    let cells = ints(&f["data"]);
+    let both = assert_fused_matches_pgm(
+        &dir,
+        (
+            f["origin"][0].as_f64().unwrap(),
+            f["origin"][1].as_f64().unwrap(),
+        ),
+        f["resolution"].as_f64().unwrap(),
+        200,
+        &cells,
+    );
+    assert!(both > 10_000, "{both}");
+    assert!(cells.contains(&100) && cells.contains(&0));
+    let d = &last["/diagnostics"];
+    assert!(
+        d["terrain_pyramid: device"]["frames_sent"]
+            .as_str()
+            .is_some(),
+        "{d}"
+    );
+    assert_eq!(d["terrain_pyramid: host link"]["gaps"], "0");
+    let outputs = &s["outputs"]["messages"];
+    assert!(
+        outputs["ros2 /terrain/fused"].as_u64().unwrap() >= 1,
+        "{outputs}"
+    );
+}
+
+// ------------------------------------------------------------------ bad situations
+
+#[test]
+fn an_address_in_use_is_an_error_naming_the_flag() {
+    let taken = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
+    let addr = taken.local_addr().unwrap().to_string();
+    let dir = scratch("in-use");
+    // The outputs start before the device is opened: no device is needed to see the error.
+    let out = running(listen(&[
+        "--tcp",
+        "127.0.0.1:1",
+        "--out",
+        dir.to_str().unwrap(),
+        "--foxglove",
+        &addr,
+    ]))
+    .finish();
+    assert_eq!(out.status.code(), Some(1));
+    let stderr = String::from_utf8(out.stderr).unwrap();
+    assert_eq!(
+        stderr.trim(),
+        format!("error: --foxglove: {addr} is already in use")
+    );
+    // An MCAP file that cannot be created names its flag too.
+    let out = running(listen(&[
+        "--tcp",
+        "127.0.0.1:1",
+        "--out",
+        dir.to_str().unwrap(),
+        "--mcap",
+        dir.join("no/such/dir/x.mcap").to_str().unwrap(),
+    ]))
+    .finish();
+    assert_eq!(out.status.code(), Some(1));
+    let stderr = String::from_utf8(out.stderr).unwrap();
+    assert!(
+        stderr.starts_with("error: --mcap: cannot create "),
+        "{stderr}"
+    );
+    assert_eq!(stderr.lines().count(), 1, "{stderr}");
+}
+
+#[test]
+fn a_device_that_goes_away_and_comes_back_keeps_the_maps_and_resyncs() {
+    // The TCP analogue of a USB adapter unplugged and plugged in again: the device drops the
+    // connection mid-drive, drives on unheard (its maps change), then accepts again.
+    let plan = Plan {
+        steps: 400,
+        unplug_at: Some(150),
+        unplugged_steps: 150,
+        close_when_settled: true,
+        quiet_after: Duration::from_millis(1500),
+        ..Plan::clean(23)
+    };
+    let dev = device(plan, true);
+    let dir = scratch("reconnect");
+    let mcap = dir.join("s.mcap");
+    let addr = format!("127.0.0.1:{}", dev.port);
+    let run = running(listen(&[
+        "--tcp",
+        &addr,
+        "--out",
+        dir.to_str().unwrap(),
+        "--json",
+        "--reconnect",
+        "--mcap",
+        mcap.to_str().unwrap(),
+    ]));
+    let gone = run.wait_for("stream ended");
+    assert!(
+        gone.contains("trying to reconnect every 1 s; the maps are kept"),
+        "{gone}"
+    );
+    let back = run.wait_for("reconnected to tcp ");
+    assert!(back.contains("snapshot requested"), "{back}");
+    // The device closes at the end: the host keeps trying until its session ends.
+    let served = dev.handle.join().unwrap();
+    run.wait_for("stream ended");
+    run.interrupt();
+    let out = run.finish();
+    let s = summary(&out);
+    assert_eq!(served.connections, 2);
+    assert_eq!(s["reconnects"], 1);
+    assert_eq!(s["ended_by"], "interrupted");
+    assert_eq!(
+        s["synced"],
+        true,
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    // The request at the start and the one after the reconnection (at least).
+    assert!(s["snapshots_requested"].as_u64().unwrap() >= 2, "{s}");
+    assert!(served.snapshots >= 2);
+    for k in 0..served.pyramid.layer_count() {
+        assert_eq!(
+            s["layer_cells_fnv1a64"][k].as_str().unwrap(),
+            fnv1a64(&raw_cells(&served.pyramid, k)),
+            "layer {k}"
+        );
+    }
+    assert!(s["outputs"]["frames_published"].as_u64().unwrap() > 1);
+}
+
+#[test]
+fn a_serial_port_open_elsewhere_is_refused_and_one_that_vanishes_is_waited_for() {
+    // A pseudo-terminal stands for the USB adapter: Python holds its master side.
+    let mut holder = Command::new("python3")
+        .args([
+            "-c",
+            "import os, pty, sys, time\nm, s = pty.openpty()\nprint(os.ttyname(s), flush=True)\nsys.stdin.read()\n",
+        ])
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut path = String::new();
+    BufReader::new(holder.stdout.take().unwrap())
+        .read_line(&mut path)
+        .unwrap();
+    let path = path.trim().to_string();
+    assert!(path.starts_with("/dev/pts/"), "{path}");
+    let dir = scratch("serial");
+    let first = running(listen(&["--port", &path, "--out", dir.to_str().unwrap()]));
+    first.wait_for("listening on ");
+    // A second listener is refused: the port is exclusive (TIOCEXCL and flock).
+    let second = running(listen(&["--port", &path, "--out", dir.to_str().unwrap()])).finish();
+    assert_eq!(second.status.code(), Some(1));
+    let stderr = String::from_utf8(second.stderr).unwrap();
+    assert!(
+        stderr.starts_with(&format!(
+            "error: cannot open the serial port {path}: it is already open in another process"
+        )),
+        "{stderr}"
+    );
+    // The adapter goes away: a message, and the listener waits for it.
+    drop(holder.stdin.take());
+    holder.wait().unwrap();
+    let gone = first.wait_for("stream ended");
+    assert!(gone.contains("trying to reconnect every 1 s"), "{gone}");
+    std::thread::sleep(Duration::from_millis(1500));
+    assert!(first.child.id() > 0);
+    first.interrupt();
+    let out = first.finish();
+    // No Hello ever came: nothing to write, said so; nothing panicked.
+    assert_eq!(out.status.code(), Some(1));
+    let stderr = String::from_utf8(out.stderr).unwrap();
+    assert!(stderr.contains("error: no maps to write"), "{stderr}");
+    assert!(!stderr.contains("panicked"), "{stderr}");
+}

@@ -1,0 +1,163 @@
+"""Subscribes with Eclipse Cyclone DDS (the `cyclonedds` Python binding) to the ROS 2 topics
+`pyramid listen --ros2` publishes, with the message types declared here in IDL form under the
+names ROS 2 gives them on DDS (`nav_msgs::msg::dds_::OccupancyGrid_`, topic `rt/terrain/fused`),
+and the QoS Nav2's map subscribers use (reliable, transient local, keep last 1).
+
+Waits until it has a sample of every topic asked for (or the timeout), then prints one JSON
+object {topic: last sample} and exits (status 1 if a topic is missing).
+
+Usage: dds_sub.py LAYERS TIMEOUT_S [DOMAIN]
+Run it only inside a network namespace of its own (DDS multicast must not leave the machine).
+"""
+import json
+import sys
+import time
+from dataclasses import dataclass
+
+import cyclonedds.idl.annotations as annotate
+from cyclonedds.core import Policy, Qos
+from cyclonedds.domain import DomainParticipant
+from cyclonedds.idl import IdlStruct
+from cyclonedds.idl.types import float32, float64, int8, int32, sequence, uint8, uint32
+from cyclonedds.sub import DataReader
+from cyclonedds.topic import Topic
+from cyclonedds.util import duration
+
+
+@dataclass
+@annotate.final
+class Time(IdlStruct, typename="builtin_interfaces::msg::dds_::Time_"):
+    sec: int32
+    nanosec: uint32
+
+
+@dataclass
+@annotate.final
+class Header(IdlStruct, typename="std_msgs::msg::dds_::Header_"):
+    stamp: Time
+    frame_id: str
+
+
+@dataclass
+@annotate.final
+class Point(IdlStruct, typename="geometry_msgs::msg::dds_::Point_"):
+    x: float64
+    y: float64
+    z: float64
+
+
+@dataclass
+@annotate.final
+class Quaternion(IdlStruct, typename="geometry_msgs::msg::dds_::Quaternion_"):
+    x: float64
+    y: float64
+    z: float64
+    w: float64
+
+
+@dataclass
+@annotate.final
+class Pose(IdlStruct, typename="geometry_msgs::msg::dds_::Pose_"):
+    position: Point
+    orientation: Quaternion
+
+
+@dataclass
+@annotate.final
+class MapMetaData(IdlStruct, typename="nav_msgs::msg::dds_::MapMetaData_"):
+    map_load_time: Time
+    resolution: float32
+    width: uint32
+    height: uint32
+    origin: Pose
+
+
+@dataclass
+@annotate.final
+class OccupancyGrid(IdlStruct, typename="nav_msgs::msg::dds_::OccupancyGrid_"):
+    header: Header
+    info: MapMetaData
+    data: sequence[int8]
+
+
+@dataclass
+@annotate.final
+class KeyValue(IdlStruct, typename="diagnostic_msgs::msg::dds_::KeyValue_"):
+    key: str
+    value: str
+
+
+@dataclass
+@annotate.final
+class DiagnosticStatus(IdlStruct, typename="diagnostic_msgs::msg::dds_::DiagnosticStatus_"):
+    level: uint8
+    name: str
+    message: str
+    hardware_id: str
+    values: sequence[KeyValue]
+
+
+@dataclass
+@annotate.final
+class DiagnosticArray(IdlStruct, typename="diagnostic_msgs::msg::dds_::DiagnosticArray_"):
+    header: Header
+    status: sequence[DiagnosticStatus]
+
+
+def grid(s):
+    return {
+        "frame_id": s.header.frame_id,
+        "stamp": [s.header.stamp.sec, s.header.stamp.nanosec],
+        "resolution": s.info.resolution,
+        "width": s.info.width,
+        "height": s.info.height,
+        "origin": [s.info.origin.position.x, s.info.origin.position.y, s.info.origin.orientation.w],
+        "data": list(s.data),
+    }
+
+
+def main():
+    layers, timeout = int(sys.argv[1]), float(sys.argv[2])
+    domain = int(sys.argv[3]) if len(sys.argv) > 3 else 0
+    dp = DomainParticipant(domain)
+    map_qos = Qos(Policy.Reliability.Reliable(duration(seconds=1)),
+                  Policy.Durability.TransientLocal, Policy.History.KeepLast(1))
+    readers = {}
+    for name in ["fused"] + [f"layer_{k}" for k in range(layers)]:
+        t = Topic(dp, f"rt/terrain/{name}", OccupancyGrid, qos=map_qos)
+        readers[f"/terrain/{name}"] = (DataReader(dp, t, qos=map_qos), grid)
+    diag_qos = Qos(Policy.Reliability.Reliable(duration(seconds=1)),
+                   Policy.Durability.Volatile, Policy.History.KeepLast(10))
+    t = Topic(dp, "rt/diagnostics", DiagnosticArray, qos=diag_qos)
+    readers["/diagnostics"] = (
+        DataReader(dp, t, qos=diag_qos),
+        lambda s: {st.name: {kv.key: kv.value for kv in st.values} for st in s.status},
+    )
+    last, first_at, counts = {}, {}, {}
+    start = time.monotonic()
+    quiet_since = None
+    # Until every topic has come and the maps have been quiet for a second and a half (the
+    # history of a late joiner may come in several samples), or the timeout.
+    while time.monotonic() - start < timeout:
+        got = False
+        for topic, (reader, convert) in readers.items():
+            for s in reader.take(N=100):
+                # Instance state changes (a writer gone) come as samples without data.
+                if type(s).__name__ == "InvalidSample":
+                    continue
+                last[topic] = convert(s)
+                counts[topic] = counts.get(topic, 0) + 1
+                first_at.setdefault(topic, round(time.monotonic() - start, 3))
+                got = got or topic != "/diagnostics"
+        now = time.monotonic()
+        if got or quiet_since is None:
+            quiet_since = now
+        if len(last) == len(readers) and now - quiet_since > 1.5:
+            break
+        time.sleep(0.02)
+    print(json.dumps({"last": last, "first_after_s": first_at, "samples": counts}), flush=True)
+    sys.exit(0 if len(last) == len(readers) else 1)
+
+
+if __name__ == "__main__":
+    main()

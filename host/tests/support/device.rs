@@ -1,0 +1,343 @@
+//! A simulated device for the tests of `pyramid listen`'s outputs: the library's `Link` and
+//! `DefaultPyramid` with random evidence and recentres, serving its stream on 127.0.0.1 (the
+//! approach of `host/tests/listen.rs`). It can wait for a go before it drives, and drop its
+//! connection once and accept a new one (the TCP analogue of a USB adapter unplugged).
+#![allow(dead_code)]
+use std::io::{ErrorKind, Read, Write};
+use std::net::{TcpListener, TcpStream};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{mpsc, Arc};
+use std::thread::JoinHandle;
+use std::time::{Duration, Instant};
+use terrain_pyramid::design::{Schedule, SensorModel};
+use terrain_pyramid::link::{Link, LinkConfig, SensorCounters};
+use terrain_pyramid::wire::link::Reply;
+use terrain_pyramid::wire::FeedResult;
+use terrain_pyramid::{
+    Config, DefaultDesign, DefaultPyramid, Evidence, EvidenceClass, Fused, Meters,
+    DEFAULT_CELLS_PER_SIDE,
+};
+
+/// Cells per side.
+pub const W: usize = DEFAULT_CELLS_PER_SIDE;
+
+/// The longest any one wait lasts.
+pub const PATIENCE: Duration = Duration::from_secs(120);
+
+/// xorshift64*.
+pub struct Rng(pub u64);
+
+impl Rng {
+    pub fn next(&mut self) -> u64 {
+        self.0 ^= self.0 >> 12;
+        self.0 ^= self.0 << 25;
+        self.0 ^= self.0 >> 27;
+        self.0.wrapping_mul(0x2545_F491_4F6C_DD1D)
+    }
+    pub fn below(&mut self, n: u64) -> u64 {
+        self.next() % n
+    }
+    pub fn unit(&mut self) -> f64 {
+        (self.next() >> 11) as f64 / (1_u64 << 53) as f64
+    }
+    pub fn chance(&mut self, per_mille: u32) -> bool {
+        self.below(1000) < u64::from(per_mille)
+    }
+}
+
+/// How the device's session goes.
+#[derive(Clone, Copy, Debug)]
+pub struct Plan {
+    pub seed: u64,
+    /// Steps of driving (13 ms of device time each, about 2 ms of real time).
+    pub steps: usize,
+    /// Real time per step (the device's clock advances 13 ms per step regardless).
+    pub step_sleep: Duration,
+    /// Settled = queue and tiles empty and no host command for this long.
+    pub quiet_after: Duration,
+    /// Once settled: close (end of stream) or go on until the host goes away.
+    pub close_when_settled: bool,
+    /// Drop the connection at this driving step, drive on unheard for `unplugged_steps`, then
+    /// accept the host's next connection.
+    pub unplug_at: Option<usize>,
+    pub unplugged_steps: usize,
+    /// Evidence updates per step (176 per 13 ms is the SICK LMS2xx's 13 575 points/s).
+    pub evidence_per_step: usize,
+}
+
+impl Plan {
+    pub fn clean(seed: u64) -> Self {
+        Self {
+            seed,
+            steps: 200,
+            step_sleep: Duration::from_millis(2),
+            quiet_after: Duration::from_millis(700),
+            close_when_settled: true,
+            unplug_at: None,
+            unplugged_steps: 0,
+            evidence_per_step: 60,
+        }
+    }
+}
+
+/// What the device ended with.
+pub struct Served {
+    pub pyramid: Box<DefaultPyramid>,
+    pub snapshots: u32,
+    pub connections: u32,
+    pub bytes_sent: u64,
+}
+
+/// A running device.
+pub struct Device {
+    pub port: u16,
+    pub handle: JoinHandle<Served>,
+    /// Told once the device has settled.
+    pub settled: mpsc::Receiver<()>,
+    /// The device drives only once this is set.
+    pub go: Arc<AtomicBool>,
+}
+
+fn send(stream: &mut TcpStream, mut bytes: &[u8]) -> bool {
+    let start = Instant::now();
+    while !bytes.is_empty() {
+        match stream.write(bytes) {
+            Ok(0) => return false,
+            Ok(n) => bytes = &bytes[n..],
+            Err(e) if e.kind() == ErrorKind::WouldBlock || e.kind() == ErrorKind::Interrupted => {
+                assert!(start.elapsed() < PATIENCE, "the host stopped reading");
+                std::thread::sleep(Duration::from_millis(1));
+            }
+            Err(_) => return false,
+        }
+    }
+    true
+}
+
+fn accept(listener: &TcpListener) -> TcpStream {
+    let start = Instant::now();
+    loop {
+        match listener.accept() {
+            Ok((stream, _)) => {
+                stream.set_nonblocking(true).unwrap();
+                return stream;
+            }
+            Err(e) if e.kind() == ErrorKind::WouldBlock => {
+                assert!(start.elapsed() < PATIENCE, "the host never connected");
+                std::thread::sleep(Duration::from_millis(5));
+            }
+            Err(e) => panic!("accept: {e}"),
+        }
+    }
+}
+
+/// Carries out the commands `pyramid listen` sends a device (snapshots, Stats, pings), as
+/// the application core does ([`Link::serve`]); the rest is answered Ok.
+pub fn serve_commands(link: &mut Link, pyramid: &mut DefaultPyramid, bytes: &[u8]) {
+    let mut input = bytes;
+    loop {
+        input = match link.receive(input) {
+            FeedResult::Consumed => return,
+            FeedResult::Item {
+                item, remaining, ..
+            } => {
+                if let Some(other) = link.serve(pyramid, item) {
+                    link.answer(Reply::ok(other.header));
+                }
+                remaining
+            }
+            FeedResult::Rejected { remaining, .. } => remaining,
+        };
+    }
+}
+
+/// The default design.
+pub fn design() -> DefaultDesign {
+    DefaultDesign::new(SensorModel::default(), Schedule::default(), W).unwrap()
+}
+
+fn serve(
+    listener: TcpListener,
+    plan: Plan,
+    settled: mpsc::Sender<()>,
+    go: Arc<AtomicBool>,
+) -> Served {
+    listener.set_nonblocking(true).unwrap();
+    let start = Instant::now();
+    let mut stream = Some(accept(&listener));
+    let mut connections = 1;
+    let mut rng = Rng(plan.seed | 1);
+    let mut pyramid = Box::new(DefaultPyramid::new());
+    let mut link: Box<Link> = Box::new(Link::new(LinkConfig {
+        stats_interval_ms: 200,
+        ..LinkConfig::DEFAULT
+    }));
+    pyramid.configure(&design(), &Config::default()).unwrap();
+    link.adopt(&design());
+    let mut uart = vec![0_u8; 92_160 * 13 / 1000];
+    let mut rx = vec![0_u8; 1024];
+    let (mut x, mut y) = (0.0_f64, 0.0_f64);
+    let mut now_ms = 0_u32;
+    let mut last_command = Instant::now();
+    let mut settle_start: Option<Instant> = None;
+    let mut told = false;
+    let mut step = 0_usize;
+    let mut bytes_sent = 0_u64;
+    let mut unplugged_until: Option<usize> = None;
+    loop {
+        assert!(start.elapsed() < PATIENCE * 2, "the device never settled");
+        let going = go.load(Ordering::SeqCst);
+        let driving = going && step < plan.steps;
+        if driving {
+            if plan.unplug_at == Some(step) && unplugged_until.is_none() {
+                stream = None;
+                unplugged_until = Some(step + plan.unplugged_steps);
+            }
+            if rng.chance(20) {
+                x += (rng.unit() - 0.5) * 12.0;
+                y += (rng.unit() - 0.5) * 12.0;
+            } else {
+                x += (rng.unit() - 0.5) * 0.3;
+                y += (rng.unit() - 0.5) * 0.3;
+            }
+            let (mx, my) = (Meters::from_num(x), Meters::from_num(y));
+            pyramid.recentre(mx, my);
+            for _ in 0..plan.evidence_per_step {
+                let k = rng.below(pyramid.layer_count() as u64) as usize;
+                let r = pyramid.layer(k).unwrap().resolution();
+                pyramid.apply(&Evidence {
+                    layer: k as u8,
+                    cell_x: r.cell_of(mx) + rng.below(70) as i32 - 35,
+                    cell_y: r.cell_of(my) + rng.below(70) as i32 - 35,
+                    class: if rng.chance(300) {
+                        EvidenceClass::Obstacle
+                    } else {
+                        EvidenceClass::Navigable
+                    },
+                    weight: terrain_pyramid::Weight::from_num(rng.unit()),
+                });
+            }
+        }
+        now_ms += 13;
+        link.poll(now_ms, &mut *pyramid, &SensorCounters::default());
+        let n = link.pop_bytes(&mut uart);
+        if stream.is_none() && unplugged_until.is_some_and(|u| step >= u) {
+            // Back: the host's next connection.
+            stream = Some(accept(&listener));
+            connections += 1;
+            unplugged_until = Some(usize::MAX);
+        }
+        if let Some(s) = stream.as_mut() {
+            if !send(s, &uart[..n]) {
+                break;
+            }
+            bytes_sent += n as u64;
+            let mut host_gone = false;
+            loop {
+                match s.read(&mut rx) {
+                    Ok(0) => {
+                        host_gone = true;
+                        break;
+                    }
+                    Ok(n) => {
+                        last_command = Instant::now();
+                        serve_commands(&mut link, &mut pyramid, &rx[..n]);
+                    }
+                    Err(e) if e.kind() == ErrorKind::WouldBlock => break,
+                    Err(e) if e.kind() == ErrorKind::Interrupted => {}
+                    Err(_) => {
+                        host_gone = true;
+                        break;
+                    }
+                }
+            }
+            if host_gone {
+                break;
+            }
+        }
+        if going && !driving && stream.is_some() {
+            let settling = *settle_start.get_or_insert_with(Instant::now);
+            let quiet = link.queue().is_empty()
+                && (0..pyramid.layer_count()).all(|k| pyramid.layer(k).unwrap().dirty() == 0)
+                && last_command.elapsed() >= plan.quiet_after
+                && settling.elapsed() >= plan.quiet_after;
+            if quiet && !told {
+                told = true;
+                let _ = settled.send(());
+                if plan.close_when_settled {
+                    break;
+                }
+            }
+        }
+        if going {
+            step += 1;
+        }
+        std::thread::sleep(plan.step_sleep);
+    }
+    Served {
+        pyramid,
+        snapshots: link.counters().snapshots,
+        connections,
+        bytes_sent,
+    }
+}
+
+/// A device on 127.0.0.1 (a free port); it drives at once when `go_now`.
+pub fn device(plan: Plan, go_now: bool) -> Device {
+    let listener = TcpListener::bind("127.0.0.1:0").unwrap();
+    let port = listener.local_addr().unwrap().port();
+    let (tx, rx) = mpsc::channel();
+    let go = Arc::new(AtomicBool::new(go_now));
+    let flag = Arc::clone(&go);
+    let handle = std::thread::spawn(move || serve(listener, plan, tx, flag));
+    Device {
+        port,
+        handle,
+        settled: rx,
+        go,
+    }
+}
+
+/// Layer `k`'s raw cells, row-major from the lowest row.
+pub fn raw_cells(p: &DefaultPyramid, k: usize) -> Vec<i16> {
+    let layer = p.layer(k).unwrap();
+    (0..W * W)
+        .map(|n| layer.at_offset(n % W, n / W).unwrap().to_raw())
+        .collect()
+}
+
+/// FNV-1a 64 of raw cells as i16 little-endian, hex (as `summary.json`).
+pub fn fnv1a64(cells: &[i16]) -> String {
+    let mut h: u64 = 0xCBF2_9CE4_8422_2325;
+    for byte in cells.iter().flat_map(|c| c.to_le_bytes()) {
+        h ^= u64::from(byte);
+        h = h.wrapping_mul(0x0000_0100_0000_01B3);
+    }
+    format!("{h:016x}")
+}
+
+/// The fused map over the coarsest window at the finest resolution (`fused.pgm`'s cells), as
+/// OccupancyGrid values, rows from the lowest y; and its side.
+pub fn fused_occupancy(p: &DefaultPyramid) -> (Vec<i8>, usize) {
+    let fine = p.layer(0).unwrap().resolution();
+    let coarse = p.layer(p.layer_count() - 1).unwrap();
+    let (ox, oy) = coarse.origin();
+    let (x0, y0) = (
+        coarse.resolution().cell_edge(ox),
+        coarse.resolution().cell_edge(oy),
+    );
+    let extent = W as i64 * i64::from(coarse.resolution().to_bits());
+    let n = ((extent + i64::from(fine.to_bits()) - 1) / i64::from(fine.to_bits())) as usize;
+    let mut fused = vec![Fused::Unknown; n * n];
+    p.fused_region(x0, y0, fine.meters(), n, n, &mut fused)
+        .unwrap();
+    let values = fused
+        .iter()
+        .map(|f| match f {
+            Fused::Obstacle { .. } => 100,
+            Fused::Navigable { .. } => 0,
+            Fused::Unknown => -1,
+        })
+        .collect();
+    (values, n)
+}

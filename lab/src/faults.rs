@@ -1,0 +1,1321 @@
+//! `lab faults`: fault injection through the emulated board.
+//!
+//! One run of the firmware in QEMU (`boards/qemu-mps2`, as `pyramid run --board qemu`) per
+//! fault kind, on the simulated stairs drive (the paper's robot, a vertical SICK plane panned
+//! at 1 m, driving towards stairs; real LMS2xx telegrams, a pose and a pan angle per line),
+//! cut to its first lines. The harness drives the board lock-step, as `run --board qemu`
+//! does, but damages what it sends:
+//!
+//! - laser faults (`bit_flips_*`, `dropped_bytes`, `garbage_bursts`, `truncated`,
+//!   `lone_ack_nak`): each telegram's bytes are damaged (or not) before they go to UART0.
+//!   The harness feeds the very same damaged bytes, chunk for chunk, to the library's SICK
+//!   `SickAccumulator` on the host: it knows exactly which telegrams the firmware will decode, and
+//!   when. A decoded telegram equal byte for byte to an original telegram at that
+//!   telegram's own position in the damaged stream is **intact**; anything else decoded is
+//!   **corrupt** (it passed the 16-bit CRC by chance). The reference map is the library's
+//!   co-processor in this process (`InProcess`, as `run --board host` runs it), sent the same
+//!   PanAngle and Pose frames as the board and fed exactly the intact telegrams, each when the
+//!   firmware decodes it, so with the pan angle and pose the firmware had then. After each chunk the harness waits until the firmware's `laser_bytes`
+//!   counter (Stats) says it has taken every byte written, so nothing is in flight.
+//! - pose faults (`pose_gaps_jumps`, `bad_pose`): poses left out for runs of lines, jumps of
+//!   tens to thousands of metres and back; NaN, infinite and out-of-range poses, each of
+//!   which must be refused with the Reply the library's own rule gives (code and field:
+//!   `link::convert::pose_refusal`).
+//! - `bad_config`: invalid Configure and Setup commands mid-run, each refused with the
+//!   library's Reply (`design_refusal`, `setup_refusal`) and no Hello (the maps are not
+//!   cleared).
+//! - `link_disconnect`: the host stops listening (the mirror gets nothing) for a stretch of
+//!   lines, then the UART1 connection is closed while lines keep coming on UART0, then the
+//!   host reconnects with a fresh link and mirror and asks for a snapshot.
+//!
+//! At the end of each run: EndObservation, RequestSnapshot(all), the mirror compared with the
+//! reference cell for cell on every layer, the firmware's SICK counters compared with the
+//! host accumulator's, Shutdown and QEMU's exit status (0; 101 panic, 102 HardFault).
+
+use serde::Serialize;
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+use std::time::Instant;
+use terrain_pyramid::classify::ClassifierConfig;
+use terrain_pyramid::link::convert::{
+    config_of, configure_of_design, design_of, design_refusal, frontend_config, pose_of,
+    pose_refusal, setup_message, setup_refusal, ReplyText,
+};
+use terrain_pyramid::wire::link::{
+    ClampRequest, Configure, Header, Message, PanAngle, PoseReport, Reply, Setup, Stats,
+};
+use terrain_pyramid::wire::recording::SetupEvent;
+use terrain_pyramid::wire::sick::{SickAccumulator, SickItem};
+use terrain_pyramid::wire::FeedResult;
+use terrain_pyramid::{
+    Config, DefaultDesign, DefaultPyramid, DesignError, Schedule, SensorModel,
+    DEFAULT_CELLS_PER_SIDE, DEFAULT_LAYERS,
+};
+use terrain_pyramid_host::device::Device;
+use terrain_pyramid_host::emulator::{
+    build_firmware, qemu_available, Emulator, Machine, BOARD_DIR, INSTALL_HINT,
+};
+use terrain_pyramid_host::export::MapSnapshot;
+use terrain_pyramid_host::link::LinkEvent;
+use terrain_pyramid_host::play::{steps, Step as PlayStep};
+use terrain_pyramid_host::run::{boot_host_device, HostDevice};
+use terrain_pyramid_host_tests::sim::record::{simulate, SimConfig};
+
+/// Arguments of `lab faults`.
+#[derive(clap::Args, Debug, Clone)]
+pub struct Args {
+    /// Print `{"faults":[...]}` on stdout.
+    #[arg(long)]
+    pub json: bool,
+    /// Fewer lines per run (CI).
+    #[arg(long)]
+    pub quick: bool,
+    /// Run only these kinds (comma-separated names).
+    #[arg(long, value_delimiter = ',')]
+    pub only: Vec<String>,
+    /// Lines of the recording per run (default 240, 90 with --quick).
+    #[arg(long)]
+    pub lines: Option<usize>,
+    /// Where the firmware's defmt logs go (one per kind).
+    #[arg(long, value_name = "DIR", default_value = "target/faults")]
+    pub out: PathBuf,
+}
+
+/// Every fault kind, in order.
+pub const KINDS: [&str; 10] = [
+    "bit_flips_1e-4",
+    "bit_flips_1e-3",
+    "dropped_bytes",
+    "garbage_bursts",
+    "truncated",
+    "lone_ack_nak",
+    "link_disconnect",
+    "pose_gaps_jumps",
+    "bad_pose",
+    "bad_config",
+];
+
+/// One line of the recording: the angle and pose in force, and its telegram.
+#[derive(Clone)]
+struct Line {
+    angle: Option<u16>,
+    pose: Option<[f32; 6]>,
+    telegram: Vec<u8>,
+}
+
+/// A command the harness sends before a line's laser bytes.
+#[derive(Clone)]
+enum Cmd {
+    Angle(u16),
+    Pose([f32; 6]),
+    Configure(Box<Configure>),
+    Setup(Setup),
+}
+
+/// What goes to the board for one line.
+#[derive(Clone, Default)]
+struct Step {
+    cmds: Vec<Cmd>,
+    /// Bytes written to UART0 (garbage, the possibly damaged telegram, more garbage).
+    chunk: Vec<u8>,
+    /// Where the original telegram starts in `chunk`, if the fault left its bytes untouched.
+    intact_at: Option<usize>,
+    /// The link phase this line belongs to.
+    phase: Phase,
+}
+
+#[derive(Clone, Copy, Default, PartialEq, Eq)]
+enum Phase {
+    #[default]
+    Normal,
+    /// The host does not listen: UART1's bytes reach a tap, not the mirror.
+    Deaf,
+    /// UART1 is closed; nothing is sent to the device.
+    Disconnected,
+}
+
+/// The outcome of one fault kind.
+#[derive(Serialize, Debug, Clone, Default)]
+pub struct Outcome {
+    /// The kind.
+    pub name: String,
+    /// Telegrams the recording's lines carried.
+    pub telegrams_total: u64,
+    /// Telegrams the library's accumulator decodes, equal to the originals, from the damaged
+    /// stream.
+    pub telegrams_intact: u64,
+    /// Telegrams the fault damaged or that were lost with a damaged neighbour.
+    pub telegrams_damaged: u64,
+    /// Telegrams the firmware applied (telegrams_ok − telegrams_bad_other).
+    pub telegrams_applied: u64,
+    /// Decoded telegrams that were not intact (passed the CRC by chance).
+    pub corrupt_applied: u64,
+    /// Intact telegrams decoded only when later bytes arrived (applied with a later angle and
+    /// pose; the reference does the same).
+    pub telegrams_delayed: u64,
+    /// The most telegrams, after a damaged one, whose bytes the fault left untouched but that
+    /// were not applied before an intact one was (0: every fault resynchronised by the next
+    /// intact telegram).
+    pub resync_max_telegrams: u64,
+    /// Damage runs (consecutive damaged telegrams) the firmware's counters show no trace of.
+    pub unaccounted_damage: u64,
+    /// Bad commands sent / refused with the library's own Reply (code, field, value).
+    pub commands_bad: u64,
+    /// Bad commands refused as expected.
+    pub commands_refused_as_expected: u64,
+    /// Cells of all layers that differ between the mirror and the reference.
+    pub cells_differing: u64,
+    /// The mirror equals the reference cell for cell, on every layer.
+    pub map_equal_to_reference: bool,
+    /// QEMU stopped, hung (no answer within 20 s) or exited non-zero.
+    pub crashed: bool,
+    /// The firmware's Stats at the end.
+    pub counters: Option<Counters>,
+    /// Known (not unknown) cells of the reference at the end, over every layer: the
+    /// comparison is not one of two empty maps.
+    pub reference_known_cells: u64,
+    /// Frames the device sent while the host was not listening (`link_disconnect`).
+    pub frames_lost_while_deaf: u64,
+    /// Frames the mirror counted missing when the host listened again (`link_disconnect`;
+    /// at least `frames_lost_while_deaf`).
+    pub mirror_missing_after_deaf: u64,
+    /// Gaps the host mirror counted (by sequence number).
+    pub mirror_gaps: u64,
+    /// Frames the mirror counted missing.
+    pub mirror_missing: u64,
+    /// Every failed requirement, in words.
+    pub failures: Vec<String>,
+    /// All requirements hold.
+    pub ok: bool,
+    /// Wall time, seconds.
+    pub seconds: f64,
+}
+
+/// The firmware's counters that matter here.
+#[derive(Serialize, Debug, Clone, Copy, Default)]
+pub struct Counters {
+    /// SICK telegrams decoded.
+    pub telegrams_ok: u32,
+    /// Bad checksum.
+    pub telegrams_bad_checksum: u32,
+    /// Bad framing (length, truncation).
+    pub telegrams_bad_framing: u32,
+    /// Not applied (not measured values, or refused by the pipeline).
+    pub telegrams_bad_other: u32,
+    /// Laser bytes taken.
+    pub laser_bytes: u32,
+    /// Host frames missing by sequence.
+    pub rx_seq_gaps: u32,
+    /// Commands refused.
+    pub commands_refused: u32,
+    /// Control frames dropped.
+    pub frames_dropped: u32,
+    /// Snapshots served.
+    pub snapshots: u32,
+}
+
+impl From<&Stats> for Counters {
+    fn from(s: &Stats) -> Self {
+        Self {
+            telegrams_ok: s.telegrams_ok,
+            telegrams_bad_checksum: s.telegrams_bad_checksum,
+            telegrams_bad_framing: s.telegrams_bad_framing,
+            telegrams_bad_other: s.telegrams_bad_other,
+            laser_bytes: s.laser_bytes,
+            rx_seq_gaps: s.rx_seq_gaps,
+            commands_refused: s.commands_refused,
+            frames_dropped: s.frames_dropped,
+            snapshots: s.snapshots,
+        }
+    }
+}
+
+/// A small deterministic generator (xorshift64*), one seed per kind.
+struct Rng(u64);
+
+impl Rng {
+    fn new(name: &str) -> Self {
+        let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+        for b in name.bytes() {
+            h ^= u64::from(b);
+            h = h.wrapping_mul(0x0100_0000_01b3);
+        }
+        Self(h | 1)
+    }
+    fn next(&mut self) -> u64 {
+        let mut x = self.0;
+        x ^= x >> 12;
+        x ^= x << 25;
+        x ^= x >> 27;
+        self.0 = x;
+        x.wrapping_mul(0x2545_f491_4f6c_dd1d)
+    }
+    /// Uniform in [0, 1).
+    #[allow(clippy::cast_precision_loss)]
+    fn unit(&mut self) -> f64 {
+        (self.next() >> 11) as f64 / (1_u64 << 53) as f64
+    }
+    /// Uniform in lo ..= hi.
+    #[allow(clippy::cast_possible_truncation)]
+    fn range(&mut self, lo: usize, hi: usize) -> usize {
+        lo + (self.next() % (hi - lo + 1) as u64) as usize
+    }
+    fn chance(&mut self, p: f64) -> bool {
+        self.unit() < p
+    }
+    fn bytes(&mut self, n: usize) -> Vec<u8> {
+        (0..n).map(|_| self.next() as u8).collect()
+    }
+}
+
+/// The recording: the simulated stairs drive (as the demo's), its setup and first lines,
+/// decoded by the host tool's player.
+fn recording(lines: usize) -> Result<(SetupEvent, Vec<Line>), String> {
+    let sim = simulate(&SimConfig::paper_stairs(0.5, 0.5, 1.0)).map_err(|e| e.0)?;
+    let decoded = steps(&sim.bytes)?;
+    let setup = decoded.setup().ok_or("the recording has no setup")?;
+    let (mut angle, mut pose) = (None, None);
+    let mut out = Vec::new();
+    for step in &decoded.steps {
+        match step {
+            PlayStep::Angle(t) => angle = Some(*t),
+            PlayStep::Pose(p) => pose = Some(*p),
+            PlayStep::Telegram {
+                bytes,
+                measured: true,
+                ..
+            } => {
+                out.push(Line {
+                    angle: angle.take(),
+                    pose: pose.take(),
+                    telegram: bytes.clone(),
+                });
+                if out.len() >= lines {
+                    break;
+                }
+            }
+            PlayStep::Setup(_) | PlayStep::Telegram { .. } => {}
+        }
+    }
+    Ok((setup, out))
+}
+
+/// The steps of one fault kind: the lines with their commands and damaged bytes.
+#[allow(clippy::too_many_lines)]
+fn plan(kind: &str, lines: &[Line], setup: &Setup) -> Vec<Step> {
+    let mut rng = Rng::new(kind);
+    let n = lines.len();
+    // The first lines and the last three stay clean.
+    let damageable = |i: usize| i >= 2 && i + 3 < n;
+    let mut steps = Vec::with_capacity(n);
+    for (i, line) in lines.iter().enumerate() {
+        let mut step = Step::default();
+        if let Some(a) = line.angle {
+            step.cmds.push(Cmd::Angle(a));
+        }
+        if let Some(p) = line.pose {
+            step.cmds.push(Cmd::Pose(p));
+        }
+        let t = &line.telegram;
+        let mut pre = Vec::new();
+        let mut body = t.clone();
+        let mut post = Vec::new();
+        if damageable(i) {
+            match kind {
+                "bit_flips_1e-4" | "bit_flips_1e-3" => {
+                    let ber = if kind.ends_with("1e-4") { 1e-4 } else { 1e-3 };
+                    for byte in &mut body {
+                        for bit in 0..8 {
+                            if rng.chance(ber) {
+                                *byte ^= 1 << bit;
+                            }
+                        }
+                    }
+                }
+                "dropped_bytes" if rng.chance(0.2) => {
+                    for _ in 0..rng.range(1, 3) {
+                        let at = rng.range(0, body.len() - 1);
+                        body.remove(at);
+                    }
+                }
+                "garbage_bursts" => {
+                    if rng.chance(0.25) {
+                        // Noise between telegrams, sometimes ending in a false `02 80` and a
+                        // length that claims the telegram that follows.
+                        let k = rng.range(1, 200);
+                        pre = rng.bytes(k);
+                        if rng.chance(0.5) {
+                            pre.extend_from_slice(&[0x02, 0x80]);
+                            let k = rng.range(0, 4);
+                            pre.extend(rng.bytes(k));
+                        }
+                    }
+                    if rng.chance(0.1) {
+                        // Noise over the telegram itself.
+                        let len = rng.range(1, 64);
+                        let at = rng.range(0, body.len() - len);
+                        let noise = rng.bytes(len);
+                        body[at..at + len].copy_from_slice(&noise);
+                    }
+                    if rng.chance(0.1) {
+                        let k = rng.range(1, 40);
+                        post = rng.bytes(k);
+                    }
+                }
+                "truncated" if rng.chance(0.2) => {
+                    let keep = rng.range(1, body.len() - 1);
+                    body.truncate(keep);
+                }
+                "lone_ack_nak" => {
+                    let ack_nak = |rng: &mut Rng| {
+                        let k = rng.range(1, 3);
+                        (0..k)
+                            .map(|_| if rng.chance(0.5) { 0x06 } else { 0x15 })
+                            .collect::<Vec<u8>>()
+                    };
+                    if rng.chance(0.3) {
+                        pre = ack_nak(&mut rng);
+                    }
+                    if rng.chance(0.1) {
+                        // One inside a telegram: it damages that telegram.
+                        let at = rng.range(1, body.len() - 1);
+                        let b = ack_nak(&mut rng);
+                        body.splice(at..at, b);
+                    }
+                }
+                _ => {}
+            }
+        }
+        let untouched = body == *t;
+        step.intact_at = untouched.then_some(pre.len());
+        step.chunk = pre;
+        step.chunk.extend_from_slice(&body);
+        step.chunk.extend_from_slice(&post);
+        steps.push(step);
+    }
+    match kind {
+        "pose_gaps_jumps" => plan_pose_gaps_jumps(&mut steps, &mut rng),
+        "bad_pose" => plan_bad_poses(&mut steps, &mut rng),
+        "bad_config" => plan_bad_configs(&mut steps, setup),
+        "link_disconnect" => {
+            // Deaf for a sixth of the run, then a stretch of normal lines (the host notices
+            // the gap and asks for a snapshot), then disconnected for a sixth.
+            let s = n / 6;
+            for (i, step) in steps.iter_mut().enumerate() {
+                if (s..2 * s).contains(&i) {
+                    step.phase = Phase::Deaf;
+                } else if (3 * s..4 * s).contains(&i) {
+                    step.phase = Phase::Disconnected;
+                }
+            }
+        }
+        _ => {}
+    }
+    steps
+}
+
+/// Leaves poses out for runs of lines, and makes the robot jump and come back.
+fn plan_pose_gaps_jumps(steps: &mut [Step], rng: &mut Rng) {
+    let n = steps.len();
+    let mut i = 3;
+    let mut jumps = [
+        [100.0_f32, 0.0, 0.0, 0.0, 0.0, 0.0],
+        [0.0, -3.2, 0.0, 0.0, 0.0, 1.5],
+        [5000.0, 2000.0, 0.5, 0.1, 0.0, -3.0],
+        [0.0, 0.0, 0.0, 0.0, 0.0, 3.0],
+        [-25_000.0, 25_000.0, 0.0, 0.0, 0.0, 0.0],
+    ]
+    .into_iter()
+    .cycle();
+    while i + 4 < n {
+        if rng.chance(0.5) {
+            // A gap: no pose for a run of lines (the device keeps the last one).
+            let len = rng.range(2, 12).min(n - 4 - i);
+            for step in &mut steps[i..i + len] {
+                step.cmds.retain(|c| !matches!(c, Cmd::Pose(_)));
+            }
+            i += len;
+        } else {
+            // A jump for one to three lines, then back to the recording's poses.
+            let delta = jumps.next().unwrap_or_default();
+            let len = rng.range(1, 3);
+            let last = steps[..i]
+                .iter()
+                .rev()
+                .flat_map(|s| s.cmds.iter().rev())
+                .find_map(|c| match c {
+                    Cmd::Pose(p) => Some(*p),
+                    _ => None,
+                })
+                .unwrap_or_default();
+            for step in &mut steps[i..(i + len).min(n - 4)] {
+                let base = step
+                    .cmds
+                    .iter()
+                    .find_map(|c| match c {
+                        Cmd::Pose(p) => Some(*p),
+                        _ => None,
+                    })
+                    .unwrap_or(last);
+                step.cmds.retain(|c| !matches!(c, Cmd::Pose(_)));
+                let mut p = base;
+                for (v, d) in p.iter_mut().zip(delta) {
+                    *v += d;
+                }
+                step.cmds.push(Cmd::Pose(p));
+            }
+            i += len;
+            // Back at the recording's pose for the next line.
+            if i < n && !steps[i].cmds.iter().any(|c| matches!(c, Cmd::Pose(_))) {
+                steps[i].cmds.push(Cmd::Pose(last));
+            }
+        }
+        i += rng.range(3, 10);
+    }
+}
+
+/// Every kind of bad pose, one before every few lines.
+fn plan_bad_poses(steps: &mut [Step], rng: &mut Rng) {
+    let bad: Vec<(usize, f32)> = vec![
+        (0, f32::NAN),
+        (1, f32::INFINITY),
+        (2, f32::NEG_INFINITY),
+        (3, f32::NAN),
+        (4, f32::INFINITY),
+        (5, f32::NAN),
+        (0, 30_000.0),
+        (1, -1e9),
+        (2, 1_000.0),
+        (2, -5_000.0),
+        (3, f32::MAX),
+        (4, -32_768.0),
+        (5, 40_000.0),
+        (5, 32_768.0),
+        (3, 1e30),
+        (0, -f32::MAX),
+    ];
+    let n = steps.len();
+    let mut next = bad.iter().cycle();
+    let mut i = 3;
+    while i + 3 < n {
+        let base = [1.0_f32, 2.0, 0.0, 0.0, 0.0, 0.5];
+        for _ in 0..rng.range(1, 2) {
+            let (field, value) = *next.next().unwrap_or(&(0, f32::NAN));
+            let mut p = base;
+            p[field] = value;
+            // Before the line's own (good) pose, so that the refusal is what is tested.
+            steps[i].cmds.insert(0, Cmd::Pose(p));
+        }
+        // And one after it: the line must be integrated with the good pose.
+        let (field, value) = *next.next().unwrap_or(&(0, f32::NAN));
+        let mut p = base;
+        p[field] = value;
+        steps[i].cmds.push(Cmd::Pose(p));
+        i += rng.range(3, 8);
+    }
+}
+
+/// Invalid configurations and setups, mid-run.
+fn plan_bad_configs(steps: &mut [Step], setup: &Setup) {
+    let good = configure_of_design(&default_design(), &Config::default());
+    let c = |f: &dyn Fn(&mut Configure)| {
+        let mut m = good;
+        f(&mut m);
+        Cmd::Configure(Box::new(m))
+    };
+    let s = |f: &dyn Fn(&mut Setup)| {
+        let mut m = *setup;
+        f(&mut m);
+        Cmd::Setup(m)
+    };
+    let bad = vec![
+        c(&|m| m.gamma = 1.0),
+        c(&|m| m.phi_rad = f32::NAN),
+        c(&|m| m.height_m = -1.0),
+        c(&|m| m.max_range_m = f32::INFINITY),
+        c(&|m| m.height_m = 1.2e-38),
+        c(&|m| m.base_m = 1e-4),
+        c(&|m| m.cells_per_side = 32),
+        c(&|m| m.cells_per_side = 63),
+        c(&|m| m.p_obstacle = 0.5),
+        c(&|m| m.p_free = 1.5),
+        c(&|m| {
+            m.clamp = ClampRequest::Bounds {
+                min: 1.0,
+                max: -1.0,
+            }
+        }),
+        c(&|m| m.fused_margin = -1.0),
+        c(&|m| m.max_range_m = 200.0),
+        s(&|m| m.measuring_mode = 7),
+        s(&|m| m.mount = 2),
+        s(&|m| m.resolution_cdeg = 30),
+        s(&|m| m.sensor_m[0] = f32::NAN),
+        s(&|m| m.robot_height_m = -1.0),
+        s(&|m| m.step_threshold_m = 5000.0),
+        s(&|m| m.ceiling_m = f32::INFINITY),
+    ];
+    let n = steps.len();
+    let mut i = 4;
+    for cmd in bad {
+        if i + 3 >= n {
+            i = 4 + i % 3;
+        }
+        steps[i].cmds.insert(0, cmd);
+        i += 4;
+    }
+}
+
+/// The default design: the firmware's at boot, and the demo's stairs scenario.
+fn default_design() -> DefaultDesign {
+    DefaultDesign::new(
+        SensorModel::default(),
+        Schedule::default(),
+        DEFAULT_CELLS_PER_SIDE,
+    )
+    .unwrap_or_else(|e| unreachable!("the default design is valid: {e}"))
+}
+
+/// The host's reference: the library's co-processor in this process, configured as the
+/// board, sent the same PanAngle and Pose frames and fed exactly the intact telegrams; and
+/// the accumulator the firmware runs, over the same (damaged) bytes, which tells the intact
+/// telegrams from the corrupt ones and when each is decoded.
+struct Reference {
+    device: HostDevice,
+    acc: Box<SickAccumulator>,
+    /// Stream offset of each intact telegram's STX → its line.
+    expected: HashMap<u64, usize>,
+    written: u64,
+    intact: Vec<bool>,
+    delayed: u64,
+    corrupt: u64,
+    /// Runs of damaged lines that left no trace in the accumulator's counters.
+    unaccounted: u64,
+    resync_max: u64,
+}
+
+impl Reference {
+    /// The co-processor booted as the board, configured with the default design and the
+    /// recording's setup (as the harness configures the board), nothing fed yet.
+    fn new(setup: &SetupEvent, lines: usize) -> Result<Self, String> {
+        let mut device = boot_host_device()?;
+        device.wait_for("Hello", |link, _| link.mirror().firmware().is_some())?;
+        device.command(
+            "Configure",
+            &Message::Configure(configure_of_design(&default_design(), &Config::default())),
+        )?;
+        device.command(
+            "Setup",
+            &Message::Setup(setup_message(setup, &ClassifierConfig::default())),
+        )?;
+        Ok(Self {
+            device,
+            acc: Box::new(SickAccumulator::new()),
+            expected: HashMap::new(),
+            written: 0,
+            intact: vec![false; lines],
+            delayed: 0,
+            corrupt: 0,
+            unaccounted: 0,
+            resync_max: 0,
+        })
+    }
+
+    /// A host frame, as the board gets it.
+    fn send(&mut self, message: &Message<'_>) -> Result<(), String> {
+        self.device.send(message).map(|_| ())
+    }
+
+    /// The pyramid the intact telegrams built.
+    fn pyramid(&self) -> &DefaultPyramid {
+        self.device.core().pyramid()
+    }
+
+    fn trace(&self) -> u64 {
+        let s = self.acc.stats();
+        u64::from(s.crc_errors)
+            + u64::from(s.length_errors)
+            + u64::from(s.truncated)
+            + u64::from(s.garbage_bytes)
+            + u64::from(s.ack)
+            + u64::from(s.nak)
+    }
+
+    /// Feeds line `i`'s chunk, as the firmware will take it: the intact telegrams it decodes
+    /// go to the co-processor.
+    fn feed(&mut self, i: usize, step: &Step, lines: &[Line]) -> Result<(), String> {
+        if let Some(at) = step.intact_at {
+            self.expected.insert(self.written + at as u64, i);
+        }
+        self.written += step.chunk.len() as u64;
+        let mut rest = &step.chunk[..];
+        loop {
+            let (bytes, offset) = match self.acc.feed(rest) {
+                FeedResult::Consumed => return Ok(()),
+                FeedResult::Item {
+                    item: SickItem::Telegram(telegram),
+                    offset,
+                    remaining,
+                } => {
+                    rest = remaining;
+                    (telegram.as_bytes().to_vec(), offset)
+                }
+                other => {
+                    rest = other.remaining();
+                    continue;
+                }
+            };
+            match self.expected.remove(&offset) {
+                Some(k) if lines[k].telegram == bytes => {
+                    if k != i {
+                        self.delayed += 1;
+                    }
+                    self.intact[k] = true;
+                    self.device.laser(&bytes)?;
+                }
+                _ => self.corrupt += 1,
+            }
+        }
+    }
+
+    /// After the run: the most untouched telegrams lost in one run of lines between two
+    /// intact ones.
+    fn settle(&mut self, steps: &[Step]) {
+        let mut lost = 0_u64;
+        for (i, step) in steps.iter().enumerate() {
+            if self.intact[i] {
+                self.resync_max = self.resync_max.max(lost);
+                lost = 0;
+            } else if step.intact_at.is_some() {
+                lost += 1;
+            }
+        }
+        self.resync_max = self.resync_max.max(lost);
+    }
+}
+
+/// Runs one kind; an error is a crash or a hang.
+#[allow(clippy::too_many_lines)]
+fn run_kind(
+    kind: &str,
+    elf: &Path,
+    out: &Path,
+    setup_rec: &SetupEvent,
+    lines: &[Line],
+    outcome: &mut Outcome,
+) -> Result<(), String> {
+    let classifier = ClassifierConfig::default();
+    let design = default_design();
+    let config = Config::default();
+    let setup = setup_message(setup_rec, &classifier);
+    let steps = plan(kind, lines, &setup);
+    let mut reference = Reference::new(setup_rec, steps.len())?;
+    outcome.telegrams_total = lines.len() as u64;
+
+    let mut emu = Emulator::start(Machine::Mps2An386, elf, &out.join(format!("{kind}.defmt")))?;
+    emu.wait_for("Hello", |link, _| link.mirror().firmware().is_some())?;
+    emu.command(
+        "Configure",
+        &Message::Configure(configure_of_design(&design, &config)),
+    )?;
+    emu.command("Setup", &Message::Setup(setup))?;
+
+    let mut phase = Phase::Normal;
+    // Trace of the accumulator at the last intact delivery, and the damaged lines since.
+    let mut last_trace = 0_u64;
+    let mut pending_damage = 0_u64;
+    for (i, step) in steps.iter().enumerate() {
+        // Phase changes.
+        if step.phase != phase {
+            match (phase, step.phase) {
+                (_, Phase::Deaf) => emu.set_deaf(true),
+                (Phase::Deaf, Phase::Normal) => {
+                    emu.set_deaf(false);
+                    let tapped = emu.tapped_frames();
+                    outcome.frames_lost_while_deaf = tapped;
+                    // The next Stats shows the mirror the gap; it asks for a snapshot.
+                    barrier(&mut emu, reference.written)?;
+                    let c = emu.link().mirror().counters();
+                    outcome.mirror_missing_after_deaf = c.missing;
+                    if c.missing < tapped {
+                        outcome.failures.push(format!(
+                            "the mirror counted {} missing frames of the {tapped} it did not get",
+                            c.missing
+                        ));
+                    }
+                    if emu.link().mirror().needs_snapshot() {
+                        emu.snapshot()?;
+                    } else {
+                        outcome
+                            .failures
+                            .push("the mirror did not notice the frames it missed".into());
+                    }
+                }
+                (_, Phase::Disconnected) => emu.disconnect_link(),
+                (Phase::Disconnected, Phase::Normal) => {
+                    emu.reconnect_link()?;
+                    barrier(&mut emu, reference.written)?;
+                    emu.snapshot()?;
+                    // The mirror must be the reference again, now.
+                    let diff = compare(&emu, reference.pyramid(), &design, &config)?;
+                    if diff != 0 {
+                        outcome.failures.push(format!(
+                            "after reconnecting, {diff} cells differ from the reference"
+                        ));
+                    }
+                }
+                _ => {}
+            }
+            phase = step.phase;
+        }
+        // Commands (none while disconnected: the device keeps its angle and pose).
+        if phase != Phase::Disconnected {
+            let mut sent = false;
+            for cmd in &step.cmds {
+                match cmd {
+                    Cmd::Angle(turns) => {
+                        let message = Message::PanAngle(PanAngle {
+                            turns: *turns,
+                            timestamp_ms: 0,
+                        });
+                        emu.send(&message)?;
+                        reference.send(&message)?;
+                        sent = true;
+                    }
+                    Cmd::Pose(p) => {
+                        let report = wire_pose(*p);
+                        let message = Message::Pose(report);
+                        match pose_of(&report) {
+                            Ok(_) => {
+                                emu.send(&message)?;
+                                sent = true;
+                            }
+                            Err(e) => {
+                                let expected = pose_refusal(next_header(&emu, &message), &e);
+                                refused(&mut emu, &message, expected, outcome)?;
+                            }
+                        }
+                        // The reference gets the same frame (and refuses it the same way).
+                        reference.send(&message)?;
+                    }
+                    Cmd::Configure(c) => {
+                        let message = Message::Configure(**c);
+                        let Some(e) = configure_error(c) else {
+                            outcome
+                                .failures
+                                .push("the plan holds a valid Configure".into());
+                            continue;
+                        };
+                        let expected = design_refusal(next_header(&emu, &message), &e);
+                        refused(&mut emu, &message, expected, outcome)?;
+                    }
+                    Cmd::Setup(s) => {
+                        let message = Message::Setup(*s);
+                        let Err(e) = frontend_config(s) else {
+                            outcome.failures.push("the plan holds a valid Setup".into());
+                            continue;
+                        };
+                        let expected = setup_refusal(next_header(&emu, &message), &e);
+                        refused(&mut emu, &message, expected, outcome)?;
+                    }
+                }
+            }
+            if sent {
+                emu.stats()?;
+            }
+        }
+        emu.laser(&step.chunk)?;
+        reference.feed(i, step, lines)?;
+        if phase != Phase::Disconnected {
+            barrier(&mut emu, reference.written)?;
+        }
+        // Damage accounting: every run of damaged lines leaves a trace in the counters of the
+        // accumulator the firmware runs (a rejected candidate or garbage bytes).
+        if reference.intact[i] {
+            if pending_damage > 0 && reference.trace() == last_trace {
+                reference.unaccounted += 1;
+            }
+            pending_damage = 0;
+            last_trace = reference.trace();
+        } else if step.intact_at.is_none() {
+            pending_damage += 1;
+        }
+    }
+    reference.settle(&steps);
+
+    emu.send(&Message::EndObservation)?;
+    reference.send(&Message::EndObservation)?;
+    let stats = barrier(&mut emu, reference.written)?;
+    emu.snapshot()?;
+    let diff = compare(&emu, reference.pyramid(), &design, &config)?;
+    let mirror = emu.link().mirror().counters();
+    outcome.mirror_gaps = mirror.gaps;
+    outcome.mirror_missing = mirror.missing;
+    outcome.counters = Some(Counters::from(&stats));
+    outcome.telegrams_intact = reference.intact.iter().filter(|&&b| b).count() as u64;
+    outcome.telegrams_damaged = outcome.telegrams_total - outcome.telegrams_intact;
+    outcome.telegrams_applied =
+        u64::from(stats.telegrams_ok.saturating_sub(stats.telegrams_bad_other));
+    outcome.corrupt_applied = reference.corrupt;
+    outcome.telegrams_delayed = reference.delayed;
+    outcome.resync_max_telegrams = reference.resync_max;
+    outcome.unaccounted_damage = reference.unaccounted;
+    outcome.cells_differing = diff;
+    outcome.reference_known_cells = known_cells(reference.pyramid());
+    // Every intact telegram reached the reference at an angle (a line before any angle
+    // would be dropped, by the reference and the firmware alike).
+    let without_angle = reference.device.core().counters().app.lines_without_angle;
+    if without_angle > 0 {
+        outcome.failures.push(format!(
+            "{without_angle} intact telegrams reached the reference before any pan angle"
+        ));
+    }
+    outcome.map_equal_to_reference = diff == 0;
+
+    // The firmware's counters against the accumulator's on the host, over the same bytes.
+    let sim = reference.acc.stats();
+    let want = (
+        sim.telegrams_ok,
+        sim.crc_errors,
+        sim.length_errors + sim.truncated,
+    );
+    let got = (
+        stats.telegrams_ok,
+        stats.telegrams_bad_checksum,
+        stats.telegrams_bad_framing,
+    );
+    if want != got {
+        outcome.failures.push(format!(
+            "the firmware's SICK counters (ok, checksum, framing) {got:?} differ from the host \
+             accumulator's {want:?} over the same bytes"
+        ));
+    }
+    // Shutdown: QEMU must exit with 0 (a panic or HardFault is an error, hence `crashed`).
+    emu.shutdown()?;
+    Ok(())
+}
+
+/// Waits until the firmware has taken `written` laser bytes; returns its Stats.
+fn barrier(emu: &mut Emulator, written: u64) -> Result<Stats, String> {
+    #[allow(clippy::cast_possible_truncation)]
+    let want = written as u32;
+    for _ in 0..100_000 {
+        let s = emu.stats()?;
+        if s.laser_bytes == want {
+            return Ok(s);
+        }
+    }
+    Err(format!(
+        "the firmware never took the {written} laser bytes written"
+    ))
+}
+
+/// Sends a command that must be refused with `expected` (code, field, value) and must not
+/// clear the maps (no Hello).
+fn refused(
+    emu: &mut Emulator,
+    message: &Message<'_>,
+    expected: Reply,
+    outcome: &mut Outcome,
+) -> Result<(), String> {
+    outcome.commands_bad += 1;
+    let hellos = emu.link().mirror().counters().hellos;
+    let seq = emu.send(message)?;
+    let to_type = message.msg_type().to_u8();
+    let mut reply = None;
+    let waited = emu.wait_for("a Reply to a bad command", |_, e| match e {
+        Some(LinkEvent::Reply(r)) if r.to_seq == seq && r.to_type == to_type => {
+            reply = Some(*r);
+            true
+        }
+        _ => false,
+    });
+    // A Stats after the Reply: anything the command did is out by then. When no Reply came,
+    // the Stats tells a silent refusal (the firmware answers) from a hang (it does not).
+    emu.stats()?;
+    let Some(reply) = reply else {
+        let why = waited.err().unwrap_or_default();
+        outcome.failures.push(format!(
+            "{message:?}: no Reply, the command was dropped silently ({why})"
+        ));
+        return Ok(());
+    };
+    let same = reply.code == expected.code
+        && reply.param == expected.param
+        && reply.value.to_bits() == expected.value.to_bits()
+        && reply.a.to_bits() == expected.a.to_bits()
+        && reply.b.to_bits() == expected.b.to_bits();
+    let hello = emu.link().mirror().counters().hellos != hellos;
+    if same && !reply.is_ok() && !hello {
+        outcome.commands_refused_as_expected += 1;
+    } else {
+        outcome.failures.push(format!(
+            "{message:?}: answered {} (expected {}){}",
+            ReplyText(&reply),
+            ReplyText(&expected),
+            if hello {
+                ", and the maps were cleared"
+            } else {
+                ""
+            }
+        ));
+    }
+    Ok(())
+}
+
+/// The header of the next frame the harness sends on the emulator's link: what a Reply to
+/// `message` answers.
+fn next_header(emu: &Emulator, message: &Message<'_>) -> Header {
+    Header {
+        version: terrain_pyramid::wire::link::VERSION,
+        msg_type: message.msg_type().to_u8(),
+        seq: emu.link().next_seq(),
+    }
+}
+
+/// Why the device refuses the Configure `c`, on the host: the link's conversion
+/// ([`design_of`], [`config_of`]), then what the co-processor checks when it adopts it (the
+/// increments, the window, the clamp, the margin); `None` when it would be accepted.
+fn configure_error(c: &Configure) -> Option<DesignError> {
+    let design = match design_of::<DEFAULT_LAYERS>(c) {
+        Ok(d) => d,
+        Err(e) => return Some(e),
+    };
+    let config = match config_of(c) {
+        Ok(config) => config,
+        Err(e) => return Some(e),
+    };
+    if let Err(e) = config.model.increments() {
+        return Some(e);
+    }
+    let mut scratch = Box::new(DefaultPyramid::new());
+    scratch.configure(&design, &config).err()
+}
+
+fn wire_pose(p: [f32; 6]) -> PoseReport {
+    let [x_m, y_m, z_m, roll_rad, pitch_rad, yaw_rad] = p;
+    PoseReport {
+        x_m,
+        y_m,
+        z_m,
+        roll_rad,
+        pitch_rad,
+        yaw_rad,
+        timestamp_ms: 0,
+    }
+}
+
+/// Cells that differ between the mirror and the reference, over every layer (a layer whose
+/// origin or resolution differs counts all its cells).
+fn compare(
+    emu: &Emulator,
+    pyramid: &DefaultPyramid,
+    design: &DefaultDesign,
+    config: &Config,
+) -> Result<u64, String> {
+    let snapshot = MapSnapshot::from_pyramid(pyramid, design, config, (0.0, 0.0));
+    let mirror = emu.link().mirror();
+    let mut diff = 0_u64;
+    for layer in &snapshot.layers {
+        let (origin, resolution, cells) = mirror
+            .layer_cells(layer.index)
+            .ok_or_else(|| format!("the mirror has no layer {}", layer.index))?;
+        if origin != layer.origin_cells
+            || resolution != layer.resolution.to_bits()
+            || cells.len() != layer.cells.len()
+        {
+            diff += layer.cells.len() as u64;
+            continue;
+        }
+        diff += cells
+            .iter()
+            .zip(&layer.cells)
+            .filter(|(a, b)| a != b)
+            .count() as u64;
+    }
+    if mirror.layer_count() != snapshot.layers.len() {
+        return Err(format!(
+            "the mirror has {} layers, the reference {}",
+            mirror.layer_count(),
+            snapshot.layers.len()
+        ));
+    }
+    Ok(diff)
+}
+
+/// Cells of every layer that are not unknown.
+fn known_cells(pyramid: &DefaultPyramid) -> u64 {
+    (0..pyramid.layer_count())
+        .filter_map(|k| pyramid.layer(k))
+        .map(|layer| {
+            let w = DEFAULT_CELLS_PER_SIDE;
+            (0..w * w)
+                .filter(|n| {
+                    layer
+                        .at_offset(n % w, n / w)
+                        .is_some_and(|c| c != terrain_pyramid::logodds::Cell::UNKNOWN)
+                })
+                .count() as u64
+        })
+        .sum()
+}
+
+/// What every fault run must show.
+fn judge(o: &mut Outcome) {
+    if o.crashed {
+        o.failures.push("the firmware crashed or hung".into());
+    }
+    if o.corrupt_applied > 0 {
+        o.failures.push(format!(
+            "{} corrupt telegrams were decoded",
+            o.corrupt_applied
+        ));
+    }
+    if o.resync_max_telegrams > 0 {
+        o.failures.push(format!(
+            "{} untouched telegrams were lost after damage",
+            o.resync_max_telegrams
+        ));
+    }
+    if o.unaccounted_damage > 0 {
+        o.failures.push(format!(
+            "{} runs of damaged telegrams left no trace in the counters",
+            o.unaccounted_damage
+        ));
+    }
+    if !o.crashed {
+        if o.telegrams_applied != o.telegrams_intact + o.corrupt_applied {
+            o.failures.push(format!(
+                "the firmware applied {} telegrams; {} arrived intact",
+                o.telegrams_applied, o.telegrams_intact
+            ));
+        }
+        if o.reference_known_cells == 0 {
+            o.failures
+                .push("the reference map is empty: the comparison shows nothing".into());
+        }
+        if !o.map_equal_to_reference {
+            o.failures.push(format!(
+                "{} cells differ from the reference",
+                o.cells_differing
+            ));
+        }
+        if o.commands_refused_as_expected != o.commands_bad {
+            o.failures.push(format!(
+                "{} of {} bad commands refused as expected",
+                o.commands_refused_as_expected, o.commands_bad
+            ));
+        }
+    }
+    o.ok = o.failures.is_empty();
+}
+
+/// Runs every kind (or `only`); returns the outcomes.
+///
+/// # Errors
+/// The firmware cannot be built or the recording made.
+pub fn execute(args: &Args) -> Result<Vec<Outcome>, String> {
+    if !qemu_available() {
+        return Err(format!("qemu-system-arm is missing: {INSTALL_HINT}"));
+    }
+    for name in &args.only {
+        if !KINDS.contains(&name.as_str()) {
+            return Err(format!(
+                "unknown fault kind {name}; the kinds: {}",
+                KINDS.join(", ")
+            ));
+        }
+    }
+    let elf = build_firmware(Path::new(BOARD_DIR), "qemu-mps2")?;
+    let n = args.lines.unwrap_or(if args.quick { 90 } else { 240 });
+    let (setup, lines) = recording(n)?;
+    std::fs::create_dir_all(&args.out).map_err(|e| format!("{}: {e}", args.out.display()))?;
+    let mut outcomes = Vec::new();
+    for kind in KINDS {
+        if !args.only.is_empty() && !args.only.iter().any(|k| k == kind) {
+            continue;
+        }
+        let started = Instant::now();
+        let mut o = Outcome {
+            name: kind.to_string(),
+            ..Outcome::default()
+        };
+        if let Err(e) = run_kind(kind, &elf, &args.out, &setup, &lines, &mut o) {
+            o.crashed = true;
+            o.failures.push(e);
+        }
+        o.seconds = started.elapsed().as_secs_f64();
+        judge(&mut o);
+        eprintln!(
+            "{kind:16} total {:4} intact {:4} damaged {:4} applied {:4} corrupt {} delayed {} \
+             resync {} bad commands {}/{} map {} ({} known cells) crashed {} {:.1} s{}",
+            o.telegrams_total,
+            o.telegrams_intact,
+            o.telegrams_damaged,
+            o.telegrams_applied,
+            o.corrupt_applied,
+            o.telegrams_delayed,
+            o.resync_max_telegrams,
+            o.commands_refused_as_expected,
+            o.commands_bad,
+            if o.map_equal_to_reference {
+                "equal"
+            } else {
+                "DIFFERS"
+            },
+            o.reference_known_cells,
+            o.crashed,
+            o.seconds,
+            if o.ok {
+                String::new()
+            } else {
+                format!("\n  FAILED: {}", o.failures.join("; "))
+            }
+        );
+        outcomes.push(o);
+    }
+    Ok(outcomes)
+}
+
+/// The JSON of `--json`.
+#[derive(Serialize)]
+struct Report<'a> {
+    faults: &'a [Outcome],
+}
+
+/// Runs `lab faults`: exit 0 when every kind's outcome is good, 1 otherwise.
+pub fn run(args: &Args) -> ExitCode {
+    let started = Instant::now();
+    match execute(args) {
+        Ok(outcomes) => {
+            if args.json {
+                match serde_json::to_string(&Report { faults: &outcomes }) {
+                    Ok(s) => println!("{s}"),
+                    Err(e) => {
+                        eprintln!("error: {e}");
+                        return ExitCode::FAILURE;
+                    }
+                }
+            }
+            let bad: Vec<&str> = outcomes
+                .iter()
+                .filter(|o| !o.ok)
+                .map(|o| o.name.as_str())
+                .collect();
+            eprintln!(
+                "faults: {} kinds in {:.1} s; {}",
+                outcomes.len(),
+                started.elapsed().as_secs_f64(),
+                if bad.is_empty() {
+                    "every requirement holds".to_string()
+                } else {
+                    format!("FAILED: {}", bad.join(", "))
+                }
+            );
+            if bad.is_empty() {
+                ExitCode::SUCCESS
+            } else {
+                ExitCode::FAILURE
+            }
+        }
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn lines(n: usize) -> (SetupEvent, Vec<Line>) {
+        recording(n).unwrap()
+    }
+
+    /// Every line's angle and pose, then its chunk, as `run_kind` hands them to the
+    /// reference.
+    fn feed_all(reference: &mut Reference, steps: &[Step], lines: &[Line]) {
+        for (i, step) in steps.iter().enumerate() {
+            for cmd in &step.cmds {
+                match cmd {
+                    Cmd::Angle(turns) => reference
+                        .send(&Message::PanAngle(PanAngle {
+                            turns: *turns,
+                            timestamp_ms: 0,
+                        }))
+                        .unwrap(),
+                    Cmd::Pose(p) => reference.send(&Message::Pose(wire_pose(*p))).unwrap(),
+                    Cmd::Configure(_) | Cmd::Setup(_) => {}
+                }
+            }
+            reference.feed(i, step, lines).unwrap();
+        }
+        reference.settle(steps);
+    }
+
+    #[test]
+    fn untouched_telegrams_are_intact_and_damaged_ones_are_not() {
+        let (setup_rec, lines) = lines(40);
+        assert_eq!(lines.len(), 40);
+        let setup = setup_message(&setup_rec, &ClassifierConfig::default());
+        for kind in [
+            "truncated",
+            "dropped_bytes",
+            "bit_flips_1e-3",
+            "garbage_bursts",
+        ] {
+            let steps = plan(kind, &lines, &setup);
+            let damaged = steps.iter().filter(|s| s.intact_at.is_none()).count();
+            assert!(damaged > 0, "{kind}: the plan damages nothing");
+            let mut reference = Reference::new(&setup_rec, steps.len()).unwrap();
+            feed_all(&mut reference, &steps, &lines);
+            for (i, step) in steps.iter().enumerate() {
+                assert_eq!(
+                    reference.intact[i],
+                    step.intact_at.is_some(),
+                    "{kind} line {i}"
+                );
+            }
+            assert_eq!((reference.corrupt, reference.resync_max), (0, 0), "{kind}");
+            reference.send(&Message::EndObservation).unwrap();
+            assert!(known_cells(reference.pyramid()) > 0, "{kind}");
+            // Every intact telegram reached the co-processor, at an angle.
+            let counters = reference.device.core().counters();
+            let intact = reference.intact.iter().filter(|&&b| b).count();
+            assert_eq!(counters.frontend.lines_applied as usize, intact, "{kind}");
+            assert_eq!(counters.app.lines_without_angle, 0, "{kind}");
+        }
+    }
+
+    /// A telegram with a good CRC in another telegram's place is corrupt, not intact; and a
+    /// telegram swallowed whole is a lost one: the measures can fail.
+    #[test]
+    fn a_wrong_telegram_is_corrupt_and_a_lost_one_counts() {
+        let (setup_rec, lines) = lines(12);
+        let setup = setup_message(&setup_rec, &ClassifierConfig::default());
+        let mut steps = plan("none", &lines, &setup);
+        assert_ne!(lines[4].telegram, lines[5].telegram);
+        steps[5].chunk.clone_from(&lines[4].telegram);
+        // Line 7 claims to be untouched but its bytes never arrive.
+        steps[6].chunk.clear();
+        steps[6].intact_at = None;
+        steps[7].chunk.clear();
+        let mut reference = Reference::new(&setup_rec, steps.len()).unwrap();
+        feed_all(&mut reference, &steps, &lines);
+        assert_eq!(reference.corrupt, 1);
+        assert!(!reference.intact[5] && !reference.intact[7]);
+        assert_eq!(reference.resync_max, 2);
+        let mut o = Outcome {
+            corrupt_applied: reference.corrupt,
+            telegrams_applied: 1,
+            resync_max_telegrams: reference.resync_max,
+            reference_known_cells: 1,
+            map_equal_to_reference: true,
+            ..Outcome::default()
+        };
+        judge(&mut o);
+        assert!(!o.ok && o.failures.len() == 2, "{:?}", o.failures);
+    }
+}

@@ -1,0 +1,120 @@
+//! What every spinning-lidar format of [`crate::wire`] decodes to, and what they share.
+//!
+//! - [`LaserReturn`]: one return as the sensor reports it, in the sensor's own angle
+//!   convention.
+//! - [`LidarCommand`]: a request to a lidar, encoded in full into a small fixed buffer, so a
+//!   driver (`crate::drivers::lidar::send`) writes it to any `embedded_io::Write`.
+//!
+//! # Angle convention
+//! The LDROBOT LD06/LD19/STL-19P, the Slamtec RPLIDARs and the YDLIDAR X4/X2 all count their
+//! angle **clockwise seen from above** (from the top cover, the connector side down), from the
+//! direction each manual calls 0°. A [`LaserReturn::angle`] keeps that convention: it is the
+//! manual's angle, as a fraction of a turn. The geometry counts counter-clockwise (right-hand
+//! rule about the up axis); turning a sensor angle into a geometry angle (`angle.reversed()`
+//! plus the mounting offset) is the mount's job, not this module's.
+
+use crate::angle::FineAngle;
+
+/// One laser return as a spinning lidar reports it.
+///
+/// - `angle`: the direction of the return in the scanner's own convention (clockwise seen
+///   from above, from the manual's 0°; see the [module documentation](self)), as a fraction
+///   of a turn, after whatever per-format interpolation and correction the manual defines.
+/// - `range_mm`: the distance in millimetres, rounded to the nearest millimetre where the
+///   sensor reports finer units; 0 where the sensor reports no return (the three formats use
+///   0 for "no measurement"). At most 65 535 for every format here.
+/// - `quality`: the intensity or quality value where the format carries one (LD06: intensity
+///   0..=255; RPLIDAR standard scan: quality 0..=63), `None` where it does not (RPLIDAR
+///   express capsules, YDLIDAR X4/X2).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct LaserReturn {
+    /// Direction, in the sensor's own clockwise convention, as a fraction of a turn.
+    pub angle: FineAngle,
+    /// Distance, millimetres; 0 = no return.
+    pub range_mm: u32,
+    /// Intensity or quality, where the format has one.
+    pub quality: Option<u8>,
+}
+
+/// The longest request any [`LidarCommand`] encodes to, bytes (RPLIDAR EXPRESS_SCAN: 9).
+pub const LIDAR_COMMAND_MAX_LEN: usize = 9;
+
+/// A request a host sends to a lidar: a few bytes, known in full before sending.
+///
+/// Implemented by [`crate::wire::rplidar::RplidarRequest`] and
+/// [`crate::wire::ydlidar::YdlidarCommand`]; `crate::drivers::lidar::send` writes one to an
+/// `embedded_io::Write`.
+pub trait LidarCommand {
+    /// Writes the request's bytes to the front of `out` and returns how many (1 ..=
+    /// [`LIDAR_COMMAND_MAX_LEN`]). Never fails: every request fits the buffer.
+    fn encode(&self, out: &mut [u8; LIDAR_COMMAND_MAX_LEN]) -> usize;
+}
+
+/// `numerator / denominator` of a turn as a [`FineAngle`], rounded to the nearest 2⁻³² turn
+/// (ties up), modulo one turn: exact to the LSB for every `numerator < 2⁹⁰` and
+/// `0 < denominator < 2⁶⁴`. A zero denominator gives [`FineAngle::ZERO`].
+pub(crate) fn turn_fraction(numerator: u64, denominator: u64) -> FineAngle {
+    if denominator == 0 {
+        return FineAngle::ZERO;
+    }
+    // Every caller's numerator is below 2³² (a turn in wire units times a step count), so
+    // the scaled value fits a u64 and the division is a 64-bit one; u128 otherwise.
+    if numerator >> 32 == 0 {
+        if let Some(scaled) = (numerator << 32).checked_add(denominator / 2) {
+            #[allow(clippy::cast_possible_truncation)]
+            return FineAngle::from_bits((scaled / denominator) as u32);
+        }
+    }
+    let scaled = (u128::from(numerator) << 32) + u128::from(denominator / 2);
+    let turns = scaled / u128::from(denominator);
+    // Modulo one turn: the low 32 bits.
+    #[allow(clippy::cast_possible_truncation)]
+    let bits = turns as u32;
+    FineAngle::from_bits(bits)
+}
+
+/// `numerator / denominator` of a turn for a signed numerator, rounded to the nearest
+/// 2⁻³² turn (ties up), reduced modulo one turn. A zero denominator gives
+/// [`FineAngle::ZERO`].
+pub(crate) fn signed_turn_fraction(numerator: i64, denominator: u64) -> FineAngle {
+    if denominator == 0 {
+        return FineAngle::ZERO;
+    }
+    let Ok(den) = i64::try_from(denominator) else {
+        return FineAngle::ZERO;
+    };
+    // Reduce to one turn first: the fraction of a whole number of turns is 0 modulo 2³².
+    let reduced = numerator.rem_euclid(den);
+    #[allow(clippy::cast_sign_loss)]
+    turn_fraction(reduced as u64, denominator)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn quarter_and_half_turns_are_exact() {
+        assert_eq!(turn_fraction(1, 4), FineAngle::QUARTER);
+        assert_eq!(turn_fraction(18_000, 36_000), FineAngle::HALF);
+        assert_eq!(turn_fraction(36_000, 36_000), FineAngle::ZERO);
+        assert_eq!(turn_fraction(5, 0), FineAngle::ZERO);
+        assert_eq!(signed_turn_fraction(-1, 4), FineAngle::QUARTER.reversed());
+        assert_eq!(signed_turn_fraction(-36_000 * 3, 36_000), FineAngle::ZERO);
+        assert_eq!(signed_turn_fraction(7, 0), FineAngle::ZERO);
+    }
+
+    #[test]
+    fn rounds_to_nearest() {
+        // 1/3 turn = 1 431 655 765.33… LSB → 1 431 655 765; 2/3 → …530.67 → 2 863 311 531.
+        assert_eq!(turn_fraction(1, 3).to_bits(), 1_431_655_765);
+        assert_eq!(turn_fraction(2, 3).to_bits(), 2_863_311_531);
+        // 0.01° = 2³²/36 000 = 119 304.647… LSB → 119 305.
+        assert_eq!(turn_fraction(1, 36_000).to_bits(), 119_305);
+        // The u64 and u128 paths agree (a numerator of 2³² takes the u128 one).
+        assert_eq!(turn_fraction(1 << 32, 3 << 32), turn_fraction(1, 3));
+        assert_eq!(turn_fraction(u64::MAX >> 32, u64::MAX).to_bits(), 1);
+        assert_eq!(turn_fraction(7, u64::MAX), FineAngle::ZERO);
+    }
+}

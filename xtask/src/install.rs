@@ -1,0 +1,87 @@
+//! What the tasks that run the firmware need on a fresh machine, installed when missing: the
+//! Cortex-M targets (rustup), QEMU (Debian's `qemu-system-arm`, through sudo when not root) and
+//! `defmt-print` (cargo install). `cargo xtask test` and `cargo xtask demo` share them.
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+/// The repository's root (the xtask crate sits one level below it).
+pub fn root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .parent()
+        .map_or_else(|| PathBuf::from("."), Path::to_path_buf)
+}
+
+/// Runs a command from the root, failing with its name when it fails.
+pub fn step(program: &str, args: &[&str]) -> Result<(), String> {
+    eprintln!("\n==> {program} {}", args.join(" "));
+    let status = Command::new(program)
+        .args(args)
+        .current_dir(root())
+        .status()
+        .map_err(|e| format!("cannot run {program}: {e}"))?;
+    if status.success() {
+        Ok(())
+    } else {
+        Err(format!("`{program} {}` failed ({status})", args.join(" ")))
+    }
+}
+
+/// Whether a program answers `--version`.
+pub fn present(program: &str) -> bool {
+    Command::new(program)
+        .arg("--version")
+        .output()
+        .is_ok_and(|o| o.status.success())
+}
+
+/// The Cortex-M targets the firmware and the on-target tests build for.
+pub fn ensure_targets() -> Result<(), String> {
+    step(
+        "rustup",
+        &[
+            "target",
+            "add",
+            "thumbv7em-none-eabihf",
+            "thumbv6m-none-eabi",
+        ],
+    )
+}
+
+/// QEMU for the emulated board, from Debian's packages, through sudo when not root.
+pub fn ensure_qemu() -> Result<(), String> {
+    if present("qemu-system-arm") {
+        return Ok(());
+    }
+    let root_user = Command::new("id")
+        .arg("-u")
+        .output()
+        .is_ok_and(|o| o.stdout.starts_with(b"0"));
+    let (program, prefix): (&str, &[&str]) = if root_user {
+        ("apt-get", &[])
+    } else {
+        ("sudo", &["apt-get"])
+    };
+    let with = |args: &[&str]| -> Vec<String> {
+        prefix
+            .iter()
+            .chain(args)
+            .map(|s| (*s).to_string())
+            .collect()
+    };
+    for args in [
+        with(&["update"]),
+        with(&["install", "-y", "qemu-system-arm"]),
+    ] {
+        let refs: Vec<&str> = args.iter().map(String::as_str).collect();
+        step(program, &refs)?;
+    }
+    Ok(())
+}
+
+/// `defmt-print`, which turns the firmware's raw defmt log into text.
+pub fn ensure_defmt_print() -> Result<(), String> {
+    if present("defmt-print") {
+        return Ok(());
+    }
+    step("cargo", &["install", "defmt-print", "--locked"])
+}

@@ -1,0 +1,178 @@
+//! The lab's tasks: `cargo xtask experiments|faults|soak|size|demo` build the lab (release)
+//! and run `cargo run --release -p terrain-pyramid-lab -- COMMAND FLAGS` from the root. The
+//! lab's stdout (its one JSON object with `--json`) is the task's; progress goes to stderr.
+//!
+//! - `faults [--json] [--quick] [--only KIND,..] [--lines N]`: fault injection through the
+//!   emulated board (RELIABILITY.md); the firmware's logs in `target/faults`.
+//! - `soak [--json] [--quick] [-- LAB-SOAK-FLAGS]`: the soak (RELIABILITY.md, "Soak"); the
+//!   firmware's log in `target/soak`.
+//! - `experiments [FLAGS]`, `size [FLAGS]`: `lab experiments` (its output in
+//!   `target/experiments` unless `--out` is given) and `lab size`, every flag forwarded.
+//! - `demo [FLAGS]`: installs what the emulated board needs, as `cargo xtask test` does (the
+//!   Cortex-M targets, QEMU, `defmt-print`), runs `lab demo` (on the emulated board unless
+//!   `--board host` is given; into `target/demo` unless `--out` is given) and turns each
+//!   run's defmt log into text beside it (`firmware.log`).
+use crate::install::{ensure_defmt_print, ensure_qemu, ensure_targets, root};
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+use std::time::Instant;
+
+/// `cargo run --release -p terrain-pyramid-lab -- command args` from the root.
+fn lab(command: &str, args: &[String]) -> Result<(), String> {
+    let started = Instant::now();
+    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+    let status = Command::new(cargo)
+        .args([
+            "run",
+            "--release",
+            "--quiet",
+            "-p",
+            "terrain-pyramid-lab",
+            "--",
+        ])
+        .arg(command)
+        .args(args)
+        .current_dir(root())
+        .status()
+        .map_err(|e| format!("cannot run cargo: {e}"))?;
+    eprintln!(
+        "xtask {command}: done in {:.1} s",
+        started.elapsed().as_secs_f64()
+    );
+    if status.success() {
+        Ok(())
+    } else {
+        Err(format!("lab {command} failed ({status})"))
+    }
+}
+
+/// Whether `args` give `flag` (as `--flag V` or `--flag=V`).
+fn has(args: &[String], flag: &str) -> bool {
+    args.iter()
+        .any(|a| a == flag || a.starts_with(&format!("{flag}=")))
+}
+
+/// The value of `--flag` in `args`, if given.
+fn value(args: &[String], flag: &str) -> Option<String> {
+    let prefix = format!("{flag}=");
+    args.iter().enumerate().find_map(|(i, a)| {
+        if a == flag {
+            args.get(i + 1).cloned()
+        } else {
+            a.strip_prefix(&prefix).map(str::to_string)
+        }
+    })
+}
+
+/// `args` with `--out DIR` added when they do not give one.
+fn with_out(args: &[String], dir: &str) -> Vec<String> {
+    let mut pass = args.to_vec();
+    if !has(args, "--out") {
+        pass.extend(["--out".to_string(), dir.to_string()]);
+    }
+    pass
+}
+
+/// `cargo xtask faults`.
+pub fn faults(args: &[String]) -> Result<(), String> {
+    let mut pass = Vec::new();
+    let mut rest = args.iter();
+    while let Some(a) = rest.next() {
+        match a.as_str() {
+            "--json" | "--quick" => pass.push(a.clone()),
+            "--only" | "--lines" => {
+                let value = rest.next().ok_or(format!("{a} needs a value"))?;
+                pass.push(a.clone());
+                pass.push(value.clone());
+            }
+            other => {
+                return Err(format!(
+                    "unknown option {other}; usage: cargo xtask faults [--json] [--quick] \
+                     [--only KIND,..] [--lines N]"
+                ))
+            }
+        }
+    }
+    lab("faults", &with_out(&pass, "target/faults"))
+}
+
+/// `cargo xtask soak`.
+pub fn soak(args: &[String]) -> Result<(), String> {
+    let mut pass = Vec::new();
+    let mut rest = false;
+    for a in args {
+        match a.as_str() {
+            _ if rest => pass.push(a.clone()),
+            "--json" | "--quick" => pass.push(a.clone()),
+            "--" => rest = true,
+            other => {
+                return Err(format!(
+                    "unknown option {other}; usage: cargo xtask soak [--json] [--quick] \
+                     [-- options of `lab soak`]"
+                ))
+            }
+        }
+    }
+    lab("soak", &with_out(&pass, "target/soak"))
+}
+
+/// `cargo xtask experiments`.
+pub fn experiments(args: &[String]) -> Result<(), String> {
+    lab("experiments", &with_out(args, "target/experiments"))
+}
+
+/// `cargo xtask size`.
+pub fn size(args: &[String]) -> Result<(), String> {
+    lab("size", args)
+}
+
+/// `cargo xtask demo`.
+pub fn demo(args: &[String]) -> Result<(), String> {
+    ensure_targets()?;
+    ensure_qemu()?;
+    ensure_defmt_print()?;
+    let pass = with_out(args, "target/demo");
+    lab("demo", &pass)?;
+    if value(&pass, "--board").as_deref() != Some("host") {
+        let out = value(&pass, "--out").map_or_else(|| root().join("target/demo"), PathBuf::from);
+        decode_logs(&root().join(out));
+    }
+    Ok(())
+}
+
+/// Turns each scenario's raw defmt log (`DIR/NAME/maps/firmware.defmt`) into text
+/// (`firmware.log` beside it) with `defmt-print` and the firmware's ELF. A log that cannot
+/// be decoded is reported, not an error: the maps are the demo's result.
+fn decode_logs(out: &Path) {
+    let elf = root().join("boards/qemu-mps2/target/thumbv7em-none-eabihf/release/qemu-mps2");
+    let Ok(entries) = std::fs::read_dir(out) else {
+        return;
+    };
+    let mut dirs: Vec<PathBuf> = entries.filter_map(|e| Some(e.ok()?.path())).collect();
+    dirs.sort();
+    for dir in dirs {
+        let raw = dir.join("maps").join("firmware.defmt");
+        let (Ok(input), Ok(output)) = (
+            std::fs::File::open(&raw),
+            std::fs::File::create(dir.join("maps").join("firmware.log")),
+        ) else {
+            continue;
+        };
+        let decoded = Command::new("defmt-print")
+            .arg("-e")
+            .arg(&elf)
+            .stdin(Stdio::from(input))
+            .stdout(Stdio::from(output))
+            .stderr(Stdio::null())
+            .status()
+            .is_ok_and(|s| s.success());
+        if decoded {
+            eprintln!(
+                "firmware log: {}",
+                dir.join("maps").join("firmware.log").display()
+            );
+        } else {
+            eprintln!("note: defmt-print could not decode {}", raw.display());
+        }
+    }
+}
