@@ -554,6 +554,8 @@ fn part_3dtk(judges: &[Judge]) {
     let obs = scan3dtk::observation(&points);
     let mut classifier: Box<Classifier<SLOTS, L>> = navigability::classifier(&design);
     let g = gates(&design);
+    let mut per_layer: Vec<(String, Vec<Tally>)> = Vec::new();
+    let mut layer_names: Vec<String> = Vec::new();
     for judge in judges {
         let mut p = pyramid::<64, L>(&design);
         match judge {
@@ -590,6 +592,49 @@ fn part_3dtk(judges: &[Judge]) {
             e.obstacle,
             share(e.step_found, e.step)
         );
+        if let Judge::Library(_) = judge {
+            layer_names = (0..p.layer_count())
+                .filter_map(|k| p.layer(k))
+                .enumerate()
+                .map(|(k, l)| {
+                    format!(
+                        "L{k} {:.1} m",
+                        f64::from(l.resolution().to_bits()) / 65_536.0
+                    )
+                })
+                .collect();
+            let tallies = (0..p.layer_count())
+                .map(|k| scan3dtk::score_layer(&p, k, &lab))
+                .collect();
+            per_layer.push((judge.name(), tallies));
+        }
+    }
+    println!(
+        "\nPer layer (the library's rules): of the clear ground returns whose cell in the layer is \
+         observed, the share on a navigable cell / of the obstacle and step returns whose cell is \
+         observed, the share on an obstacle cell (each return judged by the one cell that holds it).\n"
+    );
+    println!("| rule | {} |", layer_names.join(" | "));
+    println!("| --- |{}", " --- |".repeat(layer_names.len()));
+    for (name, tallies) in &per_layer {
+        let cells: Vec<String> = tallies
+            .iter()
+            .map(|t| {
+                let f = |a: usize, b: usize| {
+                    if b == 0 {
+                        "–".to_string()
+                    } else {
+                        format!("{:.1}", 100.0 * a as f64 / b as f64)
+                    }
+                };
+                format!(
+                    "{} / {}",
+                    f(t.navigable_ok, t.navigable),
+                    f(t.obstacle_ok, t.obstacle)
+                )
+            })
+            .collect();
+        println!("| {name} | {} |", cells.join(" | "));
     }
 }
 

@@ -370,6 +370,46 @@ pub fn score<const W: usize, const L: usize>(
     e
 }
 
+/// Per layer `k` of a map, against the labelled points: (clear ground returns whose layer-k
+/// cell is observed, of those on a navigable cell, obstacle and step returns whose layer-k
+/// cell is observed, of those on an obstacle cell). Each return is judged by the one cell of
+/// the layer that holds it.
+#[must_use]
+pub fn score_layer<const W: usize, const L: usize>(
+    p: &terrain_pyramid::Pyramid<W, L>,
+    k: usize,
+    labelled: &[([f64; 3], Label)],
+) -> crate::navigability::Tally {
+    let mut t = crate::navigability::Tally::default();
+    let Some(layer) = p.layer(k) else {
+        return t;
+    };
+    let r = layer.resolution();
+    for &(q, label) in labelled {
+        let (i, j) = (
+            r.cell_of(Meters::saturating_from_num(q[0])),
+            r.cell_of(Meters::saturating_from_num(q[1])),
+        );
+        let obstacle = match layer.get(i, j).map(|c| c.class()) {
+            Some(terrain_pyramid::CellClass::Obstacle) => true,
+            Some(terrain_pyramid::CellClass::Navigable) => false,
+            _ => continue,
+        };
+        match label {
+            Label::Ground => {
+                t.navigable += 1;
+                t.navigable_ok += usize::from(!obstacle);
+            }
+            Label::Obstacle | Label::Step => {
+                t.obstacle += 1;
+                t.obstacle_ok += usize::from(obstacle);
+            }
+            Label::Ignore => {}
+        }
+    }
+    t
+}
+
 /// A top view of the scan (x up, y to the left, one pixel per `pixel_m`) over
 /// `[x0, x1] × [y0, y1]`: unlabelled points grey by height (darker is lower), ground pale green,
 /// and the points of `labelled` over them (clear ground green, step orange, obstacle red), the
