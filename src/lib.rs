@@ -7,8 +7,10 @@
 //! The path of one observation:
 //!
 //! ```text
-//! UART bytes --> [wire::sick] telegram --> ranges + beam angles
-//! pan encoder / host link --> pose ----> [geometry] points --> [classify] evidence
+//! UART bytes --> [laser] the setup's sensor: SICK telegram (ranges + beam table), or a lidar
+//!                packet (returns, each with its own angle, timed)
+//! encoder / servo model / host --> actuator angle at each return's time ([actuator])
+//! host link --> pose ----> [geometry] points --> [classify] evidence
 //!                                         --> [pyramid] gated log-odds updates, window moves
 //! ```
 //!
@@ -20,7 +22,9 @@
 //!   and the range bands (eq. 20), and the validation of a configuration.
 //! - [`gate`]: the precomputed hard or soft gating tables `w_k(d)`.
 //! - [`geometry`]: beam tables, mounts, poses and the per-line transform from a range
-//!   reading to a world point, in fixed point.
+//!   reading to a world point, in fixed point; the per-return transform of a spinning lidar.
+//! - [`actuator`]: the nodding servo's sweep model and the interpolation of an angle
+//!   source's readings.
 //! - [`logodds`]: the fixed-point log-odds cell, the inverse sensor model as increments, clamping.
 //! - [`grid`]: one robot-centric layer as a circular buffer, and its index maths.
 //! - [`pyramid`]: the layers together: gated integration, recentring, the fused query.
@@ -28,13 +32,15 @@
 //!
 //! At the edges:
 //! - [`wire`]: pure, zero-copy wire formats: [`wire::sick`], the SICK LMS2xx telegrams and
-//!   their reassembly from UART chunks; [`wire::recording`], the recording file format.
+//!   their reassembly from UART chunks; [`wire::ld06`], [`wire::rplidar`], [`wire::ydlidar`],
+//!   the spinning UART lidars; [`wire::recording`], the recording file format.
+//! - [`laser`]: the laser the host's Setup names: its decoder, its packets' times.
 //! - [`link`]: the device side of the serial link to the main computer (`docs/protocol.md`):
 //!   rate-limited patches of changed tiles, commands in, replies out.
 //! - [`drivers`]: thin adapters from embedded-io / embedded-hal to the pure code:
-//!   [`drivers::angle`] and [`drivers::as5047`] (sources of the pan angle),
-//!   [`drivers::lidar`] (requests to the spinning lidars). A laser's received bytes go
-//!   straight to [`app::CoProcessor::laser`].
+//!   [`drivers::angle`], [`drivers::as5047`] and [`drivers::pot`] (sources of the actuator
+//!   angle), [`drivers::servo`] (a nodding servo's PWM), [`drivers::lidar`] (requests to a
+//!   lidar).
 //!
 //! # Panic contract
 //! No function in this crate panics on any input, as smoltcp's `wire` promises: parsers and
@@ -44,6 +50,7 @@
 #![deny(unsafe_code)]
 #![deny(missing_docs)]
 
+pub mod actuator;
 pub mod angle;
 pub mod fmath;
 #[macro_use]
@@ -56,6 +63,7 @@ pub mod drivers;
 pub mod gate;
 pub mod geometry;
 pub mod grid;
+pub mod laser;
 pub mod link;
 pub mod logodds;
 pub mod pipeline;

@@ -14,18 +14,40 @@
 //! A line applies whole or not at all: its value count is checked against the scanner
 //! variant before any of its points reaches the classifier.
 //!
+//! # Spinning lidars
+//! A spinning lidar's line is a packet ([`Frontend::packet`]): its returns, each at its own
+//! angle in the sensor's clockwise convention (turned into the geometry's beam angle by
+//! [`crate::geometry::beam_angle_of_clockwise`], which also states how the lidar is mounted),
+//! and the actuator's angle at the packet's first and at its last return. Return k of n gets
+//! the angle interpolated linearly between the two (`first + k·(last − first)/(n − 1)`: the
+//! returns are measured evenly in time), and is placed by [`SweepTransform`] from its own
+//! beam angle and its own actuator angle, in fixed point. A range of 0 is no return.
+//!
+//! # Observations
 //! An observation ends after a fixed number of lines, or, with `lines_per_observation = 0`,
-//! when the actuator turns back (the end of a sweep). At its end the pyramid is recentred on
-//! the robot and the observation's evidence is applied.
+//! when the actuator turns back (the end of a sweep). For a spinning lidar a "line" is a
+//! **revolution**: with `lines_per_observation = n`, an observation ends where the (n+1)-th
+//! revolution since its start begins (the packet that starts it opens the next observation;
+//! the first observation also holds the partial revolution before the first start); with 0,
+//! at the end of each sweep of the nodding actuator, as for a SICK (the turn is seen at the
+//! packet whose last actuator angle moves the other way). At its end the pyramid is recentred
+//! on the robot and the observation's evidence is applied.
 
+use crate::actuator::Actuator;
 use crate::angle::FineAngle;
 use crate::classify::{Classifier, ClassifierConfig, ClassifierStats};
 use crate::design::{Design, DesignError};
-use crate::geometry::{BeamTable, LineTransform, Mount, Pose, PoseFrame};
+use crate::geometry::{
+    beam_angle_of_clockwise, BeamTable, LinePoint, LineTransform, Mount, Pose, PoseFrame,
+    SweepTransform,
+};
+use crate::laser::{Sensor, SensorKind};
 use crate::pyramid::{Config, Pyramid};
 use crate::units::Meters;
+use crate::units::Point3;
 use crate::wire::sick::Variant;
 use crate::wire::sick::{MeasuredValues, MeasuringMode};
+use crate::wire::LaserReturn;
 use core::fmt;
 
 /// How the laser is set up and how its lines are grouped into observations.
@@ -33,9 +55,17 @@ use core::fmt;
 pub struct FrontendConfig {
     /// How the laser is mounted on its actuator, and where.
     pub mount: Mount,
-    /// The scanner's field and angular resolution.
+    /// The laser: a SICK LMS2xx (read through `variant` and `measuring_mode`) or a spinning
+    /// lidar (whose packets carry their own angles; `variant` and `measuring_mode` unused).
+    pub sensor: Sensor,
+    /// The laser UART's baud rate, bits per second (the board sets its UART to it).
+    pub baud: u32,
+    /// What moves the scan plane: an external actuator whose angle the board or the host
+    /// reports, or a nodding servo the co-processor commands.
+    pub actuator: Actuator,
+    /// The scanner's field and angular resolution (SICK).
     pub variant: Variant,
-    /// The measuring mode the scanner is in (its distance mask and no-echo value).
+    /// The measuring mode the scanner is in (its distance mask and no-echo value; SICK).
     pub measuring_mode: MeasuringMode,
     /// Lines per observation, ≥ 1; 0 = one observation per sweep of the actuator.
     pub lines_per_observation: u32,
@@ -64,6 +94,9 @@ impl FrontendConfig {
                     z: Meters::from_bits(1 << 15),
                 },
             ),
+            sensor: Sensor::Sick,
+            baud: SensorKind::Sick.default_baud(),
+            actuator: Actuator::External,
             variant: Variant::Fov180StepHalf,
             measuring_mode: MeasuringMode::Mm8Cm80,
             lines_per_observation: 0,
@@ -78,8 +111,11 @@ impl defmt::Format for FrontendConfig {
     fn format(&self, f: defmt::Formatter<'_>) {
         defmt::write!(
             f,
-            "FrontendConfig {{ mount: {}, variant: {}, mode: {}, lines/observation: {=u32}, classifier: {}, missing ground within: {=i32} raw Q16.16 (0 = off) }}",
+            "FrontendConfig {{ mount: {}, sensor: {} at {=u32} Bd, actuator: {}, variant: {}, mode: {}, lines/observation: {=u32}, classifier: {}, missing ground within: {=i32} raw Q16.16 (0 = off) }}",
             self.mount,
+            self.sensor,
+            self.baud,
+            self.actuator,
             self.variant,
             self.measuring_mode,
             self.lines_per_observation,
@@ -95,8 +131,13 @@ impl defmt::Format for FrontendConfig {
 pub struct FrontendStats {
     /// Lines whose points all went to the classifier.
     pub lines_applied: u32,
-    /// Lines refused whole (a value count that does not fit the variant).
+    /// Lines (or lidar packets) refused whole (a value count that does not fit the variant,
+    /// no setup, a packet of another sensor).
     pub lines_rejected: u32,
+    /// Lidar packets whose returns all went to the classifier.
+    pub packets_applied: u32,
+    /// Lidar revolutions started (packets that start one).
+    pub revolutions: u32,
     /// Returns with a distance.
     pub returns: u32,
     /// Values that carried "no echo".
@@ -130,6 +171,11 @@ pub enum LineError {
     /// The pipeline has no setup yet ([`Frontend::unconfigured`]) or no design to feed
     /// ([`Frontend::adopt_design`]).
     NotConfigured,
+    /// A SICK line while a spinning lidar is set up, or a lidar packet while a SICK is.
+    WrongSensor {
+        /// The sensor set up.
+        configured: SensorKind,
+    },
 }
 
 impl fmt::Display for LineError {
@@ -148,6 +194,12 @@ impl fmt::Display for LineError {
             Self::NotConfigured => {
                 f.write_str("the pipeline has no setup or no design to feed yet")
             }
+            Self::WrongSensor { configured } => {
+                write!(
+                    f,
+                    "the pipeline is set up for another sensor ({configured})"
+                )
+            }
         }
     }
 }
@@ -161,10 +213,33 @@ enum Layout {
     Partial(u8),
 }
 
+/// The actuator's angle at a lidar packet's first and last return ([`Frontend::packet`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct PacketActuator {
+    /// At the first return.
+    pub first: FineAngle,
+    /// At the last return.
+    pub last: FineAngle,
+}
+
+impl PacketActuator {
+    /// The same angle for every return (an actuator that stands still, or the host's angle).
+    #[must_use]
+    pub const fn still(angle: FineAngle) -> Self {
+        Self {
+            first: angle,
+            last: angle,
+        }
+    }
+}
+
 /// The per-line pipeline, with `C` classifier slots, for designs of up to `L` layers.
 pub struct Frontend<const C: usize, const L: usize> {
     config: FrontendConfig,
     beams: BeamTable,
+    /// The pose's and the mount's part of a lidar return's geometry.
+    sweep: SweepTransform,
     classifier: Classifier<C, L>,
     pose: Pose,
     frame: PoseFrame,
@@ -173,6 +248,8 @@ pub struct Frontend<const C: usize, const L: usize> {
     last_actuator: Option<FineAngle>,
     direction: i8,
     lines_in_observation: u32,
+    /// Lidar revolutions started in the current observation.
+    revolutions_in_observation: u32,
     stats: FrontendStats,
     /// Whether a configuration has been adopted (lines are refused until then).
     configured: bool,
@@ -215,6 +292,9 @@ impl<const C: usize, const L: usize> Frontend<C, L> {
                         z: Meters::ZERO,
                     },
                 ),
+                sensor: Sensor::Sick,
+                baud: 0,
+                actuator: Actuator::External,
                 variant: Variant::Fov180Step1,
                 measuring_mode: MeasuringMode::Mm8Cm80,
                 lines_per_observation: 0,
@@ -228,6 +308,7 @@ impl<const C: usize, const L: usize> Frontend<C, L> {
                 missing_ground_within: None,
             },
             beams: BeamTable::EMPTY,
+            sweep: SweepTransform::ZERO,
             classifier: Classifier::unconfigured(),
             pose: Pose::IDENTITY,
             frame: PoseFrame::ZERO,
@@ -235,9 +316,12 @@ impl<const C: usize, const L: usize> Frontend<C, L> {
             last_actuator: None,
             direction: 0,
             lines_in_observation: 0,
+            revolutions_in_observation: 0,
             stats: FrontendStats {
                 lines_applied: 0,
                 lines_rejected: 0,
+                packets_applied: 0,
+                revolutions: 0,
                 returns: 0,
                 no_return: 0,
                 returns_dropped: 0,
@@ -255,6 +339,7 @@ impl<const C: usize, const L: usize> Frontend<C, L> {
         self.beams.rebuild(config.variant);
         self.classifier.configure(config.classifier);
         self.frame = self.pose.frame();
+        self.sweep = SweepTransform::new(&config.mount, &self.frame);
         self.configured = true;
         self.restart_observation();
     }
@@ -264,8 +349,15 @@ impl<const C: usize, const L: usize> Frontend<C, L> {
     pub fn restart_observation(&mut self) {
         self.classifier.discard();
         self.lines_in_observation = 0;
+        self.revolutions_in_observation = 0;
         self.last_actuator = None;
         self.direction = 0;
+    }
+
+    /// Whether a setup has been adopted ([`configure`](Self::configure)).
+    #[must_use]
+    pub const fn is_configured(&self) -> bool {
+        self.configured
     }
 
     /// The configuration in force.
@@ -298,6 +390,7 @@ impl<const C: usize, const L: usize> Frontend<C, L> {
     pub fn set_pose(&mut self, pose: Pose) {
         self.pose = pose;
         self.frame = pose.frame();
+        self.sweep = SweepTransform::new(&self.config.mount, &self.frame);
     }
 
     /// The robot's pose in force.
@@ -323,7 +416,7 @@ impl<const C: usize, const L: usize> Frontend<C, L> {
         self.classifier.stats()
     }
 
-    /// Lines gathered in the current observation.
+    /// Lines (SICK telegrams, or lidar packets) gathered in the current observation.
     #[must_use]
     pub const fn lines_in_observation(&self) -> u32 {
         self.lines_in_observation
@@ -383,6 +476,12 @@ impl<const C: usize, const L: usize> Frontend<C, L> {
         if !self.configured || self.classifier.gates().layer_count() == 0 {
             self.stats.lines_rejected = self.stats.lines_rejected.saturating_add(1);
             return Err(LineError::NotConfigured);
+        }
+        if self.config.sensor.is_lidar() {
+            self.stats.lines_rejected = self.stats.lines_rejected.saturating_add(1);
+            return Err(LineError::WrongSensor {
+                configured: self.config.sensor.kind(),
+            });
         }
         let layout = match self.layout(values) {
             Ok(layout) => layout,
@@ -455,14 +554,32 @@ impl<const C: usize, const L: usize> Frontend<C, L> {
         ground_z: Meters,
         within: Meters,
     ) {
+        Self::missing_ground_along(
+            classifier,
+            stats,
+            transform.sensor_origin(),
+            |range| transform.locate(beam, range),
+            ground_z,
+            within,
+        );
+    }
+
+    /// [`Self::missing_ground`] for a beam given by where it is at a range.
+    fn missing_ground_along(
+        classifier: &mut Classifier<C, L>,
+        stats: &mut FrontendStats,
+        origin: Point3,
+        locate: impl Fn(u32) -> Option<LinePoint>,
+        ground_z: Meters,
+        within: Meters,
+    ) {
         const METRE_MM: u32 = 1000;
-        let (Some(unit), origin) = (transform.point(beam, METRE_MM), transform.sensor_origin())
-        else {
+        let Some(unit) = locate(METRE_MM) else {
             return;
         };
         // The beam's drop per metre of range; beams within ~1° of the horizon never meet the
         // ground in range and are skipped.
-        let drop = origin.z.saturating_sub(unit.z);
+        let drop = origin.z.saturating_sub(unit.point.z);
         let height = origin.z.saturating_sub(ground_z);
         // 0.02 m per metre, as a constant evaluated at compile time.
         const SHALLOWEST_DROP: Meters = Meters::lit("0.02");
@@ -479,21 +596,118 @@ impl<const C: usize, const L: usize> Frontend<C, L> {
         let Ok(range_mm) = u32::try_from(range_mm) else {
             return;
         };
-        if let Some(expected) = transform.locate(beam, range_mm) {
+        if let Some(expected) = locate(range_mm) {
             classifier.add_missing_ground(expected.point, expected.horizontal);
             stats.missing_ground = stats.missing_ground.saturating_add(1);
         }
+    }
+
+    /// Feeds one packet of a spinning lidar: its returns in the order measured (angles in the
+    /// sensor's clockwise convention, range 0 = no return), whether a revolution starts in
+    /// it, and the actuator's angle at its first and last return (interpolated per return;
+    /// see the [module documentation](self)). Its points join the current observation; an
+    /// observation that ends (its revolutions counted, or the sweep turned) is applied to
+    /// `pyramid` first.
+    ///
+    /// # Errors
+    /// No setup or design yet, or a SICK is set up; nothing of the packet was used.
+    pub fn packet<const W: usize, I>(
+        &mut self,
+        pyramid: &mut Pyramid<W, L>,
+        returns: I,
+        starts_revolution: bool,
+        actuator: PacketActuator,
+    ) -> Result<(), LineError>
+    where
+        I: IntoIterator<Item = LaserReturn>,
+        I::IntoIter: ExactSizeIterator,
+    {
+        if !self.configured || self.classifier.gates().layer_count() == 0 {
+            self.stats.lines_rejected = self.stats.lines_rejected.saturating_add(1);
+            return Err(LineError::NotConfigured);
+        }
+        if !self.config.sensor.is_lidar() {
+            self.stats.lines_rejected = self.stats.lines_rejected.saturating_add(1);
+            return Err(LineError::WrongSensor {
+                configured: self.config.sensor.kind(),
+            });
+        }
+        self.actuator = actuator.last;
+        let per = self.config.lines_per_observation;
+        if per == 0 && self.sweep_turned() {
+            self.end_observation(pyramid);
+        }
+        if starts_revolution {
+            self.stats.revolutions = self.stats.revolutions.saturating_add(1);
+            if per != 0 && self.revolutions_in_observation >= per {
+                self.end_observation(pyramid);
+            }
+            self.revolutions_in_observation = self.revolutions_in_observation.saturating_add(1);
+        }
+        if self.lines_in_observation == 0 {
+            self.classifier.begin(self.sweep.sensor_origin().z);
+        }
+        let returns = returns.into_iter();
+        let steps = i64::try_from(returns.len().saturating_sub(1).max(1)).unwrap_or(i64::MAX);
+        // The actuator's turn over the packet, signed, and per return in 2⁻¹⁶ of its LSB: one
+        // division per packet (|turn| < 2³¹, so the step is below 2⁴⁷).
+        #[allow(clippy::cast_possible_wrap)]
+        let turn = i64::from(actuator.last.wrapping_sub(actuator.first).to_bits() as i32);
+        let step_q16 = (turn << 16) / steps;
+        let ground_z: Meters = self.pose.z;
+        let mut plane = self.sweep.at(actuator.first);
+        for (k, ret) in returns.enumerate() {
+            // k ≤ 255 (the longest packet) and |step| < 2⁴⁷: the product is below 2⁵⁵.
+            let k = i64::try_from(k).unwrap_or(0);
+            #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+            let offset = ((step_q16 * k) >> 16) as u32;
+            let angle = actuator.first.wrapping_add(FineAngle::from_bits(offset));
+            if angle != plane.actuator() {
+                plane = self.sweep.at(angle);
+            }
+            let theta = beam_angle_of_clockwise(ret.angle);
+            if ret.range_mm == 0 {
+                self.stats.no_return = self.stats.no_return.saturating_add(1);
+                if let Some(within) = self.config.missing_ground_within {
+                    Self::missing_ground_along(
+                        &mut self.classifier,
+                        &mut self.stats,
+                        plane.sensor_origin(),
+                        |range| plane.locate(theta, range),
+                        ground_z,
+                        within,
+                    );
+                }
+                continue;
+            }
+            self.stats.returns = self.stats.returns.saturating_add(1);
+            match plane.locate_squared(theta, ret.range_mm) {
+                Some(located) => self.classifier.add_point_squared(
+                    located.point,
+                    located.horizontal_squared,
+                    ground_z,
+                ),
+                None => {
+                    self.stats.returns_dropped = self.stats.returns_dropped.saturating_add(1);
+                }
+            }
+        }
+        self.stats.packets_applied = self.stats.packets_applied.saturating_add(1);
+        self.lines_in_observation = self.lines_in_observation.saturating_add(1);
+        Ok(())
     }
 
     /// Ends the current observation now (if it holds any line): recentres the pyramid on the
     /// robot and applies the evidence.
     pub fn end_observation<const W: usize>(&mut self, pyramid: &mut Pyramid<W, L>) {
         if self.lines_in_observation == 0 {
+            self.revolutions_in_observation = 0;
             return;
         }
         pyramid.recentre(self.pose.x, self.pose.y);
         self.classifier.finish_into(pyramid);
         self.lines_in_observation = 0;
+        self.revolutions_in_observation = 0;
         self.stats.observations = self.stats.observations.saturating_add(1);
     }
 }
@@ -543,6 +757,9 @@ mod tests {
                     ..Point3::default()
                 },
             ),
+            sensor: Sensor::Sick,
+            baud: 500_000,
+            actuator: Actuator::External,
             variant: Variant::from_sick(180, 50).unwrap(),
             measuring_mode: MeasuringMode::Mm8Cm80,
             lines_per_observation: lines,
@@ -645,6 +862,164 @@ mod tests {
         assert_eq!(f.stats().lines_rejected, 1);
         assert_eq!(f.classifier_stats().points, 0);
         assert_eq!(p.stats().applied, 0);
+    }
+
+    /// The same frontend set up for an LD06 on the tilt unit, 0.5 m up.
+    fn lidar(revolutions: u32) -> (Frontend<4096, 8>, std::boxed::Box<Pyramid<64, 8>>) {
+        let (mut f, p) = setup(revolutions);
+        let mut config = *f.config();
+        config.sensor = Sensor::Ld06;
+        config.baud = 230_400;
+        f.configure(config);
+        (f, p)
+    }
+
+    /// Twelve returns from `start_deg` clockwise 0.8° apart, as a lidar 0.5 m up tilted by
+    /// `tilt_deg` sees flat floor (no return where the beam does not meet it within 8 m).
+    fn floor_returns(start_deg: f64, tilt_deg: f64) -> Vec<LaserReturn> {
+        let tau = tilt_deg.to_radians();
+        (0..12)
+            .map(|k| {
+                let phi = start_deg + 0.8 * f64::from(k);
+                let theta = (90.0 - phi).to_radians();
+                let dz = -theta.sin() * tau.sin();
+                let r = if dz < -1e-6 { 0.5 / -dz } else { f64::INFINITY };
+                LaserReturn {
+                    angle: FineAngle::from_bits(
+                        (phi.rem_euclid(360.0) / 360.0 * 4_294_967_296.0) as u32,
+                    ),
+                    range_mm: if r < 8.0 {
+                        (r * 1000.0).round() as u32
+                    } else {
+                        0
+                    },
+                    quality: Some(100),
+                }
+            })
+            .collect()
+    }
+
+    fn all_cells(p: &Pyramid<64, 8>) -> Vec<Option<crate::Cell>> {
+        let mut cells = Vec::new();
+        for k in 0..p.layer_count() {
+            let layer = p.layer(k).unwrap();
+            let (ox, oy) = layer.origin();
+            for j in 0..64 {
+                for i in 0..64 {
+                    cells.push(layer.get(ox + i, oy + j));
+                }
+            }
+        }
+        cells
+    }
+
+    #[test]
+    fn lidar_packets_mark_the_floor_ahead() {
+        let (mut f, mut p) = lidar(1);
+        // A revolution: 0° ahead, packets of 9.6° all the way round, tilted 25° down.
+        for n in 0..38 {
+            let start = f64::from(n) * 9.6 - 4.8;
+            let returns = floor_returns(start, 25.0);
+            let wraps = n == 0 || n == 37;
+            f.packet(
+                &mut p,
+                returns,
+                wraps,
+                PacketActuator::still(FineAngle::from_quarter_degrees(100)),
+            )
+            .unwrap();
+        }
+        assert_eq!(f.stats().packets_applied, 38);
+        assert_eq!(f.stats().revolutions, 2);
+        // The second start closed the first observation.
+        assert_eq!(f.stats().observations, 1);
+        assert!(f.stats().returns > 100 && f.stats().no_return > 100);
+        let at = |x: f32, y: f32| p.fused(Meters::from_num(x), Meters::from_num(y));
+        // 0.5 m up at 25°: the floor ahead at 1.07 m, behind the beams go up (no return).
+        assert!(
+            matches!(at(1.07, 0.0), Fused::Navigable { .. }),
+            "{:?}",
+            at(1.07, 0.0)
+        );
+        assert_eq!(at(-1.07, 0.0), Fused::Unknown);
+        // A SICK line is refused while a lidar is set up, and a packet while a SICK is.
+        let values = ranges_mm(20.0);
+        let line = MeasuredValues::new(Unit::Millimetre, 0, &values, None, 0).unwrap();
+        assert_eq!(
+            f.line(&mut p, &line),
+            Err(LineError::WrongSensor {
+                configured: SensorKind::Ld06
+            })
+        );
+        let (mut sick, mut q) = setup(1);
+        assert_eq!(
+            sick.packet(
+                &mut q,
+                floor_returns(0.0, 20.0),
+                false,
+                PacketActuator::default()
+            ),
+            Err(LineError::WrongSensor {
+                configured: SensorKind::Sick
+            })
+        );
+        assert_eq!(sick.stats().lines_rejected, 1);
+    }
+
+    #[test]
+    fn each_return_gets_its_own_actuator_angle() {
+        // One packet while the actuator turns from 10° to 21°, against twelve packets of one
+        // return each at the interpolated angle (1° apart): the same points, the same cells.
+        let first = FineAngle::from_quarter_degrees(40);
+        let step = FineAngle::from_quarter_degrees(4).to_bits();
+        let last = FineAngle::from_bits(first.to_bits() + 11 * step);
+        let returns = floor_returns(-4.8, 15.0);
+        let (mut whole, mut p) = lidar(0);
+        whole
+            .packet(
+                &mut p,
+                returns.clone(),
+                false,
+                PacketActuator { first, last },
+            )
+            .unwrap();
+        whole.end_observation(&mut p);
+        let (mut single, mut q) = lidar(0);
+        for (k, r) in returns.iter().enumerate() {
+            let a = FineAngle::from_bits(first.to_bits() + k as u32 * step);
+            single
+                .packet(&mut q, [*r], false, PacketActuator::still(a))
+                .unwrap();
+        }
+        single.end_observation(&mut q);
+        assert_eq!(whole.classifier_stats(), single.classifier_stats());
+        assert_eq!(all_cells(&p), all_cells(&q));
+        // And not the cells of a packet at one angle throughout.
+        let (mut still, mut r) = lidar(0);
+        still
+            .packet(&mut r, returns, false, PacketActuator::still(first))
+            .unwrap();
+        still.end_observation(&mut r);
+        assert_ne!(all_cells(&p), all_cells(&r));
+    }
+
+    #[test]
+    fn a_lidar_sweep_ends_when_the_actuator_turns_back() {
+        let (mut f, mut p) = lidar(0);
+        let packet = |f: &mut Frontend<4096, 8>, p: &mut Pyramid<64, 8>, a: u32, b: u32| {
+            let act = PacketActuator {
+                first: FineAngle::from_quarter_degrees(a),
+                last: FineAngle::from_quarter_degrees(b),
+            };
+            f.packet(p, floor_returns(0.0, 20.0), false, act).unwrap();
+        };
+        for a in 40..60 {
+            packet(&mut f, &mut p, 4 * a, 4 * a + 2);
+        }
+        assert_eq!(f.stats().observations, 0);
+        packet(&mut f, &mut p, 240, 236);
+        assert_eq!(f.stats().observations, 1);
+        assert_eq!(f.lines_in_observation(), 1);
     }
 
     #[test]

@@ -76,6 +76,7 @@ fuzz_target!(|data: &[u8]| {
     core.host(&frame[..n]);
     core.laser(
         &common::floor_telegram(),
+        0,
         &mut terrain_pyramid::app::NoAngleSource,
     );
 

@@ -277,6 +277,92 @@ pub fn evaluate(table: &lib::BeamTable, case: &Case) -> Option<CaseError> {
     })
 }
 
+/// The bound of a spinning lidar's world point against this reference, metres: the library
+/// places a return from its own angle in Q2.30 (`geometry::sweep`), so only the outputs' and
+/// the pose's roundings remain: `0.03 mm + 10⁻⁸ · range`.
+#[must_use]
+pub fn lidar_error_bound_m(range_m: f64) -> f64 {
+    3.0e-5 + 1.0e-8 * range_m
+}
+
+/// The geometry's beam angle θ of a spinning lidar's own angle φ (clockwise from its 0°, seen
+/// from its top), radians: `θ = 90° − φ`, written from the mounting the library documents
+/// (`geometry::beam_angle_of_clockwise`: lying flat, top up, 0° ahead on the tilt unit; on its
+/// side, top facing right, 0° ahead on the pan unit).
+#[must_use]
+pub fn lidar_theta_rad(clockwise_rad: f64) -> f64 {
+    std::f64::consts::FRAC_PI_2 - clockwise_rad
+}
+
+/// One LD06 packet placed by the library, against this reference: every return's world point
+/// and horizontal distance. `packet` is the packet's 47 bytes; the reference angle of return k
+/// is the manual's `start + k·(end − start)/11` (centidegrees, the 360° wrap taken), in f64.
+/// `None` when the library refuses the pose or the bytes.
+#[must_use]
+pub fn evaluate_ld06(
+    packet: &[u8],
+    plane: lib::ScanPlane,
+    mount_bits: [i32; 3],
+    actuator_bits: u32,
+    pose: [f32; 6],
+) -> Option<Vec<CaseError>> {
+    use terrain_pyramid::wire::ld06::Ld06Packet;
+    let [x, y, z, roll, pitch, yaw] = pose;
+    let lib_pose = lib::Pose::from_f32(x, y, z, roll, pitch, yaw).ok()?;
+    let [mx, my, mz] = mount_bits;
+    let mount = lib::Mount::new(
+        plane,
+        terrain_pyramid::Point3 {
+            x: terrain_pyramid::Meters::from_bits(mx),
+            y: terrain_pyramid::Meters::from_bits(my),
+            z: terrain_pyramid::Meters::from_bits(mz),
+        },
+    );
+    let actuator = terrain_pyramid::angle::FineAngle::from_bits(actuator_bits);
+    let view = Ld06Packet::new_checked(packet).ok()?;
+    let sweep = lib::SweepTransform::new(&mount, &lib_pose.frame());
+    let at = sweep.at(actuator);
+
+    let ref_mount = Mount {
+        plane: match plane {
+            lib::ScanPlane::PannedVertical => Plane::PannedVertical,
+            lib::ScanPlane::TiltedHorizontal => Plane::TiltedHorizontal,
+        },
+        position: [q16(mx), q16(my), q16(mz)],
+    };
+    let ref_pose = Pose {
+        x: f64::from(x),
+        y: f64::from(y),
+        z: f64::from(z),
+        roll: f64::from(roll),
+        pitch: f64::from(pitch),
+        yaw: f64::from(yaw),
+    };
+    let actuator_rad = f64::from(actuator_bits) / 4_294_967_296.0 * std::f64::consts::TAU;
+    let origin = sensor_origin(&ref_mount, &ref_pose);
+    let start = f64::from(view.start_angle_centideg() % 36_000);
+    let mut end = f64::from(view.end_angle_centideg() % 36_000);
+    if end < start {
+        end += 36_000.0;
+    }
+    let mut out = Vec::new();
+    for (k, ret) in view.returns().enumerate() {
+        #[allow(clippy::cast_precision_loss)]
+        let phi_deg = (start + k as f64 * (end - start) / 11.0) / 100.0;
+        let theta = lidar_theta_rad(phi_deg.to_radians());
+        let range_m = f64::from(ret.range_mm) / 1_000.0;
+        let want = world_point(&ref_mount, &ref_pose, actuator_rad, theta, range_m);
+        let got = at.locate(lib::beam_angle_of_clockwise(ret.angle), ret.range_mm)?;
+        out.push(CaseError {
+            range_m,
+            point_m: distance(vec_of(got.point), want),
+            horizontal_m: (q16(got.horizontal.to_bits()) - horizontal_distance(want, origin)).abs(),
+            origin_m: distance(vec_of(sweep.sensor_origin()), origin),
+        });
+    }
+    Some(out)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -103,6 +103,8 @@ fn decode(bytes: &[u8]) -> Decoded {
                     }
                 }
             }
+            // The simulator's SICK recordings carry no sensor event.
+            Payload::Sensor(e) => panic!("a sensor event in a SICK recording: {e:?}"),
             Payload::Unknown { kind, .. } => panic!("unknown event kind {kind}"),
         }
     }

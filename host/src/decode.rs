@@ -1,29 +1,95 @@
-//! `pyramid sick-decode`: decodes a captured SICK LMS2xx byte stream.
+//! `pyramid decode --sensor sick|ld06|rplidar|ydlidar FILE [--json]` (alias `sick-decode`,
+//! SICK by default): decodes a captured laser byte stream.
 //!
-//! The file is fed through the library's [`SickAccumulator`] exactly as the firmware feeds UART
-//! chunks, then flushed. Every measured-values telegram (0xB0) that passes every check is
-//! listed with its ranges in millimetres; framing errors are counted. A damaged stream is not
-//! a failure: the command exits 0 and reports the counts, and 1 only when the file cannot be
-//! read. A well-framed 0xB0 telegram whose fields do not parse (a unit code 10/11, a count
-//! that does not match LEN) is left out of the list and reported on stderr.
+//! The file is fed through the library's decoder of that sensor exactly as the firmware feeds
+//! UART chunks, then flushed. A damaged stream is not a failure: the command exits 0 and
+//! reports the counts, and 1 only when the file cannot be read.
+//!
+//! - **SICK** (`--sensor sick`): every measured-values telegram (0xB0) that passes every check
+//!   is listed with its ranges in millimetres; framing errors are counted. A well-framed 0xB0
+//!   telegram whose fields do not parse (a unit code 10/11, a count that does not match LEN)
+//!   is left out of the list and reported on stderr. Its JSON is
+//!   `{"telegrams":[...],"errors":{"crc","length","truncated","garbage_bytes"}}`.
+//! - **Spinning lidars**: one entry per packet whose check holds, in stream order (an RPLIDAR
+//!   standard-scan node is a packet of one return; an express capsule is listed once the next
+//!   capsule has placed its points), with its returns as the manual defines them: the angle
+//!   in the sensor's own clockwise convention, degrees (LD06 `start + k·(end − start)/11`;
+//!   RPLIDAR `angle_q6/64`, capsules by the SDK's formula; YDLIDAR `FSA + i·diff/(LSN − 1)`
+//!   plus the X4/X2 second-level correction), printed to 6 decimals (the library's angle
+//!   resolution is 8.4·10⁻⁸°); the range in millimetres, rounded, 0 where the sensor
+//!   reports no return; the quality or intensity where the sensor has one, else null; and
+//!   whether a revolution starts in it (an LD06 packet whose angles cross 0° or whose start
+//!   lies below the previous packet's end, an RPLIDAR node's S flag or a capsule passing
+//!   360°, the YDLIDAR zero packet). Every kind of framing error is counted under the
+//!   accumulator's own name. Its JSON is
+//!   `{"sensor":"ld06","packets":[{"returns":[{"angle_deg","range_mm","quality"}],"start_of_revolution"}],"errors":{...}}`.
 use serde::Serialize;
+use std::collections::BTreeMap;
 use std::path::PathBuf;
 use std::process::ExitCode;
+use terrain_pyramid::laser::{
+    LaserCounters, LaserDecoder, LaserItem, Packet, RevolutionTracker, Sensor,
+};
+use terrain_pyramid::wire::rplidar::RplidarScanMode;
 use terrain_pyramid::wire::sick::{
     MeasuredValues, MeasuringMode, SickAccumulator, SickCounters, SickItem, Telegram,
     MEASURED_VALUES_REPLY,
 };
+use terrain_pyramid::wire::ydlidar::YdlidarAngleCorrection;
 use terrain_pyramid::wire::FeedResult;
 
-/// Arguments of `pyramid sick-decode`.
+/// The laser whose stream a file holds.
+#[derive(clap::ValueEnum, Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SensorArg {
+    /// SICK LMS2xx telegrams.
+    Sick,
+    /// LDROBOT LD06 / LD19 / STL-19P packets.
+    Ld06,
+    /// Slamtec RPLIDAR: nodes or express capsules, with or without the response descriptor.
+    Rplidar,
+    /// YDLIDAR X4 / X2 packets.
+    Ydlidar,
+}
+
+/// What an RPLIDAR capture holds when it does not start with a response descriptor.
+#[derive(clap::ValueEnum, Debug, Clone, Copy, PartialEq, Eq)]
+pub enum RplidarModeArg {
+    /// Standard-scan nodes (after SCAN).
+    Standard,
+    /// Legacy express-scan capsules (after EXPRESS_SCAN).
+    Express,
+}
+
+/// Which YDLIDAR, for its angle correction.
+#[derive(clap::ValueEnum, Debug, Clone, Copy, PartialEq, Eq)]
+pub enum YdlidarModelArg {
+    /// X4: the second-level correction of the X4 manual.
+    X4,
+    /// X2: the same second-level correction (the X2 manual gives the same formula).
+    X2,
+    /// Firmware that corrects its angles itself: the first-level angles alone.
+    Uncorrected,
+}
+
+/// Arguments of `pyramid decode`.
 #[derive(clap::Args)]
 pub struct Args {
-    /// The captured byte stream (raw bytes as read from the scanner's serial port).
+    /// The captured byte stream (raw bytes as read from the laser's serial port).
     pub file: PathBuf,
-    /// The measuring mode set with command 0x77 (decimal or 0x-hex): it decides the distance
-    /// mask (0x00-0x02: 0x1FFF; 0x03, 0x04: 0x3FFF; 0x05, 0x06: 0x7FFF; 0x0F: 0xFFFF).
+    /// The laser that sent it.
+    #[arg(long, value_enum, default_value_t = SensorArg::Sick)]
+    pub sensor: SensorArg,
+    /// SICK: the measuring mode set with command 0x77 (decimal or 0x-hex): it decides the
+    /// distance mask (0x00-0x02: 0x1FFF; 0x03, 0x04: 0x3FFF; 0x05, 0x06: 0x7FFF; 0x0F: 0xFFFF).
     #[arg(long, value_name = "N", default_value = "0", value_parser = parse_measuring_mode)]
     pub measuring_mode: MeasuringMode,
+    /// RPLIDAR: what the capture holds when no response descriptor starts it (a descriptor,
+    /// where there is one, decides).
+    #[arg(long, value_enum, default_value_t = RplidarModeArg::Standard)]
+    pub rplidar_mode: RplidarModeArg,
+    /// YDLIDAR: the model, for the angle correction.
+    #[arg(long, value_enum, default_value_t = YdlidarModelArg::X4)]
+    pub ydlidar_model: YdlidarModelArg,
     /// Print one JSON object on stdout instead of a human summary.
     #[arg(long)]
     pub json: bool,
@@ -75,22 +141,201 @@ struct Refused {
     reason: String,
 }
 
-/// Runs `pyramid sick-decode`.
+/// One return of a lidar packet.
+#[derive(Serialize, Debug, Clone, PartialEq)]
+pub struct ReturnOut {
+    /// The angle in the sensor's clockwise convention, degrees in [0, 360), to 6 decimals.
+    pub angle_deg: f64,
+    /// The range, millimetres; 0 = no return.
+    pub range_mm: u32,
+    /// The quality or intensity, where the sensor has one.
+    pub quality: Option<u8>,
+}
+
+/// One lidar packet whose check held.
+#[derive(Serialize, Debug, Clone, PartialEq)]
+pub struct PacketOut {
+    /// Its returns, in the order measured.
+    pub returns: Vec<ReturnOut>,
+    /// Whether a revolution starts in it.
+    pub start_of_revolution: bool,
+}
+
+#[derive(Serialize)]
+struct LidarOutput {
+    sensor: &'static str,
+    packets: Vec<PacketOut>,
+    errors: BTreeMap<&'static str, u32>,
+}
+
+/// Runs `pyramid decode`.
 pub fn run(args: &Args) -> ExitCode {
     let bytes = match std::fs::read(&args.file) {
         Ok(bytes) => bytes,
         Err(e) => {
-            eprintln!(
-                "pyramid sick-decode: cannot read {}: {e}",
-                args.file.display()
-            );
+            eprintln!("pyramid decode: cannot read {}: {e}", args.file.display());
             return ExitCode::FAILURE;
         }
     };
-    let (telegrams, refused, stats) = decode(&bytes, args.measuring_mode);
+    let sensor = match args.sensor {
+        SensorArg::Sick => return run_sick(args, &bytes),
+        SensorArg::Ld06 => Sensor::Ld06,
+        SensorArg::Rplidar => Sensor::Rplidar(match args.rplidar_mode {
+            RplidarModeArg::Standard => RplidarScanMode::Standard,
+            RplidarModeArg::Express => RplidarScanMode::Express,
+        }),
+        SensorArg::Ydlidar => Sensor::Ydlidar(match args.ydlidar_model {
+            YdlidarModelArg::X4 | YdlidarModelArg::X2 => YdlidarAngleCorrection::SecondLevel,
+            YdlidarModelArg::Uncorrected => YdlidarAngleCorrection::Off,
+        }),
+    };
+    let (packets, counters) = decode_lidar(&bytes, sensor);
+    let errors = error_counts(&counters);
+    if args.json {
+        let out = LidarOutput {
+            sensor: sensor.kind().name(),
+            packets,
+            errors,
+        };
+        match serde_json::to_string(&out) {
+            Ok(json) => println!("{json}"),
+            Err(e) => {
+                eprintln!("pyramid decode: cannot write JSON: {e}");
+                return ExitCode::FAILURE;
+            }
+        }
+    } else {
+        print_lidar_summary(sensor, &packets, &errors);
+    }
+    ExitCode::SUCCESS
+}
+
+/// A packet as [`PacketOut`].
+fn packet_out(packet: &Packet<'_>, start_of_revolution: bool) -> PacketOut {
+    PacketOut {
+        returns: packet
+            .returns()
+            .map(|r| ReturnOut {
+                angle_deg: degrees(r.angle.to_bits()),
+                range_mm: r.range_mm,
+                quality: r.quality,
+            })
+            .collect(),
+        start_of_revolution,
+    }
+}
+
+/// A Q0.32 fraction of a turn in degrees, rounded to 6 decimals (exact in f64: bits·360 <
+/// 2⁴¹).
+fn degrees(bits: u32) -> f64 {
+    let exact = f64::from(bits) * 360.0 / 4_294_967_296.0;
+    (exact * 1e6).round() / 1e6
+}
+
+/// Feeds the whole stream through the decoder of `sensor`, flushes it, and keeps every
+/// packet whose check held.
+#[must_use]
+pub fn decode_lidar(bytes: &[u8], sensor: Sensor) -> (Vec<PacketOut>, LaserCounters) {
+    let mut decoder = LaserDecoder::new(sensor);
+    let mut tracker = RevolutionTracker::new();
+    let mut packets = Vec::new();
+    let mut window = bytes;
+    loop {
+        let result = decoder.feed(window);
+        window = result.remaining();
+        match result {
+            FeedResult::Consumed => break,
+            FeedResult::Item {
+                item: LaserItem::Packet(p),
+                ..
+            } => packets.push(packet_out(&p, tracker.starts(&p))),
+            _ => {}
+        }
+    }
+    loop {
+        match decoder.flush() {
+            FeedResult::Consumed => break,
+            FeedResult::Item {
+                item: LaserItem::Packet(p),
+                ..
+            } => packets.push(packet_out(&p, tracker.starts(&p))),
+            _ => {}
+        }
+    }
+    (packets, decoder.counters())
+}
+
+/// Every error counter of a lidar decoder, by the accumulator's own name.
+fn error_counts(counters: &LaserCounters) -> BTreeMap<&'static str, u32> {
+    let pairs: Vec<(&'static str, u32)> = match *counters {
+        LaserCounters::Sick(c) => vec![
+            ("crc", c.crc_errors),
+            ("length", c.length_errors),
+            ("truncated", c.truncated),
+            ("garbage_bytes", c.garbage_bytes),
+        ],
+        LaserCounters::Ld06(c) => vec![
+            ("checksum", c.checksum),
+            ("truncated", c.truncated),
+            ("garbage_bytes", c.garbage_bytes),
+        ],
+        LaserCounters::Rplidar(c) => vec![
+            ("checksum", c.checksum),
+            ("node_check", c.node_check),
+            ("capsules_unpaired", c.capsules_unpaired),
+            ("unsupported", c.unsupported),
+            ("truncated", c.truncated),
+            ("garbage_bytes", c.garbage_bytes),
+        ],
+        LaserCounters::Ydlidar(c) => vec![
+            ("checksum", c.checksum),
+            ("check_bits", c.check_bits),
+            ("bad_length", c.bad_length),
+            ("truncated", c.truncated),
+            ("garbage_bytes", c.garbage_bytes),
+        ],
+    };
+    pairs.into_iter().collect()
+}
+
+fn print_lidar_summary(sensor: Sensor, packets: &[PacketOut], errors: &BTreeMap<&str, u32>) {
+    const SHOWN: usize = 3;
+    for (i, p) in packets.iter().enumerate() {
+        let first: Vec<String> = p
+            .returns
+            .iter()
+            .take(SHOWN)
+            .map(|r| format!("{:.4}° {} mm", r.angle_deg, r.range_mm))
+            .collect();
+        let more = if p.returns.len() > SHOWN { ", ..." } else { "" };
+        println!(
+            "packet {i:>6}: {:>3} returns{} [{}{}]",
+            p.returns.len(),
+            if p.start_of_revolution {
+                ", revolution starts"
+            } else {
+                ""
+            },
+            first.join(", "),
+            more
+        );
+    }
+    let revolutions = packets.iter().filter(|p| p.start_of_revolution).count();
+    let returns: usize = packets.iter().map(|p| p.returns.len()).sum();
+    let errors: Vec<String> = errors.iter().map(|(k, v)| format!("{k} {v}")).collect();
+    println!(
+        "{} {} packets ({returns} returns, {revolutions} revolution starts); errors: {}",
+        packets.len(),
+        sensor.kind(),
+        errors.join(", ")
+    );
+}
+
+fn run_sick(args: &Args, bytes: &[u8]) -> ExitCode {
+    let (telegrams, refused, stats) = decode(bytes, args.measuring_mode);
     for r in &refused {
         eprintln!(
-            "pyramid sick-decode: offset {}: measured-values telegram refused: {}",
+            "pyramid decode: offset {}: measured-values telegram refused: {}",
             r.offset, r.reason
         );
     }
@@ -107,7 +352,7 @@ pub fn run(args: &Args) -> ExitCode {
         match serde_json::to_string(&out) {
             Ok(json) => println!("{json}"),
             Err(e) => {
-                eprintln!("pyramid sick-decode: cannot write JSON: {e}");
+                eprintln!("pyramid decode: cannot write JSON: {e}");
                 return ExitCode::FAILURE;
             }
         }

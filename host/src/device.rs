@@ -118,6 +118,26 @@ pub trait Device {
         ))
     }
 
+    /// RequestStats until the device has taken `target` laser bytes since it booted
+    /// (`laser_bytes`, compared modulo 2³²); returns its count.
+    ///
+    /// # Errors
+    /// No Stats in time, or the count never reaching `target`.
+    fn wait_for_laser_bytes(&mut self, target: u64) -> Result<u64, String> {
+        let mut taken = 0;
+        for _ in 0..100_000 {
+            let s = self.stats()?;
+            taken = s.laser_bytes;
+            #[allow(clippy::cast_possible_truncation, clippy::cast_possible_wrap)]
+            if taken.wrapping_sub(target as u32) as i32 >= 0 {
+                return Ok(u64::from(taken));
+            }
+        }
+        Err(format!(
+            "laser byte {target}: the device has taken only {taken} (mod 2^32)"
+        ))
+    }
+
     /// RequestStats until the device has no changed tile left to queue: every change it made
     /// before that Stats was then on the wire ahead of it, so the mirror holds the device's
     /// maps cell for cell (`tiles_dirty`, `docs/protocol.md`).
@@ -254,7 +274,9 @@ impl<const W: usize, const L: usize, const C: usize, const Q: usize> Device
     for InProcess<W, L, C, Q>
 {
     fn laser(&mut self, bytes: &[u8]) -> Result<(), String> {
-        self.core.laser(bytes, &mut NoAngleSource);
+        // The in-process clock, in µs (it wraps with the board's every 71.6 minutes).
+        let now_us = self.now_ms.wrapping_mul(1_000);
+        self.core.laser(bytes, now_us, &mut NoAngleSource);
         Ok(())
     }
 

@@ -480,8 +480,9 @@ impl Device for Emulator {
                 }
                 Err(RecvTimeoutError::Timeout) => {
                     return Err(format!(
-                        "timed out after {} s waiting for {what} from the firmware",
-                        ANSWER_TIMEOUT.as_secs()
+                        "timed out after {} s waiting for {what} from the firmware{}",
+                        ANSWER_TIMEOUT.as_secs(),
+                        crate::link::version_hint(&self.link.rx_counters())
                     ))
                 }
                 Err(RecvTimeoutError::Disconnected) => {

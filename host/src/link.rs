@@ -506,3 +506,20 @@ impl HostLink {
         self.tx_seq
     }
 }
+
+/// A sentence for a device that sent only frames of another protocol version (the firmware
+/// and this host do not match: an older firmware speaks version 2, this host version
+/// [`terrain_pyramid::wire::link::VERSION`]); empty otherwise.
+#[must_use]
+pub fn version_hint(rx: &RxCounters) -> String {
+    if rx.unknown_version > 0 && rx.frames_ok == 0 {
+        format!(
+            " ({} frames of another protocol version and none of version {}: the firmware \
+             and this host do not match; flash the firmware of this release)",
+            rx.unknown_version,
+            terrain_pyramid::wire::link::VERSION
+        )
+    } else {
+        String::new()
+    }
+}

@@ -3,14 +3,16 @@
 //! faults and soak).
 //!
 //! [`steps`] decodes a recording once into [`Step`]s, in order: its setup, the actuator
-//! angles and poses, and every telegram that passes the SICK accumulator's checks, whole.
-//! [`play`] hands them to a [`Device`] lock-step, as `docs/protocol.md` lets a host do it
-//! over two independent streams:
+//! angles and poses, and every telegram that passes the SICK accumulator's checks, whole; or,
+//! for a spinning lidar (the recording's sensor event, version 2), its laser bytes chunk by
+//! chunk as recorded, with the packets each completes. [`play`] hands them to a [`Device`]
+//! lock-step, as `docs/protocol.md` lets a host do it over two independent streams:
 //!
-//! 1. the setup as Setup (waiting for its Reply);
-//! 2. before each telegram, the angle and pose in force as PanAngle and Pose, then
-//!    RequestStats and the Stats that shows them applied; then the telegram on the laser
-//!    stream, and RequestStats until the device has counted it;
+//! 1. the setup (and the sensor) as Setup (waiting for its Reply);
+//! 2. before each telegram or chunk, the angle and pose in force as PanAngle and Pose, then
+//!    RequestStats and the Stats that shows them applied; then the telegram or chunk on the
+//!    laser stream, and RequestStats until the device has counted the telegram (a lidar
+//!    chunk: until it has taken every byte, `laser_bytes`);
 //! 3. at the end, EndObservation (the last observation is applied) and the Stats that counts
 //!    everything.
 //!
@@ -21,10 +23,11 @@ use crate::device::Device;
 use crate::export::{LayerSnapshot, MapSnapshot};
 use serde::Serialize;
 use terrain_pyramid::classify::ClassifierConfig;
-use terrain_pyramid::link::convert::{frontend_config_of_event, pose_of, setup_message};
+use terrain_pyramid::laser::{LaserDecoder, LaserItem, Sensor, SensorKind};
+use terrain_pyramid::link::convert::{pose_of, setup_message_with_sensor};
 use terrain_pyramid::logodds::round_to_log_odds;
 use terrain_pyramid::wire::link::{Message, PanAngle, PoseReport};
-use terrain_pyramid::wire::recording::{Payload, Reader, SetupEvent};
+use terrain_pyramid::wire::recording::{Payload, Reader, SensorEvent, SetupEvent};
 use terrain_pyramid::wire::sick::{MeasuredValues, SickAccumulator, SickItem};
 use terrain_pyramid::wire::FeedResult;
 use terrain_pyramid::{Config, Design, Resolution};
@@ -48,15 +51,37 @@ pub enum Step {
         /// The recording's time, µs.
         time_us: u64,
     },
+    /// A chunk of a spinning lidar's bytes, as recorded.
+    Laser {
+        /// The bytes.
+        bytes: Vec<u8>,
+        /// Packets the chunk completes that pass their checks (the decoder carries partial
+        /// packets from chunk to chunk, as the device's does).
+        packets: u64,
+        /// The recording's time, µs.
+        time_us: u64,
+    },
 }
 
 /// A decoded recording.
-#[derive(Debug, Clone, Default)]
+#[derive(Debug, Clone)]
 pub struct Steps {
     /// The steps, in order.
     pub steps: Vec<Step>,
     /// Telegram candidates the accumulator refused (CRC, length, truncation).
     pub telegrams_rejected: u64,
+    /// The laser the recording's bytes come from (SICK without a sensor event).
+    pub sensor: SensorEvent,
+}
+
+impl Default for Steps {
+    fn default() -> Self {
+        Self {
+            steps: Vec::new(),
+            telegrams_rejected: 0,
+            sensor: SensorEvent::SICK,
+        }
+    }
 }
 
 impl Steps {
@@ -70,15 +95,30 @@ impl Steps {
     }
 }
 
+/// The sensor of a recording's sensor event, checked as the device checks a Setup's.
+fn sensor_of(event: &SensorEvent) -> Result<Sensor, String> {
+    SensorKind::from_code(event.sensor)
+        .and_then(|kind| Sensor::from_kind_and_mode(kind, event.mode))
+        .ok_or_else(|| {
+            format!(
+                "the recording's sensor {} has no mode {}",
+                event.sensor, event.mode
+            )
+        })
+}
+
 /// Decodes a whole recording into [`Steps`].
 ///
 /// # Errors
-/// A recording that cannot be read, or laser bytes before the setup.
+/// A recording that cannot be read, laser bytes before the setup, or a sensor event after
+/// them.
 pub fn steps(data: &[u8]) -> Result<Steps, String> {
     let reader = Reader::new(data).map_err(|e| format!("the recording: {e}"))?;
     let mut accumulator: Box<SickAccumulator> = Box::new(SickAccumulator::new());
+    let mut lidar: Option<Box<LaserDecoder>> = None;
     let mut out = Steps::default();
     let mut have_setup = false;
+    let mut have_laser = false;
     for event in reader {
         let event = event.map_err(|e| format!("the recording: {e}"))?;
         match event.payload {
@@ -86,11 +126,48 @@ pub fn steps(data: &[u8]) -> Result<Steps, String> {
                 have_setup = true;
                 out.steps.push(Step::Setup(setup));
             }
+            Payload::Sensor(sensor) => {
+                if have_laser {
+                    return Err("the recording names its sensor after laser bytes".into());
+                }
+                let s = sensor_of(&sensor)?;
+                out.sensor = sensor;
+                lidar = s.is_lidar().then(|| Box::new(LaserDecoder::new(s)));
+            }
             Payload::Angle(turns) => out.steps.push(Step::Angle(turns)),
             Payload::Pose(pose) => out.steps.push(Step::Pose(pose)),
             Payload::Laser(bytes) => {
                 if !have_setup {
                     return Err("the recording has laser bytes before its setup event".into());
+                }
+                have_laser = true;
+                if let Some(decoder) = lidar.as_mut() {
+                    let mut packets = 0;
+                    let mut rest = bytes;
+                    loop {
+                        rest = match decoder.feed(rest) {
+                            FeedResult::Consumed => break,
+                            FeedResult::Item {
+                                item: LaserItem::Packet(_),
+                                remaining,
+                                ..
+                            } => {
+                                packets += 1;
+                                remaining
+                            }
+                            FeedResult::Rejected { remaining, .. } => {
+                                out.telegrams_rejected += 1;
+                                remaining
+                            }
+                            other => other.remaining(),
+                        };
+                    }
+                    out.steps.push(Step::Laser {
+                        bytes: bytes.to_vec(),
+                        packets,
+                        time_us: event.time_us,
+                    });
+                    continue;
                 }
                 let mut rest = bytes;
                 loop {
@@ -125,9 +202,9 @@ pub fn steps(data: &[u8]) -> Result<Steps, String> {
 /// What a play did, beyond the maps.
 #[derive(Serialize, Debug, Default, Clone, PartialEq, Eq)]
 pub struct RunCounts {
-    /// Valid measured-values telegrams in the recording's laser bytes.
+    /// Valid measured-values telegrams (or lidar packets) in the recording's laser bytes.
     pub telegrams_sent: u64,
-    /// Telegrams the pipeline applied.
+    /// Telegrams (or lidar packets) the pipeline applied.
     pub telegrams_applied: u64,
     /// Link frames received from the device.
     pub frames_received: u64,
@@ -234,13 +311,16 @@ pub fn play_watched<D: Device>(
     let mut sensor_xy = (0.0, 0.0);
     let mut pending = Pending::default();
     let mut counted: u64 = 0;
+    let mut laser_bytes: u64 = 0;
+    let lidar = steps.sensor != SensorEvent::SICK;
     for step in &steps.steps {
         match step {
             Step::Setup(setup) => {
+                let message = setup_message_with_sensor(setup, &steps.sensor, classifier);
                 // The library's own check first, for a clear error before any frame.
-                frontend_config_of_event(setup, classifier)
+                terrain_pyramid::link::convert::frontend_config(&message)
                     .map_err(|e| format!("the recording's setup: {e}"))?;
-                device.command("Setup", &Message::Setup(setup_message(setup, classifier)))?;
+                device.command("Setup", &Message::Setup(message))?;
             }
             Step::Angle(turns) => pending.angle = Some(*turns),
             Step::Pose(p) => {
@@ -289,6 +369,13 @@ pub fn play_watched<D: Device>(
                     },
                 )?;
             }
+            Step::Laser { bytes, packets, .. } => {
+                send_pending(device, &mut pending)?;
+                device.laser(bytes)?;
+                counts.telegrams_sent += packets;
+                laser_bytes += bytes.len() as u64;
+                device.wait_for_laser_bytes(laser_bytes)?;
+            }
         }
     }
     send_pending(device, &mut pending)?;
@@ -298,6 +385,9 @@ pub fn play_watched<D: Device>(
     counts.lines_rejected = u64::from(s.telegrams_bad_other);
     counts.overflow_points = u64::from(s.classifier_overflows);
     counts.observations = u64::from(s.observations);
+    if lidar {
+        counted = u64::from(s.telegrams_ok);
+    }
     if counted != counts.telegrams_sent {
         return Err(format!(
             "the device counted {counted} telegrams of {} sent",

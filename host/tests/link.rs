@@ -7,9 +7,9 @@ use terrain_pyramid::design::{Schedule, SensorModel};
 use terrain_pyramid::link::{Command, Link, LinkConfig, SensorCounters};
 use terrain_pyramid::wire::link::{
     encode, ClampRequest, Configure, DecodeError, Decoded, FirmwareVersion, FrameAccumulator,
-    GateRequest, Header, Hello, HelloReason, LayerInfo, LayerPatch, Message, PanAngle, PatchArea,
-    PatchCells, PoseReport, Reply, ReplyCode, SnapshotScope, Stats, Undecoded, WindowMoved,
-    MAX_ENCODED_FRAME, MAX_FRAME, STATS_COUNTERS,
+    GateRequest, Header, Hello, HelloReason, LaserSetup, LayerInfo, LayerPatch, Message, PanAngle,
+    PatchArea, PatchCells, PoseReport, Reply, ReplyCode, Setup, SnapshotScope, Stats, Undecoded,
+    WindowMoved, MAX_ENCODED_FRAME, MAX_FRAME, STATS_COUNTERS,
 };
 use terrain_pyramid::wire::FeedResult;
 use terrain_pyramid::{
@@ -215,6 +215,38 @@ fn commands() -> impl Strategy<Value = Owned> {
                 fused_margin,
             }))
         });
+    let setup = (
+        any::<(u8, u8, u16, u16, u32)>(),
+        prop::array::uniform3(float()),
+        prop::array::uniform4(float()),
+        any::<(u8, u8, u32)>(),
+        prop::array::uniform4(float()),
+    )
+        .prop_map(
+            |((mount, mode, field, res, lines), sensor_m, t, (s, a, baud), servo)| {
+                Owned::Msg(Message::Setup(Setup {
+                    mount,
+                    measuring_mode: mode,
+                    field_deg: field,
+                    resolution_cdeg: res,
+                    sensor_m,
+                    lines_per_observation: lines,
+                    robot_height_m: t[0],
+                    step_threshold_m: t[1],
+                    drop_threshold_m: t[2],
+                    ceiling_m: t[3],
+                    laser: LaserSetup {
+                        sensor: s,
+                        actuator: a,
+                        baud,
+                        servo_min_deg: servo[0],
+                        servo_max_deg: servo[1],
+                        servo_rate_deg_s: servo[2],
+                        servo_latency_ms: servo[3],
+                    },
+                }))
+            },
+        );
     let snapshot = prop::option::of(0_u8..255).prop_map(|k| {
         Owned::Msg(Message::RequestSnapshot(
             k.map_or(SnapshotScope::All, SnapshotScope::Layer),
@@ -224,6 +256,7 @@ fn commands() -> impl Strategy<Value = Owned> {
         pose,
         pan,
         configure,
+        setup,
         snapshot,
         Just(Owned::Msg(Message::Reset)),
         Just(Owned::Msg(Message::Ping)),
@@ -833,4 +866,47 @@ proptest! {
         let lossy = Channel { drop_per_mille: drop, flip_per_mille: flip, ..clean() };
         scenario::<4096>(seed, 150, lossy, false, false);
     }
+}
+
+/// An older device (protocol version 2) is refused whole, frame by frame, and the host says
+/// why: the firmware and the host do not match.
+#[test]
+fn a_version_2_device_is_refused_and_named() {
+    // A version-2 Reply Ok (the v2 specification's encoding: version byte 2).
+    let mut raw = vec![2_u8, 0x05, 0x00, 0x00];
+    raw.extend_from_slice(&[0x01, 0x00, 0x86, 0x00, 0x00]);
+    raw.extend_from_slice(&[0; 12]);
+    let crc = terrain_pyramid::wire::link::crc32(&raw);
+    raw.extend_from_slice(&crc.to_le_bytes());
+    let mut framed = vec![0_u8; raw.len() + 4];
+    let mut enc = terrain_pyramid::wire::link::cobs::Encoder::new(&mut framed);
+    enc.push_all(&raw);
+    let n = enc.finish().unwrap();
+    framed.truncate(n);
+    let mut host = HostLink::new();
+    assert!(host
+        .feed(&framed)
+        .iter()
+        .all(|e| !matches!(e, LinkEvent::Reply(_))));
+    let rx = host.rx_counters();
+    assert_eq!((rx.unknown_version, rx.frames_ok), (1, 0));
+    let hint = terrain_pyramid_host::link::version_hint(&rx);
+    assert!(hint.contains("do not match"), "{hint}");
+    assert!(hint.contains("version 3"), "{hint}");
+    // A version-3 frame clears it.
+    host.feed(&device_frame(
+        0,
+        &Message::Reply(terrain_pyramid::wire::link::Reply::code(
+            terrain_pyramid::wire::link::Header {
+                version: 3,
+                msg_type: 0x86,
+                seq: 1,
+            },
+            terrain_pyramid::wire::link::ReplyCode::Ok,
+        )),
+    ));
+    assert_eq!(
+        terrain_pyramid_host::link::version_hint(&host.rx_counters()),
+        ""
+    );
 }

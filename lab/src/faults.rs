@@ -295,7 +295,7 @@ fn recording(lines: usize) -> Result<(SetupEvent, Vec<Line>), String> {
                     break;
                 }
             }
-            PlayStep::Setup(_) | PlayStep::Telegram { .. } => {}
+            PlayStep::Setup(_) | PlayStep::Telegram { .. } | PlayStep::Laser { .. } => {}
         }
     }
     Ok((setup, out))

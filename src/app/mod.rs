@@ -5,27 +5,42 @@
 //! it has and drains what it produces:
 //!
 //! ```text
-//! laser UART bytes ──▶ laser(bytes, angle source) ──▶ telegrams ─▶ pipeline ─▶ pyramid
+//! laser UART bytes ──▶ laser(bytes, now_us, angle source) ──▶ telegrams / packets ─▶ pipeline ─▶ pyramid
 //! host UART bytes  ──▶ host(bytes) ──▶ validated commands, carried out here
 //! clock            ──▶ poll(now_ms) ──▶ Hello, WindowMoved, Stats, patches queued
 //! host UART        ◀── drain(writer, limit) / take_output(buf)
+//! laser UART       ◀── take_laser_change(): the sensor and baud rate to set up
+//! servo PWM        ◀── actuator_command(now_us): the angle to command a nodding servo
 //! ```
 //!
-//! What differs per board comes in as an argument: the time (`poll(now_ms)`), the actuator
-//! angle's source (any [`AngleSource`]; [`NoAngleSource`] where there is none), the stack
-//! measurement (given to [`CoProcessor::answer_shutdown`]); the watchdog and the peripherals
-//! stay with the board. Every board and every host harness drives this one type, so
-//! "firmware = host" holds by construction.
+//! What differs per board comes in as an argument: the time (`poll(now_ms)`, and the µs clock
+//! of the laser bytes' arrival), the actuator angle's source (any [`AngleSource`];
+//! [`NoAngleSource`] where there is none), the stack measurement (given to
+//! [`CoProcessor::answer_shutdown`]); the watchdog and the peripherals stay with the board.
+//! Every board and every host harness drives this one type, so "firmware = host" holds by
+//! construction.
 //!
 //! # Behaviour, decided once
 //! - **Boot** ([`CoProcessor::boot`]): the design, the configuration and the setup are
 //!   adopted, the pyramid passes a self-check (three records, three fused answers, then
 //!   forgotten), and Hello (reason boot) goes out at the first poll.
-//! - **The actuator angle of a line** is read from the board's source when the line's
+//! - **The laser** is the one the setup names ([`crate::laser`]): one decoder, chosen by
+//!   the boot setup and by every Setup (a new sensor gets a fresh decoder; its counts carry
+//!   on), at the baud rate the board reads from [`CoProcessor::take_laser_change`].
+//! - **The actuator angle of a SICK line** is read from the board's source when the line's
 //!   telegram completes. When the source fails (counted in
-//!   [`AppCounters::angle_source_errors`]), the host's last PanAngle stands in; with neither,
-//!   the line is dropped and counted ([`AppCounters::lines_without_angle`]): a line placed at a
-//!   wrong angle would corrupt the map.
+//!   [`AppCounters::angle_source_errors`]), the host's last PanAngle stands in (a nodding
+//!   servo's model, when the setup has one); with neither, the line is dropped and counted
+//!   ([`AppCounters::lines_without_angle`]): a line placed at a wrong angle would corrupt the
+//!   map.
+//! - **The actuator angles of a lidar packet** are those at its first and its last return,
+//!   timed back from the arrival of its bytes ([`PacketTimer`]); the pipeline interpolates
+//!   between them per return. They come from the board's source, read once per call of
+//!   [`CoProcessor::laser`] that completes a packet and interpolated between its last two
+//!   readings ([`AngleTrack`]); when it fails, from the servo's model at those times (a
+//!   nodding servo the setup names), else the host's last PanAngle for the whole packet;
+//!   with none, the packet is dropped and counted. `docs/lidars.md` states the timing
+//!   model and its error budget.
 //! - **Host commands** are validated by the link ([`Link::receive`]) and carried out here in
 //!   the order they arrive: Pose and PanAngle take effect for the next line; Setup
 //!   reconfigures the pipeline (the observation under way is discarded); Configure and Reset
@@ -33,28 +48,35 @@
 //!   their Reply; EndObservation applies the observation under way; Shutdown stops the intake
 //!   (bytes after it are dropped) until the board answers it
 //!   ([`CoProcessor::answer_shutdown`]).
-//! - **Stats** carry the SICK accumulator's, the pipeline's and the classifier's counters;
-//!   `telegrams_bad_other` adds telegrams that are not measured values, lines the pipeline
-//!   refused and lines without an angle.
+//! - **Stats** carry the laser decoder's counters mapped onto the telegram counters (ok,
+//!   bad checksum, bad framing: [`crate::laser::LaserCounts`]), the pipeline's and the
+//!   classifier's; `telegrams_bad_other` adds telegrams that are not measured values, lines
+//!   and packets the pipeline refused and those without an angle.
 
+#[cfg(test)]
+mod lidar_tests;
 #[cfg(test)]
 mod tests;
 
 use core::fmt;
 
+use crate::actuator::{Actuator, AngleTrack, ServoSweep};
 use crate::angle::{Angle, FineAngle};
 use crate::classify::ClassifierStats;
 use crate::design::{Design, DesignError};
 use crate::drivers::angle::AngleSource;
+use crate::laser::{
+    LaserCounters, LaserDecoder, LaserItem, PacketTimer, RevolutionTracker, Sensor,
+};
 use crate::link::convert;
 use crate::link::{
     Command, Link, LinkConfig, LinkCounters, PollReport, Rejection, Request, SensorCounters,
 };
-use crate::pipeline::{Frontend, FrontendConfig, FrontendStats};
+use crate::pipeline::{Frontend, FrontendConfig, FrontendStats, PacketActuator};
 use crate::pyramid::{Applied, Config, Evidence, EvidenceClass, Fused, Pyramid, PyramidStats};
 use crate::units::{Meters, Weight};
 use crate::wire::link::{Header, Reply};
-use crate::wire::sick::{MeasuredValues, SickAccumulator, SickCounters, SickItem};
+use crate::wire::sick::MeasuredValues;
 use crate::wire::FeedResult;
 
 /// The co-processor's own counters (the modules' counters are in [`Counters`]). They
@@ -64,7 +86,8 @@ use crate::wire::FeedResult;
 pub struct AppCounters {
     /// Valid telegrams that are not measured values, or whose values did not parse.
     pub telegrams_unparsed: u32,
-    /// Lines dropped: the angle source failed and the host has sent no PanAngle.
+    /// Lines and lidar packets dropped: no angle for them (the angle source failed, no
+    /// servo model has settled and the host has sent no PanAngle).
     pub lines_without_angle: u32,
     /// Readings of the board's angle source that failed (the host's angle stood in, if any).
     pub angle_source_errors: u32,
@@ -82,8 +105,8 @@ pub struct AppCounters {
 pub struct Counters {
     /// The co-processor's own.
     pub app: AppCounters,
-    /// The SICK accumulator's.
-    pub sick: SickCounters,
+    /// The laser decoder's own (the current sensor's accumulator).
+    pub laser: LaserCounters,
     /// The per-line pipeline's.
     pub frontend: FrontendStats,
     /// The classifier's.
@@ -149,6 +172,17 @@ impl AngleSource for NoAngleSource {
     }
 }
 
+/// The laser as the board sets up its UART for it ([`CoProcessor::take_laser_change`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct LaserPort {
+    /// The sensor (the board sends it whatever starts its stream: a SCAN request, the SICK's
+    /// continuous-output command).
+    pub sensor: Sensor,
+    /// The UART's baud rate, bits per second.
+    pub baud: u32,
+}
+
 /// The co-processor's life: it runs until the host asks it to stop, and stops once the board
 /// has answered that.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -164,14 +198,27 @@ enum Shutdown {
 /// The co-processor: a pyramid of up to `L` layers of `W × W` cells, a classifier of `C`
 /// slots, and a host link with a `Q`-byte outgoing queue. About the pyramid's RAM plus the
 /// pipeline's (`C` · 20 bytes, `L` KiB of gate tables, a 1.6 KiB beam table), the link's
-/// (`Q` plus about 100 bytes a layer) and the SICK accumulator's 818 bytes; `const`-built
-/// all zero bits, so a `static` one sits in `.bss` (build it in a `ConstStaticCell`, never on
+/// (`Q` plus about 100 bytes a layer) and the laser decoder's (the largest accumulator, the
+/// SICK's 818 bytes, and about 100 bytes of timing and actuator state); `const`-built all
+/// zero bits, so a `static` one sits in `.bss` (build it in a `ConstStaticCell`, never on
 /// the stack).
 pub struct CoProcessor<const W: usize, const L: usize, const C: usize, const Q: usize> {
     pyramid: Pyramid<W, L>,
     frontend: Frontend<C, L>,
     link: Link<Q, L>,
-    sick: SickAccumulator,
+    /// The laser's decoder: the setup's sensor.
+    laser: LaserDecoder,
+    /// The times of lidar packets' returns.
+    timer: PacketTimer,
+    /// Where the lidar's revolutions start.
+    revolutions: RevolutionTracker,
+    /// The board's angle source's last readings.
+    track: AngleTrack,
+    /// The nodding servo's model ([`ServoSweep::OFF`] without one; not an `Option`, whose
+    /// `None` may not be zero bits).
+    servo: ServoSweep,
+    /// Whether the board has yet to set its laser UART up for the sensor in force.
+    laser_change: bool,
     /// The host's last PanAngle: stands in when the board's angle source fails.
     host_angle: Option<Angle>,
     /// Where the co-processor is in its life: running, asked to stop, stopped.
@@ -209,7 +256,12 @@ impl<const W: usize, const L: usize, const C: usize, const Q: usize> CoProcessor
             pyramid: Pyramid::new(),
             frontend: Frontend::unconfigured(),
             link: Link::unconfigured(),
-            sick: SickAccumulator::new(),
+            laser: LaserDecoder::new(Sensor::Sick),
+            timer: PacketTimer::ZERO,
+            revolutions: RevolutionTracker::new(),
+            track: AngleTrack::new(),
+            servo: ServoSweep::OFF,
+            laser_change: false,
             host_angle: None,
             shutdown: Shutdown::Running,
             counters: AppCounters {
@@ -238,7 +290,8 @@ impl<const W: usize, const L: usize, const C: usize, const Q: usize> CoProcessor
     ) -> Result<(), BootError> {
         self.configure(design, config)?;
         self.self_check()?;
-        self.frontend.configure(setup);
+        self.adopt_setup(setup);
+        self.laser_change = true;
         info!(
             "booted: {:?} ({} layers max, {} bytes of pyramid)",
             design,
@@ -274,9 +327,31 @@ impl<const W: usize, const L: usize, const C: usize, const Q: usize> CoProcessor
         Ok(())
     }
 
-    /// Reconfigures the pipeline (mount, scanner, grouping, classifier); the observation
-    /// under way is discarded.
+    /// Reconfigures the pipeline (mount, scanner, grouping, classifier) and the laser (its
+    /// decoder, baud rate and actuator); the observation under way is discarded.
     pub fn setup(&mut self, setup: FrontendConfig) {
+        self.adopt_setup(setup);
+    }
+
+    /// Adopts a setup: a new sensor or baud rate gets a fresh decoder and timer (and the board
+    /// is told, [`take_laser_change`](Self::take_laser_change)); a new servo profile a fresh
+    /// model (begun at the next laser bytes or command); then the pipeline.
+    fn adopt_setup(&mut self, setup: FrontendConfig) {
+        let old = *self.frontend.config();
+        let sensor_changed = self.laser.set_sensor(setup.sensor);
+        if sensor_changed || !self.frontend.is_configured() || old.baud != setup.baud {
+            self.timer.reset(setup.baud);
+            self.revolutions = RevolutionTracker::new();
+            self.laser_change = true;
+        }
+        match setup.actuator {
+            Actuator::External => self.servo = ServoSweep::OFF,
+            Actuator::Servo(profile) => {
+                if !self.servo.is_on() || *self.servo.profile() != profile {
+                    self.servo = ServoSweep::new(profile);
+                }
+            }
+        }
         self.frontend.configure(setup);
     }
 
@@ -354,42 +429,142 @@ impl<const W: usize, const L: usize, const C: usize, const Q: usize> CoProcessor
 
     // ------------------------------------------------------------ laser
 
-    /// Takes bytes from the laser's UART: every telegram they complete is parsed and its line
-    /// fed to the pipeline at the actuator angle of that moment (`angle`, else the host's last
-    /// PanAngle; neither: the line is dropped and counted). Bytes of an incomplete telegram
-    /// are kept for the next call. Nothing is taken while a Shutdown waits for its answer.
-    pub fn laser(&mut self, bytes: &[u8], angle: &mut impl AngleSource) {
+    /// Takes bytes from the laser's UART that arrived by `now_us` (the board's clock, µs,
+    /// wrapping: when the chunk's last byte arrived, as near as the board knows). Every SICK
+    /// telegram they complete is parsed and its line fed to the pipeline at the actuator
+    /// angle of that moment; every lidar packet they complete is timed back from `now_us`
+    /// and fed with the actuator's angles at its first and last return (see the
+    /// [module documentation](self) for where the angles come from). Bytes of an incomplete
+    /// telegram or packet are kept for the next call. Nothing is taken while a Shutdown waits
+    /// for its answer.
+    pub fn laser(&mut self, bytes: &[u8], now_us: u32, angle: &mut impl AngleSource) {
+        self.laser_timed(bytes, now_us, now_us, angle);
+    }
+
+    /// [`laser`](Self::laser) for a board that knows when the chunk's last byte arrived
+    /// (`arrival_us`, from its receive interrupt) apart from the time of the call (`now_us`,
+    /// when the angle source is read): packets are timed back from `arrival_us`, the source's
+    /// reading is kept with `now_us`. Both on the board's µs clock.
+    pub fn laser_timed(
+        &mut self,
+        bytes: &[u8],
+        arrival_us: u32,
+        now_us: u32,
+        angle: &mut impl AngleSource,
+    ) {
         if self.shutdown != Shutdown::Running {
             return;
         }
+        if self.servo.is_on() {
+            self.servo.track(now_us);
+        }
+        // The board's source, read at most once per call (at `now_us`).
+        let mut reading = Reading::NotYet;
         let mut chunk = bytes;
         loop {
-            chunk = match self.sick.feed(chunk) {
+            let result = self.laser.feed(chunk);
+            chunk = result.remaining();
+            let item = match result {
                 FeedResult::Consumed => return,
-                FeedResult::Item {
-                    item: SickItem::Telegram(telegram),
-                    remaining,
-                    ..
-                } => {
-                    match MeasuredValues::parse(&telegram) {
-                        Ok(values) => {
-                            match line_angle(angle, self.host_angle, &mut self.counters) {
-                                Some(a) => {
-                                    self.frontend.set_actuator(FineAngle::from(a));
-                                    // A refused line is counted by the pipeline.
-                                    let _ = self.frontend.line(&mut self.pyramid, &values);
-                                }
-                                None => bump(&mut self.counters.lines_without_angle),
-                            }
-                        }
-                        Err(_) => bump(&mut self.counters.telegrams_unparsed),
-                    }
-                    remaining
-                }
-                // ACK, NAK and refused candidates are counted by the accumulator.
-                other => other.remaining(),
+                FeedResult::Item { item, .. } => item,
+                // Refused candidates are counted by the decoder.
+                FeedResult::Rejected { .. } => continue,
             };
+            match item {
+                LaserItem::Telegram(telegram) => match MeasuredValues::parse(&telegram) {
+                    Ok(values) => {
+                        let servo = self.servo.is_on().then_some(&self.servo);
+                        match line_angle(
+                            angle,
+                            self.host_angle,
+                            servo,
+                            arrival_us,
+                            &mut self.counters,
+                        ) {
+                            Some(a) => {
+                                self.frontend.set_actuator(a);
+                                // A refused line is counted by the pipeline.
+                                let _ = self.frontend.line(&mut self.pyramid, &values);
+                            }
+                            None => bump(&mut self.counters.lines_without_angle),
+                        }
+                    }
+                    Err(_) => bump(&mut self.counters.telegrams_unparsed),
+                },
+                LaserItem::Packet(packet) => {
+                    // The packet's last byte arrived before the bytes still in the chunk.
+                    let end = arrival_us.wrapping_sub(self.timer.bytes_us(chunk.len()));
+                    let starts = self.revolutions.starts(&packet);
+                    let (first, last) = self.timer.times(&packet, end, starts);
+                    if reading == Reading::NotYet {
+                        reading = match angle.read_angle() {
+                            Ok(a) => {
+                                self.track.push(now_us, FineAngle::from(a));
+                                Reading::Read
+                            }
+                            Err(_) => {
+                                bump(&mut self.counters.angle_source_errors);
+                                Reading::Failed
+                            }
+                        };
+                    }
+                    let actuator = match reading {
+                        Reading::Read => self.track.at(first).zip(self.track.at(last)),
+                        _ if self.servo.is_on() => {
+                            self.servo.estimate(first).zip(self.servo.estimate(last))
+                        }
+                        _ => self.host_angle.map(|a| {
+                            let a = FineAngle::from(a);
+                            (a, a)
+                        }),
+                    };
+                    match actuator {
+                        Some((first, last)) => {
+                            // A refused packet is counted by the pipeline.
+                            let _ = self.frontend.packet(
+                                &mut self.pyramid,
+                                packet.returns(),
+                                starts,
+                                PacketActuator { first, last },
+                            );
+                        }
+                        None => bump(&mut self.counters.lines_without_angle),
+                    }
+                }
+                // ACKs, descriptors, responses: nothing to place.
+                LaserItem::Other => {}
+            }
         }
+    }
+
+    /// The angle to command a nodding servo at `now_us` (the board's clock, µs), when the
+    /// setup has one: the board writes it to the servo's PWM (`drivers::servo`) every step of
+    /// its main loop. The first call begins the sweep (a settling hold at its lower end);
+    /// `None` without a servo.
+    pub fn actuator_command(&mut self, now_us: u32) -> Option<FineAngle> {
+        self.servo.is_on().then(|| self.servo.command(now_us))
+    }
+
+    /// The laser the setup in force names and its UART's baud rate.
+    #[must_use]
+    pub fn laser_port(&self) -> LaserPort {
+        LaserPort {
+            sensor: self.laser.sensor(),
+            baud: self.frontend.config().baud,
+        }
+    }
+
+    /// The laser UART's baud rate in force, bits per second.
+    #[must_use]
+    pub fn laser_baud(&self) -> u32 {
+        self.frontend.config().baud
+    }
+
+    /// The laser the board must set its UART up for, once after boot and after each Setup
+    /// that changed the sensor or the baud rate (then `None` until the next change): the board
+    /// sets the rate (an emulated UART ignores it) and starts the sensor's stream.
+    pub fn take_laser_change(&mut self) -> Option<LaserPort> {
+        core::mem::take(&mut self.laser_change).then(|| self.laser_port())
     }
 
     /// Counts an overrun of the laser's UART (bytes lost before they reached [`laser`]).
@@ -459,7 +634,7 @@ impl<const W: usize, const L: usize, const C: usize, const Q: usize> CoProcessor
             }
             Command::Setup(setup) => {
                 self.link.answer(Reply::ok(header));
-                self.frontend.configure(setup);
+                self.adopt_setup(setup);
             }
             Command::EndObservation => self.end_observation(),
             Command::Shutdown => self.shutdown = Shutdown::Requested(header),
@@ -549,7 +724,7 @@ impl<const W: usize, const L: usize, const C: usize, const Q: usize> CoProcessor
     pub fn counters(&self) -> Counters {
         Counters {
             app: self.counters,
-            sick: self.sick.stats(),
+            laser: self.laser.counters(),
             frontend: self.frontend.stats(),
             classifier: self.frontend.classifier_stats(),
             pyramid: self.pyramid.stats(),
@@ -559,13 +734,13 @@ impl<const W: usize, const L: usize, const C: usize, const Q: usize> CoProcessor
 
     /// The counters Stats carries from the laser side.
     fn sensor_counters(&self) -> SensorCounters {
-        let sick = self.sick.stats();
+        let laser = self.laser.counts();
         let frontend = self.frontend.stats();
         let classifier = self.frontend.classifier_stats();
         SensorCounters {
-            telegrams_ok: sick.telegrams_ok,
-            telegrams_bad_checksum: sick.crc_errors,
-            telegrams_bad_framing: sick.length_errors.saturating_add(sick.truncated),
+            telegrams_ok: laser.ok,
+            telegrams_bad_checksum: laser.bad_checksum,
+            telegrams_bad_framing: laser.bad_framing,
             telegrams_bad_other: self
                 .counters
                 .telegrams_unparsed
@@ -574,7 +749,7 @@ impl<const W: usize, const L: usize, const C: usize, const Q: usize> CoProcessor
             points: classifier.points,
             classifier_overflows: classifier.overflow_points,
             // Stats carries the low 32 bits (it wraps).
-            laser_bytes: u32::try_from(self.sick.position() & u64::from(u32::MAX))
+            laser_bytes: u32::try_from(self.laser.bytes() & u64::from(u32::MAX))
                 .unwrap_or(u32::MAX),
             observations: frontend.observations,
         }
@@ -605,17 +780,31 @@ impl<const W: usize, const L: usize, const C: usize, const Q: usize> CoProcessor
     }
 }
 
-/// The actuator angle of a line: the source's, else the host's (the failure counted).
+/// Whether the board's angle source was read in this call of [`CoProcessor::laser`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Reading {
+    NotYet,
+    Read,
+    Failed,
+}
+
+/// The actuator angle of a SICK line: the source's, else the servo model's at `now_us` when
+/// the setup has a servo, else the host's (the source's failure counted).
 fn line_angle(
     source: &mut impl AngleSource,
     host: Option<Angle>,
+    servo: Option<&ServoSweep>,
+    now_us: u32,
     counters: &mut AppCounters,
-) -> Option<Angle> {
+) -> Option<FineAngle> {
     match source.read_angle() {
-        Ok(angle) => Some(angle),
+        Ok(angle) => Some(FineAngle::from(angle)),
         Err(_) => {
             bump(&mut counters.angle_source_errors);
-            host
+            match servo {
+                Some(servo) => servo.estimate(now_us),
+                None => host.map(FineAngle::from),
+            }
         }
     }
 }

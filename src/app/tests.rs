@@ -15,7 +15,7 @@ use crate::DefaultDesign;
 use std::boxed::Box;
 use std::vec::Vec;
 
-type Core = CoProcessor<64, 8, 1024, 4096>;
+pub(super) type Core = CoProcessor<64, 8, 1024, 4096>;
 
 fn design() -> DefaultDesign {
     DefaultDesign::new(SensorModel::default(), Schedule::default(), 64).unwrap()
@@ -31,6 +31,9 @@ fn setup() -> FrontendConfig {
                 ..Point3::default()
             },
         ),
+        sensor: crate::laser::Sensor::Sick,
+        baud: 500_000,
+        actuator: crate::actuator::Actuator::External,
         variant: Variant::Fov180StepHalf,
         measuring_mode: MeasuringMode::Mm8Cm80,
         lines_per_observation: 1,
@@ -40,7 +43,7 @@ fn setup() -> FrontendConfig {
 }
 
 /// A booted co-processor whose boot Hello has been drained, Stats off.
-fn booted() -> Box<Core> {
+pub(super) fn booted() -> Box<Core> {
     let mut core = Box::new(Core::new());
     let link = LinkConfig {
         stats_interval_ms: 0,
@@ -54,7 +57,7 @@ fn booted() -> Box<Core> {
 }
 
 /// Everything the co-processor queued, decoded.
-fn output(core: &mut Core) -> Vec<(u16, Out)> {
+pub(super) fn output(core: &mut Core) -> Vec<(u16, Out)> {
     let mut bytes = Vec::new();
     let mut buf = [0_u8; 100];
     loop {
@@ -106,7 +109,7 @@ fn observed(core: &Core) -> u32 {
         .sum()
 }
 
-fn pan(seq: u16, turns: u16) -> Vec<u8> {
+pub(super) fn pan(seq: u16, turns: u16) -> Vec<u8> {
     command(
         seq,
         &Message::PanAngle(PanAngle {
@@ -165,22 +168,22 @@ fn a_line_needs_an_angle_from_the_board_or_the_host() {
     let mut core = booted();
     let telegram = floor_telegram();
     // No source, no PanAngle yet: the line is dropped and counted.
-    core.laser(&telegram, &mut NoAngleSource);
+    core.laser(&telegram, 0, &mut NoAngleSource);
     let c = core.counters();
     assert_eq!(
         (c.app.lines_without_angle, c.frontend.lines_applied),
         (1, 0)
     );
     assert_eq!(c.app.angle_source_errors, 1);
-    assert_eq!(c.sick.telegrams_ok, 1);
+    assert_eq!(c.laser.sick().unwrap().telegrams_ok, 1);
     // The host's angle stands in.
     core.host(&pan(0, 0x0E39)); // 20° down, as 2⁻¹⁶ turn
-    core.laser(&telegram, &mut NoAngleSource);
+    core.laser(&telegram, 0, &mut NoAngleSource);
     assert_eq!(core.counters().frontend.lines_applied, 1);
     assert!(core.pyramid().stats().applied > 0);
     // An encoder is read first; when it fails, the host's angle stands in again.
-    core.laser(&telegram, &mut Encoder(Some(Angle::from_bits(0x0E39))));
-    core.laser(&telegram, &mut Encoder(None));
+    core.laser(&telegram, 0, &mut Encoder(Some(Angle::from_bits(0x0E39))));
+    core.laser(&telegram, 0, &mut Encoder(None));
     let c = core.counters();
     assert_eq!(c.frontend.lines_applied, 3);
     assert_eq!(
@@ -207,13 +210,13 @@ fn a_telegram_split_anywhere_is_one_line() {
     let telegram = floor_telegram();
     let mut whole = booted();
     whole.host(&pan(0, 0x0E39));
-    whole.laser(&telegram, &mut NoAngleSource);
+    whole.laser(&telegram, 0, &mut NoAngleSource);
     for cut in [1, 7, 100, telegram.len() - 1] {
         let mut split = booted();
         split.host(&pan(0, 0x0E39));
-        split.laser(&telegram[..cut], &mut NoAngleSource);
+        split.laser(&telegram[..cut], 0, &mut NoAngleSource);
         assert_eq!(split.counters().frontend.lines_applied, 0);
-        split.laser(&telegram[cut..], &mut NoAngleSource);
+        split.laser(&telegram[cut..], 0, &mut NoAngleSource);
         assert_eq!(split.counters(), whole.counters(), "cut at {cut}");
     }
 }
@@ -222,7 +225,7 @@ fn a_telegram_split_anywhere_is_one_line() {
 fn configure_is_validated_by_the_librarys_rules() {
     let mut core = booted();
     core.host(&pan(0, 0x0E39));
-    core.laser(&floor_telegram(), &mut NoAngleSource);
+    core.laser(&floor_telegram(), 0, &mut NoAngleSource);
     let before = observed(&core);
     assert!(before > 0);
     let default = configure_of_design(&design(), &Config::default());
@@ -340,7 +343,7 @@ fn poses_are_validated_and_pan_angles_kept() {
 fn snapshot_reset_ping_and_bad_frames() {
     let mut core = booted();
     core.host(&pan(0, 0x0E39));
-    core.laser(&floor_telegram(), &mut NoAngleSource);
+    core.laser(&floor_telegram(), 0, &mut NoAngleSource);
     assert!(observed(&core) > 0);
     core.poll(1);
     output(&mut core);
@@ -414,6 +417,7 @@ fn setup_request_stats_end_observation_and_shutdown() {
         step_threshold_m: 0.05,
         drop_threshold_m: 0.3,
         ceiling_m: 0.0,
+        laser: crate::wire::link::LaserSetup::SICK,
     };
     let mut bytes = command(0, &Message::Setup(setup));
     bytes.extend(command(
@@ -439,8 +443,8 @@ fn setup_request_stats_end_observation_and_shutdown() {
     // The Ping after Shutdown is dropped; laser bytes are no longer taken.
     assert!(core.shutdown_requested());
     assert!(core.counters().app.bytes_after_shutdown > 0);
-    core.laser(&floor_telegram(), &mut NoAngleSource);
-    assert_eq!(core.counters().sick.telegrams_ok, 0);
+    core.laser(&floor_telegram(), 0, &mut NoAngleSource);
+    assert_eq!(core.counters().laser.sick().unwrap().telegrams_ok, 0);
     core.answer_shutdown(StackUsage {
         used: 1234,
         size: 4096,

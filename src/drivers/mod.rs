@@ -11,6 +11,9 @@
 //! - [`as5047`]: the AS5047P-kind 14-bit magnetic encoder over SPI.
 //! - [`lidar`]: requests to the spinning UART lidars (RPLIDAR, YDLIDAR) through any
 //!   `embedded_io::Write`.
+//! - [`servo`]: a nodding servo on a PWM channel through embedded-hal's `SetDutyCycle`.
+//! - [`pot`]: a potentiometer on the actuator's axis through an ADC channel ([`pot::AdcChannel`],
+//!   embedded-hal having no ADC trait), as an [`angle::AngleSource`].
 //!
 //! (A laser's bytes need no driver: a board hands whatever its UART received to
 //! [`crate::app::CoProcessor::laser`].)
@@ -18,3 +21,5 @@
 pub mod angle;
 pub mod as5047;
 pub mod lidar;
+pub mod pot;
+pub mod servo;

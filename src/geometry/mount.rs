@@ -1,6 +1,7 @@
 //! How the scanner sits on the robot: the plane it scans in and how its actuator moves that
 //! plane ([`ScanPlane`]), and where its scan centre is in the robot frame ([`Mount`]).
 
+use crate::angle::FineAngle;
 use crate::units::Point3;
 
 /// The scan plane and the actuator that sweeps it. θ is the beam angle (0° right, 90°
@@ -43,5 +44,46 @@ impl Mount {
     #[must_use]
     pub const fn new(plane: ScanPlane, position: Point3) -> Self {
         Self { plane, position }
+    }
+}
+
+/// The geometry's beam angle θ of a spinning lidar's return at `clockwise`, the sensor's own
+/// angle (clockwise seen from the sensor's top, from the manual's 0°; see
+/// [`crate::wire::laser`]): `θ = 90° − clockwise`, exact (a wrapping subtraction).
+///
+/// The mounting this fixes, for both scan planes (the lidar's spin centre is the scan centre,
+/// [`Mount::position`], on the actuator's axis):
+/// - [`ScanPlane::TiltedHorizontal`] (a lidar on a nodding servo): the lidar lies flat, top
+///   up, its 0° pointing forward (robot +x) at actuator angle 0: its 0° is θ = 90° (ahead),
+///   its 90° (clockwise from above) θ = 0° (to the right), its 180° behind, its 270° to the
+///   left. The servo tilts it about the robot's y axis, positive looking down ahead (and up
+///   behind).
+/// - [`ScanPlane::PannedVertical`]: the lidar stands on its side with its top facing right
+///   (robot −y) and its 0° pointing forward: its 90° points straight down (θ = 0°), its 270°
+///   straight up; the actuator pans that plane about z.
+///
+/// A lidar mounted otherwise (0° backwards, top facing left) gives mirrored or rotated maps:
+/// mount it as above.
+#[must_use]
+pub const fn beam_angle_of_clockwise(clockwise: FineAngle) -> FineAngle {
+    FineAngle::QUARTER.wrapping_sub(clockwise)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn clockwise_angles_map_onto_the_beam_angle() {
+        assert_eq!(beam_angle_of_clockwise(FineAngle::ZERO), FineAngle::QUARTER);
+        assert_eq!(beam_angle_of_clockwise(FineAngle::QUARTER), FineAngle::ZERO);
+        assert_eq!(
+            beam_angle_of_clockwise(FineAngle::HALF),
+            FineAngle::QUARTER.reversed()
+        );
+        assert_eq!(
+            beam_angle_of_clockwise(FineAngle::from_bits(3 << 30)),
+            FineAngle::HALF
+        );
     }
 }

@@ -89,7 +89,7 @@ impl Row {
 }
 
 /// A Q2.30 unit component as Q40 metres per millimetre, clamped to ±2⁴⁰/1 000.
-fn per_mm(q30: i64) -> i32 {
+pub(super) fn per_mm(q30: i64) -> i32 {
     // A unit vector's component: |q30| ≤ 2³⁰ up to rounding; clamped, the product with the
     // factor (< 2³²·⁰⁴) stays below 2⁶²·⁰⁴.
     let unit = q30.clamp(-(1 << 30), 1 << 30);
@@ -106,7 +106,7 @@ fn sat_i32(value: i64) -> i32 {
 
 /// A Q40 metres coordinate rounded to Q16.16 [`Meters`], saturating.
 #[inline]
-fn meters_q40(value: i64) -> Meters {
+pub(super) fn meters_q40(value: i64) -> Meters {
     Meters::from_bits(sat_i32(value.saturating_add(1 << 23) >> 24))
 }
 
@@ -425,7 +425,7 @@ pub fn horizontal_distance(from: Point3, to: Point3) -> Meters {
 
 /// `Δx² + Δy²` of two Q40 offsets (each below 2⁴⁸) rounded to Q16: raw Q16.16 units squared.
 #[inline]
-fn horizontal_squared(dx: i64, dy: i64) -> u64 {
+pub(super) fn horizontal_squared(dx: i64, dy: i64) -> u64 {
     // Q40 → Q16, rounded: |Δ| < 2²⁴, so each square is < 2⁴⁸ and their sum < 2⁴⁹.
     let dx = (dx + (1 << 23)) >> 24;
     let dy = (dy + (1 << 23)) >> 24;
@@ -434,7 +434,7 @@ fn horizontal_squared(dx: i64, dy: i64) -> u64 {
 
 /// `√(Δx² + Δy²)` of two Q40 offsets (each below 2⁴⁸), as Q16.16 metres.
 #[inline]
-fn horizontal(dx: i64, dy: i64) -> Meters {
+pub(super) fn horizontal(dx: i64, dy: i64) -> Meters {
     let sum = horizontal_squared(dx, dy);
     // The root of a sum below 2⁴⁹ is below 2²⁵: it fits an i32.
     Meters::from_bits(sat_i32(i64::try_from(isqrt_round(sum)).unwrap_or(i64::MAX)))

@@ -15,18 +15,21 @@
 
 use core::fmt;
 
+use crate::actuator::{Actuator, ServoProfile};
+use crate::angle::FineAngle;
 use crate::classify::ClassifierConfig;
 use crate::design::{Design, DesignError, GateShape, Param, Schedule, SensorModel};
 use crate::geometry::{Mount, Pose, PoseError, PoseField, ScanPlane};
+use crate::laser::{Sensor, SensorKind};
 use crate::logodds::{Clamp, InverseSensorModel};
 use crate::pipeline::FrontendConfig;
 use crate::pyramid::Config;
 use crate::units::{Meters, Point3};
 use crate::wire::link::{
-    ClampRequest, Configure, GateRequest, Header, PoseReport, Reply, ReplyCode, Setup,
+    ClampRequest, Configure, GateRequest, Header, LaserSetup, PoseReport, Reply, ReplyCode, Setup,
     SnapshotScope, PARAM_LAYER,
 };
-use crate::wire::recording::{MountKind, SetupEvent};
+use crate::wire::recording::{MountKind, SensorEvent, SetupEvent};
 use crate::wire::sick::{MeasuringMode, Variant};
 
 // ---------------------------------------------------------------- Configure
@@ -159,7 +162,8 @@ pub const fn pose_field_code(field: PoseField) -> u8 {
 
 // ---------------------------------------------------------------- Setup
 
-/// A field of a [`Setup`], as a Reply names it (`param` 48 ..= 57).
+/// A field of a [`Setup`], as a Reply names it (`param` 48 ..= 57, and 58 ..= 64 for the
+/// laser block of protocol version 3).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 #[repr(u8)]
@@ -184,6 +188,20 @@ pub enum SetupField {
     DropThreshold = 56,
     /// The ceiling (0 = off).
     Ceiling = 57,
+    /// The sensor: 0 SICK, 1 LD06, 2 RPLIDAR, 3 YDLIDAR.
+    Sensor = 58,
+    /// The laser UART's baud rate (0 = the sensor's default).
+    Baud = 59,
+    /// The actuator: 0 external, 1 nodding servo.
+    Actuator = 60,
+    /// The servo sweep's lower end.
+    ServoMin = 61,
+    /// The servo sweep's upper end.
+    ServoMax = 62,
+    /// The servo sweep's rate.
+    ServoRate = 63,
+    /// The servo's latency.
+    ServoLatency = 64,
 }
 
 impl SetupField {
@@ -201,6 +219,13 @@ impl SetupField {
             55 => Self::StepThreshold,
             56 => Self::DropThreshold,
             57 => Self::Ceiling,
+            58 => Self::Sensor,
+            59 => Self::Baud,
+            60 => Self::Actuator,
+            61 => Self::ServoMin,
+            62 => Self::ServoMax,
+            63 => Self::ServoRate,
+            64 => Self::ServoLatency,
             _ => return None,
         })
     }
@@ -210,7 +235,7 @@ impl SetupField {
     pub const fn name(self) -> &'static str {
         match self {
             Self::Mount => "setup mount",
-            Self::MeasuringMode => "setup measuring mode",
+            Self::MeasuringMode => "setup sensor mode",
             Self::Variant => "setup scanner variant",
             Self::SensorX => "setup sensor x",
             Self::SensorY => "setup sensor y",
@@ -219,6 +244,13 @@ impl SetupField {
             Self::StepThreshold => "setup step threshold",
             Self::DropThreshold => "setup drop threshold",
             Self::Ceiling => "setup ceiling",
+            Self::Sensor => "setup sensor",
+            Self::Baud => "setup baud rate",
+            Self::Actuator => "setup actuator",
+            Self::ServoMin => "setup servo min",
+            Self::ServoMax => "setup servo max",
+            Self::ServoRate => "setup servo rate",
+            Self::ServoLatency => "setup servo latency",
         }
     }
 }
@@ -285,6 +317,18 @@ impl core::error::Error for SetupError {}
 /// (exclusive).
 pub const SETUP_LIMIT_M: f32 = 1_000.0;
 
+/// The baud rates a setup may ask for (0 asks for the sensor's default).
+pub const SETUP_BAUD: core::ops::RangeInclusive<u32> = 9_600..=3_000_000;
+
+/// The largest |angle| of a servo sweep's end, degrees.
+pub const SERVO_LIMIT_DEG: f32 = 179.0;
+
+/// The fastest servo sweep, degrees per second.
+pub const SERVO_MAX_RATE_DEG_S: f32 = 1_000.0;
+
+/// The longest servo latency, milliseconds (exclusive).
+pub const SERVO_MAX_LATENCY_MS: f32 = 1_000.0;
+
 /// The link's Setup of a recording's setup event and the classifier's thresholds (exact:
 /// every Q16.16 value below 256 m is exact in `f32`, so [`frontend_config`] gives back the
 /// same thresholds).
@@ -306,7 +350,26 @@ pub fn setup_message(event: &SetupEvent, classifier: &ClassifierConfig) -> Setup
         step_threshold_m: m(classifier.step_threshold),
         drop_threshold_m: off(classifier.drop_threshold),
         ceiling_m: off(classifier.ceiling),
+        laser: LaserSetup::SICK,
     }
+}
+
+/// The link's Setup of a recording's setup event, its sensor event (version 2; use
+/// [`SensorEvent::SICK`] for a version-1 recording) and the classifier's thresholds: the
+/// laser block names the sensor at its default baud rate on an external actuator (the
+/// recording's angle events are the angle), and byte 1 is the sensor's mode for a lidar.
+#[must_use]
+pub fn setup_message_with_sensor(
+    event: &SetupEvent,
+    sensor: &SensorEvent,
+    classifier: &ClassifierConfig,
+) -> Setup {
+    let mut setup = setup_message(event, classifier);
+    setup.laser.sensor = sensor.sensor;
+    if sensor.sensor != SensorKind::Sick.code() {
+        setup.measuring_mode = sensor.mode;
+    }
+    setup
 }
 
 /// The pipeline's configuration of a recording's setup event and the classifier's
@@ -321,15 +384,28 @@ pub fn frontend_config_of_event(
     frontend_config(&setup_message(event, classifier))
 }
 
-/// Validates a setup and turns it into the pipeline's configuration: the mount exists (0 or
-/// 1), the measuring mode is one the SICK knows, the field of view and resolution make a
-/// variant, positions are finite with |v| < 1 000 m, the robot height is positive, the
-/// thresholds are ≥ 0 and finite (all below 1 000 m). Fields are checked in wire order; the
-/// first bad one is reported. Missing ground is off (the Setup does not carry it).
+/// Validates a setup and turns it into the pipeline's configuration. The sensor is checked
+/// first (the mode's and the variant's meaning depend on it), then the fields in wire order:
+/// the mount exists (0 or 1); for a SICK the measuring mode is one it knows and the field of
+/// view and resolution make a variant, for a spinning lidar the mode is one of its modes
+/// (LD06 0; RPLIDAR and YDLIDAR 0 or 1) and the variant fields are ignored; positions are
+/// finite with |v| < 1 000 m, the robot height is positive, the thresholds are ≥ 0 and finite
+/// (all below 1 000 m); the baud rate is 0 (the sensor's default) or 9 600 ..= 3 000 000;
+/// the actuator exists (0 external, 1 servo), and for a servo its sweep is finite with
+/// −179° ≤ min < max ≤ 179°, a rate in (0, 1 000] °/s and a latency in [0, 1 000) ms (the
+/// servo fields are ignored for an external actuator). The first bad field is reported.
+/// Missing ground is off (the Setup does not carry it).
 ///
 /// # Errors
 /// The first bad field.
 pub fn frontend_config(setup: &Setup) -> Result<FrontendConfig, SetupError> {
+    let laser = &setup.laser;
+    let kind = SensorKind::from_code(laser.sensor).ok_or(SetupError::OutOfRange {
+        field: SetupField::Sensor,
+        value: f32::from(laser.sensor),
+        min: 0.0,
+        max: 3.0,
+    })?;
     let plane = match setup.mount {
         0 => ScanPlane::PannedVertical,
         1 => ScanPlane::TiltedHorizontal,
@@ -342,21 +418,39 @@ pub fn frontend_config(setup: &Setup) -> Result<FrontendConfig, SetupError> {
             })
         }
     };
-    let measuring_mode =
-        MeasuringMode::from_code(setup.measuring_mode).map_err(|_| SetupError::OutOfRange {
-            field: SetupField::MeasuringMode,
-            value: f32::from(setup.measuring_mode),
-            min: 0.0,
-            max: 15.0,
-        })?;
-    let variant = Variant::from_sick(setup.field_deg, setup.resolution_cdeg).ok_or(
-        SetupError::OutOfRange {
-            field: SetupField::Variant,
-            value: f32::from(setup.resolution_cdeg),
-            min: f32::from(setup.field_deg),
-            max: 0.0,
-        },
-    )?;
+    let (sensor, measuring_mode, variant) = match Sensor::max_mode(kind) {
+        None => {
+            let measuring_mode = MeasuringMode::from_code(setup.measuring_mode).map_err(|_| {
+                SetupError::OutOfRange {
+                    field: SetupField::MeasuringMode,
+                    value: f32::from(setup.measuring_mode),
+                    min: 0.0,
+                    max: 15.0,
+                }
+            })?;
+            let variant = Variant::from_sick(setup.field_deg, setup.resolution_cdeg).ok_or(
+                SetupError::OutOfRange {
+                    field: SetupField::Variant,
+                    value: f32::from(setup.resolution_cdeg),
+                    min: f32::from(setup.field_deg),
+                    max: 0.0,
+                },
+            )?;
+            (Sensor::Sick, measuring_mode, variant)
+        }
+        Some(max) => {
+            let sensor = Sensor::from_kind_and_mode(kind, setup.measuring_mode).ok_or(
+                SetupError::OutOfRange {
+                    field: SetupField::MeasuringMode,
+                    value: f32::from(setup.measuring_mode),
+                    min: 0.0,
+                    max: f32::from(max),
+                },
+            )?;
+            // Unused by a lidar; the pipeline keeps a placeholder.
+            (sensor, MeasuringMode::Mm8Cm80, Variant::Fov180Step1)
+        }
+    };
     let [sx, sy, sz] = setup.sensor_m;
     let position = |field, v: f32| -> Result<Meters, SetupError> {
         if !v.is_finite() {
@@ -402,8 +496,41 @@ pub fn frontend_config(setup: &Setup) -> Result<FrontendConfig, SetupError> {
     let drop = threshold(SetupField::DropThreshold, setup.drop_threshold_m)?;
     let ceiling = threshold(SetupField::Ceiling, setup.ceiling_m)?;
     let optional = |v: Meters| (v > Meters::ZERO).then_some(v);
+    let baud = match laser.baud {
+        0 => kind.default_baud(),
+        b if SETUP_BAUD.contains(&b) => b,
+        b => {
+            #[allow(clippy::cast_precision_loss)]
+            let (value, min, max) = (
+                b as f32,
+                *SETUP_BAUD.start() as f32,
+                *SETUP_BAUD.end() as f32,
+            );
+            return Err(SetupError::OutOfRange {
+                field: SetupField::Baud,
+                value,
+                min,
+                max,
+            });
+        }
+    };
+    let actuator = match laser.actuator {
+        0 => Actuator::External,
+        1 => Actuator::Servo(servo_profile(laser)?),
+        other => {
+            return Err(SetupError::OutOfRange {
+                field: SetupField::Actuator,
+                value: f32::from(other),
+                min: 0.0,
+                max: 1.0,
+            })
+        }
+    };
     Ok(FrontendConfig {
         mount: Mount::new(plane, position),
+        sensor,
+        baud,
+        actuator,
         variant,
         measuring_mode,
         lines_per_observation: setup.lines_per_observation,
@@ -416,6 +543,73 @@ pub fn frontend_config(setup: &Setup) -> Result<FrontendConfig, SetupError> {
             rule: crate::classify::NavigabilityRule::DEFAULT,
         },
         missing_ground_within: None,
+    })
+}
+
+/// The servo sweep of a laser block, validated in wire order (min, max, rate, latency).
+fn servo_profile(laser: &LaserSetup) -> Result<ServoProfile, SetupError> {
+    let finite = |field, v: f32| {
+        if v.is_finite() {
+            Ok(v)
+        } else {
+            Err(SetupError::NotFinite { field })
+        }
+    };
+    let min = finite(SetupField::ServoMin, laser.servo_min_deg)?;
+    if !(-SERVO_LIMIT_DEG..=SERVO_LIMIT_DEG).contains(&min) {
+        return Err(SetupError::OutOfRange {
+            field: SetupField::ServoMin,
+            value: min,
+            min: -SERVO_LIMIT_DEG,
+            max: SERVO_LIMIT_DEG,
+        });
+    }
+    let max = finite(SetupField::ServoMax, laser.servo_max_deg)?;
+    if max <= min || max > SERVO_LIMIT_DEG {
+        return Err(SetupError::OutOfRange {
+            field: SetupField::ServoMax,
+            value: max,
+            min,
+            max: SERVO_LIMIT_DEG,
+        });
+    }
+    let rate = finite(SetupField::ServoRate, laser.servo_rate_deg_s)?;
+    if rate <= 0.0 {
+        return Err(SetupError::NotPositive {
+            field: SetupField::ServoRate,
+            value: rate,
+        });
+    }
+    if rate > SERVO_MAX_RATE_DEG_S {
+        return Err(SetupError::OutOfRange {
+            field: SetupField::ServoRate,
+            value: rate,
+            min: 0.0,
+            max: SERVO_MAX_RATE_DEG_S,
+        });
+    }
+    let latency = finite(SetupField::ServoLatency, laser.servo_latency_ms)?;
+    if !(0.0..SERVO_MAX_LATENCY_MS).contains(&latency) {
+        return Err(SetupError::OutOfRange {
+            field: SetupField::ServoLatency,
+            value: latency,
+            min: 0.0,
+            max: SERVO_MAX_LATENCY_MS,
+        });
+    }
+    let angle = |deg: f32| FineAngle::from_radians_f32(deg.to_radians()).unwrap_or(FineAngle::ZERO);
+    // Configuration-time conversions of values checked above: the rate (≤ 1 000 °/s) in
+    // millidegrees and the latency (< 1 s) in µs fit a u32; `as` rounds down after + 0.5.
+    #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+    let (rate_mdeg_per_s, latency_us) = (
+        ((rate * 1_000.0 + 0.5) as u32).max(1),
+        (latency * 1_000.0 + 0.5) as u32,
+    );
+    Ok(ServoProfile {
+        min: angle(min),
+        max: angle(max),
+        rate_mdeg_per_s,
+        latency_us,
     })
 }
 
@@ -614,6 +808,14 @@ impl fmt::Display for ReplyReason {
                 "{name}: {a} degrees at {v} centidegrees is not a SICK LMS2xx variant \
                  (180 at 50 or 100; 100 at 25, 50 or 100)"
             ),
+            ReplyCode::OutOfRange if reply.param == SetupField::ServoMax as u8 => write!(
+                f,
+                "{name}: must be above the servo min ({a}) and at most {b} degrees (got {v})"
+            ),
+            ReplyCode::OutOfRange if reply.param == SetupField::Sensor as u8 => write!(
+                f,
+                "{name}: {v} is not a sensor (0 SICK, 1 LD06, 2 RPLIDAR, 3 YDLIDAR)"
+            ),
             ReplyCode::OutOfRange => write!(f, "{name}: must lie within [{a}, {b}] (got {v})"),
             ReplyCode::GammaNotAboveOne => write!(f, "{name}: must be greater than 1 (got {v})"),
             ReplyCode::BaseBelowBound => {
@@ -673,7 +875,7 @@ mod tests {
         assert_eq!(
             &out[..n],
             &hex(
-                "06 02 05 06 01 0c 04 83 03 07 01 03 48 43 01 01 01 01 01 07 c8 42 67 7d b7 c6 00"
+                "06 03 05 06 01 0c 04 83 03 07 01 03 48 43 01 01 01 01 01 07 c8 42 f9 fe 6d 59 00"
             )[..]
         );
         assert_eq!(
@@ -823,6 +1025,7 @@ mod tests {
             step_threshold_m: 0.05,
             drop_threshold_m: 0.0,
             ceiling_m: 2.0,
+            laser: LaserSetup::SICK,
         };
         // Validation: the variant, the mode, finiteness, thresholds.
         let config = frontend_config(&setup).unwrap();
@@ -874,6 +1077,199 @@ mod tests {
         assert_eq!(
             std::format!("{error}"),
             "setup mount: must lie within [0, 1] (got 2)"
+        );
+        // A version-2 peer's meaning: a SICK at 500 kBd on an external actuator.
+        assert_eq!(config.sensor, Sensor::Sick);
+        assert_eq!(config.baud, 500_000);
+        assert_eq!(config.actuator, Actuator::External);
+    }
+
+    /// The laser block: each field refused with its own code and sentence; a lidar's mode is
+    /// its own, its variant fields ignored; the servo's sweep converted exactly enough.
+    #[test]
+    fn the_laser_block_is_validated_field_by_field() {
+        let servo = LaserSetup {
+            sensor: 1,
+            actuator: 1,
+            baud: 0,
+            servo_min_deg: -10.0,
+            servo_max_deg: 30.0,
+            servo_rate_deg_s: 60.0,
+            servo_latency_ms: 25.0,
+        };
+        let setup = Setup {
+            mount: 1,
+            measuring_mode: 0,
+            field_deg: 0,
+            resolution_cdeg: 0,
+            sensor_m: [0.1, 0.0, 0.4],
+            lines_per_observation: 2,
+            robot_height_m: 0.5,
+            step_threshold_m: 0.08,
+            drop_threshold_m: 0.0,
+            ceiling_m: 0.0,
+            laser: servo,
+        };
+        let config = frontend_config(&setup).unwrap();
+        assert_eq!(config.sensor, Sensor::Ld06);
+        assert_eq!(config.baud, 230_400);
+        let Actuator::Servo(profile) = config.actuator else {
+            panic!("{:?}", config.actuator)
+        };
+        let deg = |a: FineAngle| f64::from(a.to_bits() as i32) * 360.0 / 4_294_967_296.0;
+        assert!((deg(profile.min) + 10.0).abs() < 1e-5);
+        assert!((deg(profile.max) - 30.0).abs() < 1e-5);
+        assert_eq!(
+            (profile.rate_mdeg_per_s, profile.latency_us),
+            (60_000, 25_000)
+        );
+        let with = |laser: LaserSetup| Setup { laser, ..setup };
+        let refused = |s: Setup| {
+            let e = frontend_config(&s).unwrap_err();
+            let reply = setup_refusal(
+                Header {
+                    version: 3,
+                    msg_type: 0x87,
+                    seq: 1,
+                },
+                &e,
+            );
+            assert_eq!(reply.param, e.field() as u8);
+            assert_eq!(SetupField::from_param(reply.param), Some(e.field()));
+            (e.field(), std::format!("{e}"))
+        };
+        assert_eq!(
+            refused(with(LaserSetup { sensor: 4, ..servo })),
+            (
+                SetupField::Sensor,
+                "setup sensor: 4 is not a sensor (0 SICK, 1 LD06, 2 RPLIDAR, 3 YDLIDAR)".into()
+            )
+        );
+        // The mode is the sensor's: LD06 has only 0, RPLIDAR and YDLIDAR 0 and 1.
+        assert_eq!(
+            refused(Setup {
+                measuring_mode: 1,
+                ..setup
+            }),
+            (
+                SetupField::MeasuringMode,
+                "setup sensor mode: must lie within [0, 0] (got 1)".into()
+            )
+        );
+        for (sensor, mode, want) in [
+            (
+                2,
+                1,
+                Sensor::Rplidar(crate::wire::rplidar::RplidarScanMode::Express),
+            ),
+            (
+                3,
+                1,
+                Sensor::Ydlidar(crate::wire::ydlidar::YdlidarAngleCorrection::Off),
+            ),
+        ] {
+            let s = Setup {
+                measuring_mode: mode,
+                laser: LaserSetup { sensor, ..servo },
+                ..setup
+            };
+            assert_eq!(frontend_config(&s).unwrap().sensor, want);
+            let s = Setup {
+                measuring_mode: 2,
+                ..s
+            };
+            assert_eq!(refused(s).0, SetupField::MeasuringMode);
+        }
+        assert_eq!(
+            refused(with(LaserSetup { baud: 300, ..servo })),
+            (
+                SetupField::Baud,
+                "setup baud rate: must lie within [9600, 3000000] (got 300)".into()
+            )
+        );
+        let ok = frontend_config(&with(LaserSetup {
+            baud: 460_800,
+            ..servo
+        }))
+        .unwrap();
+        assert_eq!(ok.baud, 460_800);
+        assert_eq!(
+            refused(with(LaserSetup {
+                actuator: 2,
+                ..servo
+            }))
+            .0,
+            SetupField::Actuator
+        );
+        assert_eq!(
+            refused(with(LaserSetup {
+                servo_min_deg: f32::NAN,
+                ..servo
+            })),
+            (
+                SetupField::ServoMin,
+                "setup servo min: must be a finite number".into()
+            )
+        );
+        assert_eq!(
+            refused(with(LaserSetup {
+                servo_min_deg: -200.0,
+                ..servo
+            }))
+            .0,
+            SetupField::ServoMin
+        );
+        assert_eq!(
+            refused(with(LaserSetup {
+                servo_max_deg: -10.0,
+                ..servo
+            })),
+            (
+                SetupField::ServoMax,
+                "setup servo max: must be above the servo min (-10) and at most 179 degrees \
+                 (got -10)"
+                    .into()
+            )
+        );
+        assert_eq!(
+            refused(with(LaserSetup {
+                servo_rate_deg_s: 0.0,
+                ..servo
+            })),
+            (
+                SetupField::ServoRate,
+                "setup servo rate: must be greater than 0 (got 0)".into()
+            )
+        );
+        assert_eq!(
+            refused(with(LaserSetup {
+                servo_rate_deg_s: 1_000.5,
+                ..servo
+            }))
+            .0,
+            SetupField::ServoRate
+        );
+        assert_eq!(
+            refused(with(LaserSetup {
+                servo_latency_ms: 1_000.0,
+                ..servo
+            }))
+            .0,
+            SetupField::ServoLatency
+        );
+        // An external actuator ignores the servo fields; a SICK checks its own.
+        let external = with(LaserSetup {
+            actuator: 0,
+            servo_min_deg: f32::NAN,
+            ..servo
+        });
+        assert_eq!(
+            frontend_config(&external).unwrap().actuator,
+            Actuator::External
+        );
+        assert_eq!(
+            refused(with(LaserSetup { sensor: 0, ..servo })).0,
+            SetupField::Variant
         );
     }
 

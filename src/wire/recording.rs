@@ -8,9 +8,10 @@ use core::fmt;
 
 /// The file's magic bytes: ASCII `TPYRREC\n`.
 pub const MAGIC: [u8; 8] = *b"TPYRREC\n";
-/// The version this module reads and writes.
-pub const VERSION: u16 = 1;
-/// Bytes of the version-1 file header.
+/// The version this module writes; it reads this one and version 1 (whose lasers are all
+/// SICK LMS2xx: it has no sensor event).
+pub const VERSION: u16 = 2;
+/// Bytes of the file header (versions 1 and 2).
 pub const HEADER_LEN: usize = 16;
 /// Bytes of an event header (kind, time, length).
 pub const EVENT_HEADER_LEN: usize = 11;
@@ -18,6 +19,8 @@ pub const EVENT_HEADER_LEN: usize = 11;
 pub const MAX_PAYLOAD: usize = 4096;
 /// Bytes of a setup payload.
 pub const SETUP_LEN: usize = 28;
+/// Bytes of a sensor payload (version 2).
+pub const SENSOR_LEN: usize = 4;
 
 /// Event kinds.
 mod kind {
@@ -26,6 +29,7 @@ mod kind {
     pub const POSE: u8 = 0x03;
     pub const SETUP: u8 = 0x04;
     pub const MARKER: u8 = 0x05;
+    pub const SENSOR: u8 = 0x06;
 }
 
 /// How the laser is mounted on its actuator.
@@ -56,6 +60,32 @@ pub struct SetupEvent {
     pub lines_per_observation: u32,
 }
 
+/// Which laser a recording's laser bytes come from (version 2; a file without this event
+/// recorded a SICK LMS2xx, as every version-1 file did).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct SensorEvent {
+    /// The sensor, as Setup codes it (`docs/protocol.md`): 0 SICK LMS2xx, 1 LDROBOT
+    /// LD06/LD19/STL-19P, 2 Slamtec RPLIDAR, 3 YDLIDAR; 0 ..= 3.
+    pub sensor: u8,
+    /// The sensor's mode as Setup codes it (RPLIDAR 0 standard, 1 express; YDLIDAR 0 with the
+    /// X4/X2 angle correction, 1 without; LD06 0); for a SICK the setup event's measuring
+    /// mode applies and this is 0.
+    pub mode: u8,
+}
+
+impl SensorEvent {
+    /// The SICK LMS2xx of every version-1 file.
+    pub const SICK: Self = Self { sensor: 0, mode: 0 };
+
+    fn parse(data: &[u8]) -> Option<Self> {
+        let &[sensor, mode, 0, 0] = data else {
+            return None;
+        };
+        (sensor <= 3).then_some(Self { sensor, mode })
+    }
+}
+
 /// One event's content.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Payload<'a> {
@@ -69,6 +99,8 @@ pub enum Payload<'a> {
     Setup(SetupEvent),
     /// A marker id.
     Marker(u32),
+    /// The laser the recording's bytes come from (version 2).
+    Sensor(SensorEvent),
     /// An event of a kind this version does not know; skipped by its length.
     Unknown {
         /// The kind byte.
@@ -117,7 +149,7 @@ pub enum RecordingError {
         /// Byte offset of the event.
         offset: usize,
     },
-    /// A setup field holds a value this version does not know.
+    /// A setup or sensor field holds a value this version does not know.
     BadSetup {
         /// Byte offset of the event.
         offset: usize,
@@ -133,7 +165,7 @@ impl fmt::Display for RecordingError {
             Self::UnsupportedVersion { version } => {
                 write!(
                     f,
-                    "recording version {version} is not supported (this reads {VERSION})"
+                    "recording version {version} is not supported (this reads 1 and {VERSION})"
                 )
             }
             Self::BadHeader => f.write_str("bad recording header length"),
@@ -148,7 +180,7 @@ impl fmt::Display for RecordingError {
     }
 }
 
-/// Writes the version-1 file header into `out`; returns the bytes written (16).
+/// Writes the file header (version [`VERSION`]) into `out`; returns the bytes written (16).
 ///
 /// # Errors
 /// [`RecordingError::BufferTooSmall`].
@@ -240,6 +272,7 @@ impl Event<'_> {
             Payload::Pose(_) => kind::POSE,
             Payload::Setup(_) => kind::SETUP,
             Payload::Marker(_) => kind::MARKER,
+            Payload::Sensor(_) => kind::SENSOR,
             Payload::Unknown { kind, .. } => kind,
         }
     }
@@ -251,6 +284,7 @@ impl Event<'_> {
             Payload::Pose(_) => 24,
             Payload::Setup(_) => SETUP_LEN,
             Payload::Marker(_) => 4,
+            Payload::Sensor(_) => SENSOR_LEN,
             Payload::Unknown { data, .. } => data.len(),
         }
     }
@@ -288,6 +322,7 @@ impl Event<'_> {
             }
             Payload::Setup(s) => s.emit(body),
             Payload::Marker(m) => put(body, 0, &m.to_le_bytes()),
+            Payload::Sensor(e) => put(body, 0, &[e.sensor, e.mode, 0, 0]),
         }
         Ok(total)
     }
@@ -297,6 +332,7 @@ impl Event<'_> {
 #[derive(Debug, Clone)]
 pub struct Reader<'a> {
     data: &'a [u8],
+    version: u16,
     offset: usize,
     last_time: u64,
     failed: bool,
@@ -315,7 +351,7 @@ impl<'a> Reader<'a> {
         let version = take::<2>(data, 8)
             .map(u16::from_le_bytes)
             .ok_or(RecordingError::BadHeader)?;
-        if version != VERSION {
+        if !(1..=VERSION).contains(&version) {
             return Err(RecordingError::UnsupportedVersion { version });
         }
         let header_len = take::<2>(data, 10)
@@ -326,11 +362,18 @@ impl<'a> Reader<'a> {
         }
         Ok(Self {
             data,
+            version,
             offset: header_len,
             last_time: 0,
             failed: false,
             unknown: 0,
         })
+    }
+
+    /// The file's version (1 or 2).
+    #[must_use]
+    pub const fn version(&self) -> u16 {
+        self.version
     }
 
     /// Events of unknown kinds skipped so far.
@@ -387,6 +430,14 @@ impl<'a> Reader<'a> {
             kind::MARKER if len == 4 => {
                 Payload::Marker(take::<4>(body, 0).map(u32::from_le_bytes).ok_or(bad_len)?)
             }
+            kind::SENSOR if self.version >= 2 => {
+                if len != SENSOR_LEN {
+                    return Err(bad_len);
+                }
+                Payload::Sensor(
+                    SensorEvent::parse(body).ok_or(RecordingError::BadSetup { offset })?,
+                )
+            }
             kind::LASER | kind::POSE | kind::MARKER => return Err(bad_len),
             other => {
                 self.unknown = self.unknown.saturating_add(1);
@@ -427,7 +478,7 @@ mod tests {
 
     /// The example of docs/recording.md, byte for byte.
     const DOC_EXAMPLE: &[u8] = &[
-        0x54, 0x50, 0x59, 0x52, 0x52, 0x45, 0x43, 0x0A, 0x01, 0x00, 0x10, 0x00, 0x00, 0x00, 0x00,
+        0x54, 0x50, 0x59, 0x52, 0x52, 0x45, 0x43, 0x0A, 0x02, 0x00, 0x10, 0x00, 0x00, 0x00, 0x00,
         0x00, //
         0x04, 0, 0, 0, 0, 0, 0, 0, 0, 0x1C, 0x00, //
         0x01, 0x00, 0xB4, 0x00, 0x32, 0x00, 0x00, 0x00, 0, 0, 0, 0, 0, 0, 0, 0, 0xCD, 0xCC, 0xCC,
@@ -519,14 +570,66 @@ mod tests {
         assert_eq!(reader.unknown_events(), 1);
     }
 
+    /// Version 2's sensor event; a version-1 file still reads (as SICK: its kind 0x06 is an
+    /// unknown event there).
+    #[test]
+    fn the_sensor_event_and_version_1_files() {
+        let sensor = Event {
+            time_us: 0,
+            payload: Payload::Sensor(SensorEvent { sensor: 1, mode: 0 }),
+        };
+        let mut buf = [0_u8; 128];
+        let mut n = emit_header(&mut buf).unwrap();
+        assert_eq!(buf[8], 2);
+        n += sensor.emit(&mut buf[n..]).unwrap();
+        assert_eq!(
+            &buf[HEADER_LEN..n],
+            &[0x06, 0, 0, 0, 0, 0, 0, 0, 0, 0x04, 0x00, 0x01, 0x00, 0x00, 0x00]
+        );
+        let mut r = Reader::new(&buf[..n]).unwrap();
+        assert_eq!(r.version(), 2);
+        assert_eq!(r.next(), Some(Ok(sensor)));
+        // The same bytes in a version-1 file: an unknown event, skipped.
+        let mut v1 = buf[..n].to_vec();
+        v1[8] = 1;
+        let mut r = Reader::new(&v1).unwrap();
+        assert!(matches!(
+            r.next(),
+            Some(Ok(Event {
+                payload: Payload::Unknown { kind: 0x06, .. },
+                ..
+            }))
+        ));
+        assert_eq!(r.unknown_events(), 1);
+        // A sensor code past 3, reserved bytes set, a wrong length: refused.
+        for (at, byte) in [(HEADER_LEN + 11, 4), (HEADER_LEN + 13, 1)] {
+            let mut bad = buf[..n].to_vec();
+            bad[at] = byte;
+            assert!(matches!(
+                Reader::new(&bad).unwrap().next(),
+                Some(Err(RecordingError::BadSetup { .. }))
+            ));
+        }
+        let mut short = buf[..n - 1].to_vec();
+        short[HEADER_LEN + 9] = 3;
+        assert!(matches!(
+            Reader::new(&short).unwrap().next(),
+            Some(Err(RecordingError::BadLength { .. }))
+        ));
+        // The documented example as version 1 reads the same.
+        let mut old = DOC_EXAMPLE.to_vec();
+        old[8] = 1;
+        assert_eq!(Reader::new(&old).unwrap().count(), 2);
+    }
+
     #[test]
     fn damage_is_reported_not_panicked() {
         assert_eq!(Reader::new(b"nope").err(), Some(RecordingError::BadMagic));
         let mut v = DOC_EXAMPLE.to_vec();
-        v[8] = 2;
+        v[8] = 3;
         assert_eq!(
             Reader::new(&v).err(),
-            Some(RecordingError::UnsupportedVersion { version: 2 })
+            Some(RecordingError::UnsupportedVersion { version: 3 })
         );
         // Every truncation of the example either reads cleanly up to the cut or reports it.
         let boundaries = [HEADER_LEN, HEADER_LEN + EVENT_HEADER_LEN + SETUP_LEN];

@@ -76,7 +76,10 @@ pub fn replay<P: Pipeline>(recording: &[u8], pipeline: &mut P) {
                 let now_ms = u32::try_from(event.time_us / 1000).unwrap_or(u32::MAX);
                 pipeline.laser(bytes, now_ms);
             }
-            Payload::Setup(_) | Payload::Marker(_) | Payload::Unknown { .. } => {}
+            Payload::Setup(_)
+            | Payload::Sensor(_)
+            | Payload::Marker(_)
+            | Payload::Unknown { .. } => {}
         }
     }
     pipeline.finish();
@@ -109,7 +112,8 @@ impl<const W: usize, const L: usize, const C: usize, const Q: usize> Pipeline
     }
 
     fn laser(&mut self, bytes: &[u8], now_ms: u32) {
-        self.core.laser(bytes, &mut self.angle);
+        self.core
+            .laser(bytes, now_ms.wrapping_mul(1_000), &mut self.angle);
         self.core.poll(now_ms);
         // The UART takes everything at once: a drained queue.
         let mut uart = [0_u8; 64];

@@ -78,10 +78,10 @@ fn boot(core: &mut Board) -> Result<(), BootError> {
 // The core's entry points, each in a frame of its own: inlined into the main loop together,
 // their locals would add up to one frame of 2 KiB; apart, the deepest one counts.
 
-/// Laser bytes (one piece of a telegram) to the core.
+/// Laser bytes (one piece of a telegram) to the core, received at `now_us` (µs, wrapping).
 #[inline(never)]
-fn laser(core: &mut Board, bytes: &[u8]) {
-    core.laser(bytes, &mut NoAngleSource);
+fn laser(core: &mut Board, bytes: &[u8], now_us: u32) {
+    core.laser(bytes, now_us, &mut NoAngleSource);
 }
 
 /// Host bytes (one piece of a link frame) to the core.
@@ -131,10 +131,13 @@ fn main() -> ! {
         if let Ok(true) = uart.read_ready() {
             match uart.read(&mut buf) {
                 Ok(n) => {
+                    // The low 32 bits: the wrapping microseconds the core expects.
+                    #[allow(clippy::cast_possible_truncation)]
+                    let now_us = clock.micros() as u32;
                     let mut rest = buf.get(..n).unwrap_or(&[]);
                     while let Some((route, piece, next)) = line.split(rest) {
                         match route {
-                            Route::Laser => laser(core, piece),
+                            Route::Laser => laser(core, piece, now_us),
                             Route::Host => host(core, piece),
                         }
                         rest = next;

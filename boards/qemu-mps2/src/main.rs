@@ -1,15 +1,19 @@
 //! The firmware on QEMU's MPS2 AN386: the terrain pyramid's co-processor
-//! ([`terrain_pyramid::app::CoProcessor`]), fed by real SICK telegrams on UART0 and driven
-//! by the host link (`docs/protocol.md`) on UART1.
+//! ([`terrain_pyramid::app::CoProcessor`]), fed by the laser the host's Setup names (SICK
+//! telegrams, or an LD06's, RPLIDAR's or YDLIDAR's packets) on UART0 and driven by the host
+//! link (`docs/protocol.md`) on UART1.
 //!
 //! At boot the co-processor (in a `static`, all zero bits: `.bss`) adopts the default design
-//! and a tilt-unit setup and checks its pyramid; Hello (reason boot) goes out at the first
-//! poll. Each step of the main loop hands the core what UART0 and UART1 received, polls it
-//! with SysTick's milliseconds and drains its queue into UART1. This board has no encoder:
-//! the host's PanAngle is the actuator angle.
+//! and a tilt-unit setup (a SICK) and checks its pyramid; Hello (reason boot) goes out at the
+//! first poll. Each step of the main loop hands the core what UART0 and UART1 received, with
+//! the microsecond clock of the laser bytes' arrival, polls it with SysTick's milliseconds and
+//! drains its queue into UART1. When a Setup changes the sensor or its baud rate, UART0 is set
+//! to that rate (which QEMU ignores). This board has no encoder and no servo: the host's
+//! PanAngle, or a nodding servo's model run open loop (the Setup's actuator), is the angle.
 //!
 //! Time: SysTick at 1 kHz from the 25 MHz processor clock (QEMU runs it on its virtual clock,
-//! which follows the host's wall clock without `-icount`; DWT's cycle counter reads 0 in QEMU).
+//! which follows the host's wall clock without `-icount`; DWT's cycle counter reads 0 in QEMU);
+//! microseconds from SysTick's milliseconds and its current count.
 //!
 //! The run ends when the host sends Shutdown (0x89): the core answers it with Reply Ok (the
 //! stack's high-water mark in `value`, its size in `a`, bytes), the queue is drained, the
@@ -22,6 +26,7 @@ mod sizes;
 
 use core::sync::atomic::{AtomicU32, Ordering};
 use cortex_m::peripheral::syst::SystClkSource;
+use cortex_m::peripheral::SYST;
 use embedded_io::{Read, ReadReady, Write};
 use qemu_mps2::stack;
 use qemu_mps2::uart::Uarts;
@@ -34,8 +39,8 @@ use terrain_pyramid::{Config, Design, Schedule, SensorModel};
 /// The co-processor of this build ([`sizes`]).
 type Board = CoProcessor<{ sizes::CELLS }, { sizes::LAYERS }, { sizes::SLOTS }, { sizes::QUEUE }>;
 
-/// The UARTs' baud rate (the SICK LMS's fast mode is 500 kBd on real hardware; QEMU's UARTs
-/// ignore the rate).
+/// The UARTs' baud rate at boot (the SICK LMS's fast mode is 500 kBd on real hardware; QEMU's
+/// UARTs ignore the rate); UART0 follows the Setup's.
 const BAUD: u32 = 500_000;
 
 /// The processor clock of the MPS2 AN386, Hz: SysTick counts it.
@@ -48,6 +53,21 @@ static CORE: ConstStaticCell<Board> = ConstStaticCell::new(Board::new());
 
 /// Milliseconds since SysTick started, wrapping.
 static MILLIS: AtomicU32 = AtomicU32::new(0);
+
+/// Microseconds since SysTick started, wrapping every 2³² µs (71.6 minutes): the
+/// milliseconds and the count SysTick has run down within the current one (read twice if a
+/// tick intervened).
+fn micros() -> u32 {
+    const PER_US: u32 = CPU_HZ / 1_000_000;
+    loop {
+        let ms = MILLIS.load(Ordering::Relaxed);
+        let down = SYST::get_current();
+        if MILLIS.load(Ordering::Relaxed) == ms {
+            let within = (CPU_HZ / 1000 - 1).saturating_sub(down) / PER_US;
+            return ms.wrapping_mul(1000).wrapping_add(within.min(999));
+        }
+    }
+}
 
 #[cortex_m_rt::exception]
 fn SysTick() {
@@ -107,13 +127,19 @@ fn run() -> Result<(), Fault> {
         uart0: mut laser,
         uart1: mut host,
     } = Uarts::take(BAUD).ok_or(Fault::Taken)?;
-    defmt::info!("running: SICK telegrams on UART0, the host link on UART1");
+    defmt::info!("running: the laser on UART0, the host link on UART1");
     let mut buf = [0_u8; 256];
     loop {
+        if let Some(port) = core.take_laser_change() {
+            laser.set_baud(port.baud);
+            defmt::info!("laser: {} at {=u32} Bd", port.sensor, port.baud);
+        }
+        // No servo on this board: the command keeps the model's clock (open loop).
+        let _ = core.actuator_command(micros());
         // The laser: everything UART0 holds (its only error is an overrun: bytes were lost).
         match laser.read_ready() {
             Ok(true) => match laser.read(&mut buf) {
-                Ok(n) => core.laser(buf.get(..n).unwrap_or(&[]), &mut NoAngleSource),
+                Ok(n) => core.laser(buf.get(..n).unwrap_or(&[]), micros(), &mut NoAngleSource),
                 Err(_) => core.laser_overrun(),
             },
             Ok(false) => {}

@@ -117,6 +117,12 @@ impl<const BASE: usize> CmsdkUart<BASE> {
         Self::read_reg(STATE)
     }
 
+    /// Sets the baud rate: the divider `PCLK_HZ / baud`, at least 16 (QEMU ignores it; on
+    /// the FPGA board it is the rate).
+    pub fn set_baud(&mut self, baud: u32) {
+        Self::write_reg(BAUDDIV, (PCLK_HZ / baud.max(1)).max(MIN_BAUDDIV));
+    }
+
     /// Takes the received byte if there is one.
     fn try_read_byte(&mut self) -> Option<u8> {
         if self.state() & STATE_RX_FULL == 0 {

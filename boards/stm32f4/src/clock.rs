@@ -6,7 +6,8 @@
 //! measured here is shorter). Not DWT's cycle counter: QEMU does not model the DWT (its
 //! registers read 0, so a timeout on it would never expire), and SysTick is the one timer
 //! the firmware needs on both the board and the emulator. Busy-wait delays count
-//! instructions (`cortex_m::asm::delay`, at least the cycles asked for).
+//! instructions (`cortex_m::asm::delay`, at least the cycles asked for). [`micros`] adds what
+//! SysTick has counted down of the current millisecond: the laser bytes' and the servo's time.
 
 use core::sync::atomic::{AtomicU32, Ordering};
 
@@ -20,6 +21,25 @@ static MILLIS: AtomicU32 = AtomicU32::new(0);
 #[cortex_m_rt::exception]
 fn SysTick() {
     MILLIS.fetch_add(1, Ordering::Relaxed);
+}
+
+/// Core cycles per millisecond (SysTick's reload + 1), set by [`start`].
+static CYCLES_PER_MS: AtomicU32 = AtomicU32::new(180_000);
+
+/// Microseconds since SysTick started, wrapping every 2³² µs (71.6 minutes): the
+/// milliseconds and what SysTick has counted down of the current one, read again if a tick
+/// intervened. Callable from interrupts (it only reads).
+pub fn micros() -> u32 {
+    let per_ms = CYCLES_PER_MS.load(Ordering::Relaxed);
+    let per_us = (per_ms / 1_000).max(1);
+    loop {
+        let ms = MILLIS.load(Ordering::Relaxed);
+        let down = SYST::get_current();
+        if MILLIS.load(Ordering::Relaxed) == ms {
+            let within = per_ms.saturating_sub(1).saturating_sub(down) / per_us;
+            return ms.wrapping_mul(1_000).wrapping_add(within.min(999));
+        }
+    }
 }
 
 /// Milliseconds since [`start`], wrapping: the link's time base.
@@ -41,6 +61,7 @@ pub struct Clock {
 /// returns the clock.
 pub fn start(mut syst: SYST, core_hz: u32) -> Clock {
     let reload = (core_hz / 1000).clamp(2, 1 << 24) - 1;
+    CYCLES_PER_MS.store((reload + 1).max(1_000), Ordering::Relaxed);
     syst.set_clock_source(SystClkSource::Core);
     syst.set_reload(reload);
     syst.clear_current();

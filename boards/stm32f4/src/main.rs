@@ -1,18 +1,23 @@
 //! The firmware on a NUCLEO-F446RE: the terrain pyramid's co-processor
-//! ([`terrain_pyramid::app::CoProcessor`]). The laser on USART1 (500 kBd, RS-422), the host
-//! link (`docs/protocol.md`) on USART2 (the ST-LINK virtual COM port, 921 600 Bd), the AS5047P
-//! pan encoder on SPI1, both USARTs received by interrupt into bounded queues ([`rx`]), the
-//! independent watchdog fed from the main loop, defmt over RTT (over semihosting on QEMU's
-//! `netduinoplus2`: [`logging`]). Wiring, bring-up and the emulated run: `README.md`.
+//! ([`terrain_pyramid::app::CoProcessor`]). The laser on USART1 (the one the host's Setup
+//! names: a SICK LMS2xx at 500 kBd over RS-422, or an LD06, RPLIDAR or YDLIDAR at its own rate,
+//! [`laser`]), the host link (`docs/protocol.md`) on USART2 (the ST-LINK virtual COM port,
+//! 921 600 Bd), the AS5047P encoder on SPI1, a nodding servo's PWM on TIM2 channel 1 (PA0),
+//! both USARTs received by interrupt into bounded queues ([`rx`]), the independent watchdog
+//! fed from the main loop, defmt over RTT (over semihosting on QEMU's `netduinoplus2`:
+//! [`logging`]). Wiring, bring-up and the emulated run: `README.md`.
 //!
 //! At boot the clocks start with bounded waits and fallbacks ([`rcc`]; the source is logged:
 //! protocol version 2 has no field for it), SysTick counts milliseconds ([`clock`]), and the
 //! co-processor (in a `static`, all zero bits: `.bss`) adopts the default design
 //! and a panned-vertical setup and checks its pyramid; the scanner is brought up
 //! ([`scanner`]); Hello (reason boot) goes out at the first poll. Each step of the main loop
-//! feeds the watchdog, hands the core the bytes the two interrupts queued (the encoder is read
-//! as each telegram completes; when it errs the host's PanAngle stands in), polls it with
-//! SysTick's milliseconds and sends at most [`TX_BYTES_PER_STEP`] of its queue. Once a second
+//! feeds the watchdog, sets USART1 up when the core asks ([`laser::switch`]), commands the
+//! servo when the setup has one, hands the core the bytes the two interrupts queued (the
+//! laser's with the microsecond time its interrupt queued their last byte; the encoder is
+//! read as a telegram or packet completes, and when it errs the servo's model or the host's
+//! PanAngle stands in), polls it with SysTick's milliseconds and sends at most
+//! [`TX_BYTES_PER_STEP`] of its queue. Once a second
 //! the counters and the stack's high-water mark are logged. Shutdown (0x89) is answered with
 //! the stack's figures, the queue drained, and the firmware parks (feeding the watchdog).
 #![no_std]
@@ -23,6 +28,7 @@ mod clock;
 mod encoder;
 #[allow(unsafe_code)]
 mod hw;
+mod laser;
 mod link;
 mod logging;
 mod rcc;
@@ -35,8 +41,9 @@ use stm32f4xx_hal::pac;
 use stm32f4xx_hal::prelude::*;
 use stm32f4xx_hal::serial;
 use stm32f4xx_hal::watchdog::IndependentWatchdog;
-use terrain_pyramid::app::{BootError, CoProcessor, StackUsage};
+use terrain_pyramid::app::{BootError, CoProcessor, LaserPort, StackUsage};
 use terrain_pyramid::geometry::ScanPlane;
+use terrain_pyramid::laser::Sensor;
 use terrain_pyramid::link::LinkConfig;
 use terrain_pyramid::pipeline::FrontendConfig;
 use terrain_pyramid::{
@@ -89,6 +96,9 @@ fn main() -> ! {
     }
     watchdog.feed();
 
+    // USART1's clock, for the divider of the laser the Setup names.
+    let pclk2_hz = rcc.clocks.pclk2().raw();
+
     let gpioa = dp.GPIOA.split(&mut rcc);
     let gpiob = dp.GPIOB.split(&mut rcc);
     // Host link: USART2 on PA2 (TX) / PA3 (RX), wired to the ST-LINK's virtual COM port.
@@ -121,19 +131,50 @@ fn main() -> ! {
         Ok(done) => done,
         Err(e) => defmt::panic!("scanner bring-up: {}", e),
     };
-    let (_laser_tx, laser_rx) = laser.split();
+    let (laser_tx, laser_rx) = laser.split();
+    let mut laser_tx = BlockingTx::new(laser_tx);
     let mut laser_rx = rx::install_laser(laser_rx);
+    // The nodding servo's signal: TIM2 channel 1 on PA0, 50 Hz (idle until a Setup names one).
+    let mut servo = laser::servo(dp.TIM2, gpioa.pa0, &mut rcc);
     let mut host_rx = rx::install_host(host_rx);
     hw::unmask_usart_interrupts();
 
-    defmt::info!("main loop: SICK telegrams on USART1, the host link on USART2");
+    defmt::info!("main loop: the laser on USART1, the host link on USART2");
     let mut buf = [0_u8; 256];
     let mut last_report = clock.now();
     let mut dropped = 0;
+    let mut streaming = Some(LaserPort {
+        sensor: Sensor::Sick,
+        baud: scanner::FAST_BAUD,
+    });
     loop {
         watchdog.feed();
+        // The bring-up left a SICK streaming at 500 kBd: only a different laser is switched to.
+        if let Some(port) = core.take_laser_change().filter(|p| Some(*p) != streaming) {
+            defmt::info!("laser: {} at {=u32} Bd", port.sensor, port.baud);
+            if let Err(e) = laser::switch(port, pclk2_hz, &mut laser_tx) {
+                defmt::warn!("USART1: {}", defmt::Debug2Format(&e));
+            }
+            streaming = Some(port);
+        }
+        if let Some(angle) = core.actuator_command(clock::micros()) {
+            // TIM2's channel cannot fail (its error type is `Infallible`).
+            let _ = servo.set_angle(angle);
+        }
         let n = rx::take(&mut laser_rx, &mut buf);
-        core.laser(buf.get(..n).unwrap_or(&[]), &mut encoder);
+        if n > 0 {
+            // The chunk's last byte arrived before the bytes still queued (at the line rate)
+            // and the last byte the interrupt queued.
+            let queued = u32::try_from(laser_rx.len()).unwrap_or(u32::MAX);
+            let byte_us = 10_000_000 / core.laser_baud().max(1);
+            let arrival = rx::laser_last_us().wrapping_sub(queued.saturating_mul(byte_us));
+            core.laser_timed(
+                buf.get(..n).unwrap_or(&[]),
+                arrival,
+                clock::micros(),
+                &mut encoder,
+            );
+        }
         let lost = rx::laser_stats().dropped;
         if lost != dropped {
             dropped = lost;

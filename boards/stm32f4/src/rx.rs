@@ -6,6 +6,7 @@
 //! dropped and counted; a framing, noise, parity or overrun error is counted. Nothing panics.
 
 use core::cell::RefCell;
+use core::sync::atomic::{AtomicU32, Ordering};
 
 use critical_section::Mutex;
 use embedded_hal_nb::serial::Read;
@@ -40,13 +41,15 @@ struct RxPath<U: Instance> {
 }
 
 impl<U: Instance> RxPath<U> {
-    /// Moves every byte the USART holds into the queue.
-    fn drain(&mut self) {
+    /// Moves every byte the USART holds into the queue; returns how many it queued.
+    fn drain(&mut self) -> u32 {
+        let mut queued = 0;
         loop {
             match self.rx.read() {
                 Ok(byte) => {
                     if self.producer.enqueue(byte).is_ok() {
                         self.stats.bytes = self.stats.bytes.saturating_add(1);
+                        queued += 1;
                     } else {
                         self.stats.dropped = self.stats.dropped.saturating_add(1);
                     }
@@ -56,7 +59,17 @@ impl<U: Instance> RxPath<U> {
                 Err(nb::Error::Other(_)) => self.stats.errors = self.stats.errors.saturating_add(1),
             }
         }
+        queued
     }
+}
+
+/// When the laser interrupt last queued a byte, µs ([`crate::clock::micros`]).
+static LASER_LAST_US: AtomicU32 = AtomicU32::new(0);
+
+/// When the last laser byte was queued, µs (the board's clock): the arrival time of the
+/// newest byte in the laser queue.
+pub fn laser_last_us() -> u32 {
+    LASER_LAST_US.load(Ordering::Relaxed)
 }
 
 static LASER_QUEUE_CELL: ConstStaticCell<Queue<u8, LASER_QUEUE>> =
@@ -100,7 +113,9 @@ pub fn install_host(mut rx: Rx<USART2>) -> Consumer<'static, u8> {
 pub fn on_laser_interrupt() {
     critical_section::with(|cs| {
         if let Some(path) = LASER.borrow_ref_mut(cs).as_mut() {
-            path.drain();
+            if path.drain() > 0 {
+                LASER_LAST_US.store(crate::clock::micros(), Ordering::Relaxed);
+            }
         }
     });
 }
@@ -109,7 +124,7 @@ pub fn on_laser_interrupt() {
 pub fn on_host_interrupt() {
     critical_section::with(|cs| {
         if let Some(path) = HOST.borrow_ref_mut(cs).as_mut() {
-            path.drain();
+            let _ = path.drain();
         }
     });
 }

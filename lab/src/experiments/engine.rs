@@ -61,6 +61,9 @@ pub fn decode(data: &[u8], classifier: &ClassifierConfig) -> Result<Decoded, Str
     for step in &decoded.steps {
         match step {
             Step::Setup(_) => {}
+            Step::Laser { .. } => {
+                return Err("the experiments' engine takes SICK recordings, not a lidar's".into())
+            }
             Step::Angle(turns) => angle = Some(*turns),
             Step::Pose(pose) => {
                 robot_xy = (f64::from(pose[0]), f64::from(pose[1]));

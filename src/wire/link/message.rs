@@ -26,8 +26,13 @@ pub(crate) const CONFIGURE_LEN: usize = 61;
 pub const CONFIGURE_UNIFORM_RESOLUTION: u8 = 1;
 /// Configure's `flags` bits a receiver knows; any other bit set is refused.
 pub(crate) const CONFIGURE_FLAGS_KNOWN: u8 = CONFIGURE_UNIFORM_RESOLUTION;
+/// Bytes of a Setup body before its laser block: the mount, the SICK fields, the sensor's
+/// position, the grouping and the classifier's thresholds.
+pub(crate) const SETUP_BASE_LEN: usize = 38;
+/// Bytes of Setup's laser block ([`LaserSetup`]).
+pub const SETUP_LASER_LEN: usize = 22;
 /// Bytes of a Setup body.
-pub(crate) const SETUP_LEN: usize = 38;
+pub(crate) const SETUP_LEN: usize = SETUP_BASE_LEN + SETUP_LASER_LEN;
 /// The number of counters in a [`Stats`].
 pub const STATS_COUNTERS: usize = 30;
 
@@ -595,16 +600,62 @@ pub struct Configure {
     pub uniform_resolution: bool,
 }
 
-/// Host to device: how the laser is mounted and how its lines make observations, and the
-/// classifier's thresholds. Exactly the fields of a recording's setup event
-/// (`docs/recording.md`) plus the thresholds; unvalidated (the device checks it with
+/// Setup's laser block (protocol version 3): which laser, at which baud rate, and what moves
+/// its scan plane. Unvalidated ([`crate::link::convert::frontend_config`] checks it).
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct LaserSetup {
+    /// The sensor: 0 SICK LMS2xx, 1 LDROBOT LD06/LD19/STL-19P, 2 Slamtec RPLIDAR, 3 YDLIDAR.
+    pub sensor: u8,
+    /// What moves the scan plane: 0 an external actuator (the board's encoder, else the
+    /// host's PanAngle), 1 a nodding servo the device commands (the servo fields).
+    pub actuator: u8,
+    /// The laser UART's baud rate; 0 = the sensor's default (SICK 500 000, LD06 230 400,
+    /// RPLIDAR 115 200, YDLIDAR 128 000).
+    pub baud: u32,
+    /// The servo's sweep, lower end, degrees (signed; the actuator angle of the mount).
+    pub servo_min_deg: f32,
+    /// The servo's sweep, upper end, degrees.
+    pub servo_max_deg: f32,
+    /// The servo's sweep rate, degrees per second.
+    pub servo_rate_deg_s: f32,
+    /// The servo's delay behind its command, milliseconds.
+    pub servo_latency_ms: f32,
+}
+
+impl LaserSetup {
+    /// A SICK at its default baud rate on an external actuator (what a version-2 Setup
+    /// meant).
+    pub const SICK: Self = Self {
+        sensor: 0,
+        actuator: 0,
+        baud: 0,
+        servo_min_deg: 0.0,
+        servo_max_deg: 0.0,
+        servo_rate_deg_s: 0.0,
+        servo_latency_ms: 0.0,
+    };
+}
+
+impl Default for LaserSetup {
+    fn default() -> Self {
+        Self::SICK
+    }
+}
+
+/// Host to device: how the laser is mounted and how its lines make observations, the
+/// classifier's thresholds, and (version 3) which laser it is and what moves it. The fields
+/// of a recording's setup event (`docs/recording.md`) plus the thresholds and the laser
+/// block; unvalidated (the device checks it with
 /// [`crate::link::convert::frontend_config`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Setup {
     /// 0 panned vertical, 1 tilted horizontal.
     pub mount: u8,
-    /// The SICK measuring mode (the 0x77 mode number).
+    /// The sensor's mode: for a SICK its measuring mode (the 0x77 mode number); RPLIDAR 0
+    /// standard scan, 1 express scan; YDLIDAR 0 with the X4/X2 angle correction, 1 without;
+    /// LD06 0.
     pub measuring_mode: u8,
     /// Field of view, degrees: 100 or 180.
     pub field_deg: u16,
@@ -622,6 +673,8 @@ pub struct Setup {
     pub drop_threshold_m: f32,
     /// Returns higher than this above the robot's ground are overhang, metres; 0 = off.
     pub ceiling_m: f32,
+    /// The laser block (version 3).
+    pub laser: LaserSetup,
 }
 
 /// Which layers a snapshot covers.
@@ -968,6 +1021,15 @@ impl<'a> Message<'a> {
                     step_threshold_m: r.f32(),
                     drop_threshold_m: r.f32(),
                     ceiling_m: r.f32(),
+                    laser: LaserSetup {
+                        sensor: r.u8(),
+                        actuator: r.u8(),
+                        baud: r.u32(),
+                        servo_min_deg: r.f32(),
+                        servo_max_deg: r.f32(),
+                        servo_rate_deg_s: r.f32(),
+                        servo_latency_ms: r.f32(),
+                    },
                 })
             }
             MessageType::RequestStats => {
@@ -1121,6 +1183,7 @@ impl<'a> Message<'a> {
                 ] {
                     w.f32(v);
                 }
+                w.laser_setup(&s.laser);
             }
             Self::RequestSnapshot(scope) => w.u8(match *scope {
                 SnapshotScope::All => 0xFF,
@@ -1165,6 +1228,19 @@ impl<'a> Writer<'a> {
     }
     fn f32(&mut self, v: f32) {
         self.bytes(&v.to_le_bytes());
+    }
+    fn laser_setup(&mut self, l: &LaserSetup) {
+        self.u8(l.sensor);
+        self.u8(l.actuator);
+        self.u32(l.baud);
+        for v in [
+            l.servo_min_deg,
+            l.servo_max_deg,
+            l.servo_rate_deg_s,
+            l.servo_latency_ms,
+        ] {
+            self.f32(v);
+        }
     }
     fn patch_area(&mut self, a: &PatchArea) {
         self.u8(a.layer);

@@ -14,7 +14,7 @@
 //! use terrain_pyramid::wire::FeedResult;
 //! let mut out = [0_u8; 16];
 //! let n = encode(1, &Message::Ping, &mut out).unwrap();
-//! assert_eq!(&out[..n], &[0x04, 0x02, 0x86, 0x01, 0x05, 0xE4, 0x41, 0xEE, 0x77, 0x00]);
+//! assert_eq!(&out[..n], &[0x04, 0x03, 0x86, 0x01, 0x05, 0x81, 0x26, 0x52, 0xCF, 0x00]);
 //! let mut acc = FrameAccumulator::<MAX_FRAME>::new();
 //! match acc.feed(&out[..n]) {
 //!     FeedResult::Item { item: Decoded { header, message }, remaining, .. } => {
@@ -33,14 +33,15 @@ pub use accumulator::{Decoded, FrameAccumulator, FrameFeed, RxCounters, Undecode
 pub use crc::{crc32, Crc32};
 pub use message::{
     decode, encode, encode_patch, ClampRequest, Configure, FirmwareVersion, GateRequest, Hello,
-    HelloReason, LayerInfo, LayerPatch, Message, PanAngle, PatchArea, PatchCells, PoseReport,
-    Reply, ReplyCode, Setup, SnapshotScope, Stats, WindowMoved, PARAM_LAYER, STATS_COUNTERS,
+    HelloReason, LaserSetup, LayerInfo, LayerPatch, Message, PanAngle, PatchArea, PatchCells,
+    PoseReport, Reply, ReplyCode, Setup, SnapshotScope, Stats, WindowMoved, PARAM_LAYER,
+    SETUP_LASER_LEN, STATS_COUNTERS,
 };
 
 use core::fmt;
 
 /// The protocol version this module speaks (`docs/protocol.md`, section 6).
-pub const VERSION: u8 = 2;
+pub const VERSION: u8 = 3;
 /// Bytes of the header: version, type, sequence number.
 pub const HEADER_LEN: usize = 4;
 /// Bytes of the CRC-32 after the body.
@@ -64,8 +65,14 @@ pub const MAX_BODY: usize = if MAX_HELLO_BODY > MAX_PATCH_BODY {
 };
 /// The largest decoded frame (header, body, CRC), device to host: 660 bytes.
 pub const MAX_FRAME: usize = MIN_FRAME + MAX_BODY;
+/// The largest command body: a Configure (61 bytes) or a Setup (60), whichever is longer.
+const MAX_COMMAND_BODY: usize = if message::CONFIGURE_LEN > message::SETUP_LEN {
+    message::CONFIGURE_LEN
+} else {
+    message::SETUP_LEN
+};
 /// The largest decoded frame host to device (a [`Configure`]): 69 bytes.
-pub const MAX_COMMAND_FRAME: usize = MIN_FRAME + message::CONFIGURE_LEN;
+pub const MAX_COMMAND_FRAME: usize = MIN_FRAME + MAX_COMMAND_BODY;
 /// The largest encoded frame device to host, delimiter included: 664 bytes.
 pub const MAX_ENCODED_FRAME: usize = encoded_len_max(MAX_FRAME);
 /// The largest encoded frame host to device, delimiter included: 71 bytes.

@@ -32,7 +32,7 @@ fn golden(seq: u16, message: &Message<'_>, encoded: &str) {
             assert_eq!(
                 header,
                 Header {
-                    version: 2,
+                    version: 3,
                     msg_type: message.msg_type().to_u8(),
                     seq
                 }
@@ -45,22 +45,22 @@ fn golden(seq: u16, message: &Message<'_>, encoded: &str) {
 }
 
 fn ping_frame() -> Vec<u8> {
-    hex("04 02 86 01 05 e4 41 ee 77 00")
+    hex("04 03 86 01 05 81 26 52 cf 00")
 }
 
 #[test]
 fn ping_reset_snapshot_golden() {
-    golden(1, &Message::Ping, "04 02 86 01 05 e4 41 ee 77 00");
-    golden(0x0203, &Message::Reset, "09 02 84 03 02 24 96 52 a8 00");
+    golden(1, &Message::Ping, "04 03 86 01 05 81 26 52 cf 00");
+    golden(0x0203, &Message::Reset, "09 03 84 03 02 41 f1 ee 10 00");
     golden(
         7,
         &Message::RequestSnapshot(SnapshotScope::All),
-        "04 02 85 07 06 ff 7c 1b 28 4e 00",
+        "04 03 85 07 06 ff cc 32 48 73 00",
     );
     golden(
         8,
         &Message::RequestSnapshot(SnapshotScope::Layer(2)),
-        "04 02 85 08 06 02 e0 d2 78 86 00",
+        "04 03 85 08 06 02 50 fb 18 bb 00",
     );
 }
 
@@ -72,7 +72,7 @@ fn pan_and_pose_golden() {
             turns: 0x4000,
             timestamp_ms: 123_456,
         }),
-        "04 02 82 09 01 05 40 40 e2 01 05 52 be 09 c0 00",
+        "04 03 82 09 01 05 40 40 e2 01 05 6c d5 cb 2f 00",
     );
     golden(
         10,
@@ -85,8 +85,8 @@ fn pan_and_pose_golden() {
             yaw_rad: 3.140625,
             timestamp_ms: 1000,
         }),
-        "04 02 81 0a 01 01 03 c0 3f 01 03 10 c0 01 01 01 01 01 01 01 01 01 01 01 01 01 05 49 40 \
-         e8 03 01 05 05 fe 5e e3 00",
+        "04 03 81 0a 01 01 03 c0 3f 01 03 10 c0 01 01 01 01 01 01 01 01 01 01 01 01 01 05 49 40 \
+         e8 03 01 05 af fb 84 12 00",
     );
 }
 
@@ -115,9 +115,9 @@ fn configure_golden() {
     golden(
         11,
         &Message::Configure(c),
-        "04 02 83 0b 01 01 01 02 3f 01 07 80 3e 9a 99 19 3e 01 03 80 3f 01 07 20 41 cd cc cc 3d \
+        "04 03 83 0b 01 01 01 02 3f 01 07 80 3e 9a 99 19 3e 01 03 80 3f 01 07 20 41 cd cc cc 3d \
          01 01 03 40 01 01 01 03 3f 40 09 33 33 33 3f cd cc cc 3e 01 01 03 3f 01 01 01 02 c0 01 \
-         03 60 40 01 01 01 01 05 a7 3b e5 16 00",
+         03 60 40 01 01 01 01 05 41 69 0f 96 00",
     );
 }
 
@@ -157,9 +157,9 @@ fn hello_golden() {
     golden(
         0,
         &Message::Hello(hello),
-        "03 02 01 01 02 01 03 01 02 03 02 40 01 01 01 01 03 9a 19 01 01 01 01 01 01 01 01 0c 3f \
-         e0 ff ff ff e0 ff ff ff 33 33 01 01 01 01 02 3f 01 0f c0 3f e0 ff ff ff e0 ff ff ff 6c \
-         3b a0 9f 00",
+        "03 03 01 01 02 01 03 01 02 03 02 40 01 01 01 01 03 9a 19 01 01 01 01 01 01 01 01 0c 3f \
+         e0 ff ff ff e0 ff ff ff 33 33 01 01 01 01 02 3f 01 0f c0 3f e0 ff ff ff e0 ff ff ff bb \
+         28 35 82 00",
     );
 }
 
@@ -179,8 +179,8 @@ fn layer_patch_golden_is_the_specs_worked_example() {
         cells: PatchCells::from_le_bytes(&cells).unwrap(),
     };
     let encoded =
-        "11 02 02 02 01 01 02 02 e0 ff ff ff e0 ff ff ff 03 01 01 05 fc ff ff ff 03 80 d9 01 02 \
-                   fe 01 05 24 da 2f 54 00";
+        "11 03 02 02 01 01 02 02 e0 ff ff ff e0 ff ff ff 03 01 01 05 fc ff ff ff 03 80 d9 01 02 \
+         fe 01 05 f5 32 c8 5a 00";
     golden(0x0102, &Message::LayerPatch(patch), encoded);
     let values: Vec<i16> = patch.cells.iter().collect();
     assert_eq!(values, [i16::MIN, 217, -512, 0]);
@@ -207,7 +207,7 @@ fn window_moved_stats_reply_golden() {
     golden(
         0x0103,
         &Message::WindowMoved(moved),
-        "06 02 03 03 01 05 01 01 15 e1 ff ff ff e0 ff ff ff f0 ff ff ff df ff ff ff b6 4b 04 93 \
+        "06 03 03 03 01 05 01 01 15 e1 ff ff ff e0 ff ff ff f0 ff ff ff df ff ff ff 91 2e 21 12 \
          00",
     );
     let mut values = [0_u32; STATS_COUNTERS];
@@ -223,11 +223,11 @@ fn window_moved_stats_reply_golden() {
     golden(
         0x0104,
         &Message::Stats(stats),
-        "06 02 04 04 01 01 01 01 02 02 01 01 02 03 01 01 02 04 01 01 02 05 01 01 02 06 01 01 02 \
+        "06 03 04 04 01 01 01 01 02 02 01 01 02 03 01 01 02 04 01 01 02 05 01 01 02 06 01 01 02 \
          07 01 01 02 08 01 01 02 09 01 01 02 0a 01 01 02 0b 01 01 02 0c 01 01 02 0d 01 01 02 0e \
          01 01 02 0f 01 01 02 10 01 01 02 11 01 01 02 12 01 01 02 13 01 01 02 14 01 01 02 15 01 \
          01 02 16 01 01 02 17 01 01 02 18 01 01 02 19 01 01 02 1a 01 01 02 1b 01 01 02 1c 01 01 \
-         02 1d 01 01 02 1e 01 01 05 84 5e cb 1a 00",
+         02 1d 01 01 02 1e 01 01 05 11 a4 cd 6e 00",
     );
     let configure = Header {
         version: 1,
@@ -237,7 +237,7 @@ fn window_moved_stats_reply_golden() {
     golden(
         0x0105,
         &Message::Reply(Reply::ok(configure)),
-        "06 02 05 05 01 0b 02 83 01 01 01 01 01 01 01 01 01 01 01 01 01 05 6a a1 e2 b5 00",
+        "06 03 05 05 01 0b 02 83 01 01 01 01 01 01 01 01 01 01 01 01 01 05 f4 22 38 2a 00",
     );
 }
 
@@ -311,11 +311,12 @@ fn bad_frames_are_refused_counted_and_the_next_frame_decodes() {
     // 3. Too short: a 3-byte frame.
     stream.extend_from_slice(&hex("04 01 86 01 00"));
     // 4. Unknown version, unknown type, bad body length, out-of-range field.
-    stream.extend_from_slice(&raw_frame(1, 0x86, 3, &[]));
-    stream.extend_from_slice(&raw_frame(2, 0x7E, 4, &[]));
-    stream.extend_from_slice(&raw_frame(2, 0x86, 5, &[0]));
+    // A version-2 frame (an older peer): refused whole.
+    stream.extend_from_slice(&raw_frame(2, 0x86, 3, &[]));
+    stream.extend_from_slice(&raw_frame(3, 0x7E, 4, &[]));
+    stream.extend_from_slice(&raw_frame(3, 0x86, 5, &[0]));
     stream.extend_from_slice(&raw_frame(
-        2,
+        3,
         0x01,
         6,
         &[2, 0, 0, 0, 9, 0, 64, 0, 0, 0, 0, 0],
@@ -330,7 +331,7 @@ fn bad_frames_are_refused_counted_and_the_next_frame_decodes() {
     assert!(matches!(got[0], Err(DecodeError::Crc { .. })));
     assert_eq!(got[1], Err(DecodeError::Cobs));
     assert_eq!(got[2], Err(DecodeError::TooShort { len: 3 }));
-    assert_eq!(got[3], Err(DecodeError::UnknownVersion(1)));
+    assert_eq!(got[3], Err(DecodeError::UnknownVersion(2)));
     assert_eq!(got[4], Err(DecodeError::UnknownType(0x7E)));
     assert_eq!(
         got[5],
@@ -458,22 +459,60 @@ fn setup_and_the_empty_commands_golden() {
         step_threshold_m: 0.05,
         drop_threshold_m: 0.0,
         ceiling_m: 2.0,
+        laser: LaserSetup::SICK,
     };
     golden(
         7,
         &Message::Setup(setup),
-        "04 02 87 07 02 01 02 b4 02 32 01 01 03 80 3e 01 01 02 bf 01 03 40 3f 01 01 01 01 01 07 \
-         80 3f cd cc 4c 3d 01 01 01 01 01 01 06 40 85 94 0b 8d 00",
+        "04 03 87 07 02 01 02 b4 02 32 01 01 03 80 3e 01 01 02 bf 01 03 40 3f 01 01 01 01 01 07 \
+         80 3f cd cc 4c 3d 01 01 01 01 01 01 02 40 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 \
+         01 01 01 01 01 01 05 99 72 9e d7 00",
     );
-    golden(2, &Message::RequestStats, "04 02 88 02 05 2d 3f 5d 56 00");
-    golden(2, &Message::Shutdown, "04 02 89 02 05 1a 55 9f 57 00");
-    golden(2, &Message::EndObservation, "04 02 8a 02 05 43 eb d9 55 00");
-    // A Setup body one byte short is a bad body.
-    assert!(matches!(
-        Message::parse(0x87, &[0; 37]),
-        Err(DecodeError::BadBody {
-            msg_type: 0x87,
-            len: 37
-        })
-    ));
+    golden(2, &Message::RequestStats, "04 03 88 02 05 48 58 e1 ee 00");
+    golden(2, &Message::Shutdown, "04 03 89 02 05 7f 32 23 ef 00");
+    golden(2, &Message::EndObservation, "04 03 8a 02 05 26 8c 65 ed 00");
+    // A Setup body one byte short is a bad body; so is a version-2 Setup (38 bytes).
+    for len in [59, 38] {
+        assert!(matches!(
+            Message::parse(0x87, &[0; 60][..len]),
+            Err(DecodeError::BadBody { msg_type: 0x87, len: l }) if l == len
+        ));
+    }
+}
+
+/// The laser block of version 3 (`docs/protocol.md`, "0x87 Setup", the second worked
+/// example): an LD06 at its default rate on a nodding servo from −10° to 30° at 60 °/s with
+/// 25 ms of latency, tilted horizontal, 0.4 m up, two revolutions per observation, robot
+/// height 0.5 m, step 0.08 m, drop and ceiling off; the SICK fields zero (ignored).
+#[test]
+fn setup_with_a_lidar_on_a_servo_golden() {
+    let setup = Setup {
+        mount: 1,
+        measuring_mode: 0,
+        field_deg: 0,
+        resolution_cdeg: 0,
+        sensor_m: [0.1, 0.0, 0.4],
+        lines_per_observation: 2,
+        robot_height_m: 0.5,
+        step_threshold_m: 0.08,
+        drop_threshold_m: 0.0,
+        ceiling_m: 0.0,
+        laser: LaserSetup {
+            sensor: 1,
+            actuator: 1,
+            baud: 0,
+            servo_min_deg: -10.0,
+            servo_max_deg: 30.0,
+            servo_rate_deg_s: 60.0,
+            servo_latency_ms: 25.0,
+        },
+    };
+    golden(
+        8,
+        &Message::Setup(setup),
+        "04 03 87 08 02 01 01 01 01 01 05 cd cc cc 3d 01 01 01 06 cd cc cc 3e 02 01 01 01 01 01 \
+         06 3f 0a d7 a3 3d 01 01 01 01 01 01 01 03 01 01 01 01 01 01 01 03 20 c1 01 03 f0 41 01 \
+         03 70 42 01 07 c8 41 cf 61 7a 01 00",
+    );
+    assert_eq!(SETUP_LASER_LEN, 22);
 }

@@ -20,8 +20,8 @@
 //! - [`MeasuredValues`] (reply 0xB0), [`SickRequest`] (0x20, 0x3B, 0x30), [`OperatingModeReply`]
 //!   (0xA0), [`VariantReply`] (0xBB), and [`SickReply`] over all of them: validated
 //!   representations with `parse`, `emit` and `buffer_len`.
-//! - [`SickAccumulator`]: synchronisation and reassembly over arbitrary chunks of a byte stream,
-//!   with the counters of everything it rejects ([`SickCounters`]).
+//! - [`SickAccumulator`]: synchronisation and reassembly over arbitrary chunks of a byte
+//!   stream, with the counters of everything it rejects ([`SickCounters`]).
 //!
 //! Facts marked *unverified* in the project's protocol notes are marked so where they are
 //! used (the 100° start angle, the interlacing offsets).

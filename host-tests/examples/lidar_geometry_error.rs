@@ -1,0 +1,142 @@
+//! Measures the error of a spinning lidar's per-return path against the f64 reference: LD06
+//! packets (the manual's angle formula) decoded by the library, each return placed from its
+//! own angle (`geometry::sweep`), against the manual's formula and the geometry in f64. The
+//! maximum and the 99.9th percentile of the world-point and horizontal-distance errors, for
+//! ranges up to 12 m (an LD06's or an X4's reach) and up to 40 m (an RPLIDAR S1's).
+//!
+//! ```sh
+//! cargo run --release -p terrain-pyramid-host-tests --example lidar_geometry_error [packets]
+//! ```
+//!
+//! Inputs are drawn uniformly: packet start angle (0 ..< 360°) and span (0 ..= 12°, across
+//! 360° too), ranges 0 ..= 40 000 mm, scan plane, mount position (x, y within ±2 m, z
+//! 0 ..= 3 m), actuator angle (any), pose x, y within ±29 999 m, z within ±999 m, roll and
+//! pitch within ±30°, yaw within ±20 rad. The seed is fixed, so runs repeat.
+
+use terrain_pyramid::geometry::ScanPlane;
+use terrain_pyramid::wire::ld06::{Ld06Point, Ld06Repr};
+use terrain_pyramid_host_tests::geometry::{evaluate_ld06, lidar_error_bound_m};
+
+/// SplitMix64: a small, fixed-seed generator (no dependency).
+struct Rng(u64);
+
+impl Rng {
+    fn next(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^ (z >> 31)
+    }
+
+    fn unit(&mut self) -> f64 {
+        (self.next() >> 11) as f64 / (1_u64 << 53) as f64
+    }
+
+    fn range(&mut self, lo: f64, hi: f64) -> f64 {
+        lo + (hi - lo) * self.unit()
+    }
+
+    fn below(&mut self, n: u64) -> u64 {
+        self.next() % n
+    }
+}
+
+/// The maximum and the 99.9th percentile of a sample, in mm.
+fn summary(errors: &mut [f64]) -> (f64, f64) {
+    if errors.is_empty() {
+        return (0.0, 0.0);
+    }
+    errors.sort_by(f64::total_cmp);
+    let n = errors.len();
+    let p999 = errors[((n as f64 * 0.999).ceil() as usize).clamp(1, n) - 1];
+    (errors[n - 1] * 1e3, p999 * 1e3)
+}
+
+fn main() {
+    let packets: usize = std::env::args()
+        .nth(1)
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(200_000);
+    let limits = [12.0, 40.0];
+    let mut point: [Vec<f64>; 2] = Default::default();
+    let mut horizontal: [Vec<f64>; 2] = Default::default();
+    let mut over_bound = 0_usize;
+    let mut rng = Rng(0x11D0_6E0A_5EED);
+    let thirty = 30_f64.to_radians();
+    for _ in 0..packets {
+        let start = rng.below(36_000) as u16;
+        let span = rng.below(1_201) as u16;
+        let mut points = [Ld06Point::default(); 12];
+        for p in &mut points {
+            p.distance_mm = rng.below(40_001) as u16;
+        }
+        let repr = Ld06Repr {
+            speed_deg_per_s: 3_600,
+            start_angle_centideg: start,
+            end_angle_centideg: (start + span) % 36_000,
+            timestamp_ms: 0,
+            points,
+        };
+        let mut bytes = [0_u8; 47];
+        repr.emit(&mut bytes).expect("47 bytes");
+        let plane = if rng.below(2) == 0 {
+            ScanPlane::PannedVertical
+        } else {
+            ScanPlane::TiltedHorizontal
+        };
+        let mount_bits = [
+            rng.range(-131_072.0, 131_072.0) as i32,
+            rng.range(-131_072.0, 131_072.0) as i32,
+            rng.range(0.0, 196_608.0) as i32,
+        ];
+        let pose = [
+            rng.range(-29_999.0, 29_999.0) as f32,
+            rng.range(-29_999.0, 29_999.0) as f32,
+            rng.range(-999.0, 999.0) as f32,
+            rng.range(-thirty, thirty) as f32,
+            rng.range(-thirty, thirty) as f32,
+            rng.range(-20.0, 20.0) as f32,
+        ];
+        let Some(errors) = evaluate_ld06(&bytes, plane, mount_bits, rng.next() as u32, pose) else {
+            eprintln!("refused: start {start} span {span} pose {pose:?}");
+            continue;
+        };
+        for e in errors {
+            if e.point_m > lidar_error_bound_m(e.range_m)
+                || e.horizontal_m > lidar_error_bound_m(e.range_m)
+            {
+                over_bound += 1;
+            }
+            for (k, &limit) in limits.iter().enumerate() {
+                if e.range_m <= limit {
+                    point[k].push(e.point_m);
+                    horizontal[k].push(e.horizontal_m);
+                }
+            }
+        }
+    }
+    println!(
+        "spinning-lidar returns (LD06 packets, own angles) vs f64 reference, {packets} packets"
+    );
+    println!("bound: 0.03 mm + 1e-8 x range; returns over it: {over_bound}");
+    println!(
+        "{:<10} {:>10} {:>13} {:>13} {:>13} {:>13} {:>10}",
+        "ranges", "returns", "point max", "point p99.9", "horiz. max", "horiz. p99.9", "bound"
+    );
+    for (k, &limit) in limits.iter().enumerate() {
+        let n = point[k].len();
+        let (pmax, p999) = summary(&mut point[k]);
+        let (hmax, h999) = summary(&mut horizontal[k]);
+        println!(
+            "{:<10} {:>10} {:>10.4} mm {:>10.4} mm {:>10.4} mm {:>10.4} mm {:>7.4} mm",
+            format!("<= {limit} m"),
+            n,
+            pmax,
+            p999,
+            hmax,
+            h999,
+            lidar_error_bound_m(limit) * 1e3
+        );
+    }
+}

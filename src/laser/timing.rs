@@ -1,0 +1,157 @@
+//! When a packet's returns were measured, from when its bytes arrived.
+//!
+//! The board hands the core each chunk of laser bytes with its clock (µs, wrapping) at the
+//! chunk's arrival. A packet's last byte arrived `remaining · byte time` before that (the
+//! bytes of the chunk after it; a byte is 10 bits at the baud rate: start, 8 data, stop). The
+//! model, per packet:
+//!
+//! 1. **Sent when measured.** A spinning lidar sends a packet as soon as its last return is
+//!    measured, so that return was measured one packet transmission time before the last
+//!    byte arrived (LD06 at 230 400 Bd: 2.04 ms; an X4 packet of 40 samples at 128 000 Bd:
+//!    7.0 ms; an RPLIDAR node at 115 200 Bd: 0.43 ms, a capsule 7.3 ms). An express capsule
+//!    is handed out only when the next one has arrived: its bytes ended one capsule turn (the
+//!    angle between the two start angles, at the rotation rate) before the item.
+//! 2. **Evenly in time.** The returns of a packet are measured evenly over its span (the angle
+//!    the sensor turned from the first to the last, before per-return corrections), at the
+//!    rotation rate: LD06 reports it in every packet (degrees per second); the RPLIDAR and
+//!    the YDLIDAR do not, so it is measured between consecutive revolution starts (averaged
+//!    over the last two; [`DEFAULT_REVOLUTION_US`] until two starts were seen). A revolution
+//!    start is timed at its packet's last return.
+//!
+//! So return k of n is at `first + k·(last − first)/(n − 1)` with `last = end − transmission`
+//! and `first = last − span / rate`. The pipeline needs only `first` and `last`: it
+//! interpolates the actuator's angle between them.
+
+use super::Packet;
+use crate::angle::FineAngle;
+
+/// The revolution period assumed until two revolution starts were seen: 100 ms (10 Hz, the
+/// LD06's, and within the 5 – 12 Hz of the others).
+pub const DEFAULT_REVOLUTION_US: u32 = 100_000;
+
+/// Revolution periods measured outside 20 ms ..= 1 s (a missed start, a stalled motor) are
+/// ignored.
+const PERIOD_RANGE_US: core::ops::RangeInclusive<u32> = 20_000..=1_000_000;
+
+/// The times of packets' returns (see the [module documentation](self)).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct PacketTimer {
+    /// Microseconds per byte on the wire, Q16: 10 bits at the baud rate.
+    byte_q16: u32,
+    /// The revolution period in use, µs.
+    period_us: u32,
+    /// Whether `period_us` was measured.
+    measured: bool,
+    /// When the last revolution started, µs.
+    last_start_us: Option<u32>,
+}
+
+impl Default for PacketTimer {
+    fn default() -> Self {
+        Self::new(crate::laser::SensorKind::Ld06.default_baud())
+    }
+}
+
+impl PacketTimer {
+    /// A timer of zero bits (no baud rate: every byte takes "forever"; no period), the
+    /// placeholder of a `const`-built co-processor until its setup [`reset`](Self::reset)s
+    /// it: a `static` holding it stays in `.bss`.
+    pub const ZERO: Self = Self {
+        byte_q16: 0,
+        period_us: 0,
+        measured: false,
+        last_start_us: None,
+    };
+
+    /// A timer for a UART at `baud` (at least 1), with no revolution seen.
+    #[must_use]
+    pub const fn new(baud: u32) -> Self {
+        Self {
+            byte_q16: byte_q16(baud),
+            period_us: DEFAULT_REVOLUTION_US,
+            measured: false,
+            last_start_us: None,
+        }
+    }
+
+    /// Starts afresh at `baud`: the revolution period is forgotten.
+    pub fn reset(&mut self, baud: u32) {
+        *self = Self::new(baud);
+    }
+
+    /// The transmission time of `bytes` bytes, µs (saturating).
+    #[must_use]
+    pub fn bytes_us(&self, bytes: usize) -> u32 {
+        let n = u64::try_from(bytes).unwrap_or(u64::MAX);
+        u32::try_from(n.saturating_mul(u64::from(self.byte_q16)) >> 16).unwrap_or(u32::MAX)
+    }
+
+    /// The revolution period in use, µs, and whether it was measured.
+    #[must_use]
+    pub const fn revolution_us(&self) -> (u32, bool) {
+        (self.period_us, self.measured)
+    }
+
+    /// How long the sensor takes to turn `angle` (clockwise), µs: at the packet's reported
+    /// rate if it has one, else at the revolution period.
+    fn duration_us(&self, packet: &Packet<'_>, angle: FineAngle) -> u32 {
+        let bits = u64::from(angle.to_bits());
+        let us = match packet.reported_rate_deg_per_s() {
+            // bits·360·10⁶ < 2⁶¹; the denominator rate·2³² below 2⁴⁸.
+            Some(rate) if rate > 0 => bits * 360_000_000 / (u64::from(rate) << 32),
+            _ => (bits * u64::from(self.period_us)) >> 32,
+        };
+        u32::try_from(us).unwrap_or(u32::MAX)
+    }
+
+    /// The times of the packet's first and last return, µs (the board's clock), for a packet
+    /// whose last byte arrived at `end_us`; notes a revolution start when `starts_revolution`
+    /// ([`super::RevolutionTracker`]).
+    pub fn times(
+        &mut self,
+        packet: &Packet<'_>,
+        end_us: u32,
+        starts_revolution: bool,
+    ) -> (u32, u32) {
+        let mut end = end_us;
+        if let Some(lag) = packet.lag() {
+            end = end.wrapping_sub(self.duration_us(packet, lag));
+        }
+        let last = end.wrapping_sub(self.bytes_us(packet.wire_len()));
+        let first = last.wrapping_sub(self.duration_us(packet, packet.span()));
+        if starts_revolution {
+            self.note_start(last);
+        }
+        (first, last)
+    }
+
+    fn note_start(&mut self, t_us: u32) {
+        if let Some(previous) = self.last_start_us.replace(t_us) {
+            let period = t_us.wrapping_sub(previous);
+            if PERIOD_RANGE_US.contains(&period) {
+                self.period_us = if self.measured {
+                    // The mean of the last two, rounded: jitter halves, a drift follows.
+                    u32::try_from((u64::from(self.period_us) + u64::from(period)).div_ceil(2))
+                        .unwrap_or(period)
+                } else {
+                    period
+                };
+                self.measured = true;
+            }
+        }
+    }
+}
+
+/// Microseconds per 10-bit byte at `baud`, Q16 (saturating for a zero rate).
+const fn byte_q16(baud: u32) -> u32 {
+    if baud == 0 {
+        return u32::MAX;
+    }
+    let q = (10_000_000_u64 << 16) / baud as u64;
+    if q > u32::MAX as u64 {
+        u32::MAX
+    } else {
+        q as u32
+    }
+}
