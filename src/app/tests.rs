@@ -417,6 +417,7 @@ fn setup_request_stats_end_observation_and_shutdown() {
         step_threshold_m: 0.05,
         drop_threshold_m: 0.3,
         ceiling_m: 0.0,
+        rule: crate::link::convert::rule_setup(&crate::classify::NavigabilityRule::DEFAULT),
         laser: crate::wire::link::LaserSetup::SICK,
     };
     let mut bytes = command(0, &Message::Setup(setup));

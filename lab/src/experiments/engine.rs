@@ -50,10 +50,8 @@ pub struct Decoded {
 pub fn decode(data: &[u8], classifier: &ClassifierConfig) -> Result<Decoded, String> {
     let decoded = steps(data)?;
     let setup = decoded.setup().ok_or("the recording has no setup")?;
-    let mut frontend = frontend_config_of_event(&setup, classifier)
+    let frontend = frontend_config_of_event(&setup, classifier)
         .map_err(|e| format!("the recording's setup: {e}"))?;
-    // The link's Setup does not carry the rule yet: the one asked for.
-    frontend.classifier.rule = classifier.rule;
     let mut lines = Vec::new();
     let mut pending_pose: Option<[f32; 6]> = None;
     let mut robot_xy = (0.0, 0.0);

@@ -29,10 +29,13 @@ pub(crate) const CONFIGURE_FLAGS_KNOWN: u8 = CONFIGURE_UNIFORM_RESOLUTION;
 /// Bytes of a Setup body before its laser block: the mount, the SICK fields, the sensor's
 /// position, the grouping and the classifier's thresholds.
 pub(crate) const SETUP_BASE_LEN: usize = 38;
+/// Bytes of Setup's navigability rule block ([`RuleSetup`]), between the base part and the
+/// laser block.
+pub const SETUP_RULE_LEN: usize = 21;
 /// Bytes of Setup's laser block ([`LaserSetup`]).
 pub const SETUP_LASER_LEN: usize = 22;
 /// Bytes of a Setup body.
-pub(crate) const SETUP_LEN: usize = SETUP_BASE_LEN + SETUP_LASER_LEN;
+pub(crate) const SETUP_LEN: usize = SETUP_BASE_LEN + SETUP_RULE_LEN + SETUP_LASER_LEN;
 /// The number of counters in a [`Stats`].
 pub const STATS_COUNTERS: usize = 30;
 
@@ -600,6 +603,39 @@ pub struct Configure {
     pub uniform_resolution: bool,
 }
 
+/// Setup's navigability rule block (protocol version 3, offset 38): which rule judges a cell's
+/// points and the plane rule's parameters. Unvalidated ([`crate::link::convert::frontend_config`]
+/// checks it; the plane parameters only under the plane rule).
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct RuleSetup {
+    /// 0 the paper's spread rule, 1 the plane rule.
+    pub rule: u8,
+    /// The largest traversable slope as a grade (rise per run, tan of its angle).
+    pub max_grade: f32,
+    /// The RMS by which a navigable cell's points may stray from their plane beyond the
+    /// noise, metres.
+    pub residual_m: f32,
+    /// The sensor's range noise σ, metres.
+    pub range_sigma_m: f32,
+    /// The sensor's elevation error σ_a, radians.
+    pub angle_sigma_rad: f32,
+    /// How many σ of height noise the allowances hold.
+    pub noise_factor: f32,
+}
+
+impl RuleSetup {
+    /// The paper's spread rule (the plane parameters zero: ignored).
+    pub const SPREAD: Self = Self {
+        rule: 0,
+        max_grade: 0.0,
+        residual_m: 0.0,
+        range_sigma_m: 0.0,
+        angle_sigma_rad: 0.0,
+        noise_factor: 0.0,
+    };
+}
+
 /// Setup's laser block (protocol version 3): which laser, at which baud rate, and what moves
 /// its scan plane. Unvalidated ([`crate::link::convert::frontend_config`] checks it).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -673,6 +709,8 @@ pub struct Setup {
     pub drop_threshold_m: f32,
     /// Returns higher than this above the robot's ground are overhang, metres; 0 = off.
     pub ceiling_m: f32,
+    /// The navigability rule block (version 3).
+    pub rule: RuleSetup,
     /// The laser block (version 3).
     pub laser: LaserSetup,
 }
@@ -1021,6 +1059,14 @@ impl<'a> Message<'a> {
                     step_threshold_m: r.f32(),
                     drop_threshold_m: r.f32(),
                     ceiling_m: r.f32(),
+                    rule: RuleSetup {
+                        rule: r.u8(),
+                        max_grade: r.f32(),
+                        residual_m: r.f32(),
+                        range_sigma_m: r.f32(),
+                        angle_sigma_rad: r.f32(),
+                        noise_factor: r.f32(),
+                    },
                     laser: LaserSetup {
                         sensor: r.u8(),
                         actuator: r.u8(),
@@ -1180,6 +1226,16 @@ impl<'a> Message<'a> {
                     s.step_threshold_m,
                     s.drop_threshold_m,
                     s.ceiling_m,
+                ] {
+                    w.f32(v);
+                }
+                w.u8(s.rule.rule);
+                for v in [
+                    s.rule.max_grade,
+                    s.rule.residual_m,
+                    s.rule.range_sigma_m,
+                    s.rule.angle_sigma_rad,
+                    s.rule.noise_factor,
                 ] {
                     w.f32(v);
                 }

@@ -34,8 +34,8 @@ pub use crc::{crc32, Crc32};
 pub use message::{
     decode, encode, encode_patch, ClampRequest, Configure, FirmwareVersion, GateRequest, Hello,
     HelloReason, LaserSetup, LayerInfo, LayerPatch, Message, PanAngle, PatchArea, PatchCells,
-    PoseReport, Reply, ReplyCode, Setup, SnapshotScope, Stats, WindowMoved, PARAM_LAYER,
-    SETUP_LASER_LEN, STATS_COUNTERS,
+    PoseReport, Reply, ReplyCode, RuleSetup, Setup, SnapshotScope, Stats, WindowMoved, PARAM_LAYER,
+    SETUP_LASER_LEN, SETUP_RULE_LEN, STATS_COUNTERS,
 };
 
 use core::fmt;
