@@ -44,9 +44,10 @@ const LIMIT_M: f64 = 1_000.0;
 #[derive(clap::Args, Debug, Clone, Default, PartialEq)]
 pub struct RuleArgs {
     /// How a cell's points are judged: `plane` (a least-squares plane, tolerant of slopes,
-    /// roughness and sensor noise) or `paper` (the points' height spread against the step).
-    #[arg(long, value_enum, default_value_t = RuleArg::Plane)]
-    pub rule: RuleArg,
+    /// roughness and sensor noise) or `paper` (the points' height spread against the step)
+    /// [default: plane].
+    #[arg(long, value_enum)]
+    pub rule: Option<RuleArg>,
     /// The step height, metres: under `paper` the largest spread of a navigable cell, under
     /// `plane` the rise allowed across a cell on top of its slope [default: 0.05].
     #[arg(long, value_name = "M", allow_hyphen_values = true)]
@@ -74,9 +75,25 @@ impl RuleArgs {
     #[must_use]
     pub fn paper() -> Self {
         Self {
-            rule: RuleArg::Paper,
+            rule: Some(RuleArg::Paper),
             ..Self::default()
         }
+    }
+
+    /// Whether any of the flags was given (`pyramid listen` sends the rule only then).
+    #[must_use]
+    pub fn given(&self) -> bool {
+        self.rule.is_some()
+            || [
+                self.step_m,
+                self.max_slope_deg,
+                self.residual_m,
+                self.noise_sigma_m,
+                self.angle_sigma_deg,
+                self.noise_factor,
+            ]
+            .iter()
+            .any(Option::is_some)
     }
 
     /// `base` with the rule and the parameters the flags set.
@@ -96,7 +113,7 @@ impl RuleArgs {
             ("--angle-sigma-deg", self.angle_sigma_deg),
             ("--noise-factor", self.noise_factor),
         ];
-        config.rule = match self.rule {
+        config.rule = match self.rule.unwrap_or_default() {
             RuleArg::Paper => {
                 if let Some((flag, _)) = plane_flags.iter().find(|(_, v)| v.is_some()) {
                     return Err(format!("{flag} is a parameter of --rule plane"));

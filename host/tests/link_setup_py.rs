@@ -4,11 +4,12 @@
 //! wire order; the frames must be equal byte for byte, and the library must decode Python's
 //! frame back to the same Setup.
 use std::process::Command;
+use terrain_pyramid::classify::ClassifierConfig;
 use terrain_pyramid::classify::{NavigabilityRule, PlaneRule, Ratio};
-use terrain_pyramid::link::convert::{frontend_config, rule_setup};
+use terrain_pyramid::link::convert::{frontend_config, rule_setup, set_rule_message, set_rule_of};
 use terrain_pyramid::wire::link::{
-    encode, Decoded, FrameAccumulator, LaserSetup, Message, RuleSetup, Setup, MAX_ENCODED_FRAME,
-    MAX_FRAME,
+    encode, Decoded, FrameAccumulator, LaserSetup, Message, RuleSetup, SetRule, Setup,
+    MAX_ENCODED_FRAME, MAX_FRAME,
 };
 use terrain_pyramid::wire::FeedResult;
 use terrain_pyramid::Meters;
@@ -80,6 +81,72 @@ fn python_frame(seq: u16, s: &Setup) -> Vec<u8> {
         .split_whitespace()
         .map(|b| u8::from_str_radix(b, 16).unwrap())
         .collect()
+}
+
+/// Python's SetRule frame.
+fn python_set_rule(seq: u16, s: &SetRule) -> Vec<u8> {
+    let mut args = vec![
+        "setrule".to_string(),
+        seq.to_string(),
+        s.step_threshold_m.to_string(),
+        s.rule.rule.to_string(),
+    ];
+    args.extend(
+        [
+            s.rule.max_grade,
+            s.rule.residual_m,
+            s.rule.range_sigma_m,
+            s.rule.angle_sigma_rad,
+            s.rule.noise_factor,
+        ]
+        .iter()
+        .map(f32::to_string),
+    );
+    let out = Command::new("python3")
+        .arg(SCRIPT)
+        .args(&args)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8(out.stdout)
+        .unwrap()
+        .split_whitespace()
+        .map(|b| u8::from_str_radix(b, 16).unwrap())
+        .collect()
+}
+
+#[test]
+fn set_rule_frames_equal_an_independent_encoder() {
+    let custom = NavigabilityRule::Plane(PlaneRule {
+        max_grade: Ratio::from_num(0.25),
+        residual: Meters::from_num(0.02),
+        range_sigma: Meters::from_num(0.04),
+        angle_sigma: Ratio::from_num(0.001),
+        noise_factor: Ratio::from_num(1.5),
+    });
+    for (i, rule) in [NavigabilityRule::Spread, NavigabilityRule::DEFAULT, custom]
+        .into_iter()
+        .enumerate()
+    {
+        let classifier = ClassifierConfig {
+            step_threshold: Meters::from_num(0.03 * (i as f64 + 1.0)),
+            rule,
+            ..ClassifierConfig::DEFAULT
+        };
+        let set = set_rule_message(&classifier);
+        let seq = u16::try_from(i).unwrap() + 40;
+        let mut ours = [0_u8; MAX_ENCODED_FRAME];
+        let n = encode(seq, &Message::SetRule(set), &mut ours).unwrap();
+        assert_eq!(&ours[..n], &python_set_rule(seq, &set)[..], "{set:?}");
+        assert_eq!(
+            set_rule_of(&set).unwrap(),
+            (classifier.step_threshold, classifier.rule)
+        );
+    }
 }
 
 fn base(rule: NavigabilityRule, laser: LaserSetup) -> Setup {

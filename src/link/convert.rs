@@ -27,7 +27,7 @@ use crate::pyramid::Config;
 use crate::units::{Meters, Point3};
 use crate::wire::link::{
     ClampRequest, Configure, GateRequest, Header, LaserSetup, PoseReport, Reply, ReplyCode,
-    RuleSetup, Setup, SnapshotScope, PARAM_LAYER,
+    RuleSetup, SetRule, Setup, SnapshotScope, PARAM_LAYER,
 };
 use crate::wire::recording::{MountKind, SensorEvent, SetupEvent};
 use crate::wire::sick::{MeasuringMode, Variant};
@@ -393,6 +393,42 @@ pub fn rule_setup(rule: &NavigabilityRule) -> RuleSetup {
             angle_sigma_rad: p.angle_sigma.to_num::<f32>(),
             noise_factor: p.noise_factor.to_num::<f32>(),
         },
+    }
+}
+
+/// The step threshold and navigability rule of a SetRule command, validated in wire order:
+/// the step as Setup's (finite, 0 ≤ v < 1 000 m; param 55), then the rule block
+/// ([`navigability_rule`]).
+///
+/// # Errors
+/// The first bad field.
+pub fn set_rule_of(set: &SetRule) -> Result<(Meters, NavigabilityRule), SetupError> {
+    let v = set.step_threshold_m;
+    let field = SetupField::StepThreshold;
+    if !v.is_finite() {
+        return Err(SetupError::NotFinite { field });
+    }
+    if !(0.0..SETUP_LIMIT_M).contains(&v) {
+        return Err(SetupError::OutOfRange {
+            field,
+            value: v,
+            min: 0.0,
+            max: SETUP_LIMIT_M,
+        });
+    }
+    Ok((
+        Meters::saturating_from_num(v),
+        navigability_rule(&set.rule)?,
+    ))
+}
+
+/// The SetRule command that sets a classifier's step threshold and navigability rule (exact,
+/// as [`setup_message`]).
+#[must_use]
+pub fn set_rule_message(classifier: &ClassifierConfig) -> SetRule {
+    SetRule {
+        step_threshold_m: classifier.step_threshold.to_num::<f32>(),
+        rule: rule_setup(&classifier.rule),
     }
 }
 

@@ -63,10 +63,16 @@ const REPORT_MS: u32 = 1_000;
 /// bytes at 921 600 Bd), and the laser queue (1023 bytes: 20 ms) must not fill meanwhile.
 const TX_BYTES_PER_STEP: usize = 512;
 
-/// The co-processor: the default pyramid and pipeline, and a link with a 1 KiB queue (11 ms of
-/// USART2; at least `min_queue_bytes(64, 8)` = 504 bytes): with the interrupt queues and the
-/// RTT buffer, a 2 KiB queue would take the static RAM past 96 KiB.
-type Board = CoProcessor<DEFAULT_CELLS_PER_SIDE, DEFAULT_LAYERS, DEFAULT_CLASSIFIER_SLOTS, 1024>;
+/// The classifier's observation scratch: half the default. A slot is 48 bytes since the plane
+/// rule (the default 1024 would take 48 KiB, and the part's 128 KiB could not hold it beside
+/// the pyramid); 512 slots hold an observation of a few SICK lines (a line touches 2-4 cells
+/// per return at most, mostly far fewer), and a point that finds the scratch full is counted
+/// (`overflow_points`), never misplaced.
+const CLASSIFIER_SLOTS: usize = DEFAULT_CLASSIFIER_SLOTS / 2;
+
+/// The co-processor: the default pyramid, the pipeline with [`CLASSIFIER_SLOTS`] and a link with
+/// a 1 KiB queue (11 ms of USART2; at least `min_queue_bytes(64, 8)` = 504 bytes).
+type Board = CoProcessor<DEFAULT_CELLS_PER_SIDE, DEFAULT_LAYERS, CLASSIFIER_SLOTS, 1024>;
 
 /// The co-processor, `const`-built (never on the stack of this 128 KiB part).
 static CORE: ConstStaticCell<Board> = ConstStaticCell::new(Board::new());

@@ -1,9 +1,10 @@
 #!/usr/bin/env python3
-"""An independent encoder of the link's Setup frame (docs/protocol.md, version 3), from the
-document alone: struct for the little-endian body, zlib.crc32 for CRC-32/ISO-HDLC, COBS by
-hand.
+"""An independent encoder of the link's Setup and SetRule frames (docs/protocol.md, version
+3), from the document alone: struct for the little-endian body, zlib.crc32 for
+CRC-32/ISO-HDLC, COBS by hand.
 
-Usage: link_setup.py SEQ FIELD...   (the fields in wire order, as numbers; see SETUP below)
+Usage: link_setup.py SEQ FIELD...           a Setup (25 fields in wire order, as numbers)
+       link_setup.py setrule SEQ FIELD...   a SetRule (the step, then the 6 rule fields)
 Prints the encoded frame as hex bytes separated by spaces, delimiter included.
 """
 import struct
@@ -60,12 +61,26 @@ def expand(fmt):
     return out
 
 
-def frame(seq, body):
-    decoded = struct.pack("<BBH", VERSION, SETUP, seq) + body
+SET_RULE = 0x8B
+
+
+def set_rule_body(fields):
+    assert len(fields) == 7, "the step, then 6 rule fields"
+    body = struct.pack("<f", float(fields[0]))
+    body += struct.pack(RULE, int(fields[1]), *[float(v) for v in fields[2:]])
+    assert len(body) == 25, len(body)
+    return body
+
+
+def frame(seq, body, msg_type=SETUP):
+    decoded = struct.pack("<BBH", VERSION, msg_type, seq) + body
     decoded += struct.pack("<I", zlib.crc32(decoded) & 0xFFFFFFFF)
     return cobs(decoded) + b"\x00"
 
 
 if __name__ == "__main__":
-    seq = int(sys.argv[1])
-    print(" ".join(f"{b:02x}" for b in frame(seq, setup_body(sys.argv[2:]))))
+    if sys.argv[1] == "setrule":
+        out = frame(int(sys.argv[2]), set_rule_body(sys.argv[3:]), SET_RULE)
+    else:
+        out = frame(int(sys.argv[1]), setup_body(sys.argv[2:]))
+    print(" ".join(f"{b:02x}" for b in out))

@@ -36,6 +36,8 @@ pub const SETUP_RULE_LEN: usize = 21;
 pub const SETUP_LASER_LEN: usize = 22;
 /// Bytes of a Setup body.
 pub(crate) const SETUP_LEN: usize = SETUP_BASE_LEN + SETUP_RULE_LEN + SETUP_LASER_LEN;
+/// Bytes of a SetRule body: the step threshold and a rule block.
+pub(crate) const SET_RULE_LEN: usize = 4 + SETUP_RULE_LEN;
 /// The number of counters in a [`Stats`].
 pub const STATS_COUNTERS: usize = 30;
 
@@ -636,6 +638,18 @@ impl RuleSetup {
     };
 }
 
+/// A SetRule command (0x8B): the classifier's step threshold and navigability rule, for a
+/// device already set up (the rest of its setup stays). Unvalidated
+/// ([`crate::link::convert::classifier_with_rule`] checks it).
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct SetRule {
+    /// The step threshold, metres (as Setup's `step_threshold`).
+    pub step_threshold_m: f32,
+    /// The rule block (as Setup's).
+    pub rule: RuleSetup,
+}
+
 /// Setup's laser block (protocol version 3): which laser, at which baud rate, and what moves
 /// its scan plane. Unvalidated ([`crate::link::convert::frontend_config`] checks it).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -763,6 +777,8 @@ pub enum Message<'a> {
     Shutdown,
     /// Host to device: end the current observation now.
     EndObservation,
+    /// Host to device: the classifier's step threshold and navigability rule.
+    SetRule(SetRule),
 }
 
 /// Reads fixed fields from a body.
@@ -799,6 +815,16 @@ impl<'a> Reader<'a> {
     fn rest(self) -> &'a [u8] {
         self.bytes
     }
+    fn rule_setup(&mut self) -> RuleSetup {
+        RuleSetup {
+            rule: self.u8(),
+            max_grade: self.f32(),
+            residual_m: self.f32(),
+            range_sigma_m: self.f32(),
+            angle_sigma_rad: self.f32(),
+            noise_factor: self.f32(),
+        }
+    }
 }
 
 impl<'a> Message<'a> {
@@ -821,6 +847,7 @@ impl<'a> Message<'a> {
             Self::RequestStats => MessageType::RequestStats,
             Self::Shutdown => MessageType::Shutdown,
             Self::EndObservation => MessageType::EndObservation,
+            Self::SetRule(_) => MessageType::SetRule,
         }
     }
 
@@ -843,6 +870,7 @@ impl<'a> Message<'a> {
             | Self::EndObservation => 0,
             Self::RequestSnapshot(_) => 1,
             Self::Setup(_) => SETUP_LEN,
+            Self::SetRule(_) => SET_RULE_LEN,
         }
     }
 
@@ -1059,14 +1087,7 @@ impl<'a> Message<'a> {
                     step_threshold_m: r.f32(),
                     drop_threshold_m: r.f32(),
                     ceiling_m: r.f32(),
-                    rule: RuleSetup {
-                        rule: r.u8(),
-                        max_grade: r.f32(),
-                        residual_m: r.f32(),
-                        range_sigma_m: r.f32(),
-                        angle_sigma_rad: r.f32(),
-                        noise_factor: r.f32(),
-                    },
+                    rule: r.rule_setup(),
                     laser: LaserSetup {
                         sensor: r.u8(),
                         actuator: r.u8(),
@@ -1081,6 +1102,13 @@ impl<'a> Message<'a> {
             MessageType::RequestStats => {
                 exact(0)?;
                 Self::RequestStats
+            }
+            MessageType::SetRule => {
+                exact(SET_RULE_LEN)?;
+                Self::SetRule(SetRule {
+                    step_threshold_m: r.f32(),
+                    rule: r.rule_setup(),
+                })
             }
             MessageType::Shutdown => {
                 exact(0)?;
@@ -1229,17 +1257,12 @@ impl<'a> Message<'a> {
                 ] {
                     w.f32(v);
                 }
-                w.u8(s.rule.rule);
-                for v in [
-                    s.rule.max_grade,
-                    s.rule.residual_m,
-                    s.rule.range_sigma_m,
-                    s.rule.angle_sigma_rad,
-                    s.rule.noise_factor,
-                ] {
-                    w.f32(v);
-                }
+                w.rule_setup(&s.rule);
                 w.laser_setup(&s.laser);
+            }
+            Self::SetRule(s) => {
+                w.f32(s.step_threshold_m);
+                w.rule_setup(&s.rule);
             }
             Self::RequestSnapshot(scope) => w.u8(match *scope {
                 SnapshotScope::All => 0xFF,
@@ -1284,6 +1307,18 @@ impl<'a> Writer<'a> {
     }
     fn f32(&mut self, v: f32) {
         self.bytes(&v.to_le_bytes());
+    }
+    fn rule_setup(&mut self, r: &RuleSetup) {
+        self.u8(r.rule);
+        for v in [
+            r.max_grade,
+            r.residual_m,
+            r.range_sigma_m,
+            r.angle_sigma_rad,
+            r.noise_factor,
+        ] {
+            self.f32(v);
+        }
     }
     fn laser_setup(&mut self, l: &LaserSetup) {
         self.u8(l.sensor);

@@ -484,6 +484,36 @@ fn setup_and_the_empty_commands_golden() {
     }
 }
 
+/// SetRule (0x8B, `docs/protocol.md`, "0x8B SetRule"): the paper's rule with a 0.08 m step,
+/// then the default plane rule with the default step, 3 277 / 2¹⁶ m (frames from
+/// `host/tests/py/link_setup.py`).
+#[test]
+fn set_rule_golden() {
+    golden(
+        9,
+        &Message::SetRule(SetRule {
+            step_threshold_m: 0.08,
+            rule: RuleSetup::SPREAD,
+        }),
+        "04 03 8b 09 05 0a d7 a3 3d 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 \
+         05 36 fe 90 e2 00",
+    );
+    let default =
+        crate::link::convert::set_rule_message(&crate::classify::ClassifierConfig::DEFAULT);
+    golden(
+        10,
+        &Message::SetRule(default),
+        "04 03 8b 0a 01 05 d0 4c 3d 01 04 5a ba 3e 04 c0 75 3c 04 e0 a3 3c 01 03 ac 3a 01 01 06 \
+         40 7c 65 2d 84 00",
+    );
+    for len in [24, 26] {
+        assert!(matches!(
+            Message::parse(0x8B, &[0; 26][..len]),
+            Err(DecodeError::BadBody { msg_type: 0x8B, len: l }) if l == len
+        ));
+    }
+}
+
 /// The laser block of version 3 (`docs/protocol.md`, "0x87 Setup", the second worked
 /// example): an LD06 at its default rate on a nodding servo from −10° to 30° at 60 °/s with
 /// 25 ms of latency, tilted horizontal, 0.4 m up, two revolutions per observation, robot
