@@ -36,9 +36,11 @@ pub const CELLS: usize = 16;
 /// The pyramid's layers, at most.
 pub const LAYERS: usize = 4;
 /// Classifier slots: distinct cells one observation can touch before the classifier counts
-/// overflows. 64 (1.3 KiB): with 128 the statics leave 3.3 KiB of stack, below the 3.7 KiB
-/// the deepest path (a host command that queues Hello) takes.
-pub const SLOTS: usize = 64;
+/// overflows. 16 (768 B): a slot is 48 bytes since the plane rule; with 32 the statics leave
+/// 3.2 KiB of stack, below the 3.8 KiB the deepest path (a host command that queues Hello)
+/// takes (the firmware stopped on the first Configure), and with 64, main's value before the
+/// plane rule, 1.6 KiB.
+pub const SLOTS: usize = 16;
 /// The link's outgoing queue, bytes (at least `min_queue_bytes(16, 4)`).
 pub const QUEUE: usize = 512;
 
