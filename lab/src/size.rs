@@ -233,7 +233,10 @@ pub fn run(args: &Args) -> ExitCode {
                                     }
                                 },
                             );
-                            (format!("{:.1} s", r.wall_s), format!("{} ({host})", r.layers_hash))
+                            (
+                                format!("{:.1} s", r.wall_s),
+                                format!("{} ({host})", r.layers_hash),
+                            )
                         },
                     );
                     println!(
