@@ -13,6 +13,7 @@ use crate::device::{Device, InProcess};
 use crate::emulator::{qemu_available, Emulator, Machine, INSTALL_HINT};
 use crate::export::{write_maps, MapSnapshot};
 use crate::play::{mirror_snapshot, play, steps, RunCounts, Steps};
+use crate::publish::{OutputArgs, Outputs, OutputsReport, Publishing};
 use crate::replay::ClampArg;
 use serde::Serialize;
 use std::path::{Path, PathBuf};
@@ -25,8 +26,8 @@ use terrain_pyramid::link::LinkConfig;
 use terrain_pyramid::pipeline::FrontendConfig;
 use terrain_pyramid::wire::link::Message;
 use terrain_pyramid::{
-    Clamp, Config, DefaultDesign, Meters, Schedule, SensorModel, DEFAULT_CELLS_PER_SIDE,
-    DEFAULT_CLASSIFIER_SLOTS, DEFAULT_LAYERS,
+    Clamp, Config, DefaultDesign, LogOddsFixed, Meters, Schedule, SensorModel,
+    DEFAULT_CELLS_PER_SIDE, DEFAULT_CLASSIFIER_SLOTS, DEFAULT_LAYERS,
 };
 
 /// Where the pipeline runs.
@@ -109,6 +110,10 @@ pub struct Args {
     /// The navigability rule and its parameters (sent to the device in the Setup).
     #[command(flatten)]
     pub rule: crate::rule::RuleArgs,
+    /// The live outputs, as `pyramid listen`'s: the maps as the device sends them while the
+    /// recording plays.
+    #[command(flatten)]
+    pub outputs: OutputArgs,
 }
 
 /// What `summary.json` holds.
@@ -128,6 +133,9 @@ pub struct Summary<'a> {
     /// The firmware's stack high-water mark, bytes (emulated boards only).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub stack_bytes: Option<u32>,
+    /// What the live outputs published (when any was on).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub outputs: Option<&'a OutputsReport>,
 }
 
 /// The hash of [`Summary::layers_hash`].
@@ -164,6 +172,7 @@ pub fn write_outputs(
     counts: &RunCounts,
     board: Board,
     stack_bytes: Option<u32>,
+    outputs: Option<&OutputsReport>,
 ) -> Result<String, String> {
     let written = write_maps(out, snapshot, title)?;
     for l in &snapshot.layers {
@@ -176,6 +185,7 @@ pub fn write_outputs(
         board: board.name(),
         layers_hash: layers_hash(snapshot),
         stack_bytes,
+        outputs,
     };
     let json = serde_json::to_string(&summary).map_err(|e| e.to_string())?;
     crate::export::write_file(&out.join("summary.json"), json.as_bytes())?;
@@ -283,6 +293,29 @@ pub fn drive(
     Ok((counts, snapshot))
 }
 
+/// [`drive`] with the device's maps offered to `outputs` as they arrive, the outputs finished
+/// with the final maps; their report when any was on.
+///
+/// # Errors
+/// The device refused something or stopped answering, or an output failed.
+pub fn drive_published(
+    device: &mut impl Device,
+    mut outputs: Outputs,
+    steps: &Steps,
+    design: &DefaultDesign,
+    config: &Config,
+    classifier: &ClassifierConfig,
+) -> Result<(RunCounts, MapSnapshot, Option<OutputsReport>), String> {
+    let mut published = Publishing::new(device, &mut outputs);
+    let (counts, snapshot) = drive(&mut published, steps, design, config, classifier)?;
+    let pose = published.pose();
+    if !outputs.is_on() {
+        return Ok((counts, snapshot, None));
+    }
+    let report = outputs.finish(device.link().mirror(), pose)?;
+    Ok((counts, snapshot, Some(report)))
+}
+
 /// Runs the pipeline on `args.board`; returns the summary's JSON.
 ///
 /// # Errors
@@ -306,18 +339,26 @@ pub fn execute(args: &Args) -> Result<String, (u8, String)> {
     })?;
     let fail = |e: String| (1, format!("error: {e}"));
     let steps = steps(&data).map_err(fail)?;
+    // The outputs first: an address already in use ends the command before a board boots.
+    let outputs = Outputs::start(&args.outputs.config(LogOddsFixed::ZERO))
+        .map_err(|e| (1, format!("error: {e}")))?;
+    if let Some(addr) = outputs.foxglove_addr() {
+        eprintln!("foxglove: serving ws://{addr}");
+    }
     let started = Instant::now();
-    let (counts, snapshot, stack_bytes) = match args.board.machine() {
+    let (counts, snapshot, stack_bytes, published) = match args.board.machine() {
         None => {
             let mut device = boot_host_device().map_err(fail)?;
-            let (counts, snapshot) =
-                drive(&mut device, &steps, &design, &config, &classifier).map_err(fail)?;
-            (counts, snapshot, None)
+            let (counts, snapshot, published) =
+                drive_published(&mut device, outputs, &steps, &design, &config, &classifier)
+                    .map_err(fail)?;
+            (counts, snapshot, None, published)
         }
         Some(machine) => {
             let mut emu = boot_emulator(machine, &args.out.join("firmware.defmt")).map_err(fail)?;
-            let (counts, snapshot) =
-                drive(&mut emu, &steps, &design, &config, &classifier).map_err(fail)?;
+            let (counts, snapshot, published) =
+                drive_published(&mut emu, outputs, &steps, &design, &config, &classifier)
+                    .map_err(fail)?;
             let stack = emu.shutdown().map_err(fail)?;
             eprintln!(
                 "{}: {} telegrams in {:.1} s, firmware stack high-water {stack} bytes",
@@ -325,9 +366,10 @@ pub fn execute(args: &Args) -> Result<String, (u8, String)> {
                 counts.telegrams_sent,
                 started.elapsed().as_secs_f64()
             );
-            (counts, snapshot, Some(stack))
+            (counts, snapshot, Some(stack), published)
         }
     };
+
     let title = format!(
         "pyramid run --board {}: {} ({} telegrams applied)",
         args.board.name(),
@@ -341,6 +383,7 @@ pub fn execute(args: &Args) -> Result<String, (u8, String)> {
         &counts,
         args.board,
         stack_bytes,
+        published.as_ref(),
     )
     .map_err(fail)
 }

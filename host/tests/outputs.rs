@@ -19,6 +19,7 @@ use std::sync::atomic::Ordering;
 use std::sync::mpsc;
 use std::time::{Duration, Instant};
 
+mod common;
 #[path = "support/device.rs"]
 mod support;
 use support::{device, fnv1a64, fused_occupancy, raw_cells, Plan, PATIENCE, W};
@@ -400,6 +401,71 @@ fn the_mcap_recording_reads_back_with_another_reader_and_equals_the_maps_written
     );
 }
 
+/// `pyramid run --board qemu --mcap`: a recording through the emulated board reaches the same
+/// channels, the pose the recording sends is the one published, and the last fused grid read
+/// back by another reader equals the `fused.pgm` the same run writes.
+#[test]
+fn pyramid_run_through_the_emulated_board_records_mcap_equal_to_its_maps() {
+    if !common::qemu_ready() {
+        eprintln!("PYRAMID_SKIP_QEMU=1: skipped");
+        return;
+    }
+    let py = python();
+    let dir = scratch("run-mcap");
+    let recording = dir.join("synthetic.rec");
+    common::synthetic_recording(&recording);
+    let mcap = dir.join("run.mcap");
+    let out = Command::new(common::PYRAMID)
+        .args(["run", "--board", "qemu", "--json", "--drop-m", "0.3"])
+        .arg("--recording")
+        .arg(&recording)
+        .arg("--out")
+        .arg(&dir)
+        .arg("--mcap")
+        .arg(&mcap)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "pyramid run: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let s: Value = serde_json::from_slice(&out.stdout).unwrap();
+    let outputs = &s["outputs"];
+    assert!(outputs["frames_published"].as_u64().unwrap() >= 1, "{s}");
+    assert_eq!(outputs["pose_source"], "given");
+    let read = Command::new(py)
+        .arg(py_dir().join("read_mcap.py"))
+        .arg(&mcap)
+        .output()
+        .unwrap();
+    assert!(
+        read.status.success(),
+        "read_mcap.py: {}",
+        String::from_utf8_lossy(&read.stderr)
+    );
+    let m: Value = serde_json::from_slice(&read.stdout).unwrap();
+    assert_eq!(m["errors"], Value::Array(vec![]), "{}", m["errors"]);
+    let f = &m["last"]["/terrain/fused"];
+    let width = f["width"].as_u64().unwrap() as usize;
+    let r = f["resolution"].as_f64().unwrap();
+    let origin = (
+        f["origin"][0].as_f64().unwrap(),
+        f["origin"][1].as_f64().unwrap(),
+    );
+    let cells = ints(&f["data"]);
+    let both = assert_fused_matches_pgm(&dir, origin, r, width, &cells);
+    assert!(both > 1_000, "{both} cells in common");
+    assert!(
+        cells.contains(&100) && cells.contains(&0),
+        "obstacles and ground"
+    );
+    // The recording's second pose (x 0.35, y 0.1): the last one sent.
+    let pose = &m["last"]["/terrain/pose"]["xy"];
+    assert!((pose[0].as_f64().unwrap() - 0.35).abs() < 1e-6, "{pose}");
+    assert!((pose[1].as_f64().unwrap() - 0.1).abs() < 1e-6, "{pose}");
+}
+
 // ------------------------------------------------------------------ Foxglove
 
 /// The `ws://` address `pyramid listen` says it serves.
@@ -500,7 +566,10 @@ fn a_foxglove_client_decodes_grids_while_a_stuck_client_holds_nothing_up() {
     assert_eq!(c["errors"], Value::Array(vec![]), "{}", c["errors"]);
     assert_eq!(c["server"], "terrain-pyramid");
     // The protocol of foxglove/ws-protocol, under the name the Foxglove SDK gives it now.
-    assert_eq!(c["subprotocol"], "foxglove.sdk.v1");
+    // Both names of the protocol: the reader offered only the old one, the stuck client only
+    // the new one.
+    assert_eq!(c["subprotocol"], "foxglove.websocket.v1");
+    assert_eq!(c["stuck_subprotocol"], "foxglove.sdk.v1");
     let topics: Vec<&str> = c["topics"]
         .as_array()
         .unwrap()

@@ -1,6 +1,7 @@
 //! What the tasks that run the firmware need on a fresh machine, installed when missing: the
-//! Cortex-M targets (rustup), QEMU (Debian's `qemu-system-arm`, through sudo when not root) and
-//! `defmt-print` (cargo install). `cargo xtask test` and `cargo xtask demo` share them.
+//! Cortex-M targets (rustup), QEMU (Debian's `qemu-system-arm`, through sudo when not root),
+//! `defmt-print` (cargo install), and the Python readers the output tests use (pip).
+//! `cargo xtask test` and `cargo xtask demo` share them.
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -84,4 +85,20 @@ pub fn ensure_defmt_print() -> Result<(), String> {
         return Ok(());
     }
     step("cargo", &["install", "defmt-print", "--locked"])
+}
+
+/// The Python readers the tests of `pyramid listen`'s outputs check against (MCAP, the
+/// Foxglove WebSocket protocol, Cyclone DDS): `host/tests/py/setup.sh` when one is missing.
+pub fn ensure_python_readers() -> Result<(), String> {
+    let present = Command::new("python3")
+        .args([
+            "-c",
+            "import mcap, mcap_ros2, mcap_protobuf, websockets, cyclonedds",
+        ])
+        .output()
+        .is_ok_and(|o| o.status.success());
+    if present {
+        return Ok(());
+    }
+    step("sh", &["host/tests/py/setup.sh"])
 }

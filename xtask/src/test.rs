@@ -1,13 +1,17 @@
 //! `cargo xtask test [--lint]`: the whole test suite, from a fresh machine.
-use crate::install::{ensure_qemu, ensure_targets, step};
+use crate::install::{ensure_python_readers, ensure_qemu, ensure_targets, step};
 
 /// Runs the whole suite.
 fn run_all(lint: bool) -> Result<(), String> {
     ensure_targets()?;
     ensure_qemu()?;
+    ensure_python_readers()?;
     // Every host test: the library's unit and doc tests, the f64 references and property
     // tests, the simulator, the tools, and the firmware in QEMU against the host, bit for bit.
     step("cargo", &["test", "--workspace"])?;
+    // The code's shape: imports point down the library's layers, no cycle, one definition
+    // per public type name.
+    step("cargo", &["xtask", "layers"])?;
     // The boards: builds, the firmware on the emulated board, the on-target tests (thumbv7em
     // and thumbv6m code), flash, RAM and stack. It installs defmt-print when missing.
     if lint {

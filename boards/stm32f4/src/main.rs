@@ -41,9 +41,8 @@ use stm32f4xx_hal::pac;
 use stm32f4xx_hal::prelude::*;
 use stm32f4xx_hal::serial;
 use stm32f4xx_hal::watchdog::IndependentWatchdog;
-use terrain_pyramid::app::{BootError, CoProcessor, LaserPort, StackUsage};
+use terrain_pyramid::app::{BootError, CoProcessor, StackUsage};
 use terrain_pyramid::geometry::ScanPlane;
-use terrain_pyramid::laser::Sensor;
 use terrain_pyramid::link::LinkConfig;
 use terrain_pyramid::pipeline::FrontendConfig;
 use terrain_pyramid::{
@@ -102,9 +101,7 @@ fn main() -> ! {
     }
     watchdog.feed();
 
-    // USART1's clock, for the divider of the laser the Setup names.
     let pclk2_hz = rcc.clocks.pclk2().raw();
-
     let gpioa = dp.GPIOA.split(&mut rcc);
     let gpiob = dp.GPIOB.split(&mut rcc);
     // Host link: USART2 on PA2 (TX) / PA3 (RX), wired to the ST-LINK's virtual COM port.
@@ -138,8 +135,8 @@ fn main() -> ! {
         Err(e) => defmt::panic!("scanner bring-up: {}", e),
     };
     let (laser_tx, laser_rx) = laser.split();
-    let mut laser_tx = BlockingTx::new(laser_tx);
-    let mut laser_rx = rx::install_laser(laser_rx);
+    let laser_rx = rx::install_laser(laser_rx);
+    let mut laser_side = laser::LaserSide::new(BlockingTx::new(laser_tx), laser_rx, pclk2_hz);
     // The nodding servo's signal: TIM2 channel 1 on PA0, 50 Hz (idle until a Setup names one).
     let mut servo = laser::servo(dp.TIM2, gpioa.pa0, &mut rcc);
     let mut host_rx = rx::install_host(host_rx);
@@ -148,44 +145,13 @@ fn main() -> ! {
     defmt::info!("main loop: the laser on USART1, the host link on USART2");
     let mut buf = [0_u8; 256];
     let mut last_report = clock.now();
-    let mut dropped = 0;
-    let mut streaming = Some(LaserPort {
-        sensor: Sensor::Sick,
-        baud: scanner::FAST_BAUD,
-    });
     loop {
         watchdog.feed();
-        // The bring-up left a SICK streaming at 500 kBd: only a different laser is switched to.
-        if let Some(port) = core.take_laser_change().filter(|p| Some(*p) != streaming) {
-            defmt::info!("laser: {} at {=u32} Bd", port.sensor, port.baud);
-            if let Err(e) = laser::switch(port, pclk2_hz, &mut laser_tx) {
-                defmt::warn!("USART1: {}", defmt::Debug2Format(&e));
-            }
-            streaming = Some(port);
-        }
         if let Some(angle) = core.actuator_command(clock::micros()) {
             // TIM2's channel cannot fail (its error type is `Infallible`).
             let _ = servo.set_angle(angle);
         }
-        let n = rx::take(&mut laser_rx, &mut buf);
-        if n > 0 {
-            // The chunk's last byte arrived before the bytes still queued (at the line rate)
-            // and the last byte the interrupt queued.
-            let queued = u32::try_from(laser_rx.len()).unwrap_or(u32::MAX);
-            let byte_us = 10_000_000 / core.laser_baud().max(1);
-            let arrival = rx::laser_last_us().wrapping_sub(queued.saturating_mul(byte_us));
-            core.laser_timed(
-                buf.get(..n).unwrap_or(&[]),
-                arrival,
-                clock::micros(),
-                &mut encoder,
-            );
-        }
-        let lost = rx::laser_stats().dropped;
-        if lost != dropped {
-            dropped = lost;
-            core.laser_overrun();
-        }
+        laser_side.step(core, &mut buf, &mut encoder);
         let n = rx::take(&mut host_rx, buf.get_mut(..64).unwrap_or(&mut []));
         core.host(buf.get(..n).unwrap_or(&[]));
         core.poll(clock::millis());

@@ -16,7 +16,7 @@
 //! The WebSocket server queues at most [`BACKLOG`] messages per client and drops the oldest
 //! beyond (the SDK's policy): logging never waits for a client. A client that subscribes is
 //! sent the channel's latest message at once, so a map that no longer changes still shows.
-use super::{count, grids::GridData, ros_msgs, Config, RobotPose, StartError, Update};
+use super::{count, grids::GridData, ros_msgs, subprotocol, Config, RobotPose, StartError, Update};
 use foxglove::messages::{
     packed_element_field::NumericType, Color, Grid, LinePrimitive, PackedElementField, Point3,
     Pose, PoseInFrame, Quaternion, SceneEntity, SceneUpdate, Timestamp, Vector2, Vector3,
@@ -58,6 +58,8 @@ struct Channel {
 pub struct FoxgloveSink {
     context: Arc<Context>,
     server: Option<WebSocketServerHandle>,
+    /// The listener on the user's address, in front of the server.
+    gate: Option<subprotocol::Gate>,
     mcap: Option<McapWriterHandle<BufWriter<File>>>,
     subscriptions: Arc<Subscriptions>,
     channels: HashMap<String, Channel>,
@@ -277,6 +279,7 @@ impl FoxgloveSink {
         let mut sink = Self {
             context: Arc::clone(&context),
             server: None,
+            gate: None,
             mcap: None,
             subscriptions: Arc::clone(&subscriptions),
             channels: HashMap::new(),
@@ -297,35 +300,41 @@ impl FoxgloveSink {
                 flag: "--foxglove",
                 message: format!("{addr:?} is not an address HOST:PORT"),
             })?;
+            // The user's address is the gate's (both names of the protocol, see
+            // `subprotocol`); the SDK's server listens on loopback behind it.
+            let listener = std::net::TcpListener::bind((host.as_str(), port)).map_err(|io| {
+                let message = if io.kind() == std::io::ErrorKind::AddrInUse {
+                    format!("{addr} is already in use")
+                } else {
+                    format!("cannot listen on {addr}: {io}")
+                };
+                StartError {
+                    flag: "--foxglove",
+                    message,
+                }
+            })?;
             let server = WebSocketServer::new()
                 .name("terrain-pyramid")
-                .bind(host.clone(), port)
+                .bind("127.0.0.1", 0)
                 .context(&context)
                 .message_backlog_size(BACKLOG)
                 .listener(subscriptions)
                 .start_blocking()
-                .map_err(|e| {
-                    let message = match &e {
-                        foxglove::FoxgloveError::Bind(io)
-                            if io.kind() == std::io::ErrorKind::AddrInUse =>
-                        {
-                            format!("{addr} is already in use")
-                        }
-                        foxglove::FoxgloveError::Bind(io) => {
-                            format!("cannot listen on {addr}: {io}")
-                        }
-                        other => format!("cannot start the server on {addr}: {other}"),
-                    };
-                    StartError {
-                        flag: "--foxglove",
-                        message,
-                    }
+                .map_err(|e| StartError {
+                    flag: "--foxglove",
+                    message: format!("cannot start the server behind {addr}: {e}"),
                 })?;
+            let inner = std::net::SocketAddr::from(([127, 0, 0, 1], server.port()));
+            let gate = subprotocol::Gate::start(listener, inner).map_err(|e| StartError {
+                flag: "--foxglove",
+                message: format!("cannot serve {addr}: {e}"),
+            })?;
             let bound = if host.contains(':') {
-                format!("[{host}]:{}", server.port())
+                format!("[{host}]:{}", gate.addr().port())
             } else {
-                format!("{host}:{}", server.port())
+                format!("{host}:{}", gate.addr().port())
             };
+            sink.gate = Some(gate);
             sink.addr = Some(bound);
             sink.server = Some(server);
         }
@@ -480,6 +489,8 @@ impl super::Sink for FoxgloveSink {
 
     fn finish(self: Box<Self>) -> Result<(), String> {
         let this = *self;
+        // No new connection, then the server and (with it) the open ones.
+        drop(this.gate);
         if let Some(server) = this.server {
             // The server's tasks end by themselves once stopped.
             server.stop().detach_all();

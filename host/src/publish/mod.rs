@@ -32,6 +32,8 @@
 //! that sends poses passes the latest one to `offer`; without one (`pyramid listen` hears only
 //! the device) the finest layer's window centre stands for the robot's position, with yaw 0,
 //! and the report says so (`pose_source: window_centre`).
+pub use device::Publishing;
+
 use crate::export::MapSnapshot;
 use crate::link::{Mirror, MirrorCounters};
 use serde::Serialize;
@@ -43,10 +45,12 @@ use std::time::{Duration, Instant, SystemTime};
 use terrain_pyramid::wire::link::Stats;
 use terrain_pyramid::LogOddsFixed;
 
+mod device;
 mod foxglove_sink;
 pub mod grids;
 mod ros2_sink;
 pub mod ros_msgs;
+pub mod subprotocol;
 
 use grids::GridData;
 

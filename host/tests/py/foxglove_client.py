@@ -1,7 +1,8 @@
 """Two clients of a Foxglove WebSocket server, written from the protocol's specification
-(foxglove/ws-protocol, `foxglove.websocket.v1`) with the `websockets` package. The Foxglove SDK
-(0.30) negotiates the same protocol under its new name `foxglove.sdk.v1` only; the clients offer
-both names and report the one the server chose.
+(foxglove/ws-protocol, `foxglove.websocket.v1`) with the `websockets` package. The protocol has
+two names: the reading client offers only the old one, `foxglove.websocket.v1` (Foxglove before
+the rename, Lichtblick), the stuck one only the new one, `foxglove.sdk.v1`; both report what the
+server chose.
 
 - a stuck client: subscribes to every channel, then never reads again (the server must drop
   messages for it rather than hold anything up);
@@ -23,7 +24,8 @@ import sys
 import websockets
 from google.protobuf import descriptor_pb2, descriptor_pool, message_factory
 
-SUBPROTOCOLS = ["foxglove.sdk.v1", "foxglove.websocket.v1"]
+LEGACY = ["foxglove.websocket.v1"]
+CURRENT = ["foxglove.sdk.v1"]
 
 
 async def advertised(ws):
@@ -61,13 +63,13 @@ def unpack_grid(m):
 
 
 async def main(url):
-    stuck = await websockets.connect(url, subprotocols=SUBPROTOCOLS, max_queue=1,
+    stuck = await websockets.connect(url, subprotocols=CURRENT, max_queue=1,
                                      max_size=None, ping_interval=None)
     _, channels = await advertised(stuck)
     await stuck.send(json.dumps({"op": "subscribe", "subscriptions": [
         {"id": i, "channelId": c["id"]} for i, c in enumerate(channels)]}))
     # From here on the stuck client never reads until the server closes.
-    reader = await websockets.connect(url, subprotocols=SUBPROTOCOLS, max_size=None,
+    reader = await websockets.connect(url, subprotocols=LEGACY, max_size=None,
                                       ping_interval=None)
     info, channels = await advertised(reader)
     by_sub = {}
@@ -120,6 +122,7 @@ async def main(url):
     print(json.dumps({
         "server": info.get("name") if info else None,
         "subprotocol": reader.subprotocol,
+        "stuck_subprotocol": stuck.subprotocol,
         "topics": sorted(c["topic"] for c in channels),
         "schemas": {c["topic"]: [c["schemaName"], c["encoding"]] for c in channels},
         "received": received,
