@@ -303,6 +303,7 @@ impl<const C: usize, const L: usize> Frontend<C, L> {
                     step_threshold: Meters::ZERO,
                     drop_threshold: None,
                     ceiling: None,
+                    rule: crate::classify::NavigabilityRule::Spread,
                 },
                 missing_ground_within: None,
             },
@@ -744,7 +745,13 @@ mod tests {
         bytes
     }
 
-    fn setup(lines: u32) -> (Frontend<4096, 8>, std::boxed::Box<Pyramid<64, 8>>) {
+    /// A boxed pipeline (its 4096-slot scratch is 192 KiB) and pyramid of the default design.
+    fn setup(
+        lines: u32,
+    ) -> (
+        std::boxed::Box<Frontend<4096, 8>>,
+        std::boxed::Box<Pyramid<64, 8>>,
+    ) {
         let design = Design::<8>::new(SensorModel::default(), Schedule::default(), 64).unwrap();
         let mut p = std::boxed::Box::new(Pyramid::new());
         p.configure(&design, &Config::default()).unwrap();
@@ -765,7 +772,8 @@ mod tests {
             classifier: ClassifierConfig::default(),
             missing_ground_within: None,
         };
-        let mut f = Frontend::new(config);
+        let mut f = std::boxed::Box::new(Frontend::unconfigured());
+        f.configure(config);
         f.adopt_design(&design, &Config::default()).unwrap();
         (f, p)
     }
@@ -864,7 +872,12 @@ mod tests {
     }
 
     /// The same frontend set up for an LD06 on the tilt unit, 0.5 m up.
-    fn lidar(revolutions: u32) -> (Frontend<4096, 8>, std::boxed::Box<Pyramid<64, 8>>) {
+    fn lidar(
+        revolutions: u32,
+    ) -> (
+        std::boxed::Box<Frontend<4096, 8>>,
+        std::boxed::Box<Pyramid<64, 8>>,
+    ) {
         let (mut f, p) = setup(revolutions);
         let mut config = *f.config();
         config.sensor = Sensor::Ld06;

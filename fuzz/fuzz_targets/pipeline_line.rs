@@ -2,7 +2,7 @@
 //! configured `DefaultPyramid`.
 //!
 //! Input: a 32-byte header (scan plane, variant, measuring mode, lines per observation,
-//! classifier thresholds, sensor position, pose), then lines `[flags, actuator u32 LE,
+//! classifier thresholds and rule, sensor position, pose), then lines `[flags, actuator u32 LE,
 //! len u16 LE, bytes...]`. With flags bit 0 the harness builds a 0xB0 payload around `bytes`
 //! (the variant's full or interlaced count, partial index from bits 1-2, unit from bits 3-4,
 //! values cycled from `bytes`), so lines reach the geometry and the classifier; otherwise
@@ -15,7 +15,7 @@
 
 use libfuzzer_sys::fuzz_target;
 use terrain_pyramid::angle::FineAngle;
-use terrain_pyramid::classify::ClassifierConfig;
+use terrain_pyramid::classify::{ClassifierConfig, NavigabilityRule, PlaneRule};
 use terrain_pyramid::geometry::{Mount, Pose, ScanPlane};
 use terrain_pyramid::pipeline::{Frontend, FrontendConfig};
 use terrain_pyramid::wire::sick::Variant;
@@ -56,6 +56,17 @@ fuzz_target!(|data: &[u8]| {
         step_threshold: cm(i16_at(&header, 6)),
         drop_threshold: (header[0] & 2 != 0).then(|| cm(i16_at(&header, 8))),
         ceiling: (header[0] & 4 != 0).then(|| cm(i16_at(&header, 10))),
+        // Flag bit 4: the paper's spread rule; otherwise the plane rule with the residual and
+        // range noise from the header (any sign and size) and the default slope and factors.
+        rule: if header[0] & 16 != 0 {
+            NavigabilityRule::Spread
+        } else {
+            NavigabilityRule::Plane(PlaneRule {
+                residual: cm(i16_at(&header, 10)),
+                range_sigma: cm(i16_at(&header, 6)),
+                ..PlaneRule::DEFAULT
+            })
+        },
     };
     let config = FrontendConfig {
         mount: Mount::new(

@@ -1,5 +1,6 @@
 //! Classifier agreement on the real scan: the fixed-point classifier against the f64
-//! reference on `../shared/data/3dtk-tilt-scan/scan000.3d`, as one observation.
+//! reference on `../shared/data/3dtk-tilt-scan/scan000.3d`, as one observation, under the
+//! paper's spread rule (the plane rule's agreement: `--example terrain_rules -- agreement`).
 //!
 //! ```sh
 //! cargo run --release -p terrain-pyramid-host-tests --example classify_agreement [-- PATH]
@@ -12,12 +13,12 @@
 //! off). The "no echo" value (3276.7 cm) is not a point.
 
 use std::collections::BTreeMap;
-use terrain_pyramid::classify::{Classifier, ClassifierConfig};
+use terrain_pyramid::classify::{Classifier, ClassifierConfig, NavigabilityRule};
 use terrain_pyramid::{
     Config, DefaultDesign, DefaultPyramid, EvidenceClass, GateShape, Meters, Point3, Schedule,
     SensorModel,
 };
-use terrain_pyramid_host_tests::classify::{classify, RefClassifierConfig, RefPoint};
+use terrain_pyramid_host_tests::classify::{classify, RefClassifierConfig, RefPoint, RefRule};
 
 fn main() {
     let path = std::env::args()
@@ -64,7 +65,10 @@ fn main() {
         let mut p = Box::new(DefaultPyramid::new());
         p.configure(&design, &Config::default()).unwrap();
         let mut c = Box::new(Classifier::<65536, 8>::new());
-        c.configure(ClassifierConfig::default());
+        c.configure(ClassifierConfig {
+            rule: NavigabilityRule::Spread,
+            ..ClassifierConfig::default()
+        });
         c.adopt_design(&design, p.increments()).unwrap();
         c.begin(Meters::ZERO);
         for r in &points {
@@ -101,7 +105,11 @@ fn main() {
             &resolutions,
             feeds,
             -1.0,
-            &RefClassifierConfig::default(),
+            0.0,
+            &RefClassifierConfig {
+                rule: RefRule::Spread,
+                ..RefClassifierConfig::default()
+            },
         );
         let (mut compared, mut agree, mut near, mut all_agree) = (0, 0, 0, 0);
         for (key, r) in &reference {

@@ -3,9 +3,19 @@
 //! `src/classify.rs`.
 //!
 //! It keeps every point of an observation, so it applies the rule exactly: per layer cell,
-//! ground = the lowest z; points above ground + robot height are dropped; the cell is not
-//! navigable when the rest spread over more than the step threshold. A record's distance is
-//! the smallest horizontal distance among the cell's points.
+//! ground = the lowest z; points above ground + robot height are dropped; the rest are judged
+//! by the rule in force ([`RefRule`], `docs/core.md` "The navigability rule"):
+//! - the paper's **spread** rule: not navigable when they spread over more than the step
+//!   threshold;
+//! - the **plane** rule: the least-squares plane of the points (x, y relative to the cell,
+//!   ridge λ = (c/64)² on both horizontal variances); not navigable when the RMS of the points
+//!   about it exceeds `√(residual² + a²)`, or when it rises across the points' extent
+//!   (`D = √12·s`, s their standard deviation along the gradient) by more than
+//!   `step + D·tan(max_slope) + a·√(12/n)`; `a = k·σ_z`, `σ_z = √((σ·h/r)² + (σ_a·r)²)`,
+//!   `r = √(h² + d²)`, h the sensor's height above the ground plane, d the cell's closest look,
+//!   n the points.
+//!
+//! A record's distance is the smallest horizontal distance among the cell's points.
 
 use std::collections::BTreeMap;
 
@@ -22,15 +32,52 @@ pub struct RefPoint {
     pub distance: f64,
 }
 
+/// The rule that judges a cell's points below the overhang cut.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum RefRule {
+    /// The paper's: the spread over the step threshold.
+    Spread,
+    /// The least-squares plane (see the module documentation).
+    Plane {
+        /// tan of the largest traversable slope.
+        max_grade: f64,
+        /// The residual RMS allowed on top of the noise, metres.
+        residual: f64,
+        /// The range noise σ, metres.
+        range_sigma: f64,
+        /// The beams' elevation error σ_a, radians.
+        angle_sigma: f64,
+        /// The noise factor k.
+        noise_factor: f64,
+    },
+}
+
+impl RefRule {
+    /// The plane rule with the defaults of `docs/core.md`: 20°, 1.5 cm, σ = 2 cm,
+    /// σ_a = 0.075°, k = 2.
+    #[must_use]
+    pub fn plane() -> Self {
+        Self::Plane {
+            max_grade: 20f64.to_radians().tan(),
+            residual: 0.015,
+            range_sigma: 0.02,
+            angle_sigma: 0.075f64.to_radians(),
+            noise_factor: 2.0,
+        }
+    }
+}
+
 /// The classifier's thresholds, metres.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct RefClassifierConfig {
     /// Overhang cut above the cell's ground.
     pub robot_height: f64,
-    /// Largest spread of a navigable cell.
+    /// Largest spread of a navigable cell (spread rule); the plane rule's step allowance.
     pub step_threshold: f64,
     /// A point this far below the ground plane marks a drop-off (`None`: off).
     pub drop_threshold: Option<f64>,
+    /// The rule. Default: the plane rule with its defaults.
+    pub rule: RefRule,
 }
 
 impl Default for RefClassifierConfig {
@@ -39,6 +86,7 @@ impl Default for RefClassifierConfig {
             robot_height: 1.0,
             step_threshold: 0.05,
             drop_threshold: None,
+            rule: RefRule::plane(),
         }
     }
 }
@@ -60,22 +108,73 @@ pub struct RefRecord {
     pub distance: f64,
     /// How close any point came to the overhang cut (ground + robot height), m.
     pub cut_margin: f64,
+    /// The plane rule's residual test: the residual's mean square over the allowed one (> 1:
+    /// obstacle); 0 under the spread rule.
+    pub residual_ratio: f64,
+    /// The plane rule's rise test: `R·(g − tan)` over `g·(step + a·√(12/n))` (> 1: obstacle;
+    /// 0 when the plane is no steeper than the largest slope, or under the spread rule).
+    pub rise_ratio: f64,
+}
+
+/// The plane rule's two test ratios (residual, rise) for `zs` at `xys`, see [`RefRecord`].
+#[allow(clippy::too_many_arguments, clippy::many_single_char_names)]
+fn plane_ratios(
+    xys: &[(f64, f64)],
+    zs: &[f64],
+    cell: f64,
+    step: f64,
+    max_grade: f64,
+    residual: f64,
+    noise: f64,
+) -> (f64, f64) {
+    #[allow(clippy::cast_precision_loss)]
+    let n = zs.len() as f64;
+    if zs.len() < 2 {
+        return (0.0, 0.0);
+    }
+    let mean = |f: &dyn Fn(usize) -> f64| (0..zs.len()).map(f).sum::<f64>() / n;
+    let (mx, my, mz) = (mean(&|i| xys[i].0), mean(&|i| xys[i].1), mean(&|i| zs[i]));
+    let cov = |f: &dyn Fn(usize) -> f64, g: &dyn Fn(usize) -> f64| {
+        (0..zs.len()).map(|i| f(i) * g(i)).sum::<f64>() / n
+    };
+    let dx = |i: usize| xys[i].0 - mx;
+    let dy = |i: usize| xys[i].1 - my;
+    let dz = |i: usize| zs[i] - mz;
+    let (cxx, cyy, cxy) = (cov(&dx, &dx), cov(&dy, &dy), cov(&dx, &dy));
+    let (cxz, cyz, czz) = (cov(&dx, &dz), cov(&dy, &dz), cov(&dz, &dz));
+    let lambda = (cell / 64.0).powi(2);
+    let (a, b) = (cxx + lambda, cyy + lambda);
+    let det = a * b - cxy * cxy;
+    let (wx, wy) = ((b * cxz - cxy * cyz) / det, (a * cyz - cxy * cxz) / det);
+    let explained = wx * wx * cxx + 2.0 * wx * wy * cxy + wy * wy * cyy;
+    let r2 = czz - 2.0 * (wx * cxz + wy * cyz) + explained;
+    let residual_ratio = r2 / (residual * residual + noise * noise).max(1e-300);
+    let g = wx.hypot(wy);
+    let rise = (12.0 * explained).max(0.0).sqrt();
+    let rise_ratio = if g > max_grade {
+        rise * (g - max_grade) / (g * (step + noise * (12.0 / n).sqrt())).max(1e-300)
+    } else {
+        0.0
+    };
+    (residual_ratio, rise_ratio)
 }
 
 /// Classifies one observation.
 ///
 /// `resolutions[k]` is layer k's cell size (m); `feeds(k, d)` says whether a point at
 /// horizontal distance d feeds layer k (its gated increment is non-zero); `ground_z` is the
-/// robot's ground plane.
+/// robot's ground plane and `sensor_z` the sensor's height (the plane rule's noise model).
 pub fn classify(
     points: &[RefPoint],
     resolutions: &[f64],
     mut feeds: impl FnMut(usize, f64) -> bool,
     ground_z: f64,
+    sensor_z: f64,
     config: &RefClassifierConfig,
 ) -> BTreeMap<(usize, i64, i64), RefRecord> {
     struct Acc {
         zs: Vec<f64>,
+        xys: Vec<(f64, f64)>,
         distance: f64,
         hole: bool,
     }
@@ -91,9 +190,13 @@ pub fn classify(
             let key = (k, (p.x / r).floor() as i64, (p.y / r).floor() as i64);
             let acc = cells.entry(key).or_insert(Acc {
                 zs: Vec::new(),
+                xys: Vec::new(),
                 distance: f64::INFINITY,
                 hole: false,
             });
+            #[allow(clippy::cast_precision_loss)]
+            acc.xys
+                .push((p.x - key.1 as f64 * r, p.y - key.2 as f64 * r));
             acc.zs.push(p.z);
             acc.distance = acc.distance.min(p.distance);
             acc.hole |= hole;
@@ -116,14 +219,53 @@ pub fn classify(
                 .iter()
                 .map(|z| (z - cut).abs())
                 .fold(f64::INFINITY, f64::min);
+            let (residual_ratio, rise_ratio, judged) = match config.rule {
+                RefRule::Spread => (0.0, 0.0, spread > config.step_threshold),
+                RefRule::Plane {
+                    max_grade,
+                    residual,
+                    range_sigma,
+                    angle_sigma,
+                    noise_factor,
+                } => {
+                    let (xys, zs): (Vec<(f64, f64)>, Vec<f64>) = acc
+                        .xys
+                        .iter()
+                        .zip(&acc.zs)
+                        .filter(|&(_, &z)| z <= ground + config.robot_height)
+                        .map(|(&xy, &z)| (xy, z))
+                        .unzip();
+                    let h = (sensor_z - ground_z).max(0.0);
+                    let d = acc.distance.max(0.0);
+                    let r = h.hypot(d);
+                    let from_range = if r > 0.0 {
+                        range_sigma * h / r
+                    } else {
+                        range_sigma
+                    };
+                    let sigma_z = from_range.hypot(angle_sigma * r);
+                    let (rr, qr) = plane_ratios(
+                        &xys,
+                        &zs,
+                        resolutions[layer],
+                        config.step_threshold,
+                        max_grade,
+                        residual,
+                        noise_factor * sigma_z,
+                    );
+                    (rr, qr, rr > 1.0 || qr > 1.0)
+                }
+            };
             let record = RefRecord {
                 layer,
                 cell_x,
                 cell_y,
-                obstacle: acc.hole || spread > config.step_threshold,
+                obstacle: acc.hole || judged,
                 spread,
                 distance: acc.distance,
                 cut_margin,
+                residual_ratio,
+                rise_ratio,
             };
             ((layer, cell_x, cell_y), record)
         })
@@ -153,15 +295,49 @@ mod tests {
             p(0.25, 0.05, 0.0),
             p(0.26, 0.05, 1.6),
         ];
-        let out = classify(
-            &pts,
-            &[0.1],
-            |_, _| true,
-            0.0,
-            &RefClassifierConfig::default(),
-        );
+        let spread = RefClassifierConfig {
+            rule: RefRule::Spread,
+            ..RefClassifierConfig::default()
+        };
+        let out = classify(&pts, &[0.1], |_, _| true, 0.0, 1.0, &spread);
         assert!(!out[&(0, 0, 0)].obstacle);
         assert!(out[&(0, 1, 0)].obstacle);
         assert!(!out[&(0, 2, 0)].obstacle, "overhang ignored");
+    }
+
+    #[test]
+    fn the_plane_rule_by_hand() {
+        // 1 m cells, a lattice of 10 × 10 points in each: a 15° slope, a 10 cm step across the
+        // middle, 1 cm of texture; a roof 1.5 m over the slope.
+        let mut pts = Vec::new();
+        for i in 0..10 {
+            for j in 0..10 {
+                let (x, y) = (0.05 + 0.1 * f64::from(i), 0.05 + 0.1 * f64::from(j));
+                pts.push(p(x, y, x * 15f64.to_radians().tan()));
+                pts.push(p(x, y, 1.5));
+                pts.push(p(x + 1.0, y, if x > 0.5 { 0.1 } else { 0.0 }));
+                let texture = if (i + j) % 2 == 0 { 0.01 } else { -0.01 };
+                pts.push(p(x + 2.0, y, texture));
+            }
+        }
+        // The sensor at the ground plane's height: no height noise (σ_z = 0).
+        let out = classify(
+            &pts,
+            &[1.0],
+            |_, _| true,
+            0.0,
+            0.0,
+            &RefClassifierConfig::default(),
+        );
+        assert!(!out[&(0, 0, 0)].obstacle, "a 15° slope, under a roof");
+        assert!(out[&(0, 1, 0)].obstacle, "a 10 cm step");
+        assert!(!out[&(0, 2, 0)].obstacle, "1 cm of texture");
+        assert!(out[&(0, 1, 0)].residual_ratio > 1.0);
+        let spread = RefClassifierConfig {
+            rule: RefRule::Spread,
+            ..RefClassifierConfig::default()
+        };
+        let out = classify(&pts, &[1.0], |_, _| true, 0.0, 0.0, &spread);
+        assert!(out[&(0, 0, 0)].obstacle, "the paper's rule: a 24 cm spread");
     }
 }

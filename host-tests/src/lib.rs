@@ -12,11 +12,18 @@
 //! - [`classify`]: the classifier's reference (every point kept, the rule applied exactly).
 //! - [`fading`]: how ghosts fade — the changing scenes through the application core, with and
 //!   without decay: clearing times per layer and fused, static obstacles wrongly cleared.
+//! - [`navigability`]: candidate navigability rules in `f64` and the bench that measures them
+//!   on simulated terrain and real scans.
+//! - [`scan3dtk`]: the real 3-D scan of `../shared/data` and its hand labelling.
+//! - [`png`]: a minimal PNG writer for the pictures the examples draw.
 
 pub mod classify;
 pub mod fading;
 pub mod geometry;
 pub mod harness;
+pub mod navigability;
+pub mod png;
 pub mod reference;
+pub mod scan3dtk;
 pub mod sim;
 pub mod workload;

@@ -17,5 +17,6 @@ pub mod play;
 pub mod publish;
 pub mod record3dtk;
 pub mod replay;
+pub mod rule;
 pub mod run;
 pub mod uos;

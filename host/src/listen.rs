@@ -17,6 +17,10 @@
 //!
 //! - Live outputs (`--ros2`, `--foxglove`, `--mcap`, [`crate::publish`], `docs/ros2.md`): the
 //!   mirror is offered to them after every read; they never hold up the reader.
+//! - With `--rule` or any of its parameters (`crate::rule`), it first sends a SetRule
+//!   command: the device's classifier takes that step threshold and navigability rule (the
+//!   rest of its setup stays); the device's answer is reported on stderr (an older firmware
+//!   answers Unsupported and keeps its rule).
 //! - When the stream ends on a serial port (or on TCP with `--reconnect`) the session goes on:
 //!   the device is looked for every [`RECONNECT_INTERVAL`], the maps are kept, and a snapshot
 //!   is requested once it is back.
@@ -41,7 +45,11 @@ use std::process::ExitCode;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
-use terrain_pyramid::wire::link::{HelloReason, Message, RxCounters, SnapshotScope};
+use terrain_pyramid::classify::ClassifierConfig;
+use terrain_pyramid::link::convert::set_rule_message;
+use terrain_pyramid::wire::link::{
+    HelloReason, Message, MessageType, Reply, ReplyCode, RxCounters, SetRule, SnapshotScope,
+};
 use terrain_pyramid::LogOddsFixed;
 
 /// How often the status line is refreshed.
@@ -93,6 +101,12 @@ pub struct Args {
     /// The live outputs.
     #[command(flatten)]
     pub outputs: OutputArgs,
+    /// The navigability rule and its parameters: when any of these flags is given, the
+    /// device is told on connecting (and on every reconnection) with a SetRule command; the
+    /// parameters not given take the library's defaults. Without them the device keeps its
+    /// rule.
+    #[command(flatten)]
+    pub rule: crate::rule::RuleArgs,
 }
 
 /// How often a lost device is looked for again.
@@ -455,9 +469,26 @@ struct Session {
     /// When the outstanding snapshot request was sent (`None`: none outstanding).
     requested: Option<Instant>,
     snapshots_requested: u64,
+    /// The rule to set on the device on connecting (`--rule` and its parameters).
+    set_rule: Option<SetRule>,
 }
 
 impl Session {
+    /// Sends the SetRule of `--rule` (if given) and then `RequestSnapshot(all)`; `Err` when
+    /// the stream is gone.
+    fn greet(&mut self, now: Instant) -> Result<(), String> {
+        if let Some(set) = self.set_rule {
+            let bytes = self
+                .host
+                .command(&Message::SetRule(set))
+                .map_err(|e| format!("cannot encode SetRule: {e:?}"))?;
+            self.transport
+                .write_all(&bytes)
+                .map_err(|e| format!("cannot send to the device: {e}"))?;
+        }
+        self.request_snapshot(now)
+    }
+
     /// Sends `RequestSnapshot(all)`; `Err` when the stream is gone.
     fn request_snapshot(&mut self, now: Instant) -> Result<(), String> {
         let bytes = self
@@ -531,7 +562,7 @@ fn reconnect(
                         .transport
                         .write_all(&[0])
                         .map_err(|e| format!("cannot send to the device: {e}"))
-                        .and_then(|()| session.request_snapshot(Instant::now()));
+                        .and_then(|()| session.greet(Instant::now()));
                     match resumed {
                         Ok(()) => out.notice(&format!(
                             "reconnected to {source} after {attempts} attempts; snapshot requested"
@@ -564,7 +595,7 @@ fn receive(
         .transport
         .write_all(&[0])
         .map_err(|e| format!("cannot send to the device: {e}"))
-        .and_then(|()| session.request_snapshot(start));
+        .and_then(|()| session.greet(start));
     if let Err(e) = opened {
         out.notice(&format!("warning: {e}"));
     }
@@ -631,6 +662,9 @@ fn receive(
                     }
                 }
                 LinkEvent::SnapshotNeeded => wants = true,
+                LinkEvent::Reply(reply) if reply.to_type == MessageType::SetRule.to_u8() => {
+                    out.notice(&set_rule_answer(&reply));
+                }
                 LinkEvent::Reply(_)
                 | LinkEvent::Stats(_)
                 | LinkEvent::BadFrame(_)
@@ -663,6 +697,24 @@ fn receive(
     ));
     out.finish();
     (session, ending, elapsed)
+}
+
+/// What the device's answer to SetRule tells the user.
+fn set_rule_answer(reply: &Reply) -> String {
+    match reply.code {
+        ReplyCode::Ok => "device: navigability rule set".to_string(),
+        ReplyCode::Unsupported => "warning: the device does not take SetRule (its firmware is \
+             older than this host): it keeps its own navigability rule"
+            .to_string(),
+        code => {
+            let field = terrain_pyramid::link::convert::SetupField::from_param(reply.param)
+                .map_or("a field", |f| f.name());
+            format!(
+                "warning: the device refused the navigability rule: {field} ({code:?}, value {})",
+                reply.value
+            )
+        }
+    }
 }
 
 /// Writes the maps and the summary of a finished session.
@@ -753,6 +805,18 @@ fn write_out(
 /// sync at the end); 1 when the port cannot be opened or the address reached (one line), no
 /// Hello came, or an output cannot be written.
 pub fn run(args: &Args) -> ExitCode {
+    // The rule first: a bad flag ends the command before anything is opened (status 2).
+    let set_rule = if args.rule.given() {
+        match args.rule.apply(ClassifierConfig::DEFAULT) {
+            Ok(config) => Some(set_rule_message(&config)),
+            Err(e) => {
+                eprintln!("error: {e}");
+                return ExitCode::from(2);
+            }
+        }
+    } else {
+        None
+    };
     let stop = Arc::new(AtomicBool::new(false));
     let flag = Arc::clone(&stop);
     let handler = ctrlc::set_handler(move || {
@@ -793,6 +857,7 @@ pub fn run(args: &Args) -> ExitCode {
         reconnects: 0,
         requested: None,
         snapshots_requested: 0,
+        set_rule,
     };
     let (mut session, ending, elapsed) = receive(session, args, &stop, &mut out);
     let report = match session.outputs.take() {

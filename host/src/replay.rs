@@ -17,6 +17,7 @@
 //! pyramid.
 use crate::design::{self, DesignArgs};
 use crate::export::{self, MapSnapshot, MapSummary};
+use crate::rule::{self, RuleArgs};
 use crate::uos::{self, UosReader};
 use serde::Serialize;
 use std::fs::File;
@@ -91,6 +92,9 @@ pub struct Args {
     /// obstacle), metres; off by default.
     #[arg(long, value_name = "M")]
     pub drop_m: Option<f64>,
+    /// The navigability rule and its parameters.
+    #[command(flatten)]
+    pub rule: RuleArgs,
 }
 
 /// The clamping, as the command line names it.
@@ -193,6 +197,8 @@ pub struct Summary {
     pub sensor_m: [f64; 3],
     /// The robot's ground plane given to the classifier, metres.
     pub ground_z_m: f64,
+    /// The navigability rule in force and its parameters ([`rule::describe`]).
+    pub rule: String,
     /// The files written.
     pub files: Vec<String>,
 }
@@ -233,6 +239,7 @@ fn unreadable(what: &str, path: &Path, e: &std::io::Error) -> Failure {
 struct Plan {
     design: Design<L>,
     config: Config,
+    classifier: ClassifierConfig,
     /// The pose's translation, metres, project frame.
     translation: [f64; 3],
     /// The sensor, project frame, metres (after the pose).
@@ -281,9 +288,18 @@ fn plan(args: &Args) -> Result<Plan, Failure> {
         origin[1] + translation[1],
         origin[2] + translation[2],
     ];
+    let classifier = args
+        .rule
+        .apply(ClassifierConfig {
+            ceiling: args.ceiling_m.map(meters),
+            drop_threshold: args.drop_m.map(meters),
+            ..ClassifierConfig::default()
+        })
+        .map_err(Failure::config)?;
     Ok(Plan {
         design,
         config,
+        classifier,
         translation,
         sensor,
         sensor_file_cm: to_3dtk_cm(origin),
@@ -309,11 +325,7 @@ fn integrate<const W: usize>(args: &Args, plan: &Plan) -> Result<Integrated, Fai
         .configure(&plan.design, &plan.config)
         .map_err(|e| Failure::config(e.to_string()))?;
     let mut classifier: Box<Classifier<CLASSIFIER_SLOTS, L>> = Box::new(Classifier::new());
-    classifier.configure(ClassifierConfig {
-        ceiling: args.ceiling_m.map(meters),
-        drop_threshold: args.drop_m.map(meters),
-        ..ClassifierConfig::default()
-    });
+    classifier.configure(plan.classifier);
     let increments = plan
         .config
         .model
@@ -413,6 +425,7 @@ pub fn replay(args: &Args) -> Result<Summary, Failure> {
         records_outside_window: u64::from(run.pyramid.outside_window),
         sensor_m: plan.sensor,
         ground_z_m: plan.ground_z,
+        rule: rule::describe(&plan.classifier),
         files: written
             .files
             .iter()

@@ -115,6 +115,9 @@ pub struct Args {
     /// Returns this far below the robot's ground plane mark a drop-off, metres.
     #[arg(long, value_name = "M")]
     pub drop_m: Option<f64>,
+    /// The navigability rule and its parameters (sent to the device in the Setup).
+    #[command(flatten)]
+    pub rule: crate::rule::RuleArgs,
     /// The live outputs, as `pyramid listen`'s: the maps as the device sends them while the
     /// recording plays.
     #[command(flatten)]
@@ -289,11 +292,14 @@ pub fn run_config(args: &Args) -> Result<(DefaultDesign, Config, ClassifierConfi
             .map_err(|e| (2, format!("error: {e}")))?,
         ..Config::default()
     };
-    let classifier = ClassifierConfig {
-        ceiling: args.ceiling_m.map(Meters::saturating_from_num),
-        drop_threshold: args.drop_m.map(Meters::saturating_from_num),
-        ..ClassifierConfig::default()
-    };
+    let classifier = args
+        .rule
+        .apply(ClassifierConfig {
+            ceiling: args.ceiling_m.map(Meters::saturating_from_num),
+            drop_threshold: args.drop_m.map(Meters::saturating_from_num),
+            ..ClassifierConfig::default()
+        })
+        .map_err(|e| (2, format!("error: {e}")))?;
     Ok((design, config, classifier))
 }
 

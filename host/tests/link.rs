@@ -8,8 +8,8 @@ use terrain_pyramid::link::{Command, Link, LinkConfig, SensorCounters};
 use terrain_pyramid::wire::link::{
     encode, ClampRequest, Configure, Decayed, DecayedRows, DecodeError, Decoded, FirmwareVersion,
     FrameAccumulator, GateRequest, Header, Hello, HelloReason, LaserSetup, LayerInfo, LayerPatch,
-    Message, PanAngle, PatchArea, PatchCells, PoseReport, Reply, ReplyCode, Setup, SnapshotScope,
-    Stats, Undecoded, WindowMoved, MAX_ENCODED_FRAME, MAX_FRAME, STATS_COUNTERS,
+    Message, PanAngle, PatchArea, PatchCells, PoseReport, Reply, ReplyCode, RuleSetup, Setup,
+    SnapshotScope, Stats, Undecoded, WindowMoved, MAX_ENCODED_FRAME, MAX_FRAME, STATS_COUNTERS,
 };
 use terrain_pyramid::wire::FeedResult;
 use terrain_pyramid::{
@@ -225,9 +225,10 @@ fn commands() -> impl Strategy<Value = Owned> {
         prop::array::uniform4(float()),
         any::<(u8, u8, u32)>(),
         prop::array::uniform4(float()),
+        (any::<u8>(), prop::array::uniform5(float())),
     )
         .prop_map(
-            |((mount, mode, field, res, lines), sensor_m, t, (s, a, baud), servo)| {
+            |((mount, mode, field, res, lines), sensor_m, t, (s, a, baud), servo, (rule, r))| {
                 Owned::Msg(Message::Setup(Setup {
                     mount,
                     measuring_mode: mode,
@@ -239,6 +240,14 @@ fn commands() -> impl Strategy<Value = Owned> {
                     step_threshold_m: t[1],
                     drop_threshold_m: t[2],
                     ceiling_m: t[3],
+                    rule: RuleSetup {
+                        rule,
+                        max_grade: r[0],
+                        residual_m: r[1],
+                        range_sigma_m: r[2],
+                        angle_sigma_rad: r[3],
+                        noise_factor: r[4],
+                    },
                     laser: LaserSetup {
                         sensor: s,
                         actuator: a,

@@ -12,6 +12,9 @@
 //! - Dynamic: with decay the stairs are still found (≥ 90 % of the step cells), and the open
 //!   door's ghost clears sooner than without, the wall in view kept.
 //! - Stairs through the firmware: the same figures and every cell equal (`--board qemu`).
+//!
+//! The claims hold under both navigability rules (`--rule plane`, the default, and
+//! `--rule paper`).
 use serde_json::Value;
 use std::path::PathBuf;
 use std::process::Command;
@@ -24,10 +27,10 @@ fn out_dir(test: &str) -> PathBuf {
     dir
 }
 
-fn run_quick() -> (Value, PathBuf) {
-    let dir = out_dir("quick");
+fn run_quick(rule: &str) -> (Value, PathBuf) {
+    let dir = out_dir(&format!("quick-{rule}"));
     let output = Command::new(env!("CARGO_BIN_EXE_lab"))
-        .args(["experiments", "--quick", "--json", "--out"])
+        .args(["experiments", "--quick", "--json", "--rule", rule, "--out"])
         .arg(&dir)
         .output()
         .expect("lab runs");
@@ -51,7 +54,21 @@ fn f(v: &Value, path: &[&str]) -> f64 {
 
 #[test]
 fn the_papers_claims_hold_on_the_simulator() {
-    let (r, dir) = run_quick();
+    the_papers_claims_hold_under("plane");
+}
+
+#[test]
+fn the_papers_claims_hold_under_the_papers_rule() {
+    the_papers_claims_hold_under("paper");
+}
+
+fn the_papers_claims_hold_under(rule: &str) {
+    let (r, dir) = run_quick(rule);
+    assert!(
+        r["rule"].as_str().is_some_and(|s| s.starts_with(rule)),
+        "{}",
+        r["rule"]
+    );
 
     // Dynamic: the stairs are still found with decay on, and the open door's ghost clears
     // sooner with decay without clearing the wall in view.

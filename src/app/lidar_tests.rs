@@ -27,6 +27,7 @@ fn setup(actuator: u8, latency_ms: f32) -> Setup {
         step_threshold_m: 0.05,
         drop_threshold_m: 0.0,
         ceiling_m: 0.0,
+        rule: crate::link::convert::rule_setup(&crate::classify::NavigabilityRule::DEFAULT),
         laser: LaserSetup {
             sensor: 1,
             actuator,

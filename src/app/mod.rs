@@ -636,6 +636,14 @@ impl<const W: usize, const L: usize, const C: usize, const Q: usize> CoProcessor
                 self.link.answer(Reply::ok(header));
                 self.adopt_setup(setup);
             }
+            Command::SetRule(step_threshold, rule) => {
+                self.link.answer(Reply::ok(header));
+                let mut config = *self.frontend.config();
+                config.classifier.step_threshold = step_threshold;
+                config.classifier.rule = rule;
+                // The observation under way is discarded, as by a Setup.
+                self.frontend.configure(config);
+            }
             Command::EndObservation => self.end_observation(),
             Command::Shutdown => self.shutdown = Shutdown::Requested(header),
             // Carried out by the link (`Link::serve`).

@@ -417,6 +417,7 @@ fn setup_request_stats_end_observation_and_shutdown() {
         step_threshold_m: 0.05,
         drop_threshold_m: 0.3,
         ceiling_m: 0.0,
+        rule: crate::link::convert::rule_setup(&crate::classify::NavigabilityRule::DEFAULT),
         laser: crate::wire::link::LaserSetup::SICK,
     };
     let mut bytes = command(0, &Message::Setup(setup));
@@ -461,6 +462,59 @@ fn setup_request_stats_end_observation_and_shutdown() {
     assert_eq!((r[1].code, r[1].param), (ReplyCode::OutOfRange, 49));
     assert_eq!((r[2].to_type, r[2].value, r[2].a), (0x89, 1234.0, 4096.0));
     assert!(out.iter().any(|(_, o)| matches!(o, Out::Stats(_))));
+}
+
+/// SetRule changes the classifier's step and rule and nothing else of the setup; a bad
+/// rule is refused with its param and changes nothing.
+#[test]
+fn set_rule_changes_only_the_classifiers_rule() {
+    use crate::classify::{NavigabilityRule, PlaneRule};
+    use crate::wire::link::{RuleSetup, SetRule};
+    let mut core = booted();
+    let before = *core.frontend().config();
+    assert_eq!(before.classifier.rule, NavigabilityRule::DEFAULT);
+    let paper = SetRule {
+        step_threshold_m: 0.08,
+        rule: RuleSetup::SPREAD,
+    };
+    let mut bytes = command(0, &Message::SetRule(paper));
+    bytes.extend(command(
+        1,
+        &Message::SetRule(SetRule {
+            rule: RuleSetup {
+                rule: 3,
+                ..RuleSetup::SPREAD
+            },
+            ..paper
+        }),
+    ));
+    core.host(&bytes);
+    let after = *core.frontend().config();
+    assert_eq!(after.classifier.rule, NavigabilityRule::Spread);
+    assert_eq!(
+        after.classifier.step_threshold,
+        Meters::saturating_from_num(0.08_f32)
+    );
+    let unchanged = FrontendConfig {
+        classifier: before.classifier,
+        ..after
+    };
+    assert_eq!(unchanged, before);
+    // Back to the plane rule with its defaults, exactly.
+    let plane = crate::link::convert::set_rule_message(&before.classifier);
+    core.host(&command(2, &Message::SetRule(plane)));
+    assert_eq!(*core.frontend().config(), before);
+    assert_eq!(
+        core.frontend().config().classifier.rule,
+        NavigabilityRule::Plane(PlaneRule::DEFAULT)
+    );
+    core.poll(10);
+    let out = output(&mut core);
+    let r = replies(&out);
+    assert_eq!(r.len(), 3, "{out:?}");
+    assert!(r[0].is_ok() && r[0].to_type == 0x8B);
+    assert_eq!((r[1].code, r[1].param), (ReplyCode::OutOfRange, 65));
+    assert!(r[2].is_ok());
 }
 
 #[test]

@@ -17,7 +17,7 @@ use core::fmt;
 
 use crate::actuator::{Actuator, ServoProfile};
 use crate::angle::FineAngle;
-use crate::classify::ClassifierConfig;
+use crate::classify::{ClassifierConfig, NavigabilityRule, PlaneRule, Ratio};
 use crate::decay::{Decay, DecayMode, TimeConstant, DECAY_LAYERS};
 use crate::design::{Design, DesignError, GateShape, Param, Schedule, SensorModel};
 use crate::geometry::{Mount, Pose, PoseError, PoseField, ScanPlane};
@@ -27,8 +27,8 @@ use crate::pipeline::FrontendConfig;
 use crate::pyramid::Config;
 use crate::units::{Meters, Point3};
 use crate::wire::link::{
-    ClampRequest, Configure, GateRequest, Header, LaserSetup, PoseReport, Reply, ReplyCode, Setup,
-    SnapshotScope, PARAM_LAYER,
+    ClampRequest, Configure, GateRequest, Header, LaserSetup, PoseReport, Reply, ReplyCode,
+    RuleSetup, SetRule, Setup, SnapshotScope, PARAM_LAYER,
 };
 use crate::wire::recording::{MountKind, SensorEvent, SetupEvent};
 use crate::wire::sick::{MeasuringMode, Variant};
@@ -225,6 +225,18 @@ pub enum SetupField {
     ServoRate = 63,
     /// The servo's latency.
     ServoLatency = 64,
+    /// The navigability rule: 0 the paper's spread rule, 1 the plane rule.
+    Rule = 65,
+    /// The plane rule's largest slope, as a grade.
+    MaxGrade = 66,
+    /// The plane rule's residual allowance.
+    Residual = 67,
+    /// The plane rule's range noise σ.
+    RangeSigma = 68,
+    /// The plane rule's elevation error σ_a.
+    AngleSigma = 69,
+    /// The plane rule's noise factor.
+    NoiseFactor = 70,
 }
 
 impl SetupField {
@@ -249,6 +261,12 @@ impl SetupField {
             62 => Self::ServoMax,
             63 => Self::ServoRate,
             64 => Self::ServoLatency,
+            65 => Self::Rule,
+            66 => Self::MaxGrade,
+            67 => Self::Residual,
+            68 => Self::RangeSigma,
+            69 => Self::AngleSigma,
+            70 => Self::NoiseFactor,
             _ => return None,
         })
     }
@@ -274,6 +292,12 @@ impl SetupField {
             Self::ServoMax => "setup servo max",
             Self::ServoRate => "setup servo rate",
             Self::ServoLatency => "setup servo latency",
+            Self::Rule => "setup navigability rule",
+            Self::MaxGrade => "setup largest slope",
+            Self::Residual => "setup residual allowance",
+            Self::RangeSigma => "setup range noise",
+            Self::AngleSigma => "setup elevation error",
+            Self::NoiseFactor => "setup noise factor",
         }
     }
 }
@@ -373,7 +397,107 @@ pub fn setup_message(event: &SetupEvent, classifier: &ClassifierConfig) -> Setup
         step_threshold_m: m(classifier.step_threshold),
         drop_threshold_m: off(classifier.drop_threshold),
         ceiling_m: off(classifier.ceiling),
+        rule: rule_setup(&classifier.rule),
         laser: LaserSetup::SICK,
+    }
+}
+
+/// The link's rule block of a navigability rule (exact: every Q16.16 value below 256 is exact
+/// in `f32`, so [`frontend_config`] gives back the same parameters).
+#[must_use]
+pub fn rule_setup(rule: &NavigabilityRule) -> RuleSetup {
+    match rule {
+        NavigabilityRule::Spread => RuleSetup::SPREAD,
+        NavigabilityRule::Plane(p) => RuleSetup {
+            rule: 1,
+            max_grade: p.max_grade.to_num::<f32>(),
+            residual_m: p.residual.to_num::<f32>(),
+            range_sigma_m: p.range_sigma.to_num::<f32>(),
+            angle_sigma_rad: p.angle_sigma.to_num::<f32>(),
+            noise_factor: p.noise_factor.to_num::<f32>(),
+        },
+    }
+}
+
+/// The step threshold and navigability rule of a SetRule command, validated in wire order:
+/// the step as Setup's (finite, 0 ≤ v < 1 000 m; param 55), then the rule block
+/// ([`navigability_rule`]).
+///
+/// # Errors
+/// The first bad field.
+pub fn set_rule_of(set: &SetRule) -> Result<(Meters, NavigabilityRule), SetupError> {
+    let v = set.step_threshold_m;
+    let field = SetupField::StepThreshold;
+    if !v.is_finite() {
+        return Err(SetupError::NotFinite { field });
+    }
+    if !(0.0..SETUP_LIMIT_M).contains(&v) {
+        return Err(SetupError::OutOfRange {
+            field,
+            value: v,
+            min: 0.0,
+            max: SETUP_LIMIT_M,
+        });
+    }
+    Ok((
+        Meters::saturating_from_num(v),
+        navigability_rule(&set.rule)?,
+    ))
+}
+
+/// The SetRule command that sets a classifier's step threshold and navigability rule (exact,
+/// as [`setup_message`]).
+#[must_use]
+pub fn set_rule_message(classifier: &ClassifierConfig) -> SetRule {
+    SetRule {
+        step_threshold_m: classifier.step_threshold.to_num::<f32>(),
+        rule: rule_setup(&classifier.rule),
+    }
+}
+
+/// The navigability rule of a Setup's rule block, validated in wire order: the rule exists (0
+/// spread, 1 plane); under the plane rule every parameter is finite with 0 ≤ v < 1 000 (the
+/// parameters are ignored under the spread rule).
+///
+/// # Errors
+/// The first bad field.
+pub fn navigability_rule(block: &RuleSetup) -> Result<NavigabilityRule, SetupError> {
+    match block.rule {
+        0 => Ok(NavigabilityRule::Spread),
+        1 => {
+            let value = |field, v: f32| -> Result<f32, SetupError> {
+                if !v.is_finite() {
+                    return Err(SetupError::NotFinite { field });
+                }
+                if !(0.0..SETUP_LIMIT_M).contains(&v) {
+                    return Err(SetupError::OutOfRange {
+                        field,
+                        value: v,
+                        min: 0.0,
+                        max: SETUP_LIMIT_M,
+                    });
+                }
+                Ok(v)
+            };
+            let max_grade = value(SetupField::MaxGrade, block.max_grade)?;
+            let residual = value(SetupField::Residual, block.residual_m)?;
+            let range_sigma = value(SetupField::RangeSigma, block.range_sigma_m)?;
+            let angle_sigma = value(SetupField::AngleSigma, block.angle_sigma_rad)?;
+            let noise_factor = value(SetupField::NoiseFactor, block.noise_factor)?;
+            Ok(NavigabilityRule::Plane(PlaneRule {
+                max_grade: Ratio::saturating_from_num(max_grade),
+                residual: Meters::saturating_from_num(residual),
+                range_sigma: Meters::saturating_from_num(range_sigma),
+                angle_sigma: Ratio::saturating_from_num(angle_sigma),
+                noise_factor: Ratio::saturating_from_num(noise_factor),
+            }))
+        }
+        other => Err(SetupError::OutOfRange {
+            field: SetupField::Rule,
+            value: f32::from(other),
+            min: 0.0,
+            max: 1.0,
+        }),
     }
 }
 
@@ -413,7 +537,8 @@ pub fn frontend_config_of_event(
 /// view and resolution make a variant, for a spinning lidar the mode is one of its modes
 /// (LD06 0; RPLIDAR and YDLIDAR 0 or 1) and the variant fields are ignored; positions are
 /// finite with |v| < 1 000 m, the robot height is positive, the thresholds are ≥ 0 and finite
-/// (all below 1 000 m); the baud rate is 0 (the sensor's default) or 9 600 ..= 3 000 000;
+/// (all below 1 000 m); the navigability rule exists and, under the plane rule, its parameters
+/// are finite with 0 ≤ v < 1 000 ([`navigability_rule`]); the baud rate is 0 (the sensor's default) or 9 600 ..= 3 000 000;
 /// the actuator exists (0 external, 1 servo), and for a servo its sweep is finite with
 /// −179° ≤ min < max ≤ 179°, a rate in (0, 1 000] °/s and a latency in [0, 1 000) ms (the
 /// servo fields are ignored for an external actuator). The first bad field is reported.
@@ -519,6 +644,7 @@ pub fn frontend_config(setup: &Setup) -> Result<FrontendConfig, SetupError> {
     let drop = threshold(SetupField::DropThreshold, setup.drop_threshold_m)?;
     let ceiling = threshold(SetupField::Ceiling, setup.ceiling_m)?;
     let optional = |v: Meters| (v > Meters::ZERO).then_some(v);
+    let rule = navigability_rule(&setup.rule)?;
     let baud = match laser.baud {
         0 => kind.default_baud(),
         b if SETUP_BAUD.contains(&b) => b,
@@ -562,6 +688,7 @@ pub fn frontend_config(setup: &Setup) -> Result<FrontendConfig, SetupError> {
             step_threshold,
             drop_threshold: optional(drop),
             ceiling: optional(ceiling),
+            rule,
         },
         missing_ground_within: None,
     })
@@ -1064,6 +1191,7 @@ mod tests {
             step_threshold_m: 0.05,
             drop_threshold_m: 0.0,
             ceiling_m: 2.0,
+            rule: rule_setup(&NavigabilityRule::DEFAULT),
             laser: LaserSetup::SICK,
         };
         // Validation: the variant, the mode, finiteness, thresholds.
@@ -1123,6 +1251,105 @@ mod tests {
         assert_eq!(config.actuator, Actuator::External);
     }
 
+    /// The rule block: both rules and any plane parameters travel bit for bit through the
+    /// Setup; a bad rule or plane parameter is refused by name; the paper's rule ignores the
+    /// plane parameters.
+    #[test]
+    fn the_rule_block_travels_and_is_validated() {
+        let event = SetupEvent {
+            mount: MountKind::TiltedHorizontal,
+            measuring_mode: 0,
+            field_deg: 180,
+            resolution_cdeg: 50,
+            sensor_m: [0.0, 0.0, 0.5],
+            lines_per_observation: 0,
+        };
+        let custom = NavigabilityRule::Plane(PlaneRule {
+            max_grade: Ratio::from_num(1),
+            residual: Meters::from_num(0.03),
+            range_sigma: Meters::from_num(0.05),
+            angle_sigma: Ratio::from_num(0.002),
+            noise_factor: Ratio::from_num(3),
+        });
+        for rule in [NavigabilityRule::Spread, NavigabilityRule::DEFAULT, custom] {
+            let classifier = ClassifierConfig {
+                rule,
+                ..ClassifierConfig::DEFAULT
+            };
+            let config = frontend_config_of_event(&event, &classifier).unwrap();
+            assert_eq!(config.classifier, classifier);
+        }
+        let plane = setup_message(&event, &ClassifierConfig::DEFAULT);
+        let refused = |rule: RuleSetup| frontend_config(&Setup { rule, ..plane }).unwrap_err();
+        assert_eq!(
+            refused(RuleSetup {
+                rule: 2,
+                ..plane.rule
+            }),
+            SetupError::OutOfRange {
+                field: SetupField::Rule,
+                value: 2.0,
+                min: 0.0,
+                max: 1.0
+            }
+        );
+        assert_eq!(
+            refused(RuleSetup {
+                residual_m: -0.01,
+                ..plane.rule
+            })
+            .field(),
+            SetupField::Residual
+        );
+        assert_eq!(
+            refused(RuleSetup {
+                max_grade: f32::INFINITY,
+                ..plane.rule
+            }),
+            SetupError::NotFinite {
+                field: SetupField::MaxGrade
+            }
+        );
+        // Wire order: the first bad parameter is named.
+        assert_eq!(
+            refused(RuleSetup {
+                range_sigma_m: f32::NAN,
+                noise_factor: 1e6,
+                ..plane.rule
+            })
+            .field(),
+            SetupField::RangeSigma
+        );
+        assert_eq!(
+            refused(RuleSetup {
+                noise_factor: 1_000.0,
+                ..plane.rule
+            })
+            .field(),
+            SetupField::NoiseFactor
+        );
+        let paper = RuleSetup {
+            rule: 0,
+            angle_sigma_rad: f32::NAN,
+            ..plane.rule
+        };
+        assert_eq!(
+            frontend_config(&Setup {
+                rule: paper,
+                ..plane
+            })
+            .unwrap()
+            .classifier
+            .rule,
+            NavigabilityRule::Spread
+        );
+        for code in 65..=70 {
+            let field = SetupField::from_param(code).unwrap();
+            assert_eq!(field as u8, code);
+        }
+        assert_eq!(SetupField::from_param(71), None);
+    }
+
     /// The laser block: each field refused with its own code and sentence; a lidar's mode is
     /// its own, its variant fields ignored; the servo's sweep converted exactly enough.
     #[test]
@@ -1147,6 +1374,7 @@ mod tests {
             step_threshold_m: 0.08,
             drop_threshold_m: 0.0,
             ceiling_m: 0.0,
+            rule: rule_setup(&NavigabilityRule::DEFAULT),
             laser: servo,
         };
         let config = frontend_config(&setup).unwrap();

@@ -237,6 +237,9 @@ pub enum Command<const L: usize> {
     /// The laser's mounting, its lines' grouping and the classifier (checked by
     /// [`convert::frontend_config`]).
     Setup(FrontendConfig),
+    /// The classifier's step threshold (metres) and navigability rule, the rest of the setup
+    /// unchanged (checked by [`convert::set_rule_of`]).
+    SetRule(crate::units::Meters, crate::classify::NavigabilityRule),
     /// Send a Stats frame at the next poll, whatever the interval.
     RequestStats,
     /// End the current observation now (no Reply).
@@ -1181,6 +1184,11 @@ fn command<const L: usize>(header: Header, message: Message<'_>) -> Result<Comma
         Message::Setup(setup) => Command::Setup(
             convert::frontend_config(&setup).map_err(|e| convert::setup_refusal(header, &e))?,
         ),
+        Message::SetRule(set) => {
+            let (step, rule) =
+                convert::set_rule_of(&set).map_err(|e| convert::setup_refusal(header, &e))?;
+            Command::SetRule(step, rule)
+        }
         Message::RequestStats => Command::RequestStats,
         Message::EndObservation => Command::EndObservation,
         Message::Shutdown => Command::Shutdown,

@@ -11,6 +11,9 @@
 //!    (`bench/octomap/harness.cpp`, built with g++) on the same returns;
 //! 6. prints a table (stderr) and the results (stdout; one JSON object with `--json`).
 //!
+//! The variants run the library's default navigability rule (the plane rule);
+//! `pyramid-paper` is `pyramid-nolink` under the paper's spread rule.
+//!
 //! A fresh machine: the missing rustup targets, `qemu-system-arm` and `liboctomap-dev` are
 //! installed (apt-get, through sudo when not root).
 
@@ -461,9 +464,11 @@ fn bench(opts: &Opts) -> Result<()> {
         (M4F, "flat"),
         (M4F, "window"),
         (M4F, "pyramid-nolink"),
+        (M4F, "pyramid-paper"),
         (M4F, "f32"),
         (M0, "pyramid"),
         (M0, "pyramid-nolink"),
+        (M0, "pyramid-paper"),
         (M0, "f32"),
         (M4F, "pyramid-decay"),
         (M4F, "decay"),
@@ -517,6 +522,8 @@ fn bench(opts: &Opts) -> Result<()> {
         get(M0, "pyramid-nolink"),
         get(M0, "f32"),
     );
+    // The paper's navigability rule against the default plane rule (both without the link).
+    let (m4_paper, m0_paper) = (get(M4F, "pyramid-paper"), get(M0, "pyramid-paper"));
     let window_per_cell = window.instructions as f64 / window.cells.max(1) as f64;
     let per_cell = |r: &Run| r.instructions as f64 / r.cells.max(1) as f64;
     let (m4_decay, m0_decay) = (get(M4F, "pyramid-decay"), get(M0, "pyramid-decay"));
@@ -608,6 +615,10 @@ fn bench(opts: &Opts) -> Result<()> {
         m4_nolink.per_return()
     );
     eprintln!(
+        "| M4F instructions / return, no link, paper's rule (plane rule: the line above) | {:.1} |",
+        m4_paper.per_return()
+    );
+    eprintln!(
         "| M4F f32 instructions / return (no link) | {:.1} |",
         m4_f32.per_return()
     );
@@ -622,6 +633,10 @@ fn bench(opts: &Opts) -> Result<()> {
     eprintln!(
         "| M0 instructions / return, no link | {:.1} |",
         m0_nolink.per_return()
+    );
+    eprintln!(
+        "| M0 instructions / return, no link, paper's rule (plane rule: the line above) | {:.1} |",
+        m0_paper.per_return()
     );
     eprintln!(
         "| M0 f32 instructions / return (no link) | {:.1} |",
@@ -683,6 +698,14 @@ fn bench(opts: &Opts) -> Result<()> {
             "instructions_per_return": m0.per_return(),
             "decay_instructions_per_return": m0_decay.per_return(),
             "decay_instructions_per_cell": per_cell(&m0_sweep),
+        },
+        "m4f_nolink": {
+            "plane_instructions_per_return": m4_nolink.per_return(),
+            "paper_instructions_per_return": m4_paper.per_return(),
+        },
+        "m0_nolink": {
+            "plane_instructions_per_return": m0_nolink.per_return(),
+            "paper_instructions_per_return": m0_paper.per_return(),
         },
         "m4f_f32": { "instructions_per_return": m4_f32.per_return() },
         "m0_f32": { "instructions_per_return": m0_f32.per_return() },

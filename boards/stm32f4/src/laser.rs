@@ -26,7 +26,15 @@ use terrain_pyramid::laser::Sensor;
 use terrain_pyramid::wire::rplidar::{RplidarRequest, RplidarScanMode};
 use terrain_pyramid::wire::ydlidar::YdlidarCommand;
 
-use crate::scanner::START_CONTINUOUS;
+use heapless::spsc::Consumer;
+use stm32f4xx_hal::pac::USART1;
+use terrain_pyramid::app::CoProcessor;
+use terrain_pyramid::drivers::angle::AngleSource;
+
+use crate::clock::micros;
+use crate::link::BlockingTx;
+use crate::rx;
+use crate::scanner::{FAST_BAUD, START_CONTINUOUS};
 
 /// The servo's PWM: TIM2 channel 1 on PA0.
 pub type ServoPwm = PwmChannel<TIM2, 0>;
@@ -69,6 +77,67 @@ pub fn switch<W: Write>(port: LaserPort, pclk2_hz: u32, tx: &mut W) -> Result<()
             send(tx, &YdlidarCommand::Stop)?;
             cortex_m::asm::delay(pclk2_hz / 500);
             send(tx, &YdlidarCommand::Scan)
+        }
+    }
+}
+
+/// The laser's half of the main loop: USART1's transmit side, its receive queue, the laser
+/// in force and the receive interrupt's drops seen so far.
+pub struct LaserSide {
+    tx: BlockingTx<USART1>,
+    rx: Consumer<'static, u8>,
+    /// USART1's clock, hertz, for the divider of the laser a Setup names.
+    pclk2_hz: u32,
+    /// The laser streaming now: the bring-up leaves a SICK at 500 kBd.
+    streaming: LaserPort,
+    dropped: u32,
+}
+
+impl LaserSide {
+    /// The laser's side after the SICK bring-up: `tx` and `rx` are USART1's halves (the
+    /// receive half already installed in its interrupt), `pclk2_hz` its clock.
+    pub fn new(tx: BlockingTx<USART1>, rx: Consumer<'static, u8>, pclk2_hz: u32) -> Self {
+        Self {
+            tx,
+            rx,
+            pclk2_hz,
+            streaming: LaserPort {
+                sensor: Sensor::Sick,
+                baud: FAST_BAUD,
+            },
+            dropped: 0,
+        }
+    }
+
+    /// One main-loop step: switches to the laser the core names when it differs from the one
+    /// streaming, hands the core what the interrupt queued (with its arrival time) and reports
+    /// the interrupt's new drops as an overrun.
+    pub fn step<const W: usize, const L: usize, const C: usize, const Q: usize>(
+        &mut self,
+        core: &mut CoProcessor<W, L, C, Q>,
+        buf: &mut [u8],
+        angle: &mut impl AngleSource,
+    ) {
+        if let Some(port) = core.take_laser_change().filter(|p| *p != self.streaming) {
+            defmt::info!("laser: {} at {=u32} Bd", port.sensor, port.baud);
+            if let Err(e) = switch(port, self.pclk2_hz, &mut self.tx) {
+                defmt::warn!("USART1: {}", defmt::Debug2Format(&e));
+            }
+            self.streaming = port;
+        }
+        let n = rx::take(&mut self.rx, buf);
+        if n > 0 {
+            // The chunk's last byte arrived before the bytes still queued (at the line rate)
+            // and the last byte the interrupt queued.
+            let queued = u32::try_from(self.rx.len()).unwrap_or(u32::MAX);
+            let byte_us = 10_000_000 / core.laser_baud().max(1);
+            let arrival = rx::laser_last_us().wrapping_sub(queued.saturating_mul(byte_us));
+            core.laser_timed(buf.get(..n).unwrap_or(&[]), arrival, micros(), angle);
+        }
+        let lost = rx::laser_stats().dropped;
+        if lost != self.dropped {
+            self.dropped = lost;
+            core.laser_overrun();
         }
     }
 }

@@ -41,9 +41,8 @@ use stm32f4xx_hal::pac;
 use stm32f4xx_hal::prelude::*;
 use stm32f4xx_hal::serial;
 use stm32f4xx_hal::watchdog::IndependentWatchdog;
-use terrain_pyramid::app::{BootError, CoProcessor, LaserPort, StackUsage};
+use terrain_pyramid::app::{BootError, CoProcessor, StackUsage};
 use terrain_pyramid::geometry::ScanPlane;
-use terrain_pyramid::laser::Sensor;
 use terrain_pyramid::link::LinkConfig;
 use terrain_pyramid::pipeline::FrontendConfig;
 use terrain_pyramid::{
@@ -63,10 +62,16 @@ const REPORT_MS: u32 = 1_000;
 /// bytes at 921 600 Bd), and the laser queue (1023 bytes: 20 ms) must not fill meanwhile.
 const TX_BYTES_PER_STEP: usize = 512;
 
-/// The co-processor: the default pyramid and pipeline, and a link with a 1 KiB queue (11 ms of
-/// USART2; at least `min_queue_bytes(64, 8)` = 504 bytes): with the interrupt queues and the
-/// RTT buffer, a 2 KiB queue would take the static RAM past 96 KiB.
-type Board = CoProcessor<DEFAULT_CELLS_PER_SIDE, DEFAULT_LAYERS, DEFAULT_CLASSIFIER_SLOTS, 1024>;
+/// The classifier's observation scratch: half the default. A slot is 48 bytes since the plane
+/// rule (the default 1024 would take 48 KiB, and the part's 128 KiB could not hold it beside
+/// the pyramid); 512 slots hold an observation of a few SICK lines (a line touches 2-4 cells
+/// per return at most, mostly far fewer), and a point that finds the scratch full is counted
+/// (`overflow_points`), never misplaced.
+const CLASSIFIER_SLOTS: usize = DEFAULT_CLASSIFIER_SLOTS / 2;
+
+/// The co-processor: the default pyramid, the pipeline with [`CLASSIFIER_SLOTS`] and a link with
+/// a 1 KiB queue (11 ms of USART2; at least `min_queue_bytes(64, 8)` = 504 bytes).
+type Board = CoProcessor<DEFAULT_CELLS_PER_SIDE, DEFAULT_LAYERS, CLASSIFIER_SLOTS, 1024>;
 
 /// The co-processor, `const`-built (never on the stack of this 128 KiB part).
 static CORE: ConstStaticCell<Board> = ConstStaticCell::new(Board::new());
@@ -96,9 +101,7 @@ fn main() -> ! {
     }
     watchdog.feed();
 
-    // USART1's clock, for the divider of the laser the Setup names.
     let pclk2_hz = rcc.clocks.pclk2().raw();
-
     let gpioa = dp.GPIOA.split(&mut rcc);
     let gpiob = dp.GPIOB.split(&mut rcc);
     // Host link: USART2 on PA2 (TX) / PA3 (RX), wired to the ST-LINK's virtual COM port.
@@ -132,8 +135,8 @@ fn main() -> ! {
         Err(e) => defmt::panic!("scanner bring-up: {}", e),
     };
     let (laser_tx, laser_rx) = laser.split();
-    let mut laser_tx = BlockingTx::new(laser_tx);
-    let mut laser_rx = rx::install_laser(laser_rx);
+    let laser_rx = rx::install_laser(laser_rx);
+    let mut laser_side = laser::LaserSide::new(BlockingTx::new(laser_tx), laser_rx, pclk2_hz);
     // The nodding servo's signal: TIM2 channel 1 on PA0, 50 Hz (idle until a Setup names one).
     let mut servo = laser::servo(dp.TIM2, gpioa.pa0, &mut rcc);
     let mut host_rx = rx::install_host(host_rx);
@@ -142,44 +145,13 @@ fn main() -> ! {
     defmt::info!("main loop: the laser on USART1, the host link on USART2");
     let mut buf = [0_u8; 256];
     let mut last_report = clock.now();
-    let mut dropped = 0;
-    let mut streaming = Some(LaserPort {
-        sensor: Sensor::Sick,
-        baud: scanner::FAST_BAUD,
-    });
     loop {
         watchdog.feed();
-        // The bring-up left a SICK streaming at 500 kBd: only a different laser is switched to.
-        if let Some(port) = core.take_laser_change().filter(|p| Some(*p) != streaming) {
-            defmt::info!("laser: {} at {=u32} Bd", port.sensor, port.baud);
-            if let Err(e) = laser::switch(port, pclk2_hz, &mut laser_tx) {
-                defmt::warn!("USART1: {}", defmt::Debug2Format(&e));
-            }
-            streaming = Some(port);
-        }
         if let Some(angle) = core.actuator_command(clock::micros()) {
             // TIM2's channel cannot fail (its error type is `Infallible`).
             let _ = servo.set_angle(angle);
         }
-        let n = rx::take(&mut laser_rx, &mut buf);
-        if n > 0 {
-            // The chunk's last byte arrived before the bytes still queued (at the line rate)
-            // and the last byte the interrupt queued.
-            let queued = u32::try_from(laser_rx.len()).unwrap_or(u32::MAX);
-            let byte_us = 10_000_000 / core.laser_baud().max(1);
-            let arrival = rx::laser_last_us().wrapping_sub(queued.saturating_mul(byte_us));
-            core.laser_timed(
-                buf.get(..n).unwrap_or(&[]),
-                arrival,
-                clock::micros(),
-                &mut encoder,
-            );
-        }
-        let lost = rx::laser_stats().dropped;
-        if lost != dropped {
-            dropped = lost;
-            core.laser_overrun();
-        }
+        laser_side.step(core, &mut buf, &mut encoder);
         let n = rx::take(&mut host_rx, buf.get_mut(..64).unwrap_or(&mut []));
         core.host(buf.get(..n).unwrap_or(&[]));
         core.poll(clock::millis());

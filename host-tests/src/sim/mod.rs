@@ -10,6 +10,10 @@
 //!   ground truth.
 //! - [`changing`]: scenes that change — a pedestrian, a door, a car leaving — and their
 //!   truth over time.
+//! - [`terrain`]: slopes, camber, roughness, gravel, curbs with kerb cuts, ramps, and the
+//!   ground truth of every cell of any grid, for the navigability rules.
+//! - [`cloud`]: point clouds straight from the ray cast (a car's ring laser, the paper's
+//!   panned plane), the observations the navigability rules are measured on.
 //! - [`rng`]: the seeded generator.
 //!
 //! ```
@@ -21,9 +25,11 @@
 //! ```
 
 pub mod changing;
+pub mod cloud;
 pub mod drive;
 pub mod laser;
 pub mod record;
 pub mod rng;
 pub mod scene;
+pub mod terrain;
 pub mod trajectory;

@@ -143,6 +143,9 @@ pub enum GroundTerm {
         /// The highest y it spans, metres (+∞ for all).
         y_max: f64,
     },
+    /// Terrain beyond the paper's scenes: camber, side slopes, platforms, ramps, roughness
+    /// ([`super::terrain`]).
+    Terrain(super::terrain::TerrainTerm),
 }
 
 impl GroundTerm {
@@ -190,6 +193,7 @@ impl GroundTerm {
                     0.0
                 }
             }
+            Self::Terrain(t) => t.height(x, y),
         }
     }
 
@@ -219,6 +223,7 @@ impl GroundTerm {
                 }
             }
             Self::Trench { .. } => 0.0,
+            Self::Terrain(t) => t.max_over(x_lo, x_hi, y_lo, y_hi),
         }
     }
 }
@@ -334,6 +339,8 @@ pub enum FeatureKind {
     Ditch,
     /// An overhanging branch.
     Branch,
+    /// A solid block standing on the ground: a wall, a parked car.
+    Block,
 }
 
 /// Where a feature lies on the ground plane, metres.

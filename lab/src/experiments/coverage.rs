@@ -11,6 +11,7 @@ use super::stairs::round4;
 use serde::Serialize;
 use std::path::Path;
 use std::time::Instant;
+use terrain_pyramid::classify::ClassifierConfig;
 use terrain_pyramid::{Config, Fused, GateShape, DEFAULT_CELLS_PER_SIDE, DEFAULT_LAYERS};
 use terrain_pyramid_host_tests::sim::laser::LaserConfig;
 use terrain_pyramid_host_tests::sim::record::{simulate, SimConfig};
@@ -43,6 +44,9 @@ pub struct Setup {
     pub repetitions: usize,
     /// The simulator's seed.
     pub seed: u64,
+    /// The classifier's thresholds and navigability rule, for every map (`--rule`).
+    #[serde(skip)]
+    pub classifier: ClassifierConfig,
 }
 
 impl Setup {
@@ -54,6 +58,7 @@ impl Setup {
         stop_distance_m: 2.0,
         repetitions: 51,
         seed: 1,
+        classifier: ClassifierConfig::DEFAULT,
     };
 
     /// `--quick`: the same run, fewer timed repetitions.
@@ -224,7 +229,7 @@ fn median(mut v: Vec<f64>) -> f64 {
 pub fn run(setup: &Setup, out: Option<&Path>) -> Result<(CoverageResult, CostResult), String> {
     let sim_config = setup.sim();
     let sim = simulate(&sim_config).map_err(|e| e.to_string())?;
-    let decoded = decode(&sim.bytes)?;
+    let decoded = decode(&sim.bytes, &setup.classifier)?;
     let (mut fixed, mut pyramid) = maps(&decoded)?;
     // Cost: the same lines through each map, interleaved repetitions, median.
     let mut t_fixed = Vec::new();

@@ -72,7 +72,7 @@ pub fn stairs_with_decay(
 ) -> Result<StairsDecay, String> {
     let sim_config = setup.sim();
     let sim = simulate(&sim_config).map_err(|e| e.to_string())?;
-    let decoded = decode(&sim.bytes)?;
+    let decoded = decode(&sim.bytes, &setup.classifier)?;
     let (steps, first) = step_cells(&sim_config);
     let riser_x = sim_config.scene.target_x.unwrap_or(0.0);
     #[allow(clippy::cast_possible_truncation)]

@@ -42,14 +42,15 @@ pub struct Decoded {
     pub lines: Vec<Line>,
 }
 
-/// Decodes a whole recording: its setup and every valid measured-values telegram as a line.
+/// Decodes a whole recording: its setup (with the classifier's thresholds and rule, as the
+/// link's Setup carries them) and every valid measured-values telegram as a line.
 ///
 /// # Errors
 /// A recording that cannot be read, lines before the setup, or an invalid setup.
-pub fn decode(data: &[u8]) -> Result<Decoded, String> {
+pub fn decode(data: &[u8], classifier: &ClassifierConfig) -> Result<Decoded, String> {
     let decoded = steps(data)?;
     let setup = decoded.setup().ok_or("the recording has no setup")?;
-    let frontend = frontend_config_of_event(&setup, &ClassifierConfig::default())
+    let frontend = frontend_config_of_event(&setup, classifier)
         .map_err(|e| format!("the recording's setup: {e}"))?;
     let mut lines = Vec::new();
     let mut pending_pose: Option<[f32; 6]> = None;

@@ -9,6 +9,7 @@ use super::engine::{decode, Decoded, Map, Runner};
 use super::picture::{self, Panel, Region};
 use serde::Serialize;
 use std::path::Path;
+use terrain_pyramid::classify::ClassifierConfig;
 use terrain_pyramid::wire::sick::Unit;
 use terrain_pyramid::{Clamp, Config, Fused, GateShape};
 use terrain_pyramid_host_tests::sim::laser::{Actuator, LaserConfig};
@@ -52,6 +53,9 @@ pub struct Setup {
     pub pan_rate_deg_s: f64,
     /// The simulator's seed.
     pub seed: u64,
+    /// The classifier's thresholds and navigability rule, for every map (`--rule`).
+    #[serde(skip)]
+    pub classifier: ClassifierConfig,
 }
 
 impl Setup {
@@ -66,6 +70,7 @@ impl Setup {
         unit: "cm",
         pan_rate_deg_s: 74.0,
         seed: 1,
+        classifier: ClassifierConfig::DEFAULT,
     };
 
     /// `--quick`: the same place, 2 minutes of standing.
@@ -296,7 +301,7 @@ fn maps(decoded: &Decoded, range_m: f64) -> Result<Vec<Box<dyn Map>>, String> {
 pub fn run(setup: &Setup, out: Option<&Path>) -> Result<StairsResult, String> {
     let sim_config = setup.sim();
     let sim = simulate(&sim_config).map_err(|e| e.to_string())?;
-    let decoded = decode(&sim.bytes)?;
+    let decoded = decode(&sim.bytes, &setup.classifier)?;
     let (steps, first) = step_cells(&sim_config);
     let riser_x = sim_config.scene.target_x.unwrap_or(0.0);
     let mut maps = maps(&decoded, setup.range_m)?;

@@ -191,7 +191,7 @@ pub fn run(setup: &Setup, host: &StairsResult, out: &Path) -> Result<BoardStairs
     let sim = simulate(&sim_config).map_err(|e| e.to_string())?;
     let decoded = steps(&sim.bytes)?;
     let setup_event = decoded.setup().ok_or("the recording has no setup")?;
-    let classifier = ClassifierConfig::default();
+    let classifier = setup.classifier;
     let per = u64::from(
         frontend_config_of_event(&setup_event, &classifier)
             .map_err(|e| format!("the recording's setup: {e}"))?

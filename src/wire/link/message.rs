@@ -33,10 +33,15 @@ pub(crate) const CONFIGURE_FLAGS_KNOWN: u8 = CONFIGURE_UNIFORM_RESOLUTION;
 /// Bytes of a Setup body before its laser block: the mount, the SICK fields, the sensor's
 /// position, the grouping and the classifier's thresholds.
 pub(crate) const SETUP_BASE_LEN: usize = 38;
+/// Bytes of Setup's navigability rule block ([`RuleSetup`]), between the base part and the
+/// laser block.
+pub const SETUP_RULE_LEN: usize = 21;
 /// Bytes of Setup's laser block ([`LaserSetup`]).
 pub const SETUP_LASER_LEN: usize = 22;
 /// Bytes of a Setup body.
-pub(crate) const SETUP_LEN: usize = SETUP_BASE_LEN + SETUP_LASER_LEN;
+pub(crate) const SETUP_LEN: usize = SETUP_BASE_LEN + SETUP_RULE_LEN + SETUP_LASER_LEN;
+/// Bytes of a SetRule body: the step threshold and a rule block.
+pub(crate) const SET_RULE_LEN: usize = 4 + SETUP_RULE_LEN;
 /// The number of counters in a [`Stats`].
 pub const STATS_COUNTERS: usize = 30;
 
@@ -695,6 +700,51 @@ impl Decayed {
     }
 }
 
+/// Setup's navigability rule block (protocol version 3, offset 38): which rule judges a cell's
+/// points and the plane rule's parameters. Unvalidated ([`crate::link::convert::frontend_config`]
+/// checks it; the plane parameters only under the plane rule).
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct RuleSetup {
+    /// 0 the paper's spread rule, 1 the plane rule.
+    pub rule: u8,
+    /// The largest traversable slope as a grade (rise per run, tan of its angle).
+    pub max_grade: f32,
+    /// The RMS by which a navigable cell's points may stray from their plane beyond the
+    /// noise, metres.
+    pub residual_m: f32,
+    /// The sensor's range noise σ, metres.
+    pub range_sigma_m: f32,
+    /// The sensor's elevation error σ_a, radians.
+    pub angle_sigma_rad: f32,
+    /// How many σ of height noise the allowances hold.
+    pub noise_factor: f32,
+}
+
+impl RuleSetup {
+    /// The paper's spread rule (the plane parameters zero: ignored).
+    pub const SPREAD: Self = Self {
+        rule: 0,
+        max_grade: 0.0,
+        residual_m: 0.0,
+        range_sigma_m: 0.0,
+        angle_sigma_rad: 0.0,
+        noise_factor: 0.0,
+    };
+}
+
+/// A SetRule command (0x8B): the classifier's step threshold and navigability rule, for a
+/// device already set up (the rest of its setup stays). Unvalidated
+/// ([`crate::link::convert::classifier_with_rule`] checks it).
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct SetRule {
+    /// The step threshold, metres (as Setup's `step_threshold`).
+    pub step_threshold_m: f32,
+    /// The rule block (as Setup's).
+    pub rule: RuleSetup,
+}
+
 /// Setup's laser block (protocol version 3): which laser, at which baud rate, and what moves
 /// its scan plane. Unvalidated ([`crate::link::convert::frontend_config`] checks it).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -768,6 +818,8 @@ pub struct Setup {
     pub drop_threshold_m: f32,
     /// Returns higher than this above the robot's ground are overhang, metres; 0 = off.
     pub ceiling_m: f32,
+    /// The navigability rule block (version 3).
+    pub rule: RuleSetup,
     /// The laser block (version 3).
     pub laser: LaserSetup,
 }
@@ -822,6 +874,8 @@ pub enum Message<'a> {
     Shutdown,
     /// Host to device: end the current observation now.
     EndObservation,
+    /// Host to device: the classifier's step threshold and navigability rule.
+    SetRule(SetRule),
 }
 
 /// Reads fixed fields from a body.
@@ -858,6 +912,16 @@ impl<'a> Reader<'a> {
     fn rest(self) -> &'a [u8] {
         self.bytes
     }
+    fn rule_setup(&mut self) -> RuleSetup {
+        RuleSetup {
+            rule: self.u8(),
+            max_grade: self.f32(),
+            residual_m: self.f32(),
+            range_sigma_m: self.f32(),
+            angle_sigma_rad: self.f32(),
+            noise_factor: self.f32(),
+        }
+    }
 }
 
 impl<'a> Message<'a> {
@@ -881,6 +945,7 @@ impl<'a> Message<'a> {
             Self::RequestStats => MessageType::RequestStats,
             Self::Shutdown => MessageType::Shutdown,
             Self::EndObservation => MessageType::EndObservation,
+            Self::SetRule(_) => MessageType::SetRule,
         }
     }
 
@@ -904,6 +969,7 @@ impl<'a> Message<'a> {
             | Self::EndObservation => 0,
             Self::RequestSnapshot(_) => 1,
             Self::Setup(_) => SETUP_LEN,
+            Self::SetRule(_) => SET_RULE_LEN,
         }
     }
 
@@ -1156,6 +1222,7 @@ impl<'a> Message<'a> {
                     step_threshold_m: r.f32(),
                     drop_threshold_m: r.f32(),
                     ceiling_m: r.f32(),
+                    rule: r.rule_setup(),
                     laser: LaserSetup {
                         sensor: r.u8(),
                         actuator: r.u8(),
@@ -1170,6 +1237,13 @@ impl<'a> Message<'a> {
             MessageType::RequestStats => {
                 exact(0)?;
                 Self::RequestStats
+            }
+            MessageType::SetRule => {
+                exact(SET_RULE_LEN)?;
+                Self::SetRule(SetRule {
+                    step_threshold_m: r.f32(),
+                    rule: r.rule_setup(),
+                })
             }
             MessageType::Shutdown => {
                 exact(0)?;
@@ -1335,7 +1409,12 @@ impl<'a> Message<'a> {
                 ] {
                     w.f32(v);
                 }
+                w.rule_setup(&s.rule);
                 w.laser_setup(&s.laser);
+            }
+            Self::SetRule(s) => {
+                w.f32(s.step_threshold_m);
+                w.rule_setup(&s.rule);
             }
             Self::RequestSnapshot(scope) => w.u8(match *scope {
                 SnapshotScope::All => 0xFF,
@@ -1380,6 +1459,18 @@ impl<'a> Writer<'a> {
     }
     fn f32(&mut self, v: f32) {
         self.bytes(&v.to_le_bytes());
+    }
+    fn rule_setup(&mut self, r: &RuleSetup) {
+        self.u8(r.rule);
+        for v in [
+            r.max_grade,
+            r.residual_m,
+            r.range_sigma_m,
+            r.angle_sigma_rad,
+            r.noise_factor,
+        ] {
+            self.f32(v);
+        }
     }
     fn laser_setup(&mut self, l: &LaserSetup) {
         self.u8(l.sensor);

@@ -34,8 +34,8 @@ pub use crc::{crc32, Crc32};
 pub use message::{
     decode, encode, encode_patch, ClampRequest, Configure, Decayed, DecayedRows, FirmwareVersion,
     GateRequest, Hello, HelloReason, LaserSetup, LayerInfo, LayerPatch, Message, PanAngle,
-    PatchArea, PatchCells, PoseReport, Reply, ReplyCode, Setup, SnapshotScope, Stats, WindowMoved,
-    PARAM_LAYER, SETUP_LASER_LEN, STATS_COUNTERS,
+    PatchArea, PatchCells, PoseReport, Reply, ReplyCode, RuleSetup, SetRule, Setup, SnapshotScope,
+    Stats, WindowMoved, PARAM_LAYER, SETUP_LASER_LEN, SETUP_RULE_LEN, STATS_COUNTERS,
 };
 
 use core::fmt;
@@ -121,6 +121,9 @@ pub enum MessageType {
     Shutdown = 0x89,
     /// Host to device: end the current observation now (apply its evidence).
     EndObservation = 0x8A,
+    /// Host to device: the classifier's step threshold and navigability rule, the rest of the
+    /// setup unchanged.
+    SetRule = 0x8B,
 }
 
 impl MessageType {
@@ -144,6 +147,7 @@ impl MessageType {
             0x88 => Self::RequestStats,
             0x89 => Self::Shutdown,
             0x8A => Self::EndObservation,
+            0x8B => Self::SetRule,
             _ => return None,
         })
     }

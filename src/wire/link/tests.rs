@@ -356,6 +356,7 @@ fn sizes_match_the_spec() {
     // Section 9 of the spec: the largest frame device to host is a 32-layer Hello.
     assert_eq!(MAX_FRAME, 660);
     assert_eq!(MAX_ENCODED_FRAME, 664);
+    // The largest command is a Configure (94 bytes of body; a Setup has 81).
     assert_eq!(MAX_COMMAND_FRAME, 102);
     assert_eq!(MAX_ENCODED_COMMAND, 104);
     assert_eq!(encoded_len_max(MIN_FRAME + 19 + 2 * 16 * 16), 543);
@@ -569,6 +570,7 @@ fn setup_and_the_empty_commands_golden() {
         step_threshold_m: 0.05,
         drop_threshold_m: 0.0,
         ceiling_m: 2.0,
+        rule: RuleSetup::SPREAD,
         laser: LaserSetup::SICK,
     };
     golden(
@@ -576,16 +578,48 @@ fn setup_and_the_empty_commands_golden() {
         &Message::Setup(setup),
         "04 03 87 07 02 01 02 b4 02 32 01 01 03 80 3e 01 01 02 bf 01 03 40 3f 01 01 01 01 01 07 \
          80 3f cd cc 4c 3d 01 01 01 01 01 01 02 40 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 \
-         01 01 01 01 01 01 05 99 72 9e d7 00",
+         01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 05 c9 \
+         d8 32 41 00",
     );
     golden(2, &Message::RequestStats, "04 03 88 02 05 48 58 e1 ee 00");
     golden(2, &Message::Shutdown, "04 03 89 02 05 7f 32 23 ef 00");
     golden(2, &Message::EndObservation, "04 03 8a 02 05 26 8c 65 ed 00");
-    // A Setup body one byte short is a bad body; so is a version-2 Setup (38 bytes).
-    for len in [59, 38] {
+    // A Setup body one byte short is a bad body; so is a version-2 Setup (38 bytes) and a
+    // Setup of version 3 before its rule block (60 bytes).
+    for len in [80, 60, 38] {
         assert!(matches!(
-            Message::parse(0x87, &[0; 60][..len]),
+            Message::parse(0x87, &[0; 81][..len]),
             Err(DecodeError::BadBody { msg_type: 0x87, len: l }) if l == len
+        ));
+    }
+}
+
+/// SetRule (0x8B, `docs/protocol.md`, "0x8B SetRule"): the paper's rule with a 0.08 m step,
+/// then the default plane rule with the default step, 3 277 / 2¹⁶ m (frames from
+/// `host/tests/py/link_setup.py`).
+#[test]
+fn set_rule_golden() {
+    golden(
+        9,
+        &Message::SetRule(SetRule {
+            step_threshold_m: 0.08,
+            rule: RuleSetup::SPREAD,
+        }),
+        "04 03 8b 09 05 0a d7 a3 3d 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 \
+         05 36 fe 90 e2 00",
+    );
+    let default =
+        crate::link::convert::set_rule_message(&crate::classify::ClassifierConfig::DEFAULT);
+    golden(
+        10,
+        &Message::SetRule(default),
+        "04 03 8b 0a 01 05 d0 4c 3d 01 04 5a ba 3e 04 c0 75 3c 04 e0 a3 3c 01 03 ac 3a 01 01 06 \
+         40 7c 65 2d 84 00",
+    );
+    for len in [24, 26] {
+        assert!(matches!(
+            Message::parse(0x8B, &[0; 26][..len]),
+            Err(DecodeError::BadBody { msg_type: 0x8B, len: l }) if l == len
         ));
     }
 }
@@ -607,6 +641,15 @@ fn setup_with_a_lidar_on_a_servo_golden() {
         step_threshold_m: 0.08,
         drop_threshold_m: 0.0,
         ceiling_m: 0.0,
+        rule: RuleSetup {
+            rule: 1,
+            // The Q16.16 defaults, exact in f32.
+            max_grade: 23_853.0 / 65_536.0,
+            residual_m: 983.0 / 65_536.0,
+            range_sigma_m: 1_311.0 / 65_536.0,
+            angle_sigma_rad: 86.0 / 65_536.0,
+            noise_factor: 2.0,
+        },
         laser: LaserSetup {
             sensor: 1,
             actuator: 1,
@@ -621,10 +664,16 @@ fn setup_with_a_lidar_on_a_servo_golden() {
         8,
         &Message::Setup(setup),
         "04 03 87 08 02 01 01 01 01 01 05 cd cc cc 3d 01 01 01 06 cd cc cc 3e 02 01 01 01 01 01 \
-         06 3f 0a d7 a3 3d 01 01 01 01 01 01 01 03 01 01 01 01 01 01 01 03 20 c1 01 03 f0 41 01 \
-         03 70 42 01 07 c8 41 cf 61 7a 01 00",
+         06 3f 0a d7 a3 3d 01 01 01 01 01 01 01 02 01 04 5a ba 3e 04 c0 75 3c 04 e0 a3 3c 01 03 \
+         ac 3a 01 01 04 40 01 01 01 01 01 01 01 03 20 c1 01 03 f0 41 01 03 70 42 01 07 c8 41 e1 \
+         c5 2a 94 00",
     );
-    assert_eq!(SETUP_LASER_LEN, 22);
+    // The rule block is the library's default plane rule, bit for bit.
+    assert_eq!(
+        setup.rule,
+        crate::link::convert::rule_setup(&crate::classify::NavigabilityRule::DEFAULT)
+    );
+    assert_eq!((SETUP_RULE_LEN, SETUP_LASER_LEN), (21, 22));
 }
 
 /// A version-2 frame (the Ping of version 2's worked example, whose CRC is good) is refused

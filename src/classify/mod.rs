@@ -1,13 +1,15 @@
 //! The navigability classifier: one observation's points → per-layer cell evidence.
 //!
 //! For each layer cell that the points of one observation touch (a whole sweep, or N scan
-//! lines: the caller decides by when it calls [`Classifier::finish`]), after Ferguson et al.
-//! as the paper summarises it:
+//! lines: the caller decides by when it calls [`Classifier::finish`]):
 //! - the **ground** is the lowest point in the cell;
 //! - points higher than ground + **robot height** are **overhang** the robot passes under,
 //!   and are ignored;
-//! - the cell is **not navigable** when the remaining points spread over more than the
-//!   **step threshold**, navigable otherwise.
+//! - the remaining points are judged by the [`NavigabilityRule`] in force
+//!   ([`ClassifierConfig::rule`], module [`rule`]): by default a least-squares plane per cell
+//!   (not navigable when the points stray from their plane, or the plane is steeper than the
+//!   robot can drive); or the paper's rule after Ferguson et al.: not navigable when the points
+//!   spread over more than the **step threshold**.
 //!
 //! A point joins the cell of every layer whose gate gives it a non-zero increment at the
 //! point's horizontal distance from the sensor, so with the hard gate each point feeds exactly
@@ -29,10 +31,11 @@
 //!   ([`Classifier::add_missing_ground`]); the caller decides when a beam qualifies.
 //!
 //! # Bounded scratch
-//! The touched cells live in an open-addressing table of `C` slots (a power of two, 20 bytes
-//! each). A point that finds the table full is dropped and
+//! The touched cells live in an open-addressing table of `C` slots (a power of two, 48 bytes
+//! each: 16 for the key, the closest look and the lowest and highest z, 32 for the plane rule's
+//! sums). A point that finds the table full is dropped and
 //! counted in [`ClassifierStats::overflow_points`]; nothing panics. One 361-beam line touches
-//! at most 361 cells per layer it feeds (2 to 4 with the default soft gate); 1024 slots (22 KiB)
+//! at most 361 cells per layer it feeds (2 to 4 with the default soft gate); 1024 slots (48 KiB)
 //! hold a line with room to spare, a whole 3-D sweep needs a window's worth.
 //!
 //! # The incremental rule
@@ -47,6 +50,11 @@ use crate::gate::Gates;
 use crate::logodds::Increments;
 use crate::pyramid::{Evidence, EvidenceClass, Pyramid};
 use crate::units::{Meters, Point3};
+
+pub mod rule;
+
+use rule::{CellGeometry, PlaneParams, PlaneState};
+pub use rule::{NavigabilityRule, PlaneRule, Ratio};
 
 /// The default step threshold, 0.05 m, evaluated at compile time (`fixed`'s `lit` parses a
 /// string: in a non-const context it would run, and weigh 11 KB of code, on the device).
@@ -66,16 +74,27 @@ pub struct ClassifierConfig {
     /// cell holds (a roof or a ceiling seen where the floor under it was not); `None` (the
     /// default, the paper's rule) judges overhang only against the cell's own lowest point.
     pub ceiling: Option<Meters>,
+    /// How a cell's points below the overhang cut are judged. Default
+    /// [`NavigabilityRule::Plane`] with [`PlaneRule::DEFAULT`]; [`NavigabilityRule::Spread`]
+    /// is the paper's rule.
+    pub rule: NavigabilityRule,
+}
+
+impl ClassifierConfig {
+    /// The defaults (`const`): robot height 1.0 m, step threshold 0.05 m, no drop-off check, no
+    /// ceiling, the plane rule.
+    pub const DEFAULT: Self = Self {
+        robot_height: Meters::ONE,
+        step_threshold: DEFAULT_STEP_THRESHOLD,
+        drop_threshold: None,
+        ceiling: None,
+        rule: NavigabilityRule::DEFAULT,
+    };
 }
 
 impl Default for ClassifierConfig {
     fn default() -> Self {
-        Self {
-            robot_height: Meters::ONE,
-            step_threshold: DEFAULT_STEP_THRESHOLD,
-            drop_threshold: None,
-            ceiling: None,
-        }
+        Self::DEFAULT
     }
 }
 
@@ -84,9 +103,10 @@ impl defmt::Format for ClassifierConfig {
     fn format(&self, f: defmt::Formatter<'_>) {
         defmt::write!(
             f,
-            "ClassifierConfig {{ robot_height: {=i32}, step_threshold: {=i32} }} (raw Q16.16)",
+            "ClassifierConfig {{ robot_height: {=i32}, step_threshold: {=i32} }} (raw Q16.16), rule {}",
             self.robot_height.to_bits(),
-            self.step_threshold.to_bits()
+            self.step_threshold.to_bits(),
+            self.rule
         );
     }
 }
@@ -120,9 +140,15 @@ const RECENT_LAYERS: usize = 8;
 /// a fresh classifier) is all zero bits.
 const EMPTY: u8 = 0;
 
-/// One touched layer cell of the current observation. 20 bytes.
+/// The layers whose cell reciprocal the classifier caches for the plane rule's position in the
+/// cell (layers 32 and up, in pyramids of more than 32 layers, compute it per point).
+const RULE_LAYERS: usize = 32;
+
+/// One touched layer cell of the current observation. 48 bytes.
 #[derive(Debug, Clone, Copy)]
 struct Slot {
+    /// The plane rule's sums (kept only while the plane rule is in force).
+    plane: PlaneState,
     cell_x: i32,
     cell_y: i32,
     /// The gate bin of the smallest horizontal distance of the cell's points from the sensor.
@@ -139,6 +165,7 @@ struct Slot {
 
 impl Slot {
     const VACANT: Self = Self {
+        plane: PlaneState::EMPTY,
         cell_x: 0,
         cell_y: 0,
         bin: 0,
@@ -174,6 +201,14 @@ pub struct Classifier<const C: usize, const L: usize> {
     /// Robot height and step threshold in millimetres, saturated to `i16`.
     robot_height_mm: i16,
     step_mm: i16,
+    /// The plane rule's parameters in its units, and whether it is in force.
+    plane: Option<PlaneParams>,
+    /// For layers 8 up to [`RULE_LAYERS`], the cell size (raw) of its last point and its
+    /// reciprocal ([`crate::grid::cell_reciprocal`]; the first eight keep theirs in
+    /// `reciprocals`, layers beyond compute it per point).
+    layer_cells: [(i32, u32); RULE_LAYERS],
+    /// The robot's ground plane as of the last point (raw Q16.16).
+    ground_z: i32,
     stats: ClassifierStats,
 }
 
@@ -225,14 +260,14 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
     #[must_use]
     pub const fn new() -> Self {
         let mut classifier = Self::unconfigured();
-        classifier.config = ClassifierConfig {
-            robot_height: Meters::ONE,
-            step_threshold: DEFAULT_STEP_THRESHOLD,
-            drop_threshold: None,
-            ceiling: None,
-        };
+        classifier.config = ClassifierConfig::DEFAULT;
         classifier.robot_height_mm = 1000;
         classifier.step_mm = 50;
+        // The default rule's parameters (PlaneParams::DEFAULT is PlaneRule::DEFAULT's).
+        classifier.plane = match ClassifierConfig::DEFAULT.rule {
+            NavigabilityRule::Spread => None,
+            NavigabilityRule::Plane(_) => Some(PlaneParams::DEFAULT),
+        };
         classifier
     }
 
@@ -254,10 +289,14 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
                 step_threshold: Meters::ZERO,
                 drop_threshold: None,
                 ceiling: None,
+                rule: NavigabilityRule::Spread,
             },
             reference_z: 0,
             robot_height_mm: 0,
             step_mm: 0,
+            plane: None,
+            layer_cells: [(0, 0); RULE_LAYERS],
+            ground_z: 0,
             stats: ClassifierStats {
                 points: 0,
                 points_used: 0,
@@ -277,6 +316,10 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
         self.config = config;
         self.robot_height_mm = mm_i16(config.robot_height.to_bits()).max(0);
         self.step_mm = mm_i16(config.step_threshold.to_bits()).max(0);
+        self.plane = match config.rule {
+            NavigabilityRule::Spread => None,
+            NavigabilityRule::Plane(rule) => Some(PlaneParams::new(&rule, config.step_threshold)),
+        };
         self.discard();
     }
 
@@ -366,6 +409,7 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
     #[inline]
     fn add_point_in_bin(&mut self, point: Point3, bin: usize, ground_z: Meters) {
         self.stats.points = self.stats.points.saturating_add(1);
+        self.ground_z = ground_z.to_bits();
         if let Some(ceiling) = self.config.ceiling {
             if point.z > ground_z.saturating_add(ceiling) {
                 self.stats.overhang_points = self.stats.overhang_points.saturating_add(1);
@@ -411,9 +455,9 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
                 let gate = self.gates.tables().get(usize::from(k));
                 if let (Some(r), Some(gate)) = (self.gates.resolution(usize::from(k)), gate) {
                     if gate.weight(bin) >= min_weight {
-                        let (cx, cy) = self.cell_of(usize::from(k), r, point);
+                        let (cx, cy, sub) = self.cell_of(usize::from(k), r, point);
                         // Stored as k + 1 (0 marks an empty slot); k < 8.
-                        fed |= self.feed_cell(k + 1, cx, cy, bin_index, z, hole);
+                        fed |= self.feed_cell(k + 1, cx, cy, sub, bin_index, z, hole);
                     }
                 }
             }
@@ -445,70 +489,125 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
             let Ok(layer_index) = u8::try_from(k + 1) else {
                 break;
             };
-            fed |= self.feed_layer(layer_index, r, point, bin_index, z, hole);
+            let bits = r.to_bits();
+            let reciprocal = match self.layer_cells.get_mut(k) {
+                Some(cell) => {
+                    if cell.0 != bits || cell.1 == 0 {
+                        *cell = (bits, crate::grid::cell_reciprocal(bits));
+                    }
+                    cell.1
+                }
+                None => crate::grid::cell_reciprocal(bits),
+            };
+            fed |= self.feed_layer(layer_index, r, reciprocal, point, bin_index, z, hole);
         }
         fed
     }
 
-    /// The cell of `point` in layer `k` (< [`RECENT_LAYERS`]) of cell size `r`: a hardware
-    /// division where the target has one (ARMv7-M, told apart from ARMv6-M by its atomic
-    /// compare-and-swap: stable Rust has no `cfg` for the divide instruction), a
-    /// multiplication by the cached reciprocal elsewhere (Cortex-M0, the host). Both are
-    /// exactly `r.cell_of`.
+    /// The cell of `point` in layer `k` (< [`RECENT_LAYERS`]) of cell size `r`, and (while the
+    /// plane rule is in force) the point's position in it ([`rule::sub_cell`]): the cell by a
+    /// hardware division where the target has one (ARMv7-M, told apart from ARMv6-M by its
+    /// atomic compare-and-swap: stable Rust has no `cfg` for the divide instruction), a
+    /// multiplication by the cached reciprocal elsewhere (Cortex-M0, the host); both are exactly
+    /// `r.cell_of`. The position is a multiplication by the reciprocal on every target.
     #[inline]
-    fn cell_of(&mut self, k: usize, r: crate::grid::Resolution, point: Point3) -> (i32, i32) {
-        if cfg!(all(target_arch = "arm", target_has_atomic = "32")) {
-            return (r.cell_of(point.x), r.cell_of(point.y));
-        }
+    fn cell_of(
+        &mut self,
+        k: usize,
+        r: crate::grid::Resolution,
+        point: Point3,
+    ) -> (i32, i32, (i8, i8)) {
         let bits = r.to_bits();
+        let plane = self.plane.is_some();
+        if cfg!(all(target_arch = "arm", target_has_atomic = "32")) && !plane {
+            return (r.cell_of(point.x), r.cell_of(point.y), (0, 0));
+        }
         let Some(entry) = self.reciprocals.get_mut(k) else {
-            return (r.cell_of(point.x), r.cell_of(point.y));
+            return Self::locate(r, crate::grid::cell_reciprocal(bits), point, plane);
         };
         if entry.0 != bits {
             *entry = (bits, crate::grid::cell_reciprocal(bits));
         }
         let m = entry.1;
+        let (cx, cy) = if cfg!(all(target_arch = "arm", target_has_atomic = "32")) {
+            (r.cell_of(point.x), r.cell_of(point.y))
+        } else {
+            (
+                crate::grid::cell_of_reciprocal(point.x.to_bits(), bits, m),
+                crate::grid::cell_of_reciprocal(point.y.to_bits(), bits, m),
+            )
+        };
+        if !plane {
+            return (cx, cy, (0, 0));
+        }
+        let rem = |v: Meters, c: i32| i64::from(v.to_bits()) - i64::from(c) * i64::from(bits);
         (
-            crate::grid::cell_of_reciprocal(point.x.to_bits(), bits, m),
-            crate::grid::cell_of_reciprocal(point.y.to_bits(), bits, m),
+            cx,
+            cy,
+            (
+                rule::sub_cell(rem(point.x, cx), m),
+                rule::sub_cell(rem(point.y, cy), m),
+            ),
+        )
+    }
+
+    /// [`Classifier::cell_of`] for layers 8 and up: the cell by `r.cell_of`, the position
+    /// (when `plane`) by the layer's reciprocal `m`.
+    fn locate(
+        r: crate::grid::Resolution,
+        m: u32,
+        point: Point3,
+        plane: bool,
+    ) -> (i32, i32, (i8, i8)) {
+        let (cx, cy) = (r.cell_of(point.x), r.cell_of(point.y));
+        if !plane {
+            return (cx, cy, (0, 0));
+        }
+        let bits = r.to_bits();
+        let rem = |v: Meters, c: i32| i64::from(v.to_bits()) - i64::from(c) * i64::from(bits);
+        (
+            cx,
+            cy,
+            (
+                rule::sub_cell(rem(point.x, cx), m),
+                rule::sub_cell(rem(point.y, cy), m),
+            ),
         )
     }
 
     /// Adds a point to its cell of one layer (stored as `layer_index` = k + 1); `false` when
     /// the table is full (counted).
     #[inline]
+    #[allow(clippy::too_many_arguments)]
     fn feed_layer(
         &mut self,
         layer_index: u8,
         r: crate::grid::Resolution,
+        reciprocal: u32,
         point: Point3,
         bin: u16,
         z: i16,
         hole: bool,
     ) -> bool {
-        self.feed_cell(
-            layer_index,
-            r.cell_of(point.x),
-            r.cell_of(point.y),
-            bin,
-            z,
-            hole,
-        )
+        let (cx, cy, sub) = Self::locate(r, reciprocal, point, self.plane.is_some());
+        self.feed_cell(layer_index, cx, cy, sub, bin, z, hole)
     }
 
     /// Adds a point to cell `(cx, cy)` of one layer (stored as `layer_index` = k + 1); `false`
     /// when the table is full (counted).
     #[inline]
+    #[allow(clippy::too_many_arguments)]
     fn feed_cell(
         &mut self,
         layer_index: u8,
         cx: i32,
         cy: i32,
+        sub: (i8, i8),
         bin: u16,
         z: i16,
         hole: bool,
     ) -> bool {
-        if self.accumulate(layer_index, cx, cy, bin, z, hole) {
+        if self.accumulate(layer_index, cx, cy, sub, bin, z, hole) {
             true
         } else {
             self.stats.overflow_points = self.stats.overflow_points.saturating_add(1);
@@ -516,15 +615,27 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
         }
     }
 
-    /// Folds one point into the slot of `(layer, cx, cy)`; `false` when the table is full.
+    /// Folds one point (at `sub` in its cell, [`rule::sub_cell`]) into the slot of
+    /// `(layer, cx, cy)`; `false` when the table is full.
     #[inline]
-    fn accumulate(&mut self, layer: u8, cx: i32, cy: i32, bin: u16, z: i16, hole: bool) -> bool {
+    #[allow(clippy::too_many_arguments)]
+    fn accumulate(
+        &mut self,
+        layer: u8,
+        cx: i32,
+        cy: i32,
+        sub: (i8, i8),
+        bin: u16,
+        z: i16,
+        hole: bool,
+    ) -> bool {
+        let plane = self.plane.is_some();
         // The layer's last slot first (layer ≥ 1: entry layer − 1).
         let recent = usize::from(layer).wrapping_sub(1);
         if let Some(&last) = self.recent.get(recent) {
             if let Some(slot) = self.slots.get_mut(usize::from(last)) {
                 if slot.layer == layer && slot.cell_x == cx && slot.cell_y == cy {
-                    fold(slot, z, bin, hole, self.robot_height_mm);
+                    fold(slot, z, sub, bin, hole, self.robot_height_mm, plane);
                     return true;
                 }
             }
@@ -540,6 +651,11 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
                 }
                 self.used += 1;
                 *slot = Slot {
+                    plane: if plane {
+                        PlaneState::first(sub.0, sub.1, z)
+                    } else {
+                        PlaneState::EMPTY
+                    },
                     cell_x: cx,
                     cell_y: cy,
                     bin,
@@ -552,7 +668,7 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
                 return true;
             }
             if slot.layer == layer && slot.cell_x == cx && slot.cell_y == cy {
-                fold(slot, z, bin, hole, self.robot_height_mm);
+                fold(slot, z, sub, bin, hole, self.robot_height_mm, plane);
                 self.remember(recent, index);
                 return true;
             }
@@ -583,8 +699,30 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
                 if slot.layer == EMPTY {
                     continue;
                 }
+                let distance = self.gates.distance_bins().lower_edge(usize::from(slot.bin));
                 let spread = i32::from(slot.z_high) - i32::from(slot.z_low);
-                let class = if slot.hole || spread > i32::from(self.step_mm) {
+                let layer = slot.layer.saturating_sub(1);
+                let cell = self
+                    .gates
+                    .resolution(usize::from(layer))
+                    .map(crate::grid::Resolution::to_bits);
+                let obstacle = slot.hole
+                    || match (&self.plane, cell) {
+                        (Some(params), _) if params.flat_enough(spread) => false,
+                        (Some(params), Some(cell)) => rule::plane_obstacle(
+                            &slot.plane,
+                            params,
+                            &CellGeometry {
+                                cell,
+                                sensor_height_mm: i32::from(mm_i16(
+                                    self.reference_z.saturating_sub(self.ground_z),
+                                )),
+                                distance,
+                            },
+                        ),
+                        _ => spread > i32::from(self.step_mm),
+                    };
+                let class = if obstacle {
                     EvidenceClass::Obstacle
                 } else {
                     EvidenceClass::Navigable
@@ -619,24 +757,44 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
     }
 }
 
-/// Folds a point (z mm, distance bin) into a used slot under the overhang rule.
+/// Folds a point (z mm, position `sub` in the cell, distance bin) into a used slot under the
+/// overhang rule; with `plane`, into the plane rule's sums too when it lies below the cut.
 #[inline]
-fn fold(slot: &mut Slot, z: i16, bin: u16, hole: bool, robot_height_mm: i16) {
+fn fold(
+    slot: &mut Slot,
+    z: i16,
+    sub: (i8, i8),
+    bin: u16,
+    hole: bool,
+    robot_height_mm: i16,
+    plane: bool,
+) {
     slot.bin = slot.bin.min(bin);
     slot.hole |= hole;
     if z < slot.z_low {
         let cut = i32::from(z) + i32::from(robot_height_mm);
         if i32::from(slot.z_high) > cut {
             // The stored highest is overhang now; the best bound still known below the cut.
-            slot.z_high = if i32::from(slot.z_low) <= cut {
-                slot.z_low
-            } else {
-                z
-            };
+            let low_stays = i32::from(slot.z_low) <= cut;
+            slot.z_high = if low_stays { slot.z_low } else { z };
+            if plane {
+                // Summed points lie above the cut now: the sums restart from this point and,
+                // when still below the cut, the previous lowest (where this point is: its
+                // position was not kept).
+                slot.plane = PlaneState::first(sub.0, sub.1, z);
+                if low_stays {
+                    slot.plane.add(sub.0, sub.1, slot.z_low);
+                }
+            }
+        } else if plane {
+            slot.plane.add(sub.0, sub.1, z);
         }
         slot.z_low = z;
     } else if i32::from(z) <= i32::from(slot.z_low) + i32::from(robot_height_mm) {
         slot.z_high = slot.z_high.max(z);
+        if plane {
+            slot.plane.add(sub.0, sub.1, z);
+        }
     }
 }
 
@@ -778,14 +936,53 @@ mod tests {
     }
 
     #[test]
+    fn a_slot_is_48_bytes() {
+        assert_eq!(core::mem::size_of::<PlaneState>(), 32);
+        assert_eq!(core::mem::size_of::<Slot>(), 48);
+    }
+
+    #[test]
+    fn the_paper_rule_stays_available() {
+        let d = Meters::from_num(0.3);
+        // A plane rising 6 cm across the cell's 0.1 m (31°), four points at its corners.
+        let cell = [
+            pt(0.301, 0.01, 0.00),
+            pt(0.399, 0.01, 0.06),
+            pt(0.301, 0.09, 0.00),
+            pt(0.399, 0.09, 0.06),
+        ];
+        let mut c = classifier::<256>(GateShape::Hard);
+        let classify = |c: &mut Classifier<256, 8>| {
+            c.begin(Meters::ZERO);
+            for q in cell {
+                c.add_point(q, d, Meters::ZERO);
+            }
+            records(c)[0].class
+        };
+        // The plane rule weighs the plane's rise over the points' extent D = √12·s = 0.17 m
+        // (10.4 cm) against the step and the largest slope over D (5 + 6.2 cm): navigable.
+        assert_eq!(classify(&mut c), EvidenceClass::Navigable);
+        // The paper's rule: a spread of 6 cm, over the 5 cm step threshold.
+        c.configure(ClassifierConfig {
+            rule: NavigabilityRule::Spread,
+            ..ClassifierConfig::default()
+        });
+        assert_eq!(classify(&mut c), EvidenceClass::Obstacle);
+    }
+
+    #[test]
     fn new_is_the_default_configuration() {
         let fresh = Classifier::<8, 8>::new();
         let mut configured = Classifier::<8, 8>::unconfigured();
         configured.configure(ClassifierConfig::default());
         assert_eq!(fresh.config(), configured.config());
         assert_eq!(
-            (fresh.robot_height_mm, fresh.step_mm),
-            (configured.robot_height_mm, configured.step_mm)
+            (fresh.robot_height_mm, fresh.step_mm, fresh.plane),
+            (
+                configured.robot_height_mm,
+                configured.step_mm,
+                configured.plane
+            )
         );
     }
 
@@ -826,45 +1023,111 @@ mod tests {
 
     #[test]
     fn drop_offs_and_missing_ground_are_obstacles_when_enabled() {
-        let mut c = classifier::<256>(GateShape::Hard);
         let d = Meters::from_num(0.3);
-        c.begin(Meters::ZERO);
-        c.add_point(pt(0.35, 0.05, -0.5), d, Meters::ZERO);
-        assert_eq!(records(&mut c)[0].class, EvidenceClass::Navigable);
-        c.configure(ClassifierConfig {
-            drop_threshold: Some(Meters::from_num(0.3)),
-            ..ClassifierConfig::default()
-        });
-        c.begin(Meters::ZERO);
-        c.add_point(pt(0.35, 0.05, -0.5), d, Meters::ZERO);
-        c.add_missing_ground(pt(0.15, 0.05, 0.0), d);
-        let r = records(&mut c);
-        assert!(r.iter().all(|e| e.class == EvidenceClass::Obstacle));
-        assert_eq!(r.len(), 2);
-        assert_eq!(c.stats().drop_points, 1);
+        for rule in [NavigabilityRule::DEFAULT, NavigabilityRule::Spread] {
+            let mut c = classifier::<256>(GateShape::Hard);
+            c.configure(ClassifierConfig {
+                rule,
+                ..ClassifierConfig::default()
+            });
+            // A flat patch of ground 0.5 m below the robot's ground plane, and no return where
+            // the ground should have been next to it.
+            let patch = [
+                pt(0.31, 0.01, -0.5),
+                pt(0.39, 0.01, -0.5),
+                pt(0.31, 0.09, -0.5),
+                pt(0.39, 0.09, -0.5),
+            ];
+            c.begin(Meters::ZERO);
+            for q in patch {
+                c.add_point(q, d, Meters::ZERO);
+            }
+            assert_eq!(records(&mut c)[0].class, EvidenceClass::Navigable);
+            c.configure(ClassifierConfig {
+                drop_threshold: Some(Meters::from_num(0.3)),
+                rule,
+                ..ClassifierConfig::default()
+            });
+            c.begin(Meters::ZERO);
+            for q in patch {
+                c.add_point(q, d, Meters::ZERO);
+            }
+            c.add_missing_ground(pt(0.15, 0.05, 0.0), d);
+            let r = records(&mut c);
+            assert!(
+                r.iter().all(|e| e.class == EvidenceClass::Obstacle),
+                "{rule:?}"
+            );
+            assert_eq!(r.len(), 2);
+            assert_eq!(c.stats().drop_points, 4);
+        }
     }
 
     #[test]
     fn a_ceiling_cut_drops_roof_points_before_any_cell_sees_them() {
-        let mut c = classifier::<256>(GateShape::Hard);
         let d = Meters::from_num(0.3);
         // A cell that saw only an uneven roof, 2.0 to 2.2 m above the robot's ground.
         let roof = [pt(0.35, 0.05, 2.0), pt(0.36, 0.05, 2.2)];
+        for rule in [NavigabilityRule::DEFAULT, NavigabilityRule::Spread] {
+            let mut c = classifier::<256>(GateShape::Hard);
+            c.configure(ClassifierConfig {
+                rule,
+                ..ClassifierConfig::default()
+            });
+            c.begin(Meters::ZERO);
+            for r in roof {
+                c.add_point(r, d, Meters::ZERO);
+            }
+            assert_eq!(
+                records(&mut c)[0].class,
+                EvidenceClass::Obstacle,
+                "{rule:?}"
+            );
+            c.configure(ClassifierConfig {
+                ceiling: Some(Meters::from_num(1.5)),
+                rule,
+                ..ClassifierConfig::default()
+            });
+            c.begin(Meters::ZERO);
+            for r in roof {
+                c.add_point(r, d, Meters::ZERO);
+            }
+            assert!(records(&mut c).is_empty());
+            assert_eq!(c.stats().overhang_points, 2);
+        }
+    }
+
+    #[test]
+    fn a_new_lowest_point_keeps_the_best_bound_in_the_plane_sums() {
+        let d = Meters::from_num(0.3);
+        let mut c = classifier::<256>(GateShape::Hard);
+        let ground = [
+            pt(0.31, 0.01, 0.0),
+            pt(0.39, 0.01, 0.0),
+            pt(0.31, 0.09, 0.0),
+            pt(0.39, 0.09, 0.0),
+        ];
+        // A branch over flat ground, in either order: navigable.
+        let branch = [pt(0.33, 0.04, 1.6), pt(0.37, 0.06, 1.7)];
+        for order in [[&ground[..], &branch[..]], [&branch[..], &ground[..]]] {
+            c.begin(Meters::ZERO);
+            for q in order.concat() {
+                c.add_point(q, d, Meters::ZERO);
+            }
+            assert_eq!(records(&mut c)[0].class, EvidenceClass::Navigable);
+        }
+        // A 0.3 m block top seen before a lower point moves the cut below a roof point: the
+        // sums restart with the lowest and the block's top (the best bound below the new cut).
+        let cell = [
+            pt(0.33, 0.04, 0.3),
+            pt(0.35, 0.05, 1.25),
+            pt(0.37, 0.06, 0.0),
+        ];
         c.begin(Meters::ZERO);
-        for r in roof {
-            c.add_point(r, d, Meters::ZERO);
+        for q in cell {
+            c.add_point(q, d, Meters::ZERO);
         }
         assert_eq!(records(&mut c)[0].class, EvidenceClass::Obstacle);
-        c.configure(ClassifierConfig {
-            ceiling: Some(Meters::from_num(1.5)),
-            ..ClassifierConfig::default()
-        });
-        c.begin(Meters::ZERO);
-        for r in roof {
-            c.add_point(r, d, Meters::ZERO);
-        }
-        assert!(records(&mut c).is_empty());
-        assert_eq!(c.stats().overhang_points, 2);
     }
 
     #[test]

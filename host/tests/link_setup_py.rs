@@ -1,0 +1,228 @@
+//! The link's Setup frame (protocol version 3, with its navigability rule block) against an
+//! independent encoder written from `docs/protocol.md` alone: `host/tests/py/link_setup.py`
+//! (Python's `struct`, `zlib.crc32` and a COBS of its own). Every field is given to both in
+//! wire order; the frames must be equal byte for byte, and the library must decode Python's
+//! frame back to the same Setup.
+use std::process::Command;
+use terrain_pyramid::classify::ClassifierConfig;
+use terrain_pyramid::classify::{NavigabilityRule, PlaneRule, Ratio};
+use terrain_pyramid::link::convert::{frontend_config, rule_setup, set_rule_message, set_rule_of};
+use terrain_pyramid::wire::link::{
+    encode, Decoded, FrameAccumulator, LaserSetup, Message, RuleSetup, SetRule, Setup,
+    MAX_ENCODED_FRAME, MAX_FRAME,
+};
+use terrain_pyramid::wire::FeedResult;
+use terrain_pyramid::Meters;
+
+const SCRIPT: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/py/link_setup.py");
+
+/// Python's frame of `setup` as sequence number `seq`.
+fn python_frame(seq: u16, s: &Setup) -> Vec<u8> {
+    // f32's Display is the shortest decimal that reads back as the same f32.
+    let mut args: Vec<String> = vec![seq.to_string()];
+    args.extend([
+        s.mount.to_string(),
+        s.measuring_mode.to_string(),
+        s.field_deg.to_string(),
+        s.resolution_cdeg.to_string(),
+    ]);
+    args.extend(s.sensor_m.iter().map(f32::to_string));
+    args.push(s.lines_per_observation.to_string());
+    args.extend(
+        [
+            s.robot_height_m,
+            s.step_threshold_m,
+            s.drop_threshold_m,
+            s.ceiling_m,
+        ]
+        .iter()
+        .map(f32::to_string),
+    );
+    args.push(s.rule.rule.to_string());
+    args.extend(
+        [
+            s.rule.max_grade,
+            s.rule.residual_m,
+            s.rule.range_sigma_m,
+            s.rule.angle_sigma_rad,
+            s.rule.noise_factor,
+        ]
+        .iter()
+        .map(f32::to_string),
+    );
+    let l = &s.laser;
+    args.extend([
+        l.sensor.to_string(),
+        l.actuator.to_string(),
+        l.baud.to_string(),
+    ]);
+    args.extend(
+        [
+            l.servo_min_deg,
+            l.servo_max_deg,
+            l.servo_rate_deg_s,
+            l.servo_latency_ms,
+        ]
+        .iter()
+        .map(f32::to_string),
+    );
+    let out = Command::new("python3")
+        .arg(SCRIPT)
+        .args(&args)
+        .output()
+        .expect("python3 runs (the independent encoder needs only its standard library)");
+    assert!(
+        out.status.success(),
+        "{SCRIPT} failed: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8(out.stdout)
+        .unwrap()
+        .split_whitespace()
+        .map(|b| u8::from_str_radix(b, 16).unwrap())
+        .collect()
+}
+
+/// Python's SetRule frame.
+fn python_set_rule(seq: u16, s: &SetRule) -> Vec<u8> {
+    let mut args = vec![
+        "setrule".to_string(),
+        seq.to_string(),
+        s.step_threshold_m.to_string(),
+        s.rule.rule.to_string(),
+    ];
+    args.extend(
+        [
+            s.rule.max_grade,
+            s.rule.residual_m,
+            s.rule.range_sigma_m,
+            s.rule.angle_sigma_rad,
+            s.rule.noise_factor,
+        ]
+        .iter()
+        .map(f32::to_string),
+    );
+    let out = Command::new("python3")
+        .arg(SCRIPT)
+        .args(&args)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8(out.stdout)
+        .unwrap()
+        .split_whitespace()
+        .map(|b| u8::from_str_radix(b, 16).unwrap())
+        .collect()
+}
+
+#[test]
+fn set_rule_frames_equal_an_independent_encoder() {
+    let custom = NavigabilityRule::Plane(PlaneRule {
+        max_grade: Ratio::from_num(0.25),
+        residual: Meters::from_num(0.02),
+        range_sigma: Meters::from_num(0.04),
+        angle_sigma: Ratio::from_num(0.001),
+        noise_factor: Ratio::from_num(1.5),
+    });
+    for (i, rule) in [NavigabilityRule::Spread, NavigabilityRule::DEFAULT, custom]
+        .into_iter()
+        .enumerate()
+    {
+        let classifier = ClassifierConfig {
+            step_threshold: Meters::from_num(0.03 * (i as f64 + 1.0)),
+            rule,
+            ..ClassifierConfig::DEFAULT
+        };
+        let set = set_rule_message(&classifier);
+        let seq = u16::try_from(i).unwrap() + 40;
+        let mut ours = [0_u8; MAX_ENCODED_FRAME];
+        let n = encode(seq, &Message::SetRule(set), &mut ours).unwrap();
+        assert_eq!(&ours[..n], &python_set_rule(seq, &set)[..], "{set:?}");
+        assert_eq!(
+            set_rule_of(&set).unwrap(),
+            (classifier.step_threshold, classifier.rule)
+        );
+    }
+}
+
+fn base(rule: NavigabilityRule, laser: LaserSetup) -> Setup {
+    Setup {
+        mount: 1,
+        measuring_mode: 0,
+        field_deg: 180,
+        resolution_cdeg: 50,
+        sensor_m: [0.25, -0.5, 0.75],
+        lines_per_observation: 8,
+        robot_height_m: 1.0,
+        step_threshold_m: 0.08,
+        drop_threshold_m: 0.3,
+        ceiling_m: 2.0,
+        rule: rule_setup(&rule),
+        laser,
+    }
+}
+
+#[test]
+fn setup_frames_equal_an_independent_encoder() {
+    let custom = NavigabilityRule::Plane(PlaneRule {
+        max_grade: Ratio::from_num(0.5),
+        residual: Meters::from_num(0.025),
+        range_sigma: Meters::from_num(0.03),
+        angle_sigma: Ratio::from_num(0.0025),
+        noise_factor: Ratio::from_num(2.5),
+    });
+    let servo = LaserSetup {
+        sensor: 1,
+        actuator: 1,
+        baud: 230_400,
+        servo_min_deg: -10.0,
+        servo_max_deg: 30.0,
+        servo_rate_deg_s: 60.0,
+        servo_latency_ms: 25.0,
+    };
+    let mut setups = Vec::new();
+    for rule in [NavigabilityRule::Spread, NavigabilityRule::DEFAULT, custom] {
+        for laser in [LaserSetup::SICK, servo] {
+            setups.push(base(rule, laser));
+        }
+    }
+    // Odd values in every rule field (the wire carries what it is given).
+    setups.push(Setup {
+        rule: RuleSetup {
+            rule: 7,
+            max_grade: -1.5,
+            residual_m: 1e-7,
+            range_sigma_m: 123.456,
+            angle_sigma_rad: f32::MAX,
+            noise_factor: -0.0,
+        },
+        ..base(NavigabilityRule::Spread, servo)
+    });
+    for (i, setup) in setups.iter().enumerate() {
+        let seq = u16::try_from(i).unwrap() * 257;
+        let mut ours = [0_u8; MAX_ENCODED_FRAME];
+        let n = encode(seq, &Message::Setup(*setup), &mut ours).unwrap();
+        let theirs = python_frame(seq, setup);
+        assert_eq!(&ours[..n], &theirs[..], "{setup:?}");
+        let mut acc = FrameAccumulator::<MAX_FRAME>::new();
+        match acc.feed(&theirs) {
+            FeedResult::Item {
+                item: Decoded { header, message },
+                ..
+            } => {
+                assert_eq!((header.version, header.seq), (3, seq));
+                assert_eq!(message, Message::Setup(*setup));
+            }
+            other => panic!("Python's frame did not decode: {other:?}"),
+        }
+    }
+    // The rules the library sends arrive as they were sent.
+    for setup in &setups[..6] {
+        let config = frontend_config(setup).unwrap();
+        assert_eq!(rule_setup(&config.classifier.rule), setup.rule);
+    }
+}

@@ -1,0 +1,684 @@
+//! The navigability rule of one layer cell: its per-slot state, how a point folds into it, and
+//! the decision (`docs/core.md`, "The navigability rule").
+//!
+//! Two rules, chosen by [`NavigabilityRule`] in [`super::ClassifierConfig`]:
+//! - [`NavigabilityRule::Spread`], the paper's: the spread of the points below the overhang
+//!   cut over the step threshold. State: the lowest and highest z (kept by every slot).
+//! - [`NavigabilityRule::Plane`], the default: a least-squares plane per cell from running sums
+//!   of the points below the overhang cut. Not navigable when the points stray from their
+//!   plane by more than a residual allowance, or when the plane rises across the points'
+//!   extent by more than the largest traversable slope and a step allow. The allowances grow
+//!   with the sensor's height noise at the cell's distance,
+//!   `σ_z(d) = √((σ·h/r)² + (σ_a·r)²)`, `r = √(h² + d²)`: the range noise σ along the beam and
+//!   the beam's elevation error σ_a, each seen in the vertical.
+//!
+//! # Fixed point (`PlaneState`, 32 bytes a slot)
+//! Per point: its position in the cell as two 6-bit coordinates `u, v ∈ −32 ..= 31` (units of
+//! the cell's side / 64, from the cell's centre: `⌊64·(x − x_cell)/c⌋ − 32`, by a multiplication
+//! with the layer's cached reciprocal), its height `z − z₀` in millimetres relative to the
+//! slot's first summed point (clamped to ±8191 mm), and the sums n, Σu, Σv, Σuu, Σvv, Σuv, Σz,
+//! Σuz, Σvz, Σzz. No float, no division. When n reaches 62 every sum is halved and from then
+//! on only every 2nd point is summed (then every 4th, …): the sums stay a uniform sample of
+//! the cell's points within their widths (|Σu| ≤ 62·32, Σuu ≤ 62·32², |Σuz| ≤ 62·32·8191,
+//! Σzz ≤ 62·8191² < 2³²). A point is summed when it lies below the overhang cut as it arrives. A new lowest
+//! point that puts summed points above the cut restarts the sums from it and from the previous
+//! lowest when that is still below the cut (the best bound still known, as the spread rule
+//! keeps it; its position was not kept, so it is summed where the new point is).
+//!
+//! Per cell, when the observation finishes, in 128-bit integers: the centred moments, the
+//! ridge-regularised plane `w = (C + λI)⁻¹c` with `λ = 1` (one unit², `(c/64)²`, so points
+//! with no horizontal spread in some direction fit no slope in it), the residual
+//! `r² = C_zz − 2wᵀc + wᵀCw`, the plane's rise over the points' extent `R = √(12·wᵀCw)` and its
+//! gradient `g = |w|`; σ_z from the sensor's height above the robot's ground plane and the
+//! cell's closest look (the lower edge of its gate bin).
+
+use crate::units::Meters;
+use fixed::types::I16F16;
+
+/// A dimensionless ratio (a slope's rise per unit of run, a multiplier): signed Q16.16.
+pub type Ratio = I16F16;
+
+/// tan 20°, the default largest traversable slope (evaluated at compile time).
+const DEFAULT_MAX_GRADE: Ratio = Ratio::lit("0.36397");
+/// The default residual allowance, 1.5 cm.
+const DEFAULT_RESIDUAL: Meters = Meters::lit("0.015");
+/// The default range noise σ, 2 cm.
+const DEFAULT_RANGE_SIGMA: Meters = Meters::lit("0.02");
+/// The default noise factor k, 2.
+const DEFAULT_NOISE_FACTOR: Ratio = Ratio::lit("2");
+/// The default angular noise σ_a, 0.075° in radians.
+const DEFAULT_ANGLE_SIGMA: Ratio = Ratio::lit("0.001309");
+
+/// How a layer cell's points are judged.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum NavigabilityRule {
+    /// The paper's rule: not navigable when the points below the overhang cut spread over
+    /// more than [`super::ClassifierConfig::step_threshold`], whatever the cell's size, the
+    /// slope and the noise.
+    Spread,
+    /// A least-squares plane per cell (the default): not navigable when the points stray from
+    /// it, or when it is steeper than the robot can drive.
+    Plane(PlaneRule),
+}
+
+impl NavigabilityRule {
+    /// The default: [`NavigabilityRule::Plane`] with [`PlaneRule::DEFAULT`].
+    pub const DEFAULT: Self = Self::Plane(PlaneRule::DEFAULT);
+}
+
+impl Default for NavigabilityRule {
+    fn default() -> Self {
+        Self::DEFAULT
+    }
+}
+
+/// The parameters of [`NavigabilityRule::Plane`]. The rise allowance is the classifier's
+/// [`step_threshold`](super::ClassifierConfig::step_threshold).
+///
+/// A cell is not navigable when (d the cell's closest look, h the sensor's height above the
+/// robot's ground plane, `r = √(h² + d²)`,
+/// `σ_z = √((range_sigma·h/r)² + (angle_sigma·r)²)`, `a = noise_factor·σ_z`, n the summed
+/// points):
+/// - the RMS of the points about their plane exceeds `√(residual² + a²)`, or
+/// - the plane rises across the points' extent D by more than `step + D·max_grade +
+///   a·√(12/n)`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct PlaneRule {
+    /// The largest traversable slope as its grade (rise per unit of run, the tangent of its
+    /// angle), ≥ 0. Default tan 20° = 0.364.
+    pub max_grade: Ratio,
+    /// The RMS by which a navigable cell's points may stray from their plane on top of the
+    /// noise, metres, ≥ 0 (texture: grass, gravel, cobbles). Default 0.015 m.
+    pub residual: Meters,
+    /// The standard deviation of the sensor's range noise, metres, ≥ 0. Default 0.02 m.
+    pub range_sigma: Meters,
+    /// The standard deviation of a beam's elevation error (its calibration), radians, ≥ 0.
+    /// Default 0.001309 (0.075°).
+    pub angle_sigma: Ratio,
+    /// How many σ_z the noise allowance is, ≥ 0. Default 2.
+    pub noise_factor: Ratio,
+}
+
+impl PlaneRule {
+    /// The defaults: 20°, 1.5 cm, σ = 2 cm, σ_a = 0.075°, k = 2 (chosen by measurement,
+    /// `host-tests/examples/terrain_rules.rs`).
+    pub const DEFAULT: Self = Self {
+        max_grade: DEFAULT_MAX_GRADE,
+        residual: DEFAULT_RESIDUAL,
+        range_sigma: DEFAULT_RANGE_SIGMA,
+        angle_sigma: DEFAULT_ANGLE_SIGMA,
+        noise_factor: DEFAULT_NOISE_FACTOR,
+    };
+}
+
+impl Default for PlaneRule {
+    fn default() -> Self {
+        Self::DEFAULT
+    }
+}
+
+#[cfg(feature = "defmt")]
+impl defmt::Format for PlaneRule {
+    fn format(&self, f: defmt::Formatter<'_>) {
+        defmt::write!(
+            f,
+            "PlaneRule {{ max_grade: {=i32}, residual: {=i32}, range_sigma: {=i32}, angle_sigma: {=i32}, noise_factor: {=i32} }} (raw Q16.16)",
+            self.max_grade.to_bits(),
+            self.residual.to_bits(),
+            self.range_sigma.to_bits(),
+            self.angle_sigma.to_bits(),
+            self.noise_factor.to_bits()
+        );
+    }
+}
+
+/// The number of summed points at which the sums are halved.
+const HALVE_AT: u8 = 62;
+/// The largest halving level (every 2¹⁵-th point summed).
+const MAX_LEVEL: u8 = 15;
+/// The largest |z − z₀| summed, millimetres.
+const MAX_DZ: i32 = 8191;
+
+/// The plane rule's running sums of one slot. 32 bytes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(super) struct PlaneState {
+    sz: i32,
+    suz: i32,
+    svz: i32,
+    szz: u32,
+    /// Points offered since the sums (re)started, saturating: the decimation's phase.
+    offered: u16,
+    /// z₀, millimetres relative to the observation's reference height.
+    z0: i16,
+    su: i16,
+    sv: i16,
+    suu: u16,
+    svv: u16,
+    suv: i16,
+    /// Summed points (≤ [`HALVE_AT`]).
+    n: u8,
+    /// Halvings so far: every 2^level-th offered point is summed.
+    level: u8,
+}
+
+impl PlaneState {
+    /// No point.
+    pub(super) const EMPTY: Self = Self {
+        sz: 0,
+        suz: 0,
+        svz: 0,
+        szz: 0,
+        offered: 0,
+        z0: 0,
+        su: 0,
+        sv: 0,
+        suu: 0,
+        svv: 0,
+        suv: 0,
+        n: 0,
+        level: 0,
+    };
+
+    /// Sums of the one point `(u, v, z)`.
+    pub(super) fn first(u: i8, v: i8, z: i16) -> Self {
+        let mut s = Self::EMPTY;
+        s.add(u, v, z);
+        s
+    }
+
+    /// Offers a point below the overhang cut: summed unless the decimation skips it.
+    pub(super) fn add(&mut self, u: i8, v: i8, z: i16) {
+        let phase = self.offered;
+        self.offered = self.offered.saturating_add(1);
+        let mask = (1_u32 << self.level) - 1;
+        if u32::from(phase) & mask != 0 {
+            return;
+        }
+        if self.n == 0 {
+            self.z0 = z;
+        }
+        let dz = (i32::from(z) - i32::from(self.z0)).clamp(-MAX_DZ, MAX_DZ);
+        let (u, v) = (i32::from(u), i32::from(v));
+        // Within the widths by the bounds of the module documentation (n < 62 before this
+        // point); the conversions cannot fail, and saturate if they ever did.
+        self.su = sat16(i32::from(self.su) + u);
+        self.sv = sat16(i32::from(self.sv) + v);
+        self.suu = satu16(i32::from(self.suu) + u * u);
+        self.svv = satu16(i32::from(self.svv) + v * v);
+        self.suv = sat16(i32::from(self.suv) + u * v);
+        self.sz = self.sz.saturating_add(dz);
+        self.suz = self.suz.saturating_add(u * dz);
+        self.svz = self.svz.saturating_add(v * dz);
+        #[allow(clippy::cast_sign_loss)]
+        let dz2 = (dz * dz) as u32;
+        self.szz = self.szz.saturating_add(dz2);
+        self.n += 1;
+        if self.n >= HALVE_AT && self.level < MAX_LEVEL {
+            self.n /= 2;
+            self.su >>= 1;
+            self.sv >>= 1;
+            self.suu >>= 1;
+            self.svv >>= 1;
+            self.suv >>= 1;
+            self.sz >>= 1;
+            self.suz >>= 1;
+            self.svz >>= 1;
+            self.szz >>= 1;
+            self.level += 1;
+            // The next summed point is the 2^level-th from now.
+            self.offered = 0;
+        }
+    }
+
+    /// Summed points.
+    #[cfg(test)]
+    pub(super) const fn count(&self) -> u8 {
+        self.n
+    }
+}
+
+fn sat16(v: i32) -> i16 {
+    i16::try_from(v).unwrap_or(if v < 0 { i16::MIN } else { i16::MAX })
+}
+
+fn satu16(v: i32) -> u16 {
+    u16::try_from(v.max(0)).unwrap_or(u16::MAX)
+}
+
+/// The 6-bit position `⌊64·rem/c⌋ − 32 ∈ −32 ..= 31` of a coordinate whose remainder in its cell
+/// is `rem` (raw Q16.16, `0 ≤ rem < c`), for a cell of `c` raw with reciprocal
+/// `m = ⌊2³²/c⌋` ([`crate::grid::cell_reciprocal`]): `⌊rem·m/2²⁶⌋`, at most one unit below the
+/// exact value.
+#[inline]
+pub(super) fn sub_cell(rem: i64, reciprocal: u32) -> i8 {
+    #[allow(clippy::cast_sign_loss)]
+    let rem = rem.clamp(0, i64::from(u32::MAX)) as u64;
+    let q = (rem * u64::from(reciprocal)) >> 26;
+    // q ≤ 63 for rem < c; clamp for safety.
+    #[allow(clippy::cast_possible_truncation)]
+    let q = q.min(63) as i8;
+    q - 32
+}
+
+/// The parameters of the plane decision in the units it computes in, from a
+/// [`PlaneRule`] and the step threshold (at `configure`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(super) struct PlaneParams {
+    /// tan of the largest slope, Q16.
+    grade_q16: i64,
+    /// The residual allowance, mm Q16.
+    residual_q16: i64,
+    /// σ, mm Q16.
+    sigma_q16: i64,
+    /// σ_a, radians Q16.
+    angle_q16: i64,
+    /// k, Q16.
+    factor_q16: i64,
+    /// The step allowance, mm Q16.
+    step_q16: i64,
+    /// A spread (highest − lowest summed z) of at most this many mm is navigable without the
+    /// plane: the residual's RMS is at most half the spread and the rise at most √3 times it,
+    /// so both tests fail below `min(2·residual, step/√3)` (less a millimetre of rounding).
+    quick_mm: i32,
+}
+
+/// Metres (raw Q16.16) to millimetres in Q16, `raw·1000`, never negative.
+fn mm_q16(m: Meters) -> i64 {
+    i64::from(m.to_bits()).max(0) * 1000
+}
+
+impl PlaneParams {
+    /// [`PlaneParams::new`] of [`PlaneRule::DEFAULT`] and the default step threshold (0.05 m),
+    /// computed at compile time.
+    pub(super) const DEFAULT: Self = Self {
+        grade_q16: DEFAULT_MAX_GRADE.to_bits() as i64,
+        residual_q16: DEFAULT_RESIDUAL.to_bits() as i64 * 1000,
+        sigma_q16: DEFAULT_RANGE_SIGMA.to_bits() as i64 * 1000,
+        angle_q16: DEFAULT_ANGLE_SIGMA.to_bits() as i64,
+        factor_q16: DEFAULT_NOISE_FACTOR.to_bits() as i64,
+        step_q16: Meters::lit("0.05").to_bits() as i64 * 1000,
+        // min(2·15, ⌊50·1000/1732⌋) − 1 = 27 mm.
+        quick_mm: 27,
+    };
+
+    /// From the rule and the step threshold; negative values are taken as zero.
+    pub(super) fn new(rule: &PlaneRule, step: Meters) -> Self {
+        let residual_q16 = mm_q16(rule.residual);
+        let step_q16 = mm_q16(step);
+        let quick = (2 * residual_q16).min(step_q16 * 1000 / 1732) >> 16;
+        Self {
+            grade_q16: i64::from(rule.max_grade.to_bits()).max(0),
+            residual_q16,
+            sigma_q16: mm_q16(rule.range_sigma),
+            angle_q16: i64::from(rule.angle_sigma.to_bits()).max(0),
+            factor_q16: i64::from(rule.noise_factor.to_bits()).max(0),
+            step_q16,
+            quick_mm: i32::try_from(quick - 1).unwrap_or(i32::MAX).max(-1),
+        }
+    }
+
+    /// Whether a spread of `spread_mm` (the slot's highest − lowest summed z) is navigable
+    /// whatever the plane ([`PlaneParams::quick_mm`]).
+    pub(super) const fn flat_enough(&self, spread_mm: i32) -> bool {
+        spread_mm <= self.quick_mm
+    }
+}
+
+/// The geometry of one cell's judgement.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(super) struct CellGeometry {
+    /// The cell's side, raw Q16.16 metres.
+    pub(super) cell: i32,
+    /// The sensor's height above the robot's ground plane, millimetres.
+    pub(super) sensor_height_mm: i32,
+    /// The cell's closest look, raw Q16.16 metres.
+    pub(super) distance: Meters,
+}
+
+/// `√x` through 64 bits: exact (`⌊√x⌋`) when `x` fits them, else `⌊√(x/4ˢ)⌋·2ˢ` with the
+/// smallest s that makes `x/4ˢ` fit (at most 2ˢ below `⌊√x⌋`, a relative error under 2⁻³¹).
+fn isqrt(x: u128) -> u128 {
+    match u64::try_from(x) {
+        Ok(small) => u128::from(small.isqrt()),
+        Err(_) => {
+            let s = (128 - x.leading_zeros() - 63) / 2;
+            let scaled = u64::try_from(x >> (2 * s)).unwrap_or(u64::MAX);
+            u128::from(scaled.isqrt()) << s
+        }
+    }
+}
+
+/// `⌊√(12/n)·2¹⁶⌋` for n = 0 ..= [`HALVE_AT`] (0 at n = 0), computed at compile time.
+const ROOT_12_OVER_N: [u32; HALVE_AT as usize + 1] = {
+    let mut table = [0_u32; HALVE_AT as usize + 1];
+    let mut n = 1;
+    while n <= HALVE_AT as usize {
+        // ⌊√(12·2³²/n)⌋ by bisection (below 2²²).
+        let x = (12_u64 << 32) / n as u64;
+        let (mut lo, mut hi) = (0_u64, 1_u64 << 22);
+        while hi - lo > 1 {
+            let mid = (lo + hi) / 2;
+            if mid * mid <= x {
+                lo = mid;
+            } else {
+                hi = mid;
+            }
+        }
+        // Evaluated at compile time: an index out of range would fail the build, not panic.
+        #[allow(clippy::cast_possible_truncation, clippy::indexing_slicing)]
+        {
+            table[n] = lo as u32;
+        }
+        n += 1;
+    }
+    table
+};
+
+/// The noise allowance `k·σ_z(d)`, mm Q16.
+fn noise_q16(params: &PlaneParams, geometry: &CellGeometry) -> i64 {
+    let h = i128::from(geometry.sensor_height_mm.max(0));
+    let d = (i128::from(geometry.distance.to_bits()).max(0) * 1000) >> 16;
+    // r = √(h² + d²), mm.
+    #[allow(clippy::cast_sign_loss, clippy::cast_possible_wrap)]
+    let r = isqrt((h * h + d * d) as u128) as i128;
+    // The range noise seen in the vertical, σ·h/r (σ itself at r = 0), and the elevation
+    // error's, σ_a·r; mm Q16. σ·h/r in 64 bits when σ·h fits them (any σ below 32 km).
+    let range = if r == 0 {
+        i128::from(params.sigma_q16)
+    } else {
+        let product = i128::from(params.sigma_q16) * h;
+        match (i64::try_from(product), i64::try_from(r)) {
+            (Ok(p), Ok(r)) => i128::from(p / r),
+            _ => product / r,
+        }
+    };
+    let angle = i128::from(params.angle_q16).saturating_mul(r);
+    #[allow(clippy::cast_sign_loss, clippy::cast_possible_wrap)]
+    let sigma_z = isqrt(
+        range
+            .saturating_mul(range)
+            .saturating_add(angle.saturating_mul(angle)) as u128,
+    ) as i128;
+    ((sigma_z * i128::from(params.factor_q16)) >> 16)
+        .clamp(0, i128::from(i64::MAX))
+        .try_into()
+        .unwrap_or(i64::MAX)
+}
+
+/// `⌊num·2¹⁶/den⌉` towards zero, for `den > 0`: in 64-bit divisions when `num` and `den` fit
+/// 64 bits (always for the plane's sums: |num| < 2⁵⁴, den < 2⁴⁵), as the integer quotient and
+/// the quotient of the remainder times 2¹⁶ (< 2⁶¹); in 128 bits otherwise.
+fn q16_quotient(num: i128, den: i128) -> i128 {
+    match (i64::try_from(num), i64::try_from(den)) {
+        (Ok(n), Ok(d)) if d > 0 && d < (1_i64 << 46) => {
+            let (q, r) = (n / d, n % d);
+            (i128::from(q) << 16) + i128::from((r << 16) / d)
+        }
+        _ => (num << 16) / den,
+    }
+}
+
+/// Whether the plane rule calls the cell of `state` not navigable: four 64-bit divisions
+/// (the plane), one for the noise, four integer square roots (the noise, the gradient, the
+/// rise).
+pub(super) fn plane_obstacle(
+    state: &PlaneState,
+    params: &PlaneParams,
+    geometry: &CellGeometry,
+) -> bool {
+    let n = i128::from(state.n);
+    if n < 2 {
+        return false;
+    }
+    let (su, sv) = (i128::from(state.su), i128::from(state.sv));
+    let sz = i128::from(state.sz);
+    // Centred moments times n² (u, v in units of c/64; z in mm).
+    let cuu = n * i128::from(state.suu) - su * su;
+    let cvv = n * i128::from(state.svv) - sv * sv;
+    let cuv = n * i128::from(state.suv) - su * sv;
+    let cuz = n * i128::from(state.suz) - su * sz;
+    let cvz = n * i128::from(state.svz) - sv * sz;
+    let czz = n * i128::from(state.szz) - sz * sz;
+    let n2 = n * n;
+    // The ridge λ = 1 unit², times n².
+    let (a, b) = (cuu + n2, cvv + n2);
+    let det = a * b - cuv * cuv;
+    if det <= 0 {
+        return false;
+    }
+    // w = (C + λI)⁻¹ c, mm per unit, Q16.
+    let wa = q16_quotient(b * cuz - cuv * cvz, det);
+    let wb = q16_quotient(a * cvz - cuv * cuz, det);
+    // wᵀCw and wᵀc, times n²: Q32 and Q16 mm².
+    let explained = wa * wa * cuu + 2 * wa * wb * cuv + wb * wb * cvv;
+    let wc = wa * cuz + wb * cvz;
+    let residual = (czz << 32) - 2 * (wc << 16) + explained;
+    let noise = i128::from(noise_q16(params, geometry));
+    // Saturating where extreme configurations (σ or k in the thousands) could overflow.
+    let allowed = i128::from(params.residual_q16)
+        .saturating_mul(i128::from(params.residual_q16))
+        .saturating_add(noise.saturating_mul(noise));
+    if residual > allowed.saturating_mul(n2) {
+        return true;
+    }
+    // The gradient G = |w| (mm per unit, Q16), g = 64·G/c: steeper than the largest slope
+    // when 64·G > tan·c (c in mm; both sides mm, Q16).
+    #[allow(clippy::cast_sign_loss, clippy::cast_possible_wrap)]
+    let slope = isqrt((wa * wa + wb * wb) as u128) as i128;
+    let cell_mm_q16 = i128::from(geometry.cell.max(1)) * 1000;
+    let steep = 64 * slope - ((i128::from(params.grade_q16) * cell_mm_q16) >> 16);
+    if steep <= 0 {
+        return false;
+    }
+    // The rise times n, R·n = √(12·wᵀCw·n²) (mm, Q16). R·(g − tan) > g·(step + a·√(12/n)),
+    // times n·c/64: R·n·(64·G − tan·c) > 64·G·n·(step + a·√(12/n)).
+    #[allow(clippy::cast_sign_loss, clippy::cast_possible_wrap)]
+    let rise_n = isqrt((12 * explained.max(0)) as u128) as i128;
+    let root = ROOT_12_OVER_N
+        .get(usize::from(state.n))
+        .map_or(0, |&r| i128::from(r));
+    let allowance = i128::from(params.step_q16).saturating_add(noise.saturating_mul(root) >> 16);
+    rise_n.saturating_mul(steep) > (64 * slope * n).saturating_mul(allowance)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    extern crate std;
+
+    fn geometry(cell_m: f32) -> CellGeometry {
+        CellGeometry {
+            cell: Meters::from_num(cell_m).to_bits(),
+            sensor_height_mm: 1000,
+            distance: Meters::from_num(5),
+        }
+    }
+
+    fn params(sigma: f32) -> PlaneParams {
+        PlaneParams::new(
+            &PlaneRule {
+                range_sigma: Meters::from_num(sigma),
+                angle_sigma: Ratio::ZERO,
+                ..PlaneRule::DEFAULT
+            },
+            Meters::from_num(0.05),
+        )
+    }
+
+    /// The sums of points on a lattice of the cell, height `f(u, v)` mm.
+    fn lattice(f: impl Fn(i32, i32) -> i32) -> PlaneState {
+        let mut s = PlaneState::EMPTY;
+        for i in 0..7 {
+            for j in 0..7 {
+                let (u, v) = (-30 + 10 * i, -30 + 10 * j);
+                s.add(
+                    i8::try_from(u).unwrap(),
+                    i8::try_from(v).unwrap(),
+                    i16::try_from(f(u, v)).unwrap(),
+                );
+            }
+        }
+        s
+    }
+
+    #[test]
+    fn a_slope_below_the_limit_is_navigable_and_a_step_is_not() {
+        // A 1 m cell: a unit is 1/64 m = 15.6 mm.
+        let g = geometry(1.0);
+        let p = params(0.0);
+        // 10°: 2.76 mm per unit.
+        let slope = lattice(|u, v| (f64::from(u + v) * 15.625 * 0.176).round() as i32);
+        assert!(!plane_obstacle(&slope, &p, &g));
+        // 30°: steeper than 20°, rising 0.58 m across the cell.
+        let steep = lattice(|u, _| (f64::from(u) * 15.625 * 0.577).round() as i32);
+        assert!(plane_obstacle(&steep, &p, &g));
+        // A 10 cm step across the middle: RMS 2.4 cm about the best plane.
+        let step = lattice(|u, _| if u > 0 { 100 } else { 0 });
+        assert!(plane_obstacle(&step, &p, &g));
+        // 1 cm of texture: within the residual allowance.
+        let texture = lattice(|u, v| if (u + v) % 20 == 0 { 10 } else { -10 });
+        assert!(!plane_obstacle(&texture, &p, &g));
+    }
+
+    #[test]
+    fn noise_widens_the_allowance() {
+        let g = geometry(1.0);
+        // ±25 mm of alternating "noise": RMS 25 mm, over 1.5 cm.
+        let noisy = lattice(|u, v| if (u / 10 + v / 10) % 2 == 0 { 25 } else { -25 });
+        assert!(plane_obstacle(&noisy, &params(0.0), &g));
+        // σ = 2 cm at 5 m from a sensor 1 m up: σ_z = 3.9 mm; k = 2 → √(15² + 7.8²) = 17 mm.
+        assert!(plane_obstacle(&noisy, &params(0.02), &g));
+        // σ = 10 cm: σ_z = 19.6 mm, allowance √(15² + 39²) = 42 mm.
+        assert!(!plane_obstacle(&noisy, &params(0.10), &g));
+    }
+
+    #[test]
+    fn a_single_point_or_a_vertical_line_of_points() {
+        let g = geometry(0.1);
+        let p = params(0.0);
+        assert!(!plane_obstacle(&PlaneState::first(3, 4, 100), &p, &g));
+        // A post: points at one (u, v), 0 … 300 mm: no slope fits, the residual is the spread.
+        let mut post = PlaneState::EMPTY;
+        for z in 0..30 {
+            post.add(5, 5, z * 10);
+        }
+        assert!(plane_obstacle(&post, &p, &g));
+    }
+
+    #[test]
+    fn halving_keeps_the_sums_within_their_widths_and_the_decision() {
+        let g = geometry(2.0);
+        let p = params(0.0);
+        let mut flat = PlaneState::EMPTY;
+        let mut step = PlaneState::EMPTY;
+        for i in 0..60_000_u32 {
+            let u = i8::try_from((i * 7) % 64).unwrap() - 32;
+            let v = i8::try_from((i * 13) % 64).unwrap() - 32;
+            flat.add(u, v, i16::try_from((i * 31) % 9).unwrap());
+            step.add(u, v, if u > 0 { 8191 } else { -8191 });
+        }
+        assert!(flat.count() < HALVE_AT && flat.level > 5);
+        assert!(!plane_obstacle(&flat, &p, &g));
+        assert!(plane_obstacle(&step, &p, &g));
+        assert!(step.szz <= 62 * 8191 * 8191);
+    }
+
+    #[test]
+    fn the_elevation_error_widens_the_allowance_with_range() {
+        let with_angle = PlaneParams::new(&PlaneRule::DEFAULT, Meters::from_num(0.05));
+        let at = |d: f32| CellGeometry {
+            cell: Meters::from_num(1).to_bits(),
+            sensor_height_mm: 1300,
+            distance: Meters::from_num(d),
+        };
+        // k·σ_z at 3 m: √((20·1.3/3.27)² + (1.309e-3·3270)²) = 9.0 mm, times 2; at 20 m:
+        // √(1.3² + 26.2²) = 26.3 mm, times 2.
+        let mm = |v: i64| v as f64 / 65_536.0;
+        assert!((mm(noise_q16(&with_angle, &at(3.0))) - 18.0).abs() < 0.2);
+        assert!((mm(noise_q16(&with_angle, &at(20.0))) - 52.5).abs() < 0.3);
+    }
+
+    #[test]
+    fn the_quick_bound_is_the_default_and_never_hides_an_obstacle() {
+        assert_eq!(
+            PlaneParams::new(&PlaneRule::DEFAULT, Meters::from_num(0.05)),
+            PlaneParams::DEFAULT
+        );
+        // Cells whose spread is at the bound: no plane through them is an obstacle, whatever
+        // their layout, with no noise allowance at all.
+        let p = params(0.0);
+        let g = geometry(0.1);
+        let top = i16::try_from(p.quick_mm).unwrap();
+        let mut state = 0x9E37_79B9_u32;
+        for _ in 0..2000 {
+            let mut s = PlaneState::EMPTY;
+            for _ in 0..(2 + state % 40) {
+                state ^= state << 13;
+                state ^= state >> 17;
+                state ^= state << 5;
+                let u = i8::try_from(state % 64).unwrap() - 32;
+                let v = i8::try_from((state >> 8) % 64).unwrap() - 32;
+                let z = if (state >> 16).is_multiple_of(2) {
+                    0
+                } else {
+                    top
+                };
+                s.add(u, v, z);
+            }
+            assert!(!plane_obstacle(&s, &p, &g));
+        }
+    }
+
+    #[test]
+    fn the_q16_quotient_is_the_128_bit_one() {
+        let mut state = 0x2545_F491_4F6C_DD1D_u64;
+        let mut next = || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            state
+        };
+        for _ in 0..100_000 {
+            let num = i128::from((next() as i64) >> (next() % 20));
+            let den = i128::from((next() >> (20 + next() % 40)).max(1) as i64);
+            assert_eq!(q16_quotient(num, den), (num << 16) / den, "{num} / {den}");
+        }
+        assert_eq!(
+            q16_quotient(i128::MAX >> 17, 3),
+            (i128::MAX >> 17 << 16) / 3
+        );
+    }
+
+    #[test]
+    fn the_root_table_is_the_square_root_of_12_over_n() {
+        for (n, &root) in ROOT_12_OVER_N.iter().enumerate().skip(1) {
+            let exact = (12.0 / n as f64).sqrt() * 65_536.0;
+            assert!((f64::from(root) - exact).abs() <= 1.0, "{n}");
+        }
+        assert_eq!(isqrt(u128::from(u64::MAX) + 1), 1 << 32);
+        assert_eq!(isqrt(99), 9);
+        for x in [1_u128 << 70, (1 << 100) + 12_345, u128::MAX, 3 << 90] {
+            let (got, exact) = (isqrt(x), x.isqrt());
+            assert!(
+                got <= exact && exact - got <= exact >> 31,
+                "{x}: {got} {exact}"
+            );
+        }
+    }
+
+    #[test]
+    fn sub_cell_positions_cover_the_cell() {
+        let c = Meters::from_num(0.3).to_bits();
+        let m = crate::grid::cell_reciprocal(c);
+        assert_eq!(sub_cell(0, m), -32);
+        assert_eq!(sub_cell(i64::from(c) - 1, m), 31);
+        assert!((-1..=0).contains(&sub_cell(i64::from(c) / 2, m)));
+        // Every remainder lands within one unit of the exact value.
+        for rem in (0..c).step_by(97) {
+            let exact = (i64::from(rem) * 64 / i64::from(c)) as i8 - 32;
+            let got = sub_cell(i64::from(rem), m);
+            assert!(got == exact || got == exact - 1, "{rem}: {got} {exact}");
+        }
+    }
+}
