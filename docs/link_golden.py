@@ -60,7 +60,9 @@ def configure_body(decay_mode=0, decay_tau=(0,) * 32) -> bytes:
 
 
 def hello_body() -> bytes:
-    body = struct.pack("<BBBBBBHI", 1, 0, 1, 2, 0, 2, 64, 0)
+    # protocol 1, firmware 0.1.2, reason boot, 2 layers, W 64, resend 0, clock 2 (the internal
+    # oscillator through the PLL), 3 reserved bytes.
+    body = struct.pack("<BBBBBBHIB3x", 1, 0, 1, 2, 0, 2, 64, 0, 2)
     body += struct.pack("<iffii", 6554, 0.0, 0.5, -32, -32)
     body += struct.pack("<iffii", 13107, 0.5, 1.5, -32, -32)
     return body

@@ -30,6 +30,9 @@ import zlib
 VERSION = 3
 T_HELLO, T_PATCH, T_MOVED, T_STATS, T_REPLY = 0x01, 0x02, 0x03, 0x04, 0x05
 T_PAN, T_PING, T_REQUEST_STATS, T_SHUTDOWN = 0x82, 0x86, 0x88, 0x89
+# Hello's clock source (offset 12).
+CLOCKS = {0: "not reported", 1: "external", 2: "internal + PLL", 3: "internal",
+          4: "no clock tree modelled"}
 NAMES = {1: "Hello", 2: "LayerPatch", 3: "WindowMoved", 4: "Stats", 5: "Reply"}
 STATS_FIELDS = [
     "uptime_ms", "telegrams_ok", "telegrams_bad_checksum", "telegrams_bad_framing",
@@ -225,11 +228,12 @@ def clock_samples(host: "Host", seconds: float) -> list:
 
 
 def hello_text(body: bytes) -> str:
-    proto, major, minor, patch, reason, layers, cells, resend = struct.unpack("<BBBBBBHI", body[:12])
+    proto, major, minor, patch, reason, layers, cells, resend, clock = struct.unpack(
+        "<BBBBBBHIB3x", body[:16])
     lines = [f"Hello: protocol {proto}, firmware {major}.{minor}.{patch}, reason {reason}, "
-             f"{layers} layers of {cells} x {cells} cells"]
+             f"{layers} layers of {cells} x {cells} cells, clock {clock} ({CLOCKS.get(clock, '?')})"]
     for k in range(layers):
-        res, inner, outer, ox, oy = struct.unpack("<iffii", body[12 + 20 * k:32 + 20 * k])
+        res, inner, outer, ox, oy = struct.unpack("<iffii", body[16 + 20 * k:36 + 20 * k])
         lines.append(f"  layer {k}: cell {res / 65536:.4f} m, band {inner:.3f} - {outer:.3f} m, "
                      f"origin ({ox}, {oy})")
     return "\n".join(lines)
@@ -263,6 +267,10 @@ def main() -> int:
     print(hello_text(hello))
     if hello[4] != 0:
         print(f"FAIL: the first Hello has reason {hello[4]}, not 0 (boot)")
+        return 1
+    # QEMU's netduinoplus2 models no RCC: the start-up's fallbacks end at "unmodelled".
+    if hello[12] != 4:
+        print(f"FAIL: the Hello reports clock {hello[12]}, not 4 (no clock tree modelled)")
         return 1
 
     # A pan angle (45°) for the lines (QEMU's SPI has no AS5047P on its bus), in force

@@ -25,9 +25,9 @@
 
 use terrain_pyramid::decay::{decayed, DecayMode};
 use terrain_pyramid::wire::link::{
-    encode, Decayed, DecodeError, Decoded, EncodeError, FirmwareVersion, FrameAccumulator, Header,
-    Hello, HelloReason, LayerPatch, Message, Reply, RxCounters, Stats, Undecoded, WindowMoved,
-    MAX_ENCODED_FRAME, MAX_FRAME,
+    encode, ClockSource, Decayed, DecodeError, Decoded, EncodeError, FirmwareVersion,
+    FrameAccumulator, Header, Hello, HelloReason, LayerPatch, Message, Reply, RxCounters, Stats,
+    Undecoded, WindowMoved, MAX_ENCODED_FRAME, MAX_FRAME,
 };
 use terrain_pyramid::wire::FeedResult;
 use terrain_pyramid::Cell;
@@ -262,6 +262,7 @@ pub struct Mirror {
     cells_per_side: usize,
     layers: Vec<MirrorLayer>,
     firmware: Option<FirmwareVersion>,
+    clock: ClockSource,
     expected_seq: Option<u16>,
     snapshot_advised: bool,
     last_stats: Option<Stats>,
@@ -306,6 +307,12 @@ impl Mirror {
     #[must_use]
     pub fn firmware(&self) -> Option<FirmwareVersion> {
         self.firmware
+    }
+
+    /// The clock the device's board runs on, from the last Hello (not reported before one).
+    #[must_use]
+    pub fn clock(&self) -> ClockSource {
+        self.clock
     }
 
     /// The last Stats.
@@ -432,6 +439,7 @@ impl Mirror {
     fn apply_hello(&mut self, hello: &Hello) {
         self.counters.hellos += 1;
         self.firmware = Some(hello.firmware);
+        self.clock = hello.clock;
         let w = usize::from(hello.cells_per_side);
         let same_shape = w == self.cells_per_side
             && hello.layers.len() == self.layers.len()

@@ -48,7 +48,8 @@ use std::time::{Duration, Instant};
 use terrain_pyramid::classify::ClassifierConfig;
 use terrain_pyramid::link::convert::set_rule_message;
 use terrain_pyramid::wire::link::{
-    HelloReason, Message, MessageType, Reply, ReplyCode, RxCounters, SetRule, SnapshotScope,
+    ClockSource, HelloReason, Message, MessageType, Reply, ReplyCode, RxCounters, SetRule,
+    SnapshotScope,
 };
 use terrain_pyramid::LogOddsFixed;
 
@@ -417,6 +418,8 @@ pub struct Summary {
     pub synced: bool,
     /// The device's firmware version, from its last Hello.
     pub firmware: String,
+    /// The clock the device's board runs on, from its last Hello (`docs/protocol.md`).
+    pub clock: String,
     /// What ended the session.
     pub ended_by: Ending,
     /// The session's length, seconds.
@@ -646,7 +649,7 @@ fn receive(
                     session.requested = None;
                     if hello.reason != HelloReason::Snapshot {
                         out.notice(&format!(
-                            "device: Hello ({}), firmware {}.{}.{}, {} layers of {} cells",
+                            "device: Hello ({}), firmware {}.{}.{}, {} layers of {} cells, clock: {}",
                             match hello.reason {
                                 HelloReason::Boot => "boot",
                                 HelloReason::Configured => "configured",
@@ -657,7 +660,8 @@ fn receive(
                             hello.firmware.minor,
                             hello.firmware.patch,
                             hello.layers.len(),
-                            hello.cells_per_side
+                            hello.cells_per_side,
+                            clock_name(hello.clock)
                         ));
                     }
                 }
@@ -779,6 +783,7 @@ fn write_out(
         firmware: mirror.firmware().map_or_else(String::new, |f| {
             format!("{}.{}.{}", f.major, f.minor, f.patch)
         }),
+        clock: clock_name(mirror.clock()).to_string(),
         ended_by: ending,
         duration_s: (elapsed.as_secs_f64() * 1000.0).round() / 1000.0,
         layer_cells_fnv1a64: snapshot
@@ -902,6 +907,17 @@ pub fn run(args: &Args) -> ExitCode {
             eprintln!("error: {e}");
             ExitCode::FAILURE
         }
+    }
+}
+
+/// How the listener names the device's clock: a fallback says what it costs.
+fn clock_name(clock: ClockSource) -> &'static str {
+    match clock {
+        ClockSource::NotReported => "not reported",
+        ClockSource::External => "external",
+        ClockSource::InternalPll => "internal oscillator + PLL (fallback: rates within ±1 %)",
+        ClockSource::Internal => "internal oscillator (fallback: rates within ±1 %)",
+        ClockSource::Unmodelled => "no clock tree (an emulator)",
     }
 }
 

@@ -11,6 +11,7 @@ fn hello(cells_per_side: u16, layers: usize) -> Vec<u8> {
         reason: HelloReason::Boot,
         cells_per_side,
         resend: 0,
+        clock: Default::default(),
         layers: Default::default(),
     };
     for _ in 0..layers {

@@ -78,6 +78,7 @@ fn hello() -> impl Strategy<Value = Owned> {
                 reason,
                 cells_per_side,
                 resend,
+                clock: Default::default(),
                 layers: layers.iter().copied().fold(Default::default(), |mut v, l| {
                     v.push(l).unwrap();
                     v
@@ -507,6 +508,7 @@ fn small_hello() -> Message<'static> {
         reason: HelloReason::Boot,
         cells_per_side: 8,
         resend: 0,
+        clock: Default::default(),
         layers: Default::default(),
     };
     hello

@@ -60,7 +60,7 @@ use crate::logodds::Cell;
 use crate::pipeline::FrontendConfig;
 use crate::pyramid::{Config, Pyramid};
 use crate::wire::link::{
-    encode, encode_patch, Decayed, DecayedRows, DecodeError, Decoded, FirmwareVersion,
+    encode, encode_patch, ClockSource, Decayed, DecayedRows, DecodeError, Decoded, FirmwareVersion,
     FrameAccumulator, Header, Hello, HelloReason, LayerInfo, Message, PatchArea, Reply, ReplyCode,
     RxCounters, SnapshotScope, Stats, Undecoded, WindowMoved, MAX_COMMAND_FRAME, MAX_ENCODED_FRAME,
     MAX_LAYERS, MAX_PATCH_SIDE, MIN_FRAME, VERSION,
@@ -92,11 +92,11 @@ pub const fn max_tile_bytes(cells_per_side: usize) -> usize {
 
 /// The smallest queue a `Link` of a pyramid of `layers` layers (≤ [`MAX_LAYERS`]) and windows
 /// of `cells_per_side` may have: room for the largest tile beside [`CONTROL_RESERVE`], and for
-/// a Hello of `layers` layers (12 + 20 bytes a layer, framed). 504 bytes for W = 64, 8 layers.
+/// a Hello of `layers` layers (16 + 20 bytes a layer, framed). 504 bytes for W = 64, 8 layers.
 #[must_use]
 pub const fn min_queue_bytes(cells_per_side: usize, layers: usize) -> usize {
     let tile = max_tile_bytes(cells_per_side) + CONTROL_RESERVE;
-    let hello = crate::wire::link::encoded_len_max(MIN_FRAME + 12 + 20 * layers);
+    let hello = crate::wire::link::encoded_len_max(MIN_FRAME + 16 + 20 * layers);
     if tile > hello {
         tile
     } else {
@@ -121,6 +121,8 @@ pub struct LinkConfig {
     /// The firmware's version, for Hello. Default: this crate's version
     /// ([`LIBRARY_VERSION`]).
     pub firmware: FirmwareVersion,
+    /// The clock the board started, for Hello. Default: not reported.
+    pub clock: ClockSource,
 }
 
 /// This crate's version (`CARGO_PKG_VERSION`), as Hello carries it.
@@ -155,6 +157,7 @@ impl LinkConfig {
         burst_bytes: 2048,
         stats_interval_ms: 1000,
         firmware: LIBRARY_VERSION,
+        clock: ClockSource::NotReported,
     };
 }
 
@@ -416,6 +419,7 @@ impl<const Q: usize, const N: usize> Link<Q, N> {
                 minor: 0,
                 patch: 0,
             },
+            clock: ClockSource::NotReported,
         });
         link.hello = PendingHello::NONE;
         link
@@ -691,6 +695,7 @@ impl<const Q: usize, const N: usize> Link<Q, N> {
             reason,
             cells_per_side: u16::try_from(W).unwrap_or(u16::MAX),
             resend,
+            clock: self.config.clock,
             layers,
         };
         if !self.send(&Message::Hello(hello), 0, report) {

@@ -28,6 +28,7 @@ use terrain_pyramid::app::{BootError, CoProcessor, NoAngleSource, StackUsage};
 use terrain_pyramid::geometry::ScanPlane;
 use terrain_pyramid::link::LinkConfig;
 use terrain_pyramid::pipeline::FrontendConfig;
+use terrain_pyramid::wire::link::ClockSource;
 use terrain_pyramid::wire::shared_line::{Route, SharedLine};
 use terrain_pyramid::{Config, Design, Schedule, SensorModel};
 
@@ -73,10 +74,20 @@ fn boot_design() -> Result<Design<LAYERS>, terrain_pyramid::DesignError> {
 /// Boots the core in a frame of its own: the configuration's tables are built on the stack,
 /// which on 16 KiB must not hold the main loop's buffers at the same time.
 #[inline(never)]
-fn boot(core: &mut Board) -> Result<(), BootError> {
+fn boot(core: &mut Board, crystal: bool) -> Result<(), BootError> {
     let design = boot_design()?;
     let setup = FrontendConfig::lms291_boot(ScanPlane::TiltedHorizontal);
-    core.boot(LinkConfig::DEFAULT, &design, &Config::default(), setup)
+    // Hello tells the host whether the 16 MHz crystal started or the RC oscillator stands in.
+    let clock = if crystal {
+        ClockSource::External
+    } else {
+        ClockSource::Internal
+    };
+    let link = LinkConfig {
+        clock,
+        ..LinkConfig::DEFAULT
+    };
+    core.boot(link, &design, &Config::default(), setup)
 }
 
 // The core's entry points, each in a frame of its own: inlined into the main loop together,
@@ -109,7 +120,7 @@ fn main() -> ! {
     };
     let mut clock = Clock::start();
     let core = CORE.take();
-    if let Err(e) = boot(core) {
+    if let Err(e) = boot(core, clock.crystal) {
         defmt::error!("boot: {}", e);
         microbit_board::exit(microbit_board::EXIT_FAILURE);
     }

@@ -7,8 +7,8 @@
 //! fed from the main loop, defmt over RTT (over semihosting on QEMU's `netduinoplus2`:
 //! [`logging`]). Wiring, bring-up and the emulated run: `README.md`.
 //!
-//! At boot the clocks start with bounded waits and fallbacks ([`rcc`]; the source is logged:
-//! protocol version 2 has no field for it), SysTick counts milliseconds ([`clock`]), and the
+//! At boot the clocks start with bounded waits and fallbacks ([`rcc`]; the source is logged
+//! and reported in Hello), SysTick counts milliseconds ([`clock`]), and the
 //! co-processor (in a `static`, all zero bits: `.bss`) adopts the default design
 //! and a panned-vertical setup and checks its pyramid; the scanner is brought up
 //! ([`scanner`]); Hello (reason boot) goes out at the first poll. Each step of the main loop
@@ -95,7 +95,14 @@ fn main() -> ! {
     let setup = FrontendConfig::lms291_boot(ScanPlane::PannedVertical);
     let booted = DefaultDesign::new(SensorModel::default(), Schedule::default(), 64)
         .map_err(BootError::Design)
-        .and_then(|design| core.boot(LinkConfig::DEFAULT, &design, &Config::default(), setup));
+        .and_then(|design| {
+            // Hello tells the host which clock the board runs on (a fallback is ±1 %).
+            let link = LinkConfig {
+                clock: clocks.source.reported(),
+                ..LinkConfig::DEFAULT
+            };
+            core.boot(link, &design, &Config::default(), setup)
+        });
     if let Err(e) = booted {
         defmt::panic!("boot: {}", e);
     }

@@ -41,6 +41,7 @@
 use stm32f4xx_hal::pac::RCC;
 use stm32f4xx_hal::prelude::*;
 use stm32f4xx_hal::rcc::{Config, Rcc, RccExt};
+use terrain_pyramid::wire::link::ClockSource;
 
 use crate::hw::{self, Reg};
 
@@ -104,17 +105,14 @@ pub enum Source {
 }
 
 impl Source {
-    /// A one-byte code for the host link: 1 HSE + PLL, 2 HSI + PLL, 3 HSI, 4 unmodelled
-    /// RCC. Protocol version 2 has no field for it (Hello, Stats and the Reply to Shutdown
-    /// are full), so the firmware logs the source instead; a later version may carry this.
+    /// The source as Hello reports it to the host.
     #[must_use]
-    #[allow(dead_code)] // Until the protocol has a field for it.
-    pub const fn code(self) -> u8 {
+    pub const fn reported(self) -> ClockSource {
         match self {
-            Self::HsePll => 1,
-            Self::HsiPll => 2,
-            Self::Hsi => 3,
-            Self::UnmodelledRcc => 4,
+            Self::HsePll => ClockSource::External,
+            Self::HsiPll => ClockSource::InternalPll,
+            Self::Hsi => ClockSource::Internal,
+            Self::UnmodelledRcc => ClockSource::Unmodelled,
         }
     }
 }

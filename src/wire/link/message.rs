@@ -7,7 +7,7 @@ use super::{DecodeError, EncodeError, Frame, Header, MessageType, MAX_LAYERS, MA
 use crate::angle::Angle;
 
 /// Bytes of a Hello before its layers.
-pub(crate) const HELLO_FIXED: usize = 12;
+pub(crate) const HELLO_FIXED: usize = 16;
 /// Bytes of one layer in a Hello.
 pub(crate) const HELLO_LAYER: usize = 20;
 /// Bytes of a LayerPatch before its cells.
@@ -90,6 +90,53 @@ impl HelloReason {
     }
 }
 
+/// The clock the device's board runs on, as it started it (Hello offset 12): how a host learns
+/// that a board fell back to its internal oscillator (its UARTs' rates and its timing then
+/// carry that oscillator's tolerance, about ±1 % on an STM32F4's HSI).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[repr(u8)]
+pub enum ClockSource {
+    /// The board does not say.
+    #[default]
+    NotReported = 0,
+    /// The external crystal or clock (through the PLL where there is one): as intended.
+    External = 1,
+    /// The internal oscillator through the PLL: the external clock never became ready.
+    InternalPll = 2,
+    /// The internal oscillator alone: neither the external clock nor a PLL became ready.
+    Internal = 3,
+    /// No clock tree answered (every ready flag reads 0): an emulator that does not model it.
+    Unmodelled = 4,
+}
+
+impl ClockSource {
+    /// The wire code, 0 ..= 4.
+    #[must_use]
+    pub const fn code(self) -> u8 {
+        self as u8
+    }
+
+    /// The source of a wire code, if it is one.
+    #[must_use]
+    pub const fn from_code(byte: u8) -> Option<Self> {
+        Some(match byte {
+            0 => Self::NotReported,
+            1 => Self::External,
+            2 => Self::InternalPll,
+            3 => Self::Internal,
+            4 => Self::Unmodelled,
+            _ => return None,
+        })
+    }
+
+    /// Whether the board runs on a fallback, not on the clock it was built for.
+    #[must_use]
+    pub const fn is_fallback(self) -> bool {
+        matches!(self, Self::InternalPll | Self::Internal)
+    }
+}
+
 /// One layer as a Hello describes it.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -120,6 +167,8 @@ pub struct Hello {
     pub cells_per_side: u16,
     /// Bit k: every tile of layer k follows (reason [`HelloReason::Snapshot`]).
     pub resend: u32,
+    /// The clock the board runs on.
+    pub clock: ClockSource,
     /// The layers in force, finest first.
     pub layers: heapless::Vec<LayerInfo, MAX_LAYERS>,
 }
@@ -836,7 +885,7 @@ pub enum SnapshotScope {
 
 /// One message of the protocol.
 ///
-/// Its size is that of a 32-layer [`Hello`], about 660 bytes: bounded, and boxed nowhere (the
+/// Its size is that of a 32-layer [`Hello`], about 664 bytes: bounded, and boxed nowhere (the
 /// library has no heap).
 #[derive(Debug, Clone, PartialEq)]
 #[allow(clippy::large_enum_variant)]
@@ -1012,6 +1061,9 @@ impl<'a> Message<'a> {
                 exact(HELLO_FIXED + HELLO_LAYER * count)?;
                 let cells_per_side = r.u16();
                 let resend = r.u32();
+                let clock = ClockSource::from_code(r.u8()).ok_or(range("Hello.clock"))?;
+                // Three reserved bytes, sent as 0, ignored.
+                let _ = (r.u8(), r.u8(), r.u8());
                 let mut layers = heapless::Vec::new();
                 for _ in 0..count {
                     let layer = LayerInfo {
@@ -1029,6 +1081,7 @@ impl<'a> Message<'a> {
                     reason,
                     cells_per_side,
                     resend,
+                    clock,
                     layers,
                 })
             }
@@ -1294,6 +1347,10 @@ impl<'a> Message<'a> {
                 w.u8(u8::try_from(h.layers.len()).unwrap_or(u8::MAX));
                 w.u16(h.cells_per_side);
                 w.u32(h.resend);
+                w.u8(h.clock.code());
+                w.u8(0);
+                w.u8(0);
+                w.u8(0);
                 for l in &h.layers {
                     w.i32(l.resolution_q16);
                     w.f32(l.band_inner_m);

@@ -32,10 +32,11 @@ mod message;
 pub use accumulator::{Decoded, FrameAccumulator, FrameFeed, RxCounters, Undecoded};
 pub use crc::{crc32, Crc32};
 pub use message::{
-    decode, encode, encode_patch, ClampRequest, Configure, Decayed, DecayedRows, FirmwareVersion,
-    GateRequest, Hello, HelloReason, LaserSetup, LayerInfo, LayerPatch, Message, PanAngle,
-    PatchArea, PatchCells, PoseReport, Reply, ReplyCode, RuleSetup, SetRule, Setup, SnapshotScope,
-    Stats, WindowMoved, PARAM_LAYER, SETUP_LASER_LEN, SETUP_RULE_LEN, STATS_COUNTERS,
+    decode, encode, encode_patch, ClampRequest, ClockSource, Configure, Decayed, DecayedRows,
+    FirmwareVersion, GateRequest, Hello, HelloReason, LaserSetup, LayerInfo, LayerPatch, Message,
+    PanAngle, PatchArea, PatchCells, PoseReport, Reply, ReplyCode, RuleSetup, SetRule, Setup,
+    SnapshotScope, Stats, WindowMoved, PARAM_LAYER, SETUP_LASER_LEN, SETUP_RULE_LEN,
+    STATS_COUNTERS,
 };
 
 use core::fmt;
@@ -63,7 +64,7 @@ pub const MAX_BODY: usize = if MAX_HELLO_BODY > MAX_PATCH_BODY {
 } else {
     MAX_PATCH_BODY
 };
-/// The largest decoded frame (header, body, CRC), device to host: 660 bytes.
+/// The largest decoded frame (header, body, CRC), device to host: 664 bytes.
 pub const MAX_FRAME: usize = MIN_FRAME + MAX_BODY;
 /// The largest command body: a Configure (94 bytes) or a Setup (60), whichever is longer.
 const MAX_COMMAND_BODY: usize = if message::CONFIGURE_LEN > message::SETUP_LEN {
@@ -73,7 +74,7 @@ const MAX_COMMAND_BODY: usize = if message::CONFIGURE_LEN > message::SETUP_LEN {
 };
 /// The largest decoded frame host to device (a [`Configure`]): 102 bytes.
 pub const MAX_COMMAND_FRAME: usize = MIN_FRAME + MAX_COMMAND_BODY;
-/// The largest encoded frame device to host, delimiter included: 664 bytes.
+/// The largest encoded frame device to host, delimiter included: 668 bytes.
 pub const MAX_ENCODED_FRAME: usize = encoded_len_max(MAX_FRAME);
 /// The largest encoded frame host to device, delimiter included: 104 bytes.
 pub const MAX_ENCODED_COMMAND: usize = encoded_len_max(MAX_COMMAND_FRAME);

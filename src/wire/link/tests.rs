@@ -246,14 +246,15 @@ fn hello_golden() {
         reason: HelloReason::Boot,
         cells_per_side: 64,
         resend: 0,
+        clock: ClockSource::InternalPll,
         layers,
     };
     golden(
         0,
         &Message::Hello(hello),
-        "03 03 01 01 02 01 03 01 02 03 02 40 01 01 01 01 03 9a 19 01 01 01 01 01 01 01 01 0c 3f \
-         e0 ff ff ff e0 ff ff ff 33 33 01 01 01 01 02 3f 01 0f c0 3f e0 ff ff ff e0 ff ff ff bb \
-         28 35 82 00",
+        "03 03 01 01 02 01 03 01 02 03 02 40 01 01 01 01 02 02 01 01 03 9a 19 01 01 01 01 01 01 \
+         01 01 0c 3f e0 ff ff ff e0 ff ff ff 33 33 01 01 01 01 02 3f 01 0f c0 3f e0 ff ff ff e0 \
+         ff ff ff c4 b0 5e 2c 00",
     );
 }
 
@@ -354,14 +355,14 @@ fn window_moved_stats_reply_golden() {
 #[test]
 fn sizes_match_the_spec() {
     // Section 9 of the spec: the largest frame device to host is a 32-layer Hello.
-    assert_eq!(MAX_FRAME, 660);
-    assert_eq!(MAX_ENCODED_FRAME, 664);
+    assert_eq!(MAX_FRAME, 664);
+    assert_eq!(MAX_ENCODED_FRAME, 668);
     // The largest command is a Configure (94 bytes of body; a Setup has 81).
     assert_eq!(MAX_COMMAND_FRAME, 102);
     assert_eq!(MAX_ENCODED_COMMAND, 104);
     assert_eq!(encoded_len_max(MIN_FRAME + 19 + 2 * 16 * 16), 543);
     assert_eq!(encoded_len_max(MIN_FRAME + 19 + 128), 157);
-    assert_eq!(encoded_len_max(MIN_FRAME + 12 + 8 * 20), 182);
+    assert_eq!(encoded_len_max(MIN_FRAME + 16 + 8 * 20), 186);
 }
 
 /// A frame with a given header and body, framed by this crate's CRC and COBS (whose own
@@ -430,7 +431,7 @@ fn bad_frames_are_refused_counted_and_the_next_frame_decodes() {
         3,
         0x01,
         6,
-        &[2, 0, 0, 0, 9, 0, 64, 0, 0, 0, 0, 0],
+        &[2, 0, 0, 0, 9, 0, 64, 0, 0, 0, 0, 0, 0, 0, 0, 0],
     ));
     // 5. Oversized: more than the buffer holds.
     stream.extend_from_slice(&[0x55; 700]);
