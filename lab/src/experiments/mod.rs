@@ -22,6 +22,7 @@
 pub mod coverage;
 pub mod designs;
 pub mod engine;
+pub mod lidar;
 pub mod picture;
 pub mod stairs;
 pub mod stairs_board;
@@ -100,6 +101,9 @@ pub struct Results {
     /// Time per line (absent with `--stairs-only`).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub cost: Option<coverage::CostResult>,
+    /// The LD19 on a nodding servo: stairs and coverage (absent with `--stairs-only`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub ld19: Option<lidar::Ld19Results>,
     /// Whether `--quick` was given.
     pub quick: bool,
 }
@@ -173,11 +177,22 @@ pub fn run_all(args: &Args) -> Result<Results, String> {
         let (coverage, cost) = coverage::run(&coverage_setup, Some(out))?;
         (Some(coverage), Some(cost))
     };
+    let ld19 = if args.stairs_only {
+        None
+    } else {
+        Some(lidar::run(
+            args.quick,
+            args.seed,
+            &coverage_setup,
+            Some(out),
+        )?)
+    };
     let results = Results {
         stairs,
         stairs_board,
         coverage,
         cost,
+        ld19,
         quick: args.quick,
     };
     let json = serde_json::to_string_pretty(&results).map_err(|e| e.to_string())?;
@@ -376,6 +391,9 @@ fn report(r: &Results, design: &terrain_pyramid_host::design::PyramidDesign) -> 
          exact counts, `cargo xtask bench` counts the instructions of both on the emulated \
          Cortex-M4F (BENCHMARKS.md)."
         );
+    }
+    if let Some(l) = &r.ld19 {
+        s.push_str(&lidar::report(l, &r.stairs, r.coverage.as_ref()));
     }
     s
 }
