@@ -8,7 +8,7 @@ use bench_firmware as b;
 use static_cell::ConstStaticCell;
 use terrain_pyramid::drivers::angle::HostSuppliedAngle;
 use terrain_pyramid::DefaultCoProcessor;
-use terrain_pyramid_bench::{boot_with_sensor, default_design, replay, Core, Pipeline};
+use terrain_pyramid_bench::{boot_with_sensor, default_design, replay, Core};
 
 static CORE: ConstStaticCell<DefaultCoProcessor> = ConstStaticCell::new(DefaultCoProcessor::new());
 
