@@ -255,10 +255,11 @@ fn fine_deg(a: FineAngle) -> f64 {
 struct Sweep {
     actuator: LidarActuator,
     servo: ServoSweep,
+    lead_s: f64,
 }
 
 impl Sweep {
-    fn new(actuator: LidarActuator) -> Self {
+    fn new(actuator: LidarActuator, lead_s: f64) -> Self {
         let servo = match actuator {
             LidarActuator::Servo(profile) => {
                 let mut s = ServoSweep::new(profile);
@@ -267,11 +268,16 @@ impl Sweep {
             }
             LidarActuator::Pan { .. } => ServoSweep::OFF,
         };
-        Self { actuator, servo }
+        Self {
+            actuator,
+            servo,
+            lead_s: lead_s.max(0.0),
+        }
     }
 
     /// The angle at `t` seconds, degrees.
     fn angle_deg(&mut self, t: f64) -> f64 {
+        let t = t + self.lead_s;
         match self.actuator {
             LidarActuator::Servo(profile) => {
                 #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
@@ -323,6 +329,9 @@ pub struct LidarSimConfig {
     pub seed: u64,
     /// The ground truth's grid and rule.
     pub truth: GroundTruthSpec,
+    /// Seconds the servo's sweep had run before t = 0 (0, the default: it begins at t = 0
+    /// with its 500 ms hold at min; 0.5 or more: it is already sweeping).
+    pub servo_lead_s: f64,
 }
 
 impl LidarSimConfig {
@@ -351,6 +360,7 @@ impl LidarSimConfig {
             split_every: 10,
             seed: 1,
             truth: GroundTruthSpec::default(),
+            servo_lead_s: 0.0,
         }
     }
 
@@ -828,7 +838,7 @@ pub fn simulate_lidar(config: &LidarSimConfig) -> Result<LidarSimulation, LidarS
     let mut packets = Packets {
         caster: Caster {
             config,
-            sweep: Sweep::new(config.actuator),
+            sweep: Sweep::new(config.actuator, config.servo_lead_s),
             rng: Rng::new(config.seed),
             pose: config.trajectory.pose_at(0.0, &config.scene).rounded_f32(),
         },
@@ -838,7 +848,7 @@ pub fn simulate_lidar(config: &LidarSimConfig) -> Result<LidarSimulation, LidarS
         header_sent: false,
         last_deg: 0.0,
     };
-    let mut angle_sweep = Sweep::new(config.actuator);
+    let mut angle_sweep = Sweep::new(config.actuator, config.servo_lead_s);
     let mut splits = Rng::new(config.seed ^ SPLIT_SALT);
     let mut sim = LidarSimulation {
         bytes: Vec::new(),

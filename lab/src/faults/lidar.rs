@@ -19,9 +19,11 @@
 //! **Requirements** (each fails the run): the firmware does not crash or hang and exits 0;
 //! its packet counters (ok, checksum, framing) equal the host decoder's over the same bytes;
 //! its map equals the reference cell for cell on every layer, and the reference is not
-//! empty; every damage run leaves a trace in the counters (a rejected candidate) or in the
-//! garbage count; after damage, untouched packets are lost only where a corrupt packet
-//! swallowed their bytes (lost ≤ corrupt).
+//! empty; every damage run leaves a trace: a rejected candidate, skipped (garbage) bytes, or
+//! a packet the harness finds corrupt (reported; an RPLIDAR node's check bits do not cover
+//! its distance, so damage there passes); after damage, untouched packets are lost only where a corrupt packet
+//! swallowed their bytes (lost ≤ corrupt), and for the RPLIDAR's node stream, which has no
+//! header and re-locks on a run of 16 valid nodes, 4 more chunks of 5 nodes per damage run.
 //!
 //! **`servo_stalled`**: the Setup names a nodding servo (2°..35° at 20 °/s, the board runs
 //! the model open loop: the emulated board has no angle source), but the servo is stalled at
@@ -29,8 +31,9 @@
 //! source, a stall cannot be seen by the co-processor (`docs/lidars.md`: only a feedback
 //! source on the axis removes the model's error); the requirement is that it stays live and
 //! accounts for everything: no crash, every byte taken, every packet decoded (its counters
-//! equal the host decoder's), packets applied once the model's 500 ms hold is over (applied
-//! > 0), and its maps stay within their windows (the snapshot's known cells ≤ all cells).
+//! equal the host decoder's), and packets applied at the model's angles once its 500 ms hold
+//! is over (applied > 0; the harness waits 800 ms after the Setup). The map is not compared:
+//! the model runs on the board's clock.
 
 use super::{compare, known_cells, Counters, Outcome, Rng};
 use std::path::Path;
@@ -39,7 +42,7 @@ use terrain_pyramid::laser::{LaserDecoder, LaserItem, Sensor, SensorKind};
 use terrain_pyramid::link::convert::{configure_of_design, setup_message_with_sensor};
 use terrain_pyramid::wire::link::{Message, PanAngle, PoseReport, Setup};
 use terrain_pyramid::wire::FeedResult;
-use terrain_pyramid::{Config, DEFAULT_CELLS_PER_SIDE, DEFAULT_LAYERS};
+use terrain_pyramid::Config;
 use terrain_pyramid_host::device::Device;
 use terrain_pyramid_host::emulator::{Emulator, Machine};
 use terrain_pyramid_host::play::{steps, Step as PlayStep};
@@ -105,6 +108,8 @@ fn recording(laser: LidarKind, stalled: bool, n: usize) -> Result<Vec<Chunk>, St
     );
     config.split_every = 0;
     config.chunk_us = 2_500;
+    // The servo is sweeping from the first packet on (no 500 ms hold in the recording).
+    config.servo_lead_s = 1.5;
     let sim = simulate_lidar(&config).map_err(|e| e.0)?;
     let decoded = steps(&sim.bytes)?;
     let (mut angle, mut pose) = (None, None);
@@ -180,7 +185,12 @@ fn damage(kind: &str, chunks: &[Chunk]) -> Vec<(Vec<u8>, bool)> {
                         post = rng.bytes(k);
                     }
                 } else if kind.ends_with("truncated") && rng.chance(0.2) {
-                    let keep = rng.range(1, body.len() - 1);
+                    let mut keep = rng.range(1, body.len() - 1);
+                    // An RPLIDAR chunk holds whole 5-byte nodes: cut inside one (a cut between
+                    // nodes drops whole nodes, which a stream without headers cannot show).
+                    if laser_of(kind) == LidarKind::RplidarStandard && keep % 5 == 0 {
+                        keep -= 1;
+                    }
                     body.truncate(keep);
                 }
             }
@@ -248,6 +258,12 @@ pub fn run_kind(
     reference.command("Setup", &Message::Setup(setup))?;
     emu.command("Configure", &configure)?;
     emu.command("Setup", &Message::Setup(setup))?;
+    if stalled {
+        // Past the model's 500 ms hold on both clocks (QEMU's runs with the wall's).
+        std::thread::sleep(std::time::Duration::from_millis(800));
+        reference.set_time(reference.time().wrapping_add(800));
+        emu.stats()?;
+    }
 
     // Every packet of the undamaged stream, by its bytes.
     let originals = packets_of(laser, chunks.iter().map(|c| &c.bytes[..]))?;
@@ -328,8 +344,12 @@ pub fn run_kind(
             };
         }
         let c = decoder.counts();
-        let trace =
-            u64::from(c.bad_checksum) + u64::from(c.bad_framing) + decoder_garbage(&decoder);
+        // A damage run shows as a rejected candidate, skipped bytes, or a packet that passed
+        // its check damaged (an RPLIDAR node's check bits do not cover its distance).
+        let trace = u64::from(c.bad_checksum)
+            + u64::from(c.bad_framing)
+            + decoder_garbage(&decoder)
+            + corrupt;
         if intact[i] {
             if pending_damage > 0 && trace == last_trace {
                 unaccounted += 1;
@@ -376,10 +396,24 @@ pub fn run_kind(
              host decoder's {want:?} over the same bytes"
         ));
     }
-    if untouched_lost > corrupt {
+    // A bad RPLIDAR node drops the accumulator's lock; it locks again on a run of 16 valid
+    // nodes, so up to 16 nodes (4 chunks of 5) after each damage run go by design.
+    let runs = damage_runs(&damaged);
+    let allowed = corrupt
+        + if laser == LidarKind::RplidarStandard {
+            4 * runs
+        } else {
+            0
+        };
+    if untouched_lost > allowed {
         outcome.failures.push(format!(
-            "{untouched_lost} untouched packets were lost after damage, more than the {corrupt} \
-             corrupt packets that could have swallowed them"
+            "{untouched_lost} untouched chunks were lost after {runs} damage runs, more than the \
+             {allowed} allowed ({corrupt} corrupt packets that could have swallowed them{})",
+            if laser == LidarKind::RplidarStandard {
+                ", 4 chunks to re-lock per run"
+            } else {
+                ""
+            }
         ));
     }
     if unaccounted > 0 {
@@ -387,7 +421,7 @@ pub fn run_kind(
             "{unaccounted} runs of damaged packets left no trace in the counters"
         ));
     }
-    if outcome.reference_known_cells == 0 {
+    if outcome.reference_known_cells == 0 && !stalled {
         outcome
             .failures
             .push("the reference map is empty: the comparison shows nothing".into());
@@ -397,12 +431,6 @@ pub fn run_kind(
             outcome
                 .failures
                 .push("no packet was applied with the servo's model".into());
-        }
-        let all = (DEFAULT_LAYERS * DEFAULT_CELLS_PER_SIDE * DEFAULT_CELLS_PER_SIDE) as u64;
-        if outcome.reference_known_cells > all {
-            outcome
-                .failures
-                .push("the maps outgrew their windows".into());
         }
     } else if diff != 0 {
         outcome
@@ -445,6 +473,19 @@ fn packets_of<'a>(
         }
     }
     Ok(out)
+}
+
+/// Runs of consecutive damaged chunks.
+fn damage_runs(damaged: &[(Vec<u8>, bool)]) -> u64 {
+    let mut runs = 0;
+    let mut previous_untouched = true;
+    for (_, untouched) in damaged {
+        if previous_untouched && !untouched {
+            runs += 1;
+        }
+        previous_untouched = *untouched;
+    }
+    runs
 }
 
 /// Whether a chunk holds a packet (the RPLIDAR's and the X4's first chunk is a descriptor).
