@@ -493,10 +493,7 @@ pub fn report(
     let d = &r.stairs.design;
     let _ = writeln!(
         s,
-        "## An LD19 on a nodding servo, beside the SICK
-
-         An LDROBOT LD19 (4 500 returns/s at 10 Hz, 0.02–12 m, σ = 10 mm in the simulator) lies          flat on a servo nodding it from {}° to {}° at {} °/s ({} ms behind its command), its          spin centre h = {} m up; its 47-byte packets go through the library's decoder and          `Frontend::packet`, one actuator angle per packet (`host-tests/src/sim/lidar.rs`). The          design comes from its datasheet (`lab/src/experiments/lidar.rs`): φ = {:.1}° (the tilt          between revolutions: 20 °/s ÷ 10 Hz), ψ = {:.1}° (360° ÷ 450 returns), σ = {} m (the          datasheet's ±45 mm accuracy), h = {} m; the uniform stairs pyramid has {} layers.          Stairs: the robot stands {:.2} m from the first step (the LD19 reaches 12 m) for {:.0} s,          then drives at {} m/s to {} m; {} packets, {} echoes.
-",
+        "## An LD19 on a nodding servo, beside the SICK\n\nAn LDROBOT LD19 (4 500 returns/s at 10 Hz, 0.02–12 m, σ = 10 mm in the simulator) lies flat on a servo nodding it from {}° to {}° at {} °/s ({} ms behind its command), its spin centre h = {} m up; its 47-byte packets go through the library's decoder and `Frontend::packet`, one actuator angle per packet (`host-tests/src/sim/lidar.rs`). The design comes from its datasheet (`lab/src/experiments/lidar.rs`): φ = {:.1}° (the tilt between revolutions: 20 °/s ÷ 10 Hz), ψ = {:.1}° (360° ÷ 450 returns), σ = {} m (the datasheet's ±45 mm accuracy), h = {} m; the uniform stairs pyramid has {} layers. Stairs: the robot stands {:.2} m from the first step (the LD19 reaches 12 m) for {:.0} s, then drives at {} m/s to {} m; {} packets, {} echoes.\n",
         SERVO.0,
         SERVO.1,
         SERVO.2,
@@ -548,7 +545,7 @@ pub fn report(
     let c = &r.coverage;
     let _ = writeln!(
         s,
-        "\n![stairs, LD19](stairs-ld19.png)\n\nCoverage: the same gate and approach, the LD19          standing 4 s (its 0.5 s hold and one sweep) instead of 2.4 s; the pyramid of its          design ({} layers, soft gate, 64² windows) against the fixed 0.1 m grid; {} packets.\n\n         | map | LD19 holes | SICK holes |\n| --- | --- | --- |",
+        "\n![stairs, LD19](stairs-ld19.png)\n\nCoverage: the same gate and approach, the LD19 standing 4 s (its 0.5 s hold and one sweep) instead of 2.4 s; the pyramid of its design ({} layers, soft gate, 64² windows) against the fixed 0.1 m grid; {} packets.\n\n| map | LD19 holes | SICK holes |\n| --- | --- | --- |",
         c.layers, c.packets
     );
     let sick_holes =
