@@ -925,7 +925,7 @@ pub fn simulate_lidar(config: &LidarSimConfig) -> Result<LidarSimulation, LidarS
             )?;
         }
         chunks += 1;
-        let split = config.split_every != 0 && chunks % u64::from(config.split_every) == 0;
+        let split = config.split_every != 0 && chunks.is_multiple_of(u64::from(config.split_every));
         let cut = if split && chunk.len() > 1 {
             usize::try_from(1 + splits.below(chunk.len() as u64 - 1)).unwrap_or(1)
         } else {

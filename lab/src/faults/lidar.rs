@@ -188,7 +188,7 @@ fn damage(kind: &str, chunks: &[Chunk]) -> Vec<(Vec<u8>, bool)> {
                     let mut keep = rng.range(1, body.len() - 1);
                     // An RPLIDAR chunk holds whole 5-byte nodes: cut inside one (a cut between
                     // nodes drops whole nodes, which a stream without headers cannot show).
-                    if laser_of(kind) == LidarKind::RplidarStandard && keep % 5 == 0 {
+                    if laser_of(kind) == LidarKind::RplidarStandard && keep.is_multiple_of(5) {
                         keep -= 1;
                     }
                     body.truncate(keep);
