@@ -577,4 +577,35 @@ mod tests {
             .pyramid::<LAYERS>(10.0, GateShape::default(), false, 64)
             .is_ok());
     }
+
+    /// The engine takes an LD19 recording's packets through `Frontend::packet`: a short run
+    /// in front of the stairs gives packets, evidence and obstacle cells at the risers.
+    #[test]
+    fn the_engine_maps_an_ld19_recording() {
+        let setup = StairsSetup {
+            stand_distance_m: 3.05,
+            stand_s: 2.0,
+            ..StairsSetup::QUICK
+        };
+        let sim = simulate_lidar(&setup.sim()).unwrap();
+        let decoded = decode(&sim.bytes).unwrap();
+        assert_eq!(decoded.lines.len() as u64, sim.packets);
+        assert!(decoded.lines.iter().all(|l| l.packet.is_some()));
+        let mut map = Runner::<64, LAYERS, 2048>::new(
+            "pyramid",
+            Ld19Design::from_datasheet()
+                .pyramid(8.0, GateShape::default(), false, 64)
+                .unwrap(),
+            Config::default(),
+            decoded.frontend,
+        )
+        .unwrap();
+        for line in &decoded.lines {
+            map.line(line);
+        }
+        map.flush();
+        assert!(map.records() > 1000, "{}", map.records());
+        let (steps, _) = stairs::step_cells(&setup.scene_config());
+        assert!(stairs::shares(&map, &steps).obstacle > 0.5);
+    }
 }
