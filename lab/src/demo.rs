@@ -68,7 +68,49 @@ pub fn scenarios() -> Vec<Scenario> {
             record: record_stairs,
             flags: &[],
         },
+        Scenario {
+            name: "ld19-nodding-stairs",
+            about: "an LDROBOT LD19 (47-byte packets, 4 500 returns/s at 10 Hz) lying on a servo \
+                    that nods it 2°..35° at 20 °/s, 1 m up, simulated in front of the same \
+                    stairs: 1 s standing, then driving at 1 m/s to 1 m from the first step; \
+                    the design from its datasheet (φ = 2°, ψ = 0.8°, σ = 0.045 m; γ = 4, 8 m: 8 layers)",
+            record: record_ld19_stairs,
+            flags: FLAGS_LD19,
+        },
     ]
+}
+
+/// The LD19 scenario's `pyramid run` flags: the design of its datasheet
+/// (`lab/src/experiments/lidar.rs`): φ = 2° (the tilt between revolutions), ψ = 0.8°,
+/// σ = 0.045 m, h = 1.0 m; γ = 4 and 8 m so that it fits the firmware's 8 layers (at γ = 2
+/// and 10 m it needs 20).
+pub const FLAGS_LD19: &[&str] = &[
+    "--phi-deg",
+    "2",
+    "--psi-deg",
+    "0.8",
+    "--sigma-m",
+    "0.045",
+    "--gamma",
+    "4",
+    "--max-range-m",
+    "8",
+];
+
+/// The LD19 on its nodding servo in front of the stairs (a version-2 recording, one packet per
+/// laser event, the servo's angle at each packet's mean sample time before it).
+fn record_ld19_stairs(out: &Path) -> Result<(), String> {
+    use terrain_pyramid_host_tests::sim::scene::{Scene, StairsSpec};
+    use terrain_pyramid_host_tests::sim::trajectory::Trajectory;
+    let spec = StairsSpec::default();
+    let config = crate::experiments::lidar::ld19_sim(
+        Scene::stairs(spec),
+        Trajectory::approach(1.0, 1.0, spec.first_riser_x, 1.0),
+        1,
+    );
+    let sim = terrain_pyramid_host_tests::sim::lidar::simulate_lidar(&config)
+        .map_err(|e| e.to_string())?;
+    std::fs::write(out, &sim.bytes).map_err(|e| format!("cannot write {}: {e}", out.display()))
 }
 
 /// The simulated stairs: the default pyramid (h = 1.0 m, 10 m, γ = 2), as the firmware has it.

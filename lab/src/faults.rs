@@ -82,7 +82,9 @@ pub struct Args {
     pub out: PathBuf,
 }
 
-/// Every fault kind, in order.
+mod lidar;
+
+/// Every fault kind, in order (the spinning lidars' kinds follow: [`lidar::KINDS`]).
 pub const KINDS: [&str; 10] = [
     "bit_flips_1e-4",
     "bit_flips_1e-3",
@@ -1120,10 +1122,11 @@ pub fn execute(args: &Args) -> Result<Vec<Outcome>, String> {
         return Err(format!("qemu-system-arm is missing: {INSTALL_HINT}"));
     }
     for name in &args.only {
-        if !KINDS.contains(&name.as_str()) {
+        if !KINDS.contains(&name.as_str()) && !lidar::KINDS.contains(&name.as_str()) {
             return Err(format!(
-                "unknown fault kind {name}; the kinds: {}",
-                KINDS.join(", ")
+                "unknown fault kind {name}; the kinds: {}, {}",
+                KINDS.join(", "),
+                lidar::KINDS.join(", ")
             ));
         }
     }
@@ -1132,7 +1135,7 @@ pub fn execute(args: &Args) -> Result<Vec<Outcome>, String> {
     let (setup, lines) = recording(n)?;
     std::fs::create_dir_all(&args.out).map_err(|e| format!("{}: {e}", args.out.display()))?;
     let mut outcomes = Vec::new();
-    for kind in KINDS {
+    for kind in KINDS.iter().chain(&lidar::KINDS).copied() {
         if !args.only.is_empty() && !args.only.iter().any(|k| k == kind) {
             continue;
         }
@@ -1141,12 +1144,22 @@ pub fn execute(args: &Args) -> Result<Vec<Outcome>, String> {
             name: kind.to_string(),
             ..Outcome::default()
         };
-        if let Err(e) = run_kind(kind, &elf, &args.out, &setup, &lines, &mut o) {
+        let is_lidar = lidar::KINDS.contains(&kind);
+        let result = if is_lidar {
+            lidar::run_kind(kind, &elf, &args.out, n, &mut o)
+        } else {
+            run_kind(kind, &elf, &args.out, &setup, &lines, &mut o)
+        };
+        if let Err(e) = result {
             o.crashed = true;
             o.failures.push(e);
         }
         o.seconds = started.elapsed().as_secs_f64();
-        judge(&mut o);
+        if is_lidar {
+            lidar::judge(&mut o);
+        } else {
+            judge(&mut o);
+        }
         eprintln!(
             "{kind:16} total {:4} intact {:4} damaged {:4} applied {:4} corrupt {} delayed {} \
              resync {} bad commands {}/{} map {} ({} known cells) crashed {} {:.1} s{}",

@@ -138,12 +138,28 @@ fn the_papers_claims_hold_under(rule: &str) {
     );
     assert!(f(&r, &["cost", "pyramid_over_flat"]) > 0.0);
 
+    // The LD19 on a nodding servo: its pyramid sees more of the steps than its flat grid, and
+    // leaves fewer holes than the fixed grid.
+    let ld19_pyramid = f(&r, &["ld19", "stairs", "pyramid_soft", "detected_fraction"]);
+    let ld19_flat = f(&r, &["ld19", "stairs", "flat", "detected_fraction"]);
+    assert!(
+        ld19_pyramid > ld19_flat,
+        "LD19: pyramid {ld19_pyramid} vs flat {ld19_flat}"
+    );
+    let ld19_fixed = f(&r, &["ld19", "coverage", "fixed", "holes_fraction"]);
+    let ld19_multi = f(&r, &["ld19", "coverage", "pyramid", "holes_fraction"]);
+    assert!(
+        ld19_multi < ld19_fixed,
+        "LD19 holes {ld19_multi} vs {ld19_fixed}"
+    );
+
     // The files.
     for name in [
         "fig2.png",
         "stairs.png",
         "stairs-detection.png",
         "coverage.png",
+        "stairs-ld19.png",
         "report.md",
         "results.json",
     ] {

@@ -26,6 +26,8 @@ use std::process::{Command, Stdio};
 use std::time::Instant;
 use terrain_pyramid_host_tests::sim::record::{simulate, SimConfig};
 
+mod lidar;
+
 type Result<T> = std::result::Result<T, String>;
 
 const M4F: &str = "thumbv7em-none-eabihf";
@@ -39,6 +41,7 @@ pub fn task(args: &[String]) -> std::result::Result<(), String> {
             "--json" => opts.json = true,
             "--quick" => opts.quick = true,
             "--singlestep" => opts.singlestep = true,
+            "--lidars" => opts.lidars = true,
             other => {
                 return Err(format!(
                     "unknown option {other}; usage: cargo xtask bench [--json] [--quick] [--singlestep]"
@@ -47,6 +50,17 @@ pub fn task(args: &[String]) -> std::result::Result<(), String> {
         }
     }
     let t = Instant::now();
+    if opts.lidars {
+        // Only the spinning lidars' rows (bench/lidar.rs).
+        ensure_tools()?;
+        let rows = lidar::rows(opts.quick)?;
+        println!(
+            "{}",
+            serde_json::to_string(&rows).map_err(|e| e.to_string())?
+        );
+        eprintln!("xtask bench: done in {:.1} s", t.elapsed().as_secs_f64());
+        return Ok(());
+    }
     bench(&opts)?;
     eprintln!("xtask bench: done in {:.1} s", t.elapsed().as_secs_f64());
     Ok(())
@@ -57,6 +71,7 @@ struct Opts {
     json: bool,
     quick: bool,
     singlestep: bool,
+    lidars: bool,
 }
 
 fn root() -> PathBuf {

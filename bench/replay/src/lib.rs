@@ -280,3 +280,44 @@ pub fn boot_with<const W: usize, const L: usize, const C: usize, const Q: usize>
     )
     .is_ok()
 }
+
+/// The recording's sensor event ([`SensorEvent::SICK`] when it has none: version 1).
+#[must_use]
+pub fn sensor(recording: &[u8]) -> terrain_pyramid::wire::recording::SensorEvent {
+    Reader::new(recording)
+        .ok()
+        .and_then(|mut r| {
+            r.find_map(|e| match e.ok()?.payload {
+                Payload::Sensor(s) => Some(s),
+                _ => None,
+            })
+        })
+        .unwrap_or(terrain_pyramid::wire::recording::SensorEvent::SICK)
+}
+
+/// As [`boot`], with the recording's sensor event: a lidar's recording goes through the
+/// laser path the Setup names (`Frontend::packet`).
+pub fn boot_with_sensor<const W: usize, const L: usize, const C: usize, const Q: usize>(
+    core: &mut CoProcessor<W, L, C, Q>,
+    recording: &[u8],
+    design: &terrain_pyramid::Design<L>,
+) -> bool {
+    let Some(event) = setup(recording) else {
+        return false;
+    };
+    let message = terrain_pyramid::link::convert::setup_message_with_sensor(
+        &event,
+        &sensor(recording),
+        &ClassifierConfig::default(),
+    );
+    let Ok(config) = terrain_pyramid::link::convert::frontend_config(&message) else {
+        return false;
+    };
+    core.boot(
+        terrain_pyramid::link::LinkConfig::DEFAULT,
+        design,
+        &terrain_pyramid::Config::default(),
+        config,
+    )
+    .is_ok()
+}

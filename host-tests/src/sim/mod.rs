@@ -3,6 +3,8 @@
 //!
 //! - [`scene`]: the world — a ground height field plus boxes and posts, the scenarios
 //!   (flat, stairs, curb, gate, ditch, branch, slope), the exact ray cast, the ground truth.
+//! - [`lidar`]: an LD06/LD19, RPLIDAR or YDLIDAR on a nodding servo or the panned mount:
+//!   their packets as the sensors send them, a recording of version 2 with its sensor event.
 //! - [`laser`]: a SICK LMS2xx on a pan or tilt actuator: beams, sweep, noise, encoding,
 //!   measured-values telegrams.
 //! - [`trajectory`]: the robot standing, then driving along +x to a stop.
@@ -28,6 +30,7 @@ pub mod changing;
 pub mod cloud;
 pub mod drive;
 pub mod laser;
+pub mod lidar;
 pub mod record;
 pub mod rng;
 pub mod scene;

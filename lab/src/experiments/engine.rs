@@ -11,9 +11,12 @@
 use terrain_pyramid::angle::FineAngle;
 use terrain_pyramid::classify::ClassifierConfig;
 use terrain_pyramid::geometry::Pose;
-use terrain_pyramid::link::convert::frontend_config_of_event;
-use terrain_pyramid::pipeline::{Frontend, FrontendConfig};
+use terrain_pyramid::laser::{LaserDecoder, LaserItem, Sensor, SensorKind};
+use terrain_pyramid::link::convert::{frontend_config, setup_message_with_sensor};
+use terrain_pyramid::pipeline::{Frontend, FrontendConfig, PacketActuator};
+use terrain_pyramid::wire::recording::SensorEvent;
 use terrain_pyramid::wire::sick::{MeasuredValues, Telegram};
+use terrain_pyramid::wire::{FeedResult, LaserReturn};
 use terrain_pyramid::{Config, Design, Fused, Meters, Pyramid, PyramidStats};
 use terrain_pyramid_host::export::MapSnapshot;
 use terrain_pyramid_host::play::{steps, Step};
@@ -29,8 +32,11 @@ pub struct Line {
     pub robot_xy: (f64, f64),
     /// The actuator angle, 2⁻¹⁶ turn; `None` before the recording's first angle.
     pub angle: Option<u16>,
-    /// The measured-values payload of the line's telegram.
+    /// The measured-values payload of the line's telegram (empty for a lidar's packet).
     pub payload: Vec<u8>,
+    /// A spinning lidar's packet instead of a telegram: its returns and whether it starts a
+    /// revolution (the pipeline takes it through `Frontend::packet`, at the line's angle).
+    pub packet: Option<(Vec<LaserReturn>, bool)>,
 }
 
 /// A recording decoded into lines.
@@ -50,8 +56,13 @@ pub struct Decoded {
 pub fn decode(data: &[u8], classifier: &ClassifierConfig) -> Result<Decoded, String> {
     let decoded = steps(data)?;
     let setup = decoded.setup().ok_or("the recording has no setup")?;
-    let frontend = frontend_config_of_event(&setup, classifier)
-        .map_err(|e| format!("the recording's setup: {e}"))?;
+    let frontend = frontend_config(&setup_message_with_sensor(
+        &setup,
+        &decoded.sensor,
+        classifier,
+    ))
+    .map_err(|e| format!("the recording's setup: {e}"))?;
+    let mut lidar = lidar_decoder(&decoded.sensor)?;
     let mut lines = Vec::new();
     let mut pending_pose: Option<[f32; 6]> = None;
     let mut robot_xy = (0.0, 0.0);
@@ -59,8 +70,18 @@ pub fn decode(data: &[u8], classifier: &ClassifierConfig) -> Result<Decoded, Str
     for step in &decoded.steps {
         match step {
             Step::Setup(_) => {}
-            Step::Laser { .. } => {
-                return Err("the experiments' engine takes SICK recordings, not a lidar's".into())
+            Step::Laser { bytes, time_us, .. } => {
+                let decoder = lidar.as_mut().ok_or("lidar bytes in a SICK recording")?;
+                for (returns, starts) in lidar_packets(decoder, bytes) {
+                    lines.push(Line {
+                        time_us: *time_us,
+                        pose: pending_pose.take(),
+                        robot_xy,
+                        angle,
+                        payload: Vec::new(),
+                        packet: Some((returns, starts)),
+                    });
+                }
             }
             Step::Angle(turns) => angle = Some(*turns),
             Step::Pose(pose) => {
@@ -83,11 +104,41 @@ pub fn decode(data: &[u8], classifier: &ClassifierConfig) -> Result<Decoded, Str
                     robot_xy,
                     angle,
                     payload: telegram.payload().to_vec(),
+                    packet: None,
                 });
             }
         }
     }
     Ok(Decoded { frontend, lines })
+}
+
+/// The library's decoder of a recording's lidar (`None` for a SICK).
+fn lidar_decoder(sensor: &SensorEvent) -> Result<Option<Box<LaserDecoder>>, String> {
+    let s = SensorKind::from_code(sensor.sensor)
+        .and_then(|k| Sensor::from_kind_and_mode(k, sensor.mode))
+        .ok_or("the recording's sensor is unknown")?;
+    Ok(s.is_lidar().then(|| Box::new(LaserDecoder::new(s))))
+}
+
+/// The packets a chunk of lidar bytes completes: their returns and revolution flags.
+fn lidar_packets(decoder: &mut LaserDecoder, bytes: &[u8]) -> Vec<(Vec<LaserReturn>, bool)> {
+    let mut out = Vec::new();
+    let mut rest = bytes;
+    loop {
+        rest = match decoder.feed(rest) {
+            FeedResult::Consumed => break,
+            FeedResult::Item {
+                item: LaserItem::Packet(p),
+                remaining,
+                ..
+            } => {
+                out.push((p.returns().collect(), p.starts_revolution()));
+                remaining
+            }
+            other => other.remaining(),
+        };
+    }
+    out
 }
 
 /// A map the experiments feed and query, whatever its shape.
@@ -177,8 +228,18 @@ impl<const W: usize, const L: usize, const C: usize> Map for Runner<W, L, C> {
         let Some(angle) = line.angle else {
             return;
         };
-        self.frontend
-            .set_actuator(FineAngle::from_bits(u32::from(angle) << 16));
+        let angle = FineAngle::from_bits(u32::from(angle) << 16);
+        if let Some((returns, starts)) = &line.packet {
+            // Refused packets are counted by the pipeline.
+            let _ = self.frontend.packet(
+                &mut self.pyramid,
+                returns.iter().copied(),
+                *starts,
+                PacketActuator::still(angle),
+            );
+            return;
+        }
+        self.frontend.set_actuator(angle);
         if let Ok(values) = MeasuredValues::parse_payload(&line.payload) {
             // A line the variant refuses is counted by the pipeline; nothing else to do.
             let _ = self.frontend.line(&mut self.pyramid, &values);

@@ -26,6 +26,7 @@ pub mod coverage;
 pub mod designs;
 pub mod dynamic;
 pub mod engine;
+pub mod lidar;
 pub mod picture;
 pub mod stairs;
 pub mod stairs_board;
@@ -114,6 +115,9 @@ pub struct Results {
     /// `--stairs-only`).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub dynamic: Option<dynamic::DynamicResult>,
+    /// The LD19 on a nodding servo: stairs and coverage (absent with `--stairs-only`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub ld19: Option<lidar::Ld19Results>,
     /// Whether `--quick` was given.
     pub quick: bool,
     /// The navigability rule in force and its parameters.
@@ -193,12 +197,23 @@ pub fn run_all(args: &Args) -> Result<Results, String> {
         let dynamic = dynamic::run(&stairs_setup, &stairs.pyramid_soft)?;
         (Some(coverage), Some(cost), Some(dynamic))
     };
+    let ld19 = if args.stairs_only {
+        None
+    } else {
+        Some(lidar::run(
+            args.quick,
+            args.seed,
+            &coverage_setup,
+            Some(out),
+        )?)
+    };
     let results = Results {
         stairs,
         stairs_board,
         coverage,
         cost,
         dynamic,
+        ld19,
         quick: args.quick,
         rule: rule::describe(&classifier),
     };
@@ -403,6 +418,9 @@ fn report(r: &Results, design: &terrain_pyramid_host::design::PyramidDesign) -> 
     }
     if let Some(d) = &r.dynamic {
         dynamic_report(&mut s, d);
+    }
+    if let Some(l) = &r.ld19 {
+        s.push_str(&lidar::report(l, &r.stairs, r.coverage.as_ref()));
     }
     s
 }
