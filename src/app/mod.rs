@@ -56,6 +56,8 @@
 #[cfg(test)]
 mod lidar_tests;
 #[cfg(test)]
+mod rule_tests;
+#[cfg(test)]
 mod tests;
 
 use core::fmt;

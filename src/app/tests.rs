@@ -500,13 +500,18 @@ fn set_rule_changes_only_the_classifiers_rule() {
         ..after
     };
     assert_eq!(unchanged, before);
-    // Back to the plane rule with its defaults, exactly.
-    let plane = crate::link::convert::set_rule_message(&before.classifier);
-    core.host(&command(2, &Message::SetRule(plane)));
+    // Back to the default rule (the plane rule with its defaults, or without the plane-rule
+    // feature the paper's), exactly.
+    let default = crate::link::convert::set_rule_message(&before.classifier);
+    core.host(&command(2, &Message::SetRule(default)));
     assert_eq!(*core.frontend().config(), before);
     assert_eq!(
         core.frontend().config().classifier.rule,
-        NavigabilityRule::Plane(PlaneRule::DEFAULT)
+        if cfg!(feature = "plane-rule") {
+            NavigabilityRule::Plane(PlaneRule::DEFAULT)
+        } else {
+            NavigabilityRule::Spread
+        }
     );
     core.poll(10);
     let out = output(&mut core);

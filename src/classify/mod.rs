@@ -33,7 +33,7 @@
 //! # Bounded scratch
 //! The touched cells live in an open-addressing table of `C` slots (a power of two, 48 bytes
 //! each: 16 for the key, the closest look and the lowest and highest z, 32 for the plane rule's
-//! sums). A point that finds the table full is dropped and
+//! sums; 16 bytes in a build without the `plane-rule` feature, which has no sums). A point that finds the table full is dropped and
 //! counted in [`ClassifierStats::overflow_points`]; nothing panics. One 361-beam line touches
 //! at most 361 cells per layer it feeds (2 to 4 with the default soft gate); 1024 slots (48 KiB)
 //! hold a line with room to spare, a whole 3-D sweep needs a window's worth.
@@ -75,14 +75,16 @@ pub struct ClassifierConfig {
     /// default, the paper's rule) judges overhang only against the cell's own lowest point.
     pub ceiling: Option<Meters>,
     /// How a cell's points below the overhang cut are judged. Default
-    /// [`NavigabilityRule::Plane`] with [`PlaneRule::DEFAULT`]; [`NavigabilityRule::Spread`]
-    /// is the paper's rule.
+    /// [`NavigabilityRule::DEFAULT`]: [`NavigabilityRule::Plane`] with [`PlaneRule::DEFAULT`]
+    /// with the `plane-rule` feature (the library's default), [`NavigabilityRule::Spread`] (the
+    /// paper's rule) without it.
     pub rule: NavigabilityRule,
 }
 
 impl ClassifierConfig {
     /// The defaults (`const`): robot height 1.0 m, step threshold 0.05 m, no drop-off check, no
-    /// ceiling, the plane rule.
+    /// ceiling, [`NavigabilityRule::DEFAULT`] (the plane rule with the `plane-rule` feature,
+    /// the paper's spread rule without it).
     pub const DEFAULT: Self = Self {
         robot_height: Meters::ONE,
         step_threshold: DEFAULT_STEP_THRESHOLD,
@@ -144,10 +146,12 @@ const EMPTY: u8 = 0;
 /// cell (layers 32 and up, in pyramids of more than 32 layers, compute it per point).
 const RULE_LAYERS: usize = 32;
 
-/// One touched layer cell of the current observation. 48 bytes.
+/// One touched layer cell of the current observation. 48 bytes (16 without the `plane-rule`
+/// feature).
 #[derive(Debug, Clone, Copy)]
 struct Slot {
-    /// The plane rule's sums (kept only while the plane rule is in force).
+    /// The plane rule's sums (kept only while the plane rule is in force; zero-sized without
+    /// the `plane-rule` feature).
     plane: PlaneState,
     cell_x: i32,
     cell_y: i32,
@@ -263,11 +267,8 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
         classifier.config = ClassifierConfig::DEFAULT;
         classifier.robot_height_mm = 1000;
         classifier.step_mm = 50;
-        // The default rule's parameters (PlaneParams::DEFAULT is PlaneRule::DEFAULT's).
-        classifier.plane = match ClassifierConfig::DEFAULT.rule {
-            NavigabilityRule::Spread => None,
-            NavigabilityRule::Plane(_) => Some(PlaneParams::DEFAULT),
-        };
+        // The default rule's parameters (computed at compile time).
+        classifier.plane = rule::DEFAULT_PARAMS;
         classifier
     }
 
@@ -311,15 +312,18 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
     }
 
     /// Adopts a configuration and forgets the current observation. Negative heights or
-    /// thresholds are taken as zero.
-    pub fn configure(&mut self, config: ClassifierConfig) {
+    /// thresholds are taken as zero. A rule this build cannot apply
+    /// ([`NavigabilityRule::is_built_in`]: the plane rule without the `plane-rule` feature)
+    /// becomes [`NavigabilityRule::Spread`], and [`config`](Self::config) says so; the link
+    /// refuses such a configuration before it gets here.
+    pub fn configure(&mut self, mut config: ClassifierConfig) {
+        if !config.rule.is_built_in() {
+            config.rule = NavigabilityRule::Spread;
+        }
         self.config = config;
         self.robot_height_mm = mm_i16(config.robot_height.to_bits()).max(0);
         self.step_mm = mm_i16(config.step_threshold.to_bits()).max(0);
-        self.plane = match config.rule {
-            NavigabilityRule::Spread => None,
-            NavigabilityRule::Plane(rule) => Some(PlaneParams::new(&rule, config.step_threshold)),
-        };
+        self.plane = rule::params_of(&config.rule, config.step_threshold);
         self.discard();
     }
 
@@ -936,12 +940,38 @@ mod tests {
     }
 
     #[test]
+    #[cfg(feature = "plane-rule")]
     fn a_slot_is_48_bytes() {
         assert_eq!(core::mem::size_of::<PlaneState>(), 32);
         assert_eq!(core::mem::size_of::<Slot>(), 48);
     }
 
     #[test]
+    #[cfg(not(feature = "plane-rule"))]
+    fn without_the_plane_rule_a_slot_is_16_bytes_and_the_paper_rule_applies() {
+        assert_eq!(core::mem::size_of::<PlaneState>(), 0);
+        assert_eq!(core::mem::size_of::<Slot>(), 16);
+        assert_eq!(ClassifierConfig::default().rule, NavigabilityRule::Spread);
+        assert!(!NavigabilityRule::Plane(PlaneRule::DEFAULT).is_built_in());
+        // A plane rising 6 cm across the cell, which the plane rule would call navigable: asked
+        // for, the plane rule becomes the spread rule, which calls the cell an obstacle.
+        let d = Meters::from_num(0.3);
+        let mut c = classifier::<256>(GateShape::Hard);
+        c.configure(ClassifierConfig {
+            rule: NavigabilityRule::Plane(PlaneRule::DEFAULT),
+            ..ClassifierConfig::default()
+        });
+        assert_eq!(c.config().rule, NavigabilityRule::Spread);
+        assert_eq!(c.plane, None);
+        c.begin(Meters::ZERO);
+        for q in [pt(0.301, 0.01, 0.00), pt(0.399, 0.09, 0.06)] {
+            c.add_point(q, d, Meters::ZERO);
+        }
+        assert_eq!(records(&mut c)[0].class, EvidenceClass::Obstacle);
+    }
+
+    #[test]
+    #[cfg(feature = "plane-rule")]
     fn the_paper_rule_stays_available() {
         let d = Meters::from_num(0.3);
         // A plane rising 6 cm across the cell's 0.1 m (31°), four points at its corners.
@@ -1098,6 +1128,7 @@ mod tests {
     }
 
     #[test]
+    #[cfg(feature = "plane-rule")]
     fn a_new_lowest_point_keeps_the_best_bound_in_the_plane_sums() {
         let d = Meters::from_num(0.3);
         let mut c = classifier::<256>(GateShape::Hard);

@@ -4,13 +4,18 @@
 //! Two rules, chosen by [`NavigabilityRule`] in [`super::ClassifierConfig`]:
 //! - [`NavigabilityRule::Spread`], the paper's: the spread of the points below the overhang
 //!   cut over the step threshold. State: the lowest and highest z (kept by every slot).
-//! - [`NavigabilityRule::Plane`], the default: a least-squares plane per cell from running sums
+//! - [`NavigabilityRule::Plane`], the default (with the `plane-rule` feature): a least-squares plane per cell from running sums
 //!   of the points below the overhang cut. Not navigable when the points stray from their
 //!   plane by more than a residual allowance, or when the plane rises across the points'
 //!   extent by more than the largest traversable slope and a step allow. The allowances grow
 //!   with the sensor's height noise at the cell's distance,
 //!   `σ_z(d) = √((σ·h/r)² + (σ_a·r)²)`, `r = √(h² + d²)`: the range noise σ along the beam and
 //!   the beam's elevation error σ_a, each seen in the vertical.
+//!
+//! The plane rule is built in with the library's `plane-rule` feature (on by default). Without
+//! it `PlaneState` is zero-sized (a classifier slot is 16 bytes instead of 48), the default
+//! rule is the spread rule, and the classifier applies the spread rule whatever its
+//! configuration asks ([`NavigabilityRule::is_built_in`]; the link refuses the plane rule).
 //!
 //! # Fixed point (`PlaneState`, 32 bytes a slot)
 //! Per point: its position in the cell as two 6-bit coordinates `u, v ∈ −32 ..= 31` (units of
@@ -63,8 +68,24 @@ pub enum NavigabilityRule {
 }
 
 impl NavigabilityRule {
-    /// The default: [`NavigabilityRule::Plane`] with [`PlaneRule::DEFAULT`].
+    /// The default: [`NavigabilityRule::Plane`] with [`PlaneRule::DEFAULT`] (a build with the
+    /// `plane-rule` feature, the library's default).
+    #[cfg(feature = "plane-rule")]
     pub const DEFAULT: Self = Self::Plane(PlaneRule::DEFAULT);
+    /// The default: [`NavigabilityRule::Spread`], the paper's rule (a build without the
+    /// `plane-rule` feature, which cannot apply the plane rule).
+    #[cfg(not(feature = "plane-rule"))]
+    pub const DEFAULT: Self = Self::Spread;
+
+    /// Whether this build can apply the rule: the spread rule always, the plane rule only
+    /// with the `plane-rule` feature (the library's default).
+    #[must_use]
+    pub const fn is_built_in(&self) -> bool {
+        match self {
+            Self::Spread => true,
+            Self::Plane(_) => cfg!(feature = "plane-rule"),
+        }
+    }
 }
 
 impl Default for NavigabilityRule {
@@ -133,13 +154,17 @@ impl defmt::Format for PlaneRule {
     }
 }
 
+#[cfg(feature = "plane-rule")]
 /// The number of summed points at which the sums are halved.
 const HALVE_AT: u8 = 62;
+#[cfg(feature = "plane-rule")]
 /// The largest halving level (every 2¹⁵-th point summed).
 const MAX_LEVEL: u8 = 15;
+#[cfg(feature = "plane-rule")]
 /// The largest |z − z₀| summed, millimetres.
 const MAX_DZ: i32 = 8191;
 
+#[cfg(feature = "plane-rule")]
 /// The plane rule's running sums of one slot. 32 bytes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(super) struct PlaneState {
@@ -162,6 +187,7 @@ pub(super) struct PlaneState {
     level: u8,
 }
 
+#[cfg(feature = "plane-rule")]
 impl PlaneState {
     /// No point.
     pub(super) const EMPTY: Self = Self {
@@ -238,10 +264,12 @@ impl PlaneState {
     }
 }
 
+#[cfg(feature = "plane-rule")]
 fn sat16(v: i32) -> i16 {
     i16::try_from(v).unwrap_or(if v < 0 { i16::MIN } else { i16::MAX })
 }
 
+#[cfg(feature = "plane-rule")]
 fn satu16(v: i32) -> u16 {
     u16::try_from(v.max(0)).unwrap_or(u16::MAX)
 }
@@ -261,6 +289,7 @@ pub(super) fn sub_cell(rem: i64, reciprocal: u32) -> i8 {
     q - 32
 }
 
+#[cfg(feature = "plane-rule")]
 /// The parameters of the plane decision in the units it computes in, from a
 /// [`PlaneRule`] and the step threshold (at `configure`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -283,11 +312,13 @@ pub(super) struct PlaneParams {
     quick_mm: i32,
 }
 
+#[cfg(feature = "plane-rule")]
 /// Metres (raw Q16.16) to millimetres in Q16, `raw·1000`, never negative.
 fn mm_q16(m: Meters) -> i64 {
     i64::from(m.to_bits()).max(0) * 1000
 }
 
+#[cfg(feature = "plane-rule")]
 impl PlaneParams {
     /// [`PlaneParams::new`] of [`PlaneRule::DEFAULT`] and the default step threshold (0.05 m),
     /// computed at compile time.
@@ -325,8 +356,9 @@ impl PlaneParams {
     }
 }
 
-/// The geometry of one cell's judgement.
+/// The geometry of one cell's judgement (read by the plane rule only).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(not(feature = "plane-rule"), allow(dead_code))]
 pub(super) struct CellGeometry {
     /// The cell's side, raw Q16.16 metres.
     pub(super) cell: i32,
@@ -336,6 +368,7 @@ pub(super) struct CellGeometry {
     pub(super) distance: Meters,
 }
 
+#[cfg(feature = "plane-rule")]
 /// `√x` through 64 bits: exact (`⌊√x⌋`) when `x` fits them, else `⌊√(x/4ˢ)⌋·2ˢ` with the
 /// smallest s that makes `x/4ˢ` fit (at most 2ˢ below `⌊√x⌋`, a relative error under 2⁻³¹).
 fn isqrt(x: u128) -> u128 {
@@ -349,6 +382,7 @@ fn isqrt(x: u128) -> u128 {
     }
 }
 
+#[cfg(feature = "plane-rule")]
 /// `⌊√(12/n)·2¹⁶⌋` for n = 0 ..= [`HALVE_AT`] (0 at n = 0), computed at compile time.
 const ROOT_12_OVER_N: [u32; HALVE_AT as usize + 1] = {
     let mut table = [0_u32; HALVE_AT as usize + 1];
@@ -375,6 +409,7 @@ const ROOT_12_OVER_N: [u32; HALVE_AT as usize + 1] = {
     table
 };
 
+#[cfg(feature = "plane-rule")]
 /// The noise allowance `k·σ_z(d)`, mm Q16.
 fn noise_q16(params: &PlaneParams, geometry: &CellGeometry) -> i64 {
     let h = i128::from(geometry.sensor_height_mm.max(0));
@@ -406,6 +441,7 @@ fn noise_q16(params: &PlaneParams, geometry: &CellGeometry) -> i64 {
         .unwrap_or(i64::MAX)
 }
 
+#[cfg(feature = "plane-rule")]
 /// `⌊num·2¹⁶/den⌉` towards zero, for `den > 0`: in 64-bit divisions when `num` and `den` fit
 /// 64 bits (always for the plane's sums: |num| < 2⁵⁴, den < 2⁴⁵), as the integer quotient and
 /// the quotient of the remainder times 2¹⁶ (< 2⁶¹); in 128 bits otherwise.
@@ -419,6 +455,7 @@ fn q16_quotient(num: i128, den: i128) -> i128 {
     }
 }
 
+#[cfg(feature = "plane-rule")]
 /// Whether the plane rule calls the cell of `state` not navigable: four 64-bit divisions
 /// (the plane), one for the noise, four integer square roots (the noise, the gradient, the
 /// rise).
@@ -482,7 +519,81 @@ pub(super) fn plane_obstacle(
     rise_n.saturating_mul(steep) > (64 * slope * n).saturating_mul(allowance)
 }
 
+/// The plane rule's parameters in the classifier for `rule` with step threshold `step`:
+/// `None` under the spread rule, and in a build without the `plane-rule` feature whatever the
+/// rule.
+pub(super) fn params_of(rule: &NavigabilityRule, step: Meters) -> Option<PlaneParams> {
+    match rule {
+        NavigabilityRule::Spread => None,
+        #[cfg(feature = "plane-rule")]
+        NavigabilityRule::Plane(rule) => Some(PlaneParams::new(rule, step)),
+        #[cfg(not(feature = "plane-rule"))]
+        NavigabilityRule::Plane(_) => {
+            let _ = step;
+            None
+        }
+    }
+}
+
+/// [`params_of`] the default rule and step threshold (0.05 m), at compile time.
+#[cfg(feature = "plane-rule")]
+pub(super) const DEFAULT_PARAMS: Option<PlaneParams> = Some(PlaneParams::DEFAULT);
+/// [`params_of`] the default rule (the spread rule in this build), at compile time.
+#[cfg(not(feature = "plane-rule"))]
+pub(super) const DEFAULT_PARAMS: Option<PlaneParams> = None;
+
+#[cfg(not(feature = "plane-rule"))]
+pub(super) use absent::{plane_obstacle, PlaneParams, PlaneState};
+
+/// The plane rule's state and decision in a build without the `plane-rule` feature: a
+/// zero-sized state whose operations do nothing (a slot is 16 bytes), and parameters of which
+/// no value exists, so the classifier's `Option<PlaneParams>` is always `None` and every plane
+/// branch compiles away.
+#[cfg(not(feature = "plane-rule"))]
+mod absent {
+    use super::CellGeometry;
+
+    /// The plane rule's running sums of one slot, in a build without them: zero-sized.
+    #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+    pub(in crate::classify) struct PlaneState;
+
+    impl PlaneState {
+        /// No point.
+        pub(in crate::classify) const EMPTY: Self = Self;
+
+        /// Sums of one point: none kept.
+        pub(in crate::classify) const fn first(_u: i8, _v: i8, _z: i16) -> Self {
+            Self
+        }
+
+        /// Offers a point below the overhang cut: nothing is kept.
+        #[allow(clippy::unused_self)]
+        pub(in crate::classify) fn add(&mut self, _u: i8, _v: i8, _z: i16) {}
+    }
+
+    /// The plane rule's parameters, in a build without the rule: uninhabited.
+    #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+    pub(in crate::classify) enum PlaneParams {}
+
+    impl PlaneParams {
+        /// Never called: no value exists.
+        pub(in crate::classify) fn flat_enough(&self, _spread_mm: i32) -> bool {
+            match *self {}
+        }
+    }
+
+    /// Never called: no [`PlaneParams`] value exists.
+    pub(in crate::classify) fn plane_obstacle(
+        _state: &PlaneState,
+        params: &PlaneParams,
+        _geometry: &CellGeometry,
+    ) -> bool {
+        match *params {}
+    }
+}
+
 #[cfg(test)]
+#[cfg(feature = "plane-rule")]
 mod tests {
     use super::*;
     extern crate std;

@@ -455,16 +455,22 @@ pub fn set_rule_message(classifier: &ClassifierConfig) -> SetRule {
     }
 }
 
+/// The largest navigability rule number this build takes: 1 (the plane rule) with the
+/// `plane-rule` feature, 0 (the paper's spread rule only) without it.
+pub const RULE_MAX: u8 = if cfg!(feature = "plane-rule") { 1 } else { 0 };
+
 /// The navigability rule of a Setup's rule block, validated in wire order: the rule exists (0
-/// spread, 1 plane); under the plane rule every parameter is finite with 0 ≤ v < 1 000 (the
-/// parameters are ignored under the spread rule).
+/// spread, 1 plane) and this build has it; under the plane rule every parameter is finite with
+/// 0 ≤ v < 1 000 (the parameters are ignored under the spread rule).
 ///
 /// # Errors
-/// The first bad field.
+/// The first bad field. A rule beyond [`RULE_MAX`] is out of range `[0, RULE_MAX]`
+/// ([`SetupField::Rule`]): a build without the `plane-rule` feature refuses rule 1 with
+/// value 1 in `[0, 0]`, which [`ReplyText`] reads as "not built in".
 pub fn navigability_rule(block: &RuleSetup) -> Result<NavigabilityRule, SetupError> {
     match block.rule {
         0 => Ok(NavigabilityRule::Spread),
-        1 => {
+        1 if cfg!(feature = "plane-rule") => {
             let value = |field, v: f32| -> Result<f32, SetupError> {
                 if !v.is_finite() {
                     return Err(SetupError::NotFinite { field });
@@ -496,7 +502,7 @@ pub fn navigability_rule(block: &RuleSetup) -> Result<NavigabilityRule, SetupErr
             field: SetupField::Rule,
             value: f32::from(other),
             min: 0.0,
-            max: 1.0,
+            max: f32::from(RULE_MAX),
         }),
     }
 }
@@ -969,6 +975,16 @@ impl fmt::Display for ReplyReason {
                 f,
                 "{name}: {v} is not a sensor (0 SICK, 1 LD06, 2 RPLIDAR, 3 YDLIDAR)"
             ),
+            // A device built without the plane rule (`plane-rule` feature) asked for it.
+            ReplyCode::OutOfRange
+                if reply.param == SetupField::Rule as u8 && v == 1.0 && a == 0.0 && b == 0.0 =>
+            {
+                write!(
+                    f,
+                    "{name}: the plane rule (1) is not built into the device (built without \
+                     the plane-rule feature); it takes the paper's spread rule (0) only"
+                )
+            }
             ReplyCode::OutOfRange => match param_of_code(reply.param) {
                 // The library's own sentence, which names the layer.
                 Some(param @ Param::DecayTau { .. }) => write!(
@@ -1255,6 +1271,69 @@ mod tests {
     /// Setup; a bad rule or plane parameter is refused by name; the paper's rule ignores the
     /// plane parameters.
     #[test]
+    fn the_plane_rule_is_taken_only_where_built_in() {
+        let plane = rule_setup(&NavigabilityRule::Plane(PlaneRule::DEFAULT));
+        let to = Header {
+            version: crate::wire::link::VERSION,
+            msg_type: 0x8B,
+            seq: 7,
+        };
+        let set = SetRule {
+            step_threshold_m: 0.05,
+            rule: plane,
+        };
+        if cfg!(feature = "plane-rule") {
+            assert_eq!(RULE_MAX, 1);
+            assert_eq!(
+                navigability_rule(&plane),
+                Ok(NavigabilityRule::Plane(PlaneRule::DEFAULT))
+            );
+            assert!(set_rule_of(&set).is_ok());
+        } else {
+            assert_eq!(RULE_MAX, 0);
+            let error = SetupError::OutOfRange {
+                field: SetupField::Rule,
+                value: 1.0,
+                min: 0.0,
+                max: 0.0,
+            };
+            assert_eq!(navigability_rule(&plane), Err(error));
+            assert_eq!(set_rule_of(&set), Err(error));
+            assert_eq!(
+                navigability_rule(&RuleSetup::SPREAD),
+                Ok(NavigabilityRule::Spread)
+            );
+        }
+        // The refusal a build without the plane rule sends, read by any build.
+        let refusal = setup_refusal(
+            to,
+            &SetupError::OutOfRange {
+                field: SetupField::Rule,
+                value: 1.0,
+                min: 0.0,
+                max: 0.0,
+            },
+        );
+        assert_eq!(
+            (
+                refusal.code,
+                refusal.param,
+                refusal.value,
+                refusal.a,
+                refusal.b
+            ),
+            (ReplyCode::OutOfRange, 65, 1.0, 0.0, 0.0)
+        );
+        assert_eq!(
+            std::format!("{}", ReplyText(&refusal)),
+            "reply to #7 (0x8b): setup navigability rule: the plane rule (1) is not built into \
+             the device (built without the plane-rule feature); it takes the paper's spread rule \
+             (0) only"
+        );
+    }
+
+    #[test]
+    #[cfg(feature = "plane-rule")]
     fn the_rule_block_travels_and_is_validated() {
         let event = SetupEvent {
             mount: MountKind::TiltedHorizontal,

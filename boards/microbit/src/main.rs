@@ -37,13 +37,12 @@ pub const CELLS: usize = 16;
 /// The pyramid's layers, at most.
 pub const LAYERS: usize = 4;
 /// Classifier slots: distinct cells one observation can touch before the classifier counts
-/// overflows. 8 (384 B): a slot is 48 bytes since the plane rule, and the decay's state and
-/// the longer Configure took another 220 B of the 16 KiB (16 slots left the Setup's path
-/// without stack: the firmware stopped on the first Setup). With 32 the statics leave
-/// 3.2 KiB of stack, below the 3.8 KiB the deepest path (a host command that queues Hello)
-/// takes (the firmware stopped on the first Configure), and with 64, main's value before the
-/// plane rule, 1.6 KiB.
-pub const SLOTS: usize = 8;
+/// overflows. 32 (512 B): the library is built without the plane rule (`plane-rule` off), so
+/// a slot is 16 bytes; with the plane rule's 48-byte slots only 16 fitted beside the stack.
+/// 64 (1 KiB, the value before the plane rule) leave the statics 12 636 B and the stack
+/// 3 748 B, under the ~3.8 KiB the deepest path (a host command that queues Hello) takes:
+/// the firmware locked up on the first frames.
+pub const SLOTS: usize = 32;
 /// The link's outgoing queue, bytes (at least `min_queue_bytes(16, 4)`).
 pub const QUEUE: usize = 512;
 

@@ -784,7 +784,7 @@ impl RuleSetup {
 
 /// A SetRule command (0x8B): the classifier's step threshold and navigability rule, for a
 /// device already set up (the rest of its setup stays). Unvalidated
-/// ([`crate::link::convert::classifier_with_rule`] checks it).
+/// ([`crate::link::convert::set_rule_of`] checks it).
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct SetRule {

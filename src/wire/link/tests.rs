@@ -609,8 +609,11 @@ fn set_rule_golden() {
         "04 03 8b 09 05 0a d7 a3 3d 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 \
          05 36 fe 90 e2 00",
     );
-    let default =
-        crate::link::convert::set_rule_message(&crate::classify::ClassifierConfig::DEFAULT);
+    // The plane rule with its defaults (what a build with the plane-rule feature defaults to).
+    let default = crate::link::convert::set_rule_message(&crate::classify::ClassifierConfig {
+        rule: crate::classify::NavigabilityRule::Plane(crate::classify::PlaneRule::DEFAULT),
+        ..crate::classify::ClassifierConfig::DEFAULT
+    });
     golden(
         10,
         &Message::SetRule(default),
@@ -672,7 +675,9 @@ fn setup_with_a_lidar_on_a_servo_golden() {
     // The rule block is the library's default plane rule, bit for bit.
     assert_eq!(
         setup.rule,
-        crate::link::convert::rule_setup(&crate::classify::NavigabilityRule::DEFAULT)
+        crate::link::convert::rule_setup(&crate::classify::NavigabilityRule::Plane(
+            crate::classify::PlaneRule::DEFAULT
+        ))
     );
     assert_eq!((SETUP_RULE_LEN, SETUP_LASER_LEN), (21, 22));
 }
