@@ -4,7 +4,7 @@
 //! `.vector_table + .text + .rodata + .data`, RAM = `.data + .bss + .uninit`. The stack is
 //! the high-water mark the firmware measures by stack painting, after a real run: the 3DTK
 //! recording through `pyramid run --board qemu|netduinoplus2|microbit` (the demo's flags; the
-//! micro:bit's 16-cell windows to 4 m), with the run's wall time and its maps' hash beside the
+//! micro:bit's 16-cell windows to 4 m, under the paper's rule, the only one it is built with), with the run's wall time and its maps' hash beside the
 //! in-process host's. The NUCLEO-F446RE build's stack needs its board (`null`). With `--json` the one JSON object is all that goes to
 //! stdout; progress goes to stderr.
 use crate::demo::{record_3dtk, run_args, shared_data, FLAGS_3DTK};
@@ -114,6 +114,9 @@ fn flags_3dtk(board: Board) -> Vec<&'static str> {
             "3",
             "--cells",
             "16",
+            // Built without the plane rule (16-byte slots): it takes the paper's.
+            "--rule",
+            "paper",
         ],
         _ => FLAGS_3DTK.to_vec(),
     }
