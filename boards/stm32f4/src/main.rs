@@ -95,16 +95,14 @@ fn main() -> ! {
 
     let core = CORE.take();
     let setup = FrontendConfig::lms291_boot(ScanPlane::PannedVertical);
+    // Hello tells the host which clock the board runs on (a fallback costs ±1 %).
+    let link = LinkConfig {
+        clock: clocks.source.reported(),
+        ..LinkConfig::DEFAULT
+    };
     let booted = DefaultDesign::new(SensorModel::default(), Schedule::default(), 64)
         .map_err(BootError::Design)
-        .and_then(|design| {
-            // Hello tells the host which clock the board runs on (a fallback is ±1 %).
-            let link = LinkConfig {
-                clock: clocks.source.reported(),
-                ..LinkConfig::DEFAULT
-            };
-            core.boot(link, &design, &Config::default(), setup)
-        });
+        .and_then(|design| core.boot(link, &design, &Config::default(), setup));
     if let Err(e) = booted {
         defmt::panic!("boot: {}", e);
     }
