@@ -382,8 +382,16 @@ impl<const W: usize, const L: usize, const C: usize, const Q: usize> CoProcessor
         let checks = [
             // An obstacle seen by layer 0 in its cell (3, 0).
             (record(0, 3, EvidenceClass::Obstacle), Applied::Updated),
-            // Free ground seen by layer 1 around the robot.
-            (record(1, 0, EvidenceClass::Navigable), Applied::Updated),
+            // Free ground seen by layer 1 around the robot (a one-layer design, a flat grid,
+            // has no layer 1).
+            (
+                record(1, 0, EvidenceClass::Navigable),
+                if layers >= 2 {
+                    Applied::Updated
+                } else {
+                    Applied::BadLayer
+                },
+            ),
             // A layer the design does not have.
             (
                 record(layers, 0, EvidenceClass::Obstacle),
@@ -402,7 +410,7 @@ impl<const W: usize, const L: usize, const C: usize, const Q: usize> CoProcessor
         let r1 = self
             .pyramid
             .layer(1)
-            .map_or(Meters::ZERO, |l| l.resolution().meters());
+            .map_or(r0, |l| l.resolution().meters());
         // The centre of layer 0's cell (3, 0), and a point of layer 1's cell (0, 0) outside
         // layer 0's cells that were touched.
         let at = |p: &Pyramid<W, L>, x: Meters, y: Meters| p.fused(x, y);
@@ -414,7 +422,7 @@ impl<const W: usize, const L: usize, const C: usize, const Q: usize> CoProcessor
         if obstacle != (Fused::Obstacle { layer: 0 }) {
             return Err(BootError::SelfCheck("layer 0 lost the obstacle"));
         }
-        if at(&self.pyramid, r1 / 2, r1 / 2) != (Fused::Navigable { layer: 1 }) {
+        if layers >= 2 && at(&self.pyramid, r1 / 2, r1 / 2) != (Fused::Navigable { layer: 1 }) {
             return Err(BootError::SelfCheck("layer 1 lost the free ground"));
         }
         if at(

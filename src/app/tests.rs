@@ -129,6 +129,27 @@ impl AngleSource for Encoder {
     }
 }
 
+/// A flat grid is a design of one layer (the bench's `flat` firmware): the self-check has no
+/// layer 1 to try and must not need one.
+#[test]
+fn a_one_layer_design_boots() {
+    let sensor = SensorModel {
+        max_range_m: 0.5,
+        ..SensorModel::default()
+    };
+    let schedule = Schedule {
+        gate: GateShape::Hard,
+        ..Schedule::default()
+    };
+    let design = crate::Design::<1>::new(sensor, schedule, 64).unwrap();
+    let mut core = Box::new(CoProcessor::<64, 1, 256, 2048>::new());
+    core.boot(LinkConfig::DEFAULT, &design, &Config::default(), setup())
+        .unwrap();
+    assert_eq!(core.pyramid().counts(0).unwrap().observed, 0);
+    // The record for layer 1 and the one past the last layer: both refused.
+    assert_eq!(core.pyramid().stats().bad_layer, 2);
+}
+
 #[test]
 fn boot_checks_the_pyramid_and_says_hello() {
     let mut core = Box::new(Core::new());
