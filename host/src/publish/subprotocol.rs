@@ -82,7 +82,7 @@ fn accept(listener: &TcpListener, server: SocketAddr, stop: &AtomicBool) {
                         let _ = connection(client, server);
                     });
             }
-            Err(e) if e.kind() == io::ErrorKind::WouldBlock => std::thread::sleep(ACCEPT_POLL),
+            // Nothing waiting (the listener does not block), or a failed accept: look again.
             Err(_) => std::thread::sleep(ACCEPT_POLL),
         }
     }
@@ -128,18 +128,16 @@ fn rewrite_protocol(
     let mut changed = false;
     let mut out = String::with_capacity(text.len());
     for line in text.split_inclusive("\r\n") {
-        let is_protocol = line
+        let header = line
             .split_once(':')
-            .is_some_and(|(name, _)| name.trim().eq_ignore_ascii_case("sec-websocket-protocol"));
-        if is_protocol {
-            let value = line.split_once(':').map_or("", |(_, v)| v);
+            .filter(|(name, _)| name.trim().eq_ignore_ascii_case("sec-websocket-protocol"));
+        if let Some((name, value)) = header {
             let tokens: Vec<&str> = value.split(',').map(str::trim).collect();
             if when(value) && tokens.contains(&from) {
                 let replaced: Vec<&str> = tokens
                     .iter()
                     .map(|t| if *t == from { to } else { t })
                     .collect();
-                let name = line.split_once(':').map_or("", |(n, _)| n);
                 out.push_str(name);
                 out.push_str(": ");
                 out.push_str(&replaced.join(", "));
