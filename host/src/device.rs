@@ -20,6 +20,16 @@ use terrain_pyramid::{Config, Design};
 /// How many polls (of [`InProcess::POLL_STEP_MS`] each) an in-process wait may take.
 const MAX_IN_PROCESS_POLLS: u32 = 1_000_000;
 
+/// Wall time a device on real time is left between two questions of [`Device::sync`]: at the
+/// default budget (46 080 B/s) it earns about 920 bytes, seven Stats' worth, so the tiles
+/// still waiting are sent ahead of the next answer.
+pub const IDLE_PAUSE: std::time::Duration = std::time::Duration::from_millis(20);
+
+/// How many rounds (a Stats, then [`Device::idle`]) [`Device::sync`] waits for the last
+/// changed tile: 1 500 rounds are 30 s of a board's time at [`IDLE_PAUSE`], 15 s of an
+/// in-process clock, enough for a whole snapshot of the largest pyramid at the default budget.
+pub const SYNC_ROUNDS: usize = 1_500;
+
 /// A co-processor driven over its byte streams.
 pub trait Device {
     /// Writes laser bytes (what the laser's UART delivers).
@@ -140,12 +150,15 @@ pub trait Device {
 
     /// RequestStats until the device has no changed tile left to queue: every change it made
     /// before that Stats was then on the wire ahead of it, so the mirror holds the device's
-    /// maps cell for cell (`tiles_dirty`, `docs/protocol.md`).
+    /// maps cell for cell (`tiles_dirty`, `docs/protocol.md`). Between two questions the
+    /// device is left [`idle`](Self::idle): each Stats it answers is charged to the same byte
+    /// budget as its tiles, and a host that asked without pause would spend that budget on
+    /// answers and starve the tiles it waits for.
     ///
     /// # Errors
-    /// No Stats in time, or tiles still changing after many rounds.
+    /// No Stats in time, or tiles still waiting after [`SYNC_ROUNDS`] rounds.
     fn sync(&mut self) -> Result<Stats, String> {
-        for _ in 0..100_000 {
+        for _ in 0..SYNC_ROUNDS {
             let stats = self.stats()?;
             if stats.tiles_dirty == 0 {
                 return Ok(stats);
@@ -155,11 +168,13 @@ pub trait Device {
         Err("the device's tiles never stopped changing".into())
     }
 
-    /// Lets the device's clock move on while the host waits between two questions: a device
-    /// that answers at once takes no time otherwise, and its link's budget must refill for the
-    /// tiles still waiting to go out. Real time passes by itself on a board (the default does
-    /// nothing); an in-process device moves its clock.
-    fn idle(&mut self) {}
+    /// Lets the device's clock move on while the host waits between two questions, so that
+    /// its link's budget refills for the tiles still waiting to go out. A device on real time
+    /// (a board, the emulator) is given [`IDLE_PAUSE`] of wall time (the default); an
+    /// in-process device moves its clock instead.
+    fn idle(&mut self) {
+        std::thread::sleep(IDLE_PAUSE);
+    }
 
     /// RequestSnapshot(all), and wait until the mirror holds every layer whole.
     ///
