@@ -30,6 +30,10 @@ pub const IDLE_PAUSE: std::time::Duration = std::time::Duration::from_millis(20)
 /// in-process clock, enough for a whole snapshot of the largest pyramid at the default budget.
 pub const SYNC_ROUNDS: usize = 1_500;
 
+/// How many questions a wait for the device's laser input asks before it gives up: about
+/// 32 s of a board's time with [`Device::back_off`]'s pauses.
+pub const INPUT_ROUNDS: u32 = 2_000;
+
 /// A co-processor driven over its byte streams.
 pub trait Device {
     /// Writes laser bytes (what the laser's UART delivers).
@@ -114,7 +118,7 @@ pub trait Device {
     /// No Stats in time, or the count never reaching `target`.
     fn wait_for_telegrams(&mut self, target: u64) -> Result<u64, String> {
         let mut counted = 0;
-        for _ in 0..100_000 {
+        for round in 0..INPUT_ROUNDS {
             let s = self.stats()?;
             counted = u64::from(s.telegrams_ok)
                 + u64::from(s.telegrams_bad_checksum)
@@ -122,6 +126,7 @@ pub trait Device {
             if counted >= target {
                 return Ok(counted);
             }
+            self.back_off(round);
         }
         Err(format!(
             "telegram {target}: the device counts only {counted} telegrams"
@@ -135,13 +140,14 @@ pub trait Device {
     /// No Stats in time, or the count never reaching `target`.
     fn wait_for_laser_bytes(&mut self, target: u64) -> Result<u64, String> {
         let mut taken = 0;
-        for _ in 0..100_000 {
+        for round in 0..INPUT_ROUNDS {
             let s = self.stats()?;
             taken = s.laser_bytes;
             #[allow(clippy::cast_possible_truncation, clippy::cast_possible_wrap)]
             if taken.wrapping_sub(target as u32) as i32 >= 0 {
                 return Ok(u64::from(taken));
             }
+            self.back_off(round);
         }
         Err(format!(
             "laser byte {target}: the device has taken only {taken} (mod 2^32)"
@@ -166,6 +172,14 @@ pub trait Device {
             self.idle();
         }
         Err("the device's tiles never stopped changing".into())
+    }
+
+    /// Waits before question `round + 1` of a wait for the device's laser input, so that a
+    /// device on real time spends its cycles on the laser's bytes rather than on answering:
+    /// 1, 2, 4 and 8 ms after the first four questions, then 16 ms (the default). An
+    /// in-process device, which has taken every byte when it answers, does not wait.
+    fn back_off(&mut self, round: u32) {
+        std::thread::sleep(std::time::Duration::from_millis(1 << round.min(4)));
     }
 
     /// Lets the device's clock move on while the host waits between two questions, so that
@@ -341,6 +355,9 @@ impl<const W: usize, const L: usize, const C: usize, const Q: usize> Device
     fn link(&self) -> &HostLink {
         &self.host
     }
+
+    /// No wait: the co-processor has taken every byte when it answers.
+    fn back_off(&mut self, _round: u32) {}
 
     /// The clock moves [`Self::POLL_STEP_MS`].
     fn idle(&mut self) {

@@ -71,4 +71,8 @@ impl<D: Device> Device for Publishing<'_, '_, D> {
     fn idle(&mut self) {
         self.device.idle();
     }
+
+    fn back_off(&mut self, round: u32) {
+        self.device.back_off(round);
+    }
 }
