@@ -379,6 +379,19 @@ impl Emulator {
         }
     }
 
+    /// Feeds the mirror whatever the device has sent by now, without waiting (a reader that
+    /// keeps up with a device it does not question); returns the bytes fed.
+    pub fn poll_received(&mut self) -> usize {
+        let mut fed = 0;
+        while let Ok(bytes) = self.rx.try_recv() {
+            fed += bytes.len();
+            self.bytes_received += bytes.len() as u64;
+            let link = self.tap.as_mut().unwrap_or(&mut self.link);
+            link.feed(&bytes);
+        }
+        fed
+    }
+
     /// Frames the tap decoded during the last deaf stretch.
     #[must_use]
     pub fn tapped_frames(&self) -> u64 {

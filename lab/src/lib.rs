@@ -5,6 +5,7 @@
 //! - [`faults`]: fault injection through the emulated board, against a reference co-processor
 //!   fed exactly the intact telegrams;
 //! - [`soak`]: a long simulated drive through the in-process co-processor and the firmware;
+//! - [`latency`]: telegram into the emulated board → each live output's message out of the host;
 //! - [`size`]: the firmware's flash, static RAM and stack;
 //! - [`demo`]: the main job end to end, on the emulated board.
 //!
@@ -15,5 +16,6 @@
 pub mod demo;
 pub mod experiments;
 pub mod faults;
+pub mod latency;
 pub mod size;
 pub mod soak;

@@ -7,7 +7,7 @@
 //! one JSON object on stdout; progress goes to stderr.
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
-use terrain_pyramid_lab::{demo, experiments, faults, size, soak};
+use terrain_pyramid_lab::{demo, experiments, faults, latency, size, soak};
 
 /// The terrain-pyramid lab.
 #[derive(Parser)]
@@ -31,6 +31,9 @@ enum Command {
     /// A long simulated drive through the in-process co-processor and the emulated board:
     /// counters, memory, map bounds, throughput.
     Soak(soak::Args),
+    /// Telegram into the emulated board → each live output's message out of the host, at the
+    /// SICK's full rate with every output on (median, p99).
+    Latency(latency::Args),
 }
 
 fn main() -> ExitCode {
@@ -41,5 +44,6 @@ fn main() -> ExitCode {
         Command::Demo(args) => demo::run(&args),
         Command::Faults(args) => faults::run(&args),
         Command::Soak(args) => soak::run(&args),
+        Command::Latency(args) => latency::run(&args),
     }
 }

@@ -8,11 +8,18 @@
 //!   firmware's log in `target/soak`.
 //! - `experiments [FLAGS]`, `size [FLAGS]`: `lab experiments` (its output in
 //!   `target/experiments` unless `--out` is given) and `lab size`, every flag forwarded.
+//! - `latency [--quick] [--json] [--no-ros2] [--publish-hz HZ]`: `lab latency` with every
+//!   output on (the readers installed first): telegram into the emulated board → each output's
+//!   message out of the host. With ROS 2 (the default) the whole run, DDS publisher and reader
+//!   together, is inside a network namespace of its own (`unshare -n`, loopback up with
+//!   multicast routed to it), so no DDS traffic can leave the machine; root is needed.
 //! - `demo [FLAGS]`: installs what the emulated board needs, as `cargo xtask test` does (the
 //!   Cortex-M targets, QEMU, `defmt-print`), runs `lab demo` (on the emulated board unless
 //!   `--board host` is given; into `target/demo` unless `--out` is given) and turns each
 //!   run's defmt log into text beside it (`firmware.log`).
-use crate::install::{ensure_defmt_print, ensure_qemu, ensure_targets, root};
+use crate::install::{
+    ensure_defmt_print, ensure_python_readers, ensure_qemu, ensure_targets, root,
+};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::Instant;
@@ -94,6 +101,88 @@ pub fn faults(args: &[String]) -> Result<(), String> {
         }
     }
     lab("faults", &with_out(&pass, "target/faults"))
+}
+
+/// `cargo xtask latency`.
+pub fn latency(args: &[String]) -> Result<(), String> {
+    let mut pass = Vec::new();
+    let mut ros2 = true;
+    let mut rest = args.iter();
+    while let Some(a) = rest.next() {
+        match a.as_str() {
+            "--json" | "--quick" => pass.push(a.clone()),
+            "--no-ros2" => ros2 = false,
+            "--publish-hz" => {
+                let value = rest.next().ok_or(format!("{a} needs a value"))?;
+                pass.push(a.clone());
+                pass.push(value.clone());
+            }
+            other => {
+                return Err(format!(
+                    "unknown option {other}; usage: cargo xtask latency [--quick] [--json] \
+                     [--no-ros2] [--publish-hz HZ]"
+                ))
+            }
+        }
+    }
+    ensure_targets()?;
+    ensure_qemu()?;
+    ensure_python_readers()?;
+    let pass = with_out(&pass, "target/latency");
+    if !ros2 {
+        return lab("latency", &pass);
+    }
+    // Built outside the namespace (crates.io is not reachable inside it), run inside.
+    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+    let built = Command::new(&cargo)
+        .args(["build", "--release", "--quiet", "-p", "terrain-pyramid-lab"])
+        .current_dir(root())
+        .status()
+        .map_err(|e| format!("cannot run cargo: {e}"))?;
+    if !built.success() {
+        return Err(format!("building the lab failed ({built})"));
+    }
+    // The firmware too, so that nothing is fetched inside.
+    let firmware = Command::new(&cargo)
+        .args([
+            "build",
+            "--release",
+            "--quiet",
+            "--target",
+            "thumbv7em-none-eabihf",
+        ])
+        .current_dir(root().join("boards/qemu-mps2"))
+        .status()
+        .map_err(|e| format!("cannot run cargo: {e}"))?;
+    if !firmware.success() {
+        return Err(format!("building the firmware failed ({firmware})"));
+    }
+    let started = Instant::now();
+    let status = Command::new("unshare")
+        .args([
+            "-n",
+            "sh",
+            "-c",
+            "ip link set lo up multicast on && ip route add 224.0.0.0/4 dev lo && exec \"$0\" \"$@\"",
+        ])
+        .arg(root().join("target/release/lab"))
+        .arg("latency")
+        .arg("--ros2")
+        .args(&pass)
+        .current_dir(root())
+        .status()
+        .map_err(|e| format!("cannot run unshare (util-linux; root needed): {e}"))?;
+    eprintln!(
+        "xtask latency: done in {:.1} s",
+        started.elapsed().as_secs_f64()
+    );
+    if status.success() {
+        Ok(())
+    } else {
+        Err(format!(
+            "lab latency --ros2 inside `unshare -n` failed ({status})"
+        ))
+    }
 }
 
 /// `cargo xtask soak`.

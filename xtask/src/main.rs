@@ -19,6 +19,9 @@
 //!   in-process co-processor and ten minutes through the firmware on QEMU: counters, memory,
 //!   map bounds, throughput (RELIABILITY.md, "Soak"); `--quick` is CI's five and half a minute.
 //! - `cargo xtask size [--json]`: the firmware's flash, static RAM and stack (`lab size`).
+//! - `cargo xtask latency [--quick] [--json] [--no-ros2]`: telegram into the emulated board →
+//!   each live output's message out of the host at the SICK's full rate, every output on; ROS 2
+//!   inside a network namespace of its own (`lab latency`).
 //!
 //! - `cargo xtask layers [--json]`: the code's shape, checked: imports only point down the
 //!   library's layers, no import cycle, one definition per public type name.
@@ -45,6 +48,7 @@ fn main() -> ExitCode {
         "experiments" => lab::experiments(rest),
         "faults" => lab::faults(rest),
         "soak" => lab::soak(rest),
+        "latency" => lab::latency(rest),
         "size" => lab::size(rest),
         "layers" => layers::task(rest),
         _ => Err(
@@ -52,7 +56,8 @@ fn main() -> ExitCode {
                   | cargo xtask demo [--board qemu|host] [--out DIR] \
                   | cargo xtask experiments [--out DIR] [--quick] [--json] [...] \
                   | cargo xtask faults [--json] [--quick] | cargo xtask soak [--json] [--quick] \
-                  | cargo xtask size [--json] | cargo xtask layers [--json]"
+                  | cargo xtask size [--json] | cargo xtask layers [--json] \
+                  | cargo xtask latency [--quick] [--json] [--no-ros2] [--publish-hz HZ]"
                 .to_string(),
         ),
     };

@@ -636,6 +636,7 @@ pub struct Outputs {
     config: Config,
     period: Duration,
     last_handoff: Option<Instant>,
+    last_stamp: Option<SystemTime>,
     last_key: Option<OfferKey>,
     handoffs: u64,
     pose_source: Option<PoseSource>,
@@ -676,6 +677,7 @@ impl Outputs {
             config: config.clone(),
             period: Duration::from_secs_f64(1.0 / config.publish_hz.clamp(1e-3, 1e3)),
             last_handoff: None,
+            last_stamp: None,
             last_key: None,
             handoffs: 0,
             pose_source: None,
@@ -741,6 +743,14 @@ impl Outputs {
         self.foxglove_addr.as_deref()
     }
 
+    /// The stamp of the last hand-off (the host clock when it copied the maps): every message
+    /// published from that copy carries it (header stamps, Foxglove timestamps and MCAP log
+    /// times). `None` before the first.
+    #[must_use]
+    pub fn last_handoff_stamp(&self) -> Option<SystemTime> {
+        self.last_stamp
+    }
+
     /// Offers the mirror's current maps and the robot's pose (`None`: not known, the finest
     /// window's centre stands for it). Cheap when nothing changed or the last hand-off was
     /// less than `1 / publish_hz` ago; otherwise copies the maps into the slot (replacing a copy
@@ -780,8 +790,9 @@ impl Outputs {
         };
         let mut snapshot = snapshot;
         snapshot.sensor_xy = (pose.x, pose.y);
+        let stamp = SystemTime::now();
         let frame = Box::new(Frame {
-            stamp: SystemTime::now(),
+            stamp,
             snapshot,
             pose,
             stats: mirror.last_stats(),
@@ -799,6 +810,7 @@ impl Outputs {
         }
         self.shared.wake.notify_one();
         self.last_handoff = Some(now);
+        self.last_stamp = Some(stamp);
         self.last_key = Some(key);
         self.handoffs += 1;
         self.pose_source = Some(source);
