@@ -89,11 +89,14 @@ step "build: stm32f4 (release; NUCLEO-F446RE and netduinoplus2)"
 step "build: microbit (release)"
 (cd "$microbit_dir" && cargo build --release)
 
+# The host side of these runs (`pyramid`, the tests) in the test profile: the one `cargo test
+# --workspace` builds (`cargo xtask test` runs it first), so nothing is compiled twice; the
+# firmware is always the release build.
 step "QEMU firmware: self-check, a recording through the pipeline, exit code"
 smoke=$(mktemp -d)
 # The synthetic recording of host/tests/run_qemu.rs through `pyramid run --board qemu` and
 # `--board host`: every cell must be identical, QEMU must exit with 0 after Shutdown.
-(cd "$root" && PYRAMID_QEMU_OUT="$smoke" cargo test --release -p terrain-pyramid-host \
+(cd "$root" && PYRAMID_QEMU_OUT="$smoke" cargo test -p terrain-pyramid-host \
     --test run_qemu qemu_matches_host_on_a_synthetic_recording -- --nocapture) 2>&1 \
     | tee "$smoke/test.log" \
     || fail "the QEMU firmware run failed (exit codes: 101 panic, 102 HardFault, 124 timeout)"
@@ -108,7 +111,7 @@ qemu_stack=$(sed -n 's/.*stack: high-water \([0-9]*\) bytes.*/\1/p' "$run_log" |
 [[ -n "$qemu_stack" ]] || fail "the firmware did not report its stack"
 
 step "stm32f4 on QEMU's netduinoplus2: the synthetic recording, bit-identical to the host"
-(cd "$root" && PYRAMID_QEMU_OUT="$smoke" cargo test --release -p terrain-pyramid-host \
+(cd "$root" && PYRAMID_QEMU_OUT="$smoke" cargo test -p terrain-pyramid-host \
     --test run_qemu netduinoplus2_matches_host_on_a_synthetic_recording -- --nocapture) 2>&1 \
     | tee "$smoke/nd.log" \
     || fail "the netduinoplus2 run failed (exit codes: 101 panic, 102 HardFault)"
@@ -120,7 +123,7 @@ step "stm32f4 on QEMU's netduinoplus2: the link against an independent implement
 (cd "$stm32_dir" && ./qemu-check.sh --no-build) || fail "stm32f4/qemu-check.sh"
 
 step "microbit on QEMU's microbit: the synthetic recording, bit-identical to the library"
-(cd "$root" && PYRAMID_QEMU_OUT="$smoke" cargo test --release -p terrain-pyramid-host \
+(cd "$root" && PYRAMID_QEMU_OUT="$smoke" cargo test -p terrain-pyramid-host \
     --test run_microbit microbit_matches_the_host_on_a_synthetic_recording -- --nocapture) 2>&1 \
     | tee "$smoke/mb.log" \
     || fail "the microbit run failed (exit codes: 101 panic, 102 HardFault)"
