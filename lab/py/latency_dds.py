@@ -2,8 +2,9 @@
 Python binding; the types declared in IDL under the names ROS 2 gives them on DDS) and logs when
 each sample arrived.
 
-Prints "ready" once its readers exist, then polls every reader until no sample has come for
-IDLE_S seconds after the first, and prints one JSON object:
+Prints "ready" once its readers exist, then polls every reader until its standard input closes
+(the publisher has finished) and then IDLE_S seconds pass without a sample, and prints one JSON
+object:
 {"messages": [[topic, stamp_ns, received_ns], ...]} where stamp_ns is the sample's
 header.stamp (the hand-off's stamp) and received_ns the wall clock (`time.time_ns()`) when the
 reader returned it.
@@ -14,6 +15,7 @@ Run it only inside a network namespace of its own (DDS multicast must not leave 
 import json
 import os
 import sys
+import threading
 import time
 
 sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "..", "host", "tests", "py"))
@@ -32,12 +34,16 @@ def main(layers, idle_s, domain):
     names = ["/terrain/fused"] + [f"/terrain/layer_{k}" for k in range(layers)]
     readers = {n: DataReader(dp, Topic(dp, "rt" + n, OccupancyGrid), qos=qos) for n in names}
     print("ready", flush=True)
-    log, last = [], None
-    while last is None or time.monotonic() - last < idle_s:
+    ended = threading.Event()
+    threading.Thread(target=lambda: (sys.stdin.read(), ended.set()), daemon=True).start()
+    log, last = [], time.monotonic()
+    while not ended.is_set() or time.monotonic() - last < idle_s:
         got = False
         for name, reader in readers.items():
             for s in reader.take(N=64):
                 now = time.time_ns()
+                if not hasattr(s, "header"):
+                    continue  # an InvalidSample: a writer's state changed, no data
                 stamp = s.header.stamp.sec * 1_000_000_000 + s.header.stamp.nanosec
                 log.append([name, stamp, now])
                 got = True

@@ -3,9 +3,10 @@
 //!
 //! # What runs
 //! The simulated stairs approach (the lab's stairs scene, a robot standing, then driving at
-//! walking pace; LMS291 at 75 telegrams a second) is played through the QEMU co-processor
-//! (`boards/qemu-mps2`, Cortex-M4F) at the recording's own times, one telegram every 13.3 ms
-//! of wall time, as a robot's laser sends them: each telegram's pan angle and pose, the
+//! walking pace; the LMS291 at its full rate for 0.5° scans, 37.5 telegrams of 361 ranges a
+//! second, 27.5 kB/s of its 500 kBd line) is played through the QEMU co-processor
+//! (`boards/qemu-mps2`, Cortex-M4F) at the recording's own times (`--rate-hz` scales them), as
+//! a robot's laser sends them: each telegram's pan angle and pose, the
 //! telegram, then a RequestStats that is not waited for (nothing waits for the device; what
 //! it sends is read as it comes). The host's mirror is offered to the outputs at every read,
 //! as `pyramid run --foxglove --mcap [--ros2]` does, at the default 10 Hz per topic.
@@ -63,6 +64,11 @@ pub struct Args {
     /// namespace of its own: `cargo xtask latency` runs it there.
     #[arg(long)]
     pub ros2: bool,
+    /// Telegrams a second written to the board; the recording's times are scaled to it.
+    /// Default: the recording's own rate, the SICK's full rate for its mode (37.5 telegrams of
+    /// 361 ranges a second at 0.5°, 27.5 kB/s at 500 kBd).
+    #[arg(long)]
+    pub rate_hz: Option<f64>,
     /// Updates per second per topic, at most (`--publish-hz` of `pyramid run`).
     #[arg(long, default_value_t = 10.0)]
     pub publish_hz: f64,
@@ -137,9 +143,11 @@ pub struct Report {
     pub telegrams: usize,
     /// Telegrams a second achieved (first to last entered).
     pub rate_hz: f64,
-    /// The recording's rate, telegrams a second.
+    /// The recording's own rate, telegrams a second.
     pub recording_rate_hz: f64,
-    /// Telegrams written more than one period (13.3 ms) after their time.
+    /// The rate asked for (`--rate-hz`, the recording's by default), telegrams a second.
+    pub asked_rate_hz: f64,
+    /// Telegrams written more than one period after their time.
     pub late: usize,
     /// Hand-offs to the outputs.
     pub handoffs: usize,
@@ -152,9 +160,6 @@ pub struct Report {
     /// The machine's load average (1 min) when the run ended.
     pub load_average: Option<f64>,
 }
-
-/// The SICK's telegram period at 75 Hz.
-const PERIOD: Duration = Duration::from_micros(13_333);
 
 /// `pyramid run`'s flags, parsed as `pyramid` parses them (design, classifier, outputs).
 #[derive(Parser)]
@@ -264,7 +269,8 @@ impl Device for Timed<'_> {
     }
 }
 
-/// A reader process that prints "ready", then one JSON object at its end.
+/// A reader process that prints "ready", then one JSON object at its end (when the server
+/// closes, or its standard input does).
 struct Reader {
     child: Child,
     stdout: BufReader<ChildStdout>,
@@ -273,6 +279,7 @@ struct Reader {
 impl Reader {
     fn start(mut command: Command, name: &str) -> Result<Self, String> {
         let mut child = command
+            .stdin(Stdio::piped())
             .stdout(Stdio::piped())
             .stderr(Stdio::inherit())
             .spawn()
@@ -302,6 +309,8 @@ impl Reader {
 
     /// The logged messages: (topic, stamp ns, received ns).
     fn finish(mut self, name: &str) -> Result<Vec<(String, i128, i128)>, String> {
+        // Its standard input closing tells a reader that the publisher has finished.
+        drop(self.child.stdin.take());
         let mut text = String::new();
         self.stdout
             .read_to_string(&mut text)
@@ -497,6 +506,30 @@ pub fn execute(args: &Args) -> Result<Report, String> {
     stairs::write_recording(&setup, &recording)?;
     let data = std::fs::read(&recording).map_err(|e| format!("{}: {e}", recording.display()))?;
     let steps = steps(&data)?;
+    // The recording's own rate; its times are scaled to `--rate-hz`.
+    let times: Vec<u64> = steps
+        .steps
+        .iter()
+        .filter_map(|s| match s {
+            Step::Telegram {
+                measured: true,
+                time_us,
+                ..
+            } => Some(*time_us),
+            _ => None,
+        })
+        .collect();
+    let recording_rate_hz = match (times.first(), times.last()) {
+        #[allow(clippy::cast_precision_loss)]
+        (Some(&a), Some(&b)) if b > a => (times.len() - 1) as f64 * 1e6 / (b - a) as f64,
+        _ => return Err("the recording has fewer than two telegrams".into()),
+    };
+    let rate_hz = args.rate_hz.unwrap_or(recording_rate_hz);
+    if !(rate_hz > 0.0 && rate_hz <= 1000.0) {
+        return Err("--rate-hz: a rate in (0, 1000] telegrams a second".into());
+    }
+    let scale = recording_rate_hz / rate_hz;
+    let period = Duration::from_secs_f64(1.0 / rate_hz);
     let mcap = args.out.join("latency.mcap");
     let _ = std::fs::remove_file(&mcap);
     let hz = args.publish_hz.to_string();
@@ -556,7 +589,7 @@ pub fn execute(args: &Args) -> Result<Report, String> {
             &design, &config,
         )),
     )?;
-    eprintln!("latency: playing the stairs approach through the emulated board at 75 Hz ...");
+    eprintln!("latency: the stairs approach through the emulated board at {rate_hz:.1} Hz ...");
     let mut timed = Timed {
         emu: &mut emu,
         outputs: &mut outputs,
@@ -603,14 +636,18 @@ pub fn execute(args: &Args) -> Result<Report, String> {
                 // Paced at the recording's times; what the device sent meanwhile is read as
                 // it comes, and offered to the outputs.
                 let (start, first) = *clock.get_or_insert((Instant::now(), *time_us));
-                let due = start + Duration::from_micros(time_us.saturating_sub(first));
+                #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+                let due = start
+                    + Duration::from_micros(
+                        (time_us.saturating_sub(first) as f64 * scale).round() as u64
+                    );
                 loop {
                     timed.poll();
                     let now = Instant::now();
                     match due.checked_duration_since(now) {
                         Some(wait) => std::thread::sleep(wait.min(Duration::from_millis(1))),
                         None => {
-                            if now.duration_since(due) > PERIOD {
+                            if now.duration_since(due) > period {
                                 late += 1;
                             }
                             break;
@@ -658,7 +695,7 @@ pub fn execute(args: &Args) -> Result<Report, String> {
         _ => 0.0,
     };
     #[allow(clippy::cast_precision_loss)]
-    let rate_hz = if span_s > 0.0 {
+    let achieved_hz = if span_s > 0.0 {
         (entered.len().saturating_sub(1)) as f64 / span_s
     } else {
         0.0
@@ -666,8 +703,9 @@ pub fn execute(args: &Args) -> Result<Report, String> {
     let _ = published;
     Ok(Report {
         telegrams: entered.len(),
-        rate_hz: (rate_hz * 10.0).round() / 10.0,
-        recording_rate_hz: 75.0,
+        rate_hz: (achieved_hz * 10.0).round() / 10.0,
+        recording_rate_hz: (recording_rate_hz * 10.0).round() / 10.0,
+        asked_rate_hz: (rate_hz * 10.0).round() / 10.0,
         late,
         handoffs: handoffs.len(),
         stats_with_tiles_waiting: waiting,

@@ -8,7 +8,7 @@
 //!   firmware's log in `target/soak`.
 //! - `experiments [FLAGS]`, `size [FLAGS]`: `lab experiments` (its output in
 //!   `target/experiments` unless `--out` is given) and `lab size`, every flag forwarded.
-//! - `latency [--quick] [--json] [--no-ros2] [--publish-hz HZ]`: `lab latency` with every
+//! - `latency [--quick] [--json] [--no-ros2] [--publish-hz HZ] [--rate-hz HZ]`: `lab latency` with every
 //!   output on (the readers installed first): telegram into the emulated board → each output's
 //!   message out of the host. With ROS 2 (the default) the whole run, DDS publisher and reader
 //!   together, is inside a network namespace of its own (`unshare -n`, loopback up with
@@ -112,7 +112,7 @@ pub fn latency(args: &[String]) -> Result<(), String> {
         match a.as_str() {
             "--json" | "--quick" => pass.push(a.clone()),
             "--no-ros2" => ros2 = false,
-            "--publish-hz" => {
+            "--publish-hz" | "--rate-hz" => {
                 let value = rest.next().ok_or(format!("{a} needs a value"))?;
                 pass.push(a.clone());
                 pass.push(value.clone());
@@ -120,7 +120,7 @@ pub fn latency(args: &[String]) -> Result<(), String> {
             other => {
                 return Err(format!(
                     "unknown option {other}; usage: cargo xtask latency [--quick] [--json] \
-                     [--no-ros2] [--publish-hz HZ]"
+                     [--no-ros2] [--publish-hz HZ] [--rate-hz HZ]"
                 ))
             }
         }
