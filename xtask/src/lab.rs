@@ -1,5 +1,5 @@
 //! The lab's tasks: `cargo xtask experiments|faults|soak|size|demo` build the lab (release)
-//! and run `cargo run --release -p terrain-pyramid-lab -- COMMAND FLAGS` from the root. The
+//! and run `cargo run --profile tools -p terrain-pyramid-lab -- COMMAND FLAGS` from the root. The
 //! lab's stdout (its one JSON object with `--json`) is the task's; progress goes to stderr.
 //!
 //! - `faults [--json] [--quick] [--only KIND,..] [--lines N]`: fault injection through the
@@ -24,14 +24,16 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::Instant;
 
-/// `cargo run --release -p terrain-pyramid-lab -- command args` from the root.
+/// `cargo run --profile tools -p terrain-pyramid-lab -- command args` from the root (the
+/// `tools` profile of the root Cargo.toml: release without fat LTO).
 fn lab(command: &str, args: &[String]) -> Result<(), String> {
     let started = Instant::now();
     let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
     let status = Command::new(cargo)
         .args([
             "run",
-            "--release",
+            "--profile",
+            "tools",
             "--quiet",
             "-p",
             "terrain-pyramid-lab",
@@ -135,7 +137,14 @@ pub fn latency(args: &[String]) -> Result<(), String> {
     // Built outside the namespace (crates.io is not reachable inside it), run inside.
     let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
     let built = Command::new(&cargo)
-        .args(["build", "--release", "--quiet", "-p", "terrain-pyramid-lab"])
+        .args([
+            "build",
+            "--profile",
+            "tools",
+            "--quiet",
+            "-p",
+            "terrain-pyramid-lab",
+        ])
         .current_dir(root())
         .status()
         .map_err(|e| format!("cannot run cargo: {e}"))?;
@@ -165,7 +174,7 @@ pub fn latency(args: &[String]) -> Result<(), String> {
             "-c",
             "ip link set lo up multicast on && ip route add 224.0.0.0/4 dev lo && exec \"$0\" \"$@\"",
         ])
-        .arg(root().join("target/release/lab"))
+        .arg(root().join("target/tools/lab"))
         .arg("latency")
         .arg("--ros2")
         .args(&pass)

@@ -26,7 +26,8 @@
 //! - `cargo xtask layers [--json]`: the code's shape, checked: imports only point down the
 //!   library's layers, no import cycle, one definition per public type name.
 //!
-//! The lab's tasks run `cargo run --release -p terrain-pyramid-lab -- COMMAND FLAGS`.
+//! The lab's tasks run `cargo run --profile tools -p terrain-pyramid-lab -- COMMAND FLAGS`
+//! (release without fat LTO, see the root Cargo.toml).
 use std::process::ExitCode;
 
 mod bench;
