@@ -169,9 +169,7 @@ struct RunFlags {
 }
 
 fn now_ns() -> i128 {
-    SystemTime::now()
-        .duration_since(UNIX_EPOCH)
-        .map_or(0, |d| i128::try_from(d.as_nanos()).unwrap_or(i128::MAX))
+    stamp_ns(SystemTime::now())
 }
 
 fn stamp_ns(t: SystemTime) -> i128 {
@@ -232,12 +230,8 @@ impl Device for Timed<'_> {
     }
 
     fn send(&mut self, message: &Message<'_>) -> Result<u16, String> {
-        if let Message::Pose(p) = message {
-            self.pose = Some(RobotPose {
-                x: f64::from(p.x_m),
-                y: f64::from(p.y_m),
-                yaw: f64::from(p.yaw_rad),
-            });
+        if let Some(pose) = RobotPose::sent_in(message) {
+            self.pose = Some(pose);
         }
         self.emu.send(message)
     }

@@ -39,12 +39,8 @@ impl<D: Device> Device for Publishing<'_, '_, D> {
     }
 
     fn send(&mut self, message: &Message<'_>) -> Result<u16, String> {
-        if let Message::Pose(p) = message {
-            self.pose = Some(RobotPose {
-                x: f64::from(p.x_m),
-                y: f64::from(p.y_m),
-                yaw: f64::from(p.yaw_rad),
-            });
+        if let Some(pose) = RobotPose::sent_in(message) {
+            self.pose = Some(pose);
         }
         self.device.send(message)
     }

@@ -42,7 +42,7 @@ use std::path::PathBuf;
 use std::sync::{mpsc, Arc, Condvar, Mutex, PoisonError};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant, SystemTime};
-use terrain_pyramid::wire::link::Stats;
+use terrain_pyramid::wire::link::{Message, Stats};
 use terrain_pyramid::LogOddsFixed;
 
 mod device;
@@ -216,6 +216,21 @@ pub struct RobotPose {
     pub y: f64,
     /// Heading, radians counter-clockwise from +x.
     pub yaw: f64,
+}
+
+impl RobotPose {
+    /// The pose a host `message` sends the device, if it is a Pose (x, y and yaw as sent).
+    #[must_use]
+    pub fn sent_in(message: &Message<'_>) -> Option<Self> {
+        match message {
+            Message::Pose(p) => Some(Self {
+                x: f64::from(p.x_m),
+                y: f64::from(p.y_m),
+                yaw: f64::from(p.yaw_rad),
+            }),
+            _ => None,
+        }
+    }
 }
 
 /// Where the published pose came from.
