@@ -663,7 +663,7 @@ pub fn execute(args: &Args) -> Result<Report, String> {
         timed.stats_with_tiles_waiting,
         timed.pose,
     );
-    let published = outputs.finish(emu.link().mirror(), pose)?;
+    outputs.finish(emu.link().mirror(), pose)?;
     emu.shutdown()?;
     std::thread::sleep(Duration::from_millis(50));
     stop.store(true, Ordering::Relaxed);
@@ -694,7 +694,6 @@ pub fn execute(args: &Args) -> Result<Report, String> {
     } else {
         0.0
     };
-    let _ = published;
     Ok(Report {
         telegrams: entered.len(),
         rate_hz: (achieved_hz * 10.0).round() / 10.0,
