@@ -5,7 +5,9 @@
 //!    thumbv6m-none-eabi (M0 code) with that recording embedded;
 //! 3. runs each variant in QEMU (`mps2-an386`) with `-singlestep -d exec,nochain`, streams the
 //!    trace through a FIFO and counts the instructions executed between `bench_start` and
-//!    `bench_end` (one trace line per instruction), with a per-function histogram;
+//!    `bench_end` (one trace line per instruction), with a per-function histogram
+//!    (`profile-*.txt`) and a per-source-line one through the DWARF inline frames
+//!    (`lines-*.txt`, `bench/lines.rs`);
 //! 4. reads flash and static RAM from the ELF (`object`);
 //! 5. times the library's pipeline on the host (`bench-host`, release) and OctoMap
 //!    (`bench/octomap/harness.cpp`, built with g++) on the same returns;
@@ -27,6 +29,7 @@ use std::time::Instant;
 use terrain_pyramid_host_tests::sim::record::{simulate, SimConfig};
 
 mod lidar;
+mod lines;
 
 type Result<T> = std::result::Result<T, String>;
 
@@ -181,6 +184,8 @@ struct Run {
     cells: u64,
     stack: u64,
     histogram: Vec<(String, u64)>,
+    /// Instructions executed at each address (Thumb bit clear), for the per-line profile.
+    per_pc: Vec<(u32, u64)>,
 }
 
 impl Run {
@@ -299,9 +304,12 @@ fn trace(elf_path: &Path, work: &Path, singlestep: bool) -> Result<Run> {
     let mut done = false;
     let mut count = 0_u64;
     let mut pcs: HashMap<u32, u64> = HashMap::new();
-    // Blocks as translated: start address → instructions.
+    // Executions of each block (by its start address) in the measured region.
+    let mut execs: HashMap<u32, u64> = HashMap::new();
+    // Blocks as translated: start address → instructions, and their addresses.
     let mut blocks: HashMap<u32, u64> = HashMap::new();
-    let mut block: Option<(u32, u64)> = None;
+    let mut block_pcs: HashMap<u32, Vec<u32>> = HashMap::new();
+    let mut block: Option<(u32, Vec<u32>)> = None;
     loop {
         line.clear();
         match reader.read_until(b'\n', &mut line) {
@@ -319,13 +327,14 @@ fn trace(elf_path: &Path, work: &Path, singlestep: bool) -> Result<Run> {
                     .ok()
                     .and_then(|h| u32::from_str_radix(h, 16).ok())
                 {
-                    let b = block.get_or_insert((pc, 0));
-                    b.1 += 1;
+                    let b = block.get_or_insert((pc, Vec::new()));
+                    b.1.push(pc);
                 }
                 continue;
             }
-            if let Some((pc, n)) = block.take() {
-                blocks.insert(pc, n);
+            if let Some((pc, addresses)) = block.take() {
+                blocks.insert(pc, addresses.len() as u64);
+                block_pcs.insert(pc, addresses);
             }
         }
         // "Trace 0: 0x7f… [00000000/0000abcd/…] symbol"
@@ -351,6 +360,7 @@ fn trace(elf_path: &Path, work: &Path, singlestep: bool) -> Result<Run> {
             counting = true;
             count = 0;
             pcs.clear();
+            execs.clear();
         } else if pc == end && counting {
             counting = false;
             done = true;
@@ -365,6 +375,7 @@ fn trace(elf_path: &Path, work: &Path, singlestep: bool) -> Result<Run> {
             };
             count += n;
             *pcs.entry(pc).or_insert(0) += n;
+            *execs.entry(pc).or_insert(0) += 1;
         }
     }
     let mut stdout = String::new();
@@ -403,6 +414,21 @@ fn trace(elf_path: &Path, work: &Path, singlestep: bool) -> Result<Run> {
     }
     let mut histogram: Vec<(String, u64)> = by_fn.into_iter().collect();
     histogram.sort_by_key(|h| std::cmp::Reverse(h.1));
+    // Every instruction of a block ran as often as the block (blocks run to their end here,
+    // see above); with `-singlestep` a block is its one instruction.
+    let mut per_instruction: HashMap<u32, u64> = HashMap::new();
+    for (start, times) in execs {
+        match block_pcs.get(&start) {
+            Some(addresses) if !singlestep => {
+                for &a in addresses {
+                    *per_instruction.entry(a).or_insert(0) += times;
+                }
+            }
+            _ => *per_instruction.entry(start).or_insert(0) += times,
+        }
+    }
+    let mut per_pc: Vec<(u32, u64)> = per_instruction.into_iter().collect();
+    per_pc.sort_unstable();
     Ok(Run {
         instructions: count,
         returns: field("returns"),
@@ -410,6 +436,7 @@ fn trace(elf_path: &Path, work: &Path, singlestep: bool) -> Result<Run> {
         cells: field("cells"),
         stack: field("stack"),
         histogram,
+        per_pc,
     })
 }
 
@@ -521,6 +548,11 @@ fn bench(opts: &Opts) -> Result<()> {
         write_if_changed(
             &work.join(format!("profile-{target}-{bin}.txt")),
             profile.as_bytes(),
+        )?;
+        let by_line = lines::profile(&elf(target, bin), &r.per_pc, r.returns, &root)?;
+        write_if_changed(
+            &work.join(format!("lines-{target}-{bin}.txt")),
+            by_line.as_bytes(),
         )?;
         runs.insert((target, bin), r);
     }
@@ -699,7 +731,10 @@ fn bench(opts: &Opts) -> Result<()> {
         ratio(host_rps, octomap_rps)
     );
     eprintln!();
-    eprintln!("profiles: {}/profile-*.txt", work.display());
+    eprintln!(
+        "profiles: {0}/profile-*.txt (by function), {0}/lines-*.txt (by source line)",
+        work.display()
+    );
 
     let json = serde_json::json!({
         "m4f": {
