@@ -420,6 +420,11 @@ impl<const W: usize> Layer<W> {
     /// Moves the window's origin to world cell `(new_x, new_y)`, resetting the rows and
     /// columns that enter. Returns the number of cells reset.
     pub fn move_origin(&mut self, new_x: i32, new_y: i32) -> usize {
+        // Most calls at a robot's speed leave a coarse layer where it is: no slot, no origin
+        // to recompute.
+        if new_x == self.window.origin_x && new_y == self.window.origin_y {
+            return 0;
+        }
         let (start_x, start_y) = self.start();
         let along_x = entering(self.window.origin_x, new_x, start_x, W);
         let along_y = entering(self.window.origin_y, new_y, start_y, W);
@@ -445,6 +450,10 @@ impl<const W: usize> Layer<W> {
                     // per column (not per cell).
                     for t in 0..count {
                         let col = slot(first, t, W);
+                        // slot() < W: checked once here, the row accesses below need none.
+                        if col >= W {
+                            continue;
+                        }
                         for row in &mut self.cells {
                             if let Some(c) = row.get_mut(col) {
                                 *c = Cell::UNKNOWN;
