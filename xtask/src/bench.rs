@@ -440,6 +440,14 @@ fn trace(elf_path: &Path, work: &Path, singlestep: bool) -> Result<Run> {
     })
 }
 
+/// The 1-minute load average (`/proc/loadavg`), or NaN where there is none.
+fn load_average() -> f64 {
+    fs::read_to_string("/proc/loadavg")
+        .ok()
+        .and_then(|s| s.split_whitespace().next()?.parse().ok())
+        .unwrap_or(f64::NAN)
+}
+
 /// Flash (loadable sections in the FLASH region, less the embedded recording) and static
 /// RAM (allocated sections in RAM) of an ELF.
 fn sizes(elf_path: &Path) -> Result<(u64, u64, u64)> {
@@ -590,6 +598,8 @@ fn bench(opts: &Opts) -> Result<()> {
         "bench-host",
     ]))?;
     let host_bin = root.join("target").join("release").join("bench-host");
+    // The host rates are wall-clock: the machine's load is noted with them.
+    let load_before = load_average();
     let seconds = if opts.quick { "0.3" } else { "3" };
     let out = run(Command::new(&host_bin)
         .arg("throughput")
@@ -635,9 +645,15 @@ fn bench(opts: &Opts) -> Result<()> {
             octomap.push((f("mode"), res, rps));
         }
     }
+    let load_after = load_average();
+    let cores = std::thread::available_parallelism().map_or(0, usize::from);
     let octomap_rps = octomap
         .iter()
         .find(|o| o.0 == "insertPointCloud")
+        .map_or(0.0, |o| o.2);
+    let octomap_update_rps = octomap
+        .iter()
+        .find(|o| o.0 == "updateNode")
         .map_or(0.0, |o| o.2);
 
     // 6. Report.
@@ -730,6 +746,9 @@ fn bench(opts: &Opts) -> Result<()> {
         "| host / OctoMap (insertPointCloud, 0.1 m) | {:.1} |",
         ratio(host_rps, octomap_rps)
     );
+    eprintln!(
+        "| machine load while the host rates were taken (1-min load average before / after, cores) | {load_before:.2} / {load_after:.2} on {cores} |"
+    );
     eprintln!();
     eprintln!(
         "profiles: {0}/profile-*.txt (by function), {0}/lines-*.txt (by source line)",
@@ -760,8 +779,12 @@ fn bench(opts: &Opts) -> Result<()> {
         "m4f_f32": { "instructions_per_return": m4_f32.per_return() },
         "m0_f32": { "instructions_per_return": m0_f32.per_return() },
         "host": { "returns_per_second": host_rps },
-        "octomap": { "returns_per_second": octomap_rps },
+        "octomap": {
+            "returns_per_second": octomap_rps,
+            "update_node_returns_per_second": octomap_update_rps,
+        },
         "host_over_octomap": ratio(host_rps, octomap_rps),
+        "machine": { "load_before": load_before, "load_after": load_after, "cores": cores },
         "flash_bytes": flash,
         "ram_bytes": ram,
         "stack_bytes": m4.stack,

@@ -30,6 +30,8 @@ pub fn profile(elf: &Path, per_pc: &[(u32, u64)], returns: u64, root: &Path) -> 
         *by_chain.entry(chain).or_insert(0) += n;
     }
     let per_return = |n: u64| n as f64 / returns.max(1) as f64;
+    // Runs without returns (the window and decay benches) are counted whole.
+    let unit = if returns > 0 { "/ret" } else { "/run" };
     let mut out = format!(
         "# {} instructions, {} returns ({:.1} per return), attributed by the DWARF line tables\n",
         total,
@@ -39,7 +41,7 @@ pub fn profile(elf: &Path, per_pc: &[(u32, u64)], returns: u64, root: &Path) -> 
     out.push_str("\n## By innermost function of this repository (inlined code counted where it was written; the\n## standard library's helpers where the project called them)\n\n");
     for (name, n) in sorted(by_function) {
         out.push_str(&format!(
-            "{:>9.2}/ret {:>5.1}%  {name}\n",
+            "{:>11.2}{unit} {:>5.1}%  {name}\n",
             per_return(n),
             percent(n, total)
         ));
@@ -47,7 +49,7 @@ pub fn profile(elf: &Path, per_pc: &[(u32, u64)], returns: u64, root: &Path) -> 
     out.push_str("\n## By inline path (the innermost three frames, outermost first)\n\n");
     for (name, n) in sorted(by_chain).into_iter().take(TOP_LINES) {
         out.push_str(&format!(
-            "{:>9.2}/ret {:>5.1}%  {name}\n",
+            "{:>11.2}{unit} {:>5.1}%  {name}\n",
             per_return(n),
             percent(n, total)
         ));
@@ -58,7 +60,7 @@ pub fn profile(elf: &Path, per_pc: &[(u32, u64)], returns: u64, root: &Path) -> 
     for (i, ((line, function), n)) in lines.into_iter().enumerate() {
         if i < TOP_LINES {
             out.push_str(&format!(
-                "{:>9.2}/ret {:>5.1}%  {line}  ({function})\n",
+                "{:>11.2}{unit} {:>5.1}%  {line}  ({function})\n",
                 per_return(n),
                 percent(n, total)
             ));
@@ -68,7 +70,7 @@ pub fn profile(elf: &Path, per_pc: &[(u32, u64)], returns: u64, root: &Path) -> 
     }
     if rest > 0 {
         out.push_str(&format!(
-            "{:>9.2}/ret {:>5.1}%  (every other line)\n",
+            "{:>11.2}{unit} {:>5.1}%  (every other line)\n",
             per_return(rest),
             percent(rest, total)
         ));
