@@ -77,6 +77,33 @@ pub const CONTROL_RESERVE: usize = 256;
 /// Tiles per layer.
 const TILES: usize = TILES_PER_SIDE * TILES_PER_SIDE;
 
+/// The tiles (bit indices, ascending) set in `bits`.
+fn tiles_of(mut bits: u64) -> impl Iterator<Item = usize> {
+    core::iter::from_fn(move || {
+        if bits == 0 {
+            return None;
+        }
+        let tile = bits.trailing_zeros() as usize;
+        bits &= bits - 1;
+        Some(tile)
+    })
+}
+
+/// The bits `first ..< end` of a tile mask (`first ≤ end ≤ 64`).
+const fn tile_range(first: usize, end: usize) -> u64 {
+    let below_end = if end >= TILES {
+        u64::MAX
+    } else {
+        (1 << end) - 1
+    };
+    let below_first = if first >= TILES {
+        u64::MAX
+    } else {
+        (1 << first) - 1
+    };
+    below_end & !below_first
+}
+
 /// The most bytes one storage tile of a `cells_per_side` window takes on the wire: its cells
 /// (a tile is ⌈W/8⌉ cells on a side), cut by the window's wrap point and into pieces of at
 /// most 16 × 16, each piece a LayerPatch frame. 248 bytes for W = 64.
@@ -360,6 +387,9 @@ pub struct Link<const Q: usize = DEFAULT_QUEUE_BYTES, const N: usize = { crate::
     cursor: usize,
     /// Polls each dirty tile has waited (0 = not waiting), for oldest-first sending.
     ages: [[u8; TILES]; N],
+    /// Per layer, the tiles whose age is not 0: a poll visits only these and the dirty ones,
+    /// not all `64 · N` ages.
+    aged: [u64; N],
     last_stats_ms: Option<u32>,
     /// A Stats frame was requested: it goes out at the next poll whatever the interval.
     stats_requested: bool,
@@ -387,6 +417,7 @@ impl<const Q: usize, const N: usize> Link<Q, N> {
             bands: [(0.0, 0.0); N],
             cursor: 0,
             ages: [[0; TILES]; N],
+            aged: [0; N],
             last_stats_ms: None,
             stats_requested: false,
             counters: LinkCounters {
@@ -784,27 +815,11 @@ impl<const Q: usize, const N: usize> Link<Q, N> {
         true
     }
 
-    /// The waiting tiles as `(layer, tile, age)`.
-    fn waiting<'a>(
-        &'a self,
-        dirty: &'a [u64; N],
-        count: usize,
-    ) -> impl Iterator<Item = (usize, usize, u8)> + 'a {
-        dirty
-            .iter()
-            .zip(self.ages.iter())
-            .take(count)
-            .enumerate()
-            .flat_map(|(k, (bits, ages))| {
-                ages.iter()
-                    .enumerate()
-                    .filter(move |(tile, _)| bits & (1 << tile) != 0)
-                    .map(move |(tile, &age)| (k, tile, age))
-            })
-    }
-
     /// Sends the changed tiles, oldest first (round-robin among equals), while the budget and
     /// the queue allow; puts the rest back.
+    ///
+    /// The work is proportional to the tiles waiting, not to the `64 · N` tiles: a poll with
+    /// nothing changed costs a few instructions per layer.
     fn send_patches<const W: usize, const L: usize>(
         &mut self,
         pyramid: &mut Pyramid<W, L>,
@@ -821,45 +836,69 @@ impl<const Q: usize, const N: usize> Link<Q, N> {
                 *bits = tiles.take();
             }
         }
-        // Each waiting tile ages by one poll; the oldest go first, round-robin within an age.
-        for (bits, ages) in dirty.iter().zip(self.ages.iter_mut()).take(count) {
-            for (tile, age) in ages.iter_mut().enumerate() {
-                *age = if bits & (1 << tile) != 0 {
-                    age.saturating_add(1)
-                } else {
-                    0
-                };
+        // Each waiting tile ages by one poll (saturating); every other tile's age is 0.
+        for ((bits, ages), aged) in dirty
+            .iter()
+            .zip(self.ages.iter_mut())
+            .zip(self.aged.iter_mut())
+            .take(count)
+        {
+            for tile in tiles_of(*aged & !*bits) {
+                if let Some(age) = ages.get_mut(tile) {
+                    *age = 0;
+                }
             }
+            for tile in tiles_of(*bits) {
+                if let Some(age) = ages.get_mut(tile) {
+                    *age = age.saturating_add(1);
+                }
+            }
+            *aged = *bits;
         }
         let start = self.cursor % total;
         let mut level = u8::MAX;
         'ages: loop {
-            let top = self
-                .waiting(&dirty, count)
-                .map(|(_, _, age)| age)
-                .filter(|&age| age <= level)
-                .max()
-                .unwrap_or(0);
+            // The oldest age not above `level` among the waiting tiles.
+            let mut top = 0_u8;
+            for (bits, ages) in dirty.iter().zip(self.ages.iter()).take(count) {
+                for tile in tiles_of(*bits) {
+                    let age = ages.get(tile).copied().unwrap_or(0);
+                    if age <= level && age > top {
+                        top = age;
+                    }
+                }
+            }
             if top == 0 {
                 break;
             }
-            for step in 0..total {
-                let g = (start + step) % total;
-                let (k, tile) = (g / TILES, g % TILES);
-                let age = self.ages.get(k).and_then(|a| a.get(tile)).copied();
-                let waiting = dirty.get(k).is_some_and(|b| b & (1 << tile) != 0);
-                if !waiting || age != Some(top) {
-                    continue;
-                }
-                if !self.send_tile(pyramid, k, tile, report) {
-                    self.cursor = g;
-                    break 'ages;
-                }
-                if let Some(bits) = dirty.get_mut(k) {
-                    *bits &= !(1 << tile);
-                }
-                if let Some(age) = self.ages.get_mut(k).and_then(|a| a.get_mut(tile)) {
-                    *age = 0;
+            // The waiting tiles of that age in round-robin order from the cursor: global
+            // index g = 64·k + tile from `start` up, then from 0 below `start`.
+            for (low, high) in [(start, total), (0, start)] {
+                for k in low / TILES..high.div_ceil(TILES).min(count) {
+                    let first = low.saturating_sub(k * TILES).min(TILES);
+                    let end = high.saturating_sub(k * TILES).min(TILES);
+                    let Some(&bits) = dirty.get(k) else {
+                        continue;
+                    };
+                    for tile in tiles_of(bits & tile_range(first, end)) {
+                        let age = self.ages.get(k).and_then(|a| a.get(tile)).copied();
+                        if age != Some(top) {
+                            continue;
+                        }
+                        if !self.send_tile(pyramid, k, tile, report) {
+                            self.cursor = k * TILES + tile;
+                            break 'ages;
+                        }
+                        if let Some(bits) = dirty.get_mut(k) {
+                            *bits &= !(1 << tile);
+                        }
+                        if let Some(age) = self.ages.get_mut(k).and_then(|a| a.get_mut(tile)) {
+                            *age = 0;
+                        }
+                        if let Some(aged) = self.aged.get_mut(k) {
+                            *aged &= !(1 << tile);
+                        }
+                    }
                 }
             }
             level = top - 1;
@@ -874,10 +913,8 @@ impl<const Q: usize, const N: usize> Link<Q, N> {
                 deferred += bits.count_ones();
                 // Age 1: the tile's first poll since it changed (or was last sent). A tile
                 // that keeps waiting is counted once, not at every poll.
-                newly_deferred += ages
-                    .iter()
-                    .enumerate()
-                    .filter(|&(tile, &age)| bits & (1 << tile) != 0 && age == 1)
+                newly_deferred += tiles_of(bits)
+                    .filter(|&tile| ages.get(tile) == Some(&1))
                     .count() as u32;
             }
         }
