@@ -35,6 +35,7 @@ pub use timing::{PacketTimer, DEFAULT_REVOLUTION_US};
 use core::fmt;
 
 use crate::angle::FineAngle;
+use crate::wire::laser::TurnSteps;
 use crate::wire::ld06::{Ld06Accumulator, Ld06Counters, Ld06Error, Ld06Packet};
 use crate::wire::rplidar::{
     RplidarAccumulator, RplidarCounters, RplidarError, RplidarExpressScan, RplidarItem,
@@ -252,6 +253,10 @@ impl Packet<'_> {
             packet: self,
             next: 0,
             len: n,
+            angles: match self {
+                Self::Ld06(p) => p.angle_steps(),
+                _ => None,
+            },
         }
     }
 
@@ -385,6 +390,8 @@ struct Returns<'p, 'a> {
     packet: &'p Packet<'a>,
     next: usize,
     len: usize,
+    /// An LD06 packet's angles, step by step (each exactly the packet's `angle(k)`).
+    angles: Option<TurnSteps>,
 }
 
 impl Iterator for Returns<'_, '_> {
@@ -394,6 +401,17 @@ impl Iterator for Returns<'_, '_> {
         while self.next < self.len {
             let k = self.next;
             self.next += 1;
+            if let (Packet::Ld06(p), Some(steps)) = (self.packet, self.angles.as_mut()) {
+                let angle = steps.next_angle();
+                if let Some(point) = p.point(k) {
+                    return Some(LaserReturn {
+                        angle,
+                        range_mm: u32::from(point.distance_mm),
+                        quality: Some(point.intensity),
+                    });
+                }
+                continue;
+            }
             if let Some(r) = self.packet.get(k) {
                 return Some(r);
             }

@@ -342,3 +342,34 @@ fn an_ld06_revolution_between_two_packets_is_seen() {
     }
     assert_eq!(starts, [false, true, false, true]);
 }
+
+#[test]
+fn an_ld06_packets_returns_step_to_exactly_its_angles() {
+    // The returns iterator steps the angles with two divisions a packet; each must be the
+    // packet's own `get(k)`, across the wrap and at every start, span and the wire's
+    // out-of-range angles (≥ 36 000 centidegrees).
+    let mut rng = 0x0123_4567_89AB_CDEF_u64;
+    let mut next = move |n: u64| {
+        rng ^= rng << 13;
+        rng ^= rng >> 7;
+        rng ^= rng << 17;
+        (rng % n) as u16
+    };
+    let mut cases = std::vec![(35_900, 120), (0, 0), (35_999, 35_999), (65_535, 0)];
+    for _ in 0..2_000 {
+        cases.push((next(65_536), next(65_536)));
+        let start = next(36_000);
+        cases.push((start, (start + next(400)) % 36_000));
+    }
+    for (start, end) in cases {
+        let bytes = ld06(start, end, 3_600);
+        let view = Ld06Packet::new_checked(&bytes[..]).unwrap();
+        let packet = Packet::Ld06(view);
+        let stepped: Vec<LaserReturn> = packet.returns().collect();
+        let direct: Vec<LaserReturn> = (0..12).filter_map(|k| packet.get(k)).collect();
+        assert_eq!(stepped, direct, "start {start}, end {end}");
+        assert_eq!(stepped.len(), 12);
+        let own: Vec<LaserReturn> = view.returns().collect();
+        assert_eq!(own, direct, "start {start}, end {end}");
+    }
+}

@@ -40,7 +40,7 @@
 
 use core::fmt;
 
-use super::laser::{turn_fraction, LaserReturn};
+use super::laser::{turn_fraction, LaserReturn, TurnSteps};
 use super::window::{bump, bump_by, Window};
 use super::FeedResult;
 use crate::angle::FineAngle;
@@ -347,13 +347,30 @@ impl<T: AsRef<[u8]>> Ld06Packet<T> {
         ))
     }
 
+    /// The angles of points 0, 1, 2, … in order, each exactly [`angle`](Self::angle), by two
+    /// divisions per packet rather than one per point.
+    pub(crate) fn angle_steps(&self) -> Option<TurnSteps> {
+        let (start, span) = self.start_and_span();
+        let steps = LD06_POINTS as u64 - 1;
+        TurnSteps::new(
+            steps * start,
+            span,
+            steps * u64::from(LD06_CENTIDEG_PER_TURN),
+        )
+    }
+
     /// The 12 returns: angle as [`angle`](Self::angle), range the distance in millimetres (0
     /// = no return), quality the intensity.
     pub fn returns(&self) -> impl Iterator<Item = LaserReturn> + '_ {
-        (0..LD06_POINTS).filter_map(|k| {
+        let mut angles = self.angle_steps();
+        (0..LD06_POINTS).filter_map(move |k| {
             let point = self.point(k)?;
+            let angle = match angles.as_mut() {
+                Some(steps) => steps.next_angle(),
+                None => self.angle(k)?,
+            };
             Some(LaserReturn {
-                angle: self.angle(k)?,
+                angle,
                 range_mm: u32::from(point.distance_mm),
                 quality: Some(point.intensity),
             })
