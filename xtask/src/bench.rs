@@ -186,6 +186,9 @@ struct Run {
     histogram: Vec<(String, u64)>,
     /// Instructions executed at each address (Thumb bit clear), for the per-line profile.
     per_pc: Vec<(u32, u64)>,
+    /// Instructions run inside the compiler's library routines, by the call site (the last
+    /// instruction before the routine, Thumb bit clear) and the routine entered.
+    library_calls: Vec<(u32, String, u64)>,
 }
 
 impl Run {
@@ -261,6 +264,20 @@ fn trace(elf_path: &Path, work: &Path, singlestep: bool) -> Result<Run> {
     let (start, _) = symbol_address(&elf, "bench_start")?;
     let (end, _) = symbol_address(&elf, "bench_end")?;
     let funcs = functions(&elf)?;
+    // The compiler's library routines (64-bit multiply and divide, memcpy, …): their
+    // instructions are also counted at the call site that entered them.
+    let builtins: Vec<&(u32, u32, String)> = funcs
+        .iter()
+        .filter(|f| f.2.contains("compiler_builtins") || f.2.starts_with("__"))
+        .collect();
+    let builtin_at = |pc: u32| -> Option<usize> {
+        let i = builtins.partition_point(|f| f.0 <= pc).checked_sub(1)?;
+        builtins.get(i).filter(|f| pc < f.0 + f.1).map(|_| i)
+    };
+    // The last instruction run outside the routines (the call), and the routine it entered.
+    let mut call_site = 0_u32;
+    let mut entered: Option<usize> = None;
+    let mut calls: HashMap<(u32, usize), u64> = HashMap::new();
     let fifo = work.join("trace.fifo");
     let _ = fs::remove_file(&fifo);
     run(Command::new("mkfifo").arg(&fifo))?;
@@ -376,6 +393,24 @@ fn trace(elf_path: &Path, work: &Path, singlestep: bool) -> Result<Run> {
             count += n;
             *pcs.entry(pc).or_insert(0) += n;
             *execs.entry(pc).or_insert(0) += 1;
+            match builtin_at(pc) {
+                Some(routine) => {
+                    let first = *entered.get_or_insert(routine);
+                    *calls.entry((call_site, first)).or_insert(0) += n;
+                }
+                None => {
+                    entered = None;
+                    call_site = if singlestep {
+                        pc
+                    } else {
+                        block_pcs
+                            .get(&pc)
+                            .and_then(|a| a.last())
+                            .copied()
+                            .unwrap_or(pc)
+                    };
+                }
+            }
         }
     }
     let mut stdout = String::new();
@@ -429,6 +464,11 @@ fn trace(elf_path: &Path, work: &Path, singlestep: bool) -> Result<Run> {
     }
     let mut per_pc: Vec<(u32, u64)> = per_instruction.into_iter().collect();
     per_pc.sort_unstable();
+    let mut library_calls: Vec<(u32, String, u64)> = calls
+        .into_iter()
+        .filter_map(|((site, routine), n)| Some((site, short(&builtins.get(routine)?.2), n)))
+        .collect();
+    library_calls.sort_by(|a, b| b.2.cmp(&a.2).then_with(|| a.0.cmp(&b.0)));
     Ok(Run {
         instructions: count,
         returns: field("returns"),
@@ -437,6 +477,7 @@ fn trace(elf_path: &Path, work: &Path, singlestep: bool) -> Result<Run> {
         stack: field("stack"),
         histogram,
         per_pc,
+        library_calls,
     })
 }
 
@@ -557,7 +598,7 @@ fn bench(opts: &Opts) -> Result<()> {
             &work.join(format!("profile-{target}-{bin}.txt")),
             profile.as_bytes(),
         )?;
-        let by_line = lines::profile(&elf(target, bin), &r.per_pc, r.returns, &root)?;
+        let by_line = lines::profile(&elf(target, bin), &r, &root)?;
         write_if_changed(
             &work.join(format!("lines-{target}-{bin}.txt")),
             by_line.as_bytes(),

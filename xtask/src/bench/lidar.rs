@@ -102,7 +102,7 @@ pub fn rows(quick: bool) -> Result<serde_json::Value> {
                 .join("release")
                 .join("lidar");
             let r = trace(&elf, &work, false)?;
-            let by_line = super::lines::profile(&elf, &r.per_pc, r.returns, &root)?;
+            let by_line = super::lines::profile(&elf, &r, &root)?;
             write_if_changed(
                 &work.join(format!("lines-{target}-lidar-{}.txt", kind.name())),
                 by_line.as_bytes(),

@@ -17,13 +17,14 @@ const TOP_LINES: usize = 120;
 
 /// `lines-<target>-<bin>.txt`: instructions per return by innermost (inlined) function and by
 /// source line, from the executed instructions' addresses `per_pc`.
-pub fn profile(elf: &Path, per_pc: &[(u32, u64)], returns: u64, root: &Path) -> Result<String> {
+pub fn profile(elf: &Path, run: &super::Run, root: &Path) -> Result<String> {
+    let (per_pc, returns) = (&run.per_pc, run.returns);
     let loader = addr2line::Loader::new(elf).map_err(|e| format!("{}: {e}", elf.display()))?;
     let total: u64 = per_pc.iter().map(|p| p.1).sum();
     let mut by_function: HashMap<String, u64> = HashMap::new();
     let mut by_line: HashMap<(String, String), u64> = HashMap::new();
     let mut by_chain: HashMap<String, u64> = HashMap::new();
-    for &(pc, n) in per_pc {
+    for &(pc, n) in per_pc.iter() {
         let (function, line, chain) = attribute(&loader, pc, root);
         *by_function.entry(function.clone()).or_insert(0) += n;
         *by_line.entry((line, function)).or_insert(0) += n;
@@ -52,6 +53,17 @@ pub fn profile(elf: &Path, per_pc: &[(u32, u64)], returns: u64, root: &Path) -> 
             "{:>11.2}{unit} {:>5.1}%  {name}\n",
             per_return(n),
             percent(n, total)
+        ));
+    }
+    out.push_str(
+        "\n## The compiler's library routines by call site (their instructions, also counted above)\n\n",
+    );
+    for (site, routine, n) in run.library_calls.iter().take(TOP_LINES) {
+        let (function, line, _) = attribute(&loader, *site, root);
+        out.push_str(&format!(
+            "{:>11.2}{unit} {:>5.1}%  {routine} from {line}  ({function})\n",
+            per_return(*n),
+            percent(*n, total)
         ));
     }
     out.push_str("\n## By source line\n\n");
