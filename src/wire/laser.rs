@@ -74,6 +74,21 @@ pub(crate) fn turn_fraction(numerator: u64, denominator: u64) -> FineAngle {
     FineAngle::from_bits(bits)
 }
 
+/// `turn_fraction(n, 45·2³²⁻ˢ)` for `1 ≤ s ≤ 26`, in 32-bit words: the angle of `n` units
+/// of 1/(45·2³²⁻ˢ) turn, as RPLIDAR angles are (degrees·64: s = 23; degrees·2¹⁶: s = 13).
+/// The rounded quotient is `⌊(n·2ˢ + 22.5)/45⌋ = ⌊(n·2ˢ + 22)/45⌋` (n·2ˢ is an integer), and
+/// with n = 45a + b it is `a·2ˢ + ⌊(b·2ˢ + 22)/45⌋` (b·2ˢ < 45·2²⁶ < 2³²), all modulo 2³²
+/// as the angle is: a division by the constant 45 instead of a 64-bit one. Other `s` take
+/// [`turn_fraction`].
+pub(crate) fn turn_fraction_45ths(n: u32, s: u32) -> FineAngle {
+    if !(1..=26).contains(&s) {
+        let d = 45_u64 << 32_u32.saturating_sub(s).min(63);
+        return turn_fraction(u64::from(n), d);
+    }
+    let (a, b) = (n / 45, n % 45);
+    FineAngle::from_bits((a << s).wrapping_add(((b << s) + 22) / 45))
+}
+
 /// The angles `turn_fraction(first + k·step, denominator)` for k = 0, 1, 2, … in order, each
 /// exactly as [`turn_fraction`] rounds it, by two 64-bit divisions in all instead of one per
 /// angle: the quotient and remainder of the first, and of the step, then one add and one
@@ -210,5 +225,37 @@ mod tests {
         assert_eq!(TurnSteps::new(1, 1, 0), None);
         assert_eq!(TurnSteps::new(1 << 32, 1, 3), None);
         assert_eq!(TurnSteps::new(1, 1 << 32, 3), None);
+    }
+
+    #[test]
+    fn turn_fraction_45ths_is_turn_fraction() {
+        // Every 16-bit numerator at the RPLIDAR's two scales, then random ones at every scale.
+        for n in 0..=u32::from(u16::MAX) {
+            for s in [13, 23] {
+                assert_eq!(
+                    turn_fraction_45ths(n, s),
+                    turn_fraction(u64::from(n), 45 << (32 - s)),
+                    "{n} at 2^{s}"
+                );
+            }
+        }
+        let mut rng = 0x1234_5678_9ABC_DEF1_u64;
+        for _ in 0..200_000 {
+            rng ^= rng << 13;
+            rng ^= rng >> 7;
+            rng ^= rng << 17;
+            let n = (rng >> 32) as u32 >> (rng % 32);
+            let s = (rng % 26 + 1) as u32;
+            assert_eq!(
+                turn_fraction_45ths(n, s),
+                turn_fraction(u64::from(n), 45 << (32 - s)),
+                "{n} at 2^{s}"
+            );
+        }
+        assert_eq!(
+            turn_fraction_45ths(u32::MAX, 26),
+            turn_fraction(u64::from(u32::MAX), 45 << 6)
+        );
+        assert_eq!(turn_fraction_45ths(7, 30), turn_fraction(7, 45 << 2));
     }
 }

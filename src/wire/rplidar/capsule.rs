@@ -5,7 +5,7 @@ use super::{
     RPLIDAR_CAPSULE_POINTS,
 };
 use crate::angle::FineAngle;
-use crate::wire::laser::signed_turn_fraction;
+use crate::wire::laser::{signed_turn_fraction, turn_fraction_45ths};
 use crate::wire::LaserReturn;
 
 /// High nibble of byte 0.
@@ -18,6 +18,27 @@ const CABINS_AT: usize = 4;
 const CABIN_LEN: usize = 5;
 /// One turn in the SDK's degrees·2¹⁶.
 const TURN_Q16: i64 = 360 << 16;
+
+/// `signed_turn_fraction(q16, 360·2¹⁶)`, exactly, in 32-bit words for every angle a capsule
+/// gives (degrees·2¹⁶ within ±2³¹; others take the 64-bit way): the angle reduced to one turn
+/// (at most a few turns away, so by adding or subtracting turns), then a turn being
+/// 360·2¹⁶ = 45·2¹⁹ units, [`turn_fraction_45ths`]: no 64-bit division.
+fn turn_of_q16_degrees(q16: i64) -> FineAngle {
+    const TURN: i32 = 360 << 16;
+    let Ok(mut r) = i32::try_from(q16) else {
+        return signed_turn_fraction(q16, TURN_Q16.unsigned_abs());
+    };
+    // |q16| < 2³¹ and a turn is 2²⁴·⁵: at most 92 steps; a capsule's angles take one or two.
+    while r < 0 {
+        r += TURN;
+    }
+    while r >= TURN {
+        r -= TURN;
+    }
+    // 0 ≤ r < 360·2¹⁶: a < 2¹⁹ and the sum below reaches 2³² only where the angle rounds up
+    // to a whole turn, which wraps to 0 as a FineAngle does.
+    turn_fraction_45ths(r.unsigned_abs(), 13)
+}
 
 /// The XOR of bytes 2..84 of a capsule (over the bytes present).
 fn xor_body(bytes: &[u8]) -> u8 {
@@ -336,10 +357,7 @@ impl<'a> RplidarExpressScan<'a> {
     #[must_use]
     pub fn angle(&self, k: usize) -> Option<FineAngle> {
         let offset = i64::from(self.capsule.angle_offset_q3(k)?);
-        Some(signed_turn_fraction(
-            self.raw_q16(k) - (offset << 13),
-            TURN_Q16.unsigned_abs(),
-        ))
+        Some(turn_of_q16_degrees(self.raw_q16(k) - (offset << 13)))
     }
 
     /// The 32 returns in sampling order: angle as [`angle`](Self::angle), range the distance
@@ -363,7 +381,11 @@ impl<'a> RplidarExpressScan<'a> {
         if self.wraps_at_start {
             return Some(0);
         }
-        (1..RPLIDAR_CAPSULE_POINTS).find(|&k| self.crosses(k))
+        // The raw angle never decreases along a capsule (its step is ≥ 0), so the first
+        // point past a multiple of 360° is the first at or beyond the next one after point 0:
+        // one division instead of two per point.
+        let next_turn = (self.raw_q16(0).div_euclid(TURN_Q16) + 1) * TURN_Q16;
+        (1..RPLIDAR_CAPSULE_POINTS).find(|&k| self.raw_q16(k) >= next_turn)
     }
 
     /// Whether a new revolution starts among this capsule's points.
@@ -565,6 +587,54 @@ mod tests {
                     "case {case} point {k}: ours {ours} q6, SDK {q6}"
                 );
             }
+        }
+    }
+
+    #[test]
+    fn the_32_bit_angle_is_the_64_bit_division() {
+        // Every angle a capsule can produce lies in (−2²¹, 2²⁷) degrees·2¹⁶: a stride through
+        // it (every residue mod 45 and near every turn), the edges, and random values.
+        let mut rng = XorShift(0xDEAD_BEEF_0BAD_F00D);
+        let turn = TURN_Q16;
+        let mut values: Vec<i64> = (-(1_i64 << 21)..(1 << 27)).step_by(997).collect();
+        for m in -1..=6 {
+            for d in -50..=50 {
+                values.push(m * turn + d);
+            }
+        }
+        for _ in 0..200_000 {
+            values.push((rng.next() % (1 << 32)) as i64 - (1 << 31));
+        }
+        values.extend([
+            i64::from(i32::MIN),
+            i64::from(i32::MAX),
+            1 << 40,
+            -(1 << 40),
+        ]);
+        for q16 in values {
+            assert_eq!(
+                turn_of_q16_degrees(q16),
+                signed_turn_fraction(q16, turn.unsigned_abs()),
+                "{q16}"
+            );
+        }
+    }
+
+    #[test]
+    fn the_revolution_start_is_the_first_crossing() {
+        let mut rng = XorShift(0x5555_AAAA_1234_5678);
+        for case in 0..20_000 {
+            let repr = RplidarCapsuleRepr {
+                start_angle_q6: (rng.next() % 32_768) as u16,
+                ..RplidarCapsuleRepr::default()
+            };
+            let mut bytes = [0; 84];
+            repr.emit(&mut bytes).unwrap();
+            let next = (rng.next() % 32_768) as u16;
+            let scan =
+                RplidarExpressScan::new(RplidarCapsule::new_checked(&bytes[..]).unwrap(), next);
+            let by_pairs = (1..RPLIDAR_CAPSULE_POINTS).find(|&k| scan.crosses(k));
+            assert_eq!(scan.revolution_start(), by_pairs, "case {case}");
         }
     }
 

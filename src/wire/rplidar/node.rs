@@ -2,7 +2,9 @@
 
 use super::{read_u16_le, write_all, RplidarError, RPLIDAR_NODE_LEN, RPLIDAR_Q6_PER_TURN};
 use crate::angle::FineAngle;
+#[cfg(test)]
 use crate::wire::laser::turn_fraction;
+use crate::wire::laser::turn_fraction_45ths;
 use crate::wire::LaserReturn;
 
 /// Whether five bytes pass a node's checks: S ≠ !S (byte 0 bits 0 and 1), C = 1 (byte 1
@@ -125,7 +127,9 @@ impl<T: AsRef<[u8]>> RplidarNode<T> {
     /// The heading as a fraction of a turn (angle_q6/64 degrees, exact to the LSB),
     /// clockwise seen from above.
     pub fn angle(&self) -> FineAngle {
-        turn_fraction(u64::from(self.angle_q6()), u64::from(RPLIDAR_Q6_PER_TURN))
+        // A turn is 23 040 = 45·2⁹ units: turn_fraction(q6, 23 040) in 32-bit words.
+        const _: () = assert!(RPLIDAR_Q6_PER_TURN as u64 == 45 << 9);
+        turn_fraction_45ths(u32::from(self.angle_q6()), 23)
     }
 
     /// The node as a [`LaserReturn`]: the distance rounded to the millimetre (0 = no return;
