@@ -255,6 +255,7 @@ impl Packet<'_> {
             len: n,
             angles: match self {
                 Self::Ld06(p) => p.angle_steps(),
+                Self::Ydlidar(p, _) => p.first_level_angle_steps(),
                 _ => None,
             },
         }
@@ -390,7 +391,8 @@ struct Returns<'p, 'a> {
     packet: &'p Packet<'a>,
     next: usize,
     len: usize,
-    /// An LD06 packet's angles, step by step (each exactly the packet's `angle(k)`).
+    /// An LD06 packet's angles or a YDLIDAR packet's first-level angles, step by step (each
+    /// exactly the packet's own per-index angle).
     angles: Option<TurnSteps>,
 }
 
@@ -401,14 +403,28 @@ impl Iterator for Returns<'_, '_> {
         while self.next < self.len {
             let k = self.next;
             self.next += 1;
-            if let (Packet::Ld06(p), Some(steps)) = (self.packet, self.angles.as_mut()) {
+            if let Some(steps) = self.angles.as_mut() {
                 let angle = steps.next_angle();
-                if let Some(point) = p.point(k) {
-                    return Some(LaserReturn {
-                        angle,
-                        range_mm: u32::from(point.distance_mm),
-                        quality: Some(point.intensity),
-                    });
+                match self.packet {
+                    Packet::Ld06(p) => {
+                        if let Some(point) = p.point(k) {
+                            return Some(LaserReturn {
+                                angle,
+                                range_mm: u32::from(point.distance_mm),
+                                quality: Some(point.intensity),
+                            });
+                        }
+                    }
+                    Packet::Ydlidar(p, correction) => {
+                        if let Some(si) = p.sample(k) {
+                            return Some(LaserReturn {
+                                angle: crate::wire::ydlidar::corrected(angle, si, *correction),
+                                range_mm: (u32::from(si) + 2) >> 2,
+                                quality: None,
+                            });
+                        }
+                    }
+                    _ => {}
                 }
                 continue;
             }

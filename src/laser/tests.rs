@@ -373,3 +373,41 @@ fn an_ld06_packets_returns_step_to_exactly_its_angles() {
         assert_eq!(own, direct, "start {start}, end {end}");
     }
 }
+
+#[test]
+fn a_ydlidar_packets_returns_step_to_exactly_its_angles() {
+    // As for the LD06: the stepped first-level angles (with and without the second-level
+    // correction) equal the packet's own per-sample angles, for 1..=40 samples, across the
+    // wrap and at out-of-range wire angles.
+    let mut rng = 0x0F0E_0D0C_0B0A_0908_u64;
+    let mut next = move |n: u64| {
+        rng ^= rng << 13;
+        rng ^= rng >> 7;
+        rng ^= rng << 17;
+        rng % n
+    };
+    for case in 0..3_000 {
+        let n = 1 + next(40) as usize;
+        let samples: Vec<u16> = (0..n).map(|_| next(40_000) as u16).collect();
+        let first = next(32_768) as u16;
+        let last = if case % 2 == 0 {
+            next(32_768) as u16
+        } else {
+            ((u64::from(first) + next(1_000)) % 23_040) as u16
+        };
+        let bytes = ydlidar(first, last, &samples, false);
+        let view = YdlidarPacket::new_checked(&bytes[..]).unwrap();
+        for correction in [
+            YdlidarAngleCorrection::SecondLevel,
+            YdlidarAngleCorrection::Off,
+        ] {
+            let packet = Packet::Ydlidar(view, correction);
+            let stepped: Vec<LaserReturn> = packet.returns().collect();
+            let direct: Vec<LaserReturn> = (0..n).filter_map(|k| packet.get(k)).collect();
+            assert_eq!(stepped, direct, "case {case}");
+            assert_eq!(stepped.len(), n);
+            let own: Vec<LaserReturn> = view.returns_with(correction).collect();
+            assert_eq!(own, direct, "case {case}");
+        }
+    }
+}

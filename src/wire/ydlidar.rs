@@ -62,6 +62,7 @@ pub use command::{YdlidarCommand, YdlidarDescriptor, YdlidarDescriptorRepr};
 pub use correction::{
     ydlidar_angle_correction, YdlidarAngleCorrection, YDLIDAR_CORRECTION_MAX_ERROR_DEG,
 };
+pub(crate) use packet::corrected;
 pub use packet::{ydlidar_checksum, YdlidarPacket, YdlidarRepr};
 
 #[allow(unused_imports)] // Referenced by the documentation above.

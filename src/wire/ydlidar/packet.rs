@@ -6,7 +6,7 @@ use super::{
     YDLIDAR_Q6_PER_TURN,
 };
 use crate::angle::FineAngle;
-use crate::wire::laser::turn_fraction;
+use crate::wire::laser::{turn_fraction, TurnSteps};
 use crate::wire::LaserReturn;
 
 mod field {
@@ -230,15 +230,23 @@ impl<T: AsRef<[u8]>> YdlidarPacket<T> {
         Some(turn_fraction(steps * first + i * diff, steps * turn))
     }
 
+    /// The first-level angles of samples 0, 1, 2, … in order, each exactly
+    /// [`first_level_angle`](Self::first_level_angle), by two divisions per packet rather
+    /// than one per sample.
+    pub(crate) fn first_level_angle_steps(&self) -> Option<TurnSteps> {
+        let n = u64::from(self.sample_count());
+        let turn = u64::from(YDLIDAR_Q6_PER_TURN);
+        let first = u64::from(self.first_angle_q6()) % turn;
+        let last = u64::from(self.last_angle_q6()) % turn;
+        let diff = (last + turn - first) % turn;
+        let steps = n.saturating_sub(1).max(1);
+        TurnSteps::new(steps * first, diff, steps * turn)
+    }
+
     /// The angle of sample `i` with `correction` applied; `None` for `i ≥ LSN`.
     pub fn angle(&self, i: usize, correction: YdlidarAngleCorrection) -> Option<FineAngle> {
         let first = self.first_level_angle(i)?;
-        Some(match correction {
-            YdlidarAngleCorrection::Off => first,
-            YdlidarAngleCorrection::SecondLevel => {
-                first.wrapping_add(ydlidar_angle_correction(self.sample(i)?))
-            }
-        })
+        Some(corrected(first, self.sample(i)?, correction))
     }
 
     /// The LSN returns with the manuals' second-level correction
@@ -253,12 +261,31 @@ impl<T: AsRef<[u8]>> YdlidarPacket<T> {
         &self,
         correction: YdlidarAngleCorrection,
     ) -> impl Iterator<Item = LaserReturn> + '_ {
-        (0..usize::from(self.sample_count()))
-            .filter_map(move |i| Some(laser_return(self.angle(i, correction)?, self.sample(i)?)))
+        let mut steps = self.first_level_angle_steps();
+        (0..usize::from(self.sample_count())).filter_map(move |i| {
+            let sample = self.sample(i)?;
+            let first = match steps.as_mut() {
+                Some(steps) => steps.next_angle(),
+                None => self.first_level_angle(i)?,
+            };
+            Some(laser_return(corrected(first, sample, correction), sample))
+        })
     }
 
     fn byte(&self, at: usize) -> u8 {
         self.buffer.as_ref().get(at).copied().unwrap_or(0)
+    }
+}
+
+/// A first-level angle with `correction` for a sample of `si` (distance·4 mm) applied.
+pub(crate) fn corrected(
+    first: FineAngle,
+    si: u16,
+    correction: YdlidarAngleCorrection,
+) -> FineAngle {
+    match correction {
+        YdlidarAngleCorrection::Off => first,
+        YdlidarAngleCorrection::SecondLevel => first.wrapping_add(ydlidar_angle_correction(si)),
     }
 }
 
