@@ -662,7 +662,10 @@ impl<const C: usize, const L: usize> Frontend<C, L> {
             #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
             let offset = ((step_q16 * k) >> 16) as u32;
             let angle = actuator.first.wrapping_add(FineAngle::from_bits(offset));
-            if angle != plane.actuator() {
+            // The plane only where a point is placed: a sample without a distance (most of
+            // a nodding lidar's rear half-turn) needs none unless missing ground is looked for.
+            let needs_plane = ret.range_mm != 0 || self.config.missing_ground_within.is_some();
+            if needs_plane && angle != plane.actuator() {
                 plane = self.sweep.at(angle);
             }
             let theta = beam_angle_of_clockwise(ret.angle);
