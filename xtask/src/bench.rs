@@ -557,10 +557,12 @@ fn bench(opts: &Opts) -> Result<()> {
         (M4F, "pyramid-nolink"),
         (M4F, "pyramid-paper"),
         (M4F, "f32"),
+        (M4F, "f32-paper"),
         (M0, "pyramid"),
         (M0, "pyramid-nolink"),
         (M0, "pyramid-paper"),
         (M0, "f32"),
+        (M0, "f32-paper"),
         (M4F, "pyramid-decay"),
         (M4F, "decay"),
         (M0, "pyramid-decay"),
@@ -620,6 +622,7 @@ fn bench(opts: &Opts) -> Result<()> {
     );
     // The paper's navigability rule against the default plane rule (both without the link).
     let (m4_paper, m0_paper) = (get(M4F, "pyramid-paper"), get(M0, "pyramid-paper"));
+    let (m4_f32_paper, m0_f32_paper) = (get(M4F, "f32-paper"), get(M0, "f32-paper"));
     let window_per_cell = window.instructions as f64 / window.cells.max(1) as f64;
     let per_cell = |r: &Run| r.instructions as f64 / r.cells.max(1) as f64;
     let (m4_decay, m0_decay) = (get(M4F, "pyramid-decay"), get(M0, "pyramid-decay"));
@@ -723,12 +726,20 @@ fn bench(opts: &Opts) -> Result<()> {
         m4_paper.per_return()
     );
     eprintln!(
-        "| M4F f32 instructions / return (no link) | {:.1} |",
+        "| M4F f32 instructions / return (no link, plane rule) | {:.1} |",
         m4_f32.per_return()
     );
     eprintln!(
-        "| M4F f32 / fixed (no link) | {:.2} |",
+        "| M4F f32 / fixed (no link, plane rule) | {:.2} |",
         ratio(m4_f32.per_return(), m4_nolink.per_return())
+    );
+    eprintln!(
+        "| M4F f32 instructions / return (no link, paper's rule) | {:.1} |",
+        m4_f32_paper.per_return()
+    );
+    eprintln!(
+        "| M4F f32 / fixed (no link, paper's rule) | {:.2} |",
+        ratio(m4_f32_paper.per_return(), m4_paper.per_return())
     );
     eprintln!(
         "| M0 instructions / return (pipeline + link) | {:.1} |",
@@ -743,12 +754,20 @@ fn bench(opts: &Opts) -> Result<()> {
         m0_paper.per_return()
     );
     eprintln!(
-        "| M0 f32 instructions / return (no link) | {:.1} |",
+        "| M0 f32 instructions / return (no link, plane rule) | {:.1} |",
         m0_f32.per_return()
     );
     eprintln!(
-        "| M0 f32 / fixed (no link) | {:.2} |",
+        "| M0 f32 / fixed (no link, plane rule) | {:.2} |",
         ratio(m0_f32.per_return(), m0_nolink.per_return())
+    );
+    eprintln!(
+        "| M0 f32 instructions / return (no link, paper's rule) | {:.1} |",
+        m0_f32_paper.per_return()
+    );
+    eprintln!(
+        "| M0 f32 / fixed (no link, paper's rule) | {:.2} |",
+        ratio(m0_f32_paper.per_return(), m0_paper.per_return())
     );
     eprintln!(
         "| M4F window move: instructions / reset cell ({} cells) | {:.2} |",
@@ -817,8 +836,14 @@ fn bench(opts: &Opts) -> Result<()> {
             "plane_instructions_per_return": m0_nolink.per_return(),
             "paper_instructions_per_return": m0_paper.per_return(),
         },
-        "m4f_f32": { "instructions_per_return": m4_f32.per_return() },
-        "m0_f32": { "instructions_per_return": m0_f32.per_return() },
+        "m4f_f32": {
+            "instructions_per_return": m4_f32.per_return(),
+            "paper_instructions_per_return": m4_f32_paper.per_return(),
+        },
+        "m0_f32": {
+            "instructions_per_return": m0_f32.per_return(),
+            "paper_instructions_per_return": m0_f32_paper.per_return(),
+        },
         "host": { "returns_per_second": host_rps },
         "octomap": {
             "returns_per_second": octomap_rps,

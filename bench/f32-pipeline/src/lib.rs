@@ -8,8 +8,12 @@
 //!   with a square root (`vsqrt.f32` on an FPU, two Newton steps on micromath's estimate
 //!   without one). The beam table holds the library's own Q1.15 cos/sin, widened to `f32`.
 //! - Classifier: the same open-addressing table keyed by (layer, cell x, cell y), the same
-//!   z-interval fold (robot height) and step rule, heights and distances in `f32` metres;
-//!   cells by `floor(x · 1/r)`.
+//!   z-interval fold (robot height) and rule, heights and distances in `f32` metres; cells by
+//!   `floor(x · 1/r)`. The rule is the configuration's: the paper's spread against the step
+//!   threshold, or the plane rule (`docs/core.md`): per cell the running sums of the points'
+//!   position in the cell and height below the overhang cut, and at the observation's end the
+//!   same ridge least-squares plane, residual, gradient and rise tests as the library's, in
+//!   `f32` (no decimation: `f32` sums need no width bound).
 //! - Gate: per layer a 512-bin `f32` table (the library's table widened; a weight whose
 //!   gated increments would both round to zero in Q8.8 is 0 here too, so the same layers are
 //!   fed), binned as the library bins.
@@ -21,6 +25,7 @@
 #![deny(missing_docs)]
 
 use micromath::F32Ext;
+use terrain_pyramid::classify::{NavigabilityRule, PlaneRule};
 use terrain_pyramid::design::Design;
 use terrain_pyramid::gate::{DistanceBins, GateTable, GATE_BINS};
 use terrain_pyramid::geometry::ScanPlane;
@@ -336,6 +341,141 @@ impl Slot {
     };
 }
 
+/// The plane rule's running sums of one cell: u, v the point's position in its cell in
+/// units of 1/64 cell from the centre (as the library's), dz its height in mm above the
+/// cell's first summed point.
+#[derive(Clone, Copy)]
+struct Sums {
+    n: f32,
+    z0: f32,
+    su: f32,
+    sv: f32,
+    sz: f32,
+    suu: f32,
+    svv: f32,
+    suv: f32,
+    suz: f32,
+    svz: f32,
+    szz: f32,
+}
+
+impl Sums {
+    const ZERO: Self = Self {
+        n: 0.0,
+        z0: 0.0,
+        su: 0.0,
+        sv: 0.0,
+        sz: 0.0,
+        suu: 0.0,
+        svv: 0.0,
+        suv: 0.0,
+        suz: 0.0,
+        svz: 0.0,
+        szz: 0.0,
+    };
+
+    /// The sums of the one point (u, v, z m).
+    fn first(u: f32, v: f32, z: f32) -> Self {
+        let mut s = Self::ZERO;
+        s.z0 = z;
+        s.add(u, v, z);
+        s
+    }
+
+    #[inline]
+    fn add(&mut self, u: f32, v: f32, z: f32) {
+        let dz = (z - self.z0) * 1000.0;
+        self.n += 1.0;
+        self.su += u;
+        self.sv += v;
+        self.sz += dz;
+        self.suu += u * u;
+        self.svv += v * v;
+        self.suv += u * v;
+        self.suz += u * dz;
+        self.svz += v * dz;
+        self.szz += dz * dz;
+    }
+}
+
+/// The plane rule's parameters in `f32`: tan of the largest slope, the residual allowance,
+/// the range noise and the elevation noise (mm, mm, rad), the noise factor, the step (mm),
+/// and the spread below which a cell is navigable without its plane (mm).
+#[derive(Clone, Copy)]
+struct PlaneF32 {
+    grade: f32,
+    residual_mm: f32,
+    sigma_mm: f32,
+    angle: f32,
+    factor: f32,
+    step_mm: f32,
+    quick_mm: f32,
+}
+
+impl PlaneF32 {
+    fn new(rule: &PlaneRule, step: f32) -> Self {
+        let residual_mm = rule.residual.to_num::<f32>().max(0.0) * 1000.0;
+        let step_mm = step.max(0.0) * 1000.0;
+        Self {
+            grade: rule.max_grade.to_num::<f32>().max(0.0),
+            residual_mm,
+            sigma_mm: rule.range_sigma.to_num::<f32>().max(0.0) * 1000.0,
+            angle: rule.angle_sigma.to_num::<f32>().max(0.0),
+            factor: rule.noise_factor.to_num::<f32>().max(0.0),
+            step_mm,
+            // As the library's: the residual's RMS is at most half the spread, the rise at
+            // most √3 times it.
+            quick_mm: (2.0 * residual_mm).min(step_mm / 1.732) - 1.0,
+        }
+    }
+
+    /// Whether the cell of `s` is not navigable: `h` the sensor's height above the ground,
+    /// `d` the cell's closest look, `cell` its side, all in mm.
+    fn obstacle(&self, s: &Sums, h: f32, d: f32, cell: f32) -> bool {
+        let n = s.n;
+        if n < 2.0 {
+            return false;
+        }
+        // Centred moments times n²; the ridge of 1 unit² times n².
+        let cuu = n * s.suu - s.su * s.su;
+        let cvv = n * s.svv - s.sv * s.sv;
+        let cuv = n * s.suv - s.su * s.sv;
+        let cuz = n * s.suz - s.su * s.sz;
+        let cvz = n * s.svz - s.sv * s.sz;
+        let czz = n * s.szz - s.sz * s.sz;
+        let n2 = n * n;
+        let (a, b) = (cuu + n2, cvv + n2);
+        let det = a * b - cuv * cuv;
+        if det <= 0.0 {
+            return false;
+        }
+        let wa = (b * cuz - cuv * cvz) / det;
+        let wb = (a * cvz - cuv * cuz) / det;
+        let explained = wa * wa * cuu + 2.0 * wa * wb * cuv + wb * wb * cvv;
+        let residual = czz - 2.0 * (wa * cuz + wb * cvz) + explained;
+        let r = sqrt(h * h + d * d);
+        let range = if r > 0.0 {
+            self.sigma_mm * h / r
+        } else {
+            self.sigma_mm
+        };
+        let angle = self.angle * r;
+        let noise = self.factor * sqrt(range * range + angle * angle);
+        let allowed = self.residual_mm * self.residual_mm + noise * noise;
+        if residual > allowed * n2 {
+            return true;
+        }
+        let slope = sqrt(wa * wa + wb * wb);
+        let steep = 64.0 * slope - self.grade * cell;
+        if steep <= 0.0 {
+            return false;
+        }
+        let rise_n = sqrt(12.0 * explained.max(0.0));
+        let allowance = self.step_mm + noise * sqrt(12.0 / n);
+        rise_n * steep > 64.0 * slope * n * allowance
+    }
+}
+
 #[inline]
 #[allow(clippy::cast_sign_loss)]
 fn hash(layer: u8, x: i32, y: i32) -> u32 {
@@ -352,11 +492,15 @@ pub struct Frontend<const C: usize> {
     config: FrontendConfig,
     sensor: [f32; 3],
     slots: [Slot; C],
+    /// The plane rule's sums of each slot (untouched under the spread rule).
+    sums: [Sums; C],
     order: [u16; C],
     used: usize,
     reference_z: f32,
     robot_height: f32,
     step: f32,
+    /// The plane rule's parameters when it is the configuration's rule.
+    plane: Option<PlaneF32>,
     pose: [f32; 6],
     rot: [[f32; 3]; 3],
     actuator: u16,
@@ -390,11 +534,19 @@ impl<const C: usize> Frontend<C> {
             config,
             sensor: [p.x.to_num(), p.y.to_num(), p.z.to_num()],
             slots: [Slot::VACANT; C],
+            sums: [Sums::ZERO; C],
             order: [0; C],
             used: 0,
             reference_z: 0.0,
             robot_height: config.classifier.robot_height.to_num(),
             step: config.classifier.step_threshold.to_num(),
+            plane: match &config.classifier.rule {
+                NavigabilityRule::Plane(rule) => Some(PlaneF32::new(
+                    rule,
+                    config.classifier.step_threshold.to_num(),
+                )),
+                NavigabilityRule::Spread => None,
+            },
             pose: [0.0; 6],
             rot: [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
             actuator: 0,
@@ -522,7 +674,12 @@ impl<const C: usize> Frontend<C> {
             let dz = kc[2] * rc + ks[2] * rs;
             let distance = sqrt(dx * dx + dy * dy);
             let (x, y, z) = (o[0] + dx, o[1] + dy, o[2] + dz - self.reference_z);
-            self.add_point(pyramid, x, y, z, distance);
+            // The rule chosen once per point, so that the spread rule's code has no plane in it.
+            if self.plane.is_some() {
+                self.add_point::<true, W, L>(pyramid, x, y, z, distance);
+            } else {
+                self.add_point::<false, W, L>(pyramid, x, y, z, distance);
+            }
         }
         self.lines_in_observation += 1;
         let per = self.config.lines_per_observation;
@@ -532,7 +689,7 @@ impl<const C: usize> Frontend<C> {
     }
 
     #[inline]
-    fn add_point<const W: usize, const L: usize>(
+    fn add_point<const PLANE: bool, const W: usize, const L: usize>(
         &mut self,
         pyramid: &Pyramid<W, L>,
         x: f32,
@@ -548,14 +705,34 @@ impl<const C: usize> Frontend<C> {
             if gate.get(bin).copied().unwrap_or(0.0) == 0.0 {
                 continue;
             }
-            let (cx, cy) = (floor_i32(x * layer.inv_res), floor_i32(y * layer.inv_res));
+            let (fx, fy) = (x * layer.inv_res, y * layer.inv_res);
+            let (cx, cy) = (floor_i32(fx), floor_i32(fy));
+            // The position in the cell, 1/64 cell from its centre (the plane rule's only).
+            #[allow(clippy::cast_precision_loss)]
+            let (u, v) = if PLANE {
+                (
+                    (fx - cx as f32) * 64.0 - 32.0,
+                    (fy - cy as f32) * 64.0 - 32.0,
+                )
+            } else {
+                (0.0, 0.0)
+            };
             #[allow(clippy::cast_possible_truncation)]
-            self.accumulate(k as u8, cx, cy, distance, z);
+            self.accumulate::<PLANE>(k as u8, cx, cy, distance, z, (u, v));
         }
     }
 
     #[inline]
-    fn accumulate(&mut self, layer: u8, cx: i32, cy: i32, distance: f32, z: f32) {
+    fn accumulate<const PLANE: bool>(
+        &mut self,
+        layer: u8,
+        cx: i32,
+        cy: i32,
+        distance: f32,
+        z: f32,
+        uv: (f32, f32),
+    ) {
+        let plane = PLANE;
         let mask = C - 1;
         let mut index = hash(layer, cx, cy) as usize & mask;
         for _ in 0..C {
@@ -579,6 +756,11 @@ impl<const C: usize> Frontend<C> {
                     z_high: z,
                     layer,
                 };
+                if plane {
+                    if let Some(sums) = self.sums.get_mut(index) {
+                        *sums = Sums::first(uv.0, uv.1, z);
+                    }
+                }
                 return;
             }
             if slot.layer == layer && slot.cell_x == cx && slot.cell_y == cy {
@@ -586,14 +768,35 @@ impl<const C: usize> Frontend<C> {
                     slot.distance = distance;
                 }
                 let h = self.robot_height;
+                let sums = if plane {
+                    self.sums.get_mut(index)
+                } else {
+                    None
+                };
                 if z < slot.z_low {
                     let cut = z + h;
                     if slot.z_high > cut {
-                        slot.z_high = if slot.z_low <= cut { slot.z_low } else { z };
+                        let low_stays = slot.z_low <= cut;
+                        slot.z_high = if low_stays { slot.z_low } else { z };
+                        if let Some(sums) = sums {
+                            // The summed points lie above the cut now: restart from this
+                            // point and, when still below it, the previous lowest.
+                            *sums = Sums::first(uv.0, uv.1, z);
+                            if low_stays {
+                                sums.add(uv.0, uv.1, slot.z_low);
+                            }
+                        }
+                    } else if let Some(sums) = sums {
+                        sums.add(uv.0, uv.1, z);
                     }
                     slot.z_low = z;
-                } else if z <= slot.z_low + h && z > slot.z_high {
-                    slot.z_high = z;
+                } else if z <= slot.z_low + h {
+                    if z > slot.z_high {
+                        slot.z_high = z;
+                    }
+                    if let Some(sums) = sums {
+                        sums.add(uv.0, uv.1, z);
+                    }
                 }
                 return;
             }
@@ -628,11 +831,21 @@ impl<const C: usize> Frontend<C> {
                 continue;
             };
             let k = usize::from(slot.layer);
-            let l = if slot.z_high - slot.z_low > self.step {
-                obstacle
-            } else {
-                free
+            let spread = slot.z_high - slot.z_low;
+            let is_obstacle = match &self.plane {
+                Some(p) if spread * 1000.0 <= p.quick_mm => false,
+                Some(p) => {
+                    let cell = pyramid.layers.get(k).map_or(1.0, |l| 1000.0 / l.inv_res);
+                    p.obstacle(
+                        self.sums.get(usize::from(i)).unwrap_or(&Sums::ZERO),
+                        (self.reference_z - self.pose[2]) * 1000.0,
+                        slot.distance * 1000.0,
+                        cell,
+                    )
+                }
+                None => spread > self.step,
             };
+            let l = if is_obstacle { obstacle } else { free };
             let bin = pyramid.bin(slot.distance);
             let w = pyramid
                 .gates

@@ -1,5 +1,6 @@
-//! The f32 counterpart (`terrain-pyramid-f32`) of the pipeline without the link: the default
-//! design's 8 layers of 64², f32 cells, f32 geometry and classifier.
+//! The f32 counterpart (`terrain-pyramid-f32`) of the pipeline without the link
+//! (`pyramid-nolink`): the default design's 8 layers of 64², f32 cells, f32 geometry and
+//! classifier, under the configuration's rule (the default plane rule).
 #![no_std]
 #![no_main]
 
