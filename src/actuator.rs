@@ -337,16 +337,56 @@ impl AngleTrack {
         if gap == 0 || gap > TRACK_MAX_GAP_US {
             return Some(a1);
         }
-        let gap = i64::from(gap);
+        let span = i64::from(gap);
         #[allow(clippy::cast_possible_wrap)]
-        let d = i64::from(t_us.wrapping_sub(t0) as i32).clamp(-gap, 2 * gap);
+        let d = i64::from(t_us.wrapping_sub(t0) as i32).clamp(-span, 2 * span);
         #[allow(clippy::cast_possible_wrap)]
-        let delta = i64::from(a1.wrapping_sub(a0).to_bits() as i32);
-        // |delta| ≤ 2³¹, |d| ≤ 2·2¹⁸: the product is below 2⁵⁰.
-        let step = (delta * d).div_euclid(gap);
-        #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
-        let bits = step as u32;
+        let delta = a1.wrapping_sub(a0).to_bits() as i32;
+        // |delta| ≤ 2³¹, |d| ≤ 2·2¹⁸: the product is below 2⁵⁰. Where there is a 32-bit
+        // divide instruction (ARMv7-M, told by its atomics) five of them beat the 64-bit
+        // division's library call; on ARMv6-M each would be a call too, and the host divides
+        // 64 bits natively.
+        let bits = if cfg!(all(target_arch = "arm", target_has_atomic = "32")) {
+            floor_product_quotient(delta, d, gap)
+        } else {
+            #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+            {
+                (i64::from(delta) * d).div_euclid(span) as u32
+            }
+        };
         Some(a0.wrapping_add(FineAngle::from_bits(bits)))
+    }
+}
+
+/// `⌊delta·d / gap⌋` modulo 2³² (an angle's bits), for `|d| < 2³¹` and `0 < gap < 2¹⁸` (a
+/// track's readings are at most [`TRACK_MAX_GAP_US`] apart), exactly as the 64-bit
+/// `(delta·d).div_euclid(gap)` truncated to 32 bits, but without a 64-bit division (a library
+/// call on a Cortex-M): the product's magnitude (< 2⁶³) is divided 13 bits at a time, each
+/// step a 32-bit division (the remainder stays below 2¹⁸, so `remainder·2¹³ + digit` fits),
+/// keeping the quotient's low 32 bits. Other gaps take the 64-bit way.
+fn floor_product_quotient(delta: i32, d: i64, gap: u32) -> u32 {
+    let product = i64::from(delta).saturating_mul(d);
+    if gap == 0 || gap >= 1 << 18 {
+        #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+        return product.div_euclid(i64::from(gap.max(1))) as u32;
+    }
+    let magnitude = product.unsigned_abs();
+    let (mut quotient, mut remainder) = (0_u32, 0_u32);
+    // 65 bits in five 13-bit digits, the highest first (the top digit holds bits 52..64).
+    for shift in [52_u32, 39, 26, 13, 0] {
+        #[allow(clippy::cast_possible_truncation)]
+        let digit = ((magnitude >> shift) & 0x1FFF) as u32;
+        let x = (remainder << 13) | digit;
+        quotient = (quotient << 13) | (x / gap);
+        remainder = x % gap;
+    }
+    if product >= 0 {
+        quotient
+    } else {
+        // ⌊−m/g⌋ = −⌈m/g⌉.
+        quotient
+            .wrapping_add(u32::from(remainder != 0))
+            .wrapping_neg()
     }
 }
 
@@ -500,5 +540,44 @@ mod tests {
         assert_eq!(track.at(1_000), Some(deg(2.0)));
         track.clear();
         assert_eq!(track.last(), None);
+    }
+
+    #[test]
+    fn the_interpolation_quotient_is_the_64_bit_floor_division() {
+        let mut rng = 0xC0FF_EE00_1234_5678_u64;
+        let mut next = move || {
+            rng ^= rng << 13;
+            rng ^= rng >> 7;
+            rng ^= rng << 17;
+            rng
+        };
+        let mut cases: std::vec::Vec<(i32, i64, u32)> = std::vec![
+            (i32::MIN, 2 * 200_000, 200_000),
+            (i32::MIN, -200_000, 200_000),
+            (i32::MAX, 2 * 200_000, 200_000),
+            (-1, 1, 3),
+            (1, -1, 3),
+            (0, 5, 7),
+            (7, 3, (1 << 18) - 1),
+            (7, 3, 1 << 18),
+            (5, 5, 0),
+        ];
+        for _ in 0..500_000 {
+            let gap = (next() % 200_000) as u32 + 1;
+            #[allow(clippy::cast_possible_truncation)]
+            let delta = next() as i32 >> (next() % 32);
+            let span = i64::from(gap);
+            let d = (next() % (3 * span as u64 + 1)) as i64 - span;
+            cases.push((delta, d, gap));
+        }
+        for (delta, d, gap) in cases {
+            #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+            let expected = (i64::from(delta) * d).div_euclid(i64::from(gap.max(1))) as u32;
+            assert_eq!(
+                floor_product_quotient(delta, d, gap),
+                expected,
+                "{delta}·{d}/{gap}"
+            );
+        }
     }
 }
