@@ -653,7 +653,12 @@ impl<const C: usize, const L: usize> Frontend<C, L> {
         // division per packet (|turn| < 2³¹, so the step is below 2⁴⁷).
         #[allow(clippy::cast_possible_wrap)]
         let turn = i64::from(actuator.last.wrapping_sub(actuator.first).to_bits() as i32);
-        let step_q16 = (turn << 16) / steps;
+        // A one-return packet (an RPLIDAR node) or a still actuator needs no division.
+        let step_q16 = if steps == 1 || turn == 0 {
+            turn << 16
+        } else {
+            (turn << 16) / steps
+        };
         let ground_z: Meters = self.pose.z;
         let mut plane = self.sweep.at(actuator.first);
         for (k, ret) in returns.enumerate() {
