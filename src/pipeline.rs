@@ -38,8 +38,8 @@ use crate::angle::FineAngle;
 use crate::classify::{Classifier, ClassifierConfig, ClassifierStats};
 use crate::design::{Design, DesignError};
 use crate::geometry::{
-    beam_angle_of_clockwise, BeamTable, LinePoint, LineTransform, Mount, Pose, PoseFrame,
-    SweepTransform,
+    beam_angle_of_clockwise, ActuatedPlane, BeamTable, LinePoint, LineTransform, Mount, Pose,
+    PoseFrame, SweepTransform,
 };
 use crate::laser::{Sensor, SensorKind};
 use crate::pyramid::{Config, Pyramid};
@@ -660,19 +660,27 @@ impl<const C: usize, const L: usize> Frontend<C, L> {
             (turn << 16) / steps
         };
         let ground_z: Meters = self.pose.z;
-        let mut plane = self.sweep.at(actuator.first);
+        // The plane only where a point is placed, built for the return's actuator angle when
+        // it differs from the last one built: a sample without a distance (most of a nodding
+        // lidar's rear half-turn; most RPLIDAR nodes, each a packet) needs none unless missing
+        // ground is looked for.
+        let mut plane: Option<ActuatedPlane> = None;
         for (k, ret) in returns.enumerate() {
             // k ≤ 255 (the longest packet) and |step| < 2⁴⁷: the product is below 2⁵⁵.
             let k = i64::try_from(k).unwrap_or(0);
             #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
             let offset = ((step_q16 * k) >> 16) as u32;
             let angle = actuator.first.wrapping_add(FineAngle::from_bits(offset));
-            // The plane only where a point is placed: a sample without a distance (most of
-            // a nodding lidar's rear half-turn) needs none unless missing ground is looked for.
-            let needs_plane = ret.range_mm != 0 || self.config.missing_ground_within.is_some();
-            if needs_plane && angle != plane.actuator() {
-                plane = self.sweep.at(angle);
+            if ret.range_mm == 0 && self.config.missing_ground_within.is_none() {
+                self.stats.no_return = self.stats.no_return.saturating_add(1);
+                continue;
             }
+            if plane.as_ref().is_none_or(|p| p.actuator() != angle) {
+                plane = Some(self.sweep.at(angle));
+            }
+            let Some(plane) = plane.as_ref() else {
+                continue;
+            };
             let theta = beam_angle_of_clockwise(ret.angle);
             if ret.range_mm == 0 {
                 self.stats.no_return = self.stats.no_return.saturating_add(1);
