@@ -21,6 +21,7 @@ use crate::fmath;
 use crate::grid::Resolution;
 use crate::logodds::Increments;
 use crate::units::{Meters, Weight};
+use crate::wide;
 
 /// Number of distance bins in every gate table.
 pub const GATE_BINS: usize = 512;
@@ -83,7 +84,7 @@ impl DistanceBins {
         const LAST: u32 = GATE_BINS as u32 - 1;
         // m = 16 − s, 6 ..= 16.
         let m = 16 - self.shift.min(MAX_BIN_SHIFT);
-        let coarse = squared >> (2 * m);
+        let coarse = wide::shr_u64(squared, 2 * m);
         if coarse >= u64::from((LAST + 1) * (LAST + 1)) {
             return GATE_BINS - 1;
         }
@@ -91,8 +92,8 @@ impl DistanceBins {
         #[allow(clippy::cast_possible_truncation)]
         let f = isqrt_floor_below_2_18(coarse as u32);
         // The next edge T = (f + 1)·2ᵐ ≤ 2²⁵: (T − 1)·T < 2⁵⁰.
-        let edge = u64::from(f + 1) << m;
-        let bin = if squared > (edge - 1) * edge {
+        let edge = (f + 1) << m;
+        let bin = if squared > wide::umul(edge - 1, edge) {
             f + 1
         } else {
             f
@@ -111,10 +112,10 @@ impl DistanceBins {
         // Whether the distance reaches bin k's lower edge T = k·2ᵐ: S > (T − 1)·T (k ≤ 512,
         // T ≤ 2²⁵). Bin 0 is always reached.
         let reaches = |k: usize| {
-            // k ≤ GATE_BINS + 1 < 2³².
+            // k ≤ GATE_BINS + 1 and m ≤ 16: the edge is below 2²⁶.
             #[allow(clippy::cast_possible_truncation)]
-            let edge = u64::from(k as u32) << m;
-            k == 0 || squared > (edge - 1) * edge
+            let edge = (k as u32) << m;
+            k == 0 || squared > wide::umul(edge - 1, edge)
         };
         let h = hint.min(GATE_BINS - 1);
         if reaches(h) {

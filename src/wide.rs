@@ -1,0 +1,162 @@
+//! 32 × 32 → 64-bit products and 64-bit shifts without the 64-bit library routines of
+//! cores that lack them.
+//!
+//! ARMv7-M (and every host) multiplies two 32-bit words into 64 bits in one instruction
+//! (`smull`/`umull`). ARMv6-M (Cortex-M0/M0+) has only the 32 × 32 → 32 `muls`, and an `i64`
+//! product there is a call to `__aeabi_lmul` (a general 64 × 64 multiply), a variable 64-bit
+//! shift one to `__aeabi_llsr`/`__aeabi_llsl`. On ARMv6-M the helpers here build the product
+//! from four 16 × 16 products of the halves instead (inline, about twenty instructions,
+//! exact), and the shifts from two 32-bit words. Elsewhere they are the plain `i64`/`u64`
+//! operations. The half-word forms are compiled on every target so that the host tests
+//! check them against the plain ones.
+//!
+//! The cfg tells ARMv6-M from ARMv7-M by `target_has_atomic = "32"` (ARMv6-M has no
+//! compare-and-swap), as the classifier's cell indices do.
+
+/// Whether the target lacks a 32 × 32 → 64 multiply (ARMv6-M).
+const HALVES: bool = cfg!(all(target_arch = "arm", not(target_has_atomic = "32")));
+
+/// `a · b` exactly, as `i64`.
+#[inline(always)]
+#[must_use]
+pub(crate) fn smul(a: i32, b: i32) -> i64 {
+    if HALVES {
+        smul_halves(a, b)
+    } else {
+        i64::from(a) * i64::from(b)
+    }
+}
+
+/// `a · b` exactly, as `u64`.
+#[inline(always)]
+#[must_use]
+pub(crate) fn umul(a: u32, b: u32) -> u64 {
+    if HALVES {
+        umul_halves(a, b)
+    } else {
+        u64::from(a) * u64::from(b)
+    }
+}
+
+/// `x >> n` for `n < 64`.
+#[inline(always)]
+#[must_use]
+pub(crate) fn shr_u64(x: u64, n: u32) -> u64 {
+    if HALVES {
+        shr_u64_words(x, n)
+    } else {
+        x >> (n & 63)
+    }
+}
+
+/// [`smul`] from the 16-bit halves: `a = ah·2¹⁶ + al` with `al` in 0 ..= 65 535 and
+/// `|ah| ≤ 2¹⁵`, so `ah·bl` and `al·bh` fit an `i32` (below 2³¹ in magnitude), `ah·bh` too
+/// (≤ 2³⁰) and `al·bl` a `u32`.
+#[inline(always)]
+#[must_use]
+pub(crate) fn smul_halves(a: i32, b: i32) -> i64 {
+    let (ah, bh) = (a >> 16, b >> 16);
+    let (al, bl) = (a & 0xFFFF, b & 0xFFFF);
+    #[allow(clippy::cast_sign_loss)]
+    let low = (al as u32) * (bl as u32);
+    let mid = i64::from(ah * bl) + i64::from(al * bh);
+    (i64::from(ah * bh) << 32) + (mid << 16) + i64::from(low)
+}
+
+/// [`umul`] from the 16-bit halves (every partial product fits a `u32`; their middle sum is
+/// below 2³³).
+#[inline(always)]
+#[must_use]
+pub(crate) fn umul_halves(a: u32, b: u32) -> u64 {
+    let (ah, bh) = (a >> 16, b >> 16);
+    let (al, bl) = (a & 0xFFFF, b & 0xFFFF);
+    let mid = u64::from(ah * bl) + u64::from(al * bh);
+    (u64::from(ah * bh) << 32) + (mid << 16) + u64::from(al * bl)
+}
+
+/// [`shr_u64`] on two 32-bit words (`n` taken modulo 64).
+#[inline(always)]
+#[must_use]
+pub(crate) fn shr_u64_words(x: u64, n: u32) -> u64 {
+    #[allow(clippy::cast_possible_truncation)]
+    let (hi, lo) = ((x >> 32) as u32, x as u32);
+    let n = n & 63;
+    let (hi, lo) = if n >= 32 {
+        (0, hi >> (n - 32))
+    } else if n == 0 {
+        (hi, lo)
+    } else {
+        (hi >> n, (lo >> n) | (hi << (32 - n)))
+    };
+    (u64::from(hi) << 32) | u64::from(lo)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn xorshift(x: &mut u64) -> u64 {
+        *x ^= *x << 13;
+        *x ^= *x >> 7;
+        *x ^= *x << 17;
+        *x
+    }
+
+    const EDGES: [u32; 12] = [
+        0,
+        1,
+        2,
+        0x7FFF,
+        0x8000,
+        0xFFFF,
+        0x1_0000,
+        0x1_0001,
+        0x7FFF_FFFF,
+        0x8000_0000,
+        0x8000_0001,
+        0xFFFF_FFFF,
+    ];
+
+    #[test]
+    fn products_from_halves_are_exact() {
+        #[allow(clippy::cast_possible_wrap)]
+        let check = |a: u32, b: u32| {
+            assert_eq!(umul_halves(a, b), u64::from(a) * u64::from(b), "{a} {b}");
+            let (sa, sb) = (a as i32, b as i32);
+            assert_eq!(
+                smul_halves(sa, sb),
+                i64::from(sa) * i64::from(sb),
+                "{sa} {sb}"
+            );
+            assert_eq!(smul(sa, sb), i64::from(sa) * i64::from(sb));
+            assert_eq!(umul(a, b), u64::from(a) * u64::from(b));
+        };
+        for a in EDGES {
+            for b in EDGES {
+                check(a, b);
+                check(a.wrapping_neg(), b);
+            }
+        }
+        let mut x = 0x9E37_79B9_7F4A_7C15_u64;
+        for i in 0..1_000_000_u32 {
+            let v = xorshift(&mut x);
+            #[allow(clippy::cast_possible_truncation)]
+            let (a, b) = ((v >> 32) as u32, v as u32);
+            // Every magnitude of both operands.
+            check(a >> (i % 32), b >> ((i / 32) % 32));
+        }
+    }
+
+    #[test]
+    fn shifts_from_words_are_exact() {
+        let mut x = 0x9E37_79B9_7F4A_7C15_u64;
+        for _ in 0..20_000 {
+            let v = xorshift(&mut x);
+            for n in 0..64 {
+                assert_eq!(shr_u64_words(v, n), v >> n, "{v} {n}");
+                assert_eq!(shr_u64(v, n), v >> n);
+            }
+        }
+        assert_eq!(shr_u64_words(u64::MAX, 64), u64::MAX);
+    }
+}
