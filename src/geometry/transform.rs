@@ -459,11 +459,9 @@ impl<'a> LineTransform<'a> {
     fn locate_squared_unsaturated(&self, dir: BeamDir, range_mm: u32) -> LinePointSquared {
         let (c, s) = dir.to_bits();
         let (c, s) = (i32::from(c), i32::from(s));
-        // range_mm ≤ MAX_RANGE_MM < 2¹⁷.
-        #[allow(clippy::cast_possible_wrap)]
-        let r = range_mm as i32;
+        // range_mm ≤ MAX_RANGE_MM < 2¹⁷: the product is exact.
         let [rx, ry, rz] = self.rows;
-        let [dx, dy, dz] = [rx, ry, rz].map(|row| wide::smul(row.per_mm_dir(c, s), r));
+        let [dx, dy, dz] = [rx, ry, rz].map(|row| wide::smul_u17(row.per_mm_dir(c, s), range_mm));
         let [ox, oy, oz] = self.origin_round;
         // |origin| ≤ 2⁵⁵ − 2⁴⁹ and |Δ| < 2⁴⁸: the sum and its value >> 24 fit (see
         // UNSATURATED_ORIGIN).
@@ -528,10 +526,7 @@ pub(super) fn horizontal_squared(dx: i64, dy: i64) -> u64 {
     #[allow(clippy::cast_possible_truncation)]
     let round = |d: i64| ((d + (1 << 23)) >> 24) as i32;
     let (dx, dy) = (round(dx), round(dy));
-    // Both squares are non-negative: the sum is.
-    #[allow(clippy::cast_sign_loss)]
-    let sum = (wide::smul(dx, dx) + wide::smul(dy, dy)) as u64;
-    sum
+    wide::square(dx) + wide::square(dy)
 }
 
 /// `√(Δx² + Δy²)` of two Q40 offsets (each below 2⁴⁸), as Q16.16 metres.
@@ -845,7 +840,7 @@ mod tests {
                     assert_eq!(row.per_mm_dir(c, s), want, "{row:?} {c} {s}");
                     // And the whole offset.
                     assert_eq!(
-                        wide::smul(row.per_mm_dir(c, s), 131_071),
+                        wide::smul_u17(row.per_mm_dir(c, s), 131_071),
                         row.offset(i64::from(c), i64::from(s), 131_071)
                     );
                 }
