@@ -23,8 +23,12 @@
 //! axis (`Δ_i = u_i·r`), the coordinate as `(o_i + 2²³ + Δ_i) >> 24` without saturation on
 //! a line whose origin is within 32 256 m (no point of it can saturate; others take the
 //! saturating path, same bits), and the squares of the rounded Δx, Δy as 32 × 32 → 64
-//! products. On a Cortex-M4 a product is one `smull`; on a Cortex-M0 it is four 16 × 16
-//! `muls` inline (the crate's `wide` module), not an `__aeabi_lmul` call. The other entry points
+//! products. On a Cortex-M4 a product is one `smull` (or `umull` and a sign correction); on
+//! a Cortex-M0 it is two (the range is below 2¹⁷) or three (a square) 16 × 16 `muls` inline
+//! (the crate's `wide` module), not an `__aeabi_lmul` call. Measured out of line in a
+//! profiling build of the bench firmware: 100 instructions per point on the M4F and 240 on
+//! the M0, against 218, and 308 plus the `__aeabi_lmul` calls, of the saturating `i64` form
+//! (BENCHMARKS.md, "The per-return path before the classifier"). The other entry points
 //! ([`LineTransform::locate`], [`LineTransform::point`]) keep the saturating `i64` form
 //! (nine 64-bit products; the same bits). The horizontal distance of
 //! [`LineTransform::locate`] adds a bit-by-bit integer square root (one iteration per
@@ -290,7 +294,7 @@ pub struct LineTransform<'a> {
     unsaturated: bool,
 }
 
-/// The largest |origin| (Q40) of an [`LineTransform::unsaturated`] line: 2⁵⁵ − 2⁴⁹
+/// The largest |origin| (Q40) of a [`LineTransform::unsaturated`] line: 2⁵⁵ − 2⁴⁹
 /// (32 256 m). An offset is below 2⁴⁷·⁶ (|u| < 2³⁰·⁶, range < 2¹⁷), so `origin + Δ + 2²³`
 /// stays within ±(2⁵⁵ − 2²⁴) and its rounded Q16.16 value within the `i32` range.
 const UNSATURATED_ORIGIN: i64 = (1 << 55) - (1 << 49);
