@@ -21,6 +21,7 @@ use crate::fmath;
 use crate::grid::Resolution;
 use crate::logodds::Increments;
 use crate::units::{Meters, Weight};
+use crate::wide;
 
 /// Number of distance bins in every gate table.
 pub const GATE_BINS: usize = 512;
@@ -80,55 +81,44 @@ impl DistanceBins {
     #[must_use]
     #[inline]
     pub fn bin_of_squared(self, squared: u64) -> usize {
-        const LAST: u32 = GATE_BINS as u32 - 1;
-        // m = 16 − s, 6 ..= 16.
         let m = 16 - self.shift.min(MAX_BIN_SHIFT);
-        let coarse = squared >> (2 * m);
-        if coarse >= u64::from((LAST + 1) * (LAST + 1)) {
-            return GATE_BINS - 1;
+        match coarse_below_2_18(squared, m) {
+            Some(coarse) => bin_of_floor(squared, isqrt_floor_below_2_18(coarse), m),
+            None => GATE_BINS - 1,
         }
-        // coarse < 2¹⁸.
-        #[allow(clippy::cast_possible_truncation)]
-        let f = isqrt_floor_below_2_18(coarse as u32);
-        // The next edge T = (f + 1)·2ᵐ ≤ 2²⁵: (T − 1)·T < 2⁵⁰.
-        let edge = u64::from(f + 1) << m;
-        let bin = if squared > (edge - 1) * edge {
-            f + 1
-        } else {
-            f
-        };
-        bin.min(LAST) as usize
     }
 
     /// [`DistanceBins::bin_of_squared`] (the same result for every input), trying bin `hint`
-    /// and its two neighbours first: consecutive returns of a line mostly fall in the same
-    /// or the next bin, and checking a bin costs two products and compares where the search
-    /// costs a nine-bit square root.
+    /// and its neighbours first: consecutive returns of a line mostly fall in the same or a
+    /// neighbouring bin. The square root `f` of `S >> 2m` is `hint`, `hint + 1` or
+    /// `hint − 1` when `f² ≤ S >> 2m < (f + 1)²` holds for it (32-bit squares), else the
+    /// nine-bit search finds it; one 32 × 32 → 64 product then decides between `f` and
+    /// `f + 1`.
     #[must_use]
     #[inline]
     pub fn bin_of_squared_near(self, squared: u64, hint: usize) -> usize {
         let m = 16 - self.shift.min(MAX_BIN_SHIFT);
-        // Whether the distance reaches bin k's lower edge T = k·2ᵐ: S > (T − 1)·T (k ≤ 512,
-        // T ≤ 2²⁵). Bin 0 is always reached.
-        let reaches = |k: usize| {
-            // k ≤ GATE_BINS + 1 < 2³².
-            #[allow(clippy::cast_possible_truncation)]
-            let edge = u64::from(k as u32) << m;
-            k == 0 || squared > (edge - 1) * edge
+        let Some(q) = coarse_below_2_18(squared, m) else {
+            return GATE_BINS - 1;
         };
-        let h = hint.min(GATE_BINS - 1);
-        if reaches(h) {
-            if h == GATE_BINS - 1 || !reaches(h + 1) {
-                return h;
+        // g ≤ 511: every square below is below 2¹⁹.
+        #[allow(clippy::cast_possible_truncation)]
+        let g = hint.min(GATE_BINS - 1) as u32;
+        let f = if g * g <= q {
+            if q < (g + 1) * (g + 1) {
+                g
+            } else if q < (g + 2) * (g + 2) {
+                g + 1
+            } else {
+                isqrt_floor_below_2_18(q)
             }
-            if h + 1 == GATE_BINS - 1 || !reaches(h + 2) {
-                return h + 1;
-            }
-        } else if reaches(h - 1) {
-            // h ≥ 1 here (bin 0 is always reached).
-            return h - 1;
-        }
-        self.bin_of_squared(squared)
+        } else if (g - 1) * (g - 1) <= q {
+            // g ≥ 1 here: g² > q ≥ 0.
+            g - 1
+        } else {
+            isqrt_floor_below_2_18(q)
+        };
+        bin_of_floor(squared, f, m)
     }
 
     /// The lower edge of bin `i` as [`Meters`] (exact: a multiple of 2⁻¹⁰ m), saturating; a
@@ -154,6 +144,33 @@ impl DistanceBins {
         let fi = i as f32;
         (fi + 0.5) * self.width_m()
     }
+}
+
+/// `S >> 2m` when it is below 512² (the last bin's lower edge squared, coarse), else `None`
+/// (the last bin).
+#[inline]
+fn coarse_below_2_18(squared: u64, m: u32) -> Option<u32> {
+    const LIMIT: u32 = (GATE_BINS * GATE_BINS) as u32;
+    let coarse = wide::shr_u64(squared, 2 * m);
+    // Below 512² = 2¹⁸ it fits.
+    #[allow(clippy::cast_possible_truncation)]
+    (coarse < u64::from(LIMIT)).then_some(coarse as u32)
+}
+
+/// The bin of `S` given `f = ⌊√(S >> 2m)⌋` (< 512): `f²·2²ᵐ ≤ S < (f + 1)²·2²ᵐ`, so the
+/// rounded root `round(√S)` is below `(f + 1)·2ᵐ + 1` and at least `f·2ᵐ`: the bin is `f`, or
+/// `f + 1` exactly when `round(√S) ≥ T = (f + 1)·2ᵐ`, i.e. `S > (T − 1)·T`.
+#[inline]
+fn bin_of_floor(squared: u64, f: u32, m: u32) -> usize {
+    const LAST: u32 = GATE_BINS as u32 - 1;
+    // T = (f + 1)·2ᵐ ≤ 2²⁵: (T − 1)·T < 2⁵⁰.
+    let edge = (f + 1) << m;
+    let bin = if squared > wide::umul(edge - 1, edge) {
+        f + 1
+    } else {
+        f
+    };
+    bin.min(LAST) as usize
 }
 
 /// `⌊√x⌋` for `x < 2¹⁸` (nine result bits), by the restoring method in 32-bit words.
@@ -633,7 +650,12 @@ mod tests {
                 let t = k << m;
                 for base in [t.saturating_sub(1) * t, t * t, (t + 1) * (t + 1)] {
                     for sq in base.saturating_sub(3)..=base + 3 {
-                        assert_eq!(b.bin_of_squared(sq), reference(b, sq), "s {shift} sq {sq}");
+                        let want = reference(b, sq);
+                        assert_eq!(b.bin_of_squared(sq), want, "s {shift} sq {sq}");
+                        // With hints at and around the bin (each path of the guess).
+                        for hint in want.saturating_sub(3)..=want + 3 {
+                            assert_eq!(b.bin_of_squared_near(sq, hint), want, "{sq} {hint}");
+                        }
                     }
                 }
             }
@@ -643,7 +665,11 @@ mod tests {
                 state ^= state >> 7;
                 state ^= state << 17;
                 let sq = state >> (state % 64);
-                assert_eq!(b.bin_of_squared(sq), reference(b, sq), "s {shift} sq {sq}");
+                let want = reference(b, sq);
+                assert_eq!(b.bin_of_squared(sq), want, "s {shift} sq {sq}");
+                #[allow(clippy::cast_possible_truncation)]
+                let hint = (state >> 40) as usize % 600;
+                assert_eq!(b.bin_of_squared_near(sq, hint), want, "{sq} {hint}");
             }
         }
         // With every hint: the same bins.

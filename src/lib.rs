@@ -70,6 +70,7 @@ pub mod logodds;
 pub mod pipeline;
 pub mod pyramid;
 pub mod units;
+mod wide;
 pub mod wire;
 
 pub use decay::{Decay, DecayMode, TimeConstant};

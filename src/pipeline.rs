@@ -500,13 +500,16 @@ impl<const C: usize, const L: usize> Frontend<C, L> {
         }
         let ground_z: Meters = self.pose.z;
         let variant = self.config.variant;
+        // Counted here and added once per line (at most 401 values each: the sums are exact,
+        // and so are the saturating totals).
+        let (mut no_return, mut returns, mut dropped) = (0_u32, 0_u32, 0_u32);
         for (j, range) in values.ranges_mm(self.config.measuring_mode).enumerate() {
             let beam = match layout {
                 Layout::Full => Some(j),
                 Layout::Partial(p) => variant.partial_scan_beam(p, j),
             };
             let Some(range_mm) = range else {
-                self.stats.no_return = self.stats.no_return.saturating_add(1);
+                no_return += 1;
                 if let (Some(within), Some(b)) = (self.config.missing_ground_within, beam) {
                     Self::missing_ground(
                         &mut self.classifier,
@@ -519,7 +522,7 @@ impl<const C: usize, const L: usize> Frontend<C, L> {
                 }
                 continue;
             };
-            self.stats.returns = self.stats.returns.saturating_add(1);
+            returns += 1;
             match beam.and_then(|b| transform.locate_squared(b, range_mm)) {
                 Some(located) => {
                     // The distance is needed only for its gate bin: no square root.
@@ -529,11 +532,12 @@ impl<const C: usize, const L: usize> Frontend<C, L> {
                         ground_z,
                     );
                 }
-                None => {
-                    self.stats.returns_dropped = self.stats.returns_dropped.saturating_add(1);
-                }
+                None => dropped += 1,
             }
         }
+        self.stats.no_return = self.stats.no_return.saturating_add(no_return);
+        self.stats.returns = self.stats.returns.saturating_add(returns);
+        self.stats.returns_dropped = self.stats.returns_dropped.saturating_add(dropped);
         self.stats.lines_applied = self.stats.lines_applied.saturating_add(1);
         self.lines_in_observation = self.lines_in_observation.saturating_add(1);
         let per = self.config.lines_per_observation;

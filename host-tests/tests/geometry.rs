@@ -3,8 +3,10 @@
 //! point and horizontal distance must lie within `error_bound_m(range)` of the reference.
 
 use proptest::prelude::*;
-use terrain_pyramid::geometry::{BeamTable, ScanPlane};
+use terrain_pyramid::angle::FineAngle;
+use terrain_pyramid::geometry::{BeamTable, LineTransform, Mount, Pose, ScanPlane};
 use terrain_pyramid::wire::sick::Variant;
+use terrain_pyramid::{Meters, Point3};
 use terrain_pyramid_host_tests::geometry::{error_bound_m, evaluate, Case};
 
 /// The five beam tables, built once.
@@ -75,11 +77,41 @@ proptest! {
     }
 
     #[test]
+    fn the_per_point_path_is_locate((v, case) in case()) {
+        // `locate_squared` (the pipeline's per-point path, in 32-bit words where no point of
+        // the line can saturate) gives `locate`'s point and the square of its distance: the
+        // bound above holds for it too.
+        let [x, y, z, roll, pitch, yaw] = case.pose;
+        let pose = Pose::from_f32(x, y, z, roll, pitch, yaw).expect("valid pose");
+        let [mx, my, mz] = case.mount_bits.map(Meters::from_bits);
+        let mount = Mount::new(case.plane, Point3 { x: mx, y: my, z: mz });
+        let actuator = FineAngle::from_bits(case.actuator_bits);
+        let line = LineTransform::from_pose(&tables()[v], &mount, actuator, &pose);
+        let located = line.locate(case.beam, case.range_mm).expect("valid beam");
+        let squared = line.locate_squared(case.beam, case.range_mm).expect("valid beam");
+        prop_assert_eq!(squared.point, located.point);
+        prop_assert_eq!(round_sqrt(squared.horizontal_squared), i64::from(located.horizontal.to_bits()));
+    }
+
+    #[test]
     fn near_points_are_within_two_millimetres((v, mut case) in case()) {
         case.range_mm %= 8_001;
         let e = evaluate(&tables()[v], &case).expect("valid inputs");
         prop_assert!(e.point_m <= 0.002 && e.horizontal_m <= 0.002);
     }
+}
+
+/// `round(√s)`, halves up, exactly.
+fn round_sqrt(s: u64) -> i64 {
+    let mut r = (s as f64).sqrt() as u64;
+    while r * r > s {
+        r -= 1;
+    }
+    while (r + 1) * (r + 1) <= s {
+        r += 1;
+    }
+    // √s ≥ r + ½ exactly when s > r² + r.
+    i64::try_from(r + u64::from(s - r * r > r)).expect("small")
 }
 
 /// Every beam of every variant, both mounts, at the longest range and a tilted, turned pose.

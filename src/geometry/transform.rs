@@ -16,11 +16,23 @@
 //! d   = round(√(Δx² + Δy²)) with Δ in Q16  horizontal distance, Q16.16
 //! ```
 //!
-//! That is nine 64-bit products of 32-bit operands and a few shifts and compares for the
-//! point, no division, no float, no trigonometry (on a Cortex-M4: `smull`/`smlal`, about 180
-//! instructions; on a Cortex-M0: nine `__aeabi_lmul` calls). The horizontal distance adds two
-//! squares and a bit-by-bit integer square root (one iteration per result bit: about 19 at
-//! 8 m, 23 at 80 m, each a 64-bit compare, subtract and two shifts).
+//! No division, no float, no trigonometry. [`LineTransform::locate_squared`], the per-point
+//! path, computes these bits in 32-bit words where it can: u_i from the entries split into
+//! 16-bit halves (`K = hi·2¹⁶ + lo`, four 32-bit multiplies: `2·A + ⌊(B + 2¹⁴)/2¹⁵⌋` with A
+//! from the high halves and B from the low ones, exact), then one 32 × 32 → 64 product per
+//! axis (`Δ_i = u_i·r`), the coordinate as `(o_i + 2²³ + Δ_i) >> 24` without saturation on
+//! a line whose origin is within 32 256 m (no point of it can saturate; others take the
+//! saturating path, same bits), and the squares of the rounded Δx, Δy as 32 × 32 → 64
+//! products. On a Cortex-M4 a product is one `smull` (or `umull` and a sign correction); on
+//! a Cortex-M0 it is two (the range is below 2¹⁷) or three (a square) 16 × 16 `muls` inline
+//! (the crate's `wide` module), not an `__aeabi_lmul` call. Measured out of line in a
+//! profiling build of the bench firmware: 100 instructions per point on the M4F and 240 on
+//! the M0, against 218, and 308 plus the `__aeabi_lmul` calls, of the saturating `i64` form
+//! (BENCHMARKS.md, "The per-return path before the classifier"). The other entry points
+//! ([`LineTransform::locate`], [`LineTransform::point`]) keep the saturating `i64` form
+//! (nine 64-bit products; the same bits). The horizontal distance of
+//! [`LineTransform::locate`] adds a bit-by-bit integer square root (one iteration per
+//! result bit: about 19 at 8 m, 23 at 80 m).
 //!
 //! # Error
 //! Against the exact geometry of the same inputs (range, beam angle, actuator angle, pose):
@@ -46,6 +58,7 @@ use super::mount::{Mount, ScanPlane};
 use super::pose::{Pose, PoseFrame};
 use crate::angle::FineAngle;
 use crate::units::{Meters, Point3};
+use crate::wide;
 
 /// The longest range [`LineTransform::point`] places, millimetres: 2¹⁷ − 1 = 131 071
 /// (131.071 m, beyond every LMS2xx mode: 81.91 m in the 80 m mode). Longer ranges give
@@ -59,20 +72,38 @@ const MM_Q40: i64 = 1_099_511_628;
 const Q30_TO_MM_Q40: i64 = 4_398_046_511;
 
 /// One row of the direction matrix: the world-axis component per mm of range, for cos θ and
-/// sin θ, Q40.
+/// sin θ, Q40; and each split as `K = hi·2¹⁶ + lo` with `lo` in −2¹⁵ ..< 2¹⁵, for
+/// [`Row::per_mm_dir`].
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
 struct Row {
     c: i32,
     s: i32,
+    c_hi: i32,
+    c_lo: i32,
+    s_hi: i32,
+    s_lo: i32,
+}
+
+/// `k = hi·2¹⁶ + lo` with `lo` in −2¹⁵ ..< 2¹⁵ (exact for `k` below 2³¹ − 2¹⁵; a row's
+/// entries are at most 2⁴⁰/1 000).
+fn split_q16(k: i32) -> (i32, i32) {
+    let lo = (k.wrapping_add(1 << 15) & 0xFFFF) - (1 << 15);
+    (k.wrapping_sub(lo) >> 16, lo)
 }
 
 impl Row {
     /// The row from two Q2.30 components (each clamped to ±1: rounding can pass 1 by a few
     /// LSBs).
     fn from_q30(c: i64, s: i64) -> Self {
+        let (c, s) = (per_mm(c), per_mm(s));
+        let ((c_hi, c_lo), (s_hi, s_lo)) = (split_q16(c), split_q16(s));
         Self {
-            c: per_mm(c),
-            s: per_mm(s),
+            c,
+            s,
+            c_hi,
+            c_lo,
+            s_hi,
+            s_lo,
         }
     }
 
@@ -85,6 +116,26 @@ impl Row {
         let u = sat_i32((i64::from(self.c) * c + i64::from(self.s) * s + (1 << 14)) >> 15);
         // |u| < 2³¹ and the range < 2¹⁷: the product is below 2⁴⁸.
         i64::from(u) * range_mm
+    }
+
+    /// `u = round((K_c·c + K_s·s) / 2¹⁵)`, the world direction per mm (Q40) of a beam
+    /// direction (c, s) in Q1.15, in 32-bit words: with `K = hi·2¹⁶ + lo`,
+    /// `K_c·c + K_s·s = A·2¹⁶ + B` (A from the high parts, B from the low ones), so
+    /// `⌊(A·2¹⁶ + B + 2¹⁴) / 2¹⁵⌋ = 2A + ⌊(B + 2¹⁴) / 2¹⁵⌋` exactly. For a direction of a
+    /// [`BeamDir`] (|c| + |s| ≤ √2·2¹⁵ + 1) and |K| ≤ 2⁴⁰/1 000: |A| < 2²⁹·⁶, |B| < 2³⁰·⁶, and
+    /// the result, below 2³⁰·⁶, equals the `i64` computation of [`Row::offset`].
+    #[inline]
+    fn per_mm_dir(self, c: i32, s: i32) -> i32 {
+        let a = self
+            .c_hi
+            .wrapping_mul(c)
+            .wrapping_add(self.s_hi.wrapping_mul(s));
+        let b = self
+            .c_lo
+            .wrapping_mul(c)
+            .wrapping_add(self.s_lo.wrapping_mul(s));
+        a.wrapping_mul(2)
+            .wrapping_add(b.wrapping_add(1 << 14) >> 15)
     }
 }
 
@@ -236,7 +287,17 @@ pub struct LineTransform<'a> {
     rows: [Row; 3],
     /// The scanner's centre in the world, metres Q40.
     origin: [i64; 3],
+    /// `origin + 2²³`: a point's coordinate is `(origin + Δ + 2²³) >> 24` rounded to Q16.16.
+    origin_round: [i64; 3],
+    /// No point of this line can saturate (every |origin| ≤ 2⁵⁵ − 2⁴⁹, i.e. within
+    /// 32 256 m): [`LineTransform::locate_squared`] skips the saturation.
+    unsaturated: bool,
 }
+
+/// The largest |origin| (Q40) of a [`LineTransform::unsaturated`] line: 2⁵⁵ − 2⁴⁹
+/// (32 256 m). An offset is below 2⁴⁷·⁶ (|u| < 2³⁰·⁶, range < 2¹⁷), so `origin + Δ + 2²³`
+/// stays within ±(2⁵⁵ − 2²⁴) and its rounded Q16.16 value within the `i32` range.
+const UNSATURATED_ORIGIN: i64 = (1 << 55) - (1 << 49);
 
 impl<'a> LineTransform<'a> {
     /// The transform of one line: `beams` for the scanner's variant, `mount` for how it sits,
@@ -284,10 +345,15 @@ impl<'a> LineTransform<'a> {
             (i64::from(t.y.to_bits()) << 24) + rotated(1),
             (i64::from(t.z.to_bits()) << 24) + rotated(2),
         ];
+        let unsaturated = origin
+            .iter()
+            .all(|o| o.unsigned_abs() <= UNSATURATED_ORIGIN.unsigned_abs());
         Self {
             beams,
             rows,
             origin,
+            origin_round: origin.map(|o| o.saturating_add(1 << 23)),
+            unsaturated,
         }
     }
 
@@ -373,12 +439,46 @@ impl<'a> LineTransform<'a> {
     #[must_use]
     #[inline]
     pub fn locate_squared(&self, beam_index: usize, range_mm: u32) -> Option<LinePointSquared> {
-        let offsets = self.offsets(self.beams.get(beam_index)?, range_mm)?;
+        let dir = self.beams.get(beam_index)?;
+        if range_mm > MAX_RANGE_MM {
+            return None;
+        }
+        if self.unsaturated {
+            return Some(self.locate_squared_unsaturated(dir, range_mm));
+        }
+        let offsets = self.offsets(dir, range_mm)?;
         let [dx, dy, _] = offsets;
         Some(LinePointSquared {
             point: self.world(offsets),
             horizontal_squared: horizontal_squared(dx, dy),
         })
+    }
+
+    /// [`LineTransform::locate_squared`] of a line that cannot saturate, for a range within
+    /// [`MAX_RANGE_MM`]: the same bits in 32-bit words and one 32 × 32 → 64 product per axis
+    /// (u per mm by [`Row::per_mm_dir`], `Δ = u·r`, the coordinate
+    /// `(origin + Δ + 2²³) >> 24` without saturation, the distance's square from `Δ` rounded
+    /// to Q16).
+    #[inline]
+    fn locate_squared_unsaturated(&self, dir: BeamDir, range_mm: u32) -> LinePointSquared {
+        let (c, s) = dir.to_bits();
+        let (c, s) = (i32::from(c), i32::from(s));
+        // range_mm ≤ MAX_RANGE_MM < 2¹⁷: the product is exact.
+        let [rx, ry, rz] = self.rows;
+        let [dx, dy, dz] = [rx, ry, rz].map(|row| wide::smul_u17(row.per_mm_dir(c, s), range_mm));
+        let [ox, oy, oz] = self.origin_round;
+        // |origin| ≤ 2⁵⁵ − 2⁴⁹ and |Δ| < 2⁴⁸: the sum and its value >> 24 fit (see
+        // UNSATURATED_ORIGIN).
+        #[allow(clippy::cast_possible_truncation)]
+        let coordinate = |o: i64, d: i64| Meters::from_bits(((o + d) >> 24) as i32);
+        LinePointSquared {
+            point: Point3 {
+                x: coordinate(ox, dx),
+                y: coordinate(oy, dy),
+                z: coordinate(oz, dz),
+            },
+            horizontal_squared: horizontal_squared(dx, dy),
+        }
     }
 
     /// The offsets from the scanner's centre, metres Q40 (each below 2⁴⁸ in magnitude).
@@ -426,10 +526,11 @@ pub fn horizontal_distance(from: Point3, to: Point3) -> Meters {
 /// `Δx² + Δy²` of two Q40 offsets (each below 2⁴⁸) rounded to Q16: raw Q16.16 units squared.
 #[inline]
 pub(super) fn horizontal_squared(dx: i64, dy: i64) -> u64 {
-    // Q40 → Q16, rounded: |Δ| < 2²⁴, so each square is < 2⁴⁸ and their sum < 2⁴⁹.
-    let dx = (dx + (1 << 23)) >> 24;
-    let dy = (dy + (1 << 23)) >> 24;
-    dx.unsigned_abs().pow(2) + dy.unsigned_abs().pow(2)
+    // Q40 → Q16, rounded: |Δ| < 2²⁴ (an i32), so each square is < 2⁴⁸ and their sum < 2⁴⁹.
+    #[allow(clippy::cast_possible_truncation)]
+    let round = |d: i64| ((d + (1 << 23)) >> 24) as i32;
+    let (dx, dy) = (round(dx), round(dy));
+    wide::square(dx) + wide::square(dy)
 }
 
 /// `√(Δx² + Δy²)` of two Q40 offsets (each below 2⁴⁸), as Q16.16 metres.
@@ -464,6 +565,8 @@ impl defmt::Format for LineTransform<'_> {
 
 #[cfg(test)]
 mod tests {
+    extern crate std;
+
     use super::*;
     use crate::wire::sick::Variant;
 
@@ -686,6 +789,152 @@ mod tests {
             horizontal_distance(p(-30_000.0, -30_000.0, 0.0), p(30_000.0, 30_000.0, 0.0)),
             Meters::MAX
         );
+    }
+
+    /// The i64 computation of every point before the 32-bit path: offsets by [`Row::offset`],
+    /// saturating world coordinates, the distance's square in `u64`.
+    fn locate_squared_i64(
+        line: &LineTransform<'_>,
+        beam: usize,
+        range_mm: u32,
+    ) -> Option<LinePointSquared> {
+        let offsets = line.offsets(line.beams.get(beam)?, range_mm)?;
+        let [dx, dy, _] = offsets;
+        let q16 = |d: i64| (d + (1 << 23)) >> 24;
+        Some(LinePointSquared {
+            point: line.world(offsets),
+            horizontal_squared: q16(dx).unsigned_abs().pow(2) + q16(dy).unsigned_abs().pow(2),
+        })
+    }
+
+    fn xorshift(x: &mut u64) -> u64 {
+        *x ^= *x << 13;
+        *x ^= *x >> 7;
+        *x ^= *x << 17;
+        *x
+    }
+
+    #[test]
+    fn direction_per_mm_in_32_bit_words_is_the_i64_one() {
+        let mut x = 0x2545_F491_4F6C_DD1D_u64;
+        let mut rows = std::vec![
+            Row::from_q30(1 << 30, 1 << 30),
+            Row::from_q30(-(1 << 30), -(1 << 30)),
+            Row::from_q30(1 << 30, -(1 << 30)),
+            Row::from_q30(0, 0),
+        ];
+        for _ in 0..400 {
+            let v = xorshift(&mut x);
+            #[allow(clippy::cast_possible_truncation)]
+            let (c, s) = (i64::from(v as i32 >> 1), i64::from((v >> 32) as i32 >> 1));
+            rows.push(Row::from_q30(c, s));
+        }
+        for v in Variant::ALL {
+            let table = BeamTable::new(v);
+            for beam in 0..table.len() {
+                let (c, s) = table.get(beam).unwrap().to_bits();
+                for row in &rows {
+                    let (c, s) = (i32::from(c), i32::from(s));
+                    let want = sat_i32(
+                        (i64::from(row.c) * i64::from(c)
+                            + i64::from(row.s) * i64::from(s)
+                            + (1 << 14))
+                            >> 15,
+                    );
+                    assert_eq!(row.per_mm_dir(c, s), want, "{row:?} {c} {s}");
+                    // And the whole offset.
+                    assert_eq!(
+                        wide::smul_u17(row.per_mm_dir(c, s), 131_071),
+                        row.offset(i64::from(c), i64::from(s), 131_071)
+                    );
+                }
+            }
+        }
+        for k in [
+            0,
+            1,
+            -1,
+            0x7FFF,
+            0x8000,
+            -0x8000,
+            -0x8001,
+            1 << 30,
+            -(1 << 30),
+            i32::MAX - 0x8000,
+            i32::MIN,
+        ] {
+            let (hi, lo) = split_q16(k);
+            assert!((-(1 << 15)..(1 << 15)).contains(&lo));
+            assert_eq!(i64::from(hi) * 65_536 + i64::from(lo), i64::from(k));
+        }
+    }
+
+    #[test]
+    fn unsaturated_lines_give_the_i64_bits() {
+        let mut x = 0x9E37_79B9_7F4A_7C15_u64;
+        let mut fast = 0;
+        for i in 0..300_u32 {
+            let v = xorshift(&mut x);
+            #[allow(clippy::cast_possible_truncation, clippy::cast_possible_wrap)]
+            let angle = |k: u32| FineAngle::from_bits((v >> (k * 8)) as u32);
+            // Positions of every magnitude, up to and past the unsaturated limit.
+            let scale = f32::from(u16::try_from(i % 18).unwrap());
+            let pos = |k: u32| {
+                #[allow(clippy::cast_precision_loss)]
+                let unit = ((v >> (k * 7)) & 0xFFFF) as f32 / 32_768.0 - 1.0;
+                unit * 2.0_f32.powf(scale - 1.0)
+            };
+            let pose = Pose {
+                x: Meters::saturating_from_num(pos(1)),
+                y: Meters::saturating_from_num(pos(2)),
+                z: Meters::saturating_from_num(pos(3)),
+                roll: angle(0),
+                pitch: angle(1),
+                yaw: angle(2),
+            };
+            let plane = if i % 2 == 0 {
+                ScanPlane::PannedVertical
+            } else {
+                ScanPlane::TiltedHorizontal
+            };
+            let mount = Mount::new(plane, at(0.4, -0.1, 0.9));
+            let table = BeamTable::new(Variant::ALL[(i as usize) % Variant::ALL.len()]);
+            let line = LineTransform::from_pose(&table, &mount, angle(3), &pose);
+            fast += u32::from(line.unsaturated);
+            for beam in 0..table.len() {
+                let w = xorshift(&mut x);
+                #[allow(clippy::cast_possible_truncation)]
+                let range = (w as u32) >> (15 + (w >> 40) % 17);
+                for r in [range, range.min(MAX_RANGE_MM), MAX_RANGE_MM, 0] {
+                    assert_eq!(
+                        line.locate_squared(beam, r),
+                        locate_squared_i64(&line, beam, r),
+                        "{pose:?} {beam} {r}"
+                    );
+                }
+            }
+        }
+        // Both paths were taken.
+        assert!(fast > 100 && fast < 300, "{fast}");
+        // The limit itself.
+        let edge = Pose {
+            x: Meters::from_num(32_255.5),
+            ..Pose::IDENTITY
+        };
+        let mount = Mount::new(ScanPlane::TiltedHorizontal, at(0.0, 0.0, 0.0));
+        let line = LineTransform::from_pose(&T180, &mount, FineAngle::ZERO, &edge);
+        assert!(line.unsaturated);
+        let past = Pose {
+            x: Meters::from_num(32_256.5),
+            ..Pose::IDENTITY
+        };
+        assert!(!LineTransform::from_pose(&T180, &mount, FineAngle::ZERO, &past).unsaturated);
+        for beam in 0..T180.len() {
+            assert_eq!(
+                line.locate_squared(beam, MAX_RANGE_MM),
+                locate_squared_i64(&line, beam, MAX_RANGE_MM)
+            );
+        }
     }
 
     /// The restoring method on `u64` throughout: the reference of the 32-bit fast path.

@@ -303,8 +303,8 @@ impl<'a> MeasuredValues<'a> {
     pub const fn ranges_mm(&self, mode: MeasuringMode) -> RangesMm<'a> {
         RangesMm {
             raw: self.raw_values(),
-            mode,
-            unit: self.unit,
+            mask: mode.distance_mask(),
+            scale: self.unit.millimetres(),
         }
     }
 
@@ -408,17 +408,28 @@ impl FusedIterator for RawValues<'_> {}
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct RangesMm<'a> {
     raw: RawValues<'a>,
-    mode: MeasuringMode,
-    unit: Unit,
+    /// The mode's distance mask, which is also its "no echo" value.
+    mask: u16,
+    /// Millimetres per unit of the reply: 1 or 10.
+    scale: u32,
+}
+
+impl RangesMm<'_> {
+    /// [`range_mm`] with the mode's mask and the unit's scale looked up once per reply.
+    #[inline]
+    fn range(&self, raw: u16) -> Option<u32> {
+        let distance = raw & self.mask;
+        // The mask is the mode's "no echo" value; 65 535 · 10 fits a u32.
+        (distance != self.mask).then(|| u32::from(distance) * self.scale)
+    }
 }
 
 impl Iterator for RangesMm<'_> {
     type Item = Option<u32>;
 
     fn next(&mut self) -> Option<Option<u32>> {
-        self.raw
-            .next()
-            .map(|raw| range_mm(raw, self.mode, self.unit))
+        let raw = self.raw.next()?;
+        Some(self.range(raw))
     }
 
     fn size_hint(&self) -> (usize, Option<usize>) {
@@ -428,9 +439,8 @@ impl Iterator for RangesMm<'_> {
 
 impl DoubleEndedIterator for RangesMm<'_> {
     fn next_back(&mut self) -> Option<Option<u32>> {
-        self.raw
-            .next_back()
-            .map(|raw| range_mm(raw, self.mode, self.unit))
+        let raw = self.raw.next_back()?;
+        Some(self.range(raw))
     }
 }
 
@@ -519,6 +529,32 @@ mod tests {
         let r: Vec<_> = m.ranges_mm(MeasuringMode::Range32mNoFlags).rev().collect();
         assert_eq!(r, [Some(0), Some(0x3FFF), Some(0x1FFF), Some(0x2000 | 450)]);
         assert!(m.flags(MeasuringMode::Range32mNoFlags).all(|f| f == 0));
+    }
+
+    #[test]
+    fn ranges_are_range_mm_of_every_value_in_every_mode_and_unit() {
+        // Every 16-bit value, forwards and backwards, in both units and all four modes.
+        let all: Vec<u16> = (0..=u16::MAX).collect();
+        let bytes = le(&all);
+        for unit in [Unit::Millimetre, Unit::Centimetre] {
+            for mode in [
+                MeasuringMode::Mm8Cm80,
+                MeasuringMode::Range16m,
+                MeasuringMode::Range32m,
+                MeasuringMode::Range32mNoFlags,
+            ] {
+                let ranges = RangesMm {
+                    raw: RawValues { bytes: &bytes },
+                    mask: mode.distance_mask(),
+                    scale: unit.millimetres(),
+                };
+                let want: Vec<_> = all.iter().map(|&raw| range_mm(raw, mode, unit)).collect();
+                assert_eq!(ranges.clone().collect::<Vec<_>>(), want);
+                let mut back: Vec<_> = ranges.rev().collect();
+                back.reverse();
+                assert_eq!(back, want);
+            }
+        }
     }
 
     #[test]

@@ -1,0 +1,195 @@
+//! 32 × 32 → 64-bit products and 64-bit shifts without the 64-bit library routines of
+//! cores that lack them.
+//!
+//! ARMv7-M (and every host) multiplies two 32-bit words into 64 bits in one instruction
+//! (`smull`/`umull`). ARMv6-M (Cortex-M0/M0+) has only the 32 × 32 → 32 `muls`, and an `i64`
+//! product there is a call to `__aeabi_lmul` (a general 64 × 64 multiply), a variable 64-bit
+//! shift one to `__aeabi_llsr`/`__aeabi_llsl`. On ARMv6-M the helpers here build a product
+//! from two to four 16 × 16 products of the halves instead (inline, exact), and the shifts
+//! from two 32-bit words. Elsewhere they are the plain `i64`/`u64`
+//! operations. The half-word forms are compiled on every target so that the host tests
+//! check them against the plain ones.
+//!
+//! The cfg tells ARMv6-M from ARMv7-M by `target_has_atomic = "32"` (ARMv6-M has no
+//! compare-and-swap), as the classifier's cell indices do.
+
+/// Whether the target lacks a 32 × 32 → 64 multiply (ARMv6-M).
+const HALVES: bool = cfg!(all(target_arch = "arm", not(target_has_atomic = "32")));
+
+/// `a · b` exactly, as `u64`.
+#[inline(always)]
+#[must_use]
+pub(crate) fn umul(a: u32, b: u32) -> u64 {
+    if HALVES {
+        umul_halves(a, b)
+    } else {
+        u64::from(a) * u64::from(b)
+    }
+}
+
+/// `a · b` exactly for `b < 2¹⁷` (a range in millimetres), as `i64`: on ARMv6-M two 16 × 16
+/// products instead of four. For a larger `b` the result is unspecified (no panic).
+#[inline(always)]
+#[must_use]
+pub(crate) fn smul_u17(a: i32, b: u32) -> i64 {
+    if HALVES {
+        smul_u17_halves(a, b)
+    } else {
+        i64::from(a) * i64::from(b)
+    }
+}
+
+/// `a²` exactly, as `u64`: on ARMv6-M three 16 × 16 products instead of four.
+#[inline(always)]
+#[must_use]
+pub(crate) fn square(a: i32) -> u64 {
+    if HALVES {
+        square_halves(a)
+    } else {
+        // smull; a square is non-negative.
+        #[allow(clippy::cast_sign_loss)]
+        let square = (i64::from(a) * i64::from(a)) as u64;
+        square
+    }
+}
+
+/// `x >> n` for `n < 64`.
+#[inline(always)]
+#[must_use]
+pub(crate) fn shr_u64(x: u64, n: u32) -> u64 {
+    if HALVES {
+        shr_u64_words(x, n)
+    } else {
+        x >> (n & 63)
+    }
+}
+
+/// [`umul`] from the 16-bit halves (every partial product fits a `u32`; their middle sum is
+/// below 2³³).
+#[inline(always)]
+#[must_use]
+pub(crate) fn umul_halves(a: u32, b: u32) -> u64 {
+    let (ah, bh) = (a >> 16, b >> 16);
+    let (al, bl) = (a & 0xFFFF, b & 0xFFFF);
+    let mid = u64::from(ah * bl) + u64::from(al * bh);
+    (u64::from(ah * bh) << 32) + (mid << 16) + u64::from(al * bl)
+}
+
+/// [`smul_u17`] from the halves: `a = ah·2¹⁶ + al`, `b = bh·2¹⁶ + bl` with `bh` 0 or 1, so
+/// `a·b = ah·bl·2¹⁶ + al·bl + bh·a·2¹⁶` (`|ah·bl| < 2³¹`, `al·bl < 2³²`).
+#[inline(always)]
+#[must_use]
+pub(crate) fn smul_u17_halves(a: i32, b: u32) -> i64 {
+    let (ah, al) = (a >> 16, a & 0xFFFF);
+    let bl = b & 0xFFFF;
+    // bl < 2¹⁶ fits an i32; al ≥ 0.
+    #[allow(clippy::cast_possible_wrap, clippy::cast_sign_loss)]
+    let (high, low) = (ah.wrapping_mul(bl as i32), (al as u32).wrapping_mul(bl));
+    let product = (i64::from(high) << 16) + i64::from(low);
+    if b >> 16 == 0 {
+        product
+    } else {
+        product + (i64::from(a) << 16)
+    }
+}
+
+/// [`square`] from the halves of `|a| = h·2¹⁶ + l`: `h²·2³² + h·l·2¹⁷ + l²`.
+#[inline(always)]
+#[must_use]
+pub(crate) fn square_halves(a: i32) -> u64 {
+    let x = a.unsigned_abs();
+    let (h, l) = (x >> 16, x & 0xFFFF);
+    (u64::from(h * h) << 32) + (u64::from(h * l) << 17) + u64::from(l * l)
+}
+
+/// [`shr_u64`] on two 32-bit words (`n` taken modulo 64).
+#[inline(always)]
+#[must_use]
+pub(crate) fn shr_u64_words(x: u64, n: u32) -> u64 {
+    #[allow(clippy::cast_possible_truncation)]
+    let (hi, lo) = ((x >> 32) as u32, x as u32);
+    let n = n & 63;
+    let (hi, lo) = if n >= 32 {
+        (0, hi >> (n - 32))
+    } else if n == 0 {
+        (hi, lo)
+    } else {
+        (hi >> n, (lo >> n) | (hi << (32 - n)))
+    };
+    (u64::from(hi) << 32) | u64::from(lo)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn xorshift(x: &mut u64) -> u64 {
+        *x ^= *x << 13;
+        *x ^= *x >> 7;
+        *x ^= *x << 17;
+        *x
+    }
+
+    const EDGES: [u32; 14] = [
+        0,
+        1,
+        2,
+        0x1_FFFF,
+        0x2_0000,
+        0x7FFF,
+        0x8000,
+        0xFFFF,
+        0x1_0000,
+        0x1_0001,
+        0x7FFF_FFFF,
+        0x8000_0000,
+        0x8000_0001,
+        0xFFFF_FFFF,
+    ];
+
+    #[test]
+    fn products_from_halves_are_exact() {
+        #[allow(clippy::cast_possible_wrap)]
+        let check = |a: u32, b: u32| {
+            assert_eq!(umul_halves(a, b), u64::from(a) * u64::from(b), "{a} {b}");
+            assert_eq!(umul(a, b), u64::from(a) * u64::from(b));
+            let (sa, b17) = (a as i32, b & 0x1_FFFF);
+            assert_eq!(
+                smul_u17_halves(sa, b17),
+                i64::from(sa) * i64::from(b17),
+                "{sa} {b17}"
+            );
+            assert_eq!(smul_u17(sa, b17), i64::from(sa) * i64::from(b17));
+            let sq = u64::from(sa.unsigned_abs()).pow(2);
+            assert_eq!(square_halves(sa), sq, "{sa}");
+            assert_eq!(square(sa), sq);
+        };
+        for a in EDGES {
+            for b in EDGES {
+                check(a, b);
+                check(a.wrapping_neg(), b);
+            }
+        }
+        let mut x = 0x9E37_79B9_7F4A_7C15_u64;
+        for i in 0..1_000_000_u32 {
+            let v = xorshift(&mut x);
+            #[allow(clippy::cast_possible_truncation)]
+            let (a, b) = ((v >> 32) as u32, v as u32);
+            // Every magnitude of both operands.
+            check(a >> (i % 32), b >> ((i / 32) % 32));
+        }
+    }
+
+    #[test]
+    fn shifts_from_words_are_exact() {
+        let mut x = 0x9E37_79B9_7F4A_7C15_u64;
+        for _ in 0..20_000 {
+            let v = xorshift(&mut x);
+            for n in 0..64 {
+                assert_eq!(shr_u64_words(v, n), v >> n, "{v} {n}");
+                assert_eq!(shr_u64(v, n), v >> n);
+            }
+        }
+        assert_eq!(shr_u64_words(u64::MAX, 64), u64::MAX);
+    }
+}
