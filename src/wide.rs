@@ -27,6 +27,17 @@ pub(crate) fn umul(a: u32, b: u32) -> u64 {
     }
 }
 
+/// `a · b` exactly, as `i64` (|a·b| ≤ 2⁶²).
+#[inline(always)]
+#[must_use]
+pub(crate) fn smul(a: i32, b: i32) -> i64 {
+    if HALVES {
+        smul_halves(a, b)
+    } else {
+        i64::from(a) * i64::from(b)
+    }
+}
+
 /// `a · b` exactly for `b < 2¹⁷` (a range in millimetres), as `i64`: on ARMv6-M two 16 × 16
 /// products instead of four. For a larger `b` the result is unspecified (no panic).
 #[inline(always)]
@@ -73,6 +84,19 @@ pub(crate) fn umul_halves(a: u32, b: u32) -> u64 {
     let (al, bl) = (a & 0xFFFF, b & 0xFFFF);
     let mid = u64::from(ah * bl) + u64::from(al * bh);
     (u64::from(ah * bh) << 32) + (mid << 16) + u64::from(al * bl)
+}
+
+/// [`smul`] from the magnitudes' [`umul_halves`] (at most 2⁶², so the signed result fits).
+#[inline(always)]
+#[must_use]
+pub(crate) fn smul_halves(a: i32, b: i32) -> i64 {
+    #[allow(clippy::cast_possible_wrap)]
+    let magnitude = umul_halves(a.unsigned_abs(), b.unsigned_abs()) as i64;
+    if (a < 0) == (b < 0) {
+        magnitude
+    } else {
+        -magnitude
+    }
 }
 
 /// [`smul_u17`] from the halves: `a = ah·2¹⁶ + al`, `b = bh·2¹⁶ + bl` with `bh` 0 or 1, so
@@ -160,6 +184,14 @@ mod tests {
                 "{sa} {b17}"
             );
             assert_eq!(smul_u17(sa, b17), i64::from(sa) * i64::from(b17));
+            #[allow(clippy::cast_possible_wrap)]
+            let sb = b as i32;
+            assert_eq!(
+                smul_halves(sa, sb),
+                i64::from(sa) * i64::from(sb),
+                "{sa} {sb}"
+            );
+            assert_eq!(smul(sa, sb), i64::from(sa) * i64::from(sb));
             let sq = u64::from(sa.unsigned_abs()).pow(2);
             assert_eq!(square_halves(sa), sq, "{sa}");
             assert_eq!(square(sa), sq);

@@ -149,6 +149,19 @@ pub(super) fn per_mm(q30: i64) -> i32 {
     sat_i32(q40.clamp(-MM_Q40, MM_Q40))
 }
 
+/// [`per_mm`] in 32-bit words and one 32 × 32 → 64 product ([`wide::smul`], no library
+/// call on ARMv6-M): the factor is 2³² + 103 079 215, so
+/// `⌊(u·(2³² + f) + 2³¹) / 2³²⌋ = u + ⌊(u·f + 2³¹) / 2³²⌋` exactly (u·2³² is a multiple of
+/// 2³²), with |u| ≤ 2³⁰ and f < 2²⁷.
+pub(super) fn per_mm_words(q30: i64) -> i32 {
+    const FRACTION: i32 = (Q30_TO_MM_Q40 - (1 << 32)) as i32;
+    // |unit| ≤ 2³⁰ fits an i32.
+    #[allow(clippy::cast_possible_truncation)]
+    let unit = q30.clamp(-(1 << 30), 1 << 30) as i32;
+    let q40 = i64::from(unit) + ((wide::smul(unit, FRACTION) + (1 << 31)) >> 32);
+    sat_i32(q40.clamp(-MM_Q40, MM_Q40))
+}
+
 /// Saturates an `i64` to the `i32` range.
 #[inline]
 fn sat_i32(value: i64) -> i32 {
@@ -812,6 +825,24 @@ mod tests {
         *x ^= *x >> 7;
         *x ^= *x << 17;
         *x
+    }
+
+    #[test]
+    fn per_mm_in_words_is_per_mm() {
+        let mut x = 0x0DDB_A11C_AFE0_0001_u64;
+        let mut values: std::vec::Vec<i64> = (-(1_i64 << 30) - 70_000..=-(1_i64 << 30) + 70_000)
+            .chain((1_i64 << 30) - 70_000..=(1_i64 << 30) + 70_000)
+            .chain(-70_000..=70_000)
+            .collect();
+        values.extend([i64::MIN, i64::MAX, 1 << 40, -(1 << 40)]);
+        for _ in 0..1_000_000 {
+            #[allow(clippy::cast_possible_wrap)]
+            let v = (xorshift(&mut x) as i64) >> (33 + xorshift(&mut x) % 30);
+            values.push(v);
+        }
+        for v in values {
+            assert_eq!(per_mm_words(v), per_mm(v), "{v}");
+        }
     }
 
     #[test]
