@@ -544,7 +544,9 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
         if !plane {
             return (cx, cy, (0, 0));
         }
-        let rem = |v: Meters, c: i32| i64::from(v.to_bits()) - i64::from(c) * i64::from(bits);
+        // The remainder in the cell, 0 ≤ rem < bits: exact in wrapping 32-bit arithmetic.
+        #[allow(clippy::cast_sign_loss)]
+        let rem = |v: Meters, c: i32| v.to_bits().wrapping_sub(c.wrapping_mul(bits)) as u32;
         (
             cx,
             cy,
@@ -568,7 +570,9 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
             return (cx, cy, (0, 0));
         }
         let bits = r.to_bits();
-        let rem = |v: Meters, c: i32| i64::from(v.to_bits()) - i64::from(c) * i64::from(bits);
+        // The remainder in the cell, 0 ≤ rem < bits: exact in wrapping 32-bit arithmetic.
+        #[allow(clippy::cast_sign_loss)]
+        let rem = |v: Meters, c: i32| v.to_bits().wrapping_sub(c.wrapping_mul(bits)) as u32;
         (
             cx,
             cy,

@@ -278,14 +278,17 @@ fn satu16(v: i32) -> u16 {
 /// is `rem` (raw Q16.16, `0 ≤ rem < c`), for a cell of `c` raw with reciprocal
 /// `m = ⌊2³²/c⌋` ([`crate::grid::cell_reciprocal`]): `⌊rem·m/2²⁶⌋`, at most one unit below the
 /// exact value.
+///
+/// In 32 bits: `rem·m ≤ (c − 1)·2³²/c < 2³²`, so the product of two `u32` cannot wrap and the
+/// result is that of the 64-bit product (a library call on a Cortex-M0); tested against it. The
+/// caller gives the remainder as the wrapped difference `x − ⌊x/c⌋·c`, which is exact because
+/// the true remainder fits. A remainder of `c` or more (never given) yields some position in
+/// range, never a panic.
 #[inline]
-pub(super) fn sub_cell(rem: i64, reciprocal: u32) -> i8 {
-    #[allow(clippy::cast_sign_loss)]
-    let rem = rem.clamp(0, i64::from(u32::MAX)) as u64;
-    let q = (rem * u64::from(reciprocal)) >> 26;
-    // q ≤ 63 for rem < c; clamp for safety.
-    #[allow(clippy::cast_possible_truncation)]
-    let q = q.min(63) as i8;
+pub(super) fn sub_cell(rem: u32, reciprocal: u32) -> i8 {
+    // A u32 shifted right by 26 is below 64.
+    #[allow(clippy::cast_possible_truncation, clippy::cast_possible_wrap)]
+    let q = (rem.wrapping_mul(reciprocal) >> 26) as i8;
     q - 32
 }
 
@@ -778,17 +781,69 @@ mod tests {
         }
     }
 
+    /// The position as it was computed before: a 64-bit product, clamped.
+    fn sub_cell_64(rem: i64, reciprocal: u32) -> i8 {
+        let rem = rem.clamp(0, i64::from(u32::MAX)) as u64;
+        let q = (rem * u64::from(reciprocal)) >> 26;
+        q.min(63) as i8 - 32
+    }
+
+    #[test]
+    fn sub_cell_in_32_bits_is_the_64_bit_product() {
+        let mut state = 0x9E37_79B9_7F4A_7C15_u64;
+        let mut next = || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            state
+        };
+        // Every cell size of the default designs' layers and their neighbours, sizes from
+        // 1 raw up to 2³⁰, and random sizes; each at its edges and random remainders.
+        let mut sizes = std::vec![1, 2, 3, 655, 6553, 6554, 6555, 13_107, 26_214, 52_429];
+        sizes.extend([
+            104_858,
+            209_715,
+            419_430,
+            838_861,
+            65_536,
+            1 << 20,
+            (1 << 30) - 1,
+        ]);
+        sizes.extend([1 << 30, i32::MAX]);
+        for _ in 0..300 {
+            sizes.push(1 + (next() % (1 << (1 + next() % 30))) as i32);
+        }
+        for c in sizes {
+            let m = crate::grid::cell_reciprocal(c);
+            let edges = (0..64_i64).flat_map(|j| {
+                let at = j * i64::from(c) / 64;
+                [at - 1, at, at + 1]
+            });
+            let random = (0..200).map(|_| (next() % c as u64) as i64);
+            for rem in edges.chain(random).chain([i64::from(c) - 1]) {
+                if !(0..i64::from(c)).contains(&rem) {
+                    continue;
+                }
+                assert_eq!(
+                    sub_cell(rem as u32, m),
+                    sub_cell_64(rem, m),
+                    "c {c} rem {rem}"
+                );
+            }
+        }
+    }
+
     #[test]
     fn sub_cell_positions_cover_the_cell() {
         let c = Meters::from_num(0.3).to_bits();
         let m = crate::grid::cell_reciprocal(c);
         assert_eq!(sub_cell(0, m), -32);
-        assert_eq!(sub_cell(i64::from(c) - 1, m), 31);
-        assert!((-1..=0).contains(&sub_cell(i64::from(c) / 2, m)));
+        assert_eq!(sub_cell(c as u32 - 1, m), 31);
+        assert!((-1..=0).contains(&sub_cell(c as u32 / 2, m)));
         // Every remainder lands within one unit of the exact value.
         for rem in (0..c).step_by(97) {
             let exact = (i64::from(rem) * 64 / i64::from(c)) as i8 - 32;
-            let got = sub_cell(i64::from(rem), m);
+            let got = sub_cell(rem as u32, m);
             assert!(got == exact || got == exact - 1, "{rem}: {got} {exact}");
         }
     }
