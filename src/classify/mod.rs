@@ -854,7 +854,7 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
 
 /// Folds a point (z mm, position `sub` in the cell, distance bin) into a used slot under the
 /// overhang rule; with `plane`, into the plane rule's sums too when it lies below the cut.
-#[inline]
+#[inline(always)]
 fn fold(
     slot: &mut Slot,
     z: i16,

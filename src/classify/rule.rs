@@ -214,6 +214,7 @@ impl PlaneState {
     }
 
     /// Offers a point below the overhang cut: summed unless the decimation skips it.
+    #[inline(always)]
     pub(super) fn add(&mut self, u: i8, v: i8, z: i16) {
         let phase = self.offered;
         self.offered = self.offered.saturating_add(1);
