@@ -1287,9 +1287,7 @@ mod tests {
                             // A cell corner of some layer (cells of 0.1 m · 2ᵏ), ± 1.
                             2 => {
                                 let size = cell << (next() % 8);
-                                x = x.div_euclid(size).wrapping_mul(size)
-                                    + (next() % 3) as i32
-                                    - 1;
+                                x = x.div_euclid(size).wrapping_mul(size) + (next() % 3) as i32 - 1;
                             }
                             _ => {
                                 x = x.saturating_add((next() % 2001) as i32 - 1000);

@@ -227,19 +227,24 @@ impl PlaneState {
         }
         let dz = (i32::from(z) - i32::from(self.z0)).clamp(-MAX_DZ, MAX_DZ);
         let (u, v) = (i32::from(u), i32::from(v));
-        // Within the widths by the bounds of the module documentation (n < 62 before this
-        // point); the conversions cannot fail, and saturate if they ever did.
-        self.su = sat16(i32::from(self.su) + u);
-        self.sv = sat16(i32::from(self.sv) + v);
-        self.suu = satu16(i32::from(self.suu) + u * u);
-        self.svv = satu16(i32::from(self.svv) + v * v);
+        // At most 61 points are summed before this one (n < 62: the sums are halved at 62;
+        // at the last level at most two more points follow the halving to 31), each with
+        // |u|, |v| ≤ 32 and |dz| ≤ 8191, so the sums stay within their widths without
+        // saturating: |Σu| ≤ 62·32 < 2¹⁵, Σuu ≤ 62·32² < 2¹⁶, |Σz| ≤ 62·8191, |Σuz| ≤ 62·32·8191,
+        // Σzz ≤ 62·8191² < 2³² (plain wrapping adds, which never wrap; tested against the
+        // saturating ones). Σuv alone can leave its i16 (62·32·32 > 2¹⁵ − 1) and saturates.
+        #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+        {
+            self.su = self.su.wrapping_add(u as i16);
+            self.sv = self.sv.wrapping_add(v as i16);
+            self.suu = self.suu.wrapping_add((u * u) as u16);
+            self.svv = self.svv.wrapping_add((v * v) as u16);
+            self.szz = self.szz.wrapping_add((dz * dz) as u32);
+        }
         self.suv = sat16(i32::from(self.suv) + u * v);
-        self.sz = self.sz.saturating_add(dz);
-        self.suz = self.suz.saturating_add(u * dz);
-        self.svz = self.svz.saturating_add(v * dz);
-        #[allow(clippy::cast_sign_loss)]
-        let dz2 = (dz * dz) as u32;
-        self.szz = self.szz.saturating_add(dz2);
+        self.sz = self.sz.wrapping_add(dz);
+        self.suz = self.suz.wrapping_add(u * dz);
+        self.svz = self.svz.wrapping_add(v * dz);
         self.n += 1;
         if self.n >= HALVE_AT && self.level < MAX_LEVEL {
             self.n /= 2;
@@ -268,11 +273,6 @@ impl PlaneState {
 #[cfg(feature = "plane-rule")]
 fn sat16(v: i32) -> i16 {
     i16::try_from(v).unwrap_or(if v < 0 { i16::MIN } else { i16::MAX })
-}
-
-#[cfg(feature = "plane-rule")]
-fn satu16(v: i32) -> u16 {
-    u16::try_from(v.max(0)).unwrap_or(u16::MAX)
 }
 
 /// The 6-bit position `⌊64·rem/c⌋ − 32 ∈ −32 ..= 31` of a coordinate whose remainder in its cell
@@ -779,6 +779,96 @@ mod tests {
                 got <= exact && exact - got <= exact >> 31,
                 "{x}: {got} {exact}"
             );
+        }
+    }
+
+    /// [`PlaneState::add`] as it was before its sums stopped saturating.
+    fn add_saturating(s: &mut PlaneState, u: i8, v: i8, z: i16) {
+        let satu16 = |v: i32| u16::try_from(v.max(0)).unwrap_or(u16::MAX);
+        let phase = s.offered;
+        s.offered = s.offered.saturating_add(1);
+        if u32::from(phase) & ((1_u32 << s.level) - 1) != 0 {
+            return;
+        }
+        if s.n == 0 {
+            s.z0 = z;
+        }
+        let dz = (i32::from(z) - i32::from(s.z0)).clamp(-MAX_DZ, MAX_DZ);
+        let (u, v) = (i32::from(u), i32::from(v));
+        s.su = sat16(i32::from(s.su) + u);
+        s.sv = sat16(i32::from(s.sv) + v);
+        s.suu = satu16(i32::from(s.suu) + u * u);
+        s.svv = satu16(i32::from(s.svv) + v * v);
+        s.suv = sat16(i32::from(s.suv) + u * v);
+        s.sz = s.sz.saturating_add(dz);
+        s.suz = s.suz.saturating_add(u * dz);
+        s.svz = s.svz.saturating_add(v * dz);
+        s.szz = s.szz.saturating_add((dz * dz) as u32);
+        s.n += 1;
+        if s.n >= HALVE_AT && s.level < MAX_LEVEL {
+            s.n /= 2;
+            s.su >>= 1;
+            s.sv >>= 1;
+            s.suu >>= 1;
+            s.svv >>= 1;
+            s.suv >>= 1;
+            s.sz >>= 1;
+            s.suz >>= 1;
+            s.svz >>= 1;
+            s.szz >>= 1;
+            s.level += 1;
+            s.offered = 0;
+        }
+    }
+
+    #[test]
+    fn the_sums_without_saturation_are_the_saturating_sums() {
+        let mut state = 0x9E37_79B9_7F4A_7C15_u64;
+        let mut next = || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            state
+        };
+        // Runs at the extremes (corners ±32/31, z at ±32 767 and far from z₀), runs with the
+        // signs alternating, random runs, and runs long enough to reach the last level.
+        for run in 0..400_u32 {
+            let mut s = PlaneState::EMPTY;
+            let mut reference = PlaneState::EMPTY;
+            let length = if run % 200 == 0 {
+                2_200_000
+            } else {
+                1 + next() % 5000
+            };
+            let kind = next() % 4;
+            for i in 0..length {
+                let r = next();
+                let (u, v, z) = match kind {
+                    0 => {
+                        let corner = [-32_i8, 31][(r & 1) as usize];
+                        let z = [i16::MIN, i16::MAX, 0, -8191, 8191][(r >> 1) as usize % 5];
+                        (corner, corner, z)
+                    }
+                    1 => {
+                        let sign = if i % 2 == 0 { -32_i8 } else { 31 };
+                        (sign, -32, if i % 3 == 0 { i16::MAX } else { i16::MIN })
+                    }
+                    2 => (-32, -32, (r >> 8) as i16),
+                    _ => (
+                        (r % 64) as i8 - 32,
+                        ((r >> 8) % 64) as i8 - 32,
+                        (r >> 16) as i16,
+                    ),
+                };
+                s.add(u, v, z);
+                add_saturating(&mut reference, u, v, z);
+                assert_eq!(s, reference, "run {run} point {i}");
+            }
+            if length > 2_000_000 {
+                // As deep as the decimation goes: its phase saturates at 2¹⁶ − 1 offered
+                // points, which at level 12 come before the 31 summed points that would halve.
+                assert_eq!(s.level, 12);
+            }
         }
     }
 
