@@ -247,20 +247,29 @@ impl PlaneState {
         self.svz = self.svz.wrapping_add(v * dz);
         self.n += 1;
         if self.n >= HALVE_AT && self.level < MAX_LEVEL {
-            self.n /= 2;
-            self.su >>= 1;
-            self.sv >>= 1;
-            self.suu >>= 1;
-            self.svv >>= 1;
-            self.suv >>= 1;
-            self.sz >>= 1;
-            self.suz >>= 1;
-            self.svz >>= 1;
-            self.szz >>= 1;
-            self.level += 1;
-            // The next summed point is the 2^level-th from now.
-            self.offered = 0;
+            self.halve();
         }
+    }
+
+    /// Halves every sum and the count; from now on every 2^(level + 1)-th offered point is
+    /// summed (out of line: at most once per 31 summed points, and the per-point path keeps
+    /// no value alive for it).
+    #[cold]
+    #[inline(never)]
+    fn halve(&mut self) {
+        self.n /= 2;
+        self.su >>= 1;
+        self.sv >>= 1;
+        self.suu >>= 1;
+        self.svv >>= 1;
+        self.suv >>= 1;
+        self.sz >>= 1;
+        self.suz >>= 1;
+        self.svz >>= 1;
+        self.szz >>= 1;
+        self.level += 1;
+        // The next summed point is the 2^level-th from now.
+        self.offered = 0;
     }
 
     /// Summed points.
