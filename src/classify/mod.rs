@@ -498,13 +498,19 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
         // The first eight layers from the precomputed mask of the bin's group: only layers
         // that may be fed are visited, and their weights checked.
         let mut mask = self.gates.fed_layers(bin);
+        // Read once per point, not per layer (the slots written in between are not them).
+        let fold_rule = FoldRule {
+            plane: self.plane.is_some(),
+            robot_height_mm: self.robot_height_mm,
+        };
         let mut k = 0_u8;
         while mask != 0 {
             if mask & 1 != 0 {
-                let gate = self.gates.tables().get(usize::from(k));
-                if let (Some(r), Some(gate)) = (self.gates.resolution(usize::from(k)), gate) {
+                // The layer's table (and below, when needed, its cell size) exist exactly for
+                // the layers in force.
+                if let Some(gate) = self.gates.tables().get(usize::from(k)) {
                     if gate.weight(bin) >= min_weight {
-                        fed |= self.feed_recent(k, r, point, bin_index, z, hole);
+                        fed |= self.feed_recent(k, point, bin_index, z, hole, fold_rule);
                     }
                 }
             }
@@ -560,13 +566,13 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
     fn feed_recent(
         &mut self,
         k: u8,
-        r: crate::grid::Resolution,
         point: Point3,
         bin: u16,
         z: i16,
         hole: bool,
+        fold_rule: FoldRule,
     ) -> bool {
-        let plane = self.plane.is_some();
+        let plane = fold_rule.plane;
         let Some(&recent) = self.recent.get(usize::from(k)) else {
             return false;
         };
@@ -587,10 +593,13 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
                 } else {
                     (0, 0)
                 };
-                fold(slot, z, sub, bin, hole, self.robot_height_mm, plane);
+                fold(slot, z, sub, bin, hole, fold_rule.robot_height_mm, plane);
                 return true;
             }
         }
+        let Some(r) = self.gates.resolution(usize::from(k)) else {
+            return false;
+        };
         let (cx, cy, sub) = self.cell_of(r, recent.reciprocal, point);
         // Stored as k + 1 (0 marks an empty slot); k < 8.
         match self.insert(k + 1, cx, cy, sub, bin, z, hole) {
@@ -850,6 +859,15 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
             pyramid.apply(&record);
         });
     }
+}
+
+/// What [`fold`] needs of the configuration, read once per point.
+#[derive(Debug, Clone, Copy)]
+struct FoldRule {
+    /// Whether the plane rule is in force.
+    plane: bool,
+    /// The robot's height, millimetres.
+    robot_height_mm: i16,
 }
 
 /// Folds a point (z mm, position `sub` in the cell, distance bin) into a used slot under the
