@@ -172,7 +172,8 @@ pub(super) struct PlaneState {
     suz: i32,
     svz: i32,
     szz: u32,
-    /// Points offered since the sums (re)started, saturating: the decimation's phase.
+    /// Points offered since the last halving, saturating: the decimation's phase (0 before
+    /// the first halving, where every point is summed).
     offered: u16,
     /// z₀, millimetres relative to the observation's reference height.
     z0: i16,
@@ -216,11 +217,15 @@ impl PlaneState {
     /// Offers a point below the overhang cut: summed unless the decimation skips it.
     #[inline(always)]
     pub(super) fn add(&mut self, u: i8, v: i8, z: i16) {
-        let phase = self.offered;
-        self.offered = self.offered.saturating_add(1);
-        let mask = (1_u32 << self.level) - 1;
-        if u32::from(phase) & mask != 0 {
-            return;
+        // Before the first halving every point is summed and the phase is not read (the
+        // halving restarts it): it is counted from level 1 on only.
+        if self.level != 0 {
+            let phase = self.offered;
+            self.offered = self.offered.saturating_add(1);
+            let mask = (1_u32 << self.level) - 1;
+            if u32::from(phase) & mask != 0 {
+                return;
+            }
         }
         if self.n == 0 {
             self.z0 = z;
@@ -796,7 +801,8 @@ mod tests {
         }
     }
 
-    /// [`PlaneState::add`] as it was before its sums stopped saturating.
+    /// [`PlaneState::add`] as it was before its sums stopped saturating (and while it counted
+    /// the decimation's phase before the first halving).
     fn add_saturating(s: &mut PlaneState, u: i8, v: i8, z: i16) {
         let satu16 = |v: i32| u16::try_from(v.max(0)).unwrap_or(u16::MAX);
         let phase = s.offered;
@@ -876,7 +882,20 @@ mod tests {
                 };
                 s.add(u, v, z);
                 add_saturating(&mut reference, u, v, z);
-                assert_eq!(s, reference, "run {run} point {i}");
+                // The reference counts the phase before the first halving too, unread there.
+                let phase = if reference.level == 0 {
+                    0
+                } else {
+                    reference.offered
+                };
+                assert_eq!(
+                    s,
+                    PlaneState {
+                        offered: phase,
+                        ..reference
+                    },
+                    "run {run} point {i}"
+                );
             }
             if length > 2_000_000 {
                 // As deep as the decimation goes: its phase saturates at 2¹⁶ − 1 offered
