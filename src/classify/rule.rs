@@ -487,19 +487,23 @@ pub(super) fn plane_obstacle(
     params: &PlaneParams,
     geometry: &CellGeometry,
 ) -> bool {
-    let n = i128::from(state.n);
-    if n < 2 {
+    if state.n < 2 {
         return false;
     }
-    let (su, sv) = (i128::from(state.su), i128::from(state.sv));
-    let sz = i128::from(state.sz);
-    // Centred moments times n² (u, v in units of c/64; z in mm).
-    let cuu = n * i128::from(state.suu) - su * su;
-    let cvv = n * i128::from(state.svv) - sv * sv;
-    let cuv = n * i128::from(state.suv) - su * sv;
-    let cuz = n * i128::from(state.suz) - su * sz;
-    let cvz = n * i128::from(state.svz) - sv * sz;
-    let czz = n * i128::from(state.szz) - sz * sz;
+    // Centred moments times n² (u, v in units of c/64; z in mm), the ridge, the determinant
+    // and the plane's numerators in 64 bits: with n ≤ 62 and the sums' bounds (module
+    // documentation; |Σuv| ≤ 2¹⁵) |C_uu|, |C_vv| < 2²³, |C_uv| < 2²³, |C_uz|, |C_vz| < 2³¹,
+    // |C_zz| < 2³⁹, so |det| < 2⁴⁷ and the numerators < 2⁵⁵ (tested against the 128-bit
+    // computation). The rest in 128 bits.
+    let n = i64::from(state.n);
+    let (su, sv) = (i64::from(state.su), i64::from(state.sv));
+    let sz = i64::from(state.sz);
+    let cuu = n * i64::from(state.suu) - su * su;
+    let cvv = n * i64::from(state.svv) - sv * sv;
+    let cuv = n * i64::from(state.suv) - su * sv;
+    let cuz = n * i64::from(state.suz) - su * sz;
+    let cvz = n * i64::from(state.svz) - sv * sz;
+    let czz = n * i64::from(state.szz) - sz * sz;
     let n2 = n * n;
     // The ridge λ = 1 unit², times n².
     let (a, b) = (cuu + n2, cvv + n2);
@@ -508,8 +512,11 @@ pub(super) fn plane_obstacle(
         return false;
     }
     // w = (C + λI)⁻¹ c, mm per unit, Q16.
-    let wa = q16_quotient(b * cuz - cuv * cvz, det);
-    let wb = q16_quotient(a * cvz - cuv * cuz, det);
+    let wa = q16_quotient(i128::from(b * cuz - cuv * cvz), i128::from(det));
+    let wb = q16_quotient(i128::from(a * cvz - cuv * cuz), i128::from(det));
+    let (n, n2) = (i128::from(n), i128::from(n2));
+    let (cuu, cvv, cuv) = (i128::from(cuu), i128::from(cvv), i128::from(cuv));
+    let (cuz, cvz, czz) = (i128::from(cuz), i128::from(cvz), i128::from(czz));
     // wᵀCw and wᵀc, times n²: Q32 and Q16 mm².
     let explained = wa * wa * cuu + 2 * wa * wb * cuv + wb * wb * cvv;
     let wc = wa * cuz + wb * cvz;
@@ -762,6 +769,117 @@ mod tests {
             }
             assert!(!plane_obstacle(&s, &p, &g));
         }
+    }
+
+    /// [`plane_obstacle`] as it was, in 128 bits from the start.
+    fn plane_obstacle_128(
+        state: &PlaneState,
+        params: &PlaneParams,
+        geometry: &CellGeometry,
+    ) -> bool {
+        let n = i128::from(state.n);
+        if n < 2 {
+            return false;
+        }
+        let (su, sv) = (i128::from(state.su), i128::from(state.sv));
+        let sz = i128::from(state.sz);
+        let cuu = n * i128::from(state.suu) - su * su;
+        let cvv = n * i128::from(state.svv) - sv * sv;
+        let cuv = n * i128::from(state.suv) - su * sv;
+        let cuz = n * i128::from(state.suz) - su * sz;
+        let cvz = n * i128::from(state.svz) - sv * sz;
+        let czz = n * i128::from(state.szz) - sz * sz;
+        let n2 = n * n;
+        let (a, b) = (cuu + n2, cvv + n2);
+        let det = a * b - cuv * cuv;
+        if det <= 0 {
+            return false;
+        }
+        let wa = q16_quotient(b * cuz - cuv * cvz, det);
+        let wb = q16_quotient(a * cvz - cuv * cuz, det);
+        let explained = wa * wa * cuu + 2 * wa * wb * cuv + wb * wb * cvv;
+        let wc = wa * cuz + wb * cvz;
+        let residual = (czz << 32) - 2 * (wc << 16) + explained;
+        let noise = i128::from(noise_q16(params, geometry));
+        let allowed = i128::from(params.residual_q16)
+            .saturating_mul(i128::from(params.residual_q16))
+            .saturating_add(noise.saturating_mul(noise));
+        if residual > allowed.saturating_mul(n2) {
+            return true;
+        }
+        let slope = isqrt((wa * wa + wb * wb) as u128) as i128;
+        let cell_mm_q16 = i128::from(geometry.cell.max(1)) * 1000;
+        let steep = 64 * slope - ((i128::from(params.grade_q16) * cell_mm_q16) >> 16);
+        if steep <= 0 {
+            return false;
+        }
+        let rise_n = isqrt((12 * explained.max(0)) as u128) as i128;
+        let root = ROOT_12_OVER_N
+            .get(usize::from(state.n))
+            .map_or(0, |&r| i128::from(r));
+        let allowance =
+            i128::from(params.step_q16).saturating_add(noise.saturating_mul(root) >> 16);
+        rise_n.saturating_mul(steep) > (64 * slope * n).saturating_mul(allowance)
+    }
+
+    #[test]
+    fn the_decision_in_64_bits_first_is_the_128_bit_one() {
+        let mut state = 0xD1B5_4A32_D192_ED03_u64;
+        let mut next = || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            state
+        };
+        let mut obstacles = 0;
+        let total = 20_000;
+        for run in 0..total {
+            // Cells of 2 to 3000 points: at the corners and extreme heights (the sums' bounds),
+            // planes with noise, steps, random clouds; under rules from strict to lax.
+            let mut s = PlaneState::EMPTY;
+            let points = 2 + next() % if run % 10 == 0 { 3000 } else { 80 };
+            let kind = next() % 4;
+            let (gu, gv, off) = ((next() % 200) as i32 - 100, (next() % 200) as i32 - 100, 0);
+            for _ in 0..points {
+                let r = next();
+                let (u, v) = ((r % 64) as i8 - 32, ((r >> 8) % 64) as i8 - 32);
+                let z = match kind {
+                    0 => {
+                        let c = [-32_i8, 31][(r >> 20) as usize % 2];
+                        s.add(c, c, [i16::MIN, i16::MAX, 0][(r >> 24) as usize % 3]);
+                        continue;
+                    }
+                    1 => {
+                        off + gu * i32::from(u) / 10 + gv * i32::from(v) / 10 + (r >> 40) as i32 % 9
+                    }
+                    2 => (if u > 0 { 300 } else { 0 }) + (r >> 40) as i32 % 5,
+                    _ => (r >> 32) as i16 as i32 / 4,
+                };
+                s.add(u, v, z.clamp(-32_768, 32_767) as i16);
+            }
+            let params = PlaneParams::new(
+                &PlaneRule {
+                    max_grade: Ratio::from_bits((next() % 80_000) as i32),
+                    residual: Meters::from_bits((next() % 3000) as i32),
+                    range_sigma: Meters::from_bits((next() % 3000) as i32),
+                    ..PlaneRule::DEFAULT
+                },
+                Meters::from_bits((next() % 10_000) as i32),
+            );
+            let geometry = CellGeometry {
+                cell: Meters::from_num(0.1).to_bits() << (next() % 8),
+                sensor_height_mm: (next() % 2000) as i32,
+                distance: Meters::from_bits((next() % (30 << 16)) as i32),
+            };
+            let got = plane_obstacle(&s, &params, &geometry);
+            assert_eq!(got, plane_obstacle_128(&s, &params, &geometry), "run {run}");
+            obstacles += usize::from(got);
+        }
+        // Both answers occur.
+        assert!(
+            obstacles > total / 20 && obstacles < total * 19 / 20,
+            "{obstacles}"
+        );
     }
 
     #[test]
