@@ -430,6 +430,36 @@ const ROOT_12_OVER_N: [u32; HALVE_AT as usize + 1] = {
 #[cfg(feature = "plane-rule")]
 /// The noise allowance `k·σ_z(d)`, mm Q16.
 fn noise_q16(params: &PlaneParams, geometry: &CellGeometry) -> i64 {
+    noise_q16_narrow(params, geometry).unwrap_or_else(|| noise_q16_wide(params, geometry))
+}
+
+#[cfg(feature = "plane-rule")]
+/// [`noise_q16`] in 64 bits, or `None` where a value would not fit them (σ·h or σ_a·r of 2⁶³
+/// or more, or σ_z's terms of 2³¹ mm Q16 or more: with the default rule only beyond 24 km).
+/// h < 2³¹ and d < 2²⁵ mm, so `h² + d² < 2⁶³` and `r < 2³²`; terms below 2³¹ keep their
+/// squares' sum below 2⁶³. The same integers as [`noise_q16_wide`] (tested).
+fn noise_q16_narrow(params: &PlaneParams, geometry: &CellGeometry) -> Option<i64> {
+    let h = i64::from(geometry.sensor_height_mm.max(0));
+    let d = (i64::from(geometry.distance.to_bits()).max(0) * 1000) >> 16;
+    #[allow(clippy::cast_sign_loss, clippy::cast_possible_wrap)]
+    let r = ((h * h + d * d) as u64).isqrt() as i64;
+    let range = if r == 0 {
+        params.sigma_q16
+    } else {
+        params.sigma_q16.checked_mul(h)? / r
+    };
+    let angle = params.angle_q16.checked_mul(r)?;
+    if range >= 1 << 31 || angle >= 1 << 31 {
+        return None;
+    }
+    #[allow(clippy::cast_sign_loss, clippy::cast_possible_wrap)]
+    let sigma_z = ((range * range + angle * angle) as u64).isqrt() as i64;
+    sigma_z.checked_mul(params.factor_q16).map(|v| v >> 16)
+}
+
+#[cfg(feature = "plane-rule")]
+/// [`noise_q16`] in 128 bits, saturating.
+fn noise_q16_wide(params: &PlaneParams, geometry: &CellGeometry) -> i64 {
     let h = i128::from(geometry.sensor_height_mm.max(0));
     let d = (i128::from(geometry.distance.to_bits()).max(0) * 1000) >> 16;
     // r = √(h² + d²), mm.
@@ -880,6 +910,58 @@ mod tests {
             obstacles > total / 20 && obstacles < total * 19 / 20,
             "{obstacles}"
         );
+    }
+
+    #[test]
+    fn the_noise_in_64_bits_is_the_128_bit_noise() {
+        let mut state = 0x6A09_E667_F3BC_C908_u64;
+        let mut next = || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            state
+        };
+        let mut narrow = 0;
+        let pick = |next: &mut dyn FnMut() -> u64| -> i32 {
+            // Zero, small, typical and extreme raw values.
+            match next() % 4 {
+                0 => [0, 1, i32::MAX, i32::MIN][(next() % 4) as usize],
+                1 => (next() % 5000) as i32,
+                _ => (next() as i32) >> (next() % 31),
+            }
+        };
+        for _ in 0..200_000 {
+            let rule = PlaneRule {
+                range_sigma: Meters::from_bits(pick(&mut next)),
+                angle_sigma: Ratio::from_bits(pick(&mut next)),
+                noise_factor: Ratio::from_bits(pick(&mut next)),
+                ..PlaneRule::DEFAULT
+            };
+            let params = PlaneParams::new(&rule, Meters::from_num(0.05));
+            let geometry = CellGeometry {
+                cell: Meters::from_num(0.1).to_bits(),
+                sensor_height_mm: pick(&mut next),
+                distance: Meters::from_bits(pick(&mut next)),
+            };
+            let wide = noise_q16_wide(&params, &geometry);
+            if let Some(v) = noise_q16_narrow(&params, &geometry) {
+                narrow += 1;
+                assert_eq!(v, wide, "{rule:?} {geometry:?}");
+            }
+            assert_eq!(noise_q16(&params, &geometry), wide);
+        }
+        assert!(narrow > 50_000, "{narrow}");
+        let default = PlaneParams::new(&PlaneRule::DEFAULT, Meters::from_num(0.05));
+        for h in [0, 300, 1300, 32_767] {
+            for d in [0.0, 0.5, 3.0, 20.0, 20_000.0] {
+                let g = CellGeometry {
+                    cell: Meters::from_num(0.1).to_bits(),
+                    sensor_height_mm: h,
+                    distance: Meters::from_num(d),
+                };
+                assert!(noise_q16_narrow(&default, &g).is_some(), "{h} {d}");
+            }
+        }
     }
 
     #[test]
