@@ -30,8 +30,9 @@
 //! lowest when that is still below the cut (the best bound still known, as the spread rule
 //! keeps it; its position was not kept, so it is summed where the new point is).
 //!
-//! Per cell, when the observation finishes, in 128-bit integers: the centred moments, the
-//! ridge-regularised plane `w = (C + λI)⁻¹c` with `λ = 1` (one unit², `(c/64)²`, so points
+//! Per cell, when the observation finishes, in integers (the centred moments, the determinant
+//! and the plane's numerators in 64 bits by the sums' bounds, the products with the plane in
+//! 128): the centred moments, the ridge-regularised plane `w = (C + λI)⁻¹c` with `λ = 1` (one unit², `(c/64)²`, so points
 //! with no horizontal spread in some direction fit no slope in it), the residual
 //! `r² = C_zz − 2wᵀc + wᵀCw`, the plane's rise over the points' extent `R = √(12·wᵀCw)` and its
 //! gradient `g = |w|`; σ_z from the sensor's height above the robot's ground plane and the
@@ -509,9 +510,9 @@ fn q16_quotient(num: i128, den: i128) -> i128 {
 }
 
 #[cfg(feature = "plane-rule")]
-/// Whether the plane rule calls the cell of `state` not navigable: four 64-bit divisions
-/// (the plane), one for the noise, four integer square roots (the noise, the gradient, the
-/// rise).
+/// Whether the plane rule calls the cell of `state` not navigable: two to four 64-bit
+/// divisions (the plane), one for the noise, four integer square roots (the noise, the
+/// gradient, the rise).
 pub(super) fn plane_obstacle(
     state: &PlaneState,
     params: &PlaneParams,
