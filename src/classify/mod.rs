@@ -557,8 +557,8 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
         fed
     }
 
-    /// Adds a point to its cell of layer `k` (< [`RECENT_LAYERS`], of cell size `r`); `false`
-    /// when the table is full (counted). A point in the cell of the layer's last point goes
+    /// Adds a point to its cell of layer `k` (< [`RECENT_LAYERS`]); `false` when the table is
+    /// full (counted). A point in the cell of the layer's last point goes
     /// straight to that cell's slot, its position in the cell from its difference to the cell's
     /// corner; otherwise [`Classifier::cell_of`], the hash and the probe, and the cell is
     /// remembered.

@@ -32,8 +32,9 @@
 //!
 //! Per cell, when the observation finishes, in integers (the centred moments, the determinant
 //! and the plane's numerators in 64 bits by the sums' bounds, the products with the plane in
-//! 128): the centred moments, the ridge-regularised plane `w = (C + λI)⁻¹c` with `λ = 1` (one unit², `(c/64)²`, so points
-//! with no horizontal spread in some direction fit no slope in it), the residual
+//! 128): the centred moments, the ridge-regularised plane `w = (C + λI)⁻¹c` with `λ = 1` (one
+//! unit², `(c/64)²`, so points with no horizontal spread in some direction fit no slope in
+//! it), the residual
 //! `r² = C_zz − 2wᵀc + wᵀCw`, the plane's rise over the points' extent `R = √(12·wᵀCw)` and its
 //! gradient `g = |w|`; σ_z from the sensor's height above the robot's ground plane and the
 //! cell's closest look (the lower edge of its gate bin).
@@ -215,7 +216,9 @@ impl PlaneState {
         s
     }
 
-    /// Offers a point below the overhang cut: summed unless the decimation skips it.
+    /// Offers a point below the overhang cut (`u, v ∈ −32 ..= 31` as [`sub_cell`] gives them:
+    /// the sums' bounds assume it; other values never panic but may wrap the sums): summed
+    /// unless the decimation skips it.
     #[inline(always)]
     pub(super) fn add(&mut self, u: i8, v: i8, z: i16) {
         // Before the first halving every point is summed and the phase is not read (the
