@@ -135,8 +135,46 @@ pub struct ClassifierStats {
     pub records: u32,
 }
 
-/// The layers for which the classifier remembers the slot of their last point.
+/// The layers for which the classifier remembers the cell and slot of their last point.
 const RECENT_LAYERS: usize = 8;
+
+/// A cell whose lower corner lies within ±`ORIGIN_LIMIT` raw (±16 384 m) and whose size is
+/// below it can be remembered in a [`Recent`]: then a coordinate's wrapped 32-bit difference
+/// from the corner is below the size exactly when the coordinate lies in the cell.
+const ORIGIN_LIMIT: i32 = 1 << 30;
+
+/// Per layer (the first [`RECENT_LAYERS`]): the layer's cell reciprocal and the cell of its last
+/// point. Consecutive returns of a line mostly fall in the same cell of a layer; such a point
+/// is recognised by two subtractions and two compares, and folded into the cell's slot without
+/// a division, a hash or a probe.
+#[derive(Debug, Clone, Copy)]
+struct Recent {
+    /// The lower corner of the cell of the layer's last point, raw Q16.16, within
+    /// ±[`ORIGIN_LIMIT`].
+    origin_x: i32,
+    /// Likewise along y.
+    origin_y: i32,
+    /// The cell's size, raw (below [`ORIGIN_LIMIT`]), while the entry holds a cell; 0 when it
+    /// holds none (no difference is below 0: every point misses).
+    span: u32,
+    /// The layer's cell reciprocal ([`crate::grid::cell_reciprocal`]), set by
+    /// [`Classifier::adopt_design`]: where there is no hardware division, cell indices are
+    /// found by a multiplication; the plane rule's position in the cell on every target.
+    reciprocal: u32,
+    /// The slot of the cell (valid while `span` is not 0: slots are vacated only when the
+    /// observation ends, and every entry is forgotten then).
+    slot: u16,
+}
+
+impl Recent {
+    const NONE: Self = Self {
+        origin_x: 0,
+        origin_y: 0,
+        span: 0,
+        reciprocal: 0,
+        slot: 0,
+    };
+}
 
 /// The marker of an empty slot: slots store their layer plus one, so that an empty slot (and
 /// a fresh classifier) is all zero bits.
@@ -186,17 +224,11 @@ pub struct Classifier<const C: usize, const L: usize> {
     slots: [Slot; C],
     /// Slots in use.
     used: usize,
-    /// Per layer (the first [`RECENT_LAYERS`]), the slot its last point went to: consecutive
-    /// returns of a line mostly fall in the same cell, and a slot whose key matches is that
-    /// cell's slot whatever happened since (keys are unique in the table), so a hit skips the
-    /// hash and the probe and a stale index merely misses.
-    recent: [u16; RECENT_LAYERS],
+    /// Per layer (the first [`RECENT_LAYERS`]), its reciprocal and the cell and slot of its
+    /// last point.
+    recent: [Recent; RECENT_LAYERS],
     /// The gate bin of the last point given by its squared distance (a first guess only).
     last_bin: u16,
-    /// Per layer (the first [`RECENT_LAYERS`]), a cell size (raw) and its reciprocal
-    /// ([`crate::grid::cell_reciprocal`]), recomputed when the size changes: where there is
-    /// no hardware division, cell indices are found by a multiplication.
-    reciprocals: [(i32, u32); RECENT_LAYERS],
     /// The design's gating: which layers a point feeds, with which weight.
     gates: Gates<L>,
     config: ClassifierConfig,
@@ -209,7 +241,7 @@ pub struct Classifier<const C: usize, const L: usize> {
     plane: Option<PlaneParams>,
     /// For layers 8 up to [`RULE_LAYERS`], the cell size (raw) of its last point and its
     /// reciprocal ([`crate::grid::cell_reciprocal`]; the first eight keep theirs in
-    /// `reciprocals`, layers beyond compute it per point).
+    /// `recent`, layers beyond compute it per point).
     layer_cells: [(i32, u32); RULE_LAYERS],
     /// The robot's ground plane as of the last point (raw Q16.16).
     ground_z: i32,
@@ -281,9 +313,8 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
         Self {
             slots: [Slot::VACANT; C],
             used: 0,
-            recent: [0; RECENT_LAYERS],
+            recent: [Recent::NONE; RECENT_LAYERS],
             last_bin: 0,
-            reciprocals: [(0, 0); RECENT_LAYERS],
             gates: Gates::new(),
             config: ClassifierConfig {
                 robot_height: Meters::ZERO,
@@ -344,6 +375,12 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
         increments: Increments,
     ) -> Result<(), DesignError> {
         self.gates.configure(design, increments)?;
+        for (k, recent) in self.recent.iter_mut().enumerate() {
+            recent.reciprocal = self
+                .gates
+                .resolution(k)
+                .map_or(0, |r| crate::grid::cell_reciprocal(r.to_bits()));
+        }
         self.discard();
         Ok(())
     }
@@ -379,6 +416,14 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
         if self.used > 0 {
             self.slots.fill(Slot::VACANT);
             self.used = 0;
+        }
+        self.forget_recent();
+    }
+
+    /// Forgets the cells of the layers' last points (their slots are vacated).
+    fn forget_recent(&mut self) {
+        for recent in &mut self.recent {
+            recent.span = 0;
         }
     }
 
@@ -453,15 +498,19 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
         // The first eight layers from the precomputed mask of the bin's group: only layers
         // that may be fed are visited, and their weights checked.
         let mut mask = self.gates.fed_layers(bin);
+        // Read once per point, not per layer (the slots written in between are not them).
+        let fold_rule = FoldRule {
+            plane: self.plane.is_some(),
+            robot_height_mm: self.robot_height_mm,
+        };
         let mut k = 0_u8;
         while mask != 0 {
             if mask & 1 != 0 {
-                let gate = self.gates.tables().get(usize::from(k));
-                if let (Some(r), Some(gate)) = (self.gates.resolution(usize::from(k)), gate) {
+                // The layer's table (and below, when needed, its cell size) exist exactly for
+                // the layers in force.
+                if let Some(gate) = self.gates.tables().get(usize::from(k)) {
                     if gate.weight(bin) >= min_weight {
-                        let (cx, cy, sub) = self.cell_of(usize::from(k), r, point);
-                        // Stored as k + 1 (0 marks an empty slot); k < 8.
-                        fed |= self.feed_cell(k + 1, cx, cy, sub, bin_index, z, hole);
+                        fed |= self.feed_recent(k, point, bin_index, z, hole, fold_rule);
                     }
                 }
             }
@@ -508,31 +557,99 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
         fed
     }
 
-    /// The cell of `point` in layer `k` (< [`RECENT_LAYERS`]) of cell size `r`, and (while the
-    /// plane rule is in force) the point's position in it ([`rule::sub_cell`]): the cell by a
-    /// hardware division where the target has one (ARMv7-M, told apart from ARMv6-M by its
-    /// atomic compare-and-swap: stable Rust has no `cfg` for the divide instruction), a
-    /// multiplication by the cached reciprocal elsewhere (Cortex-M0, the host); both are exactly
-    /// `r.cell_of`. The position is a multiplication by the reciprocal on every target.
+    /// Adds a point to its cell of layer `k` (< [`RECENT_LAYERS`]); `false` when the table is
+    /// full (counted). A point in the cell of the layer's last point goes
+    /// straight to that cell's slot, its position in the cell from its difference to the cell's
+    /// corner; otherwise [`Classifier::cell_of`], the hash and the probe, and the cell is
+    /// remembered.
     #[inline]
-    fn cell_of(
+    fn feed_recent(
         &mut self,
-        k: usize,
-        r: crate::grid::Resolution,
+        k: u8,
         point: Point3,
-    ) -> (i32, i32, (i8, i8)) {
+        bin: u16,
+        z: i16,
+        hole: bool,
+        fold_rule: FoldRule,
+    ) -> bool {
+        let plane = fold_rule.plane;
+        let Some(&recent) = self.recent.get(usize::from(k)) else {
+            return false;
+        };
+        // Exact: the corner is within ±2³⁰ and the size below 2³⁰ (`ORIGIN_LIMIT`).
+        #[allow(clippy::cast_sign_loss)]
+        let (dx, dy) = (
+            point.x.to_bits().wrapping_sub(recent.origin_x) as u32,
+            point.y.to_bits().wrapping_sub(recent.origin_y) as u32,
+        );
+        if dx < recent.span && dy < recent.span {
+            if let Some(slot) = self.slots.get_mut(usize::from(recent.slot)) {
+                // dx, dy are the remainders in the cell, as `cell_of` computes them.
+                let sub = if plane {
+                    (
+                        rule::sub_cell(dx, recent.reciprocal),
+                        rule::sub_cell(dy, recent.reciprocal),
+                    )
+                } else {
+                    (0, 0)
+                };
+                fold(slot, z, sub, bin, hole, fold_rule.robot_height_mm, plane);
+                return true;
+            }
+        }
+        let Some(r) = self.gates.resolution(usize::from(k)) else {
+            return false;
+        };
+        let (cx, cy, sub) = self.cell_of(r, recent.reciprocal, point);
+        // Stored as k + 1 (0 marks an empty slot); k < 8.
+        match self.insert(k + 1, cx, cy, sub, bin, z, hole) {
+            Some(index) => {
+                self.remember(usize::from(k), r.to_bits(), cx, cy, index);
+                true
+            }
+            None => {
+                self.stats.overflow_points = self.stats.overflow_points.saturating_add(1);
+                false
+            }
+        }
+    }
+
+    /// Remembers cell `(cx, cy)` of cell size `bits` in slot `index` (< C ≤ 65 536) as the cell
+    /// of the last point of layer `k`, or nothing when its corner or size is beyond
+    /// [`ORIGIN_LIMIT`].
+    #[inline]
+    fn remember(&mut self, k: usize, bits: i32, cx: i32, cy: i32, index: usize) {
+        let Some(entry) = self.recent.get_mut(k) else {
+            return;
+        };
+        let within = |o: Option<i32>| o.filter(|o| (-ORIGIN_LIMIT..=ORIGIN_LIMIT).contains(o));
+        match (
+            within(cx.checked_mul(bits)),
+            within(cy.checked_mul(bits)),
+            u32::try_from(bits),
+            u16::try_from(index),
+        ) {
+            (Some(origin_x), Some(origin_y), Ok(span), Ok(slot)) if bits < ORIGIN_LIMIT => {
+                entry.origin_x = origin_x;
+                entry.origin_y = origin_y;
+                entry.span = span;
+                entry.slot = slot;
+            }
+            _ => entry.span = 0,
+        }
+    }
+
+    /// The cell of `point` for cell size `r` with reciprocal `m`
+    /// ([`crate::grid::cell_reciprocal`]), and (while the plane rule is in force) the point's
+    /// position in it ([`rule::sub_cell`]): the cell by a hardware division where the target
+    /// has one (ARMv7-M, told apart from ARMv6-M by its atomic compare-and-swap: stable Rust
+    /// has no `cfg` for the divide instruction), a multiplication by the reciprocal elsewhere
+    /// (Cortex-M0, the host); both are exactly `r.cell_of`. The position is a multiplication
+    /// by the reciprocal on every target.
+    #[inline]
+    fn cell_of(&self, r: crate::grid::Resolution, m: u32, point: Point3) -> (i32, i32, (i8, i8)) {
         let bits = r.to_bits();
         let plane = self.plane.is_some();
-        if cfg!(all(target_arch = "arm", target_has_atomic = "32")) && !plane {
-            return (r.cell_of(point.x), r.cell_of(point.y), (0, 0));
-        }
-        let Some(entry) = self.reciprocals.get_mut(k) else {
-            return Self::locate(r, crate::grid::cell_reciprocal(bits), point, plane);
-        };
-        if entry.0 != bits {
-            *entry = (bits, crate::grid::cell_reciprocal(bits));
-        }
-        let m = entry.1;
         let (cx, cy) = if cfg!(all(target_arch = "arm", target_has_atomic = "32")) {
             (r.cell_of(point.x), r.cell_of(point.y))
         } else {
@@ -544,7 +661,9 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
         if !plane {
             return (cx, cy, (0, 0));
         }
-        let rem = |v: Meters, c: i32| i64::from(v.to_bits()) - i64::from(c) * i64::from(bits);
+        // The remainder in the cell, 0 ≤ rem < bits: exact in wrapping 32-bit arithmetic.
+        #[allow(clippy::cast_sign_loss)]
+        let rem = |v: Meters, c: i32| v.to_bits().wrapping_sub(c.wrapping_mul(bits)) as u32;
         (
             cx,
             cy,
@@ -568,7 +687,9 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
             return (cx, cy, (0, 0));
         }
         let bits = r.to_bits();
-        let rem = |v: Meters, c: i32| i64::from(v.to_bits()) - i64::from(c) * i64::from(bits);
+        // The remainder in the cell, 0 ≤ rem < bits: exact in wrapping 32-bit arithmetic.
+        #[allow(clippy::cast_sign_loss)]
+        let rem = |v: Meters, c: i32| v.to_bits().wrapping_sub(c.wrapping_mul(bits)) as u32;
         (
             cx,
             cy,
@@ -611,7 +732,10 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
         z: i16,
         hole: bool,
     ) -> bool {
-        if self.accumulate(layer_index, cx, cy, sub, bin, z, hole) {
+        if self
+            .insert(layer_index, cx, cy, sub, bin, z, hole)
+            .is_some()
+        {
             true
         } else {
             self.stats.overflow_points = self.stats.overflow_points.saturating_add(1);
@@ -620,10 +744,11 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
     }
 
     /// Folds one point (at `sub` in its cell, [`rule::sub_cell`]) into the slot of
-    /// `(layer, cx, cy)`; `false` when the table is full.
+    /// `(layer, cx, cy)`, found by the hash and the probe or taken; the slot's index, `None`
+    /// when the table is full.
     #[inline]
     #[allow(clippy::too_many_arguments)]
-    fn accumulate(
+    fn insert(
         &mut self,
         layer: u8,
         cx: i32,
@@ -632,26 +757,14 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
         bin: u16,
         z: i16,
         hole: bool,
-    ) -> bool {
+    ) -> Option<usize> {
         let plane = self.plane.is_some();
-        // The layer's last slot first (layer ≥ 1: entry layer − 1).
-        let recent = usize::from(layer).wrapping_sub(1);
-        if let Some(&last) = self.recent.get(recent) {
-            if let Some(slot) = self.slots.get_mut(usize::from(last)) {
-                if slot.layer == layer && slot.cell_x == cx && slot.cell_y == cy {
-                    fold(slot, z, sub, bin, hole, self.robot_height_mm, plane);
-                    return true;
-                }
-            }
-        }
         let mut index = hash(layer, cx, cy) as usize & Self::MASK;
         for _ in 0..C {
-            let Some(slot) = self.slots.get_mut(index) else {
-                return false;
-            };
+            let slot = self.slots.get_mut(index)?;
             if slot.layer == EMPTY {
                 if self.used >= C {
-                    return false;
+                    return None;
                 }
                 self.used += 1;
                 *slot = Slot {
@@ -668,29 +781,15 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
                     layer,
                     hole,
                 };
-                self.remember(recent, index);
-                return true;
+                return Some(index);
             }
             if slot.layer == layer && slot.cell_x == cx && slot.cell_y == cy {
                 fold(slot, z, sub, bin, hole, self.robot_height_mm, plane);
-                self.remember(recent, index);
-                return true;
+                return Some(index);
             }
             index = (index + 1) & Self::MASK;
         }
-        false
-    }
-
-    /// Remembers `index` (< C ≤ 65 536) as the slot of the last point of layer entry `recent`.
-    #[inline]
-    fn remember(&mut self, recent: usize, index: usize) {
-        if let Some(entry) = self.recent.get_mut(recent) {
-            // C ≤ 65 536: a slot index fits a u16.
-            #[allow(clippy::cast_possible_truncation)]
-            {
-                *entry = index as u16;
-            }
-        }
+        None
     }
 
     /// Ends the observation: classifies every touched cell, hands each record to `sink` in
@@ -749,6 +848,7 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
             }
             self.used = 0;
         }
+        self.forget_recent();
         self.stats.records = self.stats.records.saturating_add(records);
         self.stats.observations = self.stats.observations.saturating_add(1);
     }
@@ -761,9 +861,18 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
     }
 }
 
+/// What [`fold`] needs of the configuration, read once per point.
+#[derive(Debug, Clone, Copy)]
+struct FoldRule {
+    /// Whether the plane rule is in force.
+    plane: bool,
+    /// The robot's height, millimetres.
+    robot_height_mm: i16,
+}
+
 /// Folds a point (z mm, position `sub` in the cell, distance bin) into a used slot under the
 /// overhang rule; with `plane`, into the plane rule's sums too when it lies below the cut.
-#[inline]
+#[inline(always)]
 fn fold(
     slot: &mut Slot,
     z: i16,
@@ -1159,6 +1268,68 @@ mod tests {
             c.add_point(q, d, Meters::ZERO);
         }
         assert_eq!(records(&mut c)[0].class, EvidenceClass::Obstacle);
+    }
+
+    #[test]
+    fn remembering_the_last_cell_changes_nothing() {
+        // Runs of points in and around cells (their corners ± 1 raw), jumps between far cells,
+        // coordinates near ±32 768 m; each classifier once as is and once forgetting the last
+        // cells before every point (every point through the cell index, hash and probe).
+        let mut state = 0x2545_F491_4F6C_DD1D_u64;
+        let mut next = || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            state
+        };
+        let cell = Meters::from_num(0.1).to_bits();
+        for rule in [NavigabilityRule::DEFAULT, NavigabilityRule::Spread] {
+            for gate in [GateShape::Hard, GateShape::default()] {
+                let mut a = classifier::<256>(gate);
+                let mut b = classifier::<256>(gate);
+                for c in [&mut a, &mut b] {
+                    c.configure(ClassifierConfig {
+                        rule,
+                        ..ClassifierConfig::default()
+                    });
+                }
+                for _observation in 0..40 {
+                    a.begin(Meters::ZERO);
+                    b.begin(Meters::ZERO);
+                    let mut x = (next() as i32) >> (next() % 32);
+                    let mut y = (next() as i32) >> (next() % 32);
+                    for _ in 0..200 {
+                        match next() % 8 {
+                            0 => x = next() as i32,
+                            1 => y = (next() as i32) >> (next() % 32),
+                            // A cell corner of some layer (cells of 0.1 m · 2ᵏ), ± 1.
+                            2 => {
+                                let size = cell << (next() % 8);
+                                x = x.div_euclid(size).wrapping_mul(size) + (next() % 3) as i32 - 1;
+                            }
+                            _ => {
+                                x = x.saturating_add((next() % 2001) as i32 - 1000);
+                                y = y.saturating_add((next() % 2001) as i32 - 1000);
+                            }
+                        }
+                        let z = Meters::from_bits((next() % 200_000) as i32 - 100_000);
+                        let q = Point3 {
+                            x: Meters::from_bits(x),
+                            y: Meters::from_bits(y),
+                            z,
+                        };
+                        let d = Meters::from_bits((next() % (20 << 16)) as i32);
+                        a.add_point(q, d, Meters::ZERO);
+                        b.forget_recent();
+                        b.add_point(q, d, Meters::ZERO);
+                    }
+                    let (ra, rb) = (records(&mut a), records(&mut b));
+                    assert!(!ra.is_empty());
+                    assert_eq!(ra, rb, "{rule:?} {gate:?}");
+                }
+                assert_eq!(a.stats(), b.stats());
+            }
+        }
     }
 
     #[test]

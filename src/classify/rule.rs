@@ -30,9 +30,11 @@
 //! lowest when that is still below the cut (the best bound still known, as the spread rule
 //! keeps it; its position was not kept, so it is summed where the new point is).
 //!
-//! Per cell, when the observation finishes, in 128-bit integers: the centred moments, the
-//! ridge-regularised plane `w = (C + λI)⁻¹c` with `λ = 1` (one unit², `(c/64)²`, so points
-//! with no horizontal spread in some direction fit no slope in it), the residual
+//! Per cell, when the observation finishes, in integers (the centred moments, the determinant
+//! and the plane's numerators in 64 bits by the sums' bounds, the products with the plane in
+//! 128): the centred moments, the ridge-regularised plane `w = (C + λI)⁻¹c` with `λ = 1` (one
+//! unit², `(c/64)²`, so points with no horizontal spread in some direction fit no slope in
+//! it), the residual
 //! `r² = C_zz − 2wᵀc + wᵀCw`, the plane's rise over the points' extent `R = √(12·wᵀCw)` and its
 //! gradient `g = |w|`; σ_z from the sensor's height above the robot's ground plane and the
 //! cell's closest look (the lower edge of its gate bin).
@@ -172,7 +174,8 @@ pub(super) struct PlaneState {
     suz: i32,
     svz: i32,
     szz: u32,
-    /// Points offered since the sums (re)started, saturating: the decimation's phase.
+    /// Points offered since the last halving, saturating: the decimation's phase (0 before
+    /// the first halving, where every point is summed).
     offered: u16,
     /// z₀, millimetres relative to the observation's reference height.
     z0: i16,
@@ -213,48 +216,69 @@ impl PlaneState {
         s
     }
 
-    /// Offers a point below the overhang cut: summed unless the decimation skips it.
+    /// Offers a point below the overhang cut (`u, v ∈ −32 ..= 31` as [`sub_cell`] gives them:
+    /// the sums' bounds assume it; other values never panic but may wrap the sums): summed
+    /// unless the decimation skips it.
+    #[inline(always)]
     pub(super) fn add(&mut self, u: i8, v: i8, z: i16) {
-        let phase = self.offered;
-        self.offered = self.offered.saturating_add(1);
-        let mask = (1_u32 << self.level) - 1;
-        if u32::from(phase) & mask != 0 {
-            return;
+        // Before the first halving every point is summed and the phase is not read (the
+        // halving restarts it): it is counted from level 1 on only.
+        if self.level != 0 {
+            let phase = self.offered;
+            self.offered = self.offered.saturating_add(1);
+            let mask = (1_u32 << self.level) - 1;
+            if u32::from(phase) & mask != 0 {
+                return;
+            }
         }
         if self.n == 0 {
             self.z0 = z;
         }
         let dz = (i32::from(z) - i32::from(self.z0)).clamp(-MAX_DZ, MAX_DZ);
         let (u, v) = (i32::from(u), i32::from(v));
-        // Within the widths by the bounds of the module documentation (n < 62 before this
-        // point); the conversions cannot fail, and saturate if they ever did.
-        self.su = sat16(i32::from(self.su) + u);
-        self.sv = sat16(i32::from(self.sv) + v);
-        self.suu = satu16(i32::from(self.suu) + u * u);
-        self.svv = satu16(i32::from(self.svv) + v * v);
+        // At most 61 points are summed before this one (n < 62: the sums are halved at 62;
+        // at the last level at most two more points follow the halving to 31), each with
+        // |u|, |v| ≤ 32 and |dz| ≤ 8191, so the sums stay within their widths without
+        // saturating: |Σu| ≤ 62·32 < 2¹⁵, Σuu ≤ 62·32² < 2¹⁶, |Σz| ≤ 62·8191, |Σuz| ≤ 62·32·8191,
+        // Σzz ≤ 62·8191² < 2³² (plain wrapping adds, which never wrap; tested against the
+        // saturating ones). Σuv alone can leave its i16 (62·32·32 > 2¹⁵ − 1) and saturates.
+        #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+        {
+            self.su = self.su.wrapping_add(u as i16);
+            self.sv = self.sv.wrapping_add(v as i16);
+            self.suu = self.suu.wrapping_add((u * u) as u16);
+            self.svv = self.svv.wrapping_add((v * v) as u16);
+            self.szz = self.szz.wrapping_add((dz * dz) as u32);
+        }
         self.suv = sat16(i32::from(self.suv) + u * v);
-        self.sz = self.sz.saturating_add(dz);
-        self.suz = self.suz.saturating_add(u * dz);
-        self.svz = self.svz.saturating_add(v * dz);
-        #[allow(clippy::cast_sign_loss)]
-        let dz2 = (dz * dz) as u32;
-        self.szz = self.szz.saturating_add(dz2);
+        self.sz = self.sz.wrapping_add(dz);
+        self.suz = self.suz.wrapping_add(u * dz);
+        self.svz = self.svz.wrapping_add(v * dz);
         self.n += 1;
         if self.n >= HALVE_AT && self.level < MAX_LEVEL {
-            self.n /= 2;
-            self.su >>= 1;
-            self.sv >>= 1;
-            self.suu >>= 1;
-            self.svv >>= 1;
-            self.suv >>= 1;
-            self.sz >>= 1;
-            self.suz >>= 1;
-            self.svz >>= 1;
-            self.szz >>= 1;
-            self.level += 1;
-            // The next summed point is the 2^level-th from now.
-            self.offered = 0;
+            self.halve();
         }
+    }
+
+    /// Halves every sum and the count; from now on every 2^(level + 1)-th offered point is
+    /// summed (out of line: at most once per 31 summed points, and the per-point path keeps
+    /// no value alive for it).
+    #[cold]
+    #[inline(never)]
+    fn halve(&mut self) {
+        self.n /= 2;
+        self.su >>= 1;
+        self.sv >>= 1;
+        self.suu >>= 1;
+        self.svv >>= 1;
+        self.suv >>= 1;
+        self.sz >>= 1;
+        self.suz >>= 1;
+        self.svz >>= 1;
+        self.szz >>= 1;
+        self.level += 1;
+        // The next summed point is the 2^level-th from now.
+        self.offered = 0;
     }
 
     /// Summed points.
@@ -269,23 +293,21 @@ fn sat16(v: i32) -> i16 {
     i16::try_from(v).unwrap_or(if v < 0 { i16::MIN } else { i16::MAX })
 }
 
-#[cfg(feature = "plane-rule")]
-fn satu16(v: i32) -> u16 {
-    u16::try_from(v.max(0)).unwrap_or(u16::MAX)
-}
-
 /// The 6-bit position `⌊64·rem/c⌋ − 32 ∈ −32 ..= 31` of a coordinate whose remainder in its cell
 /// is `rem` (raw Q16.16, `0 ≤ rem < c`), for a cell of `c` raw with reciprocal
 /// `m = ⌊2³²/c⌋` ([`crate::grid::cell_reciprocal`]): `⌊rem·m/2²⁶⌋`, at most one unit below the
 /// exact value.
+///
+/// In 32 bits: `rem·m ≤ (c − 1)·2³²/c < 2³²`, so the product of two `u32` cannot wrap and the
+/// result is that of the 64-bit product (a library call on a Cortex-M0); tested against it. The
+/// caller gives the remainder as the wrapped difference `x − ⌊x/c⌋·c`, which is exact because
+/// the true remainder fits. A remainder of `c` or more (never given) yields some position in
+/// range, never a panic.
 #[inline]
-pub(super) fn sub_cell(rem: i64, reciprocal: u32) -> i8 {
-    #[allow(clippy::cast_sign_loss)]
-    let rem = rem.clamp(0, i64::from(u32::MAX)) as u64;
-    let q = (rem * u64::from(reciprocal)) >> 26;
-    // q ≤ 63 for rem < c; clamp for safety.
-    #[allow(clippy::cast_possible_truncation)]
-    let q = q.min(63) as i8;
+pub(super) fn sub_cell(rem: u32, reciprocal: u32) -> i8 {
+    // A u32 shifted right by 26 is below 64.
+    #[allow(clippy::cast_possible_truncation, clippy::cast_possible_wrap)]
+    let q = (rem.wrapping_mul(reciprocal) >> 26) as i8;
     q - 32
 }
 
@@ -412,6 +434,36 @@ const ROOT_12_OVER_N: [u32; HALVE_AT as usize + 1] = {
 #[cfg(feature = "plane-rule")]
 /// The noise allowance `k·σ_z(d)`, mm Q16.
 fn noise_q16(params: &PlaneParams, geometry: &CellGeometry) -> i64 {
+    noise_q16_narrow(params, geometry).unwrap_or_else(|| noise_q16_wide(params, geometry))
+}
+
+#[cfg(feature = "plane-rule")]
+/// [`noise_q16`] in 64 bits, or `None` where a value would not fit them (σ·h or σ_a·r of 2⁶³
+/// or more, or σ_z's terms of 2³¹ mm Q16 or more: with the default rule only beyond 24 km).
+/// h < 2³¹ and d < 2²⁵ mm, so `h² + d² < 2⁶³` and `r < 2³²`; terms below 2³¹ keep their
+/// squares' sum below 2⁶³. The same integers as [`noise_q16_wide`] (tested).
+fn noise_q16_narrow(params: &PlaneParams, geometry: &CellGeometry) -> Option<i64> {
+    let h = i64::from(geometry.sensor_height_mm.max(0));
+    let d = (i64::from(geometry.distance.to_bits()).max(0) * 1000) >> 16;
+    #[allow(clippy::cast_sign_loss, clippy::cast_possible_wrap)]
+    let r = ((h * h + d * d) as u64).isqrt() as i64;
+    let range = if r == 0 {
+        params.sigma_q16
+    } else {
+        params.sigma_q16.checked_mul(h)? / r
+    };
+    let angle = params.angle_q16.checked_mul(r)?;
+    if range >= 1 << 31 || angle >= 1 << 31 {
+        return None;
+    }
+    #[allow(clippy::cast_sign_loss, clippy::cast_possible_wrap)]
+    let sigma_z = ((range * range + angle * angle) as u64).isqrt() as i64;
+    sigma_z.checked_mul(params.factor_q16).map(|v| v >> 16)
+}
+
+#[cfg(feature = "plane-rule")]
+/// [`noise_q16`] in 128 bits, saturating.
+fn noise_q16_wide(params: &PlaneParams, geometry: &CellGeometry) -> i64 {
     let h = i128::from(geometry.sensor_height_mm.max(0));
     let d = (i128::from(geometry.distance.to_bits()).max(0) * 1000) >> 16;
     // r = √(h² + d²), mm.
@@ -443,11 +495,16 @@ fn noise_q16(params: &PlaneParams, geometry: &CellGeometry) -> i64 {
 
 #[cfg(feature = "plane-rule")]
 /// `⌊num·2¹⁶/den⌉` towards zero, for `den > 0`: in 64-bit divisions when `num` and `den` fit
-/// 64 bits (always for the plane's sums: |num| < 2⁵⁴, den < 2⁴⁵), as the integer quotient and
-/// the quotient of the remainder times 2¹⁶ (< 2⁶¹); in 128 bits otherwise.
+/// 64 bits (always for the plane's sums: |num| < 2⁵⁴, den < 2⁴⁵): one division of `num·2¹⁶`
+/// when |num| < 2⁴⁷ (most cells), else the integer quotient and the quotient of the remainder
+/// times 2¹⁶ (< 2⁶¹); in 128 bits otherwise.
 fn q16_quotient(num: i128, den: i128) -> i128 {
     match (i64::try_from(num), i64::try_from(den)) {
         (Ok(n), Ok(d)) if d > 0 && d < (1_i64 << 46) => {
+            if n.unsigned_abs() < 1 << 47 {
+                // num·2¹⁶ fits 64 bits: one division.
+                return i128::from((n << 16) / d);
+            }
             let (q, r) = (n / d, n % d);
             (i128::from(q) << 16) + i128::from((r << 16) / d)
         }
@@ -456,27 +513,31 @@ fn q16_quotient(num: i128, den: i128) -> i128 {
 }
 
 #[cfg(feature = "plane-rule")]
-/// Whether the plane rule calls the cell of `state` not navigable: four 64-bit divisions
-/// (the plane), one for the noise, four integer square roots (the noise, the gradient, the
-/// rise).
+/// Whether the plane rule calls the cell of `state` not navigable: two to four 64-bit
+/// divisions (the plane), one for the noise, four integer square roots (the noise, the
+/// gradient, the rise).
 pub(super) fn plane_obstacle(
     state: &PlaneState,
     params: &PlaneParams,
     geometry: &CellGeometry,
 ) -> bool {
-    let n = i128::from(state.n);
-    if n < 2 {
+    if state.n < 2 {
         return false;
     }
-    let (su, sv) = (i128::from(state.su), i128::from(state.sv));
-    let sz = i128::from(state.sz);
-    // Centred moments times n² (u, v in units of c/64; z in mm).
-    let cuu = n * i128::from(state.suu) - su * su;
-    let cvv = n * i128::from(state.svv) - sv * sv;
-    let cuv = n * i128::from(state.suv) - su * sv;
-    let cuz = n * i128::from(state.suz) - su * sz;
-    let cvz = n * i128::from(state.svz) - sv * sz;
-    let czz = n * i128::from(state.szz) - sz * sz;
+    // Centred moments times n² (u, v in units of c/64; z in mm), the ridge, the determinant
+    // and the plane's numerators in 64 bits: with n ≤ 62 and the sums' bounds (module
+    // documentation; |Σuv| ≤ 2¹⁵) |C_uu|, |C_vv| < 2²³, |C_uv| < 2²³, |C_uz|, |C_vz| < 2³¹,
+    // |C_zz| < 2³⁹, so |det| < 2⁴⁷ and the numerators < 2⁵⁵ (tested against the 128-bit
+    // computation). The rest in 128 bits.
+    let n = i64::from(state.n);
+    let (su, sv) = (i64::from(state.su), i64::from(state.sv));
+    let sz = i64::from(state.sz);
+    let cuu = n * i64::from(state.suu) - su * su;
+    let cvv = n * i64::from(state.svv) - sv * sv;
+    let cuv = n * i64::from(state.suv) - su * sv;
+    let cuz = n * i64::from(state.suz) - su * sz;
+    let cvz = n * i64::from(state.svz) - sv * sz;
+    let czz = n * i64::from(state.szz) - sz * sz;
     let n2 = n * n;
     // The ridge λ = 1 unit², times n².
     let (a, b) = (cuu + n2, cvv + n2);
@@ -485,8 +546,11 @@ pub(super) fn plane_obstacle(
         return false;
     }
     // w = (C + λI)⁻¹ c, mm per unit, Q16.
-    let wa = q16_quotient(b * cuz - cuv * cvz, det);
-    let wb = q16_quotient(a * cvz - cuv * cuz, det);
+    let wa = q16_quotient(i128::from(b * cuz - cuv * cvz), i128::from(det));
+    let wb = q16_quotient(i128::from(a * cvz - cuv * cuz), i128::from(det));
+    let (n, n2) = (i128::from(n), i128::from(n2));
+    let (cuu, cvv, cuv) = (i128::from(cuu), i128::from(cvv), i128::from(cuv));
+    let (cuz, cvz, czz) = (i128::from(cuz), i128::from(cvz), i128::from(czz));
     // wᵀCw and wᵀc, times n²: Q32 and Q16 mm².
     let explained = wa * wa * cuu + 2 * wa * wb * cuv + wb * wb * cvv;
     let wc = wa * cuz + wb * cvz;
@@ -741,6 +805,169 @@ mod tests {
         }
     }
 
+    /// [`plane_obstacle`] as it was, in 128 bits from the start.
+    fn plane_obstacle_128(
+        state: &PlaneState,
+        params: &PlaneParams,
+        geometry: &CellGeometry,
+    ) -> bool {
+        let n = i128::from(state.n);
+        if n < 2 {
+            return false;
+        }
+        let (su, sv) = (i128::from(state.su), i128::from(state.sv));
+        let sz = i128::from(state.sz);
+        let cuu = n * i128::from(state.suu) - su * su;
+        let cvv = n * i128::from(state.svv) - sv * sv;
+        let cuv = n * i128::from(state.suv) - su * sv;
+        let cuz = n * i128::from(state.suz) - su * sz;
+        let cvz = n * i128::from(state.svz) - sv * sz;
+        let czz = n * i128::from(state.szz) - sz * sz;
+        let n2 = n * n;
+        let (a, b) = (cuu + n2, cvv + n2);
+        let det = a * b - cuv * cuv;
+        if det <= 0 {
+            return false;
+        }
+        let wa = q16_quotient(b * cuz - cuv * cvz, det);
+        let wb = q16_quotient(a * cvz - cuv * cuz, det);
+        let explained = wa * wa * cuu + 2 * wa * wb * cuv + wb * wb * cvv;
+        let wc = wa * cuz + wb * cvz;
+        let residual = (czz << 32) - 2 * (wc << 16) + explained;
+        let noise = i128::from(noise_q16(params, geometry));
+        let allowed = i128::from(params.residual_q16)
+            .saturating_mul(i128::from(params.residual_q16))
+            .saturating_add(noise.saturating_mul(noise));
+        if residual > allowed.saturating_mul(n2) {
+            return true;
+        }
+        let slope = isqrt((wa * wa + wb * wb) as u128) as i128;
+        let cell_mm_q16 = i128::from(geometry.cell.max(1)) * 1000;
+        let steep = 64 * slope - ((i128::from(params.grade_q16) * cell_mm_q16) >> 16);
+        if steep <= 0 {
+            return false;
+        }
+        let rise_n = isqrt((12 * explained.max(0)) as u128) as i128;
+        let root = ROOT_12_OVER_N
+            .get(usize::from(state.n))
+            .map_or(0, |&r| i128::from(r));
+        let allowance =
+            i128::from(params.step_q16).saturating_add(noise.saturating_mul(root) >> 16);
+        rise_n.saturating_mul(steep) > (64 * slope * n).saturating_mul(allowance)
+    }
+
+    #[test]
+    fn the_decision_in_64_bits_first_is_the_128_bit_one() {
+        let mut state = 0xD1B5_4A32_D192_ED03_u64;
+        let mut next = || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            state
+        };
+        let mut obstacles = 0;
+        let total = 20_000;
+        for run in 0..total {
+            // Cells of 2 to 3000 points: at the corners and extreme heights (the sums' bounds),
+            // planes with noise, steps, random clouds; under rules from strict to lax.
+            let mut s = PlaneState::EMPTY;
+            let points = 2 + next() % if run % 10 == 0 { 3000 } else { 80 };
+            let kind = next() % 4;
+            let (gu, gv, off) = ((next() % 200) as i32 - 100, (next() % 200) as i32 - 100, 0);
+            for _ in 0..points {
+                let r = next();
+                let (u, v) = ((r % 64) as i8 - 32, ((r >> 8) % 64) as i8 - 32);
+                let z = match kind {
+                    0 => {
+                        let c = [-32_i8, 31][(r >> 20) as usize % 2];
+                        s.add(c, c, [i16::MIN, i16::MAX, 0][(r >> 24) as usize % 3]);
+                        continue;
+                    }
+                    1 => {
+                        off + gu * i32::from(u) / 10 + gv * i32::from(v) / 10 + (r >> 40) as i32 % 9
+                    }
+                    2 => (if u > 0 { 300 } else { 0 }) + (r >> 40) as i32 % 5,
+                    _ => (r >> 32) as i16 as i32 / 4,
+                };
+                s.add(u, v, z.clamp(-32_768, 32_767) as i16);
+            }
+            let params = PlaneParams::new(
+                &PlaneRule {
+                    max_grade: Ratio::from_bits((next() % 80_000) as i32),
+                    residual: Meters::from_bits((next() % 3000) as i32),
+                    range_sigma: Meters::from_bits((next() % 3000) as i32),
+                    ..PlaneRule::DEFAULT
+                },
+                Meters::from_bits((next() % 10_000) as i32),
+            );
+            let geometry = CellGeometry {
+                cell: Meters::from_num(0.1).to_bits() << (next() % 8),
+                sensor_height_mm: (next() % 2000) as i32,
+                distance: Meters::from_bits((next() % (30 << 16)) as i32),
+            };
+            let got = plane_obstacle(&s, &params, &geometry);
+            assert_eq!(got, plane_obstacle_128(&s, &params, &geometry), "run {run}");
+            obstacles += usize::from(got);
+        }
+        // Both answers occur.
+        assert!(
+            obstacles > total / 20 && obstacles < total * 19 / 20,
+            "{obstacles}"
+        );
+    }
+
+    #[test]
+    fn the_noise_in_64_bits_is_the_128_bit_noise() {
+        let mut state = 0x6A09_E667_F3BC_C908_u64;
+        let mut next = || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            state
+        };
+        let mut narrow = 0;
+        let pick = |next: &mut dyn FnMut() -> u64| -> i32 {
+            // Zero, small, typical and extreme raw values.
+            match next() % 4 {
+                0 => [0, 1, i32::MAX, i32::MIN][(next() % 4) as usize],
+                1 => (next() % 5000) as i32,
+                _ => (next() as i32) >> (next() % 31),
+            }
+        };
+        for _ in 0..200_000 {
+            let rule = PlaneRule {
+                range_sigma: Meters::from_bits(pick(&mut next)),
+                angle_sigma: Ratio::from_bits(pick(&mut next)),
+                noise_factor: Ratio::from_bits(pick(&mut next)),
+                ..PlaneRule::DEFAULT
+            };
+            let params = PlaneParams::new(&rule, Meters::from_num(0.05));
+            let geometry = CellGeometry {
+                cell: Meters::from_num(0.1).to_bits(),
+                sensor_height_mm: pick(&mut next),
+                distance: Meters::from_bits(pick(&mut next)),
+            };
+            let wide = noise_q16_wide(&params, &geometry);
+            if let Some(v) = noise_q16_narrow(&params, &geometry) {
+                narrow += 1;
+                assert_eq!(v, wide, "{rule:?} {geometry:?}");
+            }
+            assert_eq!(noise_q16(&params, &geometry), wide);
+        }
+        assert!(narrow > 50_000, "{narrow}");
+        let default = PlaneParams::new(&PlaneRule::DEFAULT, Meters::from_num(0.05));
+        for h in [0, 300, 1300, 32_767] {
+            for d in [0.0, 0.5, 3.0, 20.0, 20_000.0] {
+                let g = CellGeometry {
+                    cell: Meters::from_num(0.1).to_bits(),
+                    sensor_height_mm: h,
+                    distance: Meters::from_num(d),
+                };
+                assert!(noise_q16_narrow(&default, &g).is_some(), "{h} {d}");
+            }
+        }
+    }
+
     #[test]
     fn the_q16_quotient_is_the_128_bit_one() {
         let mut state = 0x2545_F491_4F6C_DD1D_u64;
@@ -751,7 +978,7 @@ mod tests {
             state
         };
         for _ in 0..100_000 {
-            let num = i128::from((next() as i64) >> (next() % 20));
+            let num = i128::from((next() as i64) >> (next() % 60));
             let den = i128::from((next() >> (20 + next() % 40)).max(1) as i64);
             assert_eq!(q16_quotient(num, den), (num << 16) / den, "{num} / {den}");
         }
@@ -778,17 +1005,173 @@ mod tests {
         }
     }
 
+    /// [`PlaneState::add`] as it was before its sums stopped saturating (and while it counted
+    /// the decimation's phase before the first halving).
+    fn add_saturating(s: &mut PlaneState, u: i8, v: i8, z: i16) {
+        let satu16 = |v: i32| u16::try_from(v.max(0)).unwrap_or(u16::MAX);
+        let phase = s.offered;
+        s.offered = s.offered.saturating_add(1);
+        if u32::from(phase) & ((1_u32 << s.level) - 1) != 0 {
+            return;
+        }
+        if s.n == 0 {
+            s.z0 = z;
+        }
+        let dz = (i32::from(z) - i32::from(s.z0)).clamp(-MAX_DZ, MAX_DZ);
+        let (u, v) = (i32::from(u), i32::from(v));
+        s.su = sat16(i32::from(s.su) + u);
+        s.sv = sat16(i32::from(s.sv) + v);
+        s.suu = satu16(i32::from(s.suu) + u * u);
+        s.svv = satu16(i32::from(s.svv) + v * v);
+        s.suv = sat16(i32::from(s.suv) + u * v);
+        s.sz = s.sz.saturating_add(dz);
+        s.suz = s.suz.saturating_add(u * dz);
+        s.svz = s.svz.saturating_add(v * dz);
+        s.szz = s.szz.saturating_add((dz * dz) as u32);
+        s.n += 1;
+        if s.n >= HALVE_AT && s.level < MAX_LEVEL {
+            s.n /= 2;
+            s.su >>= 1;
+            s.sv >>= 1;
+            s.suu >>= 1;
+            s.svv >>= 1;
+            s.suv >>= 1;
+            s.sz >>= 1;
+            s.suz >>= 1;
+            s.svz >>= 1;
+            s.szz >>= 1;
+            s.level += 1;
+            s.offered = 0;
+        }
+    }
+
+    #[test]
+    fn the_sums_without_saturation_are_the_saturating_sums() {
+        let mut state = 0x9E37_79B9_7F4A_7C15_u64;
+        let mut next = || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            state
+        };
+        // Runs at the extremes (corners ±32/31, z at ±32 767 and far from z₀), runs with the
+        // signs alternating, random runs, and runs long enough to reach the last level.
+        for run in 0..400_u32 {
+            let mut s = PlaneState::EMPTY;
+            let mut reference = PlaneState::EMPTY;
+            let length = if run % 200 == 0 {
+                2_200_000
+            } else {
+                1 + next() % 5000
+            };
+            let kind = next() % 4;
+            for i in 0..length {
+                let r = next();
+                let (u, v, z) = match kind {
+                    0 => {
+                        let corner = [-32_i8, 31][(r & 1) as usize];
+                        let z = [i16::MIN, i16::MAX, 0, -8191, 8191][(r >> 1) as usize % 5];
+                        (corner, corner, z)
+                    }
+                    1 => {
+                        let sign = if i % 2 == 0 { -32_i8 } else { 31 };
+                        (sign, -32, if i % 3 == 0 { i16::MAX } else { i16::MIN })
+                    }
+                    2 => (-32, -32, (r >> 8) as i16),
+                    _ => (
+                        (r % 64) as i8 - 32,
+                        ((r >> 8) % 64) as i8 - 32,
+                        (r >> 16) as i16,
+                    ),
+                };
+                s.add(u, v, z);
+                add_saturating(&mut reference, u, v, z);
+                // The reference counts the phase before the first halving too, unread there.
+                let phase = if reference.level == 0 {
+                    0
+                } else {
+                    reference.offered
+                };
+                assert_eq!(
+                    s,
+                    PlaneState {
+                        offered: phase,
+                        ..reference
+                    },
+                    "run {run} point {i}"
+                );
+            }
+            if length > 2_000_000 {
+                // As deep as the decimation goes: its phase saturates at 2¹⁶ − 1 offered
+                // points, which at level 12 come before the 31 summed points that would halve.
+                assert_eq!(s.level, 12);
+            }
+        }
+    }
+
+    /// The position as it was computed before: a 64-bit product, clamped.
+    fn sub_cell_64(rem: i64, reciprocal: u32) -> i8 {
+        let rem = rem.clamp(0, i64::from(u32::MAX)) as u64;
+        let q = (rem * u64::from(reciprocal)) >> 26;
+        q.min(63) as i8 - 32
+    }
+
+    #[test]
+    fn sub_cell_in_32_bits_is_the_64_bit_product() {
+        let mut state = 0x9E37_79B9_7F4A_7C15_u64;
+        let mut next = || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            state
+        };
+        // Every cell size of the default designs' layers and their neighbours, sizes from
+        // 1 raw up to 2³⁰, and random sizes; each at its edges and random remainders.
+        let mut sizes = std::vec![1, 2, 3, 655, 6553, 6554, 6555, 13_107, 26_214, 52_429];
+        sizes.extend([
+            104_858,
+            209_715,
+            419_430,
+            838_861,
+            65_536,
+            1 << 20,
+            (1 << 30) - 1,
+        ]);
+        sizes.extend([1 << 30, i32::MAX]);
+        for _ in 0..300 {
+            sizes.push(1 + (next() % (1 << (1 + next() % 30))) as i32);
+        }
+        for c in sizes {
+            let m = crate::grid::cell_reciprocal(c);
+            let edges = (0..64_i64).flat_map(|j| {
+                let at = j * i64::from(c) / 64;
+                [at - 1, at, at + 1]
+            });
+            let random = (0..200).map(|_| (next() % c as u64) as i64);
+            for rem in edges.chain(random).chain([i64::from(c) - 1]) {
+                if !(0..i64::from(c)).contains(&rem) {
+                    continue;
+                }
+                assert_eq!(
+                    sub_cell(rem as u32, m),
+                    sub_cell_64(rem, m),
+                    "c {c} rem {rem}"
+                );
+            }
+        }
+    }
+
     #[test]
     fn sub_cell_positions_cover_the_cell() {
         let c = Meters::from_num(0.3).to_bits();
         let m = crate::grid::cell_reciprocal(c);
         assert_eq!(sub_cell(0, m), -32);
-        assert_eq!(sub_cell(i64::from(c) - 1, m), 31);
-        assert!((-1..=0).contains(&sub_cell(i64::from(c) / 2, m)));
+        assert_eq!(sub_cell(c as u32 - 1, m), 31);
+        assert!((-1..=0).contains(&sub_cell(c as u32 / 2, m)));
         // Every remainder lands within one unit of the exact value.
         for rem in (0..c).step_by(97) {
             let exact = (i64::from(rem) * 64 / i64::from(c)) as i8 - 32;
-            let got = sub_cell(i64::from(rem), m);
+            let got = sub_cell(rem as u32, m);
             assert!(got == exact || got == exact - 1, "{rem}: {got} {exact}");
         }
     }
