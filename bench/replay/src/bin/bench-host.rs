@@ -7,17 +7,20 @@
 //! - `bench-host export REC OUT`: writes the recording's world points as the library's
 //!   geometry computes them, for the OctoMap harness: per line a `u32` point count, the
 //!   scanner's origin (3 × `f32`) and the points (3 × `f32` each), little-endian.
+//! - `bench-host fed-layers REC`: how many layers of the default design each return feeds
+//!   (the classifier's per-layer work is paid that many times), their mean and histogram.
 
 use std::process::ExitCode;
 use std::time::{Duration, Instant};
 use terrain_pyramid::angle::FineAngle;
 use terrain_pyramid::drivers::angle::HostSuppliedAngle;
+use terrain_pyramid::gate::Gates;
 use terrain_pyramid::geometry::{BeamTable, LineTransform, Pose, PoseFrame};
 use terrain_pyramid::pipeline::FrontendConfig;
 use terrain_pyramid::wire::recording::{Payload, Reader};
 use terrain_pyramid::wire::sick::{MeasuredValues, SickAccumulator, SickItem};
 use terrain_pyramid::wire::FeedResult;
-use terrain_pyramid::DefaultCoProcessor;
+use terrain_pyramid::{Config, DefaultCoProcessor};
 use terrain_pyramid_bench::{boot, default_design, frontend_config, replay, setup, Core, Pipeline};
 
 fn throughput(rec: &[u8], seconds: f64) -> Result<(), String> {
@@ -49,7 +52,12 @@ fn throughput(rec: &[u8], seconds: f64) -> Result<(), String> {
     Ok(())
 }
 
-fn export(rec: &[u8], out: &str) -> Result<(), String> {
+/// Every measured-values telegram of the recording with the line transform in force when it
+/// arrived (the recording's pose and actuator angle), in order.
+fn each_line(
+    rec: &[u8],
+    mut on_line: impl FnMut(&LineTransform<'_>, &MeasuredValues<'_>, &FrontendConfig),
+) -> Result<(), String> {
     let config: FrontendConfig = setup(rec)
         .as_ref()
         .and_then(frontend_config)
@@ -58,8 +66,6 @@ fn export(rec: &[u8], out: &str) -> Result<(), String> {
     let mut frame = PoseFrame::from(&Pose::default());
     let mut actuator = FineAngle::ZERO;
     let mut acc: Box<SickAccumulator> = Box::new(SickAccumulator::new());
-    let mut bytes = Vec::new();
-    let (mut lines, mut points) = (0_u64, 0_u64);
     for event in Reader::new(rec).map_err(|e| e.to_string())? {
         let event = event.map_err(|e| e.to_string())?;
         match event.payload {
@@ -82,29 +88,7 @@ fn export(rec: &[u8], out: &str) -> Result<(), String> {
                             if let Ok(values) = MeasuredValues::parse(&telegram) {
                                 let tr =
                                     LineTransform::new(&beams, &config.mount, actuator, &frame);
-                                let o = tr.sensor_origin();
-                                let mut pts = Vec::new();
-                                for (j, r) in values.ranges_mm(config.measuring_mode).enumerate() {
-                                    if let Some(p) = r.and_then(|r| tr.locate(j, r)) {
-                                        pts.push(
-                                            [p.point.x, p.point.y, p.point.z]
-                                                .map(|m| m.to_num::<f32>()),
-                                        );
-                                    }
-                                }
-                                bytes.extend_from_slice(
-                                    &u32::try_from(pts.len()).unwrap_or(0).to_le_bytes(),
-                                );
-                                for v in [o.x, o.y, o.z] {
-                                    bytes.extend_from_slice(&v.to_num::<f32>().to_le_bytes());
-                                }
-                                for p in &pts {
-                                    for v in p {
-                                        bytes.extend_from_slice(&v.to_le_bytes());
-                                    }
-                                }
-                                lines += 1;
-                                points += pts.len() as u64;
+                                on_line(&tr, &values, &config);
                             }
                             rest = remaining;
                         }
@@ -115,8 +99,76 @@ fn export(rec: &[u8], out: &str) -> Result<(), String> {
             _ => {}
         }
     }
+    Ok(())
+}
+
+fn export(rec: &[u8], out: &str) -> Result<(), String> {
+    let mut bytes = Vec::new();
+    let (mut lines, mut points) = (0_u64, 0_u64);
+    each_line(rec, |tr, values, config| {
+        let o = tr.sensor_origin();
+        let mut pts = Vec::new();
+        for (j, r) in values.ranges_mm(config.measuring_mode).enumerate() {
+            if let Some(p) = r.and_then(|r| tr.locate(j, r)) {
+                pts.push([p.point.x, p.point.y, p.point.z].map(|m| m.to_num::<f32>()));
+            }
+        }
+        bytes.extend_from_slice(&u32::try_from(pts.len()).unwrap_or(0).to_le_bytes());
+        for v in [o.x, o.y, o.z] {
+            bytes.extend_from_slice(&v.to_num::<f32>().to_le_bytes());
+        }
+        for p in &pts {
+            for v in p {
+                bytes.extend_from_slice(&v.to_le_bytes());
+            }
+        }
+        lines += 1;
+        points += pts.len() as u64;
+    })?;
     std::fs::write(out, bytes).map_err(|e| format!("{out}: {e}"))?;
     println!("lines={lines} points={points}");
+    Ok(())
+}
+
+/// How many layers of the default design each return feeds: the layers whose gate weight at
+/// the return's distance bin reaches the feeding minimum (as the classifier decides it). Prints
+/// `returns=… fed=… mean=…` and the count of returns feeding 0, 1, 2, … layers.
+fn fed_layers(rec: &[u8]) -> Result<(), String> {
+    let design = default_design::<64, 8>().ok_or("the default design")?;
+    let increments = Config::default()
+        .model
+        .increments()
+        .map_err(|e| format!("{e:?}"))?;
+    let mut gates: Box<Gates<8>> = Box::new(Gates::new());
+    gates
+        .configure(&design, increments)
+        .map_err(|e| format!("{e:?}"))?;
+    let (mut returns, mut fed) = (0_u64, 0_u64);
+    let mut histogram = [0_u64; 9];
+    each_line(rec, |tr, values, config| {
+        for (j, r) in values.ranges_mm(config.measuring_mode).enumerate() {
+            let Some(p) = r.and_then(|r| tr.locate(j, r)) else {
+                continue;
+            };
+            let bin = gates.distance_bins().bin(p.horizontal);
+            let n = (0..gates.layer_count())
+                .filter(|&k| {
+                    gates
+                        .table(k)
+                        .is_some_and(|t| t.weight(bin) >= gates.min_feeding_weight())
+                })
+                .count();
+            returns += 1;
+            fed += n as u64;
+            if let Some(h) = histogram.get_mut(n) {
+                *h += 1;
+            }
+        }
+    })?;
+    println!(
+        "returns={returns} fed={fed} mean={:.3} histogram={histogram:?}",
+        fed as f64 / returns.max(1) as f64
+    );
     Ok(())
 }
 
@@ -134,7 +186,12 @@ fn main() -> ExitCode {
                 _ => Err(format!("unknown command {cmd}")),
             },
         },
-        _ => Err("usage: bench-host throughput REC SECONDS | export REC OUT".into()),
+        [cmd, rec] if cmd == "fed-layers" => std::fs::read(rec)
+            .map_err(|e| format!("{rec}: {e}"))
+            .and_then(|data| fed_layers(&data)),
+        _ => {
+            Err("usage: bench-host throughput REC SECONDS | export REC OUT | fed-layers REC".into())
+        }
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
