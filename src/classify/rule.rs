@@ -160,7 +160,8 @@ impl defmt::Format for PlaneRule {
 /// The number of summed points at which the sums are halved.
 const HALVE_AT: u8 = 62;
 #[cfg(feature = "plane-rule")]
-/// The largest halving level (every 2¹⁵-th point summed).
+/// The largest halving level by its own bound (every 2¹⁵-th point summed); the saturating
+/// 16-bit phase stops the sampling at level 12 first (`docs/core.md`, the plane rule).
 const MAX_LEVEL: u8 = 15;
 #[cfg(feature = "plane-rule")]
 /// The largest |z − z₀| summed, millimetres.
