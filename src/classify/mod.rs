@@ -180,10 +180,6 @@ impl Recent {
 /// a fresh classifier) is all zero bits.
 const EMPTY: u8 = 0;
 
-/// The layers whose cell reciprocal the classifier caches for the plane rule's position in the
-/// cell (layers 32 and up, in pyramids of more than 32 layers, compute it per point).
-const RULE_LAYERS: usize = 32;
-
 /// One touched layer cell of the current observation. 48 bytes (16 without the `plane-rule`
 /// feature).
 #[derive(Debug, Clone, Copy)]
@@ -239,10 +235,11 @@ pub struct Classifier<const C: usize, const L: usize> {
     step_mm: i16,
     /// The plane rule's parameters in its units, and whether it is in force.
     plane: Option<PlaneParams>,
-    /// For layers 8 up to [`RULE_LAYERS`], the cell size (raw) of its last point and its
-    /// reciprocal ([`crate::grid::cell_reciprocal`]; the first eight keep theirs in
-    /// `recent`, layers beyond compute it per point).
-    layer_cells: [(i32, u32); RULE_LAYERS],
+    /// For layers 8 and up (entry k for layer k; the first eight entries are unused: those
+    /// layers keep theirs in `recent`), the cell size (raw) of its last point and its
+    /// reciprocal ([`crate::grid::cell_reciprocal`]). Sized by the design's L, so that a small
+    /// pyramid (the micro:bit's four layers) carries no entries it cannot use.
+    layer_cells: [(i32, u32); L],
     /// The robot's ground plane as of the last point (raw Q16.16).
     ground_z: i32,
     stats: ClassifierStats,
@@ -327,7 +324,7 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
             robot_height_mm: 0,
             step_mm: 0,
             plane: None,
-            layer_cells: [(0, 0); RULE_LAYERS],
+            layer_cells: [(0, 0); L],
             ground_z: 0,
             stats: ClassifierStats {
                 points: 0,
