@@ -121,3 +121,50 @@ fn panic(info: &core::panic::PanicInfo<'_>) -> ! {
     }
     semihosting::process::exit(101)
 }
+
+/// The f32 counterpart (`terrain-pyramid-f32`) of the pipeline without the link, measured:
+/// the default design's 8 layers of 64², f32 cells, f32 geometry and classifier, 1 024 slots,
+/// under the recording's configuration with its rule replaced by `rule` when given. The
+/// `f32` and `f32-paper` binaries.
+pub fn run_f32(rule: Option<terrain_pyramid::classify::NavigabilityRule>) -> ! {
+    use static_cell::{ConstStaticCell, StaticCell};
+    use terrain_pyramid::wire::sick::SickAccumulator;
+    use terrain_pyramid::{Config, DefaultDesign, Schedule, SensorModel, DEFAULT_CELLS_PER_SIDE};
+    use terrain_pyramid_bench::f32_pipeline::{Frontend, Pyramid};
+    use terrain_pyramid_bench::{frontend_config, replay, setup, Pipeline, F32};
+
+    static PYRAMID: ConstStaticCell<Pyramid<64, 8>> = ConstStaticCell::new(Pyramid::new());
+    static ACC: ConstStaticCell<SickAccumulator> = ConstStaticCell::new(SickAccumulator::new());
+    static FRONTEND: StaticCell<Frontend<1024>> = StaticCell::new();
+
+    let rec = recording();
+    let Some(mut config) = setup(rec).as_ref().and_then(frontend_config) else {
+        panic!("the recording has no usable setup");
+    };
+    if let Some(rule) = rule {
+        config.classifier.rule = rule;
+    }
+    let pyramid = PYRAMID.take();
+    let Ok(design) = DefaultDesign::new(
+        SensorModel::default(),
+        Schedule::default(),
+        DEFAULT_CELLS_PER_SIDE,
+    ) else {
+        panic!("default design");
+    };
+    if pyramid.configure(&design, &Config::default()).is_err() {
+        panic!("configure");
+    }
+    let frontend = FRONTEND.init(Frontend::new(config));
+    let mut p = F32 {
+        accumulator: ACC.take(),
+        frontend,
+        pyramid,
+    };
+    let top = paint_stack();
+    start();
+    replay(rec, &mut p);
+    end();
+    let stack = stack_used(top);
+    report(p.returns(), p.lines(), 0, stack)
+}
