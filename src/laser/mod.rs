@@ -226,42 +226,23 @@ impl Packet<'_> {
     /// Return `k` (in the order the sensor measured them); `None` for `k ≥ len()`.
     #[must_use]
     pub fn get(&self, k: usize) -> Option<LaserReturn> {
-        self.get_with(k, None)
-    }
-
-    /// [`Packet::get`] with the angle of an LD06 point or the first-level angle of a YDLIDAR
-    /// sample given (`stepped`, as [`Returns`] steps them) instead of computed from `k`.
-    fn get_with(&self, k: usize, stepped: Option<FineAngle>) -> Option<LaserReturn> {
         match self {
-            Self::Ld06(p) => {
-                let point = p.point(k)?;
-                Some(LaserReturn {
-                    angle: match stepped {
-                        Some(angle) => angle,
-                        None => p.angle(k)?,
-                    },
-                    range_mm: u32::from(point.distance_mm),
-                    quality: Some(point.intensity),
-                })
-            }
+            Self::Ld06(p) => Some(LaserReturn {
+                angle: p.angle(k)?,
+                range_mm: u32::from(p.point(k)?.distance_mm),
+                quality: Some(p.point(k)?.intensity),
+            }),
             Self::RplidarNode(n) => (k == 0).then(|| n.to_return()),
             Self::RplidarExpress(e) => Some(LaserReturn {
                 angle: e.angle(k)?,
                 range_mm: u32::from(e.capsule().distance_mm(k)?),
                 quality: None,
             }),
-            Self::Ydlidar(p, correction) => {
-                let si = p.sample(k)?;
-                let first = match stepped {
-                    Some(angle) => angle,
-                    None => p.first_level_angle(k)?,
-                };
-                Some(LaserReturn {
-                    angle: crate::wire::ydlidar::corrected(first, si, *correction),
-                    range_mm: (u32::from(si) + 2) >> 2,
-                    quality: None,
-                })
-            }
+            Self::Ydlidar(p, correction) => Some(LaserReturn {
+                angle: p.angle(k, *correction)?,
+                range_mm: (u32::from(p.sample(k)?) + 2) >> 2,
+                quality: None,
+            }),
         }
     }
 
@@ -422,8 +403,32 @@ impl Iterator for Returns<'_, '_> {
         while self.next < self.len {
             let k = self.next;
             self.next += 1;
-            let stepped = self.angles.as_mut().map(TurnSteps::next_angle);
-            if let Some(r) = self.packet.get_with(k, stepped) {
+            if let Some(steps) = self.angles.as_mut() {
+                let angle = steps.next_angle();
+                match self.packet {
+                    Packet::Ld06(p) => {
+                        if let Some(point) = p.point(k) {
+                            return Some(LaserReturn {
+                                angle,
+                                range_mm: u32::from(point.distance_mm),
+                                quality: Some(point.intensity),
+                            });
+                        }
+                    }
+                    Packet::Ydlidar(p, correction) => {
+                        if let Some(si) = p.sample(k) {
+                            return Some(LaserReturn {
+                                angle: crate::wire::ydlidar::corrected(angle, si, *correction),
+                                range_mm: (u32::from(si) + 2) >> 2,
+                                quality: None,
+                            });
+                        }
+                    }
+                    _ => {}
+                }
+                continue;
+            }
+            if let Some(r) = self.packet.get(k) {
                 return Some(r);
             }
         }
