@@ -664,10 +664,10 @@ impl<const C: usize, const L: usize> Frontend<C, L> {
             (turn << 16) / steps
         };
         let ground_z: Meters = self.pose.z;
-        // The plane only where a point is placed (or missing ground is looked for), built for
-        // the return's actuator angle when it differs from the last one built: a sample without
-        // a distance (most of a nodding lidar's rear half-turn; most RPLIDAR nodes, each a
-        // packet) needs none.
+        // The plane only where a point is placed, built for the return's actuator angle when
+        // it differs from the last one built: a sample without a distance (most of a nodding
+        // lidar's rear half-turn; most RPLIDAR nodes, each a packet) needs none unless missing
+        // ground is looked for.
         let mut plane: Option<ActuatedPlane> = None;
         for (k, ret) in returns.enumerate() {
             // k ≤ 255 (the longest packet) and |step| < 2⁴⁷: the product is below 2⁵⁵.
@@ -675,11 +675,20 @@ impl<const C: usize, const L: usize> Frontend<C, L> {
             #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
             let offset = ((step_q16 * k) >> 16) as u32;
             let angle = actuator.first.wrapping_add(FineAngle::from_bits(offset));
+            if ret.range_mm == 0 && self.config.missing_ground_within.is_none() {
+                self.stats.no_return = self.stats.no_return.saturating_add(1);
+                continue;
+            }
+            if plane.as_ref().is_none_or(|p| p.actuator() != angle) {
+                plane = Some(self.sweep.at(angle));
+            }
+            let Some(plane) = plane.as_ref() else {
+                continue;
+            };
             let theta = beam_angle_of_clockwise(ret.angle);
             if ret.range_mm == 0 {
                 self.stats.no_return = self.stats.no_return.saturating_add(1);
                 if let Some(within) = self.config.missing_ground_within {
-                    let plane = plane_at(&self.sweep, &mut plane, angle);
                     Self::missing_ground_along(
                         &mut self.classifier,
                         &mut self.stats,
@@ -692,7 +701,7 @@ impl<const C: usize, const L: usize> Frontend<C, L> {
                 continue;
             }
             self.stats.returns = self.stats.returns.saturating_add(1);
-            match plane_at(&self.sweep, &mut plane, angle).locate_squared(theta, ret.range_mm) {
+            match plane.locate_squared(theta, ret.range_mm) {
                 Some(located) => self.classifier.add_point_squared(
                     located.point,
                     located.horizontal_squared,
@@ -721,19 +730,6 @@ impl<const C: usize, const L: usize> Frontend<C, L> {
         self.revolutions_in_observation = 0;
         self.stats.observations = self.stats.observations.saturating_add(1);
     }
-}
-
-/// The plane of `sweep` at actuator angle `angle`, from `cache` when it holds that angle's,
-/// else built and kept there.
-fn plane_at<'a>(
-    sweep: &SweepTransform,
-    cache: &'a mut Option<ActuatedPlane>,
-    angle: FineAngle,
-) -> &'a ActuatedPlane {
-    if cache.as_ref().is_none_or(|plane| plane.actuator() != angle) {
-        *cache = None;
-    }
-    cache.get_or_insert_with(|| sweep.at(angle))
 }
 
 #[cfg(test)]
