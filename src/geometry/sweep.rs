@@ -45,7 +45,7 @@ use core::fmt;
 use super::mount::{Mount, ScanPlane};
 use super::pose::PoseFrame;
 use super::transform::{
-    horizontal, horizontal_squared, meters_q40, per_mm, sat_i32, LinePoint, LinePointSquared,
+    horizontal, horizontal_squared, meters_q40, per_mm_words, LinePoint, LinePointSquared,
     MAX_RANGE_MM,
 };
 use crate::angle::FineAngle;
@@ -55,6 +55,11 @@ use crate::wide;
 /// A Q2.30 unit component (|x| ≤ 2³⁰ up to rounding) as an `i32`, saturating (never reached).
 fn q30(x: i64) -> i32 {
     sat_i32(x)
+}
+
+/// Saturates an `i64` to the `i32` range.
+fn sat_i32(x: i64) -> i32 {
+    i32::try_from(x).unwrap_or(if x < 0 { i32::MIN } else { i32::MAX })
 }
 
 /// The parts of the geometry that the actuator angle does not change: the world images of
@@ -192,7 +197,7 @@ impl ActuatedPlane {
             // |c|, |s| ≤ 2³⁰ (up to rounding), |ct|, |st| ≤ 2³⁰: below 2⁶¹·¹.
             let dir = (wide::smul(c, ct) + wide::smul(s, st) + (1 << 29)) >> 30;
             // The Q40 per-mm scale (clamped to ±2⁴⁰/1 000) times a range below 2¹⁷.
-            *o = wide::smul_u17(per_mm(dir), range_mm);
+            *o = wide::smul_u17(per_mm_words(dir), range_mm);
         }
         Some(out)
     }
@@ -437,7 +442,7 @@ mod tests {
             for (k, w) in want.iter_mut().enumerate() {
                 let s = (ca * sweep.r0[k] + sa * sweep.aux[k] + (1 << 29)) >> 30;
                 let dir = (sweep.c[k] * ct + s * st + (1 << 29)) >> 30;
-                *w = i64::from(crate::geometry::transform::per_mm_i64(dir)) * i64::from(range_mm);
+                *w = i64::from(crate::geometry::transform::per_mm(dir)) * i64::from(range_mm);
             }
             assert_eq!(
                 sweep.at(actuator).offsets(theta, range_mm),

@@ -139,12 +139,21 @@ impl Row {
     }
 }
 
-/// A Q2.30 unit component as Q40 metres per millimetre, `round(u · 1.024·2³² / 2³²)` with u
-/// clamped to ±2³⁰ and the result to ±2⁴⁰/1 000, in 32-bit words and one 32 × 32 → 64
-/// product ([`wide::smul`], no library call on ARMv6-M): the factor is 2³² + 103 079 215, so
+/// A Q2.30 unit component as Q40 metres per millimetre, clamped to ±2⁴⁰/1 000.
+pub(super) fn per_mm(q30: i64) -> i32 {
+    // A unit vector's component: |q30| ≤ 2³⁰ up to rounding; clamped, the product with the
+    // factor (< 2³²·⁰⁴) stays below 2⁶²·⁰⁴.
+    let unit = q30.clamp(-(1 << 30), 1 << 30);
+    let q40 = (unit * Q30_TO_MM_Q40 + (1 << 31)) >> 32;
+    // ±MM_Q40 fits an i32.
+    sat_i32(q40.clamp(-MM_Q40, MM_Q40))
+}
+
+/// [`per_mm`] in 32-bit words and one 32 × 32 → 64 product ([`wide::smul`], no library
+/// call on ARMv6-M): the factor is 2³² + 103 079 215, so
 /// `⌊(u·(2³² + f) + 2³¹) / 2³²⌋ = u + ⌊(u·f + 2³¹) / 2³²⌋` exactly (u·2³² is a multiple of
 /// 2³²), with |u| ≤ 2³⁰ and f < 2²⁷.
-pub(super) fn per_mm(q30: i64) -> i32 {
+pub(super) fn per_mm_words(q30: i64) -> i32 {
     const FRACTION: i32 = (Q30_TO_MM_Q40 - (1 << 32)) as i32;
     // |unit| ≤ 2³⁰ fits an i32.
     #[allow(clippy::cast_possible_truncation)]
@@ -153,18 +162,9 @@ pub(super) fn per_mm(q30: i64) -> i32 {
     sat_i32(q40.clamp(-MM_Q40, MM_Q40))
 }
 
-/// [`per_mm`] as the i64 product it was (`(u · 1.024·2³² + 2³¹) >> 32`): the tests' reference.
-#[cfg(test)]
-pub(super) fn per_mm_i64(q30: i64) -> i32 {
-    // Clamped, the product with the factor (< 2³²·⁰⁴) stays below 2⁶²·⁰⁴.
-    let unit = q30.clamp(-(1 << 30), 1 << 30);
-    let q40 = (unit * Q30_TO_MM_Q40 + (1 << 31)) >> 32;
-    sat_i32(q40.clamp(-MM_Q40, MM_Q40))
-}
-
 /// Saturates an `i64` to the `i32` range.
 #[inline]
-pub(super) fn sat_i32(value: i64) -> i32 {
+fn sat_i32(value: i64) -> i32 {
     i32::try_from(value).unwrap_or(if value < 0 { i32::MIN } else { i32::MAX })
 }
 
@@ -828,7 +828,7 @@ mod tests {
     }
 
     #[test]
-    fn per_mm_in_words_is_the_i64_product() {
+    fn per_mm_in_words_is_per_mm() {
         let mut x = 0x0DDB_A11C_AFE0_0001_u64;
         let mut values: std::vec::Vec<i64> = (-(1_i64 << 30) - 70_000..=-(1_i64 << 30) + 70_000)
             .chain((1_i64 << 30) - 70_000..=(1_i64 << 30) + 70_000)
@@ -841,7 +841,7 @@ mod tests {
             values.push(v);
         }
         for v in values {
-            assert_eq!(per_mm(v), per_mm_i64(v), "{v}");
+            assert_eq!(per_mm_words(v), per_mm(v), "{v}");
         }
     }
 
