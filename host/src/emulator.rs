@@ -17,6 +17,7 @@ use std::io::{Read, Write};
 use std::os::unix::net::UnixStream;
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::mpsc::{channel, Receiver, RecvTimeoutError};
 use std::time::{Duration, Instant};
 use terrain_pyramid::wire::link::Message;
@@ -298,6 +299,48 @@ fn connect(path: &Path, child: &mut Child) -> Result<UnixStream, String> {
     }
 }
 
+/// A booted QEMU's connected UARTs.
+struct Uarts {
+    /// The laser's UART.
+    uart0: UnixStream,
+    /// The host link's UART (UART0's socket again on a one-UART machine).
+    uart1: UnixStream,
+    /// UART1's socket, to reconnect to.
+    uart1_path: PathBuf,
+    /// What UART1 receives.
+    rx: Receiver<Vec<u8>>,
+}
+
+/// Connects a booted QEMU's UARTs; on the netduinoplus2 also starts the stand-in scanner on
+/// USART1.
+fn connect_uarts(
+    machine: Machine,
+    s0: &Path,
+    s1: &Path,
+    child: &mut Child,
+) -> Result<Uarts, String> {
+    let uart0 = connect(s0, child)?;
+    let (uart1, s1) = if machine.uarts() == 1 {
+        let one = uart0.try_clone().map_err(|e| format!("UART socket: {e}"))?;
+        (one, s0.to_path_buf())
+    } else {
+        (connect(s1, child)?, s1.to_path_buf())
+    };
+    if machine == Machine::Netduinoplus2 {
+        let port = uart0
+            .try_clone()
+            .map_err(|e| format!("USART1 socket: {e}"))?;
+        std::thread::spawn(move || stand_in_scanner(port));
+    }
+    let rx = spawn_reader(&uart1)?;
+    Ok(Uarts {
+        uart0,
+        uart1,
+        uart1_path: s1,
+        rx,
+    })
+}
+
 impl Emulator {
     /// Boots `elf` on `machine` in QEMU; the raw defmt log goes to `defmt_log`.
     ///
@@ -307,13 +350,7 @@ impl Emulator {
         if !qemu_available() {
             return Err(format!("qemu-system-arm is missing: {INSTALL_HINT}"));
         }
-        let dir = std::env::temp_dir().join(format!(
-            "pyramid-qemu-{}-{}",
-            std::process::id(),
-            Instant::now().elapsed().as_nanos() ^ u128::from(rand_seed())
-        ));
-        std::fs::create_dir_all(&dir).map_err(|e| format!("{}: {e}", dir.display()))?;
-        let dir = TempDir(dir);
+        let dir = TempDir(own_socket_dir()?);
         let (s0, s1) = (dir.0.join("uart0.sock"), dir.0.join("uart1.sock"));
         let log = std::fs::File::create(defmt_log)
             .map_err(|e| format!("cannot create {}: {e}", defmt_log.display()))?;
@@ -336,20 +373,20 @@ impl Emulator {
             .stderr(Stdio::piped())
             .spawn()
             .map_err(|e| format!("cannot start qemu-system-arm: {e} ({INSTALL_HINT})"))?;
-        let uart0 = connect(&s0, &mut child)?;
-        let (uart1, s1) = if machine.uarts() == 1 {
-            let one = uart0.try_clone().map_err(|e| format!("UART socket: {e}"))?;
-            (one, s0)
-        } else {
-            (connect(&s1, &mut child)?, s1)
+        let Uarts {
+            uart0,
+            uart1,
+            uart1_path,
+            rx,
+        } = match connect_uarts(machine, &s0, &s1, &mut child) {
+            Ok(connected) => connected,
+            Err(e) => {
+                // A QEMU whose UARTs we never reached must not outlive the attempt.
+                let _ = child.kill();
+                let _ = child.wait();
+                return Err(e);
+            }
         };
-        if machine == Machine::Netduinoplus2 {
-            let port = uart0
-                .try_clone()
-                .map_err(|e| format!("USART1 socket: {e}"))?;
-            std::thread::spawn(move || stand_in_scanner(port));
-        }
-        let rx = spawn_reader(&uart1)?;
         Ok(Self {
             child,
             uart0,
@@ -358,7 +395,7 @@ impl Emulator {
             link: HostLink::new(),
             tap: None,
             tapped: 0,
-            uart1_path: s1,
+            uart1_path,
             bytes_received: 0,
             frames_sent: 0,
             _dir: dir,
@@ -607,8 +644,53 @@ fn spawn_reader(uart1: &UnixStream) -> Result<Receiver<Vec<u8>>, String> {
     Ok(rx)
 }
 
-fn rand_seed() -> u64 {
-    std::time::SystemTime::now()
-        .duration_since(std::time::UNIX_EPOCH)
-        .map_or(0, |d| d.as_nanos() as u64)
+/// Emulators this process has started, for their socket directories' names.
+static STARTED: AtomicU64 = AtomicU64::new(0);
+
+/// A fresh directory for one emulator's UART sockets, named by the process and a per-process
+/// count so that emulators started at the same instant (the stairs' four maps, in threads)
+/// never share one. A directory left by an earlier process of the same id is not reused:
+/// QEMU would unlink and rebind its sockets under another emulator's feet.
+fn own_socket_dir() -> Result<PathBuf, String> {
+    let base = std::env::temp_dir();
+    for _ in 0..64 {
+        let n = STARTED.fetch_add(1, Ordering::Relaxed);
+        let dir = base.join(format!("pyramid-qemu-{}-{n}", std::process::id()));
+        match std::fs::create_dir(&dir) {
+            Ok(()) => return Ok(dir),
+            Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => {}
+            Err(e) => return Err(format!("{}: {e}", dir.display())),
+        }
+    }
+    Err(format!(
+        "no free socket directory pyramid-qemu-{}-* in {}",
+        std::process::id(),
+        base.display()
+    ))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::own_socket_dir;
+    use std::collections::HashSet;
+
+    /// Emulators started in threads at the same instant each get their own sockets: a shared
+    /// directory let one QEMU unlink another's sockets and left its emulator waiting for a
+    /// Hello that never came.
+    #[test]
+    fn emulators_started_together_never_share_a_socket_directory() {
+        let dirs: Vec<_> = std::thread::scope(|scope| {
+            let handles: Vec<_> = (0..16).map(|_| scope.spawn(own_socket_dir)).collect();
+            handles
+                .into_iter()
+                .map(|h| h.join().expect("thread").expect("a directory"))
+                .collect()
+        });
+        let distinct: HashSet<_> = dirs.iter().collect();
+        assert_eq!(distinct.len(), dirs.len());
+        for dir in &dirs {
+            assert!(dir.is_dir(), "{}", dir.display());
+            std::fs::remove_dir(dir).expect("empty");
+        }
+    }
 }
