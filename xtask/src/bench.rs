@@ -14,7 +14,9 @@
 //! 6. prints a table (stderr) and the results (stdout; one JSON object with `--json`).
 //!
 //! The variants run the library's default navigability rule (the plane rule);
-//! `pyramid-paper` is `pyramid-nolink` under the paper's spread rule.
+//! `pyramid-paper` is `pyramid-nolink` under the paper's spread rule; `pyramid-hard` is
+//! `pyramid` with the hard gate (one fed layer per point, where the default soft gate feeds
+//! about three).
 //!
 //! A fresh machine: the missing rustup targets, `qemu-system-arm` and `liboctomap-dev` are
 //! installed (apt-get, through sudo when not root).
@@ -554,11 +556,13 @@ fn bench(opts: &Opts) -> Result<()> {
         (M4F, "pyramid"),
         (M4F, "flat"),
         (M4F, "window"),
+        (M4F, "pyramid-hard"),
         (M4F, "pyramid-nolink"),
         (M4F, "pyramid-paper"),
         (M4F, "f32"),
         (M4F, "f32-paper"),
         (M0, "pyramid"),
+        (M0, "pyramid-hard"),
         (M0, "pyramid-nolink"),
         (M0, "pyramid-paper"),
         (M0, "f32"),
@@ -620,6 +624,9 @@ fn bench(opts: &Opts) -> Result<()> {
         get(M0, "pyramid-nolink"),
         get(M0, "f32"),
     );
+    // The hard gate against the default soft gate (both with the link): what the soft gate's
+    // extra fed layers cost.
+    let (m4_hard, m0_hard) = (get(M4F, "pyramid-hard"), get(M0, "pyramid-hard"));
     // The paper's navigability rule against the default plane rule (both without the link).
     let (m4_paper, m0_paper) = (get(M4F, "pyramid-paper"), get(M0, "pyramid-paper"));
     let (m4_f32_paper, m0_f32_paper) = (get(M4F, "f32-paper"), get(M0, "f32-paper"));
@@ -718,6 +725,14 @@ fn bench(opts: &Opts) -> Result<()> {
         ratio(m4.per_return(), flat.per_return())
     );
     eprintln!(
+        "| M4F instructions / return, hard gate (+ link; the default is soft) | {:.1} |",
+        m4_hard.per_return()
+    );
+    eprintln!(
+        "| pyramid with the hard gate / flat | {:.2} |",
+        ratio(m4_hard.per_return(), flat.per_return())
+    );
+    eprintln!(
         "| M4F instructions / return, no link | {:.1} |",
         m4_nolink.per_return()
     );
@@ -744,6 +759,10 @@ fn bench(opts: &Opts) -> Result<()> {
     eprintln!(
         "| M0 instructions / return (pipeline + link) | {:.1} |",
         m0.per_return()
+    );
+    eprintln!(
+        "| M0 instructions / return, hard gate (+ link) | {:.1} |",
+        m0_hard.per_return()
     );
     eprintln!(
         "| M0 instructions / return, no link | {:.1} |",
@@ -819,12 +838,14 @@ fn bench(opts: &Opts) -> Result<()> {
         "m4f": {
             "instructions_per_return": m4.per_return(),
             "flat_instructions_per_return": flat.per_return(),
+            "hard_gate_instructions_per_return": m4_hard.per_return(),
             "window_move_instructions_per_cell": window_per_cell,
             "decay_instructions_per_return": m4_decay.per_return(),
             "decay_instructions_per_cell": per_cell(&m4_sweep),
         },
         "m0": {
             "instructions_per_return": m0.per_return(),
+            "hard_gate_instructions_per_return": m0_hard.per_return(),
             "decay_instructions_per_return": m0_decay.per_return(),
             "decay_instructions_per_cell": per_cell(&m0_sweep),
         },
