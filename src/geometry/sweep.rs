@@ -45,22 +45,12 @@ use core::fmt;
 use super::mount::{Mount, ScanPlane};
 use super::pose::PoseFrame;
 use super::transform::{
-    horizontal, horizontal_squared, meters_q40, per_mm_words, LinePoint, LinePointSquared,
+    horizontal, horizontal_squared, meters_q40, per_mm_words, sat_i32, LinePoint, LinePointSquared,
     MAX_RANGE_MM,
 };
 use crate::angle::FineAngle;
 use crate::units::Point3;
 use crate::wide;
-
-/// A Q2.30 unit component (|x| ≤ 2³⁰ up to rounding) as an `i32`, saturating (never reached).
-fn q30(x: i64) -> i32 {
-    sat_i32(x)
-}
-
-/// Saturates an `i64` to the `i32` range.
-fn sat_i32(x: i64) -> i32 {
-    i32::try_from(x).unwrap_or(if x < 0 { i32::MIN } else { i32::MAX })
-}
 
 /// The parts of the geometry that the actuator angle does not change: the world images of
 /// the sensor frame's axes and the scanner's centre. Built once per pose (or mount) change;
@@ -136,11 +126,14 @@ impl SweepTransform {
             // |x|, |y|, |ca|, |sa| ≤ 2³⁰ (up to rounding): each product fits 32 × 32 → 64 bits
             // (a library call avoided on ARMv6-M, `wide`), the sum below 2⁶¹, the result a
             // unit component that fits an i32.
-            *out = sat_i32((wide::smul(ca, q30(x)) + wide::smul(sa, q30(y)) + (1 << 29)) >> 30);
+            *out = sat_i32(
+                (wide::smul(ca, sat_i32(x)) + wide::smul(sa, sat_i32(y)) + (1 << 29)) >> 30,
+            );
         }
         ActuatedPlane {
             actuator,
-            c: self.c.map(q30),
+            // A Q2.30 unit component (|x| ≤ 2³⁰ up to rounding): the saturation is never reached.
+            c: self.c.map(sat_i32),
             s,
             origin: self.origin,
         }

@@ -164,7 +164,7 @@ pub(super) fn per_mm_words(q30: i64) -> i32 {
 
 /// Saturates an `i64` to the `i32` range.
 #[inline]
-fn sat_i32(value: i64) -> i32 {
+pub(super) fn sat_i32(value: i64) -> i32 {
     i32::try_from(value).unwrap_or(if value < 0 { i32::MIN } else { i32::MAX })
 }
 
