@@ -534,6 +534,7 @@ mod tests {
     use super::*;
     use crate::design::{Schedule, SensorModel};
     use crate::logodds::{gated, InverseSensorModel};
+    use crate::test_rng::XorShift;
     use crate::units::LogOddsFixed;
 
     #[test]
@@ -641,7 +642,7 @@ mod tests {
             let root = i32::try_from(isqrt_round(sq)).unwrap_or(i32::MAX);
             b.bin(Meters::from_bits(root))
         };
-        let mut state = 0x2545_F491_4F6C_DD1D_u64;
+        let mut rng = XorShift(0x2545_F491_4F6C_DD1D_u64);
         for shift in 0..=MAX_BIN_SHIFT {
             let b = DistanceBins { shift };
             let m = 16 - shift;
@@ -661,14 +662,12 @@ mod tests {
             }
             // Every magnitude.
             for _ in 0..20_000 {
-                state ^= state << 13;
-                state ^= state >> 7;
-                state ^= state << 17;
-                let sq = state >> (state % 64);
+                let r = rng.next();
+                let sq = r >> (r % 64);
                 let want = reference(b, sq);
                 assert_eq!(b.bin_of_squared(sq), want, "s {shift} sq {sq}");
                 #[allow(clippy::cast_possible_truncation)]
-                let hint = (state >> 40) as usize % 600;
+                let hint = (r >> 40) as usize % 600;
                 assert_eq!(b.bin_of_squared_near(sq, hint), want, "{sq} {hint}");
             }
         }
@@ -676,10 +675,8 @@ mod tests {
         for shift in [0, 5, 10] {
             let b = DistanceBins { shift };
             for _ in 0..20_000 {
-                state ^= state << 13;
-                state ^= state >> 7;
-                state ^= state << 17;
-                let sq = (state >> 20) >> (state % 40);
+                let r = rng.next();
+                let sq = (r >> 20) >> (r % 40);
                 let exact = b.bin_of_squared(sq);
                 for hint in [0, 1, 2, 510, 511, 600, exact.saturating_sub(3)] {
                     assert_eq!(b.bin_of_squared_near(sq, hint), exact);

@@ -576,6 +576,7 @@ impl<const W: usize> Default for Layer<W> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::test_rng::XorShift;
     extern crate std;
 
     #[test]
@@ -592,13 +593,8 @@ mod tests {
 
     #[test]
     fn cell_of_reciprocal_is_the_floor_division() {
-        let mut state = 0x1234_5678_9ABC_DEF1_u64;
-        let mut next = || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            state
-        };
+        let mut rng = XorShift(0x1234_5678_9ABC_DEF1_u64);
+        let mut next = || rng.next();
         let mut sizes = std::vec![655, 656, 1000, 6554, 13107, 26214, 52429, 65536, 104_858];
         sizes.extend([(1 << 30) - 1, 1 << 30, 2_097_152_000, 0, -5]);
         for _ in 0..200 {

@@ -69,6 +69,8 @@ pub mod link;
 pub mod logodds;
 pub mod pipeline;
 pub mod pyramid;
+#[cfg(test)]
+mod test_rng;
 pub mod units;
 mod wide;
 pub mod wire;

@@ -146,13 +146,7 @@ pub(crate) fn shr_u64_words(x: u64, n: u32) -> u64 {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    fn xorshift(x: &mut u64) -> u64 {
-        *x ^= *x << 13;
-        *x ^= *x >> 7;
-        *x ^= *x << 17;
-        *x
-    }
+    use crate::test_rng::XorShift;
 
     const EDGES: [u32; 14] = [
         0,
@@ -202,9 +196,9 @@ mod tests {
                 check(a.wrapping_neg(), b);
             }
         }
-        let mut x = 0x9E37_79B9_7F4A_7C15_u64;
+        let mut x = XorShift(0x9E37_79B9_7F4A_7C15_u64);
         for i in 0..1_000_000_u32 {
-            let v = xorshift(&mut x);
+            let v = x.next();
             #[allow(clippy::cast_possible_truncation)]
             let (a, b) = ((v >> 32) as u32, v as u32);
             // Every magnitude of both operands.
@@ -214,9 +208,9 @@ mod tests {
 
     #[test]
     fn shifts_from_words_are_exact() {
-        let mut x = 0x9E37_79B9_7F4A_7C15_u64;
+        let mut x = XorShift(0x9E37_79B9_7F4A_7C15_u64);
         for _ in 0..20_000 {
-            let v = xorshift(&mut x);
+            let v = x.next();
             for n in 0..64 {
                 assert_eq!(shr_u64_words(v, n), v >> n, "{v} {n}");
                 assert_eq!(shr_u64(v, n), v >> n);

@@ -919,6 +919,7 @@ mod tests {
     use super::*;
     use crate::design::{Design, GateShape, Schedule, SensorModel};
     use crate::pyramid::Config;
+    use crate::test_rng::XorShift;
     use crate::Fused;
     extern crate std;
     use std::vec::Vec;
@@ -1272,13 +1273,8 @@ mod tests {
         // Runs of points in and around cells (their corners ± 1 raw), jumps between far cells,
         // coordinates near ±32 768 m; each classifier once as is and once forgetting the last
         // cells before every point (every point through the cell index, hash and probe).
-        let mut state = 0x2545_F491_4F6C_DD1D_u64;
-        let mut next = || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            state
-        };
+        let mut rng = XorShift(0x2545_F491_4F6C_DD1D_u64);
+        let mut next = || rng.next();
         let cell = Meters::from_num(0.1).to_bits();
         for rule in [NavigabilityRule::DEFAULT, NavigabilityRule::Spread] {
             for gate in [GateShape::Hard, GateShape::default()] {

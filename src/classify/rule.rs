@@ -661,6 +661,7 @@ mod absent {
 #[cfg(feature = "plane-rule")]
 mod tests {
     use super::*;
+    use crate::test_rng::XorShift;
     extern crate std;
 
     fn geometry(cell_m: f32) -> CellGeometry {
@@ -859,13 +860,8 @@ mod tests {
 
     #[test]
     fn the_decision_in_64_bits_first_is_the_128_bit_one() {
-        let mut state = 0xD1B5_4A32_D192_ED03_u64;
-        let mut next = || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            state
-        };
+        let mut rng = XorShift(0xD1B5_4A32_D192_ED03_u64);
+        let mut next = || rng.next();
         let mut obstacles = 0;
         let total = 20_000;
         for run in 0..total {
@@ -919,13 +915,8 @@ mod tests {
 
     #[test]
     fn the_noise_in_64_bits_is_the_128_bit_noise() {
-        let mut state = 0x6A09_E667_F3BC_C908_u64;
-        let mut next = || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            state
-        };
+        let mut rng = XorShift(0x6A09_E667_F3BC_C908_u64);
+        let mut next = || rng.next();
         let mut narrow = 0;
         let pick = |next: &mut dyn FnMut() -> u64| -> i32 {
             // Zero, small, typical and extreme raw values.
@@ -971,13 +962,8 @@ mod tests {
 
     #[test]
     fn the_q16_quotient_is_the_128_bit_one() {
-        let mut state = 0x2545_F491_4F6C_DD1D_u64;
-        let mut next = || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            state
-        };
+        let mut rng = XorShift(0x2545_F491_4F6C_DD1D_u64);
+        let mut next = || rng.next();
         for _ in 0..100_000 {
             let num = i128::from((next() as i64) >> (next() % 60));
             let den = i128::from((next() >> (20 + next() % 40)).max(1) as i64);
@@ -1048,13 +1034,8 @@ mod tests {
 
     #[test]
     fn the_sums_without_saturation_are_the_saturating_sums() {
-        let mut state = 0x9E37_79B9_7F4A_7C15_u64;
-        let mut next = || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            state
-        };
+        let mut rng = XorShift(0x9E37_79B9_7F4A_7C15_u64);
+        let mut next = || rng.next();
         // Runs at the extremes (corners ±32/31, z at ±32 767 and far from z₀), runs with the
         // signs alternating, random runs, and runs long enough to reach the last level.
         for run in 0..400_u32 {
@@ -1119,13 +1100,8 @@ mod tests {
 
     #[test]
     fn sub_cell_in_32_bits_is_the_64_bit_product() {
-        let mut state = 0x9E37_79B9_7F4A_7C15_u64;
-        let mut next = || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            state
-        };
+        let mut rng = XorShift(0x9E37_79B9_7F4A_7C15_u64);
+        let mut next = || rng.next();
         // Every cell size of the default designs' layers and their neighbours, sizes from
         // 1 raw up to 2³⁰, and random sizes; each at its edges and random remainders.
         let mut sizes = std::vec![1, 2, 3, 655, 6553, 6554, 6555, 13_107, 26_214, 52_429];

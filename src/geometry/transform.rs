@@ -581,6 +581,7 @@ mod tests {
     extern crate std;
 
     use super::*;
+    use crate::test_rng::XorShift;
     use crate::wire::sick::Variant;
 
     const TOL: f64 = 1e-4;
@@ -820,16 +821,9 @@ mod tests {
         })
     }
 
-    fn xorshift(x: &mut u64) -> u64 {
-        *x ^= *x << 13;
-        *x ^= *x >> 7;
-        *x ^= *x << 17;
-        *x
-    }
-
     #[test]
     fn per_mm_in_words_is_per_mm() {
-        let mut x = 0x0DDB_A11C_AFE0_0001_u64;
+        let mut x = XorShift(0x0DDB_A11C_AFE0_0001_u64);
         let mut values: std::vec::Vec<i64> = (-(1_i64 << 30) - 70_000..=-(1_i64 << 30) + 70_000)
             .chain((1_i64 << 30) - 70_000..=(1_i64 << 30) + 70_000)
             .chain(-70_000..=70_000)
@@ -837,7 +831,7 @@ mod tests {
         values.extend([i64::MIN, i64::MAX, 1 << 40, -(1 << 40)]);
         for _ in 0..1_000_000 {
             #[allow(clippy::cast_possible_wrap)]
-            let v = (xorshift(&mut x) as i64) >> (33 + xorshift(&mut x) % 30);
+            let v = (x.next() as i64) >> (33 + x.next() % 30);
             values.push(v);
         }
         for v in values {
@@ -847,7 +841,7 @@ mod tests {
 
     #[test]
     fn direction_per_mm_in_32_bit_words_is_the_i64_one() {
-        let mut x = 0x2545_F491_4F6C_DD1D_u64;
+        let mut x = XorShift(0x2545_F491_4F6C_DD1D_u64);
         let mut rows = std::vec![
             Row::from_q30(1 << 30, 1 << 30),
             Row::from_q30(-(1 << 30), -(1 << 30)),
@@ -855,7 +849,7 @@ mod tests {
             Row::from_q30(0, 0),
         ];
         for _ in 0..400 {
-            let v = xorshift(&mut x);
+            let v = x.next();
             #[allow(clippy::cast_possible_truncation)]
             let (c, s) = (i64::from(v as i32 >> 1), i64::from((v >> 32) as i32 >> 1));
             rows.push(Row::from_q30(c, s));
@@ -902,10 +896,10 @@ mod tests {
 
     #[test]
     fn unsaturated_lines_give_the_i64_bits() {
-        let mut x = 0x9E37_79B9_7F4A_7C15_u64;
+        let mut x = XorShift(0x9E37_79B9_7F4A_7C15_u64);
         let mut fast = 0;
         for i in 0..300_u32 {
-            let v = xorshift(&mut x);
+            let v = x.next();
             #[allow(clippy::cast_possible_truncation, clippy::cast_possible_wrap)]
             let angle = |k: u32| FineAngle::from_bits((v >> (k * 8)) as u32);
             // Positions of every magnitude, up to and past the unsaturated limit.
@@ -933,7 +927,7 @@ mod tests {
             let line = LineTransform::from_pose(&table, &mount, angle(3), &pose);
             fast += u32::from(line.unsaturated);
             for beam in 0..table.len() {
-                let w = xorshift(&mut x);
+                let w = x.next();
                 #[allow(clippy::cast_possible_truncation)]
                 let range = (w as u32) >> (15 + (w >> 40) % 17);
                 for r in [range, range.min(MAX_RANGE_MM), MAX_RANGE_MM, 0] {
@@ -990,13 +984,10 @@ mod tests {
 
     #[test]
     fn isqrt_fast_path_matches_the_u64_method() {
-        let mut x = 0x9E37_79B9_7F4A_7C15_u64;
+        let mut x = XorShift(0x9E37_79B9_7F4A_7C15_u64);
         for i in 0..200_000_u64 {
             // Every magnitude below 2⁵⁰, and the edges around squares and half-squares.
-            x ^= x << 13;
-            x ^= x >> 7;
-            x ^= x << 17;
-            let v = x >> (14 + i % 50);
+            let v = x.next() >> (14 + i % 50);
             for y in [v, v.saturating_sub(1), v + 1] {
                 assert_eq!(isqrt_round(y), isqrt_round_u64(y), "{y}");
             }

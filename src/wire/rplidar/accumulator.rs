@@ -663,6 +663,7 @@ mod tests {
     extern crate std;
 
     use super::*;
+    use crate::test_rng::XorShift;
     use crate::wire::rplidar::{
         RplidarCapsuleRepr, RplidarDescriptorRepr, RplidarHealthRepr, RplidarNodeRepr,
     };
@@ -996,17 +997,6 @@ mod tests {
             events.last(),
             Some(&Ev::R((stream.len() - 3) as u64, RplidarError::Truncated))
         );
-    }
-
-    struct XorShift(u64);
-
-    impl XorShift {
-        fn next(&mut self) -> u64 {
-            self.0 ^= self.0 << 13;
-            self.0 ^= self.0 >> 7;
-            self.0 ^= self.0 << 17;
-            self.0
-        }
     }
 
     /// Why a run of 16: read at a wrong alignment, a realistic node stream (a smooth wall

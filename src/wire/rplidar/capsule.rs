@@ -412,6 +412,7 @@ mod tests {
     extern crate std;
 
     use super::*;
+    use crate::test_rng::XorShift;
     use std::vec::Vec;
 
     /// Degrees of a FineAngle; its LSB is 8.4·10⁻⁸°, so exact values agree within 1e-7.
@@ -534,17 +535,6 @@ mod tests {
             }
         }
         out
-    }
-
-    struct XorShift(u64);
-
-    impl XorShift {
-        fn next(&mut self) -> u64 {
-            self.0 ^= self.0 << 13;
-            self.0 ^= self.0 >> 7;
-            self.0 ^= self.0 << 17;
-            self.0
-        }
     }
 
     #[test]

@@ -590,6 +590,7 @@ mod tests {
     extern crate std;
 
     use super::*;
+    use crate::test_rng::XorShift;
     use crate::wire::sick::{emit_telegram, MeasuredValues, OperatingModeReply, Unit, MAX_VALUES};
     use std::vec;
     use std::vec::Vec;
@@ -1022,20 +1023,6 @@ mod tests {
             let (got_events, got) = run::<DEFAULT_CAPACITY>(&stream, &[split, usize::MAX]);
             assert_eq!(got, total, "split at {split}");
             assert_eq!(got_events, events, "split at {split}");
-        }
-    }
-
-    struct XorShift(u64);
-
-    impl XorShift {
-        fn next(&mut self) -> u64 {
-            self.0 ^= self.0 << 13;
-            self.0 ^= self.0 >> 7;
-            self.0 ^= self.0 << 17;
-            self.0
-        }
-        fn below(&mut self, n: u64) -> u64 {
-            self.next() % n
         }
     }
 
