@@ -1016,19 +1016,9 @@ mod tests {
         s.svz = s.svz.saturating_add(v * dz);
         s.szz = s.szz.saturating_add((dz * dz) as u32);
         s.n += 1;
+        // The halving itself did not change.
         if s.n >= HALVE_AT && s.level < MAX_LEVEL {
-            s.n /= 2;
-            s.su >>= 1;
-            s.sv >>= 1;
-            s.suu >>= 1;
-            s.svv >>= 1;
-            s.suv >>= 1;
-            s.sz >>= 1;
-            s.suz >>= 1;
-            s.svz >>= 1;
-            s.szz >>= 1;
-            s.level += 1;
-            s.offered = 0;
+            s.halve();
         }
     }
 
