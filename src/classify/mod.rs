@@ -268,6 +268,19 @@ fn mm_i16(raw: i32) -> i16 {
     i16::try_from(mm).unwrap_or(if mm < 0 { i16::MIN } else { i16::MAX })
 }
 
+/// The position of `point` in its cell `(cx, cy)` of side `bits` (raw) with reciprocal `m`
+/// ([`rule::sub_cell`] of the remainders `0 ≤ rem < bits`, exact in wrapping 32-bit
+/// arithmetic).
+#[inline]
+fn position_in_cell(point: Point3, cx: i32, cy: i32, bits: i32, m: u32) -> (i8, i8) {
+    #[allow(clippy::cast_sign_loss)]
+    let rem = |v: Meters, c: i32| v.to_bits().wrapping_sub(c.wrapping_mul(bits)) as u32;
+    (
+        rule::sub_cell(rem(point.x, cx), m),
+        rule::sub_cell(rem(point.y, cy), m),
+    )
+}
+
 /// Mixes a cell key into a slot index (multiplicative hashing of 32-bit words).
 #[inline]
 fn hash(layer: u8, x: i32, y: i32) -> u32 {
@@ -658,17 +671,7 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
         if !plane {
             return (cx, cy, (0, 0));
         }
-        // The remainder in the cell, 0 ≤ rem < bits: exact in wrapping 32-bit arithmetic.
-        #[allow(clippy::cast_sign_loss)]
-        let rem = |v: Meters, c: i32| v.to_bits().wrapping_sub(c.wrapping_mul(bits)) as u32;
-        (
-            cx,
-            cy,
-            (
-                rule::sub_cell(rem(point.x, cx), m),
-                rule::sub_cell(rem(point.y, cy), m),
-            ),
-        )
+        (cx, cy, position_in_cell(point, cx, cy, bits, m))
     }
 
     /// [`Classifier::cell_of`] for layers 8 and up: the cell by `r.cell_of`, the position
@@ -683,18 +686,7 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
         if !plane {
             return (cx, cy, (0, 0));
         }
-        let bits = r.to_bits();
-        // The remainder in the cell, 0 ≤ rem < bits: exact in wrapping 32-bit arithmetic.
-        #[allow(clippy::cast_sign_loss)]
-        let rem = |v: Meters, c: i32| v.to_bits().wrapping_sub(c.wrapping_mul(bits)) as u32;
-        (
-            cx,
-            cy,
-            (
-                rule::sub_cell(rem(point.x, cx), m),
-                rule::sub_cell(rem(point.y, cy), m),
-            ),
-        )
+        (cx, cy, position_in_cell(point, cx, cy, r.to_bits(), m))
     }
 
     /// Adds a point to its cell of one layer (stored as `layer_index` = k + 1); `false` when
