@@ -394,6 +394,7 @@ fn floor_product_quotient(delta: i32, d: i64, gap: u32) -> u32 {
 mod tests {
     extern crate std;
     use super::*;
+    use crate::test_rng::XorShift;
 
     fn deg(d: f64) -> FineAngle {
         FineAngle::from_bits((d / 360.0 * 4_294_967_296.0).round() as i64 as u32)
@@ -544,13 +545,8 @@ mod tests {
 
     #[test]
     fn the_interpolation_quotient_is_the_64_bit_floor_division() {
-        let mut rng = 0xC0FF_EE00_1234_5678_u64;
-        let mut next = move || {
-            rng ^= rng << 13;
-            rng ^= rng >> 7;
-            rng ^= rng << 17;
-            rng
-        };
+        let mut rng = XorShift(0xC0FF_EE00_1234_5678_u64);
+        let mut next = move || rng.next();
         let mut cases: std::vec::Vec<(i32, i64, u32)> = std::vec![
             (i32::MIN, 2 * 200_000, 200_000),
             (i32::MIN, -200_000, 200_000),

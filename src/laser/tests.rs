@@ -2,6 +2,7 @@
 //! times.
 extern crate std;
 use super::*;
+use crate::test_rng::XorShift;
 use crate::wire::ld06::{Ld06Point, Ld06Repr};
 use crate::wire::rplidar::{RplidarCapsuleRepr, RplidarDescriptorRepr, RplidarNodeRepr};
 use crate::wire::sick::{MeasuredValues, Unit};
@@ -348,13 +349,8 @@ fn an_ld06_packets_returns_step_to_exactly_its_angles() {
     // The returns iterator steps the angles with two divisions a packet; each must be the
     // packet's own `get(k)`, across the wrap and at every start, span and the wire's
     // out-of-range angles (≥ 36 000 centidegrees).
-    let mut rng = 0x0123_4567_89AB_CDEF_u64;
-    let mut next = move |n: u64| {
-        rng ^= rng << 13;
-        rng ^= rng >> 7;
-        rng ^= rng << 17;
-        (rng % n) as u16
-    };
+    let mut rng = XorShift(0x0123_4567_89AB_CDEF_u64);
+    let mut next = move |n: u64| rng.below(n) as u16;
     let mut cases = std::vec![(35_900, 120), (0, 0), (35_999, 35_999), (65_535, 0)];
     for _ in 0..2_000 {
         cases.push((next(65_536), next(65_536)));
@@ -379,13 +375,8 @@ fn a_ydlidar_packets_returns_step_to_exactly_its_angles() {
     // As for the LD06: the stepped first-level angles (with and without the second-level
     // correction) equal the packet's own per-sample angles, for 1..=40 samples, across the
     // wrap and at out-of-range wire angles.
-    let mut rng = 0x0F0E_0D0C_0B0A_0908_u64;
-    let mut next = move |n: u64| {
-        rng ^= rng << 13;
-        rng ^= rng >> 7;
-        rng ^= rng << 17;
-        rng % n
-    };
+    let mut rng = XorShift(0x0F0E_0D0C_0B0A_0908_u64);
+    let mut next = move |n: u64| rng.below(n);
     for case in 0..3_000 {
         let n = 1 + next(40) as usize;
         let samples: Vec<u16> = (0..n).map(|_| next(40_000) as u16).collect();

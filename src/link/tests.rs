@@ -3,6 +3,7 @@
 extern crate std;
 use super::*;
 use crate::pyramid::{Evidence, EvidenceClass};
+use crate::test_rng::XorShift;
 use crate::units::Meters;
 use crate::wire::link::MAX_FRAME;
 use crate::{DefaultDesign, DefaultPyramid, Schedule, SensorModel};
@@ -466,13 +467,8 @@ mod reference {
 fn the_tile_scheduler_sends_what_and_when_the_exhaustive_one_did() {
     // Twin links and pyramids, one scheduled by the reference; random updates over every
     // layer and budgets tight enough that tiles wait, age and go round-robin.
-    let mut rng = 0x2545_F491_4F6C_DD1D_u64;
-    let mut next = move |n: u64| {
-        rng ^= rng << 13;
-        rng ^= rng >> 7;
-        rng ^= rng << 17;
-        rng % n
-    };
+    let mut rng = XorShift(0x2545_F491_4F6C_DD1D_u64);
+    let mut next = move |n: u64| rng.below(n);
     for case in 0..12 {
         let (mut pa, _) = configured();
         let (mut pb, _) = configured();

@@ -160,6 +160,7 @@ pub(crate) fn signed_turn_fraction(numerator: i64, denominator: u64) -> FineAngl
 mod tests {
     extern crate std;
     use super::*;
+    use crate::test_rng::XorShift;
 
     #[test]
     fn quarter_and_half_turns_are_exact() {
@@ -189,13 +190,8 @@ mod tests {
     fn turn_steps_are_turn_fraction_at_every_step() {
         // The LD06's own case (11 steps over 36 000 centidegrees), the wrap past a turn, and
         // random firsts, steps and denominators of every size, 300 steps each.
-        let mut rng = 0x9E37_79B9_7F4A_7C15_u64;
-        let mut next = move || {
-            rng ^= rng << 13;
-            rng ^= rng >> 7;
-            rng ^= rng << 17;
-            rng
-        };
+        let mut rng = XorShift(0x9E37_79B9_7F4A_7C15_u64);
+        let mut next = move || rng.next();
         let mut cases = std::vec![(11 * 35_900, 220, 11 * 36_000), (0, 0, 1), (1, 1, 3)];
         for _ in 0..2_000 {
             let d = match next() % 3 {
@@ -239,13 +235,11 @@ mod tests {
                 );
             }
         }
-        let mut rng = 0x1234_5678_9ABC_DEF1_u64;
+        let mut rng = XorShift(0x1234_5678_9ABC_DEF1_u64);
         for _ in 0..200_000 {
-            rng ^= rng << 13;
-            rng ^= rng >> 7;
-            rng ^= rng << 17;
-            let n = (rng >> 32) as u32 >> (rng % 32);
-            let s = (rng % 26 + 1) as u32;
+            let r = rng.next();
+            let n = (r >> 32) as u32 >> (r % 32);
+            let s = (r % 26 + 1) as u32;
             assert_eq!(
                 turn_fraction_45ths(n, s),
                 turn_fraction(u64::from(n), 45 << (32 - s)),
