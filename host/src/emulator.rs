@@ -382,8 +382,7 @@ impl Emulator {
             Ok(connected) => connected,
             Err(e) => {
                 // A QEMU whose UARTs we never reached must not outlive the attempt.
-                let _ = child.kill();
-                let _ = child.wait();
+                stop(&mut child);
                 return Err(e);
             }
         };
@@ -557,10 +556,15 @@ impl Device for Emulator {
 
 impl Drop for Emulator {
     fn drop(&mut self) {
-        if matches!(self.child.try_wait(), Ok(None)) {
-            let _ = self.child.kill();
-            let _ = self.child.wait();
-        }
+        stop(&mut self.child);
+    }
+}
+
+/// Kills QEMU if it still runs, and reaps it.
+fn stop(child: &mut Child) {
+    if matches!(child.try_wait(), Ok(None)) {
+        let _ = child.kill();
+        let _ = child.wait();
     }
 }
 
