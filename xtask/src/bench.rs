@@ -325,8 +325,7 @@ fn trace(elf_path: &Path, work: &Path, singlestep: bool) -> Result<Run> {
     let mut pcs: HashMap<u32, u64> = HashMap::new();
     // Executions of each block (by its start address) in the measured region.
     let mut execs: HashMap<u32, u64> = HashMap::new();
-    // Blocks as translated: start address → instructions, and their addresses.
-    let mut blocks: HashMap<u32, u64> = HashMap::new();
+    // Blocks as translated: start address → the addresses of their instructions.
     let mut block_pcs: HashMap<u32, Vec<u32>> = HashMap::new();
     let mut block: Option<(u32, Vec<u32>)> = None;
     loop {
@@ -352,7 +351,6 @@ fn trace(elf_path: &Path, work: &Path, singlestep: bool) -> Result<Run> {
                 continue;
             }
             if let Some((pc, addresses)) = block.take() {
-                blocks.insert(pc, addresses.len() as u64);
                 block_pcs.insert(pc, addresses);
             }
         }
@@ -388,8 +386,9 @@ fn trace(elf_path: &Path, work: &Path, singlestep: bool) -> Result<Run> {
             let n = if singlestep {
                 1
             } else {
-                *blocks
+                block_pcs
                     .get(&pc)
+                    .map(|a| a.len() as u64)
                     .ok_or_else(|| format!("{pc:#010x} ran before its translation was logged"))?
             };
             count += n;
