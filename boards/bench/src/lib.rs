@@ -129,9 +129,9 @@ fn panic(info: &core::panic::PanicInfo<'_>) -> ! {
 pub fn run_f32(rule: Option<terrain_pyramid::classify::NavigabilityRule>) -> ! {
     use static_cell::{ConstStaticCell, StaticCell};
     use terrain_pyramid::wire::sick::SickAccumulator;
-    use terrain_pyramid::{Config, DefaultDesign, Schedule, SensorModel, DEFAULT_CELLS_PER_SIDE};
+    use terrain_pyramid::Config;
     use terrain_pyramid_bench::f32_pipeline::{Frontend, Pyramid};
-    use terrain_pyramid_bench::{frontend_config, replay, setup, Pipeline, F32};
+    use terrain_pyramid_bench::{default_design, frontend_config, replay, setup, Pipeline, F32};
 
     static PYRAMID: ConstStaticCell<Pyramid<64, 8>> = ConstStaticCell::new(Pyramid::new());
     static ACC: ConstStaticCell<SickAccumulator> = ConstStaticCell::new(SickAccumulator::new());
@@ -145,11 +145,7 @@ pub fn run_f32(rule: Option<terrain_pyramid::classify::NavigabilityRule>) -> ! {
         config.classifier.rule = rule;
     }
     let pyramid = PYRAMID.take();
-    let Ok(design) = DefaultDesign::new(
-        SensorModel::default(),
-        Schedule::default(),
-        DEFAULT_CELLS_PER_SIDE,
-    ) else {
+    let Some(design) = default_design::<64, 8>() else {
         panic!("default design");
     };
     if pyramid.configure(&design, &Config::default()).is_err() {
