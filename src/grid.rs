@@ -87,8 +87,9 @@ pub fn cell_reciprocal(r_bits: i32) -> u32 {
     u32::try_from((1_u64 << 32) / u64::from(r_bits.unsigned_abs())).unwrap_or(u32::MAX)
 }
 
-/// [`cell_of`] by a multiplication instead of a division (a library call of about 100
-/// instructions on a Cortex-M0, and slow on x86), given `reciprocal = cell_reciprocal(r_bits)`:
+/// [`cell_of`] by a multiplication (in 16-bit halves on a Cortex-M0, without its 64-bit
+/// library call) instead of a division (a library call of about 100 instructions on a
+/// Cortex-M0, and slow on x86), given `reciprocal = cell_reciprocal(r_bits)`:
 /// equal to `cell_of(x_bits, r_bits)` for every `x_bits` and every positive `r_bits` (cell
 /// sizes of 2¹⁴ m and more, and a reciprocal that does not match, fall back to the division
 /// only when `r_bits` is outside 655 ..< 2³⁰; a wrong reciprocal gives a wrong cell).
@@ -104,7 +105,7 @@ pub fn cell_of_reciprocal(x_bits: i32, r_bits: i32, reciprocal: u32) -> i32 {
         return cell_of(x_bits, r_bits);
     }
     #[allow(clippy::cast_possible_truncation)]
-    let q = ((i64::from(x_bits) * i64::from(reciprocal)) >> 32) as i32;
+    let q = (crate::wide::smul_u32(x_bits, reciprocal) >> 32) as i32;
     let rem = x_bits.wrapping_sub(q.wrapping_mul(r_bits));
     if rem < 0 {
         q.wrapping_sub(1)

@@ -38,6 +38,17 @@ pub(crate) fn smul(a: i32, b: i32) -> i64 {
     }
 }
 
+/// `a · b` exactly, as `i64` (|a·b| < 2⁶³): a signed word times an unsigned one.
+#[inline(always)]
+#[must_use]
+pub(crate) fn smul_u32(a: i32, b: u32) -> i64 {
+    if HALVES {
+        smul_u32_halves(a, b)
+    } else {
+        i64::from(a) * i64::from(b)
+    }
+}
+
 /// `a · b` exactly for `b < 2¹⁷` (a range in millimetres), as `i64`: on ARMv6-M two 16 × 16
 /// products instead of four. For a larger `b` the result is unspecified (no panic).
 #[inline(always)]
@@ -96,6 +107,20 @@ pub(crate) fn smul_halves(a: i32, b: i32) -> i64 {
         magnitude
     } else {
         -magnitude
+    }
+}
+
+/// [`smul_u32`] from [`umul_halves`] of the magnitude (`|a|·b < 2³¹·2³² = 2⁶³`, so the
+/// signed result fits).
+#[inline(always)]
+#[must_use]
+pub(crate) fn smul_u32_halves(a: i32, b: u32) -> i64 {
+    #[allow(clippy::cast_possible_wrap)]
+    let magnitude = umul_halves(a.unsigned_abs(), b) as i64;
+    if a < 0 {
+        -magnitude
+    } else {
+        magnitude
     }
 }
 
@@ -186,6 +211,9 @@ mod tests {
                 "{sa} {sb}"
             );
             assert_eq!(smul(sa, sb), i64::from(sa) * i64::from(sb));
+            let su = i64::from(sa) * i64::from(b);
+            assert_eq!(smul_u32_halves(sa, b), su, "{sa} {b}");
+            assert_eq!(smul_u32(sa, b), su);
             let sq = u64::from(sa.unsigned_abs()).pow(2);
             assert_eq!(square_halves(sa), sq, "{sa}");
             assert_eq!(square(sa), sq);

@@ -281,6 +281,23 @@ fn position_in_cell(point: Point3, cx: i32, cy: i32, bits: i32, m: u32) -> (i8, 
     )
 }
 
+/// The lower corner `c · bits` of cell `c = ⌊x / bits⌋` (for some `i32` x) of size
+/// `0 < bits < ORIGIN_LIMIT`, or `None` when it lies beyond ±[`ORIGIN_LIMIT`]: as
+/// `c.checked_mul(bits)` within the limit, in one 32-bit multiplication (a `checked_mul` of
+/// `i32` is a 64-bit product, a library call on a Cortex-M0).
+///
+/// Exact: the true corner lies in `(x − bits, x]`, within `(−2³¹ − 2³⁰, 2³¹)`; wrapped to 32
+/// bits, a corner below −2³¹ lands in `(2³⁰, 2³¹)`, beyond the limit like every other corner
+/// outside ±2³⁰, and a corner within the limit is its own wrapped value. For other arguments
+/// the result is some corner or `None`, never a panic.
+#[inline]
+fn corner(c: i32, bits: i32) -> Option<i32> {
+    let corner = c.wrapping_mul(bits);
+    (-ORIGIN_LIMIT..=ORIGIN_LIMIT)
+        .contains(&corner)
+        .then_some(corner)
+}
+
 /// Mixes a cell key into a slot index (multiplicative hashing of 32-bit words).
 #[inline]
 fn hash(layer: u8, x: i32, y: i32) -> u32 {
@@ -632,10 +649,9 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
         let Some(entry) = self.recent.get_mut(k) else {
             return;
         };
-        let within = |o: Option<i32>| o.filter(|o| (-ORIGIN_LIMIT..=ORIGIN_LIMIT).contains(o));
         match (
-            within(cx.checked_mul(bits)),
-            within(cy.checked_mul(bits)),
+            corner(cx, bits),
+            corner(cy, bits),
             u32::try_from(bits),
             u16::try_from(index),
         ) {
@@ -1313,6 +1329,43 @@ mod tests {
                     assert_eq!(ra, rb, "{rule:?} {gate:?}");
                 }
                 assert_eq!(a.stats(), b.stats());
+            }
+        }
+    }
+
+    #[test]
+    fn a_corner_in_32_bits_is_the_checked_product_within_the_limit() {
+        let within = |o: Option<i32>| o.filter(|o| (-ORIGIN_LIMIT..=ORIGIN_LIMIT).contains(o));
+        let mut rng = XorShift(0xD1B5_4A32_D192_ED03_u64);
+        let sizes = [
+            1,
+            2,
+            655,
+            6_553,
+            65_536,
+            1 << 20,
+            (1 << 29) + 7,
+            ORIGIN_LIMIT - 1,
+        ];
+        for bits in sizes {
+            let mut xs = std::vec![
+                i32::MIN,
+                i32::MIN + 1,
+                i32::MIN + bits - 1,
+                i32::MIN + bits,
+                -ORIGIN_LIMIT - 1,
+                -ORIGIN_LIMIT,
+                -1,
+                0,
+                ORIGIN_LIMIT,
+                ORIGIN_LIMIT + bits,
+                i32::MAX - bits,
+                i32::MAX,
+            ];
+            xs.extend((0..20_000).map(|_| rng.next() as i32 >> (rng.next() % 32)));
+            for x in xs {
+                let c = x.div_euclid(bits);
+                assert_eq!(corner(c, bits), within(c.checked_mul(bits)), "{x} {bits}");
             }
         }
     }
