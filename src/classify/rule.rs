@@ -515,8 +515,9 @@ fn q16_quotient(num: i128, den: i128) -> i128 {
 
 #[cfg(feature = "plane-rule")]
 /// Whether the plane rule calls the cell of `state` not navigable: two to four 64-bit
-/// divisions (the plane), one for the noise, four integer square roots (the noise, the
-/// gradient, the rise).
+/// divisions (the plane), up to two integer square roots (the gradient, the rise), and the
+/// noise (one division, two roots) only for a cell whose residual exceeds the allowance
+/// without noise or that is steeper than the largest slope.
 pub(super) fn plane_obstacle(
     state: &PlaneState,
     params: &PlaneParams,
@@ -556,13 +557,18 @@ pub(super) fn plane_obstacle(
     let explained = wa * wa * cuu + 2 * wa * wb * cuv + wb * wb * cvv;
     let wc = wa * cuz + wb * cvz;
     let residual = (czz << 32) - 2 * (wc << 16) + explained;
-    let noise = i128::from(noise_q16(params, geometry));
     // Saturating where extreme configurations (σ or k in the thousands) could overflow.
-    let allowed = i128::from(params.residual_q16)
-        .saturating_mul(i128::from(params.residual_q16))
-        .saturating_add(noise.saturating_mul(noise));
-    if residual > allowed.saturating_mul(n2) {
-        return true;
+    let quiet = i128::from(params.residual_q16).saturating_mul(i128::from(params.residual_q16));
+    // The noise (two roots and a division) only where a decision needs it: a residual within
+    // the allowance without noise is within it with noise (the saturating sums only grow).
+    let mut noise = None;
+    if residual > quiet.saturating_mul(n2) {
+        let sigma = i128::from(noise_q16(params, geometry));
+        let allowed = quiet.saturating_add(sigma.saturating_mul(sigma));
+        if residual > allowed.saturating_mul(n2) {
+            return true;
+        }
+        noise = Some(sigma);
     }
     // The gradient G = |w| (mm per unit, Q16), g = 64·G/c: steeper than the largest slope
     // when 64·G > tan·c (c in mm; both sides mm, Q16).
@@ -580,6 +586,7 @@ pub(super) fn plane_obstacle(
     let root = ROOT_12_OVER_N
         .get(usize::from(state.n))
         .map_or(0, |&r| i128::from(r));
+    let noise = noise.unwrap_or_else(|| i128::from(noise_q16(params, geometry)));
     let allowance = i128::from(params.step_q16).saturating_add(noise.saturating_mul(root) >> 16);
     rise_n.saturating_mul(steep) > (64 * slope * n).saturating_mul(allowance)
 }
