@@ -901,17 +901,17 @@ fn fold(
                 // position was not kept).
                 slot.plane = PlaneState::first(sub.0, sub.1, z);
                 if low_stays {
-                    slot.plane.add(sub.0, sub.1, slot.z_low);
+                    slot.plane.add_next(sub.0, sub.1, slot.z_low);
                 }
             }
         } else if plane {
-            slot.plane.add(sub.0, sub.1, z);
+            slot.plane.add_next(sub.0, sub.1, z);
         }
         slot.z_low = z;
     } else if i32::from(z) <= i32::from(slot.z_low) + i32::from(robot_height_mm) {
         slot.z_high = slot.z_high.max(z);
         if plane {
-            slot.plane.add(sub.0, sub.1, z);
+            slot.plane.add_next(sub.0, sub.1, z);
         }
     }
 }

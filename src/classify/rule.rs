@@ -213,15 +213,26 @@ impl PlaneState {
     /// Sums of the one point `(u, v, z)`.
     pub(super) fn first(u: i8, v: i8, z: i16) -> Self {
         let mut s = Self::EMPTY;
-        s.add(u, v, z);
+        s.z0 = z;
+        s.add_next(u, v, z);
         s
     }
 
     /// Offers a point below the overhang cut (`u, v ∈ −32 ..= 31` as [`sub_cell`] gives them:
     /// the sums' bounds assume it; other values never panic but may wrap the sums): summed
-    /// unless the decimation skips it.
-    #[inline(always)]
+    /// unless the decimation skips it. The first point summed sets z₀.
+    #[cfg(test)]
     pub(super) fn add(&mut self, u: i8, v: i8, z: i16) {
+        if self.n == 0 {
+            self.z0 = z;
+        }
+        self.add_next(u, v, z);
+    }
+
+    /// [`PlaneState::add`] to sums that hold a point (made by [`PlaneState::first`]: a
+    /// halving keeps at least 31), whose z₀ is set. On empty sums z₀ stays 0 (no panic).
+    #[inline(always)]
+    pub(super) fn add_next(&mut self, u: i8, v: i8, z: i16) {
         // Before the first halving every point is summed and the phase is not read (the
         // halving restarts it): it is counted from level 1 on only.
         if self.level != 0 {
@@ -231,9 +242,6 @@ impl PlaneState {
             if u32::from(phase) & mask != 0 {
                 return;
             }
-        }
-        if self.n == 0 {
-            self.z0 = z;
         }
         let dz = (i32::from(z) - i32::from(self.z0)).clamp(-MAX_DZ, MAX_DZ);
         let (u, v) = (i32::from(u), i32::from(v));
@@ -640,7 +648,7 @@ mod absent {
 
         /// Offers a point below the overhang cut: nothing is kept.
         #[allow(clippy::unused_self)]
-        pub(in crate::classify) fn add(&mut self, _u: i8, _v: i8, _z: i16) {}
+        pub(in crate::classify) fn add_next(&mut self, _u: i8, _v: i8, _z: i16) {}
     }
 
     /// The plane rule's parameters, in a build without the rule: uninhabited.
