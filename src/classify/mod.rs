@@ -421,7 +421,15 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
     /// The counters since construction.
     #[must_use]
     pub const fn stats(&self) -> ClassifierStats {
-        self.stats
+        let mut stats = self.stats;
+        // Every offered point is counted once where it goes: overhang, used or gated out (the
+        // per-point path keeps no fourth counter). Saturating sums of saturating counters
+        // saturate exactly when the count of offered points would.
+        stats.points = stats
+            .overhang_points
+            .saturating_add(stats.points_used)
+            .saturating_add(stats.points_gated_out);
+        stats
     }
 
     /// Cells touched so far in the current observation.
@@ -484,7 +492,6 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
     /// [`add_point`](Self::add_point) for a distance already binned.
     #[inline]
     fn add_point_in_bin(&mut self, point: Point3, bin: usize, ground_z: Meters) {
-        self.stats.points = self.stats.points.saturating_add(1);
         self.ground_z = ground_z.to_bits();
         if let Some(ceiling) = self.config.ceiling {
             if point.z > ground_z.saturating_add(ceiling) {
@@ -1368,6 +1375,35 @@ mod tests {
                 assert_eq!(corner(c, bits), within(c.checked_mul(bits)), "{x} {bits}");
             }
         }
+    }
+
+    #[test]
+    fn every_offered_point_is_counted_once() {
+        // Overhang, drop-off, used, gated out (beyond the range) and dropped on a full table.
+        let mut c = classifier::<8>(GateShape::Hard);
+        c.configure(ClassifierConfig {
+            ceiling: Some(Meters::from_num(1.5)),
+            drop_threshold: Some(Meters::from_num(0.3)),
+            ..ClassifierConfig::default()
+        });
+        c.begin(Meters::ZERO);
+        let near = Meters::from_num(0.2);
+        let mut offered = 0;
+        for i in 0..30 {
+            let x = 0.05 + 0.1 * i as f32;
+            let (z, d) = match i % 5 {
+                0 => (2.0, near),
+                1 => (-1.0, near),
+                2 => (0.0, Meters::from_num(1000.0)),
+                _ => (0.0, near),
+            };
+            c.add_point(pt(x - 3.0, 0.05, z), d, Meters::ZERO);
+            offered += 1;
+        }
+        let s = c.stats();
+        assert!(s.overhang_points > 0 && s.points_gated_out > 0 && s.overflow_points > 0);
+        assert!(s.drop_points > 0 && s.points_used > 0);
+        assert_eq!(s.points, offered);
     }
 
     #[test]
