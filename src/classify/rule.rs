@@ -522,6 +522,53 @@ fn q16_quotient(num: i128, den: i128) -> i128 {
 }
 
 #[cfg(feature = "plane-rule")]
+/// The centred moments of a cell's sums times n² (u, v in units of c/64; z in mm).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+struct Moments {
+    /// The summed points, 0 ..= 62.
+    n: i32,
+    /// n·Σuu − (Σu)², within ±2²².
+    cuu: i32,
+    /// n·Σvv − (Σv)², within ±2²².
+    cvv: i32,
+    /// n·Σuv − Σu·Σv, within ±2²².
+    cuv: i32,
+    /// n·Σuz − Σu·Σz, below 2³¹ in magnitude.
+    cuz: i32,
+    /// n·Σvz − Σv·Σz, below 2³¹ in magnitude.
+    cvz: i32,
+    /// n·Σzz − (Σz)², below 2³⁹ in magnitude.
+    czz: i64,
+}
+
+#[cfg(feature = "plane-rule")]
+/// [`Moments`] of `state` in 32-bit words where they fit (their products `muls`, not a 64-bit
+/// library call, on a Cortex-M0). With n ≤ 62 and |u|, |v| ≤ 32, |dz| ≤ 8191 per summed point
+/// (a halving keeps the bounds: |Σu| ≤ 32n, Σuu ≤ 1024n, |Σuz| ≤ 32·8191·n, …; |Σuv| ≤ 2¹⁵
+/// saturated): the moments of u and v lie within ±2²², |C_uz|, |C_vz| ≤ 2·62²·32·8191 < 2³¹,
+/// and C_zz = n·Σzz − (Σz)² from two 64-bit products ([`crate::wide`]). Wrapping operations:
+/// sums outside their bounds (never made) give wrong moments, not a panic. Tested against the
+/// 128-bit moments.
+fn moments(state: &PlaneState) -> Moments {
+    let n = i32::from(state.n);
+    let (su, sv) = (i32::from(state.su), i32::from(state.sv));
+    let sz = state.sz;
+    let moment = |nsum: i32, a: i32, b: i32| nsum.wrapping_sub(a.wrapping_mul(b));
+    #[allow(clippy::cast_possible_wrap, clippy::cast_sign_loss)]
+    let czz = (crate::wide::umul(n as u32, state.szz) as i64)
+        .wrapping_sub(crate::wide::square(sz) as i64);
+    Moments {
+        n,
+        cuu: moment(n.wrapping_mul(i32::from(state.suu)), su, su),
+        cvv: moment(n.wrapping_mul(i32::from(state.svv)), sv, sv),
+        cuv: moment(n.wrapping_mul(i32::from(state.suv)), su, sv),
+        cuz: moment(n.wrapping_mul(state.suz), su, sz),
+        cvz: moment(n.wrapping_mul(state.svz), sv, sz),
+        czz,
+    }
+}
+
+#[cfg(feature = "plane-rule")]
 /// Whether the plane rule calls the cell of `state` not navigable: two to four 64-bit
 /// divisions (the plane), up to two integer square roots (the gradient, the rise), and the
 /// noise (one division, two roots) only for a cell whose residual exceeds the allowance
@@ -534,30 +581,33 @@ pub(super) fn plane_obstacle(
     if state.n < 2 {
         return false;
     }
-    // Centred moments times n² (u, v in units of c/64; z in mm), the ridge, the determinant
-    // and the plane's numerators in 64 bits: with n ≤ 62 and the sums' bounds (module
-    // documentation; |Σuv| ≤ 2¹⁵) |C_uu|, |C_vv| < 2²³, |C_uv| < 2²³, |C_uz|, |C_vz| < 2³¹,
-    // |C_zz| < 2³⁹, so |det| < 2⁴⁷ and the numerators < 2⁵⁵ (tested against the 128-bit
-    // computation). The rest in 128 bits.
-    let n = i64::from(state.n);
-    let (su, sv) = (i64::from(state.su), i64::from(state.sv));
-    let sz = i64::from(state.sz);
-    let cuu = n * i64::from(state.suu) - su * su;
-    let cvv = n * i64::from(state.svv) - sv * sv;
-    let cuv = n * i64::from(state.suv) - su * sv;
-    let cuz = n * i64::from(state.suz) - su * sz;
-    let cvz = n * i64::from(state.svz) - sv * sz;
-    let czz = n * i64::from(state.szz) - sz * sz;
+    let Moments {
+        n,
+        cuu,
+        cvv,
+        cuv,
+        cuz,
+        cvz,
+        czz,
+    } = moments(state);
+    // The ridge λ = 1 unit², times n²; the determinant and the plane's numerators from
+    // 32 × 32 → 64-bit products: |det| < 2⁴⁷, the numerators < 2⁵⁵. The rest in 128 bits.
     let n2 = n * n;
-    // The ridge λ = 1 unit², times n².
     let (a, b) = (cuu + n2, cvv + n2);
-    let det = a * b - cuv * cuv;
+    let product = crate::wide::smul;
+    let det = product(a, b) - product(cuv, cuv);
     if det <= 0 {
         return false;
     }
     // w = (C + λI)⁻¹ c, mm per unit, Q16.
-    let wa = q16_quotient(i128::from(b * cuz - cuv * cvz), i128::from(det));
-    let wb = q16_quotient(i128::from(a * cvz - cuv * cuz), i128::from(det));
+    let wa = q16_quotient(
+        i128::from(product(b, cuz) - product(cuv, cvz)),
+        i128::from(det),
+    );
+    let wb = q16_quotient(
+        i128::from(product(a, cvz) - product(cuv, cuz)),
+        i128::from(det),
+    );
     let (n, n2) = (i128::from(n), i128::from(n2));
     let (cuu, cvv, cuv) = (i128::from(cuu), i128::from(cvv), i128::from(cuv));
     let (cuz, cvz, czz) = (i128::from(cuz), i128::from(cvz), i128::from(czz));
@@ -926,6 +976,64 @@ mod tests {
             obstacles > total / 20 && obstacles < total * 19 / 20,
             "{obstacles}"
         );
+    }
+
+    #[test]
+    fn the_moments_in_32_bits_are_the_128_bit_moments() {
+        let mut rng = XorShift(0x2545_F491_4F6C_DD1D_u64);
+        let mut next = || rng.next();
+        let mut widest = (0_i128, 0_i128);
+        for run in 0..20_000 {
+            // Up to 3000 points: the extreme corners and heights in opposite pairs (the
+            // largest moments), or random ones.
+            let mut s = PlaneState::EMPTY;
+            let extreme = run % 2 == 0;
+            for i in 0..(1 + next() % if run % 10 == 0 { 3000 } else { 70 }) {
+                let r = next();
+                let (u, v, z) = if extreme {
+                    let high = (i + r % 2) % 2 == 0;
+                    let (c, z) = if high { (31, 8191) } else { (-32, -8191) };
+                    let flip = (r >> 8) % 4 == 0;
+                    (c, if flip { -1 - c } else { c }, if i == 0 { 0 } else { z })
+                } else {
+                    let (u, v) = ((r % 64) as i8 - 32, ((r >> 8) % 64) as i8 - 32);
+                    (u, v, (r >> 32) as i16)
+                };
+                s.add(u, v, z);
+            }
+            let m = moments(&s);
+            let n = i128::from(s.n);
+            let (su, sv, sz) = (i128::from(s.su), i128::from(s.sv), i128::from(s.sz));
+            let cuz = n * i128::from(s.suz) - su * sz;
+            let cvz = n * i128::from(s.svz) - sv * sz;
+            assert_eq!(i128::from(m.n), n);
+            assert_eq!(
+                i128::from(m.cuu),
+                n * i128::from(s.suu) - su * su,
+                "run {run}"
+            );
+            assert_eq!(
+                i128::from(m.cvv),
+                n * i128::from(s.svv) - sv * sv,
+                "run {run}"
+            );
+            assert_eq!(
+                i128::from(m.cuv),
+                n * i128::from(s.suv) - su * sv,
+                "run {run}"
+            );
+            assert_eq!(i128::from(m.cuz), cuz, "run {run}");
+            assert_eq!(i128::from(m.cvz), cvz, "run {run}");
+            assert_eq!(
+                i128::from(m.czz),
+                n * i128::from(s.szz) - sz * sz,
+                "run {run}"
+            );
+            widest = (widest.0.max(cuz.abs()), widest.1.max(i128::from(m.czz)));
+        }
+        // The extremes are reached: C_uz near its largest, C_zz beyond 32 bits.
+        assert!(widest.0 > 1 << 29, "{widest:?}");
+        assert!(widest.1 > 1 << 33, "{widest:?}");
     }
 
     #[test]
