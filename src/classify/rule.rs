@@ -569,6 +569,53 @@ fn moments(state: &PlaneState) -> Moments {
 }
 
 #[cfg(feature = "plane-rule")]
+/// wᵀCw and the residual `C_zz·2³² − 2·wᵀc·2¹⁶ + wᵀCw` (both times n², Q32 mm²) for the plane
+/// `w = (wa, wb)` (mm per unit, Q16) in 64-bit words, where they surely fit them: |wa|, |wb|
+/// below 2¹⁹ and |C_zz| below 2²⁹ (a plane of gradient below 8 mm per unit, z spread within
+/// metres), and the partial results within the bounds below; `None` otherwise (the caller
+/// computes in 128 bits). The same integers as the 128-bit computation (tested).
+fn residual_narrow(wa: i128, wb: i128, m: &Moments) -> Option<(i64, i64)> {
+    const W: u32 = 1 << 19;
+    let (wa, wb) = (i32::try_from(wa).ok()?, i32::try_from(wb).ok()?);
+    if wa.unsigned_abs() >= W || wb.unsigned_abs() >= W || m.czz.unsigned_abs() >= 1 << 29 {
+        return None;
+    }
+    let product = crate::wide::smul;
+    // Squares and products of w below 2³⁸, the moments of u and v within ±2²²: the terms
+    // below 2⁶⁰, 2⁶¹ and 2⁶⁰. |C_uz|, |C_vz| < 2³¹: wᵀc below 2⁵¹.
+    let explained = product(wa, wa) * i64::from(m.cuu)
+        + 2 * product(wa, wb) * i64::from(m.cuv)
+        + product(wb, wb) * i64::from(m.cvv);
+    let wc = product(wa, m.cuz) + product(wb, m.cvz);
+    if explained.unsigned_abs() >= 1 << 61 || wc.unsigned_abs() >= 1 << 44 {
+        return None;
+    }
+    // Three terms below 2⁶¹ each: the sum below 2⁶³.
+    Some((explained, (m.czz << 32) - 2 * (wc << 16) + explained))
+}
+
+#[cfg(feature = "plane-rule")]
+/// `x²` as `i128`, saturating: from a 32 × 32 → 64-bit square when |x| < 2³¹.
+fn square_saturating(x: i64) -> i128 {
+    match i32::try_from(x) {
+        Ok(x) => i128::from(crate::wide::square(x)),
+        Err(_) => i128::from(x).saturating_mul(i128::from(x)),
+    }
+}
+
+#[cfg(feature = "plane-rule")]
+/// `a·n2` saturating, for `n2 = n²` with n ≤ 62: in 64 bits when `0 ≤ a < 2⁵¹` (the product
+/// below 2⁶³).
+fn times_n2(a: i128, n2: i32) -> i128 {
+    match i64::try_from(a) {
+        Ok(a) if (0..1 << 51).contains(&a) && (0..=62 * 62).contains(&n2) => {
+            i128::from(a * i64::from(n2))
+        }
+        _ => a.saturating_mul(i128::from(n2)),
+    }
+}
+
+#[cfg(feature = "plane-rule")]
 /// Whether the plane rule calls the cell of `state` not navigable: two to four 64-bit
 /// divisions (the plane), up to two integer square roots (the gradient, the rise), and the
 /// noise (one division, two roots) only for a cell whose residual exceeds the allowance
@@ -581,6 +628,7 @@ pub(super) fn plane_obstacle(
     if state.n < 2 {
         return false;
     }
+    let m = moments(state);
     let Moments {
         n,
         cuu,
@@ -589,7 +637,7 @@ pub(super) fn plane_obstacle(
         cuz,
         cvz,
         czz,
-    } = moments(state);
+    } = m;
     // The ridge λ = 1 unit², times n²; the determinant and the plane's numerators from
     // 32 × 32 → 64-bit products: |det| < 2⁴⁷, the numerators < 2⁵⁵. The rest in 128 bits.
     let n2 = n * n;
@@ -608,26 +656,32 @@ pub(super) fn plane_obstacle(
         i128::from(product(a, cvz) - product(cuv, cuz)),
         i128::from(det),
     );
-    let (n, n2) = (i128::from(n), i128::from(n2));
-    let (cuu, cvv, cuv) = (i128::from(cuu), i128::from(cvv), i128::from(cuv));
-    let (cuz, cvz, czz) = (i128::from(cuz), i128::from(cvz), i128::from(czz));
-    // wᵀCw and wᵀc, times n²: Q32 and Q16 mm².
-    let explained = wa * wa * cuu + 2 * wa * wb * cuv + wb * wb * cvv;
-    let wc = wa * cuz + wb * cvz;
-    let residual = (czz << 32) - 2 * (wc << 16) + explained;
+    // wᵀCw and the residual, times n² (Q32 mm²).
+    let (explained, residual) = match residual_narrow(wa, wb, &m) {
+        Some((explained, residual)) => (i128::from(explained), i128::from(residual)),
+        None => {
+            let (cuu, cvv, cuv) = (i128::from(cuu), i128::from(cvv), i128::from(cuv));
+            let (cuz, cvz, czz) = (i128::from(cuz), i128::from(cvz), i128::from(czz));
+            let explained = wa * wa * cuu + 2 * wa * wb * cuv + wb * wb * cvv;
+            // wᵀc, Q16 mm² times n².
+            let wc = wa * cuz + wb * cvz;
+            (explained, (czz << 32) - 2 * (wc << 16) + explained)
+        }
+    };
     // Saturating where extreme configurations (σ or k in the thousands) could overflow.
-    let quiet = i128::from(params.residual_q16).saturating_mul(i128::from(params.residual_q16));
+    let quiet = square_saturating(params.residual_q16);
     // The noise (two roots and a division) only where a decision needs it: a residual within
     // the allowance without noise is within it with noise (the saturating sums only grow).
     let mut noise = None;
-    if residual > quiet.saturating_mul(n2) {
-        let sigma = i128::from(noise_q16(params, geometry));
-        let allowed = quiet.saturating_add(sigma.saturating_mul(sigma));
-        if residual > allowed.saturating_mul(n2) {
+    if residual > times_n2(quiet, n2) {
+        let sigma = noise_q16(params, geometry);
+        let allowed = quiet.saturating_add(square_saturating(sigma));
+        if residual > times_n2(allowed, n2) {
             return true;
         }
-        noise = Some(sigma);
+        noise = Some(i128::from(sigma));
     }
+    let n = i128::from(n);
     // The gradient G = |w| (mm per unit, Q16), g = 64·G/c: steeper than the largest slope
     // when 64·G > tan·c (c in mm; both sides mm, Q16).
     #[allow(clippy::cast_sign_loss, clippy::cast_possible_wrap)]
@@ -1034,6 +1088,84 @@ mod tests {
         // The extremes are reached: C_uz near its largest, C_zz beyond 32 bits.
         assert!(widest.0 > 1 << 29, "{widest:?}");
         assert!(widest.1 > 1 << 33, "{widest:?}");
+    }
+
+    #[test]
+    fn the_residual_in_64_bits_is_the_128_bit_residual() {
+        let mut rng = XorShift(0x9E37_79B9_7F4A_7C15_u64);
+        let mut next = || rng.next();
+        let (mut narrow, mut wide) = (0, 0);
+        for run in 0..200_000 {
+            // Moments within their bounds (extremes one run in four), planes from flat to
+            // beyond the narrow range.
+            let extreme = run % 4 == 0;
+            let mut within = |bits: u32| {
+                let r = next();
+                let magnitude = if extreme {
+                    (1_i64 << bits) - 1 - (r % 4) as i64
+                } else {
+                    (r >> 8) as i64 % (1 << (r % u64::from(bits + 1)))
+                };
+                if r & 1 == 0 {
+                    magnitude
+                } else {
+                    -magnitude
+                }
+            };
+            let m = Moments {
+                n: 62,
+                cuu: within(22) as i32,
+                cvv: within(22) as i32,
+                cuv: within(22) as i32,
+                cuz: within(31) as i32,
+                cvz: within(31) as i32,
+                czz: within(if run % 3 == 0 { 39 } else { 30 }),
+            };
+            let mut plane = || {
+                let r = next();
+                let magnitude = ((r >> 8) % (1 << (r % 24))) as i128;
+                if r & 1 == 0 {
+                    magnitude
+                } else {
+                    -magnitude
+                }
+            };
+            let (wa, wb) = (plane(), plane());
+            let (cuu, cvv, cuv) = (i128::from(m.cuu), i128::from(m.cvv), i128::from(m.cuv));
+            let (cuz, cvz, czz) = (i128::from(m.cuz), i128::from(m.cvz), i128::from(m.czz));
+            let explained = wa * wa * cuu + 2 * wa * wb * cuv + wb * wb * cvv;
+            let residual = (czz << 32) - 2 * ((wa * cuz + wb * cvz) << 16) + explained;
+            match residual_narrow(wa, wb, &m) {
+                Some((e, r)) => {
+                    assert_eq!(
+                        (i128::from(e), i128::from(r)),
+                        (explained, residual),
+                        "{run}"
+                    );
+                    narrow += 1;
+                }
+                None => wide += 1,
+            }
+        }
+        // Both paths taken, each about half the time.
+        assert!(narrow > 50_000 && wide > 50_000, "{narrow} {wide}");
+        for x in [
+            0,
+            1,
+            -1,
+            i64::from(i32::MAX),
+            i64::from(i32::MIN),
+            1 << 31,
+            i64::MIN,
+        ] {
+            let square = i128::from(x).saturating_mul(i128::from(x));
+            assert_eq!(square_saturating(x), square, "{x}");
+            for n in [0, 1, 2, 61, 62] {
+                for a in [square, (1 << 51) - 1, 1 << 51, i128::MAX, -5] {
+                    assert_eq!(times_n2(a, n * n), a.saturating_mul(i128::from(n * n)));
+                }
+            }
+        }
     }
 
     #[test]
