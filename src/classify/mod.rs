@@ -903,13 +903,7 @@ fn fold(
             let low_stays = i32::from(slot.z_low) <= cut;
             slot.z_high = if low_stays { slot.z_low } else { z };
             if plane {
-                // Summed points lie above the cut now: the sums restart from this point and,
-                // when still below the cut, the previous lowest (where this point is: its
-                // position was not kept).
-                slot.plane = PlaneState::first(sub.0, sub.1, z);
-                if low_stays {
-                    slot.plane.add_next(sub.0, sub.1, slot.z_low);
-                }
+                restart_sums(slot, sub, z, low_stays);
             }
         } else if plane {
             slot.plane.add_next(sub.0, sub.1, z);
@@ -920,6 +914,18 @@ fn fold(
         if plane {
             slot.plane.add_next(sub.0, sub.1, z);
         }
+    }
+}
+
+/// The summed points of `slot` lie above the cut of a new lowest point `z` (at `sub`): its
+/// sums restart from this point and, when `low_stays` (still below the cut), the previous
+/// lowest (where this point is: its position was not kept). Out of line: rare.
+#[cold]
+#[inline(never)]
+fn restart_sums(slot: &mut Slot, sub: (i8, i8), z: i16, low_stays: bool) {
+    slot.plane = PlaneState::first(sub.0, sub.1, z);
+    if low_stays {
+        slot.plane.add_next(sub.0, sub.1, slot.z_low);
     }
 }
 
