@@ -507,7 +507,12 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
             self.stats.drop_points = self.stats.drop_points.saturating_add(1);
         }
         let z = mm_i16(point.z.to_bits().saturating_sub(self.reference_z));
-        if self.feed(point, bin, z, hole) {
+        let fed = if self.plane.is_some() {
+            self.feed::<true>(point, bin, z, hole)
+        } else {
+            self.feed::<false>(point, bin, z, hole)
+        };
+        if fed {
             self.stats.points_used = self.stats.points_used.saturating_add(1);
         } else {
             self.stats.points_gated_out = self.stats.points_gated_out.saturating_add(1);
@@ -519,13 +524,18 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
     pub fn add_missing_ground(&mut self, expected: Point3, distance: Meters) {
         let z = mm_i16(expected.z.to_bits().saturating_sub(self.reference_z));
         let bin = self.gates.distance_bins().bin(distance);
-        self.feed(expected, bin, z, true);
+        if self.plane.is_some() {
+            self.feed::<true>(expected, bin, z, true);
+        } else {
+            self.feed::<false>(expected, bin, z, true);
+        }
     }
 
     /// Adds a point (its distance in gate bin `bin`) to every layer cell whose gate passes
-    /// it; `true` when at least one did.
+    /// it; `true` when at least one did. `PLANE`: whether the plane rule is in force (chosen
+    /// once per point, so that the per-layer path tests nothing for it).
     #[inline]
-    fn feed(&mut self, point: Point3, bin: usize, z: i16, hole: bool) -> bool {
+    fn feed<const PLANE: bool>(&mut self, point: Point3, bin: usize, z: i16, hole: bool) -> bool {
         let bin_index = u16::try_from(bin).unwrap_or(u16::MAX);
         let mut fed = false;
         let min_weight = self.gates.min_feeding_weight();
@@ -533,10 +543,7 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
         // that may be fed are visited, and their weights checked.
         let mut mask = self.gates.fed_layers(bin);
         // Read once per point, not per layer (the slots written in between are not them).
-        let fold_rule = FoldRule {
-            plane: self.plane.is_some(),
-            robot_height_mm: self.robot_height_mm,
-        };
+        let robot_height_mm = self.robot_height_mm;
         let mut k = 0_u8;
         while mask != 0 {
             if mask & 1 != 0 {
@@ -544,7 +551,14 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
                 // the layers in force.
                 if let Some(gate) = self.gates.tables().get(usize::from(k)) {
                     if gate.weight(bin) >= min_weight {
-                        fed |= self.feed_recent(k, point, bin_index, z, hole, fold_rule);
+                        fed |= self.feed_recent::<PLANE>(
+                            k,
+                            point,
+                            bin_index,
+                            z,
+                            hole,
+                            robot_height_mm,
+                        );
                     }
                 }
             }
@@ -597,16 +611,15 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
     /// corner; otherwise [`Classifier::cell_of`], the hash and the probe, and the cell is
     /// remembered.
     #[inline]
-    fn feed_recent(
+    fn feed_recent<const PLANE: bool>(
         &mut self,
         k: u8,
         point: Point3,
         bin: u16,
         z: i16,
         hole: bool,
-        fold_rule: FoldRule,
+        robot_height_mm: i16,
     ) -> bool {
-        let plane = fold_rule.plane;
         let Some(&recent) = self.recent.get(usize::from(k)) else {
             return false;
         };
@@ -619,7 +632,7 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
         if dx < recent.span && dy < recent.span {
             if let Some(slot) = self.slots.get_mut(usize::from(recent.slot)) {
                 // dx, dy are the remainders in the cell, as `cell_of` computes them.
-                let sub = if plane {
+                let sub = if PLANE {
                     (
                         rule::sub_cell(dx, recent.reciprocal),
                         rule::sub_cell(dy, recent.reciprocal),
@@ -627,16 +640,16 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
                 } else {
                     (0, 0)
                 };
-                fold(slot, z, sub, bin, hole, fold_rule.robot_height_mm, plane);
+                fold(slot, z, sub, bin, hole, robot_height_mm, PLANE);
                 return true;
             }
         }
         let Some(r) = self.gates.resolution(usize::from(k)) else {
             return false;
         };
-        let (cx, cy, sub) = self.cell_of(r, recent.reciprocal, point);
+        let (cx, cy, sub) = Self::cell_of(r, recent.reciprocal, point, PLANE);
         // Stored as k + 1 (0 marks an empty slot); k < 8.
-        match self.insert(k + 1, cx, cy, sub, bin, z, hole) {
+        match self.insert(k + 1, cx, cy, sub, bin, z, hole, PLANE) {
             Some(index) => {
                 self.remember(usize::from(k), r.to_bits(), cx, cy, index);
                 true
@@ -680,9 +693,13 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
     /// (Cortex-M0, the host); both are exactly `r.cell_of`. The position is a multiplication
     /// by the reciprocal on every target.
     #[inline]
-    fn cell_of(&self, r: crate::grid::Resolution, m: u32, point: Point3) -> (i32, i32, (i8, i8)) {
+    fn cell_of(
+        r: crate::grid::Resolution,
+        m: u32,
+        point: Point3,
+        plane: bool,
+    ) -> (i32, i32, (i8, i8)) {
         let bits = r.to_bits();
-        let plane = self.plane.is_some();
         let (cx, cy) = if cfg!(all(target_arch = "arm", target_has_atomic = "32")) {
             (r.cell_of(point.x), r.cell_of(point.y))
         } else {
@@ -745,7 +762,7 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
         hole: bool,
     ) -> bool {
         if self
-            .insert(layer_index, cx, cy, sub, bin, z, hole)
+            .insert(layer_index, cx, cy, sub, bin, z, hole, self.plane.is_some())
             .is_some()
         {
             true
@@ -769,8 +786,8 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
         bin: u16,
         z: i16,
         hole: bool,
+        plane: bool,
     ) -> Option<usize> {
-        let plane = self.plane.is_some();
         let mut index = hash(layer, cx, cy) as usize & Self::MASK;
         for _ in 0..C {
             let slot = self.slots.get_mut(index)?;
@@ -871,15 +888,6 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
             pyramid.apply(&record);
         });
     }
-}
-
-/// What [`fold`] needs of the configuration, read once per point.
-#[derive(Debug, Clone, Copy)]
-struct FoldRule {
-    /// Whether the plane rule is in force.
-    plane: bool,
-    /// The robot's height, millimetres.
-    robot_height_mm: i16,
 }
 
 /// Folds a point (z mm, position `sub` in the cell, distance bin) into a used slot under the
