@@ -473,6 +473,15 @@ impl<const L: usize> Gates<L> {
         self.tables.get(..self.layer_count()).unwrap_or(&[])
     }
 
+    /// Layer `k`'s weight at gate bin `bin`: `table(k)`'s, 0 for a layer not in force (the
+    /// tables past the layers in force are kept all zero) and past the table. One bound check
+    /// against `L`, not against the layers in force: for the per-point path.
+    #[must_use]
+    #[inline]
+    pub fn weight_in(&self, k: usize, bin: usize) -> Weight {
+        self.tables.get(k).map_or(Weight::ZERO, |t| t.weight(bin))
+    }
+
     /// Layer `k`'s cell size, or `None` beyond the layers in force.
     #[must_use]
     #[inline]
@@ -581,6 +590,31 @@ mod tests {
                     let mut t = GateTable::build(a, k, bins_a);
                     t.rebuild(b, k, bins_b);
                     assert_eq!(t.weights(), GateTable::build(b, k, bins_b).weights(), "{k}");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn weight_in_is_the_table_weight_and_zero_past_the_layers_in_force() {
+        let increments = InverseSensorModel::default().increments().unwrap();
+        let long = Design::<8>::new(SensorModel::default(), Schedule::default(), 64).unwrap();
+        let short = SensorModel {
+            max_range_m: 4.0,
+            ..SensorModel::default()
+        };
+        let short = Design::<8>::new(short, Schedule::default(), 64).unwrap();
+        assert!(short.layers().len() < long.layers().len());
+        let mut p = Gates::<8>::new();
+        // Fresh, then the long design, then the short one over it: the tables it leaves are zero.
+        for design in [None, Some(&long), Some(&short)] {
+            if let Some(design) = design {
+                p.configure(design, increments).unwrap();
+            }
+            for k in 0..10 {
+                for bin in 0..GATE_BINS + 3 {
+                    let table = p.table(k).map_or(Weight::ZERO, |t| t.weight(bin));
+                    assert_eq!(p.weight_in(k, bin), table, "layer {k} bin {bin}");
                 }
             }
         }

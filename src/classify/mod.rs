@@ -176,6 +176,23 @@ impl Recent {
     };
 }
 
+/// The index of the lowest set bit of each byte (8 for 0): the next layer of a fed-layer mask
+/// by one load, on cores without a count-trailing-zeros instruction too.
+const LOWEST_SET_BIT: [u8; 256] = {
+    let mut table = [8_u8; 256];
+    let mut mask = 1;
+    while mask < 256 {
+        // Evaluated at compile time (an index out of range would fail the build, not panic):
+        // below 8 for a non-zero byte.
+        #[allow(clippy::cast_possible_truncation, clippy::indexing_slicing)]
+        {
+            table[mask] = (mask as u8).trailing_zeros() as u8;
+        }
+        mask += 1;
+    }
+    table
+};
+
 /// The marker of an empty slot: slots store their layer plus one, so that an empty slot (and
 /// a fresh classifier) is all zero bits.
 const EMPTY: u8 = 0;
@@ -544,26 +561,14 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
         let mut mask = self.gates.fed_layers(bin);
         // Read once per point, not per layer (the slots written in between are not them).
         let robot_height_mm = self.robot_height_mm;
-        let mut k = 0_u8;
         while mask != 0 {
-            if mask & 1 != 0 {
-                // The layer's table (and below, when needed, its cell size) exist exactly for
-                // the layers in force.
-                if let Some(gate) = self.gates.tables().get(usize::from(k)) {
-                    if gate.weight(bin) >= min_weight {
-                        fed |= self.feed_recent::<PLANE>(
-                            k,
-                            point,
-                            bin_index,
-                            z,
-                            hole,
-                            robot_height_mm,
-                        );
-                    }
-                }
+            // The lowest layer left in the mask (a layer in force), then the mask without it.
+            // (A byte indexes the 256 entries: the bound check compiles away.)
+            let k = LOWEST_SET_BIT.get(usize::from(mask)).copied().unwrap_or(8);
+            mask &= mask - 1;
+            if self.gates.weight_in(usize::from(k), bin) >= min_weight {
+                fed |= self.feed_recent::<PLANE>(k, point, bin_index, z, hole, robot_height_mm);
             }
-            mask >>= 1;
-            k += 1;
         }
         // Layers from the ninth on (pyramids of more than eight), by their weights.
         if self.gates.layer_count() > 8 {
@@ -1351,6 +1356,18 @@ mod tests {
                 }
                 assert_eq!(a.stats(), b.stats());
             }
+        }
+    }
+
+    #[test]
+    fn the_lowest_set_bit_table_is_trailing_zeros() {
+        for mask in 0..=u8::MAX {
+            let expected = mask.trailing_zeros().min(8);
+            assert_eq!(
+                u32::from(LOWEST_SET_BIT[usize::from(mask)]),
+                expected,
+                "{mask}"
+            );
         }
     }
 
