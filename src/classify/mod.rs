@@ -635,7 +635,8 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
             point.y.to_bits().wrapping_sub(recent.origin_y) as u32,
         );
         if dx < recent.span && dy < recent.span {
-            if let Some(slot) = self.slots.get_mut(usize::from(recent.slot)) {
+            // Masked to C − 1 (slots are below C): the bound check compiles away.
+            if let Some(slot) = self.slots.get_mut(usize::from(recent.slot) & Self::MASK) {
                 // dx, dy are the remainders in the cell, as `cell_of` computes them.
                 let sub = if PLANE {
                     (
