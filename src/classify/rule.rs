@@ -218,9 +218,8 @@ impl PlaneState {
         s
     }
 
-    /// Offers a point below the overhang cut (`u, v ∈ −32 ..= 31` as [`sub_cell`] gives them:
-    /// the sums' bounds assume it; other values never panic but may wrap the sums): summed
-    /// unless the decimation skips it. The first point summed sets z₀.
+    /// [`PlaneState::add_next`] to any sums, empty ones too: the first point summed sets z₀
+    /// (for the tests, which build sums point by point from [`PlaneState::EMPTY`]).
     #[cfg(test)]
     pub(super) fn add(&mut self, u: i8, v: i8, z: i16) {
         if self.n == 0 {
@@ -229,8 +228,11 @@ impl PlaneState {
         self.add_next(u, v, z);
     }
 
-    /// [`PlaneState::add`] to sums that hold a point (made by [`PlaneState::first`]: a
-    /// halving keeps at least 31), whose z₀ is set. On empty sums z₀ stays 0 (no panic).
+    /// Offers a point below the overhang cut to sums that hold a point (made by
+    /// [`PlaneState::first`], which sets z₀; a halving keeps at least 31): summed unless the
+    /// decimation skips it. `u, v ∈ −32 ..= 31` as [`sub_cell`] gives them: the sums' bounds
+    /// assume it; other values never panic but may wrap the sums. On empty sums z₀ stays 0
+    /// (no panic).
     #[inline(always)]
     pub(super) fn add_next(&mut self, u: i8, v: i8, z: i16) {
         // Before the first halving every point is summed and the phase is not read (the
