@@ -524,12 +524,7 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
             self.stats.drop_points = self.stats.drop_points.saturating_add(1);
         }
         let z = mm_i16(point.z.to_bits().saturating_sub(self.reference_z));
-        let fed = if self.plane.is_some() {
-            self.feed::<true>(point, bin, z, hole)
-        } else {
-            self.feed::<false>(point, bin, z, hole)
-        };
-        if fed {
+        if self.feed_by_rule(point, bin, z, hole) {
             self.stats.points_used = self.stats.points_used.saturating_add(1);
         } else {
             self.stats.points_gated_out = self.stats.points_gated_out.saturating_add(1);
@@ -541,10 +536,16 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
     pub fn add_missing_ground(&mut self, expected: Point3, distance: Meters) {
         let z = mm_i16(expected.z.to_bits().saturating_sub(self.reference_z));
         let bin = self.gates.distance_bins().bin(distance);
+        self.feed_by_rule(expected, bin, z, true);
+    }
+
+    /// [`Classifier::feed`] for the rule in force, chosen here once per point.
+    #[inline(always)]
+    fn feed_by_rule(&mut self, point: Point3, bin: usize, z: i16, hole: bool) -> bool {
         if self.plane.is_some() {
-            self.feed::<true>(expected, bin, z, true);
+            self.feed::<true>(point, bin, z, hole)
         } else {
-            self.feed::<false>(expected, bin, z, true);
+            self.feed::<false>(point, bin, z, hole)
         }
     }
 
