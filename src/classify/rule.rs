@@ -21,11 +21,11 @@
 //! Per point: its position in the cell as two 6-bit coordinates `u, v ∈ −32 ..= 31` (units of
 //! the cell's side / 64, from the cell's centre: `⌊64·(x − x_cell)/c⌋ − 32`, by a multiplication
 //! with the layer's cached reciprocal), its height `z − z₀` in millimetres relative to the
-//! slot's first summed point (clamped to ±8191 mm), and the sums n, Σu, Σv, Σuu, Σvv, Σuv, Σz,
+//! slot's first summed point (clamped to −8192 ..= 8191 mm), and the sums n, Σu, Σv, Σuu, Σvv, Σuv, Σz,
 //! Σuz, Σvz, Σzz. No float, no division. When n reaches 62 every sum is halved and from then
 //! on only every 2nd point is summed (then every 4th, …): the sums stay a uniform sample of
-//! the cell's points within their widths (|Σu| ≤ 62·32, Σuu ≤ 62·32², |Σuz| ≤ 62·32·8191,
-//! Σzz ≤ 62·8191² < 2³²). A point is summed when it lies below the overhang cut as it arrives. A new lowest
+//! the cell's points within their widths (|Σu| ≤ 62·32, Σuu ≤ 62·32², |Σuz| ≤ 62·32·8192,
+//! Σzz ≤ 62·8192² < 2³²). A point is summed when it lies below the overhang cut as it arrives. A new lowest
 //! point that puts summed points above the cut restarts the sums from it and from the previous
 //! lowest when that is still below the cut (the best bound still known, as the spread rule
 //! keeps it; its position was not kept, so it is summed where the new point is).
@@ -164,7 +164,8 @@ const HALVE_AT: u8 = 62;
 /// 16-bit phase stops the sampling at level 12 first (`docs/core.md`, the plane rule).
 const MAX_LEVEL: u8 = 15;
 #[cfg(feature = "plane-rule")]
-/// The largest |z − z₀| summed, millimetres.
+/// The largest z − z₀ summed, millimetres; the smallest is `−MAX_DZ − 1` (−8192): the signed
+/// 14-bit range, one saturating instruction (`ssat`) on ARMv7-M.
 const MAX_DZ: i32 = 8191;
 
 #[cfg(feature = "plane-rule")]
@@ -245,13 +246,14 @@ impl PlaneState {
                 return;
             }
         }
-        let dz = (i32::from(z) - i32::from(self.z0)).clamp(-MAX_DZ, MAX_DZ);
+        // The signed 14-bit range: `ssat` on ARMv7-M.
+        let dz = (i32::from(z) - i32::from(self.z0)).clamp(-MAX_DZ - 1, MAX_DZ);
         let (u, v) = (i32::from(u), i32::from(v));
         // At most 61 points are summed before this one (n < 62: the sums are halved at 62;
         // at the last level at most two more points follow the halving to 31), each with
-        // |u|, |v| ≤ 32 and |dz| ≤ 8191, so the sums stay within their widths without
-        // saturating: |Σu| ≤ 62·32 < 2¹⁵, Σuu ≤ 62·32² < 2¹⁶, |Σz| ≤ 62·8191, |Σuz| ≤ 62·32·8191,
-        // Σzz ≤ 62·8191² < 2³² (plain wrapping adds, which never wrap; tested against the
+        // |u|, |v| ≤ 32 and |dz| ≤ 8192, so the sums stay within their widths without
+        // saturating: |Σu| ≤ 62·32 < 2¹⁵, Σuu ≤ 62·32² < 2¹⁶, |Σz| ≤ 62·8192, |Σuz| ≤ 62·32·8192,
+        // Σzz ≤ 62·8192² < 2³² (plain wrapping adds, which never wrap; tested against the
         // saturating ones). Σuv alone can leave its i16 (62·32·32 > 2¹⁵ − 1) and saturates.
         #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
         {
@@ -545,9 +547,9 @@ struct Moments {
 
 #[cfg(feature = "plane-rule")]
 /// [`Moments`] of `state` in 32-bit words where they fit (their products `muls`, not a 64-bit
-/// library call, on a Cortex-M0). With n ≤ 62 and |u|, |v| ≤ 32, |dz| ≤ 8191 per summed point
-/// (a halving keeps the bounds: |Σu| ≤ 32n, Σuu ≤ 1024n, |Σuz| ≤ 32·8191·n, …; |Σuv| ≤ 2¹⁵
-/// saturated): the moments of u and v lie within ±2²², |C_uz|, |C_vz| ≤ 2·62²·32·8191 < 2³¹,
+/// library call, on a Cortex-M0). With n ≤ 62 and |u|, |v| ≤ 32, |dz| ≤ 8192 per summed point
+/// (a halving keeps the bounds: |Σu| ≤ 32n, Σuu ≤ 1024n, |Σuz| ≤ 32·8192·n, …; |Σuv| ≤ 2¹⁵
+/// saturated): the moments of u and v lie within ±2²², |C_uz|, |C_vz| ≤ 2·62²·32·8192 < 2³¹,
 /// and C_zz = n·Σzz − (Σz)² from two 64-bit products ([`crate::wide`]). Wrapping operations:
 /// sums outside their bounds (never made) give wrong moments, not a panic. Tested against the
 /// 128-bit moments.
@@ -874,12 +876,12 @@ mod tests {
             let u = i8::try_from((i * 7) % 64).unwrap() - 32;
             let v = i8::try_from((i * 13) % 64).unwrap() - 32;
             flat.add(u, v, i16::try_from((i * 31) % 9).unwrap());
-            step.add(u, v, if u > 0 { 8191 } else { -8191 });
+            step.add(u, v, if u > 0 { 8191 } else { -8192 });
         }
         assert!(flat.count() < HALVE_AT && flat.level > 5);
         assert!(!plane_obstacle(&flat, &p, &g));
         assert!(plane_obstacle(&step, &p, &g));
-        assert!(step.szz <= 62 * 8191 * 8191);
+        assert!(step.szz <= 62 * 8192 * 8192);
     }
 
     #[test]
@@ -1048,7 +1050,7 @@ mod tests {
                 let r = next();
                 let (u, v, z) = if extreme {
                     let high = (i + r % 2) % 2 == 0;
-                    let (c, z) = if high { (31, 8191) } else { (-32, -8191) };
+                    let (c, z) = if high { (31, 8191) } else { (-32, -8192) };
                     let flip = (r >> 8) % 4 == 0;
                     (c, if flip { -1 - c } else { c }, if i == 0 { 0 } else { z })
                 } else {
@@ -1261,7 +1263,7 @@ mod tests {
         if s.n == 0 {
             s.z0 = z;
         }
-        let dz = (i32::from(z) - i32::from(s.z0)).clamp(-MAX_DZ, MAX_DZ);
+        let dz = (i32::from(z) - i32::from(s.z0)).clamp(-8192, 8191);
         let (u, v) = (i32::from(u), i32::from(v));
         s.su = sat16(i32::from(s.su) + u);
         s.sv = sat16(i32::from(s.sv) + v);
@@ -1299,7 +1301,7 @@ mod tests {
                 let (u, v, z) = match kind {
                     0 => {
                         let corner = [-32_i8, 31][(r & 1) as usize];
-                        let z = [i16::MIN, i16::MAX, 0, -8191, 8191][(r >> 1) as usize % 5];
+                        let z = [i16::MIN, i16::MAX, 0, -8192, 8191, -8193][(r >> 1) as usize % 6];
                         (corner, corner, z)
                     }
                     1 => {
