@@ -177,7 +177,7 @@ impl Recent {
 }
 
 /// The index of the lowest set bit of each byte (8 for 0): the next layer of a fed-layer mask
-/// by one load, on cores without a count-trailing-zeros instruction too.
+/// by one load on ARMv6-M, which has no count-leading-zeros instruction ([`lowest_layer`]).
 const LOWEST_SET_BIT: [u8; 256] = {
     let mut table = [8_u8; 256];
     let mut mask = 1;
@@ -192,6 +192,23 @@ const LOWEST_SET_BIT: [u8; 256] = {
     }
     table
 };
+
+/// The index of the lowest set bit of `mask` (8 for 0): the lowest layer left in a fed-layer
+/// mask. On ARMv6-M one load from [`LOWEST_SET_BIT`]; elsewhere `trailing_zeros`, two
+/// instructions on ARMv7-M (`rbit`, `clz`) and no table address to keep in a register.
+#[inline(always)]
+fn lowest_layer(mask: u8) -> u8 {
+    if cfg!(all(target_arch = "arm", not(target_has_atomic = "32"))) {
+        // A byte indexes the 256 entries: the bound check compiles away.
+        LOWEST_SET_BIT.get(usize::from(mask)).copied().unwrap_or(8)
+    } else {
+        // At most 8.
+        #[allow(clippy::cast_possible_truncation)]
+        {
+            mask.trailing_zeros() as u8
+        }
+    }
+}
 
 /// The marker of an empty slot: slots store their layer plus one, so that an empty slot (and
 /// a fresh classifier) is all zero bits.
@@ -564,8 +581,7 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
         let robot_height_mm = self.robot_height_mm;
         while mask != 0 {
             // The lowest layer left in the mask (a layer in force), then the mask without it.
-            // (A byte indexes the 256 entries: the bound check compiles away.)
-            let k = LOWEST_SET_BIT.get(usize::from(mask)).copied().unwrap_or(8);
+            let k = lowest_layer(mask);
             mask &= mask - 1;
             if self.gates.weight_in(usize::from(k), bin) >= min_weight {
                 fed |= self.feed_recent::<PLANE>(k, point, bin_index, z, hole, robot_height_mm);
@@ -1370,6 +1386,7 @@ mod tests {
                 expected,
                 "{mask}"
             );
+            assert_eq!(u32::from(lowest_layer(mask)), expected, "{mask}");
         }
     }
 
