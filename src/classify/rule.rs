@@ -268,17 +268,21 @@ impl PlaneState {
         self.suz = self.suz.wrapping_add(u * dz);
         self.svz = self.svz.wrapping_add(v * dz);
         self.n += 1;
-        if self.n >= HALVE_AT && self.level < MAX_LEVEL {
+        if self.n >= HALVE_AT {
             self.halve();
         }
     }
 
-    /// Halves every sum and the count; from now on every 2^(level + 1)-th offered point is
-    /// summed (out of line: at most once per 31 summed points, and the per-point path keeps
-    /// no value alive for it).
+    /// Halves every sum and the count, unless the level is [`MAX_LEVEL`] already (then
+    /// nothing changes); from now on every 2^(level + 1)-th offered point is summed. Out of
+    /// line: at most once per 31 summed points below the last level, and the per-point path
+    /// keeps no value alive for it, not even the level.
     #[cold]
     #[inline(never)]
     fn halve(&mut self) {
+        if self.level >= MAX_LEVEL {
+            return;
+        }
         self.n /= 2;
         self.su >>= 1;
         self.sv >>= 1;
@@ -864,6 +868,27 @@ mod tests {
             post.add(5, 5, z * 10);
         }
         assert!(plane_obstacle(&post, &p, &g));
+    }
+
+    #[test]
+    fn at_the_last_level_halving_changes_nothing() {
+        let mut s = PlaneState::EMPTY;
+        for i in 0..HALVE_AT {
+            s.add_next(i8::try_from(i % 64).unwrap() - 32, 3, 100);
+        }
+        // The first halving happened at 62 summed points.
+        assert_eq!((s.n, s.level), (HALVE_AT / 2, 1));
+        s.level = MAX_LEVEL;
+        s.n = HALVE_AT;
+        let before = s;
+        s.halve();
+        assert_eq!(s, before);
+        s.level = MAX_LEVEL - 1;
+        s.halve();
+        assert_eq!(
+            (s.n, s.level, s.su),
+            (HALVE_AT / 2, MAX_LEVEL, before.su >> 1)
+        );
     }
 
     #[test]
