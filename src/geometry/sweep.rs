@@ -57,13 +57,14 @@ use crate::wide;
 /// [`SweepTransform::at`] gives the plane at an actuator angle.
 #[derive(Clone, Copy, PartialEq, Eq)]
 pub struct SweepTransform {
-    /// The world direction that multiplies cos θ, Q2.30.
-    c: [i64; 3],
+    /// The world direction that multiplies cos θ, Q2.30 (a unit component: saturated to
+    /// `i32` once here, never reached, instead of per actuator angle).
+    c: [i32; 3],
     /// The world image of robot x, Q2.30 (multiplies cos a in S(a)).
-    r0: [i64; 3],
+    r0: [i32; 3],
     /// The world image of the actuator's other axis, sign folded in, Q2.30 (multiplies
     /// sin a in S(a)).
-    aux: [i64; 3],
+    aux: [i32; 3],
     /// The scanner's centre in the world, metres Q40.
     origin: [i64; 3],
 }
@@ -101,7 +102,12 @@ impl SweepTransform {
             (i64::from(t.y.to_bits()) << 24) + rotated(1),
             (i64::from(t.z.to_bits()) << 24) + rotated(2),
         ];
-        Self { c, r0, aux, origin }
+        Self {
+            c: c.map(sat_i32),
+            r0: r0.map(sat_i32),
+            aux: aux.map(sat_i32),
+            origin,
+        }
     }
 
     /// The scanner's centre in the world frame, metres (saturated at ±32 768 m).
@@ -126,14 +132,11 @@ impl SweepTransform {
             // |x|, |y|, |ca|, |sa| ≤ 2³⁰ (up to rounding): each product fits 32 × 32 → 64 bits
             // (a library call avoided on ARMv6-M, `wide`), the sum below 2⁶¹, the result a
             // unit component that fits an i32.
-            *out = sat_i32(
-                (wide::smul(ca, sat_i32(x)) + wide::smul(sa, sat_i32(y)) + (1 << 29)) >> 30,
-            );
+            *out = sat_i32((wide::smul(ca, x) + wide::smul(sa, y) + (1 << 29)) >> 30);
         }
         ActuatedPlane {
             actuator,
-            // A Q2.30 unit component (|x| ≤ 2³⁰ up to rounding): the saturation is never reached.
-            c: self.c.map(sat_i32),
+            c: self.c,
             s,
             origin: self.origin,
         }
@@ -433,8 +436,9 @@ mod tests {
             let (st, ct) = (i64::from(st_c.sin.to_bits()), i64::from(st_c.cos.to_bits()));
             let mut want = [0_i64; 3];
             for (k, w) in want.iter_mut().enumerate() {
-                let s = (ca * sweep.r0[k] + sa * sweep.aux[k] + (1 << 29)) >> 30;
-                let dir = (sweep.c[k] * ct + s * st + (1 << 29)) >> 30;
+                let (r0, aux) = (i64::from(sweep.r0[k]), i64::from(sweep.aux[k]));
+                let s = (ca * r0 + sa * aux + (1 << 29)) >> 30;
+                let dir = (i64::from(sweep.c[k]) * ct + s * st + (1 << 29)) >> 30;
                 *w = i64::from(crate::geometry::transform::per_mm(dir)) * i64::from(range_mm);
             }
             assert_eq!(
