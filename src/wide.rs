@@ -19,33 +19,33 @@ const HALVES: bool = cfg!(all(target_arch = "arm", not(target_has_atomic = "32")
 /// `a · b` exactly, as `u64`.
 #[inline(always)]
 #[must_use]
-pub(crate) fn umul(a: u32, b: u32) -> u64 {
+pub(crate) const fn umul(a: u32, b: u32) -> u64 {
     if HALVES {
         umul_halves(a, b)
     } else {
-        u64::from(a) * u64::from(b)
+        a as u64 * b as u64
     }
 }
 
 /// `a · b` exactly, as `i64` (|a·b| ≤ 2⁶²).
 #[inline(always)]
 #[must_use]
-pub(crate) fn smul(a: i32, b: i32) -> i64 {
+pub(crate) const fn smul(a: i32, b: i32) -> i64 {
     if HALVES {
         smul_halves(a, b)
     } else {
-        i64::from(a) * i64::from(b)
+        a as i64 * b as i64
     }
 }
 
 /// `a · b` exactly, as `i64` (|a·b| < 2⁶³): a signed word times an unsigned one.
 #[inline(always)]
 #[must_use]
-pub(crate) fn smul_u32(a: i32, b: u32) -> i64 {
+pub(crate) const fn smul_u32(a: i32, b: u32) -> i64 {
     if HALVES {
         smul_u32_halves(a, b)
     } else {
-        i64::from(a) * i64::from(b)
+        a as i64 * b as i64
     }
 }
 
@@ -90,17 +90,17 @@ pub(crate) fn shr_u64(x: u64, n: u32) -> u64 {
 /// below 2³³).
 #[inline(always)]
 #[must_use]
-pub(crate) fn umul_halves(a: u32, b: u32) -> u64 {
+pub(crate) const fn umul_halves(a: u32, b: u32) -> u64 {
     let (ah, bh) = (a >> 16, b >> 16);
     let (al, bl) = (a & 0xFFFF, b & 0xFFFF);
-    let mid = u64::from(ah * bl) + u64::from(al * bh);
-    (u64::from(ah * bh) << 32) + (mid << 16) + u64::from(al * bl)
+    let mid = (ah * bl) as u64 + (al * bh) as u64;
+    (((ah * bh) as u64) << 32) + (mid << 16) + (al * bl) as u64
 }
 
 /// [`smul`] from the magnitudes' [`umul_halves`] (at most 2⁶², so the signed result fits).
 #[inline(always)]
 #[must_use]
-pub(crate) fn smul_halves(a: i32, b: i32) -> i64 {
+pub(crate) const fn smul_halves(a: i32, b: i32) -> i64 {
     #[allow(clippy::cast_possible_wrap)]
     let magnitude = umul_halves(a.unsigned_abs(), b.unsigned_abs()) as i64;
     if (a < 0) == (b < 0) {
@@ -114,7 +114,7 @@ pub(crate) fn smul_halves(a: i32, b: i32) -> i64 {
 /// signed result fits).
 #[inline(always)]
 #[must_use]
-pub(crate) fn smul_u32_halves(a: i32, b: u32) -> i64 {
+pub(crate) const fn smul_u32_halves(a: i32, b: u32) -> i64 {
     #[allow(clippy::cast_possible_wrap)]
     let magnitude = umul_halves(a.unsigned_abs(), b) as i64;
     if a < 0 {

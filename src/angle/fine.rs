@@ -204,26 +204,34 @@ impl FineAngle {
 
     /// The sine and cosine of the angle, signed Q2.30, each within 1.4·10⁻⁹ of the exact
     /// value, exact (0 or ±1) at multiples of 90°. Never panics.
+    ///
+    /// Every product has two 32-bit factors ([`crate::wide`]): one `smull` on ARMv7-M, three
+    /// or four 16 × 16 products on ARMv6-M instead of a 64 × 64 library multiply.
     #[must_use]
     pub const fn sin_cos(self) -> SinCos {
+        use crate::wide::{smul, smul_u32};
         let quadrant = self.0 >> 30;
         let within = self.0 & (ONE_Q30 as u32 - 1);
         // The nearest node, 0 ..= 256, and the signed offset from it in 2⁻³² turn,
-        // |offset| ≤ 2²¹.
+        // |offset| ≤ 2²¹ (within < 2³⁰ and k·2²² ≤ 2³⁰: both fit an i32).
         let k = ((within + (1 << (NODE_SHIFT - 1))) >> NODE_SHIFT) as usize;
-        let offset = within as i64 - ((k as i64) << NODE_SHIFT);
-        // δ in radians, Q32: offset · 2π; |δ| ≤ π/1 024, i.e. < 1.4·10⁷ raw.
-        let delta = (offset * TAU_Q29 + (1 << 28)) >> 29;
-        // δ² in Q32 (< 4.1·10⁴ raw), 1 − cos δ ≈ δ²/2, and sin δ ≈ δ − δ³/6, Q32.
-        let delta2 = (delta * delta + (1 << 31)) >> 32;
+        let offset = within as i32 - ((k as i32) << NODE_SHIFT);
+        // δ in radians, Q32: offset · 2π; |δ| ≤ π/1 024, i.e. < 1.4·10⁷ raw (2π in Q3.29 is
+        // below 2³²).
+        let delta = ((smul_u32(offset, TAU_Q29 as u32) + (1 << 28)) >> 29) as i32;
+        // δ² in Q32 (< 4.1·10⁴ raw), 1 − cos δ ≈ δ²/2, and sin δ ≈ δ − δ³/6, Q32; |δ³| < 2³⁹,
+        // so δ³/2¹⁶ fits an i32, as 1/6 in Q0.32 does.
+        let delta2 = ((smul(delta, delta) + (1 << 31)) >> 32) as i32;
         let one_minus_cos = (delta2 + 1) >> 1;
-        let delta3 = delta * delta2;
-        let sin_delta = delta - (((delta3 >> 16) * SIXTH_Q32 + (1 << 47)) >> 48);
-        let s = node(k);
-        let c = node(SEGMENTS - k);
+        let delta3 = smul(delta, delta2);
+        let sin_delta = (delta as i64
+            - ((smul((delta3 >> 16) as i32, SIXTH_Q32 as i32) + (1 << 47)) >> 48))
+            as i32;
+        let s = node(k) as i32;
+        let c = node(SEGMENTS - k) as i32;
         // |s|, |c| ≤ 2³⁰, |1 − cos δ| < 2¹⁵, |sin δ| < 2²⁴: every product is below 2⁵⁵.
-        let sin_r = s + ((c * sin_delta - s * one_minus_cos + (1 << 31)) >> 32);
-        let cos_r = c + ((-s * sin_delta - c * one_minus_cos + (1 << 31)) >> 32);
+        let sin_r = s as i64 + ((smul(c, sin_delta) - smul(s, one_minus_cos) + (1 << 31)) >> 32);
+        let cos_r = c as i64 + ((-smul(s, sin_delta) - smul(c, one_minus_cos) + (1 << 31)) >> 32);
         let sin_r = clamp_unit(sin_r);
         let cos_r = clamp_unit(cos_r);
         let (sin, cos) = match quadrant {
@@ -277,6 +285,41 @@ mod tests {
     use super::*;
     use core::f64::consts::TAU;
 
+    /// `sin_cos` as it was computed before: the same formula in 64 × 64-bit products.
+    fn sin_cos_i64(angle: FineAngle) -> SinCos {
+        let this = angle;
+        let quadrant = this.0 >> 30;
+        let within = this.0 & (ONE_Q30 as u32 - 1);
+        // The nearest node, 0 ..= 256, and the signed offset from it in 2⁻³² turn,
+        // |offset| ≤ 2²¹.
+        let k = ((within + (1 << (NODE_SHIFT - 1))) >> NODE_SHIFT) as usize;
+        let offset = within as i64 - ((k as i64) << NODE_SHIFT);
+        // δ in radians, Q32: offset · 2π; |δ| ≤ π/1 024, i.e. < 1.4·10⁷ raw.
+        let delta = (offset * TAU_Q29 + (1 << 28)) >> 29;
+        // δ² in Q32 (< 4.1·10⁴ raw), 1 − cos δ ≈ δ²/2, and sin δ ≈ δ − δ³/6, Q32.
+        let delta2 = (delta * delta + (1 << 31)) >> 32;
+        let one_minus_cos = (delta2 + 1) >> 1;
+        let delta3 = delta * delta2;
+        let sin_delta = delta - (((delta3 >> 16) * SIXTH_Q32 + (1 << 47)) >> 48);
+        let s = node(k);
+        let c = node(SEGMENTS - k);
+        // |s|, |c| ≤ 2³⁰, |1 − cos δ| < 2¹⁵, |sin δ| < 2²⁴: every product is below 2⁵⁵.
+        let sin_r = s + ((c * sin_delta - s * one_minus_cos + (1 << 31)) >> 32);
+        let cos_r = c + ((-s * sin_delta - c * one_minus_cos + (1 << 31)) >> 32);
+        let sin_r = clamp_unit(sin_r);
+        let cos_r = clamp_unit(cos_r);
+        let (sin, cos) = match quadrant {
+            0 => (sin_r, cos_r),
+            1 => (cos_r, -sin_r),
+            2 => (-sin_r, -cos_r),
+            _ => (-cos_r, sin_r),
+        };
+        SinCos {
+            sin: q30(sin),
+            cos: q30(cos),
+        }
+    }
+
     fn f(raw: I2F30) -> f64 {
         f64::from(raw.to_bits()) / f64::from(ONE_Q30)
     }
@@ -294,6 +337,34 @@ mod tests {
         }
         assert_eq!(QUARTER_SINE[0], 0);
         assert_eq!(QUARTER_SINE[SEGMENTS], ONE_Q30);
+    }
+
+    #[test]
+    fn sin_cos_in_32_bit_factors_is_the_64_bit_formula() {
+        // Every node and its neighbourhood in every quadrant, the quadrant edges, and random
+        // angles.
+        let mut angles = std::vec::Vec::new();
+        for quadrant in 0..4_u32 {
+            for k in 0..=256_u32 {
+                let node = (quadrant << 30).wrapping_add(k << NODE_SHIFT);
+                for d in [0, 1, 2, (1 << 21) - 1, 1 << 21] {
+                    angles.push(node.wrapping_add(d));
+                    angles.push(node.wrapping_sub(d));
+                }
+            }
+        }
+        let mut x = 0x9E37_79B9_u32;
+        for _ in 0..200_000 {
+            x ^= x << 13;
+            x ^= x >> 17;
+            x ^= x << 5;
+            angles.push(x);
+        }
+        angles.extend([0, u32::MAX, 1 << 31, (1 << 30) - 1, 3 << 30]);
+        for bits in angles {
+            let a = FineAngle::from_bits(bits);
+            assert_eq!(a.sin_cos(), sin_cos_i64(a), "{bits:#x}");
+        }
     }
 
     #[test]
