@@ -661,7 +661,7 @@ impl<const C: usize, const L: usize> Frontend<C, L> {
         let step_q16 = if steps == 1 || turn == 0 {
             turn << 16
         } else {
-            (turn << 16) / steps
+            step_q16(turn, steps)
         };
         let ground_z: Meters = self.pose.z;
         // The plane only where a point is placed, built for the return's actuator angle when
@@ -732,6 +732,22 @@ impl<const C: usize, const L: usize> Frontend<C, L> {
     }
 }
 
+/// `(turn·2¹⁶) / steps` rounded towards zero, as `i64` division does, for |turn| < 2³¹ and
+/// `0 < steps < 2³²`: from the magnitude by a 32-bit divisor ([`crate::wide::div_rem_u64_u32`]:
+/// no 64-bit division on ARMv7-M). Other arguments give some value, never a panic.
+fn step_q16(turn: i64, steps: i64) -> i64 {
+    let steps = u32::try_from(steps).unwrap_or(u32::MAX);
+    // |turn·2¹⁶| < 2⁴⁷: the quotient fits an i64.
+    #[allow(clippy::cast_possible_wrap)]
+    let magnitude =
+        crate::wide::div_rem_u64_u32(turn.wrapping_shl(16).unsigned_abs(), steps).0 as i64;
+    if turn < 0 {
+        -magnitude
+    } else {
+        magnitude
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -743,6 +759,22 @@ mod tests {
     use crate::Fused;
     extern crate std;
     use std::vec::Vec;
+
+    #[test]
+    fn the_step_per_return_is_the_i64_quotient() {
+        let mut x = 0x9E37_79B9_7F4A_7C15_u64;
+        for steps in 2..=255_i64 {
+            for _ in 0..500 {
+                x ^= x << 13;
+                x ^= x >> 7;
+                x ^= x << 17;
+                let turn = i64::from(x as i32);
+                for t in [turn, -turn, 1, -1, i64::from(i32::MAX), i64::from(i32::MIN)] {
+                    assert_eq!(super::step_q16(t, steps), (t << 16) / steps, "{t} {steps}");
+                }
+            }
+        }
+    }
 
     /// A SICK at 0.5 m on a tilt unit, looking at flat floor with a wall 2 m ahead.
     fn ranges_mm(tilt_deg: f64) -> Vec<u8> {

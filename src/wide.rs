@@ -168,10 +168,132 @@ pub(crate) fn shr_u64_words(x: u64, n: u32) -> u64 {
     (u64::from(hi) << 32) | u64::from(lo)
 }
 
+/// Whether the target divides 32-bit words in hardware but has no 64-bit division
+/// (ARMv7-M: `udiv`; a `u64` division there is a call to `__aeabi_uldivmod`).
+const DIVIDES_WORDS: bool = cfg!(all(target_arch = "arm", target_has_atomic = "32"));
+
+/// `(n / d, n % d)` for a 32-bit divisor `d > 0`; `(0, 0)` for `d = 0` (no panic). On ARMv7-M
+/// by [`div_rem_words`] (two or three `udiv`); elsewhere the plain `u64` division (ARMv6-M
+/// has no divide instruction at all: its library call stays the cheaper way).
+#[inline]
+#[must_use]
+pub(crate) fn div_rem_u64_u32(n: u64, d: u32) -> (u64, u32) {
+    if d == 0 {
+        return (0, 0);
+    }
+    if DIVIDES_WORDS {
+        div_rem_words(n, d)
+    } else {
+        // The remainder is below d.
+        #[allow(clippy::cast_possible_truncation)]
+        (n / u64::from(d), (n % u64::from(d)) as u32)
+    }
+}
+
+/// [`div_rem_u64_u32`] in 32-bit divisions: the high word by `d`, then the remainder and the
+/// low word by [`div_two_words`]. `d > 0`; `d = 0` gives `(0, 0)`.
+#[must_use]
+pub(crate) fn div_rem_words(n: u64, d: u32) -> (u64, u32) {
+    #[allow(clippy::cast_possible_truncation)]
+    let (hi, lo) = ((n >> 32) as u32, n as u32);
+    let Some(q_hi) = hi.checked_div(d) else {
+        return (0, 0);
+    };
+    let r = hi - q_hi * d;
+    let (q_lo, rem) = div_two_words(r, lo, d);
+    ((u64::from(q_hi) << 32) | u64::from(q_lo), rem)
+}
+
+/// `((u1·2³² + u0) / v, (u1·2³² + u0) % v)` for `u1 < v` (the quotient fits 32 bits), by
+/// 16-bit digits and two 32-bit divisions with at most two corrections each (Hacker's
+/// Delight, 2nd ed., `divlu`, Fig. 9–3). For `u1 ≥ v` or `v = 0` some value, never a panic.
+#[must_use]
+pub(crate) fn div_two_words(u1: u32, u0: u32, v: u32) -> (u32, u32) {
+    const B: u32 = 1 << 16;
+    if v == 0 || u1 >= v {
+        return (u32::MAX, 0);
+    }
+    // Normalise: v's top bit set.
+    let s = v.leading_zeros();
+    let v = v << s;
+    let (vn1, vn0) = (v >> 16, v & 0xFFFF);
+    let un32 = if s == 0 {
+        u1
+    } else {
+        (u1 << s) | (u0 >> (32 - s))
+    };
+    let un10 = u0 << s;
+    let (un1, un0) = (un10 >> 16, un10 & 0xFFFF);
+    // vn1 ≥ 2¹⁵ > 0: the divisions cannot fail.
+    let digit = |num: u32, low: u32| -> u32 {
+        let mut q = num / vn1;
+        let mut rhat = num - q * vn1;
+        while q >= B || q.wrapping_mul(vn0) > B.wrapping_mul(rhat).wrapping_add(low) {
+            q -= 1;
+            rhat += vn1;
+            if rhat >= B {
+                break;
+            }
+        }
+        q
+    };
+    let q1 = digit(un32, un1);
+    let un21 = un32
+        .wrapping_mul(B)
+        .wrapping_add(un1)
+        .wrapping_sub(q1.wrapping_mul(v));
+    let q0 = digit(un21, un0);
+    let rem = un21
+        .wrapping_mul(B)
+        .wrapping_add(un0)
+        .wrapping_sub(q0.wrapping_mul(v))
+        >> s;
+    (q1.wrapping_mul(B).wrapping_add(q0), rem)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::test_rng::XorShift;
+
+    #[test]
+    fn the_word_division_is_the_u64_division() {
+        let mut rng = XorShift(0xD1B5_4A32_D192_ED03_u64);
+        let mut next = || rng.next();
+        let divisors = [
+            1_u32, 2, 3, 7, 255, 256, 0xFFFF, 0x1_0000, 0x1_0001, 36_000, 396_000,
+        ];
+        let extremes = [
+            0_u64,
+            1,
+            u64::from(u32::MAX),
+            1 << 32,
+            u64::MAX,
+            u64::MAX - 1,
+        ];
+        for d in divisors
+            .into_iter()
+            .chain([u32::MAX, u32::MAX - 1, 1 << 31, (1 << 31) - 1])
+        {
+            for n in extremes {
+                let want = (n / u64::from(d), (n % u64::from(d)) as u32);
+                assert_eq!(div_rem_words(n, d), want, "{n} / {d}");
+            }
+        }
+        for i in 0..2_000_000_u64 {
+            let n = next() >> (next() % 64);
+            // Divisors of every width, the small ones often.
+            let d = (next() >> (32 + i % 32)) as u32;
+            if d == 0 {
+                continue;
+            }
+            let want = (n / u64::from(d), (n % u64::from(d)) as u32);
+            assert_eq!(div_rem_words(n, d), want, "{n} / {d}");
+            assert_eq!(div_rem_u64_u32(n, d), want, "{n} / {d}");
+        }
+        assert_eq!(div_rem_words(5, 0), (0, 0));
+        assert_eq!(div_rem_u64_u32(5, 0), (0, 0));
+    }
 
     const EDGES: [u32; 14] = [
         0,

@@ -62,8 +62,13 @@ pub(crate) fn turn_fraction(numerator: u64, denominator: u64) -> FineAngle {
     // the scaled value fits a u64 and the division is a 64-bit one; u128 otherwise.
     if numerator >> 32 == 0 {
         if let Some(scaled) = (numerator << 32).checked_add(denominator / 2) {
+            // A 32-bit denominator (every lidar's): 32-bit divisions where the core has them.
+            let quotient = match u32::try_from(denominator) {
+                Ok(d) => crate::wide::div_rem_u64_u32(scaled, d).0,
+                Err(_) => scaled / denominator,
+            };
             #[allow(clippy::cast_possible_truncation)]
-            return FineAngle::from_bits((scaled / denominator) as u32);
+            return FineAngle::from_bits(quotient as u32);
         }
     }
     let scaled = (u128::from(numerator) << 32) + u128::from(denominator / 2);
@@ -115,11 +120,24 @@ impl TurnSteps {
         }
         let scaled = (first << 32).checked_add(denominator / 2)?;
         let step_scaled = step << 32;
+        // A 32-bit denominator (every lidar's): 32-bit divisions where the core has them.
+        let ((quotient, remainder), (step_quotient, step_remainder)) =
+            match u32::try_from(denominator) {
+                Ok(d) => {
+                    let (q, r) = crate::wide::div_rem_u64_u32(scaled, d);
+                    let (sq, sr) = crate::wide::div_rem_u64_u32(step_scaled, d);
+                    ((q, u64::from(r)), (sq, u64::from(sr)))
+                }
+                Err(_) => (
+                    (scaled / denominator, scaled % denominator),
+                    (step_scaled / denominator, step_scaled % denominator),
+                ),
+            };
         Some(Self {
-            quotient: scaled / denominator,
-            remainder: scaled % denominator,
-            step_quotient: step_scaled / denominator,
-            step_remainder: step_scaled % denominator,
+            quotient,
+            remainder,
+            step_quotient,
+            step_remainder,
             denominator,
         })
     }
