@@ -775,15 +775,17 @@ impl<const Q: usize, const N: usize> Link<Q, N> {
         report: &mut PollReport,
     ) -> bool {
         let count = layers_of(pyramid).min(N);
-        let mut moved = WindowMoved::new();
+        // First only whether any layer moved (most polls: none), so that the message, a
+        // quarter kilobyte, is cleared and filled only when it is sent.
         let mut expected: u64 = 0;
+        let mut any_moved = false;
         for k in 0..count {
             let (Some(layer), Some(&sent)) = (pyramid.layer(k), self.sent_origin.get(k)) else {
                 continue;
             };
             let origin = layer.origin();
             if origin != sent {
-                moved.set(k, origin);
+                any_moved = true;
                 expected = expected.saturating_add(cells_reset_by_move::<W>(sent, origin));
             }
         }
@@ -791,8 +793,18 @@ impl<const Q: usize, const N: usize> Link<Q, N> {
         let delta = u64::from(now.saturating_sub(self.reset_baseline));
         // A saturated counter says nothing any more: trust the caller then.
         let collapsed = now != u32::MAX && delta != expected;
-        if moved.is_empty() && !collapsed {
+        if !any_moved && !collapsed {
             return true;
+        }
+        let mut moved = WindowMoved::new();
+        for k in 0..count {
+            let (Some(layer), Some(&sent)) = (pyramid.layer(k), self.sent_origin.get(k)) else {
+                continue;
+            };
+            let origin = layer.origin();
+            if origin != sent {
+                moved.set(k, origin);
+            }
         }
         if !moved.is_empty() && !self.send(&Message::WindowMoved(moved), 0, report) {
             return false;
