@@ -95,64 +95,61 @@ pub(crate) fn turn_fraction_45ths(n: u32, s: u32) -> FineAngle {
 }
 
 /// The angles `turn_fraction(first + k·step, denominator)` for k = 0, 1, 2, … in order, each
-/// exactly as [`turn_fraction`] rounds it, by two 64-bit divisions in all instead of one per
+/// exactly as [`turn_fraction`] rounds it, by two divisions in all instead of one per
 /// angle: the quotient and remainder of the first, and of the step, then one add and one
-/// compare per angle (a packet's evenly spaced returns: an LD06's 12 per packet).
+/// compare per angle (a packet's evenly spaced returns: an LD06's 12 per packet). In 32-bit
+/// words: the angle is the quotient modulo 2³², and the remainders are below a 32-bit
+/// denominator.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(crate) struct TurnSteps {
-    /// `⌊(first·2³² + ⌊d/2⌋ + k·step·2³²) / d⌋` for the next k, modulo 2⁶⁴ (only its low 32
-    /// bits, the angle modulo one turn, are used).
-    quotient: u64,
+    /// `⌊(first·2³² + ⌊d/2⌋ + k·step·2³²) / d⌋` for the next k, modulo 2³² (the angle modulo
+    /// one turn).
+    quotient: u32,
     /// The remainder that goes with it, `< d`.
-    remainder: u64,
-    step_quotient: u64,
-    step_remainder: u64,
-    denominator: u64,
+    remainder: u32,
+    /// `⌊step·2³² / d⌋` modulo 2³².
+    step_quotient: u32,
+    /// `step·2³² mod d`.
+    step_remainder: u32,
+    denominator: u32,
 }
 
 impl TurnSteps {
     /// The steps from `first` by `step` over `denominator`, all in the same units (e.g.
     /// centidegrees × steps); `None` when `denominator` is 0 or a value is 2³² or more
-    /// (then [`turn_fraction`] per angle is the way).
+    /// (then [`turn_fraction`] per angle is the way: no lidar's packet comes near).
     pub(crate) fn new(first: u64, step: u64, denominator: u64) -> Option<Self> {
-        if denominator == 0 || first >> 32 != 0 || step >> 32 != 0 {
+        let d = u32::try_from(denominator).ok().filter(|&d| d > 0)?;
+        if first >> 32 != 0 || step >> 32 != 0 {
             return None;
         }
-        let scaled = (first << 32).checked_add(denominator / 2)?;
-        let step_scaled = step << 32;
-        // A 32-bit denominator (every lidar's): 32-bit divisions where the core has them.
-        let ((quotient, remainder), (step_quotient, step_remainder)) =
-            match u32::try_from(denominator) {
-                Ok(d) => {
-                    let (q, r) = crate::wide::div_rem_u64_u32(scaled, d);
-                    let (sq, sr) = crate::wide::div_rem_u64_u32(step_scaled, d);
-                    ((q, u64::from(r)), (sq, u64::from(sr)))
-                }
-                Err(_) => (
-                    (scaled / denominator, scaled % denominator),
-                    (step_scaled / denominator, step_scaled % denominator),
-                ),
-            };
+        let scaled = (first << 32).checked_add(u64::from(d / 2))?;
+        // 32-bit divisions where the core has them.
+        let (quotient, remainder) = crate::wide::div_rem_u64_u32(scaled, d);
+        let (step_quotient, step_remainder) = crate::wide::div_rem_u64_u32(step << 32, d);
+        // Modulo one turn: the low 32 bits.
+        #[allow(clippy::cast_possible_truncation)]
         Some(Self {
-            quotient,
+            quotient: quotient as u32,
             remainder,
-            step_quotient,
+            step_quotient: step_quotient as u32,
             step_remainder,
-            denominator,
+            denominator: d,
         })
     }
 
     /// The current angle; then moves to the next.
     pub(crate) fn next_angle(&mut self) -> FineAngle {
-        // Modulo one turn: the low 32 bits.
-        #[allow(clippy::cast_possible_truncation)]
-        let angle = FineAngle::from_bits(self.quotient as u32);
-        // remainder, step_remainder < d: the sum is below 2d and carries at most once.
+        let angle = FineAngle::from_bits(self.quotient);
         self.quotient = self.quotient.wrapping_add(self.step_quotient);
-        self.remainder += self.step_remainder;
-        if self.remainder >= self.denominator {
-            self.remainder -= self.denominator;
+        // remainder, step_remainder < d: the sum carries into the quotient at most once,
+        // exactly when remainder ≥ d − step_remainder (no sum formed: it could pass 2³²).
+        let room = self.denominator - self.step_remainder;
+        if self.remainder >= room {
+            self.remainder -= room;
             self.quotient = self.quotient.wrapping_add(1);
+        } else {
+            self.remainder += self.step_remainder;
         }
         angle
     }
@@ -222,8 +219,9 @@ mod tests {
         }
         for (first, step, d) in cases {
             let Some(mut steps) = TurnSteps::new(first, step, d) else {
-                // Only where the first scaled value passes 2⁶⁴ (turn_fraction's u128 path).
-                assert!((first << 32).checked_add(d / 2).is_none());
+                // Only for a denominator of 2³² or more, or where the first scaled value
+                // passes 2⁶⁴ (turn_fraction's u128 path).
+                assert!(d >> 32 != 0 || (first << 32).checked_add(d / 2).is_none());
                 continue;
             };
             for k in 0..300_u64 {
@@ -239,6 +237,17 @@ mod tests {
         assert_eq!(TurnSteps::new(1, 1, 0), None);
         assert_eq!(TurnSteps::new(1 << 32, 1, 3), None);
         assert_eq!(TurnSteps::new(1, 1 << 32, 3), None);
+        assert_eq!(TurnSteps::new(1, 1, 1 << 32), None);
+        // Remainders near 2³²: the carry is taken without forming the sum.
+        let d = u64::from(u32::MAX);
+        let mut steps = TurnSteps::new(d - 1, d - 2, d).unwrap();
+        for k in 0..300_u64 {
+            assert_eq!(
+                steps.next_angle(),
+                turn_fraction(d - 1 + k * (d - 2), d),
+                "{k}"
+            );
+        }
     }
 
     #[test]
