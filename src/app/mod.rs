@@ -518,7 +518,9 @@ impl<const W: usize, const L: usize, const C: usize, const Q: usize> CoProcessor
                             }
                         };
                     }
+                    // A packet of one return (an RPLIDAR node) has one time: one lookup.
                     let actuator = match reading {
+                        Reading::Read if last == first => self.track.at(first).map(|a| (a, a)),
                         Reading::Read => self.track.at(first).zip(self.track.at(last)),
                         _ if self.servo.is_on() => {
                             self.servo.estimate(first).zip(self.servo.estimate(last))
