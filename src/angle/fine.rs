@@ -205,8 +205,9 @@ impl FineAngle {
     /// The sine and cosine of the angle, signed Q2.30, each within 1.4·10⁻⁹ of the exact
     /// value, exact (0 or ±1) at multiples of 90°. Never panics.
     ///
-    /// Every product has two 32-bit factors ([`crate::wide`]): one `smull` on ARMv7-M, three
-    /// or four 16 × 16 products on ARMv6-M instead of a 64 × 64 library multiply.
+    /// Every product has two 32-bit factors (the crate's `wide` helpers): one `smull` on
+    /// ARMv7-M, three or four 16 × 16 products on ARMv6-M instead of a 64 × 64 library
+    /// multiply.
     #[must_use]
     pub const fn sin_cos(self) -> SinCos {
         use crate::wide::{smul, smul_u32};
