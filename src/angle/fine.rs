@@ -233,18 +233,24 @@ impl FineAngle {
         // |s|, |c| ≤ 2³⁰, |1 − cos δ| < 2¹⁵, |sin δ| < 2²⁴: every product is below 2⁵⁵.
         let sin_r = s as i64 + ((smul(c, sin_delta) - smul(s, one_minus_cos) + (1 << 31)) >> 32);
         let cos_r = c as i64 + ((-smul(s, sin_delta) - smul(c, one_minus_cos) + (1 << 31)) >> 32);
-        let sin_r = clamp_unit(sin_r);
-        let cos_r = clamp_unit(cos_r);
-        let (sin, cos) = match quadrant {
-            0 => (sin_r, cos_r),
-            1 => (cos_r, -sin_r),
-            2 => (-sin_r, -cos_r),
-            _ => (-cos_r, sin_r),
-        };
-        SinCos {
-            sin: q30(sin),
-            cos: q30(cos),
-        }
+        in_quadrant(quadrant, sin_r, cos_r)
+    }
+}
+
+/// The sine and cosine of an angle in quadrant `quadrant` (0 ..= 3) from those of its offset
+/// within the quadrant (Q2.30, each clamped to −1 ..= +1 first).
+const fn in_quadrant(quadrant: u32, sin_r: i64, cos_r: i64) -> SinCos {
+    let sin_r = clamp_unit(sin_r);
+    let cos_r = clamp_unit(cos_r);
+    let (sin, cos) = match quadrant {
+        0 => (sin_r, cos_r),
+        1 => (cos_r, -sin_r),
+        2 => (-sin_r, -cos_r),
+        _ => (-cos_r, sin_r),
+    };
+    SinCos {
+        sin: q30(sin),
+        cos: q30(cos),
     }
 }
 
@@ -286,7 +292,8 @@ mod tests {
     use super::*;
     use core::f64::consts::TAU;
 
-    /// `sin_cos` as it was computed before: the same formula in 64 × 64-bit products.
+    /// `sin_cos` as it was computed before: the same formula in 64 × 64-bit products (the
+    /// quadrant's signs and the clamp shared: they have no products).
     fn sin_cos_i64(angle: FineAngle) -> SinCos {
         let this = angle;
         let quadrant = this.0 >> 30;
@@ -307,18 +314,7 @@ mod tests {
         // |s|, |c| ≤ 2³⁰, |1 − cos δ| < 2¹⁵, |sin δ| < 2²⁴: every product is below 2⁵⁵.
         let sin_r = s + ((c * sin_delta - s * one_minus_cos + (1 << 31)) >> 32);
         let cos_r = c + ((-s * sin_delta - c * one_minus_cos + (1 << 31)) >> 32);
-        let sin_r = clamp_unit(sin_r);
-        let cos_r = clamp_unit(cos_r);
-        let (sin, cos) = match quadrant {
-            0 => (sin_r, cos_r),
-            1 => (cos_r, -sin_r),
-            2 => (-sin_r, -cos_r),
-            _ => (-cos_r, sin_r),
-        };
-        SinCos {
-            sin: q30(sin),
-            cos: q30(cos),
-        }
+        in_quadrant(quadrant, sin_r, cos_r)
     }
 
     fn f(raw: I2F30) -> f64 {
