@@ -193,7 +193,7 @@ pub(crate) fn div_rem_u64_u32(n: u64, d: u32) -> (u64, u32) {
 /// [`div_rem_u64_u32`] in 32-bit divisions: the high word by `d`, then the remainder and the
 /// low word by [`div_two_words`]. `d > 0`; `d = 0` gives `(0, 0)`.
 #[must_use]
-pub(crate) fn div_rem_words(n: u64, d: u32) -> (u64, u32) {
+fn div_rem_words(n: u64, d: u32) -> (u64, u32) {
     #[allow(clippy::cast_possible_truncation)]
     let (hi, lo) = ((n >> 32) as u32, n as u32);
     let Some(q_hi) = hi.checked_div(d) else {
@@ -208,7 +208,7 @@ pub(crate) fn div_rem_words(n: u64, d: u32) -> (u64, u32) {
 /// 16-bit digits and two 32-bit divisions with at most two corrections each (Hacker's
 /// Delight, 2nd ed., `divlu`, Fig. 9–3). For `u1 ≥ v` or `v = 0` some value, never a panic.
 #[must_use]
-pub(crate) fn div_two_words(u1: u32, u0: u32, v: u32) -> (u32, u32) {
+fn div_two_words(u1: u32, u0: u32, v: u32) -> (u32, u32) {
     const B: u32 = 1 << 16;
     if v == 0 || u1 >= v {
         return (u32::MAX, 0);

@@ -100,7 +100,7 @@ impl PacketTimer {
         let us = match packet.reported_rate_deg_per_s() {
             // bits·360·10⁶ < 2⁶¹, so ⌊bits·360·10⁶ / 2³²⌋ < 2²⁹; and ⌊⌊a/b⌋/c⌋ = ⌊a/(b·c)⌋:
             // ⌊bits·360·10⁶ / (rate·2³²)⌋ by one 32-bit division.
-            Some(rate) if rate > 0 => duration_at_rate_us(bits, rate),
+            Some(rate) if rate > 0 => duration_at_rate_us(angle.to_bits(), rate),
             _ => (bits * u64::from(self.period_us)) >> 32,
         };
         u32::try_from(us).unwrap_or(u32::MAX)
@@ -159,11 +159,11 @@ const fn byte_q16(baud: u32) -> u32 {
 
 /// How long a turn of `bits` 2⁻³² turn takes at `rate` degrees per second (> 0), µs:
 /// `⌊bits·360·10⁶ / (rate·2³²)⌋` by one 32-bit division, since `⌊⌊a/b⌋/c⌋ = ⌊a/(b·c)⌋` and
-/// `⌊bits·360·10⁶ / 2³²⌋ < 2²⁹` for `bits < 2³²`. `rate = 0` gives 0 (no panic).
-fn duration_at_rate_us(bits: u64, rate: u16) -> u64 {
-    // bits < 2³² (a FineAngle's): below 2²⁹.
+/// `⌊bits·360·10⁶ / 2³²⌋ < 2²⁹`. `rate = 0` gives 0 (no panic).
+fn duration_at_rate_us(bits: u32, rate: u16) -> u64 {
+    // Below 2²⁹.
     #[allow(clippy::cast_possible_truncation)]
-    let turned = ((bits.min(u64::from(u32::MAX)) * 360_000_000) >> 32) as u32;
+    let turned = ((u64::from(bits) * 360_000_000) >> 32) as u32;
     u64::from(turned.checked_div(u32::from(rate)).unwrap_or(0))
 }
 
@@ -179,8 +179,8 @@ mod tests {
                 x ^= x << 13;
                 x ^= x >> 17;
                 x ^= x << 5;
-                for bits in [u64::from(x), 0, 1, u64::from(u32::MAX)] {
-                    let want = bits * 360_000_000 / (u64::from(rate) << 32);
+                for bits in [x, 0, 1, u32::MAX] {
+                    let want = u64::from(bits) * 360_000_000 / (u64::from(rate) << 32);
                     assert_eq!(duration_at_rate_us(bits, rate), want, "{bits} {rate}");
                 }
             }
