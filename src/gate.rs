@@ -34,7 +34,14 @@ const MAX_BIN_SHIFT: u32 = 10;
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct DistanceBins {
     /// s: the bin width is 2⁻ˢ m; 0 ..= 10.
-    shift: u32,
+    shift: u8,
+    /// m = 16 − s: a bin's edge is `k·2ᵐ` in raw Q16.16; 6 ..= 16.
+    edge_shift: u8,
+    /// 2m − 1, 11 ..= 31, and 32 − 2m, 0 ..= 20: the shifts of
+    /// [`DistanceBins::coarse_below_2_18`], each below 32.
+    coarse_down: u8,
+    /// See `coarse_down`.
+    coarse_up: u8,
 }
 
 impl DistanceBins {
@@ -45,16 +52,33 @@ impl DistanceBins {
         while shift > 0 && bins_f32() * pow2_neg(shift) <= max_range_m {
             shift -= 1;
         }
-        Self { shift }
+        Self::with_shift(shift)
     }
 
-    /// The binning of an unconfigured pyramid (bins of 1 m; all zero bits).
-    pub const UNCONFIGURED: Self = Self { shift: 0 };
+    /// Bins of 2⁻ˢ m for `shift` = s (clamped to 0 ..= 10).
+    const fn with_shift(shift: u32) -> Self {
+        // s ≤ 10, m = 16 − s ≥ 6: every value below fits a u8.
+        let shift = if shift > MAX_BIN_SHIFT {
+            MAX_BIN_SHIFT
+        } else {
+            shift
+        } as u8;
+        let edge_shift = 16 - shift;
+        Self {
+            shift,
+            edge_shift,
+            coarse_down: 2 * edge_shift - 1,
+            coarse_up: 32 - 2 * edge_shift,
+        }
+    }
+
+    /// The binning of an unconfigured pyramid (bins of 1 m).
+    pub const UNCONFIGURED: Self = Self::with_shift(0);
 
     /// The bin width, metres.
     #[must_use]
     pub fn width_m(self) -> f32 {
-        pow2_neg(self.shift)
+        pow2_neg(u32::from(self.shift))
     }
 
     /// The bin of a distance: `min(floor(d / b), GATE_BINS − 1)`, 0 for negative distances.
@@ -64,7 +88,7 @@ impl DistanceBins {
         let raw = distance.to_bits().max(0);
         // d / 2⁻ˢ = raw · 2ˢ / 2¹⁶ = raw >> (16 − s); s ≤ 10 keeps the shift in range.
         #[allow(clippy::cast_sign_loss)]
-        let bin = (raw as u32) >> (16 - self.shift);
+        let bin = (raw as u32) >> self.edge_shift;
         (bin as usize).min(GATE_BINS - 1)
     }
 
@@ -81,9 +105,8 @@ impl DistanceBins {
     #[must_use]
     #[inline]
     pub fn bin_of_squared(self, squared: u64) -> usize {
-        let m = 16 - self.shift.min(MAX_BIN_SHIFT);
-        match coarse_below_2_18(squared, m) {
-            Some(coarse) => bin_of_floor(squared, isqrt_floor_below_2_18(coarse), m),
+        match self.coarse_below_2_18(squared) {
+            Some(coarse) => self.bin_of_floor(squared, isqrt_floor_below_2_18(coarse)),
             None => GATE_BINS - 1,
         }
     }
@@ -97,8 +120,7 @@ impl DistanceBins {
     #[must_use]
     #[inline]
     pub fn bin_of_squared_near(self, squared: u64, hint: usize) -> usize {
-        let m = 16 - self.shift.min(MAX_BIN_SHIFT);
-        let Some(q) = coarse_below_2_18(squared, m) else {
+        let Some(q) = self.coarse_below_2_18(squared) else {
             return GATE_BINS - 1;
         };
         // g ≤ 511: every square below is below 2¹⁹.
@@ -118,7 +140,39 @@ impl DistanceBins {
         } else {
             isqrt_floor_below_2_18(q)
         };
-        bin_of_floor(squared, f, m)
+        self.bin_of_floor(squared, f)
+    }
+
+    /// `S >> 2m` when it is below 512² (the last bin's lower edge squared, coarse), else
+    /// `None` (the last bin). In 32-bit words, for 12 ≤ 2m ≤ 32: the result's high word is
+    /// the high word shifted down by 2m, which must be 0; its low word the high word shifted
+    /// up by 32 − 2m beside the low word shifted down by 2m (as 1, then 2m − 1: each shift
+    /// below 32).
+    #[inline]
+    fn coarse_below_2_18(self, squared: u64) -> Option<u32> {
+        const LIMIT: u32 = (GATE_BINS * GATE_BINS) as u32;
+        #[allow(clippy::cast_possible_truncation)]
+        let (hi, lo) = ((squared >> 32) as u32, squared as u32);
+        let down = u32::from(self.coarse_down);
+        let above = (hi >> 1) >> down;
+        let coarse = (hi << self.coarse_up) | ((lo >> 1) >> down);
+        (above == 0 && coarse < LIMIT).then_some(coarse)
+    }
+
+    /// The bin of a square `S` whose coarse root `f = ⌊√(S >> 2m)⌋` is known: the exact
+    /// rounded root `round(√S)` is below `(f + 1)·2ᵐ + 1` and at least `f·2ᵐ`: the bin is
+    /// `f`, or `f + 1` exactly when `round(√S) ≥ T = (f + 1)·2ᵐ`, i.e. `S > (T − 1)·T`.
+    #[inline]
+    fn bin_of_floor(self, squared: u64, f: u32) -> usize {
+        const LAST: u32 = GATE_BINS as u32 - 1;
+        // T = (f + 1)·2ᵐ ≤ 2²⁵: (T − 1)·T < 2⁵⁰.
+        let edge = (f + 1) << self.edge_shift;
+        let bin = if squared > wide::umul(edge - 1, edge) {
+            f + 1
+        } else {
+            f
+        };
+        bin.min(LAST) as usize
     }
 
     /// The lower edge of bin `i` as [`Meters`] (exact: a multiple of 2⁻¹⁰ m), saturating; a
@@ -126,7 +180,7 @@ impl DistanceBins {
     #[must_use]
     pub fn lower_edge(self, i: usize) -> Meters {
         let i = i32::try_from(i.min(GATE_BINS - 1)).unwrap_or(0);
-        Meters::from_bits(i << (16 - self.shift))
+        Meters::from_bits(i << self.edge_shift)
     }
 
     /// The lower edge of bin `i`, metres.
@@ -146,36 +200,42 @@ impl DistanceBins {
     }
 }
 
-/// `S >> 2m` when it is below 512² (the last bin's lower edge squared, coarse), else `None`
-/// (the last bin).
-#[inline]
-fn coarse_below_2_18(squared: u64, m: u32) -> Option<u32> {
-    const LIMIT: u32 = (GATE_BINS * GATE_BINS) as u32;
-    let coarse = wide::shr_u64(squared, 2 * m);
-    // Below 512² = 2¹⁸ it fits.
-    #[allow(clippy::cast_possible_truncation)]
-    (coarse < u64::from(LIMIT)).then_some(coarse as u32)
-}
-
-/// The bin of `S` given `f = ⌊√(S >> 2m)⌋` (< 512): `f²·2²ᵐ ≤ S < (f + 1)²·2²ᵐ`, so the
-/// rounded root `round(√S)` is below `(f + 1)·2ᵐ + 1` and at least `f·2ᵐ`: the bin is `f`, or
-/// `f + 1` exactly when `round(√S) ≥ T = (f + 1)·2ᵐ`, i.e. `S > (T − 1)·T`.
-#[inline]
-fn bin_of_floor(squared: u64, f: u32, m: u32) -> usize {
-    const LAST: u32 = GATE_BINS as u32 - 1;
-    // T = (f + 1)·2ᵐ ≤ 2²⁵: (T − 1)·T < 2⁵⁰.
-    let edge = (f + 1) << m;
-    let bin = if squared > wide::umul(edge - 1, edge) {
-        f + 1
-    } else {
-        f
-    };
-    bin.min(LAST) as usize
-}
-
-/// `⌊√x⌋` for `x < 2¹⁸` (nine result bits), by the restoring method in 32-bit words.
+/// `⌊√x⌋` for `x < 2¹⁸` (nine result bits): Newton's iteration where the target divides
+/// in hardware (ARMv7-M's `udiv`: about four divisions), the restoring method elsewhere
+/// (ARMv6-M has no divide instruction; nine steps of a compare and a subtraction).
 #[inline]
 fn isqrt_floor_below_2_18(x: u32) -> u32 {
+    if wide::DIVIDES_WORDS {
+        isqrt_floor_newton(x)
+    } else {
+        isqrt_floor_restoring(x)
+    }
+}
+
+/// `⌊√x⌋` for `x < 2¹⁸` by Newton's iteration in integers, `r ← ⌊(r + ⌊x/r⌋)/2⌋`, from
+/// `2^⌈b/2⌉` (b the bit length of x), which is above √x. From any `r ≥ ⌊√x⌋` the next value
+/// is at least `⌊√x⌋`, and below `r` while `r > ⌊√x⌋`: the first value that does not fall is
+/// the root. At most 2⁹ = 512 to start with: at most five divisions for x < 2¹⁸.
+#[inline]
+fn isqrt_floor_newton(x: u32) -> u32 {
+    if x == 0 {
+        return 0;
+    }
+    let bits = 32 - x.leading_zeros();
+    let mut root = 1_u32 << bits.div_ceil(2);
+    loop {
+        // root ≥ 1: the division is defined; root ≤ 2¹⁶ and x/root < 2¹⁸: no overflow.
+        let next = (root + x / root) >> 1;
+        if next >= root {
+            return root;
+        }
+        root = next;
+    }
+}
+
+/// `⌊√x⌋` for `x < 2¹⁸` by the restoring method in 32-bit words.
+#[inline]
+fn isqrt_floor_restoring(x: u32) -> u32 {
     let mut rem = x;
     let mut root = 0_u32;
     // The highest power of four not above x (x < 2¹⁸: at most 2¹⁶).
@@ -678,7 +738,7 @@ mod tests {
         };
         let mut rng = XorShift(0x2545_F491_4F6C_DD1D_u64);
         for shift in 0..=MAX_BIN_SHIFT {
-            let b = DistanceBins { shift };
+            let b = DistanceBins::with_shift(shift);
             let m = 16 - shift;
             // Around every bin edge's threshold (T − 1)·T and the coarse square's steps.
             for k in 0..=(GATE_BINS as u64 + 2) {
@@ -707,7 +767,7 @@ mod tests {
         }
         // With every hint: the same bins.
         for shift in [0, 5, 10] {
-            let b = DistanceBins { shift };
+            let b = DistanceBins::with_shift(shift);
             for _ in 0..20_000 {
                 let r = rng.next();
                 let sq = (r >> 20) >> (r % 40);
@@ -720,9 +780,11 @@ mod tests {
                 }
             }
         }
+        // Both roots (each target uses one), every input.
         for x in 0..(1_u32 << 18) {
-            let r = isqrt_floor_below_2_18(x);
-            assert!(r * r <= x && (r + 1) * (r + 1) > x, "{x}");
+            for r in [isqrt_floor_newton(x), isqrt_floor_restoring(x)] {
+                assert!(r * r <= x && (r + 1) * (r + 1) > x, "{x}");
+            }
         }
     }
 

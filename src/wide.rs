@@ -75,17 +75,6 @@ pub(crate) fn square(a: i32) -> u64 {
     }
 }
 
-/// `x >> n` for `n < 64`.
-#[inline(always)]
-#[must_use]
-pub(crate) fn shr_u64(x: u64, n: u32) -> u64 {
-    if HALVES {
-        shr_u64_words(x, n)
-    } else {
-        x >> (n & 63)
-    }
-}
-
 /// [`umul`] from the 16-bit halves (every partial product fits a `u32`; their middle sum is
 /// below 2³³).
 #[inline(always)]
@@ -151,26 +140,9 @@ pub(crate) fn square_halves(a: i32) -> u64 {
     (u64::from(h * h) << 32) + (u64::from(h * l) << 17) + u64::from(l * l)
 }
 
-/// [`shr_u64`] on two 32-bit words (`n` taken modulo 64).
-#[inline(always)]
-#[must_use]
-pub(crate) fn shr_u64_words(x: u64, n: u32) -> u64 {
-    #[allow(clippy::cast_possible_truncation)]
-    let (hi, lo) = ((x >> 32) as u32, x as u32);
-    let n = n & 63;
-    let (hi, lo) = if n >= 32 {
-        (0, hi >> (n - 32))
-    } else if n == 0 {
-        (hi, lo)
-    } else {
-        (hi >> n, (lo >> n) | (hi << (32 - n)))
-    };
-    (u64::from(hi) << 32) | u64::from(lo)
-}
-
 /// Whether the target divides 32-bit words in hardware but has no 64-bit division
 /// (ARMv7-M: `udiv`; a `u64` division there is a call to `__aeabi_uldivmod`).
-const DIVIDES_WORDS: bool = cfg!(all(target_arch = "arm", target_has_atomic = "32"));
+pub(crate) const DIVIDES_WORDS: bool = cfg!(all(target_arch = "arm", target_has_atomic = "32"));
 
 /// `(n / d, n % d)` for a 32-bit divisor `d > 0`; `(0, 0)` for `d = 0` (no panic). On ARMv7-M
 /// by [`div_rem_words`] (two or three `udiv`); elsewhere the plain `u64` division (ARMv6-M
@@ -354,18 +326,5 @@ mod tests {
             // Every magnitude of both operands.
             check(a >> (i % 32), b >> ((i / 32) % 32));
         }
-    }
-
-    #[test]
-    fn shifts_from_words_are_exact() {
-        let mut x = XorShift(0x9E37_79B9_7F4A_7C15_u64);
-        for _ in 0..20_000 {
-            let v = x.next();
-            for n in 0..64 {
-                assert_eq!(shr_u64_words(v, n), v >> n, "{v} {n}");
-                assert_eq!(shr_u64(v, n), v >> n);
-            }
-        }
-        assert_eq!(shr_u64_words(u64::MAX, 64), u64::MAX);
     }
 }
