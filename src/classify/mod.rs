@@ -896,7 +896,9 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
                     class,
                     weight,
                 });
-                *slot = Slot::VACANT;
+                // Vacated: a slot is only read while its layer is set, and `insert` writes
+                // all of it when it takes a vacant one.
+                slot.layer = EMPTY;
             }
             self.used = 0;
         }
