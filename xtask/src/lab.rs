@@ -26,24 +26,62 @@ use std::time::Instant;
 
 /// `cargo run --profile tools -p terrain-pyramid-lab -- command args` from the root (the
 /// `tools` profile of the root Cargo.toml: release without fat LTO).
+///
+/// `XTASK_LAB_PROFILE=dev` runs the lab of the dev profile instead, built for the whole
+/// workspace (`cargo build --workspace --bin lab`): right after `cargo test --workspace` that
+/// binary exists already, so CI's fault and soak smokes reuse it rather than compile the lab
+/// a second time (the dev profile optimises the library, the host side and the lab: root
+/// Cargo.toml).
 fn lab(command: &str, args: &[String]) -> Result<(), String> {
     let started = Instant::now();
     let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
-    let status = Command::new(cargo)
-        .args([
-            "run",
-            "--profile",
-            "tools",
-            "--quiet",
-            "-p",
-            "terrain-pyramid-lab",
-            "--",
-        ])
-        .arg(command)
-        .args(args)
-        .current_dir(root())
-        .status()
-        .map_err(|e| format!("cannot run cargo: {e}"))?;
+    let profile = std::env::var("XTASK_LAB_PROFILE").unwrap_or_else(|_| "tools".into());
+    let status = if profile == "tools" {
+        Command::new(cargo)
+            .args([
+                "run",
+                "--profile",
+                "tools",
+                "--quiet",
+                "-p",
+                "terrain-pyramid-lab",
+                "--",
+            ])
+            .arg(command)
+            .args(args)
+            .current_dir(root())
+            .status()
+    } else {
+        let built = Command::new(&cargo)
+            .args([
+                "build",
+                "--quiet",
+                "--workspace",
+                "--bin",
+                "lab",
+                "--profile",
+            ])
+            .arg(&profile)
+            .current_dir(root())
+            .status()
+            .map_err(|e| format!("cannot run cargo: {e}"))?;
+        if !built.success() {
+            return Err(format!(
+                "building the lab ({profile} profile) failed ({built})"
+            ));
+        }
+        let dir = if profile == "dev" {
+            "debug"
+        } else {
+            profile.as_str()
+        };
+        Command::new(root().join("target").join(dir).join("lab"))
+            .arg(command)
+            .args(args)
+            .current_dir(root())
+            .status()
+    }
+    .map_err(|e| format!("cannot run the lab: {e}"))?;
     eprintln!(
         "xtask {command}: done in {:.1} s",
         started.elapsed().as_secs_f64()
