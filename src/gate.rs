@@ -33,15 +33,10 @@ const MAX_BIN_SHIFT: u32 = 10;
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct DistanceBins {
-    /// s: the bin width is 2⁻ˢ m; 0 ..= 10.
-    shift: u8,
-    /// m = 16 − s: a bin's edge is `k·2ᵐ` in raw Q16.16; 6 ..= 16.
-    edge_shift: u8,
-    /// 2m − 1, 11 ..= 31, and 32 − 2m, 0 ..= 20: the shifts of
-    /// [`DistanceBins::coarse_below_2_18`], each below 32.
-    coarse_down: u8,
-    /// See `coarse_down`.
-    coarse_up: u8,
+    /// s: the bin width is 2⁻ˢ m; 0 ..= 10 (held by every constructor). All zero bits are
+    /// a valid value (s = 0: the unconfigured binning), so a zeroed classifier or pyramid
+    /// stays in `.bss`.
+    shift: u32,
 }
 
 impl DistanceBins {
@@ -57,28 +52,28 @@ impl DistanceBins {
 
     /// Bins of 2⁻ˢ m for `shift` = s (clamped to 0 ..= 10).
     const fn with_shift(shift: u32) -> Self {
-        // s ≤ 10, m = 16 − s ≥ 6: every value below fits a u8.
-        let shift = if shift > MAX_BIN_SHIFT {
-            MAX_BIN_SHIFT
-        } else {
-            shift
-        } as u8;
-        let edge_shift = 16 - shift;
         Self {
-            shift,
-            edge_shift,
-            coarse_down: 2 * edge_shift - 1,
-            coarse_up: 32 - 2 * edge_shift,
+            shift: if shift > MAX_BIN_SHIFT {
+                MAX_BIN_SHIFT
+            } else {
+                shift
+            },
         }
     }
 
-    /// The binning of an unconfigured pyramid (bins of 1 m).
+    /// m = 16 − s: a bin's edge is `k·2ᵐ` in raw Q16.16; 6 ..= 16.
+    #[inline]
+    const fn edge_shift(self) -> u32 {
+        16 - self.shift
+    }
+
+    /// The binning of an unconfigured pyramid (bins of 1 m; all zero bits).
     pub const UNCONFIGURED: Self = Self::with_shift(0);
 
     /// The bin width, metres.
     #[must_use]
     pub fn width_m(self) -> f32 {
-        pow2_neg(u32::from(self.shift))
+        pow2_neg(self.shift)
     }
 
     /// The bin of a distance: `min(floor(d / b), GATE_BINS − 1)`, 0 for negative distances.
@@ -88,7 +83,7 @@ impl DistanceBins {
         let raw = distance.to_bits().max(0);
         // d / 2⁻ˢ = raw · 2ˢ / 2¹⁶ = raw >> (16 − s); s ≤ 10 keeps the shift in range.
         #[allow(clippy::cast_sign_loss)]
-        let bin = (raw as u32) >> self.edge_shift;
+        let bin = (raw as u32) >> self.edge_shift();
         (bin as usize).min(GATE_BINS - 1)
     }
 
@@ -115,8 +110,9 @@ impl DistanceBins {
     /// and its neighbours first: consecutive returns of a line mostly fall in the same or a
     /// neighbouring bin. The square root `f` of `S >> 2m` is `hint`, `hint + 1` or
     /// `hint − 1` when `f² ≤ S >> 2m < (f + 1)²` holds for it (32-bit squares), else the
-    /// nine-bit search finds it; one 32 × 32 → 64 product then decides between `f` and
-    /// `f + 1`.
+    /// square root of a value below 2¹⁸ finds it (Newton's iteration where the core divides,
+    /// the restoring method elsewhere); one 32 × 32 → 64 product then decides between `f`
+    /// and `f + 1`.
     #[must_use]
     #[inline]
     pub fn bin_of_squared_near(self, squared: u64, hint: usize) -> usize {
@@ -153,9 +149,10 @@ impl DistanceBins {
         const LIMIT: u32 = (GATE_BINS * GATE_BINS) as u32;
         #[allow(clippy::cast_possible_truncation)]
         let (hi, lo) = ((squared >> 32) as u32, squared as u32);
-        let down = u32::from(self.coarse_down);
+        // s ≤ 10: 2m − 1 = 31 − 2s is 11 ..= 31, 32 − 2m = 2s is 0 ..= 20.
+        let (down, up) = (31 - 2 * self.shift, 2 * self.shift);
         let above = (hi >> 1) >> down;
-        let coarse = (hi << self.coarse_up) | ((lo >> 1) >> down);
+        let coarse = (hi << up) | ((lo >> 1) >> down);
         (above == 0 && coarse < LIMIT).then_some(coarse)
     }
 
@@ -166,7 +163,7 @@ impl DistanceBins {
     fn bin_of_floor(self, squared: u64, f: u32) -> usize {
         const LAST: u32 = GATE_BINS as u32 - 1;
         // T = (f + 1)·2ᵐ ≤ 2²⁵: (T − 1)·T < 2⁵⁰.
-        let edge = (f + 1) << self.edge_shift;
+        let edge = (f + 1) << self.edge_shift();
         let bin = if squared > wide::umul(edge - 1, edge) {
             f + 1
         } else {
@@ -180,7 +177,7 @@ impl DistanceBins {
     #[must_use]
     pub fn lower_edge(self, i: usize) -> Meters {
         let i = i32::try_from(i.min(GATE_BINS - 1)).unwrap_or(0);
-        Meters::from_bits(i << self.edge_shift)
+        Meters::from_bits(i << self.edge_shift())
     }
 
     /// The lower edge of bin `i`, metres.
