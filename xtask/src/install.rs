@@ -79,12 +79,14 @@ pub fn ensure_qemu() -> Result<(), String> {
     Ok(())
 }
 
-/// `defmt-print`, which turns the firmware's raw defmt log into text.
+/// `defmt-print`, which turns the firmware's raw defmt log into text. Built unoptimised
+/// (`--debug`): it decodes logs of a few kilobytes, and the build takes about 40 s instead of
+/// about two minutes.
 pub fn ensure_defmt_print() -> Result<(), String> {
     if present("defmt-print") {
         return Ok(());
     }
-    step("cargo", &["install", "defmt-print", "--locked"])
+    step("cargo", &["install", "--debug", "defmt-print", "--locked"])
 }
 
 /// The Python readers the tests of `pyramid listen`'s outputs check against (MCAP, the
