@@ -80,6 +80,10 @@ pub struct Args {
     /// Where the firmware's defmt logs go (one per kind).
     #[arg(long, value_name = "DIR", default_value = "target/faults")]
     pub out: PathBuf,
+    /// Kinds run at once, each its own emulated board (default: the machine's cores). The
+    /// harness drives each board lock-step, so a run keeps about one core busy.
+    #[arg(long)]
+    pub jobs: Option<usize>,
 }
 
 mod lidar;
@@ -1134,11 +1138,14 @@ pub fn execute(args: &Args) -> Result<Vec<Outcome>, String> {
     let n = args.lines.unwrap_or(if args.quick { 90 } else { 240 });
     let (setup, lines) = recording(n)?;
     std::fs::create_dir_all(&args.out).map_err(|e| format!("{}: {e}", args.out.display()))?;
-    let mut outcomes = Vec::new();
-    for kind in KINDS.iter().chain(&lidar::KINDS).copied() {
-        if !args.only.is_empty() && !args.only.iter().any(|k| k == kind) {
-            continue;
-        }
+    let kinds: Vec<&str> = KINDS
+        .iter()
+        .chain(&lidar::KINDS)
+        .copied()
+        .filter(|kind| args.only.is_empty() || args.only.iter().any(|k| k == kind))
+        .collect();
+    // One kind per worker at a time; the outcomes keep the kinds' order.
+    let run_one = |kind: &str| -> Outcome {
         let started = Instant::now();
         let mut o = Outcome {
             name: kind.to_string(),
@@ -1160,35 +1167,73 @@ pub fn execute(args: &Args) -> Result<Vec<Outcome>, String> {
         } else {
             judge(&mut o);
         }
-        eprintln!(
-            "{kind:16} total {:4} intact {:4} damaged {:4} applied {:4} corrupt {} delayed {} \
-             resync {} bad commands {}/{} map {} ({} known cells) crashed {} {:.1} s{}",
-            o.telegrams_total,
-            o.telegrams_intact,
-            o.telegrams_damaged,
-            o.telegrams_applied,
-            o.corrupt_applied,
-            o.telegrams_delayed,
-            o.resync_max_telegrams,
-            o.commands_refused_as_expected,
-            o.commands_bad,
-            if o.map_equal_to_reference {
-                "equal"
-            } else {
-                "DIFFERS"
-            },
-            o.reference_known_cells,
-            o.crashed,
-            o.seconds,
-            if o.ok {
-                String::new()
-            } else {
-                format!("\n  FAILED: {}", o.failures.join("; "))
-            }
-        );
-        outcomes.push(o);
-    }
+        report(kind, &o);
+        o
+    };
+    let jobs = args
+        .jobs
+        .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, usize::from))
+        .clamp(1, kinds.len().max(1));
+    let next = std::sync::atomic::AtomicUsize::new(0);
+    let done: std::sync::Mutex<Vec<Option<Outcome>>> =
+        std::sync::Mutex::new(vec![None; kinds.len()]);
+    std::thread::scope(|scope| {
+        for _ in 0..jobs {
+            scope.spawn(|| loop {
+                let i = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                let Some(kind) = kinds.get(i) else { break };
+                let outcome = run_one(kind);
+                if let Some(slot) = done.lock().as_mut().ok().and_then(|d| d.get_mut(i)) {
+                    *slot = Some(outcome);
+                }
+            });
+        }
+    });
+    let outcomes: Vec<Outcome> = done
+        .into_inner()
+        .map_err(|_| "a fault run's thread panicked".to_string())?
+        .into_iter()
+        .zip(&kinds)
+        .map(|(o, kind)| {
+            o.unwrap_or_else(|| Outcome {
+                name: kind.to_string(),
+                crashed: true,
+                failures: vec!["its run did not finish".to_string()],
+                ..Outcome::default()
+            })
+        })
+        .collect();
     Ok(outcomes)
+}
+
+/// One kind's line on stderr (as each kind finishes; with `--jobs` above 1 not in order).
+fn report(kind: &str, o: &Outcome) {
+    eprintln!(
+        "{kind:16} total {:4} intact {:4} damaged {:4} applied {:4} corrupt {} delayed {} \
+         resync {} bad commands {}/{} map {} ({} known cells) crashed {} {:.1} s{}",
+        o.telegrams_total,
+        o.telegrams_intact,
+        o.telegrams_damaged,
+        o.telegrams_applied,
+        o.corrupt_applied,
+        o.telegrams_delayed,
+        o.resync_max_telegrams,
+        o.commands_refused_as_expected,
+        o.commands_bad,
+        if o.map_equal_to_reference {
+            "equal"
+        } else {
+            "DIFFERS"
+        },
+        o.reference_known_cells,
+        o.crashed,
+        o.seconds,
+        if o.ok {
+            String::new()
+        } else {
+            format!("\n  FAILED: {}", o.failures.join("; "))
+        }
+    );
 }
 
 /// The JSON of `--json`.

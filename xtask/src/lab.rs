@@ -2,8 +2,9 @@
 //! and run `cargo run --profile tools -p terrain-pyramid-lab -- COMMAND FLAGS` from the root. The
 //! lab's stdout (its one JSON object with `--json`) is the task's; progress goes to stderr.
 //!
-//! - `faults [--json] [--quick] [--only KIND,..] [--lines N]`: fault injection through the
-//!   emulated board (RELIABILITY.md); the firmware's logs in `target/faults`.
+//! - `faults [--json] [--quick] [--only KIND,..] [--lines N] [--jobs N]`: fault injection
+//!   through the emulated board (RELIABILITY.md), N kinds at once (default: the cores); the
+//!   firmware's logs in `target/faults`.
 //! - `soak [--json] [--quick] [-- LAB-SOAK-FLAGS]`: the soak (RELIABILITY.md, "Soak"); the
 //!   firmware's log in `target/soak`.
 //! - `experiments [FLAGS]`, `size [FLAGS]`: `lab experiments` (its output in
@@ -27,11 +28,10 @@ use std::time::Instant;
 /// `cargo run --profile tools -p terrain-pyramid-lab -- command args` from the root (the
 /// `tools` profile of the root Cargo.toml: release without fat LTO).
 ///
-/// `XTASK_LAB_PROFILE=dev` runs the lab of the dev profile instead, built for the whole
-/// workspace (`cargo build --workspace --bin lab`): right after `cargo test --workspace` that
-/// binary exists already, so CI's fault and soak smokes reuse it rather than compile the lab
-/// a second time (the dev profile optimises the library, the host side and the lab: root
-/// Cargo.toml).
+/// `XTASK_LAB_PROFILE=dev` runs the lab of the dev profile instead, as the workspace's tests
+/// build it (`cargo test --workspace --no-run`): right after `cargo test --workspace` it exists
+/// already, so CI's fault and soak smokes reuse it rather than compile the lab a second time
+/// (the dev profile optimises the library, the host side and the lab: root Cargo.toml).
 fn lab(command: &str, args: &[String]) -> Result<(), String> {
     let started = Instant::now();
     let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
@@ -51,35 +51,27 @@ fn lab(command: &str, args: &[String]) -> Result<(), String> {
             .args(args)
             .current_dir(root())
             .status()
-    } else {
+    } else if profile == "dev" {
+        // What `cargo test --workspace` builds, with its features (the dev-dependencies'
+        // included): nothing to compile after the test suite, which builds the lab for its
+        // own tests.
         let built = Command::new(&cargo)
-            .args([
-                "build",
-                "--quiet",
-                "--workspace",
-                "--bin",
-                "lab",
-                "--profile",
-            ])
-            .arg(&profile)
+            .args(["test", "--quiet", "--workspace", "--no-run"])
             .current_dir(root())
             .status()
             .map_err(|e| format!("cannot run cargo: {e}"))?;
         if !built.success() {
-            return Err(format!(
-                "building the lab ({profile} profile) failed ({built})"
-            ));
+            return Err(format!("building the workspace's tests failed ({built})"));
         }
-        let dir = if profile == "dev" {
-            "debug"
-        } else {
-            profile.as_str()
-        };
-        Command::new(root().join("target").join(dir).join("lab"))
+        Command::new(root().join("target").join("debug").join("lab"))
             .arg(command)
             .args(args)
             .current_dir(root())
             .status()
+    } else {
+        return Err(format!(
+            "XTASK_LAB_PROFILE={profile}: use tools (the default) or dev"
+        ));
     }
     .map_err(|e| format!("cannot run the lab: {e}"))?;
     eprintln!(
@@ -127,7 +119,7 @@ pub fn faults(args: &[String]) -> Result<(), String> {
     while let Some(a) = rest.next() {
         match a.as_str() {
             "--json" | "--quick" => pass.push(a.clone()),
-            "--only" | "--lines" => {
+            "--only" | "--lines" | "--jobs" => {
                 let value = rest.next().ok_or(format!("{a} needs a value"))?;
                 pass.push(a.clone());
                 pass.push(value.clone());
@@ -135,7 +127,7 @@ pub fn faults(args: &[String]) -> Result<(), String> {
             other => {
                 return Err(format!(
                     "unknown option {other}; usage: cargo xtask faults [--json] [--quick] \
-                     [--only KIND,..] [--lines N]"
+                     [--only KIND,..] [--lines N] [--jobs N]"
                 ))
             }
         }
