@@ -162,6 +162,51 @@ pub(crate) fn div_rem_u64_u32(n: u64, d: u32) -> (u64, u32) {
     }
 }
 
+/// `n / d` for `d > 0`; 0 for `d = 0` (no panic). On ARMv7-M in 32-bit divisions: by
+/// [`div_rem_words`] for a divisor below 2³², else from the quotient of `n / 2` by the
+/// divisor's top 32 bits, normalised, and one correction (Hacker's Delight, 2nd ed.,
+/// `divdu`, Fig. 9–5): a few `udiv` where the library's `__aeabi_uldivmod` loops over the
+/// bits. Elsewhere the plain `u64` division.
+#[inline]
+#[must_use]
+pub(crate) fn div_u64(n: u64, d: u64) -> u64 {
+    if d == 0 {
+        return 0;
+    }
+    if DIVIDES_WORDS {
+        div_words_u64(n, d)
+    } else {
+        n / d
+    }
+}
+
+/// [`div_u64`] in 32-bit divisions, for `d > 0` (0 for `d = 0`).
+#[must_use]
+fn div_words_u64(n: u64, d: u64) -> u64 {
+    #[allow(clippy::cast_possible_truncation)]
+    let d_hi = (d >> 32) as u32;
+    if d_hi == 0 {
+        #[allow(clippy::cast_possible_truncation)]
+        return div_rem_words(n, d as u32).0;
+    }
+    // d ≥ 2³²: the quotient is below 2³². With d's top bit at 63 − s, v = its top 32 bits
+    // (v ≥ 2³¹) and n/2 (high word below 2³¹ ≤ v): q₁ = ⌊(n/2) / v⌋ fits 32 bits, and
+    // q₀ = ⌊q₁·2ˢ / 2³¹⌋ − 1 (not below 0) is the quotient or one below it.
+    let s = d_hi.leading_zeros();
+    #[allow(clippy::cast_possible_truncation)]
+    let v = ((d << s) >> 32) as u32;
+    let half = n >> 1;
+    #[allow(clippy::cast_possible_truncation)]
+    let (q1, _) = div_two_words((half >> 32) as u32, half as u32, v);
+    let mut q0 = (u64::from(q1) << s) >> 31;
+    q0 = q0.saturating_sub(1);
+    // q₀ ≤ n / d: the product does not pass n.
+    if n.wrapping_sub(q0.wrapping_mul(d)) >= d {
+        q0 += 1;
+    }
+    q0
+}
+
 /// [`div_rem_u64_u32`] in 32-bit divisions: the high word by `d`, then the remainder and the
 /// low word by [`div_two_words`]. `d > 0`; `d = 0` gives `(0, 0)`.
 #[must_use]
@@ -227,6 +272,50 @@ fn div_two_words(u1: u32, u0: u32, v: u32) -> (u32, u32) {
 mod tests {
     use super::*;
     use crate::test_rng::XorShift;
+
+    #[test]
+    fn the_wide_word_division_is_the_u64_division() {
+        let mut rng = XorShift(0x9E37_79B9_7F4A_7C15_u64);
+        let check = |n: u64, d: u64| {
+            assert_eq!(
+                div_words_u64(n, d),
+                n.checked_div(d).unwrap_or(0),
+                "{n} / {d}"
+            );
+            assert_eq!(div_u64(n, d), n.checked_div(d).unwrap_or(0), "{n} / {d}");
+        };
+        let edges = [
+            0_u64,
+            1,
+            2,
+            0xFFFF_FFFF,
+            0x1_0000_0000,
+            0x1_0000_0001,
+            0x7FFF_FFFF_FFFF_FFFF,
+            0x8000_0000_0000_0000,
+            u64::MAX - 1,
+            u64::MAX,
+        ];
+        for &n in &edges {
+            for &d in &edges {
+                check(n, d);
+            }
+        }
+        for _ in 0..200_000 {
+            let (a, b) = (rng.next(), rng.next());
+            let n = a >> (b % 64);
+            let d = b >> ((a >> 7) % 64);
+            check(n, d);
+            // Quotients next to an integer: d·q and its neighbours.
+            if let Some(most) = u64::MAX.checked_div(d) {
+                let q = (a >> 40) % most.max(1);
+                let base = d.wrapping_mul(q);
+                for n in [base.wrapping_sub(1), base, base.wrapping_add(1)] {
+                    check(n, d);
+                }
+            }
+        }
+    }
 
     #[test]
     fn the_word_division_is_the_u64_division() {

@@ -519,8 +519,12 @@ fn q16_quotient(num: i128, den: i128) -> i128 {
     match (i64::try_from(num), i64::try_from(den)) {
         (Ok(n), Ok(d)) if d > 0 && d < (1_i64 << 46) => {
             if n.unsigned_abs() < 1 << 47 {
-                // num·2¹⁶ fits 64 bits: one division.
-                return i128::from((n << 16) / d);
+                // num·2¹⁶ fits 64 bits: one division, of the magnitudes ([`crate::wide::div_u64`],
+                // in `udiv`s on ARMv7-M), the quotient's sign restored (towards zero, as
+                // `i64` division rounds).
+                #[allow(clippy::cast_sign_loss, clippy::cast_possible_wrap)]
+                let q = crate::wide::div_u64(n.unsigned_abs() << 16, d as u64) as i64;
+                return i128::from(if n < 0 { -q } else { q });
             }
             let (q, r) = (n / d, n % d);
             (i128::from(q) << 16) + i128::from((r << 16) / d)
