@@ -88,20 +88,23 @@ impl DistanceBins {
     }
 
     /// The bin of a distance given by its square: exactly
-    /// `self.bin(Meters::from_bits(round(√squared)))` (with `√` rounded as
-    /// [`crate::geometry::horizontal_distance`] does, halves up), for every `u64`, but without
-    /// the square root of the distance itself: `squared` is in raw Q16.16 units squared
-    /// (2⁻³² m²).
+    /// `self.bin(Meters::from_bits(⌊√squared⌋))`, the bin of the square root rounded down, for
+    /// every `u64` (a root beyond `i32` in the last bin), without the square root of the
+    /// distance itself: `squared` is in raw Q16.16 units squared (2⁻³² m²).
     ///
-    /// How: `round(√S) ≥ T` exactly when `S > (T − 1)·T` (integers), so bin `k` (edge
-    /// `T = k·2ᵐ`, m = 16 − s) is reached exactly when `S > (T − 1)·T`. The square root of
-    /// `S >> 2m` (below 512², nine result bits) gives `f` with `f²·2²ᵐ ≤ S < (f + 1)²·2²ᵐ`,
-    /// so the bin is `f` or `f + 1`, decided by one compare.
+    /// How: the bin is `⌊⌊√S⌋ / 2ᵐ⌋ = ⌊√S / 2ᵐ⌋ = ⌊√(S >> 2m)⌋` (m = 16 − s; the floor of a
+    /// root changes only at an integer), the nine-bit square root of a value below 512² (at
+    /// and beyond it, the last bin).
+    ///
+    /// The root is rounded down, where [`LineTransform::locate`](crate::geometry::LineTransform::locate)
+    /// rounds a distance to the nearest raw unit: a distance within half a raw unit
+    /// (2⁻¹⁷ m, 7.6 µm) below a bin edge is binned below it here. A laser's range is
+    /// quantised to a millimetre, 131 times coarser.
     #[must_use]
     #[inline]
     pub fn bin_of_squared(self, squared: u64) -> usize {
         match self.coarse_below_2_18(squared) {
-            Some(coarse) => self.bin_of_floor(squared, isqrt_floor_below_2_18(coarse)),
+            Some(coarse) => isqrt_floor_below_2_18(coarse) as usize,
             None => GATE_BINS - 1,
         }
     }
@@ -111,8 +114,7 @@ impl DistanceBins {
     /// neighbouring bin. The square root `f` of `S >> 2m` is `hint`, `hint + 1` or
     /// `hint − 1` when `f² ≤ S >> 2m < (f + 1)²` holds for it (32-bit squares), else the
     /// square root of a value below 2¹⁸ finds it (Newton's iteration where the core divides,
-    /// the restoring method elsewhere); one 32 × 32 → 64 product then decides between `f`
-    /// and `f + 1`.
+    /// the restoring method elsewhere).
     #[must_use]
     #[inline]
     pub fn bin_of_squared_near(self, squared: u64, hint: usize) -> usize {
@@ -136,7 +138,8 @@ impl DistanceBins {
         } else {
             isqrt_floor_below_2_18(q)
         };
-        self.bin_of_floor(squared, f)
+        // q < 512²: f ≤ 511.
+        f as usize
     }
 
     /// `S >> 2m` when it is below 512² (the last bin's lower edge squared, coarse), else
@@ -154,22 +157,6 @@ impl DistanceBins {
         let above = (hi >> 1) >> down;
         let coarse = (hi << up) | ((lo >> 1) >> down);
         (above == 0 && coarse < LIMIT).then_some(coarse)
-    }
-
-    /// The bin of a square `S` whose coarse root `f = ⌊√(S >> 2m)⌋` is known: the exact
-    /// rounded root `round(√S)` is below `(f + 1)·2ᵐ + 1` and at least `f·2ᵐ`: the bin is
-    /// `f`, or `f + 1` exactly when `round(√S) ≥ T = (f + 1)·2ᵐ`, i.e. `S > (T − 1)·T`.
-    #[inline]
-    fn bin_of_floor(self, squared: u64, f: u32) -> usize {
-        const LAST: u32 = GATE_BINS as u32 - 1;
-        // T = (f + 1)·2ᵐ ≤ 2²⁵: (T − 1)·T < 2⁵⁰.
-        let edge = (f + 1) << self.edge_shift();
-        let bin = if squared > wide::umul(edge - 1, edge) {
-            f + 1
-        } else {
-            f
-        };
-        bin.min(LAST) as usize
     }
 
     /// The lower edge of bin `i` as [`Meters`] (exact: a multiple of 2⁻¹⁰ m), saturating; a
@@ -727,10 +714,9 @@ mod tests {
     }
 
     #[test]
-    fn bin_of_squared_is_the_bin_of_the_rounded_root() {
-        use crate::geometry::transform::isqrt_round;
+    fn bin_of_squared_is_the_bin_of_the_floored_root() {
         let reference = |b: DistanceBins, sq: u64| {
-            let root = i32::try_from(isqrt_round(sq)).unwrap_or(i32::MAX);
+            let root = i32::try_from(sq.isqrt()).unwrap_or(i32::MAX);
             b.bin(Meters::from_bits(root))
         };
         let mut rng = XorShift(0x2545_F491_4F6C_DD1D_u64);

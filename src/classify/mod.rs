@@ -506,8 +506,10 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
     /// [`add_point`](Self::add_point) with the horizontal distance given by its square
     /// (raw Q16.16 units squared, 2⁻³² m², as
     /// [`LineTransform::locate_squared`](crate::geometry::LineTransform::locate_squared)
-    /// gives it): exactly the same as `add_point` with the rounded square root, without
-    /// computing the root ([`DistanceBins::bin_of_squared`](crate::gate::DistanceBins::bin_of_squared)).
+    /// gives it): exactly the same as `add_point` with the square root rounded down, without
+    /// computing the root ([`DistanceBins::bin_of_squared`](crate::gate::DistanceBins::bin_of_squared),
+    /// which says how little that differs from the rounded distance of
+    /// [`LineTransform::locate`](crate::geometry::LineTransform::locate)).
     #[inline]
     pub fn add_point_squared(&mut self, point: Point3, horizontal_squared: u64, ground_z: Meters) {
         // The previous point's bin first: neighbouring returns mostly share it.
@@ -1081,15 +1083,14 @@ mod tests {
     }
 
     #[test]
-    fn add_point_squared_is_add_point_with_the_rounded_root() {
-        use crate::geometry::transform::isqrt_round;
+    fn add_point_squared_is_add_point_with_the_floored_root() {
         let mut a = classifier::<256>(GateShape::default());
         let mut b = classifier::<256>(GateShape::default());
         a.begin(Meters::ZERO);
         b.begin(Meters::ZERO);
         for i in 0..2000_u64 {
             let sq = (i * 7_919_u64).pow(2) * 37 + i;
-            let d = Meters::from_bits(i32::try_from(isqrt_round(sq)).unwrap());
+            let d = Meters::from_bits(i32::try_from(sq.isqrt()).unwrap());
             let q = pt(0.01 * i as f32 - 10.0, 0.3, 0.001 * (i % 97) as f32);
             a.add_point(q, d, Meters::ZERO);
             b.add_point_squared(q, sq, Meters::ZERO);

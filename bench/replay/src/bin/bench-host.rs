@@ -9,6 +9,8 @@
 //!   scanner's origin (3 × `f32`) and the points (3 × `f32` each), little-endian.
 //! - `bench-host fed-layers REC`: how many layers of the default design each return feeds
 //!   (the classifier's per-layer work is paid that many times), their mean and histogram.
+//! - `bench-host bins REC`: how many returns the classifier's gate bin (of the distance's
+//!   square, its root rounded down) puts in another bin than their rounded distance's.
 
 use std::process::ExitCode;
 use std::time::{Duration, Instant};
@@ -172,6 +174,50 @@ fn fed_layers(rec: &[u8]) -> Result<(), String> {
     Ok(())
 }
 
+/// How many returns the per-line path bins differently from their rounded distance: the
+/// classifier bins the square root of `Δx² + Δy²` rounded down
+/// (`DistanceBins::bin_of_squared`), `LineTransform::locate` rounds the distance to the
+/// nearest raw unit. Prints `returns=… differ=…` and, over the differing returns, the largest
+/// change of any layer's gate weight (raw Q1.15).
+fn bins(rec: &[u8]) -> Result<(), String> {
+    let design = default_design::<64, 8>().ok_or("the default design")?;
+    let increments = Config::default()
+        .model
+        .increments()
+        .map_err(|e| format!("{e:?}"))?;
+    let mut gates: Box<Gates<8>> = Box::new(Gates::new());
+    gates
+        .configure(&design, increments)
+        .map_err(|e| format!("{e:?}"))?;
+    let bins = gates.distance_bins();
+    let (mut returns, mut differ, mut weight_change) = (0_u64, 0_u64, 0_i32);
+    each_line(rec, |tr, values, config| {
+        for (j, r) in values.ranges_mm(config.measuring_mode).enumerate() {
+            let (Some(p), Some(q)) = (
+                r.and_then(|r| tr.locate(j, r)),
+                r.and_then(|r| tr.locate_squared(j, r)),
+            ) else {
+                continue;
+            };
+            returns += 1;
+            let (rounded, floored) = (
+                bins.bin(p.horizontal),
+                bins.bin_of_squared(q.horizontal_squared),
+            );
+            if rounded != floored {
+                differ += 1;
+                for t in (0..gates.layer_count()).filter_map(|k| gates.table(k)) {
+                    let change = i32::from(t.weight(rounded).to_bits())
+                        - i32::from(t.weight(floored).to_bits());
+                    weight_change = weight_change.max(change.abs());
+                }
+            }
+        }
+    })?;
+    println!("returns={returns} differ={differ} largest_weight_change={weight_change}");
+    Ok(())
+}
+
 fn main() -> ExitCode {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let result = match args.as_slice() {
@@ -189,9 +235,13 @@ fn main() -> ExitCode {
         [cmd, rec] if cmd == "fed-layers" => std::fs::read(rec)
             .map_err(|e| format!("{rec}: {e}"))
             .and_then(|data| fed_layers(&data)),
-        _ => {
-            Err("usage: bench-host throughput REC SECONDS | export REC OUT | fed-layers REC".into())
-        }
+        [cmd, rec] if cmd == "bins" => std::fs::read(rec)
+            .map_err(|e| format!("{rec}: {e}"))
+            .and_then(|data| bins(&data)),
+        _ => Err(
+            "usage: bench-host throughput REC SECONDS | export REC OUT | fed-layers REC | bins REC"
+                .into(),
+        ),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
