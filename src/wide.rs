@@ -16,7 +16,8 @@
 /// Whether the target lacks a 32 × 32 → 64 multiply (ARMv6-M).
 const HALVES: bool = cfg!(all(target_arch = "arm", not(target_has_atomic = "32")));
 
-/// `a · b` exactly, as `u64`.
+/// `a · b` exactly, as `u64` (the plane rule's sums).
+#[cfg(any(feature = "plane-rule", test))]
 #[inline(always)]
 #[must_use]
 pub(crate) const fn umul(a: u32, b: u32) -> u64 {
@@ -167,6 +168,7 @@ pub(crate) fn div_rem_u64_u32(n: u64, d: u32) -> (u64, u32) {
 /// divisor's top 32 bits, normalised, and one correction (Hacker's Delight, 2nd ed.,
 /// `divdu`, Fig. 9–5): a few `udiv` where the library's `__aeabi_uldivmod` loops over the
 /// bits. Elsewhere the plain `u64` division.
+#[cfg(any(feature = "plane-rule", test))]
 #[inline]
 #[must_use]
 pub(crate) fn div_u64(n: u64, d: u64) -> u64 {
@@ -181,6 +183,7 @@ pub(crate) fn div_u64(n: u64, d: u64) -> u64 {
 }
 
 /// [`div_u64`] in 32-bit divisions, for `d > 0` (0 for `d = 0`).
+#[cfg(any(feature = "plane-rule", test))]
 #[must_use]
 fn div_words_u64(n: u64, d: u64) -> u64 {
     #[allow(clippy::cast_possible_truncation)]
