@@ -558,21 +558,43 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
         self.feed_by_rule(expected, bin, z, true);
     }
 
-    /// [`Classifier::feed`] for the rule in force, chosen here once per point.
+    /// [`Classifier::feed`] for the rule in force, chosen here once per point; a hole (a
+    /// drop-off or missing ground, rare and off by default) out of line.
     #[inline(always)]
     fn feed_by_rule(&mut self, point: Point3, bin: usize, z: i16, hole: bool) -> bool {
+        if hole {
+            return self.feed_hole(point, bin, z);
+        }
         if self.plane.is_some() {
-            self.feed::<true>(point, bin, z, hole)
+            self.feed::<true, false>(point, bin, z)
         } else {
-            self.feed::<false>(point, bin, z, hole)
+            self.feed::<false, false>(point, bin, z)
+        }
+    }
+
+    /// [`Classifier::feed_by_rule`] for a point that marks its cells as holes.
+    #[cold]
+    #[inline(never)]
+    fn feed_hole(&mut self, point: Point3, bin: usize, z: i16) -> bool {
+        if self.plane.is_some() {
+            self.feed::<true, true>(point, bin, z)
+        } else {
+            self.feed::<false, true>(point, bin, z)
         }
     }
 
     /// Adds a point (its distance in gate bin `bin`) to every layer cell whose gate passes
-    /// it; `true` when at least one did. `PLANE`: whether the plane rule is in force (chosen
-    /// once per point, so that the per-layer path tests nothing for it).
+    /// it; `true` when at least one did. `PLANE`: whether the plane rule is in force; `HOLE`:
+    /// whether the point marks its cells as holes (each chosen once per point, so that the
+    /// per-layer path tests nothing for it).
     #[inline]
-    fn feed<const PLANE: bool>(&mut self, point: Point3, bin: usize, z: i16, hole: bool) -> bool {
+    fn feed<const PLANE: bool, const HOLE: bool>(
+        &mut self,
+        point: Point3,
+        bin: usize,
+        z: i16,
+    ) -> bool {
+        let hole = HOLE;
         let bin_index = u16::try_from(bin).unwrap_or(u16::MAX);
         let mut fed = false;
         let min_weight = self.gates.min_feeding_weight();
@@ -586,7 +608,7 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
             let k = lowest_layer(mask);
             mask &= mask - 1;
             if self.gates.weight_in(usize::from(k), bin) >= min_weight {
-                fed |= self.feed_recent::<PLANE>(k, point, bin_index, z, hole, robot_height_mm);
+                fed |= self.feed_recent::<PLANE, HOLE>(k, point, bin_index, z, robot_height_mm);
             }
         }
         // Layers from the ninth on (pyramids of more than eight), by their weights.
@@ -635,15 +657,15 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
     /// corner; otherwise [`Classifier::cell_of`], the hash and the probe, and the cell is
     /// remembered.
     #[inline]
-    fn feed_recent<const PLANE: bool>(
+    fn feed_recent<const PLANE: bool, const HOLE: bool>(
         &mut self,
         k: u8,
         point: Point3,
         bin: u16,
         z: i16,
-        hole: bool,
         robot_height_mm: i16,
     ) -> bool {
+        let hole = HOLE;
         let Some(&recent) = self.recent.get(usize::from(k)) else {
             return false;
         };
@@ -930,7 +952,9 @@ fn fold(
     plane: bool,
 ) {
     slot.bin = slot.bin.min(bin);
-    slot.hole |= hole;
+    if hole {
+        slot.hole = true;
+    }
     if z < slot.z_low {
         let cut = i32::from(z) + i32::from(robot_height_mm);
         if i32::from(slot.z_high) > cut {
