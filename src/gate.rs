@@ -417,6 +417,9 @@ pub struct Gates<const L: usize> {
     /// Per group of [`FED_GROUP_BINS`] gate bins, bit k set when layer k < 8 is fed at some
     /// bin of the group (its weight reaches `min_feeding_weight` there).
     fed: [u8; FED_GROUPS],
+    /// Per group, bit k set when layer k < 8 is fed at every bin of the group: those layers
+    /// need no weight check ([`Gates::layers_fed_at`]).
+    fed_everywhere: [u8; FED_GROUPS],
 }
 
 impl<const L: usize> core::fmt::Debug for Gates<L> {
@@ -446,6 +449,7 @@ impl<const L: usize> Gates<L> {
             bins: DistanceBins::UNCONFIGURED,
             min_feeding_weight: 0,
             fed: [0; FED_GROUPS],
+            fed_everywhere: [0; FED_GROUPS],
         }
     }
 
@@ -475,13 +479,19 @@ impl<const L: usize> Gates<L> {
         }
         let min_weight = min_feeding_weight(increments);
         let mut fed = [0_u8; FED_GROUPS];
-        for bin in 0..GATE_BINS {
-            for (k, table) in self.tables.iter().take(active.min(8)).enumerate() {
-                if table.weight(bin) >= Weight::from_bits(min_weight) {
-                    if let Some(mask) = fed.get_mut(bin / FED_GROUP_BINS) {
-                        *mask |= 1 << k;
+        let mut fed_everywhere = [0_u8; FED_GROUPS];
+        for (group, (some, every)) in fed.iter_mut().zip(&mut fed_everywhere).enumerate() {
+            *every = u8::MAX;
+            let first = group * FED_GROUP_BINS;
+            for bin in first..first + FED_GROUP_BINS {
+                let mut at_bin = 0_u8;
+                for (k, table) in self.tables.iter().take(active.min(8)).enumerate() {
+                    if table.weight(bin) >= Weight::from_bits(min_weight) {
+                        at_bin |= 1 << k;
                     }
                 }
+                *some |= at_bin;
+                *every &= at_bin;
             }
         }
         self.resolutions = resolutions;
@@ -489,6 +499,7 @@ impl<const L: usize> Gates<L> {
         self.bins = bins;
         self.min_feeding_weight = min_weight;
         self.fed = fed;
+        self.fed_everywhere = fed_everywhere;
         Ok(())
     }
 
@@ -557,6 +568,28 @@ impl<const L: usize> Gates<L> {
     pub fn fed_layers(&self, bin: usize) -> u8 {
         self.fed.get(bin / FED_GROUP_BINS).copied().unwrap_or(0)
     }
+
+    /// The layers among the first eight that a distance in gate bin `bin` feeds, exactly:
+    /// bit k set when `table(k).weight(bin) ≥ min_feeding_weight()` (0 for bins past the
+    /// table). The layers fed at every bin of `bin`'s group come from a mask; only those fed
+    /// at some of its bins (a layer's gate edge falls in the group) have their weight read.
+    #[must_use]
+    #[inline]
+    pub fn layers_fed_at(&self, bin: usize) -> u8 {
+        let group = bin / FED_GROUP_BINS;
+        let every = self.fed_everywhere.get(group).copied().unwrap_or(0);
+        let mut edge = self.fed.get(group).copied().unwrap_or(0) & !every;
+        let mut exact = every;
+        let min = self.min_feeding_weight();
+        while edge != 0 {
+            let k = crate::classify::lowest_layer(edge);
+            edge &= edge - 1;
+            if self.weight_in(usize::from(k), bin) >= min {
+                exact |= 1 << k;
+            }
+        }
+        exact
+    }
 }
 
 /// The static RAM of the gating of `layers` layers, bytes: a 1 KiB table and a cell size per
@@ -568,7 +601,7 @@ pub const fn ram_bytes(layers: usize) -> usize {
     let raw = layers * (core::mem::size_of::<GateTable>() + core::mem::size_of::<Resolution>())
         + core::mem::size_of::<DistanceBins>()
         + 4
-        + FED_GROUPS;
+        + 2 * FED_GROUPS;
     raw.div_ceil(4) * 4
 }
 
@@ -685,6 +718,8 @@ mod tests {
                     let any = (group..group + FED_GROUP_BINS).any(|b| gate.weight(b) >= min);
                     let bit = p.fed_layers(bin) >> k & 1 == 1;
                     assert_eq!(bit, any, "{shape:?} layer {k} bin {bin}");
+                    let exact = p.layers_fed_at(bin) >> k & 1 == 1;
+                    assert_eq!(exact, feeds, "{shape:?} layer {k} bin {bin}");
                     assert!(bit || !feeds);
                     fed += usize::from(feeds);
                 }

@@ -197,7 +197,7 @@ const LOWEST_SET_BIT: [u8; 256] = {
 /// mask. On ARMv6-M one load from [`LOWEST_SET_BIT`]; elsewhere `trailing_zeros`, two
 /// instructions on ARMv7-M (`rbit`, `clz`) and no table address to keep in a register.
 #[inline(always)]
-fn lowest_layer(mask: u8) -> u8 {
+pub(crate) fn lowest_layer(mask: u8) -> u8 {
     if cfg!(all(target_arch = "arm", not(target_has_atomic = "32"))) {
         // A byte indexes the 256 entries: the bound check compiles away.
         LOWEST_SET_BIT.get(usize::from(mask)).copied().unwrap_or(8)
@@ -597,19 +597,16 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
         let hole = HOLE;
         let bin_index = u16::try_from(bin).unwrap_or(u16::MAX);
         let mut fed = false;
-        let min_weight = self.gates.min_feeding_weight();
-        // The first eight layers from the precomputed mask of the bin's group: only layers
-        // that may be fed are visited, and their weights checked.
-        let mut mask = self.gates.fed_layers(bin);
+        // The first eight layers that the bin feeds, exactly (a weight read only where a
+        // layer's gate edge falls in the bin's group).
+        let mut mask = self.gates.layers_fed_at(bin);
         // Read once per point, not per layer (the slots written in between are not them).
         let robot_height_mm = self.robot_height_mm;
         while mask != 0 {
             // The lowest layer left in the mask (a layer in force), then the mask without it.
             let k = lowest_layer(mask);
             mask &= mask - 1;
-            if self.gates.weight_in(usize::from(k), bin) >= min_weight {
-                fed |= self.feed_recent::<PLANE, HOLE>(k, point, bin_index, z, robot_height_mm);
-            }
+            fed |= self.feed_recent::<PLANE, HOLE>(k, point, bin_index, z, robot_height_mm);
         }
         // Layers from the ninth on (pyramids of more than eight), by their weights.
         if self.gates.layer_count() > 8 {
