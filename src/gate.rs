@@ -399,7 +399,8 @@ fn min_feeding_weight(increments: Increments) -> u16 {
 
 /// The gating of a design, for up to `L` layers: each layer's cell size and gate table, the
 /// distance binning, the smallest weight that changes a cell, and per group of
-/// [`FED_GROUP_BINS`] bins the layers it may feed. About `L · 1 KiB + 4·L + 72` bytes.
+/// [`FED_GROUP_BINS`] bins the layers it feeds somewhere and everywhere. About
+/// `L · 1 KiB + 4·L + 136` bytes ([`ram_bytes`]).
 ///
 /// The classifier owns it and reads it for every point; the pyramid never does: evidence
 /// reaches the pyramid with its weight already looked up ([`crate::pyramid::Evidence`]).
