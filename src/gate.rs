@@ -254,6 +254,40 @@ fn bins_f32() -> f32 {
     b
 }
 
+/// The index of the lowest set bit of each byte (8 for 0): the next layer of a fed-layer mask
+/// by one load on ARMv6-M, which has no count-leading-zeros instruction ([`lowest_layer`]).
+const LOWEST_SET_BIT: [u8; 256] = {
+    let mut table = [8_u8; 256];
+    let mut mask = 1;
+    while mask < 256 {
+        // Evaluated at compile time (an index out of range would fail the build, not panic):
+        // below 8 for a non-zero byte.
+        #[allow(clippy::cast_possible_truncation, clippy::indexing_slicing)]
+        {
+            table[mask] = (mask as u8).trailing_zeros() as u8;
+        }
+        mask += 1;
+    }
+    table
+};
+
+/// The index of the lowest set bit of `mask` (8 for 0): the lowest layer left in a fed-layer
+/// mask. On ARMv6-M one load from [`LOWEST_SET_BIT`]; elsewhere `trailing_zeros`, two
+/// instructions on ARMv7-M (`rbit`, `clz`) and no table address to keep in a register.
+#[inline(always)]
+pub(crate) fn lowest_layer(mask: u8) -> u8 {
+    if cfg!(all(target_arch = "arm", not(target_has_atomic = "32"))) {
+        // A byte indexes the 256 entries: the bound check compiles away.
+        LOWEST_SET_BIT.get(usize::from(mask)).copied().unwrap_or(8)
+    } else {
+        // At most 8.
+        #[allow(clippy::cast_possible_truncation)]
+        {
+            mask.trailing_zeros() as u8
+        }
+    }
+}
+
 /// One layer's gate: a weight per distance bin, Q1.15. 1 KiB.
 #[derive(Clone, PartialEq, Eq)]
 pub struct GateTable {
@@ -583,7 +617,7 @@ impl<const L: usize> Gates<L> {
         let mut exact = every;
         let min = self.min_feeding_weight();
         while edge != 0 {
-            let k = crate::classify::lowest_layer(edge);
+            let k = lowest_layer(edge);
             edge &= edge - 1;
             if self.weight_in(usize::from(k), bin) >= min {
                 exact |= 1 << k;
@@ -804,6 +838,19 @@ mod tests {
             for r in [isqrt_floor_newton(x), isqrt_floor_restoring(x)] {
                 assert!(r * r <= x && (r + 1) * (r + 1) > x, "{x}");
             }
+        }
+    }
+
+    #[test]
+    fn the_lowest_set_bit_table_is_trailing_zeros() {
+        for mask in 0..=u8::MAX {
+            let expected = mask.trailing_zeros().min(8);
+            assert_eq!(
+                u32::from(LOWEST_SET_BIT[usize::from(mask)]),
+                expected,
+                "{mask}"
+            );
+            assert_eq!(u32::from(lowest_layer(mask)), expected, "{mask}");
         }
     }
 

@@ -176,40 +176,6 @@ impl Recent {
     };
 }
 
-/// The index of the lowest set bit of each byte (8 for 0): the next layer of a fed-layer mask
-/// by one load on ARMv6-M, which has no count-leading-zeros instruction ([`lowest_layer`]).
-const LOWEST_SET_BIT: [u8; 256] = {
-    let mut table = [8_u8; 256];
-    let mut mask = 1;
-    while mask < 256 {
-        // Evaluated at compile time (an index out of range would fail the build, not panic):
-        // below 8 for a non-zero byte.
-        #[allow(clippy::cast_possible_truncation, clippy::indexing_slicing)]
-        {
-            table[mask] = (mask as u8).trailing_zeros() as u8;
-        }
-        mask += 1;
-    }
-    table
-};
-
-/// The index of the lowest set bit of `mask` (8 for 0): the lowest layer left in a fed-layer
-/// mask. On ARMv6-M one load from [`LOWEST_SET_BIT`]; elsewhere `trailing_zeros`, two
-/// instructions on ARMv7-M (`rbit`, `clz`) and no table address to keep in a register.
-#[inline(always)]
-pub(crate) fn lowest_layer(mask: u8) -> u8 {
-    if cfg!(all(target_arch = "arm", not(target_has_atomic = "32"))) {
-        // A byte indexes the 256 entries: the bound check compiles away.
-        LOWEST_SET_BIT.get(usize::from(mask)).copied().unwrap_or(8)
-    } else {
-        // At most 8.
-        #[allow(clippy::cast_possible_truncation)]
-        {
-            mask.trailing_zeros() as u8
-        }
-    }
-}
-
 /// The marker of an empty slot: slots store their layer plus one, so that an empty slot (and
 /// a fresh classifier) is all zero bits.
 const EMPTY: u8 = 0;
@@ -604,7 +570,7 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
         let robot_height_mm = self.robot_height_mm;
         while mask != 0 {
             // The lowest layer left in the mask (a layer in force), then the mask without it.
-            let k = lowest_layer(mask);
+            let k = crate::gate::lowest_layer(mask);
             mask &= mask - 1;
             fed |= self.feed_recent::<PLANE, HOLE>(k, point, bin_index, z, robot_height_mm);
         }
@@ -1398,19 +1364,6 @@ mod tests {
                 }
                 assert_eq!(a.stats(), b.stats());
             }
-        }
-    }
-
-    #[test]
-    fn the_lowest_set_bit_table_is_trailing_zeros() {
-        for mask in 0..=u8::MAX {
-            let expected = mask.trailing_zeros().min(8);
-            assert_eq!(
-                u32::from(LOWEST_SET_BIT[usize::from(mask)]),
-                expected,
-                "{mask}"
-            );
-            assert_eq!(u32::from(lowest_layer(mask)), expected, "{mask}");
         }
     }
 
