@@ -560,7 +560,6 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
         bin: usize,
         z: i16,
     ) -> bool {
-        let hole = HOLE;
         let bin_index = u16::try_from(bin).unwrap_or(u16::MAX);
         let mut fed = false;
         // The first eight layers that the bin feeds, exactly (a weight read only where a
@@ -576,7 +575,7 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
         }
         // Layers from the ninth on (pyramids of more than eight), by their weights.
         if self.gates.layer_count() > 8 {
-            fed |= self.feed_beyond_eight(point, bin, z, hole);
+            fed |= self.feed_beyond_eight(point, bin, z, HOLE);
         }
         fed
     }
@@ -628,7 +627,6 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
         z: i16,
         robot_height_mm: i16,
     ) -> bool {
-        let hole = HOLE;
         let Some(&recent) = self.recent.get(usize::from(k)) else {
             return false;
         };
@@ -650,7 +648,7 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
                 } else {
                     (0, 0)
                 };
-                fold(slot, z, sub, bin, hole, robot_height_mm, PLANE);
+                fold(slot, z, sub, bin, HOLE, robot_height_mm, PLANE);
                 return true;
             }
         }
@@ -659,7 +657,7 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
         };
         let (cx, cy, sub) = Self::cell_of(r, recent.reciprocal, point, PLANE);
         // Stored as k + 1 (0 marks an empty slot); k < 8.
-        match self.insert(k + 1, cx, cy, sub, bin, z, hole, PLANE) {
+        match self.insert(k + 1, cx, cy, sub, bin, z, HOLE, PLANE) {
             Some(index) => {
                 self.remember(usize::from(k), r.to_bits(), cx, cy, index);
                 true

@@ -132,10 +132,8 @@ fn export(rec: &[u8], out: &str) -> Result<(), String> {
     Ok(())
 }
 
-/// How many layers of the default design each return feeds: the layers whose gate weight at
-/// the return's distance bin reaches the feeding minimum (as the classifier decides it). Prints
-/// `returns=… fed=… mean=…` and the count of returns feeding 0, 1, 2, … layers.
-fn fed_layers(rec: &[u8]) -> Result<(), String> {
+/// The gating of the default design with the default increments, as the classifier holds it.
+fn default_gates() -> Result<Box<Gates<8>>, String> {
     let design = default_design::<64, 8>().ok_or("the default design")?;
     let increments = Config::default()
         .model
@@ -145,6 +143,14 @@ fn fed_layers(rec: &[u8]) -> Result<(), String> {
     gates
         .configure(&design, increments)
         .map_err(|e| format!("{e:?}"))?;
+    Ok(gates)
+}
+
+/// How many layers of the default design each return feeds: the layers whose gate weight at
+/// the return's distance bin reaches the feeding minimum (as the classifier decides it). Prints
+/// `returns=… fed=… mean=…` and the count of returns feeding 0, 1, 2, … layers.
+fn fed_layers(rec: &[u8]) -> Result<(), String> {
+    let gates = default_gates()?;
     let (mut returns, mut fed) = (0_u64, 0_u64);
     let mut histogram = [0_u64; 9];
     each_line(rec, |tr, values, config| {
@@ -180,15 +186,7 @@ fn fed_layers(rec: &[u8]) -> Result<(), String> {
 /// nearest raw unit. Prints `returns=… differ=…` and, over the differing returns, the largest
 /// change of any layer's gate weight (raw Q1.15).
 fn bins(rec: &[u8]) -> Result<(), String> {
-    let design = default_design::<64, 8>().ok_or("the default design")?;
-    let increments = Config::default()
-        .model
-        .increments()
-        .map_err(|e| format!("{e:?}"))?;
-    let mut gates: Box<Gates<8>> = Box::new(Gates::new());
-    gates
-        .configure(&design, increments)
-        .map_err(|e| format!("{e:?}"))?;
+    let gates = default_gates()?;
     let bins = gates.distance_bins();
     let (mut returns, mut differ, mut weight_change) = (0_u64, 0_u64, 0_i32);
     each_line(rec, |tr, values, config| {
