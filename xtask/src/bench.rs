@@ -603,6 +603,18 @@ fn bench(opts: &Opts) -> Result<()> {
             &work.join(format!("profile-{target}-{bin}.txt")),
             profile.as_bytes(),
         )?;
+        // Every executed address with its count, for annotating a disassembly
+        // (`arm-none-eabi-objdump -d` of the same ELF).
+        let mut counts = String::new();
+        let mut per_pc = r.per_pc.clone();
+        per_pc.sort_unstable();
+        for (pc, n) in per_pc {
+            counts.push_str(&format!("{pc:08x} {n}\n"));
+        }
+        write_if_changed(
+            &work.join(format!("counts-{target}-{bin}.txt")),
+            counts.as_bytes(),
+        )?;
         let by_line = lines::profile(&elf(target, bin), &r, &root)?;
         write_if_changed(
             &work.join(format!("lines-{target}-{bin}.txt")),
