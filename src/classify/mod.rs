@@ -243,6 +243,9 @@ pub struct Classifier<const C: usize, const L: usize> {
     /// The robot's ground plane as of the last point (raw Q16.16).
     ground_z: i32,
     stats: ClassifierStats,
+    /// The indices of the slots in use, in the order they were taken (the first `used`
+    /// entries; each below C ≤ 65 536): the observation's end visits these, not all C slots.
+    order: [u16; C],
 }
 
 impl<const C: usize, const L: usize> core::fmt::Debug for Classifier<C, L> {
@@ -340,6 +343,7 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
         Self {
             slots: [Slot::VACANT; C],
             used: 0,
+            order: [0; C],
             recent: [Recent::NONE; RECENT_LAYERS],
             last_bin: 0,
             gates: Gates::new(),
@@ -448,10 +452,12 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
 
     /// Forgets the current observation without producing evidence.
     pub fn discard(&mut self) {
-        if self.used > 0 {
-            self.slots.fill(Slot::VACANT);
-            self.used = 0;
+        for &index in self.order.iter().take(self.used) {
+            if let Some(slot) = self.slots.get_mut(usize::from(index)) {
+                slot.layer = EMPTY;
+            }
         }
+        self.used = 0;
         self.forget_recent();
     }
 
@@ -800,8 +806,12 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
         for _ in 0..C {
             let slot = self.slots.get_mut(index)?;
             if slot.layer == EMPTY {
-                if self.used >= C {
-                    return None;
+                // Full (`None`) when every slot is taken: `order` has room while used < C.
+                let entry = self.order.get_mut(self.used)?;
+                // index < C ≤ 65 536: it fits a u16.
+                #[allow(clippy::cast_possible_truncation)]
+                {
+                    *entry = index as u16;
                 }
                 self.used += 1;
                 *slot = Slot {
@@ -830,12 +840,16 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
     }
 
     /// Ends the observation: classifies every touched cell, hands each record to `sink` in
-    /// slot order (deterministic: the same points give the same order on every target), and
-    /// clears the scratch.
+    /// the order the cells were first touched (deterministic: the same points give the same
+    /// order on every target), and clears the scratch. Visits the touched slots only.
     pub fn finish(&mut self, mut sink: impl FnMut(Evidence)) {
         let records = u32::try_from(self.used).unwrap_or(u32::MAX);
         if self.used > 0 {
-            for slot in &mut self.slots {
+            for &index in self.order.iter().take(self.used) {
+                // Masked to C − 1 (every index is below C): the bound check compiles away.
+                let Some(slot) = self.slots.get_mut(usize::from(index) & Self::MASK) else {
+                    continue;
+                };
                 if slot.layer == EMPTY {
                     continue;
                 }
