@@ -628,6 +628,40 @@ fn times_n2(a: i128, n2: i32) -> i128 {
 }
 
 #[cfg(feature = "plane-rule")]
+/// `⌊tan·c⌋` in mm Q16 for the largest slope `grade_q16` (tan, Q16, ≥ 0) and the cell side
+/// `cell` (raw Q16.16 metres; taken as at least 1): `⌊grade·c·1000 / 2¹⁶⌋` exactly, in 64-bit
+/// words (`grade·c` below 2⁶², split at 2¹⁶ so that the product with 1 000 fits).
+fn tan_times_cell(grade_q16: i64, cell: i32) -> i64 {
+    let grade = u32::try_from(grade_q16.max(0)).unwrap_or(u32::MAX);
+    let cell = cell.max(1).unsigned_abs();
+    let gc = crate::wide::umul(grade, cell);
+    // gc = h·2¹⁶ + l: ⌊gc·1000 / 2¹⁶⌋ = h·1000 + ⌊l·1000 / 2¹⁶⌋, h·1000 below 2⁵⁶.
+    #[allow(clippy::cast_possible_wrap)]
+    let t = ((gc >> 16) * 1000 + (((gc & 0xFFFF) * 1000) >> 16)) as i64;
+    t
+}
+
+#[cfg(feature = "plane-rule")]
+/// Whether the gradient `⌊√(wa² + wb²)⌋` (mm per unit, Q16) is surely not steeper than the
+/// largest slope, `64·⌊√(wa² + wb²)⌋ ≤ tan_c` (mm Q16), decided without the root: exactly
+/// when `wa² + wb² < (⌊tan_c / 64⌋ + 1)²`, in 64-bit words where the squares fit them (|wa|,
+/// |wb| below 2³¹ and the bound below 2³²; most cells). `false` also where they do not (the
+/// caller takes the root).
+fn not_steeper(wa: i128, wb: i128, tan_c: i128) -> bool {
+    match (
+        i32::try_from(wa),
+        i32::try_from(wb),
+        u32::try_from((tan_c >> 6) + 1),
+    ) {
+        // Squares below 2⁶² each: the sum fits a u64.
+        (Ok(a), Ok(b), Ok(bound)) => {
+            crate::wide::square(a) + crate::wide::square(b) < crate::wide::umul(bound, bound)
+        }
+        _ => false,
+    }
+}
+
+#[cfg(feature = "plane-rule")]
 /// Whether the plane rule calls the cell of `state` not navigable: two to four 64-bit
 /// divisions (the plane), up to two integer square roots (the gradient, the rise), and the
 /// noise (one division, two roots) only for a cell whose residual exceeds the allowance
@@ -695,11 +729,14 @@ pub(super) fn plane_obstacle(
     }
     let n = i128::from(n);
     // The gradient G = |w| (mm per unit, Q16), g = 64·G/c: steeper than the largest slope
-    // when 64·G > tan·c (c in mm; both sides mm, Q16).
+    // when 64·G > tan·c (c in mm; both sides mm, Q16), with G = ⌊√(wa² + wb²)⌋.
+    let tan_c = i128::from(tan_times_cell(params.grade_q16, geometry.cell));
+    if not_steeper(wa, wb, tan_c) {
+        return false;
+    }
     #[allow(clippy::cast_sign_loss, clippy::cast_possible_wrap)]
     let slope = isqrt((wa * wa + wb * wb) as u128) as i128;
-    let cell_mm_q16 = i128::from(geometry.cell.max(1)) * 1000;
-    let steep = 64 * slope - ((i128::from(params.grade_q16) * cell_mm_q16) >> 16);
+    let steep = 64 * slope - tan_c;
     if steep <= 0 {
         return false;
     }
@@ -1063,6 +1100,74 @@ mod tests {
             obstacles > total / 20 && obstacles < total * 19 / 20,
             "{obstacles}"
         );
+    }
+
+    #[test]
+    fn the_slope_bound_in_64_bits_is_the_root_comparison() {
+        // tan·c against the 128-bit product, at the extremes and at random.
+        let mut rng = XorShift(0x9E37_79B9_7F4A_7C15_u64);
+        let edges = [0_i64, 1, 2, 0xFFFF, 0x1_0000, 0x7FFF_FFFF];
+        let cells = [
+            i32::MIN,
+            -1,
+            0,
+            1,
+            655,
+            6_554,
+            0xFFFF,
+            0x1_0000,
+            1 << 29,
+            i32::MAX,
+        ];
+        let mut pairs: std::vec::Vec<(i64, i32)> = edges
+            .iter()
+            .flat_map(|&g| cells.iter().map(move |&c| (g, c)))
+            .collect();
+        for _ in 0..100_000 {
+            let g = (rng.next() >> (33 + rng.next() % 31)) as i64;
+            let c = (rng.next() >> (32 + rng.next() % 32)) as u32 as i32;
+            pairs.push((g, c));
+        }
+        for (grade, cell) in pairs {
+            let expected = (i128::from(grade) * i128::from(cell.max(1)) * 1000) >> 16;
+            assert_eq!(
+                i128::from(tan_times_cell(grade, cell)),
+                expected,
+                "{grade} {cell}"
+            );
+        }
+        // "Not steeper" exactly when 64·⌊√(wa² + wb²)⌋ ≤ tan·c, wherever it decides; next to
+        // the bound (the squares of the bound ± 2) and at random.
+        let root_says =
+            |wa: i128, wb: i128, t: i128| 64 * isqrt((wa * wa + wb * wb) as u128) as i128 <= t;
+        let mut decided = 0;
+        for _ in 0..200_000 {
+            let t = i128::from((rng.next() >> (24 + rng.next() % 40)) as i64);
+            let m = (t >> 6) + 1;
+            let (wa, wb) = if rng.next().is_multiple_of(2) {
+                // wa² + wb² within a few of m² (wb small).
+                let wb = (rng.next() % 8) as i128;
+                let target = m * m - wb * wb + (rng.next() % 5) as i128 - 2;
+                let wa = isqrt(target.max(0) as u128) as i128;
+                (wa, wb)
+            } else {
+                let w = |r: u64| {
+                    (r >> (30 + r % 34)) as i64 as i128 * if r.is_multiple_of(3) { -1 } else { 1 }
+                };
+                (w(rng.next()), w(rng.next()))
+            };
+            let fast = not_steeper(wa, wb, t);
+            if fast {
+                decided += 1;
+                assert!(root_says(wa, wb, t), "{wa} {wb} {t}");
+            } else if i32::try_from(wa).is_ok()
+                && i32::try_from(wb).is_ok()
+                && u32::try_from(m).is_ok()
+            {
+                assert!(!root_says(wa, wb, t), "{wa} {wb} {t}");
+            }
+        }
+        assert!(decided > 20_000, "{decided}");
     }
 
     #[test]
