@@ -452,13 +452,22 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
 
     /// Forgets the current observation without producing evidence.
     pub fn discard(&mut self) {
+        if self.used > 0 {
+            self.vacate();
+        }
+        self.forget_recent();
+    }
+
+    /// Vacates the slots in use (out of line: `begin` finds none after a `finish`).
+    #[cold]
+    #[inline(never)]
+    fn vacate(&mut self) {
         for &index in self.order.iter().take(self.used) {
             if let Some(slot) = self.slots.get_mut(usize::from(index)) {
                 slot.layer = EMPTY;
             }
         }
         self.used = 0;
-        self.forget_recent();
     }
 
     /// Forgets the cells of the layers' last points (their slots are vacated).
