@@ -222,8 +222,10 @@ pub struct Layer<const W: usize> {
     cells: [[Cell; W]; W],
     window: Window,
     /// One bit per storage tile (8 × 8 tiles, bit `8·ty + tx`) changed by an update since the
-    /// link last took them.
-    dirty: u64,
+    /// link last took them: tiles 0 to 31 in the first word, 32 to 63 in the second (two
+    /// words, so that marking one is a 32-bit shift: a 64-bit one is a library call on a
+    /// Cortex-M0 and a dozen instructions on a Cortex-M4).
+    dirty: [u32; 2],
 }
 
 /// A rectangle of world cells of one layer: `[x, x + width) × [y, y + height)`.
@@ -274,7 +276,7 @@ fn offset_spans(
 }
 
 /// The bytes of one `Layer<W>` for `cells_per_side` = W (even): `2·W² + 24` (cells, the
-/// window, the dirty tiles).
+/// window, the two dirty-tile words).
 #[must_use]
 pub const fn layer_bytes(cells_per_side: usize) -> usize {
     2 * cells_per_side * cells_per_side + core::mem::size_of::<Window>() + 8
@@ -311,7 +313,7 @@ impl<const W: usize> Layer<W> {
                 start_y: 0,
                 resolution: Resolution::UNSET,
             },
-            dirty: 0,
+            dirty: [0; 2],
         }
     }
 
@@ -322,7 +324,7 @@ impl<const W: usize> Layer<W> {
             row.fill(Cell::UNKNOWN);
         }
         self.window.resolution = resolution;
-        self.dirty = 0;
+        self.dirty = [0; 2];
         self.set_origin(-half::<W>(), -half::<W>());
     }
 
@@ -401,7 +403,9 @@ impl<const W: usize> Layer<W> {
                     *cell = new;
                     let tile =
                         (row * TILES_PER_SIDE / W) * TILES_PER_SIDE + col * TILES_PER_SIDE / W;
-                    self.dirty |= 1 << (tile & 63);
+                    if let Some(word) = self.dirty.get_mut((tile >> 5) & 1) {
+                        *word |= 1 << (tile & 31);
+                    }
                 }
                 true
             }
@@ -501,17 +505,25 @@ impl<const W: usize> Layer<W> {
     /// mirrors the window applies the same move and the same resets.
     #[must_use]
     pub const fn dirty(&self) -> u64 {
-        self.dirty
+        let [low, high] = self.dirty;
+        (high as u64) << 32 | low as u64
     }
 
     /// Returns the changed tiles and clears them.
     pub fn take_dirty(&mut self) -> u64 {
-        core::mem::take(&mut self.dirty)
+        let tiles = self.dirty();
+        self.dirty = [0; 2];
+        tiles
     }
 
     /// Marks tiles as changed (bits as in [`dirty`](Self::dirty)), e.g. to resend them.
     pub fn mark_dirty(&mut self, tiles: u64) {
-        self.dirty |= tiles;
+        // The low and high halves of the 64 tile bits.
+        #[allow(clippy::cast_possible_truncation)]
+        let (low, high) = (tiles as u32, (tiles >> 32) as u32);
+        let [first, second] = &mut self.dirty;
+        *first |= low;
+        *second |= high;
     }
 
     /// The world rectangles that storage tile `tile` (0 ..< 64) covers now: one, or up to
