@@ -121,7 +121,8 @@ pub fn cell_of_reciprocal(x_bits: i32, r_bits: i32, reciprocal: u32) -> i32 {
 #[must_use]
 #[inline]
 pub fn window_offset(origin: i32, index: i32, width: usize) -> Option<usize> {
-    let offset = i64::from(index) - i64::from(origin);
+    // A difference beyond the i32 range is beyond any window: no 64-bit arithmetic needed.
+    let offset = index.checked_sub(origin)?;
     usize::try_from(offset).ok().filter(|&o| o < width)
 }
 
@@ -668,6 +669,36 @@ mod tests {
         assert_eq!(window_offset(-32, 32, 64), None);
         assert_eq!(window_offset(-32, -33, 64), None);
         assert_eq!(window_offset(i32::MIN, i32::MAX, 64), None);
+        assert_eq!(window_offset(i32::MAX, i32::MIN, 64), None);
+        assert_eq!(window_offset(i32::MAX - 63, i32::MAX, 64), Some(63));
+        assert_eq!(window_offset(i32::MIN, i32::MIN + 63, 64), Some(63));
+        // Against the 64-bit difference, around the ends of the range.
+        let edges = [
+            i32::MIN,
+            i32::MIN + 1,
+            -64,
+            -1,
+            0,
+            1,
+            63,
+            64,
+            i32::MAX - 64,
+            i32::MAX,
+        ];
+        for &origin in &edges {
+            for &index in &edges {
+                for d in [-1, 0, 1, 63] {
+                    let index = index.wrapping_add(d);
+                    let offset = i64::from(index) - i64::from(origin);
+                    let expected = usize::try_from(offset).ok().filter(|&o| o < 64);
+                    assert_eq!(
+                        window_offset(origin, index, 64),
+                        expected,
+                        "{origin} {index}"
+                    );
+                }
+            }
+        }
         assert_eq!(slot(60, 3, 64), 63);
         assert_eq!(slot(60, 4, 64), 0);
         assert_eq!(start_of(-1, 64), 63);
