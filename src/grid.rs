@@ -223,10 +223,8 @@ pub struct Layer<const W: usize> {
     cells: [[Cell; W]; W],
     window: Window,
     /// One bit per storage tile (8 × 8 tiles, bit `8·ty + tx`) changed by an update since the
-    /// link last took them: tiles 0 to 31 in the first word, 32 to 63 in the second (two
-    /// words, so that marking one is a 32-bit shift: a 64-bit one is a library call on a
-    /// Cortex-M0 and a dozen instructions on a Cortex-M4).
-    dirty: [u32; 2],
+    /// link last took them.
+    dirty: u64,
 }
 
 /// A rectangle of world cells of one layer: `[x, x + width) × [y, y + height)`.
@@ -277,7 +275,7 @@ fn offset_spans(
 }
 
 /// The bytes of one `Layer<W>` for `cells_per_side` = W (even): `2·W² + 24` (cells, the
-/// window, the two dirty-tile words).
+/// window, the dirty tiles).
 #[must_use]
 pub const fn layer_bytes(cells_per_side: usize) -> usize {
     2 * cells_per_side * cells_per_side + core::mem::size_of::<Window>() + 8
@@ -314,7 +312,7 @@ impl<const W: usize> Layer<W> {
                 start_y: 0,
                 resolution: Resolution::UNSET,
             },
-            dirty: [0; 2],
+            dirty: 0,
         }
     }
 
@@ -325,7 +323,7 @@ impl<const W: usize> Layer<W> {
             row.fill(Cell::UNKNOWN);
         }
         self.window.resolution = resolution;
-        self.dirty = [0; 2];
+        self.dirty = 0;
         self.set_origin(-half::<W>(), -half::<W>());
     }
 
@@ -404,9 +402,7 @@ impl<const W: usize> Layer<W> {
                     *cell = new;
                     let tile =
                         (row * TILES_PER_SIDE / W) * TILES_PER_SIDE + col * TILES_PER_SIDE / W;
-                    if let Some(word) = self.dirty.get_mut((tile >> 5) & 1) {
-                        *word |= 1 << (tile & 31);
-                    }
+                    self.dirty |= 1 << (tile & 63);
                 }
                 true
             }
@@ -506,25 +502,17 @@ impl<const W: usize> Layer<W> {
     /// mirrors the window applies the same move and the same resets.
     #[must_use]
     pub const fn dirty(&self) -> u64 {
-        let [low, high] = self.dirty;
-        (high as u64) << 32 | low as u64
+        self.dirty
     }
 
     /// Returns the changed tiles and clears them.
     pub fn take_dirty(&mut self) -> u64 {
-        let tiles = self.dirty();
-        self.dirty = [0; 2];
-        tiles
+        core::mem::take(&mut self.dirty)
     }
 
     /// Marks tiles as changed (bits as in [`dirty`](Self::dirty)), e.g. to resend them.
     pub fn mark_dirty(&mut self, tiles: u64) {
-        // The low and high halves of the 64 tile bits.
-        #[allow(clippy::cast_possible_truncation)]
-        let (low, high) = (tiles as u32, (tiles >> 32) as u32);
-        let [first, second] = &mut self.dirty;
-        *first |= low;
-        *second |= high;
+        self.dirty |= tiles;
     }
 
     /// The world rectangles that storage tile `tile` (0 ..< 64) covers now: one, or up to

@@ -224,9 +224,8 @@ pub const fn ram_bytes(cells_per_side: usize, layers: usize) -> usize {
     let raw = layers * crate::grid::layer_bytes(cells_per_side)
         + core::mem::size_of::<State>()
         + crate::decay::sweep_bytes(layers);
-    // The pyramid is aligned like its widest fields: 32-bit words (the windows' origins, the
-    // dirty-tile words, the counters).
-    let align = core::mem::align_of::<u32>();
+    // The pyramid is aligned like its layers' dirty-tile word (a u64).
+    let align = core::mem::align_of::<u64>();
     raw.div_ceil(align) * align
 }
 
