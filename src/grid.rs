@@ -402,7 +402,11 @@ impl<const W: usize> Layer<W> {
                     *cell = new;
                     let tile =
                         (row * TILES_PER_SIDE / W) * TILES_PER_SIDE + col * TILES_PER_SIDE / W;
-                    self.dirty |= 1 << (tile & 63);
+                    // The tile's bit by a 32-bit shift into its half (a variable 64-bit
+                    // shift is a dozen instructions on a Cortex-M4 and a library call on a
+                    // Cortex-M0; a shift by 32 is a register move).
+                    let bit = u64::from(1_u32 << (tile & 31));
+                    self.dirty |= if tile & 32 == 0 { bit } else { bit << 32 };
                 }
                 true
             }
