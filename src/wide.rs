@@ -14,7 +14,7 @@
 //! compare-and-swap), as the classifier's cell indices do.
 
 /// Whether the target lacks a 32 × 32 → 64 multiply (ARMv6-M).
-const HALVES: bool = cfg!(all(target_arch = "arm", not(target_has_atomic = "32")));
+pub(crate) const HALVES: bool = cfg!(all(target_arch = "arm", not(target_has_atomic = "32")));
 
 /// `a · b` exactly, as `u64` (the plane rule's sums).
 #[cfg(any(feature = "plane-rule", test))]

@@ -35,7 +35,7 @@
 //! | configuration (or compile time) | [`BeamTable::new`]: (cos θ, sin θ) per beam, Q1.15 | integer trig |
 //! | pose change | [`Pose::frame`]: the rotation matrix, Q2.30 | 3 × integer sin/cos |
 //! | scan line | [`LineTransform::new`]: pose × actuator × plane, one 3 × 2 matrix | 1 × integer sin/cos |
-//! | point | [`LineTransform::point`] / [`LineTransform::locate`] / [`LineTransform::locate_squared`] | 9 multiplies (+ √ for d with `locate`; the pipeline bins d² instead) |
+//! | point | [`LineTransform::point`] / [`LineTransform::locate`] / [`LineTransform::locate_squared`] | 2 multiplies and 6 multiply-accumulates into 64 bits, 2 squares (+ √ for d with `locate`; the pipeline bins d² instead) |
 //! | spinning lidar: pose change | [`SweepTransform::new`]: the pose and the mount | none beyond the pose's |
 //! | spinning lidar: actuator angle | [`SweepTransform::at`]: the plane at that angle | 1 × integer sin/cos, 6 multiplies |
 //! | spinning lidar: return | [`ActuatedPlane::locate_squared`]: its own beam angle θ | 1 × integer sin/cos, 12 multiplies |
