@@ -260,15 +260,32 @@ impl<const C: usize, const L: usize> core::fmt::Debug for Classifier<C, L> {
 
 /// Metres (raw Q16.16) to millimetres, `⌊raw · 1000 / 2¹⁶⌋`, saturated to `i16`.
 ///
-/// In 32-bit words (no 64-bit multiply, a library call on a Cortex-M0): 1000/2¹⁶ = 125/2¹³,
-/// and with `raw = hi·2¹³ + lo` (0 ≤ lo < 2¹³) the floor is `hi·125 + ⌊lo·125 / 2¹³⌋`
-/// exactly (|hi·125| < 2²⁵).
+/// On ARMv7-M one `smull` by 1000·2¹⁶ and the product's high word (`⌊raw · 1000·2¹⁶ / 2³²⌋`
+/// is the same floor), then `ssat`. On ARMv6-M in 32-bit words (a 64-bit multiply is a
+/// library call there): 1000/2¹⁶ = 125/2¹³, and with `raw = hi·2¹³ + lo` (0 ≤ lo < 2¹³) the
+/// floor is `hi·125 + ⌊lo·125 / 2¹³⌋` exactly (|hi·125| < 2²⁵).
 #[inline]
 fn mm_i16(raw: i32) -> i16 {
+    let mm = if crate::wide::HALVES {
+        mm_halves(raw)
+    } else {
+        // |raw · 65 536 000| < 2⁵⁷: its high word is the floor, within ±2²⁵.
+        #[allow(clippy::cast_possible_truncation)]
+        let mm = ((i64::from(raw) * 65_536_000) >> 32) as i32;
+        mm
+    };
+    // Clamped to the i16 range: the cast is exact.
+    #[allow(clippy::cast_possible_truncation)]
+    let saturated = mm.clamp(i32::from(i16::MIN), i32::from(i16::MAX)) as i16;
+    saturated
+}
+
+/// [`mm_i16`]'s floor from 13-bit halves, without a 64-bit product.
+#[inline]
+fn mm_halves(raw: i32) -> i32 {
     let hi = raw >> 13;
     let lo = raw & 0x1FFF;
-    let mm = hi * 125 + ((lo * 125) >> 13);
-    i16::try_from(mm).unwrap_or(if mm < 0 { i16::MIN } else { i16::MAX })
+    hi * 125 + ((lo * 125) >> 13)
 }
 
 /// The position of `point` in its cell `(cx, cy)` of side `bits` (raw) with reciprocal `m`
@@ -1082,6 +1099,10 @@ mod tests {
             }))
         {
             assert_eq!(mm_i16(raw), reference(raw), "{raw}");
+            // And the ARMv6-M form, whichever target runs the tests.
+            let halves = mm_halves(raw);
+            let want = (i64::from(raw) * 1000) >> 16;
+            assert_eq!(i64::from(halves), want, "{raw}");
         }
         // Around the saturation points ±32 768 mm.
         for raw in 2_147_000_i32..2_148_000 {
