@@ -133,7 +133,7 @@ impl Row {
     /// origin in Q48 plus the rounding half ([`LineTransform::origin_sum`]); the caller
     /// guarantees that the quotient fits an `i32` (an unsaturated line).
     #[inline]
-    fn coordinate_words(self, acc: i64, rc: i32, rs: i32) -> i32 {
+    fn coordinate_words(&self, acc: i64, rc: i32, rs: i32) -> i32 {
         let sum = acc
             .wrapping_add(i64::from(self.c) * i64::from(rc))
             .wrapping_add(i64::from(self.s) * i64::from(rs));
@@ -153,7 +153,7 @@ impl Row {
     /// `⌊(acc + r·U) / 2³²⌋ = acc_hi + r·H_hi + ⌊(acc_lo + r·H_lo·2¹⁶ + r·B_lo) / 2³²⌋`, the
     /// last term summed in 16-bit steps without overflow. Seven `muls`.
     #[inline]
-    fn coordinate_halves(self, acc: i64, c: i32, s: i32, range_mm: u32) -> i32 {
+    fn coordinate_halves(&self, acc: i64, c: i32, s: i32, range_mm: u32) -> i32 {
         let a = self
             .c_hi
             .wrapping_mul(c)
@@ -567,17 +567,25 @@ impl<'a> LineTransform<'a> {
     fn locate_squared_words(&self, dir: BeamDir, range_mm: u32) -> LinePointSquared {
         let (c, s) = dir.to_bits();
         let (c, s) = (i32::from(c), i32::from(s));
-        let [rx, ry, rz] = self.rows;
+        // By reference and axis by axis: the entries are read where they are, not copied.
+        let [rx, ry, rz] = &self.rows;
         let [ax, ay, az] = self.origin_sum;
-        let [x, y, z] = if wide::HALVES {
-            [(rx, ax), (ry, ay), (rz, az)]
-                .map(|(row, acc)| row.coordinate_halves(acc, c, s, range_mm))
+        let (x, y, z) = if wide::HALVES {
+            (
+                rx.coordinate_halves(ax, c, s, range_mm),
+                ry.coordinate_halves(ay, c, s, range_mm),
+                rz.coordinate_halves(az, c, s, range_mm),
+            )
         } else {
             // range_mm < 2¹⁶ fits an i32, and |r·c|, |r·s| < 2³¹.
             #[allow(clippy::cast_possible_wrap)]
             let r = range_mm as i32;
             let (rc, rs) = (r.wrapping_mul(c), r.wrapping_mul(s));
-            [(rx, ax), (ry, ay), (rz, az)].map(|(row, acc)| row.coordinate_words(acc, rc, rs))
+            (
+                rx.coordinate_words(ax, rc, rs),
+                ry.coordinate_words(ay, rc, rs),
+                rz.coordinate_words(az, rc, rs),
+            )
         };
         let [cx, cy] = self.centre;
         LinePointSquared {
