@@ -71,7 +71,7 @@ impl<const N: usize> Window<N> {
             .get_mut(self.end..self.end.saturating_add(head.len()))
         {
             if dst.len() == head.len() {
-                dst.copy_from_slice(head);
+                crate::wire::copy_bytes(dst, head);
                 self.end += head.len();
                 self.skip(head.len());
                 return rest;

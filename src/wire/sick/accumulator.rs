@@ -299,7 +299,9 @@ impl<const N: usize> SickAccumulator<N> {
             let take = need.min(chunk.len()).min(N.saturating_sub(self.end));
             let (head, rest) = chunk.split_at_checked(take).unwrap_or((&[], chunk));
             match self.buf.get_mut(self.end..self.end.saturating_add(take)) {
-                Some(dst) if take > 0 && dst.len() == head.len() => dst.copy_from_slice(head),
+                Some(dst) if take > 0 && dst.len() == head.len() => {
+                    crate::wire::copy_bytes(dst, head)
+                }
                 // Unreachable by the capacity checks; drop the candidate to keep moving.
                 _ => {
                     let (step, offset) = self.reject(1, SickFrameError::Truncated);
