@@ -77,8 +77,12 @@ pub(crate) fn copy_bytes(dst: &mut [u8], src: &[u8]) {
             *d = word.to_ne_bytes();
         }
     }
-    for (d, s) in to.into_remainder().iter_mut().zip(from.remainder()) {
-        *d = *s;
+    // At most three bytes, written out: a loop here becomes a `memcpy` call.
+    let (d, s) = (to.into_remainder(), from.remainder());
+    for k in [0, 1, 2] {
+        if let (Some(d), Some(s)) = (d.get_mut(k), s.get(k)) {
+            *d = *s;
+        }
     }
 }
 
