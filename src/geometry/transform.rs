@@ -24,9 +24,10 @@
 //! per axis after the two `muls` shared by the three axes; the distance's square is the
 //! offsets' two squares (`smull`, `smlal`). A Cortex-M0 has no 64-bit product: it splits the
 //! entries into 16-bit halves and gets the same quotient from seven 32 × 32 → 32 `muls` per
-//! axis (`Row::coordinate_halves`), with no `__aeabi_lmul` call. Measured in the bench firmware
-//! (BENCHMARKS.md, "The seventh pass"): the per-point geometry takes about 45 instructions on
-//! the M4F. The other entry points ([`LineTransform::locate`], [`LineTransform::point`]) take
+//! axis (`Row::coordinate_halves`), with no `__aeabi_lmul` call. Measured in the bench
+//! firmware's profile on the full stairs recording (BENCHMARKS.md, "The seventh pass"), from
+//! `locate_squared` to the squares: about 39 instructions per point on the M4F and 156 on the
+//! M0. The other entry points ([`LineTransform::locate`], [`LineTransform::point`]) take
 //! the `i64` path. The horizontal distance of [`LineTransform::locate`] adds a bit-by-bit
 //! integer square root (one iteration per result bit: about 19 at 8 m, 23 at 80 m).
 //!
