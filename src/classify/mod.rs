@@ -121,9 +121,13 @@ pub struct ClassifierStats {
     pub points: u32,
     /// Points that fed at least one layer cell.
     pub points_used: u32,
-    /// Points that fed no layer (every gate zero at their distance).
+    /// Points that fed no layer cell: every gate zero at their distance, or every cell they
+    /// would have fed dropped because the scratch table was full (those additions counted in
+    /// [`ClassifierStats::overflow_points`] too). `points_used + points_gated_out` is the
+    /// count of points that reached the gates (not overhang).
     pub points_gated_out: u32,
-    /// Point-to-cell additions dropped because the scratch table was full.
+    /// Point-to-cell additions dropped because the scratch table was full (one per layer
+    /// cell a point could not get).
     pub overflow_points: u32,
     /// Points ignored as overhang (above ground + robot height) when they arrived.
     pub overhang_points: u32,
@@ -1485,6 +1489,11 @@ mod tests {
         }
         assert_eq!(c.cells_in_use(), 8);
         assert_eq!(c.stats().overflow_points, 12);
+        // A point that lost its only cell fed no layer: it is counted with the gated-out
+        // ones, as `points_gated_out` says.
+        assert_eq!(c.stats().points, 20);
+        assert_eq!(c.stats().points_used, 8);
+        assert_eq!(c.stats().points_gated_out, 12);
         let mut n = 0;
         c.finish(|_| n += 1);
         assert_eq!(n, 8);
