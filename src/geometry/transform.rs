@@ -348,9 +348,9 @@ pub struct LineTransform<'a> {
     rows: [Row; 3],
     /// The scanner's centre in the world, metres Q40.
     origin: [i64; 3],
-    /// The origin in Q48 plus the rounding half, `⌊O/2²⁴⌋·2³² + (O mod 2²⁴)·2⁸ + 2³¹` for
-    /// the Q40 origin O: a point's coordinate is `⌊(origin_sum + D) / 2³²⌋`. Meaningful
-    /// only on an [`unsaturated`](Self::unsaturated) line.
+    /// The origin in Q48 plus the rounding half, `O·2⁸ + 2³¹` for the Q40 origin O: a
+    /// point's coordinate is `⌊(origin_sum + D) / 2³²⌋`. Meaningful only on an
+    /// [`unsaturated`](Self::unsaturated) line.
     origin_sum: [i64; 3],
     /// The scanner's centre rounded to Q16.16, raw, x and y (on an unsaturated line; the
     /// horizontal offsets are taken from it).
@@ -400,8 +400,7 @@ impl Placed {
 
     /// `√(Δx² + Δy²)`, rounded.
     fn horizontal(&self) -> Meters {
-        let root = isqrt_round(self.horizontal_squared());
-        Meters::from_bits(sat_i32(i64::try_from(root).unwrap_or(i64::MAX)))
+        root_meters(self.horizontal_squared())
     }
 }
 
@@ -454,9 +453,8 @@ impl<'a> LineTransform<'a> {
         let unsaturated = origin
             .iter()
             .all(|o| o.unsigned_abs() <= UNSATURATED_ORIGIN.unsigned_abs());
-        // Wrapping: the sums matter only on an unsaturated line, where they fit.
-        let origin_sum =
-            origin.map(|o| ((o >> 24) << 32).wrapping_add(((o & 0xFF_FFFF) << 8) + (1 << 31)));
+        // O·2⁸ + 2³¹, wrapping: the sums matter only on an unsaturated line, where they fit.
+        let origin_sum = origin.map(|o| (o << 8).wrapping_add(1 << 31));
         let [cx, cy, _] = origin.map(|o| sat_i32(centre_q16(o)));
         Self {
             beams,
@@ -644,6 +642,12 @@ pub fn horizontal_distance(from: Point3, to: Point3) -> Meters {
         .unsigned_abs()
         .pow(2)
         .saturating_add(dy.unsigned_abs().pow(2));
+    root_meters(sum)
+}
+
+/// `round(√sum)` as Q16.16 [`Meters`] of a sum of squared raw units, saturating at 32 768 m.
+#[inline]
+fn root_meters(sum: u64) -> Meters {
     Meters::from_bits(sat_i32(i64::try_from(isqrt_round(sum)).unwrap_or(i64::MAX)))
 }
 
@@ -660,9 +664,8 @@ pub(super) fn horizontal_squared(dx: i64, dy: i64) -> u64 {
 /// `√(Δx² + Δy²)` of two Q40 offsets (each below 2⁴⁸), as Q16.16 metres.
 #[inline]
 pub(super) fn horizontal(dx: i64, dy: i64) -> Meters {
-    let sum = horizontal_squared(dx, dy);
     // The root of a sum below 2⁴⁹ is below 2²⁵: it fits an i32.
-    Meters::from_bits(sat_i32(i64::try_from(isqrt_round(sum)).unwrap_or(i64::MAX)))
+    root_meters(horizontal_squared(dx, dy))
 }
 
 impl fmt::Debug for LineTransform<'_> {
@@ -956,12 +959,13 @@ mod tests {
         })
     }
 
-    #[test]
-    fn per_mm_in_words_is_per_mm() {
-        let mut x = XorShift(0x0DDB_A11C_AFE0_0001_u64);
-        let mut values: std::vec::Vec<i64> = (-(1_i64 << 30) - 70_000..=-(1_i64 << 30) + 70_000)
-            .chain((1_i64 << 30) - 70_000..=(1_i64 << 30) + 70_000)
-            .chain(-70_000..=70_000)
+    /// Q2.30 components to test a conversion on: every value within `near` of ±1 and of 0,
+    /// the extremes of `i64` and ±2⁴⁰, and a million random ones of every magnitude.
+    fn q30_cases(seed: u64, near: i64) -> std::vec::Vec<i64> {
+        let mut x = XorShift(seed);
+        let mut values: std::vec::Vec<i64> = (-(1_i64 << 30) - near..=-(1_i64 << 30) + near)
+            .chain((1_i64 << 30) - near..=(1_i64 << 30) + near)
+            .chain(-near..=near)
             .collect();
         values.extend([i64::MIN, i64::MAX, 1 << 40, -(1 << 40)]);
         for _ in 0..1_000_000 {
@@ -969,7 +973,12 @@ mod tests {
             let v = (x.next() as i64) >> (33 + x.next() % 30);
             values.push(v);
         }
-        for v in values {
+        values
+    }
+
+    #[test]
+    fn per_mm_in_words_is_per_mm() {
+        for v in q30_cases(0x0DDB_A11C_AFE0_0001, 70_000) {
             assert_eq!(per_mm_words(v), per_mm(v), "{v}");
         }
     }
@@ -983,18 +992,7 @@ mod tests {
 
     #[test]
     fn row_entries_are_the_rounded_quotient() {
-        let mut x = XorShift(0x51A7_E0F1_0A75_0003_u64);
-        let mut values: std::vec::Vec<i64> = (-(1_i64 << 30) - 2_000..=-(1_i64 << 30) + 2_000)
-            .chain((1_i64 << 30) - 2_000..=(1_i64 << 30) + 2_000)
-            .chain(-100_000..=100_000)
-            .collect();
-        values.extend([i64::MIN, i64::MAX, 1 << 40, -(1 << 40)]);
-        for _ in 0..1_000_000 {
-            #[allow(clippy::cast_possible_wrap)]
-            let v = (x.next() as i64) >> (33 + x.next() % 30);
-            values.push(v);
-        }
-        for v in values {
+        for v in q30_cases(0x51A7_E0F1_0A75_0003, 100_000) {
             assert_eq!(k_entry(v), k_entry_by_division(v), "{v}");
         }
         assert_eq!(k_entry(1 << 30), 8_589_935);
