@@ -69,6 +69,8 @@ pub mod link;
 pub mod logodds;
 pub mod pipeline;
 pub mod pyramid;
+#[cfg(any(feature = "plane-rule", test))]
+mod saturate;
 #[cfg(test)]
 mod test_rng;
 pub mod units;

@@ -164,9 +164,10 @@ const HALVE_AT: u8 = 62;
 /// 16-bit phase stops the sampling at level 12 first (`docs/core.md`, the plane rule).
 const MAX_LEVEL: u8 = 15;
 #[cfg(feature = "plane-rule")]
-/// The largest z − z₀ summed, millimetres; the smallest is `−MAX_DZ − 1` (−8192): the signed
-/// 14-bit range, one saturating instruction (`ssat`) on ARMv7-M.
-const MAX_DZ: i32 = 8191;
+/// The signed width of a summed z − z₀ (millimetres), bits: z − z₀ is clamped to
+/// −8192 ..= 8191, one saturating instruction (`ssat`) on ARMv7-M
+/// ([`crate::saturate::to_signed_bits`]).
+const DZ_BITS: u32 = 14;
 
 #[cfg(feature = "plane-rule")]
 /// The plane rule's running sums of one slot. 32 bytes.
@@ -246,8 +247,8 @@ impl PlaneState {
                 return;
             }
         }
-        // The signed 14-bit range: `ssat` on ARMv7-M.
-        let dz = (i32::from(z) - i32::from(self.z0)).clamp(-MAX_DZ - 1, MAX_DZ);
+        // The signed 14-bit range.
+        let dz = crate::saturate::to_signed_bits::<DZ_BITS>(i32::from(z) - i32::from(self.z0));
         let (u, v) = (i32::from(u), i32::from(v));
         // At most 61 points are summed before this one (n < 62: the sums are halved at 62;
         // at the last level at most two more points follow the halving to 31), each with
@@ -306,8 +307,9 @@ impl PlaneState {
 }
 
 #[cfg(feature = "plane-rule")]
+#[inline(always)]
 fn sat16(v: i32) -> i16 {
-    i16::try_from(v).unwrap_or(if v < 0 { i16::MIN } else { i16::MAX })
+    crate::saturate::to_i16(v)
 }
 
 /// The 6-bit position `⌊64·rem/c⌋ − 32 ∈ −32 ..= 31` of a coordinate whose remainder in its cell
