@@ -597,18 +597,25 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
         z: i16,
     ) -> bool {
         let bin_index = u16::try_from(bin).unwrap_or(u16::MAX);
-        let mut fed = false;
         // The first eight layers that the bin feeds, exactly (a weight read only where a
         // layer's gate edge falls in the bin's group).
-        let mut mask = self.gates.layers_fed_at(bin);
+        let offered = self.gates.layers_fed_at(bin);
+        // The layers that did not take the point (a full table): marked on those paths only,
+        // so that the common one (a layer that takes it) spends nothing on the verdict.
+        let mut refused = 0_u8;
+        let mut mask = offered;
         // Read once per point, not per layer (the slots written in between are not them).
         let robot_height_mm = self.robot_height_mm;
         while mask != 0 {
             // The lowest layer left in the mask (a layer in force), then the mask without it.
             let k = crate::gate::lowest_layer(mask);
+            let bit = mask & mask.wrapping_neg();
             mask &= mask - 1;
-            fed |= self.feed_recent::<PLANE, HOLE>(k, point, bin_index, z, robot_height_mm);
+            if !self.feed_recent::<PLANE, HOLE>(k, point, bin_index, z, robot_height_mm) {
+                refused |= bit;
+            }
         }
+        let mut fed = offered & !refused != 0;
         // Layers from the ninth on (pyramids of more than eight), by their weights.
         if self.gates.layer_count() > 8 {
             fed |= self.feed_beyond_eight(point, bin, z, HOLE);
@@ -1497,6 +1504,30 @@ mod tests {
         let mut n = 0;
         c.finish(|_| n += 1);
         assert_eq!(n, 8);
+    }
+
+    #[test]
+    fn a_point_refused_by_one_layer_and_taken_by_another_is_used() {
+        // The soft gate feeds three layers at 2 m: 0.2, 0.4 and 0.6 m cells.
+        let mut c = classifier::<4>(GateShape::default());
+        c.begin(Meters::ZERO);
+        let d = Meters::from_num(2.0);
+        c.add_point(pt(2.001, 0.001, 0.0), d, Meters::ZERO);
+        assert_eq!(c.cells_in_use(), 3);
+        // Another 0.2 m cell, the same 0.4 and 0.6 m ones: the table is full.
+        c.add_point(pt(2.201, 0.001, 0.0), d, Meters::ZERO);
+        assert_eq!(c.cells_in_use(), 4);
+        // Yet another 0.2 m cell (refused: no slot left), the same 0.4 and 0.6 m cells (taken):
+        // the point is used, and its refusal counted.
+        c.add_point(pt(2.201, 0.201, 0.0), d, Meters::ZERO);
+        let stats = c.stats();
+        assert_eq!(stats.overflow_points, 1);
+        assert_eq!(stats.points, 3);
+        assert_eq!(stats.points_used, 3);
+        assert_eq!(stats.points_gated_out, 0);
+        let mut layers = Vec::new();
+        c.finish(|e| layers.push(e.layer));
+        assert_eq!(layers, [1, 2, 3, 1]);
     }
 
     #[test]
