@@ -182,10 +182,11 @@ pub(super) struct PlaneState {
     offered: u16,
     /// z₀, millimetres relative to the observation's reference height.
     z0: i16,
-    su: i16,
-    sv: i16,
-    suu: u16,
-    svv: u16,
+    /// Σu·2¹⁶ + Σv, wrapping: one add for both sums (|Σu|, |Σv| < 2¹⁵, so each decodes
+    /// exactly: [`PlaneState::su`], [`PlaneState::sv`]).
+    su_sv: u32,
+    /// Σu²·2¹⁶ + Σv² (each below 2¹⁶, so neither carries into the other).
+    suu_svv: u32,
     suv: i16,
     /// Summed points (≤ [`HALVE_AT`]).
     n: u8,
@@ -203,10 +204,8 @@ impl PlaneState {
         szz: 0,
         offered: 0,
         z0: 0,
-        su: 0,
-        sv: 0,
-        suu: 0,
-        svv: 0,
+        su_sv: 0,
+        suu_svv: 0,
         suv: 0,
         n: 0,
         level: 0,
@@ -258,10 +257,12 @@ impl PlaneState {
         // saturating ones). Σuv alone can leave its i16 (62·32·32 > 2¹⁵ − 1) and saturates.
         #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
         {
-            self.su = self.su.wrapping_add(u as i16);
-            self.sv = self.sv.wrapping_add(v as i16);
-            self.suu = self.suu.wrapping_add((u * u) as u16);
-            self.svv = self.svv.wrapping_add((v * v) as u16);
+            self.su_sv = self
+                .su_sv
+                .wrapping_add(((u as u32) << 16).wrapping_add(v as u32));
+            self.suu_svv = self
+                .suu_svv
+                .wrapping_add((((u * u) as u32) << 16).wrapping_add((v * v) as u32));
             self.szz = self.szz.wrapping_add((dz * dz) as u32);
         }
         self.suv = sat16(i32::from(self.suv) + u * v);
@@ -285,10 +286,8 @@ impl PlaneState {
             return;
         }
         self.n /= 2;
-        self.su >>= 1;
-        self.sv >>= 1;
-        self.suu >>= 1;
-        self.svv >>= 1;
+        self.set_linear(self.su() >> 1, self.sv() >> 1);
+        self.set_squares(self.suu() >> 1, self.svv() >> 1);
         self.suv >>= 1;
         self.sz >>= 1;
         self.suz >>= 1;
@@ -303,6 +302,41 @@ impl PlaneState {
     #[cfg(test)]
     pub(super) const fn count(&self) -> u8 {
         self.n
+    }
+
+    /// Σv: the low half of `su_sv`.
+    #[allow(clippy::cast_possible_truncation)]
+    pub(super) const fn sv(&self) -> i16 {
+        self.su_sv as u16 as i16
+    }
+
+    /// Σu: `su_sv` less Σv (sign-extended), shifted down.
+    #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+    pub(super) const fn su(&self) -> i16 {
+        (self.su_sv.wrapping_sub(self.sv() as i32 as u32) >> 16) as u16 as i16
+    }
+
+    /// Σu²: the high half of `suu_svv`.
+    #[allow(clippy::cast_possible_truncation)]
+    pub(super) const fn suu(&self) -> u16 {
+        (self.suu_svv >> 16) as u16
+    }
+
+    /// Σv²: the low half of `suu_svv`.
+    #[allow(clippy::cast_possible_truncation)]
+    pub(super) const fn svv(&self) -> u16 {
+        self.suu_svv as u16
+    }
+
+    /// Sets Σu and Σv.
+    #[allow(clippy::cast_sign_loss)]
+    fn set_linear(&mut self, su: i16, sv: i16) {
+        self.su_sv = ((su as u32) << 16).wrapping_add(sv as i32 as u32);
+    }
+
+    /// Sets Σu² and Σv².
+    fn set_squares(&mut self, suu: u16, svv: u16) {
+        self.suu_svv = (u32::from(suu) << 16) | u32::from(svv);
     }
 }
 
@@ -565,7 +599,7 @@ struct Moments {
 /// 128-bit moments.
 fn moments(state: &PlaneState) -> Moments {
     let n = i32::from(state.n);
-    let (su, sv) = (i32::from(state.su), i32::from(state.sv));
+    let (su, sv) = (i32::from(state.su()), i32::from(state.sv()));
     let sz = state.sz;
     let moment = |nsum: i32, a: i32, b: i32| nsum.wrapping_sub(a.wrapping_mul(b));
     #[allow(clippy::cast_possible_wrap, clippy::cast_sign_loss)]
@@ -573,8 +607,8 @@ fn moments(state: &PlaneState) -> Moments {
         .wrapping_sub(crate::wide::square(sz) as i64);
     Moments {
         n,
-        cuu: moment(n.wrapping_mul(i32::from(state.suu)), su, su),
-        cvv: moment(n.wrapping_mul(i32::from(state.svv)), sv, sv),
+        cuu: moment(n.wrapping_mul(i32::from(state.suu())), su, su),
+        cvv: moment(n.wrapping_mul(i32::from(state.svv())), sv, sv),
         cuv: moment(n.wrapping_mul(i32::from(state.suv)), su, sv),
         cuz: moment(n.wrapping_mul(state.suz), su, sz),
         cvz: moment(n.wrapping_mul(state.svz), sv, sz),
@@ -929,8 +963,8 @@ mod tests {
         s.level = MAX_LEVEL - 1;
         s.halve();
         assert_eq!(
-            (s.n, s.level, s.su),
-            (HALVE_AT / 2, MAX_LEVEL, before.su >> 1)
+            (s.n, s.level, s.su()),
+            (HALVE_AT / 2, MAX_LEVEL, before.su() >> 1)
         );
     }
 
@@ -1008,10 +1042,10 @@ mod tests {
         if n < 2 {
             return false;
         }
-        let (su, sv) = (i128::from(state.su), i128::from(state.sv));
+        let (su, sv) = (i128::from(state.su()), i128::from(state.sv()));
         let sz = i128::from(state.sz);
-        let cuu = n * i128::from(state.suu) - su * su;
-        let cvv = n * i128::from(state.svv) - sv * sv;
+        let cuu = n * i128::from(state.suu()) - su * su;
+        let cvv = n * i128::from(state.svv()) - sv * sv;
         let cuv = n * i128::from(state.suv) - su * sv;
         let cuz = n * i128::from(state.suz) - su * sz;
         let cvz = n * i128::from(state.svz) - sv * sz;
@@ -1197,18 +1231,18 @@ mod tests {
             }
             let m = moments(&s);
             let n = i128::from(s.n);
-            let (su, sv, sz) = (i128::from(s.su), i128::from(s.sv), i128::from(s.sz));
+            let (su, sv, sz) = (i128::from(s.su()), i128::from(s.sv()), i128::from(s.sz));
             let cuz = n * i128::from(s.suz) - su * sz;
             let cvz = n * i128::from(s.svz) - sv * sz;
             assert_eq!(i128::from(m.n), n);
             assert_eq!(
                 i128::from(m.cuu),
-                n * i128::from(s.suu) - su * su,
+                n * i128::from(s.suu()) - su * su,
                 "run {run}"
             );
             assert_eq!(
                 i128::from(m.cvv),
-                n * i128::from(s.svv) - sv * sv,
+                n * i128::from(s.svv()) - sv * sv,
                 "run {run}"
             );
             assert_eq!(
@@ -1401,10 +1435,11 @@ mod tests {
         }
         let dz = (i32::from(z) - i32::from(s.z0)).clamp(-8192, 8191);
         let (u, v) = (i32::from(u), i32::from(v));
-        s.su = sat16(i32::from(s.su) + u);
-        s.sv = sat16(i32::from(s.sv) + v);
-        s.suu = satu16(i32::from(s.suu) + u * u);
-        s.svv = satu16(i32::from(s.svv) + v * v);
+        s.set_linear(sat16(i32::from(s.su()) + u), sat16(i32::from(s.sv()) + v));
+        s.set_squares(
+            satu16(i32::from(s.suu()) + u * u),
+            satu16(i32::from(s.svv()) + v * v),
+        );
         s.suv = sat16(i32::from(s.suv) + u * v);
         s.sz = s.sz.saturating_add(dz);
         s.suz = s.suz.saturating_add(u * dz);
