@@ -602,20 +602,24 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
         let offered = self.gates.layers_fed_at(bin);
         // The layers that did not take the point (a full table): marked on those paths only,
         // so that the common one (a layer that takes it) spends nothing on the verdict.
-        let mut refused = 0_u8;
-        let mut mask = offered;
+        let mut refused = 0_u32;
+        // In words, as the loop holds them (no narrow value to extend again per layer).
+        let mut mask = u32::from(offered);
+        let (bin_word, z_word) = (u32::from(bin_index), i32::from(z));
         // Read once per point, not per layer (the slots written in between are not them).
-        let robot_height_mm = self.robot_height_mm;
+        let robot_height_mm = i32::from(self.robot_height_mm);
         while mask != 0 {
             // The lowest layer left in the mask (a layer in force), then the mask without it.
-            let k = crate::gate::lowest_layer(mask);
+            // The mask holds eight bits: the cast is exact.
+            #[allow(clippy::cast_possible_truncation)]
+            let k = crate::gate::lowest_layer(mask as u8);
             let bit = mask & mask.wrapping_neg();
             mask &= mask - 1;
-            if !self.feed_recent::<PLANE, HOLE>(k, point, bin_index, z, robot_height_mm) {
+            if !self.feed_recent::<PLANE, HOLE>(k, point, bin_word, z_word, robot_height_mm) {
                 refused |= bit;
             }
         }
-        let mut fed = offered & !refused != 0;
+        let mut fed = u32::from(offered) & !refused != 0;
         // Layers from the ninth on (pyramids of more than eight), by their weights.
         if self.gates.layer_count() > 8 {
             fed |= self.feed_beyond_eight(point, bin, z, HOLE);
@@ -660,15 +664,16 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
     /// full (counted). A point in the cell of the layer's last point goes
     /// straight to that cell's slot, its position in the cell from its difference to the cell's
     /// corner; otherwise [`Classifier::cell_of`], the hash and the probe, and the cell is
-    /// remembered.
+    /// remembered. `bin` is a `u16`, `z` and `robot_height_mm` are `i16`, held in words (as
+    /// [`fold`] takes them).
     #[inline]
     fn feed_recent<const PLANE: bool, const HOLE: bool>(
         &mut self,
         k: u8,
         point: Point3,
-        bin: u16,
-        z: i16,
-        robot_height_mm: i16,
+        bin: u32,
+        z: i32,
+        robot_height_mm: i32,
     ) -> bool {
         let Some(&recent) = self.recent.get(usize::from(k)) else {
             return false;
@@ -699,6 +704,9 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
             return false;
         };
         let (cx, cy, sub) = Self::cell_of(r, recent.reciprocal, point, PLANE);
+        // Narrowed back: a u16 and an i16 held in words.
+        #[allow(clippy::cast_possible_truncation)]
+        let (bin, z) = (bin as u16, z as i16);
         // Stored as k + 1 (0 marks an empty slot); k < 8.
         match self.insert(k + 1, cx, cy, sub, bin, z, HOLE, PLANE) {
             Some(index) => {
@@ -868,7 +876,16 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
                 return Some(index);
             }
             if slot.layer == layer && slot.cell_x == cx && slot.cell_y == cy {
-                fold(slot, z, sub, bin, hole, self.robot_height_mm, plane);
+                let robot_height_mm = i32::from(self.robot_height_mm);
+                fold(
+                    slot,
+                    i32::from(z),
+                    sub,
+                    u32::from(bin),
+                    hole,
+                    robot_height_mm,
+                    plane,
+                );
                 return Some(index);
             }
             index = (index + 1) & Self::MASK;
@@ -953,37 +970,46 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
 
 /// Folds a point (z mm, position `sub` in the cell, distance bin) into a used slot under the
 /// overhang rule; with `plane`, into the plane rule's sums too when it lies below the cut.
+/// `bin` is a `u16`, `z` and `robot_height_mm` are `i16`, held in words: the per-layer loop
+/// keeps them so, and extends nothing again per layer.
 #[inline(always)]
 fn fold(
     slot: &mut Slot,
-    z: i16,
+    z: i32,
     sub: (i8, i8),
-    bin: u16,
+    bin: u32,
     hole: bool,
-    robot_height_mm: i16,
+    robot_height_mm: i32,
     plane: bool,
 ) {
-    slot.bin = slot.bin.min(bin);
+    // The narrow values again, for the slot's fields (exact: see above).
+    #[allow(clippy::cast_possible_truncation)]
+    let (bin16, z16) = (bin as u16, z as i16);
+    if bin < u32::from(slot.bin) {
+        slot.bin = bin16;
+    }
     if hole {
         slot.hole = true;
     }
-    if z < slot.z_low {
-        let cut = i32::from(z) + i32::from(robot_height_mm);
+    if z < i32::from(slot.z_low) {
+        let cut = z + robot_height_mm;
         if i32::from(slot.z_high) > cut {
             // The stored highest is overhang now; the best bound still known below the cut.
             let low_stays = i32::from(slot.z_low) <= cut;
-            slot.z_high = if low_stays { slot.z_low } else { z };
+            slot.z_high = if low_stays { slot.z_low } else { z16 };
             if plane {
-                restart_sums(slot, sub, z, low_stays);
+                restart_sums(slot, sub, z16, low_stays);
             }
         } else if plane {
-            slot.plane.add_next(sub.0, sub.1, z);
+            slot.plane.add_next(sub.0, sub.1, z16);
         }
-        slot.z_low = z;
-    } else if i32::from(z) <= i32::from(slot.z_low) + i32::from(robot_height_mm) {
-        slot.z_high = slot.z_high.max(z);
+        slot.z_low = z16;
+    } else if z <= i32::from(slot.z_low) + robot_height_mm {
+        if z > i32::from(slot.z_high) {
+            slot.z_high = z16;
+        }
         if plane {
-            slot.plane.add_next(sub.0, sub.1, z);
+            slot.plane.add_next(sub.0, sub.1, z16);
         }
     }
 }
