@@ -613,6 +613,8 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
             // The mask holds eight bits: the cast is exact.
             #[allow(clippy::cast_possible_truncation)]
             let k = crate::gate::lowest_layer(mask as u8);
+            // The same bit as `1 << k`, which measured 15 instructions a return dearer on the
+            // M4F (it moved the loop's registers).
             let bit = mask & mask.wrapping_neg();
             mask &= mask - 1;
             if !self.feed_recent::<PLANE, HOLE>(k, point, bin_word, z_word, robot_height_mm) {

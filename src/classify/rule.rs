@@ -265,7 +265,7 @@ impl PlaneState {
                 .wrapping_add((((u * u) as u32) << 16).wrapping_add((v * v) as u32));
             self.szz = self.szz.wrapping_add((dz * dz) as u32);
         }
-        self.suv = sat16(i32::from(self.suv) + u * v);
+        self.suv = crate::saturate::to_i16(i32::from(self.suv) + u * v);
         self.sz = self.sz.wrapping_add(dz);
         self.suz = self.suz.wrapping_add(u * dz);
         self.svz = self.svz.wrapping_add(v * dz);
@@ -338,12 +338,6 @@ impl PlaneState {
     fn set_squares(&mut self, suu: u16, svv: u16) {
         self.suu_svv = (u32::from(suu) << 16) | u32::from(svv);
     }
-}
-
-#[cfg(feature = "plane-rule")]
-#[inline(always)]
-fn sat16(v: i32) -> i16 {
-    crate::saturate::to_i16(v)
 }
 
 /// The 6-bit position `⌊64·rem/c⌋ − 32 ∈ −32 ..= 31` of a coordinate whose remainder in its cell
@@ -1435,12 +1429,15 @@ mod tests {
         }
         let dz = (i32::from(z) - i32::from(s.z0)).clamp(-8192, 8191);
         let (u, v) = (i32::from(u), i32::from(v));
-        s.set_linear(sat16(i32::from(s.su()) + u), sat16(i32::from(s.sv()) + v));
+        s.set_linear(
+            crate::saturate::to_i16(i32::from(s.su()) + u),
+            crate::saturate::to_i16(i32::from(s.sv()) + v),
+        );
         s.set_squares(
             satu16(i32::from(s.suu()) + u * u),
             satu16(i32::from(s.svv()) + v * v),
         );
-        s.suv = sat16(i32::from(s.suv) + u * v);
+        s.suv = crate::saturate::to_i16(i32::from(s.suv) + u * v);
         s.sz = s.sz.saturating_add(dz);
         s.suz = s.suz.saturating_add(u * dz);
         s.svz = s.svz.saturating_add(v * dz);
