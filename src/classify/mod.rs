@@ -706,9 +706,6 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
             return false;
         };
         let (cx, cy, sub) = Self::cell_of(r, recent.reciprocal, point, PLANE);
-        // Narrowed back: a u16 and an i16 held in words.
-        #[allow(clippy::cast_possible_truncation)]
-        let (bin, z) = (bin as u16, z as i16);
         // Stored as k + 1 (0 marks an empty slot); k < 8.
         match self.insert(k + 1, cx, cy, sub, bin, z, HOLE, PLANE) {
             Some(index) => {
@@ -822,6 +819,7 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
         z: i16,
         hole: bool,
     ) -> bool {
+        let (bin, z) = (u32::from(bin), i32::from(z));
         if self
             .insert(layer_index, cx, cy, sub, bin, z, hole, self.plane.is_some())
             .is_some()
@@ -835,7 +833,8 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
 
     /// Folds one point (at `sub` in its cell, [`rule::sub_cell`]) into the slot of
     /// `(layer, cx, cy)`, found by the hash and the probe or taken; the slot's index, `None`
-    /// when the table is full.
+    /// when the table is full. `bin` is a `u16` and `z` an `i16`, held in words as [`fold`]
+    /// takes them.
     #[inline]
     #[allow(clippy::too_many_arguments)]
     fn insert(
@@ -844,8 +843,8 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
         cx: i32,
         cy: i32,
         sub: (i8, i8),
-        bin: u16,
-        z: i16,
+        bin: u32,
+        z: i32,
         hole: bool,
         plane: bool,
     ) -> Option<usize> {
@@ -861,6 +860,9 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
                     *entry = index as u16;
                 }
                 self.used += 1;
+                // The narrow values again, for the slot's fields (exact: see above).
+                #[allow(clippy::cast_possible_truncation)]
+                let (bin, z) = (bin as u16, z as i16);
                 *slot = Slot {
                     plane: if plane {
                         PlaneState::first(sub.0, sub.1, z)
@@ -879,15 +881,7 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
             }
             if slot.layer == layer && slot.cell_x == cx && slot.cell_y == cy {
                 let robot_height_mm = i32::from(self.robot_height_mm);
-                fold(
-                    slot,
-                    i32::from(z),
-                    sub,
-                    u32::from(bin),
-                    hole,
-                    robot_height_mm,
-                    plane,
-                );
+                fold(slot, z, sub, bin, hole, robot_height_mm, plane);
                 return Some(index);
             }
             index = (index + 1) & Self::MASK;
