@@ -6,14 +6,22 @@
 //! (16-cell windows, at most 4 layers: `--cells 16`) on QEMU's nRF51822. All are driven the
 //! same way ([`crate::play`]): boot, Hello, Configure with the flags' design,
 //! Setup from the recording, the recording's frames and telegrams lock-step, EndObservation,
-//! a snapshot, and the maps written from the host's mirror of the device's layers.
+//! the device's pending changes sent (`sync`), a snapshot, and the maps written from the
+//! host's mirror of the device's layers.
+//!
+//! The final snapshot checks the mirror: before it the device sends every changed tile that
+//! its link's budget held back (`sync`), so the mirror holds everything the device has; the
+//! snapshot then compares every resent cell with the mirror's own
+//! (`mirror.resent_cells_differing`: 0 when the mirror equals the device cell for cell).
+//! Without the `sync`, the tiles still waiting at the end of the recording would be counted
+//! as differing although nothing was wrong: they had not been sent yet.
 //!
 //! With `--decay`, the device decays by its own clock (QEMU's follows the wall clock, the
 //! in-process device's moves 10 ms a poll), so the maps of the two boards differ by when the
 //! decay ran; what must hold on both is that the mirror, which applies every decay step the
 //! device announces with the host's build of the library, equals the device cell for cell:
-//! before the final snapshot the device sends every change (`sync`), and the snapshot then
-//! compares every resent cell with the mirror's own (`mirror.resent_cells_differing`, 0).
+//! the same check, where cells that changed only by decay since they were sent are compared
+//! with the mirror's own decay of them.
 
 use crate::decay::{DecayArgs, DecaySummary};
 use crate::design::DesignArgs;
@@ -141,7 +149,9 @@ pub struct MirrorCheck {
     pub cells_faded_device: u64,
     /// Cells a snapshot resent into a mirror in step, compared with the mirror's own.
     pub resent_cells_compared: u64,
-    /// Of those, the cells that differed (0: device and mirror equal cell for cell).
+    /// Of those, the cells that differed (0: device and mirror equal cell for cell). Every
+    /// change is sent before the snapshot ([`drive`] syncs first), so a cell that was merely
+    /// not sent yet is never counted here.
     pub resent_cells_differing: u64,
 }
 
@@ -340,8 +350,8 @@ pub fn boot_emulator(machine: Machine, defmt_log: &Path) -> Result<Emulator, Str
     Emulator::start(machine, &elf, defmt_log)
 }
 
-/// A recording through a device: Hello, Configure, the recording, a snapshot; returns the
-/// counts and the maps.
+/// A recording through a device: Hello, Configure, the recording, every pending change sent
+/// (`sync`), a snapshot; returns the counts and the maps.
 ///
 /// # Errors
 /// The device refused something or stopped answering.
@@ -358,11 +368,11 @@ pub fn drive(
         &Message::Configure(configure_of_design(design, config)),
     )?;
     let (mut counts, sensor_xy) = play(device, steps, classifier)?;
-    if config.decay.is_on() {
-        // Every change on the wire, so that the snapshot compares cells that changed only by
-        // decay since they were sent.
-        device.sync()?;
-    }
+    // Every change on the wire before the snapshot, so that it compares only what was sent:
+    // a tile the link's budget still held back would otherwise count as differing. (With
+    // decay, what is left to differ are the cells that changed only by decay since they were
+    // sent: the mirror's decay against the device's.)
+    device.sync()?;
     device.snapshot()?;
     let snapshot = mirror_snapshot(device, design, config, sensor_xy)?;
     counts.frames_received = device.link().mirror().counters().frames;
