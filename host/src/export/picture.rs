@@ -1,8 +1,9 @@
 //! The picture of a [`MapSnapshot`] for people (`maps.png`):
-//! - the fused map over its whole extent, with the layers' windows outlined;
-//! - the fused map over the observed region (the smallest square around every observed fused
-//!   cell and the sensor), with axes in metres;
-//! - every layer side by side over that same region, each panel the same size, so that the
+//! - the fused map over the observed area (the smallest square around every observed fused
+//!   cell and the sensor, plus a margin), with axes in metres and the layers' windows that
+//!   fit in it outlined; the whole export is mostly unknown (a 64-cell window of the coarsest
+//!   layer spans well over 100 m), so it is named in the caption, not drawn;
+//! - beside it, every layer over that same area, each panel the same size, so that the
 //!   layers compare place for place: a coarse layer shows as big blocks, the part of the
 //!   region outside a layer's window is white. A caption per layer gives its index, cell size,
 //!   band, window and counts.
@@ -38,18 +39,18 @@ const WINDOW_RGB: RGBColor = RGBColor(40, 40, 90);
 
 /// The outer margin, pixels.
 const MARGIN: i32 = 24;
-/// The side of each big (fused) plotting area, pixels.
+/// The side of the fused map's plotting area, pixels.
 const BIG: i32 = 800;
 /// The space for the y axis labels and the x axis labels of a big panel.
 const Y_LABELS: i32 = 70;
 const X_LABELS: i32 = 44;
-/// The space right of a big plotting area, and between the big panels.
+/// The space right of the fused map's plotting area, and between it and the layers.
 const BIG_RIGHT: i32 = 16;
 const BIG_GAP: i32 = 40;
 /// The side of each layer panel, pixels.
 const LAYER_PANEL: i32 = 208;
-/// Layer panels per row.
-const LAYERS_PER_ROW: usize = 8;
+/// Layer panels per row, beside the fused map.
+const LAYERS_PER_ROW: usize = 4;
 /// The space between layer panels, and the caption height below each.
 const LAYER_GAP: i32 = 24;
 const LAYER_CAPTION: i32 = 70;
@@ -245,12 +246,12 @@ pub fn draw(
     let n_layers = snapshot.layers.len();
     let rows = n_layers.div_ceil(LAYERS_PER_ROW).max(1);
     let per_row = n_layers.clamp(1, LAYERS_PER_ROW);
-    let big_w = 2 * (Y_LABELS + BIG + BIG_RIGHT) + BIG_GAP;
-    let layers_w = px(per_row) * (LAYER_PANEL + LAYER_GAP) - LAYER_GAP;
-    let width = 2 * MARGIN + big_w.max(layers_w);
+    let big_w = Y_LABELS + BIG + BIG_RIGHT;
     let big_h = PANEL_TITLE_H + 8 + BIG + X_LABELS;
-    let layers_h = px(rows) * (PANEL_TITLE_H + LAYER_PANEL + LAYER_CAPTION);
-    let height = 2 * MARGIN + TITLE_H + LEGEND_H + big_h + 16 + PANEL_TITLE_H + layers_h;
+    let layers_w = px(per_row) * (LAYER_PANEL + LAYER_GAP) - LAYER_GAP;
+    let layers_h = PANEL_TITLE_H + px(rows) * (PANEL_TITLE_H + LAYER_PANEL + LAYER_CAPTION);
+    let width = 2 * MARGIN + big_w + BIG_GAP + layers_w;
+    let height = 2 * MARGIN + TITLE_H + LEGEND_H + big_h.max(layers_h);
 
     let root = BitMapBackend::new(path, (upx(width), upx(height))).into_drawing_area();
     root.fill(&WHITE).map_err(text)?;
@@ -263,41 +264,27 @@ pub fn draw(
     let top = MARGIN + TITLE_H + LEGEND_H;
     if let Some(f) = fused {
         #[allow(clippy::cast_precision_loss)]
-        let whole = Square {
-            x0: f.origin.0.to_num(),
-            y0: f.origin.1.to_num(),
-            side: f.width.min(f.height) as f64 * step_m(f),
-        };
+        let export_side = f.width.min(f.height) as f64 * step_m(f);
         let caption = format!(
-            "Fused map, the whole export ({:.1} m square, {} × {} cells of {} m)",
-            whole.side,
-            f.width,
-            f.height,
+            "Fused map, the observed area ({:.1} m square of the {:.1} m export, {} m cells)",
+            region.side,
+            export_side,
             num(step_m(f))
         );
-        big_panel(&root, (MARGIN, top), snapshot, f, whole, &caption)?;
-        let caption = format!(
-            "Fused map, the observed region ({:.1} m square)",
-            region.side
-        );
-        let x = MARGIN + Y_LABELS + BIG + BIG_RIGHT + BIG_GAP;
-        big_panel(&root, (x, top), snapshot, f, region, &caption)?;
+        big_panel(&root, (MARGIN, top), snapshot, f, region, &caption)?;
     }
 
-    let mut y = top + big_h + 16;
+    let x_layers = MARGIN + big_w + BIG_GAP;
     let caption_style = TextStyle::from((FONT, 20).into_font()).color(&BLACK);
     root.draw_text(
-        &format!(
-            "Each layer over the observed region ({:.1} m square; white: outside the layer's window)",
-            region.side
-        ),
+        "Each layer over the same area (white: outside the layer's window)",
         &caption_style,
-        (MARGIN, y),
+        (x_layers, top),
     )
     .map_err(text)?;
-    y += PANEL_TITLE_H;
+    let y = top + PANEL_TITLE_H;
     for (n, layer) in snapshot.layers.iter().enumerate() {
-        let x = MARGIN + px(n % LAYERS_PER_ROW) * (LAYER_PANEL + LAYER_GAP);
+        let x = x_layers + px(n % LAYERS_PER_ROW) * (LAYER_PANEL + LAYER_GAP);
         let y = y + px(n / LAYERS_PER_ROW) * (PANEL_TITLE_H + LAYER_PANEL + LAYER_CAPTION);
         layer_panel(&root, (x, y), layer, region, snapshot.sensor_xy)?;
     }
