@@ -21,7 +21,7 @@
 //! - `step`: the 4-6 cm step up along y ≈ 1.4 m (x 0.15 … 2.1 m), from 2.5 cm above the
 //!   floor beside it up to −0.28 m;
 //! - `obstacle`: every point between −0.28 m (12 cm above the highest floor of the scan) and
-//!   0.80 m (the ceiling cut of the README's replay, 1.2 m above the floor) — walls, pillars,
+//!   0.80 m (the ceiling cut of docs/guide.md's replay, 1.2 m above the floor) — walls, pillars,
 //!   the ledge and the objects; above that lie the walkway's roof and overhang;
 //! - `ignore`: the scanner's own housing and mount (returns within 0.25 m of it, and the frame
 //!   beside it at x < 0.2 m), taken out before anything else.
@@ -195,10 +195,10 @@ pub fn readme_design() -> Design<16> {
         },
         64,
     )
-    .expect("the README's design is valid")
+    .expect("the replay's design of docs/guide.md is valid")
 }
 
-/// The README's ceiling cut above the robot's ground plane, metres.
+/// The ceiling cut of docs/guide.md's replay, above the robot's ground plane, metres.
 pub const CEILING_M: f64 = 1.2;
 
 /// The scanner's height above the floor, metres.

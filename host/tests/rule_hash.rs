@@ -1,8 +1,8 @@
-//! The 3DTK scan through `pyramid run --board host` (the README's flags: `--height-m 0.4
+//! The 3DTK scan through `pyramid run --board host` (docs/guide.md's replay flags: `--height-m 0.4
 //! --max-range-m 8 --gamma 3`) under each navigability rule, pinned by the maps' hash.
 //!
 //! - `--rule paper`: `de7d71d3e1d71392`, the hash every board gave before the plane rule
-//!   existed (README, BENCHMARKS.md): the paper's rule, carried to the co-processor in the
+//!   existed (docs/measurements.md, BENCHMARKS.md): the paper's rule, carried to the co-processor in the
 //!   link's Setup, still gives those maps bit for bit.
 //! - the default (`--rule plane`): `7f72fd2277f75e1e`, measured when the plane rule became
 //!   the default (`docs/core.md`, "Both rules measured"); a change to the plane rule's

@@ -187,7 +187,7 @@ fn qemu_ready() -> bool {
 /// figures, and its maps must equal the host's cell for cell. A short approach (1 s of
 /// standing, 4 m/s: about 220 telegrams a map) keeps it to about two minutes on two cores
 /// (each of the four maps streams megabytes of patches through QEMU's byte-at-a-time UART);
-/// the README's figures are from a 10 s stand.
+/// docs/measurements.md's figures are from a 10 s stand.
 #[test]
 fn the_firmware_reaches_the_same_stairs_outcome_as_the_host() {
     if !qemu_ready() {
