@@ -58,11 +58,8 @@ pub fn task(args: &[String]) -> std::result::Result<(), String> {
     if opts.lidars {
         // Only the spinning lidars' rows (bench/lidar.rs).
         ensure_tools()?;
-        let rows = lidar::rows(opts.quick)?;
-        println!(
-            "{}",
-            serde_json::to_string(&rows).map_err(|e| e.to_string())?
-        );
+        let rows = serde_json::json!({ "lidars": lidar::rows(opts.quick)? });
+        print_json(&rows, opts.json)?;
         eprintln!("xtask bench: done in {:.1} s", t.elapsed().as_secs_f64());
         return Ok(());
     }
@@ -101,10 +98,11 @@ fn run(cmd: &mut Command) -> Result<String> {
     Ok(String::from_utf8_lossy(&out.stdout).into_owned())
 }
 
-/// Runs a command with its output on our stderr (builds).
+/// Runs a command with its output (stdout too) on our stderr (builds, installs): stdout holds
+/// only the results.
 fn run_loud(cmd: &mut Command) -> Result<()> {
     let status = cmd
-        .stdout(Stdio::inherit())
+        .stdout(std::io::stderr())
         .stderr(Stdio::inherit())
         .status()
         .map_err(|e| format!("cannot run {cmd:?}: {e}"))?;
@@ -887,13 +885,16 @@ fn bench(opts: &Opts) -> Result<()> {
         "ram_bytes": ram,
         "stack_bytes": m4.stack,
     });
-    if opts.json {
-        println!("{json}");
+    print_json(&json, opts.json)
+}
+
+/// The results on stdout, the only thing there: one JSON object, on one line with `--json`.
+fn print_json(value: &serde_json::Value, one_line: bool) -> Result<()> {
+    let text = if one_line {
+        value.to_string()
     } else {
-        println!(
-            "{}",
-            serde_json::to_string_pretty(&json).map_err(|e| e.to_string())?
-        );
-    }
+        serde_json::to_string_pretty(value).map_err(|e| e.to_string())?
+    };
+    println!("{text}");
     Ok(())
 }

@@ -1,9 +1,10 @@
 //! What the tasks that run the firmware need on a fresh machine, installed when missing: the
 //! Cortex-M targets (rustup), QEMU (Debian's `qemu-system-arm`, through sudo when not root),
 //! `defmt-print` (cargo install), and the Python readers the output tests use (pip).
-//! `cargo xtask test` and `cargo xtask demo` share them.
+//! `cargo xtask test` and `cargo xtask demo` share them. Installers log on stderr only: a
+//! task's stdout is its result.
 use std::path::{Path, PathBuf};
-use std::process::Command;
+use std::process::{Command, Stdio};
 
 /// The repository's root (the xtask crate sits one level below it).
 pub fn root() -> PathBuf {
@@ -12,12 +13,25 @@ pub fn root() -> PathBuf {
         .map_or_else(|| PathBuf::from("."), Path::to_path_buf)
 }
 
-/// Runs a command from the root, failing with its name when it fails.
+/// Runs a command from the root, failing with its name when it fails; its output goes where
+/// xtask's goes.
 pub fn step(program: &str, args: &[&str]) -> Result<(), String> {
+    run_step(program, args, Stdio::inherit())
+}
+
+/// [`step`] for an installer (apt-get, rustup, cargo install, pip): its stdout goes to stderr
+/// too, so that a task's stdout holds only its result (one JSON object with `--json`) even on
+/// a fresh machine where something is installed first.
+pub fn install_step(program: &str, args: &[&str]) -> Result<(), String> {
+    run_step(program, args, Stdio::from(std::io::stderr()))
+}
+
+fn run_step(program: &str, args: &[&str], stdout: Stdio) -> Result<(), String> {
     eprintln!("\n==> {program} {}", args.join(" "));
     let status = Command::new(program)
         .args(args)
         .current_dir(root())
+        .stdout(stdout)
         .status()
         .map_err(|e| format!("cannot run {program}: {e}"))?;
     if status.success() {
@@ -37,7 +51,7 @@ pub fn present(program: &str) -> bool {
 
 /// The Cortex-M targets the firmware and the on-target tests build for.
 pub fn ensure_targets() -> Result<(), String> {
-    step(
+    install_step(
         "rustup",
         &[
             "target",
@@ -74,7 +88,7 @@ pub fn ensure_qemu() -> Result<(), String> {
         with(&["install", "-y", "qemu-system-arm"]),
     ] {
         let refs: Vec<&str> = args.iter().map(String::as_str).collect();
-        step(program, &refs)?;
+        install_step(program, &refs)?;
     }
     Ok(())
 }
@@ -86,7 +100,7 @@ pub fn ensure_defmt_print() -> Result<(), String> {
     if present("defmt-print") {
         return Ok(());
     }
-    step("cargo", &["install", "--debug", "defmt-print", "--locked"])
+    install_step("cargo", &["install", "--debug", "defmt-print", "--locked"])
 }
 
 /// The Python readers the tests of `pyramid listen`'s outputs check against (MCAP, the
@@ -102,5 +116,5 @@ pub fn ensure_python_readers() -> Result<(), String> {
     if present {
         return Ok(());
     }
-    step("sh", &["host/tests/py/setup.sh"])
+    install_step("sh", &["host/tests/py/setup.sh"])
 }
