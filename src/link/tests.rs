@@ -695,7 +695,7 @@ fn pose_flags_are_validated() {
     );
     assert_eq!(link.counters().commands_refused, 3);
     let Rejection::Refused(reply) = rejections[0] else {
-        unreachable!()
+        panic!("{:?}", rejections[0])
     };
     assert_eq!((reply.a, reply.b, reply.to_type), (0.0, 1.0, 0x81));
     assert_eq!(
