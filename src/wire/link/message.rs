@@ -3,453 +3,38 @@
 
 use super::cobs;
 use super::crc::Crc32;
-use super::{DecodeError, EncodeError, Frame, Header, MessageType, MAX_LAYERS, MAX_PATCH_SIDE};
+pub use super::map::{
+    ClockSource, Decayed, DecayedRows, FirmwareVersion, Hello, HelloReason, LayerInfo, LayerPatch,
+    PatchArea, PatchCells, WindowMoved,
+};
+use super::map::{DECAYED_FIXED, DECAYED_LAYER, HELLO_FIXED, HELLO_LAYER, PATCH_FIXED};
+pub use super::setup::{LaserSetup, RuleSetup, SetRule, Setup, SETUP_LASER_LEN, SETUP_RULE_LEN};
+pub(crate) use super::setup::{SETUP_LEN, SET_RULE_LEN};
+use super::stats::STATS_LEN;
+pub use super::stats::{Stats, STATS_COUNTERS};
+use super::time::{
+    Observed, TimeReply, TimeRequest, OBSERVED_LEN, TIME_REPLY_LEN, TIME_REQUEST_LEN,
+};
+use super::{DecodeError, EncodeError, Frame, Header, MessageType, MAX_LAYERS};
 use crate::angle::Angle;
 
-/// Bytes of a Hello before its layers.
-pub(crate) const HELLO_FIXED: usize = 16;
-/// Bytes of one layer in a Hello.
-pub(crate) const HELLO_LAYER: usize = 20;
-/// Bytes of a LayerPatch before its cells.
-pub(crate) const PATCH_FIXED: usize = 19;
-/// Bytes of a Stats body.
-pub(crate) const STATS_LEN: usize = 4 * STATS_COUNTERS;
 /// Bytes of a Reply body.
 pub(crate) const REPLY_LEN: usize = 17;
-/// Bytes of a Pose body.
-pub(crate) const POSE_LEN: usize = 28;
+/// Bytes of a Pose body: the six pose fields, the stamp and the flags.
+pub(crate) const POSE_LEN: usize = 29;
+/// Pose's `flags` bit 0: `stamp_us` is valid and the pose joins the device's pose track;
+/// clear, the pose applies to every return from now on (version 3's latest-pose rule).
+pub const POSE_STAMPED: u8 = 1;
+/// Pose's `flags` bits a receiver knows; any other bit set is out of range.
+pub const POSE_FLAGS_KNOWN: u8 = POSE_STAMPED;
 /// Bytes of a PanAngle body.
 pub(crate) const PAN_LEN: usize = 6;
 /// Bytes of a Configure body: 61 of version 2, the decay mode and 32 time-constant codes.
 pub(crate) const CONFIGURE_LEN: usize = 61 + 1 + MAX_LAYERS;
-/// Bytes of a Decayed body before its layers.
-pub(crate) const DECAYED_FIXED: usize = 5;
-/// Bytes of one layer in a Decayed body.
-pub(crate) const DECAYED_LAYER: usize = 8;
 /// Configure's `flags` bit 0: every layer at the base cell size ([`Configure::uniform_resolution`]).
 pub const CONFIGURE_UNIFORM_RESOLUTION: u8 = 1;
 /// Configure's `flags` bits a receiver knows; any other bit set is refused.
 pub(crate) const CONFIGURE_FLAGS_KNOWN: u8 = CONFIGURE_UNIFORM_RESOLUTION;
-/// Bytes of a Setup body before its laser block: the mount, the SICK fields, the sensor's
-/// position, the grouping and the classifier's thresholds.
-pub(crate) const SETUP_BASE_LEN: usize = 38;
-/// Bytes of Setup's navigability rule block ([`RuleSetup`]), between the base part and the
-/// laser block.
-pub const SETUP_RULE_LEN: usize = 21;
-/// Bytes of Setup's laser block ([`LaserSetup`]).
-pub const SETUP_LASER_LEN: usize = 22;
-/// Bytes of a Setup body.
-pub(crate) const SETUP_LEN: usize = SETUP_BASE_LEN + SETUP_RULE_LEN + SETUP_LASER_LEN;
-/// Bytes of a SetRule body: the step threshold and a rule block.
-pub(crate) const SET_RULE_LEN: usize = 4 + SETUP_RULE_LEN;
-/// The number of counters in a [`Stats`].
-pub const STATS_COUNTERS: usize = 30;
-
-/// A firmware version, `major.minor.patch`.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub struct FirmwareVersion {
-    /// Major.
-    pub major: u8,
-    /// Minor.
-    pub minor: u8,
-    /// Patch.
-    pub patch: u8,
-}
-
-/// Why a Hello was sent.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-#[repr(u8)]
-pub enum HelloReason {
-    /// The device started: every cell unknown.
-    Boot = 0,
-    /// A configuration was adopted: every cell unknown.
-    Configured = 1,
-    /// The maps were reset: every cell unknown.
-    Reset = 2,
-    /// A snapshot was requested: maps kept, the layers in `resend` follow in full.
-    Snapshot = 3,
-}
-
-impl HelloReason {
-    /// Whether the device's maps were cleared: the host must clear its copy.
-    #[must_use]
-    pub const fn clears_maps(self) -> bool {
-        !matches!(self, Self::Snapshot)
-    }
-
-    const fn from_u8(byte: u8) -> Option<Self> {
-        Some(match byte {
-            0 => Self::Boot,
-            1 => Self::Configured,
-            2 => Self::Reset,
-            3 => Self::Snapshot,
-            _ => return None,
-        })
-    }
-}
-
-/// The clock the device's board runs on, as it started it (Hello offset 12): how a host learns
-/// that a board fell back to its internal oscillator (its UARTs' rates and its timing then
-/// carry that oscillator's tolerance, about ±1 % on an STM32F4's HSI).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-#[repr(u8)]
-pub enum ClockSource {
-    /// The board does not say.
-    #[default]
-    NotReported = 0,
-    /// The external crystal or clock (through the PLL where there is one): as intended.
-    External = 1,
-    /// The internal oscillator through the PLL: the external clock never became ready.
-    InternalPll = 2,
-    /// The internal oscillator alone: neither the external clock nor a PLL became ready.
-    Internal = 3,
-    /// No clock tree answered (every ready flag reads 0): an emulator that does not model it.
-    Unmodelled = 4,
-}
-
-impl ClockSource {
-    /// The wire code, 0 ..= 4.
-    #[must_use]
-    pub const fn code(self) -> u8 {
-        self as u8
-    }
-
-    /// The source of a wire code, if it is one.
-    #[must_use]
-    pub const fn from_code(byte: u8) -> Option<Self> {
-        Some(match byte {
-            0 => Self::NotReported,
-            1 => Self::External,
-            2 => Self::InternalPll,
-            3 => Self::Internal,
-            4 => Self::Unmodelled,
-            _ => return None,
-        })
-    }
-
-    /// Whether the board runs on a fallback, not on the clock it was built for.
-    #[must_use]
-    pub const fn is_fallback(self) -> bool {
-        matches!(self, Self::InternalPll | Self::Internal)
-    }
-}
-
-/// One layer as a Hello describes it.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub struct LayerInfo {
-    /// The cell size, raw Q16.16 metres.
-    pub resolution_q16: i32,
-    /// The band's inner edge d_k, metres (0 when the device does not know the design).
-    pub band_inner_m: f32,
-    /// The band's outer edge d_{k+1}, metres (0 when unknown).
-    pub band_outer_m: f32,
-    /// The window origin, world cell index x.
-    pub origin_x: i32,
-    /// The window origin, world cell index y.
-    pub origin_y: i32,
-}
-
-/// Device to host: the pyramid in force.
-#[derive(Debug, Clone, PartialEq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub struct Hello {
-    /// The protocol version the firmware implements.
-    pub protocol: u8,
-    /// The firmware's version.
-    pub firmware: FirmwareVersion,
-    /// Why this Hello was sent.
-    pub reason: HelloReason,
-    /// W, cells per side of every window.
-    pub cells_per_side: u16,
-    /// Bit k: every tile of layer k follows (reason [`HelloReason::Snapshot`]).
-    pub resend: u32,
-    /// The clock the board runs on.
-    pub clock: ClockSource,
-    /// The layers in force, finest first.
-    pub layers: heapless::Vec<LayerInfo, MAX_LAYERS>,
-}
-
-/// Where a [`LayerPatch`] lies: its layer, the window it was made in, its rectangle.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub struct PatchArea {
-    /// The layer, 0 = finest; below [`MAX_LAYERS`] (32).
-    pub layer: u8,
-    /// The layer's window origin when the patch was made, x.
-    pub origin_x: i32,
-    /// The layer's window origin when the patch was made, y.
-    pub origin_y: i32,
-    /// World cell index of the rectangle's lower-left cell, x.
-    pub x: i32,
-    /// World cell index of the rectangle's lower-left cell, y.
-    pub y: i32,
-    /// Cells along x, 1 ..= 16.
-    pub width: u8,
-    /// Cells along y, 1 ..= 16.
-    pub height: u8,
-}
-
-impl PatchArea {
-    /// Cells in the rectangle.
-    #[must_use]
-    pub const fn cells(&self) -> usize {
-        self.width as usize * self.height as usize
-    }
-
-    /// Checks the format's limits: sides 1 ..= 16, layer < 16, no overflow of x + width.
-    fn check(&self) -> Result<(), &'static str> {
-        let side = 1..=MAX_PATCH_SIDE;
-        if usize::from(self.layer) >= MAX_LAYERS {
-            return Err("LayerPatch.layer");
-        }
-        if !side.contains(&usize::from(self.width)) {
-            return Err("LayerPatch.width");
-        }
-        if !side.contains(&usize::from(self.height)) {
-            return Err("LayerPatch.height");
-        }
-        if self.x.checked_add(i32::from(self.width)).is_none() {
-            return Err("LayerPatch.x");
-        }
-        if self.y.checked_add(i32::from(self.height)).is_none() {
-            return Err("LayerPatch.y");
-        }
-        Ok(())
-    }
-}
-
-/// The cells of a [`LayerPatch`]: raw Q8.8 `i16`, little-endian, row-major, row 0 = lowest y,
-/// read in place from the frame.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub struct PatchCells<'a> {
-    bytes: &'a [u8],
-}
-
-impl<'a> PatchCells<'a> {
-    /// Cells from their little-endian bytes, or `None` for an odd length.
-    #[must_use]
-    pub const fn from_le_bytes(bytes: &'a [u8]) -> Option<Self> {
-        if bytes.len().is_multiple_of(2) {
-            Some(Self { bytes })
-        } else {
-            None
-        }
-    }
-
-    /// The little-endian bytes.
-    #[must_use]
-    pub const fn as_bytes(&self) -> &'a [u8] {
-        self.bytes
-    }
-
-    /// The number of cells.
-    #[must_use]
-    pub const fn len(&self) -> usize {
-        self.bytes.len() / 2
-    }
-
-    /// Whether there are no cells.
-    #[must_use]
-    pub const fn is_empty(&self) -> bool {
-        self.bytes.len() < 2
-    }
-
-    /// Cell `index` (row-major), raw.
-    #[must_use]
-    pub fn get(&self, index: usize) -> Option<i16> {
-        let at = index.checked_mul(2)?;
-        let pair = self.bytes.get(at..at.checked_add(2)?)?;
-        Some(i16::from_le_bytes([
-            pair.first().copied()?,
-            pair.get(1).copied()?,
-        ]))
-    }
-
-    /// The cells in order, raw.
-    pub fn iter(&self) -> impl Iterator<Item = i16> + 'a {
-        self.bytes.chunks_exact(2).map(|p| {
-            i16::from_le_bytes([
-                p.first().copied().unwrap_or(0),
-                p.get(1).copied().unwrap_or(0),
-            ])
-        })
-    }
-}
-
-/// Device to host: the current values of a rectangle of one layer's cells.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub struct LayerPatch<'a> {
-    /// Where the cells lie.
-    pub area: PatchArea,
-    /// `width · height` cells.
-    pub cells: PatchCells<'a>,
-}
-
-/// Device to host: new window origins for the layers in `mask`.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub struct WindowMoved {
-    mask: u32,
-    origins: [(i32, i32); MAX_LAYERS],
-}
-
-impl WindowMoved {
-    /// No layer moved yet.
-    #[must_use]
-    pub const fn new() -> Self {
-        Self {
-            mask: 0,
-            origins: [(0, 0); MAX_LAYERS],
-        }
-    }
-
-    /// Records layer `layer`'s new origin; `false` for a layer ≥ [`MAX_LAYERS`].
-    pub fn set(&mut self, layer: usize, origin: (i32, i32)) -> bool {
-        match self.origins.get_mut(layer) {
-            Some(slot) => {
-                *slot = origin;
-                self.mask |= 1 << layer;
-                true
-            }
-            None => false,
-        }
-    }
-
-    /// Bit k set: layer k moved.
-    #[must_use]
-    pub const fn mask(&self) -> u32 {
-        self.mask
-    }
-
-    /// Layer `layer`'s new origin, or `None` when it did not move.
-    #[must_use]
-    pub fn origin(&self, layer: usize) -> Option<(i32, i32)> {
-        if layer < MAX_LAYERS && self.mask & (1 << layer) != 0 {
-            self.origins.get(layer).copied()
-        } else {
-            None
-        }
-    }
-
-    /// The moved layers and their new origins, ascending.
-    pub fn iter(&self) -> impl Iterator<Item = (usize, (i32, i32))> + '_ {
-        (0..MAX_LAYERS).filter_map(|k| self.origin(k).map(|o| (k, o)))
-    }
-
-    /// The number of layers that moved.
-    #[must_use]
-    pub const fn len(&self) -> usize {
-        self.mask.count_ones() as usize
-    }
-
-    /// Whether no layer moved.
-    #[must_use]
-    pub const fn is_empty(&self) -> bool {
-        self.mask == 0
-    }
-}
-
-macro_rules! stats_struct {
-    ($($(#[$doc:meta])* $name:ident),* $(,)?) => {
-        /// Device to host: counters (`docs/protocol.md`, "Stats"). Each saturates.
-        #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
-        #[cfg_attr(feature = "defmt", derive(defmt::Format))]
-        pub struct Stats {
-            $($(#[$doc])* pub $name: u32,)*
-        }
-
-        impl Stats {
-            /// The counters in wire order.
-            #[must_use]
-            pub const fn to_array(&self) -> [u32; STATS_COUNTERS] {
-                [$(self.$name),*]
-            }
-
-            /// Counters from wire order.
-            #[must_use]
-            pub const fn from_array(values: [u32; STATS_COUNTERS]) -> Self {
-                let [$($name),*] = values;
-                Self { $($name),* }
-            }
-
-            /// The counters' names in wire order.
-            pub const NAMES: [&'static str; STATS_COUNTERS] = [$(stringify!($name)),*];
-        }
-    };
-}
-
-stats_struct! {
-    /// The device's time when the Stats was queued, ms.
-    uptime_ms,
-    /// SICK telegrams decoded.
-    telegrams_ok,
-    /// SICK telegrams with a bad checksum.
-    telegrams_bad_checksum,
-    /// SICK telegrams with bad framing (sync, length, header).
-    telegrams_bad_framing,
-    /// SICK telegrams refused for another reason.
-    telegrams_bad_other,
-    /// Points offered to the classifier.
-    points,
-    /// Points dropped by a full classifier scratch table.
-    classifier_overflows,
-    /// Evidence records that changed a cell.
-    evidence_applied,
-    /// Evidence records gated out (increment zero).
-    evidence_gated_out,
-    /// Evidence records outside their layer's window.
-    evidence_outside_window,
-    /// Frames queued (all types).
-    frames_sent,
-    /// Encoded bytes queued.
-    bytes_sent,
-    /// LayerPatch frames queued.
-    patches_sent,
-    /// Tiles whose send was put back for lack of budget or queue room, once per dirty period
-    /// (not once per poll while they wait).
-    patches_deferred,
-    /// Control frames dropped for lack of queue room (each used a sequence number).
-    frames_dropped,
-    /// Bytes in the queue now.
-    queue_used,
-    /// The most bytes the queue has held.
-    queue_high_water,
-    /// The queue's capacity, bytes.
-    queue_capacity,
-    /// Host frames received good.
-    rx_frames_ok,
-    /// Host frames with bad COBS.
-    rx_bad_cobs,
-    /// Host frames with a bad CRC.
-    rx_bad_crc,
-    /// Host frames too short or too long.
-    rx_bad_length,
-    /// Host frames with an unknown version or type, a bad body or an out-of-range field.
-    rx_bad_other,
-    /// Host frames missing by their sequence numbers.
-    rx_seq_gaps,
-    /// Commands refused with an error Reply.
-    commands_refused,
-    /// Snapshots served.
-    snapshots,
-    /// Full resends after window moves the link did not see one by one.
-    resyncs,
-    /// Observations finished and applied to the pyramid.
-    observations,
-    /// Bytes the laser's UART delivered to the SICK decoder (wraps at 2³²; a test harness
-    /// uses it to know the device has taken every byte it wrote, whatever became of them).
-    laser_bytes,
-    /// Tiles changed and not yet queued, over every layer, at the time of the Stats (a level,
-    /// 0 ..= 64 · layers): with `queue_used` 0 too, every change made before this Stats is
-    /// already on the wire ahead of it, so the host's copy is current once it has read it.
-    tiles_dirty,
-}
 
 /// A Reply's code (`docs/protocol.md`, "Reply").
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -571,8 +156,19 @@ pub struct PoseReport {
     pub pitch_rad: f32,
     /// Yaw about z, radians, counter-clockwise from +x; finite, |v| < 32 768.
     pub yaw_rad: f32,
-    /// The host's clock when the pose was valid, ms.
-    pub timestamp_ms: u32,
+    /// The device's µs clock (wrapping) at which the robot was at this pose; read only when
+    /// `flags` has [`POSE_STAMPED`].
+    pub stamp_us: u32,
+    /// Bit 0 [`POSE_STAMPED`]; every other bit must be 0 (the device refuses the pose).
+    pub flags: u8,
+}
+
+impl PoseReport {
+    /// Whether the pose is stamped ([`POSE_STAMPED`]): it joins the device's pose track.
+    #[must_use]
+    pub const fn is_stamped(&self) -> bool {
+        self.flags & POSE_STAMPED != 0
+    }
 }
 
 /// Host to device: the pan angle.
@@ -664,215 +260,6 @@ pub struct Configure {
     pub decay_tau: [u8; MAX_LAYERS],
 }
 
-/// One layer's rows in a [`Decayed`]: `rows` storage rows from `first` (wrapping modulo W)
-/// took one decay step each.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub struct DecayedRows {
-    /// The first storage row: the world rows j of the window with `j mod W` = `first`, …
-    pub first: u16,
-    /// How many consecutive storage rows (modulo W), ≥ 1.
-    pub rows: u16,
-    /// Cells of those rows that became unknown on the device.
-    pub faded: u32,
-}
-
-/// Device to host: the rows of the layers in `mask` took one decay step each, in `mode`
-/// (1 all, 2 obstacle only, 3 free only), at this point of the stream.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub struct Decayed {
-    /// The decay mode in force, 1 ..= 3.
-    pub mode: u8,
-    mask: u32,
-    rows: [DecayedRows; MAX_LAYERS],
-}
-
-impl Decayed {
-    /// No rows yet, in `mode`.
-    #[must_use]
-    pub const fn new(mode: u8) -> Self {
-        Self {
-            mode,
-            mask: 0,
-            rows: [DecayedRows {
-                first: 0,
-                rows: 0,
-                faded: 0,
-            }; MAX_LAYERS],
-        }
-    }
-
-    /// Records layer `layer`'s rows; `false` for a layer ≥ [`MAX_LAYERS`].
-    pub fn set(&mut self, layer: usize, rows: DecayedRows) -> bool {
-        match self.rows.get_mut(layer) {
-            Some(slot) => {
-                *slot = rows;
-                self.mask |= 1 << layer;
-                true
-            }
-            None => false,
-        }
-    }
-
-    /// Bit k set: layer k decayed rows.
-    #[must_use]
-    pub const fn mask(&self) -> u32 {
-        self.mask
-    }
-
-    /// Layer `layer`'s rows, or `None` when it decayed none.
-    #[must_use]
-    pub fn rows(&self, layer: usize) -> Option<DecayedRows> {
-        if layer < MAX_LAYERS && self.mask & (1 << layer) != 0 {
-            self.rows.get(layer).copied()
-        } else {
-            None
-        }
-    }
-
-    /// The layers that decayed and their rows, ascending.
-    pub fn iter(&self) -> impl Iterator<Item = (usize, DecayedRows)> + '_ {
-        (0..MAX_LAYERS).filter_map(|k| self.rows(k).map(|r| (k, r)))
-    }
-
-    /// The number of layers.
-    #[must_use]
-    pub const fn len(&self) -> usize {
-        self.mask.count_ones() as usize
-    }
-
-    /// Whether no layer decayed.
-    #[must_use]
-    pub const fn is_empty(&self) -> bool {
-        self.mask == 0
-    }
-}
-
-/// Setup's navigability rule block (protocol version 3, offset 38): which rule judges a cell's
-/// points and the plane rule's parameters. Unvalidated ([`crate::link::convert::frontend_config`]
-/// checks it; the plane parameters only under the plane rule).
-#[derive(Debug, Clone, Copy, PartialEq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub struct RuleSetup {
-    /// 0 the paper's spread rule, 1 the plane rule.
-    pub rule: u8,
-    /// The largest traversable slope as a grade (rise per run, tan of its angle).
-    pub max_grade: f32,
-    /// The RMS by which a navigable cell's points may stray from their plane beyond the
-    /// noise, metres.
-    pub residual_m: f32,
-    /// The sensor's range noise σ, metres.
-    pub range_sigma_m: f32,
-    /// The sensor's elevation error σ_a, radians.
-    pub angle_sigma_rad: f32,
-    /// How many σ of height noise the allowances hold.
-    pub noise_factor: f32,
-}
-
-impl RuleSetup {
-    /// The paper's spread rule (the plane parameters zero: ignored).
-    pub const SPREAD: Self = Self {
-        rule: 0,
-        max_grade: 0.0,
-        residual_m: 0.0,
-        range_sigma_m: 0.0,
-        angle_sigma_rad: 0.0,
-        noise_factor: 0.0,
-    };
-}
-
-/// A SetRule command (0x8B): the classifier's step threshold and navigability rule, for a
-/// device already set up (the rest of its setup stays). Unvalidated
-/// ([`crate::link::convert::set_rule_of`] checks it).
-#[derive(Debug, Clone, Copy, PartialEq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub struct SetRule {
-    /// The step threshold, metres (as Setup's `step_threshold`).
-    pub step_threshold_m: f32,
-    /// The rule block (as Setup's).
-    pub rule: RuleSetup,
-}
-
-/// Setup's laser block (protocol version 3): which laser, at which baud rate, and what moves
-/// its scan plane. Unvalidated ([`crate::link::convert::frontend_config`] checks it).
-#[derive(Debug, Clone, Copy, PartialEq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub struct LaserSetup {
-    /// The sensor: 0 SICK LMS2xx, 1 LDROBOT LD06/LD19/STL-19P, 2 Slamtec RPLIDAR, 3 YDLIDAR.
-    pub sensor: u8,
-    /// What moves the scan plane: 0 an external actuator (the board's encoder, else the
-    /// host's PanAngle), 1 a nodding servo the device commands (the servo fields).
-    pub actuator: u8,
-    /// The laser UART's baud rate; 0 = the sensor's default (SICK 500 000, LD06 230 400,
-    /// RPLIDAR 115 200, YDLIDAR 128 000).
-    pub baud: u32,
-    /// The servo's sweep, lower end, degrees (signed; the actuator angle of the mount).
-    pub servo_min_deg: f32,
-    /// The servo's sweep, upper end, degrees.
-    pub servo_max_deg: f32,
-    /// The servo's sweep rate, degrees per second.
-    pub servo_rate_deg_s: f32,
-    /// The servo's delay behind its command, milliseconds.
-    pub servo_latency_ms: f32,
-}
-
-impl LaserSetup {
-    /// A SICK at its default baud rate on an external actuator (what a version-2 Setup
-    /// meant).
-    pub const SICK: Self = Self {
-        sensor: 0,
-        actuator: 0,
-        baud: 0,
-        servo_min_deg: 0.0,
-        servo_max_deg: 0.0,
-        servo_rate_deg_s: 0.0,
-        servo_latency_ms: 0.0,
-    };
-}
-
-impl Default for LaserSetup {
-    fn default() -> Self {
-        Self::SICK
-    }
-}
-
-/// Host to device: how the laser is mounted and how its lines make observations, the
-/// classifier's thresholds, and (version 3) which laser it is and what moves it. The fields
-/// of a recording's setup event (`docs/recording.md`) plus the thresholds and the laser
-/// block; unvalidated (the device checks it with
-/// [`crate::link::convert::frontend_config`]).
-#[derive(Debug, Clone, Copy, PartialEq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub struct Setup {
-    /// 0 panned vertical, 1 tilted horizontal.
-    pub mount: u8,
-    /// The sensor's mode: for a SICK its measuring mode (the 0x77 mode number); RPLIDAR 0
-    /// standard scan, 1 express scan; YDLIDAR 0 with the X4/X2 angle correction, 1 without;
-    /// LD06 0.
-    pub measuring_mode: u8,
-    /// Field of view, degrees: 100 or 180.
-    pub field_deg: u16,
-    /// Angular resolution, centidegrees: 25, 50 or 100.
-    pub resolution_cdeg: u16,
-    /// The sensor's position in the robot frame, metres: x, y, z.
-    pub sensor_m: [f32; 3],
-    /// Lines per observation; 0 = one observation per sweep.
-    pub lines_per_observation: u32,
-    /// Points higher than the cell's ground plus this are overhang, metres; > 0.
-    pub robot_height_m: f32,
-    /// A spread above this makes a cell not navigable, metres; ≥ 0.
-    pub step_threshold_m: f32,
-    /// A return this far below the robot's ground marks a drop-off, metres; 0 = off.
-    pub drop_threshold_m: f32,
-    /// Returns higher than this above the robot's ground are overhang, metres; 0 = off.
-    pub ceiling_m: f32,
-    /// The navigability rule block (version 3).
-    pub rule: RuleSetup,
-    /// The laser block (version 3).
-    pub laser: LaserSetup,
-}
-
 /// Which layers a snapshot covers.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -925,6 +312,12 @@ pub enum Message<'a> {
     EndObservation,
     /// Host to device: the classifier's step threshold and navigability rule.
     SetRule(SetRule),
+    /// Host to device: the host's clock, to be answered with a TimeReply.
+    TimeRequest(TimeRequest),
+    /// Device to host: the answer to a TimeRequest.
+    TimeReply(TimeReply),
+    /// Device to host: an observation was applied, and when its returns were measured.
+    Observed(Observed),
 }
 
 /// Reads fixed fields from a body.
@@ -995,6 +388,9 @@ impl<'a> Message<'a> {
             Self::Shutdown => MessageType::Shutdown,
             Self::EndObservation => MessageType::EndObservation,
             Self::SetRule(_) => MessageType::SetRule,
+            Self::TimeRequest(_) => MessageType::TimeRequest,
+            Self::TimeReply(_) => MessageType::TimeReply,
+            Self::Observed(_) => MessageType::Observed,
         }
     }
 
@@ -1019,6 +415,9 @@ impl<'a> Message<'a> {
             Self::RequestSnapshot(_) => 1,
             Self::Setup(_) => SETUP_LEN,
             Self::SetRule(_) => SET_RULE_LEN,
+            Self::TimeRequest(_) => TIME_REQUEST_LEN,
+            Self::TimeReply(_) => TIME_REPLY_LEN,
+            Self::Observed(_) => OBSERVED_LEN,
         }
     }
 
@@ -1103,7 +502,7 @@ impl<'a> Message<'a> {
                 };
                 area.check().map_err(range)?;
                 exact(PATCH_FIXED + 2 * area.cells())?;
-                let cells = PatchCells { bytes: r.rest() };
+                let cells = PatchCells::of_body(r.rest());
                 Self::LayerPatch(LayerPatch { area, cells })
             }
             MessageType::WindowMoved => {
@@ -1185,7 +584,8 @@ impl<'a> Message<'a> {
                     roll_rad: r.f32(),
                     pitch_rad: r.f32(),
                     yaw_rad: r.f32(),
-                    timestamp_ms: r.u32(),
+                    stamp_us: r.u32(),
+                    flags: r.u8(),
                 })
             }
             MessageType::PanAngle => {
@@ -1306,6 +706,18 @@ impl<'a> Message<'a> {
                 exact(0)?;
                 Self::EndObservation
             }
+            MessageType::TimeRequest => {
+                exact(TIME_REQUEST_LEN)?;
+                Self::TimeRequest(TimeRequest::from_le_bytes(&r.take()))
+            }
+            MessageType::TimeReply => {
+                exact(TIME_REPLY_LEN)?;
+                Self::TimeReply(TimeReply::from_le_bytes(&r.take()))
+            }
+            MessageType::Observed => {
+                exact(OBSERVED_LEN)?;
+                Self::Observed(Observed::from_le_bytes(&r.take()))
+            }
         })
     }
 
@@ -1397,7 +809,8 @@ impl<'a> Message<'a> {
                 for v in [p.x_m, p.y_m, p.z_m, p.roll_rad, p.pitch_rad, p.yaw_rad] {
                     w.f32(v);
                 }
-                w.u32(p.timestamp_ms);
+                w.u32(p.stamp_us);
+                w.u8(p.flags);
             }
             Self::PanAngle(p) => {
                 w.u16(p.turns);
@@ -1473,6 +886,9 @@ impl<'a> Message<'a> {
                 w.f32(s.step_threshold_m);
                 w.rule_setup(&s.rule);
             }
+            Self::TimeRequest(t) => w.bytes(&t.to_le_bytes()),
+            Self::TimeReply(t) => w.bytes(&t.to_le_bytes()),
+            Self::Observed(o) => w.bytes(&o.to_le_bytes()),
             Self::RequestSnapshot(scope) => w.u8(match *scope {
                 SnapshotScope::All => 0xFF,
                 SnapshotScope::Layer(k) => k,
