@@ -684,8 +684,7 @@ impl<const C: usize, const L: usize> Frontend<C, L> {
             self.end_observation(pyramid);
         }
         let variant = self.config.variant;
-        // The beams' times (timed placement only), and the pose of the line's first beam in
-        // force before the observation takes its sensor height.
+        // The beams' times (timed placement only).
         let times = P::TIMED.then(|| {
             let last = usize::from(values.count()).saturating_sub(1);
             match layout {
@@ -697,22 +696,32 @@ impl<const C: usize, const L: usize> Frontend<C, L> {
                 ),
             }
         });
-        if let Some(times) = &times {
-            let first = match layout {
-                Layout::Full => Some(0),
-                Layout::Partial(p) => variant.partial_scan_beam(p, 0),
-            };
-            let t = last_beam_us.wrapping_sub(times.before_last_us(first.unwrap_or(0)));
-            if let Ok(true) =
-                Self::timed_pose(&mut self.timed, &mut self.pose, &mut self.frame, poses, t)
-            {
-                self.sweep = SweepTransform::new(&self.config.mount, &self.frame);
-            }
-        }
         let mut transform =
             LineTransform::new(&self.beams, &self.config.mount, self.actuator, &self.frame);
         if self.lines_in_observation == 0 {
-            self.classifier.begin(transform.sensor_origin().z);
+            // Timed: the sensor's height at the line's first beam (the pose in force stays as
+            // the rule leaves it).
+            let origin = match &times {
+                Some(times) => {
+                    let first = match layout {
+                        Layout::Full => Some(0),
+                        Layout::Partial(p) => variant.partial_scan_beam(p, 0),
+                    };
+                    let t = last_beam_us.wrapping_sub(times.before_last_us(first.unwrap_or(0)));
+                    match poses.pose_at(t) {
+                        Ok((pose, _)) => LineTransform::new(
+                            &self.beams,
+                            &self.config.mount,
+                            self.actuator,
+                            &pose.frame(),
+                        )
+                        .sensor_origin(),
+                        Err(_) => transform.sensor_origin(),
+                    }
+                }
+                None => transform.sensor_origin(),
+            };
+            self.classifier.begin(origin.z);
         }
         let mut ground_z: Meters = self.pose.z;
         // Counted here and added once per line (at most 401 values each: the sums are exact,
@@ -955,19 +964,16 @@ impl<const C: usize, const L: usize> Frontend<C, L> {
             }
             self.revolutions_in_observation = self.revolutions_in_observation.saturating_add(1);
         }
-        if P::TIMED {
-            if let Ok(true) = Self::timed_pose(
-                &mut self.timed,
-                &mut self.pose,
-                &mut self.frame,
-                poses,
-                times.first_us,
-            ) {
-                self.sweep = SweepTransform::new(&self.config.mount, &self.frame);
-            }
-        }
         if self.lines_in_observation == 0 {
-            self.classifier.begin(self.sweep.sensor_origin().z);
+            // Timed: the sensor's height at the packet's first return (the pose in force
+            // stays as the rule leaves it).
+            let origin = match poses.pose_at(times.first_us) {
+                Ok((pose, _)) if P::TIMED => {
+                    SweepTransform::new(&self.config.mount, &pose.frame()).sensor_origin()
+                }
+                _ => self.sweep.sensor_origin(),
+            };
+            self.classifier.begin(origin.z);
         }
         let returns = returns.into_iter();
         let steps = i64::try_from(returns.len().saturating_sub(1).max(1)).unwrap_or(i64::MAX);
@@ -1130,6 +1136,7 @@ fn step_q16(turn: i64, steps: i64) -> i64 {
 mod tests {
     use super::*;
     use crate::design::{Design, Schedule, SensorModel};
+    use crate::geometry::PoseTrack;
     use crate::geometry::ScanPlane;
     use crate::pyramid::Config;
     use crate::units::Point3;
@@ -1473,5 +1480,167 @@ mod tests {
         assert_eq!(f.stats().observations, 1);
         f.end_observation(&mut p);
         assert_eq!(f.stats().observations, 2);
+    }
+
+    /// A pose track of a robot driving along x at 1 m/s and turning at 1 rad/s, stamped
+    /// every 20 ms from `t0_us`.
+    fn moving_track(t0_us: u32, count: u32) -> PoseTrack<16> {
+        let mut track = PoseTrack::new();
+        for k in 0..count {
+            let t = f64::from(k) * 0.02;
+            let pose = Pose {
+                x: Meters::from_num(t),
+                y: Meters::from_num(0.1 * t),
+                yaw: FineAngle::from_bits((t / core::f64::consts::TAU * 4_294_967_296.0) as u32),
+                ..Pose::IDENTITY
+            };
+            track
+                .push(t0_us.wrapping_add(k * 20_000), pose, t0_us)
+                .unwrap();
+        }
+        track
+    }
+
+    #[test]
+    fn timed_returns_take_the_pose_of_their_moment_by_the_quantum_rule() {
+        // The clock wraps during the packets.
+        let t0 = u32::MAX - 30_000;
+        let track = moving_track(t0, 16);
+        let first = FineAngle::from_quarter_degrees(40);
+        let (mut whole, mut p) = lidar(0);
+        let (mut single, mut q) = lidar(0);
+        let mut in_force: Option<u32> = None;
+        let mut placed = 0;
+        let mut span = (0_u32, 0_u32);
+        for n in 0..40_u32 {
+            // Packets of 12 returns over 2.2 ms, 2.67 ms apart, 10 ms after the first pose.
+            let start = t0.wrapping_add(10_000 + n * 2_667);
+            let times = PacketTimes {
+                first_us: start,
+                last_us: start.wrapping_add(2_200),
+            };
+            let returns = floor_returns(f64::from(n) * 9.6, 15.0);
+            whole
+                .packet_timed(
+                    &mut p,
+                    returns.clone(),
+                    false,
+                    PacketActuator::still(first),
+                    times,
+                    &track,
+                )
+                .unwrap();
+            // The same rule, return by return: the pose at the return's own time (k·200 µs),
+            // kept while within 1 ms of the time it was evaluated at.
+            for (k, r) in returns.iter().enumerate() {
+                let t = start.wrapping_add(k as u32 * 200);
+                if r.range_mm == 0 {
+                    continue;
+                }
+                if in_force.is_none_or(|f| t.wrapping_sub(f) as i32 >= 1_000) {
+                    in_force = Some(t);
+                }
+                let pose = track.at(in_force.unwrap()).unwrap().0;
+                single.set_pose(pose);
+                single
+                    .packet(&mut q, [*r], false, PacketActuator::still(first))
+                    .unwrap();
+                if placed == 0 {
+                    span.0 = t;
+                }
+                span.1 = t;
+                placed += 1;
+            }
+        }
+        assert!(placed > 100);
+        whole.end_observation(&mut p);
+        single.end_observation(&mut q);
+        assert_eq!(whole.classifier_stats(), single.classifier_stats());
+        assert_eq!(all_cells(&p), all_cells(&q));
+        assert_eq!(whole.pose(), single.pose());
+        assert_eq!(whole.stats().returns_extrapolated, 0);
+        assert_eq!(whole.stats().returns_without_pose, 0);
+        assert_eq!(
+            whole.take_observed(),
+            Some(ObservedSpan {
+                observation: 1,
+                first_us: span.0,
+                last_us: span.1
+            })
+        );
+        assert_eq!(whole.take_observed(), None);
+        assert_eq!(single.take_observed(), None);
+    }
+
+    #[test]
+    fn timed_returns_past_the_track_are_extrapolated_then_refused() {
+        let track = moving_track(0, 2);
+        let (mut f, mut p) = lidar(0);
+        let returns = floor_returns(0.0, 15.0);
+        let placeable = returns.iter().filter(|r| r.range_mm != 0).count() as u32;
+        assert!(placeable > 0);
+        let packet = |f: &mut Frontend<4096, 8>, p: &mut Pyramid<64, 8>, first_us: u32| {
+            let times = PacketTimes {
+                first_us,
+                last_us: first_us + 2_200,
+            };
+            let act = PacketActuator::still(FineAngle::from_quarter_degrees(60));
+            f.packet_timed(p, returns.clone(), false, act, times, &track)
+                .unwrap();
+        };
+        // Within 100 ms of the newest pose (20 ms): extrapolated.
+        packet(&mut f, &mut p, 100_000);
+        assert_eq!(f.stats().returns_extrapolated, placeable);
+        assert_eq!(f.stats().returns_without_pose, 0);
+        // Past it: refused, counted, and nothing more placed.
+        let points = f.classifier_stats().points;
+        packet(&mut f, &mut p, 130_000);
+        assert_eq!(f.stats().returns_without_pose, placeable);
+        assert_eq!(f.classifier_stats().points, points);
+        // Before the oldest pose: refused too.
+        packet(&mut f, &mut p, 0_u32.wrapping_sub(5_000));
+        assert_eq!(f.stats().returns_without_pose, 2 * placeable);
+    }
+
+    #[test]
+    fn a_timed_sick_line_with_a_still_robot_is_the_untimed_line() {
+        // A track that holds one pose for the whole line places it as set_pose does.
+        let pose = Pose {
+            x: Meters::from_num(0.25),
+            yaw: FineAngle::from_quarter_degrees(40),
+            ..Pose::IDENTITY
+        };
+        let mut track = PoseTrack::<4>::new();
+        track.push(0, pose, 0).unwrap();
+        track.push(40_000, pose, 0).unwrap();
+        let (mut timed, mut p) = setup(1);
+        let (mut untimed, mut q) = setup(1);
+        untimed.set_pose(pose);
+        let values = ranges_mm(20.0);
+        let line = MeasuredValues::new(Unit::Millimetre, 0, &values, None, 0).unwrap();
+        for f in [&mut timed, &mut untimed] {
+            f.set_actuator(FineAngle::from_quarter_degrees(80));
+        }
+        timed.line_timed(&mut p, &line, 30_000, &track).unwrap();
+        untimed.line(&mut q, &line).unwrap();
+        assert_eq!(timed.classifier_stats(), untimed.classifier_stats());
+        assert_eq!(all_cells(&p), all_cells(&q));
+        // The 0.5° line spans two mirror turns: its first beam 19.98 ms before its last.
+        let span = timed.take_observed().unwrap();
+        assert!(span.last_us <= 30_000 && span.last_us > 29_000, "{span:?}");
+        assert!(
+            span.first_us >= 30_000 - 19_982 && span.first_us < 11_000,
+            "{span:?}"
+        );
+        assert_eq!(untimed.take_observed(), None, "an untimed line has no span");
+        // A line whose beams all precede the track is refused beam by beam.
+        let (mut early, mut r) = setup(1);
+        early.set_actuator(FineAngle::from_quarter_degrees(80));
+        early.line_timed(&mut r, &line, 10_000, &track).unwrap();
+        let s = early.stats();
+        assert!(
+            s.returns_without_pose > 0 && s.returns_without_pose < s.returns,
+            "{s:?}"
+        );
     }
 }
