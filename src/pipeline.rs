@@ -23,6 +23,21 @@
 //! returns are measured evenly in time), and is placed by [`SweepTransform`] from its own
 //! beam angle and its own actuator angle, in fixed point. A range of 0 is no return.
 //!
+//! # Each return at the pose of its own moment
+//! [`Frontend::packet_timed`] and [`Frontend::line_timed`] take the returns' times (a packet's
+//! first and last, interpolated per return as the actuator's angle is; a SICK line's last
+//! measured beam, the others timed back along the mirror's turns by
+//! [`crate::laser::SickBeamTimes`]) and a [`PoseTrack`] of stamped poses: each return is
+//! placed with the track's pose at its time ([`crate::geometry::pose_track`]), re-evaluated
+//! only when a return lies [`POSE_QUANTUM_US`] or more from the time the pose in force was
+//! evaluated at (then the pose's frame and the sweep or line transform are rebuilt: at most
+//! about 1 000 a second, none while the robot stands still). A return the track has no pose
+//! for is refused and counted ([`FrontendStats::returns_without_pose`]); one placed with an
+//! extrapolated or held pose is counted ([`FrontendStats::returns_extrapolated`]). The
+//! untimed [`Frontend::packet`] and [`Frontend::line`] are the same code without any of it
+//! (monomorphised), bit for bit and instruction for instruction as before. An observation
+//! whose returns had times leaves their span for [`Frontend::take_observed`].
+//!
 //! # Observations
 //! An observation ends after a fixed number of lines, or, with `lines_per_observation = 0`,
 //! when the actuator turns back (the end of a sweep). For a spinning lidar a "line" is a

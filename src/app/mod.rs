@@ -41,6 +41,13 @@
 //!   nodding servo the setup names), else the host's last PanAngle for the whole packet;
 //!   with none, the packet is dropped and counted. `docs/lidars.md` states the timing
 //!   model and its error budget.
+//! - **The robot's pose** is the latest Pose (unstamped, or [`CoProcessor::set_pose`]) for
+//!   every return, until stamped poses come in ([`CoProcessor::stamped_pose`]): then each
+//!   return is placed with the pose of its own measurement time, from a track of the last `N`
+//!   stamped poses ([`crate::geometry::pose_track`]; lidar returns timed as above, a SICK
+//!   line's beams from its mirror's turns); a return without a pose is refused and counted.
+//!   An unstamped pose or a Setup clears the track. When an observation placed timed returns,
+//!   [`CoProcessor::take_observed`] hands out its span of times once.
 //! - **Host commands** are validated by the link ([`Link::receive`]) and carried out here in
 //!   the order they arrive: Pose and PanAngle take effect for the next line; Setup
 //!   reconfigures the pipeline (the observation under way is discarded); Configure and Reset
@@ -217,7 +224,8 @@ enum Shutdown {
 /// the stack).
 ///
 /// `N` is the capacity of the track of stamped poses ([`CoProcessor::stamped_pose`]; 28
-/// bytes a pose): 16 (320 ms at 50 Hz) unless the board chooses.
+/// bytes a pose): 16 (320 ms at 50 Hz) unless the board chooses; with 0 a stamped pose is
+/// taken as the latest pose.
 pub struct CoProcessor<
     const W: usize,
     const L: usize,
@@ -422,6 +430,12 @@ impl<const W: usize, const L: usize, const C: usize, const Q: usize, const N: us
             // No clock seen yet: any stamp is within the lead of itself.
             stamp_us
         };
+        if N == 0 {
+            // No track: the latest-pose rule, with the pose counted as taken.
+            bump(&mut self.counters.poses_stamped);
+            self.frontend.set_pose(pose);
+            return;
+        }
         match self.poses.push(stamp_us, pose, now) {
             Ok(taken) => {
                 bump(&mut self.counters.poses_stamped);

@@ -107,8 +107,9 @@ pub enum NoPose {
 /// increasing (in the wrapping sense). See the [module documentation](self) for the rule.
 ///
 /// `const`-built all zero bits ([`PoseTrack::new`]): a `static` holding one sits in `.bss`.
-/// About `N` · 28 bytes.
+/// `N` · 28 bytes (24 a pose, 4 a stamp) and two words.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct PoseTrack<const N: usize> {
     /// The stamps, µs, in ring order from `head`.
     stamps: [u32; N],
