@@ -592,8 +592,8 @@ impl<const W: usize, const L: usize, const C: usize, const Q: usize, const N: us
                             Some(a) => {
                                 self.frontend.set_actuator(a);
                                 // A refused line is counted by the pipeline.
-                                let _ = if self.poses.is_empty() {
-                                    self.frontend.line(&mut self.pyramid, &values)
+                                if self.poses.is_empty() {
+                                    let _ = self.frontend.line(&mut self.pyramid, &values);
                                 } else {
                                     // The telegram's last byte arrived before the bytes
                                     // still in the chunk; its last beam was measured one
@@ -603,13 +603,14 @@ impl<const W: usize, const L: usize, const C: usize, const Q: usize, const N: us
                                         .wrapping_sub(
                                             self.timer.bytes_us(telegram.as_bytes().len()),
                                         );
-                                    self.frontend.line_timed(
+                                    Self::timed_line(
+                                        &mut self.frontend,
                                         &mut self.pyramid,
+                                        &self.poses,
                                         &values,
                                         end,
-                                        &self.poses,
-                                    )
-                                };
+                                    );
+                                }
                             }
                             None => bump(&mut self.counters.lines_without_angle),
                         }
@@ -652,26 +653,27 @@ impl<const W: usize, const L: usize, const C: usize, const Q: usize, const N: us
                                 last: last_angle,
                             };
                             // A refused packet is counted by the pipeline.
-                            let _ = if self.poses.is_empty() {
-                                self.frontend.packet(
+                            if self.poses.is_empty() {
+                                let _ = self.frontend.packet(
                                     &mut self.pyramid,
                                     packet.returns(),
                                     starts,
                                     actuator,
-                                )
+                                );
                             } else {
-                                self.frontend.packet_timed(
+                                Self::timed_packet(
+                                    &mut self.frontend,
                                     &mut self.pyramid,
-                                    packet.returns(),
+                                    &self.poses,
+                                    &packet,
                                     starts,
                                     actuator,
                                     PacketTimes {
                                         first_us: first,
                                         last_us: last,
                                     },
-                                    &self.poses,
-                                )
-                            };
+                                );
+                            }
                         }
                         None => bump(&mut self.counters.lines_without_angle),
                     }
@@ -680,6 +682,33 @@ impl<const W: usize, const L: usize, const C: usize, const Q: usize, const N: us
                 LaserItem::Other => {}
             }
         }
+    }
+
+    /// A SICK line placed by stamped poses (out of line: the untimed path's stack frame stays
+    /// as it was; a refused line is counted by the pipeline).
+    #[inline(never)]
+    fn timed_line(
+        frontend: &mut Frontend<C, L>,
+        pyramid: &mut Pyramid<W, L>,
+        poses: &PoseTrack<N>,
+        values: &MeasuredValues<'_>,
+        last_beam_us: u32,
+    ) {
+        let _ = frontend.line_timed(pyramid, values, last_beam_us, poses);
+    }
+
+    /// A lidar packet placed by stamped poses (out of line, as [`Self::timed_line`]).
+    #[inline(never)]
+    fn timed_packet(
+        frontend: &mut Frontend<C, L>,
+        pyramid: &mut Pyramid<W, L>,
+        poses: &PoseTrack<N>,
+        packet: &crate::laser::Packet<'_>,
+        starts: bool,
+        actuator: PacketActuator,
+        times: PacketTimes,
+    ) {
+        let _ = frontend.packet_timed(pyramid, packet.returns(), starts, actuator, times, poses);
     }
 
     /// The angle to command a nodding servo at `now_us` (the board's clock, µs), when the
