@@ -34,8 +34,9 @@
 //! about 1 000 a second, none while the robot stands still). A return the track has no pose
 //! for is refused and counted ([`FrontendStats::returns_without_pose`]); one placed with an
 //! extrapolated or held pose is counted ([`FrontendStats::returns_extrapolated`]). The
-//! untimed [`Frontend::packet`] and [`Frontend::line`] are the same code without any of it
-//! (monomorphised), bit for bit and instruction for instruction as before. An observation
+//! untimed [`Frontend::packet`] and [`Frontend::line`] are their own code, unchanged: one loop
+//! shared by both, even monomorphised, moved the compiler's inlining in the untimed loop and
+//! cost it 18 instructions a return on the M4F. An observation
 //! whose returns had times leaves their span for [`Frontend::take_observed`].
 //!
 //! # Observations
@@ -325,25 +326,14 @@ const fn later_by(b: u32, a: u32) -> i32 {
     b.wrapping_sub(a) as i32
 }
 
-/// Where the poses of a line's returns come from: none (the pose in force for every
-/// return: [`Untimed`]), or a track of stamped poses, evaluated at each return's time.
-/// Monomorphised, so the untimed path carries nothing of the timed one.
+/// Where the poses of a timed line's returns come from: a track of stamped poses, evaluated
+/// at each return's time (a trait, so that the rule's code does not depend on the track's
+/// capacity's instantiation more than it must).
 trait Poses {
     /// Whether returns take the pose of their own times.
     const TIMED: bool;
     /// The pose at `t_us`.
     fn pose_at(&self, t_us: u32) -> Result<(Pose, Placement), NoPose>;
-}
-
-/// Every return takes the pose in force ([`Frontend::set_pose`]'s).
-struct Untimed;
-
-impl Poses for Untimed {
-    const TIMED: bool = false;
-    #[inline(always)]
-    fn pose_at(&self, _: u32) -> Result<(Pose, Placement), NoPose> {
-        Err(NoPose::Empty)
-    }
 }
 
 impl<const N: usize> Poses for PoseTrack<N> {
@@ -649,7 +639,78 @@ impl<const C: usize, const L: usize> Frontend<C, L> {
         pyramid: &mut Pyramid<W, L>,
         values: &MeasuredValues<'_>,
     ) -> Result<(), LineError> {
-        self.line_with(pyramid, values, &Untimed, 0)
+        if !self.configured || self.classifier.gates().layer_count() == 0 {
+            self.stats.lines_rejected = self.stats.lines_rejected.saturating_add(1);
+            return Err(LineError::NotConfigured);
+        }
+        if self.config.sensor.is_lidar() {
+            self.stats.lines_rejected = self.stats.lines_rejected.saturating_add(1);
+            return Err(LineError::WrongSensor {
+                configured: self.config.sensor.kind(),
+            });
+        }
+        let layout = match self.layout(values) {
+            Ok(layout) => layout,
+            Err(e) => {
+                self.stats.lines_rejected = self.stats.lines_rejected.saturating_add(1);
+                return Err(e);
+            }
+        };
+        if self.config.lines_per_observation == 0 && self.sweep_turned() {
+            self.end_observation(pyramid);
+        }
+        let transform =
+            LineTransform::new(&self.beams, &self.config.mount, self.actuator, &self.frame);
+        if self.lines_in_observation == 0 {
+            self.classifier.begin(transform.sensor_origin().z);
+        }
+        let ground_z: Meters = self.pose.z;
+        let variant = self.config.variant;
+        // Counted here and added once per line (at most 401 values each: the sums are exact,
+        // and so are the saturating totals).
+        let (mut no_return, mut returns, mut dropped) = (0_u32, 0_u32, 0_u32);
+        for (j, range) in values.ranges_mm(self.config.measuring_mode).enumerate() {
+            let beam = match layout {
+                Layout::Full => Some(j),
+                Layout::Partial(p) => variant.partial_scan_beam(p, j),
+            };
+            let Some(range_mm) = range else {
+                no_return += 1;
+                if let (Some(within), Some(b)) = (self.config.missing_ground_within, beam) {
+                    Self::missing_ground(
+                        &mut self.classifier,
+                        &mut self.stats,
+                        &transform,
+                        b,
+                        ground_z,
+                        within,
+                    );
+                }
+                continue;
+            };
+            returns += 1;
+            match beam.and_then(|b| transform.locate_squared(b, range_mm)) {
+                Some(located) => {
+                    // The distance is needed only for its gate bin: no square root.
+                    self.classifier.add_point_squared(
+                        located.point,
+                        located.horizontal_squared,
+                        ground_z,
+                    );
+                }
+                None => dropped += 1,
+            }
+        }
+        self.stats.no_return = self.stats.no_return.saturating_add(no_return);
+        self.stats.returns = self.stats.returns.saturating_add(returns);
+        self.stats.returns_dropped = self.stats.returns_dropped.saturating_add(dropped);
+        self.stats.lines_applied = self.stats.lines_applied.saturating_add(1);
+        self.lines_in_observation = self.lines_in_observation.saturating_add(1);
+        let per = self.config.lines_per_observation;
+        if per != 0 && self.lines_in_observation >= per {
+            self.end_observation(pyramid);
+        }
+        Ok(())
     }
 
     /// [`line`](Self::line) with each beam placed at the pose of its own moment: the beams'
@@ -910,14 +971,95 @@ impl<const C: usize, const L: usize> Frontend<C, L> {
         I: IntoIterator<Item = LaserReturn>,
         I::IntoIter: ExactSizeIterator,
     {
-        self.packet_with(
-            pyramid,
-            returns,
-            starts_revolution,
-            actuator,
-            &Untimed,
-            PacketTimes::default(),
-        )
+        if !self.configured || self.classifier.gates().layer_count() == 0 {
+            self.stats.lines_rejected = self.stats.lines_rejected.saturating_add(1);
+            return Err(LineError::NotConfigured);
+        }
+        if !self.config.sensor.is_lidar() {
+            self.stats.lines_rejected = self.stats.lines_rejected.saturating_add(1);
+            return Err(LineError::WrongSensor {
+                configured: self.config.sensor.kind(),
+            });
+        }
+        self.actuator = actuator.last;
+        let per = self.config.lines_per_observation;
+        if per == 0 && self.sweep_turned() {
+            self.end_observation(pyramid);
+        }
+        if starts_revolution {
+            self.stats.revolutions = self.stats.revolutions.saturating_add(1);
+            if per != 0 && self.revolutions_in_observation >= per {
+                self.end_observation(pyramid);
+            }
+            self.revolutions_in_observation = self.revolutions_in_observation.saturating_add(1);
+        }
+        if self.lines_in_observation == 0 {
+            self.classifier.begin(self.sweep.sensor_origin().z);
+        }
+        let returns = returns.into_iter();
+        let steps = i64::try_from(returns.len().saturating_sub(1).max(1)).unwrap_or(i64::MAX);
+        // The actuator's turn over the packet, signed, and per return in 2⁻¹⁶ of its LSB: one
+        // division per packet (|turn| < 2³¹, so the step is below 2⁴⁷).
+        #[allow(clippy::cast_possible_wrap)]
+        let turn = i64::from(actuator.last.wrapping_sub(actuator.first).to_bits() as i32);
+        // A one-return packet (an RPLIDAR node) or a still actuator needs no division.
+        let step_q16 = if steps == 1 || turn == 0 {
+            turn << 16
+        } else {
+            step_q16(turn, steps)
+        };
+        let ground_z: Meters = self.pose.z;
+        // The plane only where a point is placed, built for the return's actuator angle when
+        // it differs from the last one built: a sample without a distance (most of a nodding
+        // lidar's rear half-turn; most RPLIDAR nodes, each a packet) needs none unless missing
+        // ground is looked for.
+        let mut plane: Option<ActuatedPlane> = None;
+        for (k, ret) in returns.enumerate() {
+            // k ≤ 255 (the longest packet) and |step| < 2⁴⁷: the product is below 2⁵⁵.
+            let k = i64::try_from(k).unwrap_or(0);
+            #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+            let offset = ((step_q16 * k) >> 16) as u32;
+            let angle = actuator.first.wrapping_add(FineAngle::from_bits(offset));
+            if ret.range_mm == 0 && self.config.missing_ground_within.is_none() {
+                self.stats.no_return = self.stats.no_return.saturating_add(1);
+                continue;
+            }
+            if plane.as_ref().is_none_or(|p| p.actuator() != angle) {
+                plane = Some(self.sweep.at(angle));
+            }
+            let Some(plane) = plane.as_ref() else {
+                continue;
+            };
+            let theta = beam_angle_of_clockwise(ret.angle);
+            if ret.range_mm == 0 {
+                self.stats.no_return = self.stats.no_return.saturating_add(1);
+                if let Some(within) = self.config.missing_ground_within {
+                    Self::missing_ground_along(
+                        &mut self.classifier,
+                        &mut self.stats,
+                        plane.sensor_origin(),
+                        |range| plane.locate(theta, range),
+                        ground_z,
+                        within,
+                    );
+                }
+                continue;
+            }
+            self.stats.returns = self.stats.returns.saturating_add(1);
+            match plane.locate_squared(theta, ret.range_mm) {
+                Some(located) => self.classifier.add_point_squared(
+                    located.point,
+                    located.horizontal_squared,
+                    ground_z,
+                ),
+                None => {
+                    self.stats.returns_dropped = self.stats.returns_dropped.saturating_add(1);
+                }
+            }
+        }
+        self.stats.packets_applied = self.stats.packets_applied.saturating_add(1);
+        self.lines_in_observation = self.lines_in_observation.saturating_add(1);
+        Ok(())
     }
 
     /// [`packet`](Self::packet) with each return placed at the pose of its own moment: return

@@ -44,10 +44,11 @@ pub const LAYERS: usize = 4;
 /// the firmware locked up on the first frames.
 pub const SLOTS: usize = 32;
 /// The link's outgoing queue, bytes (at least `min_queue_bytes(16, 4)` = 384; at 384 the
-/// in-process run never got a Stats frame out). 416, not 512 as before the track of stamped
-/// poses: the 96 bytes pay for the track and its counters (+120 B of statics with
-/// `POSES = 2`), the statics and stack having had 44 B to spare.
-pub const QUEUE: usize = 416;
+/// in-process run never got a Stats frame out). 400, not 512 as before the track of stamped
+/// poses: the 112 bytes pay for the track and its counters (+120 B of statics with
+/// `POSES = 2`) and a stack high-water 32 B above the last recorded (3 944 B against
+/// 3 912 B), the statics and stack having had 44 B to spare.
+pub const QUEUE: usize = 400;
 /// The track of stamped poses, poses (28 bytes each): 2, the last two (40 ms at 50 Hz), not
 /// the library's 16, which would not fit.
 pub const POSES: usize = 2;
