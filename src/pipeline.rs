@@ -804,74 +804,87 @@ impl<const C: usize, const L: usize> Frontend<C, L> {
         // and so are the saturating totals).
         let (mut no_return, mut returns, mut dropped) = (0_u32, 0_u32, 0_u32);
         let (mut extrapolated, mut without_pose) = (0_u32, 0_u32);
-        for (j, range) in values.ranges_mm(self.config.measuring_mode).enumerate() {
-            let beam = match layout {
-                Layout::Full => Some(j),
-                Layout::Partial(p) => variant.partial_scan_beam(p, j),
-            };
-            // Timed: the pose of this beam's moment (a value past the table has none; it is
-            // dropped below).
-            let mut t_us = 0;
-            if let (Some(times), Some(b)) = (&times, beam) {
-                t_us = last_beam_us.wrapping_sub(times.before_last_us(b));
-                match Self::timed_pose(
-                    &mut self.timed,
-                    &mut self.pose,
-                    &mut self.frame,
-                    poses,
-                    t_us,
-                ) {
-                    Ok(false) => {}
-                    Ok(true) => {
-                        self.sweep = SweepTransform::new(&self.config.mount, &self.frame);
-                        transform = LineTransform::new(
-                            &self.beams,
-                            &self.config.mount,
-                            self.actuator,
-                            &self.frame,
-                        );
-                        ground_z = self.pose.z;
-                    }
-                    Err(_) => {
-                        if range.is_some() {
-                            returns += 1;
-                            without_pose += 1;
-                        } else {
-                            no_return += 1;
+        let turns = times.as_ref().map_or(1, SickBeamTimes::turns);
+        for turn in 0..turns {
+            for (j, range) in values.ranges_mm(self.config.measuring_mode).enumerate() {
+                let beam = match layout {
+                    Layout::Full => Some(j),
+                    Layout::Partial(p) => variant.partial_scan_beam(p, j),
+                };
+                // The beams in the order measured: one pass per mirror turn (an interlaced full
+                // telegram alternates turns from beam to beam; in index order the pose in force
+                // would be re-evaluated at every beam).
+                if turns > 1
+                    && beam.map_or(turn != 0, |b| {
+                        times.as_ref().is_some_and(|t| t.turn_of(b) != turn)
+                    })
+                {
+                    continue;
+                }
+                // Timed: the pose of this beam's moment (a value past the table has none; it is
+                // dropped below).
+                let mut t_us = 0;
+                if let (Some(times), Some(b)) = (&times, beam) {
+                    t_us = last_beam_us.wrapping_sub(times.before_last_us(b));
+                    match Self::timed_pose(
+                        &mut self.timed,
+                        &mut self.pose,
+                        &mut self.frame,
+                        poses,
+                        t_us,
+                    ) {
+                        Ok(false) => {}
+                        Ok(true) => {
+                            // (The sweep follows at the next Setup or pose: only lidars use it.)
+                            transform = LineTransform::new(
+                                &self.beams,
+                                &self.config.mount,
+                                self.actuator,
+                                &self.frame,
+                            );
+                            ground_z = self.pose.z;
                         }
-                        continue;
+                        Err(_) => {
+                            if range.is_some() {
+                                returns += 1;
+                                without_pose += 1;
+                            } else {
+                                no_return += 1;
+                            }
+                            continue;
+                        }
                     }
                 }
-            }
-            let Some(range_mm) = range else {
-                no_return += 1;
-                if let (Some(within), Some(b)) = (self.config.missing_ground_within, beam) {
-                    Self::missing_ground(
-                        &mut self.classifier,
-                        &mut self.stats,
-                        &transform,
-                        b,
-                        ground_z,
-                        within,
-                    );
-                }
-                continue;
-            };
-            returns += 1;
-            match beam.and_then(|b| transform.locate_squared(b, range_mm)) {
-                Some(located) => {
-                    // The distance is needed only for its gate bin: no square root.
-                    self.classifier.add_point_squared(
-                        located.point,
-                        located.horizontal_squared,
-                        ground_z,
-                    );
-                    if P::TIMED {
-                        extrapolated += u32::from(self.timed.extrapolated);
-                        self.timed.placed(t_us);
+                let Some(range_mm) = range else {
+                    no_return += 1;
+                    if let (Some(within), Some(b)) = (self.config.missing_ground_within, beam) {
+                        Self::missing_ground(
+                            &mut self.classifier,
+                            &mut self.stats,
+                            &transform,
+                            b,
+                            ground_z,
+                            within,
+                        );
                     }
+                    continue;
+                };
+                returns += 1;
+                match beam.and_then(|b| transform.locate_squared(b, range_mm)) {
+                    Some(located) => {
+                        // The distance is needed only for its gate bin: no square root.
+                        self.classifier.add_point_squared(
+                            located.point,
+                            located.horizontal_squared,
+                            ground_z,
+                        );
+                        if P::TIMED {
+                            extrapolated += u32::from(self.timed.extrapolated);
+                            self.timed.placed(t_us);
+                        }
+                    }
+                    None => dropped += 1,
                 }
-                None => dropped += 1,
             }
         }
         if P::TIMED {

@@ -218,9 +218,21 @@ impl SickBeamTimes {
         times
     }
 
+    /// How many mirror turns the telegram's beams were measured in: 2 or 4 for a full
+    /// interlaced telegram, else 1.
+    #[must_use]
+    pub fn turns(&self) -> u64 {
+        if self.full_interlaced {
+            u64::from(4 / self.step)
+        } else {
+            1
+        }
+    }
+
     /// The turn (0-based) in which beam `beam` was measured: its 0.25° phase over the step in
     /// a full interlaced telegram, else 0.
-    fn turn_of(&self, beam: usize) -> u64 {
+    #[must_use]
+    pub fn turn_of(&self, beam: usize) -> u64 {
         if !self.full_interlaced {
             return 0;
         }
