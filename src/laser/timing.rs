@@ -170,6 +170,10 @@ fn duration_at_rate_us(bits: u32, rate: u16) -> u64 {
 /// The SICK LMS2xx's mirror turn, µs (75 Hz: 13 333.3 µs), Q16.
 const SICK_TURN_US_Q16: u64 = (1_000_000_u64 << 16) / 75;
 
+/// The mirror's quarter degree, µs Q16 (9.26 µs; truncated by under 2⁻¹⁶ µs, 0.01 µs over a
+/// 180° field): per beam a multiply, no division.
+const SICK_QUARTER_DEGREE_US_Q16: u64 = SICK_TURN_US_Q16 / 1440;
+
 /// When each beam of a SICK measured-values telegram was measured, relative to its last
 /// measured beam (see `docs/lidars.md`, "When a SICK beam was measured"). The model:
 ///
@@ -236,10 +240,9 @@ impl SickBeamTimes {
         if !self.full_interlaced {
             return 0;
         }
-        let q = u64::try_from(beam)
-            .unwrap_or(0)
-            .saturating_mul(u64::from(self.step));
-        (q % 4) / u64::from(self.step)
+        // The phase in quarter degrees (0 ..= 3) over the step (1 or 2): no 64-bit division.
+        let phase = u32::try_from(beam % 4).unwrap_or(0).wrapping_mul(self.step) % 4;
+        u64::from(phase.checked_div(self.step).unwrap_or(0))
     }
 
     /// When beam `beam` was measured after the first turn's start of the telegram's first
@@ -249,8 +252,8 @@ impl SickBeamTimes {
             .unwrap_or(0)
             .saturating_mul(u64::from(self.step));
         let turn = self.turn_of(beam);
-        // q ≤ 720 quarter degrees: the turn's fraction q/1440 times the turn, below 2⁴⁰.
-        turn * SICK_TURN_US_Q16 + q * SICK_TURN_US_Q16 / 1440
+        // q ≤ 720 quarter degrees: below 2³¹ µs Q16.
+        turn * SICK_TURN_US_Q16 + q * SICK_QUARTER_DEGREE_US_Q16
     }
 
     /// How long before the telegram's last measured beam `beam` was measured, µs (rounded).
