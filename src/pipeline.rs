@@ -23,6 +23,22 @@
 //! returns are measured evenly in time), and is placed by [`SweepTransform`] from its own
 //! beam angle and its own actuator angle, in fixed point. A range of 0 is no return.
 //!
+//! # Each return at the pose of its own moment
+//! [`Frontend::packet_timed`] and [`Frontend::line_timed`] take the returns' times (a packet's
+//! first and last, interpolated per return as the actuator's angle is; a SICK line's last
+//! measured beam, the others timed back along the mirror's turns by
+//! [`crate::laser::SickBeamTimes`]) and a [`PoseTrack`] of stamped poses: each return is
+//! placed with the track's pose at its time ([`crate::geometry::pose_track`]), re-evaluated
+//! only when a return lies [`POSE_QUANTUM_US`] or more from the time the pose in force was
+//! evaluated at (then the pose's frame and the sweep or line transform are rebuilt: at most
+//! about 1 000 a second, none while the robot stands still). A return the track has no pose
+//! for is refused and counted ([`FrontendStats::returns_without_pose`]); one placed with an
+//! extrapolated or held pose is counted ([`FrontendStats::returns_extrapolated`]). The
+//! untimed [`Frontend::packet`] and [`Frontend::line`] are their own code, unchanged: one loop
+//! shared by both, even monomorphised, moved the compiler's inlining in the untimed loop and
+//! cost it 18 instructions a return on the M4F. An observation
+//! whose returns had times leaves their span for [`Frontend::take_observed`].
+//!
 //! # Observations
 //! An observation ends after a fixed number of lines, or, with `lines_per_observation = 0`,
 //! when the actuator turns back (the end of a sweep). For a spinning lidar a "line" is a
@@ -38,10 +54,10 @@ use crate::angle::FineAngle;
 use crate::classify::{Classifier, ClassifierConfig, ClassifierStats};
 use crate::design::{Design, DesignError};
 use crate::geometry::{
-    beam_angle_of_clockwise, ActuatedPlane, BeamTable, LinePoint, LineTransform, Mount, Pose,
-    PoseFrame, SweepTransform,
+    beam_angle_of_clockwise, ActuatedPlane, BeamTable, LinePoint, LineTransform, Mount, NoPose,
+    Placement, Pose, PoseFrame, PoseTrack, SweepTransform, POSE_QUANTUM_US,
 };
-use crate::laser::{Sensor, SensorKind};
+use crate::laser::{Sensor, SensorKind, SickBeamTimes};
 use crate::pyramid::{Config, Pyramid};
 use crate::units::Meters;
 use crate::units::Point3;
@@ -148,6 +164,13 @@ pub struct FrontendStats {
     pub missing_ground: u32,
     /// Observations finished and applied.
     pub observations: u32,
+    /// Returns placed with a pose extrapolated (or held) past the newest stamped pose
+    /// ([`Placement::Extrapolated`], [`Placement::Held`]; timed placement only).
+    pub returns_extrapolated: u32,
+    /// Returns refused for want of a pose: later than the newest stamped pose by more than
+    /// the extrapolation bound, or earlier than the oldest kept (timed placement only). They
+    /// are counted in `returns` too, and placed nowhere.
+    pub returns_without_pose: u32,
 }
 
 /// Why a line was refused.
@@ -234,6 +257,92 @@ impl PacketActuator {
     }
 }
 
+/// When a lidar packet's first and last returns were measured, µs on the device's clock
+/// (wrapping): return k of n is at `first_us + k·(last_us − first_us)/(n − 1)`
+/// ([`Frontend::packet_timed`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct PacketTimes {
+    /// The first return's time, µs.
+    pub first_us: u32,
+    /// The last return's time, µs.
+    pub last_us: u32,
+}
+
+/// The times of the returns an observation placed, for the host to stamp the maps it
+/// publishes ([`Frontend::take_observed`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct ObservedSpan {
+    /// The observation count (the counters' `observations`) after this one.
+    pub observation: u32,
+    /// The measurement time of the earliest return it placed, µs (device clock, wrapping).
+    pub first_us: u32,
+    /// The measurement time of the latest return it placed, µs.
+    pub last_us: u32,
+}
+
+/// Timed placement's state: the pose in force and when it was evaluated, and the span of
+/// the observation's placed returns. Zero bits: nothing in force, no span.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+struct TimedPose {
+    /// The time the pose in force was evaluated at, µs (meaningful when `in_force`).
+    at_us: u32,
+    /// Whether a timed pose is in force.
+    in_force: bool,
+    /// Whether it was extrapolated (or held) past the newest stamped pose.
+    extrapolated: bool,
+    /// The earliest and latest times of the observation's placed returns (when `spanned`).
+    first_us: u32,
+    last_us: u32,
+    spanned: bool,
+}
+
+impl TimedPose {
+    const NONE: Self = Self {
+        at_us: 0,
+        in_force: false,
+        extrapolated: false,
+        first_us: 0,
+        last_us: 0,
+        spanned: false,
+    };
+
+    /// Notes a return placed at `t_us` in the observation's span.
+    fn placed(&mut self, t_us: u32) {
+        if !self.spanned {
+            (self.first_us, self.last_us, self.spanned) = (t_us, t_us, true);
+        } else if later_by(self.first_us, t_us) > 0 {
+            self.first_us = t_us;
+        } else if later_by(t_us, self.last_us) > 0 {
+            self.last_us = t_us;
+        }
+    }
+}
+
+/// How much later `b` is than `a`, µs: the wrapping difference as an `i32`.
+#[allow(clippy::cast_possible_wrap)]
+const fn later_by(b: u32, a: u32) -> i32 {
+    b.wrapping_sub(a) as i32
+}
+
+/// Where the poses of a timed line's returns come from: a track of stamped poses, evaluated
+/// at each return's time (a trait, so that the rule's code does not depend on the track's
+/// capacity's instantiation more than it must).
+trait Poses {
+    /// Whether returns take the pose of their own times.
+    const TIMED: bool;
+    /// The pose at `t_us`.
+    fn pose_at(&self, t_us: u32) -> Result<(Pose, Placement), NoPose>;
+}
+
+impl<const N: usize> Poses for PoseTrack<N> {
+    const TIMED: bool = true;
+    fn pose_at(&self, t_us: u32) -> Result<(Pose, Placement), NoPose> {
+        self.at(t_us)
+    }
+}
+
 /// The per-line pipeline, with `C` classifier slots, for designs of up to `L` layers.
 pub struct Frontend<const C: usize, const L: usize> {
     config: FrontendConfig,
@@ -253,6 +362,12 @@ pub struct Frontend<const C: usize, const L: usize> {
     stats: FrontendStats,
     /// Whether a configuration has been adopted (lines are refused until then).
     configured: bool,
+    /// The pose in force of timed placement, and the observation's span of times.
+    timed: TimedPose,
+    /// The span of the last observation applied with timed returns, until taken.
+    observed: ObservedSpan,
+    /// Whether `observed` waits to be taken ([`Frontend::take_observed`]).
+    observed_pending: bool,
 }
 
 impl<const C: usize, const L: usize> fmt::Debug for Frontend<C, L> {
@@ -327,7 +442,16 @@ impl<const C: usize, const L: usize> Frontend<C, L> {
                 returns_dropped: 0,
                 missing_ground: 0,
                 observations: 0,
+                returns_extrapolated: 0,
+                returns_without_pose: 0,
             },
+            timed: TimedPose::NONE,
+            observed: ObservedSpan {
+                observation: 0,
+                first_us: 0,
+                last_us: 0,
+            },
+            observed_pending: false,
             configured: false,
         }
     }
@@ -348,6 +472,7 @@ impl<const C: usize, const L: usize> Frontend<C, L> {
     /// starts a new observation (after the maps were cleared, say).
     pub fn restart_observation(&mut self) {
         self.classifier.discard();
+        self.timed.spanned = false;
         self.lines_in_observation = 0;
         self.revolutions_in_observation = 0;
         self.last_actuator = None;
@@ -391,6 +516,47 @@ impl<const C: usize, const L: usize> Frontend<C, L> {
         self.pose = pose;
         self.frame = pose.frame();
         self.sweep = SweepTransform::new(&self.config.mount, &self.frame);
+        self.timed.in_force = false;
+    }
+
+    /// Forgets the time the pose in force was evaluated at, so that the next timed return
+    /// evaluates its own (call it when the track of stamped poses changed: a new pose may
+    /// replace an extrapolation).
+    pub fn forget_timed_pose(&mut self) {
+        self.timed.in_force = false;
+    }
+
+    /// The span of times of the last observation applied whose returns had times
+    /// ([`packet_timed`](Self::packet_timed), [`line_timed`](Self::line_timed)), once; `None`
+    /// when there is none new.
+    pub fn take_observed(&mut self) -> Option<ObservedSpan> {
+        core::mem::take(&mut self.observed_pending).then_some(self.observed)
+    }
+
+    /// The pose for a return measured at `t_us`, by the placement rule: the pose in force
+    /// when it was evaluated less than [`POSE_QUANTUM_US`] from `t_us` (`Ok(false)`), else the
+    /// track's at `t_us`, now in force (`Ok(true)`: the caller rebuilds its transform).
+    fn timed_pose<P: Poses>(
+        timed: &mut TimedPose,
+        pose: &mut Pose,
+        frame: &mut PoseFrame,
+        poses: &P,
+        t_us: u32,
+    ) -> Result<bool, NoPose> {
+        if timed.in_force && later_by(t_us, timed.at_us).unsigned_abs() < POSE_QUANTUM_US {
+            return Ok(false);
+        }
+        let (p, how) = poses.pose_at(t_us)?;
+        timed.at_us = t_us;
+        timed.in_force = true;
+        timed.extrapolated = how != Placement::Interpolated;
+        // A robot standing still keeps its frame: nothing to rebuild.
+        if p == *pose {
+            return Ok(false);
+        }
+        *pose = p;
+        *frame = p.frame();
+        Ok(true)
     }
 
     /// The robot's pose in force.
@@ -534,6 +700,198 @@ impl<const C: usize, const L: usize> Frontend<C, L> {
                 }
                 None => dropped += 1,
             }
+        }
+        self.stats.no_return = self.stats.no_return.saturating_add(no_return);
+        self.stats.returns = self.stats.returns.saturating_add(returns);
+        self.stats.returns_dropped = self.stats.returns_dropped.saturating_add(dropped);
+        self.stats.lines_applied = self.stats.lines_applied.saturating_add(1);
+        self.lines_in_observation = self.lines_in_observation.saturating_add(1);
+        let per = self.config.lines_per_observation;
+        if per != 0 && self.lines_in_observation >= per {
+            self.end_observation(pyramid);
+        }
+        Ok(())
+    }
+
+    /// [`line`](Self::line) with each beam placed at the pose of its own moment: the beams'
+    /// times from the mirror's turns ([`SickBeamTimes`]), the last measured one's at
+    /// `last_beam_us` (µs, device clock), and the pose at each from `track` by the rule of
+    /// [`crate::geometry::pose_track`] (re-evaluated only [`POSE_QUANTUM_US`] or more from
+    /// where it was evaluated). A return with no pose is refused and counted
+    /// (`returns_without_pose`).
+    ///
+    /// # Errors
+    /// As [`line`](Self::line).
+    pub fn line_timed<const W: usize, const N: usize>(
+        &mut self,
+        pyramid: &mut Pyramid<W, L>,
+        values: &MeasuredValues<'_>,
+        last_beam_us: u32,
+        track: &PoseTrack<N>,
+    ) -> Result<(), LineError> {
+        self.line_with(pyramid, values, track, last_beam_us)
+    }
+
+    fn line_with<const W: usize, P: Poses>(
+        &mut self,
+        pyramid: &mut Pyramid<W, L>,
+        values: &MeasuredValues<'_>,
+        poses: &P,
+        last_beam_us: u32,
+    ) -> Result<(), LineError> {
+        if !self.configured || self.classifier.gates().layer_count() == 0 {
+            self.stats.lines_rejected = self.stats.lines_rejected.saturating_add(1);
+            return Err(LineError::NotConfigured);
+        }
+        if self.config.sensor.is_lidar() {
+            self.stats.lines_rejected = self.stats.lines_rejected.saturating_add(1);
+            return Err(LineError::WrongSensor {
+                configured: self.config.sensor.kind(),
+            });
+        }
+        let layout = match self.layout(values) {
+            Ok(layout) => layout,
+            Err(e) => {
+                self.stats.lines_rejected = self.stats.lines_rejected.saturating_add(1);
+                return Err(e);
+            }
+        };
+        if self.config.lines_per_observation == 0 && self.sweep_turned() {
+            self.end_observation(pyramid);
+        }
+        let variant = self.config.variant;
+        // The beams' times (timed placement only).
+        let times = P::TIMED.then(|| {
+            let last = usize::from(values.count()).saturating_sub(1);
+            match layout {
+                Layout::Full => SickBeamTimes::new(variant, None, last),
+                Layout::Partial(p) => SickBeamTimes::new(
+                    variant,
+                    Some(p),
+                    variant.partial_scan_beam(p, last).unwrap_or(last),
+                ),
+            }
+        });
+        let mut transform =
+            LineTransform::new(&self.beams, &self.config.mount, self.actuator, &self.frame);
+        if self.lines_in_observation == 0 {
+            // Timed: the sensor's height at the line's first beam (the pose in force stays as
+            // the rule leaves it).
+            let origin = match &times {
+                Some(times) => {
+                    let first = match layout {
+                        Layout::Full => Some(0),
+                        Layout::Partial(p) => variant.partial_scan_beam(p, 0),
+                    };
+                    let t = last_beam_us.wrapping_sub(times.before_last_us(first.unwrap_or(0)));
+                    match poses.pose_at(t) {
+                        Ok((pose, _)) => LineTransform::new(
+                            &self.beams,
+                            &self.config.mount,
+                            self.actuator,
+                            &pose.frame(),
+                        )
+                        .sensor_origin(),
+                        Err(_) => transform.sensor_origin(),
+                    }
+                }
+                None => transform.sensor_origin(),
+            };
+            self.classifier.begin(origin.z);
+        }
+        let mut ground_z: Meters = self.pose.z;
+        // Counted here and added once per line (at most 401 values each: the sums are exact,
+        // and so are the saturating totals).
+        let (mut no_return, mut returns, mut dropped) = (0_u32, 0_u32, 0_u32);
+        let (mut extrapolated, mut without_pose) = (0_u32, 0_u32);
+        let turns = times.as_ref().map_or(1, SickBeamTimes::turns);
+        for turn in 0..turns {
+            for (j, range) in values.ranges_mm(self.config.measuring_mode).enumerate() {
+                let beam = match layout {
+                    Layout::Full => Some(j),
+                    Layout::Partial(p) => variant.partial_scan_beam(p, j),
+                };
+                // The beams in the order measured: one pass per mirror turn (an interlaced full
+                // telegram alternates turns from beam to beam; in index order the pose in force
+                // would be re-evaluated at every beam).
+                if turns > 1
+                    && beam.map_or(turn != 0, |b| {
+                        times.as_ref().is_some_and(|t| t.turn_of(b) != turn)
+                    })
+                {
+                    continue;
+                }
+                // Timed: the pose of this beam's moment (a value past the table has none; it is
+                // dropped below).
+                let mut t_us = 0;
+                if let (Some(times), Some(b)) = (&times, beam) {
+                    t_us = last_beam_us.wrapping_sub(times.before_last_us(b));
+                    match Self::timed_pose(
+                        &mut self.timed,
+                        &mut self.pose,
+                        &mut self.frame,
+                        poses,
+                        t_us,
+                    ) {
+                        Ok(false) => {}
+                        Ok(true) => {
+                            // (The sweep follows at the next Setup or pose: only lidars use it.)
+                            transform = LineTransform::new(
+                                &self.beams,
+                                &self.config.mount,
+                                self.actuator,
+                                &self.frame,
+                            );
+                            ground_z = self.pose.z;
+                        }
+                        Err(_) => {
+                            if range.is_some() {
+                                returns += 1;
+                                without_pose += 1;
+                            } else {
+                                no_return += 1;
+                            }
+                            continue;
+                        }
+                    }
+                }
+                let Some(range_mm) = range else {
+                    no_return += 1;
+                    if let (Some(within), Some(b)) = (self.config.missing_ground_within, beam) {
+                        Self::missing_ground(
+                            &mut self.classifier,
+                            &mut self.stats,
+                            &transform,
+                            b,
+                            ground_z,
+                            within,
+                        );
+                    }
+                    continue;
+                };
+                returns += 1;
+                match beam.and_then(|b| transform.locate_squared(b, range_mm)) {
+                    Some(located) => {
+                        // The distance is needed only for its gate bin: no square root.
+                        self.classifier.add_point_squared(
+                            located.point,
+                            located.horizontal_squared,
+                            ground_z,
+                        );
+                        if P::TIMED {
+                            extrapolated += u32::from(self.timed.extrapolated);
+                            self.timed.placed(t_us);
+                        }
+                    }
+                    None => dropped += 1,
+                }
+            }
+        }
+        if P::TIMED {
+            self.stats.returns_extrapolated =
+                self.stats.returns_extrapolated.saturating_add(extrapolated);
+            self.stats.returns_without_pose =
+                self.stats.returns_without_pose.saturating_add(without_pose);
         }
         self.stats.no_return = self.stats.no_return.saturating_add(no_return);
         self.stats.returns = self.stats.returns.saturating_add(returns);
@@ -717,6 +1075,194 @@ impl<const C: usize, const L: usize> Frontend<C, L> {
         Ok(())
     }
 
+    /// [`packet`](Self::packet) with each return placed at the pose of its own moment: return
+    /// k of n measured at `first_us + k·(last_us − first_us)/(n − 1)` (as its actuator angle
+    /// is interpolated), its pose from `track` by the rule of [`crate::geometry::pose_track`]
+    /// (re-evaluated only [`POSE_QUANTUM_US`] or more from where it was evaluated). A return
+    /// with no pose is refused and counted (`returns_without_pose`).
+    ///
+    /// # Errors
+    /// As [`packet`](Self::packet).
+    pub fn packet_timed<const W: usize, I, const N: usize>(
+        &mut self,
+        pyramid: &mut Pyramid<W, L>,
+        returns: I,
+        starts_revolution: bool,
+        actuator: PacketActuator,
+        times: PacketTimes,
+        track: &PoseTrack<N>,
+    ) -> Result<(), LineError>
+    where
+        I: IntoIterator<Item = LaserReturn>,
+        I::IntoIter: ExactSizeIterator,
+    {
+        self.packet_with(pyramid, returns, starts_revolution, actuator, track, times)
+    }
+
+    fn packet_with<const W: usize, I, P: Poses>(
+        &mut self,
+        pyramid: &mut Pyramid<W, L>,
+        returns: I,
+        starts_revolution: bool,
+        actuator: PacketActuator,
+        poses: &P,
+        times: PacketTimes,
+    ) -> Result<(), LineError>
+    where
+        I: IntoIterator<Item = LaserReturn>,
+        I::IntoIter: ExactSizeIterator,
+    {
+        if !self.configured || self.classifier.gates().layer_count() == 0 {
+            self.stats.lines_rejected = self.stats.lines_rejected.saturating_add(1);
+            return Err(LineError::NotConfigured);
+        }
+        if !self.config.sensor.is_lidar() {
+            self.stats.lines_rejected = self.stats.lines_rejected.saturating_add(1);
+            return Err(LineError::WrongSensor {
+                configured: self.config.sensor.kind(),
+            });
+        }
+        self.actuator = actuator.last;
+        let per = self.config.lines_per_observation;
+        if per == 0 && self.sweep_turned() {
+            self.end_observation(pyramid);
+        }
+        if starts_revolution {
+            self.stats.revolutions = self.stats.revolutions.saturating_add(1);
+            if per != 0 && self.revolutions_in_observation >= per {
+                self.end_observation(pyramid);
+            }
+            self.revolutions_in_observation = self.revolutions_in_observation.saturating_add(1);
+        }
+        if self.lines_in_observation == 0 {
+            // Timed: the sensor's height at the packet's first return (the pose in force
+            // stays as the rule leaves it).
+            let origin = match poses.pose_at(times.first_us) {
+                Ok((pose, _)) if P::TIMED => {
+                    SweepTransform::new(&self.config.mount, &pose.frame()).sensor_origin()
+                }
+                _ => self.sweep.sensor_origin(),
+            };
+            self.classifier.begin(origin.z);
+        }
+        let returns = returns.into_iter();
+        let steps = i64::try_from(returns.len().saturating_sub(1).max(1)).unwrap_or(i64::MAX);
+        // The actuator's turn over the packet, signed, and per return in 2⁻¹⁶ of its LSB: one
+        // division per packet (|turn| < 2³¹, so the step is below 2⁴⁷).
+        #[allow(clippy::cast_possible_wrap)]
+        let turn = i64::from(actuator.last.wrapping_sub(actuator.first).to_bits() as i32);
+        // A one-return packet (an RPLIDAR node) or a still actuator needs no division.
+        let step_q16 = if steps == 1 || turn == 0 {
+            turn << 16
+        } else {
+            step_q16(turn, steps)
+        };
+        // Timed: the packet's time span per return in 2⁻¹⁶ µs, by the same one division.
+        let t_step_q16 = if P::TIMED {
+            let span = i64::from(later_by(times.last_us, times.first_us));
+            if steps == 1 || span == 0 {
+                span << 16
+            } else {
+                self::step_q16(span, steps)
+            }
+        } else {
+            0
+        };
+        let mut ground_z: Meters = self.pose.z;
+        // The plane only where a point is placed, built for the return's actuator angle when
+        // it differs from the last one built: a sample without a distance (most of a nodding
+        // lidar's rear half-turn; most RPLIDAR nodes, each a packet) needs none unless missing
+        // ground is looked for.
+        let mut plane: Option<ActuatedPlane> = None;
+        for (k, ret) in returns.enumerate() {
+            // k ≤ 255 (the longest packet) and |step| < 2⁴⁷: the product is below 2⁵⁵.
+            let k = i64::try_from(k).unwrap_or(0);
+            #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+            let offset = ((step_q16 * k) >> 16) as u32;
+            let angle = actuator.first.wrapping_add(FineAngle::from_bits(offset));
+            if ret.range_mm == 0 && self.config.missing_ground_within.is_none() {
+                self.stats.no_return = self.stats.no_return.saturating_add(1);
+                continue;
+            }
+            // Timed: the pose of this return's moment (a new one needs a new plane).
+            let mut t_us = 0;
+            if P::TIMED {
+                // |t_step| < 2⁴⁷ as the actuator's step: the product is below 2⁵⁵.
+                #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+                let offset = ((t_step_q16 * k) >> 16) as u32;
+                t_us = times.first_us.wrapping_add(offset);
+                match Self::timed_pose(
+                    &mut self.timed,
+                    &mut self.pose,
+                    &mut self.frame,
+                    poses,
+                    t_us,
+                ) {
+                    Ok(false) => {}
+                    Ok(true) => {
+                        self.sweep = SweepTransform::new(&self.config.mount, &self.frame);
+                        plane = None;
+                        ground_z = self.pose.z;
+                    }
+                    Err(_) => {
+                        if ret.range_mm == 0 {
+                            self.stats.no_return = self.stats.no_return.saturating_add(1);
+                        } else {
+                            self.stats.returns = self.stats.returns.saturating_add(1);
+                            self.stats.returns_without_pose =
+                                self.stats.returns_without_pose.saturating_add(1);
+                        }
+                        continue;
+                    }
+                }
+            }
+            if plane.as_ref().is_none_or(|p| p.actuator() != angle) {
+                plane = Some(self.sweep.at(angle));
+            }
+            let Some(plane) = plane.as_ref() else {
+                continue;
+            };
+            let theta = beam_angle_of_clockwise(ret.angle);
+            if ret.range_mm == 0 {
+                self.stats.no_return = self.stats.no_return.saturating_add(1);
+                if let Some(within) = self.config.missing_ground_within {
+                    Self::missing_ground_along(
+                        &mut self.classifier,
+                        &mut self.stats,
+                        plane.sensor_origin(),
+                        |range| plane.locate(theta, range),
+                        ground_z,
+                        within,
+                    );
+                }
+                continue;
+            }
+            self.stats.returns = self.stats.returns.saturating_add(1);
+            match plane.locate_squared(theta, ret.range_mm) {
+                Some(located) => {
+                    self.classifier.add_point_squared(
+                        located.point,
+                        located.horizontal_squared,
+                        ground_z,
+                    );
+                    if P::TIMED {
+                        if self.timed.extrapolated {
+                            self.stats.returns_extrapolated =
+                                self.stats.returns_extrapolated.saturating_add(1);
+                        }
+                        self.timed.placed(t_us);
+                    }
+                }
+                None => {
+                    self.stats.returns_dropped = self.stats.returns_dropped.saturating_add(1);
+                }
+            }
+        }
+        self.stats.packets_applied = self.stats.packets_applied.saturating_add(1);
+        self.lines_in_observation = self.lines_in_observation.saturating_add(1);
+        Ok(())
+    }
+
     /// Ends the current observation now (if it holds any line): recentres the pyramid on the
     /// robot and applies the evidence.
     pub fn end_observation<const W: usize>(&mut self, pyramid: &mut Pyramid<W, L>) {
@@ -729,6 +1275,14 @@ impl<const C: usize, const L: usize> Frontend<C, L> {
         self.lines_in_observation = 0;
         self.revolutions_in_observation = 0;
         self.stats.observations = self.stats.observations.saturating_add(1);
+        if core::mem::take(&mut self.timed.spanned) {
+            self.observed = ObservedSpan {
+                observation: self.stats.observations,
+                first_us: self.timed.first_us,
+                last_us: self.timed.last_us,
+            };
+            self.observed_pending = true;
+        }
     }
 }
 
@@ -752,6 +1306,7 @@ fn step_q16(turn: i64, steps: i64) -> i64 {
 mod tests {
     use super::*;
     use crate::design::{Design, Schedule, SensorModel};
+    use crate::geometry::PoseTrack;
     use crate::geometry::ScanPlane;
     use crate::pyramid::Config;
     use crate::units::Point3;
@@ -1095,5 +1650,167 @@ mod tests {
         assert_eq!(f.stats().observations, 1);
         f.end_observation(&mut p);
         assert_eq!(f.stats().observations, 2);
+    }
+
+    /// A pose track of a robot driving along x at 1 m/s and turning at 1 rad/s, stamped
+    /// every 20 ms from `t0_us`.
+    fn moving_track(t0_us: u32, count: u32) -> PoseTrack<16> {
+        let mut track = PoseTrack::new();
+        for k in 0..count {
+            let t = f64::from(k) * 0.02;
+            let pose = Pose {
+                x: Meters::from_num(t),
+                y: Meters::from_num(0.1 * t),
+                yaw: FineAngle::from_bits((t / core::f64::consts::TAU * 4_294_967_296.0) as u32),
+                ..Pose::IDENTITY
+            };
+            track
+                .push(t0_us.wrapping_add(k * 20_000), pose, t0_us)
+                .unwrap();
+        }
+        track
+    }
+
+    #[test]
+    fn timed_returns_take_the_pose_of_their_moment_by_the_quantum_rule() {
+        // The clock wraps during the packets.
+        let t0 = u32::MAX - 30_000;
+        let track = moving_track(t0, 16);
+        let first = FineAngle::from_quarter_degrees(40);
+        let (mut whole, mut p) = lidar(0);
+        let (mut single, mut q) = lidar(0);
+        let mut in_force: Option<u32> = None;
+        let mut placed = 0;
+        let mut span = (0_u32, 0_u32);
+        for n in 0..40_u32 {
+            // Packets of 12 returns over 2.2 ms, 2.67 ms apart, 10 ms after the first pose.
+            let start = t0.wrapping_add(10_000 + n * 2_667);
+            let times = PacketTimes {
+                first_us: start,
+                last_us: start.wrapping_add(2_200),
+            };
+            let returns = floor_returns(f64::from(n) * 9.6, 15.0);
+            whole
+                .packet_timed(
+                    &mut p,
+                    returns.clone(),
+                    false,
+                    PacketActuator::still(first),
+                    times,
+                    &track,
+                )
+                .unwrap();
+            // The same rule, return by return: the pose at the return's own time (k·200 µs),
+            // kept while within 1 ms of the time it was evaluated at.
+            for (k, r) in returns.iter().enumerate() {
+                let t = start.wrapping_add(k as u32 * 200);
+                if r.range_mm == 0 {
+                    continue;
+                }
+                if in_force.is_none_or(|f| t.wrapping_sub(f) as i32 >= 1_000) {
+                    in_force = Some(t);
+                }
+                let pose = track.at(in_force.unwrap()).unwrap().0;
+                single.set_pose(pose);
+                single
+                    .packet(&mut q, [*r], false, PacketActuator::still(first))
+                    .unwrap();
+                if placed == 0 {
+                    span.0 = t;
+                }
+                span.1 = t;
+                placed += 1;
+            }
+        }
+        assert!(placed > 100);
+        whole.end_observation(&mut p);
+        single.end_observation(&mut q);
+        assert_eq!(whole.classifier_stats(), single.classifier_stats());
+        assert_eq!(all_cells(&p), all_cells(&q));
+        assert_eq!(whole.pose(), single.pose());
+        assert_eq!(whole.stats().returns_extrapolated, 0);
+        assert_eq!(whole.stats().returns_without_pose, 0);
+        assert_eq!(
+            whole.take_observed(),
+            Some(ObservedSpan {
+                observation: 1,
+                first_us: span.0,
+                last_us: span.1
+            })
+        );
+        assert_eq!(whole.take_observed(), None);
+        assert_eq!(single.take_observed(), None);
+    }
+
+    #[test]
+    fn timed_returns_past_the_track_are_extrapolated_then_refused() {
+        let track = moving_track(0, 2);
+        let (mut f, mut p) = lidar(0);
+        let returns = floor_returns(0.0, 15.0);
+        let placeable = returns.iter().filter(|r| r.range_mm != 0).count() as u32;
+        assert!(placeable > 0);
+        let packet = |f: &mut Frontend<4096, 8>, p: &mut Pyramid<64, 8>, first_us: u32| {
+            let times = PacketTimes {
+                first_us,
+                last_us: first_us + 2_200,
+            };
+            let act = PacketActuator::still(FineAngle::from_quarter_degrees(60));
+            f.packet_timed(p, returns.clone(), false, act, times, &track)
+                .unwrap();
+        };
+        // Within 100 ms of the newest pose (20 ms): extrapolated.
+        packet(&mut f, &mut p, 100_000);
+        assert_eq!(f.stats().returns_extrapolated, placeable);
+        assert_eq!(f.stats().returns_without_pose, 0);
+        // Past it: refused, counted, and nothing more placed.
+        let points = f.classifier_stats().points;
+        packet(&mut f, &mut p, 130_000);
+        assert_eq!(f.stats().returns_without_pose, placeable);
+        assert_eq!(f.classifier_stats().points, points);
+        // Before the oldest pose: refused too.
+        packet(&mut f, &mut p, 0_u32.wrapping_sub(5_000));
+        assert_eq!(f.stats().returns_without_pose, 2 * placeable);
+    }
+
+    #[test]
+    fn a_timed_sick_line_with_a_still_robot_is_the_untimed_line() {
+        // A track that holds one pose for the whole line places it as set_pose does.
+        let pose = Pose {
+            x: Meters::from_num(0.25),
+            yaw: FineAngle::from_quarter_degrees(40),
+            ..Pose::IDENTITY
+        };
+        let mut track = PoseTrack::<4>::new();
+        track.push(0, pose, 0).unwrap();
+        track.push(40_000, pose, 0).unwrap();
+        let (mut timed, mut p) = setup(1);
+        let (mut untimed, mut q) = setup(1);
+        untimed.set_pose(pose);
+        let values = ranges_mm(20.0);
+        let line = MeasuredValues::new(Unit::Millimetre, 0, &values, None, 0).unwrap();
+        for f in [&mut timed, &mut untimed] {
+            f.set_actuator(FineAngle::from_quarter_degrees(80));
+        }
+        timed.line_timed(&mut p, &line, 30_000, &track).unwrap();
+        untimed.line(&mut q, &line).unwrap();
+        assert_eq!(timed.classifier_stats(), untimed.classifier_stats());
+        assert_eq!(all_cells(&p), all_cells(&q));
+        // The 0.5° line spans two mirror turns: its first beam 19.98 ms before its last.
+        let span = timed.take_observed().unwrap();
+        assert!(span.last_us <= 30_000 && span.last_us > 29_000, "{span:?}");
+        assert!(
+            span.first_us >= 30_000 - 19_982 && span.first_us < 11_000,
+            "{span:?}"
+        );
+        assert_eq!(untimed.take_observed(), None, "an untimed line has no span");
+        // A line whose beams all precede the track is refused beam by beam.
+        let (mut early, mut r) = setup(1);
+        early.set_actuator(FineAngle::from_quarter_degrees(80));
+        early.line_timed(&mut r, &line, 10_000, &track).unwrap();
+        let s = early.stats();
+        assert!(
+            s.returns_without_pose > 0 && s.returns_without_pose < s.returns,
+            "{s:?}"
+        );
     }
 }

@@ -273,3 +273,80 @@ fn an_encoders_readings_are_interpolated_per_return() {
     assert_eq!(c.frontend.packets_applied, 280);
     assert_eq!(obstacles(&core), 0);
 }
+
+/// Stamped poses: counted, refused, restarted after a gap; while the track holds one, each
+/// packet's returns are placed at their own moments and the observation's span is known; an
+/// unstamped pose or a Setup returns to the latest-pose rule.
+#[test]
+fn stamped_poses_place_returns_at_their_moments_and_are_counted() {
+    use crate::geometry::Pose;
+    let mut core = booted();
+    core.host(&command(0, &Message::Setup(setup(0, 0.0))));
+    output(&mut core);
+    core.host(&pan(1, 0x0E39));
+    let at = |x: f64| Pose {
+        x: Meters::from_num(x),
+        ..Pose::IDENTITY
+    };
+    // 1 m/s along x, stamped every 20 ms, 30 ms late: the pose for t arrives at t + 30 ms.
+    let mut next_pose = 0_u32;
+    let mut fed_to = 0_u32;
+    for n in 0..200 {
+        let now = arrival_us(n);
+        while next_pose * 20_000 + 30_000 <= now {
+            let t = next_pose * 20_000;
+            core.stamped_pose(t, at(f64::from(t) / 1e6));
+            next_pose += 1;
+        }
+        core.laser(&packet(n, |_| 20.0), now, &mut NoAngleSource);
+        fed_to = now;
+    }
+    core.end_observation();
+    let c = core.counters();
+    assert_eq!(c.app.poses_stamped, next_pose);
+    assert_eq!(c.app.poses_refused, 0);
+    // Packets before the first pose went the latest-pose way; after it, the returns at most
+    // 30 ms past the newest pose were extrapolated, none refused.
+    assert!(c.frontend.returns_extrapolated > 0, "{c:?}");
+    assert_eq!(c.frontend.returns_without_pose, 0);
+    let span = core.take_observed().unwrap();
+    assert_eq!(span.observation, c.frontend.observations);
+    // The floor is seen ahead only: the last return placed lies within a revolution of the
+    // end, the first after the first pose.
+    assert!(
+        span.last_us < fed_to && fed_to - span.last_us < 100_000,
+        "{span:?}"
+    );
+    assert!(
+        span.first_us > 0 && span.first_us < span.last_us,
+        "{span:?}"
+    );
+    assert_eq!(core.take_observed(), None);
+    // The robot moved: the window followed the pose in force at the observation's end.
+    let newest = core.pose_track().newest().unwrap();
+    assert!(
+        core.frontend().pose().x > newest.1.x,
+        "extrapolated past the newest"
+    );
+    // Out of order and far ahead: refused; a 600 ms gap: restarted.
+    core.stamped_pose(0, at(0.0));
+    core.stamped_pose(fed_to + 2_000_000, at(0.0));
+    assert_eq!(core.counters().app.poses_refused, 2);
+    core.stamped_pose(newest.0 + 600_000, at(9.0));
+    assert_eq!(core.counters().app.pose_gaps, 1);
+    assert_eq!(core.pose_track().len(), 1);
+    // Returns long after the newest pose are refused and counted (a packet ahead, at 0°).
+    core.laser(
+        &packet(225, |_| 20.0),
+        newest.0 + 800_000,
+        &mut NoAngleSource,
+    );
+    assert!(core.counters().frontend.returns_without_pose > 0);
+    // An unstamped pose clears the track, and so does a Setup.
+    core.set_pose(at(1.0));
+    assert!(core.pose_track().is_empty());
+    core.stamped_pose(newest.0 + 900_000, at(9.0));
+    assert_eq!(core.pose_track().len(), 1);
+    core.host(&command(2, &Message::Setup(setup(0, 0.0))));
+    assert!(core.pose_track().is_empty());
+}

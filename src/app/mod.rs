@@ -41,6 +41,13 @@
 //!   nodding servo the setup names), else the host's last PanAngle for the whole packet;
 //!   with none, the packet is dropped and counted. `docs/lidars.md` states the timing
 //!   model and its error budget.
+//! - **The robot's pose** is the latest Pose (unstamped, or [`CoProcessor::set_pose`]) for
+//!   every return, until stamped poses come in ([`CoProcessor::stamped_pose`]): then each
+//!   return is placed with the pose of its own measurement time, from a track of the last `N`
+//!   stamped poses ([`crate::geometry::pose_track`]; lidar returns timed as above, a SICK
+//!   line's beams from its mirror's turns); a return without a pose is refused and counted.
+//!   An unstamped pose or a Setup clears the track. When an observation placed timed returns,
+//!   [`CoProcessor::take_observed`] hands out its span of times once.
 //! - **Host commands** are validated by the link ([`Link::receive`]) and carried out here in
 //!   the order they arrive: Pose and PanAngle take effect for the next line; Setup
 //!   reconfigures the pipeline (the observation under way is discarded); Configure and Reset
@@ -67,7 +74,7 @@ use crate::angle::{Angle, FineAngle};
 use crate::classify::ClassifierStats;
 use crate::design::{Design, DesignError};
 use crate::drivers::angle::AngleSource;
-use crate::geometry::Pose;
+use crate::geometry::{Pose, PoseRefusal, PoseTrack, Taken};
 use crate::laser::{
     LaserCounters, LaserDecoder, LaserItem, PacketTimer, RevolutionTracker, Sensor,
 };
@@ -76,7 +83,9 @@ use crate::link::{
     Command, Link, LinkConfig, LinkCounters, PollReport, PoseCounters, Rejection, Request,
     SensorCounters,
 };
-use crate::pipeline::{Frontend, FrontendConfig, FrontendStats, PacketActuator};
+use crate::pipeline::{
+    Frontend, FrontendConfig, FrontendStats, ObservedSpan, PacketActuator, PacketTimes,
+};
 use crate::pyramid::{Applied, Config, Evidence, EvidenceClass, Fused, Pyramid, PyramidStats};
 use crate::units::{Meters, Weight};
 use crate::wire::link::{Header, Reply};
@@ -101,6 +110,14 @@ pub struct AppCounters {
     pub commands: u32,
     /// Host bytes dropped after a Shutdown.
     pub bytes_after_shutdown: u32,
+    /// Stamped poses taken into the pose track ([`CoProcessor::stamped_pose`]).
+    pub poses_stamped: u32,
+    /// Stamped poses refused: not later than the newest, or more than 1 s ahead of the
+    /// device's clock ([`crate::geometry::MAX_POSE_LEAD_US`]).
+    pub poses_refused: u32,
+    /// Stamped poses more than 500 ms after the newest ([`crate::geometry::MAX_POSE_GAP_US`]):
+    /// the track restarted at them.
+    pub pose_gaps: u32,
 }
 
 /// Every counter of the co-processor, by module.
@@ -206,7 +223,17 @@ enum Shutdown {
 /// SICK's 818 bytes, and about 100 bytes of timing and actuator state); `const`-built all
 /// zero bits, so a `static` one sits in `.bss` (build it in a `ConstStaticCell`, never on
 /// the stack).
-pub struct CoProcessor<const W: usize, const L: usize, const C: usize, const Q: usize> {
+///
+/// `N` is the capacity of the track of stamped poses ([`CoProcessor::stamped_pose`]; 28
+/// bytes a pose): 16 (320 ms at 50 Hz) unless the board chooses; with 0 a stamped pose is
+/// taken as the latest pose.
+pub struct CoProcessor<
+    const W: usize,
+    const L: usize,
+    const C: usize,
+    const Q: usize,
+    const N: usize = 16,
+> {
     pyramid: Pyramid<W, L>,
     frontend: Frontend<C, L>,
     link: Link<Q, L>,
@@ -230,10 +257,17 @@ pub struct CoProcessor<const W: usize, const L: usize, const C: usize, const Q: 
     /// The board's µs clock of the latest host bytes ([`CoProcessor::host_at`]).
     host_clock_us: u32,
     counters: AppCounters,
+    /// The robot's stamped poses: while it holds one, every return is placed with the pose
+    /// of its own moment.
+    poses: PoseTrack<N>,
+    /// The latest device time seen (laser bytes' arrival, a servo command), µs, and whether
+    /// any was: the bound on a stamped pose's lead is checked against it.
+    clock_us: u32,
+    clock_known: bool,
 }
 
-impl<const W: usize, const L: usize, const C: usize, const Q: usize> fmt::Debug
-    for CoProcessor<W, L, C, Q>
+impl<const W: usize, const L: usize, const C: usize, const Q: usize, const N: usize> fmt::Debug
+    for CoProcessor<W, L, C, Q, N>
 {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.debug_struct("CoProcessor")
@@ -244,15 +278,17 @@ impl<const W: usize, const L: usize, const C: usize, const Q: usize> fmt::Debug
     }
 }
 
-impl<const W: usize, const L: usize, const C: usize, const Q: usize> Default
-    for CoProcessor<W, L, C, Q>
+impl<const W: usize, const L: usize, const C: usize, const Q: usize, const N: usize> Default
+    for CoProcessor<W, L, C, Q, N>
 {
     fn default() -> Self {
         Self::new()
     }
 }
 
-impl<const W: usize, const L: usize, const C: usize, const Q: usize> CoProcessor<W, L, C, Q> {
+impl<const W: usize, const L: usize, const C: usize, const Q: usize, const N: usize>
+    CoProcessor<W, L, C, Q, N>
+{
     /// An unconfigured co-processor: it refuses every line and sends nothing until
     /// [`boot`](Self::boot)ed. `const` and all zero bits, so a `static` one sits in `.bss` and
     /// costs no flash.
@@ -278,7 +314,13 @@ impl<const W: usize, const L: usize, const C: usize, const Q: usize> CoProcessor
                 laser_overruns: 0,
                 commands: 0,
                 bytes_after_shutdown: 0,
+                poses_stamped: 0,
+                poses_refused: 0,
+                pose_gaps: 0,
             },
+            poses: PoseTrack::new(),
+            clock_us: 0,
+            clock_known: false,
         }
     }
 
@@ -360,6 +402,8 @@ impl<const W: usize, const L: usize, const C: usize, const Q: usize> CoProcessor
             }
         }
         self.frontend.configure(setup);
+        // A new setup starts from the latest-pose rule.
+        self.poses.clear();
     }
 
     /// Ends the observation under way now and applies it (the host's EndObservation does
@@ -369,9 +413,61 @@ impl<const W: usize, const L: usize, const C: usize, const Q: usize> CoProcessor
     }
 
     /// The robot's pose from now on, from a source on the board (odometry, an IMU); the
-    /// host's Pose frames do the same.
-    pub fn set_pose(&mut self, pose: crate::geometry::Pose) {
+    /// host's unstamped Pose frames do the same. The track of stamped poses is cleared: every
+    /// return takes this pose until the next (the latest-pose rule).
+    pub fn set_pose(&mut self, pose: Pose) {
+        self.poses.clear();
         self.frontend.set_pose(pose);
+    }
+
+    /// The robot was at `pose` at `stamp_us` (the device's µs clock, wrapping): the pose
+    /// joins the track ([`crate::geometry::pose_track`]), and while the track holds a pose
+    /// every return is placed with the pose of its own measurement time. Counted in
+    /// [`AppCounters::poses_stamped`], or [`AppCounters::poses_refused`] (not later than the
+    /// newest, or more than 1 s ahead of the latest device time the co-processor has seen:
+    /// the laser bytes' arrival; before any, the lead is not checked); a gap of more than
+    /// 500 ms restarts the track ([`AppCounters::pose_gaps`]).
+    pub fn stamped_pose(&mut self, stamp_us: u32, pose: Pose) {
+        let now = if self.clock_known {
+            self.clock_us
+        } else {
+            // No clock seen yet: any stamp is within the lead of itself.
+            stamp_us
+        };
+        if N == 0 {
+            // No track: the latest-pose rule, with the pose counted as taken.
+            bump(&mut self.counters.poses_stamped);
+            self.frontend.set_pose(pose);
+            return;
+        }
+        match self.poses.push(stamp_us, pose, now) {
+            Ok(taken) => {
+                bump(&mut self.counters.poses_stamped);
+                if taken == Taken::Restarted {
+                    bump(&mut self.counters.pose_gaps);
+                }
+                // The newest pose may replace an extrapolation: evaluate afresh.
+                self.frontend.forget_timed_pose();
+            }
+            Err(PoseRefusal::NotNewer | PoseRefusal::TooFarAhead) => {
+                bump(&mut self.counters.poses_refused);
+            }
+        }
+    }
+
+    /// The track of stamped poses ([`stamped_pose`](Self::stamped_pose)).
+    #[must_use]
+    pub const fn pose_track(&self) -> &PoseTrack<N> {
+        &self.poses
+    }
+
+    /// The observation count and the span of measurement times of the returns of the last
+    /// observation applied with stamped poses in force, once (then `None` until the next):
+    /// what the link's Observed frame carries. `None` for observations placed by the
+    /// latest-pose rule. [`poll`](Self::poll) takes it and queues the Observed frame, so a
+    /// board that polls never needs this.
+    pub fn take_observed(&mut self) -> Option<ObservedSpan> {
+        self.frontend.take_observed()
     }
 
     /// Applies a few records and checks what the pyramid makes of them, then forgets them.
@@ -470,6 +566,8 @@ impl<const W: usize, const L: usize, const C: usize, const Q: usize> CoProcessor
         if self.shutdown != Shutdown::Running {
             return;
         }
+        self.clock_us = now_us;
+        self.clock_known = true;
         if self.servo.is_on() {
             self.servo.track(now_us);
         }
@@ -499,7 +597,25 @@ impl<const W: usize, const L: usize, const C: usize, const Q: usize> CoProcessor
                             Some(a) => {
                                 self.frontend.set_actuator(a);
                                 // A refused line is counted by the pipeline.
-                                let _ = self.frontend.line(&mut self.pyramid, &values);
+                                if self.poses.is_empty() {
+                                    let _ = self.frontend.line(&mut self.pyramid, &values);
+                                } else {
+                                    // The telegram's last byte arrived before the bytes
+                                    // still in the chunk; its last beam was measured one
+                                    // transmission time before that (docs/lidars.md).
+                                    let end = arrival_us
+                                        .wrapping_sub(self.timer.bytes_us(chunk.len()))
+                                        .wrapping_sub(
+                                            self.timer.bytes_us(telegram.as_bytes().len()),
+                                        );
+                                    Self::timed_line(
+                                        &mut self.frontend,
+                                        &mut self.pyramid,
+                                        &self.poses,
+                                        &values,
+                                        end,
+                                    );
+                                }
                             }
                             None => bump(&mut self.counters.lines_without_angle),
                         }
@@ -536,14 +652,33 @@ impl<const W: usize, const L: usize, const C: usize, const Q: usize> CoProcessor
                         }),
                     };
                     match actuator {
-                        Some((first, last)) => {
+                        Some((first_angle, last_angle)) => {
+                            let actuator = PacketActuator {
+                                first: first_angle,
+                                last: last_angle,
+                            };
                             // A refused packet is counted by the pipeline.
-                            let _ = self.frontend.packet(
-                                &mut self.pyramid,
-                                packet.returns(),
-                                starts,
-                                PacketActuator { first, last },
-                            );
+                            if self.poses.is_empty() {
+                                let _ = self.frontend.packet(
+                                    &mut self.pyramid,
+                                    packet.returns(),
+                                    starts,
+                                    actuator,
+                                );
+                            } else {
+                                Self::timed_packet(
+                                    &mut self.frontend,
+                                    &mut self.pyramid,
+                                    &self.poses,
+                                    &packet,
+                                    starts,
+                                    actuator,
+                                    PacketTimes {
+                                        first_us: first,
+                                        last_us: last,
+                                    },
+                                );
+                            }
                         }
                         None => bump(&mut self.counters.lines_without_angle),
                     }
@@ -554,11 +689,42 @@ impl<const W: usize, const L: usize, const C: usize, const Q: usize> CoProcessor
         }
     }
 
+    /// A SICK line placed by stamped poses (out of line: the untimed path's stack frame stays
+    /// as it was; a refused line is counted by the pipeline).
+    #[inline(never)]
+    fn timed_line(
+        frontend: &mut Frontend<C, L>,
+        pyramid: &mut Pyramid<W, L>,
+        poses: &PoseTrack<N>,
+        values: &MeasuredValues<'_>,
+        last_beam_us: u32,
+    ) {
+        let _ = frontend.line_timed(pyramid, values, last_beam_us, poses);
+    }
+
+    /// A lidar packet placed by stamped poses (out of line, as [`Self::timed_line`]).
+    #[inline(never)]
+    fn timed_packet(
+        frontend: &mut Frontend<C, L>,
+        pyramid: &mut Pyramid<W, L>,
+        poses: &PoseTrack<N>,
+        packet: &crate::laser::Packet<'_>,
+        starts: bool,
+        actuator: PacketActuator,
+        times: PacketTimes,
+    ) {
+        let _ = frontend.packet_timed(pyramid, packet.returns(), starts, actuator, times, poses);
+    }
+
     /// The angle to command a nodding servo at `now_us` (the board's clock, µs), when the
     /// setup has one: the board writes it to the servo's PWM (`drivers::servo`) every step of
     /// its main loop. The first call begins the sweep (a settling hold at its lower end);
     /// `None` without a servo.
     pub fn actuator_command(&mut self, now_us: u32) -> Option<FineAngle> {
+        if self.servo.is_on() {
+            self.clock_us = now_us;
+            self.clock_known = true;
+        }
         self.servo.is_on().then(|| self.servo.command(now_us))
     }
 
@@ -636,20 +802,22 @@ impl<const W: usize, const L: usize, const C: usize, const Q: usize> CoProcessor
     /// exchange.
     pub fn host_at(&mut self, bytes: &[u8], now_us: u32) {
         self.host_clock_us = now_us;
+        // The stamped poses' lead is checked against the latest device time seen.
+        self.clock_us = now_us;
+        self.clock_known = true;
         self.host(bytes);
-    }
-
-    /// Takes a stamped pose: the robot at `pose` at `stamp_us` of the device's µs clock
-    /// (wrapping), from a Pose whose flags have `POSE_STAMPED`.
-    pub fn stamped_pose(&mut self, stamp_us: u32, pose: Pose) {
-        // placement: see pipeline
-        let _ = stamp_us;
-        self.frontend.set_pose(pose);
     }
 
     /// The pose track's counters that Stats carries (Stats i = 30 ..= 34).
     fn pose_counters(&self) -> PoseCounters {
-        PoseCounters::ZERO
+        let frontend = self.frontend.stats();
+        PoseCounters {
+            poses_stamped: self.counters.poses_stamped,
+            poses_refused: self.counters.poses_refused,
+            pose_gaps: self.counters.pose_gaps,
+            returns_extrapolated: frontend.returns_extrapolated,
+            returns_without_pose: frontend.returns_without_pose,
+        }
     }
 
     /// Carries out one validated command and answers it.
@@ -659,7 +827,7 @@ impl<const W: usize, const L: usize, const C: usize, const Q: usize> CoProcessor
             return;
         };
         match command {
-            Command::Pose(pose, None) => self.frontend.set_pose(pose),
+            Command::Pose(pose, None) => self.set_pose(pose),
             Command::Pose(pose, Some(stamp_us)) => self.stamped_pose(stamp_us, pose),
             Command::PanAngle(angle) => self.host_angle = Some(angle),
             Command::Configure(design, config) => match self.configure(&design, &config) {
@@ -733,6 +901,13 @@ impl<const W: usize, const L: usize, const C: usize, const Q: usize> CoProcessor
     /// Queues what is due on the host link (Hello, WindowMoved, Stats, changed tiles within
     /// the budget); `now_ms` is the board's clock in milliseconds (wrapping).
     pub fn poll(&mut self, now_ms: u32) -> PollReport {
+        // The last observation placed with stamped poses goes out ahead of its patches.
+        if let Some(span) = self.frontend.take_observed() {
+            // A full queue drops it (counted by the link as a lost control frame).
+            let _ = self
+                .link
+                .observed(span.observation, span.first_us, span.last_us);
+        }
         let sensor = self.sensor_counters();
         self.link.poll(now_ms, &mut self.pyramid, &sensor)
     }

@@ -568,6 +568,8 @@ fn bench(opts: &Opts) -> Result<()> {
         (M4F, "decay"),
         (M0, "pyramid-decay"),
         (M0, "decay"),
+        (M4F, "pyramid-timed"),
+        (M0, "pyramid-timed"),
     ];
     // `BENCH_ONLY=thumbv7em-none-eabihf/pyramid,…` restricts the runs (for profiling).
     let only = std::env::var("BENCH_ONLY").ok();

@@ -35,6 +35,11 @@ pub trait Pipeline {
     fn set_actuator(&mut self, turns: u16);
     /// A pose event: x, y, z (m), roll, pitch, yaw (rad).
     fn set_pose(&mut self, pose: [f32; 6]);
+    /// A pose event with the recording's time of it (µs): [`set_pose`](Self::set_pose)
+    /// unless the pipeline takes stamped poses ([`TimedCore`]).
+    fn set_pose_at(&mut self, pose: [f32; 6], _time_us: u64) {
+        self.set_pose(pose);
+    }
     /// Laser bytes as the UART delivers them, at the recording's clock (ms).
     fn laser(&mut self, bytes: &[u8], now_ms: u32);
     /// The end of the recording: the last observation is applied.
@@ -71,7 +76,7 @@ pub fn replay<P: Pipeline>(recording: &[u8], pipeline: &mut P) {
         let Ok(event) = event else { break };
         match event.payload {
             Payload::Angle(turns) => pipeline.set_actuator(turns),
-            Payload::Pose(pose) => pipeline.set_pose(pose),
+            Payload::Pose(pose) => pipeline.set_pose_at(pose, event.time_us),
             Payload::Laser(bytes) => {
                 let now_ms = u32::try_from(event.time_us / 1000).unwrap_or(u32::MAX);
                 pipeline.laser(bytes, now_ms);
@@ -130,6 +135,49 @@ impl<const W: usize, const L: usize, const C: usize, const Q: usize> Pipeline
 
     fn lines(&self) -> u32 {
         self.core.frontend().stats().lines_applied
+    }
+}
+
+/// [`Core`] taking the recording's poses as stamped poses at their recording times (the
+/// device's µs clock is the recording's): every return is placed with the pose interpolated
+/// at its own time (`CoProcessor::stamped_pose`), the timed path's cost.
+pub struct TimedCore<'a, const W: usize, const L: usize, const C: usize, const Q: usize>(
+    pub Core<'a, W, L, C, Q>,
+);
+
+impl<const W: usize, const L: usize, const C: usize, const Q: usize> Pipeline
+    for TimedCore<'_, W, L, C, Q>
+{
+    fn set_actuator(&mut self, turns: u16) {
+        self.0.set_actuator(turns);
+    }
+
+    fn set_pose(&mut self, pose: [f32; 6]) {
+        self.0.set_pose(pose);
+    }
+
+    fn set_pose_at(&mut self, pose: [f32; 6], time_us: u64) {
+        if let Some(pose) = pose_of(pose) {
+            // The device's clock wraps as the recording's µs do.
+            #[allow(clippy::cast_possible_truncation)]
+            self.0.core.stamped_pose(time_us as u32, pose);
+        }
+    }
+
+    fn laser(&mut self, bytes: &[u8], now_ms: u32) {
+        self.0.laser(bytes, now_ms);
+    }
+
+    fn finish(&mut self) {
+        self.0.finish();
+    }
+
+    fn returns(&self) -> u32 {
+        self.0.returns()
+    }
+
+    fn lines(&self) -> u32 {
+        self.0.lines()
     }
 }
 

@@ -9,6 +9,7 @@
 //! | [`decay`] | decay toward unknown: the step in both arithmetics, the time constants, the sweep |
 //! | [`window`] | the robot-centric windows as hash maps of world cells; evidence; counts |
 //! | [`fused`] | the fused query and the region export |
+//! | [`placement`] | the pose of each return's moment: the stamped poses, interpolation, extrapolation, the quantum |
 
 pub mod bands;
 pub mod bound;
@@ -16,4 +17,5 @@ pub mod decay;
 pub mod fused;
 pub mod gate;
 pub mod logodds;
+pub mod placement;
 pub mod window;

@@ -1,0 +1,34 @@
+//! `pyramid` with the recording's poses taken as stamped poses at their recording times: each
+//! return placed with the pose interpolated at its own time (the timed path's cost).
+#![no_std]
+#![no_main]
+
+use bench_firmware as b;
+use static_cell::ConstStaticCell;
+use terrain_pyramid::drivers::angle::HostSuppliedAngle;
+use terrain_pyramid::DefaultCoProcessor;
+use terrain_pyramid_bench::{boot, default_design, replay, Core, Pipeline, TimedCore};
+
+static CORE: ConstStaticCell<DefaultCoProcessor> = ConstStaticCell::new(DefaultCoProcessor::new());
+
+#[cortex_m_rt::entry]
+fn main() -> ! {
+    let rec = b::recording();
+    let core = CORE.take();
+    let Some(design) = default_design::<64, 8>() else {
+        panic!("default design");
+    };
+    if !boot(core, rec, &design) {
+        panic!("boot");
+    }
+    let mut p = TimedCore(Core {
+        core,
+        angle: HostSuppliedAngle::new(),
+    });
+    let top = b::paint_stack();
+    b::start();
+    replay(rec, &mut p);
+    b::end();
+    let stack = b::stack_used(top);
+    b::report(p.returns(), p.lines(), 0, stack)
+}
