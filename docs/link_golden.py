@@ -11,7 +11,7 @@ output as hex literals; run it to see them again:
 import struct
 import zlib
 
-VERSION = 3
+VERSION = 4
 
 
 def cobs(data: bytes) -> bytes:
@@ -75,7 +75,24 @@ def main() -> None:
     g["snapshot all 7"] = frame(0x85, 7, b"\xff")
     g["snapshot layer 2, 8"] = frame(0x85, 8, b"\x02")
     g["pan 9"] = frame(0x82, 9, struct.pack("<HI", 0x4000, 123_456))
-    g["pose 10"] = frame(0x81, 10, struct.pack("<6fI", 1.5, -2.25, 0, 0, 0, 3.140625, 1000))
+    # Pose: the six fields, stamp_us, flags (bit 0 STAMPED).
+    g["pose 10 (unstamped)"] = frame(
+        0x81, 10, struct.pack("<6fIB", 1.5, -2.25, 0, 0, 0, 3.140625, 1000, 0)
+    )
+    g["pose 11 (stamped at 4 000 000 us)"] = frame(
+        0x81, 11, struct.pack("<6fIB", 1.5, -2.25, 0.125, 0, 0.25, -1.5, 4_000_000, 1)
+    )
+    # TimeRequest (host_us u64), TimeReply (host_us u64, device_us u32, queued_ahead u16),
+    # Observed (observation, first_us, last_us: u32).
+    g["time request 12 (host 1 234 567 890 123 us)"] = frame(
+        0x8C, 12, struct.pack("<Q", 1_234_567_890_123)
+    )
+    g["time reply 0x0108 (host 1 234 567 890 123, device 4 000 123 us, 300 ahead)"] = frame(
+        0x07, 0x0108, struct.pack("<QIH", 1_234_567_890_123, 4_000_123, 300)
+    )
+    g["observed 0x0109 (observation 42, 3 990 000 ..= 4 090 000 us)"] = frame(
+        0x08, 0x0109, struct.pack("<III", 42, 3_990_000, 4_090_000)
+    )
     g["configure 11 (decay off)"] = frame(0x83, 11, configure_body())
     tau = [54, 54, 70, 70, 86, 86, 0, 0] + [0] * 24
     g["configure 12 (decay obstacle, tau 9.9 s / 19.9 s / 39.7 s)"] = frame(
@@ -87,7 +104,7 @@ def main() -> None:
     g["patch 0x0102"] = frame(0x02, 0x0102, patch)
     moved = struct.pack("<I", 0b101) + struct.pack("<ii", -31, -32) + struct.pack("<ii", -16, -33)
     g["moved 0x0103"] = frame(0x03, 0x0103, moved)
-    g["stats 0x0104"] = frame(0x04, 0x0104, struct.pack("<30I", *range(1, 31)))
+    g["stats 0x0104"] = frame(0x04, 0x0104, struct.pack("<36I", *range(1, 37)))
     g["reply ok to configure 11, 0x0105"] = frame(
         0x05, 0x0105, struct.pack("<HBBBfff", 11, 0x83, 0, 0, 0, 0, 0)
     )
@@ -104,20 +121,36 @@ def main() -> None:
     decayed += struct.pack("<HHI", 62, 3, 5)  # layer 0: rows 62, 63, 0; 5 cells faded
     decayed += struct.pack("<HHI", 10, 1, 0)  # layer 3: row 10; none faded
     g["decayed 0x0107"] = frame(0x06, 0x0107, decayed)
-    # Setup: the base part (38 bytes) and the laser block (22 bytes: sensor, actuator, baud,
-    # servo min, max, rate, latency).
+    # Setup: the base part (38 bytes), the rule block (21 bytes: rule, max grade, residual,
+    # range sigma, angle sigma, noise factor) and the laser block (22 bytes: sensor, actuator,
+    # baud, servo min, max, rate, latency).
+    spread = struct.pack("<B5f", 0, 0.0, 0.0, 0.0, 0.0, 0.0)
+    # The plane rule's Q16.16 defaults, exact in f32.
+    plane = struct.pack("<B5f", 1, 23853 / 65536, 983 / 65536, 1311 / 65536, 86 / 65536, 2.0)
     setup = struct.pack("<BBHH3fI4f", 1, 0, 180, 50, 0.25, -0.5, 0.75, 0, 1.0, 0.05, 0.0, 2.0)
+    setup += spread
     setup += struct.pack("<BBI4f", 0, 0, 0, 0.0, 0.0, 0.0, 0.0)
-    assert len(setup) == 60
+    assert len(setup) == 81
     g["setup 7 (a SICK, external actuator)"] = frame(0x87, 7, setup)
     lidar = struct.pack("<BBHH3fI4f", 1, 0, 0, 0, 0.1, 0.0, 0.4, 2, 0.5, 0.08, 0.0, 0.0)
+    lidar += plane
     lidar += struct.pack("<BBI4f", 1, 1, 0, -10.0, 30.0, 60.0, 25.0)
-    assert len(lidar) == 60
+    assert len(lidar) == 81
     g["setup 8 (an LD06 on a nodding servo)"] = frame(0x87, 8, lidar)
     g["request stats 2"] = frame(0x88, 2, b"")
     g["shutdown 2"] = frame(0x89, 2, b"")
     g["end observation 2"] = frame(0x8A, 2, b"")
+    # SetRule: the step, then a rule block.
+    g["set rule 9 (spread, step 0.08)"] = frame(0x8B, 9, struct.pack("<f", 0.08) + spread)
+    g["set rule 10 (plane defaults, step 3277 / 65536)"] = frame(
+        0x8B, 10, struct.pack("<f", 3277 / 65536) + plane
+    )
+    # The refusal of a pose flag byte 2 (param 38, OutOfRange 3, limits 0 and 1).
+    g["reply refusing pose flags, 0x010a"] = frame(
+        0x05, 0x010A, struct.pack("<HBBBfff", 13, 0x81, 3, 38, 2.0, 0.0, 1.0)
+    )
     g["ping 1, version 2"] = frame(0x86, 1, b"", version=2)
+    g["ping 1, version 3"] = frame(0x86, 1, b"", version=3)
     for name, b in g.items():
         print(f"{name}:\n  {hexs(b)}")
     # The CRC's check value (section 2).

@@ -199,7 +199,8 @@ fn main() {
             roll_rad: 0.0,
             pitch_rad: 0.01,
             yaw_rad: 0.5,
-            timestamp_ms: 1234,
+            stamp_us: 1234,
+            flags: 0,
         }),
         Message::PanAngle(PanAngle {
             turns: 0x4000,

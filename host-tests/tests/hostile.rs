@@ -291,7 +291,8 @@ fn link_message() -> impl Strategy<Value = Message<'static>> {
                 roll_rad: 0.0,
                 pitch_rad: 0.0,
                 yaw_rad: yaw,
-                timestamp_ms: t,
+                stamp_us: t,
+                flags: 0,
             })),
         (any::<u16>(), any::<u32>()).prop_map(|(turns, t)| Message::PanAngle(PanAngle {
             turns,

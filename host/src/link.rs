@@ -26,8 +26,8 @@
 use terrain_pyramid::decay::{decayed, DecayMode};
 use terrain_pyramid::wire::link::{
     encode, ClockSource, Decayed, DecodeError, Decoded, EncodeError, FirmwareVersion,
-    FrameAccumulator, Header, Hello, HelloReason, LayerPatch, Message, Reply, RxCounters, Stats,
-    Undecoded, WindowMoved, MAX_ENCODED_FRAME, MAX_FRAME,
+    FrameAccumulator, Header, Hello, HelloReason, LayerPatch, Message, Observed, Reply, RxCounters,
+    Stats, TimeReply, Undecoded, WindowMoved, MAX_ENCODED_FRAME, MAX_FRAME,
 };
 use terrain_pyramid::wire::FeedResult;
 use terrain_pyramid::Cell;
@@ -52,6 +52,14 @@ pub enum LinkEvent {
     /// A decay step made these cells unknown (they held evidence before): what a planner that
     /// keeps its own map must forget.
     Faded(Vec<FadedCell>),
+    /// The device answered a TimeRequest (protocol version 4): the request's host time
+    /// echoed, the device's µs clock when it took the request, the bytes queued ahead of the
+    /// reply. Leaves the mirror as it is.
+    TimeReply(TimeReply),
+    /// The device applied an observation (protocol version 4): its count and the device µs
+    /// times of its earliest and latest return. Queued ahead of the patches it changed;
+    /// leaves the mirror as it is.
+    Observed(Observed),
 }
 
 /// A cell that decay made unknown.
@@ -426,6 +434,8 @@ impl Mirror {
                 events.push(LinkEvent::Stats(*stats));
             }
             Message::Reply(reply) => events.push(LinkEvent::Reply(*reply)),
+            Message::TimeReply(reply) => events.push(LinkEvent::TimeReply(*reply)),
+            Message::Observed(observed) => events.push(LinkEvent::Observed(*observed)),
             // Commands travel the other way; a device never sends them.
             _ => {}
         }
@@ -635,16 +645,20 @@ impl HostLink {
 }
 
 /// A sentence for a device that sent only frames of another protocol version (the firmware
-/// and this host do not match: an older firmware speaks version 2, this host version
-/// [`terrain_pyramid::wire::link::VERSION`]); empty otherwise.
+/// and this host do not match: this host speaks version
+/// [`terrain_pyramid::wire::link::VERSION`], 4, and a firmware of an earlier release version 3
+/// or older); empty otherwise.
 #[must_use]
 pub fn version_hint(rx: &RxCounters) -> String {
     if rx.unknown_version > 0 && rx.frames_ok == 0 {
+        let version = terrain_pyramid::wire::link::VERSION;
         format!(
-            " ({} frames of another protocol version and none of version {}: the firmware \
-             and this host do not match; flash the firmware of this release)",
+            " ({} frames of another protocol version and none of version {version}: the \
+             firmware and this host do not match (this host speaks protocol version {version}, \
+             a firmware of an earlier release version {} or older); flash the firmware of \
+             this release)",
             rx.unknown_version,
-            terrain_pyramid::wire::link::VERSION
+            version.saturating_sub(1)
         )
     } else {
         String::new()

@@ -672,7 +672,9 @@ fn receive(
                 LinkEvent::Reply(_)
                 | LinkEvent::Stats(_)
                 | LinkEvent::BadFrame(_)
-                | LinkEvent::Faded(_) => {}
+                | LinkEvent::Faded(_)
+                | LinkEvent::TimeReply(_)
+                | LinkEvent::Observed(_) => {}
             }
         }
         if let Some(outputs) = &mut session.outputs {
@@ -735,11 +737,7 @@ fn write_out(
     let Some(snapshot) =
         MapSnapshot::from_mirror(mirror, LogOddsFixed::ZERO, window_centre(mirror))
     else {
-        let hint = if rx.unknown_version > 0 && rx.frames_ok == 0 {
-            " (every frame was of another protocol version: the firmware and this host do not match)"
-        } else {
-            ""
-        };
+        let hint = crate::link::version_hint(&rx);
         return Err(format!(
             "no maps to write: the device sent no usable Hello in {:.1} s ({} good frames, {} bad){hint}",
             elapsed.as_secs_f64(),

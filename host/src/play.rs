@@ -247,7 +247,8 @@ fn send_pending(device: &mut impl Device, pending: &mut Pending) -> Result<(), S
             roll_rad,
             pitch_rad,
             yaw_rad,
-            timestamp_ms: 0,
+            stamp_us: 0,
+            flags: 0,
         }))?;
         sent = true;
     }
@@ -332,7 +333,8 @@ pub fn play_watched<D: Device>(
                     roll_rad,
                     pitch_rad,
                     yaw_rad,
-                    timestamp_ms: 0,
+                    stamp_us: 0,
+                    flags: 0,
                 };
                 if pose_of(&report).is_ok() {
                     sensor_xy = (f64::from(x_m), f64::from(y_m));

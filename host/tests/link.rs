@@ -168,7 +168,7 @@ fn reply() -> impl Strategy<Value = Owned> {
 }
 
 fn commands() -> impl Strategy<Value = Owned> {
-    let pose = (prop::array::uniform6(float()), any::<u32>()).prop_map(|(f, timestamp_ms)| {
+    let pose = (prop::array::uniform6(float()), any::<u32>()).prop_map(|(f, stamp_us)| {
         Owned::Msg(Message::Pose(PoseReport {
             x_m: f[0],
             y_m: f[1],
@@ -176,7 +176,8 @@ fn commands() -> impl Strategy<Value = Owned> {
             roll_rad: f[3],
             pitch_rad: f[4],
             yaw_rad: f[5],
-            timestamp_ms,
+            stamp_us,
+            flags: 0,
         }))
     });
     let pan = any::<(u16, u32)>().prop_map(|(turns, timestamp_ms)| {
@@ -374,7 +375,8 @@ proptest! {
         let f = bits.map(f32::from_bits);
         let pose = Owned::Msg(Message::Pose(PoseReport {
             x_m: f[0], y_m: f[1], z_m: f[2], roll_rad: f[3], pitch_rad: f[4], yaw_rad: f[5],
-            timestamp_ms: 0,
+            stamp_us: 0,
+            flags: 0,
         }));
         let bytes = encoded(3, &pose);
         let mut acc = FrameAccumulator::<MAX_FRAME>::new();
@@ -1037,7 +1039,7 @@ fn a_version_2_device_is_refused_and_named() {
     let hint = terrain_pyramid_host::link::version_hint(&rx);
     assert!(hint.contains("do not match"), "{hint}");
     assert!(hint.contains("version 3"), "{hint}");
-    // A version-3 frame clears it.
+    // A frame of this version clears it.
     host.feed(&device_frame(
         0,
         &Message::Reply(terrain_pyramid::wire::link::Reply::code(
@@ -1053,4 +1055,53 @@ fn a_version_2_device_is_refused_and_named() {
         terrain_pyramid_host::link::version_hint(&host.rx_counters()),
         ""
     );
+}
+
+/// A version-3 device (the release before the time exchange): its frames are refused whole
+/// and the host names both versions. The Reply Ok to Configure of the version-3 worked examples
+/// (`docs/link_golden.py` with version 3), whose CRC is good.
+#[test]
+fn a_version_3_device_is_refused_and_named() {
+    let mut host = HostLink::new();
+    // Reply Ok to configure 11, seq 0x0105, version 3.
+    let v3 = [
+        0x06, 0x03, 0x05, 0x05, 0x01, 0x0b, 0x02, 0x83, 0x01, 0x01, 0x01, 0x01, 0x01, 0x01, 0x01,
+        0x01, 0x01, 0x01, 0x01, 0x01, 0x01, 0x05, 0xf4, 0x22, 0x38, 0x2a, 0x00,
+    ];
+    let events = host.feed(&v3);
+    assert!(events
+        .iter()
+        .all(|e| matches!(e, LinkEvent::BadFrame(DecodeError::UnknownVersion(3)))));
+    let rx = host.rx_counters();
+    assert_eq!((rx.unknown_version, rx.frames_ok), (1, 0));
+    let hint = terrain_pyramid_host::link::version_hint(&rx);
+    assert!(hint.contains("do not match"), "{hint}");
+    assert!(hint.contains("version 4") && hint.contains("version 3"), "{hint}");
+}
+
+/// The frames of version 4 that carry the device's clock become events and leave the mirror
+/// as it is.
+#[test]
+fn time_replies_and_observed_frames_become_events() {
+    use terrain_pyramid::wire::link::{Observed, TimeReply};
+    let mut host = HostLink::new();
+    let reply = TimeReply {
+        host_us: 1_234_567_890_123,
+        device_us: 4_000_123,
+        queued_ahead: 300,
+    };
+    let observed = Observed {
+        observation: 42,
+        first_us: 3_990_000,
+        last_us: 4_090_000,
+    };
+    let mut bytes = device_frame(0, &Message::TimeReply(reply));
+    bytes.extend(device_frame(1, &Message::Observed(observed)));
+    let events = host.feed(&bytes);
+    assert_eq!(
+        events,
+        [LinkEvent::TimeReply(reply), LinkEvent::Observed(observed)]
+    );
+    assert_eq!(host.counters().frames, 2);
+    assert_eq!(host.mirror().layer_count(), 0);
 }

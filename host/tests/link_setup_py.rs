@@ -1,8 +1,8 @@
-//! The link's Setup frame (protocol version 3, with its navigability rule block) against an
-//! independent encoder written from `docs/protocol.md` alone: `host/tests/py/link_setup.py`
-//! (Python's `struct`, `zlib.crc32` and a COBS of its own). Every field is given to both in
-//! wire order; the frames must be equal byte for byte, and the library must decode Python's
-//! frame back to the same Setup.
+//! The link's Setup frame (protocol version 4; its body, with the navigability rule block, as
+//! in version 3) against an independent encoder written from `docs/protocol.md` alone:
+//! `host/tests/py/link_setup.py` (Python's `struct`, `zlib.crc32` and a COBS of its own). Every
+//! field is given to both in wire order; the frames must be equal byte for byte, and the
+//! library must decode Python's frame back to the same Setup.
 use std::process::Command;
 use terrain_pyramid::classify::ClassifierConfig;
 use terrain_pyramid::classify::{NavigabilityRule, PlaneRule, Ratio};
@@ -214,7 +214,7 @@ fn setup_frames_equal_an_independent_encoder() {
                 item: Decoded { header, message },
                 ..
             } => {
-                assert_eq!((header.version, header.seq), (3, seq));
+                assert_eq!((header.version, header.seq), (4, seq));
                 assert_eq!(message, Message::Setup(*setup));
             }
             other => panic!("Python's frame did not decode: {other:?}"),

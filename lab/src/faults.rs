@@ -1008,7 +1008,8 @@ fn wire_pose(p: [f32; 6]) -> PoseReport {
         roll_rad,
         pitch_rad,
         yaw_rad,
-        timestamp_ms: 0,
+        stamp_us: 0,
+        flags: 0,
     }
 }
 

@@ -616,7 +616,8 @@ pub fn execute(args: &Args) -> Result<Report, String> {
                     roll_rad: *roll_rad,
                     pitch_rad: *pitch_rad,
                     yaw_rad: *yaw_rad,
-                    timestamp_ms: 0,
+                    stamp_us: 0,
+                    flags: 0,
                 }))?;
             }
             Step::Telegram {

@@ -391,7 +391,8 @@ fn hold_frames(line: &DriveLine, last_pose: &mut Option<[f32; 6]>) -> Vec<Messag
             roll_rad,
             pitch_rad,
             yaw_rad,
-            timestamp_ms: line_ms(line),
+            stamp_us: 0,
+            flags: 0,
         }));
         *last_pose = Some(line.pose);
     }

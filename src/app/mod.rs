@@ -6,7 +6,7 @@
 //!
 //! ```text
 //! laser UART bytes ──▶ laser(bytes, now_us, angle source) ──▶ telegrams / packets ─▶ pipeline ─▶ pyramid
-//! host UART bytes  ──▶ host(bytes) ──▶ validated commands, carried out here
+//! host UART bytes  ──▶ host_at(bytes, now_us) ──▶ validated commands, carried out here
 //! clock            ──▶ poll(now_ms) ──▶ Hello, WindowMoved, Stats, patches queued
 //! host UART        ◀── drain(writer, limit) / take_output(buf)
 //! laser UART       ◀── take_laser_change(): the sensor and baud rate to set up
@@ -67,12 +67,14 @@ use crate::angle::{Angle, FineAngle};
 use crate::classify::ClassifierStats;
 use crate::design::{Design, DesignError};
 use crate::drivers::angle::AngleSource;
+use crate::geometry::Pose;
 use crate::laser::{
     LaserCounters, LaserDecoder, LaserItem, PacketTimer, RevolutionTracker, Sensor,
 };
 use crate::link::convert;
 use crate::link::{
-    Command, Link, LinkConfig, LinkCounters, PollReport, Rejection, Request, SensorCounters,
+    Command, Link, LinkConfig, LinkCounters, PollReport, PoseCounters, Rejection, Request,
+    SensorCounters,
 };
 use crate::pipeline::{Frontend, FrontendConfig, FrontendStats, PacketActuator};
 use crate::pyramid::{Applied, Config, Evidence, EvidenceClass, Fused, Pyramid, PyramidStats};
@@ -225,6 +227,8 @@ pub struct CoProcessor<const W: usize, const L: usize, const C: usize, const Q: 
     host_angle: Option<Angle>,
     /// Where the co-processor is in its life: running, asked to stop, stopped.
     shutdown: Shutdown,
+    /// The board's µs clock of the latest host bytes ([`CoProcessor::host_at`]).
+    host_clock_us: u32,
     counters: AppCounters,
 }
 
@@ -266,6 +270,7 @@ impl<const W: usize, const L: usize, const C: usize, const Q: usize> CoProcessor
             laser_change: false,
             host_angle: None,
             shutdown: Shutdown::Running,
+            host_clock_us: 0,
             counters: AppCounters {
                 telegrams_unparsed: 0,
                 lines_without_angle: 0,
@@ -591,6 +596,10 @@ impl<const W: usize, const L: usize, const C: usize, const Q: usize> CoProcessor
     /// Takes bytes from the host: every command they complete is validated by the link and
     /// carried out here, in order. After a Shutdown the rest is dropped (and counted) until
     /// the board answers it.
+    ///
+    /// The bytes carry no time: a TimeRequest they complete is answered with the device time
+    /// of the last [`host_at`](Self::host_at) (0 before any). A board with a µs clock calls
+    /// `host_at`.
     pub fn host(&mut self, bytes: &[u8]) {
         let mut chunk = bytes;
         while !chunk.is_empty() {
@@ -600,7 +609,7 @@ impl<const W: usize, const L: usize, const C: usize, const Q: usize> CoProcessor
                     self.counters.bytes_after_shutdown.saturating_add(n);
                 return;
             }
-            chunk = match self.link.receive(chunk) {
+            chunk = match self.link.receive_at(chunk, self.host_clock_us) {
                 FeedResult::Consumed => return,
                 FeedResult::Item {
                     item, remaining, ..
@@ -621,6 +630,28 @@ impl<const W: usize, const L: usize, const C: usize, const Q: usize> CoProcessor
         }
     }
 
+    /// [`host`](Self::host) for bytes the board took from the host UART at `now_us` of its
+    /// µs clock (wrapping; the clock the laser's bytes are timed with): a TimeRequest they
+    /// complete is answered with this time, the device's side of the host's clock
+    /// exchange.
+    pub fn host_at(&mut self, bytes: &[u8], now_us: u32) {
+        self.host_clock_us = now_us;
+        self.host(bytes);
+    }
+
+    /// Takes a stamped pose: the robot at `pose` at `stamp_us` of the device's µs clock
+    /// (wrapping), from a Pose whose flags have `POSE_STAMPED`.
+    pub fn stamped_pose(&mut self, stamp_us: u32, pose: Pose) {
+        // placement: see pipeline
+        let _ = stamp_us;
+        self.frontend.set_pose(pose);
+    }
+
+    /// The pose track's counters that Stats carries (Stats i = 30 ..= 34).
+    fn pose_counters(&self) -> PoseCounters {
+        PoseCounters::ZERO
+    }
+
     /// Carries out one validated command and answers it.
     fn execute(&mut self, request: Request<L>) {
         bump(&mut self.counters.commands);
@@ -628,7 +659,8 @@ impl<const W: usize, const L: usize, const C: usize, const Q: usize> CoProcessor
             return;
         };
         match command {
-            Command::Pose(pose) => self.frontend.set_pose(pose),
+            Command::Pose(pose, None) => self.frontend.set_pose(pose),
+            Command::Pose(pose, Some(stamp_us)) => self.stamped_pose(stamp_us, pose),
             Command::PanAngle(angle) => self.host_angle = Some(angle),
             Command::Configure(design, config) => match self.configure(&design, &config) {
                 Ok(()) => {
@@ -659,7 +691,10 @@ impl<const W: usize, const L: usize, const C: usize, const Q: usize> CoProcessor
             Command::EndObservation => self.end_observation(),
             Command::Shutdown => self.shutdown = Shutdown::Requested(header),
             // Carried out by the link (`Link::serve`).
-            Command::Snapshot(_) | Command::Ping | Command::RequestStats => {}
+            Command::Snapshot(_)
+            | Command::Ping
+            | Command::RequestStats
+            | Command::TimeRequest { .. } => {}
         }
     }
 
@@ -772,6 +807,7 @@ impl<const W: usize, const L: usize, const C: usize, const Q: usize> CoProcessor
             laser_bytes: u32::try_from(self.laser.bytes() & u64::from(u32::MAX))
                 .unwrap_or(u32::MAX),
             observations: frontend.observations,
+            pose: self.pose_counters(),
         }
     }
 

@@ -8,7 +8,7 @@ use crate::link::tests::{command, decode_all, Out};
 use crate::units::Point3;
 use crate::wire::link::{
     ClampRequest, Configure, DecodeError, HelloReason, Message, MessageType, PanAngle, PoseReport,
-    ReplyCode, Setup, SnapshotScope,
+    ReplyCode, Setup, SnapshotScope, TimeRequest,
 };
 use crate::wire::sick::{MeasuringMode, Unit, Variant};
 use crate::DefaultDesign;
@@ -336,7 +336,8 @@ fn poses_are_validated_and_pan_angles_kept() {
         y_m: -3.0,
         z_m: 0.2,
         yaw_rad: 1.0,
-        timestamp_ms: 77,
+        stamp_us: 77,
+        flags: 0,
         ..PoseReport::default()
     };
     let bad = PoseReport {
@@ -578,4 +579,79 @@ fn drain_writes_what_the_writer_takes_within_the_limit() {
     assert_eq!(slow.taken.len(), 50 + rest);
     let out = decode_all(&slow.taken);
     assert!(matches!(&out[0].1, Out::Hello(h) if h.reason == HelloReason::Boot));
+}
+
+/// The board passes the time of the host bytes (`host_at`): a TimeRequest they complete is
+/// answered by a TimeReply with that device time; `host` (no time) answers with the last one
+/// known. Counted in Stats `time_requests`.
+#[test]
+fn a_time_request_is_answered_with_the_time_of_its_bytes() {
+    let mut core = booted();
+    let request = |seq, host_us| command(seq, &Message::TimeRequest(TimeRequest { host_us }));
+    core.host_at(&request(0, 11), 2_000_000);
+    core.host(&request(1, 12));
+    core.host_at(&request(2, 13), u32::MAX - 5);
+    let times: Vec<_> = output(&mut core)
+        .into_iter()
+        .map(|(_, o)| match o {
+            Out::TimeReply(t) => (t.host_us, t.device_us, t.queued_ahead),
+            other => panic!("{other:?}"),
+        })
+        .collect();
+    // Each reply waits behind those before it: a TimeReply is 24 bytes on the wire here
+    // (22 decoded, two COBS code bytes; the delimiter is one of the 24).
+    assert_eq!(
+        times,
+        [
+            (11, 2_000_000, 0),
+            (12, 2_000_000, 24),
+            (13, u32::MAX - 5, 48)
+        ]
+    );
+    assert_eq!(core.counters().link.time_requests, 3);
+    core.host(&command(3, &Message::RequestStats));
+    core.poll(5);
+    let stats = output(&mut core)
+        .into_iter()
+        .find_map(|(_, o)| match o {
+            Out::Stats(s) => Some(s),
+            _ => None,
+        })
+        .unwrap();
+    assert_eq!(stats.time_requests, 3);
+}
+
+/// A stamped Pose (flags bit 0) is taken without a Reply, like an unstamped one; a Pose with
+/// another flag bit is refused (param 38).
+#[test]
+fn stamped_poses_are_taken_and_unknown_flags_refused() {
+    let mut core = booted();
+    let stamped = PoseReport {
+        x_m: 2.0,
+        yaw_rad: 0.5,
+        stamp_us: 1_000_000,
+        flags: crate::wire::link::POSE_STAMPED,
+        ..PoseReport::default()
+    };
+    let odd = PoseReport {
+        flags: 0x04,
+        ..stamped
+    };
+    let mut bytes = command(0, &Message::Pose(stamped));
+    bytes.extend(command(1, &Message::Pose(odd)));
+    core.host(&bytes);
+    let r = replies(&output(&mut core));
+    assert_eq!(r.len(), 1, "only the refusal is answered");
+    assert_eq!(
+        (
+            r[0].to_seq,
+            r[0].code,
+            r[0].param,
+            r[0].value,
+            r[0].a,
+            r[0].b
+        ),
+        (1, ReplyCode::OutOfRange, 38, 4.0, 0.0, 1.0)
+    );
+    assert_eq!(core.counters().app.commands, 1);
 }

@@ -28,7 +28,7 @@ use crate::pyramid::Config;
 use crate::units::{Meters, Point3};
 use crate::wire::link::{
     ClampRequest, Configure, GateRequest, Header, LaserSetup, PoseReport, Reply, ReplyCode,
-    RuleSetup, SetRule, Setup, SnapshotScope, PARAM_LAYER,
+    RuleSetup, SetRule, Setup, SnapshotScope, PARAM_LAYER, POSE_FLAGS_KNOWN, POSE_STAMPED,
 };
 use crate::wire::recording::{MountKind, SensorEvent, SetupEvent};
 use crate::wire::sick::{MeasuringMode, Variant};
@@ -167,6 +167,39 @@ pub fn pose_of(report: &PoseReport) -> Result<Pose, PoseError> {
         report.roll_rad,
         report.pitch_rad,
         report.yaw_rad,
+    )
+}
+
+/// The Reply `param` of a Pose's `flags` (protocol version 4): a bit other than
+/// [`POSE_STAMPED`] set is refused with OutOfRange, the flags as the value, limits 0 and 1.
+pub const PARAM_POSE_FLAGS: u8 = 38;
+
+/// A Pose's stamp: `Some(stamp_us)` (the device's µs clock) when the pose is stamped,
+/// `None` for an unstamped pose (the latest-pose rule).
+///
+/// # Errors
+/// A flag bit other than [`POSE_STAMPED`] set: the flags byte.
+pub const fn stamp_of(report: &PoseReport) -> Result<Option<u32>, u8> {
+    if report.flags & !POSE_FLAGS_KNOWN != 0 {
+        Err(report.flags)
+    } else if report.flags & POSE_STAMPED != 0 {
+        Ok(Some(report.stamp_us))
+    } else {
+        Ok(None)
+    }
+}
+
+/// The refusal of a Pose's `flags` (a bit other than [`POSE_STAMPED`]): OutOfRange,
+/// [`PARAM_POSE_FLAGS`], the flags byte, limits 0 and 1.
+#[must_use]
+pub fn pose_flags_refusal(to: Header, flags: u8) -> Reply {
+    refusal(
+        to,
+        ReplyCode::OutOfRange,
+        PARAM_POSE_FLAGS,
+        f32::from(flags),
+        0.0,
+        1.0,
     )
 }
 
@@ -954,6 +987,7 @@ impl fmt::Display for ReplyReason {
             (None, 35) => "pose roll",
             (None, 36) => "pose pitch",
             (None, 37) => "pose yaw",
+            (None, PARAM_POSE_FLAGS) => "pose flags",
             (None, PARAM_LAYER) => "layer",
             (None, p) => SetupField::from_param(p).map_or("-", SetupField::name),
         };
@@ -985,6 +1019,10 @@ impl fmt::Display for ReplyReason {
                      the plane-rule feature); it takes the paper's spread rule (0) only"
                 )
             }
+            ReplyCode::OutOfRange if reply.param == PARAM_POSE_FLAGS => write!(
+                f,
+                "{name}: only bit 0 (stamped) is defined, the others must be 0 (got {v})"
+            ),
             ReplyCode::OutOfRange => match param_of_code(reply.param) {
                 // The library's own sentence, which names the layer.
                 Some(param @ Param::DecayTau { .. }) => write!(
@@ -1057,7 +1095,7 @@ mod tests {
         assert_eq!(
             &out[..n],
             &hex(
-                "06 03 05 06 01 0c 04 83 03 07 01 03 48 43 01 01 01 01 01 07 c8 42 f9 fe 6d 59 00"
+                "06 04 05 06 01 0c 04 83 03 07 01 03 48 43 01 01 01 01 01 07 c8 42 a1 78 8a 30 00"
             )[..]
         );
         assert_eq!(
@@ -1075,7 +1113,8 @@ mod tests {
             roll_rad: 10.0,
             pitch_rad: -10.0,
             yaw_rad: 100.0,
-            timestamp_ms: 0,
+            stamp_us: 0,
+            flags: 0,
         };
         assert!(pose_of(&ok).is_ok());
         let far = PoseReport {
@@ -1159,7 +1198,8 @@ mod tests {
                     roll_rad: v[3],
                     pitch_rad: v[4],
                     yaw_rad: v[5],
-                    timestamp_ms: 0,
+                    stamp_us: 0,
+                    flags: 0,
                 };
                 let geometry = crate::geometry::Pose::from_f32(v[0], v[1], v[2], v[3], v[4], v[5]);
                 let link = pose_of(&pose);

@@ -61,9 +61,9 @@ use crate::pipeline::FrontendConfig;
 use crate::pyramid::{Config, Pyramid};
 use crate::wire::link::{
     encode, encode_patch, ClockSource, Decayed, DecayedRows, DecodeError, Decoded, FirmwareVersion,
-    FrameAccumulator, Header, Hello, HelloReason, LayerInfo, Message, PatchArea, Reply, ReplyCode,
-    RxCounters, SnapshotScope, Stats, Undecoded, WindowMoved, MAX_COMMAND_FRAME, MAX_ENCODED_FRAME,
-    MAX_LAYERS, MAX_PATCH_SIDE, MIN_FRAME, VERSION,
+    FrameAccumulator, Header, Hello, HelloReason, LayerInfo, Message, Observed, PatchArea, Reply,
+    ReplyCode, RxCounters, SnapshotScope, Stats, TimeReply, Undecoded, WindowMoved,
+    MAX_COMMAND_FRAME, MAX_ENCODED_FRAME, MAX_LAYERS, MAX_PATCH_SIDE, MIN_FRAME, VERSION,
 };
 use crate::wire::FeedResult;
 use crate::Design;
@@ -214,6 +214,37 @@ pub struct SensorCounters {
     pub laser_bytes: u32,
     /// Observations finished and applied (`FrontendStats::observations`).
     pub observations: u32,
+    /// The pose track's counters (protocol version 4).
+    pub pose: PoseCounters,
+}
+
+/// The device's pose-track counters that Stats carries (protocol version 4, Stats i = 30 ..=
+/// 34): the firmware fills them in from its placement of returns. They saturate.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct PoseCounters {
+    /// Stamped poses taken into the track.
+    pub poses_stamped: u32,
+    /// Stamped poses refused: not newer than the newest, or more than 1 s ahead of the
+    /// device's clock.
+    pub poses_refused: u32,
+    /// Stamped poses more than 500 ms after the newest: the track restarted at them.
+    pub pose_gaps: u32,
+    /// Returns placed with a pose extrapolated past the newest (within the bound).
+    pub returns_extrapolated: u32,
+    /// Returns refused for want of a pose.
+    pub returns_without_pose: u32,
+}
+
+impl PoseCounters {
+    /// All zero, `const` (for a `static`).
+    pub const ZERO: Self = Self {
+        poses_stamped: 0,
+        poses_refused: 0,
+        pose_gaps: 0,
+        returns_extrapolated: 0,
+        returns_without_pose: 0,
+    };
 }
 
 /// The link's own counters. They saturate.
@@ -244,6 +275,10 @@ pub struct LinkCounters {
     pub decay_frames: u32,
     /// Polls whose owed decay waited for queue room (it is paid at a later poll).
     pub decay_deferred: u32,
+    /// TimeRequests answered with a TimeReply (queued, or dropped for lack of room).
+    pub time_requests: u32,
+    /// Observed frames queued.
+    pub observed_frames: u32,
 }
 
 /// A host command, decoded, validated and converted into the core's types by the link
@@ -251,8 +286,12 @@ pub struct LinkCounters {
 /// become one: the link refuses them itself ([`Rejection::Refused`]).
 #[derive(Debug, Clone, PartialEq)]
 pub enum Command<const L: usize> {
-    /// The robot's pose from now on (checked by [`Pose::from_f32`]'s rule).
-    Pose(Pose),
+    /// The robot's pose (checked by [`Pose::from_f32`]'s rule) and its stamp: `None`, an
+    /// unstamped pose, in force for every return from now on (version 3's latest-pose rule);
+    /// `Some(stamp_us)`, a stamped pose (Pose `flags` bit 0), the robot's pose at `stamp_us` of
+    /// the device's µs clock (wrapping), for the pose track. Flags other than bit 0 are
+    /// refused by the link (Reply OutOfRange, param [`convert::PARAM_POSE_FLAGS`]).
+    Pose(Pose, Option<u32>),
     /// The actuator angle from the host (boards without an encoder, or when it fails).
     PanAngle(Angle),
     /// A new design and configuration (checked by [`Design::new`] and the increments' and
@@ -264,6 +303,14 @@ pub enum Command<const L: usize> {
     Snapshot(SnapshotScope),
     /// Answer Ok.
     Ping,
+    /// Answer with a TimeReply (the link does, in [`Link::serve`]; no Reply).
+    TimeRequest {
+        /// The host's clock, echoed, µs.
+        host_us: u64,
+        /// The device's µs clock (wrapping) the board passed with the host bytes that
+        /// completed the request ([`Link::receive_at`]).
+        device_us: u32,
+    },
     /// The laser's mounting, its lines' grouping and the classifier (checked by
     /// [`convert::frontend_config`]).
     Setup(FrontendConfig),
@@ -393,6 +440,8 @@ pub struct Link<const Q: usize = DEFAULT_QUEUE_BYTES, const N: usize = { crate::
     last_stats_ms: Option<u32>,
     /// A Stats frame was requested: it goes out at the next poll whatever the interval.
     stats_requested: bool,
+    /// The device's µs clock of the latest host bytes ([`Link::receive_at`]; 0 until then).
+    rx_clock_us: u32,
     counters: LinkCounters,
 }
 
@@ -420,6 +469,7 @@ impl<const Q: usize, const N: usize> Link<Q, N> {
             aged: [0; N],
             last_stats_ms: None,
             stats_requested: false,
+            rx_clock_us: 0,
             counters: LinkCounters {
                 frames_sent: 0,
                 bytes_sent: 0,
@@ -432,6 +482,8 @@ impl<const Q: usize, const N: usize> Link<Q, N> {
                 resyncs: 0,
                 decay_frames: 0,
                 decay_deferred: 0,
+                time_requests: 0,
+                observed_frames: 0,
             },
         }
     }
@@ -645,6 +697,12 @@ impl<const Q: usize, const N: usize> Link<Q, N> {
                     .map(|layer| layer.dirty().count_ones() as usize)
                     .sum(),
             ),
+            poses_stamped: sensor.pose.poses_stamped,
+            poses_refused: sensor.pose.poses_refused,
+            pose_gaps: sensor.pose.pose_gaps,
+            returns_extrapolated: sensor.pose.returns_extrapolated,
+            returns_without_pose: sensor.pose.returns_without_pose,
+            time_requests: c.time_requests,
         }
     }
 
@@ -686,11 +744,49 @@ impl<const Q: usize, const N: usize> Link<Q, N> {
 
     /// Queues a Reply, or drops it (using its sequence number, so the host sees a gap).
     fn reply(&mut self, reply: Reply) {
+        self.control(&Message::Reply(reply));
+    }
+
+    /// Queues a control frame (a Reply, a TimeReply, an Observed) in the room patches leave
+    /// free, or drops it, using its sequence number so the host sees a gap; `true` if queued.
+    fn control(&mut self, message: &Message<'_>) -> bool {
         let mut report = PollReport::default();
-        if !self.send(&Message::Reply(reply), 0, &mut report) {
+        if self.send(message, 0, &mut report) {
+            true
+        } else {
             self.tx_seq = self.tx_seq.wrapping_add(1);
             self.counters.frames_dropped = self.counters.frames_dropped.saturating_add(1);
+            false
         }
+    }
+
+    /// Answers a TimeRequest: a TimeReply echoing `host_us`, with `device_us` and the bytes
+    /// queued ahead of it (saturating at 65 535), counted in `time_requests`.
+    fn time_reply(&mut self, host_us: u64, device_us: u32) {
+        let reply = TimeReply {
+            host_us,
+            device_us,
+            queued_ahead: u16::try_from(self.queue.len()).unwrap_or(u16::MAX),
+        };
+        self.counters.time_requests = self.counters.time_requests.saturating_add(1);
+        self.control(&Message::TimeReply(reply));
+    }
+
+    /// Queues an Observed frame now (a control frame, ahead of the patches the observation
+    /// changed, which go at the next [`poll`](Self::poll)): the observation count after it
+    /// (Stats `observations`) and the device µs times (wrapping) of the earliest and the
+    /// latest return it placed. Dropped, its sequence number used, when the queue has no
+    /// room; `true` if queued.
+    pub fn observed(&mut self, observation: u32, first_us: u32, last_us: u32) -> bool {
+        let queued = self.control(&Message::Observed(Observed {
+            observation,
+            first_us,
+            last_us,
+        }));
+        if queued {
+            self.counters.observed_frames = self.counters.observed_frames.saturating_add(1);
+        }
+        queued
     }
 
     /// Sends the pending Hello; `true` when none is pending any more.
@@ -1117,8 +1213,8 @@ impl<const Q: usize, const N: usize> Link<Q, N> {
     // ---------------------------------------------------------------- receiving
 
     /// Carries out and answers the commands that concern only the link and the maps (a
-    /// snapshot, a Stats request, a ping) and hands back the others, which are the
-    /// application's ([`crate::app::CoProcessor`] carries them out).
+    /// snapshot, a Stats request, a ping, a time request) and hands back the others, which
+    /// are the application's ([`crate::app::CoProcessor`] carries them out).
     pub fn serve<const W: usize>(
         &mut self,
         pyramid: &mut Pyramid<W, N>,
@@ -1144,6 +1240,10 @@ impl<const Q: usize, const N: usize> Link<Q, N> {
                 self.answer(Reply::ok(header));
                 None
             }
+            Command::TimeRequest { host_us, device_us } => {
+                self.time_reply(host_us, device_us);
+                None
+            }
             _ => Some(request),
         }
     }
@@ -1156,6 +1256,9 @@ impl<const Q: usize, const N: usize> Link<Q, N> {
     /// Invalid commands are refused here, by the rule that converts them, with a Reply that
     /// names the field; a valid one is the application's to carry out and to answer
     /// ([`answer`](Self::answer), [`refuse`](Self::refuse)).
+    ///
+    /// The device time a TimeRequest carries is the one of the last
+    /// [`receive_at`](Self::receive_at) (0 before any): a board with a µs clock calls that.
     pub fn receive<'c>(&mut self, bytes: &'c [u8]) -> FeedResult<'c, Request<N>, Rejection> {
         // The message borrows the receive buffer: convert it into an owned command first.
         let (frame, offset, remaining) = match self.rx.feed(bytes) {
@@ -1164,7 +1267,11 @@ impl<const Q: usize, const N: usize> Link<Q, N> {
                 item: Decoded { header, message },
                 offset,
                 remaining,
-            } => (Ok((header, command(header, message))), offset, remaining),
+            } => (
+                Ok((header, command(header, message, self.rx_clock_us))),
+                offset,
+                remaining,
+            ),
             FeedResult::Rejected {
                 error: Undecoded { error, header },
                 offset,
@@ -1207,6 +1314,18 @@ impl<const Q: usize, const N: usize> Link<Q, N> {
         }
     }
 
+    /// [`receive`](Self::receive) of host bytes the board took at `now_us` of its µs clock
+    /// (wrapping): a TimeRequest they complete carries that time as its `device_us`. Later
+    /// calls of `receive` (the rest of the same bytes) keep it.
+    pub fn receive_at<'c>(
+        &mut self,
+        bytes: &'c [u8],
+        now_us: u32,
+    ) -> FeedResult<'c, Request<N>, Rejection> {
+        self.rx_clock_us = now_us;
+        self.receive(bytes)
+    }
+
     fn track_seq(&mut self, seq: u16) {
         if let Some(expected) = self.rx_expected {
             let d = seq.wrapping_sub(expected);
@@ -1219,12 +1338,24 @@ impl<const Q: usize, const N: usize> Link<Q, N> {
     }
 }
 
-/// A host message as a validated command, or the Reply that refuses it.
-fn command<const L: usize>(header: Header, message: Message<'_>) -> Result<Command<L>, Reply> {
+/// A host message as a validated command, or the Reply that refuses it; `now_us` is the
+/// device time of the bytes that completed it.
+fn command<const L: usize>(
+    header: Header,
+    message: Message<'_>,
+    now_us: u32,
+) -> Result<Command<L>, Reply> {
     Ok(match message {
         Message::Pose(report) => {
-            Command::Pose(convert::pose_of(&report).map_err(|e| convert::pose_refusal(header, &e))?)
+            let pose = convert::pose_of(&report).map_err(|e| convert::pose_refusal(header, &e))?;
+            let stamp =
+                convert::stamp_of(&report).map_err(|f| convert::pose_flags_refusal(header, f))?;
+            Command::Pose(pose, stamp)
         }
+        Message::TimeRequest(request) => Command::TimeRequest {
+            host_us: request.host_us,
+            device_us: now_us,
+        },
         Message::PanAngle(pan) => Command::PanAngle(pan.angle()),
         Message::Configure(c) => {
             let refuse = |e: crate::DesignError| convert::design_refusal(header, &e);
@@ -1251,7 +1382,9 @@ fn command<const L: usize>(header: Header, message: Message<'_>) -> Result<Comma
         | Message::WindowMoved(_)
         | Message::Stats(_)
         | Message::Reply(_)
-        | Message::Decayed(_) => return Err(Reply::code(header, ReplyCode::Unsupported)),
+        | Message::Decayed(_)
+        | Message::TimeReply(_)
+        | Message::Observed(_) => return Err(Reply::code(header, ReplyCode::Unsupported)),
     })
 }
 

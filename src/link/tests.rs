@@ -5,7 +5,7 @@ use super::*;
 use crate::pyramid::{Evidence, EvidenceClass};
 use crate::test_rng::XorShift;
 use crate::units::Meters;
-use crate::wire::link::MAX_FRAME;
+use crate::wire::link::{PoseReport, TimeRequest, MAX_FRAME, POSE_STAMPED};
 use crate::{DefaultDesign, DefaultPyramid, Schedule, SensorModel};
 use std::vec::Vec;
 
@@ -17,6 +17,8 @@ pub(crate) enum Out {
     Moved(WindowMoved),
     Stats(Stats),
     Reply(Reply),
+    TimeReply(TimeReply),
+    Observed(Observed),
 }
 
 fn drain<const Q: usize>(link: &mut Link<Q>) -> Vec<(u16, Out)> {
@@ -51,6 +53,8 @@ pub(crate) fn decode_all(mut input: &[u8]) -> Vec<(u16, Out)> {
                     Message::WindowMoved(m) => Out::Moved(m),
                     Message::Stats(s) => Out::Stats(s),
                     Message::Reply(r) => Out::Reply(r),
+                    Message::TimeReply(t) => Out::TimeReply(t),
+                    Message::Observed(o) => Out::Observed(o),
                     other => panic!("device sent {other:?}"),
                 };
                 out.push((header.seq, item));
@@ -510,4 +514,233 @@ fn the_tile_scheduler_sends_what_and_when_the_exhaustive_one_did() {
             }
         }
     }
+}
+
+/// Feeds `bytes`, taken at `now_us`, and serves every request they complete; the requests the
+/// application would carry out and the rejections.
+fn receive_all(
+    link: &mut Link,
+    pyramid: &mut DefaultPyramid,
+    mut bytes: &[u8],
+    now_us: u32,
+) -> (Vec<Request<8>>, Vec<Rejection>) {
+    let (mut requests, mut rejections) = (Vec::new(), Vec::new());
+    let mut first = true;
+    loop {
+        let result = if first {
+            link.receive_at(bytes, now_us)
+        } else {
+            link.receive(bytes)
+        };
+        first = false;
+        match result {
+            FeedResult::Consumed => return (requests, rejections),
+            FeedResult::Item {
+                item, remaining, ..
+            } => {
+                requests.extend(link.serve(pyramid, item));
+                bytes = remaining;
+            }
+            FeedResult::Rejected {
+                error, remaining, ..
+            } => {
+                rejections.push(error);
+                bytes = remaining;
+            }
+        }
+    }
+}
+
+/// A TimeRequest is answered by the link itself with a TimeReply: the host's time echoed,
+/// the device time the board passed with the bytes that completed it, and the bytes queued
+/// ahead of the reply; it is counted, in the link's counters and in Stats.
+#[test]
+fn a_time_request_gets_a_time_reply_with_the_device_time() {
+    let (mut pyramid, mut link) = configured();
+    link.poll(0, &mut pyramid, &SensorCounters::default());
+    let ahead = link.queue().len();
+    assert!(ahead > 0, "the Hello waits in the queue");
+    let host_us = 0x0123_4567_89AB_CDEF;
+    let frame = command(5, &Message::TimeRequest(TimeRequest { host_us }));
+    // Split: the chunk that completes the request gives its time.
+    let (head, tail) = frame.split_at(frame.len() / 2);
+    let (requests, rejections) = receive_all(&mut link, &mut pyramid, head, 1_000);
+    assert!(requests.is_empty() && rejections.is_empty());
+    let (requests, rejections) = receive_all(&mut link, &mut pyramid, tail, 4_000_123);
+    assert!(requests.is_empty() && rejections.is_empty());
+    let out = drain(&mut link);
+    let replies: Vec<_> = out
+        .iter()
+        .filter_map(|(_, o)| match o {
+            Out::TimeReply(t) => Some(*t),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(
+        replies,
+        [TimeReply {
+            host_us,
+            device_us: 4_000_123,
+            queued_ahead: u16::try_from(ahead).unwrap(),
+        }]
+    );
+    // No Reply: the TimeReply is the answer.
+    assert!(!out.iter().any(|(_, o)| matches!(o, Out::Reply(_))));
+    assert_eq!(link.counters().time_requests, 1);
+    // Taken with no time: the last one known; the queue empty now.
+    let frame = command(6, &Message::TimeRequest(TimeRequest { host_us: 7 }));
+    let mut input = &frame[..];
+    while let FeedResult::Item {
+        item, remaining, ..
+    } = link.receive(input)
+    {
+        assert!(link.serve(&mut pyramid, item).is_none());
+        input = remaining;
+    }
+    assert_eq!(
+        drain(&mut link),
+        [(
+            link.next_seq() - 1,
+            Out::TimeReply(TimeReply {
+                host_us: 7,
+                device_us: 4_000_123,
+                queued_ahead: 0,
+            })
+        )]
+    );
+    let stats = link.stats(0, &pyramid, &SensorCounters::default());
+    assert_eq!(stats.time_requests, 2);
+}
+
+/// The bytes queued ahead of a TimeReply saturate at 65 535 (a queue that large is possible).
+#[test]
+fn queued_ahead_saturates() {
+    let mut link: Link<70_000> = Link::new(LinkConfig::DEFAULT);
+    let filler = Reply::code(
+        Header {
+            version: VERSION,
+            msg_type: 0x86,
+            seq: 0,
+        },
+        ReplyCode::Ok,
+    );
+    while link.queue().len() <= 65_600 {
+        link.answer(filler);
+    }
+    link.time_reply(1, 2);
+    let mut bytes = Vec::new();
+    let mut buf = [0_u8; 4096];
+    loop {
+        let n = link.pop_bytes(&mut buf);
+        if n == 0 {
+            break;
+        }
+        bytes.extend_from_slice(&buf[..n]);
+    }
+    let last = decode_all(&bytes).pop().unwrap().1;
+    assert!(matches!(last, Out::TimeReply(t) if t.queued_ahead == u16::MAX && t.device_us == 2));
+}
+
+fn pose_report(flags: u8, stamp_us: u32) -> PoseReport {
+    PoseReport {
+        x_m: 1.0,
+        y_m: -2.0,
+        z_m: 0.5,
+        roll_rad: 0.0,
+        pitch_rad: 0.1,
+        yaw_rad: 3.0,
+        stamp_us,
+        flags,
+    }
+}
+
+/// Pose flags: 0 is an unstamped pose (no stamp, whatever the field holds), bit 0 a stamped
+/// one; any other bit is refused with OutOfRange, param 38 ("pose flags"), the flags as the
+/// value, limits 0 and 1, and counted.
+#[test]
+fn pose_flags_are_validated() {
+    let (mut pyramid, mut link) = configured();
+    let pose = Pose::from_f32(1.0, -2.0, 0.5, 0.0, 0.1, 3.0).unwrap();
+    let mut bytes = command(1, &Message::Pose(pose_report(0, 99)));
+    bytes.extend(command(
+        2,
+        &Message::Pose(pose_report(POSE_STAMPED, 4_000_000)),
+    ));
+    for (seq, flags) in [(3, 2), (4, 0x81), (5, 0xFF)] {
+        bytes.extend(command(seq, &Message::Pose(pose_report(flags, 5))));
+    }
+    let (requests, rejections) = receive_all(&mut link, &mut pyramid, &bytes, 0);
+    let commands: Vec<_> = requests.into_iter().map(|r| r.command).collect();
+    assert_eq!(
+        commands,
+        [
+            Command::Pose(pose, None),
+            Command::Pose(pose, Some(4_000_000))
+        ]
+    );
+    let refused: Vec<_> = rejections
+        .iter()
+        .map(|r| match r {
+            Rejection::Refused(reply) => (reply.to_seq, reply.code, reply.param, reply.value),
+            other => panic!("{other:?}"),
+        })
+        .collect();
+    assert_eq!(
+        refused,
+        [
+            (3, ReplyCode::OutOfRange, 38, 2.0),
+            (4, ReplyCode::OutOfRange, 38, 129.0),
+            (5, ReplyCode::OutOfRange, 38, 255.0),
+        ]
+    );
+    assert_eq!(link.counters().commands_refused, 3);
+    let Rejection::Refused(reply) = rejections[0] else {
+        unreachable!()
+    };
+    assert_eq!((reply.a, reply.b, reply.to_type), (0.0, 1.0, 0x81));
+    assert_eq!(
+        std::format!("{}", convert::ReplyText(&reply)),
+        "reply to #3 (0x81): pose flags: only bit 0 (stamped) is defined, the others must be 0 \
+         (got 2)"
+    );
+    // A bad field is named before the flags are looked at.
+    let mut bad = pose_report(2, 0);
+    bad.z_m = f32::NAN;
+    let (_, rejections) = receive_all(&mut link, &mut pyramid, &command(6, &Message::Pose(bad)), 0);
+    assert!(matches!(rejections[..], [Rejection::Refused(r)] if r.param == 34));
+}
+
+/// Observed goes out at once as a control frame, ahead of the patches of the next poll; Stats
+/// carries the pose counters the application gives it.
+#[test]
+fn observed_goes_ahead_of_the_patches_and_stats_carry_the_pose_counters() {
+    let (mut pyramid, mut link) = configured();
+    link.poll(0, &mut pyramid, &SensorCounters::default());
+    drain(&mut link);
+    pyramid.apply(&obstacle(0, 3, 4));
+    assert!(link.observed(1, 3_990_000, 4_090_000));
+    link.poll(10, &mut pyramid, &SensorCounters::default());
+    let out = drain(&mut link);
+    assert_eq!(
+        out[0].1,
+        Out::Observed(Observed {
+            observation: 1,
+            first_us: 3_990_000,
+            last_us: 4_090_000,
+        })
+    );
+    assert!(out.len() > 1 && out[1..].iter().all(|(_, o)| matches!(o, Out::Patch(..))));
+    assert_eq!(link.counters().observed_frames, 1);
+    let sensor = SensorCounters {
+        pose: PoseCounters {
+            poses_stamped: 1,
+            poses_refused: 2,
+            pose_gaps: 3,
+            returns_extrapolated: 4,
+            returns_without_pose: 5,
+        },
+        ..SensorCounters::default()
+    };
+    let stats = link.stats(0, &pyramid, &sensor);
+    assert_eq!(stats.to_array()[30..], [1, 2, 3, 4, 5, 0]);
 }

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """An independent encoder of the link's Setup and SetRule frames (docs/protocol.md, version
-3), from the document alone: struct for the little-endian body, zlib.crc32 for
-CRC-32/ISO-HDLC, COBS by hand.
+4: the bodies of version 3 under the version 4 header), from the document alone: struct for
+the little-endian body, zlib.crc32 for CRC-32/ISO-HDLC, COBS by hand.
 
 Usage: link_setup.py SEQ FIELD...           a Setup (25 fields in wire order, as numbers)
        link_setup.py setrule SEQ FIELD...   a SetRule (the step, then the 6 rule fields)
@@ -11,7 +11,7 @@ import struct
 import sys
 import zlib
 
-VERSION = 3
+VERSION = 4
 SETUP = 0x87
 
 # Base part (offset 0), rule block (offset 38), laser block (offset 59).

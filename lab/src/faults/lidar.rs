@@ -298,7 +298,8 @@ pub fn run_kind(
                     roll_rad,
                     pitch_rad,
                     yaw_rad,
-                    timestamp_ms: 0,
+                    stamp_us: 0,
+                    flags: 0,
                 });
                 emu.send(&m)?;
                 reference.send(&m)?;

@@ -3,6 +3,9 @@
 
 use super::cobs;
 use super::crc::Crc32;
+use super::time::{
+    Observed, TimeReply, TimeRequest, OBSERVED_LEN, TIME_REPLY_LEN, TIME_REQUEST_LEN,
+};
 use super::{DecodeError, EncodeError, Frame, Header, MessageType, MAX_LAYERS, MAX_PATCH_SIDE};
 use crate::angle::Angle;
 
@@ -16,8 +19,13 @@ pub(crate) const PATCH_FIXED: usize = 19;
 pub(crate) const STATS_LEN: usize = 4 * STATS_COUNTERS;
 /// Bytes of a Reply body.
 pub(crate) const REPLY_LEN: usize = 17;
-/// Bytes of a Pose body.
-pub(crate) const POSE_LEN: usize = 28;
+/// Bytes of a Pose body: the six pose fields, the stamp and the flags.
+pub(crate) const POSE_LEN: usize = 29;
+/// Pose's `flags` bit 0: `stamp_us` is valid and the pose joins the device's pose track;
+/// clear, the pose applies to every return from now on (version 3's latest-pose rule).
+pub const POSE_STAMPED: u8 = 1;
+/// Pose's `flags` bits a receiver knows; any other bit set is out of range.
+pub const POSE_FLAGS_KNOWN: u8 = POSE_STAMPED;
 /// Bytes of a PanAngle body.
 pub(crate) const PAN_LEN: usize = 6;
 /// Bytes of a Configure body: 61 of version 2, the decay mode and 32 time-constant codes.
@@ -43,7 +51,7 @@ pub(crate) const SETUP_LEN: usize = SETUP_BASE_LEN + SETUP_RULE_LEN + SETUP_LASE
 /// Bytes of a SetRule body: the step threshold and a rule block.
 pub(crate) const SET_RULE_LEN: usize = 4 + SETUP_RULE_LEN;
 /// The number of counters in a [`Stats`].
-pub const STATS_COUNTERS: usize = 30;
+pub const STATS_COUNTERS: usize = 36;
 
 /// A firmware version, `major.minor.patch`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
@@ -449,6 +457,20 @@ stats_struct! {
     /// 0 ..= 64 · layers): with `queue_used` 0 too, every change made before this Stats is
     /// already on the wire ahead of it, so the host's copy is current once it has read it.
     tiles_dirty,
+    /// Stamped poses taken into the device's pose track (version 4).
+    poses_stamped,
+    /// Stamped poses refused: not newer than the newest, or more than 1 s ahead of the
+    /// device's clock.
+    poses_refused,
+    /// Stamped poses more than 500 ms after the newest: the track restarted at them.
+    pose_gaps,
+    /// Returns placed with a pose extrapolated past the newest (within the bound).
+    returns_extrapolated,
+    /// Returns refused for want of a pose: later than the newest by more than the bound, or
+    /// earlier than the oldest kept pose.
+    returns_without_pose,
+    /// TimeRequests answered.
+    time_requests,
 }
 
 /// A Reply's code (`docs/protocol.md`, "Reply").
@@ -571,8 +593,19 @@ pub struct PoseReport {
     pub pitch_rad: f32,
     /// Yaw about z, radians, counter-clockwise from +x; finite, |v| < 32 768.
     pub yaw_rad: f32,
-    /// The host's clock when the pose was valid, ms.
-    pub timestamp_ms: u32,
+    /// The device's µs clock (wrapping) at which the robot was at this pose; read only when
+    /// `flags` has [`POSE_STAMPED`].
+    pub stamp_us: u32,
+    /// Bit 0 [`POSE_STAMPED`]; every other bit must be 0 (the device refuses the pose).
+    pub flags: u8,
+}
+
+impl PoseReport {
+    /// Whether the pose is stamped ([`POSE_STAMPED`]): it joins the device's pose track.
+    #[must_use]
+    pub const fn is_stamped(&self) -> bool {
+        self.flags & POSE_STAMPED != 0
+    }
 }
 
 /// Host to device: the pan angle.
@@ -925,6 +958,12 @@ pub enum Message<'a> {
     EndObservation,
     /// Host to device: the classifier's step threshold and navigability rule.
     SetRule(SetRule),
+    /// Host to device: the host's clock, to be answered with a TimeReply.
+    TimeRequest(TimeRequest),
+    /// Device to host: the answer to a TimeRequest.
+    TimeReply(TimeReply),
+    /// Device to host: an observation was applied, and when its returns were measured.
+    Observed(Observed),
 }
 
 /// Reads fixed fields from a body.
@@ -995,6 +1034,9 @@ impl<'a> Message<'a> {
             Self::Shutdown => MessageType::Shutdown,
             Self::EndObservation => MessageType::EndObservation,
             Self::SetRule(_) => MessageType::SetRule,
+            Self::TimeRequest(_) => MessageType::TimeRequest,
+            Self::TimeReply(_) => MessageType::TimeReply,
+            Self::Observed(_) => MessageType::Observed,
         }
     }
 
@@ -1019,6 +1061,9 @@ impl<'a> Message<'a> {
             Self::RequestSnapshot(_) => 1,
             Self::Setup(_) => SETUP_LEN,
             Self::SetRule(_) => SET_RULE_LEN,
+            Self::TimeRequest(_) => TIME_REQUEST_LEN,
+            Self::TimeReply(_) => TIME_REPLY_LEN,
+            Self::Observed(_) => OBSERVED_LEN,
         }
     }
 
@@ -1185,7 +1230,8 @@ impl<'a> Message<'a> {
                     roll_rad: r.f32(),
                     pitch_rad: r.f32(),
                     yaw_rad: r.f32(),
-                    timestamp_ms: r.u32(),
+                    stamp_us: r.u32(),
+                    flags: r.u8(),
                 })
             }
             MessageType::PanAngle => {
@@ -1306,6 +1352,18 @@ impl<'a> Message<'a> {
                 exact(0)?;
                 Self::EndObservation
             }
+            MessageType::TimeRequest => {
+                exact(TIME_REQUEST_LEN)?;
+                Self::TimeRequest(TimeRequest::from_le_bytes(&r.take()))
+            }
+            MessageType::TimeReply => {
+                exact(TIME_REPLY_LEN)?;
+                Self::TimeReply(TimeReply::from_le_bytes(&r.take()))
+            }
+            MessageType::Observed => {
+                exact(OBSERVED_LEN)?;
+                Self::Observed(Observed::from_le_bytes(&r.take()))
+            }
         })
     }
 
@@ -1397,7 +1455,8 @@ impl<'a> Message<'a> {
                 for v in [p.x_m, p.y_m, p.z_m, p.roll_rad, p.pitch_rad, p.yaw_rad] {
                     w.f32(v);
                 }
-                w.u32(p.timestamp_ms);
+                w.u32(p.stamp_us);
+                w.u8(p.flags);
             }
             Self::PanAngle(p) => {
                 w.u16(p.turns);
@@ -1473,6 +1532,9 @@ impl<'a> Message<'a> {
                 w.f32(s.step_threshold_m);
                 w.rule_setup(&s.rule);
             }
+            Self::TimeRequest(t) => w.bytes(&t.to_le_bytes()),
+            Self::TimeReply(t) => w.bytes(&t.to_le_bytes()),
+            Self::Observed(o) => w.bytes(&o.to_le_bytes()),
             Self::RequestSnapshot(scope) => w.u8(match *scope {
                 SnapshotScope::All => 0xFF,
                 SnapshotScope::Layer(k) => k,

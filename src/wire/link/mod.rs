@@ -14,7 +14,7 @@
 //! use terrain_pyramid::wire::FeedResult;
 //! let mut out = [0_u8; 16];
 //! let n = encode(1, &Message::Ping, &mut out).unwrap();
-//! assert_eq!(&out[..n], &[0x04, 0x03, 0x86, 0x01, 0x05, 0x81, 0x26, 0x52, 0xCF, 0x00]);
+//! assert_eq!(&out[..n], &[0x04, 0x04, 0x86, 0x01, 0x05, 0x38, 0x1E, 0x85, 0x52, 0x00]);
 //! let mut acc = FrameAccumulator::<MAX_FRAME>::new();
 //! match acc.feed(&out[..n]) {
 //!     FeedResult::Item { item: Decoded { header, message }, remaining, .. } => {
@@ -28,6 +28,7 @@ mod accumulator;
 pub mod cobs;
 mod crc;
 mod message;
+mod time;
 
 pub use accumulator::{Decoded, FrameAccumulator, FrameFeed, RxCounters, Undecoded};
 pub use crc::{crc32, Crc32};
@@ -35,14 +36,15 @@ pub use message::{
     decode, encode, encode_patch, ClampRequest, ClockSource, Configure, Decayed, DecayedRows,
     FirmwareVersion, GateRequest, Hello, HelloReason, LaserSetup, LayerInfo, LayerPatch, Message,
     PanAngle, PatchArea, PatchCells, PoseReport, Reply, ReplyCode, RuleSetup, SetRule, Setup,
-    SnapshotScope, Stats, WindowMoved, PARAM_LAYER, SETUP_LASER_LEN, SETUP_RULE_LEN,
-    STATS_COUNTERS,
+    SnapshotScope, Stats, WindowMoved, PARAM_LAYER, POSE_FLAGS_KNOWN, POSE_STAMPED,
+    SETUP_LASER_LEN, SETUP_RULE_LEN, STATS_COUNTERS,
 };
+pub use time::{Observed, TimeReply, TimeRequest};
 
 use core::fmt;
 
 /// The protocol version this module speaks (`docs/protocol.md`, section 6).
-pub const VERSION: u8 = 3;
+pub const VERSION: u8 = 4;
 /// Bytes of the header: version, type, sequence number.
 pub const HEADER_LEN: usize = 4;
 /// Bytes of the CRC-32 after the body.
@@ -102,6 +104,11 @@ pub enum MessageType {
     Reply = 0x05,
     /// Device to host: rows that took a decay step.
     Decayed = 0x06,
+    /// Device to host: the answer to a TimeRequest (version 4).
+    TimeReply = 0x07,
+    /// Device to host: an observation was applied, and when its returns were measured
+    /// (version 4).
+    Observed = 0x08,
     /// Host to device: the robot's pose.
     Pose = 0x81,
     /// Host to device: the pan angle.
@@ -125,6 +132,8 @@ pub enum MessageType {
     /// Host to device: the classifier's step threshold and navigability rule, the rest of the
     /// setup unchanged.
     SetRule = 0x8B,
+    /// Host to device: the host's clock, answered with a TimeReply (version 4).
+    TimeRequest = 0x8C,
 }
 
 impl MessageType {
@@ -138,6 +147,8 @@ impl MessageType {
             0x04 => Self::Stats,
             0x05 => Self::Reply,
             0x06 => Self::Decayed,
+            0x07 => Self::TimeReply,
+            0x08 => Self::Observed,
             0x81 => Self::Pose,
             0x82 => Self::PanAngle,
             0x83 => Self::Configure,
@@ -149,6 +160,7 @@ impl MessageType {
             0x89 => Self::Shutdown,
             0x8A => Self::EndObservation,
             0x8B => Self::SetRule,
+            0x8C => Self::TimeRequest,
             _ => return None,
         })
     }

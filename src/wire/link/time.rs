@@ -1,0 +1,134 @@
+//! The messages of protocol version 4 that put the device's clock on the wire
+//! (`docs/protocol.md`, "0x8C TimeRequest", "0x07 TimeReply", "0x08 Observed"): the host's
+//! time exchange and the device's report of the times an observation's returns were measured.
+//! Their bodies are fixed little-endian fields; [`super::Message`] parses and encodes them
+//! through the readers and writers of `message.rs`.
+
+/// Bytes of a TimeRequest body.
+pub(crate) const TIME_REQUEST_LEN: usize = 8;
+/// Bytes of a TimeReply body.
+pub(crate) const TIME_REPLY_LEN: usize = 14;
+/// Bytes of an Observed body.
+pub(crate) const OBSERVED_LEN: usize = 12;
+
+/// Host to device (0x8C): asks for the device's clock. Not answered with a Reply but with a
+/// [`TimeReply`] that echoes `host_us`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct TimeRequest {
+    /// The host's clock when it sent the request, µs (opaque to the device: echoed).
+    pub host_us: u64,
+}
+
+/// Device to host (0x07): the answer to a [`TimeRequest`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct TimeReply {
+    /// The request's `host_us`, echoed.
+    pub host_us: u64,
+    /// The device's µs clock (wrapping) when the request's last byte was taken: the time the
+    /// board passed with the host bytes that completed the request.
+    pub device_us: u32,
+    /// Bytes already queued for the host ahead of this reply when it was queued (saturating
+    /// at 65 535): each waits 10 bits at the link's baud rate before the reply leaves.
+    pub queued_ahead: u16,
+}
+
+/// Device to host (0x08): an observation was applied to the maps. Queued ahead of the patches
+/// it changed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Observed {
+    /// The device's observation count (Stats `observations`) after this one.
+    pub observation: u32,
+    /// The device's µs clock (wrapping): the measurement time of the earliest return this
+    /// observation placed.
+    pub first_us: u32,
+    /// The device's µs clock (wrapping): the measurement time of the latest return.
+    pub last_us: u32,
+}
+
+/// Little-endian fields read from a fixed body.
+struct Fields<'a>(&'a [u8]);
+
+impl Fields<'_> {
+    fn take<const N: usize>(&mut self) -> [u8; N] {
+        let mut out = [0_u8; N];
+        let (head, tail) = self.0.split_at(N.min(self.0.len()));
+        for (o, b) in out.iter_mut().zip(head) {
+            *o = *b;
+        }
+        self.0 = tail;
+        out
+    }
+}
+
+/// Copies `bytes` into `out` from `at`; the offset after them.
+fn put(out: &mut [u8], at: usize, bytes: &[u8]) -> usize {
+    for (o, b) in out.iter_mut().skip(at).zip(bytes) {
+        *o = *b;
+    }
+    at + bytes.len()
+}
+
+impl TimeRequest {
+    /// The request of its body's bytes.
+    #[must_use]
+    pub fn from_le_bytes(body: &[u8; TIME_REQUEST_LEN]) -> Self {
+        Self {
+            host_us: u64::from_le_bytes(*body),
+        }
+    }
+
+    /// The body's bytes.
+    #[must_use]
+    pub const fn to_le_bytes(&self) -> [u8; TIME_REQUEST_LEN] {
+        self.host_us.to_le_bytes()
+    }
+}
+
+impl TimeReply {
+    /// The reply of its body's bytes.
+    #[must_use]
+    pub fn from_le_bytes(body: &[u8; TIME_REPLY_LEN]) -> Self {
+        let mut f = Fields(body);
+        Self {
+            host_us: u64::from_le_bytes(f.take()),
+            device_us: u32::from_le_bytes(f.take()),
+            queued_ahead: u16::from_le_bytes(f.take()),
+        }
+    }
+
+    /// The body's bytes.
+    #[must_use]
+    pub fn to_le_bytes(&self) -> [u8; TIME_REPLY_LEN] {
+        let mut out = [0_u8; TIME_REPLY_LEN];
+        let at = put(&mut out, 0, &self.host_us.to_le_bytes());
+        let at = put(&mut out, at, &self.device_us.to_le_bytes());
+        put(&mut out, at, &self.queued_ahead.to_le_bytes());
+        out
+    }
+}
+
+impl Observed {
+    /// The report of its body's bytes.
+    #[must_use]
+    pub fn from_le_bytes(body: &[u8; OBSERVED_LEN]) -> Self {
+        let mut f = Fields(body);
+        Self {
+            observation: u32::from_le_bytes(f.take()),
+            first_us: u32::from_le_bytes(f.take()),
+            last_us: u32::from_le_bytes(f.take()),
+        }
+    }
+
+    /// The body's bytes.
+    #[must_use]
+    pub fn to_le_bytes(&self) -> [u8; OBSERVED_LEN] {
+        let mut out = [0_u8; OBSERVED_LEN];
+        let at = put(&mut out, 0, &self.observation.to_le_bytes());
+        let at = put(&mut out, at, &self.first_us.to_le_bytes());
+        put(&mut out, at, &self.last_us.to_le_bytes());
+        out
+    }
+}
