@@ -1076,7 +1076,10 @@ fn a_version_3_device_is_refused_and_named() {
     assert_eq!((rx.unknown_version, rx.frames_ok), (1, 0));
     let hint = terrain_pyramid_host::link::version_hint(&rx);
     assert!(hint.contains("do not match"), "{hint}");
-    assert!(hint.contains("version 4") && hint.contains("version 3"), "{hint}");
+    assert!(
+        hint.contains("version 4") && hint.contains("version 3"),
+        "{hint}"
+    );
 }
 
 /// The frames of version 4 that carry the device's clock become events and leave the mirror

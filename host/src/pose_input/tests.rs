@@ -128,7 +128,7 @@ fn bad_lines_are_refused_by_reason() {
 fn odometry_cdr(sec: i32, nanosec: u32, frame: &str, q: [f64; 4], xyz: [f64; 3]) -> Vec<u8> {
     let mut b: Vec<u8> = Vec::new();
     let align = |b: &mut Vec<u8>, n: usize| {
-        while b.len() % n != 0 {
+        while !b.len().is_multiple_of(n) {
             b.push(0);
         }
     };
