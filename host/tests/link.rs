@@ -1105,6 +1105,6 @@ fn time_replies_and_observed_frames_become_events() {
         events,
         [LinkEvent::TimeReply(reply), LinkEvent::Observed(observed)]
     );
-    assert_eq!(host.counters().frames, 2);
+    assert_eq!(host.mirror().counters().frames, 2);
     assert_eq!(host.mirror().layer_count(), 0);
 }

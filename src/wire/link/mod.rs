@@ -27,7 +27,10 @@
 mod accumulator;
 pub mod cobs;
 mod crc;
+mod map;
 mod message;
+mod setup;
+mod stats;
 mod time;
 
 pub use accumulator::{Decoded, FrameAccumulator, FrameFeed, RxCounters, Undecoded};
@@ -56,9 +59,9 @@ pub const MAX_LAYERS: usize = 32;
 /// The longest side of a [`LayerPatch`], cells.
 pub const MAX_PATCH_SIDE: usize = 16;
 /// The largest LayerPatch body: 16 × 16 cells.
-const MAX_PATCH_BODY: usize = message::PATCH_FIXED + 2 * MAX_PATCH_SIDE * MAX_PATCH_SIDE;
+const MAX_PATCH_BODY: usize = map::PATCH_FIXED + 2 * MAX_PATCH_SIDE * MAX_PATCH_SIDE;
 /// The largest Hello body: 32 layers.
-const MAX_HELLO_BODY: usize = message::HELLO_FIXED + message::HELLO_LAYER * MAX_LAYERS;
+const MAX_HELLO_BODY: usize = map::HELLO_FIXED + map::HELLO_LAYER * MAX_LAYERS;
 /// The largest body device to host: a Hello of 32 layers (652 bytes; a 16 × 16
 /// [`LayerPatch`] is 531).
 pub const MAX_BODY: usize = if MAX_HELLO_BODY > MAX_PATCH_BODY {
