@@ -31,8 +31,11 @@
 //!   anchor), carried along the fitted drift: `offset(h) = o_anchor + drift × (h − m_anchor)`.
 //! - Accuracy (the stated bound on the mapping's error at host time `h`): half the anchor's
 //!   round trip (the most its own asymmetry can be) + the RMS residual of the block minima about
-//!   the line + the drift's uncertainty times `|h − m_anchor|` (the drift's uncertainty: twice
-//!   that sum over the span the blocks cover).
+//!   the line + the drift's uncertainty times `|h − m_anchor|`. The drift's uncertainty is the
+//!   most the minima's own bounds allow (each offset wrong by at most half its round trip, so
+//!   the slope by at most `Σ |mᵢ − m̄| · rttᵢ / 2 / Σ (mᵢ − m̄)²`) + the RMS residual over
+//!   `√Σ (mᵢ − m̄)²` (a drift that wanders). With the clocks related by a line, the first and
+//!   last terms are a bound, not an estimate.
 //!
 //! # Resets
 //! [`ClockSync::reset`] forgets everything (the device booted, the link was reconnected).
@@ -403,6 +406,14 @@ impl ClockSync {
             sum_r2 += r * r;
         }
         let rms = (sum_r2 / n).sqrt();
+        // The drift's worst case: each minimum's offset is wrong by at most half its round
+        // trip, and the slope is Σ wᵢ·offsetᵢ with wᵢ = (xᵢ − x̄) / Sxx, so it is wrong by at
+        // most Σ |wᵢ| · rttᵢ / 2.
+        let mut k_err = 0.0;
+        for s in &minima {
+            k_err += (s.mid() - x0 - mx).abs() * s.rtt() as f64 / 2.0;
+        }
+        let k_err = k_err / sxx + rms / sxx.sqrt();
         // The anchor: the least round trip of the recent exchanges.
         let newest = self.samples.back()?.t4;
         let anchor = self
@@ -411,16 +422,12 @@ impl ClockSync {
             .filter(|s| newest.saturating_sub(s.t4) <= ANCHOR_WINDOW_US)
             .min_by_key(|s| s.rtt())?;
         let base_us = anchor.rtt() as f64 / 2.0 + rms;
-        let span = minima.last()?.mid() - first.mid();
-        if span <= 0.0 {
-            return None;
-        }
         Some(Fit {
             m0: anchor.mid(),
             o0: anchor.offset(),
             k,
             base_us,
-            k_err: 2.0 * base_us / span,
+            k_err,
             rtt: anchor.rtt(),
             device0: anchor.device,
         })

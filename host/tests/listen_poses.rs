@@ -192,7 +192,10 @@ fn udp_poses_reach_the_device_stamped_in_its_own_clock() {
     let sync = &summary["time_sync"];
     assert_eq!(sync["synced"], true, "{summary:#}");
     assert!(sync["exchanges"].as_u64().unwrap() >= 20, "{sync}");
-    assert_eq!(sync["resets"], 0, "{sync}");
+    // The device's boot Hello may reset what the first exchanges taught; nothing else may.
+    assert_eq!(sync["resets_inconsistent"], 0, "{sync}");
+    assert_eq!(sync["resets_reconnect"], 0, "{sync}");
+    assert!(sync["resets_boot"].as_u64().unwrap() <= 1, "{sync}");
     let drift = sync["drift_ppm"].as_f64().unwrap();
     assert!((drift - 100.0).abs() < 50.0, "drift {drift} ppm");
     let accuracy = sync["accuracy_us"].as_f64().unwrap();
