@@ -1481,6 +1481,52 @@ mod tests {
     }
 
     #[test]
+    fn time_requests_go_fast_for_two_seconds_then_slow_and_fast_again_after_a_boot() {
+        let t0 = Instant::now();
+        let mut timing = Timing::new(t0);
+        let mut sent = Vec::new();
+        for ms in (0..4_000).step_by(10) {
+            let now = t0 + Duration::from_millis(ms);
+            if timing.request_due(now).is_some() {
+                sent.push(ms);
+            }
+            if ms == 3_000 {
+                timing.restart(ResetReason::DeviceBoot, now);
+            }
+        }
+        let fast: Vec<u64> = (0..20).map(|k| k * 100).collect();
+        assert_eq!(&sent[..20], fast.as_slice());
+        assert_eq!(&sent[20..22], &[2_000, 2_500]);
+        // The boot at 3 s: at once, then every 100 ms again.
+        assert_eq!(&sent[22..25], &[3_000, 3_010, 3_110]);
+        assert_eq!(timing.clock.counters().resets_boot, 1);
+    }
+
+    #[test]
+    fn an_observed_device_time_maps_to_the_host_wall_clock() {
+        let t0 = Instant::now();
+        let mut timing = Timing::new(t0);
+        assert_eq!(timing.wall_time_of(5), None);
+        // Device = host µs + 1 000 000, exchanges with symmetric 300 µs delays.
+        for k in 0..10_u64 {
+            let t = 20_000_000 + k * 100_000;
+            timing.clock.add(Exchange {
+                host_sent_us: t,
+                device_us: u32::try_from(t + 300 + 1_000_000).unwrap(),
+                host_received_us: t + 600,
+                queued_ahead: 0,
+            });
+        }
+        // Wall = host µs + 1.7e15 µs.
+        timing
+            .wall
+            .observe(1_700_000_000_000_000 + 21_000_000, 21_000_000);
+        let stamp = timing.wall_time_of(22_500_000 + 1_000_000).unwrap();
+        let us = stamp.duration_since(UNIX_EPOCH).unwrap().as_micros();
+        assert_eq!(us, 1_700_000_000_000_000 + 22_500_000);
+    }
+
+    #[test]
     fn seconds_must_be_positive() {
         assert_eq!(positive_seconds("2.5"), Ok(2.5));
         assert!(positive_seconds("0").is_err());
