@@ -50,7 +50,11 @@ struct Received {
 /// from `serve` with the device time of the bytes that completed each request; Poses kept.
 fn serve(listener: TcpListener, clock: DeviceClock, poses: Arc<Mutex<Vec<Received>>>) {
     let (mut stream, _) = listener.accept().unwrap();
-    stream.set_nonblocking(true).unwrap();
+    // A blocking read that returns as soon as bytes come: the device's time of a request is
+    // taken within microseconds of its arrival, as a board's receive interrupt does.
+    stream
+        .set_read_timeout(Some(Duration::from_millis(1)))
+        .unwrap();
     stream.set_nodelay(true).unwrap();
     let mut pyramid = Box::new(DefaultPyramid::new());
     let mut link: Box<Link> = Box::new(Link::new(LinkConfig {
@@ -91,21 +95,13 @@ fn serve(listener: TcpListener, clock: DeviceClock, poses: Arc<Mutex<Vec<Receive
                     };
                 }
             }
-            Err(e) if e.kind() == ErrorKind::WouldBlock => {}
+            Err(e) if matches!(e.kind(), ErrorKind::WouldBlock | ErrorKind::TimedOut) => {}
             Err(_) => return,
         }
         let n = link.pop_bytes(&mut out);
-        let mut bytes = &out[..n];
-        while !bytes.is_empty() {
-            match stream.write(bytes) {
-                Ok(k) => bytes = &bytes[k..],
-                Err(e) if e.kind() == ErrorKind::WouldBlock => {
-                    std::thread::sleep(Duration::from_micros(200));
-                }
-                Err(_) => return,
-            }
+        if stream.write_all(&out[..n]).is_err() {
+            return;
         }
-        std::thread::sleep(Duration::from_micros(300));
     }
 }
 
@@ -197,7 +193,7 @@ fn udp_poses_reach_the_device_stamped_in_its_own_clock() {
     assert_eq!(sync["resets_reconnect"], 0, "{sync}");
     assert!(sync["resets_boot"].as_u64().unwrap() <= 1, "{sync}");
     let drift = sync["drift_ppm"].as_f64().unwrap();
-    assert!((drift - 100.0).abs() < 50.0, "drift {drift} ppm");
+    assert!((drift - 100.0).abs() < 20.0, "drift {drift} ppm");
     let accuracy = sync["accuracy_us"].as_f64().unwrap();
     let p = &summary["poses"];
     assert_eq!(p["bad_not_json"], 1, "{p}");
@@ -212,7 +208,7 @@ fn udp_poses_reach_the_device_stamped_in_its_own_clock() {
         "{p}"
     );
     // Most of 4 s at 50 Hz, less the first second's (the clock was not synced yet).
-    assert!(received.len() > 100, "{} poses; {p}", received.len());
+    assert!(received.len() > 75, "{} poses; {p}", received.len());
     assert!(p["unsynced"].as_u64().unwrap() > 0, "{p}");
 
     // Each stamp against the device's clock at the moment its pose names.
@@ -232,9 +228,9 @@ fn udp_poses_reach_the_device_stamped_in_its_own_clock() {
         "{} poses; worst stamp error {worst} µs, stated accuracy {accuracy:.0} µs, drift {drift:.1} ppm",
         received.len()
     );
-    // The loopback's round trips are well under a millisecond; the wall clock is read on both
-    // sides a few µs apart.
-    assert!(worst <= 2_000, "worst stamp error {worst} µs");
+    // The loopback's round trips are tens of µs (measured: errors of 4 to 21 µs); the margin
+    // is for a loaded machine.
+    assert!(worst <= 500, "worst stamp error {worst} µs");
     assert!(stderr.contains("clock: synced"), "{stderr}");
     let _ = std::fs::remove_dir_all(&dir);
 }
