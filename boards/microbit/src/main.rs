@@ -98,10 +98,11 @@ fn laser(core: &mut Board, bytes: &[u8], now_us: u32) {
     core.laser(bytes, now_us, &mut NoAngleSource);
 }
 
-/// Host bytes (one piece of a link frame) to the core.
+/// Host bytes (one piece of a link frame) to the core, received at `now_us` (µs, wrapping):
+/// a TimeRequest they complete is answered with that time.
 #[inline(never)]
-fn host(core: &mut Board, bytes: &[u8]) {
-    core.host(bytes);
+fn host(core: &mut Board, bytes: &[u8], now_us: u32) {
+    core.host_at(bytes, now_us);
 }
 
 /// Polls the core and drains its queue into the UART.
@@ -152,7 +153,7 @@ fn main() -> ! {
                     while let Some((route, piece, next)) = line.split(rest) {
                         match route {
                             Route::Laser => laser(core, piece, now_us),
-                            Route::Host => host(core, piece),
+                            Route::Host => host(core, piece, now_us),
                         }
                         rest = next;
                     }

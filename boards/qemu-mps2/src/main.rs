@@ -145,10 +145,11 @@ fn run() -> Result<(), Fault> {
             Ok(false) => {}
             Err(_) => core.laser_overrun(),
         }
-        // The host's commands, carried out in order.
+        // The host's commands, carried out in order; a TimeRequest is answered with the
+        // microseconds at which its bytes were read.
         if let Ok(true) = host.read_ready() {
             let n = host.read(&mut buf).unwrap_or(0);
-            core.host(buf.get(..n).unwrap_or(&[]));
+            core.host_at(buf.get(..n).unwrap_or(&[]), micros());
         }
         core.poll(MILLIS.load(Ordering::Relaxed));
         // Writing to UART1 cannot fail (no error but RX overrun exists on this UART).

@@ -160,7 +160,9 @@ fn main() -> ! {
         }
         laser_side.step(core, &mut buf, &mut encoder);
         let n = rx::take(&mut host_rx, buf.get_mut(..64).unwrap_or(&mut []));
-        core.host(buf.get(..n).unwrap_or(&[]));
+        // Timed when the main loop takes them (a TimeRequest's device time): the interrupt
+        // queued them at most one loop step earlier.
+        core.host_at(buf.get(..n).unwrap_or(&[]), clock::micros());
         core.poll(clock::millis());
         if let Err(e) = core.drain(&mut host_tx, TX_BYTES_PER_STEP) {
             defmt::warn!("USART2: {}", defmt::Debug2Format(&e));
