@@ -5,6 +5,7 @@
 //!
 //! Nothing here simulates, injects faults or runs experiments: that is the lab's.
 
+pub mod clock_sync;
 pub mod decay;
 pub mod decode;
 pub mod design;
@@ -14,6 +15,7 @@ pub mod export;
 pub mod link;
 pub mod listen;
 pub mod play;
+pub mod pose_input;
 pub mod publish;
 pub mod record3dtk;
 pub mod replay;

@@ -21,6 +21,15 @@
 //!   command: the device's classifier takes that step threshold and navigability rule (the
 //!   rest of its setup stays); the device's answer is reported on stderr (an older firmware
 //!   answers Unsupported and keeps its rule).
+//! - The clocks (`docs/poses.md`): a TimeRequest every [`TIME_REQUEST_FAST`] for
+//!   [`TIME_REQUEST_FAST_FOR`] after connecting (and after a device's boot Hello), then every
+//!   [`TIME_REQUEST_SLOW`]; each TimeReply feeds the [`ClockSync`] filter. The maps published
+//!   live are stamped with the device's latest `Observed.last_us` mapped to the host's wall
+//!   clock (the time of the data, not of its receipt).
+//! - The robot's poses (`--ros2 --odom-topic TOPIC`, `--pose-udp ADDR`, [`crate::pose_input`]):
+//!   read by threads of their own into a channel the loop drains without waiting; each checked,
+//!   at most 100 a second forwarded as a stamped Pose in the device's clock. While the clock
+//!   mapping is not known (after connecting, after a device's boot) none is forwarded.
 //! - When the stream ends on a serial port (or on TCP with `--reconnect`) the session goes on:
 //!   the device is looked for every [`RECONNECT_INTERVAL`], the maps are kept, and a snapshot
 //!   is requested once it is back.
@@ -32,9 +41,14 @@
 //! and a hash of each layer's raw cells (`layer_cells_fnv1a64`, FNV-1a 64 of the W × W cells
 //! as `i16` little-endian, row-major from the lowest row), to compare with the device's;
 //! `reconnects`, and `outputs` (hand-offs, coalesced, messages per output and topic) when an
-//! output was on.
+//! output was on; `time_sync` (the clock mapping and its counters), `poses` (the pose inputs'
+//! counters, when one was on) and `device_pose_track` (the device's Stats 30 ..= 35).
+use crate::clock_sync::{ClockCounters, ClockSync, Exchange, Outcome, ResetReason};
 use crate::export::{self, MapSnapshot, MapSummary};
 use crate::link::{HostLink, LinkEvent, Mirror};
+use crate::pose_input::{self, PoseCounters, PoseForwarder, Source, SourceEvent, WallAnchor};
+use crate::publish::ros_msgs;
+use crate::publish::RobotPose;
 use crate::publish::{OutputArgs, Outputs, OutputsReport};
 use serde::Serialize;
 use std::collections::VecDeque;
@@ -43,13 +57,13 @@ use std::net::{TcpStream, ToSocketAddrs};
 use std::path::PathBuf;
 use std::process::ExitCode;
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::Arc;
-use std::time::{Duration, Instant};
+use std::sync::{mpsc, Arc};
+use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 use terrain_pyramid::classify::ClassifierConfig;
 use terrain_pyramid::link::convert::set_rule_message;
 use terrain_pyramid::wire::link::{
-    ClockSource, HelloReason, Message, MessageType, Reply, ReplyCode, RxCounters, SetRule,
-    SnapshotScope,
+    ClockSource, HelloReason, Message, MessageType, PoseReport, Reply, ReplyCode, RxCounters,
+    SetRule, SnapshotScope, Stats, TimeRequest, POSE_STAMPED,
 };
 use terrain_pyramid::LogOddsFixed;
 
@@ -67,6 +81,29 @@ pub const DEFAULT_BAUD: u32 = 921_600;
 
 /// How long one read waits for bytes, so that Ctrl-C and the deadline are seen promptly.
 const READ_TIMEOUT: Duration = Duration::from_millis(50);
+
+/// How long one read waits for bytes while poses come in: a pose waits at most this long
+/// (plus a pass of the loop) for the loop to forward it.
+const POSE_READ_TIMEOUT: Duration = Duration::from_millis(2);
+
+/// The TimeRequests' period after connecting or a device's boot (10 Hz).
+pub const TIME_REQUEST_FAST: Duration = Duration::from_millis(100);
+
+/// How long after connecting or a device's boot the TimeRequests go at [`TIME_REQUEST_FAST`].
+pub const TIME_REQUEST_FAST_FOR: Duration = Duration::from_secs(2);
+
+/// The TimeRequests' period otherwise (2 Hz).
+pub const TIME_REQUEST_SLOW: Duration = Duration::from_millis(500);
+
+/// The host's monotonic µs count (the clock the time exchanges are timed on) starts this long
+/// before the session, so that a pose stamped shortly before it still has a time on it.
+const MONOTONIC_LEAD: Duration = Duration::from_secs(10);
+
+/// Pose-input events taken per pass of the loop, at most (the rest wait for the next pass).
+const INPUTS_PER_PASS: usize = 1_000;
+
+/// The channel between the pose inputs and the loop, events.
+const INPUT_CHANNEL: usize = 1_024;
 
 /// How long connecting to a TCP address may take.
 const CONNECT_TIMEOUT: Duration = Duration::from_secs(5);
@@ -99,6 +136,16 @@ pub struct Args {
     /// ends, instead of ending it. Always so for a serial port (a USB adapter unplugged).
     #[arg(long)]
     pub reconnect: bool,
+    /// Subscribe to the robot's odometry (nav_msgs/msg/Odometry) on TOPIC, with --ros2's
+    /// domain, and send each pose to the device stamped in its clock (header.stamp, pose.pose;
+    /// the maps take header.frame_id unless --frame-id is given). QoS best effort, volatile:
+    /// it takes reliable and best-effort publishers alike. See docs/poses.md.
+    #[arg(long, value_name = "TOPIC", requires = "ros2")]
+    pub odom_topic: Option<String>,
+    /// Read the robot's poses as newline-delimited JSON datagrams on this UDP address [default:
+    /// 127.0.0.1:7420] (for robots without ROS 2; the format is in docs/poses.md).
+    #[arg(long, value_name = "ADDR", num_args = 0..=1, default_missing_value = pose_input::DEFAULT_POSE_UDP_ADDR)]
+    pub pose_udp: Option<String>,
     /// The live outputs.
     #[command(flatten)]
     pub outputs: OutputArgs,
@@ -143,6 +190,11 @@ enum Received {
 
 impl Transport {
     fn open(args: &Args) -> Result<(Self, String), String> {
+        let read_timeout = if args.odom_topic.is_some() || args.pose_udp.is_some() {
+            POSE_READ_TIMEOUT
+        } else {
+            READ_TIMEOUT
+        };
         if let Some(path) = &args.port {
             let baud = args.baud.unwrap_or(DEFAULT_BAUD);
             let port = serialport::new(path.as_str(), baud)
@@ -150,7 +202,7 @@ impl Transport {
                 .parity(serialport::Parity::None)
                 .stop_bits(serialport::StopBits::One)
                 .flow_control(serialport::FlowControl::None)
-                .timeout(READ_TIMEOUT)
+                .timeout(read_timeout)
                 .open()
                 .map_err(|e| serial_open_error(path, &e))?;
             return Ok((Self::Serial(port), format!("{path} at {baud} Bd")));
@@ -165,7 +217,7 @@ impl Transport {
             match TcpStream::connect_timeout(&addr, CONNECT_TIMEOUT) {
                 Ok(stream) => {
                     stream
-                        .set_read_timeout(Some(READ_TIMEOUT))
+                        .set_read_timeout(Some(read_timeout))
                         .and_then(|()| stream.set_nodelay(true))
                         .map_err(|e| format!("cannot set up the connection to {address}: {e}"))?;
                     return Ok((Self::Tcp(stream), format!("tcp {address}")));
@@ -433,6 +485,84 @@ pub struct Summary {
     /// The live outputs (`--ros2`, `--foxglove`, `--mcap`), when any was on.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub outputs: Option<OutputsReport>,
+    /// The clock mapping at the end and its counters.
+    pub time_sync: TimeSyncReport,
+    /// The pose inputs (`--odom-topic`, `--pose-udp`), when one was on.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub poses: Option<PosesReport>,
+    /// The device's pose track and time counters (its last Stats, i = 30 ..= 35).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub device_pose_track: Option<DevicePoseTrack>,
+}
+
+/// The clock mapping (host ↔ device, [`ClockSync`]) at the end of a session.
+#[derive(Serialize, Debug, Clone)]
+pub struct TimeSyncReport {
+    /// Whether the mapping was known at the end.
+    pub synced: bool,
+    /// Device µs minus host µs (the host's count starts 10 s before the session) at the
+    /// mapping's anchor; `None` when not synced.
+    pub offset_us: Option<f64>,
+    /// The device's clock rate minus the host's, ppm.
+    pub drift_ppm: Option<f64>,
+    /// The stated bound on the mapping's error at its anchor, µs.
+    pub accuracy_us: Option<f64>,
+    /// The anchor exchange's round trip, µs.
+    pub round_trip_us: Option<u64>,
+    /// TimeRequests sent.
+    pub requests_sent: u64,
+    /// The filter's counters (replies taken, discarded, resets by reason).
+    #[serde(flatten)]
+    pub counters: ClockCounters,
+    /// Every reset, whatever its reason.
+    pub resets: u64,
+    /// Observed frames received.
+    pub observed: u64,
+    /// Observed frames whose time could not be mapped (no mapping yet): the maps were
+    /// stamped with the hand-off's time meanwhile.
+    pub observed_unmapped: u64,
+}
+
+/// The pose inputs of a session.
+#[derive(Serialize, Debug, Clone)]
+pub struct PosesReport {
+    /// The inputs (`ros2 /odom`, `udp 127.0.0.1:7420`).
+    pub sources: Vec<String>,
+    /// The poses' frame (the first named).
+    pub frame: Option<String>,
+    /// What became of the poses, by reason.
+    #[serde(flatten)]
+    pub counters: PoseCounters,
+}
+
+/// The device's own counters of the stamped poses and the time exchange (Stats 30 ..= 35).
+#[derive(Serialize, Debug, Clone, Copy)]
+pub struct DevicePoseTrack {
+    /// Stamped poses taken into the track.
+    pub poses_stamped: u32,
+    /// Stamped poses refused (not newer than the newest, or over 1 s ahead of its clock).
+    pub poses_refused: u32,
+    /// Stamped poses over 500 ms after the newest (the track restarted at them).
+    pub pose_gaps: u32,
+    /// Returns placed with a pose extrapolated past the newest.
+    pub returns_extrapolated: u32,
+    /// Returns refused for want of a pose.
+    pub returns_without_pose: u32,
+    /// TimeRequests answered.
+    pub time_requests: u32,
+}
+
+impl DevicePoseTrack {
+    fn of(s: &Stats) -> Self {
+        Self {
+            poses_stamped: s.poses_stamped,
+            poses_refused: s.poses_refused,
+            pose_gaps: s.pose_gaps,
+            returns_extrapolated: s.returns_extrapolated,
+            returns_without_pose: s.returns_without_pose,
+            time_requests: s.time_requests,
+        }
+    }
 }
 
 /// FNV-1a 64 of raw cells as `i16` little-endian.
@@ -462,6 +592,217 @@ fn total_errors(rx: &RxCounters) -> u64 {
     .sum()
 }
 
+/// The session's clocks and poses: the time exchanges, the clock mapping, the pose inputs.
+struct Timing {
+    /// The origin of the host's µs count.
+    origin: Instant,
+    clock: ClockSync,
+    wall: WallAnchor,
+    forwarder: PoseForwarder,
+    inputs: Option<mpsc::Receiver<SourceEvent>>,
+    /// The pose inputs' threads (stopped when dropped).
+    sources: Vec<Source>,
+    fast_until: Instant,
+    next_request: Instant,
+    requests_sent: u64,
+    observed: u64,
+    observed_unmapped: u64,
+    /// The robot's latest forwarded pose (for the live outputs).
+    last_pose: Option<RobotPose>,
+    /// Dropped poses when the diagnostics were last built (a rise is a warning).
+    dropped_before: u64,
+}
+
+impl Timing {
+    fn new(now: Instant) -> Self {
+        Self {
+            origin: now.checked_sub(MONOTONIC_LEAD).unwrap_or(now),
+            clock: ClockSync::new(),
+            wall: WallAnchor::new(),
+            forwarder: PoseForwarder::new(),
+            inputs: None,
+            sources: Vec::new(),
+            fast_until: now + TIME_REQUEST_FAST_FOR,
+            next_request: now,
+            requests_sent: 0,
+            observed: 0,
+            observed_unmapped: 0,
+            last_pose: None,
+            dropped_before: 0,
+        }
+    }
+
+    /// The host's µs count at `t`.
+    fn host_us(&self, t: Instant) -> u64 {
+        u64::try_from(t.saturating_duration_since(self.origin).as_micros()).unwrap_or(u64::MAX)
+    }
+
+    /// Forgets the clock mapping (counted by `reason`), drops a pose pending for the old
+    /// clock, and exchanges fast again.
+    fn restart(&mut self, reason: ResetReason, now: Instant) {
+        self.clock.reset(reason);
+        self.forwarder.drop_pending();
+        self.fast_until = now + TIME_REQUEST_FAST_FOR;
+        self.next_request = now;
+    }
+
+    /// The TimeRequest due at `now`, if one is.
+    fn request_due(&mut self, now: Instant) -> Option<TimeRequest> {
+        if now < self.next_request {
+            return None;
+        }
+        let period = if now < self.fast_until {
+            TIME_REQUEST_FAST
+        } else {
+            TIME_REQUEST_SLOW
+        };
+        self.next_request = now + period;
+        self.requests_sent += 1;
+        Some(TimeRequest {
+            host_us: self.host_us(Instant::now()),
+        })
+    }
+
+    /// Reads both host clocks (a jump of the wall clock is counted).
+    fn observe_wall(&mut self, now: Instant) {
+        let wall_us = SystemTime::now()
+            .duration_since(UNIX_EPOCH)
+            .map_or(0, |d| i128::try_from(d.as_micros()).unwrap_or(i128::MAX));
+        if self.wall.observe(wall_us, self.host_us(now)) {
+            self.forwarder.count_clock_jump();
+        }
+    }
+
+    /// Takes what the pose inputs sent since the last pass.
+    fn drain_inputs(&mut self, now: Instant) {
+        let Some(rx) = &self.inputs else {
+            return;
+        };
+        let now_us = self.host_us(now);
+        for _ in 0..INPUTS_PER_PASS {
+            match rx.try_recv() {
+                Ok(event) => self.forwarder.take(event, now_us, &self.wall, &self.clock),
+                Err(_) => break,
+            }
+        }
+    }
+
+    /// The host wall time of the device's `device_us`, if the mapping is known.
+    fn wall_time_of(&self, device_us: u32) -> Option<SystemTime> {
+        let host_us = self.clock.to_host(device_us)?;
+        let wall_us = u64::try_from(self.wall.to_wall(host_us)?).ok()?;
+        UNIX_EPOCH.checked_add(Duration::from_micros(wall_us))
+    }
+
+    fn report(&self) -> TimeSyncReport {
+        let e = self.clock.estimate();
+        let counters = self.clock.counters();
+        TimeSyncReport {
+            synced: self.clock.is_synced(),
+            offset_us: e.map(|e| e.offset_us),
+            drift_ppm: e.map(|e| e.drift_ppm),
+            accuracy_us: e.map(|e| e.accuracy_us),
+            round_trip_us: e.map(|e| e.round_trip_us),
+            requests_sent: self.requests_sent,
+            counters,
+            resets: counters.resets(),
+            observed: self.observed,
+            observed_unmapped: self.observed_unmapped,
+        }
+    }
+
+    fn poses_report(&self) -> Option<PosesReport> {
+        (!self.sources.is_empty()).then(|| PosesReport {
+            sources: self.sources.iter().map(|s| s.name.clone()).collect(),
+            frame: self.forwarder.frame().map(str::to_string),
+            counters: self.forwarder.counters(),
+        })
+    }
+
+    /// The `/diagnostics` statuses of the clock and (when on) the pose inputs.
+    fn diagnostics(&mut self, hardware_id: &str) -> Vec<ros_msgs::DiagnosticStatus> {
+        let kv = |key: &str, value: String| ros_msgs::KeyValue {
+            key: key.to_string(),
+            value,
+        };
+        let r = self.report();
+        let fmt =
+            |v: Option<f64>, digits: usize| v.map_or_else(String::new, |v| format!("{v:.digits$}"));
+        let clock = ros_msgs::DiagnosticStatus {
+            level: if r.synced {
+                ros_msgs::LEVEL_OK
+            } else {
+                ros_msgs::LEVEL_WARN
+            },
+            name: "terrain_pyramid: clock".into(),
+            message: match (r.drift_ppm, r.accuracy_us) {
+                (Some(drift), Some(acc)) if r.synced => {
+                    format!("synced: drift {drift:.1} ppm, accuracy {acc:.0} µs")
+                }
+                _ => "not synced: no pose is forwarded".into(),
+            },
+            hardware_id: hardware_id.to_string(),
+            values: vec![
+                kv("synced", r.synced.to_string()),
+                kv("offset_us", fmt(r.offset_us, 1)),
+                kv("drift_ppm", fmt(r.drift_ppm, 3)),
+                kv("accuracy_us", fmt(r.accuracy_us, 1)),
+                kv(
+                    "round_trip_us",
+                    r.round_trip_us.map_or_else(String::new, |v| v.to_string()),
+                ),
+                kv("requests_sent", r.requests_sent.to_string()),
+                kv("exchanges", r.counters.exchanges.to_string()),
+                kv("discarded", r.counters.discarded.to_string()),
+                kv("queued_replies", r.counters.queued_replies.to_string()),
+                kv("resets", r.resets.to_string()),
+                kv("resets_boot", r.counters.resets_boot.to_string()),
+                kv("resets_reconnect", r.counters.resets_reconnect.to_string()),
+                kv(
+                    "resets_inconsistent",
+                    r.counters.resets_inconsistent.to_string(),
+                ),
+                kv("observed", r.observed.to_string()),
+                kv("observed_unmapped", r.observed_unmapped.to_string()),
+            ],
+        };
+        let mut out = vec![clock];
+        if let Some(p) = self.poses_report() {
+            let dropped = p.counters.dropped();
+            let rising = dropped > self.dropped_before;
+            self.dropped_before = dropped;
+            out.push(ros_msgs::DiagnosticStatus {
+                level: if rising || p.counters.forwarded == 0 {
+                    ros_msgs::LEVEL_WARN
+                } else {
+                    ros_msgs::LEVEL_OK
+                },
+                name: "terrain_pyramid: poses".into(),
+                message: format!(
+                    "{} forwarded, {} dropped ({}){}",
+                    p.counters.forwarded,
+                    dropped,
+                    p.sources.join(", "),
+                    if rising {
+                        ": poses dropped since the last report"
+                    } else {
+                        ""
+                    }
+                ),
+                hardware_id: hardware_id.to_string(),
+                values: p
+                    .counters
+                    .named()
+                    .iter()
+                    .map(|(n, v)| kv(n, v.to_string()))
+                    .chain(std::iter::once(kv("frame", p.frame.unwrap_or_default())))
+                    .collect(),
+            });
+        }
+        out
+    }
+}
+
 /// The host's end of one session: the link, and when it last asked for a snapshot.
 struct Session {
     transport: Transport,
@@ -474,6 +815,8 @@ struct Session {
     snapshots_requested: u64,
     /// The rule to set on the device on connecting (`--rule` and its parameters).
     set_rule: Option<SetRule>,
+    /// The clocks and the poses.
+    timing: Timing,
 }
 
 impl Session {
@@ -503,6 +846,46 @@ impl Session {
             .map_err(|e| format!("cannot send to the device: {e}"))?;
         self.requested = Some(now);
         self.snapshots_requested += 1;
+        Ok(())
+    }
+
+    /// Sends `message`; `Err` when the stream is gone.
+    fn send(&mut self, message: &Message<'_>) -> Result<(), String> {
+        let bytes = self
+            .host
+            .command(message)
+            .map_err(|e| format!("cannot encode a command: {e:?}"))?;
+        self.transport
+            .write_all(&bytes)
+            .map_err(|e| format!("cannot send to the device: {e}"))
+    }
+
+    /// The clocks' and the poses' part of a pass at `now`: the wall clock read, the inputs
+    /// taken, a pose forwarded and a TimeRequest sent when due.
+    fn tend(&mut self, now: Instant) -> Result<(), String> {
+        self.timing.observe_wall(now);
+        self.timing.drain_inputs(now);
+        let now_us = self.timing.host_us(now);
+        if let Some(p) = self.timing.forwarder.poll(now_us, &self.timing.clock) {
+            self.send(&Message::Pose(PoseReport {
+                x_m: p.x,
+                y_m: p.y,
+                z_m: p.z,
+                roll_rad: p.roll,
+                pitch_rad: p.pitch,
+                yaw_rad: p.yaw,
+                stamp_us: p.stamp_us,
+                flags: POSE_STAMPED,
+            }))?;
+            self.timing.last_pose = Some(RobotPose {
+                x: f64::from(p.x),
+                y: f64::from(p.y),
+                yaw: f64::from(p.yaw),
+            });
+        }
+        if let Some(request) = self.timing.request_due(now) {
+            self.send(&Message::TimeRequest(request))?;
+        }
         Ok(())
     }
 
@@ -561,6 +944,9 @@ fn reconnect(
                 Ok((transport, source)) => {
                     session.transport = transport;
                     session.reconnects += 1;
+                    session
+                        .timing
+                        .restart(ResetReason::Reconnect, Instant::now());
                     let resumed = session
                         .transport
                         .write_all(&[0])
@@ -592,6 +978,7 @@ fn receive(
     let deadline = args.duration_s.map(|s| start + Duration::from_secs_f64(s));
     let mut meter = RateMeter::default();
     let mut next_status = start;
+    let mut next_diagnostics = start;
     let mut buf = vec![0_u8; 4096];
     // One delimiter ends whatever the device's receiver holds, then the first request.
     let opened = session
@@ -602,6 +989,9 @@ fn receive(
     if let Err(e) = opened {
         out.notice(&format!("warning: {e}"));
     }
+    session.timing.fast_until = start + TIME_REQUEST_FAST_FOR;
+    session.timing.next_request = start;
+    let mut announced_sync = false;
     let ending = loop {
         if stop.load(Ordering::SeqCst) {
             break Ending::Interrupted;
@@ -620,7 +1010,9 @@ fn receive(
                 next_status = now + STATUS_INTERVAL;
             }
         }
-        let n = match session.transport.read(&mut buf) {
+        let read = session.transport.read(&mut buf);
+        let read_at = session.timing.host_us(Instant::now());
+        let n = match read {
             Received::Bytes(n) => n,
             Received::Nothing => 0,
             Received::Ended(error) => {
@@ -647,6 +1039,12 @@ fn receive(
                 LinkEvent::Hello(hello) => {
                     // Any Hello answers (or supersedes) an outstanding request.
                     session.requested = None;
+                    if hello.reason == HelloReason::Boot {
+                        // A new clock: the old mapping is void, poses wait for the new one.
+                        session
+                            .timing
+                            .restart(ResetReason::DeviceBoot, Instant::now());
+                    }
                     if hello.reason != HelloReason::Snapshot {
                         out.notice(&format!(
                             "device: Hello ({}), firmware {}.{}.{}, {} layers of {} cells, clock: {}",
@@ -669,18 +1067,73 @@ fn receive(
                 LinkEvent::Reply(reply) if reply.to_type == MessageType::SetRule.to_u8() => {
                     out.notice(&set_rule_answer(&reply));
                 }
+                LinkEvent::TimeReply(reply) => {
+                    let outcome = session.timing.clock.add(Exchange {
+                        host_sent_us: reply.host_us,
+                        device_us: reply.device_us,
+                        host_received_us: read_at,
+                        queued_ahead: reply.queued_ahead,
+                    });
+                    if outcome == Outcome::Reset {
+                        out.notice(
+                            "warning: the device's clock jumped (a reboot whose Hello was lost?): \
+                             time sync restarted, poses wait for it",
+                        );
+                        session.timing.forwarder.drop_pending();
+                        session.timing.fast_until = Instant::now() + TIME_REQUEST_FAST_FOR;
+                    }
+                }
+                LinkEvent::Observed(observed) => {
+                    session.timing.observed += 1;
+                    match session.timing.wall_time_of(observed.last_us) {
+                        Some(stamp) => {
+                            if let Some(outputs) = &mut session.outputs {
+                                outputs.set_data_stamp(stamp);
+                            }
+                        }
+                        None => session.timing.observed_unmapped += 1,
+                    }
+                }
                 LinkEvent::Reply(_)
                 | LinkEvent::Stats(_)
                 | LinkEvent::BadFrame(_)
-                | LinkEvent::Faded(_)
-                | LinkEvent::TimeReply(_)
-                | LinkEvent::Observed(_) => {}
+                | LinkEvent::Faded(_) => {}
             }
         }
-        if let Some(outputs) = &mut session.outputs {
-            outputs.offer(session.host.mirror(), None);
-        }
         let now = Instant::now();
+        // A write that fails means the stream is gone: the next read says so and ends or
+        // reconnects the session.
+        let _ = session.tend(now);
+        match (session.timing.clock.estimate(), announced_sync) {
+            (Some(e), false) => {
+                out.notice(&format!(
+                    "clock: synced with the device (drift {:.1} ppm, accuracy {:.0} µs, round trip {} µs)",
+                    e.drift_ppm, e.accuracy_us, e.round_trip_us
+                ));
+                announced_sync = true;
+            }
+            (None, true) => announced_sync = false,
+            _ => {}
+        }
+        if let Some(outputs) = &mut session.outputs {
+            if let Some(frame) = session.timing.forwarder.frame() {
+                outputs.set_pose_frame(frame);
+            }
+            if now >= next_diagnostics {
+                let hardware_id = session.host.mirror().firmware().map_or_else(
+                    || "terrain-pyramid".to_string(),
+                    |f| {
+                        format!(
+                            "terrain-pyramid firmware {}.{}.{}",
+                            f.major, f.minor, f.patch
+                        )
+                    },
+                );
+                outputs.set_diagnostics(session.timing.diagnostics(&hardware_id));
+                next_diagnostics = now + STATUS_INTERVAL;
+            }
+            outputs.offer(session.host.mirror(), session.timing.last_pose);
+        }
         let overdue = session
             .requested
             .is_none_or(|t| now.duration_since(t) >= SNAPSHOT_RETRY);
@@ -792,6 +1245,9 @@ fn write_out(
         files,
         reconnects: session.reconnects,
         outputs,
+        time_sync: session.timing.report(),
+        poses: session.timing.poses_report(),
+        device_pose_track: mirror.last_stats().map(|s| DevicePoseTrack::of(&s)),
     };
     let json = serde_json::to_string_pretty(&summary)
         .map_err(|e| format!("cannot encode the summary as JSON: {e}"))?;
@@ -800,6 +1256,31 @@ fn write_out(
         format!("{json}\n").as_bytes(),
     )?;
     Ok(summary)
+}
+
+/// Starts the pose inputs `args` asks for, each on a thread of its own feeding one channel.
+fn start_pose_inputs(args: &Args) -> Result<Timing, String> {
+    let mut timing = Timing::new(Instant::now());
+    if args.odom_topic.is_none() && args.pose_udp.is_none() {
+        return Ok(timing);
+    }
+    let (tx, rx) = mpsc::sync_channel(INPUT_CHANNEL);
+    if let Some(addr) = &args.pose_udp {
+        let (source, _) = pose_input::spawn_udp(addr, tx.clone())?;
+        timing.sources.push(source);
+    }
+    if let Some(topic) = &args.odom_topic {
+        let domain = args
+            .outputs
+            .config(LogOddsFixed::ZERO)
+            .ros2_domain
+            .unwrap_or(0);
+        timing
+            .sources
+            .push(pose_input::spawn_odometry(domain, topic, tx)?);
+    }
+    timing.inputs = Some(rx);
+    Ok(timing)
 }
 
 /// Runs `pyramid listen`.
@@ -839,6 +1320,15 @@ pub fn run(args: &Args) -> ExitCode {
             return ExitCode::FAILURE;
         }
     };
+    // The pose inputs too: a port in use or a bad topic ends the command before the device is
+    // opened.
+    let timing = match start_pose_inputs(args) {
+        Ok(t) => t,
+        Err(e) => {
+            eprintln!("error: {e}");
+            return ExitCode::FAILURE;
+        }
+    };
     let (transport, source) = match Transport::open(args) {
         Ok(t) => t,
         Err(e) => {
@@ -847,6 +1337,9 @@ pub fn run(args: &Args) -> ExitCode {
         }
     };
     let mut out = StatusOutput::new();
+    for input in &timing.sources {
+        out.notice(&format!("poses: reading {}", input.name));
+    }
     out.notice(&format!(
         "listening on {source}; Ctrl-C ends and writes the maps"
     ));
@@ -861,6 +1354,7 @@ pub fn run(args: &Args) -> ExitCode {
         requested: None,
         snapshots_requested: 0,
         set_rule,
+        timing,
     };
     let (mut session, ending, elapsed) = receive(session, args, &stop, &mut out);
     let report = match session.outputs.take() {
@@ -984,6 +1478,52 @@ mod tests {
         assert_eq!(cells_fnv1a64(&[]), 0xCBF2_9CE4_8422_2325);
         // Cells 0x6261 little-endian are the bytes "ab".
         assert_eq!(cells_fnv1a64(&[0x6261]), 0x089C_4407_B545_986A);
+    }
+
+    #[test]
+    fn time_requests_go_fast_for_two_seconds_then_slow_and_fast_again_after_a_boot() {
+        let t0 = Instant::now();
+        let mut timing = Timing::new(t0);
+        let mut sent = Vec::new();
+        for ms in (0..4_000).step_by(10) {
+            let now = t0 + Duration::from_millis(ms);
+            if timing.request_due(now).is_some() {
+                sent.push(ms);
+            }
+            if ms == 3_000 {
+                timing.restart(ResetReason::DeviceBoot, now);
+            }
+        }
+        let fast: Vec<u64> = (0..20).map(|k| k * 100).collect();
+        assert_eq!(&sent[..20], fast.as_slice());
+        assert_eq!(&sent[20..22], &[2_000, 2_500]);
+        // The boot at 3 s: at once, then every 100 ms again.
+        assert_eq!(&sent[22..25], &[3_000, 3_010, 3_110]);
+        assert_eq!(timing.clock.counters().resets_boot, 1);
+    }
+
+    #[test]
+    fn an_observed_device_time_maps_to_the_host_wall_clock() {
+        let t0 = Instant::now();
+        let mut timing = Timing::new(t0);
+        assert_eq!(timing.wall_time_of(5), None);
+        // Device = host µs + 1 000 000, exchanges with symmetric 300 µs delays.
+        for k in 0..10_u64 {
+            let t = 20_000_000 + k * 100_000;
+            timing.clock.add(Exchange {
+                host_sent_us: t,
+                device_us: u32::try_from(t + 300 + 1_000_000).unwrap(),
+                host_received_us: t + 600,
+                queued_ahead: 0,
+            });
+        }
+        // Wall = host µs + 1.7e15 µs.
+        timing
+            .wall
+            .observe(1_700_000_000_000_000 + 21_000_000, 21_000_000);
+        let stamp = timing.wall_time_of(22_500_000 + 1_000_000).unwrap();
+        let us = stamp.duration_since(UNIX_EPOCH).unwrap().as_micros();
+        assert_eq!(us, 1_700_000_000_000_000 + 22_500_000);
     }
 
     #[test]

@@ -218,8 +218,9 @@ fn serve(listener: TcpListener, plan: Plan, settled: mpsc::Sender<()>) -> Served
                     break;
                 }
                 Ok(n) => {
-                    last_command = Instant::now();
-                    serve_commands(&mut link, &mut pyramid, &rx[..n]);
+                    if serve_commands(&mut link, &mut pyramid, &rx[..n]) {
+                        last_command = Instant::now();
+                    }
                 }
                 Err(e) if e.kind() == ErrorKind::WouldBlock => break,
                 Err(e) if e.kind() == ErrorKind::Interrupted => {}

@@ -66,7 +66,10 @@ fn sent(flags: &[&str]) -> Vec<(u8, Option<SetRule>)> {
                 if let Message::RequestSnapshot(scope) = message {
                     assert_eq!(scope, SnapshotScope::All);
                 }
-                frames.push((message.msg_type().to_u8(), set));
+                // The time exchange's requests go on beside the commands (docs/poses.md).
+                if !matches!(message, Message::TimeRequest(_)) {
+                    frames.push((message.msg_type().to_u8(), set));
+                }
                 rest = remaining;
             }
             FeedResult::Consumed => break,

@@ -110,9 +110,11 @@ pub struct OutputArgs {
     /// At most this many updates per second on each topic (only changed maps are sent).
     #[arg(long, value_name = "HZ", default_value_t = DEFAULT_PUBLISH_HZ, value_parser = positive_hz)]
     pub publish_hz: f64,
-    /// The frame the maps are in: the device's world frame, that of the poses it is sent.
-    #[arg(long, value_name = "FRAME", default_value = DEFAULT_FRAME_ID)]
-    pub frame_id: String,
+    /// The frame the maps are in: the device's world frame, that of the poses it is sent
+    /// [default: the poses' frame (`pyramid listen`: the Odometry's header.frame_id, the UDP
+    /// input's `frame`), else odom].
+    #[arg(long, value_name = "FRAME")]
+    pub frame_id: Option<String>,
     /// The fused map's half side around the robot, metres, at the finest layer's resolution;
     /// 0 = the coarsest layer's whole window (as fused.pgm).
     #[arg(long, value_name = "M", default_value_t = DEFAULT_FUSED_HALF_EXTENT_M, value_parser = extent)]
@@ -148,8 +150,12 @@ pub struct Config {
     pub mcap: Option<PathBuf>,
     /// Updates per second per topic, at most; > 0.
     pub publish_hz: f64,
-    /// The frame id of every map, pose and outline.
+    /// The frame id of every map, pose and outline (until the poses name theirs, when
+    /// `frame_from_poses`).
     pub frame_id: String,
+    /// Whether the poses' frame replaces `frame_id` once known ([`Outputs::set_pose_frame`]):
+    /// `--frame-id` was not given.
+    pub frame_from_poses: bool,
     /// The fused map's half side, metres (0 = the coarsest window).
     pub fused_half_extent_m: f64,
     /// The fused query's margin (Q8.8 nats, ≥ 0), as for the files.
@@ -168,6 +174,7 @@ impl Config {
             mcap: None,
             publish_hz: DEFAULT_PUBLISH_HZ,
             frame_id: DEFAULT_FRAME_ID.to_string(),
+            frame_from_poses: false,
             fused_half_extent_m: DEFAULT_FUSED_HALF_EXTENT_M,
             fused_margin: LogOddsFixed::ZERO,
         }
@@ -198,7 +205,11 @@ impl OutputArgs {
             foxglove: self.foxglove.clone(),
             mcap: self.mcap.clone(),
             publish_hz: self.publish_hz,
-            frame_id: self.frame_id.clone(),
+            frame_id: self
+                .frame_id
+                .clone()
+                .unwrap_or_else(|| DEFAULT_FRAME_ID.to_string()),
+            frame_from_poses: self.frame_id.is_none(),
             fused_half_extent_m: self.fused_extent_m,
             fused_margin,
         }
@@ -246,8 +257,17 @@ pub enum PoseSource {
 /// One hand-off: the maps, the pose and the counters at one moment.
 #[derive(Debug, Clone)]
 pub struct Frame {
-    /// The host's clock when the frame was handed off (the stamp of every message of it).
+    /// The time of the data: the host's wall clock at the device's latest measurement
+    /// ([`Outputs::set_data_stamp`]) or, before one is known, at the hand-off. The stamp of
+    /// every map, pose and outline message of it.
     pub stamp: SystemTime,
+    /// The host's clock at the hand-off (the stamp of the diagnostics).
+    pub handed_off: SystemTime,
+    /// The frame id of every message of it.
+    pub frame_id: String,
+    /// More diagnostics the caller adds (its clock, its pose inputs), published with the
+    /// device's and the link's ([`Outputs::set_diagnostics`]).
+    pub extra_diagnostics: Vec<ros_msgs::DiagnosticStatus>,
     /// The maps.
     pub snapshot: MapSnapshot,
     /// The robot's pose.
@@ -329,7 +349,7 @@ struct Published {
     fused: Option<FusedOut>,
     pose: Option<RobotPose>,
     windows: Vec<WindowOutline>,
-    diagnostics: Option<(Option<Stats>, bool)>,
+    diagnostics: Option<(Option<Stats>, bool, Vec<ros_msgs::DiagnosticStatus>)>,
     diagnostics_msg: ros_msgs::DiagnosticArray,
 }
 
@@ -415,14 +435,25 @@ fn diagnostics_message(frame: &Frame, stamp: ros_msgs::Time) -> ros_msgs::Diagno
             stamp,
             frame_id: String::new(),
         },
-        status: vec![device, host],
+        status: [device, host]
+            .into_iter()
+            .chain(frame.extra_diagnostics.iter().cloned())
+            .collect(),
     }
+}
+
+/// Whether a published map message is in another frame than `frame_id` (the poses named
+/// theirs): it is published again in the new one.
+fn frame_id_changed(published: Option<&ros_msgs::OccupancyGrid>, frame_id: &str) -> bool {
+    published.is_some_and(|m| m.header.frame_id != frame_id)
 }
 
 impl Published {
     /// Compares `frame` with what was published; keeps the new state and marks what changed.
     fn advance(&mut self, frame: &Frame, config: &Config) -> Changed {
         let stamp = ros_msgs::Time::of(frame.stamp);
+        let frame_id = frame.frame_id.as_str();
+
         let mut changed = Changed::default();
         let layers = &frame.snapshot.layers;
         self.layers.truncate(layers.len());
@@ -442,12 +473,12 @@ impl Published {
                             .as_ref()
                             .map(|v| v.iter().map(|f| f.to_bits()).collect::<Vec<_>>())
             });
-            if same {
+            if same && !frame_id_changed(self.layers.get(k).map(|l| &l.ros), frame_id) {
                 continue;
             }
             let out = LayerOut {
                 index: k,
-                ros: grid_message(&grid, stamp, &config.frame_id),
+                ros: grid_message(&grid, stamp, frame_id),
                 grid,
             };
             if k < self.layers.len() {
@@ -464,10 +495,13 @@ impl Published {
             (frame.pose.x, frame.pose.y),
             config.fused_half_extent_m,
         ) {
-            let same = self.fused.as_ref().is_some_and(|f| f.grid == grid);
+            let same = self
+                .fused
+                .as_ref()
+                .is_some_and(|f| f.grid == grid && !frame_id_changed(Some(&f.ros), frame_id));
             if !same {
                 self.fused = Some(FusedOut {
-                    ros: grid_message(&grid, stamp, &config.frame_id),
+                    ros: grid_message(&grid, stamp, frame_id),
                     grid,
                 });
                 changed.fused = true;
@@ -492,16 +526,17 @@ impl Published {
             self.windows = windows;
             changed.windows = true;
         }
-        let key = (frame.stats, frame.synced);
-        if self.diagnostics != Some(key) {
+        let key = (frame.stats, frame.synced, frame.extra_diagnostics.clone());
+        if self.diagnostics != Some(key.clone()) {
             self.diagnostics = Some(key);
-            self.diagnostics_msg = diagnostics_message(frame, stamp);
+            self.diagnostics_msg = diagnostics_message(frame, ros_msgs::Time::of(frame.handed_off));
             changed.diagnostics = true;
         }
         changed
     }
 
-    fn update<'a>(&'a self, changed: &Changed, frame: &Frame, frame_id: &'a str) -> Update<'a> {
+    fn update<'a>(&'a self, changed: &Changed, frame: &'a Frame) -> Update<'a> {
+        let frame_id = frame.frame_id.as_str();
         Update {
             stamp: Some(frame.stamp),
             frame_id,
@@ -586,7 +621,7 @@ fn worker(
         }
         if let Some(frame) = frame {
             let changed = published.advance(&frame, config);
-            let update = published.update(&changed, &frame, &config.frame_id);
+            let update = published.update(&changed, &frame);
             for sink in &mut sinks {
                 sink.publish(&update, &mut counts.messages);
             }
@@ -632,6 +667,10 @@ pub struct OutputsReport {
     pub coalesced: u64,
     /// Where the published pose came from.
     pub pose_source: Option<PoseSource>,
+    /// Hand-offs stamped with the data's time (the rest: with the hand-off's).
+    pub data_stamped: u64,
+    /// The frame id of the last hand-off.
+    pub frame_id: String,
     /// The publishing thread's counts.
     #[serde(flatten)]
     pub published: PublishCounts,
@@ -656,6 +695,13 @@ pub struct Outputs {
     handoffs: u64,
     pose_source: Option<PoseSource>,
     foxglove_addr: Option<String>,
+    /// The frame id the next hand-offs carry.
+    frame_id: String,
+    /// The data's time for the next hand-offs ([`Outputs::set_data_stamp`]).
+    data_stamp: Option<SystemTime>,
+    /// Hand-offs stamped with the data's time.
+    data_stamped: u64,
+    extra_diagnostics: Vec<ros_msgs::DiagnosticStatus>,
 }
 
 impl std::fmt::Debug for Outputs {
@@ -697,6 +743,10 @@ impl Outputs {
             handoffs: 0,
             pose_source: None,
             foxglove_addr: None,
+            frame_id: config.frame_id.clone(),
+            data_stamp: None,
+            data_stamped: 0,
+            extra_diagnostics: Vec::new(),
         }
     }
 
@@ -758,9 +808,38 @@ impl Outputs {
         self.foxglove_addr.as_deref()
     }
 
-    /// The stamp of the last hand-off (the host clock when it copied the maps): every message
-    /// published from that copy carries it (header stamps, Foxglove timestamps and MCAP log
-    /// times). `None` before the first.
+    /// The poses' frame (the Odometry's `header.frame_id`, the UDP input's `frame`): the
+    /// frame id of the next hand-offs, unless `--frame-id` was given ([`Config::frame_from_poses`]
+    /// false). A map already published in another frame is published again in this one.
+    pub fn set_pose_frame(&mut self, frame: &str) {
+        if self.config.frame_from_poses && !frame.is_empty() {
+            frame.clone_into(&mut self.frame_id);
+        }
+    }
+
+    /// The frame id the next hand-offs carry.
+    #[must_use]
+    pub fn frame_id(&self) -> &str {
+        &self.frame_id
+    }
+
+    /// The time of the data the maps hold (`pyramid listen`: the device's latest Observed
+    /// `last_us`, mapped to the host's wall clock): the stamp of the next hand-offs instead of
+    /// the hand-off's own time.
+    pub fn set_data_stamp(&mut self, stamp: SystemTime) {
+        self.data_stamp = Some(stamp);
+    }
+
+    /// More `/diagnostics` statuses (the caller's clock and pose inputs), sent with the next
+    /// hand-offs after the device's and the link's.
+    pub fn set_diagnostics(&mut self, statuses: Vec<ros_msgs::DiagnosticStatus>) {
+        self.extra_diagnostics = statuses;
+    }
+
+    /// The stamp of the last hand-off (the data's time, [`Outputs::set_data_stamp`], or else
+    /// the host clock when it copied the maps): every message published from that copy
+    /// carries it (header stamps, Foxglove timestamps and MCAP log times). `None` before the
+    /// first.
     #[must_use]
     pub fn last_handoff_stamp(&self) -> Option<SystemTime> {
         self.last_stamp
@@ -805,9 +884,16 @@ impl Outputs {
         };
         let mut snapshot = snapshot;
         snapshot.sensor_xy = (pose.x, pose.y);
-        let stamp = SystemTime::now();
+        let handed_off = SystemTime::now();
+        let stamp = self.data_stamp.unwrap_or(handed_off);
+        if self.data_stamp.is_some() {
+            self.data_stamped += 1;
+        }
         let frame = Box::new(Frame {
             stamp,
+            handed_off,
+            frame_id: self.frame_id.clone(),
+            extra_diagnostics: self.extra_diagnostics.clone(),
             snapshot,
             pose,
             stats: mirror.last_stats(),
@@ -860,6 +946,8 @@ impl Outputs {
             handoffs: self.handoffs,
             coalesced,
             pose_source: self.pose_source,
+            data_stamped: self.data_stamped,
+            frame_id: self.frame_id.clone(),
             published,
             foxglove: self.foxglove_addr.clone(),
             mcap: self.config.mcap.as_ref().map(|p| p.display().to_string()),

@@ -153,6 +153,58 @@ pub struct DiagnosticArray {
     pub status: Vec<DiagnosticStatus>,
 }
 
+/// `geometry_msgs/msg/PoseWithCovariance`.
+#[derive(Serialize, Deserialize, Debug, Clone, Copy, PartialEq, Default)]
+pub struct PoseWithCovariance {
+    /// The pose.
+    pub pose: Pose,
+    /// Row-major 6 × 6 covariance of (x, y, z, roll, pitch, yaw); CDR carries the 36 values
+    /// with no length, as a 6 × 6 array does.
+    pub covariance: [[f64; 6]; 6],
+}
+
+/// `geometry_msgs/msg/Vector3`.
+#[derive(Serialize, Deserialize, Debug, Clone, Copy, PartialEq, Default)]
+pub struct Vector3 {
+    /// x.
+    pub x: f64,
+    /// y.
+    pub y: f64,
+    /// z.
+    pub z: f64,
+}
+
+/// `geometry_msgs/msg/Twist`.
+#[derive(Serialize, Deserialize, Debug, Clone, Copy, PartialEq, Default)]
+pub struct Twist {
+    /// Linear velocity, m/s.
+    pub linear: Vector3,
+    /// Angular velocity, rad/s.
+    pub angular: Vector3,
+}
+
+/// `geometry_msgs/msg/TwistWithCovariance`.
+#[derive(Serialize, Deserialize, Debug, Clone, Copy, PartialEq, Default)]
+pub struct TwistWithCovariance {
+    /// The twist.
+    pub twist: Twist,
+    /// Row-major 6 × 6 covariance.
+    pub covariance: [[f64; 6]; 6],
+}
+
+/// `nav_msgs/msg/Odometry`: the robot's pose (`pyramid listen --odom-topic`).
+#[derive(Serialize, Deserialize, Debug, Clone, PartialEq, Default)]
+pub struct Odometry {
+    /// When the robot was at the pose (ROS time) and the pose's frame (`odom`).
+    pub header: Header,
+    /// The robot's body frame.
+    pub child_frame_id: String,
+    /// The pose in `header.frame_id`.
+    pub pose: PoseWithCovariance,
+    /// The velocity in `child_frame_id`.
+    pub twist: TwistWithCovariance,
+}
+
 /// `DiagnosticStatus.level`: OK.
 pub const LEVEL_OK: u8 = 0;
 /// `DiagnosticStatus.level`: WARN.

@@ -131,16 +131,23 @@ fn accept(listener: &TcpListener) -> TcpStream {
     }
 }
 
-/// Carries out the commands `pyramid listen` sends a device (snapshots, Stats, pings), as
-/// the application core does ([`Link::serve`]); the rest is answered Ok.
-pub fn serve_commands(link: &mut Link, pyramid: &mut DefaultPyramid, bytes: &[u8]) {
+/// Carries out the commands `pyramid listen` sends a device (snapshots, Stats, pings, time
+/// requests), as the application core does ([`Link::serve`]); the rest is answered Ok.
+/// Returns whether any was other than a TimeRequest (the host's time exchange goes on all the
+/// session: it does not keep a device from settling).
+pub fn serve_commands(link: &mut Link, pyramid: &mut DefaultPyramid, bytes: &[u8]) -> bool {
     let mut input = bytes;
+    let mut commanded = false;
     loop {
         input = match link.receive(input) {
-            FeedResult::Consumed => return,
+            FeedResult::Consumed => return commanded,
             FeedResult::Item {
                 item, remaining, ..
             } => {
+                commanded |= !matches!(
+                    item.command,
+                    terrain_pyramid::link::Command::TimeRequest { .. }
+                );
                 if let Some(other) = link.serve(pyramid, item) {
                     link.answer(Reply::ok(other.header));
                 }
@@ -240,8 +247,9 @@ fn serve(
                         break;
                     }
                     Ok(n) => {
-                        last_command = Instant::now();
-                        serve_commands(&mut link, &mut pyramid, &rx[..n]);
+                        if serve_commands(&mut link, &mut pyramid, &rx[..n]) {
+                            last_command = Instant::now();
+                        }
                     }
                     Err(e) if e.kind() == ErrorKind::WouldBlock => break,
                     Err(e) if e.kind() == ErrorKind::Interrupted => {}

@@ -1,0 +1,236 @@
+//! `pyramid listen --pose-udp` end to end: an in-process device (the library's `Link`, serving
+//! TimeRequests with the µs clock of a board of its own: an offset, 100 ppm fast, wrapping
+//! 2 s into the run) on 127.0.0.1; the `pyramid` binary syncs its clock with the device's and
+//! forwards the poses a robot sends it as NDJSON datagrams. The device must receive them
+//! stamped with its own time of the moment each pose names, within the link's accuracy; a
+//! bad line, an out-of-order pose and poses before the clock was synced are counted, never
+//! sent.
+//!
+//! The truth is computed here: the test knows the device's clock as a function of its own
+//! monotonic clock, and its own wall clock against that.
+#[path = "support/device.rs"]
+mod support;
+
+use serde_json::Value;
+use std::io::{ErrorKind, Read, Write};
+use std::net::{TcpListener, UdpSocket};
+use std::process::{Command, Stdio};
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
+use support::{design, PATIENCE};
+use terrain_pyramid::link::{Command as DeviceCommand, Link, LinkConfig, SensorCounters};
+use terrain_pyramid::wire::FeedResult;
+use terrain_pyramid::{Config, DefaultPyramid};
+
+/// The device's clock: `start + elapsed × (1 + PPM / 10⁶)` µs, wrapping.
+const PPM: i128 = 100;
+const DEVICE_START_US: u32 = u32::MAX - 2_000_000;
+
+#[derive(Clone, Copy)]
+struct DeviceClock {
+    zero: Instant,
+}
+
+impl DeviceClock {
+    fn at(&self, t: Instant) -> u32 {
+        let e = t.saturating_duration_since(self.zero).as_nanos() as i128;
+        let us = e / 1_000 + e * PPM / 1_000_000_000;
+        (i128::from(DEVICE_START_US) + us).rem_euclid(1 << 32) as u32
+    }
+}
+
+/// A stamped pose the device took: its x (the test's index) and stamp.
+#[derive(Debug, Clone, Copy)]
+struct Received {
+    x: f64,
+    stamp_us: u32,
+}
+
+/// Serves one host connection until it goes away: Hello and Stats from `poll`, TimeReplies
+/// from `serve` with the device time of the bytes that completed each request; Poses kept.
+fn serve(listener: TcpListener, clock: DeviceClock, poses: Arc<Mutex<Vec<Received>>>) {
+    let (mut stream, _) = listener.accept().unwrap();
+    // A blocking read that returns as soon as bytes come: the device's time of a request is
+    // taken within microseconds of its arrival, as a board's receive interrupt does.
+    stream
+        .set_read_timeout(Some(Duration::from_millis(1)))
+        .unwrap();
+    stream.set_nodelay(true).unwrap();
+    let mut pyramid = Box::new(DefaultPyramid::new());
+    let mut link: Box<Link> = Box::new(Link::new(LinkConfig {
+        stats_interval_ms: 200,
+        ..LinkConfig::DEFAULT
+    }));
+    pyramid.configure(&design(), &Config::default()).unwrap();
+    link.adopt(&design());
+    let mut out = vec![0_u8; 4096];
+    let mut rx = vec![0_u8; 4096];
+    let start = Instant::now();
+    loop {
+        assert!(start.elapsed() < PATIENCE, "the host never went away");
+        let now_ms = u32::try_from(start.elapsed().as_millis()).unwrap();
+        link.poll(now_ms, &mut *pyramid, &SensorCounters::default());
+        match stream.read(&mut rx) {
+            Ok(0) => return,
+            Ok(n) => {
+                let taken_at = clock.at(Instant::now());
+                let mut input = &rx[..n];
+                loop {
+                    input = match link.receive_at(input, taken_at) {
+                        FeedResult::Consumed => break,
+                        FeedResult::Item {
+                            item, remaining, ..
+                        } => {
+                            if let Some(other) = link.serve(&mut pyramid, item) {
+                                if let DeviceCommand::Pose(pose, Some(stamp_us)) = other.command {
+                                    poses.lock().unwrap().push(Received {
+                                        x: pose.x.to_num::<f64>(),
+                                        stamp_us,
+                                    });
+                                }
+                            }
+                            remaining
+                        }
+                        FeedResult::Rejected { remaining, .. } => remaining,
+                    };
+                }
+            }
+            Err(e) if matches!(e.kind(), ErrorKind::WouldBlock | ErrorKind::TimedOut) => {}
+            Err(_) => return,
+        }
+        let n = link.pop_bytes(&mut out);
+        if stream.write_all(&out[..n]).is_err() {
+            return;
+        }
+    }
+}
+
+fn wall_us() -> i128 {
+    SystemTime::now()
+        .duration_since(UNIX_EPOCH)
+        .unwrap()
+        .as_micros() as i128
+}
+
+#[test]
+fn udp_poses_reach_the_device_stamped_in_its_own_clock() {
+    let listener = TcpListener::bind("127.0.0.1:0").unwrap();
+    let port = listener.local_addr().unwrap().port();
+    let clock = DeviceClock {
+        zero: Instant::now(),
+    };
+    let poses = Arc::new(Mutex::new(Vec::new()));
+    let device = {
+        let poses = Arc::clone(&poses);
+        std::thread::spawn(move || serve(listener, clock, poses))
+    };
+    // A free UDP port for the pose input.
+    let pose_addr = {
+        let probe = UdpSocket::bind("127.0.0.1:0").unwrap();
+        probe.local_addr().unwrap()
+    };
+    let dir = std::env::temp_dir().join(format!("pyramid-listen-poses-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let child = Command::new(env!("CARGO_BIN_EXE_pyramid"))
+        .args([
+            "listen",
+            "--tcp",
+            &format!("127.0.0.1:{port}"),
+            "--out",
+            dir.to_str().unwrap(),
+            "--duration-s",
+            "5",
+            "--pose-udp",
+            &pose_addr.to_string(),
+        ])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+
+    // The robot: 50 Hz poses, each stamped 30 ms before it is sent (the wall clock, as ROS
+    // time), x = its index / 1000. Then one bad line and one pose older than the newest.
+    let robot = UdpSocket::bind("127.0.0.1:0").unwrap();
+    let anchor = (Instant::now(), wall_us());
+    let mut sent: Vec<(f64, i128)> = Vec::new();
+    let stop_at = Instant::now() + Duration::from_millis(4_000);
+    let mut i = 0_u32;
+    while Instant::now() < stop_at {
+        i += 1;
+        let stamp = wall_us() - 30_000;
+        let x = f64::from(i) / 1000.0;
+        let line = format!(
+            "{{\"t\": {}.{:06}, \"frame\": \"odom\", \"x\": {x}, \"y\": 0.5, \"z\": 0, \"yaw\": 0.25}}\n",
+            stamp.div_euclid(1_000_000),
+            stamp.rem_euclid(1_000_000)
+        );
+        robot.send_to(line.as_bytes(), pose_addr).unwrap();
+        sent.push((x, stamp));
+        if i == 150 {
+            robot.send_to(b"{\"t\": oops}\n", pose_addr).unwrap();
+            let (_, old) = sent[sent.len() - 5];
+            let line = format!(
+                "{{\"t\": {}.{:06}, \"x\": 9.0, \"y\": 0, \"yaw\": 0}}\n",
+                old.div_euclid(1_000_000),
+                old.rem_euclid(1_000_000)
+            );
+            robot.send_to(line.as_bytes(), pose_addr).unwrap();
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    let output = child.wait_with_output().unwrap();
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(output.status.success(), "{stderr}");
+    device.join().unwrap();
+
+    let summary: Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("summary.json")).unwrap()).unwrap();
+    let sync = &summary["time_sync"];
+    assert_eq!(sync["synced"], true, "{summary:#}");
+    assert!(sync["exchanges"].as_u64().unwrap() >= 20, "{sync}");
+    // The device's boot Hello may reset what the first exchanges taught; nothing else may.
+    assert_eq!(sync["resets_inconsistent"], 0, "{sync}");
+    assert_eq!(sync["resets_reconnect"], 0, "{sync}");
+    assert!(sync["resets_boot"].as_u64().unwrap() <= 1, "{sync}");
+    let drift = sync["drift_ppm"].as_f64().unwrap();
+    assert!((drift - 100.0).abs() < 20.0, "drift {drift} ppm");
+    let accuracy = sync["accuracy_us"].as_f64().unwrap();
+    let p = &summary["poses"];
+    assert_eq!(p["bad_not_json"], 1, "{p}");
+    assert_eq!(p["out_of_order"], 1, "{p}");
+    assert_eq!(p["frame"], "odom");
+    assert_eq!(p["stale"], 0, "{p}");
+    // The device's own count of the stamped poses.
+    let received = poses.lock().unwrap().clone();
+    assert_eq!(
+        p["forwarded"].as_u64().unwrap(),
+        received.len() as u64,
+        "{p}"
+    );
+    // Most of 4 s at 50 Hz, less the first second's (the clock was not synced yet).
+    assert!(received.len() > 75, "{} poses; {p}", received.len());
+    assert!(p["unsynced"].as_u64().unwrap() > 0, "{p}");
+
+    // Each stamp against the device's clock at the moment its pose names.
+    let mut worst = 0_i64;
+    for r in &received {
+        let &(x, stamp) = sent
+            .iter()
+            .find(|(x, _)| (x - r.x).abs() < 1e-4)
+            .unwrap_or_else(|| panic!("the device got a pose never sent: x {}", r.x));
+        assert!((x - r.x).abs() < 1e-4);
+        let at = anchor.0 + Duration::from_micros(u64::try_from(stamp - anchor.1).unwrap());
+        let truth = clock.at(at);
+        let error = i64::from(r.stamp_us.wrapping_sub(truth) as i32);
+        worst = worst.max(error.abs());
+    }
+    eprintln!(
+        "{} poses; worst stamp error {worst} µs, stated accuracy {accuracy:.0} µs, drift {drift:.1} ppm",
+        received.len()
+    );
+    // The loopback's round trips are tens of µs (measured: errors of 4 to 21 µs); the margin
+    // is for a loaded machine.
+    assert!(worst <= 500, "worst stamp error {worst} µs");
+    assert!(stderr.contains("clock: synced"), "{stderr}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
