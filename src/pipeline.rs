@@ -38,10 +38,10 @@ use crate::angle::FineAngle;
 use crate::classify::{Classifier, ClassifierConfig, ClassifierStats};
 use crate::design::{Design, DesignError};
 use crate::geometry::{
-    beam_angle_of_clockwise, ActuatedPlane, BeamTable, LinePoint, LineTransform, Mount, Pose,
-    PoseFrame, SweepTransform,
+    beam_angle_of_clockwise, ActuatedPlane, BeamTable, LinePoint, LineTransform, Mount, NoPose,
+    Placement, Pose, PoseFrame, PoseTrack, SweepTransform, POSE_QUANTUM_US,
 };
-use crate::laser::{Sensor, SensorKind};
+use crate::laser::{Sensor, SensorKind, SickBeamTimes};
 use crate::pyramid::{Config, Pyramid};
 use crate::units::Meters;
 use crate::units::Point3;
@@ -148,6 +148,13 @@ pub struct FrontendStats {
     pub missing_ground: u32,
     /// Observations finished and applied.
     pub observations: u32,
+    /// Returns placed with a pose extrapolated (or held) past the newest stamped pose
+    /// ([`Placement::Extrapolated`], [`Placement::Held`]; timed placement only).
+    pub returns_extrapolated: u32,
+    /// Returns refused for want of a pose: later than the newest stamped pose by more than
+    /// the extrapolation bound, or earlier than the oldest kept (timed placement only). They
+    /// are counted in `returns` too, and placed nowhere.
+    pub returns_without_pose: u32,
 }
 
 /// Why a line was refused.
@@ -234,6 +241,103 @@ impl PacketActuator {
     }
 }
 
+/// When a lidar packet's first and last returns were measured, µs on the device's clock
+/// (wrapping): return k of n is at `first_us + k·(last_us − first_us)/(n − 1)`
+/// ([`Frontend::packet_timed`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct PacketTimes {
+    /// The first return's time, µs.
+    pub first_us: u32,
+    /// The last return's time, µs.
+    pub last_us: u32,
+}
+
+/// The times of the returns an observation placed, for the host to stamp the maps it
+/// publishes ([`Frontend::take_observed`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct ObservedSpan {
+    /// The observation count (the counters' `observations`) after this one.
+    pub observation: u32,
+    /// The measurement time of the earliest return it placed, µs (device clock, wrapping).
+    pub first_us: u32,
+    /// The measurement time of the latest return it placed, µs.
+    pub last_us: u32,
+}
+
+/// Timed placement's state: the pose in force and when it was evaluated, and the span of
+/// the observation's placed returns. Zero bits: nothing in force, no span.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+struct TimedPose {
+    /// The time the pose in force was evaluated at, µs (meaningful when `in_force`).
+    at_us: u32,
+    /// Whether a timed pose is in force.
+    in_force: bool,
+    /// Whether it was extrapolated (or held) past the newest stamped pose.
+    extrapolated: bool,
+    /// The earliest and latest times of the observation's placed returns (when `spanned`).
+    first_us: u32,
+    last_us: u32,
+    spanned: bool,
+}
+
+impl TimedPose {
+    const NONE: Self = Self {
+        at_us: 0,
+        in_force: false,
+        extrapolated: false,
+        first_us: 0,
+        last_us: 0,
+        spanned: false,
+    };
+
+    /// Notes a return placed at `t_us` in the observation's span.
+    fn placed(&mut self, t_us: u32) {
+        if !self.spanned {
+            (self.first_us, self.last_us, self.spanned) = (t_us, t_us, true);
+        } else if later_by(self.first_us, t_us) > 0 {
+            self.first_us = t_us;
+        } else if later_by(t_us, self.last_us) > 0 {
+            self.last_us = t_us;
+        }
+    }
+}
+
+/// How much later `b` is than `a`, µs: the wrapping difference as an `i32`.
+#[allow(clippy::cast_possible_wrap)]
+const fn later_by(b: u32, a: u32) -> i32 {
+    b.wrapping_sub(a) as i32
+}
+
+/// Where the poses of a line's returns come from: none (the pose in force for every
+/// return: [`Untimed`]), or a track of stamped poses, evaluated at each return's time.
+/// Monomorphised, so the untimed path carries nothing of the timed one.
+trait Poses {
+    /// Whether returns take the pose of their own times.
+    const TIMED: bool;
+    /// The pose at `t_us`.
+    fn pose_at(&self, t_us: u32) -> Result<(Pose, Placement), NoPose>;
+}
+
+/// Every return takes the pose in force ([`Frontend::set_pose`]'s).
+struct Untimed;
+
+impl Poses for Untimed {
+    const TIMED: bool = false;
+    #[inline(always)]
+    fn pose_at(&self, _: u32) -> Result<(Pose, Placement), NoPose> {
+        Err(NoPose::Empty)
+    }
+}
+
+impl<const N: usize> Poses for PoseTrack<N> {
+    const TIMED: bool = true;
+    fn pose_at(&self, t_us: u32) -> Result<(Pose, Placement), NoPose> {
+        self.at(t_us)
+    }
+}
+
 /// The per-line pipeline, with `C` classifier slots, for designs of up to `L` layers.
 pub struct Frontend<const C: usize, const L: usize> {
     config: FrontendConfig,
@@ -253,6 +357,12 @@ pub struct Frontend<const C: usize, const L: usize> {
     stats: FrontendStats,
     /// Whether a configuration has been adopted (lines are refused until then).
     configured: bool,
+    /// The pose in force of timed placement, and the observation's span of times.
+    timed: TimedPose,
+    /// The span of the last observation applied with timed returns, until taken.
+    observed: ObservedSpan,
+    /// Whether `observed` waits to be taken ([`Frontend::take_observed`]).
+    observed_pending: bool,
 }
 
 impl<const C: usize, const L: usize> fmt::Debug for Frontend<C, L> {
@@ -327,7 +437,16 @@ impl<const C: usize, const L: usize> Frontend<C, L> {
                 returns_dropped: 0,
                 missing_ground: 0,
                 observations: 0,
+                returns_extrapolated: 0,
+                returns_without_pose: 0,
             },
+            timed: TimedPose::NONE,
+            observed: ObservedSpan {
+                observation: 0,
+                first_us: 0,
+                last_us: 0,
+            },
+            observed_pending: false,
             configured: false,
         }
     }
@@ -348,6 +467,7 @@ impl<const C: usize, const L: usize> Frontend<C, L> {
     /// starts a new observation (after the maps were cleared, say).
     pub fn restart_observation(&mut self) {
         self.classifier.discard();
+        self.timed.spanned = false;
         self.lines_in_observation = 0;
         self.revolutions_in_observation = 0;
         self.last_actuator = None;
@@ -391,6 +511,47 @@ impl<const C: usize, const L: usize> Frontend<C, L> {
         self.pose = pose;
         self.frame = pose.frame();
         self.sweep = SweepTransform::new(&self.config.mount, &self.frame);
+        self.timed.in_force = false;
+    }
+
+    /// Forgets the time the pose in force was evaluated at, so that the next timed return
+    /// evaluates its own (call it when the track of stamped poses changed: a new pose may
+    /// replace an extrapolation).
+    pub fn forget_timed_pose(&mut self) {
+        self.timed.in_force = false;
+    }
+
+    /// The span of times of the last observation applied whose returns had times
+    /// ([`packet_timed`](Self::packet_timed), [`line_timed`](Self::line_timed)), once; `None`
+    /// when there is none new.
+    pub fn take_observed(&mut self) -> Option<ObservedSpan> {
+        core::mem::take(&mut self.observed_pending).then_some(self.observed)
+    }
+
+    /// The pose for a return measured at `t_us`, by the placement rule: the pose in force
+    /// when it was evaluated less than [`POSE_QUANTUM_US`] from `t_us` (`Ok(false)`), else the
+    /// track's at `t_us`, now in force (`Ok(true)`: the caller rebuilds its transform).
+    fn timed_pose<P: Poses>(
+        timed: &mut TimedPose,
+        pose: &mut Pose,
+        frame: &mut PoseFrame,
+        poses: &P,
+        t_us: u32,
+    ) -> Result<bool, NoPose> {
+        if timed.in_force && later_by(t_us, timed.at_us).unsigned_abs() < POSE_QUANTUM_US {
+            return Ok(false);
+        }
+        let (p, how) = poses.pose_at(t_us)?;
+        timed.at_us = t_us;
+        timed.in_force = true;
+        timed.extrapolated = how != Placement::Interpolated;
+        // A robot standing still keeps its frame: nothing to rebuild.
+        if p == *pose {
+            return Ok(false);
+        }
+        *pose = p;
+        *frame = p.frame();
+        Ok(true)
     }
 
     /// The robot's pose in force.
@@ -473,6 +634,35 @@ impl<const C: usize, const L: usize> Frontend<C, L> {
         pyramid: &mut Pyramid<W, L>,
         values: &MeasuredValues<'_>,
     ) -> Result<(), LineError> {
+        self.line_with(pyramid, values, &Untimed, 0)
+    }
+
+    /// [`line`](Self::line) with each beam placed at the pose of its own moment: the beams'
+    /// times from the mirror's turns ([`SickBeamTimes`]), the last measured one's at
+    /// `last_beam_us` (µs, device clock), and the pose at each from `track` by the rule of
+    /// [`crate::geometry::pose_track`] (re-evaluated only [`POSE_QUANTUM_US`] or more from
+    /// where it was evaluated). A return with no pose is refused and counted
+    /// (`returns_without_pose`).
+    ///
+    /// # Errors
+    /// As [`line`](Self::line).
+    pub fn line_timed<const W: usize, const N: usize>(
+        &mut self,
+        pyramid: &mut Pyramid<W, L>,
+        values: &MeasuredValues<'_>,
+        last_beam_us: u32,
+        track: &PoseTrack<N>,
+    ) -> Result<(), LineError> {
+        self.line_with(pyramid, values, track, last_beam_us)
+    }
+
+    fn line_with<const W: usize, P: Poses>(
+        &mut self,
+        pyramid: &mut Pyramid<W, L>,
+        values: &MeasuredValues<'_>,
+        poses: &P,
+        last_beam_us: u32,
+    ) -> Result<(), LineError> {
         if !self.configured || self.classifier.gates().layer_count() == 0 {
             self.stats.lines_rejected = self.stats.lines_rejected.saturating_add(1);
             return Err(LineError::NotConfigured);
@@ -493,21 +683,81 @@ impl<const C: usize, const L: usize> Frontend<C, L> {
         if self.config.lines_per_observation == 0 && self.sweep_turned() {
             self.end_observation(pyramid);
         }
-        let transform =
+        let variant = self.config.variant;
+        // The beams' times (timed placement only), and the pose of the line's first beam in
+        // force before the observation takes its sensor height.
+        let times = P::TIMED.then(|| {
+            let last = usize::from(values.count()).saturating_sub(1);
+            match layout {
+                Layout::Full => SickBeamTimes::new(variant, None, last),
+                Layout::Partial(p) => SickBeamTimes::new(
+                    variant,
+                    Some(p),
+                    variant.partial_scan_beam(p, last).unwrap_or(last),
+                ),
+            }
+        });
+        if let Some(times) = &times {
+            let first = match layout {
+                Layout::Full => Some(0),
+                Layout::Partial(p) => variant.partial_scan_beam(p, 0),
+            };
+            let t = last_beam_us.wrapping_sub(times.before_last_us(first.unwrap_or(0)));
+            if let Ok(true) =
+                Self::timed_pose(&mut self.timed, &mut self.pose, &mut self.frame, poses, t)
+            {
+                self.sweep = SweepTransform::new(&self.config.mount, &self.frame);
+            }
+        }
+        let mut transform =
             LineTransform::new(&self.beams, &self.config.mount, self.actuator, &self.frame);
         if self.lines_in_observation == 0 {
             self.classifier.begin(transform.sensor_origin().z);
         }
-        let ground_z: Meters = self.pose.z;
-        let variant = self.config.variant;
+        let mut ground_z: Meters = self.pose.z;
         // Counted here and added once per line (at most 401 values each: the sums are exact,
         // and so are the saturating totals).
         let (mut no_return, mut returns, mut dropped) = (0_u32, 0_u32, 0_u32);
+        let (mut extrapolated, mut without_pose) = (0_u32, 0_u32);
         for (j, range) in values.ranges_mm(self.config.measuring_mode).enumerate() {
             let beam = match layout {
                 Layout::Full => Some(j),
                 Layout::Partial(p) => variant.partial_scan_beam(p, j),
             };
+            // Timed: the pose of this beam's moment (a value past the table has none; it is
+            // dropped below).
+            let mut t_us = 0;
+            if let (Some(times), Some(b)) = (&times, beam) {
+                t_us = last_beam_us.wrapping_sub(times.before_last_us(b));
+                match Self::timed_pose(
+                    &mut self.timed,
+                    &mut self.pose,
+                    &mut self.frame,
+                    poses,
+                    t_us,
+                ) {
+                    Ok(false) => {}
+                    Ok(true) => {
+                        self.sweep = SweepTransform::new(&self.config.mount, &self.frame);
+                        transform = LineTransform::new(
+                            &self.beams,
+                            &self.config.mount,
+                            self.actuator,
+                            &self.frame,
+                        );
+                        ground_z = self.pose.z;
+                    }
+                    Err(_) => {
+                        if range.is_some() {
+                            returns += 1;
+                            without_pose += 1;
+                        } else {
+                            no_return += 1;
+                        }
+                        continue;
+                    }
+                }
+            }
             let Some(range_mm) = range else {
                 no_return += 1;
                 if let (Some(within), Some(b)) = (self.config.missing_ground_within, beam) {
@@ -531,9 +781,19 @@ impl<const C: usize, const L: usize> Frontend<C, L> {
                         located.horizontal_squared,
                         ground_z,
                     );
+                    if P::TIMED {
+                        extrapolated += u32::from(self.timed.extrapolated);
+                        self.timed.placed(t_us);
+                    }
                 }
                 None => dropped += 1,
             }
+        }
+        if P::TIMED {
+            self.stats.returns_extrapolated =
+                self.stats.returns_extrapolated.saturating_add(extrapolated);
+            self.stats.returns_without_pose =
+                self.stats.returns_without_pose.saturating_add(without_pose);
         }
         self.stats.no_return = self.stats.no_return.saturating_add(no_return);
         self.stats.returns = self.stats.returns.saturating_add(returns);
@@ -626,6 +886,53 @@ impl<const C: usize, const L: usize> Frontend<C, L> {
         I: IntoIterator<Item = LaserReturn>,
         I::IntoIter: ExactSizeIterator,
     {
+        self.packet_with(
+            pyramid,
+            returns,
+            starts_revolution,
+            actuator,
+            &Untimed,
+            PacketTimes::default(),
+        )
+    }
+
+    /// [`packet`](Self::packet) with each return placed at the pose of its own moment: return
+    /// k of n measured at `first_us + k·(last_us − first_us)/(n − 1)` (as its actuator angle
+    /// is interpolated), its pose from `track` by the rule of [`crate::geometry::pose_track`]
+    /// (re-evaluated only [`POSE_QUANTUM_US`] or more from where it was evaluated). A return
+    /// with no pose is refused and counted (`returns_without_pose`).
+    ///
+    /// # Errors
+    /// As [`packet`](Self::packet).
+    pub fn packet_timed<const W: usize, I, const N: usize>(
+        &mut self,
+        pyramid: &mut Pyramid<W, L>,
+        returns: I,
+        starts_revolution: bool,
+        actuator: PacketActuator,
+        times: PacketTimes,
+        track: &PoseTrack<N>,
+    ) -> Result<(), LineError>
+    where
+        I: IntoIterator<Item = LaserReturn>,
+        I::IntoIter: ExactSizeIterator,
+    {
+        self.packet_with(pyramid, returns, starts_revolution, actuator, track, times)
+    }
+
+    fn packet_with<const W: usize, I, P: Poses>(
+        &mut self,
+        pyramid: &mut Pyramid<W, L>,
+        returns: I,
+        starts_revolution: bool,
+        actuator: PacketActuator,
+        poses: &P,
+        times: PacketTimes,
+    ) -> Result<(), LineError>
+    where
+        I: IntoIterator<Item = LaserReturn>,
+        I::IntoIter: ExactSizeIterator,
+    {
         if !self.configured || self.classifier.gates().layer_count() == 0 {
             self.stats.lines_rejected = self.stats.lines_rejected.saturating_add(1);
             return Err(LineError::NotConfigured);
@@ -648,6 +955,17 @@ impl<const C: usize, const L: usize> Frontend<C, L> {
             }
             self.revolutions_in_observation = self.revolutions_in_observation.saturating_add(1);
         }
+        if P::TIMED {
+            if let Ok(true) = Self::timed_pose(
+                &mut self.timed,
+                &mut self.pose,
+                &mut self.frame,
+                poses,
+                times.first_us,
+            ) {
+                self.sweep = SweepTransform::new(&self.config.mount, &self.frame);
+            }
+        }
         if self.lines_in_observation == 0 {
             self.classifier.begin(self.sweep.sensor_origin().z);
         }
@@ -663,7 +981,18 @@ impl<const C: usize, const L: usize> Frontend<C, L> {
         } else {
             step_q16(turn, steps)
         };
-        let ground_z: Meters = self.pose.z;
+        // Timed: the packet's time span per return in 2⁻¹⁶ µs, by the same one division.
+        let t_step_q16 = if P::TIMED {
+            let span = i64::from(later_by(times.last_us, times.first_us));
+            if steps == 1 || span == 0 {
+                span << 16
+            } else {
+                self::step_q16(span, steps)
+            }
+        } else {
+            0
+        };
+        let mut ground_z: Meters = self.pose.z;
         // The plane only where a point is placed, built for the return's actuator angle when
         // it differs from the last one built: a sample without a distance (most of a nodding
         // lidar's rear half-turn; most RPLIDAR nodes, each a packet) needs none unless missing
@@ -678,6 +1007,38 @@ impl<const C: usize, const L: usize> Frontend<C, L> {
             if ret.range_mm == 0 && self.config.missing_ground_within.is_none() {
                 self.stats.no_return = self.stats.no_return.saturating_add(1);
                 continue;
+            }
+            // Timed: the pose of this return's moment (a new one needs a new plane).
+            let mut t_us = 0;
+            if P::TIMED {
+                // |t_step| < 2⁴⁷ as the actuator's step: the product is below 2⁵⁵.
+                #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+                let offset = ((t_step_q16 * k) >> 16) as u32;
+                t_us = times.first_us.wrapping_add(offset);
+                match Self::timed_pose(
+                    &mut self.timed,
+                    &mut self.pose,
+                    &mut self.frame,
+                    poses,
+                    t_us,
+                ) {
+                    Ok(false) => {}
+                    Ok(true) => {
+                        self.sweep = SweepTransform::new(&self.config.mount, &self.frame);
+                        plane = None;
+                        ground_z = self.pose.z;
+                    }
+                    Err(_) => {
+                        if ret.range_mm == 0 {
+                            self.stats.no_return = self.stats.no_return.saturating_add(1);
+                        } else {
+                            self.stats.returns = self.stats.returns.saturating_add(1);
+                            self.stats.returns_without_pose =
+                                self.stats.returns_without_pose.saturating_add(1);
+                        }
+                        continue;
+                    }
+                }
             }
             if plane.as_ref().is_none_or(|p| p.actuator() != angle) {
                 plane = Some(self.sweep.at(angle));
@@ -702,11 +1063,20 @@ impl<const C: usize, const L: usize> Frontend<C, L> {
             }
             self.stats.returns = self.stats.returns.saturating_add(1);
             match plane.locate_squared(theta, ret.range_mm) {
-                Some(located) => self.classifier.add_point_squared(
-                    located.point,
-                    located.horizontal_squared,
-                    ground_z,
-                ),
+                Some(located) => {
+                    self.classifier.add_point_squared(
+                        located.point,
+                        located.horizontal_squared,
+                        ground_z,
+                    );
+                    if P::TIMED {
+                        if self.timed.extrapolated {
+                            self.stats.returns_extrapolated =
+                                self.stats.returns_extrapolated.saturating_add(1);
+                        }
+                        self.timed.placed(t_us);
+                    }
+                }
                 None => {
                     self.stats.returns_dropped = self.stats.returns_dropped.saturating_add(1);
                 }
@@ -729,6 +1099,14 @@ impl<const C: usize, const L: usize> Frontend<C, L> {
         self.lines_in_observation = 0;
         self.revolutions_in_observation = 0;
         self.stats.observations = self.stats.observations.saturating_add(1);
+        if core::mem::take(&mut self.timed.spanned) {
+            self.observed = ObservedSpan {
+                observation: self.stats.observations,
+                first_us: self.timed.first_us,
+                last_us: self.timed.last_us,
+            };
+            self.observed_pending = true;
+        }
     }
 }
 

@@ -67,6 +67,7 @@ use crate::angle::{Angle, FineAngle};
 use crate::classify::ClassifierStats;
 use crate::design::{Design, DesignError};
 use crate::drivers::angle::AngleSource;
+use crate::geometry::{Pose, PoseRefusal, PoseTrack, Taken};
 use crate::laser::{
     LaserCounters, LaserDecoder, LaserItem, PacketTimer, RevolutionTracker, Sensor,
 };
@@ -74,7 +75,9 @@ use crate::link::convert;
 use crate::link::{
     Command, Link, LinkConfig, LinkCounters, PollReport, Rejection, Request, SensorCounters,
 };
-use crate::pipeline::{Frontend, FrontendConfig, FrontendStats, PacketActuator};
+use crate::pipeline::{
+    Frontend, FrontendConfig, FrontendStats, ObservedSpan, PacketActuator, PacketTimes,
+};
 use crate::pyramid::{Applied, Config, Evidence, EvidenceClass, Fused, Pyramid, PyramidStats};
 use crate::units::{Meters, Weight};
 use crate::wire::link::{Header, Reply};
@@ -99,6 +102,14 @@ pub struct AppCounters {
     pub commands: u32,
     /// Host bytes dropped after a Shutdown.
     pub bytes_after_shutdown: u32,
+    /// Stamped poses taken into the pose track ([`CoProcessor::stamped_pose`]).
+    pub poses_stamped: u32,
+    /// Stamped poses refused: not later than the newest, or more than 1 s ahead of the
+    /// device's clock ([`crate::geometry::MAX_POSE_LEAD_US`]).
+    pub poses_refused: u32,
+    /// Stamped poses more than 500 ms after the newest ([`crate::geometry::MAX_POSE_GAP_US`]):
+    /// the track restarted at them.
+    pub pose_gaps: u32,
 }
 
 /// Every counter of the co-processor, by module.
@@ -204,7 +215,16 @@ enum Shutdown {
 /// SICK's 818 bytes, and about 100 bytes of timing and actuator state); `const`-built all
 /// zero bits, so a `static` one sits in `.bss` (build it in a `ConstStaticCell`, never on
 /// the stack).
-pub struct CoProcessor<const W: usize, const L: usize, const C: usize, const Q: usize> {
+///
+/// `N` is the capacity of the track of stamped poses ([`CoProcessor::stamped_pose`]; 28
+/// bytes a pose): 16 (320 ms at 50 Hz) unless the board chooses.
+pub struct CoProcessor<
+    const W: usize,
+    const L: usize,
+    const C: usize,
+    const Q: usize,
+    const N: usize = 16,
+> {
     pyramid: Pyramid<W, L>,
     frontend: Frontend<C, L>,
     link: Link<Q, L>,
@@ -226,10 +246,17 @@ pub struct CoProcessor<const W: usize, const L: usize, const C: usize, const Q: 
     /// Where the co-processor is in its life: running, asked to stop, stopped.
     shutdown: Shutdown,
     counters: AppCounters,
+    /// The robot's stamped poses: while it holds one, every return is placed with the pose
+    /// of its own moment.
+    poses: PoseTrack<N>,
+    /// The latest device time seen (laser bytes' arrival, a servo command), µs, and whether
+    /// any was: the bound on a stamped pose's lead is checked against it.
+    clock_us: u32,
+    clock_known: bool,
 }
 
-impl<const W: usize, const L: usize, const C: usize, const Q: usize> fmt::Debug
-    for CoProcessor<W, L, C, Q>
+impl<const W: usize, const L: usize, const C: usize, const Q: usize, const N: usize> fmt::Debug
+    for CoProcessor<W, L, C, Q, N>
 {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.debug_struct("CoProcessor")
@@ -240,15 +267,17 @@ impl<const W: usize, const L: usize, const C: usize, const Q: usize> fmt::Debug
     }
 }
 
-impl<const W: usize, const L: usize, const C: usize, const Q: usize> Default
-    for CoProcessor<W, L, C, Q>
+impl<const W: usize, const L: usize, const C: usize, const Q: usize, const N: usize> Default
+    for CoProcessor<W, L, C, Q, N>
 {
     fn default() -> Self {
         Self::new()
     }
 }
 
-impl<const W: usize, const L: usize, const C: usize, const Q: usize> CoProcessor<W, L, C, Q> {
+impl<const W: usize, const L: usize, const C: usize, const Q: usize, const N: usize>
+    CoProcessor<W, L, C, Q, N>
+{
     /// An unconfigured co-processor: it refuses every line and sends nothing until
     /// [`boot`](Self::boot)ed. `const` and all zero bits, so a `static` one sits in `.bss` and
     /// costs no flash.
@@ -273,7 +302,13 @@ impl<const W: usize, const L: usize, const C: usize, const Q: usize> CoProcessor
                 laser_overruns: 0,
                 commands: 0,
                 bytes_after_shutdown: 0,
+                poses_stamped: 0,
+                poses_refused: 0,
+                pose_gaps: 0,
             },
+            poses: PoseTrack::new(),
+            clock_us: 0,
+            clock_known: false,
         }
     }
 
@@ -355,6 +390,8 @@ impl<const W: usize, const L: usize, const C: usize, const Q: usize> CoProcessor
             }
         }
         self.frontend.configure(setup);
+        // A new setup starts from the latest-pose rule.
+        self.poses.clear();
     }
 
     /// Ends the observation under way now and applies it (the host's EndObservation does
@@ -364,9 +401,54 @@ impl<const W: usize, const L: usize, const C: usize, const Q: usize> CoProcessor
     }
 
     /// The robot's pose from now on, from a source on the board (odometry, an IMU); the
-    /// host's Pose frames do the same.
-    pub fn set_pose(&mut self, pose: crate::geometry::Pose) {
+    /// host's unstamped Pose frames do the same. The track of stamped poses is cleared: every
+    /// return takes this pose until the next (the latest-pose rule).
+    pub fn set_pose(&mut self, pose: Pose) {
+        self.poses.clear();
         self.frontend.set_pose(pose);
+    }
+
+    /// The robot was at `pose` at `stamp_us` (the device's µs clock, wrapping): the pose
+    /// joins the track ([`crate::geometry::pose_track`]), and while the track holds a pose
+    /// every return is placed with the pose of its own measurement time. Counted in
+    /// [`AppCounters::poses_stamped`], or [`AppCounters::poses_refused`] (not later than the
+    /// newest, or more than 1 s ahead of the latest device time the co-processor has seen:
+    /// the laser bytes' arrival; before any, the lead is not checked); a gap of more than
+    /// 500 ms restarts the track ([`AppCounters::pose_gaps`]).
+    pub fn stamped_pose(&mut self, stamp_us: u32, pose: Pose) {
+        let now = if self.clock_known {
+            self.clock_us
+        } else {
+            // No clock seen yet: any stamp is within the lead of itself.
+            stamp_us
+        };
+        match self.poses.push(stamp_us, pose, now) {
+            Ok(taken) => {
+                bump(&mut self.counters.poses_stamped);
+                if taken == Taken::Restarted {
+                    bump(&mut self.counters.pose_gaps);
+                }
+                // The newest pose may replace an extrapolation: evaluate afresh.
+                self.frontend.forget_timed_pose();
+            }
+            Err(PoseRefusal::NotNewer | PoseRefusal::TooFarAhead) => {
+                bump(&mut self.counters.poses_refused);
+            }
+        }
+    }
+
+    /// The track of stamped poses ([`stamped_pose`](Self::stamped_pose)).
+    #[must_use]
+    pub const fn pose_track(&self) -> &PoseTrack<N> {
+        &self.poses
+    }
+
+    /// The observation count and the span of measurement times of the returns of the last
+    /// observation applied with stamped poses in force, once (then `None` until the next):
+    /// what the link's Observed frame carries. `None` for observations placed by the
+    /// latest-pose rule.
+    pub fn take_observed(&mut self) -> Option<ObservedSpan> {
+        self.frontend.take_observed()
     }
 
     /// Applies a few records and checks what the pyramid makes of them, then forgets them.
@@ -465,6 +547,8 @@ impl<const W: usize, const L: usize, const C: usize, const Q: usize> CoProcessor
         if self.shutdown != Shutdown::Running {
             return;
         }
+        self.clock_us = now_us;
+        self.clock_known = true;
         if self.servo.is_on() {
             self.servo.track(now_us);
         }
@@ -494,7 +578,24 @@ impl<const W: usize, const L: usize, const C: usize, const Q: usize> CoProcessor
                             Some(a) => {
                                 self.frontend.set_actuator(a);
                                 // A refused line is counted by the pipeline.
-                                let _ = self.frontend.line(&mut self.pyramid, &values);
+                                let _ = if self.poses.is_empty() {
+                                    self.frontend.line(&mut self.pyramid, &values)
+                                } else {
+                                    // The telegram's last byte arrived before the bytes
+                                    // still in the chunk; its last beam was measured one
+                                    // transmission time before that (docs/lidars.md).
+                                    let end = arrival_us
+                                        .wrapping_sub(self.timer.bytes_us(chunk.len()))
+                                        .wrapping_sub(
+                                            self.timer.bytes_us(telegram.as_bytes().len()),
+                                        );
+                                    self.frontend.line_timed(
+                                        &mut self.pyramid,
+                                        &values,
+                                        end,
+                                        &self.poses,
+                                    )
+                                };
                             }
                             None => bump(&mut self.counters.lines_without_angle),
                         }
@@ -531,14 +632,32 @@ impl<const W: usize, const L: usize, const C: usize, const Q: usize> CoProcessor
                         }),
                     };
                     match actuator {
-                        Some((first, last)) => {
+                        Some((first_angle, last_angle)) => {
+                            let actuator = PacketActuator {
+                                first: first_angle,
+                                last: last_angle,
+                            };
                             // A refused packet is counted by the pipeline.
-                            let _ = self.frontend.packet(
-                                &mut self.pyramid,
-                                packet.returns(),
-                                starts,
-                                PacketActuator { first, last },
-                            );
+                            let _ = if self.poses.is_empty() {
+                                self.frontend.packet(
+                                    &mut self.pyramid,
+                                    packet.returns(),
+                                    starts,
+                                    actuator,
+                                )
+                            } else {
+                                self.frontend.packet_timed(
+                                    &mut self.pyramid,
+                                    packet.returns(),
+                                    starts,
+                                    actuator,
+                                    PacketTimes {
+                                        first_us: first,
+                                        last_us: last,
+                                    },
+                                    &self.poses,
+                                )
+                            };
                         }
                         None => bump(&mut self.counters.lines_without_angle),
                     }
@@ -554,6 +673,10 @@ impl<const W: usize, const L: usize, const C: usize, const Q: usize> CoProcessor
     /// its main loop. The first call begins the sweep (a settling hold at its lower end);
     /// `None` without a servo.
     pub fn actuator_command(&mut self, now_us: u32) -> Option<FineAngle> {
+        if self.servo.is_on() {
+            self.clock_us = now_us;
+            self.clock_known = true;
+        }
         self.servo.is_on().then(|| self.servo.command(now_us))
     }
 
@@ -628,7 +751,7 @@ impl<const W: usize, const L: usize, const C: usize, const Q: usize> CoProcessor
             return;
         };
         match command {
-            Command::Pose(pose) => self.frontend.set_pose(pose),
+            Command::Pose(pose) => self.set_pose(pose),
             Command::PanAngle(angle) => self.host_angle = Some(angle),
             Command::Configure(design, config) => match self.configure(&design, &config) {
                 Ok(()) => {

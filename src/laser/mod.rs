@@ -30,7 +30,7 @@
 
 pub mod timing;
 
-pub use timing::{PacketTimer, DEFAULT_REVOLUTION_US};
+pub use timing::{PacketTimer, SickBeamTimes, DEFAULT_REVOLUTION_US};
 
 use core::fmt;
 

@@ -167,6 +167,88 @@ fn duration_at_rate_us(bits: u32, rate: u16) -> u64 {
     u64::from(turned.checked_div(u32::from(rate)).unwrap_or(0))
 }
 
+/// The SICK LMS2xx's mirror turn, µs (75 Hz: 13 333.3 µs), Q16.
+const SICK_TURN_US_Q16: u64 = (1_000_000_u64 << 16) / 75;
+
+/// When each beam of a SICK measured-values telegram was measured, relative to its last
+/// measured beam (see `docs/lidars.md`, "When a SICK beam was measured"). The model:
+///
+/// - the mirror turns at 75 Hz, counter-clockwise seen from above, so the scan runs from the
+///   field's first beam (0°, or 40° in the 100° field) to its last; beam angle θ is passed
+///   `(θ − θ₀)/360° · 13.33 ms` after the first;
+/// - an interlaced variant (0.5°, 0.25°) measures one 1° phase per turn, in the order of the
+///   partial-scan index (0.25° phase 0 first): a full telegram spans 2 or 4 turns, a partial
+///   one (a single phase) one turn;
+/// - the telegram is sent as soon as the last beam is measured (its last beam was measured
+///   one transmission time before the telegram's last byte arrived).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct SickBeamTimes {
+    /// The beam step, quarter degrees (1, 2 or 4).
+    step: u32,
+    /// Whether the telegram holds every beam of an interlaced variant (several turns).
+    full_interlaced: bool,
+    /// The time of the last measured beam after the first turn's start, µs Q16.
+    last_q16: u64,
+}
+
+impl SickBeamTimes {
+    /// The model for a telegram of `variant`: a full scan (`partial = None`) or a partial
+    /// scan with that partial-scan index, whose last value lies on beam `last_beam`.
+    #[must_use]
+    pub fn new(variant: crate::wire::sick::Variant, partial: Option<u8>, last_beam: usize) -> Self {
+        let step = u32::from(variant.step_quarter_degrees()).max(1);
+        let full_interlaced = partial.is_none() && step < 4;
+        let mut times = Self {
+            step,
+            full_interlaced,
+            last_q16: 0,
+        };
+        times.last_q16 = if full_interlaced {
+            // The last phase's last beam: the highest beam in phase 4 − step (at most three
+            // steps back from the field's last beam).
+            let mut k = variant.beam_count().saturating_sub(1);
+            while k > 0 && times.turn_of(k) + 1 < u64::from(4 / step) {
+                k -= 1;
+            }
+            times.after_start_q16(k)
+        } else {
+            times.after_start_q16(last_beam)
+        };
+        times
+    }
+
+    /// The turn (0-based) in which beam `beam` was measured: its 0.25° phase over the step in
+    /// a full interlaced telegram, else 0.
+    fn turn_of(&self, beam: usize) -> u64 {
+        if !self.full_interlaced {
+            return 0;
+        }
+        let q = u64::try_from(beam)
+            .unwrap_or(0)
+            .saturating_mul(u64::from(self.step));
+        (q % 4) / u64::from(self.step)
+    }
+
+    /// When beam `beam` was measured after the first turn's start of the telegram's first
+    /// beam, µs Q16.
+    fn after_start_q16(&self, beam: usize) -> u64 {
+        let q = u64::try_from(beam)
+            .unwrap_or(0)
+            .saturating_mul(u64::from(self.step));
+        let turn = self.turn_of(beam);
+        // q ≤ 720 quarter degrees: the turn's fraction q/1440 times the turn, below 2⁴⁰.
+        turn * SICK_TURN_US_Q16 + q * SICK_TURN_US_Q16 / 1440
+    }
+
+    /// How long before the telegram's last measured beam `beam` was measured, µs (rounded).
+    #[must_use]
+    pub fn before_last_us(&self, beam: usize) -> u32 {
+        let d = self.last_q16.saturating_sub(self.after_start_q16(beam));
+        u32::try_from((d + (1 << 15)) >> 16).unwrap_or(u32::MAX)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::duration_at_rate_us;
@@ -186,5 +268,34 @@ mod tests {
             }
         }
         assert_eq!(duration_at_rate_us(1 << 31, 0), 0);
+    }
+
+    #[test]
+    fn sick_beams_are_timed_along_the_mirror_turns() {
+        use super::SickBeamTimes;
+        use crate::wire::sick::Variant;
+        // 1°, 180°: one turn, 181 beams over half of it (6.667 ms), 37.04 µs apart.
+        let t = SickBeamTimes::new(Variant::Fov180Step1, None, 180);
+        assert_eq!(t.before_last_us(180), 0);
+        assert_eq!(t.before_last_us(179), 37);
+        assert_eq!(t.before_last_us(90), 3_333);
+        assert_eq!(t.before_last_us(0), 6_667);
+        // 0.5°, 180°, full: beams 0, 2, … in the first turn, 1, 3, … in the second; the last
+        // measured is beam 359 (179.5°).
+        let t = SickBeamTimes::new(Variant::Fov180StepHalf, None, 360);
+        assert_eq!(t.before_last_us(359), 0);
+        assert_eq!(t.before_last_us(1), 6_630);
+        // Beam 360 (180°) ends the first turn: 13 333.3 + 6 648.1 − 6 666.7 µs before.
+        assert_eq!(t.before_last_us(360), 13_315);
+        assert_eq!(t.before_last_us(0), 19_981);
+        // A partial scan of the same variant: one turn, its last value on beam 359.
+        let t = SickBeamTimes::new(Variant::Fov180StepHalf, Some(2), 359);
+        assert_eq!(t.before_last_us(359), 0);
+        assert_eq!(t.before_last_us(1), 6_630);
+        // 0.25°, 100°: four turns; the last measured is beam 399 (phase 3).
+        let t = SickBeamTimes::new(Variant::Fov100StepQuarter, None, 400);
+        assert_eq!(t.before_last_us(399), 0);
+        // 3 turns (40 000 µs) and 99.75° of the fourth (3 694.4 µs).
+        assert_eq!(t.before_last_us(0), 43_694);
     }
 }
