@@ -34,6 +34,9 @@ enum Command {
     /// Telegram into the emulated board → each live output's message out of the host, at the
     /// SICK's full rate with every output on (median, p99).
     Latency(latency::Args),
+    /// Poses on the laser's clock: three scenes with the poses in lock-step, stamped and late
+    /// (50 Hz, 30 ± 10 ms), and late on arrival; the maps against the lock-step run's.
+    Timing(experiments::timing::Args),
 }
 
 fn main() -> ExitCode {
@@ -45,5 +48,6 @@ fn main() -> ExitCode {
         Command::Faults(args) => faults::run(&args),
         Command::Soak(args) => soak::run(&args),
         Command::Latency(args) => latency::run(&args),
+        Command::Timing(args) => experiments::timing::run_command(&args),
     }
 }

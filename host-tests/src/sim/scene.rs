@@ -685,7 +685,10 @@ impl Scene {
             let h = 0.5 * PILLAR;
             boxes.push(([cx - h, cy - h, 0.0], [cx + h, cy + h, PILLAR_H]));
         }
-        let solids = boxes.iter().map(|&(min, max)| Solid::Box { min, max }).collect();
+        let solids = boxes
+            .iter()
+            .map(|&(min, max)| Solid::Box { min, max })
+            .collect();
         let features = boxes
             .iter()
             .map(|&(min, max)| Feature {

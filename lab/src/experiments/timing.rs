@@ -44,10 +44,12 @@ use std::collections::HashMap;
 use terrain_pyramid::app::{CoProcessor, NoAngleSource};
 use terrain_pyramid::classify::ClassifierConfig;
 use terrain_pyramid::geometry::Pose;
+use terrain_pyramid::laser::SickBeamTimes;
 use terrain_pyramid::link::convert::{frontend_config, setup_message_with_sensor};
 use terrain_pyramid::link::LinkConfig;
 use terrain_pyramid::pipeline::FrontendConfig;
 use terrain_pyramid::wire::link::{Message, PanAngle};
+use terrain_pyramid::wire::sick::{MeasuredValues, Telegram};
 use terrain_pyramid::{Clamp, Config, Design, GateShape, Meters};
 use terrain_pyramid_host::export::MapSnapshot;
 use terrain_pyramid_host::link::HostLink;
@@ -126,6 +128,23 @@ pub fn late_poses(
     out
 }
 
+/// The trajectory every [`ON_TIME_PERIOD_US`] for `duration_us`, each pose arriving at its
+/// stamp.
+pub fn on_time_poses(trajectory: &Trajectory, scene: &Scene, duration_us: u64) -> Vec<LatePose> {
+    (0..=duration_us / ON_TIME_PERIOD_US)
+        .map(|k| {
+            let t_us = k * ON_TIME_PERIOD_US;
+            #[allow(clippy::cast_precision_loss)]
+            let pose = trajectory.pose_at(t_us as f64 * 1e-6, scene).to_f32();
+            LatePose {
+                stamp_us: t_us,
+                arrival_us: t_us,
+                pose,
+            }
+        })
+        .collect()
+}
+
 /// How a run gives the device its poses.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "snake_case")]
@@ -136,7 +155,18 @@ pub enum PoseRule {
     Timed,
     /// The late feed, unstamped, applied on arrival.
     Latest,
+    /// The trajectory at 250 Hz ([`ON_TIME_PERIOD_US`]), stamped and delivered the moment
+    /// it is stamped: the device's placement with perfect poses, the control that tells the late
+    /// feed's effect from the difference between the simulator's timing of a return and the
+    /// device's.
+    OnTime,
 }
+
+/// The period of the on-time feed, µs: 250 Hz, so that the device's track of 16 poses
+/// reaches back 64 ms, past a SICK line's first beam (its beams are 15–35 ms old when its
+/// telegram is in). Between two poses the device interpolates: exact for the scenes' motions
+/// (constant speed, constant yaw rate) but at the start of the drive.
+pub const ON_TIME_PERIOD_US: u64 = 4_000;
 
 /// What one run left: its maps, its first-step distance and the device's counters.
 #[derive(Debug, Clone)]
@@ -164,6 +194,8 @@ pub struct Input<'a, const L: usize> {
     pub steps: &'a Steps,
     /// The late feed.
     pub late: &'a [LatePose],
+    /// The on-time feed.
+    pub on_time: &'a [LatePose],
     /// The design the co-processor boots with.
     pub design: &'a Design<L>,
     /// Its configuration.
@@ -196,17 +228,8 @@ fn deliver<const W: usize, const L: usize, const C: usize>(
     match rule {
         PoseRule::LockStep => {}
         PoseRule::Latest => core.set_pose(pose),
-        PoseRule::Timed => stamped(core, device_us(late.stamp_us), pose),
+        PoseRule::Timed | PoseRule::OnTime => core.stamped_pose(device_us(late.stamp_us), pose),
     }
-}
-
-/// The device's stamped pose: the robot was at `pose` at `stamp_us` (its clock).
-fn stamped<const W: usize, const L: usize, const C: usize>(
-    core: &mut CoProcessor<W, L, C, QUEUE>,
-    stamp_us: u32,
-    pose: Pose,
-) {
-    let _ = (core, stamp_us, pose);
 }
 
 /// Runs the recording through a co-processor of `W`² cells, `L` layers and `C` classifier
@@ -219,10 +242,20 @@ pub fn run<const W: usize, const L: usize, const C: usize>(
     rule: PoseRule,
 ) -> Result<RunOutcome, String> {
     let mut core: Box<CoProcessor<W, L, C, QUEUE>> = Box::new(CoProcessor::new());
-    core.boot(LinkConfig::DEFAULT, input.design, input.config, input.frontend)
-        .map_err(|e| e.to_string())?;
+    core.boot(
+        LinkConfig::DEFAULT,
+        input.design,
+        input.config,
+        input.frontend,
+    )
+    .map_err(|e| e.to_string())?;
     let mut host = HostLink::new();
-    let mut late = input.late.iter().peekable();
+    let feed = if rule == PoseRule::OnTime {
+        input.on_time
+    } else {
+        input.late
+    };
+    let mut late = feed.iter().peekable();
     let mut robot_x = 0.0_f64;
     let mut robot_xy = (0.0, 0.0);
     let mut angle: Option<u16> = None;
@@ -246,9 +279,17 @@ pub fn run<const W: usize, const L: usize, const C: usize>(
                 }
                 continue;
             }
-            Step::Telegram { bytes, time_us, .. } | Step::Laser { bytes, time_us, .. } => {
-                (bytes, *time_us)
+            Step::Telegram { bytes, time_us, .. } => {
+                let beams = Telegram::new_checked(&bytes[..])
+                    .ok()
+                    .and_then(|t| MeasuredValues::parse(&t).ok())
+                    .map_or(0, |v| usize::from(v.count()));
+                (
+                    bytes,
+                    time_us + sick_delivery_us(&input.frontend, bytes.len(), beams),
+                )
             }
+            Step::Laser { bytes, time_us, .. } => (bytes, *time_us),
         };
         while let Some(p) = late.next_if(|p| p.arrival_us <= time_us) {
             deliver(&mut core, rule, p);
@@ -305,8 +346,38 @@ pub fn run<const W: usize, const L: usize, const C: usize>(
 fn track_counters<const W: usize, const L: usize, const C: usize>(
     core: &CoProcessor<W, L, C, QUEUE>,
 ) -> (u64, u64, u64, u64) {
-    let _ = core;
-    (0, 0, 0, 0)
+    let c = core.counters();
+    (
+        u64::from(c.frontend.returns_extrapolated),
+        u64::from(c.frontend.returns_without_pose),
+        u64::from(c.app.poses_stamped),
+        u64::from(c.app.poses_refused),
+    )
+}
+
+/// How long after the simulator's line time a SICK telegram's last byte reaches the device,
+/// µs, so that the device's model of the beams' times (`docs/lidars.md`: the mirror's turns,
+/// then the telegram's transmission) centres them on that time.
+///
+/// The simulator casts a whole SICK line at one instant, its recording time `t_i`, and
+/// stamps the line's bytes with it; a real LMS291 measures the line's beams over its
+/// mirror's turns and sends the telegram afterwards. Handed over at `t_i`, every beam would
+/// be placed 15–35 ms before the instant it was cast at. Handed over this much later (the
+/// transmission at the setup's baud rate plus the beams' mean time before the last), the
+/// beams' times spread evenly around `t_i` (± 10 ms for the 0.5° scan's two turns): what is
+/// left is the simulator's one-instant line, not the device. Lidar chunks are stamped by the
+/// simulator with their last byte's arrival already: no delay.
+pub fn sick_delivery_us(frontend: &FrontendConfig, telegram_bytes: usize, beams: usize) -> u64 {
+    if frontend.sensor.is_lidar() || beams == 0 {
+        return 0;
+    }
+    let times = SickBeamTimes::new(frontend.variant, None, beams - 1);
+    let mean_before_last: f64 = (0..beams)
+        .map(|k| f64::from(times.before_last_us(k)))
+        .sum::<f64>()
+        / beams as f64;
+    let transmission = 1e6 * 10.0 * telegram_bytes as f64 / f64::from(frontend.baud.max(1));
+    (transmission + mean_before_last).round() as u64
 }
 
 /// How much of one map equals another, cell by cell.
@@ -436,6 +507,12 @@ pub struct SceneResult {
     pub timed: RunFigures,
     /// Unstamped late poses on arrival.
     pub latest: RunFigures,
+    /// The control: stamped poses at 250 Hz, on time.
+    pub on_time: RunFigures,
+    /// The timed run's cells against the on-time run's: the late feed's own effect.
+    pub timed_vs_on_time: Agreement,
+    /// The latest-pose run's cells against the on-time run's.
+    pub latest_vs_on_time: Agreement,
     /// `timed.first_step_m − lock_step.first_step_m`, metres (stairs scenes).
     pub timed_first_step_delta_m: Option<f64>,
     /// `latest.first_step_m − lock_step.first_step_m`, metres.
@@ -465,12 +542,29 @@ fn figures(o: &RunOutcome, reference: &RunOutcome) -> RunFigures {
     }
 }
 
-/// The three runs of one scene, on threads with stacks for the co-processor.
-fn three<const W: usize, const L: usize, const C: usize>(
+/// The four runs of one scene (lock-step, timed, latest, on time), two at a time on threads
+/// with stacks for the co-processor.
+fn four<const W: usize, const L: usize, const C: usize>(
     input: &Input<'_, L>,
-) -> Result<[RunOutcome; 3], String> {
-    let rules = [PoseRule::LockStep, PoseRule::Timed, PoseRule::Latest];
-    let outcomes: Vec<Result<RunOutcome, String>> = std::thread::scope(|s| {
+) -> Result<[RunOutcome; 4], String> {
+    let mut outcomes = Vec::new();
+    for rules in [
+        [PoseRule::LockStep, PoseRule::Timed],
+        [PoseRule::Latest, PoseRule::OnTime],
+    ] {
+        outcomes.extend(two::<W, L, C>(input, rules));
+    }
+    let mut it = outcomes.into_iter();
+    let mut next = || it.next().ok_or_else(|| "missing run".to_string())?;
+    Ok([next()?, next()?, next()?, next()?])
+}
+
+/// Two runs at once.
+fn two<const W: usize, const L: usize, const C: usize>(
+    input: &Input<'_, L>,
+    rules: [PoseRule; 2],
+) -> Vec<Result<RunOutcome, String>> {
+    std::thread::scope(|s| {
         let handles: Vec<_> = rules
             .iter()
             .map(|&rule| {
@@ -488,10 +582,7 @@ fn three<const W: usize, const L: usize, const C: usize>(
                 Err(e) => Err(format!("cannot start a run's thread: {e}")),
             })
             .collect()
-    });
-    let mut it = outcomes.into_iter();
-    let mut next = || it.next().ok_or_else(|| "missing run".to_string())?;
-    Ok([next()?, next()?, next()?])
+    })
 }
 
 fn scene_result(
@@ -499,9 +590,9 @@ fn scene_result(
     description: String,
     steps: &Steps,
     late: &[LatePose],
-    runs: &[RunOutcome; 3],
+    runs: &[RunOutcome; 4],
 ) -> SceneResult {
-    let [lock, timed, latest] = runs;
+    let [lock, timed, latest, on_time] = runs;
     let laser_events = steps
         .steps
         .iter()
@@ -530,6 +621,9 @@ fn scene_result(
         lock_step: figures(lock, lock),
         timed: figures(timed, lock),
         latest: figures(latest, lock),
+        on_time: figures(on_time, lock),
+        timed_vs_on_time: agreement(&timed.snapshot, &on_time.snapshot),
+        latest_vs_on_time: agreement(&latest.snapshot, &on_time.snapshot),
         timed_first_step_delta_m: delta(timed),
         latest_first_step_delta_m: delta(latest),
     }
@@ -556,9 +650,9 @@ fn no_clamp() -> Config {
 pub fn stairs_setup(quick: bool) -> stairs::Setup {
     if quick {
         stairs::Setup {
-            stand_distance_m: 8.05,
+            stand_distance_m: 14.05,
             stand_s: 2.0,
-            range_m: 12.0,
+            range_m: 16.0,
             ..stairs::Setup::FULL
         }
     } else {
@@ -581,6 +675,7 @@ pub fn stairs_scene(quick: bool, feed: &PoseFeed) -> Result<SceneResult, String>
         sim.duration_us,
         feed,
     );
+    let on_time = on_time_poses(&sim_config.trajectory, &sim_config.scene, sim.duration_us);
     #[allow(clippy::cast_possible_truncation)]
     let design = designs::pyramid::<{ stairs::LAYERS }>(
         setup.range_m as f32,
@@ -595,12 +690,13 @@ pub fn stairs_scene(quick: bool, feed: &PoseFeed) -> Result<SceneResult, String>
     let input = Input {
         steps: &steps,
         late: &late,
+        on_time: &on_time,
         design: &design,
         config: &config,
         frontend: frontend_of(&steps)?,
         first_riser: Some((&first, riser_x)),
     };
-    let runs = three::<{ stairs::CELLS }, { stairs::LAYERS }, { stairs::SLOTS }>(&input)?;
+    let runs = four::<{ stairs::CELLS }, { stairs::LAYERS }, { stairs::SLOTS }>(&input)?;
     Ok(scene_result(
         "stairs",
         format!(
@@ -657,18 +753,20 @@ pub fn turning_scene(quick: bool, feed: &PoseFeed) -> Result<SceneResult, String
         sim.duration_us,
         feed,
     );
+    let on_time = on_time_poses(&sim_config.trajectory, &sim_config.scene, sim.duration_us);
     let design = designs::pyramid::<TURN_LAYERS>(8.0, GateShape::default(), false, TURN_CELLS)
         .map_err(|e| e.to_string())?;
     let config = Config::default();
     let input = Input {
         steps: &steps,
         late: &late,
+        on_time: &on_time,
         design: &design,
         config: &config,
         frontend: frontend_of(&steps)?,
         first_riser: None,
     };
-    let runs = three::<TURN_CELLS, TURN_LAYERS, { stairs::SLOTS }>(&input)?;
+    let runs = four::<TURN_CELLS, TURN_LAYERS, { stairs::SLOTS }>(&input)?;
     Ok(scene_result(
         "turning",
         format!(
@@ -719,6 +817,7 @@ pub fn ld19_scene(quick: bool, feed: &PoseFeed) -> Result<SceneResult, String> {
         sim.duration_us,
         feed,
     );
+    let on_time = on_time_poses(&sim_config.trajectory, &sim_config.scene, sim.duration_us);
     let design = Ld19Design::from_datasheet()
         .pyramid::<L>(setup.range_m, GateShape::default(), true, W)
         .map_err(|e| e.to_string())?;
@@ -728,12 +827,13 @@ pub fn ld19_scene(quick: bool, feed: &PoseFeed) -> Result<SceneResult, String> {
     let input = Input {
         steps: &steps,
         late: &late,
+        on_time: &on_time,
         design: &design,
         config: &config,
         frontend: frontend_of(&steps)?,
         first_riser: Some((&first, riser_x)),
     };
-    let runs = three::<W, L, { stairs::SLOTS }>(&input)?;
+    let runs = four::<W, L, { stairs::SLOTS }>(&input)?;
     Ok(scene_result(
         "ld19",
         format!(
@@ -767,3 +867,151 @@ pub fn run_all(quick: bool, feed: &PoseFeed) -> Result<TimingResult, String> {
     })
 }
 
+/// Arguments of `lab timing`.
+#[derive(clap::Args, Debug, Clone)]
+pub struct Args {
+    /// The directory `timing.json` and `timing.md` are written into.
+    #[arg(long, value_name = "DIR", default_value = "target/lab/timing")]
+    pub out: std::path::PathBuf,
+    /// Print the results as one JSON object on stdout.
+    #[arg(long)]
+    pub json: bool,
+    /// Short scenes (the stairs 8 m away after 2 s, 8 s of turning, the LD19 6 m from the
+    /// stairs after 2 s), for the tests.
+    #[arg(long)]
+    pub quick: bool,
+    /// Poses a second of the late feed.
+    #[arg(long, default_value_t = PoseFeed::ROBOT.rate_hz)]
+    pub pose_hz: f64,
+    /// The late feed's mean delay, ms.
+    #[arg(long, default_value_t = PoseFeed::ROBOT.late_ms)]
+    pub late_ms: f64,
+    /// The late feed's jitter, ± ms (uniform).
+    #[arg(long, default_value_t = PoseFeed::ROBOT.jitter_ms)]
+    pub jitter_ms: f64,
+}
+
+fn pct(v: f64) -> String {
+    format!("{:.2} %", 100.0 * v)
+}
+
+fn metres(v: Option<f64>) -> String {
+    v.map_or_else(|| "never".to_string(), |d| format!("{d:.2} m"))
+}
+
+/// The results as a Markdown section (`timing.md`, and `lab experiments`' report).
+pub fn report(r: &TimingResult) -> String {
+    use std::fmt::Write as _;
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "## Poses on the laser's clock\n\nEach scene's recording through the co-processor \
+         (in process, its clock the recording's time) three ways: **lock-step** (the \
+         recording's pose before each telegram or chunk: every return's true pose), **timed** \
+         (the trajectory at {} Hz, each pose stamped with its time and delivered {} ± {} ms \
+         late through `CoProcessor::stamped_pose`) and **latest pose** (the same late poses, \
+         unstamped, applied on arrival: version 3's rule), and a control, **on time** (the \
+         trajectory at 250 Hz, stamped and delivered at once: the device's placement \
+         with perfect poses). Cells: every layer's cells known \
+         in either map, by world index; equal = the lock-step map's value exactly, same side \
+         = both obstacle evidence or both navigable. First step: the stairs experiment's \
+         definition (half the first riser's cells obstacle), looked at after every \
+         observation.{}\n",
+        r.feed.rate_hz,
+        r.feed.late_ms,
+        r.feed.jitter_ms,
+        if r.quick { " Quick sizes." } else { "" }
+    );
+    for sc in &r.scenes {
+        let _ = writeln!(
+            s,
+            "### {}\n\n{} ({:.1} s, {} laser events, {} late poses).\n\n| poses | cells equal \
+             (worst layer) | same side | known cells | first step seen at | Δ vs lock-step | \
+             returns extrapolated | returns refused | poses refused |\n| --- | --- | --- | --- \
+             | --- | --- | --- | --- | --- |",
+            sc.scene, sc.description, sc.duration_s, sc.laser_events, sc.late_poses
+        );
+        for (name, f, delta) in [
+            ("lock-step", &sc.lock_step, Some(0.0)),
+            ("timed", &sc.timed, sc.timed_first_step_delta_m),
+            ("latest pose", &sc.latest, sc.latest_first_step_delta_m),
+            ("on time (control)", &sc.on_time, None),
+        ] {
+            let _ = writeln!(
+                s,
+                "| {name} | {} ({}) | {} | {} | {} | {} | {} | {} | {} |",
+                pct(f.cells.equal_share),
+                pct(f.cells.worst_layer_equal_share),
+                pct(f.cells.same_side_share),
+                f.cells.known,
+                metres(f.first_step_m),
+                delta.map_or_else(|| "-".into(), |d| format!("{d:+.2} m")),
+                f.returns_extrapolated,
+                f.returns_without_pose,
+                f.poses_refused
+            );
+        }
+        let _ = writeln!(
+            s,
+            "\nAgainst the on-time control (the late feed's own effect): timed {} equal \
+             (worst layer {}), latest pose {} equal (worst layer {}).\n",
+            pct(sc.timed_vs_on_time.equal_share),
+            pct(sc.timed_vs_on_time.worst_layer_equal_share),
+            pct(sc.latest_vs_on_time.equal_share),
+            pct(sc.latest_vs_on_time.worst_layer_equal_share)
+        );
+    }
+    s
+}
+
+/// Runs `lab timing`.
+pub fn run_command(args: &Args) -> std::process::ExitCode {
+    let feed = PoseFeed {
+        rate_hz: args.pose_hz,
+        late_ms: args.late_ms,
+        jitter_ms: args.jitter_ms,
+        ..PoseFeed::ROBOT
+    };
+    let quick = args.quick;
+    let worker = std::thread::Builder::new()
+        .name("timing".into())
+        .stack_size(64 << 20)
+        .spawn(move || run_all(quick, &feed));
+    let result = match worker {
+        Ok(h) => h
+            .join()
+            .unwrap_or_else(|_| Err("the timing thread panicked".into())),
+        Err(e) => Err(format!("cannot start the timing thread: {e}")),
+    };
+    let written = result.and_then(|r| {
+        std::fs::create_dir_all(&args.out)
+            .map_err(|e| format!("cannot create {}: {e}", args.out.display()))?;
+        let json = serde_json::to_string_pretty(&r).map_err(|e| e.to_string())?;
+        terrain_pyramid_host::export::write_file(&args.out.join("timing.json"), json.as_bytes())?;
+        terrain_pyramid_host::export::write_file(
+            &args.out.join("timing.md"),
+            report(&r).as_bytes(),
+        )?;
+        Ok(r)
+    });
+    match written {
+        Ok(r) => {
+            if args.json {
+                match serde_json::to_string(&r) {
+                    Ok(j) => println!("{j}"),
+                    Err(e) => {
+                        eprintln!("error: {e}");
+                        return std::process::ExitCode::FAILURE;
+                    }
+                }
+            } else {
+                eprint!("{}", report(&r));
+            }
+            std::process::ExitCode::SUCCESS
+        }
+        Err(e) => {
+            eprintln!("error: {e}");
+            std::process::ExitCode::FAILURE
+        }
+    }
+}
