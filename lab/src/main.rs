@@ -7,7 +7,7 @@
 //! one JSON object on stdout; progress goes to stderr.
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
-use terrain_pyramid_lab::{demo, experiments, faults, latency, size, soak};
+use terrain_pyramid_lab::{demo, experiments, faults, latency, live, size, soak};
 
 /// The terrain-pyramid lab.
 #[derive(Parser)]
@@ -37,6 +37,10 @@ enum Command {
     /// Poses on the laser's clock: three scenes with the poses in lock-step, stamped and late
     /// (50 Hz, 30 ± 10 ms), and late on arrival; the maps against the lock-step run's.
     Timing(experiments::timing::Args),
+    /// A recording played as a robot lives: the laser paced into the emulated board, the poses
+    /// published late as ROS 2 Odometry, `pyramid listen` forwarding them; the maps against
+    /// the lock-step run's.
+    Live(live::Args),
 }
 
 fn main() -> ExitCode {
@@ -49,5 +53,6 @@ fn main() -> ExitCode {
         Command::Soak(args) => soak::run(&args),
         Command::Latency(args) => latency::run(&args),
         Command::Timing(args) => experiments::timing::run_command(&args),
+        Command::Live(args) => live::run(&args),
     }
 }

@@ -204,6 +204,8 @@ pub struct Input<'a, const L: usize> {
     pub frontend: FrontendConfig,
     /// The first riser's cells (0.1 m world cells) and its x, for the first-step distance.
     pub first_riser: Option<(&'a [Cell], f64)>,
+    /// Whether the observation under way is applied at the end (a host's EndObservation).
+    pub end_observation: bool,
 }
 
 fn pose_of(p: &[f32; 6]) -> Option<Pose> {
@@ -326,7 +328,9 @@ pub fn run<const W: usize, const L: usize, const C: usize>(
             }
         }
     }
-    core.end_observation();
+    if input.end_observation {
+        core.end_observation();
+    }
     let counters = core.counters();
     let snapshot = MapSnapshot::from_pyramid(core.pyramid(), input.design, input.config, robot_xy);
     let track = track_counters(&core);
@@ -695,6 +699,7 @@ pub fn stairs_scene(quick: bool, feed: &PoseFeed) -> Result<SceneResult, String>
         config: &config,
         frontend: frontend_of(&steps)?,
         first_riser: Some((&first, riser_x)),
+        end_observation: true,
     };
     let runs = four::<{ stairs::CELLS }, { stairs::LAYERS }, { stairs::SLOTS }>(&input)?;
     Ok(scene_result(
@@ -765,6 +770,7 @@ pub fn turning_scene(quick: bool, feed: &PoseFeed) -> Result<SceneResult, String
         config: &config,
         frontend: frontend_of(&steps)?,
         first_riser: None,
+        end_observation: true,
     };
     let runs = four::<TURN_CELLS, TURN_LAYERS, { stairs::SLOTS }>(&input)?;
     Ok(scene_result(
@@ -832,6 +838,7 @@ pub fn ld19_scene(quick: bool, feed: &PoseFeed) -> Result<SceneResult, String> {
         config: &config,
         frontend: frontend_of(&steps)?,
         first_riser: Some((&first, riser_x)),
+        end_observation: true,
     };
     let runs = four::<W, L, { stairs::SLOTS }>(&input)?;
     Ok(scene_result(
