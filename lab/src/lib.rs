@@ -6,6 +6,8 @@
 //!   fed exactly the intact telegrams;
 //! - [`soak`]: a long simulated drive through the in-process co-processor and the firmware;
 //! - [`latency`]: telegram into the emulated board → each live output's message out of the host;
+//! - [`live`]: a recording played as a robot lives: the laser paced into the emulated board, the
+//!   poses published late over ROS 2, `pyramid listen` forwarding them;
 //! - [`size`]: the firmware's flash, static RAM and stack;
 //! - [`demo`]: the main job end to end, on the emulated board.
 //!
@@ -17,5 +19,6 @@ pub mod demo;
 pub mod experiments;
 pub mod faults;
 pub mod latency;
+pub mod live;
 pub mod size;
 pub mod soak;

@@ -7,7 +7,7 @@
 //! one JSON object on stdout; progress goes to stderr.
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
-use terrain_pyramid_lab::{demo, experiments, faults, latency, size, soak};
+use terrain_pyramid_lab::{demo, experiments, faults, latency, live, size, soak};
 
 /// The terrain-pyramid lab.
 #[derive(Parser)]
@@ -34,6 +34,13 @@ enum Command {
     /// Telegram into the emulated board → each live output's message out of the host, at the
     /// SICK's full rate with every output on (median, p99).
     Latency(latency::Args),
+    /// Poses on the laser's clock: three scenes with the poses in lock-step, stamped and late
+    /// (50 Hz, 30 ± 10 ms), and late on arrival; the maps against the lock-step run's.
+    Timing(experiments::timing::Args),
+    /// A recording played as a robot lives: the laser paced into the emulated board, the poses
+    /// published late as ROS 2 Odometry, `pyramid listen` forwarding them; the maps against
+    /// the lock-step run's.
+    Live(live::Args),
 }
 
 fn main() -> ExitCode {
@@ -45,5 +52,7 @@ fn main() -> ExitCode {
         Command::Faults(args) => faults::run(&args),
         Command::Soak(args) => soak::run(&args),
         Command::Latency(args) => latency::run(&args),
+        Command::Timing(args) => experiments::timing::run_command(&args),
+        Command::Live(args) => live::run(&args),
     }
 }

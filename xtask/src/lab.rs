@@ -224,6 +224,83 @@ pub fn latency(args: &[String]) -> Result<(), String> {
     }
 }
 
+/// `cargo xtask live [--json]`: `lab live --ros2` inside a network namespace of its own (the
+/// lab, `pyramid` and the firmware built outside it first; the Python readers installed).
+pub fn live(args: &[String]) -> Result<(), String> {
+    let mut pass = Vec::new();
+    for a in args {
+        match a.as_str() {
+            "--json" => pass.push(a.clone()),
+            other => {
+                return Err(format!(
+                    "unknown option {other}; usage: cargo xtask live [--json]"
+                ))
+            }
+        }
+    }
+    ensure_targets()?;
+    ensure_qemu()?;
+    ensure_python_readers()?;
+    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+    let built = Command::new(&cargo)
+        .args([
+            "build",
+            "--profile",
+            "tools",
+            "--quiet",
+            "-p",
+            "terrain-pyramid-lab",
+            "-p",
+            "terrain-pyramid-host",
+        ])
+        .current_dir(root())
+        .status()
+        .map_err(|e| format!("cannot run cargo: {e}"))?;
+    if !built.success() {
+        return Err(format!("building the lab and pyramid failed ({built})"));
+    }
+    let firmware = Command::new(&cargo)
+        .args([
+            "build",
+            "--release",
+            "--quiet",
+            "--target",
+            "thumbv7em-none-eabihf",
+        ])
+        .current_dir(root().join("boards/qemu-mps2"))
+        .status()
+        .map_err(|e| format!("cannot run cargo: {e}"))?;
+    if !firmware.success() {
+        return Err(format!("building the firmware failed ({firmware})"));
+    }
+    let started = Instant::now();
+    let status = Command::new("unshare")
+        .args([
+            "-n",
+            "sh",
+            "-c",
+            "ip link set lo up multicast on && ip route add 224.0.0.0/4 dev lo && exec \"$0\" \"$@\"",
+        ])
+        .arg(root().join("target/tools/lab"))
+        .arg("live")
+        .arg("--ros2")
+        .args(with_out(&pass, "target/live"))
+        .current_dir(root())
+        .status()
+        .map_err(|e| format!("cannot run unshare (util-linux; root needed): {e}"))?;
+    eprintln!(
+        "xtask live: done in {:.1} s",
+        started.elapsed().as_secs_f64()
+    );
+    if status.success() {
+        Ok(())
+    } else {
+        Err(format!(
+            "lab live --ros2 inside `unshare -n` failed ({status})"
+        ))
+    }
+}
+
 /// `cargo xtask soak`.
 pub fn soak(args: &[String]) -> Result<(), String> {
     let mut pass = Vec::new();

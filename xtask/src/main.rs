@@ -22,6 +22,9 @@
 //! - `cargo xtask latency [--quick] [--json] [--no-ros2]`: telegram into the emulated board →
 //!   each live output's message out of the host at the SICK's full rate, every output on; ROS 2
 //!   inside a network namespace of its own (`lab latency`).
+//! - `cargo xtask live [--json]`: a recording played as a robot lives: the laser paced into the
+//!   emulated board, Odometry published late by a Cyclone DDS process, `pyramid listen --ros2
+//!   --odom-topic /odom` forwarding it; inside a network namespace of its own (`lab live`).
 //!
 //! - `cargo xtask layers [--json]`: the code's shape, checked: imports only point down the
 //!   library's layers, no import cycle, one definition per public type name.
@@ -50,6 +53,7 @@ fn main() -> ExitCode {
         "faults" => lab::faults(rest),
         "soak" => lab::soak(rest),
         "latency" => lab::latency(rest),
+        "live" => lab::live(rest),
         "size" => lab::size(rest),
         "layers" => layers::task(rest),
         _ => Err(
@@ -58,7 +62,8 @@ fn main() -> ExitCode {
                   | cargo xtask experiments [--out DIR] [--quick] [--json] [...] \
                   | cargo xtask faults [--json] [--quick] | cargo xtask soak [--json] [--quick] \
                   | cargo xtask size [--json] | cargo xtask layers [--json] \
-                  | cargo xtask latency [--quick] [--json] [--no-ros2] [--publish-hz HZ]"
+                  | cargo xtask latency [--quick] [--json] [--no-ros2] [--publish-hz HZ] \
+                  | cargo xtask live [--json]"
                 .to_string(),
         ),
     };

@@ -261,6 +261,7 @@ impl ChangingScene {
                 speed_mps: 1.0,
                 stop_x: 0.0,
                 dwell_s: 38.0,
+                yaw_rate_rad_s: 0.0,
             },
         }
     }

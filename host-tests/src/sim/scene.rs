@@ -661,6 +661,57 @@ impl Scene {
         }
     }
 
+    /// A room to turn in: four walls 2 m high and 0.2 m thick, their inner faces
+    /// `half_x_m` and `half_y_m` from the origin, and two pillars (0.6 m boxes, 1.5 m high) at
+    /// (0.5 · `half_x_m`, 0.4 · `half_y_m`) and (−0.4 · `half_x_m`, −0.5 · `half_y_m`), so that
+    /// no two headings see the same thing. Features: every solid, as [`FeatureKind::Block`].
+    #[must_use]
+    pub fn room(half_x_m: f64, half_y_m: f64) -> Self {
+        const THICK: f64 = 0.2;
+        const WALL: f64 = 2.0;
+        const PILLAR: f64 = 0.6;
+        const PILLAR_H: f64 = 1.5;
+        let (ox, oy) = (half_x_m + THICK, half_y_m + THICK);
+        let mut boxes = vec![
+            ([half_x_m, -oy, 0.0], [ox, oy, WALL]),
+            ([-ox, -oy, 0.0], [-half_x_m, oy, WALL]),
+            ([-half_x_m, half_y_m, 0.0], [half_x_m, oy, WALL]),
+            ([-half_x_m, -oy, 0.0], [half_x_m, -half_y_m, WALL]),
+        ];
+        for (cx, cy) in [
+            (0.5 * half_x_m, 0.4 * half_y_m),
+            (-0.4 * half_x_m, -0.5 * half_y_m),
+        ] {
+            let h = 0.5 * PILLAR;
+            boxes.push(([cx - h, cy - h, 0.0], [cx + h, cy + h, PILLAR_H]));
+        }
+        let solids = boxes
+            .iter()
+            .map(|&(min, max)| Solid::Box { min, max })
+            .collect();
+        let features = boxes
+            .iter()
+            .map(|&(min, max)| Feature {
+                kind: FeatureKind::Block,
+                footprint: Footprint::Rect {
+                    x_min: min[0],
+                    x_max: max[0],
+                    y_min: min[1],
+                    y_max: max[1],
+                },
+                bottom_m: 0.0,
+                height_m: max[2],
+            })
+            .collect();
+        Self {
+            name: "room",
+            ground: Vec::new(),
+            solids,
+            features,
+            target_x: None,
+        }
+    }
+
     /// A ditch: a trench `depth_m` deep from `x0` to `x0 + width_m`, across all y.
     #[must_use]
     pub fn ditch(x0: f64, width_m: f64, depth_m: f64) -> Self {

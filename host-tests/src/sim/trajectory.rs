@@ -2,7 +2,8 @@
 //!
 //! A [`Trajectory`] stands still at its start for a while, then drives at a constant speed
 //! along +x to a stop position and stays there (acceleration is not modelled: the speed
-//! jumps). The robot's body stays level (roll = pitch = 0: the paper's Segway RMP balances
+//! jumps). It may also turn about the vertical axis at a constant rate the whole time
+//! ([`Trajectory::turning`]: turning in place); the path stays along +x. The robot's body stays level (roll = pitch = 0: the paper's Segway RMP balances
 //! itself upright whatever the ground's slope) and its height is the ground's under its
 //! ground contact point ([`Trajectory::pose_at`] asks the scene).
 
@@ -104,6 +105,9 @@ pub struct Trajectory {
     pub stop_x: f64,
     /// Time standing at the stop position before the recording ends, seconds, ≥ 0.
     pub dwell_s: f64,
+    /// The yaw rate, rad/s (positive turns left), the whole run: yaw = rate · t, wrapped
+    /// into (−π, π]. 0 (every constructor but [`Trajectory::turning`]): facing +x.
+    pub yaw_rate_rad_s: f64,
 }
 
 impl Trajectory {
@@ -117,6 +121,16 @@ impl Trajectory {
             speed_mps: 1.0,
             stop_x: 0.0,
             dwell_s: 0.0,
+            yaw_rate_rad_s: 0.0,
+        }
+    }
+
+    /// Turning in place at the origin at `rate_rad_s` for `duration_s` seconds.
+    #[must_use]
+    pub const fn turning(duration_s: f64, rate_rad_s: f64) -> Self {
+        Self {
+            yaw_rate_rad_s: rate_rad_s,
+            ..Self::standing(duration_s)
         }
     }
 
@@ -131,6 +145,7 @@ impl Trajectory {
             speed_mps,
             stop_x: (target_x - distance_m).max(0.0),
             dwell_s: 0.0,
+            yaw_rate_rad_s: 0.0,
         }
     }
 
@@ -185,8 +200,23 @@ impl Trajectory {
         }
     }
 
-    /// The pose at `t_s` seconds over `scene`: on the trajectory, level, facing +x, at the
-    /// ground's height.
+    /// The yaw at `t_s` seconds, radians in (−π, π]: `yaw_rate_rad_s · t_s`, wrapped.
+    #[must_use]
+    pub fn yaw_at(&self, t_s: f64) -> f64 {
+        if self.yaw_rate_rad_s == 0.0 {
+            return 0.0;
+        }
+        let tau = core::f64::consts::TAU;
+        let yaw = (self.yaw_rate_rad_s * t_s).rem_euclid(tau);
+        if yaw > core::f64::consts::PI {
+            yaw - tau
+        } else {
+            yaw
+        }
+    }
+
+    /// The pose at `t_s` seconds over `scene`: on the trajectory, level, at the ground's
+    /// height, facing [`yaw_at`](Self::yaw_at) (+x unless it turns).
     #[must_use]
     pub fn pose_at(&self, t_s: f64, scene: &Scene) -> Pose {
         let x = self.x_at(t_s);
@@ -194,6 +224,7 @@ impl Trajectory {
             x,
             y: self.y,
             z: scene.ground_height(x, self.y),
+            yaw: self.yaw_at(t_s),
             ..Pose::default()
         }
     }
@@ -210,6 +241,7 @@ impl Trajectory {
             self.speed_mps,
             self.stop_x,
             self.dwell_s,
+            self.yaw_rate_rad_s,
         ]
         .iter()
         .all(|v| v.is_finite());
@@ -246,6 +278,17 @@ mod tests {
         assert_eq!(t.phase(10.0), Phase::Stopped);
         let p = t.pose_at(12.0, &Scene::slope(3.05, 10.0));
         assert!((p.z - 0.95 * 10f64.to_radians().tan()).abs() < 1e-12);
+    }
+
+    #[test]
+    fn turning_wraps_the_yaw() {
+        let t = Trajectory::turning(10.0, 1.0);
+        assert_eq!(t.yaw_at(0.0), 0.0);
+        assert!((t.yaw_at(1.0) - 1.0).abs() < 1e-12);
+        // 4 rad is past π: 4 − 2π.
+        assert!((t.yaw_at(4.0) - (4.0 - core::f64::consts::TAU)).abs() < 1e-12);
+        assert_eq!(t.x_at(5.0), 0.0);
+        assert_eq!(Trajectory::standing(3.0).yaw_at(2.0), 0.0);
     }
 
     #[test]

@@ -1,0 +1,202 @@
+"""Publishes a robot's poses as ROS 2 nav_msgs/msg/Odometry with Eclipse Cyclone DDS (the
+`cyclonedds` Python binding), late and jittered as a robot's stack delivers them: each pose
+stamped with the wall-clock time the robot was there, published `late ± jitter` ms after it.
+
+The message types are declared here in IDL form under the names ROS 2 gives them on DDS
+(`nav_msgs::msg::dds_::Odometry_`, topic `rt/odom` for ROS 2's `/odom`), independently of the
+reader under test. QoS: reliable, volatile, keep last 10 (rclcpp's default for a publisher).
+
+Input: NDJSON, one pose a line, `{"t": SECONDS, "pose": [x, y, z, roll, pitch, yaw]}` (metres,
+radians; t from the recording's start), in time order.
+
+Usage: odom_pub.py POSES.ndjson START_EPOCH_S [--late-ms 30] [--jitter-ms 10] [--seed 29]
+       [--topic /odom] [--frame-id odom] [--domain 0] [--wait-s 5]
+Waits up to --wait-s for a subscriber to match, then publishes pose k at START + t_k + late_k
+(late_k uniform in late ± jitter), stamped START + t_k. Prints one JSON object at the end:
+poses published, subscribers matched, and the publish delays (publish − stamp, ms).
+Run it only inside a network namespace of its own (DDS multicast must not leave the machine).
+"""
+import argparse
+import json
+import math
+import random
+import sys
+import time
+from dataclasses import dataclass, field
+
+import cyclonedds.idl.annotations as annotate
+import cyclonedds.idl.types as types
+from cyclonedds.core import Policy, Qos
+from cyclonedds.domain import DomainParticipant
+from cyclonedds.idl import IdlStruct
+from cyclonedds.pub import DataWriter
+from cyclonedds.topic import Topic
+from cyclonedds.util import duration
+
+
+@dataclass
+@annotate.final
+class Time(IdlStruct, typename="builtin_interfaces::msg::dds_::Time_"):
+    sec: types.int32
+    nanosec: types.uint32
+
+
+@dataclass
+@annotate.final
+class Header(IdlStruct, typename="std_msgs::msg::dds_::Header_"):
+    stamp: Time
+    frame_id: str
+
+
+@dataclass
+@annotate.final
+class Point(IdlStruct, typename="geometry_msgs::msg::dds_::Point_"):
+    x: types.float64
+    y: types.float64
+    z: types.float64
+
+
+@dataclass
+@annotate.final
+class Quaternion(IdlStruct, typename="geometry_msgs::msg::dds_::Quaternion_"):
+    x: types.float64
+    y: types.float64
+    z: types.float64
+    w: types.float64
+
+
+@dataclass
+@annotate.final
+class Pose(IdlStruct, typename="geometry_msgs::msg::dds_::Pose_"):
+    position: Point
+    orientation: Quaternion
+
+
+@dataclass
+@annotate.final
+class PoseWithCovariance(IdlStruct, typename="geometry_msgs::msg::dds_::PoseWithCovariance_"):
+    pose: Pose
+    covariance: types.array[types.float64, 36]
+
+
+@dataclass
+@annotate.final
+class Vector3(IdlStruct, typename="geometry_msgs::msg::dds_::Vector3_"):
+    x: types.float64
+    y: types.float64
+    z: types.float64
+
+
+@dataclass
+@annotate.final
+class Twist(IdlStruct, typename="geometry_msgs::msg::dds_::Twist_"):
+    linear: Vector3
+    angular: Vector3
+
+
+@dataclass
+@annotate.final
+class TwistWithCovariance(
+    IdlStruct, typename="geometry_msgs::msg::dds_::TwistWithCovariance_"
+):
+    twist: Twist
+    covariance: types.array[types.float64, 36]
+
+
+@dataclass
+@annotate.final
+class Odometry(IdlStruct, typename="nav_msgs::msg::dds_::Odometry_"):
+    header: Header
+    child_frame_id: str
+    pose: PoseWithCovariance
+    twist: TwistWithCovariance
+
+
+def quaternion(roll, pitch, yaw):
+    """The unit quaternion of R_z(yaw)·R_y(pitch)·R_x(roll) (ROS's fixed-axis RPY)."""
+    cr, sr = math.cos(roll / 2), math.sin(roll / 2)
+    cp, sp = math.cos(pitch / 2), math.sin(pitch / 2)
+    cy, sy = math.cos(yaw / 2), math.sin(yaw / 2)
+    return Quaternion(
+        x=sr * cp * cy - cr * sp * sy,
+        y=cr * sp * cy + sr * cp * sy,
+        z=cr * cp * sy - sr * sp * cy,
+        w=cr * cp * cy + sr * sp * sy,
+    )
+
+
+def dds_topic(ros_topic):
+    """ROS 2's DDS topic name: `rt` + the ROS name (`/odom` → `rt/odom`)."""
+    return "rt" + (ros_topic if ros_topic.startswith("/") else "/" + ros_topic)
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("poses")
+    ap.add_argument("start", type=float)
+    ap.add_argument("--late-ms", type=float, default=30.0)
+    ap.add_argument("--jitter-ms", type=float, default=10.0)
+    ap.add_argument("--seed", type=int, default=29)
+    ap.add_argument("--topic", default="/odom")
+    ap.add_argument("--frame-id", default="odom")
+    ap.add_argument("--domain", type=int, default=0)
+    ap.add_argument("--wait-s", type=float, default=5.0)
+    a = ap.parse_args()
+    with open(a.poses) as f:
+        poses = [json.loads(line) for line in f if line.strip()]
+    rng = random.Random(a.seed)
+    qos = Qos(
+        Policy.Reliability.Reliable(duration(seconds=1)),
+        Policy.Durability.Volatile,
+        Policy.History.KeepLast(10),
+    )
+    dp = DomainParticipant(a.domain)
+    writer = DataWriter(dp, Topic(dp, dds_topic(a.topic), Odometry), qos=qos)
+    deadline = time.time() + a.wait_s
+    while writer.get_matched_subscriptions() == [] and time.time() < deadline:
+        time.sleep(0.01)
+    matched = len(writer.get_matched_subscriptions())
+    zero36 = [0.0] * 36
+    delays = []
+    for p in poses:
+        stamp = a.start + p["t"]
+        late = (a.late_ms + a.jitter_ms * (2 * rng.random() - 1)) / 1000.0
+        wait = stamp + late - time.time()
+        if wait > 0:
+            time.sleep(wait)
+        x, y, z, roll, pitch, yaw = p["pose"]
+        sec = math.floor(stamp)
+        msg = Odometry(
+            header=Header(
+                stamp=Time(sec=sec, nanosec=min(int(round((stamp - sec) * 1e9)), 999_999_999)),
+                frame_id=a.frame_id,
+            ),
+            child_frame_id="base_link",
+            pose=PoseWithCovariance(
+                pose=Pose(position=Point(x=x, y=y, z=z), orientation=quaternion(roll, pitch, yaw)),
+                covariance=zero36,
+            ),
+            twist=TwistWithCovariance(
+                twist=Twist(linear=Vector3(0.0, 0.0, 0.0), angular=Vector3(0.0, 0.0, 0.0)),
+                covariance=zero36,
+            ),
+        )
+        writer.write(msg)
+        delays.append((time.time() - stamp) * 1000.0)
+    time.sleep(0.2)
+    delays.sort()
+    out = {
+        "published": len(delays),
+        "matched": matched,
+        "delay_ms": {
+            "median": delays[len(delays) // 2] if delays else None,
+            "min": delays[0] if delays else None,
+            "max": delays[-1] if delays else None,
+        },
+    }
+    print(json.dumps(out))
+    return 0 if matched > 0 else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())
