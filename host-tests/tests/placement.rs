@@ -206,7 +206,7 @@ fn drive(seconds: f64, latest: bool, handed_after_us: u32) -> (usize, f64, u32, 
             lidar_theta_rad(phi_deg.to_radians()),
             range_m,
         );
-        let lsb = (2.0 + 2.0 * ratio) as f64;
+        let lsb = 2.0 + 2.0 * ratio;
         let bound = lidar_error_bound_m(range_m)
             + lsb
                 * (3_f64.sqrt() * 2_f64.powi(-16)
