@@ -41,7 +41,6 @@
 use core::fmt;
 
 use super::laser::{turn_fraction, LaserReturn, TurnSteps};
-use super::resync::{self, Resync, Scan};
 use super::window::{bump, bump_by, Window};
 use super::FeedResult;
 use crate::angle::FineAngle;
@@ -512,6 +511,19 @@ pub struct Ld06Counters {
     pub garbage_bytes: u32,
 }
 
+/// What [`Ld06Accumulator::scan`] found at the front of the window.
+#[derive(Debug, Clone, Copy)]
+enum Scan {
+    /// A valid packet at the front, at this stream position.
+    Packet(u64),
+    /// A candidate refused (its header byte dropped), at this stream position.
+    Rejected(Ld06Error, u64),
+    /// A candidate needing this many more bytes (≥ 1).
+    Need(usize),
+    /// Nothing buffered.
+    Empty,
+}
+
 /// Reassembles LD06 packets from a byte stream fed in chunks of any size.
 ///
 /// It holds one packet (47 bytes): garbage is skipped in place, never copied.
@@ -593,14 +605,83 @@ impl Ld06Accumulator {
         &'s mut self,
         chunk: &'c [u8],
     ) -> FeedResult<'c, Ld06Packet<&'s [u8]>, Ld06Error> {
-        resync::feed(self, chunk)
+        self.release();
+        let mut chunk = chunk;
+        loop {
+            let need = match self.scan() {
+                Scan::Packet(offset) => {
+                    return FeedResult::Item {
+                        item: self.packet_view(),
+                        offset,
+                        remaining: chunk,
+                    }
+                }
+                Scan::Rejected(error, offset) => {
+                    return FeedResult::Rejected {
+                        error,
+                        offset,
+                        remaining: chunk,
+                    }
+                }
+                Scan::Need(need) => need,
+                Scan::Empty => {
+                    // Hunt in place: garbage never touches the buffer.
+                    let at = chunk
+                        .iter()
+                        .position(|&b| b == LD06_HEADER)
+                        .unwrap_or(chunk.len());
+                    bump_by(&mut self.counters.garbage_bytes, at);
+                    self.window.skip(at);
+                    chunk = chunk.get(at..).unwrap_or(&[]);
+                    LD06_PACKET_LEN
+                }
+            };
+            if chunk.is_empty() {
+                return FeedResult::Consumed;
+            }
+            chunk = self.window.fill(chunk, need);
+        }
     }
 
     /// Ends the stream: rejects a candidate still incomplete (`54 2C` and fewer than 45 more
     /// bytes) as [`Ld06Error::Truncated`] and counts a lone trailing 0x54 as garbage. Call it
     /// until it returns [`FeedResult::Consumed`].
     pub fn flush(&mut self) -> FeedResult<'static, Ld06Packet<&[u8]>, Ld06Error> {
-        resync::flush(self)
+        self.release();
+        loop {
+            match self.scan() {
+                Scan::Packet(offset) => {
+                    return FeedResult::Item {
+                        item: self.packet_view(),
+                        offset,
+                        remaining: &[],
+                    }
+                }
+                Scan::Rejected(error, offset) => {
+                    return FeedResult::Rejected {
+                        error,
+                        offset,
+                        remaining: &[],
+                    }
+                }
+                Scan::Empty => return FeedResult::Consumed,
+                Scan::Need(_) => {
+                    let live = self.window.len();
+                    if live >= 2 {
+                        let offset = self.window.offset_of(0);
+                        bump(&mut self.counters.truncated);
+                        self.window.drop_front(1);
+                        return FeedResult::Rejected {
+                            error: Ld06Error::Truncated,
+                            offset,
+                            remaining: &[],
+                        };
+                    }
+                    bump_by(&mut self.counters.garbage_bytes, live);
+                    self.window.drop_front(live);
+                }
+            }
+        }
     }
 
     /// The packet handed out by the last call, while it is valid (until the next call taking
@@ -640,27 +721,20 @@ impl Ld06Accumulator {
         self.delivered = 0;
     }
 
+    fn release(&mut self) {
+        if self.delivered > 0 {
+            self.window.drop_front(self.delivered);
+            self.delivered = 0;
+        }
+    }
+
     fn packet_view(&self) -> Ld06Packet<&[u8]> {
         let live = self.window.live();
         Ld06Packet::new_unchecked(live.get(..self.delivered).unwrap_or(live))
     }
-}
 
-/// The LD06's part of the shared hunt-and-refill loop ([`resync`]).
-impl Resync<LD06_PACKET_LEN> for Ld06Accumulator {
-    type Item<'s> = Ld06Packet<&'s [u8]>;
-    type Error = Ld06Error;
-    type Need = usize;
-
-    fn window(&mut self) -> &mut Window<LD06_PACKET_LEN> {
-        &mut self.window
-    }
-
-    fn release(&mut self) {
-        self.window.release(&mut self.delivered);
-    }
-
-    fn scan(&mut self) -> Scan<Ld06Error> {
+    /// Resolves the front of the window as far as it goes.
+    fn scan(&mut self) -> Scan {
         loop {
             let live = self.window.live();
             let Some(&first) = live.first() else {
@@ -696,42 +770,12 @@ impl Resync<LD06_PACKET_LEN> for Ld06Accumulator {
             if stored == computed {
                 bump(&mut self.counters.packets);
                 self.delivered = LD06_PACKET_LEN;
-                return Scan::Item(offset);
+                return Scan::Packet(offset);
             }
             bump(&mut self.counters.checksum);
             self.window.drop_front(1);
             return Scan::Rejected(Ld06Error::BadCrc { stored, computed }, offset);
         }
-    }
-
-    fn item(&self) -> Self::Item<'_> {
-        self.packet_view()
-    }
-
-    fn may_start(&self, b: u8) -> bool {
-        b == LD06_HEADER
-    }
-
-    fn first_need(&self) -> usize {
-        LD06_PACKET_LEN
-    }
-
-    fn garbage_bytes(&mut self) -> &mut u32 {
-        &mut self.counters.garbage_bytes
-    }
-
-    /// `54 2C` and fewer than 45 more bytes: truncated; a lone 0x54: garbage.
-    fn cut_short(&mut self, _: usize) -> Option<(Ld06Error, u64)> {
-        let live = self.window.len();
-        if live >= 2 {
-            let offset = self.window.offset_of(0);
-            bump(&mut self.counters.truncated);
-            self.window.drop_front(1);
-            return Some((Ld06Error::Truncated, offset));
-        }
-        bump_by(&mut self.counters.garbage_bytes, live);
-        self.window.drop_front(live);
-        None
     }
 }
 

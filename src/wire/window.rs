@@ -45,15 +45,6 @@ impl<const N: usize> Window<N> {
         }
     }
 
-    /// Drops the unit of `delivered` bytes at the front that the last call handed out, if
-    /// any, and zeroes `delivered`.
-    pub(crate) fn release(&mut self, delivered: &mut usize) {
-        if *delivered > 0 {
-            self.drop_front(*delivered);
-            *delivered = 0;
-        }
-    }
-
     /// Drops every live byte; keeps the stream position.
     pub(crate) fn clear(&mut self) {
         self.start = 0;

@@ -7,7 +7,6 @@ use super::{
     RplidarCapsule, RplidarDescriptor, RplidarError, RplidarNode, RPLIDAR_CAPSULE_LEN,
     RPLIDAR_DESCRIPTOR_LEN, RPLIDAR_DESCRIPTOR_SYNC, RPLIDAR_NODE_LEN, RPLIDAR_NODE_RUN,
 };
-use crate::wire::resync::{self, Need, Resync};
 use crate::wire::window::{bump, bump_by, Window};
 use crate::wire::FeedResult;
 
@@ -113,24 +112,18 @@ enum Kind {
     Express,
 }
 
-/// What a scan says of a unit still incomplete.
 #[derive(Debug, Clone, Copy)]
-pub(crate) struct Pending {
-    /// The bytes it needs.
-    more: usize,
-    /// Whether the front is a unit in progress (a truncation at the end of the stream)
-    /// rather than bytes still being hunted through.
-    candidate: bool,
+enum Scan {
+    Item(u64),
+    Rejected(RplidarError, u64),
+    /// More bytes are needed; `candidate` when the front is a unit in progress (a truncation
+    /// at the end of the stream) rather than bytes still being hunted through.
+    Need {
+        more: usize,
+        candidate: bool,
+    },
+    Empty,
 }
-
-impl Need for Pending {
-    #[inline(always)]
-    fn more(self) -> usize {
-        self.more
-    }
-}
-
-type Scan = resync::Scan<RplidarError, Pending>;
 
 /// Follows an RPLIDAR byte stream fed in chunks of any size: response descriptors, then the
 /// data each announces (a single response, standard-scan nodes or legacy capsules), and the
@@ -270,7 +263,42 @@ impl RplidarAccumulator {
         &'s mut self,
         chunk: &'c [u8],
     ) -> FeedResult<'c, RplidarItem<'s>, RplidarError> {
-        resync::feed(self, chunk)
+        self.release();
+        let mut chunk = chunk;
+        loop {
+            let need = match self.scan() {
+                Scan::Item(offset) => {
+                    return FeedResult::Item {
+                        item: self.item(),
+                        offset,
+                        remaining: chunk,
+                    }
+                }
+                Scan::Rejected(error, offset) => {
+                    return FeedResult::Rejected {
+                        error,
+                        offset,
+                        remaining: chunk,
+                    }
+                }
+                Scan::Need { more, .. } => more,
+                Scan::Empty => {
+                    // Skip in place what cannot start a unit in this mode.
+                    let at = chunk
+                        .iter()
+                        .position(|&b| self.may_start(b))
+                        .unwrap_or(chunk.len());
+                    bump_by(&mut self.counters.garbage_bytes, at);
+                    self.window.skip(at);
+                    chunk = chunk.get(at..).unwrap_or(&[]);
+                    self.first_need()
+                }
+            };
+            if chunk.is_empty() {
+                return FeedResult::Consumed;
+            }
+            chunk = self.window.fill(chunk, need);
+        }
     }
 
     /// Ends the stream: rejects a unit still incomplete as [`RplidarError::Truncated`],
@@ -278,7 +306,62 @@ impl RplidarAccumulator {
     /// ([`RplidarError::CapsuleUnpaired`]). Call it until it returns
     /// [`FeedResult::Consumed`].
     pub fn flush(&mut self) -> FeedResult<'static, RplidarItem<'_>, RplidarError> {
-        resync::flush(self)
+        self.release();
+        loop {
+            match self.scan() {
+                Scan::Item(offset) => {
+                    return FeedResult::Item {
+                        item: self.item(),
+                        offset,
+                        remaining: &[],
+                    }
+                }
+                Scan::Rejected(error, offset) => {
+                    return FeedResult::Rejected {
+                        error,
+                        offset,
+                        remaining: &[],
+                    }
+                }
+                Scan::Empty => {
+                    if let Some(offset) = self.drop_prev() {
+                        return FeedResult::Rejected {
+                            error: RplidarError::CapsuleUnpaired,
+                            offset,
+                            remaining: &[],
+                        };
+                    }
+                    return FeedResult::Consumed;
+                }
+                Scan::Need { candidate, .. } => {
+                    if candidate {
+                        if let Some(offset) = self.drop_prev() {
+                            return FeedResult::Rejected {
+                                error: RplidarError::CapsuleUnpaired,
+                                offset,
+                                remaining: &[],
+                            };
+                        }
+                        let offset = self.window.offset_of(0);
+                        bump(&mut self.counters.truncated);
+                        self.window.drop_front(1);
+                        if let Mode::Response(..) = self.mode {
+                            self.mode = Mode::Descriptor;
+                        }
+                        if let Mode::Nodes { .. } = self.mode {
+                            self.mode = Mode::Nodes { locked: false };
+                        }
+                        return FeedResult::Rejected {
+                            error: RplidarError::Truncated,
+                            offset,
+                            remaining: &[],
+                        };
+                    }
+                    bump(&mut self.counters.garbage_bytes);
+                    self.window.drop_front(1);
+                }
+            }
+        }
     }
 
     /// The counters.
@@ -314,6 +397,48 @@ impl RplidarAccumulator {
         self.mode = Mode::Descriptor;
     }
 
+    /// Whether byte `b` may start a unit in the current mode (garbage is skipped in place
+    /// up to such a byte).
+    fn may_start(&self, b: u8) -> bool {
+        match self.mode {
+            Mode::Descriptor => b == RPLIDAR_DESCRIPTOR_SYNC[0],
+            Mode::Response(..) | Mode::Nodes { locked: true } => true,
+            // S ≠ !S: bits 0 and 1 differ (0xA5 of a descriptor too).
+            Mode::Nodes { locked: false } => matches!(b & 3, 1 | 2),
+            Mode::Capsules => b >> 4 == 0xA,
+        }
+    }
+
+    /// How many bytes to take first for a unit starting at the front.
+    fn first_need(&self) -> usize {
+        match self.mode {
+            Mode::Descriptor => RPLIDAR_DESCRIPTOR_LEN,
+            Mode::Response(_, len) => len.max(1),
+            Mode::Nodes { locked: true } => RPLIDAR_NODE_LEN,
+            Mode::Nodes { locked: false } => RPLIDAR_NODE_LEN * RPLIDAR_NODE_RUN,
+            Mode::Capsules => RPLIDAR_CAPSULE_LEN,
+        }
+    }
+
+    /// Drops the unit handed out by the last call; a capsule placed by the one at the front
+    /// makes way for it.
+    fn release(&mut self) {
+        if self.delivered == 0 {
+            return;
+        }
+        if self.kind == Kind::Express {
+            let wraps = self.express().is_some_and(|e| e.wraps_at_end());
+            if let Some(front) = self.window.live().first_chunk::<RPLIDAR_CAPSULE_LEN>() {
+                self.prev = *front;
+                self.prev_offset = self.window.offset_of(0);
+                self.prev_valid = true;
+                self.prev_wraps = wraps;
+            }
+        }
+        self.window.drop_front(self.delivered);
+        self.delivered = 0;
+    }
+
     /// The kept capsule placed with the capsule at the front of the window.
     fn express(&self) -> Option<RplidarExpressScan<'_>> {
         let next = RplidarCapsule::new_unchecked(self.window.live());
@@ -324,6 +449,26 @@ impl RplidarAccumulator {
             )
             .wrapping_at_start(self.prev_wraps)
         })
+    }
+
+    fn item(&self) -> RplidarItem<'_> {
+        let live = self.window.live();
+        let bytes = live.get(..self.delivered).unwrap_or(live);
+        match self.kind {
+            Kind::Descriptor => RplidarItem::Descriptor(RplidarDescriptor::new_unchecked(bytes)),
+            Kind::Response(data_type) => RplidarItem::Response(RplidarResponse {
+                data_type,
+                data: bytes,
+            }),
+            Kind::Node => RplidarItem::Node(RplidarNode::new_unchecked(bytes)),
+            Kind::Express => match self.express() {
+                Some(e) => RplidarItem::Express(e),
+                None => RplidarItem::Express(RplidarExpressScan::new(
+                    RplidarCapsule::new_unchecked(&self.prev[..]),
+                    0,
+                )),
+            },
+        }
     }
 
     /// Drops the kept capsule, counting it; its stream position when there was one.
@@ -359,37 +504,8 @@ impl RplidarAccumulator {
         self.window.drop_front(1);
         Scan::Rejected(error, offset)
     }
-}
 
-/// The RPLIDAR's part of the shared hunt-and-refill loop ([`resync`]).
-impl Resync<WINDOW> for RplidarAccumulator {
-    type Item<'s> = RplidarItem<'s>;
-    type Error = RplidarError;
-    type Need = Pending;
-
-    fn window(&mut self) -> &mut Window<WINDOW> {
-        &mut self.window
-    }
-
-    /// Drops the unit handed out by the last call; a capsule placed by the one at the front
-    /// makes way for it.
-    fn release(&mut self) {
-        if self.delivered == 0 {
-            return;
-        }
-        if self.kind == Kind::Express {
-            let wraps = self.express().is_some_and(|e| e.wraps_at_end());
-            if let Some(front) = self.window.live().first_chunk::<RPLIDAR_CAPSULE_LEN>() {
-                self.prev = *front;
-                self.prev_offset = self.window.offset_of(0);
-                self.prev_valid = true;
-                self.prev_wraps = wraps;
-            }
-        }
-        self.window.drop_front(self.delivered);
-        self.delivered = 0;
-    }
-
+    /// Resolves the front of the window as far as it goes.
     fn scan(&mut self) -> Scan {
         loop {
             let live = self.window.live();
@@ -402,17 +518,17 @@ impl Resync<WINDOW> for RplidarAccumulator {
             if first == RPLIDAR_DESCRIPTOR_SYNC[0] && !matches!(self.mode, Mode::Response(..)) {
                 match live.get(1) {
                     None => {
-                        return Scan::Need(Pending {
+                        return Scan::Need {
                             more: 1,
                             candidate: matches!(self.mode, Mode::Nodes { locked: true }),
-                        })
+                        }
                     }
                     Some(&second) if second == RPLIDAR_DESCRIPTOR_SYNC[1] => {
                         let Some(descriptor) = live.first_chunk::<RPLIDAR_DESCRIPTOR_LEN>() else {
-                            return Scan::Need(Pending {
+                            return Scan::Need {
                                 more: RPLIDAR_DESCRIPTOR_LEN - len,
                                 candidate: true,
-                            });
+                            };
                         };
                         if let Some(follow) = known(descriptor) {
                             // The kept capsule lies before the descriptor: report it first.
@@ -446,10 +562,10 @@ impl Resync<WINDOW> for RplidarAccumulator {
                 }
                 Mode::Response(data_type, rlen) => {
                     if len < rlen {
-                        return Scan::Need(Pending {
+                        return Scan::Need {
                             more: rlen - len,
                             candidate: true,
-                        });
+                        };
                     }
                     bump(&mut self.counters.responses);
                     self.mode = Mode::Descriptor;
@@ -457,10 +573,10 @@ impl Resync<WINDOW> for RplidarAccumulator {
                 }
                 Mode::Nodes { locked: true } => {
                     let Some(node) = live.first_chunk::<RPLIDAR_NODE_LEN>() else {
-                        return Scan::Need(Pending {
+                        return Scan::Need {
                             more: RPLIDAR_NODE_LEN - len,
                             candidate: true,
-                        });
+                        };
                     };
                     if node_is_valid(node) {
                         bump(&mut self.counters.nodes);
@@ -477,10 +593,10 @@ impl Resync<WINDOW> for RplidarAccumulator {
                             .get(at..)
                             .and_then(<[u8]>::first_chunk::<RPLIDAR_NODE_LEN>)
                         else {
-                            return Scan::Need(Pending {
+                            return Scan::Need {
                                 more: at + RPLIDAR_NODE_LEN - len,
                                 candidate: false,
-                            });
+                            };
                         };
                         if !node_is_valid(node) {
                             break;
@@ -496,20 +612,20 @@ impl Resync<WINDOW> for RplidarAccumulator {
                 }
                 Mode::Capsules => {
                     let Some(&second) = live.get(1) else {
-                        return Scan::Need(Pending {
+                        return Scan::Need {
                             more: 1,
                             candidate: false,
-                        });
+                        };
                     };
                     if first >> 4 != 0xA || second >> 4 != 0x5 {
                         self.garbage(1);
                         continue;
                     }
                     let Some(capsule) = live.first_chunk::<RPLIDAR_CAPSULE_LEN>() else {
-                        return Scan::Need(Pending {
+                        return Scan::Need {
                             more: RPLIDAR_CAPSULE_LEN - len,
                             candidate: true,
-                        });
+                        };
                     };
                     let view = RplidarCapsule::new_unchecked(&capsule[..]);
                     let (stored, computed) = (view.checksum(), view.computed_checksum());
@@ -539,82 +655,6 @@ impl Resync<WINDOW> for RplidarAccumulator {
                 }
             }
         }
-    }
-
-    fn item(&self) -> RplidarItem<'_> {
-        let live = self.window.live();
-        let bytes = live.get(..self.delivered).unwrap_or(live);
-        match self.kind {
-            Kind::Descriptor => RplidarItem::Descriptor(RplidarDescriptor::new_unchecked(bytes)),
-            Kind::Response(data_type) => RplidarItem::Response(RplidarResponse {
-                data_type,
-                data: bytes,
-            }),
-            Kind::Node => RplidarItem::Node(RplidarNode::new_unchecked(bytes)),
-            Kind::Express => match self.express() {
-                Some(e) => RplidarItem::Express(e),
-                None => RplidarItem::Express(RplidarExpressScan::new(
-                    RplidarCapsule::new_unchecked(&self.prev[..]),
-                    0,
-                )),
-            },
-        }
-    }
-
-    /// Whether byte `b` may start a unit in the current mode (garbage is skipped in place
-    /// up to such a byte).
-    fn may_start(&self, b: u8) -> bool {
-        match self.mode {
-            Mode::Descriptor => b == RPLIDAR_DESCRIPTOR_SYNC[0],
-            Mode::Response(..) | Mode::Nodes { locked: true } => true,
-            // S ≠ !S: bits 0 and 1 differ (0xA5 of a descriptor too).
-            Mode::Nodes { locked: false } => matches!(b & 3, 1 | 2),
-            Mode::Capsules => b >> 4 == 0xA,
-        }
-    }
-
-    /// How many bytes to take first for a unit starting at the front.
-    fn first_need(&self) -> usize {
-        match self.mode {
-            Mode::Descriptor => RPLIDAR_DESCRIPTOR_LEN,
-            Mode::Response(_, len) => len.max(1),
-            Mode::Nodes { locked: true } => RPLIDAR_NODE_LEN,
-            Mode::Nodes { locked: false } => RPLIDAR_NODE_LEN * RPLIDAR_NODE_RUN,
-            Mode::Capsules => RPLIDAR_CAPSULE_LEN,
-        }
-    }
-
-    fn garbage_bytes(&mut self) -> &mut u32 {
-        &mut self.counters.garbage_bytes
-    }
-
-    /// A unit in progress: truncated (after the kept capsule, which goes first); bytes still
-    /// hunted through: one more byte of garbage.
-    fn cut_short(&mut self, need: Pending) -> Option<(RplidarError, u64)> {
-        if !need.candidate {
-            bump(&mut self.counters.garbage_bytes);
-            self.window.drop_front(1);
-            return None;
-        }
-        if let Some(offset) = self.drop_prev() {
-            return Some((RplidarError::CapsuleUnpaired, offset));
-        }
-        let offset = self.window.offset_of(0);
-        bump(&mut self.counters.truncated);
-        self.window.drop_front(1);
-        if let Mode::Response(..) = self.mode {
-            self.mode = Mode::Descriptor;
-        }
-        if let Mode::Nodes { .. } = self.mode {
-            self.mode = Mode::Nodes { locked: false };
-        }
-        Some((RplidarError::Truncated, offset))
-    }
-
-    /// A kept capsule is dropped ([`RplidarError::CapsuleUnpaired`]).
-    fn ends_empty(&mut self) -> Option<(RplidarError, u64)> {
-        self.drop_prev()
-            .map(|offset| (RplidarError::CapsuleUnpaired, offset))
     }
 }
 

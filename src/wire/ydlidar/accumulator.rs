@@ -6,7 +6,6 @@ use super::{
     YDLIDAR_DESCRIPTOR_LEN, YDLIDAR_DESCRIPTOR_SYNC, YDLIDAR_MAX_PACKET_LEN, YDLIDAR_PACKET_HEADER,
     YDLIDAR_PACKET_HEADER_LEN,
 };
-use crate::wire::resync::{self, Resync, Scan};
 use crate::wire::window::{bump, bump_by, Window};
 use crate::wire::FeedResult;
 
@@ -69,6 +68,14 @@ pub struct YdlidarCounters {
 enum Kind {
     Packet,
     Descriptor,
+}
+
+#[derive(Debug, Clone, Copy)]
+enum Scan {
+    Item(u64),
+    Rejected(YdlidarError, u64),
+    Need(usize),
+    Empty,
 }
 
 /// Reassembles YDLIDAR packets and descriptors from a byte stream fed in chunks of any size.
@@ -173,7 +180,41 @@ impl<const N: usize> YdlidarAccumulator<N> {
         &'s mut self,
         chunk: &'c [u8],
     ) -> FeedResult<'c, YdlidarItem<'s>, YdlidarError> {
-        resync::feed(self, chunk)
+        self.release();
+        let mut chunk = chunk;
+        loop {
+            let need = match self.scan() {
+                Scan::Item(offset) => {
+                    return FeedResult::Item {
+                        item: self.item(),
+                        offset,
+                        remaining: chunk,
+                    }
+                }
+                Scan::Rejected(error, offset) => {
+                    return FeedResult::Rejected {
+                        error,
+                        offset,
+                        remaining: chunk,
+                    }
+                }
+                Scan::Need(need) => need,
+                Scan::Empty => {
+                    let at = chunk
+                        .iter()
+                        .position(|&b| is_sync_start(b))
+                        .unwrap_or(chunk.len());
+                    bump_by(&mut self.counters.garbage_bytes, at);
+                    self.window.skip(at);
+                    chunk = chunk.get(at..).unwrap_or(&[]);
+                    YDLIDAR_PACKET_HEADER_LEN
+                }
+            };
+            if chunk.is_empty() {
+                return FeedResult::Consumed;
+            }
+            chunk = self.window.fill(chunk, need);
+        }
     }
 
     /// Ends the stream: rejects a candidate still incomplete (a sync pair and less than the
@@ -181,7 +222,39 @@ impl<const N: usize> YdlidarAccumulator<N> {
     /// hands out what the bytes after a rejected candidate still hold. Call it until it
     /// returns [`FeedResult::Consumed`].
     pub fn flush(&mut self) -> FeedResult<'static, YdlidarItem<'_>, YdlidarError> {
-        resync::flush(self)
+        self.release();
+        loop {
+            match self.scan() {
+                Scan::Item(offset) => {
+                    return FeedResult::Item {
+                        item: self.item(),
+                        offset,
+                        remaining: &[],
+                    }
+                }
+                Scan::Rejected(error, offset) => {
+                    return FeedResult::Rejected {
+                        error,
+                        offset,
+                        remaining: &[],
+                    }
+                }
+                Scan::Empty => return FeedResult::Consumed,
+                Scan::Need(_) => {
+                    let live = self.window.len();
+                    if live >= 2 {
+                        let (_, offset) = self.reject(YdlidarError::Truncated);
+                        return FeedResult::Rejected {
+                            error: YdlidarError::Truncated,
+                            offset,
+                            remaining: &[],
+                        };
+                    }
+                    bump_by(&mut self.counters.garbage_bytes, live);
+                    self.window.drop_front(live);
+                }
+            }
+        }
     }
 
     /// The counters.
@@ -214,6 +287,22 @@ impl<const N: usize> YdlidarAccumulator<N> {
         self.delivered = 0;
     }
 
+    fn release(&mut self) {
+        if self.delivered > 0 {
+            self.window.drop_front(self.delivered);
+            self.delivered = 0;
+        }
+    }
+
+    fn item(&self) -> YdlidarItem<'_> {
+        let live = self.window.live();
+        let bytes = live.get(..self.delivered).unwrap_or(live);
+        match self.kind {
+            Kind::Packet => YdlidarItem::Packet(YdlidarPacket::new_unchecked(bytes)),
+            Kind::Descriptor => YdlidarItem::Descriptor(YdlidarDescriptor::new_unchecked(bytes)),
+        }
+    }
+
     /// Counts a rejected candidate and drops its first byte.
     fn reject(&mut self, error: YdlidarError) -> (YdlidarError, u64) {
         let counter = match error {
@@ -228,7 +317,7 @@ impl<const N: usize> YdlidarAccumulator<N> {
         (error, offset)
     }
 
-    fn deliver(&mut self, kind: Kind, len: usize) -> Scan<YdlidarError> {
+    fn deliver(&mut self, kind: Kind, len: usize) -> Scan {
         match kind {
             Kind::Packet => bump(&mut self.counters.packets),
             Kind::Descriptor => bump(&mut self.counters.descriptors),
@@ -242,32 +331,8 @@ impl<const N: usize> YdlidarAccumulator<N> {
         bump_by(&mut self.counters.garbage_bytes, n);
         self.window.drop_front(n);
     }
-}
 
-/// The YDLIDAR's part of the shared hunt-and-refill loop ([`resync`]).
-impl<const N: usize> Resync<N> for YdlidarAccumulator<N> {
-    type Item<'s> = YdlidarItem<'s>;
-    type Error = YdlidarError;
-    type Need = usize;
-
-    fn window(&mut self) -> &mut Window<N> {
-        &mut self.window
-    }
-
-    fn release(&mut self) {
-        self.window.release(&mut self.delivered);
-    }
-
-    fn item(&self) -> YdlidarItem<'_> {
-        let live = self.window.live();
-        let bytes = live.get(..self.delivered).unwrap_or(live);
-        match self.kind {
-            Kind::Packet => YdlidarItem::Packet(YdlidarPacket::new_unchecked(bytes)),
-            Kind::Descriptor => YdlidarItem::Descriptor(YdlidarDescriptor::new_unchecked(bytes)),
-        }
-    }
-
-    fn scan(&mut self) -> Scan<YdlidarError> {
+    fn scan(&mut self) -> Scan {
         loop {
             let live = self.window.live();
             let len = live.len();
@@ -338,28 +403,6 @@ impl<const N: usize> Resync<N> for YdlidarAccumulator<N> {
                 .map_or(len, |p| p + 1);
             self.garbage(skip);
         }
-    }
-
-    fn may_start(&self, b: u8) -> bool {
-        is_sync_start(b)
-    }
-
-    fn first_need(&self) -> usize {
-        YDLIDAR_PACKET_HEADER_LEN
-    }
-
-    fn garbage_bytes(&mut self) -> &mut u32 {
-        &mut self.counters.garbage_bytes
-    }
-
-    /// A sync pair and less than the rest: truncated; a lone sync byte: garbage.
-    fn cut_short(&mut self, _: usize) -> Option<(YdlidarError, u64)> {
-        let live = self.window.len();
-        if live >= 2 {
-            return Some(self.reject(YdlidarError::Truncated));
-        }
-        self.garbage(live);
-        None
     }
 }
 
