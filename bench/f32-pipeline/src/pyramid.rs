@@ -3,7 +3,6 @@
 
 use super::*;
 
-
 /// One layer: a circular window of f32 log-odds, NaN = unknown.
 pub struct Layer<const W: usize> {
     pub(crate) cells: [[f32; W]; W],
