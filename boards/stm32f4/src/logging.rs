@@ -9,6 +9,9 @@
 //!   is in [`crate::hw`]), and [`stopped`] (after Shutdown) ends it with [`EXIT_SUCCESS`], as
 //!   the `qemu-mps2` board does: all of it `board-support`'s `semihosting` feature
 //!   (`boards/support`), as the other boards have it.
+//!
+//! [`EXIT_PANIC`]: board_support::runtime::EXIT_PANIC
+//! [`EXIT_HARDFAULT`]: board_support::runtime::EXIT_HARDFAULT
 
 #[cfg(feature = "log-rtt")]
 use defmt_rtt as _;
@@ -16,7 +19,7 @@ use defmt_rtt as _;
 use panic_probe as _;
 
 #[cfg(feature = "log-semihosting")]
-pub use board_support::runtime::{EXIT_HARDFAULT, EXIT_PANIC, EXIT_SUCCESS};
+use board_support::runtime::EXIT_SUCCESS;
 
 /// The firmware stopped after Shutdown: under `log-semihosting` the emulator exits with
 /// [`EXIT_SUCCESS`]; on the board this returns and the caller parks.
