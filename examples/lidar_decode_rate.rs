@@ -189,32 +189,37 @@ fn report(label: &str, stream: &[u8], (elapsed, returns): (Duration, u64)) {
     );
 }
 
+/// Feeds `stream` in chunks of [`CHUNK`] bytes through `feed` (one `feed` call of an
+/// accumulator on what is left of a chunk: the rest of it, or `None` once it took it all).
+fn feed_chunks<'s>(stream: &'s [u8], mut feed: impl FnMut(&'s [u8]) -> Option<&'s [u8]>) {
+    for chunk in stream.chunks(CHUNK) {
+        let mut window = chunk;
+        while let Some(rest) = feed(window) {
+            window = rest;
+        }
+    }
+}
+
 fn ld06(stream: &[u8], decode: bool) -> (u64, u64) {
     let mut acc = Ld06Accumulator::new();
     let (mut n, mut sum) = (0_u64, 0_u64);
-    for chunk in stream.chunks(CHUNK) {
-        let mut window = chunk;
-        loop {
-            window = match acc.feed(window) {
-                FeedResult::Consumed => break,
-                FeedResult::Item {
-                    item, remaining, ..
-                } => {
-                    n += 12;
-                    if decode {
-                        for r in item.returns() {
-                            sum = sum
-                                .wrapping_add(u64::from(r.angle.to_bits()) ^ u64::from(r.range_mm));
-                        }
-                    } else {
-                        sum = sum.wrapping_add(u64::from(item.start_angle_centideg()));
-                    }
-                    remaining
+    feed_chunks(stream, |window| match acc.feed(window) {
+        FeedResult::Consumed => None,
+        FeedResult::Item {
+            item, remaining, ..
+        } => {
+            n += 12;
+            if decode {
+                for r in item.returns() {
+                    sum = sum.wrapping_add(u64::from(r.angle.to_bits()) ^ u64::from(r.range_mm));
                 }
-                FeedResult::Rejected { remaining, .. } => remaining,
-            };
+            } else {
+                sum = sum.wrapping_add(u64::from(item.start_angle_centideg()));
+            }
+            Some(remaining)
         }
-    }
+        FeedResult::Rejected { remaining, .. } => Some(remaining),
+    });
     while !matches!(acc.flush(), FeedResult::Consumed) {}
     (n, sum)
 }
@@ -222,32 +227,26 @@ fn ld06(stream: &[u8], decode: bool) -> (u64, u64) {
 fn ydlidar(stream: &[u8], decode: bool) -> (u64, u64) {
     let mut acc: YdlidarAccumulator = YdlidarAccumulator::new();
     let (mut n, mut sum) = (0_u64, 0_u64);
-    for chunk in stream.chunks(CHUNK) {
-        let mut window = chunk;
-        loop {
-            window = match acc.feed(window) {
-                FeedResult::Consumed => break,
-                FeedResult::Item {
-                    item, remaining, ..
-                } => {
-                    if let YdlidarItem::Packet(p) = item {
-                        n += u64::from(p.sample_count());
-                        if decode {
-                            for r in p.returns() {
-                                sum = sum.wrapping_add(
-                                    u64::from(r.angle.to_bits()) ^ u64::from(r.range_mm),
-                                );
-                            }
-                        } else {
-                            sum = sum.wrapping_add(u64::from(p.first_angle_q6()));
-                        }
+    feed_chunks(stream, |window| match acc.feed(window) {
+        FeedResult::Consumed => None,
+        FeedResult::Item {
+            item, remaining, ..
+        } => {
+            if let YdlidarItem::Packet(p) = item {
+                n += u64::from(p.sample_count());
+                if decode {
+                    for r in p.returns() {
+                        sum =
+                            sum.wrapping_add(u64::from(r.angle.to_bits()) ^ u64::from(r.range_mm));
                     }
-                    remaining
+                } else {
+                    sum = sum.wrapping_add(u64::from(p.first_angle_q6()));
                 }
-                FeedResult::Rejected { remaining, .. } => remaining,
-            };
+            }
+            Some(remaining)
         }
-    }
+        FeedResult::Rejected { remaining, .. } => Some(remaining),
+    });
     while !matches!(acc.flush(), FeedResult::Consumed) {}
     (n, sum)
 }
@@ -255,95 +254,82 @@ fn ydlidar(stream: &[u8], decode: bool) -> (u64, u64) {
 fn rplidar(stream: &[u8], decode: bool) -> (u64, u64) {
     let mut acc = RplidarAccumulator::new();
     let (mut n, mut sum) = (0_u64, 0_u64);
-    for chunk in stream.chunks(CHUNK) {
-        let mut window = chunk;
-        loop {
-            window = match acc.feed(window) {
-                FeedResult::Consumed => break,
-                FeedResult::Item {
-                    item, remaining, ..
-                } => {
-                    match item {
-                        RplidarItem::Node(node) => {
-                            n += 1;
-                            let r = if decode {
-                                let r = node.to_return();
-                                u64::from(r.angle.to_bits()) ^ u64::from(r.range_mm)
-                            } else {
-                                u64::from(node.angle_q6())
-                            };
-                            sum = sum.wrapping_add(r);
-                        }
-                        RplidarItem::Express(e) => {
-                            n += 32;
-                            if decode {
-                                for r in e.returns() {
-                                    sum = sum.wrapping_add(
-                                        u64::from(r.angle.to_bits()) ^ u64::from(r.range_mm),
-                                    );
-                                }
-                            } else {
-                                sum = sum.wrapping_add(u64::from(e.next_start_angle_q6()));
-                            }
-                        }
-                        _ => {}
-                    }
-                    remaining
+    feed_chunks(stream, |window| match acc.feed(window) {
+        FeedResult::Consumed => None,
+        FeedResult::Item {
+            item, remaining, ..
+        } => {
+            match item {
+                RplidarItem::Node(node) => {
+                    n += 1;
+                    let r = if decode {
+                        let r = node.to_return();
+                        u64::from(r.angle.to_bits()) ^ u64::from(r.range_mm)
+                    } else {
+                        u64::from(node.angle_q6())
+                    };
+                    sum = sum.wrapping_add(r);
                 }
-                FeedResult::Rejected { remaining, .. } => remaining,
-            };
+                RplidarItem::Express(e) => {
+                    n += 32;
+                    if decode {
+                        for r in e.returns() {
+                            sum = sum
+                                .wrapping_add(u64::from(r.angle.to_bits()) ^ u64::from(r.range_mm));
+                        }
+                    } else {
+                        sum = sum.wrapping_add(u64::from(e.next_start_angle_q6()));
+                    }
+                }
+                _ => {}
+            }
+            Some(remaining)
         }
-    }
+        FeedResult::Rejected { remaining, .. } => Some(remaining),
+    });
     while !matches!(acc.flush(), FeedResult::Consumed) {}
     (n, sum)
 }
 
+/// A decoder under test: the returns it counted and a checksum of what it read.
+type Decoder = fn(&[u8], bool) -> (u64, u64);
+
 fn main() -> Result<(), Box<dyn Error>> {
     let mut rng = XorShift(0x1D06_5EED_0BAD_CAFE);
     println!("{CHUNK}-byte chunks; best of three runs after a warm-up");
-    let s = ld06_stream(&mut rng)?;
-    report(
-        "LD06 reassembly (sync, CRC-8)",
-        &s,
-        measure(&s, |s| ld06(s, false)),
-    );
-    report(
-        "LD06 reassembly + returns",
-        &s,
-        measure(&s, |s| ld06(s, true)),
-    );
-    let s = ydlidar_stream(&mut rng)?;
-    report(
-        "YDLIDAR reassembly (sync, check bits, XOR)",
-        &s,
-        measure(&s, |s| ydlidar(s, false)),
-    );
-    report(
-        "YDLIDAR reassembly + returns (second-level correction)",
-        &s,
-        measure(&s, |s| ydlidar(s, true)),
-    );
-    let s = rplidar_node_stream(&mut rng)?;
-    report(
-        "RPLIDAR nodes reassembly (checks, runs)",
-        &s,
-        measure(&s, |s| rplidar(s, false)),
-    );
-    report(
-        "RPLIDAR nodes reassembly + returns",
-        &s,
-        measure(&s, |s| rplidar(s, true)),
-    );
-    let s = rplidar_capsule_stream(&mut rng)?;
-    report(
-        "RPLIDAR capsules reassembly (sync, XOR, pairing)",
-        &s,
-        measure(&s, |s| rplidar(s, false)),
-    );
-    report(
-        "RPLIDAR capsules reassembly + returns (compensation)",
-        &s,
-        measure(&s, |s| rplidar(s, true)),
-    );
+    let ld06_s = ld06_stream(&mut rng)?;
+    let ydlidar_s = ydlidar_stream(&mut rng)?;
+    let nodes_s = rplidar_node_stream(&mut rng)?;
+    let capsules_s = rplidar_capsule_stream(&mut rng)?;
+    let runs: [(&str, &str, &[u8], Decoder); 4] = [
+        (
+            "LD06 reassembly (sync, CRC-8)",
+            "LD06 reassembly + returns",
+            &ld06_s,
+            ld06,
+        ),
+        (
+            "YDLIDAR reassembly (sync, check bits, XOR)",
+            "YDLIDAR reassembly + returns (second-level correction)",
+            &ydlidar_s,
+            ydlidar,
+        ),
+        (
+            "RPLIDAR nodes reassembly (checks, runs)",
+            "RPLIDAR nodes reassembly + returns",
+            &nodes_s,
+            rplidar,
+        ),
+        (
+            "RPLIDAR capsules reassembly (sync, XOR, pairing)",
+            "RPLIDAR capsules reassembly + returns (compensation)",
+            &capsules_s,
+            rplidar,
+        ),
+    ];
+    for (plain, with_returns, s, decoder) in runs {
+        report(plain, s, measure(s, |s| decoder(s, false)));
+        report(with_returns, s, measure(s, |s| decoder(s, true)));
+    }
     Ok(())
 }

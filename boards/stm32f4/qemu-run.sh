@@ -14,30 +14,7 @@
 #   QEMU_USART2    -serial spec of USART2, the host link (default: null)
 #   QEMU_TIMEOUT   seconds before the run is killed and fails (default 120)
 #   DEFMT_RAW_OUT  if set, the raw defmt stream is also saved to this file
+# (The run itself: boards/support/qemu-run.sh.)
 set -euo pipefail
-elf="${!#}"
-[[ -f "$elf" ]] || { echo "qemu-run.sh: no such ELF: $elf" >&2; exit 2; }
-command -v defmt-print >/dev/null || { echo "qemu-run.sh: defmt-print missing (cargo install defmt-print)" >&2; exit 2; }
-
-raw="${DEFMT_RAW_OUT:-}"
-decode() {
-    if [[ -n "$raw" ]]; then tee "$raw" | defmt-print -e "$elf"; else defmt-print -e "$elf"; fi
-}
-
-set +e
-timeout --foreground -k 5 "${QEMU_TIMEOUT:-120}" \
-    qemu-system-arm -machine netduinoplus2 -nographic -monitor none \
-    -semihosting-config enable=on,target=native \
-    -serial "${QEMU_USART1:-null}" -serial "${QEMU_USART2:-null}" \
-    -kernel "$elf" | decode
-status=("${PIPESTATUS[@]}")
-set -e
-qemu_rc=${status[0]}
-if [[ $qemu_rc -eq 124 || $qemu_rc -eq 137 ]]; then
-    echo "qemu-run.sh: QEMU timed out after ${QEMU_TIMEOUT:-120} s" >&2
-fi
-if [[ ${status[1]} -ne 0 && $qemu_rc -eq 0 ]]; then
-    echo "qemu-run.sh: defmt-print failed" >&2
-    exit 3
-fi
-exit "$qemu_rc"
+exec "$(dirname "${BASH_SOURCE[0]}")/../support/qemu-run.sh" -machine netduinoplus2 \
+    -serial "${QEMU_USART1:-null}" -serial "${QEMU_USART2:-null}" "${!#}"

@@ -104,3 +104,29 @@ pub fn floor_telegram() -> Vec<u8> {
     buf.truncate(n);
     buf
 }
+
+/// Feeds every chunk to an accumulator through `feed` (one `feed` call on what is left of the
+/// chunk: the rest of the chunk, and whether the call handed out something, not
+/// `FeedResult::Consumed`), until the chunk is used up. Checks that no call returns more than
+/// it was given and that the calls on a chunk stay within `max_calls(chunk length)`.
+pub fn feed_chunks<'c>(
+    chunks: &[&'c [u8]],
+    max_calls: impl Fn(usize) -> usize,
+    mut feed: impl FnMut(&'c [u8]) -> (&'c [u8], bool),
+) {
+    for chunk in chunks {
+        let mut window: &[u8] = chunk;
+        let mut calls = 0usize;
+        loop {
+            let (rest, handed_out) = feed(window);
+            assert!(rest.len() <= window.len());
+            window = rest;
+            if !handed_out {
+                assert!(window.is_empty());
+                break;
+            }
+            calls += 1;
+            assert!(calls <= max_calls(chunk.len()), "feed does not progress");
+        }
+    }
+}

@@ -36,25 +36,15 @@ fn record(r: FeedResult<'_, Ld06Packet<&[u8]>, Ld06Error>, out: &mut Vec<Ev>) ->
 fn run(chunks: &[&[u8]]) -> (Vec<Ev>, Ld06Counters, u64) {
     let mut acc = Ld06Accumulator::new();
     let mut out = Vec::new();
-    for chunk in chunks {
-        let mut window: &[u8] = chunk;
-        let mut calls = 0usize;
-        loop {
+    common::feed_chunks(
+        chunks,
+        |len| 2 * (len + 47) + 2,
+        |window| {
             let r = acc.feed(window);
             let rest = r.remaining();
-            assert!(rest.len() <= window.len());
-            window = rest;
-            if !record(r, &mut out) {
-                assert!(window.is_empty());
-                break;
-            }
-            calls += 1;
-            assert!(
-                calls <= 2 * (chunk.len() + 47) + 2,
-                "feed does not progress"
-            );
-        }
-    }
+            (rest, record(r, &mut out))
+        },
+    );
     while record(acc.flush(), &mut out) {}
     assert_eq!(acc.buffered(), 0);
     (out, acc.counters(), acc.position())

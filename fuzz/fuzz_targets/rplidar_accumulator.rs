@@ -73,25 +73,15 @@ fn accumulator(mode: u8) -> RplidarAccumulator {
 fn run(mode: u8, chunks: &[&[u8]]) -> (Vec<Ev>, RplidarCounters, u64) {
     let mut acc = accumulator(mode);
     let mut out = Vec::new();
-    for chunk in chunks {
-        let mut window: &[u8] = chunk;
-        let mut calls = 0usize;
-        loop {
+    common::feed_chunks(
+        chunks,
+        |len| 3 * (len + 96) + 4,
+        |window| {
             let r = acc.feed(window);
             let rest = r.remaining();
-            assert!(rest.len() <= window.len());
-            window = rest;
-            if !record(r, &mut out) {
-                assert!(window.is_empty());
-                break;
-            }
-            calls += 1;
-            assert!(
-                calls <= 3 * (chunk.len() + 96) + 4,
-                "feed does not progress"
-            );
-        }
-    }
+            (rest, record(r, &mut out))
+        },
+    );
     while record(acc.flush(), &mut out) {}
     assert_eq!(acc.buffered(), 0);
     (out, acc.counters(), acc.position())

@@ -10,8 +10,8 @@ mod common;
 
 use libfuzzer_sys::fuzz_target;
 use terrain_pyramid::wire::sick::{
-    MeasuredValues, SickAccumulator, SickCounters, SickFeed, SickFrameError, SickItem,
-    SickReply, Telegram, ADDRESS_REPLY,
+    MeasuredValues, SickAccumulator, SickCounters, SickFeed, SickFrameError, SickItem, SickReply,
+    Telegram, ADDRESS_REPLY,
 };
 use terrain_pyramid::wire::FeedResult;
 
@@ -61,23 +61,16 @@ fn record(r: &SickFeed<'_, '_>, out: &mut Vec<Ev>) -> bool {
 fn run<const N: usize>(chunks: &[&[u8]]) -> (Vec<Ev>, SickCounters, u64) {
     let mut acc = SickAccumulator::<N>::new();
     let mut out = Vec::new();
-    for chunk in chunks {
-        let mut window: &[u8] = chunk;
-        let mut calls = 0usize;
-        loop {
+    // Each event consumes a byte or resolves a buffered one: bounded by the bytes.
+    common::feed_chunks(
+        chunks,
+        |len| 2 * (len + N) + 2,
+        |window| {
             let r = acc.feed(window);
             let rest = r.remaining();
-            assert!(rest.len() <= window.len());
-            window = rest;
-            if !record(&r, &mut out) {
-                assert!(window.is_empty());
-                break;
-            }
-            calls += 1;
-            // Each event consumes a byte or resolves a buffered one: bounded by the bytes.
-            assert!(calls <= 2 * (chunk.len() + N) + 2, "feed does not progress");
-        }
-    }
+            (rest, record(&r, &mut out))
+        },
+    );
     loop {
         let r = acc.flush();
         if !record(&r, &mut out) {

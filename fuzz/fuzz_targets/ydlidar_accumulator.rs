@@ -58,22 +58,15 @@ fn record(r: FeedResult<'_, YdlidarItem<'_>, YdlidarError>, out: &mut Vec<Ev>) -
 fn run<const N: usize>(chunks: &[&[u8]]) -> (Vec<Ev>, YdlidarCounters, u64) {
     let mut acc = YdlidarAccumulator::<N>::new();
     let mut out = Vec::new();
-    for chunk in chunks {
-        let mut window: &[u8] = chunk;
-        let mut calls = 0usize;
-        loop {
+    common::feed_chunks(
+        chunks,
+        |len| 2 * (len + N) + 2,
+        |window| {
             let r = acc.feed(window);
             let rest = r.remaining();
-            assert!(rest.len() <= window.len());
-            window = rest;
-            if !record(r, &mut out) {
-                assert!(window.is_empty());
-                break;
-            }
-            calls += 1;
-            assert!(calls <= 2 * (chunk.len() + N) + 2, "feed does not progress");
-        }
-    }
+            (rest, record(r, &mut out))
+        },
+    );
     while record(acc.flush(), &mut out) {}
     assert_eq!(acc.buffered(), 0);
     (out, acc.counters(), acc.position())

@@ -29,8 +29,10 @@
 //! The four lidar properties add about 15 % (measured with `--test-threads=1` on a loaded
 //! machine: 20.3 s without them, 23.5 s with them).
 
+mod common;
+
+use common::{chunks, feed_chunks, seeded};
 use proptest::prelude::*;
-use proptest::test_runner::{Config as PtConfig, RngSeed};
 use terrain_pyramid::design::cells_to_hold;
 use terrain_pyramid::wire::link::{
     encode, Decoded, FrameAccumulator, Message, PanAngle, PoseReport, SnapshotScope, Stats,
@@ -45,30 +47,6 @@ use terrain_pyramid::wire::FeedResult;
 use terrain_pyramid::{
     Clamp, Config, Design, GateShape, InverseSensorModel, Pyramid, Schedule, SensorModel,
 };
-
-fn config(cases: u32, seed: u64) -> PtConfig {
-    PtConfig {
-        cases,
-        rng_seed: RngSeed::Fixed(seed),
-        failure_persistence: None,
-        ..PtConfig::default()
-    }
-}
-
-/// Cuts `stream` into chunks whose sizes cycle through `sizes`.
-fn chunks<'a>(stream: &'a [u8], sizes: &[usize]) -> Vec<&'a [u8]> {
-    let mut out = Vec::new();
-    let mut rest = stream;
-    let mut i = 0;
-    while !rest.is_empty() {
-        let n = sizes[i % sizes.len()].clamp(1, rest.len());
-        i += 1;
-        let (head, tail) = rest.split_at(n);
-        out.push(head);
-        rest = tail;
-    }
-    out
-}
 
 // ------------------------------------------------------------------------------------- SICK
 
@@ -134,7 +112,7 @@ fn sick_piece() -> impl Strategy<Value = SickPiece> {
 }
 
 proptest! {
-    #![proptest_config(config(3000, 0x5eed_0001))]
+    #![proptest_config(seeded(3000, 0x5eed_0001))]
 
     #[test]
     fn sick_stream_delivers_exactly_the_intact_telegrams(
@@ -328,7 +306,7 @@ fn link_piece() -> impl Strategy<Value = LinkPiece> {
 }
 
 proptest! {
-    #![proptest_config(config(3000, 0x5eed_0002))]
+    #![proptest_config(seeded(3000, 0x5eed_0002))]
 
     #[test]
     fn link_stream_decodes_exactly_the_intact_frames(
@@ -485,7 +463,7 @@ fn random_config() -> impl Strategy<Value = RandomConfig> {
 }
 
 proptest! {
-    #![proptest_config(config(20_000, 0x5eed_0003))]
+    #![proptest_config(seeded(20_000, 0x5eed_0003))]
 
     #[test]
     fn random_configurations_are_refused_or_keep_the_invariants(c in random_config()) {
@@ -557,7 +535,7 @@ fn emit_event(time_us: u64, kind: u8, bytes: &[u8]) -> Vec<u8> {
 }
 
 proptest! {
-    #![proptest_config(config(4000, 0x5eed_0004))]
+    #![proptest_config(seeded(4000, 0x5eed_0004))]
 
     #[test]
     fn random_recordings_read_back_up_to_the_damage(
@@ -795,7 +773,7 @@ fn node_packet() -> impl Strategy<Value = Vec<u8>> + Clone {
 }
 
 proptest! {
-    #![proptest_config(config(1500, 0x5eed_1d06))]
+    #![proptest_config(seeded(1500, 0x5eed_1d06))]
 
     #[test]
     fn ld06_stream_delivers_the_intact_packets(
@@ -818,16 +796,10 @@ proptest! {
                 true
             }
         };
-        for chunk in chunks(&stream, &sizes) {
-            let mut window = chunk;
-            loop {
-                let r = acc.feed(window);
-                window = r.remaining();
-                if !handle(r, &mut delivered) {
-                    break;
-                }
-            }
-        }
+        feed_chunks(&chunks(&stream, &sizes), |window| {
+            let r = acc.feed(window);
+            (r.remaining(), handle(r, &mut delivered))
+        });
         while handle(acc.flush(), &mut delivered) {}
         check_delivery(&stream, &delivered, &intact, &[])?;
         let c = acc.counters();
@@ -865,16 +837,10 @@ proptest! {
                 true
             }
         };
-        for chunk in chunks(&stream, &sizes) {
-            let mut window = chunk;
-            loop {
-                let r = acc.feed(window);
-                window = r.remaining();
-                if !handle(r, &mut delivered) {
-                    break;
-                }
-            }
-        }
+        feed_chunks(&chunks(&stream, &sizes), |window| {
+            let r = acc.feed(window);
+            (r.remaining(), handle(r, &mut delivered))
+        });
         while handle(acc.flush(), &mut delivered) {}
         check_delivery(&stream, &delivered, &intact, &[])?;
         let c = acc.counters();
@@ -919,16 +885,10 @@ proptest! {
                 true
             }
         };
-        for chunk in chunks(&stream, &sizes) {
-            let mut window = chunk;
-            loop {
-                let r = acc.feed(window);
-                window = r.remaining();
-                if !handle(r, &mut placed, &mut next_of) {
-                    break;
-                }
-            }
-        }
+        feed_chunks(&chunks(&stream, &sizes), |window| {
+            let r = acc.feed(window);
+            (r.remaining(), handle(r, &mut placed, &mut next_of))
+        });
         while handle(acc.flush(), &mut placed, &mut next_of) {}
         // A placed capsule is directly followed in the stream by a valid capsule whose start
         // angle placed it.
@@ -996,16 +956,10 @@ proptest! {
                 true
             }
         };
-        for chunk in chunks(&stream, &sizes) {
-            let mut window = chunk;
-            loop {
-                let r = acc.feed(window);
-                window = r.remaining();
-                if !handle(r, &mut delivered) {
-                    break;
-                }
-            }
-        }
+        feed_chunks(&chunks(&stream, &sizes), |window| {
+            let r = acc.feed(window);
+            (r.remaining(), handle(r, &mut delivered))
+        });
         while handle(acc.flush(), &mut delivered) {}
         // Delivered nodes: valid, the stream's bytes, in order, never overlapping.
         let mut end = 0;

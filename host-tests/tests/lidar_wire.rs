@@ -6,8 +6,10 @@
 //! Fixed seeds: a checksum can pass by chance (1 in 256 for the LD06 CRC-8 and the RPLIDAR
 //! capsule XOR), and a fixed seed keeps that from making CI flaky.
 
+mod common;
+
+use common::{chunks, feed_chunks, seeded};
 use proptest::prelude::*;
-use proptest::test_runner::{Config as PtConfig, RngSeed};
 use terrain_pyramid::angle::FineAngle;
 use terrain_pyramid::wire::ld06::{
     Ld06Accumulator, Ld06Counters, Ld06Error, Ld06Packet, Ld06Point, Ld06Repr, LD06_PACKET_LEN,
@@ -21,30 +23,6 @@ use terrain_pyramid::wire::ydlidar::{
     YdlidarRepr, YDLIDAR_CORRECTION_MAX_ERROR_DEG,
 };
 use terrain_pyramid::wire::FeedResult;
-
-fn config(cases: u32, seed: u64) -> PtConfig {
-    PtConfig {
-        cases,
-        rng_seed: RngSeed::Fixed(seed),
-        failure_persistence: None,
-        ..PtConfig::default()
-    }
-}
-
-/// Cuts `stream` into chunks whose sizes cycle through `sizes`.
-fn chunks<'a>(stream: &'a [u8], sizes: &[usize]) -> Vec<&'a [u8]> {
-    let mut out = Vec::new();
-    let mut rest = stream;
-    let mut i = 0;
-    while !rest.is_empty() {
-        let n = sizes[i % sizes.len()].clamp(1, rest.len());
-        i += 1;
-        let (head, tail) = rest.split_at(n);
-        out.push(head);
-        rest = tail;
-    }
-    out
-}
 
 fn degrees(a: FineAngle) -> f64 {
     f64::from(a.to_bits()) * 360.0 / 4_294_967_296.0
@@ -119,23 +97,17 @@ fn ld06_run(chunks: &[&[u8]]) -> (Vec<(u64, Vec<u8>)>, usize, Ld06Counters, u64)
             }
         }
     };
-    for chunk in chunks {
-        let mut window = *chunk;
-        loop {
-            let r = acc.feed(window);
-            window = r.remaining();
-            if !handle(r) {
-                break;
-            }
-        }
-    }
+    feed_chunks(chunks, |window| {
+        let r = acc.feed(window);
+        (r.remaining(), handle(r))
+    });
     while handle(acc.flush()) {}
     assert_eq!(acc.buffered(), 0);
     (delivered, rejected, acc.counters(), acc.position())
 }
 
 proptest! {
-    #![proptest_config(config(600, 0x11d0_6001))]
+    #![proptest_config(seeded(600, 0x11d0_6001))]
 
     /// Packets with garbage (no 0x54) between them, fed in random chunks, come back exactly,
     /// at their offsets, and parse back to their fields; every byte is accounted for.
@@ -259,23 +231,17 @@ fn ydlidar_run(chunks: &[&[u8]]) -> (Vec<(u64, Vec<u8>)>, usize, YdlidarCounters
             }
         }
     };
-    for chunk in chunks {
-        let mut window = *chunk;
-        loop {
-            let r = acc.feed(window);
-            window = r.remaining();
-            if !handle(r) {
-                break;
-            }
-        }
-    }
+    feed_chunks(chunks, |window| {
+        let r = acc.feed(window);
+        (r.remaining(), handle(r))
+    });
     while handle(acc.flush()) {}
     assert_eq!(acc.buffered(), 0);
     (delivered, rejected, acc.counters(), acc.position())
 }
 
 proptest! {
-    #![proptest_config(config(600, 0x11d0_6002))]
+    #![proptest_config(seeded(600, 0x11d0_6002))]
 
     /// The scan descriptor and packets with garbage (no 0xAA, 0xA5) between them, fed in
     /// random chunks, come back exactly, at their offsets.
@@ -445,16 +411,10 @@ fn rplidar_run(acc: RplidarAccumulator, chunks: &[&[u8]]) -> (Vec<Rp>, RplidarCo
         }
         true
     };
-    for chunk in chunks {
-        let mut window = *chunk;
-        loop {
-            let r = acc.feed(window);
-            window = r.remaining();
-            if !handle(r) {
-                break;
-            }
-        }
-    }
+    feed_chunks(chunks, |window| {
+        let r = acc.feed(window);
+        (r.remaining(), handle(r))
+    });
     while handle(acc.flush()) {}
     assert_eq!(acc.buffered(), 0);
     let c = acc.counters();
@@ -462,7 +422,7 @@ fn rplidar_run(acc: RplidarAccumulator, chunks: &[&[u8]]) -> (Vec<Rp>, RplidarCo
 }
 
 proptest! {
-    #![proptest_config(config(600, 0x11d0_6003))]
+    #![proptest_config(seeded(600, 0x11d0_6003))]
 
     /// SCAN descriptor and nodes, in random chunks: exactly the nodes, at their offsets.
     #[test]

@@ -2,9 +2,11 @@
 //! bytes where the manuals give them, streams built with the library's emitters, damaged on
 //! purpose, decoded by the binary; every value checked against the manual's formula computed
 //! here in f64.
+mod common;
+
+use common::pyramid;
 use serde_json::{json, Value};
 use std::path::PathBuf;
-use std::process::{Command, Output};
 use terrain_pyramid::wire::ld06::{Ld06Point, Ld06Repr};
 use terrain_pyramid::wire::rplidar::{RplidarCapsuleRepr, RplidarDescriptorRepr, RplidarNodeRepr};
 use terrain_pyramid::wire::ydlidar::YdlidarRepr;
@@ -16,23 +18,9 @@ const LD06_EXAMPLE: [u8; 47] = [
     0xE9, 0xC5, 0x00, 0xE5, 0xC2, 0x00, 0xE5, 0xC0, 0x00, 0xE5, 0xBE, 0x82, 0x3A, 0x1A, 0x50,
 ];
 
+/// A fresh temporary file holding `bytes`.
 fn temp_file(tag: &str, bytes: &[u8]) -> PathBuf {
-    let nanos = std::time::SystemTime::now()
-        .duration_since(std::time::UNIX_EPOCH)
-        .map_or(0, |d| d.as_nanos());
-    let path = std::env::temp_dir().join(format!(
-        "pyramid-decode-{tag}-{}-{nanos}.bin",
-        std::process::id()
-    ));
-    std::fs::write(&path, bytes).unwrap();
-    path
-}
-
-fn pyramid(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_pyramid"))
-        .args(args)
-        .output()
-        .unwrap()
+    common::temp_file("decode", tag, bytes)
 }
 
 /// Decodes `bytes` as `sensor` with `extra` flags; the JSON object.

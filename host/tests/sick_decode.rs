@@ -1,8 +1,10 @@
 //! `pyramid sick-decode` end to end: a stream built with the library's emitters, damaged on
 //! purpose, decoded by the binary.
+mod common;
+
+use common::pyramid;
 use serde_json::{json, Value};
 use std::path::PathBuf;
-use std::process::{Command, Output};
 use terrain_pyramid::wire::sick::{
     emit_telegram, MeasuredValues, OperatingModeReply, Unit, ADDRESS_REPLY,
 };
@@ -76,23 +78,9 @@ fn stream() -> Built {
     }
 }
 
+/// A fresh temporary file holding `bytes`.
 fn temp_file(tag: &str, bytes: &[u8]) -> PathBuf {
-    let nanos = std::time::SystemTime::now()
-        .duration_since(std::time::UNIX_EPOCH)
-        .map_or(0, |d| d.as_nanos());
-    let path = std::env::temp_dir().join(format!(
-        "pyramid-sick-decode-{tag}-{}-{nanos}.bin",
-        std::process::id()
-    ));
-    std::fs::write(&path, bytes).unwrap();
-    path
-}
-
-fn pyramid(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_pyramid"))
-        .args(args)
-        .output()
-        .unwrap()
+    common::temp_file("sick-decode", tag, bytes)
 }
 
 #[test]

@@ -30,6 +30,8 @@
 //! a polled receiver that falls more than six bytes behind (520 µs at 115 200 Bd) loses bytes
 //! and counts them here as [`UartError::Overrun`].
 
+pub use board_support::uart::UartError;
+use board_support::uart::{read_polled, PolledRx};
 use core::marker::PhantomData;
 use core::ptr::{read_volatile, write_volatile};
 use core::sync::atomic::{AtomicBool, Ordering};
@@ -127,18 +129,15 @@ impl Uart {
         })
     }
 
-    /// Takes the received byte if there is one: the event is cleared before RXD is read, so
-    /// that a byte arriving meanwhile raises it again.
-    fn try_read_byte(&mut self) -> Option<u8> {
-        if read_reg(EVENTS_RXDRDY) == 0 {
-            return None;
-        }
-        write_reg(EVENTS_RXDRDY, 0);
-        // The byte is in bits 7..0; the truncation keeps exactly them.
-        #[allow(clippy::cast_possible_truncation)]
-        Some(read_reg(RXD) as u8)
+    /// Sends one byte and waits until the transmitter has taken it.
+    fn write_byte(&mut self, byte: u8) {
+        write_reg(EVENTS_TXDRDY, 0);
+        write_reg(TXD, u32::from(byte));
+        while read_reg(EVENTS_TXDRDY) == 0 {}
     }
+}
 
+impl PolledRx for Uart {
     /// Checks and clears an overrun.
     fn take_overrun(&mut self) -> bool {
         if read_reg(EVENTS_ERROR) == 0 {
@@ -150,24 +149,16 @@ impl Uart {
         source & ERRORSRC_OVERRUN != 0
     }
 
-    /// Sends one byte and waits until the transmitter has taken it.
-    fn write_byte(&mut self, byte: u8) {
-        write_reg(EVENTS_TXDRDY, 0);
-        write_reg(TXD, u32::from(byte));
-        while read_reg(EVENTS_TXDRDY) == 0 {}
-    }
-}
-
-/// What the UART can report.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, defmt::Format)]
-pub enum UartError {
-    /// A received byte was lost: the FIFO was full.
-    Overrun,
-}
-
-impl embedded_io::Error for UartError {
-    fn kind(&self) -> embedded_io::ErrorKind {
-        embedded_io::ErrorKind::Other
+    /// Takes the received byte if there is one: the event is cleared before RXD is read, so
+    /// that a byte arriving meanwhile raises it again.
+    fn try_read_byte(&mut self) -> Option<u8> {
+        if read_reg(EVENTS_RXDRDY) == 0 {
+            return None;
+        }
+        write_reg(EVENTS_RXDRDY, 0);
+        // The byte is in bits 7..0; the truncation keeps exactly them.
+        #[allow(clippy::cast_possible_truncation)]
+        Some(read_reg(RXD) as u8)
     }
 }
 
@@ -185,30 +176,7 @@ impl embedded_io::Read for Uart {
     /// Blocks until at least one byte is available (unless `buf` is empty), then returns the
     /// bytes available without waiting further.
     fn read(&mut self, buf: &mut [u8]) -> Result<usize, Self::Error> {
-        if buf.is_empty() {
-            return Ok(0);
-        }
-        if self.take_overrun() {
-            return Err(UartError::Overrun);
-        }
-        let mut n = 0;
-        for slot in buf.iter_mut() {
-            let byte = if n == 0 {
-                loop {
-                    if let Some(b) = self.try_read_byte() {
-                        break b;
-                    }
-                }
-            } else {
-                match self.try_read_byte() {
-                    Some(b) => b,
-                    None => break,
-                }
-            };
-            *slot = byte;
-            n += 1;
-        }
-        Ok(n)
+        read_polled(self, buf)
     }
 }
 

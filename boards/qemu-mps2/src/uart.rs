@@ -18,6 +18,8 @@
 //! byte lost because the previous one was not read in time (RX overrun) is reported once as
 //! [`UartError::Overrun`].
 
+pub use board_support::uart::UartError;
+use board_support::uart::{read_polled, PolledRx};
 use core::marker::PhantomData;
 use core::ptr::{read_volatile, write_volatile};
 use core::sync::atomic::{AtomicBool, Ordering};
@@ -123,21 +125,13 @@ impl<const BASE: usize> CmsdkUart<BASE> {
         Self::write_reg(BAUDDIV, (PCLK_HZ / baud.max(1)).max(MIN_BAUDDIV));
     }
 
-    /// Takes the received byte if there is one.
-    fn try_read_byte(&mut self) -> Option<u8> {
-        if self.state() & STATE_RX_FULL == 0 {
-            return None;
-        }
-        // The byte is in bits 7..0; the truncation keeps exactly them.
-        #[allow(clippy::cast_possible_truncation)]
-        Some(Self::read_reg(DATA) as u8)
-    }
-
     /// Whether the transmitter can take a byte now.
     fn tx_ready(&self) -> bool {
         self.state() & STATE_TX_FULL == 0
     }
+}
 
+impl<const BASE: usize> PolledRx for CmsdkUart<BASE> {
     /// Checks and clears the RX overrun flag.
     fn take_overrun(&mut self) -> bool {
         if self.state() & STATE_RX_OVERRUN != 0 {
@@ -147,18 +141,15 @@ impl<const BASE: usize> CmsdkUart<BASE> {
             false
         }
     }
-}
 
-/// What a UART can report.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, defmt::Format)]
-pub enum UartError {
-    /// A received byte was lost: the previous one had not been read in time.
-    Overrun,
-}
-
-impl embedded_io::Error for UartError {
-    fn kind(&self) -> embedded_io::ErrorKind {
-        embedded_io::ErrorKind::Other
+    /// Takes the received byte if there is one.
+    fn try_read_byte(&mut self) -> Option<u8> {
+        if self.state() & STATE_RX_FULL == 0 {
+            return None;
+        }
+        // The byte is in bits 7..0; the truncation keeps exactly them.
+        #[allow(clippy::cast_possible_truncation)]
+        Some(Self::read_reg(DATA) as u8)
     }
 }
 
@@ -176,30 +167,7 @@ impl<const BASE: usize> embedded_io::Read for CmsdkUart<BASE> {
     /// Blocks until at least one byte is available (unless `buf` is empty), then returns the
     /// bytes available without waiting further.
     fn read(&mut self, buf: &mut [u8]) -> Result<usize, Self::Error> {
-        if buf.is_empty() {
-            return Ok(0);
-        }
-        if self.take_overrun() {
-            return Err(UartError::Overrun);
-        }
-        let mut n = 0;
-        for slot in buf.iter_mut() {
-            let byte = if n == 0 {
-                loop {
-                    if let Some(b) = self.try_read_byte() {
-                        break b;
-                    }
-                }
-            } else {
-                match self.try_read_byte() {
-                    Some(b) => b,
-                    None => break,
-                }
-            };
-            *slot = byte;
-            n += 1;
-        }
-        Ok(n)
+        read_polled(self, buf)
     }
 }
 

@@ -4,14 +4,12 @@
 //!   can break a critical section built on masking; this firmware's critical sections disable
 //!   interrupts globally, so it cannot).
 //! - The interrupt handlers' entry points (`#[interrupt]`), which hand over to [`crate::rx`].
-//! - Reading the painted stack for its high-water mark (`cortex-m-rt`'s `paint-stack` fills
-//!   the stack with a pattern in the reset handler, before any Rust runs).
 //! - Volatile access to the five clock-tree registers [`crate::rcc`] drives itself ([`Reg`]).
 //! - Under `log-semihosting`, the HardFault handler that ends an emulated run.
 //! - Setting USART1's baud rate at run time (the laser the host's Setup names), while its
 //!   receive half belongs to the interrupt.
 
-use core::ptr::{addr_of, read_volatile};
+use core::ptr::read_volatile;
 
 use stm32f4xx_hal::pac::{self, interrupt};
 
@@ -36,34 +34,11 @@ fn USART2() {
     crate::rx::on_host_interrupt();
 }
 
-extern "C" {
-    static _stack_start: u32;
-    static _stack_end: u32;
-}
-
 /// The stack's high-water mark: `(used, size)` in bytes, the deepest the stack has been since
 /// reset and the size of the stack region (RAM above the statics). Call it from the main loop.
 pub fn stack_high_water() -> (u32, u32) {
-    let top = addr_of!(_stack_start) as usize;
-    let bottom = addr_of!(_stack_end) as usize;
-    let limit = (cortex_m::register::msp::read() as usize)
-        .saturating_sub(4)
-        .clamp(bottom, top);
-    let mut address = bottom;
-    while address + 4 <= limit {
-        // SAFETY: word-aligned (the linker script aligns `_stack_end`), in RAM between the end
-        // of the statics and the current stack pointer: memory no Rust object occupies. An
-        // interrupt may push a frame there meanwhile; the volatile read only sees a word.
-        let word = unsafe { read_volatile(address as *const u32) };
-        if word != cortex_m_rt::STACK_PAINT_VALUE {
-            break;
-        }
-        address += 4;
-    }
-    let size = top.saturating_sub(bottom);
-    let used = size - (address - bottom);
-    let as_u32 = |n: usize| u32::try_from(n).unwrap_or(u32::MAX);
-    (as_u32(used), as_u32(size))
+    let usage = board_support::stack::usage();
+    (usage.used, usage.size)
 }
 
 /// The clock-tree registers the start-up sequence ([`crate::rcc`]) drives itself, with their
@@ -125,17 +100,12 @@ pub fn modify(reg: Reg, clear: u32, set: u32) {
     write(reg, (read(reg) & !clear) | set);
 }
 
-/// A HardFault ends an emulated run with exit code 102 (the stacked program counter logged).
+/// A HardFault ends an emulated run with exit code 102 (the stacked program counter logged:
+/// [`board_support::runtime::hard_fault`]).
 #[cfg(feature = "log-semihosting")]
 #[cortex_m_rt::exception]
 unsafe fn HardFault(frame: &cortex_m_rt::ExceptionFrame) -> ! {
-    defmt::error!(
-        "HardFault at pc {=u32:#010x} (lr {=u32:#010x}, xpsr {=u32:#010x})",
-        frame.pc(),
-        frame.lr(),
-        frame.xpsr()
-    );
-    semihosting::process::exit(crate::logging::EXIT_HARDFAULT)
+    board_support::runtime::hard_fault(frame)
 }
 /// Sets USART1 to `baud` (8N1 unchanged) from its clock `pclk2_hz`: the USART is disabled,
 /// oversampling by 16 chosen, the divider `round(pclk2 / baud)` written, the USART enabled

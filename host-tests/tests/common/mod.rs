@@ -110,3 +110,44 @@ pub fn config() -> impl Strategy<Value = (tp::SensorModel, tp::Schedule, usize)>
 pub fn next_up(x: f32) -> f32 {
     f32::from_bits(x.to_bits() + 1)
 }
+
+/// A proptest configuration of `cases` cases from a fixed seed (reproducible, no regression
+/// files written).
+pub fn seeded(cases: u32, seed: u64) -> proptest::test_runner::Config {
+    proptest::test_runner::Config {
+        cases,
+        rng_seed: proptest::test_runner::RngSeed::Fixed(seed),
+        failure_persistence: None,
+        ..proptest::test_runner::Config::default()
+    }
+}
+
+/// Cuts `stream` into chunks whose sizes cycle through `sizes`.
+pub fn chunks<'a>(stream: &'a [u8], sizes: &[usize]) -> Vec<&'a [u8]> {
+    let mut out = Vec::new();
+    let mut rest = stream;
+    let mut i = 0;
+    while !rest.is_empty() {
+        let n = sizes[i % sizes.len()].clamp(1, rest.len());
+        i += 1;
+        let (head, tail) = rest.split_at(n);
+        out.push(head);
+        rest = tail;
+    }
+    out
+}
+
+/// Feeds every chunk to an accumulator through `feed` (one `feed` call on what is left of
+/// the chunk: the rest of it, and whether to call again), until `feed` says stop.
+pub fn feed_chunks<'c>(chunks: &[&'c [u8]], mut feed: impl FnMut(&'c [u8]) -> (&'c [u8], bool)) {
+    for &chunk in chunks {
+        let mut window = chunk;
+        loop {
+            let (rest, again) = feed(window);
+            window = rest;
+            if !again {
+                break;
+            }
+        }
+    }
+}

@@ -3,7 +3,7 @@
 //! recording writer.
 #![allow(dead_code)] // Each test crate uses its own part.
 use std::path::{Path, PathBuf};
-use std::process::Command;
+use std::process::{Command, Output};
 use terrain_pyramid::wire::recording::SetupEvent as Setup;
 use terrain_pyramid::wire::recording::{emit_header, Event, MountKind, Payload};
 use terrain_pyramid::wire::sick::{MeasuredValues, Unit};
@@ -136,4 +136,23 @@ pub fn synthetic_recording(path: &Path) {
         push(Payload::Laser(b), 21 + u64::from(line) * 1000);
     }
     std::fs::write(path, file).unwrap();
+}
+
+/// Runs the `pyramid` tool with `args`; what it printed and its status.
+pub fn pyramid(args: &[&str]) -> Output {
+    Command::new(PYRAMID).args(args).output().unwrap()
+}
+
+/// Writes `bytes` to a fresh file in the system's temporary directory
+/// (`pyramid-WHAT-TAG-PID-NANOS.bin`); its path.
+pub fn temp_file(what: &str, tag: &str, bytes: &[u8]) -> PathBuf {
+    let nanos = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| d.as_nanos());
+    let path = std::env::temp_dir().join(format!(
+        "pyramid-{what}-{tag}-{}-{nanos}.bin",
+        std::process::id()
+    ));
+    std::fs::write(&path, bytes).unwrap();
+    path
 }

@@ -6,8 +6,9 @@
 //! words that are still intact, from the bottom of the region up to the current stack
 //! pointer: the words above the first overwritten one have been used at some time.
 //!
-//! Besides [`crate::uart`], this is the only module with `unsafe`: volatile reads of stack
-//! words strictly below the current stack pointer, which no live Rust object occupies.
+//! The only module of this crate with `unsafe`: volatile reads of stack words strictly below
+//! the current stack pointer, which no live Rust object occupies. An interrupt may push a frame
+//! there meanwhile; the volatile read only sees a word.
 
 use core::ptr::{addr_of, read_volatile};
 
@@ -36,7 +37,10 @@ pub fn usage() -> StackUsage {
     let bottom = addr_of!(_stack_end) as usize;
     // Only words below the current stack pointer (minus a word of slack) are read.
     let sp = cortex_m::register::msp::read() as usize;
-    let limit = sp.saturating_sub(4).clamp(bottom, top);
+    // `max`/`min` rather than `clamp`: the linker script puts `_stack_end` below
+    // `_stack_start`, and `clamp` would carry a panic (and this file's path) for the case
+    // where it did not.
+    let limit = sp.saturating_sub(4).max(bottom).min(top);
     let mut address = bottom;
     while address + 4 <= limit {
         // SAFETY: `address` is word-aligned (the linker script aligns `_stack_end` to 4) and

@@ -1,0 +1,706 @@
+//! The navigability rule's unit tests: the plane state's sums and halvings, the noise, and the
+//! fixed-point decision against a 128-bit and an f64 reference.
+
+use super::decision::*;
+use super::*;
+use crate::test_rng::XorShift;
+extern crate std;
+
+fn geometry(cell_m: f32) -> CellGeometry {
+    CellGeometry {
+        cell: Meters::from_num(cell_m).to_bits(),
+        sensor_height_mm: 1000,
+        distance: Meters::from_num(5),
+    }
+}
+
+fn params(sigma: f32) -> PlaneParams {
+    PlaneParams::new(
+        &PlaneRule {
+            range_sigma: Meters::from_num(sigma),
+            angle_sigma: Ratio::ZERO,
+            ..PlaneRule::DEFAULT
+        },
+        Meters::from_num(0.05),
+    )
+}
+
+/// The sums of points on a lattice of the cell, height `f(u, v)` mm.
+fn lattice(f: impl Fn(i32, i32) -> i32) -> PlaneState {
+    let mut s = PlaneState::EMPTY;
+    for i in 0..7 {
+        for j in 0..7 {
+            let (u, v) = (-30 + 10 * i, -30 + 10 * j);
+            s.add(
+                i8::try_from(u).unwrap(),
+                i8::try_from(v).unwrap(),
+                i16::try_from(f(u, v)).unwrap(),
+            );
+        }
+    }
+    s
+}
+
+#[test]
+fn a_slope_below_the_limit_is_navigable_and_a_step_is_not() {
+    // A 1 m cell: a unit is 1/64 m = 15.6 mm.
+    let g = geometry(1.0);
+    let p = params(0.0);
+    // 10°: 2.76 mm per unit.
+    let slope = lattice(|u, v| (f64::from(u + v) * 15.625 * 0.176).round() as i32);
+    assert!(!plane_obstacle(&slope, &p, &g));
+    // 30°: steeper than 20°, rising 0.58 m across the cell.
+    let steep = lattice(|u, _| (f64::from(u) * 15.625 * 0.577).round() as i32);
+    assert!(plane_obstacle(&steep, &p, &g));
+    // A 10 cm step across the middle: RMS 2.4 cm about the best plane.
+    let step = lattice(|u, _| if u > 0 { 100 } else { 0 });
+    assert!(plane_obstacle(&step, &p, &g));
+    // 1 cm of texture: within the residual allowance.
+    let texture = lattice(|u, v| if (u + v) % 20 == 0 { 10 } else { -10 });
+    assert!(!plane_obstacle(&texture, &p, &g));
+}
+
+#[test]
+fn noise_widens_the_allowance() {
+    let g = geometry(1.0);
+    // ±25 mm of alternating "noise": RMS 25 mm, over 1.5 cm.
+    let noisy = lattice(|u, v| if (u / 10 + v / 10) % 2 == 0 { 25 } else { -25 });
+    assert!(plane_obstacle(&noisy, &params(0.0), &g));
+    // σ = 2 cm at 5 m from a sensor 1 m up: σ_z = 3.9 mm; k = 2 → √(15² + 7.8²) = 17 mm.
+    assert!(plane_obstacle(&noisy, &params(0.02), &g));
+    // σ = 10 cm: σ_z = 19.6 mm, allowance √(15² + 39²) = 42 mm.
+    assert!(!plane_obstacle(&noisy, &params(0.10), &g));
+}
+
+#[test]
+fn a_single_point_or_a_vertical_line_of_points() {
+    let g = geometry(0.1);
+    let p = params(0.0);
+    assert!(!plane_obstacle(&PlaneState::first(3, 4, 100), &p, &g));
+    // A post: points at one (u, v), 0 … 300 mm: no slope fits, the residual is the spread.
+    let mut post = PlaneState::EMPTY;
+    for z in 0..30 {
+        post.add(5, 5, z * 10);
+    }
+    assert!(plane_obstacle(&post, &p, &g));
+}
+
+#[test]
+fn at_the_last_level_halving_changes_nothing() {
+    let mut s = PlaneState::EMPTY;
+    for i in 0..HALVE_AT {
+        s.add_next(i8::try_from(i % 64).unwrap() - 32, 3, 100);
+    }
+    // The first halving happened at 62 summed points.
+    assert_eq!((s.n, s.level), (HALVE_AT / 2, 1));
+    s.level = MAX_LEVEL;
+    s.n = HALVE_AT;
+    let before = s;
+    s.halve();
+    assert_eq!(s, before);
+    s.level = MAX_LEVEL - 1;
+    s.halve();
+    assert_eq!(
+        (s.n, s.level, s.su()),
+        (HALVE_AT / 2, MAX_LEVEL, before.su() >> 1)
+    );
+}
+
+#[test]
+fn halving_keeps_the_sums_within_their_widths_and_the_decision() {
+    let g = geometry(2.0);
+    let p = params(0.0);
+    let mut flat = PlaneState::EMPTY;
+    let mut step = PlaneState::EMPTY;
+    for i in 0..60_000_u32 {
+        let u = i8::try_from((i * 7) % 64).unwrap() - 32;
+        let v = i8::try_from((i * 13) % 64).unwrap() - 32;
+        flat.add(u, v, i16::try_from((i * 31) % 9).unwrap());
+        step.add(u, v, if u > 0 { 8191 } else { -8192 });
+    }
+    assert!(flat.count() < HALVE_AT && flat.level > 5);
+    assert!(!plane_obstacle(&flat, &p, &g));
+    assert!(plane_obstacle(&step, &p, &g));
+    assert!(step.szz <= 62 * 8192 * 8192);
+}
+
+#[test]
+fn the_elevation_error_widens_the_allowance_with_range() {
+    let with_angle = PlaneParams::new(&PlaneRule::DEFAULT, Meters::from_num(0.05));
+    let at = |d: f32| CellGeometry {
+        cell: Meters::from_num(1).to_bits(),
+        sensor_height_mm: 1300,
+        distance: Meters::from_num(d),
+    };
+    // k·σ_z at 3 m: √((20·1.3/3.27)² + (1.309e-3·3270)²) = 9.0 mm, times 2; at 20 m:
+    // √(1.3² + 26.2²) = 26.3 mm, times 2.
+    let mm = |v: i64| v as f64 / 65_536.0;
+    assert!((mm(noise_q16(&with_angle, &at(3.0))) - 18.0).abs() < 0.2);
+    assert!((mm(noise_q16(&with_angle, &at(20.0))) - 52.5).abs() < 0.3);
+}
+
+#[test]
+fn the_quick_bound_is_the_default_and_never_hides_an_obstacle() {
+    assert_eq!(
+        PlaneParams::new(&PlaneRule::DEFAULT, Meters::from_num(0.05)),
+        PlaneParams::DEFAULT
+    );
+    // Cells whose spread is at the bound: no plane through them is an obstacle, whatever
+    // their layout, with no noise allowance at all.
+    let p = params(0.0);
+    let g = geometry(0.1);
+    let top = i16::try_from(p.quick_mm).unwrap();
+    let mut state = 0x9E37_79B9_u32;
+    for _ in 0..2000 {
+        let mut s = PlaneState::EMPTY;
+        for _ in 0..(2 + state % 40) {
+            state ^= state << 13;
+            state ^= state >> 17;
+            state ^= state << 5;
+            let u = i8::try_from(state % 64).unwrap() - 32;
+            let v = i8::try_from((state >> 8) % 64).unwrap() - 32;
+            let z = if (state >> 16).is_multiple_of(2) {
+                0
+            } else {
+                top
+            };
+            s.add(u, v, z);
+        }
+        assert!(!plane_obstacle(&s, &p, &g));
+    }
+}
+
+/// [`plane_obstacle`] as it was, in 128 bits from the start.
+fn plane_obstacle_128(state: &PlaneState, params: &PlaneParams, geometry: &CellGeometry) -> bool {
+    let n = i128::from(state.n);
+    if n < 2 {
+        return false;
+    }
+    let (su, sv) = (i128::from(state.su()), i128::from(state.sv()));
+    let sz = i128::from(state.sz);
+    let cuu = n * i128::from(state.suu()) - su * su;
+    let cvv = n * i128::from(state.svv()) - sv * sv;
+    let cuv = n * i128::from(state.suv) - su * sv;
+    let cuz = n * i128::from(state.suz) - su * sz;
+    let cvz = n * i128::from(state.svz) - sv * sz;
+    let czz = n * i128::from(state.szz) - sz * sz;
+    let n2 = n * n;
+    let (a, b) = (cuu + n2, cvv + n2);
+    let det = a * b - cuv * cuv;
+    if det <= 0 {
+        return false;
+    }
+    let wa = q16_quotient(b * cuz - cuv * cvz, det);
+    let wb = q16_quotient(a * cvz - cuv * cuz, det);
+    let explained = wa * wa * cuu + 2 * wa * wb * cuv + wb * wb * cvv;
+    let wc = wa * cuz + wb * cvz;
+    let residual = (czz << 32) - 2 * (wc << 16) + explained;
+    let noise = i128::from(noise_q16(params, geometry));
+    let allowed = i128::from(params.residual_q16)
+        .saturating_mul(i128::from(params.residual_q16))
+        .saturating_add(noise.saturating_mul(noise));
+    if residual > allowed.saturating_mul(n2) {
+        return true;
+    }
+    let slope = isqrt((wa * wa + wb * wb) as u128) as i128;
+    let cell_mm_q16 = i128::from(geometry.cell.max(1)) * 1000;
+    let steep = 64 * slope - ((i128::from(params.grade_q16) * cell_mm_q16) >> 16);
+    if steep <= 0 {
+        return false;
+    }
+    let rise_n = isqrt((12 * explained.max(0)) as u128) as i128;
+    let root = ROOT_12_OVER_N
+        .get(usize::from(state.n))
+        .map_or(0, |&r| i128::from(r));
+    let allowance = i128::from(params.step_q16).saturating_add(noise.saturating_mul(root) >> 16);
+    rise_n.saturating_mul(steep) > (64 * slope * n).saturating_mul(allowance)
+}
+
+#[test]
+fn the_decision_in_64_bits_first_is_the_128_bit_one() {
+    let mut rng = XorShift(0xD1B5_4A32_D192_ED03_u64);
+    let mut next = || rng.next();
+    let mut obstacles = 0;
+    let total = 20_000;
+    for run in 0..total {
+        // Cells of 2 to 3000 points: at the corners and extreme heights (the sums' bounds),
+        // planes with noise, steps, random clouds; under rules from strict to lax.
+        let mut s = PlaneState::EMPTY;
+        let points = 2 + next() % if run % 10 == 0 { 3000 } else { 80 };
+        let kind = next() % 4;
+        let (gu, gv, off) = ((next() % 200) as i32 - 100, (next() % 200) as i32 - 100, 0);
+        for _ in 0..points {
+            let r = next();
+            let (u, v) = ((r % 64) as i8 - 32, ((r >> 8) % 64) as i8 - 32);
+            let z = match kind {
+                0 => {
+                    let c = [-32_i8, 31][(r >> 20) as usize % 2];
+                    s.add(c, c, [i16::MIN, i16::MAX, 0][(r >> 24) as usize % 3]);
+                    continue;
+                }
+                1 => off + gu * i32::from(u) / 10 + gv * i32::from(v) / 10 + (r >> 40) as i32 % 9,
+                2 => (if u > 0 { 300 } else { 0 }) + (r >> 40) as i32 % 5,
+                _ => (r >> 32) as i16 as i32 / 4,
+            };
+            s.add(u, v, z.clamp(-32_768, 32_767) as i16);
+        }
+        let params = PlaneParams::new(
+            &PlaneRule {
+                max_grade: Ratio::from_bits((next() % 80_000) as i32),
+                residual: Meters::from_bits((next() % 3000) as i32),
+                range_sigma: Meters::from_bits((next() % 3000) as i32),
+                ..PlaneRule::DEFAULT
+            },
+            Meters::from_bits((next() % 10_000) as i32),
+        );
+        let geometry = CellGeometry {
+            cell: Meters::from_num(0.1).to_bits() << (next() % 8),
+            sensor_height_mm: (next() % 2000) as i32,
+            distance: Meters::from_bits((next() % (30 << 16)) as i32),
+        };
+        let got = plane_obstacle(&s, &params, &geometry);
+        assert_eq!(got, plane_obstacle_128(&s, &params, &geometry), "run {run}");
+        obstacles += usize::from(got);
+    }
+    // Both answers occur.
+    assert!(
+        obstacles > total / 20 && obstacles < total * 19 / 20,
+        "{obstacles}"
+    );
+}
+
+#[test]
+fn the_slope_bound_in_64_bits_is_the_root_comparison() {
+    // tan·c against the 128-bit product, at the extremes and at random.
+    let mut rng = XorShift(0x9E37_79B9_7F4A_7C15_u64);
+    let edges = [0_i64, 1, 2, 0xFFFF, 0x1_0000, 0x7FFF_FFFF];
+    let cells = [
+        i32::MIN,
+        -1,
+        0,
+        1,
+        655,
+        6_554,
+        0xFFFF,
+        0x1_0000,
+        1 << 29,
+        i32::MAX,
+    ];
+    let mut pairs: std::vec::Vec<(i64, i32)> = edges
+        .iter()
+        .flat_map(|&g| cells.iter().map(move |&c| (g, c)))
+        .collect();
+    for _ in 0..100_000 {
+        let g = (rng.next() >> (33 + rng.next() % 31)) as i64;
+        let c = (rng.next() >> (32 + rng.next() % 32)) as u32 as i32;
+        pairs.push((g, c));
+    }
+    for (grade, cell) in pairs {
+        let expected = (i128::from(grade) * i128::from(cell.max(1)) * 1000) >> 16;
+        assert_eq!(
+            i128::from(tan_times_cell(grade, cell)),
+            expected,
+            "{grade} {cell}"
+        );
+    }
+    // "Not steeper" exactly when 64·⌊√(wa² + wb²)⌋ ≤ tan·c, wherever it decides; next to
+    // the bound (the squares of the bound ± 2) and at random.
+    let root_says =
+        |wa: i128, wb: i128, t: i128| 64 * isqrt((wa * wa + wb * wb) as u128) as i128 <= t;
+    let mut decided = 0;
+    for _ in 0..200_000 {
+        let t = i128::from((rng.next() >> (24 + rng.next() % 40)) as i64);
+        let m = (t >> 6) + 1;
+        let (wa, wb) = if rng.next().is_multiple_of(2) {
+            // wa² + wb² within a few of m² (wb small).
+            let wb = (rng.next() % 8) as i128;
+            let target = m * m - wb * wb + (rng.next() % 5) as i128 - 2;
+            let wa = isqrt(target.max(0) as u128) as i128;
+            (wa, wb)
+        } else {
+            let w = |r: u64| {
+                (r >> (30 + r % 34)) as i64 as i128 * if r.is_multiple_of(3) { -1 } else { 1 }
+            };
+            (w(rng.next()), w(rng.next()))
+        };
+        let fast = not_steeper(wa, wb, t);
+        if fast {
+            decided += 1;
+            assert!(root_says(wa, wb, t), "{wa} {wb} {t}");
+        } else if i32::try_from(wa).is_ok() && i32::try_from(wb).is_ok() && u32::try_from(m).is_ok()
+        {
+            assert!(!root_says(wa, wb, t), "{wa} {wb} {t}");
+        }
+    }
+    assert!(decided > 20_000, "{decided}");
+}
+
+#[test]
+fn the_moments_in_32_bits_are_the_128_bit_moments() {
+    let mut rng = XorShift(0x2545_F491_4F6C_DD1D_u64);
+    let mut next = || rng.next();
+    let mut widest = (0_i128, 0_i128);
+    for run in 0..20_000 {
+        // Up to 3000 points: the extreme corners and heights in opposite pairs (the
+        // largest moments), or random ones.
+        let mut s = PlaneState::EMPTY;
+        let extreme = run % 2 == 0;
+        for i in 0..(1 + next() % if run % 10 == 0 { 3000 } else { 70 }) {
+            let r = next();
+            let (u, v, z) = if extreme {
+                let high = (i + r % 2) % 2 == 0;
+                let (c, z) = if high { (31, 8191) } else { (-32, -8192) };
+                let flip = (r >> 8) % 4 == 0;
+                (c, if flip { -1 - c } else { c }, if i == 0 { 0 } else { z })
+            } else {
+                let (u, v) = ((r % 64) as i8 - 32, ((r >> 8) % 64) as i8 - 32);
+                (u, v, (r >> 32) as i16)
+            };
+            s.add(u, v, z);
+        }
+        let m = moments(&s);
+        let n = i128::from(s.n);
+        let (su, sv, sz) = (i128::from(s.su()), i128::from(s.sv()), i128::from(s.sz));
+        let cuz = n * i128::from(s.suz) - su * sz;
+        let cvz = n * i128::from(s.svz) - sv * sz;
+        assert_eq!(i128::from(m.n), n);
+        assert_eq!(
+            i128::from(m.cuu),
+            n * i128::from(s.suu()) - su * su,
+            "run {run}"
+        );
+        assert_eq!(
+            i128::from(m.cvv),
+            n * i128::from(s.svv()) - sv * sv,
+            "run {run}"
+        );
+        assert_eq!(
+            i128::from(m.cuv),
+            n * i128::from(s.suv) - su * sv,
+            "run {run}"
+        );
+        assert_eq!(i128::from(m.cuz), cuz, "run {run}");
+        assert_eq!(i128::from(m.cvz), cvz, "run {run}");
+        assert_eq!(
+            i128::from(m.czz),
+            n * i128::from(s.szz) - sz * sz,
+            "run {run}"
+        );
+        widest = (widest.0.max(cuz.abs()), widest.1.max(i128::from(m.czz)));
+    }
+    // The extremes are reached: C_uz near its largest, C_zz beyond 32 bits.
+    assert!(widest.0 > 1 << 29, "{widest:?}");
+    assert!(widest.1 > 1 << 33, "{widest:?}");
+}
+
+#[test]
+fn the_residual_in_64_bits_is_the_128_bit_residual() {
+    let mut rng = XorShift(0x9E37_79B9_7F4A_7C15_u64);
+    let mut next = || rng.next();
+    let (mut narrow, mut wide) = (0, 0);
+    for run in 0..200_000 {
+        // Moments within their bounds (extremes one run in four), planes from flat to
+        // beyond the narrow range.
+        let extreme = run % 4 == 0;
+        let mut within = |bits: u32| {
+            let r = next();
+            let magnitude = if extreme {
+                (1_i64 << bits) - 1 - (r % 4) as i64
+            } else {
+                (r >> 8) as i64 % (1 << (r % u64::from(bits + 1)))
+            };
+            if r & 1 == 0 {
+                magnitude
+            } else {
+                -magnitude
+            }
+        };
+        let m = Moments {
+            n: 62,
+            cuu: within(22) as i32,
+            cvv: within(22) as i32,
+            cuv: within(22) as i32,
+            cuz: within(31) as i32,
+            cvz: within(31) as i32,
+            czz: within(if run % 3 == 0 { 39 } else { 30 }),
+        };
+        let mut plane = || {
+            let r = next();
+            let magnitude = ((r >> 8) % (1 << (r % 24))) as i128;
+            if r & 1 == 0 {
+                magnitude
+            } else {
+                -magnitude
+            }
+        };
+        let (wa, wb) = (plane(), plane());
+        let (cuu, cvv, cuv) = (i128::from(m.cuu), i128::from(m.cvv), i128::from(m.cuv));
+        let (cuz, cvz, czz) = (i128::from(m.cuz), i128::from(m.cvz), i128::from(m.czz));
+        let explained = wa * wa * cuu + 2 * wa * wb * cuv + wb * wb * cvv;
+        let residual = (czz << 32) - 2 * ((wa * cuz + wb * cvz) << 16) + explained;
+        match residual_narrow(wa, wb, &m) {
+            Some((e, r)) => {
+                assert_eq!(
+                    (i128::from(e), i128::from(r)),
+                    (explained, residual),
+                    "{run}"
+                );
+                narrow += 1;
+            }
+            None => wide += 1,
+        }
+    }
+    // Both paths taken, each about half the time.
+    assert!(narrow > 50_000 && wide > 50_000, "{narrow} {wide}");
+    for x in [
+        0,
+        1,
+        -1,
+        i64::from(i32::MAX),
+        i64::from(i32::MIN),
+        1 << 31,
+        i64::MIN,
+    ] {
+        let square = i128::from(x).saturating_mul(i128::from(x));
+        assert_eq!(square_saturating(x), square, "{x}");
+        for n in [0, 1, 2, 61, 62] {
+            for a in [square, (1 << 51) - 1, 1 << 51, i128::MAX, -5] {
+                assert_eq!(times_n2(a, n * n), a.saturating_mul(i128::from(n * n)));
+            }
+        }
+    }
+}
+
+#[test]
+fn the_noise_in_64_bits_is_the_128_bit_noise() {
+    let mut rng = XorShift(0x6A09_E667_F3BC_C908_u64);
+    let mut next = || rng.next();
+    let mut narrow = 0;
+    let pick = |next: &mut dyn FnMut() -> u64| -> i32 {
+        // Zero, small, typical and extreme raw values.
+        match next() % 4 {
+            0 => [0, 1, i32::MAX, i32::MIN][(next() % 4) as usize],
+            1 => (next() % 5000) as i32,
+            _ => (next() as i32) >> (next() % 31),
+        }
+    };
+    for _ in 0..200_000 {
+        let rule = PlaneRule {
+            range_sigma: Meters::from_bits(pick(&mut next)),
+            angle_sigma: Ratio::from_bits(pick(&mut next)),
+            noise_factor: Ratio::from_bits(pick(&mut next)),
+            ..PlaneRule::DEFAULT
+        };
+        let params = PlaneParams::new(&rule, Meters::from_num(0.05));
+        let geometry = CellGeometry {
+            cell: Meters::from_num(0.1).to_bits(),
+            sensor_height_mm: pick(&mut next),
+            distance: Meters::from_bits(pick(&mut next)),
+        };
+        let wide = noise_q16_wide(&params, &geometry);
+        if let Some(v) = noise_q16_narrow(&params, &geometry) {
+            narrow += 1;
+            assert_eq!(v, wide, "{rule:?} {geometry:?}");
+        }
+        assert_eq!(noise_q16(&params, &geometry), wide);
+    }
+    assert!(narrow > 50_000, "{narrow}");
+    let default = PlaneParams::new(&PlaneRule::DEFAULT, Meters::from_num(0.05));
+    for h in [0, 300, 1300, 32_767] {
+        for d in [0.0, 0.5, 3.0, 20.0, 20_000.0] {
+            let g = CellGeometry {
+                cell: Meters::from_num(0.1).to_bits(),
+                sensor_height_mm: h,
+                distance: Meters::from_num(d),
+            };
+            assert!(noise_q16_narrow(&default, &g).is_some(), "{h} {d}");
+        }
+    }
+}
+
+#[test]
+fn the_q16_quotient_is_the_128_bit_one() {
+    let mut rng = XorShift(0x2545_F491_4F6C_DD1D_u64);
+    let mut next = || rng.next();
+    for _ in 0..100_000 {
+        let num = i128::from((next() as i64) >> (next() % 60));
+        let den = i128::from((next() >> (20 + next() % 40)).max(1) as i64);
+        assert_eq!(q16_quotient(num, den), (num << 16) / den, "{num} / {den}");
+    }
+    assert_eq!(
+        q16_quotient(i128::MAX >> 17, 3),
+        (i128::MAX >> 17 << 16) / 3
+    );
+}
+
+#[test]
+fn the_root_table_is_the_square_root_of_12_over_n() {
+    for (n, &root) in ROOT_12_OVER_N.iter().enumerate().skip(1) {
+        let exact = (12.0 / n as f64).sqrt() * 65_536.0;
+        assert!((f64::from(root) - exact).abs() <= 1.0, "{n}");
+    }
+    assert_eq!(isqrt(u128::from(u64::MAX) + 1), 1 << 32);
+    assert_eq!(isqrt(99), 9);
+    for x in [1_u128 << 70, (1 << 100) + 12_345, u128::MAX, 3 << 90] {
+        let (got, exact) = (isqrt(x), x.isqrt());
+        assert!(
+            got <= exact && exact - got <= exact >> 31,
+            "{x}: {got} {exact}"
+        );
+    }
+}
+
+/// [`PlaneState::add`] as it was before its sums stopped saturating (and while it counted
+/// the decimation's phase before the first halving).
+fn add_saturating(s: &mut PlaneState, u: i8, v: i8, z: i16) {
+    let satu16 = |v: i32| u16::try_from(v.max(0)).unwrap_or(u16::MAX);
+    let phase = s.offered;
+    s.offered = s.offered.saturating_add(1);
+    if u32::from(phase) & ((1_u32 << s.level) - 1) != 0 {
+        return;
+    }
+    if s.n == 0 {
+        s.z0 = z;
+    }
+    let dz = (i32::from(z) - i32::from(s.z0)).clamp(-8192, 8191);
+    let (u, v) = (i32::from(u), i32::from(v));
+    s.set_linear(
+        crate::saturate::to_i16(i32::from(s.su()) + u),
+        crate::saturate::to_i16(i32::from(s.sv()) + v),
+    );
+    s.set_squares(
+        satu16(i32::from(s.suu()) + u * u),
+        satu16(i32::from(s.svv()) + v * v),
+    );
+    s.suv = crate::saturate::to_i16(i32::from(s.suv) + u * v);
+    s.sz = s.sz.saturating_add(dz);
+    s.suz = s.suz.saturating_add(u * dz);
+    s.svz = s.svz.saturating_add(v * dz);
+    s.szz = s.szz.saturating_add((dz * dz) as u32);
+    s.n += 1;
+    // The halving itself did not change.
+    if s.n >= HALVE_AT && s.level < MAX_LEVEL {
+        s.halve();
+    }
+}
+
+#[test]
+fn the_sums_without_saturation_are_the_saturating_sums() {
+    let mut rng = XorShift(0x9E37_79B9_7F4A_7C15_u64);
+    let mut next = || rng.next();
+    // Runs at the extremes (corners ±32/31, z at ±32 767 and far from z₀), runs with the
+    // signs alternating, random runs, and runs long enough to reach the last level.
+    for run in 0..400_u32 {
+        let mut s = PlaneState::EMPTY;
+        let mut reference = PlaneState::EMPTY;
+        let length = if run % 200 == 0 {
+            2_200_000
+        } else {
+            1 + next() % 5000
+        };
+        let kind = next() % 4;
+        for i in 0..length {
+            let r = next();
+            let (u, v, z) = match kind {
+                0 => {
+                    let corner = [-32_i8, 31][(r & 1) as usize];
+                    let z = [i16::MIN, i16::MAX, 0, -8192, 8191, -8193][(r >> 1) as usize % 6];
+                    (corner, corner, z)
+                }
+                1 => {
+                    let sign = if i % 2 == 0 { -32_i8 } else { 31 };
+                    (sign, -32, if i % 3 == 0 { i16::MAX } else { i16::MIN })
+                }
+                2 => (-32, -32, (r >> 8) as i16),
+                _ => (
+                    (r % 64) as i8 - 32,
+                    ((r >> 8) % 64) as i8 - 32,
+                    (r >> 16) as i16,
+                ),
+            };
+            s.add(u, v, z);
+            add_saturating(&mut reference, u, v, z);
+            // The reference counts the phase before the first halving too, unread there.
+            let phase = if reference.level == 0 {
+                0
+            } else {
+                reference.offered
+            };
+            assert_eq!(
+                s,
+                PlaneState {
+                    offered: phase,
+                    ..reference
+                },
+                "run {run} point {i}"
+            );
+        }
+        if length > 2_000_000 {
+            // As deep as the decimation goes: its phase saturates at 2¹⁶ − 1 offered
+            // points, which at level 12 come before the 31 summed points that would halve.
+            assert_eq!(s.level, 12);
+        }
+    }
+}
+
+/// The position as it was computed before: a 64-bit product, clamped.
+fn sub_cell_64(rem: i64, reciprocal: u32) -> i8 {
+    let rem = rem.clamp(0, i64::from(u32::MAX)) as u64;
+    let q = (rem * u64::from(reciprocal)) >> 26;
+    q.min(63) as i8 - 32
+}
+
+#[test]
+fn sub_cell_in_32_bits_is_the_64_bit_product() {
+    let mut rng = XorShift(0x9E37_79B9_7F4A_7C15_u64);
+    let mut next = || rng.next();
+    // Every cell size of the default designs' layers and their neighbours, sizes from
+    // 1 raw up to 2³⁰, and random sizes; each at its edges and random remainders.
+    let mut sizes = std::vec![1, 2, 3, 655, 6553, 6554, 6555, 13_107, 26_214, 52_429];
+    sizes.extend([
+        104_858,
+        209_715,
+        419_430,
+        838_861,
+        65_536,
+        1 << 20,
+        (1 << 30) - 1,
+    ]);
+    sizes.extend([1 << 30, i32::MAX]);
+    for _ in 0..300 {
+        sizes.push(1 + (next() % (1 << (1 + next() % 30))) as i32);
+    }
+    for c in sizes {
+        let m = crate::grid::cell_reciprocal(c);
+        let edges = (0..64_i64).flat_map(|j| {
+            let at = j * i64::from(c) / 64;
+            [at - 1, at, at + 1]
+        });
+        let random = (0..200).map(|_| (next() % c as u64) as i64);
+        for rem in edges.chain(random).chain([i64::from(c) - 1]) {
+            if !(0..i64::from(c)).contains(&rem) {
+                continue;
+            }
+            assert_eq!(
+                sub_cell(rem as u32, m),
+                sub_cell_64(rem, m),
+                "c {c} rem {rem}"
+            );
+        }
+    }
+}
+
+#[test]
+fn sub_cell_positions_cover_the_cell() {
+    let c = Meters::from_num(0.3).to_bits();
+    let m = crate::grid::cell_reciprocal(c);
+    assert_eq!(sub_cell(0, m), -32);
+    assert_eq!(sub_cell(c as u32 - 1, m), 31);
+    assert!((-1..=0).contains(&sub_cell(c as u32 / 2, m)));
+    // Every remainder lands within one unit of the exact value.
+    for rem in (0..c).step_by(97) {
+        let exact = (i64::from(rem) * 64 / i64::from(c)) as i8 - 32;
+        let got = sub_cell(rem as u32, m);
+        assert!(got == exact || got == exact - 1, "{rem}: {got} {exact}");
+    }
+}
