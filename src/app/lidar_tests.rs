@@ -350,3 +350,59 @@ fn stamped_poses_place_returns_at_their_moments_and_are_counted() {
     core.host(&command(2, &Message::Setup(setup(0, 0.0))));
     assert!(core.pose_track().is_empty());
 }
+
+/// The device tells the host when its maps' data were measured: after an observation placed
+/// with stamped poses, the next poll queues an Observed frame with its span ahead of the
+/// patches it changed, and Stats carries the pose track's counters (i = 30 ..= 35).
+#[test]
+fn a_poll_sends_the_observed_span_ahead_of_its_patches_and_stats_count_the_poses() {
+    use crate::geometry::Pose;
+    let mut core = booted();
+    core.host(&command(0, &Message::Setup(setup(0, 0.0))));
+    core.host(&pan(1, 0x0E39));
+    core.poll(0);
+    output(&mut core);
+    let mut next_pose = 0_u32;
+    for n in 0..200 {
+        let now = arrival_us(n);
+        while next_pose * 20_000 + 30_000 <= now {
+            let t = next_pose * 20_000;
+            let pose = Pose {
+                x: Meters::from_num(f64::from(t) / 1e6),
+                ..Pose::IDENTITY
+            };
+            core.stamped_pose(t, pose);
+            next_pose += 1;
+        }
+        core.laser(&packet(n, |_| 20.0), now, &mut NoAngleSource);
+    }
+    core.end_observation();
+    let counted = core.counters();
+    core.poll(2_000);
+    let out = output(&mut core);
+    let observed = out
+        .iter()
+        .position(|(_, o)| matches!(o, Out::Observed(_)))
+        .expect("an Observed frame");
+    let first_patch = out
+        .iter()
+        .position(|(_, o)| matches!(o, Out::Patch(..)))
+        .expect("the observation's patches");
+    assert!(observed < first_patch, "{out:?}");
+    let Some((_, Out::Observed(o))) = out.get(observed) else {
+        unreachable!()
+    };
+    assert_eq!(o.observation, counted.frontend.observations);
+    assert!(o.first_us < o.last_us && o.last_us <= arrival_us(199), "{o:?}");
+    // Once: the next poll has nothing new to say.
+    core.poll(2_100);
+    assert!(!output(&mut core)
+        .iter()
+        .any(|(_, o)| matches!(o, Out::Observed(_))));
+    let s = stats(&mut core, 2);
+    assert_eq!(s.poses_stamped, next_pose);
+    assert_eq!(s.poses_refused, 0);
+    assert_eq!(s.returns_extrapolated, counted.frontend.returns_extrapolated);
+    assert!(s.returns_extrapolated > 0);
+    assert_eq!(s.returns_without_pose, 0);
+}
