@@ -359,9 +359,13 @@ impl<const W: usize, const L: usize, const C: usize, const Q: usize> Device
     /// No wait: the co-processor has taken every byte when it answers.
     fn back_off(&mut self, _round: u32) {}
 
-    /// The clock moves [`Self::POLL_STEP_MS`].
+    /// The clock moves [`Self::POLL_STEP_MS`] and the co-processor polls once, as a board's
+    /// main loop does between two questions: its tiles go out without a Stats ahead of them
+    /// in the queue (a small queue, the micro:bit's 400 bytes, holds a Stats or a tile beside
+    /// the control reserve, not both). What it sends reaches the mirror.
     fn idle(&mut self) {
         self.now_ms = self.now_ms.wrapping_add(Self::POLL_STEP_MS);
+        let _ = self.poll();
     }
 
     fn frames_sent(&self) -> u64 {

@@ -393,7 +393,10 @@ fn a_poll_sends_the_observed_span_ahead_of_its_patches_and_stats_count_the_poses
         unreachable!()
     };
     assert_eq!(o.observation, counted.frontend.observations);
-    assert!(o.first_us < o.last_us && o.last_us <= arrival_us(199), "{o:?}");
+    assert!(
+        o.first_us < o.last_us && o.last_us <= arrival_us(199),
+        "{o:?}"
+    );
     // Once: the next poll has nothing new to say.
     core.poll(2_100);
     assert!(!output(&mut core)
@@ -402,7 +405,10 @@ fn a_poll_sends_the_observed_span_ahead_of_its_patches_and_stats_count_the_poses
     let s = stats(&mut core, 2);
     assert_eq!(s.poses_stamped, next_pose);
     assert_eq!(s.poses_refused, 0);
-    assert_eq!(s.returns_extrapolated, counted.frontend.returns_extrapolated);
+    assert_eq!(
+        s.returns_extrapolated,
+        counted.frontend.returns_extrapolated
+    );
     assert!(s.returns_extrapolated > 0);
     assert_eq!(s.returns_without_pose, 0);
 }

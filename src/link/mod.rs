@@ -1090,7 +1090,9 @@ impl<const Q: usize, const N: usize> Link<Q, N> {
         true
     }
 
-    /// Sends Stats when due and there is room.
+    /// Sends Stats when due and the queue has room for it beside half the
+    /// [`CONTROL_RESERVE`] (as the Decayed frame): the rest stays for Replies, and a queue of
+    /// a few hundred bytes (the micro:bit's) still gets a 155-byte Stats out.
     fn send_stats<const W: usize, const L: usize>(
         &mut self,
         now_ms: u32,
@@ -1110,7 +1112,7 @@ impl<const Q: usize, const N: usize> Link<Q, N> {
         }
         // The counters as they will be once this frame is queued.
         let stats = self.stats(now_ms, pyramid, sensor);
-        if self.send(&Message::Stats(stats), CONTROL_RESERVE, report) {
+        if self.send(&Message::Stats(stats), CONTROL_RESERVE / 2, report) {
             self.last_stats_ms = Some(now_ms);
             self.stats_requested = false;
         }
