@@ -389,9 +389,13 @@ fn a_poll_sends_the_observed_span_ahead_of_its_patches_and_stats_count_the_poses
         .position(|(_, o)| matches!(o, Out::Patch(..)))
         .expect("the observation's patches");
     assert!(observed < first_patch, "{out:?}");
-    let Some((_, Out::Observed(o))) = out.get(observed) else {
-        unreachable!()
-    };
+    let o = out
+        .iter()
+        .find_map(|(_, o)| match o {
+            Out::Observed(o) => Some(*o),
+            _ => None,
+        })
+        .unwrap();
     assert_eq!(o.observation, counted.frontend.observations);
     assert!(
         o.first_us < o.last_us && o.last_us <= arrival_us(199),

@@ -446,6 +446,20 @@ pub struct Link<const Q: usize = DEFAULT_QUEUE_BYTES, const N: usize = { crate::
 }
 
 impl<const Q: usize, const N: usize> Link<Q, N> {
+    /// The room a Stats frame leaves free: [`CONTROL_RESERVE`], or less in a queue too small
+    /// to hold the largest Stats frame (154 bytes in version 4) beside it, so that an empty
+    /// queue always takes a Stats.
+    pub const STATS_RESERVE: usize = {
+        let stats =
+            crate::wire::link::encoded_len_max(MIN_FRAME + 4 * crate::wire::link::STATS_COUNTERS);
+        let room = Q.saturating_sub(stats);
+        if room < CONTROL_RESERVE {
+            room
+        } else {
+            CONTROL_RESERVE
+        }
+    };
+
     /// A link that will announce itself with Hello (reason boot) at its first poll. `const`,
     /// for a `static`.
     #[must_use]
@@ -1090,9 +1104,9 @@ impl<const Q: usize, const N: usize> Link<Q, N> {
         true
     }
 
-    /// Sends Stats when due and the queue has room for it beside half the
-    /// [`CONTROL_RESERVE`] (as the Decayed frame): the rest stays for Replies, and a queue of
-    /// a few hundred bytes (the micro:bit's) still gets a 155-byte Stats out.
+    /// Sends Stats when due and the queue has room for it beside [`CONTROL_RESERVE`], or
+    /// beside what an empty queue of `Q` bytes holds next to the largest Stats frame when
+    /// that is less ([`STATS_RESERVE`]: the micro:bit's 400-byte queue keeps 246 bytes).
     fn send_stats<const W: usize, const L: usize>(
         &mut self,
         now_ms: u32,
@@ -1112,7 +1126,7 @@ impl<const Q: usize, const N: usize> Link<Q, N> {
         }
         // The counters as they will be once this frame is queued.
         let stats = self.stats(now_ms, pyramid, sensor);
-        if self.send(&Message::Stats(stats), CONTROL_RESERVE / 2, report) {
+        if self.send(&Message::Stats(stats), Self::STATS_RESERVE, report) {
             self.last_stats_ms = Some(now_ms);
             self.stats_requested = false;
         }

@@ -744,3 +744,18 @@ fn observed_goes_ahead_of_the_patches_and_stats_carry_the_pose_counters() {
     let stats = link.stats(0, &pyramid, &sensor);
     assert_eq!(stats.to_array()[30..], [1, 2, 3, 4, 5, 0]);
 }
+
+/// A queue too small to hold a Stats beside the whole control reserve (the micro:bit's 400
+/// bytes) keeps less beside it, so an empty queue always takes one; a larger queue keeps the
+/// whole reserve. (The micro:bit's run, `host/tests/run_microbit.rs`, sends them.)
+#[test]
+fn a_small_queue_reserves_less_beside_a_stats() {
+    let stats = crate::wire::link::encoded_len_max(
+        crate::wire::link::MIN_FRAME + 4 * crate::wire::link::STATS_COUNTERS,
+    );
+    assert_eq!(stats, 154);
+    assert_eq!(Link::<400>::STATS_RESERVE, 400 - 154);
+    assert_eq!(Link::<410>::STATS_RESERVE, CONTROL_RESERVE);
+    assert_eq!(Link::<409>::STATS_RESERVE, 409 - 154);
+    assert_eq!(Link::<4096>::STATS_RESERVE, CONTROL_RESERVE);
+}

@@ -44,7 +44,7 @@ pub const LAYERS: usize = 4;
 /// the firmware locked up on the first frames.
 pub const SLOTS: usize = 32;
 /// The link's outgoing queue, bytes (at least `min_queue_bytes(16, 4)` = 384; a Stats frame
-/// of 155 bytes goes out beside half the 256-byte control reserve). 400, not 512 as before the track of stamped
+/// of 154 bytes goes out beside the 246 bytes left of it, `Link::STATS_RESERVE`). 400, not 512 as before the track of stamped
 /// poses: the 112 bytes pay for the track and its counters (+120 B of statics with
 /// `POSES = 2`) and a stack high-water 32 B above the last recorded (3 944 B against
 /// 3 912 B), the statics and stack having had 44 B to spare.
