@@ -4,6 +4,8 @@ extern crate std;
 use super::tests::{booted, output, pan, Core};
 use super::*;
 use crate::actuator::SERVO_SETTLE_US;
+use crate::angle::FineAngle;
+use crate::drivers::angle::AngleSource;
 use crate::link::tests::{command, Out};
 use crate::wire::ld06::{Ld06Point, Ld06Repr};
 use crate::wire::link::{LaserSetup, Message, Setup, Stats};

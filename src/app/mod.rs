@@ -59,7 +59,11 @@
 //!   bad checksum, bad framing: [`crate::laser::LaserCounts`]), the pipeline's and the
 //!   classifier's; `telegrams_bad_other` adds telegrams that are not measured values, lines
 //!   and packets the pipeline refused and those without an angle.
+//!
+//! [`AngleSource`]: crate::drivers::angle::AngleSource
 
+mod host;
+mod laser;
 #[cfg(test)]
 mod lidar_tests;
 #[cfg(test)]
@@ -67,30 +71,21 @@ mod rule_tests;
 #[cfg(test)]
 mod tests;
 
+pub use laser::{LaserPort, NoAngleSource, NoSource};
+
 use core::fmt;
 
 use crate::actuator::{Actuator, AngleTrack, ServoSweep};
-use crate::angle::{Angle, FineAngle};
+use crate::angle::Angle;
 use crate::classify::ClassifierStats;
 use crate::design::{Design, DesignError};
-use crate::drivers::angle::AngleSource;
 use crate::geometry::{Pose, PoseRefusal, PoseTrack, Taken};
-use crate::laser::{
-    LaserCounters, LaserDecoder, LaserItem, PacketTimer, RevolutionTracker, Sensor,
-};
-use crate::link::convert;
-use crate::link::{
-    Command, Link, LinkConfig, LinkCounters, PollReport, PoseCounters, Rejection, Request,
-    SensorCounters,
-};
-use crate::pipeline::{
-    Frontend, FrontendConfig, FrontendStats, ObservedSpan, PacketActuator, PacketTimes,
-};
+use crate::laser::{LaserCounters, LaserDecoder, PacketTimer, RevolutionTracker, Sensor};
+use crate::link::{Link, LinkConfig, LinkCounters, PoseCounters, SensorCounters};
+use crate::pipeline::{Frontend, FrontendConfig, FrontendStats, ObservedSpan};
 use crate::pyramid::{Applied, Config, Evidence, EvidenceClass, Fused, Pyramid, PyramidStats};
 use crate::units::{Meters, Weight};
-use crate::wire::link::{Header, Reply};
-use crate::wire::sick::MeasuredValues;
-use crate::wire::FeedResult;
+use crate::wire::link::Header;
 
 /// The co-processor's own counters (the modules' counters are in [`Counters`]). They
 /// saturate at `u32::MAX`.
@@ -174,34 +169,6 @@ impl From<DesignError> for BootError {
     fn from(e: DesignError) -> Self {
         Self::Design(e)
     }
-}
-
-/// An angle source for boards without one (an actuator driven open-loop, or angles that come
-/// only from the host): every reading fails, so the host's PanAngle is used.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
-pub struct NoAngleSource;
-
-/// The error of [`NoAngleSource`]: there is no source.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct NoSource;
-
-impl AngleSource for NoAngleSource {
-    type Error = NoSource;
-
-    fn read_angle(&mut self) -> Result<Angle, NoSource> {
-        Err(NoSource)
-    }
-}
-
-/// The laser as the board sets up its UART for it ([`CoProcessor::take_laser_change`]).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub struct LaserPort {
-    /// The sensor (the board sends it whatever starts its stream: a SCAN request, the SICK's
-    /// continuous-output command).
-    pub sensor: Sensor,
-    /// The UART's baud rate, bits per second.
-    pub baud: u32,
 }
 
 /// The co-processor's life: it runs until the host asks it to stop, and stops once the board
@@ -538,417 +505,6 @@ impl<const W: usize, const L: usize, const C: usize, const Q: usize, const N: us
         Ok(())
     }
 
-    // ------------------------------------------------------------ laser
-
-    /// Takes bytes from the laser's UART that arrived by `now_us` (the board's clock, µs,
-    /// wrapping: when the chunk's last byte arrived, as near as the board knows). Every SICK
-    /// telegram they complete is parsed and its line fed to the pipeline at the actuator
-    /// angle of that moment; every lidar packet they complete is timed back from `now_us`
-    /// and fed with the actuator's angles at its first and last return (see the
-    /// [module documentation](self) for where the angles come from). Bytes of an incomplete
-    /// telegram or packet are kept for the next call. Nothing is taken while a Shutdown waits
-    /// for its answer.
-    pub fn laser(&mut self, bytes: &[u8], now_us: u32, angle: &mut impl AngleSource) {
-        self.laser_timed(bytes, now_us, now_us, angle);
-    }
-
-    /// [`laser`](Self::laser) for a board that knows when the chunk's last byte arrived
-    /// (`arrival_us`, from its receive interrupt) apart from the time of the call (`now_us`,
-    /// when the angle source is read): packets are timed back from `arrival_us`, the source's
-    /// reading is kept with `now_us`. Both on the board's µs clock.
-    pub fn laser_timed(
-        &mut self,
-        bytes: &[u8],
-        arrival_us: u32,
-        now_us: u32,
-        angle: &mut impl AngleSource,
-    ) {
-        if self.shutdown != Shutdown::Running {
-            return;
-        }
-        self.clock_us = now_us;
-        self.clock_known = true;
-        if self.servo.is_on() {
-            self.servo.track(now_us);
-        }
-        // The board's source, read at most once per call (at `now_us`).
-        let mut reading = Reading::NotYet;
-        let mut chunk = bytes;
-        loop {
-            let result = self.laser.feed(chunk);
-            chunk = result.remaining();
-            let item = match result {
-                FeedResult::Consumed => return,
-                FeedResult::Item { item, .. } => item,
-                // Refused candidates are counted by the decoder.
-                FeedResult::Rejected { .. } => continue,
-            };
-            match item {
-                LaserItem::Telegram(telegram) => match MeasuredValues::parse(&telegram) {
-                    Ok(values) => {
-                        let servo = self.servo.is_on().then_some(&self.servo);
-                        match line_angle(
-                            angle,
-                            self.host_angle,
-                            servo,
-                            arrival_us,
-                            &mut self.counters,
-                        ) {
-                            Some(a) => {
-                                self.frontend.set_actuator(a);
-                                // A refused line is counted by the pipeline.
-                                if self.poses.is_empty() {
-                                    let _ = self.frontend.line(&mut self.pyramid, &values);
-                                } else {
-                                    // The telegram's last byte arrived before the bytes
-                                    // still in the chunk; its last beam was measured one
-                                    // transmission time before that (docs/lidars.md).
-                                    let end = arrival_us
-                                        .wrapping_sub(self.timer.bytes_us(chunk.len()))
-                                        .wrapping_sub(
-                                            self.timer.bytes_us(telegram.as_bytes().len()),
-                                        );
-                                    Self::timed_line(
-                                        &mut self.frontend,
-                                        &mut self.pyramid,
-                                        &self.poses,
-                                        &values,
-                                        end,
-                                    );
-                                }
-                            }
-                            None => bump(&mut self.counters.lines_without_angle),
-                        }
-                    }
-                    Err(_) => bump(&mut self.counters.telegrams_unparsed),
-                },
-                LaserItem::Packet(packet) => {
-                    // The packet's last byte arrived before the bytes still in the chunk.
-                    let end = arrival_us.wrapping_sub(self.timer.bytes_us(chunk.len()));
-                    let starts = self.revolutions.starts(&packet);
-                    let (first, last) = self.timer.times(&packet, end, starts);
-                    if reading == Reading::NotYet {
-                        reading = match angle.read_angle() {
-                            Ok(a) => {
-                                self.track.push(now_us, FineAngle::from(a));
-                                Reading::Read
-                            }
-                            Err(_) => {
-                                bump(&mut self.counters.angle_source_errors);
-                                Reading::Failed
-                            }
-                        };
-                    }
-                    // A packet of one return (an RPLIDAR node) has one time: one lookup.
-                    let actuator = match reading {
-                        Reading::Read if last == first => self.track.at(first).map(|a| (a, a)),
-                        Reading::Read => self.track.at(first).zip(self.track.at(last)),
-                        _ if self.servo.is_on() => {
-                            self.servo.estimate(first).zip(self.servo.estimate(last))
-                        }
-                        _ => self.host_angle.map(|a| {
-                            let a = FineAngle::from(a);
-                            (a, a)
-                        }),
-                    };
-                    match actuator {
-                        Some((first_angle, last_angle)) => {
-                            let actuator = PacketActuator {
-                                first: first_angle,
-                                last: last_angle,
-                            };
-                            // A refused packet is counted by the pipeline.
-                            if self.poses.is_empty() {
-                                let _ = self.frontend.packet(
-                                    &mut self.pyramid,
-                                    packet.returns(),
-                                    starts,
-                                    actuator,
-                                );
-                            } else {
-                                Self::timed_packet(
-                                    &mut self.frontend,
-                                    &mut self.pyramid,
-                                    &self.poses,
-                                    &packet,
-                                    starts,
-                                    actuator,
-                                    PacketTimes {
-                                        first_us: first,
-                                        last_us: last,
-                                    },
-                                );
-                            }
-                        }
-                        None => bump(&mut self.counters.lines_without_angle),
-                    }
-                }
-                // ACKs, descriptors, responses: nothing to place.
-                LaserItem::Other => {}
-            }
-        }
-    }
-
-    /// A SICK line placed by stamped poses (out of line: the untimed path's stack frame stays
-    /// as it was; a refused line is counted by the pipeline).
-    #[inline(never)]
-    fn timed_line(
-        frontend: &mut Frontend<C, L>,
-        pyramid: &mut Pyramid<W, L>,
-        poses: &PoseTrack<N>,
-        values: &MeasuredValues<'_>,
-        last_beam_us: u32,
-    ) {
-        let _ = frontend.line_timed(pyramid, values, last_beam_us, poses);
-    }
-
-    /// A lidar packet placed by stamped poses (out of line, as [`Self::timed_line`]).
-    #[inline(never)]
-    fn timed_packet(
-        frontend: &mut Frontend<C, L>,
-        pyramid: &mut Pyramid<W, L>,
-        poses: &PoseTrack<N>,
-        packet: &crate::laser::Packet<'_>,
-        starts: bool,
-        actuator: PacketActuator,
-        times: PacketTimes,
-    ) {
-        let _ = frontend.packet_timed(pyramid, packet.returns(), starts, actuator, times, poses);
-    }
-
-    /// The angle to command a nodding servo at `now_us` (the board's clock, µs), when the
-    /// setup has one: the board writes it to the servo's PWM (`drivers::servo`) every step of
-    /// its main loop. The first call begins the sweep (a settling hold at its lower end);
-    /// `None` without a servo.
-    pub fn actuator_command(&mut self, now_us: u32) -> Option<FineAngle> {
-        if self.servo.is_on() {
-            self.clock_us = now_us;
-            self.clock_known = true;
-        }
-        self.servo.is_on().then(|| self.servo.command(now_us))
-    }
-
-    /// The laser the setup in force names and its UART's baud rate.
-    #[must_use]
-    pub fn laser_port(&self) -> LaserPort {
-        LaserPort {
-            sensor: self.laser.sensor(),
-            baud: self.frontend.config().baud,
-        }
-    }
-
-    /// The laser UART's baud rate in force, bits per second.
-    #[must_use]
-    pub fn laser_baud(&self) -> u32 {
-        self.frontend.config().baud
-    }
-
-    /// The laser the board must set its UART up for, once after boot and after each Setup
-    /// that changed the sensor or the baud rate (then `None` until the next change): the board
-    /// sets the rate (an emulated UART ignores it) and starts the sensor's stream.
-    pub fn take_laser_change(&mut self) -> Option<LaserPort> {
-        core::mem::take(&mut self.laser_change).then(|| self.laser_port())
-    }
-
-    /// Counts an overrun of the laser's UART (bytes lost before they reached [`laser`]).
-    ///
-    /// [`laser`]: Self::laser
-    pub fn laser_overrun(&mut self) {
-        bump(&mut self.counters.laser_overruns);
-    }
-
-    // ------------------------------------------------------------ host
-
-    /// Takes bytes from the host: every command they complete is validated by the link and
-    /// carried out here, in order. After a Shutdown the rest is dropped (and counted) until
-    /// the board answers it.
-    ///
-    /// The bytes carry no time: a TimeRequest they complete is answered with the device time
-    /// of the last [`host_at`](Self::host_at) (0 before any). A board with a µs clock calls
-    /// `host_at`.
-    pub fn host(&mut self, bytes: &[u8]) {
-        let mut chunk = bytes;
-        while !chunk.is_empty() {
-            if self.shutdown != Shutdown::Running {
-                let n = u32::try_from(chunk.len()).unwrap_or(u32::MAX);
-                self.counters.bytes_after_shutdown =
-                    self.counters.bytes_after_shutdown.saturating_add(n);
-                return;
-            }
-            chunk = match self.link.receive_at(chunk, self.host_clock_us) {
-                FeedResult::Consumed => return,
-                FeedResult::Item {
-                    item, remaining, ..
-                } => {
-                    self.execute(item);
-                    remaining
-                }
-                FeedResult::Rejected {
-                    error, remaining, ..
-                } => {
-                    match error {
-                        Rejection::Refused(reply) => warn!("refused: {:?}", reply),
-                        Rejection::BadFrame(e) => warn!("bad frame: {:?}", e),
-                    }
-                    remaining
-                }
-            };
-        }
-    }
-
-    /// [`host`](Self::host) for bytes the board took from the host UART at `now_us` of its
-    /// µs clock (wrapping; the clock the laser's bytes are timed with): a TimeRequest they
-    /// complete is answered with this time, the device's side of the host's clock
-    /// exchange.
-    pub fn host_at(&mut self, bytes: &[u8], now_us: u32) {
-        self.host_clock_us = now_us;
-        // The stamped poses' lead is checked against the latest device time seen.
-        self.clock_us = now_us;
-        self.clock_known = true;
-        self.host(bytes);
-    }
-
-    /// The pose track's counters that Stats carries (Stats i = 30 ..= 34).
-    fn pose_counters(&self) -> PoseCounters {
-        let frontend = self.frontend.stats();
-        PoseCounters {
-            poses_stamped: self.counters.poses_stamped,
-            poses_refused: self.counters.poses_refused,
-            pose_gaps: self.counters.pose_gaps,
-            returns_extrapolated: frontend.returns_extrapolated,
-            returns_without_pose: frontend.returns_without_pose,
-        }
-    }
-
-    /// Carries out one validated command and answers it.
-    fn execute(&mut self, request: Request<L>) {
-        bump(&mut self.counters.commands);
-        let Some(Request { header, command }) = self.link.serve(&mut self.pyramid, request) else {
-            return;
-        };
-        match command {
-            Command::Pose(pose, None) => self.set_pose(pose),
-            Command::Pose(pose, Some(stamp_us)) => self.stamped_pose(stamp_us, pose),
-            Command::PanAngle(angle) => self.host_angle = Some(angle),
-            Command::Configure(design, config) => match self.configure(&design, &config) {
-                Ok(()) => {
-                    self.link.answer(Reply::ok(header));
-                    self.link.announce(&self.pyramid);
-                }
-                Err(e) => self.link.refuse(convert::design_refusal(header, &e)),
-            },
-            Command::Reset => {
-                self.pyramid.clear();
-                self.frontend.restart_observation();
-                self.link.answer(Reply::ok(header));
-                self.link.maps_cleared();
-                self.link.announce(&self.pyramid);
-            }
-            Command::Setup(setup) => {
-                self.link.answer(Reply::ok(header));
-                self.adopt_setup(setup);
-            }
-            Command::SetRule(step_threshold, rule) => {
-                self.link.answer(Reply::ok(header));
-                let mut config = *self.frontend.config();
-                config.classifier.step_threshold = step_threshold;
-                config.classifier.rule = rule;
-                // The observation under way is discarded, as by a Setup.
-                self.frontend.configure(config);
-            }
-            Command::EndObservation => self.end_observation(),
-            Command::Shutdown => self.shutdown = Shutdown::Requested(header),
-            // Carried out by the link (`Link::serve`).
-            Command::Snapshot(_)
-            | Command::Ping
-            | Command::RequestStats
-            | Command::TimeRequest { .. } => {}
-        }
-    }
-
-    /// Whether the host asked the device to stop and the board has not answered yet.
-    #[must_use]
-    pub const fn shutdown_requested(&self) -> bool {
-        matches!(self.shutdown, Shutdown::Requested(_))
-    }
-
-    /// Whether the Shutdown was answered: the co-processor takes nothing any more; the board
-    /// drains the queue and stops.
-    #[must_use]
-    pub const fn stopped(&self) -> bool {
-        matches!(self.shutdown, Shutdown::Answered)
-    }
-
-    /// Answers the host's Shutdown with Reply Ok carrying the stack's high-water mark in
-    /// `value` and its size in `a` (bytes); the board then drains the queue and stops. Does
-    /// nothing when no Shutdown is waiting.
-    pub fn answer_shutdown(&mut self, stack: StackUsage) {
-        let Shutdown::Requested(header) = self.shutdown else {
-            return;
-        };
-        let mut reply = Reply::ok(header);
-        #[allow(clippy::cast_precision_loss)]
-        {
-            reply.value = stack.used as f32;
-            reply.a = stack.size as f32;
-        }
-        self.link.answer(reply);
-        self.shutdown = Shutdown::Answered;
-    }
-
-    // ------------------------------------------------------------ output
-
-    /// Queues what is due on the host link (Hello, WindowMoved, Stats, changed tiles within
-    /// the budget); `now_ms` is the board's clock in milliseconds (wrapping).
-    pub fn poll(&mut self, now_ms: u32) -> PollReport {
-        // The last observation placed with stamped poses goes out ahead of its patches.
-        if let Some(span) = self.frontend.take_observed() {
-            // A full queue drops it (counted by the link as a lost control frame).
-            let _ = self
-                .link
-                .observed(span.observation, span.first_us, span.last_us);
-        }
-        let sensor = self.sensor_counters();
-        self.link.poll(now_ms, &mut self.pyramid, &sensor)
-    }
-
-    /// Writes up to `limit` queued bytes to `out` (as many as it takes: a blocking UART all of
-    /// them, a non-blocking one what fits); returns how many were written.
-    ///
-    /// # Errors
-    /// The writer's error; the bytes it did not take stay queued.
-    pub fn drain<T: embedded_io::Write>(
-        &mut self,
-        out: &mut T,
-        limit: usize,
-    ) -> Result<usize, T::Error> {
-        let mut sent = 0;
-        while sent < limit {
-            let chunk = self.link.peek();
-            let n = chunk.len().min(limit - sent);
-            let Some(piece) = chunk.get(..n) else {
-                break;
-            };
-            if piece.is_empty() {
-                break;
-            }
-            let written = out.write(piece)?;
-            if written == 0 {
-                break;
-            }
-            self.link.consume(written);
-            sent += written;
-        }
-        Ok(sent)
-    }
-
-    /// Moves up to `out.len()` queued bytes into `out`; returns how many.
-    pub fn take_output(&mut self, out: &mut [u8]) -> usize {
-        self.link.pop_bytes(out)
-    }
-
-    // ------------------------------------------------------------ state
-
     /// The counters of every module.
     #[must_use]
     pub fn counters(&self) -> Counters {
@@ -1009,33 +565,16 @@ impl<const W: usize, const L: usize, const C: usize, const Q: usize, const N: us
     pub const fn host_angle(&self) -> Option<Angle> {
         self.host_angle
     }
-}
 
-/// Whether the board's angle source was read in this call of [`CoProcessor::laser`].
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-enum Reading {
-    NotYet,
-    Read,
-    Failed,
-}
-
-/// The actuator angle of a SICK line: the source's, else the servo model's at `now_us` when
-/// the setup has a servo, else the host's (the source's failure counted).
-fn line_angle(
-    source: &mut impl AngleSource,
-    host: Option<Angle>,
-    servo: Option<&ServoSweep>,
-    now_us: u32,
-    counters: &mut AppCounters,
-) -> Option<FineAngle> {
-    match source.read_angle() {
-        Ok(angle) => Some(FineAngle::from(angle)),
-        Err(_) => {
-            bump(&mut counters.angle_source_errors);
-            match servo {
-                Some(servo) => servo.estimate(now_us),
-                None => host.map(FineAngle::from),
-            }
+    /// The pose track's counters that Stats carries (Stats i = 30 ..= 34).
+    fn pose_counters(&self) -> PoseCounters {
+        let frontend = self.frontend.stats();
+        PoseCounters {
+            poses_stamped: self.counters.poses_stamped,
+            poses_refused: self.counters.poses_refused,
+            pose_gaps: self.counters.pose_gaps,
+            returns_extrapolated: frontend.returns_extrapolated,
+            returns_without_pose: frontend.returns_without_pose,
         }
     }
 }

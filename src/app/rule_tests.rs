@@ -8,6 +8,7 @@ use super::*;
 use crate::classify::{NavigabilityRule, PlaneRule};
 use crate::link::convert::{rule_setup, set_rule_message, ReplyText, SetupField};
 use crate::link::tests::{command, Out};
+use crate::wire::link::Reply;
 use crate::wire::link::{LaserSetup, Message, ReplyCode, RuleSetup, SetRule, Setup};
 use std::vec::Vec;
 

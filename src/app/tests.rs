@@ -2,14 +2,18 @@
 extern crate std;
 use super::*;
 use crate::design::{GateShape, Param, Schedule, SensorModel};
+use crate::drivers::angle::AngleSource;
 use crate::geometry::{Mount, ScanPlane};
+use crate::link::convert;
 use crate::link::convert::{configure_of_design, param_of_code, ReplyText};
 use crate::link::tests::{command, decode_all, Out};
 use crate::units::Point3;
+use crate::wire::link::Reply;
 use crate::wire::link::{
     ClampRequest, Configure, DecodeError, HelloReason, Message, MessageType, PanAngle, PoseReport,
     ReplyCode, Setup, SnapshotScope, TimeRequest,
 };
+use crate::wire::sick::MeasuredValues;
 use crate::wire::sick::{MeasuringMode, Unit, Variant};
 use crate::DefaultDesign;
 use std::boxed::Box;

@@ -2,10 +2,17 @@
 //! the application does with the commands it receives is tested in `crate::app`.)
 extern crate std;
 use super::*;
+use crate::geometry::Pose;
+use crate::pyramid::Config;
 use crate::pyramid::{Evidence, EvidenceClass};
 use crate::test_rng::XorShift;
 use crate::units::Meters;
+use crate::wire::link::{
+    encode, Decoded, FrameAccumulator, Header, Hello, HelloReason, Message, Observed, PatchArea,
+    Reply, ReplyCode, Stats, TimeReply, WindowMoved, MAX_ENCODED_FRAME, VERSION,
+};
 use crate::wire::link::{PoseReport, TimeRequest, MAX_FRAME, POSE_STAMPED};
+use crate::wire::FeedResult;
 use crate::{DefaultDesign, DefaultPyramid, Schedule, SensorModel};
 use std::vec::Vec;
 

@@ -26,9 +26,12 @@
 
 mod accumulator;
 pub mod cobs;
+mod command;
 mod crc;
+mod encoding;
 mod map;
 mod message;
+mod reply;
 mod setup;
 mod stats;
 mod time;
