@@ -15,6 +15,8 @@
 use defmt_semihosting as _;
 
 #[allow(unsafe_code)]
+pub mod clock;
+#[allow(unsafe_code)]
 pub mod stack;
 #[allow(unsafe_code)]
 pub mod uart;
