@@ -29,11 +29,12 @@
 //! - The clock: listen's own estimate (`time_sync` in its summary) and a truth. The emulated
 //!   board's µs clock follows the host's wall clock; the relay times each time exchange as it
 //!   passes (the request from listen, the board's reply), which brackets the device's clock
-//!   against the wall clock within the exchange's round trip at the relay (tens of µs). Each
+//!   against the wall clock within the exchange's round trip at the relay (about 1 ms here). Each
 //!   stamped Pose listen forwards is held against it: its `stamp_us` minus the device's clock
 //!   at the wall-clock time of its Odometry stamp ([`ClockTruth`]).
 //! - The poses' latency: from a pose's stamp, and from the publisher's write, to its Pose frame
-//!   leaving listen (read by the relay, handed to the board's UART at once) ([`PoseLatency`]).
+//!   leaving listen (read by the relay once the board's UART has taken its earlier bytes)
+//!   ([`PoseLatency`]).
 //! - The pacing: chunks written more than 5 ms after their time.
 //! - listen's `summary.json` and the publisher's report, as they are.
 //!
@@ -573,7 +574,7 @@ pub struct ClockTruth {
 #[derive(Debug, Clone, Default, Serialize, PartialEq)]
 pub struct PoseLatency {
     /// From the pose's stamp (the robot was there) to its Pose frame leaving listen (read by
-    /// the relay, which hands it to the board's UART at once), ms.
+    /// the relay once the board's UART has taken the relay's earlier bytes), ms.
     pub stamp_to_board_ms: Spread,
     /// From the publisher's write to the same moment, ms: what DDS and listen add.
     pub publish_to_board_ms: Spread,
@@ -958,7 +959,7 @@ pub fn execute(args: &Args) -> Result<Report, String> {
 
 /// The bounds `--check` holds a run to: the chain ran, the clocks agree, the poses reached the
 /// device stamped. Set from runs on a loaded 2-core machine (`docs/poses.md`, "Playing a
-/// recording as a robot lives": accuracy 1.0–1.4 ms, stamp error p95 2.5–5.6 ms, 333–337 of
+/// recording as a robot lives": accuracy 0.9–1.4 ms, stamp error p95 0.7–5.6 ms, 333–341 of
 /// 353 poses taken) with a margin of about two. The maps are reported, not bounded: the
 /// emulated board does not keep up with the LD19's bytes in real time (see the docs).
 pub mod bounds {
