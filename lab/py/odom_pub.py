@@ -10,10 +10,11 @@ Input: NDJSON, one pose a line, `{"t": SECONDS, "pose": [x, y, z, roll, pitch, y
 radians; t from the recording's start), in time order.
 
 Usage: odom_pub.py POSES.ndjson START_EPOCH_S [--late-ms 30] [--jitter-ms 10] [--seed 29]
-       [--topic /odom] [--frame-id odom] [--domain 0] [--wait-s 5]
+       [--topic /odom] [--frame-id odom] [--domain 0] [--wait-s 5] [--log FILE]
 Waits up to --wait-s for a subscriber to match, then publishes pose k at START + t_k + late_k
 (late_k uniform in late ± jitter), stamped START + t_k. Prints one JSON object at the end:
-poses published, subscribers matched, and the publish delays (publish − stamp, ms).
+poses published, subscribers matched, and the publish delays (publish − stamp, ms). With
+--log, one line a pose in FILE: `{"stamp": S, "published": S}` (wall-clock seconds).
 Run it only inside a network namespace of its own (DDS multicast must not leave the machine).
 """
 import argparse
@@ -141,6 +142,7 @@ def main():
     ap.add_argument("--frame-id", default="odom")
     ap.add_argument("--domain", type=int, default=0)
     ap.add_argument("--wait-s", type=float, default=5.0)
+    ap.add_argument("--log")
     a = ap.parse_args()
     with open(a.poses) as f:
         poses = [json.loads(line) for line in f if line.strip()]
@@ -158,6 +160,7 @@ def main():
     matched = len(writer.get_matched_subscriptions())
     zero36 = [0.0] * 36
     delays = []
+    log = []
     for p in poses:
         stamp = a.start + p["t"]
         late = (a.late_ms + a.jitter_ms * (2 * rng.random() - 1)) / 1000.0
@@ -182,8 +185,13 @@ def main():
             ),
         )
         writer.write(msg)
-        delays.append((time.time() - stamp) * 1000.0)
+        published = time.time()
+        log.append({"stamp": stamp, "published": published})
+        delays.append((published - stamp) * 1000.0)
     time.sleep(0.2)
+    if a.log:
+        with open(a.log, "w") as f:
+            f.writelines(json.dumps(e) + "\n" for e in log)
     delays.sort()
     out = {
         "published": len(delays),

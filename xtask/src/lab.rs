@@ -14,6 +14,9 @@
 //!   message out of the host. With ROS 2 (the default) the whole run, DDS publisher and reader
 //!   together, is inside a network namespace of its own (`unshare -n`, loopback up with
 //!   multicast routed to it), so no DDS traffic can leave the machine; root is needed.
+//! - `live [--json] [--check]`: `lab live --ros2` (a recording played as a robot lives: the
+//!   laser paced into the emulated board, Odometry from a Cyclone DDS publisher, `pyramid
+//!   listen --ros2 --odom-topic /odom`) inside a network namespace of its own, as `latency`.
 //! - `demo [FLAGS]`: installs what the emulated board needs, as `cargo xtask test` does (the
 //!   Cortex-M targets, QEMU, `defmt-print`), runs `lab demo` (on the emulated board unless
 //!   `--board host` is given; into `target/demo` unless `--out` is given) and turns each
@@ -224,16 +227,17 @@ pub fn latency(args: &[String]) -> Result<(), String> {
     }
 }
 
-/// `cargo xtask live [--json]`: `lab live --ros2` inside a network namespace of its own (the
-/// lab, `pyramid` and the firmware built outside it first; the Python readers installed).
+/// `cargo xtask live [--json] [--check]`: `lab live --ros2` inside a network namespace of its
+/// own (the lab, `pyramid` and the firmware built outside it first; the Python readers
+/// installed). `--check` holds the run to `lab live`'s bounds (`cargo xtask test` runs it).
 pub fn live(args: &[String]) -> Result<(), String> {
     let mut pass = Vec::new();
     for a in args {
         match a.as_str() {
-            "--json" => pass.push(a.clone()),
+            "--json" | "--check" => pass.push(a.clone()),
             other => {
                 return Err(format!(
-                    "unknown option {other}; usage: cargo xtask live [--json]"
+                    "unknown option {other}; usage: cargo xtask live [--json] [--check]"
                 ))
             }
         }
@@ -380,4 +384,24 @@ fn decode_logs(out: &Path) {
             eprintln!("note: defmt-print could not decode {}", raw.display());
         }
     }
+}
+
+/// Whether `cargo xtask live` can run here: root (for `unshare -n`) and `unshare` present;
+/// why not otherwise.
+pub fn live_can_run() -> Result<(), String> {
+    let root_user = Command::new("id")
+        .arg("-u")
+        .output()
+        .is_ok_and(|o| o.stdout.starts_with(b"0\n"));
+    if !root_user {
+        return Err("not root: `unshare -n` needs it".into());
+    }
+    if !Command::new("unshare")
+        .arg("--version")
+        .output()
+        .is_ok_and(|o| o.status.success())
+    {
+        return Err("no `unshare` (util-linux)".into());
+    }
+    Ok(())
 }

@@ -12,6 +12,13 @@ fn run_all(lint: bool) -> Result<(), String> {
     // The code's shape: imports point down the library's layers, no cycle, one definition
     // per public type name.
     step("cargo", &["xtask", "layers"])?;
+    // The live chain: a short recording paced into the emulated board, Odometry from a
+    // Cyclone DDS publisher through `pyramid listen --ros2 --odom-topic /odom`, inside a
+    // network namespace of its own; held to `lab live`'s bounds. It needs root and unshare.
+    match crate::lab::live_can_run() {
+        Ok(()) => step("cargo", &["xtask", "live", "--check"])?,
+        Err(why) => eprintln!("\n==> skipped: cargo xtask live --check ({why})"),
+    }
     // The boards: builds, the firmware on the emulated board, the on-target tests (thumbv7em
     // and thumbv6m code), flash, RAM and stack. It installs defmt-print when missing.
     if lint {

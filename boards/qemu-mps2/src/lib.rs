@@ -13,6 +13,8 @@
 #![deny(missing_docs)]
 
 #[allow(unsafe_code)]
+pub mod clock;
+#[allow(unsafe_code)]
 pub mod uart;
 
 pub use board_support::runtime::{exit, EXIT_FAILURE, EXIT_HARDFAULT, EXIT_PANIC, EXIT_SUCCESS};

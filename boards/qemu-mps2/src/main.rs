@@ -11,9 +11,10 @@
 //! to that rate (which QEMU ignores). This board has no encoder and no servo: the host's
 //! PanAngle, or a nodding servo's model run open loop (the Setup's actuator), is the angle.
 //!
-//! Time: SysTick at 1 kHz from the 25 MHz processor clock (QEMU runs it on its virtual clock,
-//! which follows the host's wall clock without `-icount`; DWT's cycle counter reads 0 in QEMU);
-//! microseconds from SysTick's milliseconds and its current count.
+//! Time: microseconds from the FPGA block's prescaled counter ([`qemu_mps2::clock`]: QEMU
+//! computes it from its virtual clock, which follows the host's wall clock without `-icount`,
+//! so a loaded host loses it no time; DWT's cycle counter reads 0 in QEMU); the poll's
+//! milliseconds from SysTick at 1 kHz.
 //!
 //! The run ends when the host sends Shutdown (0x89): the core answers it with Reply Ok (the
 //! stack's high-water mark in `value`, its size in `a`, bytes), the queue is drained, the
@@ -26,7 +27,6 @@ mod sizes;
 
 use core::sync::atomic::{AtomicU32, Ordering};
 use cortex_m::peripheral::syst::SystClkSource;
-use cortex_m::peripheral::SYST;
 use embedded_io::{Read, ReadReady, Write};
 use qemu_mps2::stack;
 use qemu_mps2::uart::Uarts;
@@ -54,19 +54,9 @@ static CORE: ConstStaticCell<Board> = ConstStaticCell::new(Board::new());
 /// Milliseconds since SysTick started, wrapping.
 static MILLIS: AtomicU32 = AtomicU32::new(0);
 
-/// Microseconds since SysTick started, wrapping every 2³² µs (71.6 minutes): the
-/// milliseconds and the count SysTick has run down within the current one (read twice if a
-/// tick intervened).
+/// Microseconds since boot, wrapping every 2³² µs (71.6 minutes): [`qemu_mps2::clock`].
 fn micros() -> u32 {
-    const PER_US: u32 = CPU_HZ / 1_000_000;
-    loop {
-        let ms = MILLIS.load(Ordering::Relaxed);
-        let down = SYST::get_current();
-        if MILLIS.load(Ordering::Relaxed) == ms {
-            let within = (CPU_HZ / 1000 - 1).saturating_sub(down) / PER_US;
-            return ms.wrapping_mul(1000).wrapping_add(within.min(999));
-        }
-    }
+    qemu_mps2::clock::micros()
 }
 
 #[cortex_m_rt::exception]
@@ -122,6 +112,7 @@ fn run() -> Result<(), Fault> {
     syst.clear_current();
     syst.enable_interrupt();
     syst.enable_counter();
+    qemu_mps2::clock::start();
 
     let Uarts {
         uart0: mut laser,
