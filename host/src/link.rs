@@ -112,7 +112,10 @@ pub struct MirrorCounters {
     pub resent_cells_compared: u64,
     /// Of those, the cells whose resent value differed from the mirror's: 0 when the device
     /// and the mirror were equal cell for cell (the mirror's decay, computed here, against the
-    /// device's, for cells that changed only by decay since they were last sent).
+    /// device's, for cells that changed only by decay since they were last sent). A cell the
+    /// device changed and had not yet sent also differs here: a caller that reads this as a
+    /// check of the mirror first waits until the device has sent every change (Stats
+    /// `tiles_dirty` = 0), as `pyramid run` does before its final snapshot.
     pub resent_cells_differing: u64,
 }
 
