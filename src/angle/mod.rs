@@ -11,6 +11,8 @@
 
 mod coarse;
 mod fine;
+mod source;
 
 pub use coarse::{Angle, COUNTS_PER_TURN, COUNT_MASK};
 pub use fine::{FineAngle, SinCos};
+pub use source::AngleSource;

@@ -5,8 +5,8 @@
 
 use super::{bump, AppCounters, CoProcessor, Shutdown};
 use crate::actuator::ServoSweep;
+use crate::angle::AngleSource;
 use crate::angle::{Angle, FineAngle};
-use crate::drivers::angle::AngleSource;
 use crate::geometry::PoseTrack;
 use crate::laser::{LaserItem, Sensor};
 use crate::pipeline::{Frontend, PacketActuator, PacketTimes};

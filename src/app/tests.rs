@@ -1,8 +1,8 @@
 //! The application core as a board drives it: bytes in, frames out, counters.
 extern crate std;
 use super::*;
+use crate::angle::AngleSource;
 use crate::design::{GateShape, Param, Schedule, SensorModel};
-use crate::drivers::angle::AngleSource;
 use crate::geometry::{Mount, ScanPlane};
 use crate::link::convert;
 use crate::link::convert::{configure_of_design, param_of_code, ReplyText};

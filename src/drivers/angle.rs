@@ -7,29 +7,9 @@ use core::fmt;
 
 use crate::angle::{Angle, COUNT_MASK};
 
-/// Something that supplies the current pan angle: an encoder driver, the host link, a test.
-///
-/// A reading is the angle at the time of the call; the source never blocks longer than one
-/// bus transaction and never panics. Errors are the source's own (bus, protocol, staleness).
-pub trait AngleSource {
-    /// Why a reading failed.
-    type Error: fmt::Debug;
-
-    /// Reads the current angle, with any mounting already applied.
-    ///
-    /// # Errors
-    /// The source's error when no trustworthy angle is available; the caller should drop
-    /// or hold the scan line rather than use a stale or corrupt angle.
-    fn read_angle(&mut self) -> Result<Angle, Self::Error>;
-}
-
-impl<T: AngleSource + ?Sized> AngleSource for &mut T {
-    type Error = T::Error;
-
-    fn read_angle(&mut self) -> Result<Angle, Self::Error> {
-        T::read_angle(self)
-    }
-}
+/// Something that supplies the current pan angle (defined in [`crate::angle`], where the
+/// co-processor, which takes any source, can name it from below the drivers).
+pub use crate::angle::AngleSource;
 
 /// How an absolute 14-bit encoder is mounted on its axis: where its zero is and which way it
 /// counts.

@@ -8,7 +8,6 @@ pub use super::command::{
     CONFIGURE_UNIFORM_RESOLUTION, POSE_FLAGS_KNOWN, POSE_STAMPED,
 };
 pub(crate) use super::command::{CONFIGURE_FLAGS_KNOWN, CONFIGURE_LEN, PAN_LEN, POSE_LEN};
-pub use super::encoding::{encode, encode_patch};
 pub use super::map::{
     ClockSource, Decayed, DecayedRows, FirmwareVersion, Hello, HelloReason, LayerInfo, LayerPatch,
     PatchArea, PatchCells, WindowMoved,

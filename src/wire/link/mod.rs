@@ -38,12 +38,13 @@ mod time;
 
 pub use accumulator::{Decoded, FrameAccumulator, FrameFeed, RxCounters, Undecoded};
 pub use crc::{crc32, Crc32};
+pub use encoding::{encode, encode_patch};
 pub use message::{
-    decode, encode, encode_patch, ClampRequest, ClockSource, Configure, Decayed, DecayedRows,
-    FirmwareVersion, GateRequest, Hello, HelloReason, LaserSetup, LayerInfo, LayerPatch, Message,
-    PanAngle, PatchArea, PatchCells, PoseReport, Reply, ReplyCode, RuleSetup, SetRule, Setup,
-    SnapshotScope, Stats, WindowMoved, PARAM_LAYER, POSE_FLAGS_KNOWN, POSE_STAMPED,
-    SETUP_LASER_LEN, SETUP_RULE_LEN, STATS_COUNTERS,
+    decode, ClampRequest, ClockSource, Configure, Decayed, DecayedRows, FirmwareVersion,
+    GateRequest, Hello, HelloReason, LaserSetup, LayerInfo, LayerPatch, Message, PanAngle,
+    PatchArea, PatchCells, PoseReport, Reply, ReplyCode, RuleSetup, SetRule, Setup, SnapshotScope,
+    Stats, WindowMoved, PARAM_LAYER, POSE_FLAGS_KNOWN, POSE_STAMPED, SETUP_LASER_LEN,
+    SETUP_RULE_LEN, STATS_COUNTERS,
 };
 pub use time::{Observed, TimeReply, TimeRequest};
 
