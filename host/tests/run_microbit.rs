@@ -1,6 +1,6 @@
 //! The micro:bit firmware (`boards/microbit`, QEMU's `microbit`: nRF51822, Cortex-M0, 16 KiB of
 //! RAM) against the library's co-processor of the same configuration in this process,
-//! `InProcess<16, 4, 32, 400>` booted as the firmware boots: the same recording through both,
+//! `InProcess<16, 4, 16, 400>` booted as the firmware boots: the same recording through both,
 //! driven the same way (`run::drive`), must give bit-identical layers.
 //!
 //! The firmware is built without the plane rule (the library's `plane-rule` feature off, for
@@ -36,7 +36,7 @@ use common::{qemu_ready, record_3dtk, synthetic_recording, tmp};
 
 /// The firmware's co-processor: `CoProcessor<CELLS, LAYERS, SLOTS, QUEUE>` of
 /// `boards/microbit/src/main.rs`.
-type Reference = InProcess<16, 4, 32, 400>;
+type Reference = InProcess<16, 4, 16, 400>;
 
 /// The firmware's boot: its design (`boot_design`), a tilt unit, the default link.
 fn boot_reference() -> Reference {
