@@ -65,28 +65,7 @@ impl<const C: usize, const L: usize> Frontend<C, L> {
         I: IntoIterator<Item = LaserReturn>,
         I::IntoIter: ExactSizeIterator,
     {
-        if !self.configured || self.classifier.gates().layer_count() == 0 {
-            self.stats.lines_rejected = self.stats.lines_rejected.saturating_add(1);
-            return Err(LineError::NotConfigured);
-        }
-        if !self.config.sensor.is_lidar() {
-            self.stats.lines_rejected = self.stats.lines_rejected.saturating_add(1);
-            return Err(LineError::WrongSensor {
-                configured: self.config.sensor.kind(),
-            });
-        }
-        self.actuator = actuator.last;
-        let per = self.config.lines_per_observation;
-        if per == 0 && self.sweep_turned() {
-            self.end_observation(pyramid);
-        }
-        if starts_revolution {
-            self.stats.revolutions = self.stats.revolutions.saturating_add(1);
-            if per != 0 && self.revolutions_in_observation >= per {
-                self.end_observation(pyramid);
-            }
-            self.revolutions_in_observation = self.revolutions_in_observation.saturating_add(1);
-        }
+        self.packet_start(pyramid, starts_revolution, actuator)?;
         if self.lines_in_observation == 0 {
             self.classifier.begin(self.sweep.sensor_origin().z);
         }
@@ -182,19 +161,16 @@ impl<const C: usize, const L: usize> Frontend<C, L> {
         self.packet_with(pyramid, returns, starts_revolution, actuator, track, times)
     }
 
-    fn packet_with<const W: usize, I, P: Poses>(
+    /// What every lidar packet does first: refuses it without a setup or for a SICK (counted),
+    /// takes its last actuator angle, and ends the observation where the sweep turned or the
+    /// revolutions it groups are complete.
+    #[inline(always)]
+    fn packet_start<const W: usize>(
         &mut self,
         pyramid: &mut Pyramid<W, L>,
-        returns: I,
         starts_revolution: bool,
         actuator: PacketActuator,
-        poses: &P,
-        times: PacketTimes,
-    ) -> Result<(), LineError>
-    where
-        I: IntoIterator<Item = LaserReturn>,
-        I::IntoIter: ExactSizeIterator,
-    {
+    ) -> Result<(), LineError> {
         if !self.configured || self.classifier.gates().layer_count() == 0 {
             self.stats.lines_rejected = self.stats.lines_rejected.saturating_add(1);
             return Err(LineError::NotConfigured);
@@ -217,6 +193,23 @@ impl<const C: usize, const L: usize> Frontend<C, L> {
             }
             self.revolutions_in_observation = self.revolutions_in_observation.saturating_add(1);
         }
+        Ok(())
+    }
+
+    fn packet_with<const W: usize, I, P: Poses>(
+        &mut self,
+        pyramid: &mut Pyramid<W, L>,
+        returns: I,
+        starts_revolution: bool,
+        actuator: PacketActuator,
+        poses: &P,
+        times: PacketTimes,
+    ) -> Result<(), LineError>
+    where
+        I: IntoIterator<Item = LaserReturn>,
+        I::IntoIter: ExactSizeIterator,
+    {
+        self.packet_start(pyramid, starts_revolution, actuator)?;
         if self.lines_in_observation == 0 {
             // Timed: the sensor's height at the packet's first return (the pose in force
             // stays as the rule leaves it).
