@@ -68,13 +68,9 @@ fn modules(src: &Path) -> BTreeMap<ModPath, PathBuf> {
 }
 
 /// The source without comments, string literals and `#[cfg(test)]` modules (a crude lexer:
-/// enough for paths).
+/// enough for paths). A test module is cut from its attribute to its closing brace, so the
+/// code after it still counts.
 fn code_of(text: &str) -> String {
-    let cut = text
-        .find("#[cfg(test)]\nmod tests")
-        .or_else(|| text.find("#[cfg(test)]\npub(crate) mod tests"))
-        .unwrap_or(text.len());
-    let text = &text[..cut];
     let mut out = String::with_capacity(text.len());
     let mut chars = text.chars().peekable();
     while let Some(c) = chars.next() {
@@ -103,6 +99,54 @@ fn code_of(text: &str) -> String {
             _ => out.push(c),
         }
     }
+    without_test_modules(&out)
+}
+
+/// `code` (comments and strings already removed) without its `#[cfg(test)]` modules: from
+/// each `#[cfg(test)]` followed by a `mod` item to the item's matching closing brace (or its
+/// `;`, for a module in its own file).
+fn without_test_modules(code: &str) -> String {
+    const ATTRIBUTE: &str = "#[cfg(test)]";
+    let mut out = String::with_capacity(code.len());
+    let mut rest = code;
+    while let Some(at) = rest.find(ATTRIBUTE) {
+        let after = &rest[at + ATTRIBUTE.len()..];
+        let item = after.trim_start();
+        let item = item.strip_prefix("pub(crate)").unwrap_or(item).trim_start();
+        if !item.starts_with("mod ") {
+            out.push_str(&rest[..at + ATTRIBUTE.len()]);
+            rest = after;
+            continue;
+        }
+        out.push_str(&rest[..at]);
+        let Some(open) = after.find(|c| c == '{' || c == ';') else {
+            return out;
+        };
+        if after[open..].starts_with(';') {
+            rest = &after[open + 1..];
+            continue;
+        }
+        let mut depth = 0_usize;
+        let mut end = after.len();
+        let body = &after[open..];
+        for (i, c) in body.char_indices() {
+            // A brace in a character literal ('{') is not a block's.
+            let quoted = body[..i].ends_with('\'') && body[i + 1..].starts_with('\'');
+            match c {
+                '{' if !quoted => depth += 1,
+                '}' if !quoted => {
+                    depth = depth.saturating_sub(1);
+                    if depth == 0 {
+                        end = open + i + 1;
+                        break;
+                    }
+                }
+                _ => {}
+            }
+        }
+        rest = &after[end..];
+    }
+    out.push_str(rest);
     out
 }
 
@@ -478,6 +522,18 @@ mod tests {
                 "crate::a::c::e",
                 "crate::a::g"
             ]
+        );
+    }
+
+    #[test]
+    fn code_after_a_test_module_still_counts() {
+        let text = "use crate::a;\n#[cfg(test)]\nmod tests {\n    use crate::b;\n    \
+                    fn f() { let c = '}'; }\n}\nuse crate::c;\n#[cfg(test)]\nmod other;\n\
+                    use crate::d;\n";
+        let paths: BTreeSet<String> = paths_in(&code_of(text)).into_iter().collect();
+        assert_eq!(
+            paths,
+            BTreeSet::from(["crate::a", "crate::c", "crate::d"].map(String::from))
         );
     }
 
