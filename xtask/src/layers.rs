@@ -119,7 +119,7 @@ fn without_test_modules(code: &str) -> String {
             continue;
         }
         out.push_str(&rest[..at]);
-        let Some(open) = after.find(|c| c == '{' || c == ';') else {
+        let Some(open) = after.find(['{', ';']) else {
             return out;
         };
         if after[open..].starts_with(';') {
