@@ -17,6 +17,7 @@
 
 use libfuzzer_sys::fuzz_target;
 use terrain_pyramid::design::cells_to_hold;
+use terrain_pyramid::decay::Decay;
 use terrain_pyramid::{
     Clamp, Config, Design, GateShape, InverseSensorModel, Pyramid, Schedule, SensorModel,
 };
@@ -143,6 +144,7 @@ fuzz_target!(|data: &[u8]| {
             model,
             clamp,
             fused_margin: v[13],
+            decay: Decay::OFF,
         };
         let mut pyramid = Box::new(Pyramid::<W, L>::new());
         match pyramid.configure(&design, &config) {
