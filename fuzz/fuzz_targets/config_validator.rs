@@ -16,8 +16,8 @@
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
-use terrain_pyramid::design::cells_to_hold;
 use terrain_pyramid::decay::Decay;
+use terrain_pyramid::design::cells_to_hold;
 use terrain_pyramid::{
     Clamp, Config, Design, GateShape, InverseSensorModel, Pyramid, Schedule, SensorModel,
 };
