@@ -167,24 +167,27 @@ pub fn latency(args: &[String]) -> Result<(), String> {
     if !ros2 {
         return lab("latency", &pass);
     }
-    // Built outside the namespace (crates.io is not reachable inside it), run inside.
+    in_network_namespace("latency", &pass, &["terrain-pyramid-lab"])
+}
+
+/// Runs `lab COMMAND --ros2 PASS…` inside a network namespace of its own (`unshare -n`,
+/// loopback up with multicast on and the multicast route on it: DDS discovery stays on this
+/// machine). `packages` (in the tools profile) and the emulated board's firmware are built
+/// outside it first: crates.io is not reachable inside.
+fn in_network_namespace(command: &str, pass: &[String], packages: &[&str]) -> Result<(), String> {
     let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
-    let built = Command::new(&cargo)
-        .args([
-            "build",
-            "--profile",
-            "tools",
-            "--quiet",
-            "-p",
-            "terrain-pyramid-lab",
-        ])
+    let mut build = Command::new(&cargo);
+    build.args(["build", "--profile", "tools", "--quiet"]);
+    for p in packages {
+        build.args(["-p", p]);
+    }
+    let built = build
         .current_dir(root())
         .status()
         .map_err(|e| format!("cannot run cargo: {e}"))?;
     if !built.success() {
-        return Err(format!("building the lab failed ({built})"));
+        return Err(format!("building {} failed ({built})", packages.join(", ")));
     }
-    // The firmware too, so that nothing is fetched inside.
     let firmware = Command::new(&cargo)
         .args([
             "build",
@@ -208,21 +211,21 @@ pub fn latency(args: &[String]) -> Result<(), String> {
             "ip link set lo up multicast on && ip route add 224.0.0.0/4 dev lo && exec \"$0\" \"$@\"",
         ])
         .arg(root().join("target/tools/lab"))
-        .arg("latency")
+        .arg(command)
         .arg("--ros2")
-        .args(&pass)
+        .args(pass)
         .current_dir(root())
         .status()
         .map_err(|e| format!("cannot run unshare (util-linux; root needed): {e}"))?;
     eprintln!(
-        "xtask latency: done in {:.1} s",
+        "xtask {command}: done in {:.1} s",
         started.elapsed().as_secs_f64()
     );
     if status.success() {
         Ok(())
     } else {
         Err(format!(
-            "lab latency --ros2 inside `unshare -n` failed ({status})"
+            "lab {command} --ros2 inside `unshare -n` failed ({status})"
         ))
     }
 }
@@ -245,64 +248,11 @@ pub fn live(args: &[String]) -> Result<(), String> {
     ensure_targets()?;
     ensure_qemu()?;
     ensure_python_readers()?;
-    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
-    let built = Command::new(&cargo)
-        .args([
-            "build",
-            "--profile",
-            "tools",
-            "--quiet",
-            "-p",
-            "terrain-pyramid-lab",
-            "-p",
-            "terrain-pyramid-host",
-        ])
-        .current_dir(root())
-        .status()
-        .map_err(|e| format!("cannot run cargo: {e}"))?;
-    if !built.success() {
-        return Err(format!("building the lab and pyramid failed ({built})"));
-    }
-    let firmware = Command::new(&cargo)
-        .args([
-            "build",
-            "--release",
-            "--quiet",
-            "--target",
-            "thumbv7em-none-eabihf",
-        ])
-        .current_dir(root().join("boards/qemu-mps2"))
-        .status()
-        .map_err(|e| format!("cannot run cargo: {e}"))?;
-    if !firmware.success() {
-        return Err(format!("building the firmware failed ({firmware})"));
-    }
-    let started = Instant::now();
-    let status = Command::new("unshare")
-        .args([
-            "-n",
-            "sh",
-            "-c",
-            "ip link set lo up multicast on && ip route add 224.0.0.0/4 dev lo && exec \"$0\" \"$@\"",
-        ])
-        .arg(root().join("target/tools/lab"))
-        .arg("live")
-        .arg("--ros2")
-        .args(with_out(&pass, "target/live"))
-        .current_dir(root())
-        .status()
-        .map_err(|e| format!("cannot run unshare (util-linux; root needed): {e}"))?;
-    eprintln!(
-        "xtask live: done in {:.1} s",
-        started.elapsed().as_secs_f64()
-    );
-    if status.success() {
-        Ok(())
-    } else {
-        Err(format!(
-            "lab live --ros2 inside `unshare -n` failed ({status})"
-        ))
-    }
+    in_network_namespace(
+        "live",
+        &with_out(&pass, "target/live"),
+        &["terrain-pyramid-lab", "terrain-pyramid-host"],
+    )
 }
 
 /// `cargo xtask soak`.
