@@ -102,6 +102,16 @@ pub fn stack_used(top: usize) -> usize {
     top - a
 }
 
+/// Paints the stack, runs the whole of `recording` through `pipeline` between the two
+/// markers, and returns the bytes of stack the run used: the measured part of every binary.
+pub fn measure<P: terrain_pyramid_bench::Pipeline>(recording: &[u8], pipeline: &mut P) -> usize {
+    let top = paint_stack();
+    start();
+    terrain_pyramid_bench::replay(recording, pipeline);
+    end();
+    stack_used(top)
+}
+
 /// Prints the report line and exits with 0.
 pub fn report(returns: u32, lines: u32, cells: u32, stack: usize) -> ! {
     semihosting::println!(
@@ -131,7 +141,7 @@ pub fn run_f32(rule: Option<terrain_pyramid::classify::NavigabilityRule>) -> ! {
     use terrain_pyramid::wire::sick::SickAccumulator;
     use terrain_pyramid::Config;
     use terrain_pyramid_bench::f32_pipeline::{Frontend, Pyramid};
-    use terrain_pyramid_bench::{default_design, frontend_config, replay, setup, Pipeline, F32};
+    use terrain_pyramid_bench::{default_design, frontend_config, setup, Pipeline, F32};
 
     static PYRAMID: ConstStaticCell<Pyramid<64, 8>> = ConstStaticCell::new(Pyramid::new());
     static ACC: ConstStaticCell<SickAccumulator> = ConstStaticCell::new(SickAccumulator::new());
@@ -157,10 +167,6 @@ pub fn run_f32(rule: Option<terrain_pyramid::classify::NavigabilityRule>) -> ! {
         frontend,
         pyramid,
     };
-    let top = paint_stack();
-    start();
-    replay(rec, &mut p);
-    end();
-    let stack = stack_used(top);
+    let stack = measure(rec, &mut p);
     report(p.returns(), p.lines(), 0, stack)
 }

@@ -8,7 +8,7 @@ use static_cell::ConstStaticCell;
 use terrain_pyramid::app::CoProcessor;
 use terrain_pyramid::drivers::angle::HostSuppliedAngle;
 use terrain_pyramid::{Design, GateShape, Schedule, SensorModel, DEFAULT_CLASSIFIER_SLOTS};
-use terrain_pyramid_bench::{boot, replay, Core, Pipeline};
+use terrain_pyramid_bench::{boot, Core, Pipeline};
 
 type Flat = CoProcessor<200, 1, DEFAULT_CLASSIFIER_SLOTS, 2048>;
 static CORE: ConstStaticCell<Flat> = ConstStaticCell::new(Flat::new());
@@ -38,10 +38,6 @@ fn main() -> ! {
         core,
         angle: HostSuppliedAngle::new(),
     };
-    let top = b::paint_stack();
-    b::start();
-    replay(rec, &mut p);
-    b::end();
-    let stack = b::stack_used(top);
+    let stack = b::measure(rec, &mut p);
     b::report(p.returns(), p.lines(), 0, stack)
 }

@@ -8,7 +8,7 @@ use bench_firmware as b;
 use static_cell::ConstStaticCell;
 use terrain_pyramid::drivers::angle::HostSuppliedAngle;
 use terrain_pyramid::DefaultCoProcessor;
-use terrain_pyramid_bench::{boot_with_sensor, default_design, replay, Core};
+use terrain_pyramid_bench::{boot_with_sensor, default_design, Core};
 
 static CORE: ConstStaticCell<DefaultCoProcessor> = ConstStaticCell::new(DefaultCoProcessor::new());
 
@@ -26,11 +26,7 @@ fn main() -> ! {
         core,
         angle: HostSuppliedAngle::new(),
     };
-    let top = b::paint_stack();
-    b::start();
-    replay(rec, &mut p);
-    b::end();
-    let stack = b::stack_used(top);
+    let stack = b::measure(rec, &mut p);
     // The report's "cells" slot carries the samples without a distance (no window moves
     // are counted here): the xtask reads returns + no_return as the samples decoded.
     let stats = p.core.frontend().stats();

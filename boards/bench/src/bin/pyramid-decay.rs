@@ -9,7 +9,7 @@ use bench_firmware as b;
 use static_cell::ConstStaticCell;
 use terrain_pyramid::drivers::angle::HostSuppliedAngle;
 use terrain_pyramid::{Config, Decay, DecayMode, DefaultCoProcessor, TimeConstant};
-use terrain_pyramid_bench::{boot_with, default_design, replay, Core, Pipeline};
+use terrain_pyramid_bench::{boot_with, default_design, Core, Pipeline};
 
 static CORE: ConstStaticCell<DefaultCoProcessor> = ConstStaticCell::new(DefaultCoProcessor::new());
 
@@ -31,11 +31,7 @@ fn main() -> ! {
         core,
         angle: HostSuppliedAngle::new(),
     };
-    let top = b::paint_stack();
-    b::start();
-    replay(rec, &mut p);
-    b::end();
-    let stack = b::stack_used(top);
+    let stack = b::measure(rec, &mut p);
     let cells = p.core.pyramid().stats().rows_decayed * 64;
     b::report(p.returns(), p.lines(), cells, stack)
 }

@@ -8,7 +8,7 @@ use bench_firmware as b;
 use static_cell::ConstStaticCell;
 use terrain_pyramid::drivers::angle::HostSuppliedAngle;
 use terrain_pyramid::{DefaultCoProcessor, Design, GateShape, Schedule, SensorModel};
-use terrain_pyramid_bench::{boot, replay, Core, Pipeline};
+use terrain_pyramid_bench::{boot, Core, Pipeline};
 
 static CORE: ConstStaticCell<DefaultCoProcessor> = ConstStaticCell::new(DefaultCoProcessor::new());
 
@@ -30,10 +30,6 @@ fn main() -> ! {
         core,
         angle: HostSuppliedAngle::new(),
     };
-    let top = b::paint_stack();
-    b::start();
-    replay(rec, &mut p);
-    b::end();
-    let stack = b::stack_used(top);
+    let stack = b::measure(rec, &mut p);
     b::report(p.returns(), p.lines(), 0, stack)
 }

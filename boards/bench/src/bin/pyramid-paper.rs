@@ -8,7 +8,7 @@ use static_cell::ConstStaticCell;
 use terrain_pyramid::classify::NavigabilityRule;
 use terrain_pyramid::wire::sick::SickAccumulator;
 use terrain_pyramid::{Config, DefaultFrontend, DefaultPyramid};
-use terrain_pyramid_bench::{default_design, frontend_config, replay, setup, Fixed, Pipeline};
+use terrain_pyramid_bench::{default_design, frontend_config, setup, Fixed, Pipeline};
 
 static PYRAMID: ConstStaticCell<DefaultPyramid> = ConstStaticCell::new(DefaultPyramid::new());
 static ACC: ConstStaticCell<SickAccumulator> = ConstStaticCell::new(SickAccumulator::new());
@@ -38,10 +38,6 @@ fn main() -> ! {
         frontend,
         pyramid,
     };
-    let top = b::paint_stack();
-    b::start();
-    replay(rec, &mut p);
-    b::end();
-    let stack = b::stack_used(top);
+    let stack = b::measure(rec, &mut p);
     b::report(p.returns(), p.lines(), 0, stack)
 }

@@ -7,7 +7,7 @@ use bench_firmware as b;
 use static_cell::ConstStaticCell;
 use terrain_pyramid::drivers::angle::HostSuppliedAngle;
 use terrain_pyramid::DefaultCoProcessor;
-use terrain_pyramid_bench::{boot, default_design, replay, Core, Pipeline, TimedCore};
+use terrain_pyramid_bench::{boot, default_design, Core, Pipeline, TimedCore};
 
 static CORE: ConstStaticCell<DefaultCoProcessor> = ConstStaticCell::new(DefaultCoProcessor::new());
 
@@ -25,10 +25,6 @@ fn main() -> ! {
         core,
         angle: HostSuppliedAngle::new(),
     });
-    let top = b::paint_stack();
-    b::start();
-    replay(rec, &mut p);
-    b::end();
-    let stack = b::stack_used(top);
+    let stack = b::measure(rec, &mut p);
     b::report(p.returns(), p.lines(), 0, stack)
 }
