@@ -68,7 +68,7 @@ pub mod sweep;
 pub mod transform;
 
 pub use beams::{BeamDir, BeamTable};
-pub use mount::{beam_angle_of_clockwise, Mount, ScanPlane};
+pub use mount::{beam_angle_of_clockwise, ActuatorAxis, Mount, ScanPlane};
 pub use pose::{Pose, PoseError, PoseField, PoseFrame, Rotation};
 pub use pose_track::{
     NoPose, Placement, PoseRefusal, PoseTrack, Taken, MAX_EXTRAPOLATION_US, MAX_POSE_GAP_US,
