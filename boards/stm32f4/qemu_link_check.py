@@ -42,7 +42,8 @@ STATS_FIELDS = [
     "queue_capacity", "rx_frames_ok", "rx_bad_cobs", "rx_bad_crc", "rx_bad_length", "rx_bad_other",
     "rx_seq_gaps", "commands_refused", "snapshots", "resyncs", "observations", "laser_bytes",
     "tiles_dirty", "poses_stamped", "poses_refused", "pose_gaps", "returns_extrapolated",
-    "returns_without_pose", "time_requests",
+    "returns_without_pose", "time_requests", "returns_masked", "returns_too_near",
+    "returns_too_far", "returns_low_quality",
 ]
 
 SET_500K = bytes([0x02, 0x00, 0x02, 0x00, 0x20, 0x48, 0x58, 0x08])

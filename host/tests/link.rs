@@ -232,6 +232,8 @@ fn commands() -> impl Strategy<Value = Owned> {
         .prop_map(
             |((mount, mode, field, res, lines), sensor_m, t, (s, a, baud), servo, (rule, r))| {
                 Owned::Msg(Message::Setup(Setup {
+                    mount_block: terrain_pyramid::wire::link::MountSetup::PRESET,
+                    filter: terrain_pyramid::wire::link::FilterSetup::NONE,
                     mount,
                     measuring_mode: mode,
                     field_deg: field,

@@ -151,6 +151,8 @@ fn set_rule_frames_equal_an_independent_encoder() {
 
 fn base(rule: NavigabilityRule, laser: LaserSetup) -> Setup {
     Setup {
+        mount_block: terrain_pyramid::wire::link::MountSetup::PRESET,
+        filter: terrain_pyramid::wire::link::FilterSetup::NONE,
         mount: 1,
         measuring_mode: 0,
         field_deg: 180,
@@ -192,6 +194,8 @@ fn setup_frames_equal_an_independent_encoder() {
     }
     // Odd values in every rule field (the wire carries what it is given).
     setups.push(Setup {
+        mount_block: terrain_pyramid::wire::link::MountSetup::PRESET,
+        filter: terrain_pyramid::wire::link::FilterSetup::NONE,
         rule: RuleSetup {
             rule: 7,
             max_grade: -1.5,
