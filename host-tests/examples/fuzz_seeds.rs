@@ -277,8 +277,6 @@ fn main() {
     let mut file = vec![0_u8; 16];
     emit_header(&mut file).unwrap();
     let setup = Setup {
-        mount_block: terrain_pyramid::wire::link::MountSetup::PRESET,
-        filter: terrain_pyramid::wire::link::FilterSetup::NONE,
         mount: MountKind::TiltedHorizontal,
         measuring_mode: 0,
         field_deg: 180,

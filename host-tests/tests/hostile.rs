@@ -513,8 +513,6 @@ fn recording_event() -> impl Strategy<Value = (u64, u8, Vec<u8>)> {
 
 fn emit_event(time_us: u64, kind: u8, bytes: &[u8]) -> Vec<u8> {
     let setup = Setup {
-        mount_block: terrain_pyramid::wire::link::MountSetup::PRESET,
-        filter: terrain_pyramid::wire::link::FilterSetup::NONE,
         mount: MountKind::PannedVertical,
         measuring_mode: 0,
         field_deg: 180,

@@ -72,6 +72,9 @@ pub struct Steps {
     pub telegrams_rejected: u64,
     /// The laser the recording's bytes come from (SICK without a sensor event).
     pub sensor: SensorEvent,
+    /// The rig written over each Setup the recording's setup events make (the user's flags:
+    /// empty by default).
+    pub rig: crate::rig::Rig,
 }
 
 impl Default for Steps {
@@ -80,6 +83,7 @@ impl Default for Steps {
             steps: Vec::new(),
             telegrams_rejected: 0,
             sensor: SensorEvent::SICK,
+            rig: crate::rig::Rig::default(),
         }
     }
 }
@@ -317,7 +321,8 @@ pub fn play_watched<D: Device>(
     for step in &steps.steps {
         match step {
             Step::Setup(setup) => {
-                let message = setup_message_with_sensor(setup, &steps.sensor, classifier);
+                let mut message = setup_message_with_sensor(setup, &steps.sensor, classifier);
+                steps.rig.apply(&mut message).map_err(|e| e.to_string())?;
                 // The library's own check first, for a clear error before any frame.
                 terrain_pyramid::link::convert::frontend_config(&message)
                     .map_err(|e| format!("the recording's setup: {e}"))?;

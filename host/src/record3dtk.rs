@@ -166,8 +166,6 @@ pub fn convert(args: &Args) -> Result<Report, String> {
     };
     #[allow(clippy::cast_possible_truncation)]
     let setup = Setup {
-        mount_block: terrain_pyramid::wire::link::MountSetup::PRESET,
-        filter: terrain_pyramid::wire::link::FilterSetup::NONE,
         mount: MountKind::TiltedHorizontal,
         measuring_mode: MEASURING_MODE,
         field_deg: 180,

@@ -164,8 +164,6 @@ fn synthetic_ld06_recording(path: &Path) {
         file.extend_from_slice(&buf[..n]);
     };
     push(Payload::Setup(Setup {
-        mount_block: terrain_pyramid::wire::link::MountSetup::PRESET,
-        filter: terrain_pyramid::wire::link::FilterSetup::NONE,
         mount: MountKind::TiltedHorizontal,
         measuring_mode: 0,
         field_deg: 180,

@@ -100,8 +100,6 @@ impl DriveConfig {
     pub fn setup(&self) -> Setup {
         let laser = Self::laser();
         Setup {
-            mount_block: terrain_pyramid::wire::link::MountSetup::PRESET,
-            filter: terrain_pyramid::wire::link::FilterSetup::NONE,
             mount: laser.actuator.mount_kind(),
             measuring_mode: measuring_mode_code(laser.mode),
             field_deg: laser.variant.scan_angle_deg(),

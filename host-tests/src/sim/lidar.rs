@@ -369,8 +369,6 @@ impl LidarSimConfig {
     #[allow(clippy::cast_possible_truncation)]
     pub fn setup(&self) -> Setup {
         Setup {
-            mount_block: terrain_pyramid::wire::link::MountSetup::PRESET,
-            filter: terrain_pyramid::wire::link::FilterSetup::NONE,
             mount: self.actuator.mount_kind(),
             measuring_mode: 0,
             field_deg: 180,

@@ -126,8 +126,6 @@ impl SimConfig {
     #[allow(clippy::cast_possible_truncation)]
     pub fn setup(&self) -> Setup {
         Setup {
-            mount_block: terrain_pyramid::wire::link::MountSetup::PRESET,
-            filter: terrain_pyramid::wire::link::FilterSetup::NONE,
             mount: self.laser.actuator.mount_kind(),
             measuring_mode: measuring_mode_code(self.laser.mode),
             field_deg: self.laser.variant.scan_angle_deg(),

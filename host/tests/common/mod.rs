@@ -92,8 +92,6 @@ pub fn synthetic_recording(path: &Path) {
     };
     push(
         Payload::Setup(Setup {
-            mount_block: terrain_pyramid::wire::link::MountSetup::PRESET,
-            filter: terrain_pyramid::wire::link::FilterSetup::NONE,
             mount: MountKind::TiltedHorizontal,
             measuring_mode: 0,
             field_deg: 180,
