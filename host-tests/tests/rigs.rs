@@ -91,7 +91,7 @@ fn map(bytes: &[u8], general: Option<MountSetup>) -> Mapped {
             Payload::Angle(a) => angle = FineAngle::from_bits(u32::from(a) << 16),
             Payload::Laser(chunk) => {
                 let decoder = decoder.as_mut().unwrap();
-                let mut rest: &[u8] = &chunk;
+                let mut rest: &[u8] = chunk;
                 loop {
                     rest = match decoder.feed(rest) {
                         FeedResult::Consumed => break,

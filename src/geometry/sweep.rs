@@ -10,16 +10,20 @@
 //! [`ActuatedPlane`]; that places a return from its own beam angle θ.
 //!
 //! # Formats and method
-//! With R the pose's rotation (Q2.30 columns r₀, r₁, r₂), the world direction of beam θ at
-//! actuator angle a is `cos θ·C + sin θ·S(a)` (the frames of [`super::mount`]):
+//! With R the pose's rotation (Q2.30 columns r₀, r₁, r₂), A(a) the actuator's rotation and
+//! m₀, m₁ the mount's columns, the world direction of beam θ at actuator angle a is
+//! `cos θ·C(a) + sin θ·S(a)` with `C(a) = −R·A(a)·m₁`, `S(a) = R·A(a)·m₀` (the frames of
+//! [`super::mount`]). Each is split once per pose as `fixed + cos a·u + sin a·w` (a pan
+//! leaves the z part fixed, a tilt the y part); for the presets:
 //!
 //! ```text
 //! panned vertical:    C = −r₂,  S(a) = cos a·r₀ + sin a·r₁
 //! tilted horizontal:  C = −r₁,  S(a) = cos a·r₀ − sin a·r₂
 //! ```
 //!
-//! C is kept in Q2.30; S(a) costs one [`FineAngle::sin_cos`] and six 64-bit products per
-//! actuator angle ([`SweepTransform::at`]). Per return, θ's sine and cosine come from the
+//! C and S cost one [`FineAngle::sin_cos`] and twelve 64-bit products per actuator angle
+//! ([`SweepTransform::at`]), each part `fixed + ((cos a·u + sin a·w + 2²⁹) >> 30)`: a
+//! preset's exact unit columns give the bits of the fixed mounts' six products. Per return, θ's sine and cosine come from the
 //! same quarter-wave table with its Taylor correction ([`FineAngle::sin_cos`]: 257 entries,
 //! no 36 000-entry table, no float); the direction `d_i = (C_i·cos θ + S_i·sin θ) / 2³⁰`
 //! stays in Q2.30, is turned into Q40 metres per millimetre (as the line transform's rows)
