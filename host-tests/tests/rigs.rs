@@ -1,6 +1,7 @@
 //! Lidars mounted as a robot has them, in the simulator, mapped through the library with the
-//! mount given in the Setup's mount block (version 5), against the same lidar on its
-//! actuator's preset mount over the same scene, trajectory and noise seed:
+//! mount the recording's rig event (version 3) gives the Setup's mount block (protocol
+//! version 5), against the same lidar on its actuator's preset mount over the same scene,
+//! trajectory and noise seed:
 //! - an LD19 upside down with its 0° to the left (roll 180°, yaw 90°) on a nodding servo
 //!   that reports its angle the other way round from a zero of 5°;
 //! - an RPLIDAR (standard scan) standing with its 0° up (roll 90°, pitch −90°) panned about z.
@@ -18,10 +19,10 @@ use terrain_pyramid::angle::FineAngle;
 use terrain_pyramid::classify::ClassifierConfig;
 use terrain_pyramid::geometry::Pose;
 use terrain_pyramid::laser::{LaserDecoder, LaserItem, Sensor, SensorKind};
-use terrain_pyramid::link::convert::{frontend_config, setup_message_with_sensor};
+use terrain_pyramid::link::convert::{frontend_config, setup_message_with_sensor, setup_with_rig};
 use terrain_pyramid::pipeline::{Frontend, PacketActuator};
 use terrain_pyramid::wire::link::MountSetup;
-use terrain_pyramid::wire::recording::{Payload, Reader};
+use terrain_pyramid::wire::recording::{Payload, Reader, RigEvent};
 use terrain_pyramid::wire::FeedResult;
 use terrain_pyramid::{
     Config, DefaultDesign, DefaultPyramid, Schedule, SensorModel, DEFAULT_CELLS_PER_SIDE,
@@ -38,6 +39,8 @@ const SLOTS: usize = 1024;
 
 /// What a run left: the pyramid and the classifier's overflow.
 struct Mapped {
+    /// The recording's rig event.
+    rig: Option<RigEvent>,
     pyramid: Box<DefaultPyramid>,
     overflow_points: u32,
     points: u32,
@@ -52,10 +55,10 @@ fn design() -> DefaultDesign {
     .unwrap()
 }
 
-/// Maps a lidar recording as a co-processor would: the Setup of its setup and sensor events
-/// (with `mount` 2 and `block` when given), the pose and angle in force, each packet at the
-/// angle of its chunk.
-fn map(bytes: &[u8], general: Option<MountSetup>) -> Mapped {
+/// Maps a lidar recording as a co-processor would (as `pyramid run` plays it): the Setup of its
+/// setup and sensor events with its rig event over it (unless `ignore_rig`), the pose and
+/// angle in force, each packet at the angle of its chunk.
+fn map(bytes: &[u8], ignore_rig: bool) -> Mapped {
     let mut pyramid = Box::new(DefaultPyramid::new());
     pyramid.configure(&design(), &Config::default()).unwrap();
     let mut frontend = Box::new(Frontend::<SLOTS, DEFAULT_LAYERS>::unconfigured());
@@ -63,33 +66,37 @@ fn map(bytes: &[u8], general: Option<MountSetup>) -> Mapped {
         .adopt_design(&design(), &Config::default())
         .unwrap();
     let mut setup_event = None;
+    let mut rig = None;
+    let mut sensor_event = None;
     let mut decoder: Option<Box<LaserDecoder>> = None;
     let mut angle = FineAngle::ZERO;
     for event in Reader::new(bytes).unwrap() {
         match event.unwrap().payload {
             Payload::Setup(s) => setup_event = Some(s),
-            Payload::Sensor(sensor) => {
-                let s = sensor;
+            Payload::Sensor(s) => {
                 let kind = SensorKind::from_code(s.sensor).unwrap();
                 decoder = Some(Box::new(LaserDecoder::new(
                     Sensor::from_kind_and_mode(kind, s.mode).unwrap(),
                 )));
-                let mut setup = setup_message_with_sensor(
-                    &setup_event.unwrap(),
-                    &sensor,
-                    &ClassifierConfig::default(),
-                );
-                if let Some(block) = general {
-                    setup.mount = 2;
-                    setup.mount_block = block;
-                }
-                frontend.configure(frontend_config(&setup).unwrap());
+                sensor_event = Some(s);
             }
+            Payload::Rig(r) => rig = Some(r),
             Payload::Pose([x, y, z, roll, pitch, yaw]) => {
                 frontend.set_pose(Pose::from_f32(x, y, z, roll, pitch, yaw).unwrap());
             }
             Payload::Angle(a) => angle = FineAngle::from_bits(u32::from(a) << 16),
             Payload::Laser(chunk) => {
+                if !frontend.is_configured() {
+                    let mut setup = setup_message_with_sensor(
+                        &setup_event.unwrap(),
+                        &sensor_event.unwrap(),
+                        &ClassifierConfig::default(),
+                    );
+                    if let (Some(r), false) = (&rig, ignore_rig) {
+                        setup = setup_with_rig(setup, r);
+                    }
+                    frontend.configure(frontend_config(&setup).unwrap());
+                }
                 let decoder = decoder.as_mut().unwrap();
                 let mut rest: &[u8] = chunk;
                 loop {
@@ -121,6 +128,7 @@ fn map(bytes: &[u8], general: Option<MountSetup>) -> Mapped {
     frontend.end_observation(&mut pyramid);
     let c = frontend.classifier_stats();
     Mapped {
+        rig,
         pyramid,
         overflow_points: c.overflow_points,
         points: c.points,
@@ -181,9 +189,12 @@ fn compare(
         seed: preset.seed + 1,
         ..preset.clone()
     };
-    let a = map(&simulate_lidar(preset).unwrap().bytes, None);
-    let b = map(&simulate_lidar(&mounted).unwrap().bytes, Some(block));
-    let c = map(&simulate_lidar(&reseeded).unwrap().bytes, None);
+    let a = map(&simulate_lidar(preset).unwrap().bytes, false);
+    let b = map(&simulate_lidar(&mounted).unwrap().bytes, false);
+    let c = map(&simulate_lidar(&reseeded).unwrap().bytes, false);
+    // The recording carries the rig (version 3), the preset's does not.
+    assert_eq!(b.rig.map(|r| (r.mount, r.mount_block)), Some((2, block)));
+    assert_eq!(a.rig, None);
     let (class, equal, cells) = agreement(&a.pyramid, &b.pyramid);
     let (base_class, base_equal, _) = agreement(&a.pyramid, &c.pyramid);
     println!(
@@ -291,8 +302,8 @@ fn a_standing_rplidar_panned_maps_like_the_preset() {
     }
 }
 
-/// The rig given wrongly (the upside-down LD19 taken as the preset) maps the scene mirrored:
-/// the comparison above can fail.
+/// The rig ignored (the upside-down LD19's bytes taken for the preset's) maps the scene
+/// mirrored: the comparison above can fail.
 #[test]
 fn a_rig_taken_as_the_preset_does_not_map_like_it() {
     let preset = ld19_on_a_servo(Scene::scenario(Scenario::Stairs));
@@ -300,8 +311,8 @@ fn a_rig_taken_as_the_preset_does_not_map_like_it() {
         rig: Some(SimRig::UPSIDE_DOWN_ZERO_LEFT),
         ..preset.clone()
     };
-    let a = map(&simulate_lidar(&preset).unwrap().bytes, None);
-    let b = map(&simulate_lidar(&mounted).unwrap().bytes, None);
+    let a = map(&simulate_lidar(&preset).unwrap().bytes, false);
+    let b = map(&simulate_lidar(&mounted).unwrap().bytes, true);
     let (class, equal, _) = agreement(&a.pyramid, &b.pyramid);
     println!("ld19 taken as the preset: same class {class:.4}, equal {equal:.4}");
     assert!(class < 0.5, "same class {class}");

@@ -63,7 +63,9 @@ use terrain_pyramid::angle::FineAngle;
 use terrain_pyramid::laser::{Sensor, SensorKind};
 use terrain_pyramid::wire::ld06::{Ld06Point, Ld06Repr};
 use terrain_pyramid::wire::recording::SetupEvent as Setup;
-use terrain_pyramid::wire::recording::{emit_header, Event, MountKind, Payload, SensorEvent};
+use terrain_pyramid::wire::recording::{
+    emit_header_version, Event, MountKind, Payload, RigEvent, SensorEvent,
+};
 use terrain_pyramid::wire::rplidar::RplidarScanMode;
 use terrain_pyramid::wire::rplidar::{RplidarCapsuleRepr, RplidarDescriptorRepr, RplidarNodeRepr};
 use terrain_pyramid::wire::ydlidar::{YdlidarAngleCorrection, YdlidarDescriptorRepr, YdlidarRepr};
@@ -249,9 +251,8 @@ impl LidarActuator {
 /// the pan turns about z), which reports `zero + sense·a` for its angle a. The samples are
 /// cast along the mounted sensor's directions and the recording's angle events carry the
 /// reported angle: the bytes are what that sensor sends on that mount, untouched. The
-/// recording's setup event still names the actuator's preset: the rig reaches the device in
-/// the Setup's mount block (`pyramid run --mount-rpy-deg … --actuator … --actuator-zero-deg …
-/// --actuator-reversed`).
+/// recording (version 3) carries the rig event (`docs/recording.md`), which `pyramid run`
+/// writes into the Setup's mount block; the setup event names the actuator's preset.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SimRig {
     /// Roll, pitch, yaw, degrees.
@@ -281,6 +282,26 @@ impl SimRig {
     fn rotation(&self) -> [[f64; 3]; 3] {
         let [r, p, y] = self.rpy_deg.map(f64::to_radians);
         mat3(&rot(2, y), &mat3(&rot(1, p), &rot(0, r)))
+    }
+
+    /// The recording's rig event of this rig on `actuator` (a servo tilts, the pan pans): the
+    /// general mount, no filter.
+    #[must_use]
+    #[allow(clippy::cast_possible_truncation)]
+    pub fn event(&self, actuator: &LidarActuator) -> RigEvent {
+        RigEvent {
+            mount: 2,
+            mount_block: terrain_pyramid::wire::link::MountSetup {
+                axis: match actuator {
+                    LidarActuator::Servo(_) => 1,
+                    LidarActuator::Pan { .. } => 0,
+                },
+                sense: if self.reversed { -1 } else { 1 },
+                zero_deg: self.zero_deg as f32,
+                rpy_deg: self.rpy_deg.map(|v| v as f32),
+            },
+            filter: terrain_pyramid::wire::link::FilterSetup::NONE,
+        }
     }
 
     /// The reported angle of the actuator at `a` degrees.
@@ -894,7 +915,13 @@ pub fn simulate_lidar(config: &LidarSimConfig) -> Result<LidarSimulation, LidarS
     };
     let duration = config.trajectory.duration_s();
     let mut bytes = vec![0_u8; 16];
-    emit_header(&mut bytes).map_err(|e| LidarSimError(format!("emit: {e}")))?;
+    // A rig needs version 3 (its rig event); without one the file stays version 2.
+    let version = if config.rig.is_some() {
+        terrain_pyramid::wire::recording::VERSION
+    } else {
+        terrain_pyramid::wire::recording::VERSION_WITHOUT_RIG
+    };
+    emit_header_version(&mut bytes, version).map_err(|e| LidarSimError(format!("emit: {e}")))?;
     push(
         &mut bytes,
         &Event {
@@ -909,6 +936,15 @@ pub fn simulate_lidar(config: &LidarSimConfig) -> Result<LidarSimulation, LidarS
             payload: Payload::Sensor(sensor),
         },
     )?;
+    if let Some(rig) = config.rig {
+        push(
+            &mut bytes,
+            &Event {
+                time_us: 0,
+                payload: Payload::Rig(rig.event(&config.actuator)),
+            },
+        )?;
+    }
     let mut packets = Packets {
         caster: Caster {
             config,

@@ -14,7 +14,7 @@ use crate::pipeline::FrontendConfig;
 use crate::pipeline::{ReturnFilter, Sector, MAX_SECTORS};
 use crate::units::{Meters, Point3};
 use crate::wire::link::{Header, LaserSetup, RuleSetup, SetRule, Setup};
-use crate::wire::recording::{MountKind, SensorEvent, SetupEvent};
+use crate::wire::recording::{MountKind, RigEvent, SensorEvent, SetupEvent};
 use crate::wire::sick::{MeasuringMode, Variant};
 
 /// A field of a [`Setup`], as a Reply names it (`param` 48 ..= 57, and 58 ..= 64 for the
@@ -397,6 +397,18 @@ pub fn setup_message_with_sensor(
         setup.measuring_mode = sensor.mode;
     }
     setup
+}
+
+/// `setup` with a recording's rig event (version 3) written over it: the mount byte, the mount
+/// block and the filter block.
+#[must_use]
+pub fn setup_with_rig(setup: Setup, rig: &RigEvent) -> Setup {
+    Setup {
+        mount: rig.mount,
+        mount_block: rig.mount_block,
+        filter: rig.filter,
+        ..setup
+    }
 }
 
 /// The pipeline's configuration of a recording's setup event and the classifier's
