@@ -248,7 +248,7 @@ impl Rig {
                 72 => "--actuator-reversed",
                 73 => "--actuator-zero-deg",
                 74..=76 => "--mount-rpy-deg",
-                77 | 78 => "--min-range-m/--max-range-m",
+                77 | 78 => "--filter-min-range-m/--filter-max-range-m",
                 79 | 80 => "--mask-deg",
                 _ => "the recording's setup",
             };
@@ -261,20 +261,20 @@ impl Rig {
     fn filter(&self, base: FilterSetup) -> Result<FilterSetup, RigError> {
         let mut f = base;
         if let Some(m) = self.min_range_m {
-            f.min_range_cm = centimetres("--min-range-m", m)?;
+            f.min_range_cm = centimetres("--filter-min-range-m", m)?;
         }
         if let Some(m) = self.max_range_m {
-            f.max_range_cm = centimetres("--max-range-m", m)?;
+            f.max_range_cm = centimetres("--filter-max-range-m", m)?;
             if f.max_range_cm == 0 {
                 return Err(err(
-                    "--max-range-m",
+                    "--filter-max-range-m",
                     "must be above 0 (omit it for no limit)",
                 ));
             }
         }
         if f.max_range_cm != 0 && f.max_range_cm <= f.min_range_cm {
             return Err(err(
-                "--max-range-m",
+                "--filter-max-range-m",
                 format!(
                     "{} m is not above the minimum range {} m",
                     f64::from(f.max_range_cm) / 100.0,
@@ -333,15 +333,18 @@ pub struct RigArgs {
     /// START. Repeatable, at most 8.
     #[arg(long, value_name = "A:B")]
     pub mask_deg: Vec<String>,
-    /// Returns nearer than this are refused before geometry, metres.
+    /// Returns nearer than this are refused before geometry, metres (`--filter-min-range-m`;
+    /// the design's `--max-range-m` is the pyramid's reach, not a filter).
     #[arg(long, value_name = "M")]
-    pub min_range_m: Option<f64>,
-    /// Returns farther than this are refused before geometry, metres.
+    pub filter_min_range_m: Option<f64>,
+    /// Returns farther than this are refused before geometry, metres
+    /// (`--filter-max-range-m`).
     #[arg(long, value_name = "M")]
-    pub max_range_m: Option<f64>,
-    /// Returns of a lower quality (the sensor's intensity or quality byte) are refused.
+    pub filter_max_range_m: Option<f64>,
+    /// Returns of a lower quality (the sensor's intensity or quality byte) are refused
+    /// (`--filter-min-quality`).
     #[arg(long, value_name = "Q")]
-    pub min_quality: Option<u8>,
+    pub filter_min_quality: Option<u8>,
 }
 
 impl RigArgs {
@@ -369,9 +372,9 @@ impl RigArgs {
                 .iter()
                 .map(|t| parse_mask(t))
                 .collect::<Result<_, _>>()?,
-            min_range_m: self.min_range_m,
-            max_range_m: self.max_range_m,
-            min_quality: self.min_quality,
+            min_range_m: self.filter_min_range_m,
+            max_range_m: self.filter_max_range_m,
+            min_quality: self.filter_min_quality,
         })
     }
 }
@@ -407,9 +410,9 @@ mod tests {
             actuator_zero_deg: Some(-5.0),
             actuator_reversed: true,
             mask_deg: vec!["135:225".into(), "350:10".into()],
-            min_range_m: Some(0.05),
-            max_range_m: Some(12.0),
-            min_quality: Some(10),
+            filter_min_range_m: Some(0.05),
+            filter_max_range_m: Some(12.0),
+            filter_min_quality: Some(10),
         };
         let mut s = setup(MountKind::TiltedHorizontal);
         args.rig().unwrap().apply(&mut s).unwrap();
@@ -447,6 +450,52 @@ mod tests {
         let mut q = setup(MountKind::PannedVertical);
         Rig::default().apply(&mut q).unwrap();
         assert_eq!(q, setup(MountKind::PannedVertical));
+    }
+
+    /// The flags sit beside `pyramid run`'s others without a clash (clap's own checks).
+    #[test]
+    fn the_flags_fit_pyramid_run() {
+        use clap::{CommandFactory, Parser};
+        #[derive(Parser)]
+        struct Run {
+            #[command(flatten)]
+            args: crate::run::Args,
+        }
+        Run::command().debug_assert();
+        let parsed = Run::try_parse_from([
+            "run",
+            "--recording",
+            "r.rec",
+            "--out",
+            "o",
+            "--mount-rpy-deg",
+            "180,0,90",
+            "--actuator",
+            "tilt",
+            "--actuator-zero-deg",
+            "-5",
+            "--actuator-reversed",
+            "--mask-deg",
+            "135:225",
+            "--mask-deg",
+            "350:10",
+            "--filter-min-range-m",
+            "0.05",
+            "--filter-max-range-m",
+            "12",
+            "--filter-min-quality",
+            "10",
+        ])
+        .unwrap();
+        let rig = parsed.args.rig.rig().unwrap();
+        assert_eq!(rig.rpy_deg, Some([180.0, 0.0, 90.0]));
+        assert_eq!(rig.zero_deg, Some(-5.0));
+        assert!(rig.reversed);
+        assert_eq!(rig.masks.len(), 2);
+        assert_eq!(
+            (rig.min_range_m, rig.max_range_m, rig.min_quality),
+            (Some(0.05), Some(12.0), Some(10))
+        );
     }
 
     #[test]
@@ -510,18 +559,18 @@ mod tests {
         );
         assert_eq!(
             field(RigArgs {
-                min_range_m: Some(2.0),
-                max_range_m: Some(1.0),
+                filter_min_range_m: Some(2.0),
+                filter_max_range_m: Some(1.0),
                 ..d()
             }),
-            "--max-range-m"
+            "--filter-max-range-m"
         );
         assert_eq!(
             field(RigArgs {
-                min_range_m: Some(-1.0),
+                filter_min_range_m: Some(-1.0),
                 ..d()
             }),
-            "--min-range-m"
+            "--filter-min-range-m"
         );
     }
 }
