@@ -226,8 +226,9 @@ fn setup_frames_equal_an_independent_encoder() {
     // The general mount and the filters, odd values included.
     let mut sectors = [(0_u16, 0_u16); 8];
     for (k, s) in sectors.iter_mut().enumerate() {
-        let k = u16::try_from(k).unwrap();
-        *s = (4_500 * k + 7, (4_500 * k + 35_990) % 36_000);
+        let k = u32::try_from(k).unwrap();
+        let c = |v: u32| u16::try_from(v % 36_000).unwrap();
+        *s = (c(4_500 * k + 7), c(4_500 * k + 35_990));
     }
     setups.push(Setup {
         mount: 2,
