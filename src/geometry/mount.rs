@@ -147,6 +147,20 @@ pub struct Mount {
 }
 
 impl Mount {
+    /// A placeholder of zero bits (no direction at all): an unconfigured pipeline's, so that
+    /// its `static` stays in `.bss`; replaced before any return uses it.
+    pub const ZERO: Self = Self {
+        position: Point3 {
+            x: crate::units::Meters::ZERO,
+            y: crate::units::Meters::ZERO,
+            z: crate::units::Meters::ZERO,
+        },
+        columns: [[0; 3]; 2],
+        axis: ActuatorAxis::Pan,
+        zero: FineAngle::ZERO,
+        reversed: false,
+    };
+
     /// A preset mount ([`ScanPlane`]) with the given scan-centre position: zero 0, sense +1.
     #[must_use]
     pub const fn new(plane: ScanPlane, position: Point3) -> Self {

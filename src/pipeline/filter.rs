@@ -73,7 +73,8 @@ pub struct ReturnFilter {
     sector_count: u8,
     /// The smallest range kept, millimetres; 0 = off.
     min_range_mm: u32,
-    /// The largest range kept, millimetres; `u32::MAX` = off.
+    /// The largest range kept, millimetres; 0 = off (so that [`ReturnFilter::NONE`] is all
+    /// zero bits and an unconfigured pipeline's `static` stays in `.bss`).
     max_range_mm: u32,
     /// The smallest quality kept; 0 = off.
     min_quality: u8,
@@ -91,7 +92,7 @@ impl ReturnFilter {
         sectors: [Sector { start: 0, width: 0 }; MAX_SECTORS],
         sector_count: 0,
         min_range_mm: 0,
-        max_range_mm: u32::MAX,
+        max_range_mm: 0,
         min_quality: 0,
     };
 
@@ -115,11 +116,7 @@ impl ReturnFilter {
             sectors: all,
             sector_count: u8::try_from(sectors.len()).unwrap_or(0),
             min_range_mm,
-            max_range_mm: if max_range_mm == 0 {
-                u32::MAX
-            } else {
-                max_range_mm
-            },
+            max_range_mm,
             min_quality,
         })
     }
@@ -141,11 +138,7 @@ impl ReturnFilter {
     /// The largest range kept, millimetres; 0 = off.
     #[must_use]
     pub const fn max_range_mm(&self) -> u32 {
-        if self.max_range_mm == u32::MAX {
-            0
-        } else {
-            self.max_range_mm
-        }
+        self.max_range_mm
     }
 
     /// The smallest quality kept; 0 = off.
@@ -168,9 +161,11 @@ impl ReturnFilter {
         self.sectors().iter().any(|s| s.contains(angle))
     }
 
-    /// Why a return at `angle` (the sensor's own), `range_mm` (> 0) and `quality` is refused,
-    /// or `None` when it passes: per sector one subtraction and a comparison, then two range
-    /// comparisons and one of the quality.
+    /// Why a return at `angle` (the sensor's own), `range_mm` (> 0: a sample without a return
+    /// is not judged) and `quality` is refused, or `None` when it passes: per sector one
+    /// subtraction and a comparison, then two range comparisons (the maximum's as
+    /// `range − 1 > max − 1` wrapping, so that a maximum of 0, off, refuses nothing) and one of
+    /// the quality.
     #[must_use]
     #[inline]
     pub fn judge(&self, angle: FineAngle, range_mm: u32, quality: Option<u8>) -> Option<Refusal> {
@@ -178,7 +173,7 @@ impl ReturnFilter {
             Some(Refusal::Masked)
         } else if range_mm < self.min_range_mm {
             Some(Refusal::TooNear)
-        } else if range_mm > self.max_range_mm {
+        } else if range_mm.wrapping_sub(1) > self.max_range_mm.wrapping_sub(1) {
             Some(Refusal::TooFar)
         } else if quality.is_some_and(|q| q < self.min_quality) {
             Some(Refusal::LowQuality)
@@ -217,6 +212,7 @@ mod tests {
         assert_eq!(f.judge(deg(0), 100, Some(10)), None);
         assert_eq!(f.judge(deg(0), 100, None), None);
         assert_eq!(ReturnFilter::NONE.judge(deg(0), u32::MAX, Some(0)), None);
+        assert_eq!(ReturnFilter::NONE.judge(deg(0), 1, Some(0)), None);
         assert_eq!(f.max_range_mm(), 5_000);
         assert_eq!(ReturnFilter::NONE.max_range_mm(), 0);
         assert!(ReturnFilter::new(&[Sector::default(); MAX_SECTORS + 1], 0, 0, 0).is_none());

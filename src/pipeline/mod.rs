@@ -138,14 +138,7 @@ impl<const C: usize, const L: usize> Frontend<C, L> {
         Self {
             config: FrontendConfig {
                 filter: crate::pipeline::ReturnFilter::NONE,
-                mount: Mount::new(
-                    crate::geometry::ScanPlane::PannedVertical,
-                    crate::units::Point3 {
-                        x: Meters::ZERO,
-                        y: Meters::ZERO,
-                        z: Meters::ZERO,
-                    },
-                ),
+                mount: Mount::ZERO,
                 sensor: Sensor::Sick,
                 baud: 0,
                 actuator: Actuator::External,
