@@ -11,7 +11,7 @@ output as hex literals; run it to see them again:
 import struct
 import zlib
 
-VERSION = 4
+VERSION = 5
 
 
 def cobs(data: bytes) -> bytes:
@@ -104,7 +104,7 @@ def main() -> None:
     g["patch 0x0102"] = frame(0x02, 0x0102, patch)
     moved = struct.pack("<I", 0b101) + struct.pack("<ii", -31, -32) + struct.pack("<ii", -16, -33)
     g["moved 0x0103"] = frame(0x03, 0x0103, moved)
-    g["stats 0x0104"] = frame(0x04, 0x0104, struct.pack("<36I", *range(1, 37)))
+    g["stats 0x0104"] = frame(0x04, 0x0104, struct.pack("<40I", *range(1, 41)))
     g["reply ok to configure 11, 0x0105"] = frame(
         0x05, 0x0105, struct.pack("<HBBBfff", 11, 0x83, 0, 0, 0, 0, 0)
     )
@@ -122,21 +122,38 @@ def main() -> None:
     decayed += struct.pack("<HHI", 10, 1, 0)  # layer 3: row 10; none faded
     g["decayed 0x0107"] = frame(0x06, 0x0107, decayed)
     # Setup: the base part (38 bytes), the rule block (21 bytes: rule, max grade, residual,
-    # range sigma, angle sigma, noise factor) and the laser block (22 bytes: sensor, actuator,
-    # baud, servo min, max, rate, latency).
+    # range sigma, angle sigma, noise factor), the laser block (22 bytes: sensor, actuator,
+    # baud, servo min, max, rate, latency), the mount block (20 bytes: axis, sense, 2 reserved,
+    # zero, roll, pitch, yaw) and the filter block (38 bytes: min range cm, max range cm, min
+    # quality, sector count, 8 sectors of start and end centidegrees).
+    preset_mount = struct.pack("<Bb2x4f", 0, 1, 0.0, 0.0, 0.0, 0.0)
+    no_filter = struct.pack("<HHBB16H", 0, 0, 0, 0, *([0] * 16))
     spread = struct.pack("<B5f", 0, 0.0, 0.0, 0.0, 0.0, 0.0)
     # The plane rule's Q16.16 defaults, exact in f32.
     plane = struct.pack("<B5f", 1, 23853 / 65536, 983 / 65536, 1311 / 65536, 86 / 65536, 2.0)
     setup = struct.pack("<BBHH3fI4f", 1, 0, 180, 50, 0.25, -0.5, 0.75, 0, 1.0, 0.05, 0.0, 2.0)
     setup += spread
     setup += struct.pack("<BBI4f", 0, 0, 0, 0.0, 0.0, 0.0, 0.0)
-    assert len(setup) == 81
+    setup += preset_mount + no_filter
+    assert len(setup) == 139
     g["setup 7 (a SICK, external actuator)"] = frame(0x87, 7, setup)
     lidar = struct.pack("<BBHH3fI4f", 1, 0, 0, 0, 0.1, 0.0, 0.4, 2, 0.5, 0.08, 0.0, 0.0)
     lidar += plane
     lidar += struct.pack("<BBI4f", 1, 1, 0, -10.0, 30.0, 60.0, 25.0)
-    assert len(lidar) == 81
+    lidar += preset_mount + no_filter
+    assert len(lidar) == 139
     g["setup 8 (an LD06 on a nodding servo)"] = frame(0x87, 8, lidar)
+    # The general mount (2): an LD19 upside down with its 0 deg to the left (roll 180, yaw 90)
+    # on a tilt servo (axis 1) reversed (sense -1) with its zero at 5 deg; masked 135 ..< 225
+    # deg and 350 ..< 10 deg, ranges 0.05 ..= 12 m, quality at least 10.
+    general = struct.pack("<BBHH3fI4f", 2, 0, 0, 0, 0.1, 0.0, 0.4, 2, 0.5, 0.08, 0.0, 0.0)
+    general += spread
+    general += struct.pack("<BBI4f", 1, 1, 0, -10.0, 30.0, 60.0, 25.0)
+    general += struct.pack("<Bb2x4f", 1, -1, 5.0, 180.0, 0.0, 90.0)
+    sectors = [13500, 22500, 35000, 1000] + [0] * 12
+    general += struct.pack("<HHBB16H", 5, 1200, 10, 2, *sectors)
+    assert len(general) == 139
+    g["setup 13 (an LD19 upside down on a reversed servo, masked)"] = frame(0x87, 13, general)
     g["request stats 2"] = frame(0x88, 2, b"")
     g["shutdown 2"] = frame(0x89, 2, b"")
     g["end observation 2"] = frame(0x8A, 2, b"")
@@ -151,6 +168,7 @@ def main() -> None:
     )
     g["ping 1, version 2"] = frame(0x86, 1, b"", version=2)
     g["ping 1, version 3"] = frame(0x86, 1, b"", version=3)
+    g["ping 1, version 4"] = frame(0x86, 1, b"", version=4)
     for name, b in g.items():
         print(f"{name}:\n  {hexs(b)}")
     # The CRC's check value (section 2).

@@ -7,7 +7,7 @@ and starts the guest once both are connected. This script then
 
 1. answers the firmware's scanner bring-up on USART1 as an LMS2xx would: ACK (0x06) and the
    mode-change reply telegram to "switch to 500 kBd", ACK to "continuous output";
-2. waits for the boot Hello on USART2 (COBS frame, CRC-32, protocol version 4) and prints it;
+2. waits for the boot Hello on USART2 (COBS frame, CRC-32, protocol version 5) and prints it;
 3. sends PanAngle, then `--telegrams` SICK measured-values telegrams (361 values of 2 m, the
    LMS 291's 180°/0.5° in the 8 m mode) on USART1, and RequestStats until the device counts
    them all;
@@ -27,7 +27,7 @@ import threading
 import time
 import zlib
 
-VERSION = 4
+VERSION = 5
 T_HELLO, T_PATCH, T_MOVED, T_STATS, T_REPLY = 0x01, 0x02, 0x03, 0x04, 0x05
 T_PAN, T_PING, T_REQUEST_STATS, T_SHUTDOWN = 0x82, 0x86, 0x88, 0x89
 # Hello's clock source (offset 12).
@@ -42,7 +42,8 @@ STATS_FIELDS = [
     "queue_capacity", "rx_frames_ok", "rx_bad_cobs", "rx_bad_crc", "rx_bad_length", "rx_bad_other",
     "rx_seq_gaps", "commands_refused", "snapshots", "resyncs", "observations", "laser_bytes",
     "tiles_dirty", "poses_stamped", "poses_refused", "pose_gaps", "returns_extrapolated",
-    "returns_without_pose", "time_requests",
+    "returns_without_pose", "time_requests", "returns_masked", "returns_too_near",
+    "returns_too_far", "returns_low_quality",
 ]
 
 SET_500K = bytes([0x02, 0x00, 0x02, 0x00, 0x20, 0x48, 0x58, 0x08])
@@ -241,8 +242,8 @@ def hello_text(body: bytes) -> str:
 
 
 def stats_of(body: bytes) -> dict:
-    assert len(STATS_FIELDS) == 36
-    return dict(zip(STATS_FIELDS, struct.unpack("<36I", body)))
+    assert len(STATS_FIELDS) == 40
+    return dict(zip(STATS_FIELDS, struct.unpack("<40I", body)))
 
 
 def main() -> int:

@@ -69,6 +69,7 @@ fuzz_target!(|data: &[u8]| {
         },
     };
     let config = FrontendConfig {
+        filter: terrain_pyramid::pipeline::ReturnFilter::NONE,
         mount: Mount::new(
             if header[0] & 1 == 0 {
                 ScanPlane::PannedVertical

@@ -322,7 +322,8 @@ pub fn run(sim: &ChangingSimulation, decay: DecaySetting) -> Result<RunResult, S
                 }
             }
             // The simulated scenes are a SICK's: no sensor event to follow.
-            Payload::Marker(_) | Payload::Sensor(_) | Payload::Unknown { .. } => {}
+            Payload::Marker(_) | Payload::Sensor(_) | Payload::Rig(_) | Payload::Unknown { .. } => {
+            }
         }
     }
 

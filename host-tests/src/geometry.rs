@@ -166,6 +166,66 @@ pub fn world_point(
     [pose.x + w[0], pose.y + w[1], pose.z + w[2]]
 }
 
+/// The actuator's axis of a [`GeneralMount`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Axis {
+    /// About z: `R_z(a)`.
+    Pan,
+    /// About y: `R_y(a)` (positive looks down ahead).
+    Tilt,
+    /// No actuator.
+    Fixed,
+}
+
+/// Any mount (`docs/lidars.md`, "The mount"): the sensor's frame (x its 0°, z its top; beam θ
+/// along `(sin θ, −cos θ, 0)`) rotated by `R_z(yaw)·R_y(pitch)·R_x(roll)` relative to the
+/// actuator's frame at zero, on an actuator about `axis` whose geometric angle is
+/// `sense·(reported − zero)`; the scan centre at `position` in the robot frame.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct GeneralMount {
+    /// Roll, pitch, yaw, radians.
+    pub rpy_rad: Vec3,
+    /// The actuator's axis.
+    pub axis: Axis,
+    /// The reported angle that is the geometry's 0, radians.
+    pub zero_rad: f64,
+    /// +1 or −1.
+    pub sense: f64,
+    /// The scan centre in the robot frame, metres.
+    pub position: Vec3,
+}
+
+/// The unit direction of beam θ in the robot frame on a [`GeneralMount`] at the reported
+/// actuator angle: `A(a)·M·(sin θ, −cos θ, 0)`.
+#[must_use]
+pub fn general_direction_robot(mount: &GeneralMount, theta_rad: f64, reported_rad: f64) -> Vec3 {
+    let a = mount.sense * (reported_rad - mount.zero_rad);
+    let actuator = match mount.axis {
+        Axis::Pan => rot_z(a),
+        Axis::Tilt => rot_y(a),
+        Axis::Fixed => rot_z(0.0),
+    };
+    let [roll, pitch, yaw] = mount.rpy_rad;
+    let m = mat_mul(&rot_z(yaw), &mat_mul(&rot_y(pitch), &rot_x(roll)));
+    let (s, c) = theta_rad.sin_cos();
+    mat_vec(&mat_mul(&actuator, &m), [s, -c, 0.0])
+}
+
+/// The world point of a return on a [`GeneralMount`].
+#[must_use]
+pub fn general_world_point(
+    mount: &GeneralMount,
+    pose: &Pose,
+    reported_rad: f64,
+    theta_rad: f64,
+    range_m: f64,
+) -> Vec3 {
+    let d = general_direction_robot(mount, theta_rad, reported_rad);
+    let robot = [0, 1, 2].map(|i| mount.position[i] + range_m * d[i]);
+    let w = mat_vec(&pose_rotation(pose), robot);
+    [pose.x + w[0], pose.y + w[1], pose.z + w[2]]
+}
+
 /// The horizontal distance between two points, `√(Δx² + Δy²)`.
 #[must_use]
 pub fn horizontal_distance(a: Vec3, b: Vec3) -> f64 {

@@ -138,3 +138,178 @@ fn every_beam_of_every_variant() {
         }
     }
 }
+
+/// The turn of raw Q0.32 bits, radians.
+fn rad_of(bits: u32) -> f64 {
+    f64::from(bits) / 4_294_967_296.0 * std::f64::consts::TAU
+}
+
+/// Any mount (random roll, pitch, yaw, axis, zero and sense) against the f64 reference's own
+/// rotation matrices: a spinning lidar's return (`SweepTransform`, its own angle in Q2.30)
+/// within 0.03 mm + 10⁻⁸·r (the bound documented for the preset mounts, which it keeps), a
+/// SICK beam (`LineTransform`, the Q1.15 table) within the line's bound, `error_bound_m`.
+/// The presets' bits are the fixed mounts' (the golden hashes of the library's tests).
+mod general_mount {
+    use super::*;
+    use terrain_pyramid::geometry::{ActuatorAxis, SweepTransform};
+    use terrain_pyramid_host_tests::geometry::{self as g, Axis, GeneralMount};
+
+    /// The sweep path's bound, metres, at `range_m`.
+    fn sweep_bound_m(range_m: f64) -> f64 {
+        3.0e-5 + 1.0e-8 * range_m
+    }
+
+    fn mount_strategy() -> impl Strategy<Value = ([u32; 3], u8, u32, bool, [i32; 3])> {
+        (
+            any::<[u32; 3]>(),
+            0..3_u8,
+            any::<u32>(),
+            any::<bool>(),
+            (
+                -131_072..=131_072_i32,
+                -131_072..=131_072_i32,
+                0..=196_608_i32,
+            ),
+        )
+            .prop_map(|(rpy, axis, zero, rev, (x, y, z))| (rpy, axis, zero, rev, [x, y, z]))
+    }
+
+    fn pose_strategy() -> impl Strategy<Value = [f32; 6]> {
+        (
+            -999.0_f32..999.0,
+            -999.0_f32..999.0,
+            -99.0_f32..99.0,
+            -THIRTY_DEG..=THIRTY_DEG,
+            -THIRTY_DEG..=THIRTY_DEG,
+            -3.2_f32..3.2,
+        )
+            .prop_map(|(a, b, c, d, e, f)| [a, b, c, d, e, f])
+    }
+
+    struct Built {
+        lib: Mount,
+        reference: GeneralMount,
+        pose: Pose,
+        ref_pose: g::Pose,
+    }
+
+    fn build(m: ([u32; 3], u8, u32, bool, [i32; 3]), p: [f32; 6]) -> Built {
+        let (rpy, axis, zero, reversed, pos) = m;
+        let lib_axis = ActuatorAxis::from_code(axis).unwrap();
+        let position = Point3 {
+            x: Meters::from_bits(pos[0]),
+            y: Meters::from_bits(pos[1]),
+            z: Meters::from_bits(pos[2]),
+        };
+        let lib = Mount::general(
+            position,
+            rpy.map(FineAngle::from_bits),
+            lib_axis,
+            FineAngle::from_bits(zero),
+            reversed,
+        );
+        let reference = GeneralMount {
+            rpy_rad: rpy.map(rad_of),
+            axis: [Axis::Pan, Axis::Tilt, Axis::Fixed][usize::from(axis)],
+            zero_rad: rad_of(zero),
+            sense: if reversed { -1.0 } else { 1.0 },
+            position: pos.map(|b| f64::from(b) / 65_536.0),
+        };
+        let pose = Pose::from_f32(p[0], p[1], p[2], p[3], p[4], p[5]).unwrap();
+        let [x, y, z, roll, pitch, yaw] = p.map(f64::from);
+        Built {
+            lib,
+            reference,
+            pose,
+            ref_pose: g::Pose {
+                x,
+                y,
+                z,
+                roll,
+                pitch,
+                yaw,
+            },
+        }
+    }
+
+    fn q16(m: Meters) -> f64 {
+        f64::from(m.to_bits()) / 65_536.0
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(20_000))]
+
+        #[test]
+        fn a_lidar_return_on_any_mount_is_within_the_bound(
+            m in mount_strategy(),
+            p in pose_strategy(),
+            actuator in any::<u32>(),
+            theta in any::<u32>(),
+            range_mm in 0..=40_000_u32,
+        ) {
+            let b = build(m, p);
+            let got = SweepTransform::new(&b.lib, &b.pose.frame())
+                .at(FineAngle::from_bits(actuator))
+                .point(FineAngle::from_bits(theta), range_mm)
+                .unwrap();
+            let r = f64::from(range_mm) / 1000.0;
+            let want = g::general_world_point(
+                &b.reference, &b.ref_pose, rad_of(actuator), rad_of(theta), r,
+            );
+            let e = g::distance([q16(got.x), q16(got.y), q16(got.z)], want);
+            prop_assert!(e <= sweep_bound_m(r), "{e} m at {r} m");
+        }
+
+        #[test]
+        fn a_sick_beam_on_any_mount_is_within_the_bound(
+            m in mount_strategy(),
+            p in pose_strategy(),
+            actuator in any::<u32>(),
+            beam in 0..361_usize,
+            range_mm in 0..=81_910_u32,
+        ) {
+            let b = build(m, p);
+            let table = &tables()[1];
+            prop_assume!(table.len() == 361);
+            let line = LineTransform::from_pose(
+                table, &b.lib, FineAngle::from_bits(actuator), &b.pose,
+            );
+            let got = line.point(beam, range_mm).unwrap();
+            let r = f64::from(range_mm) / 1000.0;
+            let theta = Variant::ALL[1].beam_angle(beam).unwrap();
+            let want = g::general_world_point(
+                &b.reference, &b.ref_pose, rad_of(actuator), rad_of(theta.to_bits()), r,
+            );
+            let e = g::distance([q16(got.x), q16(got.y), q16(got.z)], want);
+            prop_assert!(e <= error_bound_m(r), "{e} m at {r} m");
+        }
+    }
+
+    /// The general mount's reference, of a preset's values, is the preset's (the reference's
+    /// two models agree with each other).
+    #[test]
+    fn the_references_general_mount_of_a_preset_is_the_preset() {
+        for (plane, rpy, axis) in [
+            (
+                g::Plane::PannedVertical,
+                [std::f64::consts::FRAC_PI_2, 0.0, 0.0],
+                Axis::Pan,
+            ),
+            (g::Plane::TiltedHorizontal, [0.0; 3], Axis::Tilt),
+        ] {
+            let general = GeneralMount {
+                rpy_rad: rpy,
+                axis,
+                zero_rad: 0.0,
+                sense: 1.0,
+                position: [0.1, 0.2, 0.3],
+            };
+            for k in 0..100 {
+                let (t, a) = (f64::from(k) * 0.37, f64::from(k) * -0.21);
+                let d = g::general_direction_robot(&general, t, a);
+                let e = g::beam_direction_robot(plane, t, a);
+                assert!(g::distance(d, e) < 1e-15, "{plane:?} {k}");
+            }
+        }
+    }
+}

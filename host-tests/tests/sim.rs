@@ -105,6 +105,7 @@ fn decode(bytes: &[u8]) -> Decoded {
             }
             // The simulator's SICK recordings carry no sensor event.
             Payload::Sensor(e) => panic!("a sensor event in a SICK recording: {e:?}"),
+            Payload::Rig(r) => panic!("a rig event in a preset SICK recording: {r:?}"),
             Payload::Unknown { kind, .. } => panic!("unknown event kind {kind}"),
         }
     }

@@ -24,7 +24,7 @@ use crate::export::{LayerSnapshot, MapSnapshot};
 use serde::Serialize;
 use terrain_pyramid::classify::ClassifierConfig;
 use terrain_pyramid::laser::{LaserDecoder, LaserItem, Sensor, SensorKind};
-use terrain_pyramid::link::convert::{pose_of, setup_message_with_sensor};
+use terrain_pyramid::link::convert::{pose_of, setup_message_with_sensor, setup_with_rig};
 use terrain_pyramid::logodds::round_to_log_odds;
 use terrain_pyramid::wire::link::{Message, PanAngle, PoseReport};
 use terrain_pyramid::wire::recording::{Payload, Reader, SensorEvent, SetupEvent};
@@ -72,6 +72,11 @@ pub struct Steps {
     pub telegrams_rejected: u64,
     /// The laser the recording's bytes come from (SICK without a sensor event).
     pub sensor: SensorEvent,
+    /// The recording's rig event (version 3), written over each Setup its setup events make.
+    pub rig_event: Option<terrain_pyramid::wire::recording::RigEvent>,
+    /// The rig written over each Setup after the recording's rig event (the user's flags:
+    /// empty by default).
+    pub rig: crate::rig::Rig,
 }
 
 impl Default for Steps {
@@ -80,6 +85,8 @@ impl Default for Steps {
             steps: Vec::new(),
             telegrams_rejected: 0,
             sensor: SensorEvent::SICK,
+            rig_event: None,
+            rig: crate::rig::Rig::default(),
         }
     }
 }
@@ -133,6 +140,12 @@ pub fn steps(data: &[u8]) -> Result<Steps, String> {
                 let s = sensor_of(&sensor)?;
                 out.sensor = sensor;
                 lidar = s.is_lidar().then(|| Box::new(LaserDecoder::new(s)));
+            }
+            Payload::Rig(rig) => {
+                if have_laser {
+                    return Err("the recording names its rig after laser bytes".into());
+                }
+                out.rig_event = Some(rig);
             }
             Payload::Angle(turns) => out.steps.push(Step::Angle(turns)),
             Payload::Pose(pose) => out.steps.push(Step::Pose(pose)),
@@ -317,7 +330,11 @@ pub fn play_watched<D: Device>(
     for step in &steps.steps {
         match step {
             Step::Setup(setup) => {
-                let message = setup_message_with_sensor(setup, &steps.sensor, classifier);
+                let mut message = setup_message_with_sensor(setup, &steps.sensor, classifier);
+                if let Some(rig) = &steps.rig_event {
+                    message = setup_with_rig(message, rig);
+                }
+                steps.rig.apply(&mut message).map_err(|e| e.to_string())?;
                 // The library's own check first, for a clear error before any frame.
                 terrain_pyramid::link::convert::frontend_config(&message)
                     .map_err(|e| format!("the recording's setup: {e}"))?;

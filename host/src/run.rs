@@ -133,6 +133,9 @@ pub struct Args {
     /// Decay of stale evidence (off by default).
     #[command(flatten)]
     pub decay: DecayArgs,
+    /// The lidar's mount and the returns refused before geometry, over the recording's.
+    #[command(flatten)]
+    pub rig: crate::rig::RigArgs,
 }
 
 /// What the mirror made of the device's frames: its decay and the comparison at the final
@@ -425,7 +428,8 @@ pub fn execute(args: &Args) -> Result<String, (u8, String)> {
         )
     })?;
     let fail = |e: String| (1, format!("error: {e}"));
-    let steps = steps(&data).map_err(fail)?;
+    let mut steps = steps(&data).map_err(fail)?;
+    steps.rig = args.rig.rig().map_err(|e| (2, format!("error: {e}")))?;
     // The outputs first: an address already in use ends the command before a board boots.
     let outputs = Outputs::start(&args.outputs.config(LogOddsFixed::ZERO))
         .map_err(|e| (1, format!("error: {e}")))?;

@@ -1,5 +1,5 @@
-//! The link's Setup frame (protocol version 4; its body, with the navigability rule block, as
-//! in version 3) against an independent encoder written from `docs/protocol.md` alone:
+//! The link's Setup frame (protocol version 5: its body with the navigability rule, laser,
+//! mount and filter blocks) against an independent encoder written from `docs/protocol.md` alone:
 //! `host/tests/py/link_setup.py` (Python's `struct`, `zlib.crc32` and a COBS of its own). Every
 //! field is given to both in wire order; the frames must be equal byte for byte, and the
 //! library must decode Python's frame back to the same Setup.
@@ -66,6 +66,23 @@ fn python_frame(seq: u16, s: &Setup) -> Vec<u8> {
         .iter()
         .map(f32::to_string),
     );
+    let m = &s.mount_block;
+    args.extend([
+        m.axis.to_string(),
+        m.sense.to_string(),
+        m.zero_deg.to_string(),
+    ]);
+    args.extend(m.rpy_deg.iter().map(f32::to_string));
+    let f = &s.filter;
+    args.extend([
+        f.min_range_cm.to_string(),
+        f.max_range_cm.to_string(),
+        f.min_quality.to_string(),
+        f.sector_count.to_string(),
+    ]);
+    for (a, b) in f.sectors {
+        args.extend([a.to_string(), b.to_string()]);
+    }
     let out = Command::new("python3")
         .arg(SCRIPT)
         .args(&args)
@@ -151,6 +168,8 @@ fn set_rule_frames_equal_an_independent_encoder() {
 
 fn base(rule: NavigabilityRule, laser: LaserSetup) -> Setup {
     Setup {
+        mount_block: terrain_pyramid::wire::link::MountSetup::PRESET,
+        filter: terrain_pyramid::wire::link::FilterSetup::NONE,
         mount: 1,
         measuring_mode: 0,
         field_deg: 180,
@@ -192,6 +211,8 @@ fn setup_frames_equal_an_independent_encoder() {
     }
     // Odd values in every rule field (the wire carries what it is given).
     setups.push(Setup {
+        mount_block: terrain_pyramid::wire::link::MountSetup::PRESET,
+        filter: terrain_pyramid::wire::link::FilterSetup::NONE,
         rule: RuleSetup {
             rule: 7,
             max_grade: -1.5,
@@ -201,6 +222,39 @@ fn setup_frames_equal_an_independent_encoder() {
             noise_factor: -0.0,
         },
         ..base(NavigabilityRule::Spread, servo)
+    });
+    // The general mount and the filters, odd values included.
+    let mut sectors = [(0_u16, 0_u16); 8];
+    for (k, s) in sectors.iter_mut().enumerate() {
+        let k = u32::try_from(k).unwrap();
+        let c = |v: u32| u16::try_from(v % 36_000).unwrap();
+        *s = (c(4_500 * k + 7), c(4_500 * k + 35_990));
+    }
+    setups.push(Setup {
+        mount: 2,
+        mount_block: terrain_pyramid::wire::link::MountSetup {
+            axis: 2,
+            sense: -1,
+            zero_deg: -12.345,
+            rpy_deg: [180.0, -0.001, 359.5],
+        },
+        filter: terrain_pyramid::wire::link::FilterSetup {
+            min_range_cm: 3,
+            max_range_cm: 65_535,
+            min_quality: 255,
+            sector_count: 8,
+            sectors,
+        },
+        ..base(NavigabilityRule::Spread, servo)
+    });
+    setups.push(Setup {
+        mount_block: terrain_pyramid::wire::link::MountSetup {
+            axis: 0xFF,
+            sense: i8::MIN,
+            zero_deg: f32::MIN_POSITIVE,
+            rpy_deg: [1e30, -1e-30, 0.5],
+        },
+        ..base(NavigabilityRule::Spread, LaserSetup::SICK)
     });
     for (i, setup) in setups.iter().enumerate() {
         let seq = u16::try_from(i).unwrap() * 257;
@@ -214,7 +268,7 @@ fn setup_frames_equal_an_independent_encoder() {
                 item: Decoded { header, message },
                 ..
             } => {
-                assert_eq!((header.version, header.seq), (4, seq));
+                assert_eq!((header.version, header.seq), (5, seq));
                 assert_eq!(message, Message::Setup(*setup));
             }
             other => panic!("Python's frame did not decode: {other:?}"),

@@ -19,6 +19,8 @@ const TX_US: f64 = 47.0 * 10.0 / 230_400.0 * 1e6;
 
 fn setup(actuator: u8, latency_ms: f32) -> Setup {
     Setup {
+        mount_block: crate::wire::link::MountSetup::PRESET,
+        filter: crate::wire::link::FilterSetup::NONE,
         mount: 1,
         measuring_mode: 0,
         field_deg: 0,

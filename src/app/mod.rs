@@ -81,7 +81,7 @@ use crate::classify::ClassifierStats;
 use crate::design::{Design, DesignError};
 use crate::geometry::{Pose, PoseRefusal, PoseTrack, Taken};
 use crate::laser::{LaserCounters, LaserDecoder, PacketTimer, RevolutionTracker, Sensor};
-use crate::link::{Link, LinkConfig, LinkCounters, PoseCounters, SensorCounters};
+use crate::link::{FilterCounters, Link, LinkConfig, LinkCounters, PoseCounters, SensorCounters};
 use crate::pipeline::{Frontend, FrontendConfig, FrontendStats, ObservedSpan};
 use crate::pyramid::{Applied, Config, Evidence, EvidenceClass, Fused, Pyramid, PyramidStats};
 use crate::units::{Meters, Weight};
@@ -539,6 +539,12 @@ impl<const W: usize, const L: usize, const C: usize, const Q: usize, const N: us
                 .unwrap_or(u32::MAX),
             observations: frontend.observations,
             pose: self.pose_counters(),
+            filtered: FilterCounters {
+                returns_masked: frontend.returns_masked,
+                returns_too_near: frontend.returns_too_near,
+                returns_too_far: frontend.returns_too_far,
+                returns_low_quality: frontend.returns_low_quality,
+            },
         }
     }
 

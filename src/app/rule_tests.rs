@@ -43,6 +43,8 @@ fn a_setup_or_set_rule_that_names_the_plane_rule_is_taken_only_if_built_in() {
     let before = *core.frontend().config();
     let plane = rule_setup(&NavigabilityRule::Plane(PlaneRule::DEFAULT));
     let setup = Setup {
+        mount_block: crate::wire::link::MountSetup::PRESET,
+        filter: crate::wire::link::FilterSetup::NONE,
         mount: 1,
         measuring_mode: 3,
         field_deg: 180,

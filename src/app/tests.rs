@@ -28,6 +28,7 @@ fn design() -> DefaultDesign {
 /// A SICK LMS 291 at 180°/0.5°, 0.5 m up on a tilt unit, one observation per line.
 fn setup() -> FrontendConfig {
     FrontendConfig {
+        filter: crate::pipeline::ReturnFilter::NONE,
         mount: Mount::new(
             ScanPlane::TiltedHorizontal,
             Point3 {
@@ -433,6 +434,8 @@ fn snapshot_reset_ping_and_bad_frames() {
 fn setup_request_stats_end_observation_and_shutdown() {
     let mut core = booted();
     let setup = Setup {
+        mount_block: crate::wire::link::MountSetup::PRESET,
+        filter: crate::wire::link::FilterSetup::NONE,
         mount: 0,
         measuring_mode: 3,
         field_deg: 100,
@@ -450,6 +453,8 @@ fn setup_request_stats_end_observation_and_shutdown() {
     bytes.extend(command(
         1,
         &Message::Setup(Setup {
+            mount_block: crate::wire::link::MountSetup::PRESET,
+            filter: crate::wire::link::FilterSetup::NONE,
             measuring_mode: 9,
             ..setup
         }),

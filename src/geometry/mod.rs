@@ -11,7 +11,9 @@
 //!   at 180°; in the 100° field they are at 40° and 140° ([`beams`]).
 //!   A spinning lidar's own angle (clockwise from its 0°) becomes θ = 90° − angle
 //!   ([`beam_angle_of_clockwise`], which also states how such a lidar is mounted).
-//! - **Mounts** ([`ScanPlane`], [`Mount`]):
+//! - **Mounts** ([`Mount`], its presets [`ScanPlane`]): any orientation of the sensor's frame
+//!   (x its 0°, z its top; beam θ along `(sin θ, −cos θ, 0)`) by roll, pitch, yaw on a pan, tilt
+//!   or no actuator, with the actuator's zero and sense ([`mount`]). The presets:
 //!   - *panned vertical plane* (the paper's robot): beam θ has the sensor-frame direction
 //!     `(sin θ, 0, −cos θ)` (0° straight down, 90° forward, 180° straight up), panned about z
 //!     by p: `(sin θ cos p, sin θ sin p, −cos θ)`;
@@ -34,10 +36,10 @@
 //! | --- | --- | --- |
 //! | configuration (or compile time) | [`BeamTable::new`]: (cos θ, sin θ) per beam, Q1.15 | integer trig |
 //! | pose change | [`Pose::frame`]: the rotation matrix, Q2.30 | 3 × integer sin/cos |
-//! | scan line | [`LineTransform::new`]: pose × actuator × plane, one 3 × 2 matrix | 1 × integer sin/cos |
+//! | scan line | [`LineTransform::new`]: pose × actuator × mount, one 3 × 2 matrix | 1 × integer sin/cos, about 60 multiplies |
 //! | point | [`LineTransform::point`] / [`LineTransform::locate`] / [`LineTransform::locate_squared`] | 2 multiplies and 6 multiply-accumulates into 64 bits, 2 squares (+ √ for d with `locate`; the pipeline bins d² instead) |
-//! | spinning lidar: pose change | [`SweepTransform::new`]: the pose and the mount | none beyond the pose's |
-//! | spinning lidar: actuator angle | [`SweepTransform::at`]: the plane at that angle | 1 × integer sin/cos, 6 multiplies |
+//! | spinning lidar: pose change | [`SweepTransform::new`]: the pose and the mount | about 40 multiplies beyond the pose's |
+//! | spinning lidar: actuator angle | [`SweepTransform::at`]: the plane at that angle | 1 × integer sin/cos, 12 multiplies |
 //! | spinning lidar: return | [`ActuatedPlane::locate_squared`]: its own beam angle θ | 1 × integer sin/cos, 12 multiplies |
 //!
 //! No float runs per point or per line: the trigonometry is a quarter-wave table with a
@@ -68,7 +70,7 @@ pub mod sweep;
 pub mod transform;
 
 pub use beams::{BeamDir, BeamTable};
-pub use mount::{beam_angle_of_clockwise, Mount, ScanPlane};
+pub use mount::{beam_angle_of_clockwise, ActuatorAxis, Mount, ScanPlane};
 pub use pose::{Pose, PoseError, PoseField, PoseFrame, Rotation};
 pub use pose_track::{
     NoPose, Placement, PoseRefusal, PoseTrack, Taken, MAX_EXTRAPOLATION_US, MAX_POSE_GAP_US,

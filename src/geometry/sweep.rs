@@ -10,16 +10,20 @@
 //! [`ActuatedPlane`]; that places a return from its own beam angle θ.
 //!
 //! # Formats and method
-//! With R the pose's rotation (Q2.30 columns r₀, r₁, r₂), the world direction of beam θ at
-//! actuator angle a is `cos θ·C + sin θ·S(a)` (the frames of [`super::mount`]):
+//! With R the pose's rotation (Q2.30 columns r₀, r₁, r₂), A(a) the actuator's rotation and
+//! m₀, m₁ the mount's columns, the world direction of beam θ at actuator angle a is
+//! `cos θ·C(a) + sin θ·S(a)` with `C(a) = −R·A(a)·m₁`, `S(a) = R·A(a)·m₀` (the frames of
+//! [`super::mount`]). Each is split once per pose as `fixed + cos a·u + sin a·w` (a pan
+//! leaves the z part fixed, a tilt the y part); for the presets:
 //!
 //! ```text
 //! panned vertical:    C = −r₂,  S(a) = cos a·r₀ + sin a·r₁
 //! tilted horizontal:  C = −r₁,  S(a) = cos a·r₀ − sin a·r₂
 //! ```
 //!
-//! C is kept in Q2.30; S(a) costs one [`FineAngle::sin_cos`] and six 64-bit products per
-//! actuator angle ([`SweepTransform::at`]). Per return, θ's sine and cosine come from the
+//! C and S cost one [`FineAngle::sin_cos`] and twelve 64-bit products per actuator angle
+//! ([`SweepTransform::at`]), each part `fixed + ((cos a·u + sin a·w + 2²⁹) >> 30)`: a
+//! preset's exact unit columns give the bits of the fixed mounts' six products. Per return, θ's sine and cosine come from the
 //! same quarter-wave table with its Taylor correction ([`FineAngle::sin_cos`]: 257 entries,
 //! no 36 000-entry table, no float); the direction `d_i = (C_i·cos θ + S_i·sin θ) / 2³⁰`
 //! stays in Q2.30, is turned into Q40 metres per millimetre (as the line transform's rows)
@@ -42,7 +46,7 @@
 
 use core::fmt;
 
-use super::mount::{Mount, ScanPlane};
+use super::mount::{ActuatorAxis, Mount};
 use super::pose::PoseFrame;
 use super::transform::{
     horizontal, horizontal_squared, meters_q40, per_mm_words, sat_i32, LinePoint, LinePointSquared,
@@ -52,19 +56,91 @@ use crate::angle::FineAngle;
 use crate::units::Point3;
 use crate::wide;
 
+/// One world direction as a function of the actuator angle a: `fixed + cos a·u + sin a·w`,
+/// each part Q2.30 (a unit component at most: saturated to `i32` once, never reached).
+#[derive(Clone, Copy, PartialEq, Eq)]
+struct Swept {
+    fixed: [i32; 3],
+    u: [i32; 3],
+    w: [i32; 3],
+}
+
+impl Swept {
+    const ZERO: Self = Self {
+        fixed: [0; 3],
+        u: [0; 3],
+        w: [0; 3],
+    };
+
+    /// `R·A(a)·v` split by the actuator's axis, for `v` (Q2.30, actuator frame at zero) and
+    /// the robot's rotation columns r₀, r₁, r₂ (Q2.30). With `A = R_z(a)`:
+    /// `fixed = v_z·r₂`, `u = v_x·r₀ + v_y·r₁`, `w = v_x·r₁ − v_y·r₀`; with `A = R_y(a)`:
+    /// `fixed = v_y·r₁`, `u = v_x·r₀ + v_z·r₂`, `w = v_z·r₀ − v_x·r₂`; without an actuator
+    /// `fixed = R·v`. Each component is rounded once from Q4.60: a unit entry of `v` (0 or
+    /// ±2³⁰) gives the column itself, bit for bit.
+    fn new(v: [i32; 3], axis: ActuatorAxis, r: [[i64; 3]; 3]) -> Self {
+        let [vx, vy, vz] = v.map(i64::from);
+        let [r0, r1, r2] = r;
+        // Each term as (factor, column); a component is Σ factor·column[i], rounded.
+        match axis {
+            ActuatorAxis::Pan => Self {
+                fixed: combine([(vz, r2)]),
+                u: combine([(vx, r0), (vy, r1)]),
+                w: combine([(vx, r1), (-vy, r0)]),
+            },
+            ActuatorAxis::Tilt => Self {
+                fixed: combine([(vy, r1)]),
+                u: combine([(vx, r0), (vz, r2)]),
+                w: combine([(vz, r0), (-vx, r2)]),
+            },
+            ActuatorAxis::Fixed => Self {
+                fixed: combine([(vx, r0), (vy, r1), (vz, r2)]),
+                u: [0; 3],
+                w: [0; 3],
+            },
+        }
+    }
+
+    /// The direction at an actuator angle of sine `sa` and cosine `ca` (Q2.30):
+    /// `fixed + ((ca·u + sa·w + 2²⁹) >> 30)`, six 32 × 32 → 64 products.
+    #[inline]
+    fn at(&self, ca: i32, sa: i32) -> [i32; 3] {
+        let mut out = [0_i32; 3];
+        for (((o, &f), &u), &w) in out.iter_mut().zip(&self.fixed).zip(&self.u).zip(&self.w) {
+            // |u|, |w|, |ca|, |sa| ≤ 2³⁰ (up to rounding): each product fits 32 × 32 → 64 bits
+            // (a library call avoided on ARMv6-M, `wide`), the sum below 2⁶¹.
+            let swept = sat_i32((wide::smul(ca, u) + wide::smul(sa, w) + (1 << 29)) >> 30);
+            *o = f.saturating_add(swept);
+        }
+        out
+    }
+}
+
+/// `Σ factor·column` per component, rounded once from Q4.60 to Q2.30 (|factor|, |entry|
+/// ≤ 2³⁰ up to rounding: a sum of three below 2⁶²·⁶).
+fn combine<const N: usize>(terms: [(i64, [i64; 3]); N]) -> [i32; 3] {
+    let mut out = [0_i32; 3];
+    for (i, o) in out.iter_mut().enumerate() {
+        let pick = |col: [i64; 3]| col.get(i).copied().unwrap_or(0);
+        let q60: i64 = terms.iter().map(|&(f, col)| f * pick(col)).sum();
+        *o = sat_i32((q60 + (1 << 29)) >> 30);
+    }
+    out
+}
+
 /// The parts of the geometry that the actuator angle does not change: the world images of
-/// the sensor frame's axes and the scanner's centre. Built once per pose (or mount) change;
-/// [`SweepTransform::at`] gives the plane at an actuator angle.
+/// the mount's directions, split by the actuator's axis, and the scanner's centre. Built once
+/// per pose (or mount) change; [`SweepTransform::at`] gives the plane at an actuator angle.
 #[derive(Clone, Copy, PartialEq, Eq)]
 pub struct SweepTransform {
-    /// The world direction that multiplies cos θ, Q2.30 (a unit component: saturated to
-    /// `i32` once here, never reached, instead of per actuator angle).
-    c: [i32; 3],
-    /// The world image of robot x, Q2.30 (multiplies cos a in S(a)).
-    r0: [i32; 3],
-    /// The world image of the actuator's other axis, sign folded in, Q2.30 (multiplies
-    /// sin a in S(a)).
-    aux: [i32; 3],
+    /// `C(a) = −R·A(a)·m₁`, the world direction that multiplies cos θ.
+    c: Swept,
+    /// `S(a) = R·A(a)·m₀`, the world direction that multiplies sin θ.
+    s: Swept,
+    /// The reported actuator angle that is the geometry's 0.
+    zero: FineAngle,
+    /// The actuator's sense is reversed.
+    reversed: bool,
     /// The scanner's centre in the world, metres Q40.
     origin: [i64; 3],
 }
@@ -73,21 +149,22 @@ impl SweepTransform {
     /// A placeholder of zero bits (every return lands on the origin): an unconfigured
     /// pipeline's, replaced before any return uses it.
     pub const ZERO: Self = Self {
-        c: [0; 3],
-        r0: [0; 3],
-        aux: [0; 3],
+        c: Swept::ZERO,
+        s: Swept::ZERO,
+        zero: FineAngle::ZERO,
+        reversed: false,
         origin: [0; 3],
     };
 
-    /// The transform of `mount` on a robot at `frame` ([`super::Pose::frame`]).
+    /// The transform of `mount` on a robot at `frame` ([`super::Pose::frame`]): about 40
+    /// 64-bit products, at each pose change.
     #[must_use]
     pub fn new(mount: &Mount, frame: &PoseFrame) -> Self {
-        let [r0, r1, r2] = frame.rotation.columns();
-        let neg = |v: [i64; 3]| v.map(|x| -x);
-        let (c, aux) = match mount.plane {
-            ScanPlane::PannedVertical => (neg(r2), r1),
-            ScanPlane::TiltedHorizontal => (neg(r1), neg(r2)),
-        };
+        let r = frame.rotation.columns();
+        let [r0, r1, r2] = r;
+        let [m0, m1] = mount.columns();
+        let c = Swept::new(m1.map(i32::wrapping_neg), mount.axis(), r);
+        let s = Swept::new(m0, mount.axis(), r);
         let t = frame.translation;
         let p = mount.position;
         let [px, py, pz] = [p.x, p.y, p.z].map(|m| i64::from(m.to_bits()));
@@ -103,9 +180,10 @@ impl SweepTransform {
             (i64::from(t.z.to_bits()) << 24) + rotated(2),
         ];
         Self {
-            c: c.map(sat_i32),
-            r0: r0.map(sat_i32),
-            aux: aux.map(sat_i32),
+            c,
+            s,
+            zero: mount.zero(),
+            reversed: mount.reversed(),
             origin,
         }
     }
@@ -121,23 +199,21 @@ impl SweepTransform {
         }
     }
 
-    /// The scan plane at actuator angle `actuator` (the pan angle p or the tilt angle τ of
-    /// [`ScanPlane`]): one [`FineAngle::sin_cos`] and six 64-bit products.
+    /// The scan plane at the reported actuator angle `actuator` (the mount's zero and sense
+    /// applied, [`Mount::actuator_angle`]): one [`FineAngle::sin_cos`] and twelve 64-bit
+    /// products. Of a preset mount, the same bits as the fixed mounts' six products gave:
+    /// the parts that do not turn are exact columns, and the rounding of the ones that turn
+    /// is the same.
     #[must_use]
     pub fn at(&self, actuator: FineAngle) -> ActuatedPlane {
-        let sc = actuator.sin_cos();
+        let a = actuator.wrapping_sub(self.zero);
+        let a = if self.reversed { a.reversed() } else { a };
+        let sc = a.sin_cos();
         let (sa, ca) = (sc.sin.to_bits(), sc.cos.to_bits());
-        let mut s = [0_i32; 3];
-        for ((out, &x), &y) in s.iter_mut().zip(&self.r0).zip(&self.aux) {
-            // |x|, |y|, |ca|, |sa| ≤ 2³⁰ (up to rounding): each product fits 32 × 32 → 64 bits
-            // (a library call avoided on ARMv6-M, `wide`), the sum below 2⁶¹, the result a
-            // unit component that fits an i32.
-            *out = sat_i32((wide::smul(ca, x) + wide::smul(sa, y) + (1 << 29)) >> 30);
-        }
         ActuatedPlane {
             actuator,
-            c: self.c,
-            s,
+            c: self.c.at(ca, sa),
+            s: self.s.at(ca, sa),
             origin: self.origin,
         }
     }
@@ -173,6 +249,12 @@ pub struct ActuatedPlane {
 }
 
 impl ActuatedPlane {
+    /// C and S (Q2.30) and the scanner's centre (metres Q40): what a SICK line folds into its
+    /// matrix ([`super::LineTransform::new`]).
+    pub(super) const fn parts(&self) -> ([i32; 3], [i32; 3], [i64; 3]) {
+        (self.c, self.s, self.origin)
+    }
+
     /// The actuator angle this plane was built for.
     #[must_use]
     pub const fn actuator(&self) -> FineAngle {
@@ -278,7 +360,8 @@ impl defmt::Format for ActuatedPlane {
 mod tests {
     extern crate std;
     use super::*;
-    use crate::geometry::mount::beam_angle_of_clockwise;
+    use crate::geometry::mount::{beam_angle_of_clockwise, ScanPlane};
+
     use crate::geometry::{BeamDir, BeamTable, LineTransform, Pose};
     use crate::units::Meters;
     use crate::wire::sick::Variant;
@@ -436,9 +519,12 @@ mod tests {
             let (st, ct) = (i64::from(st_c.sin.to_bits()), i64::from(st_c.cos.to_bits()));
             let mut want = [0_i64; 3];
             for (k, w) in want.iter_mut().enumerate() {
-                let (r0, aux) = (i64::from(sweep.r0[k]), i64::from(sweep.aux[k]));
-                let s = (ca * r0 + sa * aux + (1 << 29)) >> 30;
-                let dir = (i64::from(sweep.c[k]) * ct + s * st + (1 << 29)) >> 30;
+                let swept = |p: &Swept| {
+                    let (f, u, v) = (i64::from(p.fixed[k]), i64::from(p.u[k]), i64::from(p.w[k]));
+                    f + ((ca * u + sa * v + (1 << 29)) >> 30)
+                };
+                let (c, s) = (swept(&sweep.c), swept(&sweep.s));
+                let dir = (c * ct + s * st + (1 << 29)) >> 30;
                 *w = i64::from(crate::geometry::transform::per_mm(dir)) * i64::from(range_mm);
             }
             assert_eq!(

@@ -52,8 +52,9 @@
 use core::fmt;
 
 use super::beams::{BeamDir, BeamTable};
-use super::mount::{Mount, ScanPlane};
+use super::mount::Mount;
 use super::pose::{Pose, PoseFrame};
+use super::sweep::SweepTransform;
 use crate::angle::FineAngle;
 use crate::units::{Meters, Point3};
 use crate::wide;
@@ -405,12 +406,13 @@ impl Placed {
 }
 
 impl<'a> LineTransform<'a> {
-    /// The transform of one line: `beams` for the scanner's variant, `mount` for how it sits,
-    /// `actuator` the pan angle p ([`ScanPlane::PannedVertical`]) or tilt angle τ
-    /// ([`ScanPlane::TiltedHorizontal`]) at this line, `frame` the robot's pose
-    /// ([`Pose::frame`], computed once per pose change).
+    /// The transform of one line: `beams` for the scanner's variant, `mount` for how it sits
+    /// (any [`Mount`]: a SICK's own frame has x its centre beam, 90°, and z its top),
+    /// `actuator` the reported actuator angle at this line (the mount's zero and sense
+    /// applied), `frame` the robot's pose ([`Pose::frame`], computed once per pose change).
     ///
-    /// Costs one [`FineAngle::sin_cos`] and about twenty 64-bit multiplies.
+    /// Costs one [`FineAngle::sin_cos`] and about sixty 64-bit multiplies
+    /// ([`SweepTransform::new`] and [`SweepTransform::at`]).
     #[must_use]
     pub fn new(
         beams: &'a BeamTable,
@@ -418,38 +420,15 @@ impl<'a> LineTransform<'a> {
         actuator: FineAngle,
         frame: &PoseFrame,
     ) -> Self {
-        let [r0, r1, r2] = frame.rotation.columns();
-        let sc = actuator.sin_cos();
-        let (sa, ca) = (i64::from(sc.sin.to_bits()), i64::from(sc.cos.to_bits()));
-        // The world images of the sensor-frame directions that multiply cos θ and sin θ.
-        // Panned: d = sin θ·R_z(p)·x̂ − cos θ·ẑ. Tilted: d = sin θ·R_y(τ)·x̂ − cos θ·ŷ, with
-        // R_y(τ)·x̂ = (cos τ, 0, −sin τ).
-        let (col_c, aux, sign) = match mount.plane {
-            ScanPlane::PannedVertical => (r2, r1, 1),
-            ScanPlane::TiltedHorizontal => (r1, r2, -1),
-        };
+        // The world directions that multiply cos θ and sin θ at this actuator angle, and the
+        // scanner's centre, as a spinning lidar's return gets them: of a preset mount, the
+        // bits of the fixed mounts' matrix (C an exact column, S rounded once).
+        let (c, s, origin) = SweepTransform::new(mount, frame).at(actuator).parts();
         let row = |i: usize| {
-            let pick = |col: [i64; 3]| col.get(i).copied().unwrap_or(0);
-            let s = (ca * pick(r0) + sign * sa * pick(aux) + (1 << 29)) >> 30;
-            Row::from_q30(-pick(col_c), s)
+            let pick = |v: [i32; 3]| i64::from(v.get(i).copied().unwrap_or(0));
+            Row::from_q30(pick(c), pick(s))
         };
         let rows = [row(0), row(1), row(2)];
-
-        // The scanner's centre: T + R·position, in Q40.
-        let t = frame.translation;
-        let p = mount.position;
-        let [px, py, pz] = [p.x, p.y, p.z].map(|m| i64::from(m.to_bits()));
-        let rotated = |i: usize| {
-            let pick = |col: [i64; 3]| col.get(i).copied().unwrap_or(0);
-            // Each product < 2⁶¹, the sum of three < 2⁶²·⁶; Q46 → Q40 with rounding.
-            let q46 = pick(r0) * px + pick(r1) * py + pick(r2) * pz;
-            (q46 + (1 << 5)) >> 6
-        };
-        let origin = [
-            (i64::from(t.x.to_bits()) << 24) + rotated(0),
-            (i64::from(t.y.to_bits()) << 24) + rotated(1),
-            (i64::from(t.z.to_bits()) << 24) + rotated(2),
-        ];
         let unsaturated = origin
             .iter()
             .all(|o| o.unsigned_abs() <= UNSATURATED_ORIGIN.unsigned_abs());
@@ -695,6 +674,7 @@ mod tests {
     extern crate std;
 
     use super::*;
+    use crate::geometry::ScanPlane;
     use crate::test_rng::XorShift;
     use crate::wire::sick::Variant;
 
@@ -1261,7 +1241,10 @@ mod golden {
         let mut sum: u64 = 0;
         for v in Variant::ALL {
             let table = BeamTable::new(v);
-            for plane in [ScanPlane::PannedVertical, ScanPlane::TiltedHorizontal] {
+            for plane in [
+                crate::geometry::ScanPlane::PannedVertical,
+                crate::geometry::ScanPlane::TiltedHorizontal,
+            ] {
                 let mount = Mount::new(
                     plane,
                     Point3 {

@@ -23,6 +23,23 @@ pub struct SensorCounters {
     pub observations: u32,
     /// The pose track's counters (protocol version 4).
     pub pose: PoseCounters,
+    /// Returns refused before geometry, by reason (protocol version 5).
+    pub filtered: FilterCounters,
+}
+
+/// The returns the pipeline's masks and filters refused before geometry, by reason
+/// (protocol version 5, Stats i = 36 ..= 39; `FrontendStats`' counters of the same names).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct FilterCounters {
+    /// In a masked sector.
+    pub returns_masked: u32,
+    /// Nearer than the minimum range.
+    pub returns_too_near: u32,
+    /// Farther than the maximum range.
+    pub returns_too_far: u32,
+    /// Quality below the minimum.
+    pub returns_low_quality: u32,
 }
 
 /// The device's pose-track counters that Stats carries (protocol version 4, Stats i = 30 ..=

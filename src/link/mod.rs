@@ -54,7 +54,7 @@ mod queue;
 
 pub use bucket::TokenBucket;
 pub use command::{Command, Rejection, Request};
-pub use counters::{LinkCounters, PoseCounters, SensorCounters};
+pub use counters::{FilterCounters, LinkCounters, PoseCounters, SensorCounters};
 pub use poll::PollReport;
 pub use queue::FrameQueue;
 
@@ -521,6 +521,10 @@ impl<const Q: usize, const N: usize> Link<Q, N> {
             returns_extrapolated: sensor.pose.returns_extrapolated,
             returns_without_pose: sensor.pose.returns_without_pose,
             time_requests: c.time_requests,
+            returns_masked: sensor.filtered.returns_masked,
+            returns_too_near: sensor.filtered.returns_too_near,
+            returns_too_far: sensor.filtered.returns_too_far,
+            returns_low_quality: sensor.filtered.returns_low_quality,
         }
     }
 

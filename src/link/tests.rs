@@ -101,7 +101,7 @@ fn obstacle(layer: u8, x: i32, y: i32) -> Evidence {
 
 /// One host frame, encoded.
 pub(crate) fn command(seq: u16, message: &Message<'_>) -> Vec<u8> {
-    let mut out = [0_u8; 128];
+    let mut out = [0_u8; crate::wire::link::MAX_ENCODED_COMMAND];
     let n = encode(seq, message, &mut out).unwrap();
     out[..n].to_vec()
 }
@@ -749,7 +749,18 @@ fn observed_goes_ahead_of_the_patches_and_stats_carry_the_pose_counters() {
         ..SensorCounters::default()
     };
     let stats = link.stats(0, &pyramid, &sensor);
-    assert_eq!(stats.to_array()[30..], [1, 2, 3, 4, 5, 0]);
+    assert_eq!(stats.to_array()[30..36], [1, 2, 3, 4, 5, 0]);
+    let sensor = SensorCounters {
+        filtered: crate::link::FilterCounters {
+            returns_masked: 6,
+            returns_too_near: 7,
+            returns_too_far: 8,
+            returns_low_quality: 9,
+        },
+        ..SensorCounters::default()
+    };
+    let stats = link.stats(0, &pyramid, &sensor);
+    assert_eq!(stats.to_array()[36..], [6, 7, 8, 9]);
 }
 
 /// A queue too small to hold a Stats beside the whole control reserve (the micro:bit's 400
@@ -760,9 +771,9 @@ fn a_small_queue_reserves_less_beside_a_stats() {
     let stats = crate::wire::link::encoded_len_max(
         crate::wire::link::MIN_FRAME + 4 * crate::wire::link::STATS_COUNTERS,
     );
-    assert_eq!(stats, 154);
-    assert_eq!(Link::<400>::STATS_RESERVE, 400 - 154);
-    assert_eq!(Link::<410>::STATS_RESERVE, CONTROL_RESERVE);
-    assert_eq!(Link::<409>::STATS_RESERVE, 409 - 154);
+    assert_eq!(stats, 170);
+    assert_eq!(Link::<400>::STATS_RESERVE, 400 - 170);
+    assert_eq!(Link::<426>::STATS_RESERVE, CONTROL_RESERVE);
+    assert_eq!(Link::<425>::STATS_RESERVE, 425 - 170);
     assert_eq!(Link::<4096>::STATS_RESERVE, CONTROL_RESERVE);
 }

@@ -1,6 +1,7 @@
 //! What the pipeline is set up with, what it counts, and why it refuses a line:
 //! [`FrontendConfig`], [`FrontendStats`], [`LineError`].
 
+use super::filter::{Refusal, ReturnFilter};
 use crate::actuator::Actuator;
 use crate::classify::ClassifierConfig;
 use crate::geometry::Mount;
@@ -15,6 +16,8 @@ use core::fmt;
 pub struct FrontendConfig {
     /// How the laser is mounted on its actuator, and where.
     pub mount: Mount,
+    /// The masks and filters each return passes before geometry.
+    pub filter: ReturnFilter,
     /// The laser: a SICK LMS2xx (read through `variant` and `measuring_mode`) or a spinning
     /// lidar (whose packets carry their own angles; `variant` and `measuring_mode` unused).
     pub sensor: Sensor,
@@ -46,6 +49,7 @@ impl FrontendConfig {
     #[must_use]
     pub fn lms291_boot(plane: crate::geometry::ScanPlane) -> Self {
         Self {
+            filter: crate::pipeline::ReturnFilter::NONE,
             mount: Mount::new(
                 plane,
                 crate::units::Point3 {
@@ -118,6 +122,28 @@ pub struct FrontendStats {
     /// the extrapolation bound, or earlier than the oldest kept (timed placement only). They
     /// are counted in `returns` too, and placed nowhere.
     pub returns_without_pose: u32,
+    /// Returns refused before geometry: their angle in a masked sector
+    /// ([`ReturnFilter`]). Counted in `returns` too.
+    pub returns_masked: u32,
+    /// Returns refused before geometry: nearer than the minimum range. Counted in `returns`.
+    pub returns_too_near: u32,
+    /// Returns refused before geometry: farther than the maximum range. Counted in `returns`.
+    pub returns_too_far: u32,
+    /// Returns refused before geometry: quality below the minimum. Counted in `returns`.
+    pub returns_low_quality: u32,
+}
+
+impl FrontendStats {
+    /// Counts a return refused before geometry under its reason.
+    pub(super) fn refused(&mut self, why: Refusal) {
+        let counter = match why {
+            Refusal::Masked => &mut self.returns_masked,
+            Refusal::TooNear => &mut self.returns_too_near,
+            Refusal::TooFar => &mut self.returns_too_far,
+            Refusal::LowQuality => &mut self.returns_low_quality,
+        };
+        *counter = counter.saturating_add(1);
+    }
 }
 
 /// Why a line was refused.

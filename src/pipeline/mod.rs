@@ -53,6 +53,7 @@
 //! [`POSE_QUANTUM_US`]: crate::geometry::POSE_QUANTUM_US
 
 mod config;
+pub mod filter;
 mod packet;
 mod sick;
 #[cfg(test)]
@@ -60,6 +61,7 @@ mod tests;
 mod timed;
 
 pub use config::{FrontendConfig, FrontendStats, LineError};
+pub use filter::{Refusal, ReturnFilter, Sector, MAX_SECTORS};
 pub use packet::{PacketActuator, PacketTimes};
 pub use timed::ObservedSpan;
 use timed::TimedPose;
@@ -135,14 +137,8 @@ impl<const C: usize, const L: usize> Frontend<C, L> {
     pub const fn unconfigured() -> Self {
         Self {
             config: FrontendConfig {
-                mount: Mount::new(
-                    crate::geometry::ScanPlane::PannedVertical,
-                    crate::units::Point3 {
-                        x: Meters::ZERO,
-                        y: Meters::ZERO,
-                        z: Meters::ZERO,
-                    },
-                ),
+                filter: crate::pipeline::ReturnFilter::NONE,
+                mount: Mount::ZERO,
                 sensor: Sensor::Sick,
                 baud: 0,
                 actuator: Actuator::External,
@@ -180,6 +176,10 @@ impl<const C: usize, const L: usize> Frontend<C, L> {
                 observations: 0,
                 returns_extrapolated: 0,
                 returns_without_pose: 0,
+                returns_masked: 0,
+                returns_too_near: 0,
+                returns_too_far: 0,
+                returns_low_quality: 0,
             },
             timed: TimedPose::NONE,
             observed: ObservedSpan {

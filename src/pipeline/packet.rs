@@ -93,6 +93,19 @@ impl<const C: usize, const L: usize> Frontend<C, L> {
             #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
             let offset = ((step_q16 * k) >> 16) as u32;
             let angle = actuator.first.wrapping_add(FineAngle::from_bits(offset));
+            if ret.range_mm != 0 {
+                if let Some(why) = self
+                    .config
+                    .filter
+                    .judge(ret.angle, ret.range_mm, ret.quality)
+                {
+                    self.stats.refused(why);
+                    continue;
+                }
+            } else if self.config.filter.masks() && self.config.filter.masked(ret.angle) {
+                self.stats.no_return = self.stats.no_return.saturating_add(1);
+                continue;
+            }
             if ret.range_mm == 0 && self.config.missing_ground_within.is_none() {
                 self.stats.no_return = self.stats.no_return.saturating_add(1);
                 continue;
@@ -256,6 +269,19 @@ impl<const C: usize, const L: usize> Frontend<C, L> {
             #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
             let offset = ((step_q16 * k) >> 16) as u32;
             let angle = actuator.first.wrapping_add(FineAngle::from_bits(offset));
+            if ret.range_mm != 0 {
+                if let Some(why) = self
+                    .config
+                    .filter
+                    .judge(ret.angle, ret.range_mm, ret.quality)
+                {
+                    self.stats.refused(why);
+                    continue;
+                }
+            } else if self.config.filter.masks() && self.config.filter.masked(ret.angle) {
+                self.stats.no_return = self.stats.no_return.saturating_add(1);
+                continue;
+            }
             if ret.range_mm == 0 && self.config.missing_ground_within.is_none() {
                 self.stats.no_return = self.stats.no_return.saturating_add(1);
                 continue;

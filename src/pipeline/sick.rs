@@ -5,11 +5,14 @@
 use super::timed::Poses;
 use super::Frontend;
 use super::LineError;
+use super::{Refusal, ReturnFilter};
+use crate::angle::FineAngle;
 use crate::geometry::{LineTransform, PoseTrack};
 use crate::laser::SickBeamTimes;
 use crate::pyramid::Pyramid;
 use crate::units::Meters;
 use crate::wire::sick::MeasuredValues;
+use crate::wire::sick::Variant;
 
 /// How a telegram's values map onto the beam table.
 #[derive(Clone, Copy)]
@@ -90,6 +93,9 @@ impl<const C: usize, const L: usize> Frontend<C, L> {
             let Some(range_mm) = range else {
                 no_return += 1;
                 if let (Some(within), Some(b)) = (self.config.missing_ground_within, beam) {
+                    if beam_masked(&self.config.filter, variant, b) {
+                        continue;
+                    }
                     Self::missing_ground(
                         &mut self.classifier,
                         &mut self.stats,
@@ -102,6 +108,11 @@ impl<const C: usize, const L: usize> Frontend<C, L> {
                 continue;
             };
             returns += 1;
+            if let Some(why) = beam.and_then(|b| refused(&self.config.filter, variant, b, range_mm))
+            {
+                self.stats.refused(why);
+                continue;
+            }
             match beam.and_then(|b| transform.locate_squared(b, range_mm)) {
                 Some(located) => {
                     // The distance is needed only for its gate bin: no square root.
@@ -273,6 +284,9 @@ impl<const C: usize, const L: usize> Frontend<C, L> {
                 let Some(range_mm) = range else {
                     no_return += 1;
                     if let (Some(within), Some(b)) = (self.config.missing_ground_within, beam) {
+                        if beam_masked(&self.config.filter, variant, b) {
+                            continue;
+                        }
                         Self::missing_ground(
                             &mut self.classifier,
                             &mut self.stats,
@@ -285,6 +299,12 @@ impl<const C: usize, const L: usize> Frontend<C, L> {
                     continue;
                 };
                 returns += 1;
+                if let Some(why) =
+                    beam.and_then(|b| refused(&self.config.filter, variant, b, range_mm))
+                {
+                    self.stats.refused(why);
+                    continue;
+                }
                 match beam.and_then(|b| transform.locate_squared(b, range_mm)) {
                     Some(located) => {
                         // The distance is needed only for its gate bin: no square root.
@@ -319,4 +339,23 @@ impl<const C: usize, const L: usize> Frontend<C, L> {
         }
         Ok(())
     }
+}
+
+/// Whether beam `beam`'s angle θ lies in a masked sector of `filter` (its angle computed only
+/// when a sector is masked).
+#[inline]
+fn beam_masked(filter: &ReturnFilter, variant: Variant, beam: usize) -> bool {
+    filter.masks() && variant.beam_angle(beam).is_some_and(|a| filter.masked(a))
+}
+
+/// Why the return of beam `beam` at `range_mm` is refused by `filter`, if it is: the mask
+/// tests the beam's angle θ, computed only when a sector is masked; a SICK reports no quality.
+#[inline]
+fn refused(filter: &ReturnFilter, variant: Variant, beam: usize, range_mm: u32) -> Option<Refusal> {
+    let angle = if filter.masks() {
+        variant.beam_angle(beam).unwrap_or(FineAngle::ZERO)
+    } else {
+        FineAngle::ZERO
+    };
+    filter.judge(angle, range_mm, None)
 }

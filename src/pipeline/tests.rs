@@ -67,6 +67,7 @@ fn setup(
     let mut p = std::boxed::Box::new(Pyramid::new());
     p.configure(&design, &Config::default()).unwrap();
     let config = FrontendConfig {
+        filter: crate::pipeline::ReturnFilter::NONE,
         mount: Mount::new(
             ScanPlane::TiltedHorizontal,
             Point3 {

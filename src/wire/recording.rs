@@ -8,9 +8,13 @@ use core::fmt;
 
 /// The file's magic bytes: ASCII `TPYRREC\n`.
 pub const MAGIC: [u8; 8] = *b"TPYRREC\n";
-/// The version this module writes; it reads this one and version 1 (whose lasers are all
-/// SICK LMS2xx: it has no sensor event).
-pub const VERSION: u16 = 2;
+/// The newest version this module reads and writes (a file with a rig event); it reads
+/// versions 1 (whose lasers are all SICK LMS2xx: it has no sensor event) to this one.
+/// [`emit_header`] writes version 2 (no rig event), [`emit_header_version`] either.
+pub const VERSION: u16 = 3;
+/// The version of a file without a rig event, which [`emit_header`] writes: readers of
+/// version 2 read it.
+pub const VERSION_WITHOUT_RIG: u16 = 2;
 /// Bytes of the file header (versions 1 and 2).
 pub const HEADER_LEN: usize = 16;
 /// Bytes of an event header (kind, time, length).
@@ -21,6 +25,9 @@ pub const MAX_PAYLOAD: usize = 4096;
 pub const SETUP_LEN: usize = 28;
 /// Bytes of a sensor payload (version 2).
 pub const SENSOR_LEN: usize = 4;
+/// Bytes of a rig payload (version 3): the mount byte, 3 reserved, the link's mount block (20)
+/// and filter block (38).
+pub const RIG_LEN: usize = 62;
 
 /// Event kinds.
 mod kind {
@@ -30,6 +37,7 @@ mod kind {
     pub const SETUP: u8 = 0x04;
     pub const MARKER: u8 = 0x05;
     pub const SENSOR: u8 = 0x06;
+    pub const RIG: u8 = 0x07;
 }
 
 /// How the laser is mounted on its actuator.
@@ -86,6 +94,73 @@ impl SensorEvent {
     }
 }
 
+/// How the laser was mounted and which returns were refused before geometry (version 3): the
+/// host link's Setup fields of the same meaning (`docs/protocol.md`, "0x87 Setup": the mount
+/// byte, the mount block, the filter block). It overrides the setup event's mount.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct RigEvent {
+    /// 0 the panned-vertical preset, 1 the tilted-horizontal preset, 2 the general mount.
+    pub mount: u8,
+    /// The actuator's axis, sense and zero, the sensor frame's roll, pitch and yaw.
+    pub mount_block: crate::wire::link::MountSetup,
+    /// The masks and filters.
+    pub filter: crate::wire::link::FilterSetup,
+}
+
+impl RigEvent {
+    fn parse(data: &[u8]) -> Option<Self> {
+        if data.len() != RIG_LEN {
+            return None;
+        }
+        let mount = *data.first()?;
+        if mount > 2 || take::<3>(data, 1)? != [0; 3] {
+            return None;
+        }
+        let u16_at = |at| take::<2>(data, at).map(u16::from_le_bytes);
+        let mut sectors = [(0, 0); crate::wire::link::SETUP_SECTORS];
+        for (i, s) in sectors.iter_mut().enumerate() {
+            *s = (u16_at(30 + 4 * i)?, u16_at(32 + 4 * i)?);
+        }
+        Some(Self {
+            mount,
+            mount_block: crate::wire::link::MountSetup {
+                axis: *data.get(4)?,
+                sense: i8::from_le_bytes([*data.get(5)?]),
+                zero_deg: f32_at(data, 8)?,
+                rpy_deg: [f32_at(data, 12)?, f32_at(data, 16)?, f32_at(data, 20)?],
+            },
+            filter: crate::wire::link::FilterSetup {
+                min_range_cm: u16_at(24)?,
+                max_range_cm: u16_at(26)?,
+                min_quality: *data.get(28)?,
+                sector_count: *data.get(29)?,
+                sectors,
+            },
+        })
+    }
+
+    fn emit(&self, out: &mut [u8]) {
+        out.fill(0);
+        let m = &self.mount_block;
+        put(out, 0, &[self.mount]);
+        put(out, 4, &[m.axis]);
+        put(out, 5, &m.sense.to_le_bytes());
+        put(out, 8, &m.zero_deg.to_le_bytes());
+        for (i, v) in m.rpy_deg.iter().enumerate() {
+            put(out, 12 + 4 * i, &v.to_le_bytes());
+        }
+        let f = &self.filter;
+        put(out, 24, &f.min_range_cm.to_le_bytes());
+        put(out, 26, &f.max_range_cm.to_le_bytes());
+        put(out, 28, &[f.min_quality, f.sector_count]);
+        for (i, (a, b)) in f.sectors.iter().enumerate() {
+            put(out, 30 + 4 * i, &a.to_le_bytes());
+            put(out, 32 + 4 * i, &b.to_le_bytes());
+        }
+    }
+}
+
 /// One event's content.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Payload<'a> {
@@ -101,6 +176,8 @@ pub enum Payload<'a> {
     Marker(u32),
     /// The laser the recording's bytes come from (version 2).
     Sensor(SensorEvent),
+    /// The mount and the filters (version 3).
+    Rig(RigEvent),
     /// An event of a kind this version does not know; skipped by its length.
     Unknown {
         /// The kind byte.
@@ -165,7 +242,8 @@ impl fmt::Display for RecordingError {
             Self::UnsupportedVersion { version } => {
                 write!(
                     f,
-                    "recording version {version} is not supported (this reads 1 and {VERSION})"
+                    "recording version {version} is not supported (this reads versions 1 to \
+                     {VERSION})"
                 )
             }
             Self::BadHeader => f.write_str("bad recording header length"),
@@ -180,18 +258,28 @@ impl fmt::Display for RecordingError {
     }
 }
 
-/// Writes the file header (version [`VERSION`]) into `out`; returns the bytes written (16).
+/// Writes the file header of a recording without a rig event (version
+/// [`VERSION_WITHOUT_RIG`]) into `out`; returns the bytes written (16).
 ///
 /// # Errors
 /// [`RecordingError::BufferTooSmall`].
 pub fn emit_header(out: &mut [u8]) -> Result<usize, RecordingError> {
+    emit_header_version(out, VERSION_WITHOUT_RIG)
+}
+
+/// Writes the file header of `version` (2, or [`VERSION`] for a file with a rig event) into
+/// `out`; returns the bytes written (16).
+///
+/// # Errors
+/// [`RecordingError::BufferTooSmall`].
+pub fn emit_header_version(out: &mut [u8], version: u16) -> Result<usize, RecordingError> {
     let header = out
         .get_mut(..HEADER_LEN)
         .ok_or(RecordingError::BufferTooSmall)?;
     header.fill(0);
     let (magic, rest) = header.split_at_mut(8);
     magic.copy_from_slice(&MAGIC);
-    put(rest, 0, &VERSION.to_le_bytes());
+    put(rest, 0, &version.to_le_bytes());
     #[allow(clippy::cast_possible_truncation)]
     put(rest, 2, &(HEADER_LEN as u16).to_le_bytes());
     Ok(HEADER_LEN)
@@ -273,6 +361,7 @@ impl Event<'_> {
             Payload::Setup(_) => kind::SETUP,
             Payload::Marker(_) => kind::MARKER,
             Payload::Sensor(_) => kind::SENSOR,
+            Payload::Rig(_) => kind::RIG,
             Payload::Unknown { kind, .. } => kind,
         }
     }
@@ -285,6 +374,7 @@ impl Event<'_> {
             Payload::Setup(_) => SETUP_LEN,
             Payload::Marker(_) => 4,
             Payload::Sensor(_) => SENSOR_LEN,
+            Payload::Rig(_) => RIG_LEN,
             Payload::Unknown { data, .. } => data.len(),
         }
     }
@@ -323,6 +413,7 @@ impl Event<'_> {
             Payload::Setup(s) => s.emit(body),
             Payload::Marker(m) => put(body, 0, &m.to_le_bytes()),
             Payload::Sensor(e) => put(body, 0, &[e.sensor, e.mode, 0, 0]),
+            Payload::Rig(r) => r.emit(body),
         }
         Ok(total)
     }
@@ -370,7 +461,7 @@ impl<'a> Reader<'a> {
         })
     }
 
-    /// The file's version (1 or 2).
+    /// The file's version (1 ..= 3).
     #[must_use]
     pub const fn version(&self) -> u16 {
         self.version
@@ -437,6 +528,12 @@ impl<'a> Reader<'a> {
                 Payload::Sensor(
                     SensorEvent::parse(body).ok_or(RecordingError::BadSetup { offset })?,
                 )
+            }
+            kind::RIG if self.version >= 3 => {
+                if len != RIG_LEN {
+                    return Err(bad_len);
+                }
+                Payload::Rig(RigEvent::parse(body).ok_or(RecordingError::BadSetup { offset })?)
             }
             kind::LASER | kind::POSE | kind::MARKER => return Err(bad_len),
             other => {
@@ -622,14 +719,89 @@ mod tests {
         assert_eq!(Reader::new(&old).unwrap().count(), 2);
     }
 
+    /// The rig event of version 3 (`docs/recording.md`, "Rig payload"): its bytes as the
+    /// document lays them out, read back; a version-2 file's kind 0x07 is an unknown event; a
+    /// bad mount byte or reserved byte is a bad setup.
+    #[test]
+    fn the_rig_event_of_version_3() {
+        let mut sectors = [(0, 0); crate::wire::link::SETUP_SECTORS];
+        sectors[0] = (13_500, 22_500);
+        let rig = RigEvent {
+            mount: 2,
+            mount_block: crate::wire::link::MountSetup {
+                axis: 1,
+                sense: -1,
+                zero_deg: 5.0,
+                rpy_deg: [180.0, 0.0, 90.0],
+            },
+            filter: crate::wire::link::FilterSetup {
+                min_range_cm: 5,
+                max_range_cm: 1_200,
+                min_quality: 10,
+                sector_count: 1,
+                sectors,
+            },
+        };
+        let mut file = std::vec![0_u8; 16 + EVENT_HEADER_LEN + RIG_LEN];
+        emit_header_version(&mut file, 3).unwrap();
+        let ev = Event {
+            time_us: 0,
+            payload: Payload::Rig(rig),
+        };
+        assert_eq!(
+            ev.emit(&mut file[16..]).unwrap(),
+            EVENT_HEADER_LEN + RIG_LEN
+        );
+        // The payload as docs/recording.md lays it out.
+        let want: Vec<u8> = [
+            &[2_u8, 0, 0, 0, 1, 0xFF, 0, 0][..],
+            &5.0_f32.to_le_bytes(),
+            &180.0_f32.to_le_bytes(),
+            &0.0_f32.to_le_bytes(),
+            &90.0_f32.to_le_bytes(),
+            &[5, 0, 0xB0, 0x04, 10, 1, 0xBC, 0x34, 0xE4, 0x57],
+            &[0; 28],
+        ]
+        .concat();
+        assert_eq!(&file[16 + EVENT_HEADER_LEN..], &want[..]);
+        let got: Vec<_> = Reader::new(&file).unwrap().map(Result::unwrap).collect();
+        assert_eq!(got, [ev]);
+        // A version-2 reader's view: an unknown kind, skipped.
+        file[8] = 2;
+        let mut r = Reader::new(&file).unwrap();
+        assert!(matches!(
+            r.next(),
+            Some(Ok(Event {
+                payload: Payload::Unknown { kind: 7, .. },
+                ..
+            }))
+        ));
+        // A bad mount byte, a reserved byte set.
+        file[8] = 3;
+        for (at, v) in [(0, 3_u8), (2, 1)] {
+            let mut bad = file.clone();
+            bad[16 + EVENT_HEADER_LEN + at] = v;
+            assert!(matches!(
+                Reader::new(&bad).unwrap().next(),
+                Some(Err(RecordingError::BadSetup { .. }))
+            ));
+        }
+        // emit_header writes version 2 (a file without a rig event).
+        let mut h = [0_u8; 16];
+        emit_header(&mut h).unwrap();
+        assert_eq!(h[8], 2);
+    }
+
     #[test]
     fn damage_is_reported_not_panicked() {
         assert_eq!(Reader::new(b"nope").err(), Some(RecordingError::BadMagic));
         let mut v = DOC_EXAMPLE.to_vec();
-        v[8] = 3;
+        v[8] = 4;
+        let e = Reader::new(&v).err();
+        assert_eq!(e, Some(RecordingError::UnsupportedVersion { version: 4 }));
         assert_eq!(
-            Reader::new(&v).err(),
-            Some(RecordingError::UnsupportedVersion { version: 3 })
+            std::format!("{}", e.unwrap()),
+            "recording version 4 is not supported (this reads versions 1 to 3)"
         );
         // Every truncation of the example either reads cleanly up to the cut or reports it.
         let boundaries = [HEADER_LEN, HEADER_LEN + EVENT_HEADER_LEN + SETUP_LEN];

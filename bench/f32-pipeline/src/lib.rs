@@ -392,9 +392,10 @@ impl<const C: usize> Frontend<C> {
         let r = &self.rot;
         let col = |j: usize| [r[0][j], r[1][j], r[2][j]];
         let (r0, r1, r2) = (col(0), col(1), col(2));
-        let (col_c, aux, sign) = match self.config.mount.plane {
-            ScanPlane::PannedVertical => (r2, r1, 1.0),
-            ScanPlane::TiltedHorizontal => (r1, r2, -1.0),
+        // This comparison pipeline models the two preset mounts (what the benchmarks run).
+        let (col_c, aux, sign) = match self.config.mount.preset() {
+            Some(ScanPlane::PannedVertical) => (r2, r1, 1.0),
+            _ => (r1, r2, -1.0),
         };
         let mm = 0.001_f32;
         let kc = [-col_c[0] * mm, -col_c[1] * mm, -col_c[2] * mm];

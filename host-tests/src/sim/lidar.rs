@@ -63,7 +63,9 @@ use terrain_pyramid::angle::FineAngle;
 use terrain_pyramid::laser::{Sensor, SensorKind};
 use terrain_pyramid::wire::ld06::{Ld06Point, Ld06Repr};
 use terrain_pyramid::wire::recording::SetupEvent as Setup;
-use terrain_pyramid::wire::recording::{emit_header, Event, MountKind, Payload, SensorEvent};
+use terrain_pyramid::wire::recording::{
+    emit_header_version, Event, MountKind, Payload, RigEvent, SensorEvent,
+};
 use terrain_pyramid::wire::rplidar::RplidarScanMode;
 use terrain_pyramid::wire::rplidar::{RplidarCapsuleRepr, RplidarDescriptorRepr, RplidarNodeRepr};
 use terrain_pyramid::wire::ydlidar::{YdlidarAngleCorrection, YdlidarDescriptorRepr, YdlidarRepr};
@@ -243,6 +245,86 @@ impl LidarActuator {
     }
 }
 
+/// A lidar mounted otherwise than the preset of its actuator (`docs/lidars.md`, "The mount"):
+/// its own frame (x its 0°, z its top) rotated by `R_z(yaw)·R_y(pitch)·R_x(roll)` relative to
+/// the actuator's frame at zero, on the actuator of [`LidarActuator`] (a servo tilts about y,
+/// the pan turns about z), which reports `zero + sense·a` for its angle a. The samples are
+/// cast along the mounted sensor's directions and the recording's angle events carry the
+/// reported angle: the bytes are what that sensor sends on that mount, untouched. The
+/// recording (version 3) carries the rig event (`docs/recording.md`), which `pyramid run`
+/// writes into the Setup's mount block; the setup event names the actuator's preset.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SimRig {
+    /// Roll, pitch, yaw, degrees.
+    pub rpy_deg: [f64; 3],
+    /// The reported angle at the actuator's zero, degrees.
+    pub zero_deg: f64,
+    /// The actuator reports against its axis's positive sense.
+    pub reversed: bool,
+}
+
+impl SimRig {
+    /// An LD19 (or any lidar) upside down, its 0° to the left: roll 180°, yaw 90°.
+    pub const UPSIDE_DOWN_ZERO_LEFT: Self = Self {
+        rpy_deg: [180.0, 0.0, 90.0],
+        zero_deg: 0.0,
+        reversed: false,
+    };
+    /// A lidar standing with its 0° up and its top to the right: roll 90°, pitch −90°
+    /// (sensor x to robot z, sensor y to robot −x, sensor z to robot −y).
+    pub const STANDING_ZERO_UP: Self = Self {
+        rpy_deg: [90.0, -90.0, 0.0],
+        zero_deg: 0.0,
+        reversed: false,
+    };
+
+    /// The sensor frame's rotation in the actuator's frame at zero.
+    fn rotation(&self) -> [[f64; 3]; 3] {
+        let [r, p, y] = self.rpy_deg.map(f64::to_radians);
+        mat3(&rot(2, y), &mat3(&rot(1, p), &rot(0, r)))
+    }
+
+    /// The recording's rig event of this rig on `actuator` (a servo tilts, the pan pans): the
+    /// general mount, no filter.
+    #[must_use]
+    #[allow(clippy::cast_possible_truncation)]
+    pub fn event(&self, actuator: &LidarActuator) -> RigEvent {
+        RigEvent {
+            mount: 2,
+            mount_block: terrain_pyramid::wire::link::MountSetup {
+                axis: match actuator {
+                    LidarActuator::Servo(_) => 1,
+                    LidarActuator::Pan { .. } => 0,
+                },
+                sense: if self.reversed { -1 } else { 1 },
+                zero_deg: self.zero_deg as f32,
+                rpy_deg: self.rpy_deg.map(|v| v as f32),
+            },
+            filter: terrain_pyramid::wire::link::FilterSetup::NONE,
+        }
+    }
+
+    /// The reported angle of the actuator at `a` degrees.
+    fn reported_deg(&self, a: f64) -> f64 {
+        self.zero_deg + if self.reversed { -a } else { a }
+    }
+}
+
+/// The rotation by `a` radians about axis `k` (0 x, 1 y, 2 z), right-handed.
+fn rot(k: usize, a: f64) -> [[f64; 3]; 3] {
+    let (s, c) = a.sin_cos();
+    match k {
+        0 => [[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]],
+        1 => [[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]],
+        _ => [[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]],
+    }
+}
+
+/// The product of two 3 × 3 matrices.
+fn mat3(a: &[[f64; 3]; 3], b: &[[f64; 3]; 3]) -> [[f64; 3]; 3] {
+    core::array::from_fn(|i| core::array::from_fn(|j| (0..3).map(|k| a[i][k] * b[k][j]).sum()))
+}
+
 /// A signed [`FineAngle`] in degrees.
 fn fine_deg(a: FineAngle) -> f64 {
     #[allow(clippy::cast_possible_wrap)]
@@ -332,6 +414,9 @@ pub struct LidarSimConfig {
     /// Seconds the servo's sweep had run before t = 0 (0, the default: it begins at t = 0
     /// with its 500 ms hold at min; 0.5 or more: it is already sweeping).
     pub servo_lead_s: f64,
+    /// The lidar mounted otherwise than the actuator's preset (`None`, the default: the
+    /// preset).
+    pub rig: Option<SimRig>,
 }
 
 impl LidarSimConfig {
@@ -361,6 +446,7 @@ impl LidarSimConfig {
             seed: 1,
             truth: GroundTruthSpec::default(),
             servo_lead_s: 0.0,
+            rig: None,
         }
     }
 
@@ -476,9 +562,18 @@ impl Caster<'_> {
         let theta = (90.0 - phi_deg).to_radians();
         let (s, c) = theta.sin_cos();
         let (sa, ca) = a.sin_cos();
-        let d = match self.config.actuator.mount_kind() {
-            MountKind::PannedVertical => [s * ca, s * sa, -c],
-            MountKind::TiltedHorizontal => [s * ca, -c, -s * sa],
+        let d = match (self.config.rig, self.config.actuator.mount_kind()) {
+            (None, MountKind::PannedVertical) => [s * ca, s * sa, -c],
+            (None, MountKind::TiltedHorizontal) => [s * ca, -c, -s * sa],
+            (Some(rig), kind) => {
+                let axis = match kind {
+                    MountKind::PannedVertical => 2,
+                    MountKind::TiltedHorizontal => 1,
+                };
+                let m = mat3(&rot(axis, a), &rig.rotation());
+                let v = [s, -c, 0.0];
+                core::array::from_fn(|i| m[i][0] * v[0] + m[i][1] * v[1] + m[i][2] * v[2])
+            }
         };
         let r = self.pose.rotation();
         let dir = core::array::from_fn(|i| r[i][0] * d[0] + r[i][1] * d[1] + r[i][2] * d[2]);
@@ -820,7 +915,13 @@ pub fn simulate_lidar(config: &LidarSimConfig) -> Result<LidarSimulation, LidarS
     };
     let duration = config.trajectory.duration_s();
     let mut bytes = vec![0_u8; 16];
-    emit_header(&mut bytes).map_err(|e| LidarSimError(format!("emit: {e}")))?;
+    // A rig needs version 3 (its rig event); without one the file stays version 2.
+    let version = if config.rig.is_some() {
+        terrain_pyramid::wire::recording::VERSION
+    } else {
+        terrain_pyramid::wire::recording::VERSION_WITHOUT_RIG
+    };
+    emit_header_version(&mut bytes, version).map_err(|e| LidarSimError(format!("emit: {e}")))?;
     push(
         &mut bytes,
         &Event {
@@ -835,6 +936,15 @@ pub fn simulate_lidar(config: &LidarSimConfig) -> Result<LidarSimulation, LidarS
             payload: Payload::Sensor(sensor),
         },
     )?;
+    if let Some(rig) = config.rig {
+        push(
+            &mut bytes,
+            &Event {
+                time_us: 0,
+                payload: Payload::Rig(rig.event(&config.actuator)),
+            },
+        )?;
+    }
     let mut packets = Packets {
         caster: Caster {
             config,
@@ -920,7 +1030,10 @@ pub fn simulate_lidar(config: &LidarSimConfig) -> Result<LidarSimulation, LidarS
                 &mut bytes,
                 &Event {
                     time_us: now,
-                    payload: Payload::Angle(angle_to_u16(angle_sweep.angle_deg(mean))),
+                    payload: Payload::Angle(angle_to_u16({
+                        let a = angle_sweep.angle_deg(mean);
+                        config.rig.map_or(a, |rig| rig.reported_deg(a))
+                    })),
                 },
             )?;
         }

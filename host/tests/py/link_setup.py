@@ -1,9 +1,10 @@
 #!/usr/bin/env python3
 """An independent encoder of the link's Setup and SetRule frames (docs/protocol.md, version
-4: the bodies of version 3 under the version 4 header), from the document alone: struct for
-the little-endian body, zlib.crc32 for CRC-32/ISO-HDLC, COBS by hand.
+5), from the document alone: struct for the little-endian body, zlib.crc32 for
+CRC-32/ISO-HDLC, COBS by hand.
 
-Usage: link_setup.py SEQ FIELD...           a Setup (25 fields in wire order, as numbers)
+Usage: link_setup.py SEQ FIELD...           a Setup (51 fields in wire order, as numbers:
+                                            the reserved bytes of the mount block left out)
        link_setup.py setrule SEQ FIELD...   a SetRule (the step, then the 6 rule fields)
 Prints the encoded frame as hex bytes separated by spaces, delimiter included.
 """
@@ -11,13 +12,17 @@ import struct
 import sys
 import zlib
 
-VERSION = 4
+VERSION = 5
 SETUP = 0x87
 
-# Base part (offset 0), rule block (offset 38), laser block (offset 59).
+# Base part (offset 0), rule block (offset 38), laser block (offset 59), mount block
+# (offset 81: axis, sense, 2 reserved bytes, zero, roll, pitch, yaw), filter block (offset
+# 101: min range cm, max range cm, min quality, sector count, 8 x (start, end) centidegrees).
 BASE = "<BBHH3fI4f"
 RULE = "<B5f"
 LASER = "<BBI4f"
+MOUNT = "<Bb2x4f"
+FILTER = "<HHBB16H"
 
 
 def cobs(data: bytes) -> bytes:
@@ -40,13 +45,19 @@ def cobs(data: bytes) -> bytes:
 
 
 def setup_body(fields):
-    base, rule, laser = fields[:12], fields[12:18], fields[18:]
-    assert len(laser) == 7, "12 base fields, 6 rule fields, 7 laser fields"
-    ints = lambda fmt, vs: [int(v) if c in "BHI" else float(v) for c, v in zip(expand(fmt), vs)]
+    base, rule, laser = fields[:12], fields[12:18], fields[18:25]
+    mount, filt = fields[25:31], fields[31:]
+    assert len(filt) == 20, "12 base, 6 rule, 7 laser, 6 mount and 20 filter fields"
+    ints = lambda fmt, vs: [
+        int(v) if c in "BbHI" else float(v)
+        for c, v in zip([c for c in expand(fmt) if c != "x"], vs)
+    ]
     body = struct.pack(BASE, *ints(BASE, base))
     body += struct.pack(RULE, *ints(RULE, rule))
     body += struct.pack(LASER, *ints(LASER, laser))
-    assert len(body) == 38 + 21 + 22, len(body)
+    body += struct.pack(MOUNT, *ints(MOUNT, mount))
+    body += struct.pack(FILTER, *ints(FILTER, filt))
+    assert len(body) == 38 + 21 + 22 + 20 + 38, len(body)
     return body
 
 

@@ -40,7 +40,8 @@ pub use reply::{
     ReplyReason, ReplyText,
 };
 pub use setup::{
-    frontend_config, frontend_config_of_event, navigability_rule, rule_setup, set_rule_message,
-    set_rule_of, setup_message, setup_message_with_sensor, SetupError, SetupField, RULE_MAX,
+    fine_of_centidegrees, fine_of_degrees, frontend_config, frontend_config_of_event,
+    navigability_rule, rule_setup, set_rule_message, set_rule_of, setup_message,
+    setup_message_with_sensor, setup_with_rig, SetupError, SetupField, MOUNT_LIMIT_DEG, RULE_MAX,
     SERVO_LIMIT_DEG, SERVO_MAX_LATENCY_MS, SERVO_MAX_RATE_DEG_S, SETUP_BAUD, SETUP_LIMIT_M,
 };

@@ -8,12 +8,13 @@ use super::{setup_refusal, ReplyText};
 use crate::actuator::{Actuator, ServoProfile};
 use crate::angle::FineAngle;
 use crate::classify::{ClassifierConfig, NavigabilityRule, PlaneRule, Ratio};
-use crate::geometry::{Mount, ScanPlane};
+use crate::geometry::{ActuatorAxis, Mount, ScanPlane};
 use crate::laser::{Sensor, SensorKind};
 use crate::pipeline::FrontendConfig;
+use crate::pipeline::{ReturnFilter, Sector, MAX_SECTORS};
 use crate::units::{Meters, Point3};
 use crate::wire::link::{Header, LaserSetup, RuleSetup, SetRule, Setup};
-use crate::wire::recording::{MountKind, SensorEvent, SetupEvent};
+use crate::wire::recording::{MountKind, RigEvent, SensorEvent, SetupEvent};
 use crate::wire::sick::{MeasuringMode, Variant};
 
 /// A field of a [`Setup`], as a Reply names it (`param` 48 ..= 57, and 58 ..= 64 for the
@@ -68,6 +69,26 @@ pub enum SetupField {
     AngleSigma = 69,
     /// The plane rule's noise factor.
     NoiseFactor = 70,
+    /// The general mount's actuator axis: 0 pan, 1 tilt, 2 none (version 5).
+    MountAxis = 71,
+    /// The actuator's sense: +1 or −1.
+    MountSense = 72,
+    /// The actuator's zero, degrees.
+    MountZero = 73,
+    /// The general mount's roll, degrees.
+    MountRoll = 74,
+    /// The general mount's pitch, degrees.
+    MountPitch = 75,
+    /// The general mount's yaw, degrees.
+    MountYaw = 76,
+    /// The minimum range, centimetres.
+    MinRange = 77,
+    /// The maximum range, centimetres.
+    MaxRange = 78,
+    /// The number of masked sectors.
+    SectorCount = 79,
+    /// A masked sector's start or end (the value the bad angle, `min` the sector's index).
+    Sector = 80,
 }
 
 impl SetupField {
@@ -98,6 +119,16 @@ impl SetupField {
             68 => Self::RangeSigma,
             69 => Self::AngleSigma,
             70 => Self::NoiseFactor,
+            71 => Self::MountAxis,
+            72 => Self::MountSense,
+            73 => Self::MountZero,
+            74 => Self::MountRoll,
+            75 => Self::MountPitch,
+            76 => Self::MountYaw,
+            77 => Self::MinRange,
+            78 => Self::MaxRange,
+            79 => Self::SectorCount,
+            80 => Self::Sector,
             _ => return None,
         })
     }
@@ -129,6 +160,16 @@ impl SetupField {
             Self::RangeSigma => "setup range noise",
             Self::AngleSigma => "setup elevation error",
             Self::NoiseFactor => "setup noise factor",
+            Self::MountAxis => "setup mount axis",
+            Self::MountSense => "setup actuator sense",
+            Self::MountZero => "setup actuator zero",
+            Self::MountRoll => "setup mount roll",
+            Self::MountPitch => "setup mount pitch",
+            Self::MountYaw => "setup mount yaw",
+            Self::MinRange => "setup minimum range",
+            Self::MaxRange => "setup maximum range",
+            Self::SectorCount => "setup masked sector count",
+            Self::Sector => "setup masked sector",
         }
     }
 }
@@ -215,6 +256,8 @@ pub fn setup_message(event: &SetupEvent, classifier: &ClassifierConfig) -> Setup
     let m = |v: Meters| v.to_num::<f32>();
     let off = |v: Option<Meters>| v.map_or(0.0, m);
     Setup {
+        mount_block: crate::wire::link::MountSetup::PRESET,
+        filter: crate::wire::link::FilterSetup::NONE,
         mount: match event.mount {
             MountKind::PannedVertical => 0,
             MountKind::TiltedHorizontal => 1,
@@ -356,6 +399,18 @@ pub fn setup_message_with_sensor(
     setup
 }
 
+/// `setup` with a recording's rig event (version 3) written over it: the mount byte, the mount
+/// block and the filter block.
+#[must_use]
+pub fn setup_with_rig(setup: Setup, rig: &RigEvent) -> Setup {
+    Setup {
+        mount: rig.mount,
+        mount_block: rig.mount_block,
+        filter: rig.filter,
+        ..setup
+    }
+}
+
 /// The pipeline's configuration of a recording's setup event and the classifier's
 /// thresholds, by the link's rule ([`setup_message`], then [`frontend_config`]).
 ///
@@ -392,14 +447,15 @@ pub fn frontend_config(setup: &Setup) -> Result<FrontendConfig, SetupError> {
         max: 3.0,
     })?;
     let plane = match setup.mount {
-        0 => ScanPlane::PannedVertical,
-        1 => ScanPlane::TiltedHorizontal,
+        0 => Some(ScanPlane::PannedVertical),
+        1 => Some(ScanPlane::TiltedHorizontal),
+        2 => None,
         other => {
             return Err(SetupError::OutOfRange {
                 field: SetupField::Mount,
                 value: f32::from(other),
                 min: 0.0,
-                max: 1.0,
+                max: 2.0,
             })
         }
     };
@@ -512,8 +568,11 @@ pub fn frontend_config(setup: &Setup) -> Result<FrontendConfig, SetupError> {
             })
         }
     };
+    let mount = mount_of(plane, position, &setup.mount_block)?;
+    let filter = filter_of(&setup.filter)?;
     Ok(FrontendConfig {
-        mount: Mount::new(plane, position),
+        filter,
+        mount,
         sensor,
         baud,
         actuator,
@@ -529,6 +588,156 @@ pub fn frontend_config(setup: &Setup) -> Result<FrontendConfig, SetupError> {
         },
         missing_ground_within: None,
     })
+}
+
+/// The largest |angle| of the mount block, degrees (inclusive).
+pub const MOUNT_LIMIT_DEG: f32 = 360.0;
+
+/// An angle in degrees (finite, |v| ≤ 360, as checked) as a [`FineAngle`]:
+/// `round(v/360 · 2³²)` modulo a turn, in integers from the value rounded to 2⁻¹⁵ degree
+/// (multiples of 90° are exact; the rounding, 1.5·10⁻⁵ degree at most, is below an `f32`'s
+/// own step near 360°).
+#[must_use]
+pub fn fine_of_degrees(deg: f32) -> FineAngle {
+    // |deg| ≤ 360: |deg·2¹⁵| < 2²⁴, exact in the f32 product up to its own rounding.
+    #[allow(clippy::cast_possible_truncation)]
+    let q15 = libm_round(deg * 32_768.0) as i64;
+    // bits = q15 · 2³² / (360 · 2¹⁵) = q15 · 2¹⁷ / 360, rounded to nearest.
+    let num = q15 * (1 << 17);
+    let bits = if num >= 0 {
+        (num + 180) / 360
+    } else {
+        (num - 180) / 360
+    };
+    #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+    FineAngle::from_bits(bits as u32)
+}
+
+/// `round(v)` of a finite `f32` below 2²⁴ in magnitude, half away from zero, without `std`.
+fn libm_round(v: f32) -> f32 {
+    // Below 2²⁴ the truncation to i32 is exact; the half is added with the value's sign.
+    #[allow(clippy::cast_possible_truncation, clippy::cast_precision_loss)]
+    let t = (v + if v < 0.0 { -0.5 } else { 0.5 }) as i32 as f32;
+    t
+}
+
+/// The mount of a preset (`plane`) or of the general mount (`None`) with the mount block,
+/// validated in wire order: axis (general only), sense, zero, roll, pitch, yaw (general only).
+fn mount_of(
+    plane: Option<ScanPlane>,
+    position: Point3,
+    block: &crate::wire::link::MountSetup,
+) -> Result<Mount, SetupError> {
+    let angle = |field, v: f32| {
+        if !v.is_finite() {
+            return Err(SetupError::NotFinite { field });
+        }
+        if v.abs() > MOUNT_LIMIT_DEG {
+            return Err(SetupError::OutOfRange {
+                field,
+                value: v,
+                min: -MOUNT_LIMIT_DEG,
+                max: MOUNT_LIMIT_DEG,
+            });
+        }
+        Ok(fine_of_degrees(v))
+    };
+    let axis = match plane {
+        Some(p) => p.axis(),
+        None => ActuatorAxis::from_code(block.axis).ok_or(SetupError::OutOfRange {
+            field: SetupField::MountAxis,
+            value: f32::from(block.axis),
+            min: 0.0,
+            max: 2.0,
+        })?,
+    };
+    let reversed = match block.sense {
+        1 => false,
+        -1 => true,
+        other => {
+            return Err(SetupError::OutOfRange {
+                field: SetupField::MountSense,
+                value: f32::from(other),
+                min: -1.0,
+                max: 1.0,
+            })
+        }
+    };
+    let zero = angle(SetupField::MountZero, block.zero_deg)?;
+    let rpy = match plane {
+        Some(p) => p.rpy(),
+        None => {
+            let [r, p, y] = block.rpy_deg;
+            [
+                angle(SetupField::MountRoll, r)?,
+                angle(SetupField::MountPitch, p)?,
+                angle(SetupField::MountYaw, y)?,
+            ]
+        }
+    };
+    Ok(Mount::general(position, rpy, axis, zero, reversed))
+}
+
+/// A centidegree angle 0 ..= 35 999 as a [`FineAngle`]: `round(c · 2³² / 36 000)`, exact at
+/// multiples of 90°.
+#[must_use]
+pub fn fine_of_centidegrees(c: u16) -> FineAngle {
+    // c < 2¹⁶: c·2³² < 2⁴⁸, the quotient below 2³².
+    #[allow(clippy::cast_possible_truncation)]
+    FineAngle::from_bits((((u64::from(c) << 32) + 18_000) / 36_000) as u32)
+}
+
+/// The filter block as the pipeline's [`ReturnFilter`], validated in wire order: the
+/// maximum range above the minimum (when both are on), the sector count at most 8, each
+/// used sector's start and end below 36 000 centidegrees.
+fn filter_of(block: &crate::wire::link::FilterSetup) -> Result<ReturnFilter, SetupError> {
+    let (lo, hi) = (block.min_range_cm, block.max_range_cm);
+    if hi != 0 && hi <= lo {
+        return Err(SetupError::OutOfRange {
+            field: SetupField::MaxRange,
+            value: f32::from(hi),
+            min: f32::from(lo),
+            max: f32::from(u16::MAX),
+        });
+    }
+    let count = usize::from(block.sector_count);
+    let too_many = SetupError::OutOfRange {
+        field: SetupField::SectorCount,
+        value: f32::from(block.sector_count),
+        min: 0.0,
+        max: 8.0,
+    };
+    if count > MAX_SECTORS {
+        return Err(too_many);
+    }
+    let mut sectors = [Sector::default(); MAX_SECTORS];
+    for (k, (&(a, b), out)) in block
+        .sectors
+        .iter()
+        .zip(&mut sectors)
+        .take(count)
+        .enumerate()
+    {
+        for v in [a, b] {
+            if v >= 36_000 {
+                return Err(SetupError::OutOfRange {
+                    field: SetupField::Sector,
+                    value: f32::from(v),
+                    min: f32::from(u8::try_from(k).unwrap_or(u8::MAX)),
+                    max: 35_999.0,
+                });
+            }
+        }
+        *out = Sector::between(fine_of_centidegrees(a), fine_of_centidegrees(b));
+    }
+    let used = sectors.get(..count).unwrap_or(&[]);
+    ReturnFilter::new(
+        used,
+        u32::from(lo) * 10,
+        u32::from(hi) * 10,
+        block.min_quality,
+    )
+    .ok_or(too_many)
 }
 
 /// The servo sweep of a laser block, validated in wire order (min, max, rate, latency).

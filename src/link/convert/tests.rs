@@ -45,7 +45,7 @@ fn a_design_refusal_names_the_parameter() {
     let n = encode(0x0106, &Message::Reply(reply), &mut out).unwrap();
     assert_eq!(
         &out[..n],
-        &hex("06 04 05 06 01 0c 04 83 03 07 01 03 48 43 01 01 01 01 01 07 c8 42 a1 78 8a 30 00")[..]
+        &hex("06 05 05 06 01 0c 04 83 03 07 01 03 48 43 01 01 01 01 01 07 c8 42 3f fb 50 af 00")[..]
     );
     assert_eq!(
         std::format!("{}", ReplyText(&reply)),
@@ -186,6 +186,8 @@ fn pose_validation_is_the_geometry_rule() {
 #[test]
 fn setup_validation_names_the_field() {
     let setup = Setup {
+        mount_block: crate::wire::link::MountSetup::PRESET,
+        filter: crate::wire::link::FilterSetup::NONE,
         mount: 1,
         measuring_mode: 0,
         field_deg: 180,
@@ -208,9 +210,11 @@ fn setup_validation_names_the_field() {
         Some(crate::units::Meters::from_num(2))
     );
     let refused = |s: Setup| frontend_config(&s).unwrap_err().field();
-    assert_eq!(refused(Setup { mount: 2, ..setup }), SetupField::Mount);
+    assert_eq!(refused(Setup { mount: 3, ..setup }), SetupField::Mount);
     assert_eq!(
         refused(Setup {
+            mount_block: crate::wire::link::MountSetup::PRESET,
+            filter: crate::wire::link::FilterSetup::NONE,
             measuring_mode: 7,
             ..setup
         }),
@@ -218,6 +222,8 @@ fn setup_validation_names_the_field() {
     );
     assert_eq!(
         refused(Setup {
+            mount_block: crate::wire::link::MountSetup::PRESET,
+            filter: crate::wire::link::FilterSetup::NONE,
             field_deg: 180,
             resolution_cdeg: 25,
             ..setup
@@ -226,6 +232,8 @@ fn setup_validation_names_the_field() {
     );
     assert_eq!(
         refused(Setup {
+            mount_block: crate::wire::link::MountSetup::PRESET,
+            filter: crate::wire::link::FilterSetup::NONE,
             sensor_m: [0.0, f32::NAN, 0.0],
             ..setup
         }),
@@ -233,6 +241,8 @@ fn setup_validation_names_the_field() {
     );
     assert_eq!(
         refused(Setup {
+            mount_block: crate::wire::link::MountSetup::PRESET,
+            filter: crate::wire::link::FilterSetup::NONE,
             step_threshold_m: -0.01,
             ..setup
         }),
@@ -240,15 +250,17 @@ fn setup_validation_names_the_field() {
     );
     assert_eq!(
         refused(Setup {
+            mount_block: crate::wire::link::MountSetup::PRESET,
+            filter: crate::wire::link::FilterSetup::NONE,
             robot_height_m: 0.0,
             ..setup
         }),
         SetupField::RobotHeight
     );
-    let error = frontend_config(&Setup { mount: 2, ..setup }).unwrap_err();
+    let error = frontend_config(&Setup { mount: 3, ..setup }).unwrap_err();
     assert_eq!(
         std::format!("{error}"),
-        "setup mount: must lie within [0, 1] (got 2)"
+        "setup mount: must lie within [0, 2] (got 3)"
     );
     // A version-2 peer's meaning: a SICK at 500 kBd on an external actuator.
     assert_eq!(config.sensor, Sensor::Sick);
@@ -405,6 +417,8 @@ fn the_rule_block_travels_and_is_validated() {
     };
     assert_eq!(
         frontend_config(&Setup {
+            mount_block: crate::wire::link::MountSetup::PRESET,
+            filter: crate::wire::link::FilterSetup::NONE,
             rule: paper,
             ..plane
         })
@@ -417,7 +431,11 @@ fn the_rule_block_travels_and_is_validated() {
         let field = SetupField::from_param(code).unwrap();
         assert_eq!(field as u8, code);
     }
-    assert_eq!(SetupField::from_param(71), None);
+    for code in 71..=80 {
+        let field = SetupField::from_param(code).unwrap();
+        assert_eq!(field as u8, code);
+    }
+    assert_eq!(SetupField::from_param(81), None);
 }
 
 /// The laser block: each field refused with its own code and sentence; a lidar's mode is
@@ -434,6 +452,8 @@ fn the_laser_block_is_validated_field_by_field() {
         servo_latency_ms: 25.0,
     };
     let setup = Setup {
+        mount_block: crate::wire::link::MountSetup::PRESET,
+        filter: crate::wire::link::FilterSetup::NONE,
         mount: 1,
         measuring_mode: 0,
         field_deg: 0,
@@ -485,6 +505,8 @@ fn the_laser_block_is_validated_field_by_field() {
     // The mode is the sensor's: LD06 has only 0, RPLIDAR and YDLIDAR 0 and 1.
     assert_eq!(
         refused(Setup {
+            mount_block: crate::wire::link::MountSetup::PRESET,
+            filter: crate::wire::link::FilterSetup::NONE,
             measuring_mode: 1,
             ..setup
         }),
@@ -506,12 +528,16 @@ fn the_laser_block_is_validated_field_by_field() {
         ),
     ] {
         let s = Setup {
+            mount_block: crate::wire::link::MountSetup::PRESET,
+            filter: crate::wire::link::FilterSetup::NONE,
             measuring_mode: mode,
             laser: LaserSetup { sensor, ..servo },
             ..setup
         };
         assert_eq!(frontend_config(&s).unwrap().sensor, want);
         let s = Setup {
+            mount_block: crate::wire::link::MountSetup::PRESET,
+            filter: crate::wire::link::FilterSetup::NONE,
             measuring_mode: 2,
             ..s
         };
@@ -674,4 +700,194 @@ fn reply_param_codes_are_disjoint() {
         "layer 31's time constant"
     );
     assert_eq!(SetupField::from_param(64), Some(SetupField::ServoLatency));
+}
+
+/// The mount and filter blocks (version 5): the general mount's fields and the filters, each
+/// refused with its own field; a preset with a zero and a reversed sense; the general mount of
+/// a preset's values is the preset.
+#[test]
+fn the_mount_and_filter_blocks_are_validated_field_by_field() {
+    use crate::geometry::{ActuatorAxis, Mount, ScanPlane};
+    use crate::wire::link::{FilterSetup, MountSetup};
+    let base = Setup {
+        mount_block: MountSetup::PRESET,
+        filter: FilterSetup::NONE,
+        mount: 1,
+        measuring_mode: 0,
+        field_deg: 180,
+        resolution_cdeg: 50,
+        sensor_m: [0.0, 0.0, 0.5],
+        lines_per_observation: 0,
+        robot_height_m: 1.0,
+        step_threshold_m: 0.05,
+        drop_threshold_m: 0.0,
+        ceiling_m: 0.0,
+        rule: RuleSetup::SPREAD,
+        laser: LaserSetup::SICK,
+    };
+    let preset = frontend_config(&base).unwrap().mount;
+    assert_eq!(preset.preset(), Some(ScanPlane::TiltedHorizontal));
+    // The general mount of the preset's values is the preset.
+    let general = Setup {
+        mount: 2,
+        mount_block: MountSetup {
+            axis: 1,
+            ..MountSetup::PRESET
+        },
+        ..base
+    };
+    assert_eq!(frontend_config(&general).unwrap().mount, preset);
+    let panned = Setup {
+        mount: 2,
+        mount_block: MountSetup {
+            axis: 0,
+            rpy_deg: [90.0, 0.0, 0.0],
+            ..MountSetup::PRESET
+        },
+        ..base
+    };
+    assert_eq!(
+        frontend_config(&panned).unwrap().mount.preset(),
+        Some(ScanPlane::PannedVertical)
+    );
+    // A preset keeps its rotation and axis but takes the zero and the sense.
+    let m = frontend_config(&Setup {
+        mount_block: MountSetup {
+            sense: -1,
+            zero_deg: -90.0,
+            axis: 7,
+            rpy_deg: [1.0, 2.0, 3.0],
+        },
+        ..base
+    })
+    .unwrap()
+    .mount;
+    assert_eq!(m.axis(), ActuatorAxis::Tilt);
+    assert_eq!(m.columns(), preset.columns());
+    assert!(m.reversed());
+    assert_eq!(m.zero(), FineAngle::from_bits(3 << 30));
+    assert_eq!(
+        m,
+        Mount::general(
+            m.position,
+            ScanPlane::TiltedHorizontal.rpy(),
+            ActuatorAxis::Tilt,
+            FineAngle::from_bits(3 << 30),
+            true
+        )
+    );
+    let refused = |s: Setup| frontend_config(&s).unwrap_err().field();
+    let with_mount = |b: MountSetup| Setup {
+        mount: 2,
+        mount_block: b,
+        ..base
+    };
+    assert_eq!(
+        refused(with_mount(MountSetup {
+            axis: 3,
+            ..MountSetup::PRESET
+        })),
+        SetupField::MountAxis
+    );
+    assert_eq!(
+        refused(with_mount(MountSetup {
+            sense: 0,
+            ..MountSetup::PRESET
+        })),
+        SetupField::MountSense
+    );
+    assert_eq!(
+        refused(with_mount(MountSetup {
+            zero_deg: f32::NAN,
+            ..MountSetup::PRESET
+        })),
+        SetupField::MountZero
+    );
+    for (k, field) in [
+        SetupField::MountRoll,
+        SetupField::MountPitch,
+        SetupField::MountYaw,
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        let mut rpy_deg = [0.0; 3];
+        rpy_deg[k] = 360.5;
+        assert_eq!(
+            refused(with_mount(MountSetup {
+                rpy_deg,
+                ..MountSetup::PRESET
+            })),
+            field
+        );
+    }
+    let with_filter = |f: FilterSetup| Setup { filter: f, ..base };
+    assert_eq!(
+        refused(with_filter(FilterSetup {
+            min_range_cm: 100,
+            max_range_cm: 100,
+            ..FilterSetup::NONE
+        })),
+        SetupField::MaxRange
+    );
+    assert_eq!(
+        refused(with_filter(FilterSetup {
+            sector_count: 9,
+            ..FilterSetup::NONE
+        })),
+        SetupField::SectorCount
+    );
+    let mut sectors = [(0, 0); 8];
+    sectors[1] = (100, 36_000);
+    let e = frontend_config(&with_filter(FilterSetup {
+        sector_count: 2,
+        sectors,
+        ..FilterSetup::NONE
+    }))
+    .unwrap_err();
+    assert_eq!(
+        e,
+        SetupError::OutOfRange {
+            field: SetupField::Sector,
+            value: 36_000.0,
+            min: 1.0,
+            max: 35_999.0
+        }
+    );
+    // A sector past the count is not looked at; the filter takes the ranges in mm.
+    let f = frontend_config(&with_filter(FilterSetup {
+        min_range_cm: 5,
+        max_range_cm: 1_200,
+        min_quality: 10,
+        sector_count: 1,
+        sectors: [(9_000, 18_000); 8],
+    }))
+    .unwrap()
+    .filter;
+    assert_eq!(
+        (f.min_range_mm(), f.max_range_mm(), f.min_quality()),
+        (50, 12_000, 10)
+    );
+    assert_eq!(f.sectors().len(), 1);
+    assert!(f.masked(FineAngle::QUARTER));
+    assert!(!f.masked(FineAngle::HALF));
+}
+
+/// Degrees and centidegrees become angles exactly at right angles and within a few 2⁻³² turns
+/// elsewhere.
+#[test]
+fn degrees_convert_exactly_at_right_angles() {
+    assert_eq!(fine_of_degrees(90.0), FineAngle::QUARTER);
+    assert_eq!(fine_of_degrees(-90.0), FineAngle::from_bits(3 << 30));
+    assert_eq!(fine_of_degrees(180.0), FineAngle::HALF);
+    assert_eq!(fine_of_degrees(360.0), FineAngle::ZERO);
+    assert_eq!(fine_of_centidegrees(9_000), FineAngle::QUARTER);
+    assert_eq!(fine_of_centidegrees(27_000), FineAngle::from_bits(3 << 30));
+    for d in [0.1_f32, 17.3, -123.45, 359.99] {
+        let want = (f64::from(d) / 360.0).rem_euclid(1.0) * 4_294_967_296.0;
+        let got = f64::from(fine_of_degrees(d).to_bits());
+        let diff = (got - want).abs().min(4_294_967_296.0 - (got - want).abs());
+        // The degrees rounded to 2⁻¹⁵ (at most 2⁻¹⁶ degree off, 182 LSB of 2⁻³² turn).
+        assert!(diff < 200.0, "{d}: {diff}");
+    }
 }

@@ -172,6 +172,23 @@ impl Message<'_> {
                 }
                 w.rule_setup(&s.rule);
                 w.laser_setup(&s.laser);
+                let m = &s.mount_block;
+                w.u8(m.axis);
+                w.bytes(&m.sense.to_le_bytes());
+                w.u16(0);
+                w.f32(m.zero_deg);
+                for v in m.rpy_deg {
+                    w.f32(v);
+                }
+                let f = &s.filter;
+                w.u16(f.min_range_cm);
+                w.u16(f.max_range_cm);
+                w.u8(f.min_quality);
+                w.u8(f.sector_count);
+                for (a, b) in f.sectors {
+                    w.u16(a);
+                    w.u16(b);
+                }
             }
             Self::SetRule(s) => {
                 w.f32(s.step_threshold_m);

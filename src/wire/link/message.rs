@@ -15,7 +15,10 @@ pub use super::map::{
 use super::map::{DECAYED_FIXED, DECAYED_LAYER, HELLO_FIXED, HELLO_LAYER, PATCH_FIXED};
 pub(crate) use super::reply::REPLY_LEN;
 pub use super::reply::{Reply, ReplyCode, PARAM_LAYER};
-pub use super::setup::{LaserSetup, RuleSetup, SetRule, Setup, SETUP_LASER_LEN, SETUP_RULE_LEN};
+pub use super::setup::{
+    FilterSetup, LaserSetup, MountSetup, RuleSetup, SetRule, Setup, SETUP_FILTER_LEN,
+    SETUP_LASER_LEN, SETUP_MOUNT_LEN, SETUP_RULE_LEN, SETUP_SECTORS,
+};
 pub(crate) use super::setup::{SETUP_LEN, SET_RULE_LEN};
 use super::stats::STATS_LEN;
 pub use super::stats::{Stats, STATS_COUNTERS};
@@ -438,6 +441,32 @@ impl<'a> Message<'a> {
                         servo_max_deg: r.f32(),
                         servo_rate_deg_s: r.f32(),
                         servo_latency_ms: r.f32(),
+                    },
+                    mount_block: {
+                        let axis = r.u8();
+                        let [sense] = r.take::<1>().map(|b| i8::from_le_bytes([b]));
+                        let _reserved = r.u16();
+                        MountSetup {
+                            axis,
+                            sense,
+                            zero_deg: r.f32(),
+                            rpy_deg: [r.f32(), r.f32(), r.f32()],
+                        }
+                    },
+                    filter: {
+                        let (min_range_cm, max_range_cm) = (r.u16(), r.u16());
+                        let (min_quality, sector_count) = (r.u8(), r.u8());
+                        let mut sectors = [(0, 0); SETUP_SECTORS];
+                        for s in &mut sectors {
+                            *s = (r.u16(), r.u16());
+                        }
+                        FilterSetup {
+                            min_range_cm,
+                            max_range_cm,
+                            min_quality,
+                            sector_count,
+                            sectors,
+                        }
                     },
                 })
             }

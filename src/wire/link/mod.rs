@@ -40,18 +40,19 @@ pub use accumulator::{Decoded, FrameAccumulator, FrameFeed, RxCounters, Undecode
 pub use crc::{crc32, Crc32};
 pub use encoding::{encode, encode_patch};
 pub use message::{
-    decode, ClampRequest, ClockSource, Configure, Decayed, DecayedRows, FirmwareVersion,
-    GateRequest, Hello, HelloReason, LaserSetup, LayerInfo, LayerPatch, Message, PanAngle,
-    PatchArea, PatchCells, PoseReport, Reply, ReplyCode, RuleSetup, SetRule, Setup, SnapshotScope,
-    Stats, WindowMoved, PARAM_LAYER, POSE_FLAGS_KNOWN, POSE_STAMPED, SETUP_LASER_LEN,
-    SETUP_RULE_LEN, STATS_COUNTERS,
+    decode, ClampRequest, ClockSource, Configure, Decayed, DecayedRows, FilterSetup,
+    FirmwareVersion, GateRequest, Hello, HelloReason, LaserSetup, LayerInfo, LayerPatch, Message,
+    MountSetup, PanAngle, PatchArea, PatchCells, PoseReport, Reply, ReplyCode, RuleSetup, SetRule,
+    Setup, SnapshotScope, Stats, WindowMoved, PARAM_LAYER, POSE_FLAGS_KNOWN, POSE_STAMPED,
+    SETUP_FILTER_LEN, SETUP_LASER_LEN, SETUP_MOUNT_LEN, SETUP_RULE_LEN, SETUP_SECTORS,
+    STATS_COUNTERS,
 };
 pub use time::{Observed, TimeReply, TimeRequest};
 
 use core::fmt;
 
 /// The protocol version this module speaks (`docs/protocol.md`, section 6).
-pub const VERSION: u8 = 4;
+pub const VERSION: u8 = 5;
 /// Bytes of the header: version, type, sequence number.
 pub const HEADER_LEN: usize = 4;
 /// Bytes of the CRC-32 after the body.
@@ -75,17 +76,17 @@ pub const MAX_BODY: usize = if MAX_HELLO_BODY > MAX_PATCH_BODY {
 };
 /// The largest decoded frame (header, body, CRC), device to host: 664 bytes.
 pub const MAX_FRAME: usize = MIN_FRAME + MAX_BODY;
-/// The largest command body: a Configure (94 bytes) or a Setup (60), whichever is longer.
+/// The largest command body: a Configure (94 bytes) or a Setup (139), whichever is longer.
 const MAX_COMMAND_BODY: usize = if message::CONFIGURE_LEN > message::SETUP_LEN {
     message::CONFIGURE_LEN
 } else {
     message::SETUP_LEN
 };
-/// The largest decoded frame host to device (a [`Configure`]): 102 bytes.
+/// The largest decoded frame host to device (a [`Setup`]): 147 bytes.
 pub const MAX_COMMAND_FRAME: usize = MIN_FRAME + MAX_COMMAND_BODY;
 /// The largest encoded frame device to host, delimiter included: 668 bytes.
 pub const MAX_ENCODED_FRAME: usize = encoded_len_max(MAX_FRAME);
-/// The largest encoded frame host to device, delimiter included: 104 bytes.
+/// The largest encoded frame host to device, delimiter included: 149 bytes.
 pub const MAX_ENCODED_COMMAND: usize = encoded_len_max(MAX_COMMAND_FRAME);
 
 /// The most bytes a decoded frame of `decoded` bytes takes on the wire, delimiter included.

@@ -10,8 +10,15 @@ pub(crate) const SETUP_BASE_LEN: usize = 38;
 pub const SETUP_RULE_LEN: usize = 21;
 /// Bytes of Setup's laser block ([`LaserSetup`]).
 pub const SETUP_LASER_LEN: usize = 22;
+/// Bytes of Setup's mount block ([`MountSetup`], version 5).
+pub const SETUP_MOUNT_LEN: usize = 20;
+/// Bytes of Setup's filter block ([`FilterSetup`], version 5).
+pub const SETUP_FILTER_LEN: usize = 6 + 4 * SETUP_SECTORS;
+/// The masked sectors a Setup's filter block holds room for.
+pub const SETUP_SECTORS: usize = 8;
 /// Bytes of a Setup body.
-pub(crate) const SETUP_LEN: usize = SETUP_BASE_LEN + SETUP_RULE_LEN + SETUP_LASER_LEN;
+pub(crate) const SETUP_LEN: usize =
+    SETUP_BASE_LEN + SETUP_RULE_LEN + SETUP_LASER_LEN + SETUP_MOUNT_LEN + SETUP_FILTER_LEN;
 /// Bytes of a SetRule body: the step threshold and a rule block.
 pub(crate) const SET_RULE_LEN: usize = 4 + SETUP_RULE_LEN;
 
@@ -103,6 +110,62 @@ impl Default for LaserSetup {
     }
 }
 
+/// Setup's mount block (protocol version 5, offset 81): the actuator's zero and sense, and,
+/// for the general mount (Setup's `mount` 2), the actuator's axis and the sensor frame's
+/// roll, pitch and yaw (`docs/protocol.md`, "0x87 Setup"). Unvalidated.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct MountSetup {
+    /// The actuator's axis (general mount only): 0 pan, 1 tilt, 2 none.
+    pub axis: u8,
+    /// The actuator's sense: +1 as the axis's positive sense, −1 reversed.
+    pub sense: i8,
+    /// The reported actuator angle that is the geometry's 0, degrees.
+    pub zero_deg: f32,
+    /// The sensor frame's roll, pitch, yaw relative to the actuator's frame at zero, degrees
+    /// (general mount only; REP-103, `R_z(yaw)·R_y(pitch)·R_x(roll)`).
+    pub rpy_deg: [f32; 3],
+}
+
+impl MountSetup {
+    /// Zero 0, sense +1, the rest zero: what a preset mount of version 4 meant.
+    pub const PRESET: Self = Self {
+        axis: 0,
+        sense: 1,
+        zero_deg: 0.0,
+        rpy_deg: [0.0; 3],
+    };
+}
+
+/// Setup's filter block (protocol version 5, offset 101): the masks and filters each return
+/// passes before geometry. Unvalidated.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct FilterSetup {
+    /// The smallest range kept, centimetres; 0 = off.
+    pub min_range_cm: u16,
+    /// The largest range kept, centimetres; 0 = off.
+    pub max_range_cm: u16,
+    /// The smallest quality kept (the sensor's byte); 0 = off.
+    pub min_quality: u8,
+    /// How many of `sectors` are masked, 0 ..= [`SETUP_SECTORS`].
+    pub sector_count: u8,
+    /// Masked sectors of the sensor's own angle, centidegrees 0 ..= 35 999: (start, end) in
+    /// the angle's growing sense, `[start, end)`, wrapping past 0 when end < start.
+    pub sectors: [(u16, u16); SETUP_SECTORS],
+}
+
+impl FilterSetup {
+    /// No mask, no filter.
+    pub const NONE: Self = Self {
+        min_range_cm: 0,
+        max_range_cm: 0,
+        min_quality: 0,
+        sector_count: 0,
+        sectors: [(0, 0); SETUP_SECTORS],
+    };
+}
+
 /// Host to device: how the laser is mounted and how its lines make observations, the
 /// classifier's thresholds, and (version 3) which laser it is and what moves it. The fields
 /// of a recording's setup event (`docs/recording.md`) plus the thresholds and the laser
@@ -111,7 +174,8 @@ impl Default for LaserSetup {
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Setup {
-    /// 0 panned vertical, 1 tilted horizontal.
+    /// 0 the panned-vertical preset, 1 the tilted-horizontal preset, 2 the general mount of
+    /// the mount block (version 5).
     pub mount: u8,
     /// The sensor's mode: for a SICK its measuring mode (the 0x77 mode number); RPLIDAR 0
     /// standard scan, 1 express scan; YDLIDAR 0 with the X4/X2 angle correction, 1 without;
@@ -137,4 +201,8 @@ pub struct Setup {
     pub rule: RuleSetup,
     /// The laser block (version 3).
     pub laser: LaserSetup,
+    /// The mount block (version 5).
+    pub mount_block: MountSetup,
+    /// The filter block (version 5).
+    pub filter: FilterSetup,
 }

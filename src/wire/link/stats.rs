@@ -1,9 +1,9 @@
-//! The device's counters, Stats (`docs/protocol.md`, "0x04 Stats"): 36 `u32` in wire order.
+//! The device's counters, Stats (`docs/protocol.md`, "0x04 Stats"): 40 `u32` in wire order.
 
 /// Bytes of a Stats body.
 pub(crate) const STATS_LEN: usize = 4 * STATS_COUNTERS;
 /// The number of counters in a [`Stats`].
-pub const STATS_COUNTERS: usize = 36;
+pub const STATS_COUNTERS: usize = 40;
 
 macro_rules! stats_struct {
     ($($(#[$doc:meta])* $name:ident),* $(,)?) => {
@@ -113,4 +113,12 @@ stats_struct! {
     returns_without_pose,
     /// TimeRequests answered.
     time_requests,
+    /// Returns refused before geometry: in a masked sector (version 5).
+    returns_masked,
+    /// Returns refused before geometry: nearer than the minimum range (version 5).
+    returns_too_near,
+    /// Returns refused before geometry: farther than the maximum range (version 5).
+    returns_too_far,
+    /// Returns refused before geometry: quality below the minimum (version 5).
+    returns_low_quality,
 }
