@@ -118,6 +118,10 @@ pub struct FrontendStats {
     /// the extrapolation bound, or earlier than the oldest kept (timed placement only). They
     /// are counted in `returns` too, and placed nowhere.
     pub returns_without_pose: u32,
+    /// Observations applied early because the classifier's scratch could not be sure to hold
+    /// the next return (fewer slots free than one return can take): the returns that follow
+    /// start the next observation, so none is dropped. Counted in `observations` too.
+    pub observations_split: u32,
 }
 
 /// Why a line was refused.

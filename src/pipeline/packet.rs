@@ -2,6 +2,7 @@
 //! interpolated actuator angle (and, timed, at the pose of its own moment), placed by the
 //! sweep transform and handed to the classifier.
 
+use super::make_room;
 use super::timed::{later_by, Poses};
 use super::Frontend;
 use super::LineError;
@@ -107,6 +108,7 @@ impl<const C: usize, const L: usize> Frontend<C, L> {
             if ret.range_mm == 0 {
                 self.stats.no_return = self.stats.no_return.saturating_add(1);
                 if let Some(within) = self.config.missing_ground_within {
+                    make_room!(self, pyramid);
                     Self::missing_ground_along(
                         &mut self.classifier,
                         &mut self.stats,
@@ -120,11 +122,14 @@ impl<const C: usize, const L: usize> Frontend<C, L> {
             }
             self.stats.returns = self.stats.returns.saturating_add(1);
             match plane.locate_squared(theta, ret.range_mm) {
-                Some(located) => self.classifier.add_point_squared(
-                    located.point,
-                    located.horizontal_squared,
-                    ground_z,
-                ),
+                Some(located) => {
+                    make_room!(self, pyramid);
+                    self.classifier.add_point_squared(
+                        located.point,
+                        located.horizontal_squared,
+                        ground_z,
+                    );
+                }
                 None => {
                     self.stats.returns_dropped = self.stats.returns_dropped.saturating_add(1);
                 }
@@ -302,6 +307,7 @@ impl<const C: usize, const L: usize> Frontend<C, L> {
             if ret.range_mm == 0 {
                 self.stats.no_return = self.stats.no_return.saturating_add(1);
                 if let Some(within) = self.config.missing_ground_within {
+                    make_room!(self, pyramid);
                     Self::missing_ground_along(
                         &mut self.classifier,
                         &mut self.stats,
@@ -316,6 +322,7 @@ impl<const C: usize, const L: usize> Frontend<C, L> {
             self.stats.returns = self.stats.returns.saturating_add(1);
             match plane.locate_squared(theta, ret.range_mm) {
                 Some(located) => {
+                    make_room!(self, pyramid);
                     self.classifier.add_point_squared(
                         located.point,
                         located.horizontal_squared,

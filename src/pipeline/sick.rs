@@ -2,6 +2,7 @@
 //! placed (untimed, or at the pose of its own moment) and handed to the classifier, and
 //! missing ground from beams that return nothing.
 
+use super::make_room;
 use super::timed::Poses;
 use super::Frontend;
 use super::LineError;
@@ -90,6 +91,7 @@ impl<const C: usize, const L: usize> Frontend<C, L> {
             let Some(range_mm) = range else {
                 no_return += 1;
                 if let (Some(within), Some(b)) = (self.config.missing_ground_within, beam) {
+                    make_room!(self, pyramid);
                     Self::missing_ground(
                         &mut self.classifier,
                         &mut self.stats,
@@ -105,6 +107,7 @@ impl<const C: usize, const L: usize> Frontend<C, L> {
             match beam.and_then(|b| transform.locate_squared(b, range_mm)) {
                 Some(located) => {
                     // The distance is needed only for its gate bin: no square root.
+                    make_room!(self, pyramid);
                     self.classifier.add_point_squared(
                         located.point,
                         located.horizontal_squared,
@@ -273,6 +276,7 @@ impl<const C: usize, const L: usize> Frontend<C, L> {
                 let Some(range_mm) = range else {
                     no_return += 1;
                     if let (Some(within), Some(b)) = (self.config.missing_ground_within, beam) {
+                        make_room!(self, pyramid);
                         Self::missing_ground(
                             &mut self.classifier,
                             &mut self.stats,
@@ -288,6 +292,7 @@ impl<const C: usize, const L: usize> Frontend<C, L> {
                 match beam.and_then(|b| transform.locate_squared(b, range_mm)) {
                     Some(located) => {
                         // The distance is needed only for its gate bin: no square root.
+                        make_room!(self, pyramid);
                         self.classifier.add_point_squared(
                             located.point,
                             located.horizontal_squared,
