@@ -539,6 +539,8 @@ impl<const W: usize, const L: usize, const C: usize, const Q: usize, const N: us
                 .unwrap_or(u32::MAX),
             observations: frontend.observations,
             pose: self.pose_counters(),
+            observations_split: frontend.observations_split,
+            returns_implausible: laser.implausible,
         }
     }
 

@@ -23,6 +23,11 @@ pub struct SensorCounters {
     pub observations: u32,
     /// The pose track's counters (protocol version 4).
     pub pose: PoseCounters,
+    /// Observations split because the classifier's scratch was full
+    /// (`FrontendStats::observations_split`; protocol version 5).
+    pub observations_split: u32,
+    /// Returns the laser decoder refused as implausible (protocol version 5).
+    pub returns_implausible: u32,
 }
 
 /// The device's pose-track counters that Stats carries (protocol version 4, Stats i = 30 ..=

@@ -521,6 +521,8 @@ impl<const Q: usize, const N: usize> Link<Q, N> {
             returns_extrapolated: sensor.pose.returns_extrapolated,
             returns_without_pose: sensor.pose.returns_without_pose,
             time_requests: c.time_requests,
+            observations_split: sensor.observations_split,
+            returns_implausible: sensor.returns_implausible,
         }
     }
 

@@ -749,7 +749,7 @@ fn observed_goes_ahead_of_the_patches_and_stats_carry_the_pose_counters() {
         ..SensorCounters::default()
     };
     let stats = link.stats(0, &pyramid, &sensor);
-    assert_eq!(stats.to_array()[30..], [1, 2, 3, 4, 5, 0]);
+    assert_eq!(stats.to_array()[30..], [1, 2, 3, 4, 5, 0, 0, 0]);
 }
 
 /// A queue too small to hold a Stats beside the whole control reserve (the micro:bit's 400
@@ -760,9 +760,9 @@ fn a_small_queue_reserves_less_beside_a_stats() {
     let stats = crate::wire::link::encoded_len_max(
         crate::wire::link::MIN_FRAME + 4 * crate::wire::link::STATS_COUNTERS,
     );
-    assert_eq!(stats, 154);
-    assert_eq!(Link::<400>::STATS_RESERVE, 400 - 154);
-    assert_eq!(Link::<410>::STATS_RESERVE, CONTROL_RESERVE);
-    assert_eq!(Link::<409>::STATS_RESERVE, 409 - 154);
+    assert_eq!(stats, 162);
+    assert_eq!(Link::<400>::STATS_RESERVE, 400 - 162);
+    assert_eq!(Link::<418>::STATS_RESERVE, CONTROL_RESERVE);
+    assert_eq!(Link::<417>::STATS_RESERVE, 417 - 162);
     assert_eq!(Link::<4096>::STATS_RESERVE, CONTROL_RESERVE);
 }

@@ -321,6 +321,9 @@ fn window_moved_stats_reply_golden() {
     assert_eq!(stats.time_requests, 36);
     assert_eq!(Stats::NAMES[30], "poses_stamped");
     assert_eq!(Stats::NAMES[35], "time_requests");
+    assert_eq!(stats.observations_split, 37);
+    assert_eq!(stats.returns_implausible, 38);
+    assert_eq!(Stats::NAMES[37], "returns_implausible");
     golden(
         0x0104,
         &Message::Stats(stats),
@@ -328,8 +331,8 @@ fn window_moved_stats_reply_golden() {
          07 01 01 02 08 01 01 02 09 01 01 02 0a 01 01 02 0b 01 01 02 0c 01 01 02 0d 01 01 02 0e 01 \
          01 02 0f 01 01 02 10 01 01 02 11 01 01 02 12 01 01 02 13 01 01 02 14 01 01 02 15 01 01 02 \
          16 01 01 02 17 01 01 02 18 01 01 02 19 01 01 02 1a 01 01 02 1b 01 01 02 1c 01 01 02 1d 01 \
-         01 02 1e 01 01 02 1f 01 01 02 20 01 01 02 21 01 01 02 22 01 01 02 23 01 01 02 24 01 01 05 \
-         2f 77 15 87 00",
+         01 02 1e 01 01 02 1f 01 01 02 20 01 01 02 21 01 01 02 22 01 01 02 23 01 01 02 24 01 01 02 \
+         25 01 01 02 26 01 01 05 4c 22 a9 08 00",
     );
     let configure = Header {
         version: 1,
