@@ -191,6 +191,7 @@ impl<const C: usize, const L: usize> Frontend<C, L> {
         if per == 0 && self.sweep_turned() {
             self.end_observation(pyramid);
         }
+        let per = self.revolutions_per_observation(per);
         if starts_revolution {
             self.stats.revolutions = self.stats.revolutions.saturating_add(1);
             if per != 0 && self.revolutions_in_observation >= per {
@@ -199,6 +200,24 @@ impl<const C: usize, const L: usize> Frontend<C, L> {
             self.revolutions_in_observation = self.revolutions_in_observation.saturating_add(1);
         }
         Ok(())
+    }
+
+    /// The revolutions an observation groups under the setup's `lines_per_observation`
+    /// (`per`): `per` itself when not 0. With 0 (one observation per sweep), a revolution of
+    /// a lidar whose scan plane is panned vertical is already a whole vertical profile, as a
+    /// SICK line is: one observation per revolution. A lidar on an actuator that has not moved
+    /// (none, or none reported yet) has no sweep to end: one per revolution too. Otherwise 0:
+    /// the sweep's end closes it (a nodding lidar's revolutions each cover one tilt).
+    fn revolutions_per_observation(&self, per: u32) -> u32 {
+        let panned = matches!(
+            self.config.mount.plane,
+            crate::geometry::ScanPlane::PannedVertical
+        );
+        if per == 0 && (panned || self.direction == 0) {
+            1
+        } else {
+            per
+        }
     }
 
     fn packet_with<const W: usize, I, P: Poses>(
