@@ -27,7 +27,9 @@ pub struct FrontendConfig {
     pub variant: Variant,
     /// The measuring mode the scanner is in (its distance mask and no-echo value; SICK).
     pub measuring_mode: MeasuringMode,
-    /// Lines per observation, ≥ 1; 0 = one observation per sweep of the actuator.
+    /// Lines (a SICK's telegrams, a lidar's revolutions) per observation, ≥ 1; 0 = one
+    /// observation per sweep of the actuator (a lidar panned vertical, or one whose actuator has
+    /// not moved: one per revolution).
     pub lines_per_observation: u32,
     /// The navigability rule's thresholds and options.
     pub classifier: ClassifierConfig,

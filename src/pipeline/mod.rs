@@ -46,8 +46,17 @@
 //! revolution since its start begins (the packet that starts it opens the next observation;
 //! the first observation also holds the partial revolution before the first start); with 0,
 //! at the end of each sweep of the nodding actuator, as for a SICK (the turn is seen at the
-//! packet whose last actuator angle moves the other way). At its end the pyramid is recentred
-//! on the robot and the observation's evidence is applied.
+//! packet whose last actuator angle moves the other way), except for a lidar panned vertical or
+//! one whose actuator has not moved, which get one observation per revolution
+//! (`docs/lidars.md`, "Observations"). At its end the pyramid is recentred on the robot and the
+//! observation's evidence is applied.
+//!
+//! # No return dropped
+//! Before each return the pipeline checks that the classifier's scratch has as many free
+//! slots as one return can take under the design in force
+//! ([`Classifier::slots_per_point`]); when it has not, the observation is applied as it stands
+//! and the returns that follow start the next one ([`FrontendStats::observations_split`]). So
+//! the classifier's `overflow_points` stays 0 unless a single return needs more slots than `C`.
 //!
 //! [`PoseTrack`]: crate::geometry::PoseTrack
 //! [`POSE_QUANTUM_US`]: crate::geometry::POSE_QUANTUM_US
