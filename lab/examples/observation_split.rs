@@ -41,11 +41,7 @@ fn recordings() -> Vec<(String, Vec<u8>)> {
     let spec = StairsSpec::default();
     let trajectory = Trajectory::approach(2.0, 0.5, spec.first_riser_x, 2.0);
     let mut out = Vec::new();
-    let pan = SimConfig::new(
-        Scene::stairs(spec),
-        LaserConfig::paper(),
-        trajectory,
-    );
+    let pan = SimConfig::new(Scene::stairs(spec), LaserConfig::paper(), trajectory);
     out.push(("sick-pan".to_string(), simulate(&pan).unwrap().bytes));
     let tilt = SimConfig::new(
         Scene::stairs(spec),
