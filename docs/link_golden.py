@@ -104,7 +104,7 @@ def main() -> None:
     g["patch 0x0102"] = frame(0x02, 0x0102, patch)
     moved = struct.pack("<I", 0b101) + struct.pack("<ii", -31, -32) + struct.pack("<ii", -16, -33)
     g["moved 0x0103"] = frame(0x03, 0x0103, moved)
-    g["stats 0x0104"] = frame(0x04, 0x0104, struct.pack("<40I", *range(1, 41)))
+    g["stats 0x0104"] = frame(0x04, 0x0104, struct.pack("<42I", *range(1, 43)))
     g["reply ok to configure 11, 0x0105"] = frame(
         0x05, 0x0105, struct.pack("<HBBBfff", 11, 0x83, 0, 0, 0, 0, 0)
     )

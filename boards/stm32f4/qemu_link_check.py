@@ -43,7 +43,7 @@ STATS_FIELDS = [
     "rx_seq_gaps", "commands_refused", "snapshots", "resyncs", "observations", "laser_bytes",
     "tiles_dirty", "poses_stamped", "poses_refused", "pose_gaps", "returns_extrapolated",
     "returns_without_pose", "time_requests", "returns_masked", "returns_too_near",
-    "returns_too_far", "returns_low_quality",
+    "returns_too_far", "returns_low_quality", "observations_split", "returns_implausible",
 ]
 
 SET_500K = bytes([0x02, 0x00, 0x02, 0x00, 0x20, 0x48, 0x58, 0x08])
@@ -242,8 +242,8 @@ def hello_text(body: bytes) -> str:
 
 
 def stats_of(body: bytes) -> dict:
-    assert len(STATS_FIELDS) == 40
-    return dict(zip(STATS_FIELDS, struct.unpack("<40I", body)))
+    assert len(STATS_FIELDS) == 42
+    return dict(zip(STATS_FIELDS, struct.unpack("<42I", body)))
 
 
 def main() -> int:

@@ -114,6 +114,7 @@ fn check(stream: &[u8], events: &[Ev], c: RplidarCounters, position: u64) {
             Ev::R(_, e) => {
                 match e {
                     RplidarError::BadNode => seen.node_check += 1,
+                    RplidarError::Implausible => seen.implausible += 1,
                     RplidarError::BadChecksum { .. } => seen.checksum += 1,
                     RplidarError::CapsuleUnpaired => seen.capsules_unpaired += 1,
                     RplidarError::Truncated => seen.truncated += 1,
@@ -142,7 +143,8 @@ fn check(stream: &[u8], events: &[Ev], c: RplidarCounters, position: u64) {
         + u64::from(c.node_check)
         + u64::from(c.checksum)
         + u64::from(c.truncated)
-        + u64::from(c.garbage_bytes);
+        + u64::from(c.garbage_bytes)
+        + 5 * u64::from(c.implausible);
     assert_eq!(accounted, stream.len() as u64, "bytes not accounted for");
 }
 

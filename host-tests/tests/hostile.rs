@@ -935,8 +935,23 @@ proptest! {
             1..12,
         ),
         sizes in proptest::collection::vec(1_usize..100, 1..6),
+        first in 0_u32..23_040,
+        step in 1_u32..=230,
     ) {
-        let pieces: Vec<LidarPiece> = pieces.into_iter().flatten().collect();
+        let mut pieces: Vec<LidarPiece> = pieces.into_iter().flatten().collect();
+        // The intact nodes at a sensor's angles: advancing by `step` (up to 3.6°) from one
+        // to the next, the start flag where they pass 0° (`docs/lidars.md`, "Plausibility").
+        let mut k = 0_u32;
+        for piece in &mut pieces {
+            if let LidarPiece::Intact(b) = piece {
+                let mut n = RplidarNodeRepr::parse(&RplidarNode::new_unchecked(&b[..]));
+                let at = first + step * k;
+                n.angle_q6 = (at % 23_040) as u16;
+                n.start = k > 0 && at / 23_040 != (at - step) / 23_040;
+                n.emit(b).unwrap();
+                k += 1;
+            }
+        }
         let mut prefix = vec![0; 7];
         RplidarDescriptorRepr::SCAN.emit(&mut prefix).unwrap();
         let (stream, intact, damaged) = lidar_stream(&pieces, &prefix);
@@ -979,12 +994,15 @@ proptest! {
         }
         let c = acc.counters();
         prop_assert_eq!(c.nodes as usize, delivered.len());
-        prop_assert_eq!(c.node_check + c.truncated, rejected);
+        prop_assert_eq!(c.node_check + c.truncated + c.implausible, rejected);
         prop_assert_eq!(
-            7 * u64::from(c.descriptors) + 5 * u64::from(c.nodes)
+            7 * u64::from(c.descriptors) + 5 * u64::from(c.nodes + c.implausible)
                 + u64::from(c.node_check + c.truncated + c.garbage_bytes),
             stream.len() as u64
         );
+        if !damaged {
+            prop_assert_eq!(c.implausible, 0);
+        }
         if !damaged {
             prop_assert_eq!(&delivered, &intact);
         }

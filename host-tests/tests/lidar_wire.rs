@@ -424,12 +424,21 @@ fn rplidar_run(acc: RplidarAccumulator, chunks: &[&[u8]]) -> (Vec<Rp>, RplidarCo
 proptest! {
     #![proptest_config(seeded(600, 0x11d0_6003))]
 
-    /// SCAN descriptor and nodes, in random chunks: exactly the nodes, at their offsets.
+    /// SCAN descriptor and nodes, in random chunks: exactly the nodes, at their offsets. The
+    /// nodes' angles advance by `step` (up to 3.6°, the fastest head at the slowest sampling)
+    /// with the start flag where they pass 0°, as a sensor sends them: none is implausible.
     #[test]
     fn rplidar_node_round_trip(
-        nodes in proptest::collection::vec(node_repr(), 1..80),
+        mut nodes in proptest::collection::vec(node_repr(), 1..80),
         sizes in proptest::collection::vec(1_usize..50, 1..5),
+        first in 0_u32..23_040,
+        step in 1_u32..=230,
     ) {
+        for (i, n) in nodes.iter_mut().enumerate() {
+            let at = first + step * i as u32;
+            n.angle_q6 = (at % 23_040) as u16;
+            n.start = i > 0 && at / 23_040 != (at - step) / 23_040;
+        }
         let mut stream = descriptor_bytes(RplidarDescriptorRepr::SCAN);
         let mut want = vec![Rp::D(0)];
         for n in &nodes {
@@ -445,6 +454,40 @@ proptest! {
                 prop_assert_eq!(&RplidarNodeRepr::parse(&RplidarNode::new_unchecked(&b[..])), n);
             }
         }
+    }
+
+    /// SCAN descriptor and nodes at random angles, in random chunks: each node comes out
+    /// whole at its offset or is refused whole as implausible, never anything else, and every
+    /// byte is accounted for (5 per node either way).
+    #[test]
+    fn rplidar_random_angles_are_delivered_or_refused_whole(
+        nodes in proptest::collection::vec(node_repr(), 1..80),
+        sizes in proptest::collection::vec(1_usize..50, 1..5),
+    ) {
+        let mut stream = descriptor_bytes(RplidarDescriptorRepr::SCAN);
+        let mut offsets = Vec::new();
+        for n in &nodes {
+            offsets.push(stream.len() as u64);
+            stream.extend(node_bytes(n));
+        }
+        let (events, c, position) = rplidar_run(RplidarAccumulator::new(), &chunks(&stream, &sizes));
+        prop_assert_eq!(position, stream.len() as u64);
+        prop_assert_eq!(events.len(), 1 + nodes.len());
+        for (e, (&at, n)) in events[1..].iter().zip(offsets.iter().zip(&nodes)) {
+            match e {
+                Rp::N(offset, b) => {
+                    prop_assert_eq!(*offset, at);
+                    prop_assert_eq!(b, &node_bytes(n));
+                }
+                Rp::R(offset, RplidarError::Implausible) => {
+                    prop_assert_eq!(*offset, at);
+                    prop_assert!(n.distance_q2 != 0);
+                }
+                other => return Err(TestCaseError::fail(format!("{other:?}"))),
+            }
+        }
+        prop_assert_eq!(c.nodes as usize + c.implausible as usize, nodes.len());
+        prop_assert_eq!(c.garbage_bytes, 0);
     }
 
     /// EXPRESS_SCAN descriptor and capsules, in random chunks: every capsule but the last

@@ -282,6 +282,7 @@ fn error_counts(counters: &LaserCounters) -> BTreeMap<&'static str, u32> {
         LaserCounters::Rplidar(c) => vec![
             ("checksum", c.checksum),
             ("node_check", c.node_check),
+            ("implausible", c.implausible),
             ("capsules_unpaired", c.capsules_unpaired),
             ("unsupported", c.unsupported),
             ("truncated", c.truncated),

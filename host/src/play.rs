@@ -233,6 +233,12 @@ pub struct RunCounts {
     pub observations: u64,
     /// Points the classifier could not hold (its scratch was full).
     pub overflow_points: u64,
+    /// Observations the device applied early because its classifier's scratch could not be
+    /// sure to hold the next return (none dropped; counted in `observations` too).
+    pub observations_split: u64,
+    /// Returns the device's laser decoder refused as implausible (an RPLIDAR standard-scan
+    /// node whose angle cannot follow its neighbours).
+    pub returns_implausible: u64,
 }
 
 /// The angle and pose to send before the next telegram.
@@ -403,6 +409,8 @@ pub fn play_watched<D: Device>(
     counts.telegrams_applied = u64::from(s.telegrams_ok.saturating_sub(s.telegrams_bad_other));
     counts.lines_rejected = u64::from(s.telegrams_bad_other);
     counts.overflow_points = u64::from(s.classifier_overflows);
+    counts.observations_split = u64::from(s.observations_split);
+    counts.returns_implausible = u64::from(s.returns_implausible);
     counts.observations = u64::from(s.observations);
     if lidar {
         counted = u64::from(s.telegrams_ok);

@@ -545,6 +545,8 @@ impl<const W: usize, const L: usize, const C: usize, const Q: usize, const N: us
                 returns_too_far: frontend.returns_too_far,
                 returns_low_quality: frontend.returns_low_quality,
             },
+            observations_split: frontend.observations_split,
+            returns_implausible: laser.implausible,
         }
     }
 

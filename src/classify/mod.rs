@@ -238,6 +238,29 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
         self.used
     }
 
+    /// Slots still free in the current observation (`C` less [`cells_in_use`](Self::cells_in_use)):
+    /// a point takes at most one per layer it feeds.
+    #[must_use]
+    #[inline]
+    pub const fn slots_free(&self) -> usize {
+        C.saturating_sub(self.used)
+    }
+
+    /// The most slots one point can take under the gating in force: the most layers among the
+    /// first eight that any gate bin may feed ([`Gates::fed_layers`], an upper bound), and
+    /// every layer from the ninth on. 0 before a design is adopted.
+    #[must_use]
+    pub fn slots_per_point(&self) -> usize {
+        let first_eight = (0..crate::gate::GATE_BINS)
+            .step_by(crate::gate::FED_GROUP_BINS)
+            .map(|bin| self.gates.fed_layers(bin).count_ones())
+            .max()
+            .unwrap_or(0);
+        usize::try_from(first_eight)
+            .unwrap_or(8)
+            .saturating_add(self.gates.layer_count().saturating_sub(8))
+    }
+
     /// Starts an observation whose z values are stored relative to `reference_z` (the
     /// sensor's or robot's height now; z within ±32 m of it is kept exactly, beyond saturates).
     /// Forgets any unfinished observation.

@@ -492,6 +492,10 @@ pub struct LaserCounts {
     pub bad_checksum: u32,
     /// Candidates with bad framing (length, truncation, an unpaired capsule).
     pub bad_framing: u32,
+    /// Units that passed their checks but were refused as implausible (an RPLIDAR
+    /// standard-scan node whose angle cannot follow its neighbours; `docs/lidars.md`).
+    /// Not in `ok`.
+    pub implausible: u32,
 }
 
 impl LaserCounts {
@@ -500,6 +504,7 @@ impl LaserCounts {
             ok: self.ok.saturating_add(other.ok),
             bad_checksum: self.bad_checksum.saturating_add(other.bad_checksum),
             bad_framing: self.bad_framing.saturating_add(other.bad_framing),
+            implausible: self.implausible.saturating_add(other.implausible),
         }
     }
 }
@@ -534,11 +539,13 @@ impl LaserCounters {
                 ok: c.telegrams_ok,
                 bad_checksum: c.crc_errors,
                 bad_framing: c.length_errors.saturating_add(c.truncated),
+                implausible: 0,
             },
             Self::Ld06(c) => LaserCounts {
                 ok: c.packets,
                 bad_checksum: c.checksum,
                 bad_framing: c.truncated,
+                implausible: 0,
             },
             Self::Rplidar(c) => LaserCounts {
                 ok: c.nodes.saturating_add(c.capsules),
@@ -547,11 +554,13 @@ impl LaserCounters {
                     .truncated
                     .saturating_add(c.capsules_unpaired)
                     .saturating_add(c.unsupported),
+                implausible: c.implausible,
             },
             Self::Ydlidar(c) => LaserCounts {
                 ok: c.packets,
                 bad_checksum: c.checksum.saturating_add(c.check_bits),
                 bad_framing: c.bad_length.saturating_add(c.truncated),
+                implausible: 0,
             },
         }
     }
@@ -638,6 +647,7 @@ impl LaserDecoder {
                 ok: 0,
                 bad_checksum: 0,
                 bad_framing: 0,
+                implausible: 0,
             },
             retired_bytes: 0,
         }

@@ -162,7 +162,8 @@ fn switching_sensors_keeps_the_counts() {
         LaserCounts {
             ok: 1,
             bad_checksum: 1,
-            bad_framing: 0
+            bad_framing: 0,
+            implausible: 0
         }
     );
     assert!(d.counters().sick().is_some());
@@ -184,7 +185,8 @@ fn switching_sensors_keeps_the_counts() {
         LaserCounts {
             ok: 3,
             bad_checksum: 2,
-            bad_framing: 0
+            bad_framing: 0,
+            implausible: 0
         }
     );
     assert_eq!(d.bytes(), bytes + 2 * 47);

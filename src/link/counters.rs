@@ -25,6 +25,11 @@ pub struct SensorCounters {
     pub pose: PoseCounters,
     /// Returns refused before geometry, by reason (protocol version 5).
     pub filtered: FilterCounters,
+    /// Observations split because the classifier's scratch was full
+    /// (`FrontendStats::observations_split`; protocol version 5).
+    pub observations_split: u32,
+    /// Returns the laser decoder refused as implausible (protocol version 5).
+    pub returns_implausible: u32,
 }
 
 /// The returns the pipeline's masks and filters refused before geometry, by reason

@@ -525,6 +525,8 @@ impl<const Q: usize, const N: usize> Link<Q, N> {
             returns_too_near: sensor.filtered.returns_too_near,
             returns_too_far: sensor.filtered.returns_too_far,
             returns_low_quality: sensor.filtered.returns_low_quality,
+            observations_split: sensor.observations_split,
+            returns_implausible: sensor.returns_implausible,
         }
     }
 

@@ -757,10 +757,12 @@ fn observed_goes_ahead_of_the_patches_and_stats_carry_the_pose_counters() {
             returns_too_far: 8,
             returns_low_quality: 9,
         },
+        observations_split: 10,
+        returns_implausible: 11,
         ..SensorCounters::default()
     };
     let stats = link.stats(0, &pyramid, &sensor);
-    assert_eq!(stats.to_array()[36..], [6, 7, 8, 9]);
+    assert_eq!(stats.to_array()[36..], [6, 7, 8, 9, 10, 11]);
 }
 
 /// A queue too small to hold a Stats beside the whole control reserve (the micro:bit's 400
@@ -771,9 +773,9 @@ fn a_small_queue_reserves_less_beside_a_stats() {
     let stats = crate::wire::link::encoded_len_max(
         crate::wire::link::MIN_FRAME + 4 * crate::wire::link::STATS_COUNTERS,
     );
-    assert_eq!(stats, 170);
-    assert_eq!(Link::<400>::STATS_RESERVE, 400 - 170);
-    assert_eq!(Link::<426>::STATS_RESERVE, CONTROL_RESERVE);
-    assert_eq!(Link::<425>::STATS_RESERVE, 425 - 170);
+    assert_eq!(stats, 178);
+    assert_eq!(Link::<400>::STATS_RESERVE, 400 - 178);
+    assert_eq!(Link::<434>::STATS_RESERVE, CONTROL_RESERVE);
+    assert_eq!(Link::<433>::STATS_RESERVE, 433 - 178);
     assert_eq!(Link::<4096>::STATS_RESERVE, CONTROL_RESERVE);
 }

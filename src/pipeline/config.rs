@@ -30,7 +30,9 @@ pub struct FrontendConfig {
     pub variant: Variant,
     /// The measuring mode the scanner is in (its distance mask and no-echo value; SICK).
     pub measuring_mode: MeasuringMode,
-    /// Lines per observation, ≥ 1; 0 = one observation per sweep of the actuator.
+    /// Lines (a SICK's telegrams, a lidar's revolutions) per observation, ≥ 1; 0 = one
+    /// observation per sweep of the actuator (a lidar panned vertical, or one whose actuator has
+    /// not moved: one per revolution).
     pub lines_per_observation: u32,
     /// The navigability rule's thresholds and options.
     pub classifier: ClassifierConfig,
@@ -131,6 +133,10 @@ pub struct FrontendStats {
     pub returns_too_far: u32,
     /// Returns refused before geometry: quality below the minimum. Counted in `returns`.
     pub returns_low_quality: u32,
+    /// Observations applied early because the classifier's scratch could not be sure to hold
+    /// the next return (fewer slots free than one return can take): the returns that follow
+    /// start the next observation, so none is dropped. Counted in `observations` too.
+    pub observations_split: u32,
 }
 
 impl FrontendStats {

@@ -46,8 +46,17 @@
 //! revolution since its start begins (the packet that starts it opens the next observation;
 //! the first observation also holds the partial revolution before the first start); with 0,
 //! at the end of each sweep of the nodding actuator, as for a SICK (the turn is seen at the
-//! packet whose last actuator angle moves the other way). At its end the pyramid is recentred
-//! on the robot and the observation's evidence is applied.
+//! packet whose last actuator angle moves the other way), except for a lidar panned vertical or
+//! one whose actuator has not moved, which get one observation per revolution
+//! (`docs/lidars.md`, "Observations"). At its end the pyramid is recentred on the robot and the
+//! observation's evidence is applied.
+//!
+//! # No return dropped
+//! Before each return the pipeline checks that the classifier's scratch has as many free
+//! slots as one return can take under the design in force
+//! ([`Classifier::slots_per_point`]); when it has not, the observation is applied as it stands
+//! and the returns that follow start the next one ([`FrontendStats::observations_split`]). So
+//! the classifier's `overflow_points` stays 0 unless a single return needs more slots than `C`.
 //!
 //! [`PoseTrack`]: crate::geometry::PoseTrack
 //! [`POSE_QUANTUM_US`]: crate::geometry::POSE_QUANTUM_US
@@ -97,6 +106,9 @@ pub struct Frontend<const C: usize, const L: usize> {
     lines_in_observation: u32,
     /// Lidar revolutions started in the current observation.
     revolutions_in_observation: u32,
+    /// The most classifier slots one return can take under the design in force
+    /// ([`Classifier::slots_per_point`]): with fewer free, the observation is split first.
+    slots_per_return: u16,
     stats: FrontendStats,
     /// Whether a configuration has been adopted (lines are refused until then).
     configured: bool,
@@ -164,6 +176,7 @@ impl<const C: usize, const L: usize> Frontend<C, L> {
             direction: 0,
             lines_in_observation: 0,
             revolutions_in_observation: 0,
+            slots_per_return: 0,
             stats: FrontendStats {
                 lines_applied: 0,
                 lines_rejected: 0,
@@ -180,6 +193,7 @@ impl<const C: usize, const L: usize> Frontend<C, L> {
                 returns_too_near: 0,
                 returns_too_far: 0,
                 returns_low_quality: 0,
+                observations_split: 0,
             },
             timed: TimedPose::NONE,
             observed: ObservedSpan {
@@ -237,6 +251,8 @@ impl<const C: usize, const L: usize> Frontend<C, L> {
     pub fn adopt_design(&mut self, design: &Design<L>, config: &Config) -> Result<(), DesignError> {
         let increments = config.model.increments()?;
         self.classifier.adopt_design(design, increments)?;
+        self.slots_per_return =
+            u16::try_from(self.classifier.slots_per_point()).unwrap_or(u16::MAX);
         self.lines_in_observation = 0;
         Ok(())
     }
@@ -384,18 +400,97 @@ impl<const C: usize, const L: usize> Frontend<C, L> {
             self.revolutions_in_observation = 0;
             return;
         }
-        pyramid.recentre(self.pose.x, self.pose.y);
-        self.classifier.finish_into(pyramid);
+        Self::apply_observation(
+            &mut self.classifier,
+            pyramid,
+            &self.pose,
+            &mut self.stats,
+            &mut self.timed,
+            &mut self.observed,
+            &mut self.observed_pending,
+        );
         self.lines_in_observation = 0;
         self.revolutions_in_observation = 0;
-        self.stats.observations = self.stats.observations.saturating_add(1);
-        if core::mem::take(&mut self.timed.spanned) {
-            self.observed = ObservedSpan {
-                observation: self.stats.observations,
-                first_us: self.timed.first_us,
-                last_us: self.timed.last_us,
+    }
+
+    /// Whether the classifier's scratch may not hold the next return: fewer slots free than
+    /// one return can take. Then the observation is split before it
+    /// ([`split_observation`](Self::split_observation)).
+    #[inline(always)]
+    fn scratch_short(&self) -> bool {
+        self.classifier.slots_free() < usize::from(self.slots_per_return)
+            && self.classifier.cells_in_use() > 0
+    }
+
+    /// Applies what the observation under way holds (recentred on the robot, counted as an
+    /// observation and as a split) and lets it go on with an empty scratch, at the same
+    /// reference height: the returns that follow start the next observation, none is lost.
+    /// The regular boundaries (revolutions, lines, sweeps) stay where they were.
+    #[cold]
+    #[inline(never)]
+    #[allow(clippy::too_many_arguments)]
+    fn split_observation<const W: usize>(
+        classifier: &mut Classifier<C, L>,
+        pyramid: &mut Pyramid<W, L>,
+        pose: &Pose,
+        stats: &mut FrontendStats,
+        timed: &mut TimedPose,
+        observed: &mut ObservedSpan,
+        observed_pending: &mut bool,
+    ) {
+        Self::apply_observation(
+            classifier,
+            pyramid,
+            pose,
+            stats,
+            timed,
+            observed,
+            observed_pending,
+        );
+        stats.observations_split = stats.observations_split.saturating_add(1);
+    }
+
+    /// Recentres the pyramid on `pose`, applies the classifier's evidence and counts the
+    /// observation; a span of timed returns is left for [`take_observed`](Self::take_observed).
+    fn apply_observation<const W: usize>(
+        classifier: &mut Classifier<C, L>,
+        pyramid: &mut Pyramid<W, L>,
+        pose: &Pose,
+        stats: &mut FrontendStats,
+        timed: &mut TimedPose,
+        observed: &mut ObservedSpan,
+        observed_pending: &mut bool,
+    ) {
+        pyramid.recentre(pose.x, pose.y);
+        classifier.finish_into(pyramid);
+        stats.observations = stats.observations.saturating_add(1);
+        if core::mem::take(&mut timed.spanned) {
+            *observed = ObservedSpan {
+                observation: stats.observations,
+                first_us: timed.first_us,
+                last_us: timed.last_us,
             };
-            self.observed_pending = true;
+            *observed_pending = true;
         }
     }
 }
+
+/// Splits the observation under way before the next return when the classifier's scratch may
+/// not hold it ([`Frontend::split_observation`]). A macro, so that it borrows only the fields
+/// it uses while a line's transform borrows others.
+macro_rules! make_room {
+    ($self:ident, $pyramid:expr) => {
+        if $self.scratch_short() {
+            Self::split_observation(
+                &mut $self.classifier,
+                $pyramid,
+                &$self.pose,
+                &mut $self.stats,
+                &mut $self.timed,
+                &mut $self.observed,
+                &mut $self.observed_pending,
+            );
+        }
+    };
+}
+use make_room;

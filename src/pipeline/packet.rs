@@ -2,6 +2,7 @@
 //! interpolated actuator angle (and, timed, at the pose of its own moment), placed by the
 //! sweep transform and handed to the classifier.
 
+use super::make_room;
 use super::timed::{later_by, Poses};
 use super::Frontend;
 use super::LineError;
@@ -120,6 +121,7 @@ impl<const C: usize, const L: usize> Frontend<C, L> {
             if ret.range_mm == 0 {
                 self.stats.no_return = self.stats.no_return.saturating_add(1);
                 if let Some(within) = self.config.missing_ground_within {
+                    make_room!(self, pyramid);
                     Self::missing_ground_along(
                         &mut self.classifier,
                         &mut self.stats,
@@ -133,11 +135,14 @@ impl<const C: usize, const L: usize> Frontend<C, L> {
             }
             self.stats.returns = self.stats.returns.saturating_add(1);
             match plane.locate_squared(theta, ret.range_mm) {
-                Some(located) => self.classifier.add_point_squared(
-                    located.point,
-                    located.horizontal_squared,
-                    ground_z,
-                ),
+                Some(located) => {
+                    make_room!(self, pyramid);
+                    self.classifier.add_point_squared(
+                        located.point,
+                        located.horizontal_squared,
+                        ground_z,
+                    );
+                }
                 None => {
                     self.stats.returns_dropped = self.stats.returns_dropped.saturating_add(1);
                 }
@@ -199,6 +204,7 @@ impl<const C: usize, const L: usize> Frontend<C, L> {
         if per == 0 && self.sweep_turned() {
             self.end_observation(pyramid);
         }
+        let per = self.revolutions_per_observation(per);
         if starts_revolution {
             self.stats.revolutions = self.stats.revolutions.saturating_add(1);
             if per != 0 && self.revolutions_in_observation >= per {
@@ -207,6 +213,25 @@ impl<const C: usize, const L: usize> Frontend<C, L> {
             self.revolutions_in_observation = self.revolutions_in_observation.saturating_add(1);
         }
         Ok(())
+    }
+
+    /// The revolutions an observation groups under the setup's `lines_per_observation`
+    /// (`per`): `per` itself when not 0. With 0 (one observation per sweep), a revolution of
+    /// a lidar on a pan actuator is already a whole profile, as a SICK line is (the panned
+    /// vertical preset's, or any plane turned about z): one observation per revolution. A lidar
+    /// on no actuator, or on one that has not moved (none reported yet), has no sweep to end:
+    /// one per revolution too. Otherwise 0: the sweep's end closes it (a nodding lidar's
+    /// revolutions each cover one tilt).
+    fn revolutions_per_observation(&self, per: u32) -> u32 {
+        let whole_profile = !matches!(
+            self.config.mount.axis(),
+            crate::geometry::ActuatorAxis::Tilt
+        );
+        if per == 0 && (whole_profile || self.direction == 0) {
+            1
+        } else {
+            per
+        }
     }
 
     fn packet_with<const W: usize, I, P: Poses>(
@@ -328,6 +353,7 @@ impl<const C: usize, const L: usize> Frontend<C, L> {
             if ret.range_mm == 0 {
                 self.stats.no_return = self.stats.no_return.saturating_add(1);
                 if let Some(within) = self.config.missing_ground_within {
+                    make_room!(self, pyramid);
                     Self::missing_ground_along(
                         &mut self.classifier,
                         &mut self.stats,
@@ -342,6 +368,7 @@ impl<const C: usize, const L: usize> Frontend<C, L> {
             self.stats.returns = self.stats.returns.saturating_add(1);
             match plane.locate_squared(theta, ret.range_mm) {
                 Some(located) => {
+                    make_room!(self, pyramid);
                     self.classifier.add_point_squared(
                         located.point,
                         located.horizontal_squared,

@@ -2,6 +2,7 @@
 //! placed (untimed, or at the pose of its own moment) and handed to the classifier, and
 //! missing ground from beams that return nothing.
 
+use super::make_room;
 use super::timed::Poses;
 use super::Frontend;
 use super::LineError;
@@ -96,6 +97,7 @@ impl<const C: usize, const L: usize> Frontend<C, L> {
                     if beam_masked(&self.config.filter, variant, b) {
                         continue;
                     }
+                    make_room!(self, pyramid);
                     Self::missing_ground(
                         &mut self.classifier,
                         &mut self.stats,
@@ -116,6 +118,7 @@ impl<const C: usize, const L: usize> Frontend<C, L> {
             match beam.and_then(|b| transform.locate_squared(b, range_mm)) {
                 Some(located) => {
                     // The distance is needed only for its gate bin: no square root.
+                    make_room!(self, pyramid);
                     self.classifier.add_point_squared(
                         located.point,
                         located.horizontal_squared,
@@ -287,6 +290,7 @@ impl<const C: usize, const L: usize> Frontend<C, L> {
                         if beam_masked(&self.config.filter, variant, b) {
                             continue;
                         }
+                        make_room!(self, pyramid);
                         Self::missing_ground(
                             &mut self.classifier,
                             &mut self.stats,
@@ -308,6 +312,7 @@ impl<const C: usize, const L: usize> Frontend<C, L> {
                 match beam.and_then(|b| transform.locate_squared(b, range_mm)) {
                     Some(located) => {
                         // The distance is needed only for its gate bin: no square root.
+                        make_room!(self, pyramid);
                         self.classifier.add_point_squared(
                             located.point,
                             located.horizontal_squared,

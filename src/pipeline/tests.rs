@@ -514,3 +514,63 @@ fn a_timed_sick_line_with_a_still_robot_is_the_untimed_line() {
         "{s:?}"
     );
 }
+
+/// [`setup`]'s pipeline with `C` classifier slots.
+fn setup_slots<const C: usize>(lines: u32) -> std::boxed::Box<Frontend<C, 8>> {
+    let (f, _) = setup(lines);
+    let design = Design::<8>::new(SensorModel::default(), Schedule::default(), 64).unwrap();
+    let mut small = std::boxed::Box::new(Frontend::<C, 8>::unconfigured());
+    small.configure(*f.config());
+    small.adopt_design(&design, &Config::default()).unwrap();
+    small
+}
+
+/// A scratch too small for a sweep: the observation is split where the scratch could not
+/// be sure to hold the next return, and no return is dropped; a scratch that holds the sweep
+/// never splits, and both feed the classifier the same points.
+#[test]
+fn a_full_scratch_splits_the_observation_and_drops_nothing() {
+    let mut small = setup_slots::<16>(36);
+    let mut large = setup_slots::<4096>(36);
+    let (_, mut p) = setup(36);
+    let (_, mut q) = setup(36);
+    for tilt in 5..41 {
+        let values = ranges_mm(f64::from(tilt));
+        let line = MeasuredValues::new(Unit::Millimetre, 0, &values, None, 0).unwrap();
+        let angle = FineAngle::from_quarter_degrees(4 * tilt);
+        small.set_actuator(angle);
+        large.set_actuator(angle);
+        small.line(&mut p, &line).unwrap();
+        large.line(&mut q, &line).unwrap();
+    }
+    let (s, c) = (small.stats(), small.classifier_stats());
+    let (sl, cl) = (large.stats(), large.classifier_stats());
+    assert_eq!(c.overflow_points, 0);
+    assert_eq!(cl.overflow_points, 0);
+    assert_eq!((sl.observations, sl.observations_split), (1, 0));
+    assert!(s.observations_split > 10, "{s:?}");
+    assert_eq!(s.observations, 1 + s.observations_split);
+    // Every point the large scratch used, the small one used too.
+    assert_eq!(c.points, cl.points);
+    assert_eq!(c.points_used, cl.points_used);
+    assert_eq!(c.points_gated_out, cl.points_gated_out);
+    let at = |x: f32, y: f32| p.fused(Meters::from_num(x), Meters::from_num(y));
+    assert!(
+        matches!(at(1.0, 0.05), Fused::Navigable { .. }),
+        "{:?}",
+        at(1.0, 0.05)
+    );
+    // Without the split, the small scratch drops returns: the same sweep with the split
+    // disabled (as before) is what `overflow_points` counted.
+    let mut dropping = setup_slots::<16>(36);
+    dropping.slots_per_return = 0;
+    let (_, mut r) = setup(36);
+    for tilt in 5..41 {
+        let values = ranges_mm(f64::from(tilt));
+        let line = MeasuredValues::new(Unit::Millimetre, 0, &values, None, 0).unwrap();
+        dropping.set_actuator(FineAngle::from_quarter_degrees(4 * tilt));
+        dropping.line(&mut r, &line).unwrap();
+    }
+    assert!(dropping.classifier_stats().overflow_points > 1000);
+    assert_eq!(dropping.stats().observations_split, 0);
+}

@@ -1186,6 +1186,62 @@ mod tests {
         }
     }
 
+    /// The RPLIDAR's plausibility rule (`docs/lidars.md`) refuses no intact node: over the
+    /// stairs while driving, on a nodding servo, panned, and standing still, with the
+    /// sensor's noise, every sample the simulator sent comes out of the library's decoder
+    /// with its angle and range, and the decoder counts none implausible.
+    #[test]
+    fn no_intact_rplidar_node_is_refused_as_implausible() {
+        use terrain_pyramid::laser::{LaserDecoder, LaserItem};
+        use terrain_pyramid::wire::recording::Reader;
+        use terrain_pyramid::wire::FeedResult;
+        let spec = super::super::scene::StairsSpec::default();
+        let actuators = [
+            LidarActuator::servo(2.0, 35.0, 20.0, 0.0),
+            LidarActuator::Pan {
+                half_width_cdeg: 4_500,
+                rate_cdeg_s: 7_500,
+            },
+            still(20.0),
+        ];
+        for actuator in actuators {
+            let config = LidarSimConfig::new(
+                Scene::stairs(spec),
+                LidarKind::RplidarStandard,
+                actuator,
+                [0.0, 0.0, 1.0],
+                Trajectory::approach(1.0, 0.5, spec.first_riser_x, 3.0),
+            );
+            let sim = simulate_lidar(&config).unwrap();
+            let returns = decoded_returns(&sim.bytes).unwrap();
+            assert_eq!(returns.len() as u64, sim.samples, "{actuator:?}");
+            assert_eq!(
+                returns.iter().filter(|r| r.1 != 0).count() as u64,
+                sim.echoes,
+                "{actuator:?}"
+            );
+            let mut decoder = LaserDecoder::new(LidarKind::RplidarStandard.sensor());
+            for event in Reader::new(&sim.bytes).unwrap() {
+                if let Payload::Laser(mut rest) = event.unwrap().payload {
+                    loop {
+                        rest = match decoder.feed(rest) {
+                            FeedResult::Consumed => break,
+                            FeedResult::Item {
+                                item: LaserItem::Packet(_),
+                                remaining,
+                                ..
+                            } => remaining,
+                            other => other.remaining(),
+                        };
+                    }
+                }
+            }
+            let counts = decoder.counts();
+            assert_eq!(counts.implausible, 0, "{actuator:?}");
+            assert_eq!(u64::from(counts.ok), sim.samples, "{actuator:?}");
+        }
+    }
+
     #[test]
     fn ld06_packets_are_12_points_375_a_second() {
         let sim = run(LidarKind::Ld19, still(20.0), 1.0, 0.0);

@@ -14,7 +14,7 @@
 //! use terrain_pyramid::wire::FeedResult;
 //! let mut out = [0_u8; 16];
 //! let n = encode(1, &Message::Ping, &mut out).unwrap();
-//! assert_eq!(&out[..n], &[0x04, 0x04, 0x86, 0x01, 0x05, 0x38, 0x1E, 0x85, 0x52, 0x00]);
+//! assert_eq!(&out[..n], &[0x04, 0x05, 0x86, 0x01, 0x05, 0x5D, 0x79, 0x39, 0xEA, 0x00]);
 //! let mut acc = FrameAccumulator::<MAX_FRAME>::new();
 //! match acc.feed(&out[..n]) {
 //!     FeedResult::Item { item: Decoded { header, message }, remaining, .. } => {

@@ -1,9 +1,9 @@
-//! The device's counters, Stats (`docs/protocol.md`, "0x04 Stats"): 40 `u32` in wire order.
+//! The device's counters, Stats (`docs/protocol.md`, "0x04 Stats"): 42 `u32` in wire order.
 
 /// Bytes of a Stats body.
 pub(crate) const STATS_LEN: usize = 4 * STATS_COUNTERS;
 /// The number of counters in a [`Stats`].
-pub const STATS_COUNTERS: usize = 40;
+pub const STATS_COUNTERS: usize = 42;
 
 macro_rules! stats_struct {
     ($($(#[$doc:meta])* $name:ident),* $(,)?) => {
@@ -121,4 +121,11 @@ stats_struct! {
     returns_too_far,
     /// Returns refused before geometry: quality below the minimum (version 5).
     returns_low_quality,
+    /// Observations applied early because the classifier's scratch could not be sure to hold
+    /// the next return: the returns after it start the next observation, none is dropped
+    /// (version 5; counted in `observations` too).
+    observations_split,
+    /// Returns refused as implausible: a weakly checked unit (an RPLIDAR standard-scan node)
+    /// whose angle cannot follow its neighbours (version 5; `docs/lidars.md`).
+    returns_implausible,
 }

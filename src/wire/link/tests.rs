@@ -321,6 +321,11 @@ fn window_moved_stats_reply_golden() {
     assert_eq!(stats.time_requests, 36);
     assert_eq!(Stats::NAMES[30], "poses_stamped");
     assert_eq!(Stats::NAMES[35], "time_requests");
+    assert_eq!(stats.returns_masked, 37);
+    assert_eq!(stats.returns_low_quality, 40);
+    assert_eq!(stats.observations_split, 41);
+    assert_eq!(stats.returns_implausible, 42);
+    assert_eq!(Stats::NAMES[41], "returns_implausible");
     golden(
         0x0104,
         &Message::Stats(stats),
@@ -329,7 +334,8 @@ fn window_moved_stats_reply_golden() {
          01 01 02 0f 01 01 02 10 01 01 02 11 01 01 02 12 01 01 02 13 01 01 02 14 01 01 02 15 01 \
          01 02 16 01 01 02 17 01 01 02 18 01 01 02 19 01 01 02 1a 01 01 02 1b 01 01 02 1c 01 01 \
          02 1d 01 01 02 1e 01 01 02 1f 01 01 02 20 01 01 02 21 01 01 02 22 01 01 02 23 01 01 02 \
-         24 01 01 02 25 01 01 02 26 01 01 02 27 01 01 02 28 01 01 05 dc a7 f1 c2 00",
+         24 01 01 02 25 01 01 02 26 01 01 02 27 01 01 02 28 01 01 02 29 01 01 02 2a 01 01 05 fa \
+         16 31 d2 00",
     );
     let configure = Header {
         version: 1,

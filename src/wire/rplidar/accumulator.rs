@@ -3,6 +3,7 @@
 use super::capsule::RplidarExpressScan;
 use super::descriptor::{known, Follow, RplidarResponse};
 use super::node::node_is_valid;
+use super::plausible::NodeFollower;
 use super::{
     RplidarCapsule, RplidarDescriptor, RplidarError, RplidarNode, RPLIDAR_CAPSULE_LEN,
     RPLIDAR_DESCRIPTOR_LEN, RPLIDAR_DESCRIPTOR_SYNC, RPLIDAR_NODE_LEN, RPLIDAR_NODE_RUN,
@@ -57,7 +58,8 @@ impl<'a> RplidarItem<'a> {
 ///
 /// Every byte fed is accounted for exactly once: after [`RplidarAccumulator::flush`], the
 /// stream length is `7·descriptors + (response bytes) + 5·nodes + 84·(capsules +
-/// capsules_unpaired) + node_check + checksum + truncated + garbage_bytes` (a rejected
+/// capsules_unpaired) + node_check + checksum + truncated + garbage_bytes +
+/// 5·implausible` (a rejected
 /// candidate accounts for its first byte; the bytes after it are hunted through again).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -87,6 +89,9 @@ pub struct RplidarCounters {
     /// skipped while hunting for the node or capsule alignment (nodes still waiting for a run
     /// of 16 at the end of the stream included).
     pub garbage_bytes: u32,
+    /// Nodes that passed their check bits but whose angle cannot follow their neighbours
+    /// ([`RplidarError::Implausible`]): refused whole, 5 bytes each, the lock kept.
+    pub implausible: u32,
 }
 
 /// What the accumulator expects next.
@@ -179,6 +184,8 @@ pub struct RplidarAccumulator {
     prev_offset: u64,
     /// Whether the kept capsule's point 0 starts a revolution.
     prev_wraps: bool,
+    /// The nodes a new node's angle is judged against.
+    follower: NodeFollower,
     counters: RplidarCounters,
 }
 
@@ -215,6 +222,7 @@ impl RplidarAccumulator {
             prev_valid: false,
             prev_offset: 0,
             prev_wraps: false,
+            follower: NodeFollower::NEW,
             counters: RplidarCounters {
                 descriptors: 0,
                 responses: 0,
@@ -226,6 +234,7 @@ impl RplidarAccumulator {
                 unsupported: 0,
                 truncated: 0,
                 garbage_bytes: 0,
+                implausible: 0,
             },
         }
     }
@@ -487,6 +496,25 @@ impl RplidarAccumulator {
         Scan::Item(self.window.offset_of(0))
     }
 
+    /// Hands out a node that passed its check bits at the front, or refuses it whole (its 5
+    /// bytes; the lock kept) when its angle cannot follow its neighbours.
+    fn deliver_node(&mut self, node: &[u8; RPLIDAR_NODE_LEN]) -> Scan {
+        let view = RplidarNode::new_unchecked(&node[..]);
+        let offset = self.window.offset_of(0);
+        if self.follower.judge(
+            view.angle_q6(),
+            view.starts_revolution(),
+            view.distance_q2(),
+            offset,
+        ) {
+            bump(&mut self.counters.nodes);
+            return self.deliver(Kind::Node, RPLIDAR_NODE_LEN);
+        }
+        bump(&mut self.counters.implausible);
+        self.window.drop_front(RPLIDAR_NODE_LEN);
+        Scan::Rejected(RplidarError::Implausible, offset)
+    }
+
     fn garbage(&mut self, n: usize) {
         bump_by(&mut self.counters.garbage_bytes, n);
         self.window.drop_front(n);
@@ -536,6 +564,7 @@ impl RplidarAccumulator {
                                 return Scan::Rejected(RplidarError::CapsuleUnpaired, offset);
                             }
                             bump(&mut self.counters.descriptors);
+                            self.follower.forget();
                             self.mode = match follow {
                                 Follow::Nodes => Mode::Nodes { locked: true },
                                 Follow::Capsules => Mode::Capsules,
@@ -579,8 +608,8 @@ impl RplidarAccumulator {
                         };
                     };
                     if node_is_valid(node) {
-                        bump(&mut self.counters.nodes);
-                        return self.deliver(Kind::Node, RPLIDAR_NODE_LEN);
+                        let node = *node;
+                        return self.deliver_node(&node);
                     }
                     self.mode = Mode::Nodes { locked: false };
                     return self.reject(RplidarError::BadNode);
@@ -605,8 +634,10 @@ impl RplidarAccumulator {
                     }
                     if run == RPLIDAR_NODE_RUN {
                         self.mode = Mode::Nodes { locked: true };
-                        bump(&mut self.counters.nodes);
-                        return self.deliver(Kind::Node, RPLIDAR_NODE_LEN);
+                        let node = live.first_chunk::<RPLIDAR_NODE_LEN>().copied();
+                        if let Some(node) = node {
+                            return self.deliver_node(&node);
+                        }
                     }
                     self.garbage(1);
                 }

@@ -77,7 +77,9 @@ mod accumulator;
 mod capsule;
 mod descriptor;
 mod node;
+mod plausible;
 mod request;
+pub use plausible::{RPLIDAR_NODE_BACK_Q6, RPLIDAR_NODE_STEP_MAX_Q6};
 
 pub use accumulator::{RplidarAccumulator, RplidarCounters, RplidarItem, RplidarScanMode};
 pub use capsule::{RplidarCapsule, RplidarCapsuleRepr, RplidarExpressScan};
@@ -148,6 +150,10 @@ pub enum RplidarError {
     /// or the next one started a new scan: its points cannot be placed
     /// ([`RplidarCounters::capsules_unpaired`]).
     CapsuleUnpaired,
+    /// A standard-scan node that passed its check bits but whose angle cannot follow its
+    /// neighbours ([`RplidarCounters::implausible`], module `plausible`'s rule,
+    /// `docs/lidars.md`): almost surely damaged.
+    Implausible,
     /// A response view was made over data of another type.
     UnexpectedType {
         /// The data type found.
@@ -176,6 +182,9 @@ impl fmt::Display for RplidarError {
                 f,
                 "RPLIDAR capsule checksum mismatch: stored 0x{stored:02x}, computed 0x{computed:02x}"
             ),
+            Self::Implausible => {
+                f.write_str("RPLIDAR node refused: its angle cannot follow its neighbours")
+            }
             Self::CapsuleUnpaired => {
                 f.write_str("RPLIDAR capsule dropped: no directly following capsule")
             }
