@@ -19,6 +19,7 @@ pub mod pose_input;
 pub mod publish;
 pub mod record3dtk;
 pub mod replay;
+pub mod rigfile;
 pub mod rule;
 pub mod run;
 pub mod uos;
