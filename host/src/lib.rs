@@ -18,6 +18,7 @@ pub mod play;
 pub mod pose_input;
 pub mod publish;
 pub mod record3dtk;
+pub mod record;
 pub mod replay;
 pub mod rigfile;
 pub mod rule;
