@@ -926,9 +926,18 @@ impl RigArgs {
 }
 
 /// The rig's classifier section with the command line's rule flags over it (each flag given
-/// replaces the file's value).
+/// replaces the file's value; `--rule paper` drops the file's plane parameters).
 #[must_use]
 pub fn merged_rule(file: &RuleArgs, flags: &RuleArgs) -> RuleArgs {
+    let file = if flags.rule == Some(crate::rule::RuleArg::Paper) {
+        &RuleArgs {
+            rule: file.rule,
+            step_m: file.step_m,
+            ..RuleArgs::default()
+        }
+    } else {
+        file
+    };
     RuleArgs {
         rule: flags.rule.or(file.rule),
         step_m: flags.step_m.or(file.step_m),
