@@ -207,3 +207,50 @@ fn a_bad_angles_csv_is_named_by_its_line() {
     assert!(stderr.contains("a.csv:4") && stderr.contains("backwards"), "{stderr}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn run_with_a_rig_file_takes_its_setup_over_the_recording_s() {
+    let scan = common::shared("scan000.3d");
+    if !scan.is_file() {
+        eprintln!("note: {} is absent: the comparison is skipped", scan.display());
+        return;
+    }
+    let dir = tmp("run-rig");
+    let rec = common::record_3dtk(&dir).unwrap();
+    let rig = Path::new(env!("CARGO_MANIFEST_DIR")).join("../examples/rigs/sick-tilt.toml");
+    let with = |rig: &Path, out: &str| {
+        Command::new(PYRAMID)
+            .args(["run", "--board", "host", "--json", "--recording"])
+            .arg(&rec)
+            .arg("--out")
+            .arg(dir.join(out))
+            .arg("--rig")
+            .arg(rig)
+            .output()
+            .unwrap()
+    };
+    let plain = run_host(&rec, &dir.join("plain"));
+    // The example describes the rig the recording was made with: the same maps.
+    let o = with(&rig, "same");
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let same: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(plain["layers_hash"], same["layers_hash"]);
+    // The sensor 0.2 m higher: other maps.
+    let higher = dir.join("higher.toml");
+    let text = std::fs::read_to_string(&rig)
+        .unwrap()
+        .replace("xyz_m = [0.0, 0.0, 0.4]", "xyz_m = [0.0, 0.0, 0.6]");
+    std::fs::write(&higher, text).unwrap();
+    let o = with(&higher, "higher");
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let moved: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_ne!(plain["layers_hash"], moved["layers_hash"]);
+    // Another sensor than the recording's is refused.
+    let other = dir.join("other.toml");
+    std::fs::write(&other, "[sensor]\nkind = \"ld19\"\n").unwrap();
+    let o = with(&other, "other");
+    assert_eq!(o.status.code(), Some(2));
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(stderr.contains("not the recording's (sick)"), "{stderr}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
