@@ -116,10 +116,12 @@ const CONNECT_TIMEOUT: Duration = Duration::from_secs(5);
 /// Arguments of `pyramid listen`.
 #[derive(clap::Args, Debug, Clone)]
 #[command(group(clap::ArgGroup::new("source").required(true).args(["port", "tcp"])))]
-#[command(after_help = "The rig: with --rig FILE or any rig flag (--sensor, --mount-xyz-m, \
+#[command(
+    after_help = "The rig: with --rig FILE or any rig flag (--sensor, --mount-xyz-m, \
 --actuator, --servo-sweep-deg, --lines-per-observation, ...), the device is sent its Setup on \
 connecting and on every reconnection, before the SetRule of the rule flags. Without them no \
-Setup is sent: the device keeps the setup it booted with (or was last given).")]
+Setup is sent: the device keeps the setup it booted with (or was last given)."
+)]
 pub struct Args {
     /// The device's serial port (8N1).
     #[arg(long, value_name = "PATH")]

@@ -136,7 +136,7 @@ pub fn parse_angles(path: &Path, text: &str) -> Result<Vec<AngleAt>, String> {
                 numbers.len()
             ));
         };
-        if !(t.is_finite() && t >= 0.0 && t < 1e9) || !deg.is_finite() {
+        if !((0.0..1e9).contains(&t) && deg.is_finite()) {
             return Err(format!(
                 "{}: time {t} s or angle {deg}° is not a finite time ≥ 0 and angle",
                 where_()
@@ -268,7 +268,8 @@ impl<W: Write> Recorder<W> {
     /// # Errors
     /// The writer failed.
     pub fn finish(mut self, ended: &'static str) -> Result<Report, String> {
-        self.report.angles_after_end = u64::from(self.next_angle.is_some()) + self.angles.len() as u64;
+        self.report.angles_after_end =
+            u64::from(self.next_angle.is_some()) + self.angles.len() as u64;
         self.out
             .flush()
             .map_err(|e| format!("cannot write the recording: {e}"))?;

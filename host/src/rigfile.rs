@@ -422,7 +422,10 @@ impl Checker<'_> {
             other => self.error(
                 &v.span(),
                 key,
-                &format!("needs 3 values (x, y, z or roll, pitch, yaw), not {}", other.len()),
+                &format!(
+                    "needs 3 values (x, y, z or roll, pitch, yaw), not {}",
+                    other.len()
+                ),
             ),
         }
     }
@@ -491,7 +494,11 @@ pub fn parse_rig(path: &Path, text: &str) -> Result<Rig, String> {
         if let Some(v) = &s.field_deg {
             let f = *v.get_ref();
             if !matches!(f, 100 | 180) {
-                return c.error(&v.span(), "sensor.field_deg", &format!("{f} is not 100 or 180"));
+                return c.error(
+                    &v.span(),
+                    "sensor.field_deg",
+                    &format!("{f} is not 100 or 180"),
+                );
             }
             spec.field_deg = u16::try_from(f).unwrap_or_default();
         }
@@ -530,8 +537,12 @@ pub fn parse_rig(path: &Path, text: &str) -> Result<Rig, String> {
             )?;
         }
         if let Some(v) = &a.zero_deg {
-            rig.actuator.zero_deg =
-                c.num(v, "actuator.zero_deg", |x| x.abs() <= 360.0, "in -360 ..= 360")?;
+            rig.actuator.zero_deg = c.num(
+                v,
+                "actuator.zero_deg",
+                |x| x.abs() <= 360.0,
+                "in -360 ..= 360",
+            )?;
         }
         rig.actuator.reversed = a.reversed.unwrap_or(false);
         let servo = [
@@ -1005,8 +1016,9 @@ fn carried_only(rig: &Rig) -> Result<(), String> {
 
 /// The sensor a rig must name.
 fn sensor_of(rig: &Rig) -> Result<SensorSpec, String> {
-    rig.sensor
-        .ok_or_else(|| "the rig names no sensor (--sensor, or [sensor] kind in the rig file)".into())
+    rig.sensor.ok_or_else(|| {
+        "the rig names no sensor (--sensor, or [sensor] kind in the rig file)".into()
+    })
 }
 
 /// The rig as the device's Setup (link protocol version 4), with `classifier`'s thresholds.
@@ -1119,20 +1131,32 @@ mod tests {
         let ld19 = parse(EXAMPLES[0].1).unwrap();
         let setup = device_setup(&ld19, &ClassifierConfig::DEFAULT).unwrap();
         assert_eq!(ld19.sensor.unwrap().name, SensorName::Ld19);
-        assert_eq!((setup.mount, setup.laser.sensor, setup.laser.actuator), (1, 1, 1));
+        assert_eq!(
+            (setup.mount, setup.laser.sensor, setup.laser.actuator),
+            (1, 1, 1)
+        );
         assert_eq!(setup.laser.servo_min_deg, -10.0);
         assert_eq!(setup.sensor_m, [0.10, 0.0, 0.30]);
         let rp = parse(EXAMPLES[1].1).unwrap();
         let setup = device_setup(&rp, &ClassifierConfig::DEFAULT).unwrap();
-        assert_eq!((setup.mount, setup.laser.sensor, setup.laser.actuator), (0, 2, 0));
-        assert_eq!((setup.laser.baud, setup.lines_per_observation), (115_200, 1));
+        assert_eq!(
+            (setup.mount, setup.laser.sensor, setup.laser.actuator),
+            (0, 2, 0)
+        );
+        assert_eq!(
+            (setup.laser.baud, setup.lines_per_observation),
+            (115_200, 1)
+        );
         assert_eq!(setup.ceiling_m, 0.0, "the classifier is the caller's");
         let config = rp.classifier.apply(ClassifierConfig::DEFAULT).unwrap();
         assert_eq!(config.ceiling, Some(Meters::from_num(1.8)));
         let sick = parse(EXAMPLES[2].1).unwrap();
         let (event, sensor) = recording_setup(&sick).unwrap();
         assert_eq!(event.mount, MountKind::TiltedHorizontal);
-        assert_eq!((event.measuring_mode, event.lines_per_observation), (5, 226));
+        assert_eq!(
+            (event.measuring_mode, event.lines_per_observation),
+            (5, 226)
+        );
         assert_eq!(sensor, SensorEvent::SICK);
     }
 
@@ -1194,9 +1218,16 @@ mod tests {
         };
         let rig = args.rig().unwrap();
         let spec = rig.sensor.unwrap();
-        assert_eq!((spec.name, spec.mode, spec.baud), (SensorName::Rplidar, 1, 115_200));
+        assert_eq!(
+            (spec.name, spec.mode, spec.baud),
+            (SensorName::Rplidar, 1, 115_200)
+        );
         assert_eq!(rig.mount.xyz_m, [0.2, 0.0, 0.5]);
-        assert_eq!(rig.mount.rpy_deg, Some([90.0, 0.0, 0.0]), "kept from the file");
+        assert_eq!(
+            rig.mount.rpy_deg,
+            Some([90.0, 0.0, 0.0]),
+            "kept from the file"
+        );
         assert_eq!(rig.lines_per_observation, Some(4));
         // Another sensor kind by flag starts from that sensor's defaults.
         let args = RigArgs {
@@ -1223,7 +1254,10 @@ mod tests {
         let cases = [
             ("[mount]\nrpy_deg = [180, 0, 90]\n", "mount.rpy_deg"),
             ("[actuator]\naxis = \"pan\"\nrpy = 0\n", "unknown field"),
-            ("[actuator]\naxis = \"tilt\"\nzero_deg = 5\n", "actuator.zero_deg"),
+            (
+                "[actuator]\naxis = \"tilt\"\nzero_deg = 5\n",
+                "actuator.zero_deg",
+            ),
             ("[actuator]\nreversed = true\n", "actuator.reversed"),
             ("[filters]\nmasks_deg = [[170, 190]]\n", "filters.masks_deg"),
             ("[filters]\nmin_quality = 10\n", "filters.min_quality"),
@@ -1243,7 +1277,11 @@ mod tests {
             (Axis::Pan, None, MountKind::PannedVertical),
             (Axis::Tilt, None, MountKind::TiltedHorizontal),
             (Axis::None, None, MountKind::TiltedHorizontal),
-            (Axis::None, Some([90.0, 0.0, 0.0]), MountKind::PannedVertical),
+            (
+                Axis::None,
+                Some([90.0, 0.0, 0.0]),
+                MountKind::PannedVertical,
+            ),
         ] {
             let rig = Rig {
                 sensor: Some(SensorSpec::of(SensorName::Ld06)),

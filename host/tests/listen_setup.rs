@@ -12,9 +12,7 @@ use std::time::{Duration, Instant};
 use terrain_pyramid::classify::ClassifierConfig;
 use terrain_pyramid::link::convert::{setup_refusal, SetupError, SetupField};
 use terrain_pyramid::link::{Link, LinkConfig};
-use terrain_pyramid::wire::link::{
-    Decoded, FrameAccumulator, Header, Message, Setup, MAX_FRAME,
-};
+use terrain_pyramid::wire::link::{Decoded, FrameAccumulator, Header, Message, Setup, MAX_FRAME};
 use terrain_pyramid::wire::FeedResult;
 use terrain_pyramid_host::rigfile::{device_setup, read_rig_file};
 
@@ -106,7 +104,10 @@ fn the_rig_s_setup_is_sent_at_connect_and_again_after_a_reconnect() {
     let classifier = rig.classifier.apply(ClassifierConfig::DEFAULT).unwrap();
     let expected = device_setup(&rig, &classifier).unwrap();
     assert_eq!(expected.laser.sensor, 2);
-    assert!(expected.ceiling_m > 1.7, "the rig file's classifier is carried");
+    assert!(
+        expected.ceiling_m > 1.7,
+        "the rig file's classifier is carried"
+    );
 
     let listener = TcpListener::bind("127.0.0.1:0").unwrap();
     let port = listener.local_addr().unwrap().port();
@@ -213,7 +214,13 @@ fn a_refused_setup_shows_the_field_and_its_rule() {
 #[test]
 fn a_rig_the_setup_cannot_carry_is_refused_before_connecting() {
     let o = Command::new(env!("CARGO_BIN_EXE_pyramid"))
-        .args(["listen", "--tcp", "127.0.0.1:9", "--out", "/nonexistent-dir"])
+        .args([
+            "listen",
+            "--tcp",
+            "127.0.0.1:9",
+            "--out",
+            "/nonexistent-dir",
+        ])
         .args(["--sensor", "ld06", "--mask-deg", "170,190"])
         .output()
         .unwrap();

@@ -41,7 +41,10 @@ fn run_host(recording: &Path, out: &Path) -> serde_json::Value {
 fn a_raw_capture_and_its_angles_replay_to_the_original_maps() {
     let scan = common::shared("scan000.3d");
     if !scan.is_file() {
-        eprintln!("note: {} is absent: the comparison is skipped", scan.display());
+        eprintln!(
+            "note: {} is absent: the comparison is skipped",
+            scan.display()
+        );
         return;
     }
     let dir = tmp("record-from");
@@ -89,7 +92,12 @@ fn a_raw_capture_and_its_angles_replay_to_the_original_maps() {
     let o = Command::new(PYRAMID)
         .args(["record", "--json", "--sensor", "sick", "--baud", "500000"])
         .args(["--sensor-mode", &setup.measuring_mode.to_string()])
-        .args(["--actuator", "tilt", "--mount-xyz-m", &format!("{x},{y},{z}")])
+        .args([
+            "--actuator",
+            "tilt",
+            "--mount-xyz-m",
+            &format!("{x},{y},{z}"),
+        ])
         .args([
             "--lines-per-observation",
             &setup.lines_per_observation.to_string(),
@@ -141,7 +149,14 @@ fn a_serial_port_is_recorded_byte_for_byte_with_host_times() {
     let dir = tmp("record-port");
     let out = dir.join("port.rec");
     let child = Command::new(PYRAMID)
-        .args(["record", "--json", "--sensor", "rplidar", "--actuator", "pan"])
+        .args([
+            "record",
+            "--json",
+            "--sensor",
+            "rplidar",
+            "--actuator",
+            "pan",
+        ])
         .args(["--port", &name, "--duration-s", "2.5"])
         .arg("--out")
         .arg(&out)
@@ -175,7 +190,10 @@ fn a_serial_port_is_recorded_byte_for_byte_with_host_times() {
         })
         .collect();
     assert!(times.len() >= 6, "{times:?}");
-    assert!(times.last().unwrap() - times.first().unwrap() >= 400_000, "{times:?}");
+    assert!(
+        times.last().unwrap() - times.first().unwrap() >= 400_000,
+        "{times:?}"
+    );
     let sensor = Reader::new(&data)
         .unwrap()
         .find_map(|e| match e.unwrap().payload {
@@ -204,7 +222,10 @@ fn a_bad_angles_csv_is_named_by_its_line() {
         .unwrap();
     assert_eq!(o.status.code(), Some(2));
     let stderr = String::from_utf8_lossy(&o.stderr);
-    assert!(stderr.contains("a.csv:4") && stderr.contains("backwards"), "{stderr}");
+    assert!(
+        stderr.contains("a.csv:4") && stderr.contains("backwards"),
+        "{stderr}"
+    );
     let _ = std::fs::remove_dir_all(&dir);
 }
 
@@ -212,7 +233,10 @@ fn a_bad_angles_csv_is_named_by_its_line() {
 fn run_with_a_rig_file_takes_its_setup_over_the_recording_s() {
     let scan = common::shared("scan000.3d");
     if !scan.is_file() {
-        eprintln!("note: {} is absent: the comparison is skipped", scan.display());
+        eprintln!(
+            "note: {} is absent: the comparison is skipped",
+            scan.display()
+        );
         return;
     }
     let dir = tmp("run-rig");
