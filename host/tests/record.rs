@@ -278,3 +278,43 @@ fn run_with_a_rig_file_takes_its_setup_over_the_recording_s() {
     assert!(stderr.contains("not the recording's (sick)"), "{stderr}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn ctrl_c_ends_a_port_recording_with_a_complete_file() {
+    use serialport::SerialPort;
+    let (mut master, slave) = serialport::TTYPort::pair().expect("a pseudo-terminal pair");
+    let name = slave.name().expect("the pair's name");
+    drop(slave);
+    let dir = tmp("record-ctrl-c");
+    let out = dir.join("port.rec");
+    let child = Command::new(PYRAMID)
+        .args(["record", "--json", "--sensor", "ld19", "--port", &name])
+        .arg("--out")
+        .arg(&out)
+        .stdout(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    std::thread::sleep(std::time::Duration::from_millis(700));
+    let sent: Vec<u8> = (0..2000_u32).map(|i| (i % 251) as u8).collect();
+    for part in sent.chunks(400) {
+        master.write_all(part).unwrap();
+        master.flush().unwrap();
+        std::thread::sleep(std::time::Duration::from_millis(50));
+    }
+    std::thread::sleep(std::time::Duration::from_millis(300));
+    let status = Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(status.success());
+    let o = child.wait_with_output().unwrap();
+    assert!(o.status.success(), "{:?}", o.status);
+    let report: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(report["ended"], "interrupted");
+    assert_eq!(report["baud"], 230_400);
+    // The file reads to its end without error and holds every byte.
+    let data = std::fs::read(&out).unwrap();
+    assert_eq!(report["bytes"], data.len());
+    assert_eq!(split(&data).0, sent);
+    let _ = std::fs::remove_dir_all(&dir);
+}
