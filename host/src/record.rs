@@ -309,6 +309,17 @@ pub fn execute(args: &Args, stop: &AtomicBool) -> Result<Report, (u8, String)> {
     let sensor = *sensor;
     let baud = sensor.effective_baud();
     let (setup, sensor_event) = recording_setup(&rig).map_err(usage)?;
+    if rig.actuator.servo.is_some() {
+        // A recording carries the actuator's angles, not the servo's commanded sweep.
+        eprintln!(
+            "note: the rig's servo sweep is not recorded (a recording carries angles): {}",
+            if args.angles.is_some() {
+                "the angles come from --angles"
+            } else {
+                "without --angles the recording has no angles"
+            }
+        );
+    }
     let duration_us = match args.duration_s {
         Some(s) if s.is_finite() && s > 0.0 && s < 1e9 => {
             #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
