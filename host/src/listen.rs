@@ -17,7 +17,12 @@
 //!
 //! - Live outputs (`--ros2`, `--foxglove`, `--mcap`, [`crate::publish`], `docs/ros2.md`): the
 //!   mirror is offered to them after every read; they never hold up the reader.
-//! - With `--rule` or any of its parameters (`crate::rule`), it first sends a SetRule
+//! - With a rig (`--rig FILE` or any rig flag, [`crate::rigfile`], `docs/rig.md`), it first
+//!   sends the device its Setup: the sensor, mount, actuator, observation policy and the
+//!   classifier's thresholds (the rig file's `[classifier]` with the rule flags over it). The
+//!   device's answer is reported on stderr; a refusal names the field and its rule. Without a
+//!   rig no Setup is sent and the device keeps the setup it has.
+//! - With `--rule` or any of its parameters (`crate::rule`), it then sends a SetRule
 //!   command: the device's classifier takes that step threshold and navigability rule (the
 //!   rest of its setup stays); the device's answer is reported on stderr (an older firmware
 //!   answers Unsupported and keeps its rule).
@@ -60,10 +65,10 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{mpsc, Arc};
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 use terrain_pyramid::classify::ClassifierConfig;
-use terrain_pyramid::link::convert::set_rule_message;
+use terrain_pyramid::link::convert::{set_rule_message, ReplyText};
 use terrain_pyramid::wire::link::{
     ClockSource, HelloReason, Message, MessageType, PoseReport, Reply, ReplyCode, RxCounters,
-    SetRule, SnapshotScope, Stats, TimeRequest, POSE_STAMPED,
+    SetRule, Setup, SnapshotScope, Stats, TimeRequest, POSE_STAMPED,
 };
 use terrain_pyramid::LogOddsFixed;
 
@@ -111,6 +116,12 @@ const CONNECT_TIMEOUT: Duration = Duration::from_secs(5);
 /// Arguments of `pyramid listen`.
 #[derive(clap::Args, Debug, Clone)]
 #[command(group(clap::ArgGroup::new("source").required(true).args(["port", "tcp"])))]
+#[command(
+    after_help = "The rig: with --rig FILE or any rig flag (--sensor, --mount-xyz-m, \
+--actuator, --servo-sweep-deg, --lines-per-observation, ...), the device is sent its Setup on \
+connecting and on every reconnection, before the SetRule of the rule flags. Without them no \
+Setup is sent: the device keeps the setup it booted with (or was last given)."
+)]
 pub struct Args {
     /// The device's serial port (8N1).
     #[arg(long, value_name = "PATH")]
@@ -155,6 +166,13 @@ pub struct Args {
     /// rule.
     #[command(flatten)]
     pub rule: crate::rule::RuleArgs,
+    /// The rig the device is set up with (its Setup) on connecting; see below.
+    #[command(flatten)]
+    pub rig: crate::rigfile::RigArgs,
+    /// The laser UART's baud rate sent in the Setup [default: the rig file's, else the
+    /// sensor's].
+    #[arg(long, value_name = "BD")]
+    pub sensor_baud: Option<u32>,
 }
 
 /// How often a lost device is looked for again.
@@ -482,6 +500,8 @@ pub struct Summary {
     pub files: Vec<String>,
     /// Times the device was reconnected after its stream ended (`--reconnect`, serial ports).
     pub reconnects: u64,
+    /// Setups sent to the device (the rig's, one per connection; 0 without a rig).
+    pub setups_sent: u64,
     /// The live outputs (`--ros2`, `--foxglove`, `--mcap`), when any was on.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub outputs: Option<OutputsReport>,
@@ -815,14 +835,22 @@ struct Session {
     snapshots_requested: u64,
     /// The rule to set on the device on connecting (`--rule` and its parameters).
     set_rule: Option<SetRule>,
+    /// The rig's Setup, sent on connecting before the rule (`--rig` and the rig flags).
+    setup: Option<Setup>,
+    /// Setups sent (one per connection).
+    setups_sent: u64,
     /// The clocks and the poses.
     timing: Timing,
 }
 
 impl Session {
-    /// Sends the SetRule of `--rule` (if given) and then `RequestSnapshot(all)`; `Err` when
-    /// the stream is gone.
+    /// Sends the rig's Setup (if given), the SetRule of `--rule` (if given) and then
+    /// `RequestSnapshot(all)`; `Err` when the stream is gone.
     fn greet(&mut self, now: Instant) -> Result<(), String> {
+        if let Some(setup) = self.setup {
+            self.send(&Message::Setup(setup))?;
+            self.setups_sent += 1;
+        }
         if let Some(set) = self.set_rule {
             let bytes = self
                 .host
@@ -1067,6 +1095,9 @@ fn receive(
                 LinkEvent::Reply(reply) if reply.to_type == MessageType::SetRule.to_u8() => {
                     out.notice(&set_rule_answer(&reply));
                 }
+                LinkEvent::Reply(reply) if reply.to_type == MessageType::Setup.to_u8() => {
+                    out.notice(&setup_answer(&reply));
+                }
                 LinkEvent::TimeReply(reply) => {
                     let outcome = session.timing.clock.add(Exchange {
                         host_sent_us: reply.host_us,
@@ -1158,6 +1189,21 @@ fn receive(
     (session, ending, elapsed)
 }
 
+/// What the device's answer to the rig's Setup tells the user: a refusal names the field and
+/// its rule, as every refused command is rendered ([`ReplyText`]).
+fn setup_answer(reply: &Reply) -> String {
+    match reply.code {
+        ReplyCode::Ok => "device: the rig's setup taken".to_string(),
+        ReplyCode::Unsupported => {
+            "warning: the device does not take Setup: it keeps its own setup".to_string()
+        }
+        _ => format!(
+            "warning: the device refused the rig's setup: {} (it keeps its own setup)",
+            ReplyText(reply).reason()
+        ),
+    }
+}
+
 /// What the device's answer to SetRule tells the user.
 fn set_rule_answer(reply: &Reply) -> String {
     match reply.code {
@@ -1244,6 +1290,7 @@ fn write_out(
             .collect(),
         files,
         reconnects: session.reconnects,
+        setups_sent: session.setups_sent,
         outputs,
         time_sync: session.timing.report(),
         poses: session.timing.poses_report(),
@@ -1289,7 +1336,15 @@ fn start_pose_inputs(args: &Args) -> Result<Timing, String> {
 /// sync at the end); 1 when the port cannot be opened or the address reached (one line), no
 /// Hello came, or an output cannot be written.
 pub fn run(args: &Args) -> ExitCode {
-    // The rule first: a bad flag ends the command before anything is opened (status 2).
+    // The rig and the rule first: a bad flag ends the command before anything is opened
+    // (status 2).
+    let setup = match rig_setup(args) {
+        Ok(setup) => setup,
+        Err(e) => {
+            eprintln!("error: {e}");
+            return ExitCode::from(2);
+        }
+    };
     let set_rule = if args.rule.given() {
         match args.rule.apply(ClassifierConfig::DEFAULT) {
             Ok(config) => Some(set_rule_message(&config)),
@@ -1354,6 +1409,8 @@ pub fn run(args: &Args) -> ExitCode {
         requested: None,
         snapshots_requested: 0,
         set_rule,
+        setup,
+        setups_sent: 0,
         timing,
     };
     let (mut session, ending, elapsed) = receive(session, args, &stop, &mut out);
@@ -1400,6 +1457,30 @@ pub fn run(args: &Args) -> ExitCode {
             ExitCode::FAILURE
         }
     }
+}
+
+/// The Setup of the rig's flags and file (`None` without either): the classifier is the
+/// library's defaults with the rig file's `[classifier]` and the rule flags over it.
+///
+/// # Errors
+/// A bad rig file or flag, or a value the Setup cannot carry.
+pub fn rig_setup(args: &Args) -> Result<Option<Setup>, String> {
+    if !args.rig.given() && args.sensor_baud.is_none() {
+        return Ok(None);
+    }
+    let mut rig = args.rig.rig()?;
+    if let Some(b) = args.sensor_baud {
+        if !(9_600..=3_000_000).contains(&b) {
+            return Err(format!("--sensor-baud {b} is not in 9600 ..= 3000000"));
+        }
+        rig.sensor
+            .as_mut()
+            .ok_or("--sensor-baud needs a sensor (--sensor or the rig file's)")?
+            .baud = b;
+    }
+    rig.classifier.rule = crate::rigfile::merged_rule(&rig.classifier.rule, &args.rule);
+    let classifier = rig.classifier.apply(ClassifierConfig::DEFAULT)?;
+    crate::rigfile::device_setup(&rig, &classifier).map(Some)
 }
 
 /// How the listener names the device's clock: a fallback says what it costs.

@@ -4,7 +4,7 @@
 //! `Args` struct (clap) and a `run(args) -> ExitCode` function.
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
-use terrain_pyramid_host::{decode, design, listen, record3dtk, replay, run};
+use terrain_pyramid_host::{decode, design, listen, record, record3dtk, replay, run};
 
 /// The main computer's side of terrain-pyramid.
 #[derive(Parser)]
@@ -23,6 +23,9 @@ enum Command {
     /// Turn a structured 3DTK tilt scan into a recording of SICK telegrams and tilt angles.
     #[command(name = "record-3dtk")]
     Record3dtk(record3dtk::Args),
+    /// Record a laser's bytes from a serial port (or a raw capture) into a recording, with
+    /// the rig's sensor and mount and optionally the actuator's angles from a CSV.
+    Record(record::Args),
     /// Receive the device's map stream over a serial port or TCP and write the maps.
     Listen(listen::Args),
     /// Play a recording through the co-processor (in process or on the emulated board) and
@@ -41,6 +44,7 @@ fn main() -> ExitCode {
         Command::Decode(args) => decode::run(&args),
         Command::Record3dtk(args) => record3dtk::run(&args),
         Command::Run(args) => run::run(&args),
+        Command::Record(args) => record::run(&args),
         Command::Listen(args) => listen::run(&args),
     }
 }

@@ -169,6 +169,27 @@ fn centimetres(field: &'static str, m: f64) -> Result<u16, RigError> {
 }
 
 impl Rig {
+    /// This rig with `over`'s values where `over` gives them (flags over a rig file): each
+    /// given value replaces this one's, the masks as a whole, a reversed sense stays.
+    #[must_use]
+    pub fn then(self, over: Self) -> Self {
+        Self {
+            xyz_m: over.xyz_m.or(self.xyz_m),
+            rpy_deg: over.rpy_deg.or(self.rpy_deg),
+            axis: over.axis.or(self.axis),
+            zero_deg: over.zero_deg.or(self.zero_deg),
+            reversed: over.reversed || self.reversed,
+            masks: if over.masks.is_empty() {
+                self.masks
+            } else {
+                over.masks
+            },
+            min_range_m: over.min_range_m.or(self.min_range_m),
+            max_range_m: over.max_range_m.or(self.max_range_m),
+            min_quality: over.min_quality.or(self.min_quality),
+        }
+    }
+
     /// Whether the rig changes nothing.
     #[must_use]
     pub fn is_empty(&self) -> bool {

@@ -28,9 +28,12 @@ use crate::design::DesignArgs;
 use crate::device::{Device, InProcess};
 use crate::emulator::{qemu_available, Emulator, Machine, INSTALL_HINT};
 use crate::export::{write_maps, MapSnapshot};
-use crate::play::{mirror_snapshot, play, steps, RunCounts, Steps};
+use crate::play::{mirror_snapshot, play, steps, RunCounts, Step, Steps};
 use crate::publish::{OutputArgs, Outputs, OutputsReport, Publishing};
 use crate::replay::ClampArg;
+use crate::rigfile::{
+    merged_rule, mount_rig, read_rig_file, recording_setup, SensorName, SensorSpec,
+};
 use serde::Serialize;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -133,9 +136,15 @@ pub struct Args {
     /// Decay of stale evidence (off by default).
     #[command(flatten)]
     pub decay: DecayArgs,
-    /// The lidar's mount and the returns refused before geometry, over the recording's.
+    /// The lidar's mount and the returns refused before geometry, over the recording's (and
+    /// over the rig file's).
     #[command(flatten)]
-    pub rig: crate::rig::RigArgs,
+    pub mount: crate::rig::RigArgs,
+    /// A rig file (docs/rig.md): its mount, sensor position, observation policy and
+    /// classifier thresholds replace the recording's setup (its sensor must be the
+    /// recording's); the classifier flags above override the file's.
+    #[arg(long, value_name = "FILE.toml")]
+    pub rig: Option<PathBuf>,
 }
 
 /// What the mirror made of the device's frames: its decay and the comparison at the final
@@ -305,14 +314,21 @@ pub fn run_config(args: &Args) -> Result<(DefaultDesign, Config, ClassifierConfi
             .map_err(|e| (2, format!("error: {e}")))?,
         ..Config::default()
     };
-    let classifier = args
-        .rule
-        .apply(ClassifierConfig {
+    let classifier = match &args.rig {
+        None => args.rule.apply(ClassifierConfig {
             ceiling: args.ceiling_m.map(Meters::saturating_from_num),
             drop_threshold: args.drop_m.map(Meters::saturating_from_num),
             ..ClassifierConfig::default()
-        })
-        .map_err(|e| (2, format!("error: {e}")))?;
+        }),
+        Some(path) => read_rig_file(path).and_then(|rig| {
+            let mut spec = rig.classifier;
+            spec.rule = merged_rule(&spec.rule, &args.rule);
+            spec.ceiling_m = args.ceiling_m.or(spec.ceiling_m);
+            spec.drop_m = args.drop_m.or(spec.drop_m);
+            spec.apply(ClassifierConfig::default())
+        }),
+    }
+    .map_err(|e| (2, format!("error: {e}")))?;
     Ok((design, config, classifier))
 }
 
@@ -429,7 +445,15 @@ pub fn execute(args: &Args) -> Result<String, (u8, String)> {
     })?;
     let fail = |e: String| (1, format!("error: {e}"));
     let mut steps = steps(&data).map_err(fail)?;
-    steps.rig = args.rig.rig().map_err(|e| (2, format!("error: {e}")))?;
+    let flags = args.mount.rig().map_err(|e| (2, format!("error: {e}")))?;
+    steps.rig = match &args.rig {
+        Some(path) => {
+            rig_over_recording(path, &mut steps).map_err(|e| (2, format!("error: {e}")))?;
+            let file = read_rig_file(path).map_err(|e| (2, format!("error: {e}")))?;
+            mount_rig(&file).then(flags)
+        }
+        None => flags,
+    };
     // The outputs first: an address already in use ends the command before a board boots.
     let outputs = Outputs::start(&args.outputs.config(LogOddsFixed::ZERO))
         .map_err(|e| (1, format!("error: {e}")))?;
@@ -483,6 +507,63 @@ pub fn execute(args: &Args) -> Result<String, (u8, String)> {
         },
     )
     .map_err(fail)
+}
+
+/// Replaces a recording's setup with the rig file's (`--rig`): its mount, sensor position
+/// and observation policy. The rig's sensor, when it names one, must be the recording's;
+/// when it names none, the recording's is taken.
+///
+/// # Errors
+/// The rig file's errors, a sensor other than the recording's, or a value the recording's
+/// setup cannot carry.
+pub fn rig_over_recording(path: &Path, steps: &mut Steps) -> Result<(), String> {
+    let mut rig = read_rig_file(path)?;
+    let recorded = steps.sensor;
+    match rig.sensor {
+        Some(s) if s.name.kind().code() != recorded.sensor => {
+            return Err(format!(
+                "{}: the rig's sensor {} is not the recording's ({})",
+                path.display(),
+                s.name.name(),
+                terrain_pyramid::laser::SensorKind::from_code(recorded.sensor)
+                    .map_or("unknown", terrain_pyramid::laser::SensorKind::name)
+            ));
+        }
+        Some(_) => {}
+        None => {
+            let name = match recorded.sensor {
+                0 => SensorName::Sick,
+                1 => SensorName::Ld06,
+                2 => SensorName::Rplidar,
+                _ => SensorName::Ydlidar,
+            };
+            let mut spec = SensorSpec::of(name);
+            spec.mode = recorded.mode;
+            if let Some(setup) = steps.setup() {
+                spec.field_deg = setup.field_deg;
+                spec.resolution_cdeg = setup.resolution_cdeg;
+                if name == SensorName::Sick {
+                    spec.mode = setup.measuring_mode;
+                }
+            }
+            rig.sensor = Some(spec);
+        }
+    }
+    let (setup, sensor) = recording_setup(&rig).map_err(|e| format!("{}: {e}", path.display()))?;
+    if sensor != recorded {
+        return Err(format!(
+            "{}: the rig's sensor mode {} is not the recording's ({})",
+            path.display(),
+            sensor.mode,
+            recorded.mode
+        ));
+    }
+    for step in &mut steps.steps {
+        if let Step::Setup(s) = step {
+            *s = setup;
+        }
+    }
+    Ok(())
 }
 
 /// Runs `pyramid run`.
