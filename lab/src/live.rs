@@ -68,7 +68,7 @@ use terrain_pyramid_host::export::MapSnapshot;
 use terrain_pyramid_host::link::{HostLink, LinkEvent};
 use terrain_pyramid_host::listen::cells_fnv1a64;
 use terrain_pyramid_host::play::{steps, Step, Steps};
-use terrain_pyramid_host_tests::sim::lidar::simulate_lidar;
+use terrain_pyramid_host_tests::sim::lidar::{simulate_lidar, LidarSimConfig};
 
 /// Arguments of `lab live`.
 #[derive(clap::Args, Debug, Clone)]
@@ -700,8 +700,10 @@ pub fn execute(args: &Args) -> Result<Report, String> {
     // The recording, its poses and the lock-step reference.
     let setup = timing::ld19_setup(true);
     let scene = setup.scene_config();
-    let sim_config =
-        crate::experiments::lidar::ld19_sim(scene.scene.clone(), scene.trajectory, setup.seed);
+    let sim_config = LidarSimConfig {
+        sample_poses: true,
+        ..crate::experiments::lidar::ld19_sim(scene.scene.clone(), scene.trajectory, setup.seed)
+    };
     let sim = simulate_lidar(&sim_config).map_err(|e| e.to_string())?;
     terrain_pyramid_host::export::write_file(&out.join("live.rec"), &sim.bytes)?;
     let steps = steps(&sim.bytes)?;
@@ -729,10 +731,12 @@ pub fn execute(args: &Args) -> Result<Report, String> {
     ))
     .map_err(|e| e.to_string())?;
     let on_time = timing::on_time_poses(&sim_config.trajectory, &sim_config.scene, sim.duration_us);
+    let truth = timing::true_poses(&sim_config.trajectory, &sim_config.scene, sim.duration_us);
     let input = Input {
         steps: &steps,
         late: &[],
         on_time: &on_time,
+        truth: &truth,
         design: &design,
         config: &config,
         frontend,
