@@ -106,12 +106,12 @@ fn serve(
             boots.lock().unwrap().push(clock);
             boot += 1;
             track = PoseTrack::<16>::new();
-            pyramid = Box::new(DefaultPyramid::new());
+            *pyramid = DefaultPyramid::new();
             pyramid.configure(&design(), &Config::default()).unwrap();
-            link = Box::new(Link::new(LinkConfig {
+            *link = Link::new(LinkConfig {
                 stats_interval_ms: 200,
                 ..LinkConfig::DEFAULT
-            }));
+            });
             link.adopt(&design());
         }
         let now_ms = u32::try_from(start.elapsed().as_millis()).unwrap();
