@@ -415,3 +415,70 @@ fn every_scenario_and_mount_replays() {
         }
     }
 }
+
+/// The simulator's beam times (its own reading of the mirror, `docs/lidars.md`) agree with the
+/// library's `SickBeamTimes` to the microsecond, for every variant: a device given stamped
+/// poses places each simulated beam at the pose it was cast from.
+#[test]
+fn beam_times_follow_the_mirror_as_the_library_does() {
+    use terrain_pyramid::laser::SickBeamTimes;
+    use terrain_pyramid::wire::sick::Variant;
+    for variant in [
+        Variant::Fov180Step1,
+        Variant::Fov180StepHalf,
+        Variant::Fov100Step1,
+        Variant::Fov100StepHalf,
+        Variant::Fov100StepQuarter,
+    ] {
+        let offsets = LaserConfig {
+            variant,
+            ..LaserConfig::paper()
+        }
+        .beam_offsets_s();
+        assert_eq!(offsets.len(), variant.beam_count());
+        let last = offsets.iter().copied().fold(0.0, f64::max);
+        let times = SickBeamTimes::new(variant, None, offsets.len() - 1);
+        for (k, o) in offsets.iter().enumerate() {
+            let sim_us = (last - o) * 1e6;
+            let lib_us = f64::from(times.before_last_us(k));
+            assert!(
+                (sim_us - lib_us).abs() <= 1.0,
+                "{variant:?} beam {k}: {sim_us} vs {lib_us}"
+            );
+        }
+    }
+    // 0.5°: the odd beams a turn after the even ones; beam 359 (179.5°) 19.98 ms after beam 0.
+    let half = LaserConfig::paper().beam_offsets_s();
+    assert!((half[359] - (1.0 + 179.5 / 360.0) / 75.0).abs() < 1e-9);
+    assert!((half[1] - half[0] - (1.0 + 0.5 / 360.0) / 75.0).abs() < 1e-9);
+}
+
+/// With beam times, a line's events are stamped with its telegram's arrival: the last beam's
+/// time plus the telegram's bytes at 500 kBd.
+#[test]
+fn beam_timed_lines_are_stamped_at_their_arrival() {
+    let config = SimConfig {
+        beam_times: true,
+        split_every: 0,
+        ..short_stairs()
+    };
+    let sim = simulate(&config).unwrap();
+    let rate = config.laser.line_rate_hz();
+    let offsets = config.laser.beam_offsets_s();
+    let last = offsets.iter().copied().fold(0.0, f64::max);
+    let mut times = Vec::new();
+    for event in Reader::new(&sim.bytes).unwrap() {
+        let event = event.unwrap();
+        if let Payload::Laser(bytes) = event.payload {
+            times.push((event.time_us, bytes.len()));
+        }
+    }
+    assert_eq!(times.len() as u32, sim.lines);
+    for (i, (t_us, len)) in times.iter().enumerate() {
+        let expected = (i as f64 / rate + last + 10.0 * *len as f64 / 500_000.0) * 1e6;
+        assert!(
+            (*t_us as f64 - expected).abs() <= 1.0,
+            "line {i}: {t_us} vs {expected}"
+        );
+    }
+}

@@ -18,6 +18,7 @@ use std::process::{Command, Stdio};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 use support::{design, PATIENCE};
+use terrain_pyramid::geometry::PoseTrack;
 use terrain_pyramid::link::{Command as DeviceCommand, Link, LinkConfig, SensorCounters};
 use terrain_pyramid::wire::FeedResult;
 use terrain_pyramid::{Config, DefaultPyramid};
@@ -26,29 +27,53 @@ use terrain_pyramid::{Config, DefaultPyramid};
 const PPM: i128 = 100;
 const DEVICE_START_US: u32 = u32::MAX - 2_000_000;
 
+/// The rebooted device's clock at its boot, µs: far from where the first boot's had got to.
+const REBOOT_START_US: u32 = 1_000_000_000;
+
 #[derive(Clone, Copy)]
 struct DeviceClock {
     zero: Instant,
+    start_us: u32,
 }
 
 impl DeviceClock {
+    /// The clock at `t`, also before `zero` (what it would have read: wrapping).
     fn at(&self, t: Instant) -> u32 {
-        let e = t.saturating_duration_since(self.zero).as_nanos() as i128;
+        let e = if t >= self.zero {
+            t.duration_since(self.zero).as_nanos() as i128
+        } else {
+            -(self.zero.duration_since(t).as_nanos() as i128)
+        };
         let us = e / 1_000 + e * PPM / 1_000_000_000;
-        (i128::from(DEVICE_START_US) + us).rem_euclid(1 << 32) as u32
+        (i128::from(self.start_us) + us).rem_euclid(1 << 32) as u32
     }
 }
 
-/// A stamped pose the device took: its x (the test's index) and stamp.
+/// A stamped pose the device took: its x (the test's index), stamp, and the boot it came in
+/// (0 the first, 1 after the reboot).
 #[derive(Debug, Clone, Copy)]
 struct Received {
     x: f64,
     stamp_us: u32,
+    boot: usize,
+    /// Whether the device's track took it.
+    taken: bool,
 }
+
+/// The device's boots: each one's clock.
+type Boots = Arc<Mutex<Vec<DeviceClock>>>;
 
 /// Serves one host connection until it goes away: Hello and Stats from `poll`, TimeReplies
 /// from `serve` with the device time of the bytes that completed each request; Poses kept.
-fn serve(listener: TcpListener, clock: DeviceClock, poses: Arc<Mutex<Vec<Received>>>) {
+/// With `reboot_after`, the device reboots then, the connection kept (a board reset behind a
+/// UART): a new link and pyramid (a boot Hello at the next poll) and a clock restarted at
+/// [`REBOOT_START_US`], pushed to `boots`.
+fn serve(
+    listener: TcpListener,
+    boots: Boots,
+    poses: Arc<Mutex<Vec<Received>>>,
+    reboot_after: Option<Duration>,
+) {
     let (mut stream, _) = listener.accept().unwrap();
     // A blocking read that returns as soon as bytes come: the device's time of a request is
     // taken within microseconds of its arrival, as a board's receive interrupt does.
@@ -66,8 +91,29 @@ fn serve(listener: TcpListener, clock: DeviceClock, poses: Arc<Mutex<Vec<Receive
     let mut out = vec![0_u8; 4096];
     let mut rx = vec![0_u8; 4096];
     let start = Instant::now();
+    let mut reboot_at = reboot_after.map(|d| start + d);
+    let mut boot = 0;
+    let mut clock = boots.lock().unwrap()[0];
+    let mut track = PoseTrack::<16>::new();
     loop {
         assert!(start.elapsed() < PATIENCE, "the host never went away");
+        if reboot_at.is_some_and(|r| Instant::now() >= r) {
+            reboot_at = None;
+            clock = DeviceClock {
+                zero: Instant::now(),
+                start_us: REBOOT_START_US,
+            };
+            boots.lock().unwrap().push(clock);
+            boot += 1;
+            track = PoseTrack::<16>::new();
+            *pyramid = DefaultPyramid::new();
+            pyramid.configure(&design(), &Config::default()).unwrap();
+            *link = Link::new(LinkConfig {
+                stats_interval_ms: 200,
+                ..LinkConfig::DEFAULT
+            });
+            link.adopt(&design());
+        }
         let now_ms = u32::try_from(start.elapsed().as_millis()).unwrap();
         link.poll(now_ms, &mut *pyramid, &SensorCounters::default());
         match stream.read(&mut rx) {
@@ -83,9 +129,15 @@ fn serve(listener: TcpListener, clock: DeviceClock, poses: Arc<Mutex<Vec<Receive
                         } => {
                             if let Some(other) = link.serve(&mut pyramid, item) {
                                 if let DeviceCommand::Pose(pose, Some(stamp_us)) = other.command {
+                                    // The device's track decides what it takes
+                                    // (`CoProcessor::stamped_pose`); a refused pose is never
+                                    // placed.
+                                    let taken = track.push(stamp_us, pose, taken_at).is_ok();
                                     poses.lock().unwrap().push(Received {
                                         x: pose.x.to_num::<f64>(),
                                         stamp_us,
+                                        boot,
+                                        taken,
                                     });
                                 }
                             }
@@ -116,14 +168,16 @@ fn wall_us() -> i128 {
 fn udp_poses_reach_the_device_stamped_in_its_own_clock() {
     let listener = TcpListener::bind("127.0.0.1:0").unwrap();
     let port = listener.local_addr().unwrap().port();
-    let clock = DeviceClock {
+    let boots: Boots = Arc::new(Mutex::new(vec![DeviceClock {
         zero: Instant::now(),
-    };
+        start_us: DEVICE_START_US,
+    }]));
     let poses = Arc::new(Mutex::new(Vec::new()));
     let device = {
-        let poses = Arc::clone(&poses);
-        std::thread::spawn(move || serve(listener, clock, poses))
+        let (poses, boots) = (Arc::clone(&poses), Arc::clone(&boots));
+        std::thread::spawn(move || serve(listener, boots, poses, None))
     };
+    let clock = boots.lock().unwrap()[0];
     // A free UDP port for the pose input.
     let pose_addr = {
         let probe = UdpSocket::bind("127.0.0.1:0").unwrap();
@@ -207,6 +261,7 @@ fn udp_poses_reach_the_device_stamped_in_its_own_clock() {
         received.len() as u64,
         "{p}"
     );
+    assert!(received.iter().all(|r| r.taken), "every pose taken");
     // Most of 4 s at 50 Hz, less the first second's (the clock was not synced yet).
     assert!(received.len() > 75, "{} poses; {p}", received.len());
     assert!(p["unsynced"].as_u64().unwrap() > 0, "{p}");
@@ -232,5 +287,113 @@ fn udp_poses_reach_the_device_stamped_in_its_own_clock() {
     // is for a loaded machine.
     assert!(worst <= 500, "worst stamp error {worst} µs");
     assert!(stderr.contains("clock: synced"), "{stderr}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// The device reboots 2.5 s into the run (a new link, a boot Hello, its clock restarted far
+/// from where it was) while the robot keeps sending: listen's clock sync resets on the boot
+/// Hello, and every pose the device takes, before and after, is stamped in the clock of the
+/// boot that takes it (none with the old mapping: that would be ~10⁹ µs off).
+#[test]
+fn a_device_reboot_resets_the_clock_and_no_pose_keeps_the_old_mapping() {
+    let listener = TcpListener::bind("127.0.0.1:0").unwrap();
+    let port = listener.local_addr().unwrap().port();
+    let boots: Boots = Arc::new(Mutex::new(vec![DeviceClock {
+        zero: Instant::now(),
+        start_us: DEVICE_START_US,
+    }]));
+    let poses = Arc::new(Mutex::new(Vec::new()));
+    let device = {
+        let (poses, boots) = (Arc::clone(&poses), Arc::clone(&boots));
+        std::thread::spawn(move || {
+            serve(listener, boots, poses, Some(Duration::from_millis(2_500)));
+        })
+    };
+    let pose_addr = {
+        let probe = UdpSocket::bind("127.0.0.1:0").unwrap();
+        probe.local_addr().unwrap()
+    };
+    let dir = std::env::temp_dir().join(format!("pyramid-listen-reboot-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let child = Command::new(env!("CARGO_BIN_EXE_pyramid"))
+        .args([
+            "listen",
+            "--tcp",
+            &format!("127.0.0.1:{port}"),
+            "--out",
+            dir.to_str().unwrap(),
+            "--duration-s",
+            "6",
+            "--pose-udp",
+            &pose_addr.to_string(),
+        ])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let robot = UdpSocket::bind("127.0.0.1:0").unwrap();
+    let anchor = (Instant::now(), wall_us());
+    let mut sent: Vec<(f64, i128)> = Vec::new();
+    let stop_at = Instant::now() + Duration::from_millis(5_000);
+    let mut i = 0_u32;
+    while Instant::now() < stop_at {
+        i += 1;
+        let stamp = wall_us() - 30_000;
+        let x = f64::from(i) / 1000.0;
+        let line = format!(
+            "{{\"t\": {}.{:06}, \"x\": {x}, \"y\": 0.5, \"yaw\": 0.25}}\n",
+            stamp.div_euclid(1_000_000),
+            stamp.rem_euclid(1_000_000)
+        );
+        robot.send_to(line.as_bytes(), pose_addr).unwrap();
+        sent.push((x, stamp));
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    let output = child.wait_with_output().unwrap();
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(output.status.success(), "{stderr}");
+    device.join().unwrap();
+
+    let summary: Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("summary.json")).unwrap()).unwrap();
+    let sync = &summary["time_sync"];
+    assert_eq!(sync["synced"], true, "{summary:#}");
+    assert!(sync["resets_boot"].as_u64().unwrap() >= 1, "{sync}");
+    assert_eq!(sync["resets_reconnect"], 0, "{sync}");
+    let boots = boots.lock().unwrap().clone();
+    assert_eq!(boots.len(), 2, "the device rebooted once");
+    let all = poses.lock().unwrap().clone();
+    // A pose listen stamped before it heard of the reboot may reach the rebooted device: its
+    // track must refuse it (it is ~10⁹ µs behind the new clock).
+    let refused: Vec<_> = all.iter().filter(|r| !r.taken).collect();
+    assert!(refused.iter().all(|r| r.boot == 1), "{refused:?}");
+    let received: Vec<Received> = all.iter().copied().filter(|r| r.taken).collect();
+    let per_boot = |b: usize| received.iter().filter(|r| r.boot == b).count();
+    // Before: about 1.5 s once synced; after: about 2.5 s less the new sync.
+    assert!(per_boot(0) > 25, "{} poses before the reboot", per_boot(0));
+    assert!(per_boot(1) > 25, "{} poses after the reboot", per_boot(1));
+    let mut worst = [0_i64; 2];
+    for r in &received {
+        let &(_, stamp) = sent
+            .iter()
+            .find(|(x, _)| (x - r.x).abs() < 1e-4)
+            .unwrap_or_else(|| panic!("the device got a pose never sent: x {}", r.x));
+        let at = anchor.0 + Duration::from_micros(u64::try_from(stamp - anchor.1).unwrap());
+        let truth = boots[r.boot].at(at);
+        let error = i64::from(r.stamp_us.wrapping_sub(truth) as i32);
+        worst[r.boot] = worst[r.boot].max(error.abs());
+    }
+    eprintln!(
+        "{} / {} poses taken before / after the reboot ({} refused); worst stamp error {} / {} µs; {sync}",
+        per_boot(0),
+        per_boot(1),
+        refused.len(),
+        worst[0],
+        worst[1]
+    );
+    assert!(
+        worst[0] <= 500 && worst[1] <= 500,
+        "worst stamp errors {worst:?} µs"
+    );
     let _ = std::fs::remove_dir_all(&dir);
 }

@@ -68,7 +68,7 @@ use terrain_pyramid_host::export::MapSnapshot;
 use terrain_pyramid_host::link::{HostLink, LinkEvent};
 use terrain_pyramid_host::listen::cells_fnv1a64;
 use terrain_pyramid_host::play::{steps, Step, Steps};
-use terrain_pyramid_host_tests::sim::lidar::simulate_lidar;
+use terrain_pyramid_host_tests::sim::lidar::{simulate_lidar, LidarSimConfig};
 
 /// Arguments of `lab live`.
 #[derive(clap::Args, Debug, Clone)]
@@ -700,8 +700,10 @@ pub fn execute(args: &Args) -> Result<Report, String> {
     // The recording, its poses and the lock-step reference.
     let setup = timing::ld19_setup(true);
     let scene = setup.scene_config();
-    let sim_config =
-        crate::experiments::lidar::ld19_sim(scene.scene.clone(), scene.trajectory, setup.seed);
+    let sim_config = LidarSimConfig {
+        sample_poses: true,
+        ..crate::experiments::lidar::ld19_sim(scene.scene.clone(), scene.trajectory, setup.seed)
+    };
     let sim = simulate_lidar(&sim_config).map_err(|e| e.to_string())?;
     terrain_pyramid_host::export::write_file(&out.join("live.rec"), &sim.bytes)?;
     let steps = steps(&sim.bytes)?;
@@ -729,10 +731,12 @@ pub fn execute(args: &Args) -> Result<Report, String> {
     ))
     .map_err(|e| e.to_string())?;
     let on_time = timing::on_time_poses(&sim_config.trajectory, &sim_config.scene, sim.duration_us);
+    let truth = timing::true_poses(&sim_config.trajectory, &sim_config.scene, sim.duration_us);
     let input = Input {
         steps: &steps,
         late: &[],
         on_time: &on_time,
+        truth: &truth,
         design: &design,
         config: &config,
         frontend,
@@ -1032,6 +1036,13 @@ pub fn check(r: &Report) -> Vec<String> {
     failed
 }
 
+/// Microseconds as signed milliseconds with an ASCII unit: the summary line's clock error
+/// (printed as "µs" it read as seconds wherever the "µ" was lost: −501.71 µs became
+/// "−501.71 s").
+fn us_as_ms(us: f64) -> String {
+    format!("{:+.3} ms", us / 1000.0)
+}
+
 /// Runs `lab live`.
 pub fn run(args: &Args) -> ExitCode {
     match execute(args) {
@@ -1052,14 +1063,14 @@ pub fn run(args: &Args) -> ExitCode {
                 eprintln!(
                     "lab live: {} chunks ({} late), {} of {} layers equal to the lock-step run's; \
                      known cells equal to the on-time run's {} (worst layer {}); pose stamps' \
-                     clock error median {} µs; stamp to board median {} ms; {}",
+                     clock error median {}; stamp to board median {} ms; {}",
                     r.chunks,
                     r.late_chunks,
                     r.layers_equal,
                     r.layers.len(),
                     r.against_on_time.equal_share,
                     r.against_on_time.worst_layer_equal_share,
-                    r.clock.stamp_error_us.median,
+                    us_as_ms(r.clock.stamp_error_us.median),
                     r.latency.stamp_to_board_ms.median,
                     args.out.join("live.json").display()
                 );
@@ -1070,5 +1081,16 @@ pub fn run(args: &Args) -> ExitCode {
             eprintln!("error: {e}");
             ExitCode::FAILURE
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::us_as_ms;
+
+    #[test]
+    fn the_clock_error_is_printed_in_milliseconds() {
+        assert_eq!(us_as_ms(-501.71), "-0.502 ms");
+        assert_eq!(us_as_ms(390.0), "+0.390 ms");
     }
 }

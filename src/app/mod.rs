@@ -107,8 +107,9 @@ pub struct AppCounters {
     pub bytes_after_shutdown: u32,
     /// Stamped poses taken into the pose track ([`CoProcessor::stamped_pose`]).
     pub poses_stamped: u32,
-    /// Stamped poses refused: not later than the newest, or more than 1 s ahead of the
-    /// device's clock ([`crate::geometry::MAX_POSE_LEAD_US`]).
+    /// Stamped poses refused: not later than the newest, more than 1 s ahead of the device's
+    /// clock ([`crate::geometry::MAX_POSE_LEAD_US`]) or more than 1 s behind it
+    /// ([`crate::geometry::MAX_POSE_AGE_US`]).
     pub poses_refused: u32,
     /// Stamped poses more than 500 ms after the newest ([`crate::geometry::MAX_POSE_GAP_US`]):
     /// the track restarted at them.
@@ -416,7 +417,7 @@ impl<const W: usize, const L: usize, const C: usize, const Q: usize, const N: us
                 // The newest pose may replace an extrapolation: evaluate afresh.
                 self.frontend.forget_timed_pose();
             }
-            Err(PoseRefusal::NotNewer | PoseRefusal::TooFarAhead) => {
+            Err(PoseRefusal::NotNewer | PoseRefusal::TooFarAhead | PoseRefusal::TooOld) => {
                 bump(&mut self.counters.poses_refused);
             }
         }

@@ -73,8 +73,8 @@ pub use beams::{BeamDir, BeamTable};
 pub use mount::{beam_angle_of_clockwise, ActuatorAxis, Mount, ScanPlane};
 pub use pose::{Pose, PoseError, PoseField, PoseFrame, Rotation};
 pub use pose_track::{
-    NoPose, Placement, PoseRefusal, PoseTrack, Taken, MAX_EXTRAPOLATION_US, MAX_POSE_GAP_US,
-    MAX_POSE_LEAD_US, POSE_QUANTUM_US,
+    NoPose, Placement, PoseRefusal, PoseTrack, Taken, MAX_EXTRAPOLATION_US, MAX_POSE_AGE_US,
+    MAX_POSE_GAP_US, MAX_POSE_LEAD_US, POSE_QUANTUM_US,
 };
 pub use sweep::{ActuatedPlane, SweepTransform};
 pub use transform::{

@@ -8,8 +8,9 @@
 //! track and its returns may straddle the clock's wrap.
 //!
 //! - **Taking a pose** stamped s ([`PoseTrack::push`]): refused when s is not later than the
-//!   newest stamp ([`PoseRefusal::NotNewer`]) or more than [`MAX_POSE_LEAD_US`] ahead of the
-//!   device's clock ([`PoseRefusal::TooFarAhead`]); when s is more than [`MAX_POSE_GAP_US`]
+//!   newest stamp ([`PoseRefusal::NotNewer`]), more than [`MAX_POSE_LEAD_US`] ahead of the
+//!   device's clock ([`PoseRefusal::TooFarAhead`]) or more than [`MAX_POSE_AGE_US`] behind it
+//!   ([`PoseRefusal::TooOld`]); when s is more than [`MAX_POSE_GAP_US`]
 //!   after the newest the track restarts at it ([`Taken::Restarted`]: nothing is interpolated
 //!   across a gap); else it is appended, the oldest dropped when the `N` slots are full.
 //! - **The pose at t** ([`PoseTrack::at`]):
@@ -57,6 +58,12 @@ pub const MAX_POSE_GAP_US: u32 = 500_000;
 /// A stamped pose more than this ahead of the device's clock is refused, µs: 1 s.
 pub const MAX_POSE_LEAD_US: u32 = 1_000_000;
 
+/// A stamped pose more than this before the device's clock is refused, µs: 1 s. No return
+/// measured now could take it (the next pose, more than [`MAX_POSE_GAP_US`] later, restarts
+/// the track), and a pose stamped in a clock the device no longer runs (sent before it
+/// rebooted, taken after) is such a pose.
+pub const MAX_POSE_AGE_US: u32 = 1_000_000;
+
 /// How [`PoseTrack::push`] took a pose.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -76,6 +83,8 @@ pub enum PoseRefusal {
     NotNewer,
     /// Its stamp is more than [`MAX_POSE_LEAD_US`] ahead of the device's clock.
     TooFarAhead,
+    /// Its stamp is more than [`MAX_POSE_AGE_US`] before the device's clock.
+    TooOld,
 }
 
 /// How [`PoseTrack::at`] found the pose.
@@ -193,8 +202,8 @@ impl<const N: usize> PoseTrack<N> {
     /// `device_now_us` (both µs, wrapping).
     ///
     /// # Errors
-    /// The stamp is not later than the newest one, or more than [`MAX_POSE_LEAD_US`] ahead of
-    /// `device_now_us`; the track is unchanged.
+    /// The stamp is not later than the newest one, more than [`MAX_POSE_LEAD_US`] ahead of
+    /// `device_now_us`, or more than [`MAX_POSE_AGE_US`] before it; the track is unchanged.
     pub fn push(
         &mut self,
         stamp_us: u32,
@@ -205,8 +214,12 @@ impl<const N: usize> PoseTrack<N> {
         if after_newest.is_some_and(|d| d <= 0) {
             return Err(PoseRefusal::NotNewer);
         }
-        if later_by(stamp_us, device_now_us) > lead_i32(MAX_POSE_LEAD_US) {
+        let ahead = later_by(stamp_us, device_now_us);
+        if ahead > lead_i32(MAX_POSE_LEAD_US) {
             return Err(PoseRefusal::TooFarAhead);
+        }
+        if ahead < -lead_i32(MAX_POSE_AGE_US) {
+            return Err(PoseRefusal::TooOld);
         }
         if N == 0 {
             // Nowhere to keep it: taken, and forgotten (such a track never has a pose).
@@ -417,6 +430,29 @@ mod tests {
     }
 
     #[test]
+    fn poses_more_than_a_second_old_are_refused_across_the_wrap() {
+        let mut t = PoseTrack::<4>::new();
+        // The device's clock just past its wrap; a pose stamped before it.
+        let now = 200_000_u32;
+        let old = now.wrapping_sub(1_000_001);
+        assert_eq!(
+            t.push(old, pose(0.0, 0.0, 0.0), now),
+            Err(PoseRefusal::TooOld)
+        );
+        assert!(t.is_empty());
+        assert_eq!(
+            t.push(old.wrapping_add(1), pose(0.0, 0.0, 0.0), now),
+            Ok(Taken::Appended)
+        );
+        // A stamp of a clock the device no longer runs (sent before a reboot): refused.
+        let mut t = PoseTrack::<4>::new();
+        assert_eq!(
+            t.push(u32::MAX - 1_500_000, pose(0.0, 0.0, 0.0), 1_000_000_000),
+            Err(PoseRefusal::TooOld)
+        );
+    }
+
+    #[test]
     fn out_of_order_and_far_ahead_poses_are_refused() {
         let mut t = PoseTrack::<4>::new();
         let now = 5_000_000;
@@ -438,9 +474,17 @@ mod tests {
         );
         assert_eq!(t.len(), 1);
         assert_eq!(t.newest().unwrap().1, pose(0.0, 0.0, 0.0));
-        // Long past stamps are taken (the track decides nothing about staleness).
+        // Long past stamps are refused (`poses_more_than_a_second_old_are_refused_across_the_wrap`);
+        // a second is not long.
         let mut u = PoseTrack::<4>::new();
-        assert_eq!(u.push(0, pose(0.0, 0.0, 0.0), now), Ok(Taken::Appended));
+        assert_eq!(
+            u.push(0, pose(0.0, 0.0, 0.0), now),
+            Err(PoseRefusal::TooOld)
+        );
+        assert_eq!(
+            u.push(now - 1_000_000, pose(0.0, 0.0, 0.0), now),
+            Ok(Taken::Appended)
+        );
     }
 
     #[test]

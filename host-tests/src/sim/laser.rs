@@ -244,6 +244,28 @@ impl LaserConfig {
             .collect()
     }
 
+    /// When each beam of a full line is measured, seconds after the line's first beam, from
+    /// the scanner's mirror (`docs/lidars.md`, "When a SICK beam was measured"): the mirror
+    /// turns at [`MIRROR_HZ`] and sweeps the field once a turn, first beam first, so beam θ
+    /// of a turn is measured `(θ − θ₀)/360°` of a turn after θ₀ passes; an interlaced line
+    /// (0.5°, 0.25°) measures one 1°-spaced phase a turn, the phase offset 0 first, so a beam
+    /// offset `o` (0, 0.25°, 0.5°, 0.75°) from the 1° grid is measured `o / step` turns later
+    /// (besides its own angle's share of the turn). Indexed like [`Self::beam_angles_rad`].
+    #[must_use]
+    pub fn beam_offsets_s(&self) -> Vec<f64> {
+        let turn_s = 1.0 / MIRROR_HZ;
+        let step = self.variant.step_quarter_degrees();
+        let first = self.variant.first_quarter_degrees();
+        (0..self.variant.beam_count())
+            .filter_map(|k| self.variant.beam_quarter_degrees(k))
+            .map(|q| {
+                let from_first = q - first;
+                let phase = (from_first % 4) / step.max(1);
+                turn_s * (f64::from(phase) + f64::from(from_first) / 4.0 / 360.0)
+            })
+            .collect()
+    }
+
     /// Checks the fields' bounds.
     ///
     /// # Errors
@@ -333,21 +355,24 @@ impl Laser {
     #[must_use]
     pub fn rays(&self, pose: &Pose, angle: u16) -> Vec<Ray> {
         let a = u16_to_angle_deg(angle).to_radians();
-        let (sa, ca) = a.sin_cos();
-        let r = pose.rotation();
-        let origin = pose.to_world(self.config.position_m);
         self.beams
             .iter()
-            .map(|&(s, c)| {
-                let d = match self.config.actuator {
-                    Actuator::Pan { .. } => [s * ca, s * sa, -c],
-                    Actuator::Tilt { .. } => [s * ca, -c, -s * sa],
-                };
-                let dir =
-                    core::array::from_fn(|i| r[i][0] * d[0] + r[i][1] * d[1] + r[i][2] * d[2]);
-                Ray { origin, dir }
-            })
+            .map(|&beam| self.ray(beam, pose, a))
             .collect()
+    }
+
+    /// The ray of the beam of (sin θ, cos θ) `beam` from a robot at `pose` with the actuator
+    /// at `actuator_rad`, world frame.
+    fn ray(&self, (s, c): (f64, f64), pose: &Pose, actuator_rad: f64) -> Ray {
+        let (sa, ca) = actuator_rad.sin_cos();
+        let r = pose.rotation();
+        let origin = pose.to_world(self.config.position_m);
+        let d = match self.config.actuator {
+            Actuator::Pan { .. } => [s * ca, s * sa, -c],
+            Actuator::Tilt { .. } => [s * ca, -c, -s * sa],
+        };
+        let dir = core::array::from_fn(|i| r[i][0] * d[0] + r[i][1] * d[1] + r[i][2] * d[2]);
+        Ray { origin, dir }
     }
 
     /// The true range of every beam (scan centre to the first surface, metres; `None`
@@ -386,6 +411,29 @@ impl Laser {
                 r
             }
         };
+        self.measure(true_ranges_m)
+    }
+
+    /// Scans one line of `scene` whose beam k is cast from its own moment: `at(k)` gives the
+    /// robot's pose and the actuator's angle (degrees) when beam k is measured (a moving
+    /// robot: [`LaserConfig::beam_offsets_s`]). The noise as [`Self::scan`]'s; nothing cached.
+    pub fn scan_each(&mut self, scene: &Scene, at: &dyn Fn(usize) -> (Pose, f64)) -> ScanLine {
+        let max_range = self.config.max_range();
+        let true_ranges_m = self
+            .beams
+            .iter()
+            .enumerate()
+            .map(|(k, &beam)| {
+                let (pose, angle_deg) = at(k);
+                let ray = self.ray(beam, &pose, angle_deg.to_radians());
+                scene.cast(&ray, max_range).map(|h| h.t)
+            })
+            .collect();
+        self.measure(true_ranges_m)
+    }
+
+    /// The noise and the encoding of a line's true ranges.
+    fn measure(&mut self, true_ranges_m: Vec<Option<f64>>) -> ScanLine {
         let mask = self.config.mode.distance_mask();
         let flag = if self.config.mode == MeasuringMode::Mm8Cm80 {
             RETURN_FLAG

@@ -51,7 +51,8 @@
 //!
 //! # Pose
 //! The robot's pose (trajectory, `f32`-rounded) is taken at each chunk's time; a pose event is
-//! written before a chunk when it changed. The samples of a chunk are cast from that pose.
+//! written before a chunk when it changed. The samples of a chunk are cast from that pose, or
+//! with [`LidarSimConfig::sample_poses`] each from the true pose at its own time.
 
 use super::laser::{angle_to_u16, u16_to_angle_deg};
 use super::rng::Rng;
@@ -417,6 +418,10 @@ pub struct LidarSimConfig {
     /// The lidar mounted otherwise than the actuator's preset (`None`, the default: the
     /// preset).
     pub rig: Option<SimRig>,
+    /// Each sample cast from the robot's true pose at its own time (default `false`: every
+    /// sample of a chunk from the pose at the chunk's first sample, the one its pose event
+    /// gives).
+    pub sample_poses: bool,
 }
 
 impl LidarSimConfig {
@@ -447,6 +452,7 @@ impl LidarSimConfig {
             truth: GroundTruthSpec::default(),
             servo_lead_s: 0.0,
             rig: None,
+            sample_poses: false,
         }
     }
 
@@ -575,9 +581,14 @@ impl Caster<'_> {
                 core::array::from_fn(|i| m[i][0] * v[0] + m[i][1] * v[1] + m[i][2] * v[2])
             }
         };
-        let r = self.pose.rotation();
+        let pose = if self.config.sample_poses {
+            self.config.trajectory.pose_at(t, &self.config.scene)
+        } else {
+            self.pose
+        };
+        let r = pose.rotation();
         let dir = core::array::from_fn(|i| r[i][0] * d[0] + r[i][1] * d[1] + r[i][2] * d[2]);
-        let origin = self.pose.to_world(self.config.position_m);
+        let origin = pose.to_world(self.config.position_m);
         let (_, max) = self.config.kind.range_m();
         self.config
             .scene

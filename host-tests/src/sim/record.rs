@@ -9,7 +9,8 @@
 //!   radial height profile — 8 lines are 16° of pan with the paper's sweep —, and 0 = one
 //!   observation per sweep for the tilted horizontal plane, whose single line looks flat).
 //! - For line i, at `t_i = i / rate` (rounded to the microsecond; 37.5 lines/s at 0.5°, see
-//!   [`super::laser`]), all with the same time stamp, in this order:
+//!   [`super::laser`]; with [`SimConfig::beam_times`], the arrival of its telegram instead),
+//!   all with the same time stamp, in this order:
 //!   1. a **pose** event, when the pose (as `f32`) differs from the previous one (so once
 //!      while the robot stands, every line while it drives);
 //!   2. **markers** due at this line (below);
@@ -72,7 +73,20 @@ pub struct SimConfig {
     pub split_every: u32,
     /// The grid and rule of the ground truth returned with the recording.
     pub truth: GroundTruthSpec,
+    /// Each beam cast at its own moment (default `false`: a whole line at `t_i`). When set,
+    /// line i's mirror starts at `t_i`, beam k is cast with the robot's true pose and the
+    /// actuator's angle at `t_i +` [`LaserConfig::beam_offsets_s`]`[k]`, and the telegram
+    /// is sent when its last beam is measured and arrives after its transmission at
+    /// [`SICK_BAUD`]: the line's events are stamped with that arrival, its pose event and
+    /// angle event hold the pose and the angle at the mean of its beams' times. A device
+    /// given stamped poses can place such a line exactly; one played with the recording's
+    /// poses in lock-step (`pyramid run`) places the whole line at that one pose.
+    pub beam_times: bool,
 }
+
+/// The LMS2xx's serial rate the simulator's telegrams travel at with
+/// [`SimConfig::beam_times`], baud (its RS-422 rate; 10 bits a byte).
+pub const SICK_BAUD: u32 = 500_000;
 
 impl SimConfig {
     /// A run over `scene` along `trajectory` with `laser`: the default lines per observation
@@ -91,6 +105,7 @@ impl SimConfig {
             seed: 1,
             split_every: 10,
             truth: GroundTruthSpec::default(),
+            beam_times: false,
         }
     }
 
@@ -259,13 +274,48 @@ pub fn simulate_with(
     let mut markers = Vec::new();
     let (mut laser_events, mut pose_events) = (0_u32, 0_u32);
     let mut time_us = 0;
+    let beam_offsets = laser_config.beam_offsets_s();
 
     for i in 0..lines {
         let t = f64::from(i) / rate;
+        let changed = scene_at(t);
+        if changed.is_some() {
+            // The world moved: what was cast from this pose before no longer holds.
+            laser.forget();
+        }
+        let line_scene = changed.as_ref().unwrap_or(scene);
         #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
-        let now = (f64::from(i) * 1e6 / rate).round() as u64;
+        let (now, pose, angle, line) = if config.beam_times {
+            let times: Vec<f64> = beam_offsets.iter().map(|o| t + o).collect();
+            #[allow(clippy::cast_precision_loss)]
+            let mean = times.iter().sum::<f64>() / times.len().max(1) as f64;
+            let last = times.iter().copied().fold(t, f64::max);
+            let actuator = laser_config.actuator;
+            let line = laser.scan_each(line_scene, &|k| {
+                let tk = times.get(k).copied().unwrap_or(t);
+                (trajectory.pose_at(tk, scene), actuator.angle_deg(tk))
+            });
+            let sent = laser.telegram(&line).map_err(SimError)?.len();
+            #[allow(clippy::cast_precision_loss)]
+            let arrival = last + 10.0 * sent as f64 / f64::from(SICK_BAUD);
+            (
+                (arrival * 1e6).round() as u64,
+                trajectory.pose_at(mean, scene).rounded_f32(),
+                angle_to_u16(actuator.angle_deg(mean)),
+                line,
+            )
+        } else {
+            let pose = trajectory.pose_at(t, scene).rounded_f32();
+            let angle = angle_to_u16(laser_config.actuator.angle_deg(t));
+            let line = laser.scan(line_scene, &pose, angle);
+            (
+                (f64::from(i) * 1e6 / rate).round() as u64,
+                pose,
+                angle,
+                line,
+            )
+        };
         time_us = now;
-        let pose = trajectory.pose_at(t, scene).rounded_f32();
         let pose_f32 = pose.to_f32();
         if last_pose != Some(pose_f32) {
             push(
@@ -316,7 +366,6 @@ pub fn simulate_with(
             )?;
             markers.push((now, id));
         }
-        let angle = angle_to_u16(laser_config.actuator.angle_deg(t));
         push(
             &mut bytes,
             &Event {
@@ -324,13 +373,6 @@ pub fn simulate_with(
                 payload: Payload::Angle(angle),
             },
         )?;
-        let changed = scene_at(t);
-        if changed.is_some() {
-            // The world moved: what was cast from this pose before no longer holds.
-            laser.forget();
-        }
-        let line_scene = changed.as_ref().unwrap_or(scene);
-        let line = laser.scan(line_scene, &pose, angle);
         on_line(&LineView {
             index: i,
             t_s: t,

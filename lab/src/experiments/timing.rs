@@ -7,9 +7,15 @@
 //! device's µs clock being the recording's time (the laser's bytes handed over with their
 //! recorded time, the actuator angle as the host's PanAngle before each telegram or chunk,
 //! as `pyramid run` sends it):
-//! - **lock-step**: the recording's poses, each applied just before the laser bytes it
-//!   precedes in the recording: the true pose of every return (the simulator casts each
-//!   return from the pose the recording gives before it). The reference.
+//! - **lock-step**: the reference, every return at its true pose. The simulator casts each
+//!   SICK beam and each lidar sample from the true pose at its own moment
+//!   ([`SimConfig::beam_times`], [`LidarSimConfig::sample_poses`](terrain_pyramid_host_tests::sim::lidar::LidarSimConfig::sample_poses)),
+//!   so the recording's one pose per telegram or chunk is no longer every return's pose: the
+//!   trajectory every [`TRUTH_PERIOD_US`] (1 kHz), stamped and delivered the moment it is
+//!   stamped, to a co-processor whose track holds [`TRUTH_TRACK`] poses (64 ms, past a SICK
+//!   line's first beam); the device interpolates between two true poses 1 ms apart (exact for
+//!   the scenes' constant speeds and yaw rates) at each return's time, re-evaluated every
+//!   millisecond (`POSE_QUANTUM_US`).
 //! - **timed**: the recording's poses are not used; the trajectory is sampled at
 //!   [`PoseFeed::rate_hz`] (50 Hz), each pose stamped with its true time and delivered
 //!   [`PoseFeed::late_ms`] ± [`PoseFeed::jitter_ms`] (30 ± 10 ms, uniform) after it, through
@@ -44,18 +50,16 @@ use std::collections::HashMap;
 use terrain_pyramid::app::{CoProcessor, NoAngleSource};
 use terrain_pyramid::classify::ClassifierConfig;
 use terrain_pyramid::geometry::Pose;
-use terrain_pyramid::laser::SickBeamTimes;
 use terrain_pyramid::link::convert::{frontend_config, setup_message_with_sensor};
 use terrain_pyramid::link::LinkConfig;
 use terrain_pyramid::pipeline::FrontendConfig;
 use terrain_pyramid::wire::link::{Message, PanAngle};
-use terrain_pyramid::wire::sick::{MeasuredValues, Telegram};
 use terrain_pyramid::{Clamp, Config, Design, GateShape, Meters};
 use terrain_pyramid_host::export::MapSnapshot;
 use terrain_pyramid_host::link::HostLink;
 use terrain_pyramid_host::play::{steps, Step, Steps};
 use terrain_pyramid_host_tests::sim::laser::LaserConfig;
-use terrain_pyramid_host_tests::sim::lidar::simulate_lidar;
+use terrain_pyramid_host_tests::sim::lidar::{simulate_lidar, LidarSimConfig};
 use terrain_pyramid_host_tests::sim::record::{simulate, SimConfig};
 use terrain_pyramid_host_tests::sim::rng::Rng;
 use terrain_pyramid_host_tests::sim::scene::Scene;
@@ -131,9 +135,26 @@ pub fn late_poses(
 /// The trajectory every [`ON_TIME_PERIOD_US`] for `duration_us`, each pose arriving at its
 /// stamp.
 pub fn on_time_poses(trajectory: &Trajectory, scene: &Scene, duration_us: u64) -> Vec<LatePose> {
-    (0..=duration_us / ON_TIME_PERIOD_US)
+    poses_every(trajectory, scene, duration_us, ON_TIME_PERIOD_US)
+}
+
+/// The trajectory every [`TRUTH_PERIOD_US`] for `duration_us`, each pose arriving at its
+/// stamp: the reference's.
+pub fn true_poses(trajectory: &Trajectory, scene: &Scene, duration_us: u64) -> Vec<LatePose> {
+    poses_every(trajectory, scene, duration_us, TRUTH_PERIOD_US)
+}
+
+/// The trajectory every `period_us` (> 0) for `duration_us`, each pose arriving at its stamp.
+fn poses_every(
+    trajectory: &Trajectory,
+    scene: &Scene,
+    duration_us: u64,
+    period_us: u64,
+) -> Vec<LatePose> {
+    let period_us = period_us.max(1);
+    (0..=duration_us / period_us)
         .map(|k| {
-            let t_us = k * ON_TIME_PERIOD_US;
+            let t_us = k * period_us;
             #[allow(clippy::cast_precision_loss)]
             let pose = trajectory.pose_at(t_us as f64 * 1e-6, scene).to_f32();
             LatePose {
@@ -168,6 +189,12 @@ pub enum PoseRule {
 /// (constant speed, constant yaw rate) but at the start of the drive.
 pub const ON_TIME_PERIOD_US: u64 = 4_000;
 
+/// The period of the reference's true poses, µs: 1 kHz, the device's pose quantum.
+pub const TRUTH_PERIOD_US: u64 = 1_000;
+
+/// The reference co-processor's track of stamped poses: 64 at 1 kHz, 64 ms.
+pub const TRUTH_TRACK: usize = 64;
+
 /// What one run left: its maps, its first-step distance and the device's counters.
 #[derive(Debug, Clone)]
 pub struct RunOutcome {
@@ -196,6 +223,8 @@ pub struct Input<'a, const L: usize> {
     pub late: &'a [LatePose],
     /// The on-time feed.
     pub on_time: &'a [LatePose],
+    /// The reference's true poses ([`true_poses`]).
+    pub truth: &'a [LatePose],
     /// The design the co-processor boots with.
     pub design: &'a Design<L>,
     /// Its configuration.
@@ -219,8 +248,8 @@ fn device_us(t: u64) -> u32 {
 }
 
 /// Hands the device a late pose by `rule`.
-fn deliver<const W: usize, const L: usize, const C: usize>(
-    core: &mut CoProcessor<W, L, C, QUEUE>,
+fn deliver<const W: usize, const L: usize, const C: usize, const N: usize>(
+    core: &mut CoProcessor<W, L, C, QUEUE, N>,
     rule: PoseRule,
     late: &LatePose,
 ) {
@@ -228,9 +257,10 @@ fn deliver<const W: usize, const L: usize, const C: usize>(
         return;
     };
     match rule {
-        PoseRule::LockStep => {}
         PoseRule::Latest => core.set_pose(pose),
-        PoseRule::Timed | PoseRule::OnTime => core.stamped_pose(device_us(late.stamp_us), pose),
+        PoseRule::LockStep | PoseRule::Timed | PoseRule::OnTime => {
+            core.stamped_pose(device_us(late.stamp_us), pose);
+        }
     }
 }
 
@@ -243,7 +273,19 @@ pub fn run<const W: usize, const L: usize, const C: usize>(
     input: &Input<'_, L>,
     rule: PoseRule,
 ) -> Result<RunOutcome, String> {
-    let mut core: Box<CoProcessor<W, L, C, QUEUE>> = Box::new(CoProcessor::new());
+    if rule == PoseRule::LockStep {
+        run_with::<W, L, C, TRUTH_TRACK>(input, rule)
+    } else {
+        run_with::<W, L, C, 16>(input, rule)
+    }
+}
+
+/// [`run`] with a track of `N` stamped poses.
+fn run_with<const W: usize, const L: usize, const C: usize, const N: usize>(
+    input: &Input<'_, L>,
+    rule: PoseRule,
+) -> Result<RunOutcome, String> {
+    let mut core: Box<CoProcessor<W, L, C, QUEUE, N>> = Box::new(CoProcessor::new());
     core.boot(
         LinkConfig::DEFAULT,
         input.design,
@@ -252,10 +294,10 @@ pub fn run<const W: usize, const L: usize, const C: usize>(
     )
     .map_err(|e| e.to_string())?;
     let mut host = HostLink::new();
-    let feed = if rule == PoseRule::OnTime {
-        input.on_time
-    } else {
-        input.late
+    let feed = match rule {
+        PoseRule::OnTime => input.on_time,
+        PoseRule::LockStep => input.truth,
+        PoseRule::Timed | PoseRule::Latest => input.late,
     };
     let mut late = feed.iter().peekable();
     let mut robot_x = 0.0_f64;
@@ -274,24 +316,12 @@ pub fn run<const W: usize, const L: usize, const C: usize>(
             Step::Pose(p) => {
                 robot_x = f64::from(p[0]);
                 robot_xy = (f64::from(p[0]), f64::from(p[1]));
-                if rule == PoseRule::LockStep {
-                    if let Some(pose) = pose_of(p) {
-                        core.set_pose(pose);
-                    }
-                }
                 continue;
             }
-            Step::Telegram { bytes, time_us, .. } => {
-                let beams = Telegram::new_checked(&bytes[..])
-                    .ok()
-                    .and_then(|t| MeasuredValues::parse(&t).ok())
-                    .map_or(0, |v| usize::from(v.count()));
-                (
-                    bytes,
-                    time_us + sick_delivery_us(&input.frontend, bytes.len(), beams),
-                )
+            // The simulator stamps a telegram or chunk with its last byte's arrival.
+            Step::Telegram { bytes, time_us, .. } | Step::Laser { bytes, time_us, .. } => {
+                (bytes, *time_us)
             }
-            Step::Laser { bytes, time_us, .. } => (bytes, *time_us),
         };
         while let Some(p) = late.next_if(|p| p.arrival_us <= time_us) {
             deliver(&mut core, rule, p);
@@ -347,8 +377,8 @@ pub fn run<const W: usize, const L: usize, const C: usize>(
 
 /// The pose track's counters: returns extrapolated, returns without a pose, poses stamped,
 /// poses refused.
-fn track_counters<const W: usize, const L: usize, const C: usize>(
-    core: &CoProcessor<W, L, C, QUEUE>,
+fn track_counters<const W: usize, const L: usize, const C: usize, const N: usize>(
+    core: &CoProcessor<W, L, C, QUEUE, N>,
 ) -> (u64, u64, u64, u64) {
     let c = core.counters();
     (
@@ -357,31 +387,6 @@ fn track_counters<const W: usize, const L: usize, const C: usize>(
         u64::from(c.app.poses_stamped),
         u64::from(c.app.poses_refused),
     )
-}
-
-/// How long after the simulator's line time a SICK telegram's last byte reaches the device,
-/// µs, so that the device's model of the beams' times (`docs/lidars.md`: the mirror's turns,
-/// then the telegram's transmission) centres them on that time.
-///
-/// The simulator casts a whole SICK line at one instant, its recording time `t_i`, and
-/// stamps the line's bytes with it; a real LMS291 measures the line's beams over its
-/// mirror's turns and sends the telegram afterwards. Handed over at `t_i`, every beam would
-/// be placed 15–35 ms before the instant it was cast at. Handed over this much later (the
-/// transmission at the setup's baud rate plus the beams' mean time before the last), the
-/// beams' times spread evenly around `t_i` (± 10 ms for the 0.5° scan's two turns): what is
-/// left is the simulator's one-instant line, not the device. Lidar chunks are stamped by the
-/// simulator with their last byte's arrival already: no delay.
-pub fn sick_delivery_us(frontend: &FrontendConfig, telegram_bytes: usize, beams: usize) -> u64 {
-    if frontend.sensor.is_lidar() || beams == 0 {
-        return 0;
-    }
-    let times = SickBeamTimes::new(frontend.variant, None, beams - 1);
-    let mean_before_last: f64 = (0..beams)
-        .map(|k| f64::from(times.before_last_us(k)))
-        .sum::<f64>()
-        / beams as f64;
-    let transmission = 1e6 * 10.0 * telegram_bytes as f64 / f64::from(frontend.baud.max(1));
-    (transmission + mean_before_last).round() as u64
 }
 
 /// How much of one map equals another, cell by cell.
@@ -670,7 +675,10 @@ pub fn stairs_setup(quick: bool) -> stairs::Setup {
 /// The simulator or the library refused the setup.
 pub fn stairs_scene(quick: bool, feed: &PoseFeed) -> Result<SceneResult, String> {
     let setup = stairs_setup(quick);
-    let sim_config = setup.sim();
+    let sim_config = SimConfig {
+        beam_times: true,
+        ..setup.sim()
+    };
     let sim = simulate(&sim_config).map_err(|e| e.to_string())?;
     let steps = steps(&sim.bytes)?;
     let late = late_poses(
@@ -680,6 +688,7 @@ pub fn stairs_scene(quick: bool, feed: &PoseFeed) -> Result<SceneResult, String>
         feed,
     );
     let on_time = on_time_poses(&sim_config.trajectory, &sim_config.scene, sim.duration_us);
+    let truth = true_poses(&sim_config.trajectory, &sim_config.scene, sim.duration_us);
     #[allow(clippy::cast_possible_truncation)]
     let design = designs::pyramid::<{ stairs::LAYERS }>(
         setup.range_m as f32,
@@ -695,6 +704,7 @@ pub fn stairs_scene(quick: bool, feed: &PoseFeed) -> Result<SceneResult, String>
         steps: &steps,
         late: &late,
         on_time: &on_time,
+        truth: &truth,
         design: &design,
         config: &config,
         frontend: frontend_of(&steps)?,
@@ -741,6 +751,7 @@ pub fn turning_sim(quick: bool, seed: u64) -> SimConfig {
         Trajectory::turning(seconds, TURN_RAD_S),
     );
     sim.seed = seed;
+    sim.beam_times = true;
     sim
 }
 
@@ -759,6 +770,7 @@ pub fn turning_scene(quick: bool, feed: &PoseFeed) -> Result<SceneResult, String
         feed,
     );
     let on_time = on_time_poses(&sim_config.trajectory, &sim_config.scene, sim.duration_us);
+    let truth = true_poses(&sim_config.trajectory, &sim_config.scene, sim.duration_us);
     let design = designs::pyramid::<TURN_LAYERS>(8.0, GateShape::default(), false, TURN_CELLS)
         .map_err(|e| e.to_string())?;
     let config = Config::default();
@@ -766,6 +778,7 @@ pub fn turning_scene(quick: bool, feed: &PoseFeed) -> Result<SceneResult, String
         steps: &steps,
         late: &late,
         on_time: &on_time,
+        truth: &truth,
         design: &design,
         config: &config,
         frontend: frontend_of(&steps)?,
@@ -810,11 +823,14 @@ pub fn ld19_scene(quick: bool, feed: &PoseFeed) -> Result<SceneResult, String> {
     const L: usize = super::lidar::LAYERS;
     let setup = ld19_setup(quick);
     let scene_config = setup.scene_config();
-    let sim_config = ld19_sim(
-        scene_config.scene.clone(),
-        scene_config.trajectory,
-        setup.seed,
-    );
+    let sim_config = LidarSimConfig {
+        sample_poses: true,
+        ..ld19_sim(
+            scene_config.scene.clone(),
+            scene_config.trajectory,
+            setup.seed,
+        )
+    };
     let sim = simulate_lidar(&sim_config).map_err(|e| e.to_string())?;
     let steps = steps(&sim.bytes)?;
     let late = late_poses(
@@ -824,6 +840,7 @@ pub fn ld19_scene(quick: bool, feed: &PoseFeed) -> Result<SceneResult, String> {
         feed,
     );
     let on_time = on_time_poses(&sim_config.trajectory, &sim_config.scene, sim.duration_us);
+    let truth = true_poses(&sim_config.trajectory, &sim_config.scene, sim.duration_us);
     let design = Ld19Design::from_datasheet()
         .pyramid::<L>(setup.range_m, GateShape::default(), true, W)
         .map_err(|e| e.to_string())?;
@@ -834,6 +851,7 @@ pub fn ld19_scene(quick: bool, feed: &PoseFeed) -> Result<SceneResult, String> {
         steps: &steps,
         late: &late,
         on_time: &on_time,
+        truth: &truth,
         design: &design,
         config: &config,
         frontend: frontend_of(&steps)?,
@@ -914,7 +932,9 @@ pub fn report(r: &TimingResult) -> String {
         s,
         "## Poses on the laser's clock\n\nEach scene's recording through the co-processor \
          (in process, its clock the recording's time) three ways: **lock-step** (the \
-         recording's pose before each telegram or chunk: every return's true pose), **timed** \
+         reference: the simulator casts each SICK beam and lidar sample from the true pose at \
+         its own moment; the trajectory at 1 kHz, stamped and delivered at once, places every \
+         return at its true pose), **timed** \
          (the trajectory at {} Hz, each pose stamped with its time and delivered {} ± {} ms \
          late through `CoProcessor::stamped_pose`) and **latest pose** (the same late poses, \
          unstamped, applied on arrival: version 3's rule), and a control, **on time** (the \
