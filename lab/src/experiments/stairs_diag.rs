@@ -124,11 +124,7 @@ pub fn diagnose(
         }
         let t_s = t_us * 1e-6;
         if t_s >= next_report_s || is_last {
-            next_report_s = if is_driving {
-                t_s + 0.5
-            } else {
-                t_s + 10.0
-            };
+            next_report_s = if is_driving { t_s + 0.5 } else { t_s + 10.0 };
             let mut answer: Vec<Counts> = vec![Counts::default(); n_layers];
             let mut shares = (0, 0, 0);
             for c in &steps {
@@ -203,7 +199,11 @@ pub fn diagnose(
 ///
 /// # Errors
 /// As [`lidar::run_stairs`].
-pub fn stand_sweep(stand_s: &[f64], classifier: &ClassifierConfig) -> Result<String, String> {
+pub fn stand_sweep(
+    stand_s: &[f64],
+    revolutions_per_observation: u32,
+    classifier: &ClassifierConfig,
+) -> Result<String, String> {
     let mut out = String::from(
         "| stand s | flat: at 1 m / first seen | hard: at 1 m / first seen | soft: at 1 m / first seen |\n| --- | --- | --- | --- |\n",
     );
@@ -211,6 +211,7 @@ pub fn stand_sweep(stand_s: &[f64], classifier: &ClassifierConfig) -> Result<Str
     for &s in stand_s {
         let setup = StairsSetup {
             stand_s: s,
+            revolutions_per_observation,
             ..StairsSetup::FULL
         };
         let r = lidar::run_stairs(&setup, classifier, None)?;
@@ -263,7 +264,8 @@ mod tests {
         println!("{report}");
     }
 
-    /// `STAIRS_SWEEP` = comma-separated standing times, seconds.
+    /// `STAIRS_SWEEP` = comma-separated standing times, seconds; `STAIRS_REVOLUTIONS` =
+    /// revolutions per observation (default 0: one per sweep).
     #[test]
     #[ignore = "a diagnostic, minutes long: run by hand"]
     fn stairs_stand_sweep() {
@@ -272,10 +274,28 @@ mod tests {
             .split(',')
             .filter_map(|s| s.trim().parse().ok())
             .collect();
+        let revolutions: u32 = std::env::var("STAIRS_REVOLUTIONS")
+            .ok()
+            .and_then(|s| s.parse().ok())
+            .unwrap_or(0);
         let handle = std::thread::Builder::new()
             .stack_size(512 << 20)
-            .spawn(move || stand_sweep(&times, &ClassifierConfig::default()))
+            .spawn(move || stand_sweep(&times, revolutions, &ClassifierConfig::default()))
             .unwrap();
         println!("{}", handle.join().unwrap().unwrap());
+    }
+
+    /// Every nodding rig's stairs against standing time and the nod's phase (the table of
+    /// `lab experiments`), as JSON; `STAIRS_RIGS_QUICK=1` for 30 s and 120 s only.
+    #[test]
+    #[ignore = "a diagnostic, minutes long: run by hand"]
+    fn stairs_rigs() {
+        let quick = std::env::var("STAIRS_RIGS_QUICK").is_ok();
+        let handle = std::thread::Builder::new()
+            .stack_size(512 << 20)
+            .spawn(move || lidar::run_rigs(quick, 1, &ClassifierConfig::default()))
+            .unwrap();
+        let rigs = handle.join().unwrap().unwrap();
+        println!("{}", serde_json::to_string(&rigs).unwrap());
     }
 }
