@@ -76,8 +76,13 @@ impl Ld19Design {
     /// for all (the LD19's ±45 mm; the RPLIDAR's and X4's "about 1 %" of range is 0.03 m at
     /// 3 m, and the noise term is the smallest of the bound's three beyond 1 m), h = 1.0 m.
     pub fn for_kind(kind: LidarKind) -> Self {
+        Self::for_kind_at(kind, SERVO.2)
+    }
+
+    /// [`Ld19Design::for_kind`] on a servo nodding at `rate_deg_s`.
+    pub fn for_kind_at(kind: LidarKind, rate_deg_s: f64) -> Self {
         Self {
-            phi_deg: SERVO.2 / kind.rotation_hz(),
+            phi_deg: rate_deg_s / kind.rotation_hz(),
             psi_deg: 360.0 * kind.rotation_hz() / kind.sample_hz(),
             sigma_m: 0.045,
             height_m: HEIGHT_M,
@@ -125,7 +130,18 @@ pub fn ld19_sim(scene: Scene, trajectory: Trajectory, seed: u64) -> LidarSimConf
 /// Lidar `kind` on the LD19's servo (same sweep, same height), for a run over `scene` along
 /// `trajectory`.
 pub fn rig_sim(kind: LidarKind, scene: Scene, trajectory: Trajectory, seed: u64) -> LidarSimConfig {
-    let (lo, hi, rate, latency) = SERVO;
+    servo_sim(kind, SERVO, scene, trajectory, seed)
+}
+
+/// Lidar `kind` on a servo `(lowest, highest tilt °, rate °/s, latency ms)`.
+pub fn servo_sim(
+    kind: LidarKind,
+    servo: (f64, f64, f64, f64),
+    scene: Scene,
+    trajectory: Trajectory,
+    seed: u64,
+) -> LidarSimConfig {
+    let (lo, hi, rate, latency) = servo;
     let mut c = LidarSimConfig::new(
         scene,
         kind,
@@ -158,6 +174,9 @@ pub struct StairsSetup {
     /// The lidar on the servo (default the LD19).
     #[serde(skip)]
     pub kind: LidarKind,
+    /// The servo: lowest and highest tilt (degrees), rate (°/s), latency (ms); default
+    /// [`SERVO`]. The design's φ follows its rate.
+    pub servo: (f64, f64, f64, f64),
 }
 
 impl StairsSetup {
@@ -171,6 +190,7 @@ impl StairsSetup {
         seed: 1,
         revolutions_per_observation: 0,
         kind: LidarKind::Ld19,
+        servo: SERVO,
     };
     /// `--quick`: 30 s of standing.
     pub const QUICK: Self = Self {
@@ -208,7 +228,7 @@ impl StairsSetup {
     /// The run of the setup's lidar.
     pub fn sim(&self) -> LidarSimConfig {
         let s = self.scene_config();
-        let mut c = rig_sim(self.kind, s.scene, s.trajectory, self.seed);
+        let mut c = servo_sim(self.kind, self.servo, s.scene, s.trajectory, self.seed);
         c.truth = s.truth;
         c
     }
@@ -242,7 +262,7 @@ pub struct StairsResult {
 fn stairs_maps(decoded: &Decoded, setup: &StairsSetup) -> Result<Vec<Box<dyn Map>>, String> {
     const C: usize = STAIRS_CELLS;
     const SLOTS: usize = stairs::SLOTS;
-    let d = Ld19Design::for_kind(setup.kind);
+    let d = Ld19Design::for_kind_at(setup.kind, setup.servo.2);
     let r = setup.range_m;
     #[allow(clippy::cast_possible_truncation)]
     let (rf, cell) = (r as f32, stairs::CELL_M as f32);
@@ -403,7 +423,7 @@ pub fn run_stairs(
         pyramid: next()?,
         pyramid_soft: next()?,
         setup: *setup,
-        design: Ld19Design::for_kind(setup.kind),
+        design: Ld19Design::for_kind_at(setup.kind, setup.servo.2),
         layers,
         step_cells: steps.len(),
         packets: count,

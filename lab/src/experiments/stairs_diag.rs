@@ -65,7 +65,7 @@ pub fn diagnose(
     // step cell's distance from the robot) while driving.
     let mut standing = vec![Counts::default(); n_layers];
     let mut driving = vec![Counts::default(); n_layers];
-    let mut by_distance = vec![Counts::default(); 14];
+    let mut by_distance = [Counts::default(); 14];
     let drive_start_us = (scene.trajectory.drive_start_s() * 1e6).round();
     let mut out = String::new();
     let _ = writeln!(out, "bands: {}\n", layers_text.join(", "));
@@ -209,9 +209,20 @@ pub fn stand_sweep(
     );
     let m = |v: Option<f64>| v.map_or_else(|| "never".to_string(), |d| format!("{d:.2} m"));
     for &s in stand_s {
+        let servo = std::env::var("STAIRS_SERVO")
+            .ok()
+            .and_then(|v| {
+                let f: Vec<f64> = v.split(',').filter_map(|x| x.trim().parse().ok()).collect();
+                match f[..] {
+                    [lo, hi, rate] => Some((lo, hi, rate, lidar::SERVO.3)),
+                    _ => None,
+                }
+            })
+            .unwrap_or(lidar::SERVO);
         let setup = StairsSetup {
             stand_s: s,
             revolutions_per_observation,
+            servo,
             ..StairsSetup::FULL
         };
         let r = lidar::run_stairs(&setup, classifier, None)?;
@@ -265,7 +276,8 @@ mod tests {
     }
 
     /// `STAIRS_SWEEP` = comma-separated standing times, seconds; `STAIRS_REVOLUTIONS` =
-    /// revolutions per observation (default 0: one per sweep).
+    /// revolutions per observation (default 0: one per sweep); `STAIRS_SERVO` = `lo,hi,rate`
+    /// (degrees, °/s) instead of the LD19's servo.
     #[test]
     #[ignore = "a diagnostic, minutes long: run by hand"]
     fn stairs_stand_sweep() {
