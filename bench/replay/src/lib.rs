@@ -81,8 +81,11 @@ pub fn replay<P: Pipeline>(recording: &[u8], pipeline: &mut P) {
                 let now_ms = u32::try_from(event.time_us / 1000).unwrap_or(u32::MAX);
                 pipeline.laser(bytes, now_ms);
             }
+            // The setup, sensor and rig events are read once at boot (`setup`, `boot`); the
+            // bench's recordings are of the preset mounts.
             Payload::Setup(_)
             | Payload::Sensor(_)
+            | Payload::Rig(_)
             | Payload::Marker(_)
             | Payload::Unknown { .. } => {}
         }

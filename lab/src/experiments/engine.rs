@@ -161,6 +161,9 @@ pub trait Map {
     fn layer_count(&self) -> usize;
     /// Forgets every observation and restarts the pipeline (same configuration, at the origin).
     fn reset(&mut self);
+    /// Layer `k`'s log-odds at world point `(x, y)`, nats: `None` when the cell is unknown,
+    /// outside the window, or there is no layer `k` (for diagnostics).
+    fn layer_log_odds(&self, k: usize, x: f64, y: f64) -> Option<f32>;
 }
 
 /// A library pyramid of `L` layers of `W × W` cells behind a pipeline with `C` classifier
@@ -271,6 +274,16 @@ impl<const W: usize, const L: usize, const C: usize> Map for Runner<W, L, C> {
 
     fn layer_count(&self) -> usize {
         self.pyramid.layer_count()
+    }
+
+    fn layer_log_odds(&self, k: usize, x: f64, y: f64) -> Option<f32> {
+        let layer = self.pyramid.layer(k)?;
+        let r = layer.resolution();
+        let cell = layer.get(
+            r.cell_of(Meters::saturating_from_num(x)),
+            r.cell_of(Meters::saturating_from_num(y)),
+        )?;
+        cell.log_odds().map(|v| v.to_num::<f32>())
     }
 
     fn reset(&mut self) {

@@ -47,6 +47,9 @@ pub const HEIGHT_M: f64 = 1.0;
 pub const STAIRS_CELLS: usize = 248;
 /// Layer capacity of the LD19's maps.
 pub const LAYERS: usize = 32;
+/// Layer capacity of the nodding rigs' stairs maps: the RPLIDAR A1's φ = 3.64° needs 49
+/// layers to reach 12 m.
+pub const RIG_LAYERS: usize = 64;
 
 /// The LD19's design inputs, from its datasheet (see the module documentation).
 #[derive(Debug, Clone, Copy, Serialize)]
@@ -64,9 +67,22 @@ pub struct Ld19Design {
 impl Ld19Design {
     /// φ = 20 °/s ÷ 10 Hz = 2°, ψ = 360° ÷ (4 500 / 10) = 0.8°, σ = 0.045 m, h = 1.0 m.
     pub fn from_datasheet() -> Self {
-        let kind = LidarKind::Ld19;
+        Self::for_kind(LidarKind::Ld19)
+    }
+
+    /// The same derivation for any lidar on the same servo: φ = the servo's rate ÷ the
+    /// revolutions per second (RPLIDAR A1 standard scan: 20 ÷ 5.5 = 3.64°; YDLIDAR X4:
+    /// 20 ÷ 7 = 2.86°), ψ = 360° ÷ returns per revolution (A1: 0.99°, X4: 0.50°), σ = 0.045 m
+    /// for all (the LD19's ±45 mm; the RPLIDAR's and X4's "about 1 %" of range is 0.03 m at
+    /// 3 m, and the noise term is the smallest of the bound's three beyond 1 m), h = 1.0 m.
+    pub fn for_kind(kind: LidarKind) -> Self {
+        Self::for_kind_at(kind, SERVO.2)
+    }
+
+    /// [`Ld19Design::for_kind`] on a servo nodding at `rate_deg_s`.
+    pub fn for_kind_at(kind: LidarKind, rate_deg_s: f64) -> Self {
         Self {
-            phi_deg: SERVO.2 / kind.rotation_hz(),
+            phi_deg: rate_deg_s / kind.rotation_hz(),
             psi_deg: 360.0 * kind.rotation_hz() / kind.sample_hz(),
             sigma_m: 0.045,
             height_m: HEIGHT_M,
@@ -108,10 +124,27 @@ impl Ld19Design {
 
 /// The LD19 on its servo, for a run over `scene` along `trajectory`.
 pub fn ld19_sim(scene: Scene, trajectory: Trajectory, seed: u64) -> LidarSimConfig {
-    let (lo, hi, rate, latency) = SERVO;
+    rig_sim(LidarKind::Ld19, scene, trajectory, seed)
+}
+
+/// Lidar `kind` on the LD19's servo (same sweep, same height), for a run over `scene` along
+/// `trajectory`.
+pub fn rig_sim(kind: LidarKind, scene: Scene, trajectory: Trajectory, seed: u64) -> LidarSimConfig {
+    servo_sim(kind, SERVO, scene, trajectory, seed)
+}
+
+/// Lidar `kind` on a servo `(lowest, highest tilt °, rate °/s, latency ms)`.
+pub fn servo_sim(
+    kind: LidarKind,
+    servo: (f64, f64, f64, f64),
+    scene: Scene,
+    trajectory: Trajectory,
+    seed: u64,
+) -> LidarSimConfig {
+    let (lo, hi, rate, latency) = servo;
     let mut c = LidarSimConfig::new(
         scene,
-        LidarKind::Ld19,
+        kind,
         LidarActuator::servo(lo, hi, rate, latency),
         [0.0, 0.0, HEIGHT_M],
         trajectory,
@@ -135,6 +168,15 @@ pub struct StairsSetup {
     pub range_m: f64,
     /// The simulator's seed.
     pub seed: u64,
+    /// Revolutions per observation; 0 (the recording's setup, the default): one observation
+    /// per sweep of the servo.
+    pub revolutions_per_observation: u32,
+    /// The lidar on the servo (default the LD19).
+    #[serde(skip)]
+    pub kind: LidarKind,
+    /// The servo: lowest and highest tilt (degrees), rate (°/s), latency (ms); default
+    /// [`SERVO`]. The design's φ follows its rate.
+    pub servo: (f64, f64, f64, f64),
 }
 
 impl StairsSetup {
@@ -146,6 +188,9 @@ impl StairsSetup {
         stop_distance_m: 1.0,
         range_m: 12.0,
         seed: 1,
+        revolutions_per_observation: 0,
+        kind: LidarKind::Ld19,
+        servo: SERVO,
     };
     /// `--quick`: 30 s of standing.
     pub const QUICK: Self = Self {
@@ -180,10 +225,10 @@ impl StairsSetup {
         sim
     }
 
-    /// The LD19's run.
+    /// The run of the setup's lidar.
     pub fn sim(&self) -> LidarSimConfig {
         let s = self.scene_config();
-        let mut c = ld19_sim(s.scene, s.trajectory, self.seed);
+        let mut c = servo_sim(self.kind, self.servo, s.scene, s.trajectory, self.seed);
         c.truth = s.truth;
         c
     }
@@ -217,7 +262,7 @@ pub struct StairsResult {
 fn stairs_maps(decoded: &Decoded, setup: &StairsSetup) -> Result<Vec<Box<dyn Map>>, String> {
     const C: usize = STAIRS_CELLS;
     const SLOTS: usize = stairs::SLOTS;
-    let d = Ld19Design::from_datasheet();
+    let d = Ld19Design::for_kind_at(setup.kind, setup.servo.2);
     let r = setup.range_m;
     #[allow(clippy::cast_possible_truncation)]
     let (rf, cell) = (r as f32, stairs::CELL_M as f32);
@@ -244,13 +289,13 @@ fn stairs_maps(decoded: &Decoded, setup: &StairsSetup) -> Result<Vec<Box<dyn Map
             clamped,
             fc,
         )?),
-        Box::new(Runner::<C, LAYERS, SLOTS>::new(
+        Box::new(Runner::<C, RIG_LAYERS, SLOTS>::new(
             "pyramid",
             d.pyramid(r, GateShape::Hard, true, C).map_err(e)?,
             off,
             fc,
         )?),
-        Box::new(Runner::<C, LAYERS, SLOTS>::new(
+        Box::new(Runner::<C, RIG_LAYERS, SLOTS>::new(
             "pyramid_soft",
             d.pyramid(r, GateShape::default(), true, C).map_err(e)?,
             off,
@@ -274,7 +319,10 @@ pub fn run_stairs(
 ) -> Result<StairsResult, String> {
     let scene_config = setup.scene_config();
     let sim = simulate_lidar(&setup.sim()).map_err(|e| e.to_string())?;
-    let decoded = decode(&sim.bytes, classifier)?;
+    let mut decoded = decode(&sim.bytes, classifier)?;
+    if setup.revolutions_per_observation > 0 {
+        decoded.frontend.lines_per_observation = setup.revolutions_per_observation;
+    }
     let (steps, first) = stairs::step_cells(&scene_config);
     let riser_x = scene_config.scene.target_x.unwrap_or(0.0);
     let mut maps = stairs_maps(&decoded, setup)?;
@@ -375,7 +423,7 @@ pub fn run_stairs(
         pyramid: next()?,
         pyramid_soft: next()?,
         setup: *setup,
-        design: Ld19Design::from_datasheet(),
+        design: Ld19Design::for_kind_at(setup.kind, setup.servo.2),
         layers,
         step_cells: steps.len(),
         packets: count,
@@ -452,13 +500,135 @@ pub fn run_coverage(setup: &coverage::Setup) -> Result<CoverageResult, String> {
     })
 }
 
-/// Both LD19 experiments.
+/// The nodding rigs of the simulator the stairs are measured on, each on the LD19's servo.
+pub const RIGS: [(LidarKind, &str); 3] = [
+    (LidarKind::Ld19, "LD19"),
+    (LidarKind::RplidarStandard, "RPLIDAR A1 (standard scan)"),
+    (LidarKind::YdlidarX4, "YDLIDAR X4"),
+];
+
+/// Phases of the nod sampled at the start of the approach (full runs).
+pub const PHASES: usize = 8;
+
+/// One stairs run of a rig: the pyramids' figures.
+#[derive(Debug, Clone, Copy, Serialize)]
+pub struct StandingRow {
+    /// Seconds of standing before the approach.
+    pub stand_s: f64,
+    /// The flat grid (no clamping): step cells obstacle at the stop.
+    pub flat_at_stop: f64,
+    /// The hard-gated pyramid: step cells obstacle at the stop.
+    pub hard_at_stop: f64,
+    /// The hard-gated pyramid: distance at which the first step was first seen (null: never).
+    pub hard_first_seen_m: Option<f64>,
+    /// The soft-gated pyramid: step cells obstacle at the stop.
+    pub soft_at_stop: f64,
+    /// The soft-gated pyramid: distance at which the first step was first seen (null: never).
+    pub soft_first_seen_m: Option<f64>,
+}
+
+/// A rig's stairs: standing 30 s, 120 s (and 300 s) and, in a full run, the approach started
+/// at [`PHASES`] phases of one nod (120 s plus a fraction of the nod's period).
+#[derive(Debug, Clone, Serialize)]
+pub struct RigStairs {
+    /// The rig's name.
+    pub rig: &'static str,
+    /// Its design's inputs.
+    pub design: Ld19Design,
+    /// Distance from the standing place to the first riser, metres.
+    pub stand_distance_m: f64,
+    /// One row per standing time.
+    pub standing: Vec<StandingRow>,
+    /// One row per phase of the nod (empty with `--quick`).
+    pub phases: Vec<StandingRow>,
+}
+
+/// The nod's period, seconds: up and down between the servo's limits.
+pub fn nod_period_s() -> f64 {
+    2.0 * (SERVO.1 - SERVO.0) / SERVO.2
+}
+
+fn standing_row(
+    kind: LidarKind,
+    stand_s: f64,
+    seed: u64,
+    classifier: &ClassifierConfig,
+) -> Result<StandingRow, String> {
+    let (_, range) = kind.range_m();
+    let setup = StairsSetup {
+        stand_s,
+        seed,
+        kind,
+        range_m: range,
+        stand_distance_m: range - 0.95,
+        ..StairsSetup::FULL
+    };
+    let r = run_stairs(&setup, classifier, None)?;
+    Ok(StandingRow {
+        stand_s,
+        flat_at_stop: r.flat.detected_fraction,
+        hard_at_stop: r.pyramid.detected_fraction,
+        hard_first_seen_m: r.pyramid.detect_distance_m,
+        soft_at_stop: r.pyramid_soft.detected_fraction,
+        soft_first_seen_m: r.pyramid_soft.detect_distance_m,
+    })
+}
+
+/// Every rig's stairs: standing 30 s and 120 s (`quick`), or 30, 120 and 300 s and
+/// [`PHASES`] phases of the nod after 120 s.
+///
+/// # Errors
+/// As [`run_stairs`].
+pub fn run_rigs(
+    quick: bool,
+    seed: u64,
+    classifier: &ClassifierConfig,
+) -> Result<Vec<RigStairs>, String> {
+    let times: &[f64] = if quick {
+        &[30.0, 120.0]
+    } else {
+        &[30.0, 120.0, 300.0]
+    };
+    let mut out = Vec::new();
+    for (kind, name) in RIGS {
+        let standing = times
+            .iter()
+            .map(|&t| standing_row(kind, t, seed, classifier))
+            .collect::<Result<Vec<_>, _>>()?;
+        let phases = if quick {
+            Vec::new()
+        } else {
+            #[allow(clippy::cast_precision_loss)]
+            let step = nod_period_s() / PHASES as f64;
+            #[allow(clippy::cast_precision_loss)]
+            (0..PHASES)
+                .map(|i| {
+                    let t = 120.0 + step * i as f64;
+                    standing_row(kind, (t * 1000.0).round() / 1000.0, seed, classifier)
+                })
+                .collect::<Result<Vec<_>, _>>()?
+        };
+        let (_, range) = kind.range_m();
+        out.push(RigStairs {
+            rig: name,
+            design: Ld19Design::for_kind(kind),
+            stand_distance_m: range - 0.95,
+            standing,
+            phases,
+        });
+    }
+    Ok(out)
+}
+
+/// Both LD19 experiments, and every nodding rig's stairs.
 #[derive(Debug, Clone, Serialize)]
 pub struct Ld19Results {
     /// The stairs.
     pub stairs: StairsResult,
     /// The coverage.
     pub coverage: CoverageResult,
+    /// The nodding rigs' stairs against standing time and the nod's phase.
+    pub rigs: Vec<RigStairs>,
 }
 
 /// Runs both, `quick` with 30 s of standing before the stairs.
@@ -480,7 +650,41 @@ pub fn run(
     Ok(Ld19Results {
         stairs: run_stairs(&setup, &coverage_setup.classifier, out)?,
         coverage: run_coverage(coverage_setup)?,
+        rigs: run_rigs(quick, seed, &coverage_setup.classifier)?,
     })
+}
+
+fn rigs_report(s: &mut String, rigs: &[RigStairs]) {
+    use std::fmt::Write as _;
+    let m = |v: Option<f64>| v.map_or_else(|| "never".to_string(), |d| format!("{d:.2} m"));
+    let _ = writeln!(
+        s,
+        "\nEvery nodding rig on the same servo (2°..35° at 20 °/s, h = 1.0 m), standing its range less 0.95 m from the stairs, then driving at 1 m/s to 1 m; step cells obstacle at the stop and where the first step was first seen (flat grid; pyramid hard gate; soft gate). Rows \"phase\": 120 s plus a fraction of the nod's {:.1} s period.\n\n| rig (φ, ψ) | standing s | flat | hard | hard: first seen | soft | soft: first seen |\n| --- | --- | --- | --- | --- | --- | --- |",
+        nod_period_s()
+    );
+    for r in rigs {
+        for (label, row) in r
+            .standing
+            .iter()
+            .map(|x| ("", x))
+            .chain(r.phases.iter().map(|x| (" (phase)", x)))
+        {
+            let _ = writeln!(
+                s,
+                "| {} (φ {:.2}°, ψ {:.2}°) | {:.3}{label} | {} | {} | {} | {} | {} |",
+                r.rig,
+                r.design.phi_deg,
+                r.design.psi_deg,
+                row.stand_s,
+                pct(row.flat_at_stop),
+                pct(row.hard_at_stop),
+                m(row.hard_first_seen_m),
+                pct(row.soft_at_stop),
+                m(row.soft_first_seen_m)
+            );
+        }
+    }
+    let _ = writeln!(s);
 }
 
 fn pct(v: f64) -> String {
@@ -564,6 +768,7 @@ pub fn report(
         pct(c.pyramid.holes_fraction),
         sick_holes(sick_coverage.map(|k| &k.pyramid)),
     );
+    rigs_report(&mut s, &r.rigs);
     s
 }
 

@@ -30,6 +30,7 @@ pub mod lidar;
 pub mod picture;
 pub mod stairs;
 pub mod stairs_board;
+pub mod stairs_diag;
 pub mod timing;
 
 use serde::Serialize;

@@ -1,0 +1,313 @@
+//! A diagnostic of the stairs run of a nodding lidar: which layers hold the step cells'
+//! evidence over time, what each observation adds to them (obstacle or free, in which layer,
+//! from how far), and which layer the fused query answers from as the robot approaches.
+//!
+//! It watches the step cells of every layer between packets (each change is one observation's
+//! increment to that layer's cell), so it needs nothing from the library beyond its maps.
+
+use super::engine::{decode, Map, Runner};
+use super::lidar::{self, StairsSetup, LAYERS, STAIRS_CELLS};
+use super::stairs::{self, CELL_M};
+use std::fmt::Write as _;
+use terrain_pyramid::classify::ClassifierConfig;
+use terrain_pyramid::{Clamp, Config, Design, Fused};
+use terrain_pyramid_host_tests::sim::lidar::simulate_lidar;
+
+/// Packets between two looks at the step cells (a fifteenth of an LD19's second).
+const LOOK_EVERY: usize = 25;
+
+#[derive(Default, Clone, Copy)]
+struct Counts {
+    obstacle: u32,
+    free: u32,
+}
+
+/// Runs `setup` through a pyramid of `design` and describes where the step cells' evidence
+/// goes: a Markdown report.
+///
+/// # Errors
+/// The simulator's or the library's refusal.
+pub fn diagnose(
+    setup: &StairsSetup,
+    design: Design<LAYERS>,
+    classifier: &ClassifierConfig,
+) -> Result<String, String> {
+    let scene = setup.scene_config();
+    let sim = simulate_lidar(&setup.sim()).map_err(|e| e.to_string())?;
+    let decoded = decode(&sim.bytes, classifier)?;
+    let (steps, first) = stairs::step_cells(&scene);
+    let riser_x = scene.scene.target_x.unwrap_or(0.0);
+    let config = Config {
+        clamp: Clamp::Off,
+        ..Config::default()
+    };
+    let layers_text: Vec<String> = design
+        .layers()
+        .iter()
+        .enumerate()
+        .map(|(k, l)| format!("{k}: {:.2}..{:.2}", l.band_inner_m, l.band_outer_m))
+        .collect();
+    let mut map: Box<dyn Map> = Box::new(Runner::<STAIRS_CELLS, LAYERS, { stairs::SLOTS }>::new(
+        "diag",
+        design,
+        config,
+        decoded.frontend,
+    )?);
+    let n_layers = map.layer_count();
+    let centre = |c: (i32, i32)| {
+        (
+            (f64::from(c.0) + 0.5) * CELL_M,
+            (f64::from(c.1) + 0.5) * CELL_M,
+        )
+    };
+    let mut last: Vec<Vec<Option<f32>>> = vec![vec![None; n_layers]; steps.len()];
+    // Increments per layer while standing and while driving; per distance (1 m rings of the
+    // step cell's distance from the robot) while driving.
+    let mut standing = vec![Counts::default(); n_layers];
+    let mut driving = vec![Counts::default(); n_layers];
+    let mut by_distance = [Counts::default(); 14];
+    let drive_start_us = (scene.trajectory.drive_start_s() * 1e6).round();
+    let mut out = String::new();
+    let _ = writeln!(out, "bands: {}\n", layers_text.join(", "));
+    let _ = writeln!(
+        out,
+        "| t s | robot to riser m | fused: obstacle/free/unknown | answering layers (k:obst/free) | first riser obstacle |\n| --- | --- | --- | --- | --- |"
+    );
+    let count = decoded.lines.len();
+    let mut next_report_s = 0.0_f64;
+    for (i, line) in decoded.lines.iter().enumerate() {
+        map.line(line);
+        let is_last = i + 1 == count;
+        if is_last {
+            map.flush();
+        }
+        if (i + 1) % LOOK_EVERY != 0 && !is_last {
+            continue;
+        }
+        #[allow(clippy::cast_precision_loss)]
+        let t_us = line.time_us as f64;
+        let is_driving = t_us >= drive_start_us;
+        let robot_x = line.robot_xy.0;
+        for (c, prev) in steps.iter().zip(last.iter_mut()) {
+            let (x, y) = centre(*c);
+            for (k, p) in prev.iter_mut().enumerate() {
+                let now = map.layer_log_odds(k, x, y);
+                let delta = now.unwrap_or(0.0) - p.unwrap_or(0.0);
+                if now.is_some() && (p.is_none() || delta.abs() > 1e-6) {
+                    let table = if is_driving {
+                        &mut driving
+                    } else {
+                        &mut standing
+                    };
+                    let positive = delta > 0.0;
+                    if let Some(e) = table.get_mut(k) {
+                        if positive {
+                            e.obstacle += 1;
+                        } else {
+                            e.free += 1;
+                        }
+                    }
+                    if is_driving {
+                        #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+                        let ring = ((x - robot_x).max(0.0).floor() as usize).min(13);
+                        if let Some(e) = by_distance.get_mut(ring) {
+                            if positive {
+                                e.obstacle += 1;
+                            } else {
+                                e.free += 1;
+                            }
+                        }
+                    }
+                }
+                *p = now;
+            }
+        }
+        let t_s = t_us * 1e-6;
+        if t_s >= next_report_s || is_last {
+            next_report_s = if is_driving { t_s + 0.5 } else { t_s + 10.0 };
+            let mut answer: Vec<Counts> = vec![Counts::default(); n_layers];
+            let mut shares = (0, 0, 0);
+            for c in &steps {
+                let (x, y) = centre(*c);
+                match map.fused(x, y) {
+                    Fused::Obstacle { layer } => {
+                        shares.0 += 1;
+                        if let Some(a) = answer.get_mut(usize::from(layer)) {
+                            a.obstacle += 1;
+                        }
+                    }
+                    Fused::Navigable { layer } => {
+                        shares.1 += 1;
+                        if let Some(a) = answer.get_mut(usize::from(layer)) {
+                            a.free += 1;
+                        }
+                    }
+                    Fused::Unknown => shares.2 += 1,
+                }
+            }
+            let answering: Vec<String> = answer
+                .iter()
+                .enumerate()
+                .filter(|(_, a)| a.obstacle + a.free > 0)
+                .map(|(k, a)| format!("{k}:{}/{}", a.obstacle, a.free))
+                .collect();
+            let _ = writeln!(
+                out,
+                "| {t_s:.1} | {:.2} | {}/{}/{} | {} | {:.2} |",
+                riser_x - robot_x,
+                shares.0,
+                shares.1,
+                shares.2,
+                answering.join(" "),
+                stairs::shares(map.as_ref(), &first).obstacle
+            );
+        }
+    }
+    let _ = writeln!(
+        out,
+        "\nincrements to step cells per layer (obstacle/free): standing | driving"
+    );
+    for (k, (s, d)) in standing.iter().zip(&driving).enumerate() {
+        if s.obstacle + s.free + d.obstacle + d.free > 0 {
+            let _ = writeln!(
+                out,
+                "layer {k}: {}/{} | {}/{}",
+                s.obstacle, s.free, d.obstacle, d.free
+            );
+        }
+    }
+    let _ = writeln!(
+        out,
+        "\nwhile driving, increments by the step cell's distance ahead (m): obstacle/free"
+    );
+    for (m, c) in by_distance.iter().enumerate() {
+        if c.obstacle + c.free > 0 {
+            let _ = writeln!(out, "{m}..{}: {}/{}", m + 1, c.obstacle, c.free);
+        }
+    }
+    let _ = writeln!(
+        out,
+        "\nsimulated packets {}, echoes {}; the datasheet design's φ = {}°",
+        sim.packets,
+        sim.echoes,
+        lidar::Ld19Design::from_datasheet().phi_deg
+    );
+    Ok(out)
+}
+
+/// One run of the LD19's stairs for the standing-time sweep: the four maps' figures.
+///
+/// # Errors
+/// As [`lidar::run_stairs`].
+pub fn stand_sweep(
+    stand_s: &[f64],
+    revolutions_per_observation: u32,
+    classifier: &ClassifierConfig,
+) -> Result<String, String> {
+    let mut out = String::from(
+        "| stand s | flat: at 1 m / first seen | hard: at 1 m / first seen | soft: at 1 m / first seen |\n| --- | --- | --- | --- |\n",
+    );
+    let m = |v: Option<f64>| v.map_or_else(|| "never".to_string(), |d| format!("{d:.2} m"));
+    for &s in stand_s {
+        let servo = std::env::var("STAIRS_SERVO")
+            .ok()
+            .and_then(|v| {
+                let f: Vec<f64> = v.split(',').filter_map(|x| x.trim().parse().ok()).collect();
+                match f[..] {
+                    [lo, hi, rate] => Some((lo, hi, rate, lidar::SERVO.3)),
+                    _ => None,
+                }
+            })
+            .unwrap_or(lidar::SERVO);
+        let setup = StairsSetup {
+            stand_s: s,
+            revolutions_per_observation,
+            servo,
+            ..StairsSetup::FULL
+        };
+        let r = lidar::run_stairs(&setup, classifier, None)?;
+        let _ = writeln!(
+            out,
+            "| {s:.1} | {:.1} % / {} | {:.1} % / {} | {:.1} % / {} |",
+            100.0 * r.flat.detected_fraction,
+            m(r.flat.detect_distance_m),
+            100.0 * r.pyramid.detected_fraction,
+            m(r.pyramid.detect_distance_m),
+            100.0 * r.pyramid_soft.detected_fraction,
+            m(r.pyramid_soft.detect_distance_m),
+        );
+    }
+    Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use terrain_pyramid::GateShape;
+
+    /// `cargo test --release -p terrain-pyramid-lab --lib stairs_diag -- --ignored --nocapture`
+    /// with `STAIRS_DIAG_STAND_S` (default 120) and `STAIRS_DIAG_GATE` (`hard` or `soft`).
+    #[test]
+    #[ignore = "a diagnostic, minutes long: run by hand"]
+    fn stairs_diagnostic() {
+        let stand_s: f64 = std::env::var("STAIRS_DIAG_STAND_S")
+            .ok()
+            .and_then(|s| s.parse().ok())
+            .unwrap_or(120.0);
+        let gate = match std::env::var("STAIRS_DIAG_GATE").as_deref() {
+            Ok("hard") => GateShape::Hard,
+            _ => GateShape::default(),
+        };
+        let handle = std::thread::Builder::new()
+            .stack_size(512 << 20)
+            .spawn(move || {
+                let setup = StairsSetup {
+                    stand_s,
+                    ..StairsSetup::FULL
+                };
+                let design = lidar::Ld19Design::from_datasheet()
+                    .pyramid::<LAYERS>(setup.range_m, gate, true, STAIRS_CELLS)
+                    .map_err(|e| e.to_string())?;
+                diagnose(&setup, design, &ClassifierConfig::default())
+            })
+            .unwrap();
+        let report = handle.join().unwrap().unwrap();
+        println!("{report}");
+    }
+
+    /// `STAIRS_SWEEP` = comma-separated standing times, seconds; `STAIRS_REVOLUTIONS` =
+    /// revolutions per observation (default 0: one per sweep); `STAIRS_SERVO` = `lo,hi,rate`
+    /// (degrees, °/s) instead of the LD19's servo.
+    #[test]
+    #[ignore = "a diagnostic, minutes long: run by hand"]
+    fn stairs_stand_sweep() {
+        let times: Vec<f64> = std::env::var("STAIRS_SWEEP")
+            .unwrap_or_else(|_| "30,31,32,33,120,300".to_string())
+            .split(',')
+            .filter_map(|s| s.trim().parse().ok())
+            .collect();
+        let revolutions: u32 = std::env::var("STAIRS_REVOLUTIONS")
+            .ok()
+            .and_then(|s| s.parse().ok())
+            .unwrap_or(0);
+        let handle = std::thread::Builder::new()
+            .stack_size(512 << 20)
+            .spawn(move || stand_sweep(&times, revolutions, &ClassifierConfig::default()))
+            .unwrap();
+        println!("{}", handle.join().unwrap().unwrap());
+    }
+
+    /// Every nodding rig's stairs against standing time and the nod's phase (the table of
+    /// `lab experiments`), as JSON; `STAIRS_RIGS_QUICK=1` for 30 s and 120 s only.
+    #[test]
+    #[ignore = "a diagnostic, minutes long: run by hand"]
+    fn stairs_rigs() {
+        let quick = std::env::var("STAIRS_RIGS_QUICK").is_ok();
+        let handle = std::thread::Builder::new()
+            .stack_size(512 << 20)
+            .spawn(move || lidar::run_rigs(quick, 1, &ClassifierConfig::default()))
+            .unwrap();
+        let rigs = handle.join().unwrap().unwrap();
+        println!("{}", serde_json::to_string(&rigs).unwrap());
+    }
+}
