@@ -508,7 +508,7 @@ mod tests {
             "10",
         ])
         .unwrap();
-        let rig = parsed.args.rig.rig().unwrap();
+        let rig = parsed.args.mount.rig().unwrap();
         assert_eq!(rig.rpy_deg, Some([180.0, 0.0, 90.0]));
         assert_eq!(rig.zero_deg, Some(-5.0));
         assert!(rig.reversed);
