@@ -915,14 +915,16 @@ impl RigArgs {
         }
         if let Some(v) = self.min_range_m {
             if !(v.is_finite() && (0.0..LIMIT_M).contains(&v)) {
-                return Err("--min-range-m: must be in [0, 1000)".into());
+                return Err("--filter-min-range-m: must be in [0, 1000)".into());
             }
             rig.filters.min_range_m = Some(v);
         }
         if let Some(v) = self.max_range_m {
             let lo = rig.filters.min_range_m.unwrap_or(0.0);
             if !(v.is_finite() && v > lo && v < LIMIT_M) {
-                return Err("--max-range-m: must be above the minimum range and below 1000".into());
+                return Err(
+                    "--filter-max-range-m: must be above the minimum range and below 1000".into(),
+                );
             }
             rig.filters.max_range_m = Some(v);
         }
