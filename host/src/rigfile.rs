@@ -992,10 +992,19 @@ const fn preset_of(axis: Axis) -> MountKind {
 #[must_use]
 pub fn mount_rig(rig: &Rig) -> crate::rig::Rig {
     let f = &rig.filters;
+    let axis = rig.actuator.axis;
+    let rpy = rig.mount.rpy_or_preset(axis);
+    // A preset's own orientation on its own axis goes as the preset (Setup's mount byte 0
+    // or 1); anything else as the general mount.
+    let preset = match axis {
+        Axis::Pan => rpy == [90.0, 0.0, 0.0],
+        Axis::Tilt => rpy == [0.0; 3],
+        Axis::None => false,
+    };
     crate::rig::Rig {
         xyz_m: Some(rig.mount.xyz_m),
-        rpy_deg: Some(rig.mount.rpy_or_preset(rig.actuator.axis)),
-        axis: Some(match rig.actuator.axis {
+        rpy_deg: (!preset).then_some(rpy),
+        axis: (!preset).then_some(match axis {
             Axis::Pan => crate::rig::Axis::Pan,
             Axis::Tilt => crate::rig::Axis::Tilt,
             Axis::None => crate::rig::Axis::None,
@@ -1275,30 +1284,49 @@ mod tests {
     }
 
     #[test]
-    fn what_this_version_cannot_carry_is_refused_by_name() {
+    fn the_general_mount_and_the_filters_reach_the_setup_and_the_rig_event() {
         let base = "[sensor]\nkind = \"ld06\"\n";
-        let cases = [
-            ("[mount]\nrpy_deg = [180, 0, 90]\n", "mount.rpy_deg"),
+        let rig = |extra: &str| parse(&format!("{base}{extra}")).unwrap();
+        let setup = |extra: &str| device_setup(&rig(extra), &ClassifierConfig::DEFAULT).unwrap();
+        let s = setup("[mount]\nrpy_deg = [180, 0, 90]\n[actuator]\naxis = \"tilt\"\n");
+        assert_eq!((s.mount, s.mount_block.axis), (2, 1));
+        assert_eq!(s.mount_block.rpy_deg, [180.0, 0.0, 90.0]);
+        let s = setup("[actuator]\naxis = \"tilt\"\nzero_deg = 5\nreversed = true\n");
+        assert_eq!(
+            (s.mount, s.mount_block.zero_deg, s.mount_block.sense),
+            (1, 5.0, -1)
+        );
+        let s = setup("[filters]\nmasks_deg = [[170, 190]]\nmin_quality = 10\n");
+        assert_eq!(
+            (s.filter.sector_count, s.filter.sectors[0]),
+            (1, (17_000, 19_000))
+        );
+        assert_eq!(s.filter.min_quality, 10);
+        // A preset's own orientation needs no rig event; anything else gets one.
+        assert_eq!(
+            rig_event(&rig("[actuator]\naxis = \"tilt\"\n")).unwrap(),
+            None
+        );
+        let event = rig_event(&rig("[filters]\nmin_range_m = 0.2\n"))
+            .unwrap()
+            .unwrap();
+        assert_eq!(event.filter.min_range_cm, 20);
+        // What the device would refuse is refused by name, before anything is sent.
+        for (extra, key) in [
             ("[actuator]\naxis = \"pan\"\nrpy = 0\n", "unknown field"),
+            ("[mount]\nrpy_deg = [400, 0, 0]\n", "mount.rpy_deg"),
             (
-                "[actuator]\naxis = \"tilt\"\nzero_deg = 5\n",
-                "actuator.zero_deg",
+                "[filters]\nmin_range_m = 0.5\nmax_range_m = 0.2\n",
+                "filters.max_range_m",
             ),
-            ("[actuator]\nreversed = true\n", "actuator.reversed"),
-            ("[filters]\nmasks_deg = [[170, 190]]\n", "filters.masks_deg"),
-            ("[filters]\nmin_quality = 10\n", "filters.min_quality"),
-        ];
-        for (extra, key) in cases {
-            let text = format!("{base}{extra}");
-            let e = parse(&text)
+        ] {
+            let e = parse(&format!("{base}{extra}"))
                 .and_then(|rig| device_setup(&rig, &ClassifierConfig::DEFAULT).map(|_| ()))
                 .unwrap_err();
             assert!(e.contains(key), "{extra:?}: {e}");
-            if let Ok(rig) = parse(&text) {
-                assert!(recording_setup(&rig).unwrap_err().contains(key));
-            }
         }
-        // The presets: pan with 90,0,0; tilt and none with 0,0,0; none with 90,0,0 too.
+        // The setup event's mount: the preset the axis starts from (pan the panned-vertical
+        // one, tilt and none the tilted one); the rest goes in the rig event.
         for (axis, rpy, mount) in [
             (Axis::Pan, None, MountKind::PannedVertical),
             (Axis::Tilt, None, MountKind::TiltedHorizontal),
@@ -1306,7 +1334,7 @@ mod tests {
             (
                 Axis::None,
                 Some([90.0, 0.0, 0.0]),
-                MountKind::PannedVertical,
+                MountKind::TiltedHorizontal,
             ),
         ] {
             let rig = Rig {

@@ -354,9 +354,11 @@ impl<const W: usize, const L: usize, const C: usize, const Q: usize, const N: us
     /// is told, [`take_laser_change`](Self::take_laser_change)); a new servo profile a fresh
     /// model (begun at the next laser bytes or command); then the pipeline.
     fn adopt_setup(&mut self, setup: FrontendConfig) {
-        let old = *self.frontend.config();
+        // Only the old baud rate is compared: a copy of the whole old setup would cost the
+        // micro:bit's deepest stack path its size again.
+        let old_baud = self.frontend.config().baud;
         let sensor_changed = self.laser.set_sensor(setup.sensor);
-        if sensor_changed || !self.frontend.is_configured() || old.baud != setup.baud {
+        if sensor_changed || !self.frontend.is_configured() || old_baud != setup.baud {
             self.timer.reset(setup.baud);
             self.revolutions = RevolutionTracker::new();
             self.laser_change = true;

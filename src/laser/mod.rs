@@ -662,6 +662,10 @@ impl LaserDecoder {
     /// Decodes `sensor` from now on: the same sensor in the same mode keeps the accumulator
     /// (and what it holds); another gets a fresh one, whatever was buffered dropped, the old
     /// one's counts kept. Returns whether the decoder changed.
+    // Never inlined: the new accumulator (up to a kilobyte) is built in this frame, which
+    // then does not add to the stack of the setup's other work (the micro:bit's deepest
+    // path).
+    #[inline(never)]
     pub fn set_sensor(&mut self, sensor: Sensor) -> bool {
         if sensor == self.sensor {
             return false;

@@ -68,33 +68,38 @@ impl<const Q: usize, const N: usize> Link<Q, N> {
             return true;
         };
         let count = layers_of(pyramid).min(N);
-        let mut layers = heapless::Vec::new();
-        for k in 0..count {
-            let (Some(layer), Some(&(inner, outer))) = (pyramid.layer(k), self.bands.get(k)) else {
-                continue;
-            };
-            let (origin_x, origin_y) = layer.origin();
-            let info = LayerInfo {
-                resolution_q16: layer.resolution().to_bits(),
-                band_inner_m: inner,
-                band_outer_m: outer,
-                origin_x,
-                origin_y,
-            };
-            if layers.push(info).is_err() {
-                break;
-            }
-        }
-        let hello = Hello {
+        // The message is built in place, its layers filled inside it: a Hello holds room for
+        // 32 layers (640 bytes), and a layer list, a Hello and a Message built one from the
+        // other cost the micro:bit's deepest stack path that twice more.
+        let mut message = Message::Hello(Hello {
             protocol: VERSION,
             firmware: self.config.firmware,
             reason,
             cells_per_side: u16::try_from(W).unwrap_or(u16::MAX),
             resend,
             clock: self.config.clock,
-            layers,
-        };
-        if !self.send(&Message::Hello(hello), 0, report) {
+            layers: heapless::Vec::new(),
+        });
+        if let Message::Hello(hello) = &mut message {
+            for k in 0..count {
+                let (Some(layer), Some(&(inner, outer))) = (pyramid.layer(k), self.bands.get(k))
+                else {
+                    continue;
+                };
+                let (origin_x, origin_y) = layer.origin();
+                let info = LayerInfo {
+                    resolution_q16: layer.resolution().to_bits(),
+                    band_inner_m: inner,
+                    band_outer_m: outer,
+                    origin_x,
+                    origin_y,
+                };
+                if hello.layers.push(info).is_err() {
+                    break;
+                }
+            }
+        }
+        if !self.send(&message, 0, report) {
             return false;
         }
         self.hello = PendingHello::NONE;
