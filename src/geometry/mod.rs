@@ -63,6 +63,7 @@
 //! definition.
 
 pub mod beams;
+mod fixed;
 pub mod mount;
 pub mod pose;
 pub mod pose_track;

@@ -46,12 +46,12 @@
 
 use core::fmt;
 
-use super::mount::{ActuatorAxis, Mount};
-use super::pose::PoseFrame;
-use super::transform::{
+use super::fixed::{
     horizontal, horizontal_squared, meters_q40, per_mm_words, sat_i32, LinePoint, LinePointSquared,
     MAX_RANGE_MM,
 };
+use super::mount::{ActuatorAxis, Mount};
+use super::pose::PoseFrame;
 use crate::angle::FineAngle;
 use crate::units::Point3;
 use crate::wide;
@@ -525,7 +525,7 @@ mod tests {
                 };
                 let (c, s) = (swept(&sweep.c), swept(&sweep.s));
                 let dir = (c * ct + s * st + (1 << 29)) >> 30;
-                *w = i64::from(crate::geometry::transform::per_mm(dir)) * i64::from(range_mm);
+                *w = i64::from(crate::geometry::fixed::per_mm(dir)) * i64::from(range_mm);
             }
             assert_eq!(
                 sweep.at(actuator).offsets(theta, range_mm),
