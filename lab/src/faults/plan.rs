@@ -359,7 +359,12 @@ pub(super) fn plan_bad_configs(steps: &mut [Step], setup: &Setup) {
         c(&|m| m.fused_margin = -1.0),
         c(&|m| m.max_range_m = 200.0),
         s(&|m| m.measuring_mode = 7),
-        s(&|m| m.mount = 2),
+        s(&|m| m.mount = 3),
+        s(&|m| {
+            m.mount = 2;
+            m.mount_block.axis = 7;
+        }),
+        s(&|m| m.filter.sector_count = 9),
         s(&|m| m.resolution_cdeg = 30),
         s(&|m| m.sensor_m[0] = f32::NAN),
         s(&|m| m.robot_height_m = -1.0),
