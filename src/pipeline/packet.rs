@@ -46,6 +46,27 @@ pub struct PacketTimes {
 }
 
 impl<const C: usize, const L: usize> Frontend<C, L> {
+    /// Whether a return passes the setup's masks and filters (before any geometry): a
+    /// return with a range is judged by all of them and a refusal counted under its reason;
+    /// a no-echo return only by the masks, and a masked one counted as no return.
+    #[inline]
+    fn passes_filter(&mut self, ret: &LaserReturn) -> bool {
+        if ret.range_mm != 0 {
+            if let Some(why) = self
+                .config
+                .filter
+                .judge(ret.angle, ret.range_mm, ret.quality)
+            {
+                self.stats.refused(why);
+                return false;
+            }
+        } else if self.config.filter.masks() && self.config.filter.masked(ret.angle) {
+            self.stats.no_return = self.stats.no_return.saturating_add(1);
+            return false;
+        }
+        true
+    }
+
     /// Feeds one packet of a spinning lidar: its returns in the order measured (angles in the
     /// sensor's clockwise convention, range 0 = no return), whether a revolution starts in
     /// it, and the actuator's angle at its first and last return (interpolated per return;
@@ -94,17 +115,7 @@ impl<const C: usize, const L: usize> Frontend<C, L> {
             #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
             let offset = ((step_q16 * k) >> 16) as u32;
             let angle = actuator.first.wrapping_add(FineAngle::from_bits(offset));
-            if ret.range_mm != 0 {
-                if let Some(why) = self
-                    .config
-                    .filter
-                    .judge(ret.angle, ret.range_mm, ret.quality)
-                {
-                    self.stats.refused(why);
-                    continue;
-                }
-            } else if self.config.filter.masks() && self.config.filter.masked(ret.angle) {
-                self.stats.no_return = self.stats.no_return.saturating_add(1);
+            if !self.passes_filter(&ret) {
                 continue;
             }
             if ret.range_mm == 0 && self.config.missing_ground_within.is_none() {
@@ -294,17 +305,7 @@ impl<const C: usize, const L: usize> Frontend<C, L> {
             #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
             let offset = ((step_q16 * k) >> 16) as u32;
             let angle = actuator.first.wrapping_add(FineAngle::from_bits(offset));
-            if ret.range_mm != 0 {
-                if let Some(why) = self
-                    .config
-                    .filter
-                    .judge(ret.angle, ret.range_mm, ret.quality)
-                {
-                    self.stats.refused(why);
-                    continue;
-                }
-            } else if self.config.filter.masks() && self.config.filter.masked(ret.angle) {
-                self.stats.no_return = self.stats.no_return.saturating_add(1);
+            if !self.passes_filter(&ret) {
                 continue;
             }
             if ret.range_mm == 0 && self.config.missing_ground_within.is_none() {
