@@ -12,18 +12,39 @@ use std::fmt;
 use terrain_pyramid::link::convert::{frontend_config, MOUNT_LIMIT_DEG, SETUP_LIMIT_M};
 use terrain_pyramid::wire::link::{FilterSetup, Setup, SETUP_SECTORS};
 
-/// The actuator's axis, as the flags name it.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+/// The actuator's axis, as the flags and the rig file name it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum)]
 pub enum Axis {
     /// About the robot's z axis, counter-clockwise seen from above.
     Pan,
     /// About the robot's y axis, positive looking down ahead.
     Tilt,
     /// No actuator (the actuator's angle is ignored).
+    #[default]
     None,
 }
 
 impl Axis {
+    /// The name as the file and the flags spell it.
+    #[must_use]
+    pub const fn name(self) -> &'static str {
+        match self {
+            Self::Pan => "pan",
+            Self::Tilt => "tilt",
+            Self::None => "none",
+        }
+    }
+
+    /// The axis of a name as the file spells it.
+    pub(crate) fn parse(s: &str) -> Option<Self> {
+        Some(match s {
+            "pan" => Self::Pan,
+            "tilt" => Self::Tilt,
+            "none" => Self::None,
+            _ => return None,
+        })
+    }
+
     /// The wire code of Setup's mount block: 0 pan, 1 tilt, 2 none.
     #[must_use]
     pub const fn code(self) -> u8 {

@@ -121,38 +121,7 @@ impl SensorSpec {
     }
 }
 
-/// The axis the actuator turns the sensor about.
-#[derive(clap::ValueEnum, Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub enum Axis {
-    /// About the robot's z (up): a pan unit.
-    Pan,
-    /// About the robot's y (left): a tilt unit or nodding servo (positive looks down).
-    Tilt,
-    /// No actuator: the sensor is fixed at the mount.
-    #[default]
-    None,
-}
-
-impl Axis {
-    /// The name as the file and the flags spell it.
-    #[must_use]
-    pub const fn name(self) -> &'static str {
-        match self {
-            Self::Pan => "pan",
-            Self::Tilt => "tilt",
-            Self::None => "none",
-        }
-    }
-
-    fn parse(s: &str) -> Option<Self> {
-        Some(match s {
-            "pan" => Self::Pan,
-            "tilt" => Self::Tilt,
-            "none" => Self::None,
-            _ => return None,
-        })
-    }
-}
+pub use crate::rig::Axis;
 
 /// A servo the device itself commands along a triangle sweep (the link's Setup laser block).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -1004,11 +973,7 @@ pub fn mount_rig(rig: &Rig) -> crate::rig::Rig {
     crate::rig::Rig {
         xyz_m: Some(rig.mount.xyz_m),
         rpy_deg: (!preset).then_some(rpy),
-        axis: (!preset).then_some(match axis {
-            Axis::Pan => crate::rig::Axis::Pan,
-            Axis::Tilt => crate::rig::Axis::Tilt,
-            Axis::None => crate::rig::Axis::None,
-        }),
+        axis: (!preset).then_some(axis),
         zero_deg: (rig.actuator.zero_deg != 0.0).then_some(rig.actuator.zero_deg),
         reversed: rig.actuator.reversed,
         masks: f
