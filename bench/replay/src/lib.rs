@@ -81,8 +81,8 @@ pub fn replay<P: Pipeline>(recording: &[u8], pipeline: &mut P) {
                 let now_ms = u32::try_from(event.time_us / 1000).unwrap_or(u32::MAX);
                 pipeline.laser(bytes, now_ms);
             }
-            // The setup, sensor and rig events are read once at boot (`setup`, `boot`); the
-            // bench's recordings are of the preset mounts.
+            // The setup, sensor and rig events are read once at boot (`setup`, `rig`,
+            // `boot_with_sensor`).
             Payload::Setup(_)
             | Payload::Sensor(_)
             | Payload::Rig(_)
@@ -346,8 +346,21 @@ pub fn sensor(recording: &[u8]) -> terrain_pyramid::wire::recording::SensorEvent
         .unwrap_or(terrain_pyramid::wire::recording::SensorEvent::SICK)
 }
 
-/// As [`boot`], with the recording's sensor event: a lidar's recording goes through the
-/// laser path the Setup names (`Frontend::packet`).
+/// The recording's rig event (version 3), if it has one: its mount and its masks and
+/// filters.
+#[must_use]
+pub fn rig(recording: &[u8]) -> Option<terrain_pyramid::wire::recording::RigEvent> {
+    Reader::new(recording)
+        .ok()?
+        .find_map(|e| match e.ok()?.payload {
+            Payload::Rig(r) => Some(r),
+            _ => None,
+        })
+}
+
+/// As [`boot`], with the recording's sensor event and its rig event when it has one: a
+/// lidar's recording goes through the laser path the Setup names (`Frontend::packet`), its
+/// mount and its masks and filters the rig event's.
 pub fn boot_with_sensor<const W: usize, const L: usize, const C: usize, const Q: usize>(
     core: &mut CoProcessor<W, L, C, Q>,
     recording: &[u8],
@@ -356,11 +369,14 @@ pub fn boot_with_sensor<const W: usize, const L: usize, const C: usize, const Q:
     let Some(event) = setup(recording) else {
         return false;
     };
-    let message = terrain_pyramid::link::convert::setup_message_with_sensor(
+    let mut message = terrain_pyramid::link::convert::setup_message_with_sensor(
         &event,
         &sensor(recording),
         &ClassifierConfig::default(),
     );
+    if let Some(rig) = rig(recording) {
+        message = terrain_pyramid::link::convert::setup_with_rig(message, &rig);
+    }
     let Ok(config) = terrain_pyramid::link::convert::frontend_config(&message) else {
         return false;
     };
