@@ -10,6 +10,14 @@
 //! position in the scan's own frame (project axes, metres; the scanner of a 3DTK scan sits at
 //! 0,0,0); the pose moves it with the points.
 //!
+//! # The scanner's mount
+//! `--mount-rpy-deg R,P,Y` turns the scan's own frame (converted as above) into the robot's:
+//! roll, pitch, yaw in degrees (REP-103, as a URDF joint and `pyramid run`'s flag of the same
+//! name), about the sensor's position. The points of a scanner mounted tilted or turned are
+//! then where the robot sees them. A 3-D point file has no actuator to describe and no laser
+//! returns to mask: `pyramid run`'s other rig flags do not apply, and the sensor's position
+//! is `--sensor-origin-m` with `--height-m` above the ground.
+//!
 //! # One observation
 //! The pyramid is recentred on the sensor's (x, y), then every point (but the scanner's
 //! "no echo" value) goes to the classifier with its horizontal distance from the sensor and the
@@ -68,6 +76,10 @@ pub struct Args {
         allow_hyphen_values = true
     )]
     pub sensor_origin_m: Xyz,
+    /// The scan's frame relative to the robot's: roll, pitch, yaw in degrees (REP-103,
+    /// each within ±360), the points turned about the sensor's position; `0,0,0` by default.
+    #[arg(long, value_name = "R,P,Y", allow_hyphen_values = true)]
+    pub mount_rpy_deg: Option<Xyz>,
     /// The directory the maps, the picture and `summary.json` are written into (created if
     /// missing).
     #[arg(long, value_name = "DIR")]
@@ -235,6 +247,32 @@ fn unreadable(what: &str, path: &Path, e: &std::io::Error) -> Failure {
     ))
 }
 
+/// No rotation.
+const IDENTITY: [[f64; 3]; 3] = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+
+/// The rotation of roll, pitch, yaw (degrees, REP-103: `Rz(yaw)·Ry(pitch)·Rx(roll)`),
+/// row-major.
+#[must_use]
+pub fn rotation_of_rpy_deg(rpy_deg: [f64; 3]) -> [[f64; 3]; 3] {
+    let [(sr, cr), (sp, cp), (sy, cy)] = rpy_deg.map(|a| a.to_radians().sin_cos());
+    [
+        [cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
+        [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
+        [-sp, cp * sr, cp * cr],
+    ]
+}
+
+/// `point` (the scan's converted frame, metres) turned by `rotation` about `origin`.
+fn mounted(rotation: &[[f64; 3]; 3], origin: [f64; 3], point: [f64; 3]) -> [f64; 3] {
+    let d = [
+        point[0] - origin[0],
+        point[1] - origin[1],
+        point[2] - origin[2],
+    ];
+    let r = rotation.map(|row| row[0] * d[0] + row[1] * d[1] + row[2] * d[2]);
+    [r[0] + origin[0], r[1] + origin[1], r[2] + origin[2]]
+}
+
 /// The validated inputs of one replay, read before any work is done.
 struct Plan {
     design: Design<L>,
@@ -246,6 +284,10 @@ struct Plan {
     sensor: [f64; 3],
     /// The sensor in the file's own frame, cm (for the "no echo" test).
     sensor_file_cm: [f64; 3],
+    /// The sensor in the scan's converted frame, before the pose, metres.
+    origin: [f64; 3],
+    /// The scan's frame in the robot's (`--mount-rpy-deg`), row-major.
+    rotation: [[f64; 3]; 3],
     ground_z: f64,
 }
 
@@ -283,6 +325,17 @@ fn plan(args: &Args) -> Result<Plan, Failure> {
         }
     };
     let origin = args.sensor_origin_m.0;
+    let rotation = match args.mount_rpy_deg {
+        None => IDENTITY,
+        Some(Xyz(rpy)) => {
+            if let Some(v) = rpy.iter().find(|v| v.abs() > 360.0) {
+                return Err(Failure::config(format!(
+                    "--mount-rpy-deg: {v} degrees is outside -360 ..= 360"
+                )));
+            }
+            rotation_of_rpy_deg(rpy)
+        }
+    };
     let sensor = [
         origin[0] + translation[0],
         origin[1] + translation[1],
@@ -303,6 +356,8 @@ fn plan(args: &Args) -> Result<Plan, Failure> {
         translation,
         sensor,
         sensor_file_cm: to_3dtk_cm(origin),
+        origin,
+        rotation,
         ground_z: sensor[2] - args.design.height_m,
     })
 }
@@ -350,7 +405,7 @@ fn integrate<const W: usize>(args: &Args, plan: &Plan) -> Result<Integrated, Fai
             no_return += 1;
             continue;
         }
-        let local = from_3dtk_cm(raw);
+        let local = mounted(&plan.rotation, plan.origin, from_3dtk_cm(raw));
         let world = point3([
             local[0] + plan.translation[0],
             local[1] + plan.translation[1],
@@ -537,6 +592,41 @@ mod tests {
         assert_eq!(from_3dtk_cm([0.0, -40.0, 0.0]), [0.0, 0.0, -0.4]);
         let v = [1.25, -2.5, 0.75];
         assert_eq!(from_3dtk_cm(to_3dtk_cm(v)), v);
+    }
+
+    #[test]
+    fn the_mount_turns_points_about_the_sensor() {
+        // Yaw 90°: x to y; roll 90°: y to z; pitch 90°: z to x (right-handed).
+        let close = |a: [f64; 3], b: [f64; 3]| a.iter().zip(b).all(|(u, v)| (u - v).abs() < 1e-12);
+        let yaw = rotation_of_rpy_deg([0.0, 0.0, 90.0]);
+        assert!(close(
+            mounted(&yaw, [0.0; 3], [1.0, 0.0, 0.0]),
+            [0.0, 1.0, 0.0]
+        ));
+        let roll = rotation_of_rpy_deg([90.0, 0.0, 0.0]);
+        assert!(close(
+            mounted(&roll, [0.0; 3], [0.0, 1.0, 0.0]),
+            [0.0, 0.0, 1.0]
+        ));
+        let pitch = rotation_of_rpy_deg([0.0, 90.0, 0.0]);
+        assert!(close(
+            mounted(&pitch, [0.0; 3], [0.0, 0.0, 1.0]),
+            [1.0, 0.0, 0.0]
+        ));
+        // Roll first, then pitch, then yaw: (0, 1, 0) by roll 90° is z, by yaw 90° still z.
+        let both = rotation_of_rpy_deg([90.0, 0.0, 90.0]);
+        assert!(close(
+            mounted(&both, [0.0; 3], [0.0, 1.0, 0.0]),
+            [0.0, 0.0, 1.0]
+        ));
+        assert!(close(
+            mounted(&both, [0.0; 3], [1.0, 0.0, 0.0]),
+            [0.0, 1.0, 0.0]
+        ));
+        // About the sensor: the sensor stays where it is.
+        let o = [0.5, -0.2, 1.0];
+        assert!(close(mounted(&both, o, o), o));
+        assert!(close(mounted(&yaw, o, [1.5, -0.2, 1.0]), [0.5, 0.8, 1.0]));
     }
 
     #[test]

@@ -146,6 +146,16 @@ fn line(out: &mut String, x: f64, y: f64, z: f64) {
 /// high on it at x 2.05..2.35 m, y 0.25..0.55 m (its top and its four faces), and three
 /// "no echo" points.
 fn synthetic_scan() -> (String, usize) {
+    synthetic_scan_seen_by(|p| p)
+}
+
+/// [`synthetic_scan`] as a scanner mounted otherwise sees it: `to_scanner` takes each point
+/// from the robot's frame to the scanner's.
+fn synthetic_scan_seen_by(to_scanner: impl Fn([f64; 3]) -> [f64; 3]) -> (String, usize) {
+    let line = |out: &mut String, x: f64, y: f64, z: f64| {
+        let [x, y, z] = to_scanner([x, y, z]);
+        line(out, x, y, z);
+    };
     let mut s = String::from("100 x 100\n\n");
     let mut n = 0;
     let in_box = |x: f64, y: f64| (2.05..=2.35).contains(&x) && (0.25..=0.55).contains(&y);
@@ -382,6 +392,60 @@ fn a_rotated_pose_is_refused_and_a_translation_moves_the_maps() {
     let fused = Map::read(&out, "fused");
     assert_eq!(fused.at(7.2, 0.4), OBSTACLE);
     assert_eq!(fused.at(6.0, 0.0), FREE);
+}
+
+/// A scanner mounted turned (yaw 90°: its x to the robot's left) or upside down (roll
+/// 180°): its points, turned back by `--mount-rpy-deg`, map the box where it stands; without
+/// the flag, elsewhere. An angle beyond ±360° is refused, naming the flag.
+#[test]
+fn a_turned_scanner_maps_the_box_where_it_stands() {
+    let dir = scratch("mount");
+    type Turn = fn([f64; 3]) -> [f64; 3];
+    let cases: [(&str, Turn); 3] = [
+        ("0,0,90", |[x, y, z]| [y, -x, z]),
+        ("180,0,0", |[x, y, z]| [x, -y, -z]),
+        ("0,0,-90", |[x, y, z]| [-y, x, z]),
+    ];
+    for (k, (rpy, to_scanner)) in cases.into_iter().enumerate() {
+        let file = dir.join(format!("turned-{k}.3d"));
+        std::fs::write(&file, synthetic_scan_seen_by(to_scanner).0).unwrap();
+        let out = dir.join(format!("turned-{k}"));
+        let v = replay_json(&[
+            "--points",
+            path(&file),
+            "--mount-rpy-deg",
+            rpy,
+            "--out",
+            path(&out),
+        ]);
+        assert_eq!(v["overflow_points"], 0);
+        let fused = Map::read(&out, "fused");
+        for (x, y) in [(2.1, 0.3), (2.2, 0.4), (2.3, 0.5)] {
+            assert_eq!(fused.at(x, y), OBSTACLE, "{rpy}: box at ({x}, {y})");
+        }
+        for (x, y) in [(1.0, 0.0), (3.0, -1.5), (4.0, 1.2)] {
+            assert_eq!(fused.at(x, y), FREE, "{rpy}: floor at ({x}, {y})");
+        }
+        if k == 0 {
+            // Without the flag the scan is mapped as the scanner saw it: the box to the right.
+            let plain = dir.join("unturned");
+            replay_json(&["--points", path(&file), "--out", path(&plain)]);
+            let fused = Map::read(&plain, "fused");
+            assert_ne!(fused.at(2.2, 0.4), OBSTACLE);
+            assert_eq!(fused.at(0.4, -2.2), OBSTACLE);
+        }
+    }
+    let r = pyramid(&[
+        "--points",
+        "whatever.3d",
+        "--mount-rpy-deg",
+        "0,400,0",
+        "--out",
+        path(&dir.join("bad")),
+    ]);
+    assert_eq!(r.status.code(), Some(2));
+    let stderr = String::from_utf8_lossy(&r.stderr);
+    assert!(stderr.contains("--mount-rpy-deg"), "{stderr}");
 }
 
 #[test]
