@@ -63,6 +63,9 @@ struct Swept {
     fixed: [i32; 3],
     u: [i32; 3],
     w: [i32; 3],
+    /// `u` or `w` is not zero: the direction turns with the actuator (a preset's direction
+    /// along the actuator's axis does not, and costs no product per return).
+    turns: bool,
 }
 
 impl Swept {
@@ -70,6 +73,7 @@ impl Swept {
         fixed: [0; 3],
         u: [0; 3],
         w: [0; 3],
+        turns: false,
     };
 
     /// `R·A(a)·v` split by the actuator's axis, for `v` (Q2.30, actuator frame at zero) and
@@ -78,33 +82,41 @@ impl Swept {
     /// `fixed = v_y·r₁`, `u = v_x·r₀ + v_z·r₂`, `w = v_z·r₀ − v_x·r₂`; without an actuator
     /// `fixed = R·v`. Each component is rounded once from Q4.60: a unit entry of `v` (0 or
     /// ±2³⁰) gives the column itself, bit for bit.
-    fn new(v: [i32; 3], axis: ActuatorAxis, r: [[i64; 3]; 3]) -> Self {
-        let [vx, vy, vz] = v.map(i64::from);
+    fn new(v: [i32; 3], axis: ActuatorAxis, r: [[i32; 3]; 3]) -> Self {
+        let [vx, vy, vz] = v;
         let [r0, r1, r2] = r;
         // Each term as (factor, column); a component is Σ factor·column[i], rounded.
-        match axis {
-            ActuatorAxis::Pan => Self {
-                fixed: combine([(vz, r2)]),
-                u: combine([(vx, r0), (vy, r1)]),
-                w: combine([(vx, r1), (-vy, r0)]),
-            },
-            ActuatorAxis::Tilt => Self {
-                fixed: combine([(vy, r1)]),
-                u: combine([(vx, r0), (vz, r2)]),
-                w: combine([(vz, r0), (-vx, r2)]),
-            },
-            ActuatorAxis::Fixed => Self {
-                fixed: combine([(vx, r0), (vy, r1), (vz, r2)]),
-                u: [0; 3],
-                w: [0; 3],
-            },
+        let (fixed, u, w) = match axis {
+            ActuatorAxis::Pan => (
+                combine([(vz, r2)]),
+                combine([(vx, r0), (vy, r1)]),
+                combine([(vx, r1), (vy.saturating_neg(), r0)]),
+            ),
+            ActuatorAxis::Tilt => (
+                combine([(vy, r1)]),
+                combine([(vx, r0), (vz, r2)]),
+                combine([(vz, r0), (vx.saturating_neg(), r2)]),
+            ),
+            ActuatorAxis::Fixed => (combine([(vx, r0), (vy, r1), (vz, r2)]), [0; 3], [0; 3]),
+        };
+        // Word by word (an array comparison compiles to a `memcmp` call).
+        let ([u0, u1, u2], [w0, w1, w2]) = (u, w);
+        Self {
+            fixed,
+            u,
+            w,
+            turns: (u0 | u1 | u2 | w0 | w1 | w2) != 0,
         }
     }
 
     /// The direction at an actuator angle of sine `sa` and cosine `ca` (Q2.30):
-    /// `fixed + ((ca·u + sa·w + 2²⁹) >> 30)`, six 32 × 32 → 64 products.
+    /// `fixed + ((ca·u + sa·w + 2²⁹) >> 30)`, six 32 × 32 → 64 products, none when the
+    /// direction does not turn (the same bits: the turned part rounds to 0).
     #[inline]
     fn at(&self, ca: i32, sa: i32) -> [i32; 3] {
+        if !self.turns {
+            return self.fixed;
+        }
         let mut out = [0_i32; 3];
         for (((o, &f), &u), &w) in out.iter_mut().zip(&self.fixed).zip(&self.u).zip(&self.w) {
             // |u|, |w|, |ca|, |sa| ≤ 2³⁰ (up to rounding): each product fits 32 × 32 → 64 bits
@@ -117,15 +129,16 @@ impl Swept {
 }
 
 /// `Σ factor·column` per component, rounded once from Q4.60 to Q2.30 (|factor|, |entry|
-/// ≤ 2³⁰ up to rounding: a sum of three below 2⁶²·⁶).
-fn combine<const N: usize>(terms: [(i64, [i64; 3]); N]) -> [i32; 3] {
-    let mut out = [0_i32; 3];
-    for (i, o) in out.iter_mut().enumerate() {
-        let pick = |col: [i64; 3]| col.get(i).copied().unwrap_or(0);
-        let q60: i64 = terms.iter().map(|&(f, col)| f * pick(col)).sum();
-        *o = sat_i32((q60 + (1 << 29)) >> 30);
+/// ≤ 2³⁰ up to rounding: each product 32 × 32 → 64 bits, a sum of three below 2⁶²·⁶).
+#[inline]
+fn combine<const N: usize>(terms: [(i32, [i32; 3]); N]) -> [i32; 3] {
+    let mut q60 = [0_i64; 3];
+    for (f, col) in terms {
+        for (acc, &c) in q60.iter_mut().zip(&col) {
+            *acc += wide::smul(f, c);
+        }
     }
-    out
+    q60.map(|v| sat_i32((v + (1 << 29)) >> 30))
 }
 
 /// The parts of the geometry that the actuator angle does not change: the world images of
@@ -162,9 +175,11 @@ impl SweepTransform {
     pub fn new(mount: &Mount, frame: &PoseFrame) -> Self {
         let r = frame.rotation.columns();
         let [r0, r1, r2] = r;
+        // The columns are Q2.30 words widened: narrowing them back is exact.
+        let r32 = r.map(|col| col.map(sat_i32));
         let [m0, m1] = mount.columns();
-        let c = Swept::new(m1.map(i32::wrapping_neg), mount.axis(), r);
-        let s = Swept::new(m0, mount.axis(), r);
+        let c = Swept::new(m1.map(i32::wrapping_neg), mount.axis(), r32);
+        let s = Swept::new(m0, mount.axis(), r32);
         let t = frame.translation;
         let p = mount.position;
         let [px, py, pz] = [p.x, p.y, p.z].map(|m| i64::from(m.to_bits()));

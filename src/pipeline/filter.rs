@@ -78,6 +78,9 @@ pub struct ReturnFilter {
     max_range_mm: u32,
     /// The smallest quality kept; 0 = off.
     min_quality: u8,
+    /// Any test is on (a return may be refused): [`ReturnFilter::NONE`]'s is not, and costs
+    /// a return one test.
+    active: bool,
 }
 
 impl Default for ReturnFilter {
@@ -94,6 +97,7 @@ impl ReturnFilter {
         min_range_mm: 0,
         max_range_mm: 0,
         min_quality: 0,
+        active: false,
     };
 
     /// A filter of the given sectors (at most [`MAX_SECTORS`]: more gives `None`), a minimum
@@ -118,6 +122,10 @@ impl ReturnFilter {
             min_range_mm,
             max_range_mm,
             min_quality,
+            active: !sectors.is_empty()
+                || min_range_mm != 0
+                || max_range_mm != 0
+                || min_quality != 0,
         })
     }
 
@@ -145,6 +153,14 @@ impl ReturnFilter {
     #[must_use]
     pub const fn min_quality(&self) -> u8 {
         self.min_quality
+    }
+
+    /// Whether any test is on: a return may be refused (false for [`ReturnFilter::NONE`] and
+    /// for a filter of no sector and every bound 0, which passes every return).
+    #[must_use]
+    #[inline]
+    pub const fn active(&self) -> bool {
+        self.active
     }
 
     /// Whether any sector is masked (a SICK line computes its beams' angles only then).

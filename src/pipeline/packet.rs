@@ -51,6 +51,9 @@ impl<const C: usize, const L: usize> Frontend<C, L> {
     /// a no-echo return only by the masks, and a masked one counted as no return.
     #[inline]
     fn passes_filter(&mut self, ret: &LaserReturn) -> bool {
+        if !self.config.filter.active() {
+            return true;
+        }
         if ret.range_mm != 0 {
             if let Some(why) = self
                 .config

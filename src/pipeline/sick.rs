@@ -357,6 +357,9 @@ fn beam_masked(filter: &ReturnFilter, variant: Variant, beam: usize) -> bool {
 /// tests the beam's angle θ, computed only when a sector is masked; a SICK reports no quality.
 #[inline]
 fn refused(filter: &ReturnFilter, variant: Variant, beam: usize, range_mm: u32) -> Option<Refusal> {
+    if !filter.active() {
+        return None;
+    }
     let angle = if filter.masks() {
         variant.beam_angle(beam).unwrap_or(FineAngle::ZERO)
     } else {
