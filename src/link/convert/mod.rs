@@ -27,21 +27,24 @@
 //! [`PARAM_LAYER`]: crate::wire::link::PARAM_LAYER
 
 mod configure;
+mod frontend;
 mod pose;
 mod reply;
+mod rule;
 mod setup;
 #[cfg(test)]
 mod tests;
 
 pub use configure::{config_of, configure_message, configure_of_design, decay_of, design_of};
+pub use frontend::{fine_of_centidegrees, fine_of_degrees, frontend_config, MOUNT_LIMIT_DEG};
 pub use pose::{pose_field_code, pose_flags_refusal, pose_of, stamp_of, PARAM_POSE_FLAGS};
 pub use reply::{
     design_refusal, layer_refusal, param_code, param_of_code, pose_refusal, setup_refusal,
     ReplyReason, ReplyText,
 };
+pub use rule::{navigability_rule, rule_setup, set_rule_message, set_rule_of, RULE_MAX};
 pub use setup::{
-    fine_of_centidegrees, fine_of_degrees, frontend_config, frontend_config_of_event,
-    navigability_rule, rule_setup, set_rule_message, set_rule_of, setup_message,
-    setup_message_with_sensor, setup_with_rig, SetupError, SetupField, MOUNT_LIMIT_DEG, RULE_MAX,
-    SERVO_LIMIT_DEG, SERVO_MAX_LATENCY_MS, SERVO_MAX_RATE_DEG_S, SETUP_BAUD, SETUP_LIMIT_M,
+    frontend_config_of_event, setup_message, setup_message_with_sensor, setup_with_rig, SetupError,
+    SetupField, SERVO_LIMIT_DEG, SERVO_MAX_LATENCY_MS, SERVO_MAX_RATE_DEG_S, SETUP_BAUD,
+    SETUP_LIMIT_M,
 };

@@ -1,0 +1,119 @@
+//! The emulated board of `lab live`: QEMU started with the firmware, its UARTs on sockets,
+//! and the recording's Setup sent over the host link.
+use super::Reaped;
+use std::io::{Read, Write};
+use std::os::unix::net::UnixStream;
+use std::path::Path;
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+use terrain_pyramid::classify::ClassifierConfig;
+use terrain_pyramid::link::convert::setup_message_with_sensor;
+use terrain_pyramid::wire::link::Message;
+use terrain_pyramid_host::emulator::Machine;
+use terrain_pyramid_host::link::{HostLink, LinkEvent};
+use terrain_pyramid_host::play::Steps;
+
+fn connect(path: &Path, child: &mut Child) -> Result<UnixStream, String> {
+    let start = Instant::now();
+    loop {
+        match UnixStream::connect(path) {
+            Ok(s) => return Ok(s),
+            Err(e) => {
+                if let Ok(Some(status)) = child.try_wait() {
+                    return Err(format!("QEMU exited before its UARTs opened ({status})"));
+                }
+                if start.elapsed() > Duration::from_secs(20) {
+                    return Err(format!("cannot connect to {}: {e}", path.display()));
+                }
+                std::thread::sleep(Duration::from_millis(20));
+            }
+        }
+    }
+}
+
+/// QEMU with the firmware, its UARTs on sockets in `dir`.
+pub(super) fn start_qemu(
+    elf: &Path,
+    dir: &Path,
+) -> Result<(Reaped, UnixStream, UnixStream), String> {
+    let machine = Machine::Mps2An386;
+    let (s0, s1) = (dir.join("uart0.sock"), dir.join("uart1.sock"));
+    let log = std::fs::File::create(dir.join("firmware.defmt"))
+        .map_err(|e| format!("cannot create the firmware's log: {e}"))?;
+    let mut child = Command::new("qemu-system-arm")
+        .args([
+            "-machine",
+            machine.qemu_machine(),
+            "-nographic",
+            "-cpu",
+            "cortex-m4",
+        ])
+        .args([
+            "-monitor",
+            "none",
+            "-semihosting-config",
+            "enable=on,target=native",
+        ])
+        .arg("-serial")
+        .arg(format!("unix:{},server=on,wait=on", s0.display()))
+        .arg("-serial")
+        .arg(format!("unix:{},server=on,wait=on", s1.display()))
+        .arg("-kernel")
+        .arg(elf)
+        .stdin(Stdio::null())
+        .stdout(log)
+        .stderr(Stdio::null())
+        .spawn()
+        .map_err(|e| format!("cannot start qemu-system-arm: {e}"))?;
+    let uart0 = connect(&s0, &mut child);
+    let uart1 = connect(&s1, &mut child);
+    let child = Reaped(Some(child));
+    Ok((child, uart0?, uart1?))
+}
+
+/// Sends the recording's Setup over the link and waits for its Reply (and the Hello before).
+pub(super) fn setup_device(uart1: &mut UnixStream, steps: &Steps) -> Result<(), String> {
+    let setup = steps.setup().ok_or("the recording has no setup")?;
+    let message = setup_message_with_sensor(&setup, &steps.sensor, &ClassifierConfig::DEFAULT);
+    let mut host = HostLink::new();
+    let seq = host.next_seq();
+    let frame = host
+        .command(&Message::Setup(message))
+        .map_err(|e| e.to_string())?;
+    uart1
+        .set_read_timeout(Some(Duration::from_millis(50)))
+        .map_err(|e| e.to_string())?;
+    let deadline = Instant::now() + Duration::from_secs(20);
+    let mut sent = false;
+    let mut buf = [0_u8; 4096];
+    while Instant::now() < deadline {
+        if !sent && host.mirror().firmware().is_some() {
+            uart1.write_all(&frame).map_err(|e| e.to_string())?;
+            sent = true;
+        }
+        let n = match uart1.read(&mut buf) {
+            Ok(n) => n,
+            Err(e)
+                if matches!(
+                    e.kind(),
+                    std::io::ErrorKind::WouldBlock | std::io::ErrorKind::TimedOut
+                ) =>
+            {
+                0
+            }
+            Err(e) => return Err(format!("the link: {e}")),
+        };
+        for event in host.feed(buf.get(..n).unwrap_or_default()) {
+            if let LinkEvent::Reply(r) = event {
+                if sent && r.to_seq == seq {
+                    return if r.is_ok() {
+                        Ok(())
+                    } else {
+                        Err(format!("the device refused the Setup: {r:?}"))
+                    };
+                }
+            }
+        }
+    }
+    Err("no Reply to the Setup in 20 s".into())
+}
