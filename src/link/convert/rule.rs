@@ -51,7 +51,7 @@ pub fn set_rule_of(set: &SetRule) -> Result<(Meters, NavigabilityRule), SetupErr
 }
 
 /// The SetRule command that sets a classifier's step threshold and navigability rule (exact,
-/// as [`setup_message`]).
+/// as [`setup_message`](super::setup_message)).
 #[must_use]
 pub fn set_rule_message(classifier: &ClassifierConfig) -> SetRule {
     SetRule {
