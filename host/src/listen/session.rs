@@ -2,7 +2,6 @@
 //! and snapshot request), the receive loop, reconnecting, and what the device's answers tell
 //! the user.
 use super::status::{status_line, Counts, RateMeter, StatusOutput, SyncState};
-use super::summary::{total_errors, Ending};
 use super::timing::Timing;
 use super::transport::{Received, Transport};
 use super::{
@@ -12,9 +11,11 @@ use super::{
 use crate::clock_sync::{Exchange, Outcome, ResetReason};
 use crate::link::{HostLink, LinkEvent};
 use crate::publish::{Outputs, RobotPose};
+use serde::Serialize;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 use terrain_pyramid::link::convert::ReplyText;
+use terrain_pyramid::wire::link::RxCounters;
 use terrain_pyramid::wire::link::{
     HelloReason, Message, MessageType, PoseReport, Reply, ReplyCode, SetRule, Setup, SnapshotScope,
     POSE_STAMPED,
@@ -403,4 +404,33 @@ fn set_rule_answer(reply: &Reply) -> String {
             )
         }
     }
+}
+
+/// Why a session ended.
+#[derive(Serialize, Debug, Clone, Copy, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum Ending {
+    /// Ctrl-C or SIGTERM.
+    Interrupted,
+    /// The device closed the stream (or the port failed).
+    EndOfStream,
+    /// `--duration-s` elapsed.
+    Duration,
+}
+
+/// Every receive error of the link, summed.
+pub(super) fn total_errors(rx: &RxCounters) -> u64 {
+    [
+        rx.cobs,
+        rx.crc,
+        rx.too_short,
+        rx.too_long,
+        rx.unknown_version,
+        rx.unknown_type,
+        rx.bad_body,
+        rx.out_of_range,
+    ]
+    .iter()
+    .map(|&n| u64::from(n))
+    .sum()
 }

@@ -1,28 +1,16 @@
 //! What a finished `pyramid listen` session leaves: why it ended, its summary (what
 //! `summary.json` holds and `--json` prints) and the maps and the summary written out.
-use super::session::Session;
+pub use super::session::Ending;
+use super::session::{total_errors, Session};
+pub use super::timing::{PosesReport, TimeSyncReport};
 use super::{clock_name, Args};
-use crate::clock_sync::ClockCounters;
 use crate::export::{self, MapSnapshot, MapSummary};
 use crate::link::Mirror;
-use crate::pose_input::PoseCounters;
 use crate::publish::OutputsReport;
 use serde::Serialize;
 use std::time::Duration;
-use terrain_pyramid::wire::link::{RxCounters, Stats};
+use terrain_pyramid::wire::link::Stats;
 use terrain_pyramid::LogOddsFixed;
-
-/// Why a session ended.
-#[derive(Serialize, Debug, Clone, Copy, PartialEq, Eq)]
-#[serde(rename_all = "snake_case")]
-pub enum Ending {
-    /// Ctrl-C or SIGTERM.
-    Interrupted,
-    /// The device closed the stream (or the port failed).
-    EndOfStream,
-    /// `--duration-s` elapsed.
-    Duration,
-}
 
 /// The summary of a session: what `summary.json` holds and `--json` prints.
 #[derive(Serialize, Debug, Clone)]
@@ -82,46 +70,6 @@ pub struct Summary {
     pub device_pose_track: Option<DevicePoseTrack>,
 }
 
-/// The clock mapping (host ↔ device, [`ClockSync`](crate::clock_sync::ClockSync)) at the end of a session.
-#[derive(Serialize, Debug, Clone)]
-pub struct TimeSyncReport {
-    /// Whether the mapping was known at the end.
-    pub synced: bool,
-    /// Device µs minus host µs (the host's count starts 10 s before the session) at the
-    /// mapping's anchor; `None` when not synced.
-    pub offset_us: Option<f64>,
-    /// The device's clock rate minus the host's, ppm.
-    pub drift_ppm: Option<f64>,
-    /// The stated bound on the mapping's error at its anchor, µs.
-    pub accuracy_us: Option<f64>,
-    /// The anchor exchange's round trip, µs.
-    pub round_trip_us: Option<u64>,
-    /// TimeRequests sent.
-    pub requests_sent: u64,
-    /// The filter's counters (replies taken, discarded, resets by reason).
-    #[serde(flatten)]
-    pub counters: ClockCounters,
-    /// Every reset, whatever its reason.
-    pub resets: u64,
-    /// Observed frames received.
-    pub observed: u64,
-    /// Observed frames whose time could not be mapped (no mapping yet): the maps were
-    /// stamped with the hand-off's time meanwhile.
-    pub observed_unmapped: u64,
-}
-
-/// The pose inputs of a session.
-#[derive(Serialize, Debug, Clone)]
-pub struct PosesReport {
-    /// The inputs (`ros2 /odom`, `udp 127.0.0.1:7420`).
-    pub sources: Vec<String>,
-    /// The poses' frame (the first named).
-    pub frame: Option<String>,
-    /// What became of the poses, by reason.
-    #[serde(flatten)]
-    pub counters: PoseCounters,
-}
-
 /// The device's own counters of the stamped poses and the time exchange (Stats 30 ..= 35).
 #[derive(Serialize, Debug, Clone, Copy)]
 pub struct DevicePoseTrack {
@@ -161,22 +109,6 @@ pub fn cells_fnv1a64(cells: &[i16]) -> u64 {
         h = h.wrapping_mul(0x0000_0100_0000_01B3);
     }
     h
-}
-
-pub(super) fn total_errors(rx: &RxCounters) -> u64 {
-    [
-        rx.cobs,
-        rx.crc,
-        rx.too_short,
-        rx.too_long,
-        rx.unknown_version,
-        rx.unknown_type,
-        rx.bad_body,
-        rx.out_of_range,
-    ]
-    .iter()
-    .map(|&n| u64::from(n))
-    .sum()
 }
 
 /// The sensor's mark on the picture: the host does not know it, so the finest layer's

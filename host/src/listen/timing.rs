@@ -1,14 +1,15 @@
 //! The clocks and poses of a `pyramid listen` session: the time exchanges with the device,
 //! the clock mapping ([`ClockSync`]), the pose inputs and their `/diagnostics`.
-use super::summary::{PosesReport, TimeSyncReport};
 use super::{
     Args, INPUTS_PER_PASS, INPUT_CHANNEL, MONOTONIC_LEAD, TIME_REQUEST_FAST, TIME_REQUEST_FAST_FOR,
     TIME_REQUEST_SLOW,
 };
-use crate::clock_sync::{ClockSync, ResetReason};
+use crate::clock_sync::{ClockCounters, ClockSync, ResetReason};
+use crate::pose_input::PoseCounters;
 use crate::pose_input::{self, PoseForwarder, Source, SourceEvent, WallAnchor};
 use crate::publish::ros_msgs;
 use crate::publish::RobotPose;
+use serde::Serialize;
 use std::sync::mpsc;
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 use terrain_pyramid::wire::link::TimeRequest;
@@ -248,4 +249,44 @@ pub(super) fn start_pose_inputs(args: &Args) -> Result<Timing, String> {
     }
     timing.inputs = Some(rx);
     Ok(timing)
+}
+
+/// The clock mapping (host ↔ device, [`ClockSync`](crate::clock_sync::ClockSync)) at the end of a session.
+#[derive(Serialize, Debug, Clone)]
+pub struct TimeSyncReport {
+    /// Whether the mapping was known at the end.
+    pub synced: bool,
+    /// Device µs minus host µs (the host's count starts 10 s before the session) at the
+    /// mapping's anchor; `None` when not synced.
+    pub offset_us: Option<f64>,
+    /// The device's clock rate minus the host's, ppm.
+    pub drift_ppm: Option<f64>,
+    /// The stated bound on the mapping's error at its anchor, µs.
+    pub accuracy_us: Option<f64>,
+    /// The anchor exchange's round trip, µs.
+    pub round_trip_us: Option<u64>,
+    /// TimeRequests sent.
+    pub requests_sent: u64,
+    /// The filter's counters (replies taken, discarded, resets by reason).
+    #[serde(flatten)]
+    pub counters: ClockCounters,
+    /// Every reset, whatever its reason.
+    pub resets: u64,
+    /// Observed frames received.
+    pub observed: u64,
+    /// Observed frames whose time could not be mapped (no mapping yet): the maps were
+    /// stamped with the hand-off's time meanwhile.
+    pub observed_unmapped: u64,
+}
+
+/// The pose inputs of a session.
+#[derive(Serialize, Debug, Clone)]
+pub struct PosesReport {
+    /// The inputs (`ros2 /odom`, `udp 127.0.0.1:7420`).
+    pub sources: Vec<String>,
+    /// The poses' frame (the first named).
+    pub frame: Option<String>,
+    /// What became of the poses, by reason.
+    #[serde(flatten)]
+    pub counters: PoseCounters,
 }
