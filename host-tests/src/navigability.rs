@@ -39,8 +39,10 @@ use std::collections::{BTreeMap, BTreeSet};
 use terrain_pyramid::gate::Gates;
 use terrain_pyramid::{CellClass, Config, Design, Evidence, EvidenceClass, Fused, Meters, Pyramid};
 
+pub mod rings;
 mod score;
 
+pub use rings::{far_obstacles, far_obstacles_with, ObstacleKind, RingTally};
 pub use score::{flat_spread, fused_points, fused_tally, layer_tally, step_detection, Tally};
 
 /// What a rule knows about the cell it judges.

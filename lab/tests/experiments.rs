@@ -153,6 +153,14 @@ fn the_papers_claims_hold_under(rule: &str) {
         "LD19 holes {ld19_multi} vs {ld19_fixed}"
     );
 
+    // Far obstacles (`tests/far_obstacles.rs` holds its table): under the key, both rules.
+    assert_eq!(
+        r["far_obstacles"]["rules"].as_array().map(Vec::len),
+        Some(2),
+        "{}",
+        r["far_obstacles"]
+    );
+
     // The files.
     for name in [
         "fig2.png",

@@ -10,6 +10,9 @@
 //! - **Dynamic** ([`dynamic`]): scenes that change (a pedestrian, a door, a car) with and
 //!   without the decay of stale evidence: how long a mover's ghost lasts, which static
 //!   obstacles decay wrongly clears; and the stairs with decay on.
+//! - **Far obstacles** ([`far_obstacles`]): the car's ring laser on the street through the
+//!   library's classifier under both rules: clear ground read navigable and each obstacle
+//!   kind (curb, post, step edge, block) marked, by range ring (0-5 … 15-20 m).
 //!
 //! Writes `DIR/fig2.png`, `DIR/stairs.png`, `DIR/stairs-detection.png`, `DIR/coverage.png`
 //! (and the coverage maps as `pyramid run` writes them), `DIR/report.md` and
@@ -26,6 +29,7 @@ pub mod coverage;
 pub mod designs;
 pub mod dynamic;
 pub mod engine;
+pub mod far_obstacles;
 pub mod lidar;
 pub mod picture;
 pub mod stairs;
@@ -84,6 +88,11 @@ pub struct Args {
     /// that the firmware reaches the host's outcome, without the rest.
     #[arg(long)]
     pub stairs_only: bool,
+    /// The far-obstacles table only (no figure 2, stairs, coverage, cost, dynamic scenes or
+    /// LD19): its table on stdout (stderr with `--json`), `DIR/report.md` and
+    /// `DIR/results.json` holding it alone.
+    #[arg(long, conflicts_with_all = ["stairs_only", "board"])]
+    pub far_obstacles_only: bool,
     /// The navigability rule every map's classifier judges cells by, and its parameters
     /// (`--rule plane`, the default, or `--rule paper`).
     #[command(flatten)]
@@ -120,6 +129,10 @@ pub struct Results {
     /// The LD19 on a nodding servo: stairs and coverage (absent with `--stairs-only`).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub ld19: Option<lidar::Ld19Results>,
+    /// The car laser's far obstacles by range ring, under both library rules (absent with
+    /// `--stairs-only`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub far_obstacles: Option<far_obstacles::FarObstaclesResult>,
     /// Whether `--quick` was given.
     pub quick: bool,
     /// The navigability rule in force and its parameters.
@@ -141,6 +154,44 @@ fn figure2_args() -> DesignArgs {
         gate_width: 0.5,
         uniform_resolution: false,
     }
+}
+
+/// The far-obstacles setup of `args` (`--quick`: fewer places; `--seed`).
+fn far_setup(args: &Args) -> far_obstacles::Setup {
+    if args.quick {
+        far_obstacles::Setup::quick(args.seed)
+    } else {
+        far_obstacles::Setup::full(args.seed)
+    }
+}
+
+/// The far-obstacles `results.json`: the experiment alone.
+#[derive(Debug, Clone, Serialize)]
+pub struct FarOnly {
+    /// As in [`Results::far_obstacles`].
+    pub far_obstacles: far_obstacles::FarObstaclesResult,
+    /// Whether `--quick` was given.
+    pub quick: bool,
+}
+
+/// `--far-obstacles-only`: the experiment alone; writes `report.md` and `results.json`.
+///
+/// # Errors
+/// As [`far_obstacles::run`], or a file that could not be written.
+pub fn run_far_only(args: &Args) -> Result<FarOnly, String> {
+    let out = args.out.as_path();
+    std::fs::create_dir_all(out).map_err(|e| format!("cannot create {}: {e}", out.display()))?;
+    let results = FarOnly {
+        far_obstacles: far_obstacles::run(&far_setup(args))?,
+        quick: args.quick,
+    };
+    let json = serde_json::to_string_pretty(&results).map_err(|e| e.to_string())?;
+    terrain_pyramid_host::export::write_file(&out.join("results.json"), json.as_bytes())?;
+    terrain_pyramid_host::export::write_file(
+        &out.join("report.md"),
+        far_obstacles::table(&results.far_obstacles).as_bytes(),
+    )?;
+    Ok(results)
 }
 
 /// Runs every experiment; writes the files into `out`.
@@ -209,6 +260,11 @@ pub fn run_all(args: &Args) -> Result<Results, String> {
             Some(out),
         )?)
     };
+    let far_obstacles = if args.stairs_only {
+        None
+    } else {
+        Some(far_obstacles::run(&far_setup(args))?)
+    };
     let results = Results {
         stairs,
         stairs_board,
@@ -216,6 +272,7 @@ pub fn run_all(args: &Args) -> Result<Results, String> {
         cost,
         dynamic,
         ld19,
+        far_obstacles,
         quick: args.quick,
         rule: rule::describe(&classifier),
     };
@@ -424,6 +481,10 @@ fn report(r: &Results, design: &terrain_pyramid_host::design::PyramidDesign) -> 
     if let Some(l) = &r.ld19 {
         s.push_str(&lidar::report(l, &r.stairs, r.coverage.as_ref()));
     }
+    if let Some(f) = &r.far_obstacles {
+        s.push('\n');
+        s.push_str(&far_obstacles::table(f));
+    }
     s
 }
 
@@ -507,19 +568,49 @@ fn dynamic_report(s: &mut String, d: &dynamic::DynamicResult) {
 
 /// Runs `lab experiments`.
 pub fn run(args: &Args) -> ExitCode {
+    if args.far_obstacles_only {
+        return finish(args, on_big_stack(args, run_far_only), |r: &FarOnly| {
+            Some(&r.far_obstacles)
+        });
+    }
+    finish(args, on_big_stack(args, run_all), |r: &Results| {
+        r.far_obstacles.as_ref()
+    })
+}
+
+/// Runs `f` on a thread with a large stack.
+fn on_big_stack<T: Send + 'static>(
+    args: &Args,
+    f: fn(&Args) -> Result<T, String>,
+) -> Result<T, String> {
     let a = args.clone();
     let worker = std::thread::Builder::new()
         .name("experiments".into())
         .stack_size(512 << 20)
-        .spawn(move || run_all(&a));
-    let result = match worker {
+        .spawn(move || f(&a));
+    match worker {
         Ok(handle) => handle
             .join()
             .unwrap_or_else(|_| Err("the experiments thread panicked".to_string())),
         Err(e) => Err(format!("cannot start the experiments thread: {e}")),
-    };
+    }
+}
+
+/// Prints the far-obstacles table (stdout, or stderr with `--json`) and the JSON object.
+fn finish<T: Serialize>(
+    args: &Args,
+    result: Result<T, String>,
+    far: impl Fn(&T) -> Option<&far_obstacles::FarObstaclesResult>,
+) -> ExitCode {
     match result {
         Ok(results) => {
+            if let Some(f) = far(&results) {
+                if args.json {
+                    eprintln!("{}", far_obstacles::table(f));
+                } else {
+                    println!("{}", far_obstacles::table(f));
+                }
+            }
             if args.json {
                 match serde_json::to_string(&results) {
                     Ok(json) => println!("{json}"),
