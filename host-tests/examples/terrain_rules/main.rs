@@ -34,7 +34,7 @@ use agreement::part_agreement;
 
 use std::collections::{BTreeMap, BTreeSet};
 use terrain_pyramid::classify::{Classifier, ClassifierConfig, NavigabilityRule};
-use terrain_pyramid::{Design, EvidenceClass, GateShape, Meters, Pyramid, Schedule, SensorModel};
+use terrain_pyramid::{Design, EvidenceClass, Meters, Pyramid, Schedule, SensorModel};
 use terrain_pyramid_host_tests::classify::{classify, RefClassifierConfig, RefPoint, RefRule};
 use terrain_pyramid_host_tests::navigability::{
     self, flat_spread, fused_points, fused_tally, gates, integrate, integrate_library, layer_tally,
@@ -174,23 +174,8 @@ fn judges(sensitivity: bool) -> Vec<Judge> {
 }
 
 fn car_design(sigma: f32) -> Design<L> {
-    Design::new(
-        SensorModel {
-            phi_rad: 0.4_f32.to_radians(),
-            psi_rad: 0.2_f32.to_radians(),
-            sigma_m: sigma,
-            height_m: 1.3,
-            max_range_m: 20.0,
-        },
-        Schedule {
-            base_m: 0.1,
-            gamma: 3.0,
-            gate: GateShape::default(),
-            ..Schedule::default()
-        },
-        128,
-    )
-    .expect("the street design is valid")
+    terrain_pyramid_host_tests::sim::cloud::car_design(sigma, 128)
+        .expect("the street design is valid")
 }
 
 fn car_laser() -> RingLaser {

@@ -188,6 +188,34 @@ pub fn pan_observations(
     out
 }
 
+/// The design of the car laser's street measurements (the laser of [`RingLaser::car`]:
+/// h 1.3 m, φ 0.4°, ψ 0.2°, 20 m; 0.1 m at the base, γ 3, the default gate) with a range
+/// noise of `sigma_m` metres and windows of `cells` per side.
+///
+/// # Errors
+/// The library's refusal of the design.
+pub fn car_design<const L: usize>(
+    sigma_m: f32,
+    cells: usize,
+) -> Result<terrain_pyramid::Design<L>, terrain_pyramid::DesignError> {
+    terrain_pyramid::Design::new(
+        terrain_pyramid::SensorModel {
+            phi_rad: 0.4_f32.to_radians(),
+            psi_rad: 0.2_f32.to_radians(),
+            sigma_m,
+            height_m: 1.3,
+            max_range_m: 20.0,
+        },
+        terrain_pyramid::Schedule {
+            base_m: 0.1,
+            gamma: 3.0,
+            gate: terrain_pyramid::GateShape::default(),
+            ..terrain_pyramid::Schedule::default()
+        },
+        cells,
+    )
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

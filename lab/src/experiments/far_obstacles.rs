@@ -32,14 +32,14 @@ use super::stairs::round3;
 use serde::Serialize;
 use std::fmt::Write as _;
 use terrain_pyramid::classify::{Classifier, ClassifierConfig, NavigabilityRule, PlaneRule};
-use terrain_pyramid::{Design, GateShape, Pyramid, Schedule, SensorModel};
+use terrain_pyramid::{Design, Pyramid};
 use terrain_pyramid_host_tests::navigability::rings::{
     ring_name, Count, ObstacleKind, RingTally, RINGS,
 };
 use terrain_pyramid_host_tests::navigability::{
     self, far_obstacles, fused_points, integrate_library, Tally,
 };
-use terrain_pyramid_host_tests::sim::cloud::{Observation, RingLaser};
+use terrain_pyramid_host_tests::sim::cloud::{car_design, Observation, RingLaser};
 use terrain_pyramid_host_tests::sim::rng::Rng;
 use terrain_pyramid_host_tests::sim::scene::Scene;
 use terrain_pyramid_host_tests::sim::trajectory::Pose;
@@ -184,23 +184,7 @@ pub struct FarObstaclesResult {
 /// # Errors
 /// When the library refuses the design.
 pub fn design(sigma_m: f32) -> Result<Design<L>, String> {
-    Design::new(
-        SensorModel {
-            phi_rad: 0.4_f32.to_radians(),
-            psi_rad: 0.2_f32.to_radians(),
-            sigma_m,
-            height_m: 1.3,
-            max_range_m: 20.0,
-        },
-        Schedule {
-            base_m: 0.1,
-            gamma: 3.0,
-            gate: GateShape::default(),
-            ..Schedule::default()
-        },
-        W,
-    )
-    .map_err(|e| format!("the street design: {e:?}"))
+    car_design(sigma_m, W).map_err(|e| format!("the street design: {e:?}"))
 }
 
 /// One revolution of the car laser from each place of `setup` on `scene`.
