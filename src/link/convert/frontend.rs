@@ -103,18 +103,7 @@ pub fn frontend_config(setup: &Setup) -> Result<FrontendConfig, SetupError> {
         Ok(Meters::saturating_from_num(v))
     };
     let threshold = |field, v: f32| -> Result<Meters, SetupError> {
-        if !v.is_finite() {
-            return Err(SetupError::NotFinite { field });
-        }
-        if !(0.0..SETUP_LIMIT_M).contains(&v) {
-            return Err(SetupError::OutOfRange {
-                field,
-                value: v,
-                min: 0.0,
-                max: SETUP_LIMIT_M,
-            });
-        }
-        Ok(Meters::saturating_from_num(v))
+        super::rule::non_negative_length(field, v).map(Meters::saturating_from_num)
     };
     let position = Point3 {
         x: position(SetupField::SensorX, sx)?,

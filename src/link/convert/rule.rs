@@ -31,19 +31,7 @@ pub fn rule_setup(rule: &NavigabilityRule) -> RuleSetup {
 /// # Errors
 /// The first bad field.
 pub fn set_rule_of(set: &SetRule) -> Result<(Meters, NavigabilityRule), SetupError> {
-    let v = set.step_threshold_m;
-    let field = SetupField::StepThreshold;
-    if !v.is_finite() {
-        return Err(SetupError::NotFinite { field });
-    }
-    if !(0.0..SETUP_LIMIT_M).contains(&v) {
-        return Err(SetupError::OutOfRange {
-            field,
-            value: v,
-            min: 0.0,
-            max: SETUP_LIMIT_M,
-        });
-    }
+    let v = non_negative_length(SetupField::StepThreshold, set.step_threshold_m)?;
     Ok((
         Meters::saturating_from_num(v),
         navigability_rule(&set.rule)?,
@@ -76,20 +64,7 @@ pub fn navigability_rule(block: &RuleSetup) -> Result<NavigabilityRule, SetupErr
     match block.rule {
         0 => Ok(NavigabilityRule::Spread),
         1 if cfg!(feature = "plane-rule") => {
-            let value = |field, v: f32| -> Result<f32, SetupError> {
-                if !v.is_finite() {
-                    return Err(SetupError::NotFinite { field });
-                }
-                if !(0.0..SETUP_LIMIT_M).contains(&v) {
-                    return Err(SetupError::OutOfRange {
-                        field,
-                        value: v,
-                        min: 0.0,
-                        max: SETUP_LIMIT_M,
-                    });
-                }
-                Ok(v)
-            };
+            let value = non_negative_length;
             let max_grade = value(SetupField::MaxGrade, block.max_grade)?;
             let residual = value(SetupField::Residual, block.residual_m)?;
             let range_sigma = value(SetupField::RangeSigma, block.range_sigma_m)?;
@@ -110,4 +85,21 @@ pub fn navigability_rule(block: &RuleSetup) -> Result<NavigabilityRule, SetupErr
             max: f32::from(RULE_MAX),
         }),
     }
+}
+
+/// `v` when finite and within `0 ..` [`SETUP_LIMIT_M`] (a threshold or a noise of the Setup);
+/// else the error naming `field`.
+pub(super) fn non_negative_length(field: SetupField, v: f32) -> Result<f32, SetupError> {
+    if !v.is_finite() {
+        return Err(SetupError::NotFinite { field });
+    }
+    if !(0.0..SETUP_LIMIT_M).contains(&v) {
+        return Err(SetupError::OutOfRange {
+            field,
+            value: v,
+            min: 0.0,
+            max: SETUP_LIMIT_M,
+        });
+    }
+    Ok(v)
 }
