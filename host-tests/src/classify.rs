@@ -13,7 +13,9 @@
 //!   (`D = √12·s`, s their standard deviation along the gradient) by more than
 //!   `step + D·tan(max_slope) + a·√(12/n)`; `a = k·σ_z`, `σ_z = √((σ·h/r)² + (σ_a·r)²)`,
 //!   `r = √(h² + d²)`, h the sensor's height above the ground plane, d the cell's closest look,
-//!   n the points.
+//!   n the points; or when the lowest and the highest point (the first of each in arrival
+//!   order) stand apart by more than the plane explains, `spread − max(0, w·(p_high − p_low))
+//!   > step + 2·k·σ·h/r` (the extremes test).
 //!
 //! A record's distance is the smallest horizontal distance among the cell's points.
 
@@ -116,7 +118,8 @@ pub struct RefRecord {
     pub rise_ratio: f64,
 }
 
-/// The plane rule's two test ratios (residual, rise) for `zs` at `xys`, see [`RefRecord`].
+/// The plane rule's three test ratios (residual, rise, extremes) for `zs` at `xys`, see
+/// [`RefRecord`]; `extremes_allowance` is `step + 2·k·σ·h/r`.
 #[allow(clippy::too_many_arguments, clippy::many_single_char_names)]
 fn plane_ratios(
     xys: &[(f64, f64)],
@@ -126,11 +129,12 @@ fn plane_ratios(
     max_grade: f64,
     residual: f64,
     noise: f64,
-) -> (f64, f64) {
+    extremes_allowance: f64,
+) -> (f64, f64, f64) {
     #[allow(clippy::cast_precision_loss)]
     let n = zs.len() as f64;
     if zs.len() < 2 {
-        return (0.0, 0.0);
+        return (0.0, 0.0, 0.0);
     }
     let mean = |f: &dyn Fn(usize) -> f64| (0..zs.len()).map(f).sum::<f64>() / n;
     let (mx, my, mz) = (mean(&|i| xys[i].0), mean(&|i| xys[i].1), mean(&|i| zs[i]));
@@ -156,7 +160,20 @@ fn plane_ratios(
     } else {
         0.0
     };
-    (residual_ratio, rise_ratio)
+    // The extremes: the first lowest and the first highest point in arrival order.
+    let first_by = |better: &dyn Fn(f64, f64) -> bool| {
+        (1..zs.len()).fold(0, |best, i| if better(zs[i], zs[best]) { i } else { best })
+    };
+    let (low, high) = (first_by(&|a, b| a < b), first_by(&|a, b| a > b));
+    let spread = zs[high] - zs[low];
+    let explained_rise =
+        (wx * (xys[high].0 - xys[low].0) + wy * (xys[high].1 - xys[low].1)).max(0.0);
+    let extremes_ratio = if spread > step {
+        (spread - explained_rise) / extremes_allowance.max(1e-300)
+    } else {
+        0.0
+    };
+    (residual_ratio, rise_ratio, extremes_ratio)
 }
 
 /// Classifies one observation.
@@ -244,7 +261,9 @@ pub fn classify(
                         range_sigma
                     };
                     let sigma_z = from_range.hypot(angle_sigma * r);
-                    let (rr, qr) = plane_ratios(
+                    let extremes_allowance =
+                        config.step_threshold + 2.0 * noise_factor * from_range;
+                    let (rr, qr, er) = plane_ratios(
                         &xys,
                         &zs,
                         resolutions[layer],
@@ -252,8 +271,9 @@ pub fn classify(
                         max_grade,
                         residual,
                         noise_factor * sigma_z,
+                        extremes_allowance,
                     );
-                    (rr, qr, rr > 1.0 || qr > 1.0)
+                    (rr, qr, rr > 1.0 || qr > 1.0 || er > 1.0)
                 }
             };
             let record = RefRecord {

@@ -111,6 +111,10 @@ pub enum Rule {
         backstop: bool,
         /// An angular noise σ_a (degrees) added to σ_z ([`CellView::sigma_z_angular`]).
         angle_sigma_deg: f64,
+        /// Also the extremes test: an obstacle when the lowest and highest points stand
+        /// apart by more than the plane explains, `spread − max(0, w·(p_high − p_low)) >
+        /// step + 2·k·σ_z(σ)` (the range noise alone).
+        extremes: bool,
     },
     /// (c) The largest jump between consecutive close points.
     Jump {
@@ -162,6 +166,8 @@ pub struct PlaneFit {
     pub residual_rms_m: f64,
     /// The points' extent along the gradient, `√12·s`, metres.
     pub extent_m: f64,
+    /// The gradient (rise per metre along x, along y).
+    pub w: (f64, f64),
 }
 
 /// The ridge of the plane fit, as a fraction of the cell's side: `λ = (ridge·c)²` is added to
@@ -196,6 +202,7 @@ pub fn fit_plane(points: &[RefPoint], view: &CellView) -> PlaneFit {
             gradient: 0.0,
             residual_rms_m: 0.0,
             extent_m: 0.0,
+            w: (0.0, 0.0),
         };
     }
     let (mx, my, mz) = (sx / nf, sy / nf, sz / nf);
@@ -229,6 +236,27 @@ pub fn fit_plane(points: &[RefPoint], view: &CellView) -> PlaneFit {
         gradient,
         residual_rms_m: res.max(0.0).sqrt(),
         extent_m: extent,
+        w: (a, b),
+    }
+}
+
+/// The extremes test's unexplained spread of `points` under the plane gradient `w`: the
+/// first lowest and the first highest point in arrival order, `spread − max(0, w·(p_high −
+/// p_low))`; 0 without points.
+#[must_use]
+pub fn unexplained_spread(points: &[RefPoint], w: (f64, f64)) -> f64 {
+    let first_by = |better: &dyn Fn(f64, f64) -> bool| {
+        points.iter().fold(None::<&RefPoint>, |best, p| match best {
+            Some(b) if !better(p.z, b.z) => Some(b),
+            _ => Some(p),
+        })
+    };
+    match (first_by(&|a, b| a < b), first_by(&|a, b| a > b)) {
+        (Some(low), Some(high)) => {
+            let explained = (w.0 * (high.x - low.x) + w.1 * (high.y - low.y)).max(0.0);
+            high.z - low.z - explained
+        }
+        _ => 0.0,
     }
 }
 
@@ -271,10 +299,12 @@ impl Rule {
                 rise_over_cell,
                 backstop,
                 angle_sigma_deg,
+                extremes,
             } => format!(
-                "(b) plane{}{}, step {:.0} cm, {max_slope_deg:.0}°, res {:.1} cm, {k}·σ_z(σ {:.0} cm{})",
+                "(b) plane{}{}{}, step {:.0} cm, {max_slope_deg:.0}°, res {:.1} cm, {k}·σ_z(σ {:.0} cm{})",
                 if rise_over_cell { " c" } else { "" },
                 if backstop { "|(d)" } else { "" },
+                if extremes { "+extremes" } else { "" },
                 step_m * 100.0,
                 residual_m * 100.0,
                 sigma_m * 100.0,
@@ -347,8 +377,14 @@ impl Rule {
                 rise_over_cell,
                 backstop,
                 angle_sigma_deg,
+                extremes,
             } => {
                 let fit = fit_plane(points, view);
+                if extremes
+                    && unexplained_spread(points, fit.w) > step_m + 2.0 * k * view.sigma_z(sigma_m)
+                {
+                    return true;
+                }
                 let noise = k * view.sigma_z_angular(sigma_m, angle_sigma_deg.to_radians());
                 let tan = max_slope_deg.to_radians().tan();
                 #[allow(clippy::cast_precision_loss)]

@@ -31,11 +31,11 @@
 //!   ([`Classifier::add_missing_ground`]); the caller decides when a beam qualifies.
 //!
 //! # Bounded scratch
-//! The touched cells live in an open-addressing table of `C` slots (a power of two, 48 bytes
-//! each: 16 for the key, the closest look and the lowest and highest z, 32 for the plane rule's
-//! sums; 16 bytes in a build without the `plane-rule` feature, which has no sums). A point that finds the table full is dropped and
+//! The touched cells live in an open-addressing table of `C` slots (a power of two, 52 bytes
+//! each: 16 for the key, the closest look and the lowest and highest z, 36 for the plane rule's
+//! sums and where the lowest and highest points lie; 16 bytes in a build without the `plane-rule` feature, which has no sums). A point that finds the table full is dropped and
 //! counted in [`ClassifierStats::overflow_points`]; nothing panics. One 361-beam line touches
-//! at most 361 cells per layer it feeds (2 to 4 with the default soft gate); 1024 slots (48 KiB)
+//! at most 361 cells per layer it feeds (2 to 4 with the default soft gate); 1024 slots (52 KiB)
 //! hold a line with room to spare, a whole 3-D sweep needs a window's worth.
 //!
 //! # The incremental rule
@@ -721,6 +721,7 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
                                 )),
                                 distance,
                             },
+                            spread,
                         ),
                         _ => spread > i32::from(self.step_mm),
                     };

@@ -6,8 +6,11 @@
 //!   cut over the step threshold. State: the lowest and highest z (kept by every slot).
 //! - [`NavigabilityRule::Plane`], the default (with the `plane-rule` feature): a least-squares plane per cell from running sums
 //!   of the points below the overhang cut. Not navigable when the points stray from their
-//!   plane by more than a residual allowance, or when the plane rises across the points'
-//!   extent by more than the largest traversable slope and a step allow. The allowances grow
+//!   plane by more than a residual allowance, when the plane rises across the points'
+//!   extent by more than the largest traversable slope and a step allow, or when the cell's
+//!   lowest and highest points stand apart by more than the plane explains between them and
+//!   a step allows (the extremes test: a kerb or a step inside a coarse cell, which the plane
+//!   takes for a slope). The allowances grow
 //!   with the sensor's height noise at the cell's distance,
 //!   `σ_z(d) = √((σ·h/r)² + (σ_a·r)²)`, `r = √(h² + d²)`: the range noise σ along the beam and
 //!   the beam's elevation error σ_a, each seen in the vertical.
@@ -17,7 +20,7 @@
 //! rule is the spread rule, and the classifier applies the spread rule whatever its
 //! configuration asks ([`NavigabilityRule::is_built_in`]; the link refuses the plane rule).
 //!
-//! # Fixed point (`PlaneState`, 32 bytes a slot)
+//! # Fixed point (`PlaneState`, 36 bytes a slot)
 //! Per point: its position in the cell as two 6-bit coordinates `u, v ∈ −32 ..= 31` (units of
 //! the cell's side / 64, from the cell's centre: `⌊64·(x − x_cell)/c⌋ − 32`, by a multiplication
 //! with the layer's cached reciprocal), its height `z − z₀` in millimetres relative to the
@@ -37,7 +40,10 @@
 //! it), the residual
 //! `r² = C_zz − 2wᵀc + wᵀCw`, the plane's rise over the points' extent `R = √(12·wᵀCw)` and its
 //! gradient `g = |w|`; σ_z from the sensor's height above the robot's ground plane and the
-//! cell's closest look (the lower edge of its gate bin).
+//! cell's closest look (the lower edge of its gate bin). The extremes test reads the spread
+//! (from the slot's lowest and highest z) and the positions `(u, v)` of those two points,
+//! which the slot keeps as they change (4 bytes): `spread − max(0, w·Δ) > step + 2·k·σ·h/r`
+//! with `Δ` from the lowest to the highest (mm Q16, in 128 bits).
 
 use crate::units::Meters;
 use fixed::types::I16F16;
@@ -175,7 +181,8 @@ const MAX_LEVEL: u8 = 15;
 const DZ_BITS: u32 = 14;
 
 #[cfg(feature = "plane-rule")]
-/// The plane rule's running sums of one slot. 32 bytes.
+/// The plane rule's running sums of one slot, and where in the cell its lowest and highest
+/// points lie. 36 bytes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(super) struct PlaneState {
     sz: i32,
@@ -197,6 +204,11 @@ pub(super) struct PlaneState {
     n: u8,
     /// Halvings so far: every 2^level-th offered point is summed.
     level: u8,
+    /// The position `(u, v)` of the slot's lowest point (the spread's foot): set by the
+    /// classifier as the lowest changes ([`PlaneState::set_low_at`]).
+    low_at: (i8, i8),
+    /// The position of the slot's highest point below the overhang cut (the spread's top).
+    high_at: (i8, i8),
 }
 
 #[cfg(feature = "plane-rule")]
@@ -214,14 +226,40 @@ impl PlaneState {
         suv: 0,
         n: 0,
         level: 0,
+        low_at: (0, 0),
+        high_at: (0, 0),
     };
 
-    /// Sums of the one point `(u, v, z)`.
+    /// Sums of the one point `(u, v, z)`, the lowest and the highest.
     pub(super) fn first(u: i8, v: i8, z: i16) -> Self {
         let mut s = Self::EMPTY;
         s.z0 = z;
+        s.low_at = (u, v);
+        s.high_at = (u, v);
         s.add_next(u, v, z);
         s
+    }
+
+    /// The slot's lowest point is now at `at`.
+    #[inline(always)]
+    pub(super) fn set_low_at(&mut self, at: (i8, i8)) {
+        self.low_at = at;
+    }
+
+    /// The slot's highest point below the cut is now at `at`.
+    #[inline(always)]
+    pub(super) fn set_high_at(&mut self, at: (i8, i8)) {
+        self.high_at = at;
+    }
+
+    /// Where the slot's lowest point lies.
+    pub(super) const fn low_at(&self) -> (i8, i8) {
+        self.low_at
+    }
+
+    /// Where the slot's highest point below the cut lies.
+    pub(super) const fn high_at(&self) -> (i8, i8) {
+        self.high_at
     }
 
     /// [`PlaneState::add_next`] to any sums, empty ones too: the first point summed sets z₀
@@ -492,6 +530,20 @@ mod absent {
         /// Offers a point below the overhang cut: nothing is kept.
         #[allow(clippy::unused_self)]
         pub(in crate::classify) fn add_next(&mut self, _u: i8, _v: i8, _z: i16) {}
+
+        /// Where the lowest point lies: not kept.
+        #[allow(clippy::unused_self)]
+        pub(in crate::classify) fn set_low_at(&mut self, _at: (i8, i8)) {}
+
+        /// Where the highest point lies: not kept.
+        #[allow(clippy::unused_self)]
+        pub(in crate::classify) fn set_high_at(&mut self, _at: (i8, i8)) {}
+
+        /// Where the lowest point lies: nowhere kept.
+        #[allow(clippy::unused_self)]
+        pub(in crate::classify) const fn low_at(&self) -> (i8, i8) {
+            (0, 0)
+        }
     }
 
     /// The plane rule's parameters, in a build without the rule: uninhabited.
@@ -510,6 +562,7 @@ mod absent {
         _state: &PlaneState,
         params: &PlaneParams,
         _geometry: &CellGeometry,
+        _spread_mm: i32,
     ) -> bool {
         match *params {}
     }

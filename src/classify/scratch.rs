@@ -50,7 +50,7 @@ impl Recent {
 /// a fresh classifier) is all zero bits.
 pub(super) const EMPTY: u8 = 0;
 
-/// One touched layer cell of the current observation. 48 bytes (16 without the `plane-rule`
+/// One touched layer cell of the current observation. 52 bytes (16 without the `plane-rule`
 /// feature).
 #[derive(Debug, Clone, Copy)]
 pub(super) struct Slot {
@@ -188,11 +188,15 @@ pub(super) fn fold(
             }
         } else if plane {
             slot.plane.add_next(sub.0, sub.1, z16);
+            slot.plane.set_low_at(sub);
         }
         slot.z_low = z16;
     } else if z <= i32::from(slot.z_low) + robot_height_mm {
         if z > i32::from(slot.z_high) {
             slot.z_high = z16;
+            if plane {
+                slot.plane.set_high_at(sub);
+            }
         }
         if plane {
             slot.plane.add_next(sub.0, sub.1, z16);
@@ -202,12 +206,16 @@ pub(super) fn fold(
 
 /// The summed points of `slot` lie above the cut of a new lowest point `z` (at `sub`): its
 /// sums restart from this point and, when `low_stays` (still below the cut), the previous
-/// lowest (where this point is: its position was not kept). Out of line: rare.
+/// lowest, at its own position, which becomes the highest (as the caller sets `z_high`).
+/// Out of line: rare.
 #[cold]
 #[inline(never)]
 pub(super) fn restart_sums(slot: &mut Slot, sub: (i8, i8), z: i16, low_stays: bool) {
+    let previous_low_at = slot.plane.low_at();
     slot.plane = PlaneState::first(sub.0, sub.1, z);
     if low_stays {
-        slot.plane.add_next(sub.0, sub.1, slot.z_low);
+        slot.plane
+            .add_next(previous_low_at.0, previous_low_at.1, slot.z_low);
+        slot.plane.set_high_at(previous_low_at);
     }
 }

@@ -137,9 +137,9 @@ fn add_point_squared_is_add_point_with_the_floored_root() {
 
 #[test]
 #[cfg(feature = "plane-rule")]
-fn a_slot_is_48_bytes() {
-    assert_eq!(core::mem::size_of::<PlaneState>(), 32);
-    assert_eq!(core::mem::size_of::<Slot>(), 48);
+fn a_slot_is_52_bytes() {
+    assert_eq!(core::mem::size_of::<PlaneState>(), 36);
+    assert_eq!(core::mem::size_of::<Slot>(), 52);
 }
 
 #[test]

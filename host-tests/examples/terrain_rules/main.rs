@@ -87,6 +87,7 @@ fn plane(max_slope_deg: f64, residual_m: f64, sigma_m: f64, k: f64) -> Rule {
         rise_over_cell: false,
         backstop: false,
         angle_sigma_deg: 0.075,
+        extremes: true,
     }
 }
 
@@ -101,6 +102,7 @@ fn plane_angular(angle_sigma_deg: f64) -> Rule {
             k,
             rise_over_cell,
             backstop,
+            extremes,
             ..
         } => Rule::Plane {
             step_m,
@@ -111,6 +113,7 @@ fn plane_angular(angle_sigma_deg: f64) -> Rule {
             rise_over_cell,
             backstop,
             angle_sigma_deg,
+            extremes,
         },
         other => other,
     }
@@ -163,6 +166,7 @@ fn judges(sensitivity: bool) -> Vec<Judge> {
             rise_over_cell: true,
             backstop: false,
             angle_sigma_deg: 0.075,
+            extremes: true,
         }));
         for a in [0.0, 0.05, 0.09, 0.1] {
             v.push(Judge::F64(plane_angular(a)));

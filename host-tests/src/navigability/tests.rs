@@ -72,6 +72,7 @@ fn the_rules_by_hand() {
         rise_over_cell: true,
         backstop: false,
         angle_sigma_deg: 0.0,
+        extremes: true,
     };
     assert!(!plane.obstacle(&slope, &v));
     let jump = Rule::Jump {

@@ -245,14 +245,54 @@ pub(super) fn not_steeper(wa: i128, wb: i128, tan_c: i128) -> bool {
     }
 }
 
+/// The allowance of the extremes test, `step + 2·k·σ·h/r` (mm Q16): the step plus the range
+/// noise of two returns seen in the vertical, `r = √(h² + d²)` (σ itself at r = 0);
+/// saturating.
+pub(super) fn extremes_allowance_q16(params: &PlaneParams, geometry: &CellGeometry) -> i128 {
+    let h = i128::from(geometry.sensor_height_mm.max(0));
+    let d = (i128::from(geometry.distance.to_bits()).max(0) * 1000) >> 16;
+    #[allow(clippy::cast_sign_loss, clippy::cast_possible_wrap)]
+    let r = isqrt((h * h + d * d) as u128) as i128;
+    let sigma = i128::from(params.sigma_q16);
+    let range = if r == 0 { sigma } else { sigma * h / r };
+    let noise = (range.saturating_mul(i128::from(params.factor_q16)) >> 16).saturating_mul(2);
+    i128::from(params.step_q16).saturating_add(noise)
+}
+
+/// The extremes test: whether the cell's lowest and highest points (spread `spread_mm`, the
+/// highest at `Δ = (du, dv)` units from the lowest) stand apart by more than the plane
+/// `w = (wa, wb)` (mm per unit, Q16) explains and the allowance: `spread − max(0, w·Δ) >
+/// step + 2·k·σ·h/r` (a step, a kerb, a pole's foot that the plane took for a slope). The
+/// unexplained part is at most the spread, so a spread within the step never passes.
+pub(super) fn extremes_obstacle(
+    wa: i128,
+    wb: i128,
+    delta: (i8, i8),
+    spread_mm: i32,
+    params: &PlaneParams,
+    geometry: &CellGeometry,
+) -> bool {
+    let spread = i128::from(spread_mm) << 16;
+    if spread <= i128::from(params.step_q16) {
+        return false;
+    }
+    let explained = (wa * i128::from(delta.0) + wb * i128::from(delta.1)).max(0);
+    let unexplained = spread - explained;
+    unexplained > i128::from(params.step_q16)
+        && unexplained > extremes_allowance_q16(params, geometry)
+}
+
 /// Whether the plane rule calls the cell of `state` not navigable: two to four 64-bit
 /// divisions (the plane), up to two integer square roots (the gradient, the rise), and the
 /// noise (one division, two roots) only for a cell whose residual exceeds the allowance
-/// without noise or that is steeper than the largest slope.
+/// without noise or that is steeper than the largest slope; the extremes test
+/// ([`extremes_obstacle`]) for a cell whose spread `spread_mm` (highest − lowest below the
+/// cut, mm) exceeds the step.
 pub(in crate::classify) fn plane_obstacle(
     state: &PlaneState,
     params: &PlaneParams,
     geometry: &CellGeometry,
+    spread_mm: i32,
 ) -> bool {
     if state.n < 2 {
         return false;
@@ -285,6 +325,11 @@ pub(in crate::classify) fn plane_obstacle(
         i128::from(product(a, cvz) - product(cuv, cuz)),
         i128::from(det),
     );
+    let (low, high) = (state.low_at(), state.high_at());
+    let delta = (high.0.wrapping_sub(low.0), high.1.wrapping_sub(low.1));
+    if extremes_obstacle(wa, wb, delta, spread_mm, params, geometry) {
+        return true;
+    }
     // wᵀCw and the residual, times n² (Q32 mm²).
     let (explained, residual) = match residual_narrow(wa, wb, &m) {
         Some((explained, residual)) => (i128::from(explained), i128::from(residual)),

@@ -48,16 +48,16 @@ fn a_slope_below_the_limit_is_navigable_and_a_step_is_not() {
     let p = params(0.0);
     // 10°: 2.76 mm per unit.
     let slope = lattice(|u, v| (f64::from(u + v) * 15.625 * 0.176).round() as i32);
-    assert!(!plane_obstacle(&slope, &p, &g));
+    assert!(!plane_obstacle(&slope, &p, &g, 0));
     // 30°: steeper than 20°, rising 0.58 m across the cell.
     let steep = lattice(|u, _| (f64::from(u) * 15.625 * 0.577).round() as i32);
-    assert!(plane_obstacle(&steep, &p, &g));
+    assert!(plane_obstacle(&steep, &p, &g, 0));
     // A 10 cm step across the middle: RMS 2.4 cm about the best plane.
     let step = lattice(|u, _| if u > 0 { 100 } else { 0 });
-    assert!(plane_obstacle(&step, &p, &g));
+    assert!(plane_obstacle(&step, &p, &g, 0));
     // 1 cm of texture: within the residual allowance.
     let texture = lattice(|u, v| if (u + v) % 20 == 0 { 10 } else { -10 });
-    assert!(!plane_obstacle(&texture, &p, &g));
+    assert!(!plane_obstacle(&texture, &p, &g, 0));
 }
 
 #[test]
@@ -65,24 +65,24 @@ fn noise_widens_the_allowance() {
     let g = geometry(1.0);
     // ±25 mm of alternating "noise": RMS 25 mm, over 1.5 cm.
     let noisy = lattice(|u, v| if (u / 10 + v / 10) % 2 == 0 { 25 } else { -25 });
-    assert!(plane_obstacle(&noisy, &params(0.0), &g));
+    assert!(plane_obstacle(&noisy, &params(0.0), &g, 0));
     // σ = 2 cm at 5 m from a sensor 1 m up: σ_z = 3.9 mm; k = 2 → √(15² + 7.8²) = 17 mm.
-    assert!(plane_obstacle(&noisy, &params(0.02), &g));
+    assert!(plane_obstacle(&noisy, &params(0.02), &g, 0));
     // σ = 10 cm: σ_z = 19.6 mm, allowance √(15² + 39²) = 42 mm.
-    assert!(!plane_obstacle(&noisy, &params(0.10), &g));
+    assert!(!plane_obstacle(&noisy, &params(0.10), &g, 0));
 }
 
 #[test]
 fn a_single_point_or_a_vertical_line_of_points() {
     let g = geometry(0.1);
     let p = params(0.0);
-    assert!(!plane_obstacle(&PlaneState::first(3, 4, 100), &p, &g));
+    assert!(!plane_obstacle(&PlaneState::first(3, 4, 100), &p, &g, 0));
     // A post: points at one (u, v), 0 … 300 mm: no slope fits, the residual is the spread.
     let mut post = PlaneState::EMPTY;
     for z in 0..30 {
         post.add(5, 5, z * 10);
     }
-    assert!(plane_obstacle(&post, &p, &g));
+    assert!(plane_obstacle(&post, &p, &g, 0));
 }
 
 #[test]
@@ -119,8 +119,8 @@ fn halving_keeps_the_sums_within_their_widths_and_the_decision() {
         step.add(u, v, if u > 0 { 8191 } else { -8192 });
     }
     assert!(flat.count() < HALVE_AT && flat.level > 5);
-    assert!(!plane_obstacle(&flat, &p, &g));
-    assert!(plane_obstacle(&step, &p, &g));
+    assert!(!plane_obstacle(&flat, &p, &g, 0));
+    assert!(plane_obstacle(&step, &p, &g, 0));
     assert!(step.szz <= 62 * 8192 * 8192);
 }
 
@@ -166,7 +166,7 @@ fn the_quick_bound_is_the_default_and_never_hides_an_obstacle() {
             };
             s.add(u, v, z);
         }
-        assert!(!plane_obstacle(&s, &p, &g));
+        assert!(!plane_obstacle(&s, &p, &g, 0));
     }
 }
 
@@ -258,7 +258,7 @@ fn the_decision_in_64_bits_first_is_the_128_bit_one() {
             sensor_height_mm: (next() % 2000) as i32,
             distance: Meters::from_bits((next() % (30 << 16)) as i32),
         };
-        let got = plane_obstacle(&s, &params, &geometry);
+        let got = plane_obstacle(&s, &params, &geometry, 0);
         assert_eq!(got, plane_obstacle_128(&s, &params, &geometry), "run {run}");
         obstacles += usize::from(got);
     }
@@ -703,4 +703,78 @@ fn sub_cell_positions_cover_the_cell() {
         let got = sub_cell(rem as u32, m);
         assert!(got == exact || got == exact - 1, "{rem}: {got} {exact}");
     }
+}
+
+/// A far cell crossed by one line of returns: `z(u)` mm at u = −30, −25, …, 30 (v = 0), the
+/// lowest at `low` and the highest at `high`.
+fn far_line(z: impl Fn(i32) -> i16, low: (i8, i8), high: (i8, i8)) -> (PlaneState, i32) {
+    let mut s = PlaneState::EMPTY;
+    let (mut lo, mut hi) = (i16::MAX, i16::MIN);
+    for u in (-30..=30).step_by(5) {
+        let h = z(u);
+        s.add(i8::try_from(u).unwrap(), 0, h);
+        lo = lo.min(h);
+        hi = hi.max(h);
+    }
+    s.set_low_at(low);
+    s.set_high_at(high);
+    (s, i32::from(hi) - i32::from(lo))
+}
+
+#[test]
+fn extremes_next_to_each_other_across_a_step_are_an_obstacle_and_on_a_slope_are_not() {
+    // A 0.6 m cell 15 m away (the street design's far layers), the default rule: the residual
+    // and rise tests take a 12 cm curb across the cell for a slope of 0.3.
+    let p = PlaneParams::new(&PlaneRule::DEFAULT, Meters::from_num(0.05));
+    let g = CellGeometry {
+        cell: Meters::from_num(0.6).to_bits(),
+        sensor_height_mm: 1300,
+        distance: Meters::from_num(15),
+    };
+    let curb = |u: i32| if u >= 5 { 120 } else { 0 };
+    // The lowest just before the kerb's face, the highest just after it.
+    let (s, spread) = far_line(curb, (0, 0), (5, 0));
+    assert_eq!(spread, 120);
+    assert!(!plane_obstacle(&s, &p, &g, 0), "the plane alone misses it");
+    assert!(plane_obstacle(&s, &p, &g, spread), "the extremes find it");
+    // The same curb with its extremes at the line's ends: the plane explains them.
+    let (s, spread) = far_line(curb, (-30, 0), (30, 0));
+    assert!(!plane_obstacle(&s, &p, &g, spread));
+    // A slope rising 120 mm across the line (0.33 per metre, within 20°): navigable wherever
+    // its extremes lie, as the plane explains the rise between them.
+    let slope = |u: i32| i16::try_from(2 * (u + 30)).unwrap();
+    let (s, spread) = far_line(slope, (-30, 0), (30, 0));
+    assert_eq!(spread, 120);
+    assert!(!plane_obstacle(&s, &p, &g, spread));
+    // A spread within the step is never an obstacle by the extremes.
+    let low_curb = |u: i32| if u >= 5 { 50 } else { 0 };
+    let (s, spread) = far_line(low_curb, (0, 0), (5, 0));
+    assert!(!plane_obstacle(&s, &p, &g, spread));
+}
+
+#[test]
+fn the_extremes_allowance_is_the_step_and_twice_the_range_noise() {
+    let p = PlaneParams::new(&PlaneRule::DEFAULT, Meters::from_num(0.05));
+    let at = |d: i32, h: i32| {
+        extremes_allowance_q16(
+            &p,
+            &CellGeometry {
+                cell: Meters::from_num(0.1).to_bits(),
+                sensor_height_mm: h,
+                distance: Meters::from_num(d),
+            },
+        ) as f64
+            / 65_536.0
+    };
+    // 50 mm + 2·2·20 mm·h/r: at d = 0, 130 mm; at 15 m from 1.3 m, 50 + 80·1.3/15.06 mm (the
+    // parameters in Q16.16 metres: within 0.05 mm).
+    assert!((at(0, 1300) - 130.0).abs() < 0.05, "{}", at(0, 1300));
+    let far = 50.0 + 80.0 * 1.3 / 1.3f64.hypot(15.0);
+    assert!(
+        (at(15, 1300) - far).abs() < 0.05,
+        "{} against {far}",
+        at(15, 1300)
+    );
+    // No sensor height (a sensor on the ground): σ itself at r = 0 only.
+    assert!((at(5, 0) - 50.0).abs() < 0.05);
 }
