@@ -17,11 +17,10 @@ use std::net::{TcpListener, UdpSocket};
 use std::process::{Command, Stdio};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
-use support::{design, PATIENCE};
+use support::{booted, PATIENCE};
 use terrain_pyramid::geometry::PoseTrack;
-use terrain_pyramid::link::{Command as DeviceCommand, Link, LinkConfig, SensorCounters};
+use terrain_pyramid::link::{Command as DeviceCommand, SensorCounters};
 use terrain_pyramid::wire::FeedResult;
-use terrain_pyramid::{Config, DefaultPyramid};
 
 /// The device's clock: `start + elapsed × (1 + PPM / 10⁶)` µs, wrapping.
 const PPM: i128 = 100;
@@ -81,13 +80,7 @@ fn serve(
         .set_read_timeout(Some(Duration::from_millis(1)))
         .unwrap();
     stream.set_nodelay(true).unwrap();
-    let mut pyramid = Box::new(DefaultPyramid::new());
-    let mut link: Box<Link> = Box::new(Link::new(LinkConfig {
-        stats_interval_ms: 200,
-        ..LinkConfig::DEFAULT
-    }));
-    pyramid.configure(&design(), &Config::default()).unwrap();
-    link.adopt(&design());
+    let (mut pyramid, mut link) = booted();
     let mut out = vec![0_u8; 4096];
     let mut rx = vec![0_u8; 4096];
     let start = Instant::now();
@@ -106,13 +99,7 @@ fn serve(
             boots.lock().unwrap().push(clock);
             boot += 1;
             track = PoseTrack::<16>::new();
-            *pyramid = DefaultPyramid::new();
-            pyramid.configure(&design(), &Config::default()).unwrap();
-            *link = Link::new(LinkConfig {
-                stats_interval_ms: 200,
-                ..LinkConfig::DEFAULT
-            });
-            link.adopt(&design());
+            (pyramid, link) = booted();
         }
         let now_ms = u32::try_from(start.elapsed().as_millis()).unwrap();
         link.poll(now_ms, &mut *pyramid, &SensorCounters::default());
