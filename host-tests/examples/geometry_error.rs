@@ -14,34 +14,7 @@
 use terrain_pyramid::geometry::{BeamTable, ScanPlane};
 use terrain_pyramid::wire::sick::Variant;
 use terrain_pyramid_host_tests::geometry::{error_bound_m, evaluate, Case};
-
-/// SplitMix64: a small, fixed-seed generator (no dependency).
-struct Rng(u64);
-
-impl Rng {
-    fn next(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-
-    /// Uniform in `[0, 1)`.
-    fn unit(&mut self) -> f64 {
-        (self.next() >> 11) as f64 / (1_u64 << 53) as f64
-    }
-
-    /// Uniform in `[lo, hi)`.
-    fn range(&mut self, lo: f64, hi: f64) -> f64 {
-        lo + (hi - lo) * self.unit()
-    }
-
-    /// Uniform in `0 ..= n − 1`.
-    fn below(&mut self, n: u64) -> u64 {
-        self.next() % n
-    }
-}
+use terrain_pyramid_host_tests::workload::Rng;
 
 /// The maximum and the 99.9th percentile of a sample, in mm.
 fn summary(errors: &mut [f64]) -> (f64, f64) {
@@ -65,7 +38,7 @@ fn main() {
     let mut horizontal: [Vec<f64>; 3] = Default::default();
     let mut relative_max = 0.0_f64;
     let mut over_bound = 0_usize;
-    let mut rng = Rng(0x5EED_0F6E_00E7);
+    let mut rng = Rng::new(0x5EED_0F6E_00E7);
     let thirty = 30_f64.to_radians();
 
     for _ in 0..samples {
@@ -84,7 +57,7 @@ fn main() {
                 rng.range(-131_072.0, 131_072.0) as i32,
                 rng.range(0.0, 196_608.0) as i32,
             ],
-            actuator_bits: rng.next() as u32,
+            actuator_bits: rng.next_u64() as u32,
             pose: [
                 rng.range(-29_999.0, 29_999.0) as f32,
                 rng.range(-29_999.0, 29_999.0) as f32,

@@ -16,31 +16,7 @@
 use terrain_pyramid::geometry::ScanPlane;
 use terrain_pyramid::wire::ld06::{Ld06Point, Ld06Repr};
 use terrain_pyramid_host_tests::geometry::{evaluate_ld06, lidar_error_bound_m};
-
-/// SplitMix64: a small, fixed-seed generator (no dependency).
-struct Rng(u64);
-
-impl Rng {
-    fn next(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-
-    fn unit(&mut self) -> f64 {
-        (self.next() >> 11) as f64 / (1_u64 << 53) as f64
-    }
-
-    fn range(&mut self, lo: f64, hi: f64) -> f64 {
-        lo + (hi - lo) * self.unit()
-    }
-
-    fn below(&mut self, n: u64) -> u64 {
-        self.next() % n
-    }
-}
+use terrain_pyramid_host_tests::workload::Rng;
 
 /// The maximum and the 99.9th percentile of a sample, in mm.
 fn summary(errors: &mut [f64]) -> (f64, f64) {
@@ -62,7 +38,7 @@ fn main() {
     let mut point: [Vec<f64>; 2] = Default::default();
     let mut horizontal: [Vec<f64>; 2] = Default::default();
     let mut over_bound = 0_usize;
-    let mut rng = Rng(0x11D0_6E0A_5EED);
+    let mut rng = Rng::new(0x11D0_6E0A_5EED);
     let thirty = 30_f64.to_radians();
     for _ in 0..packets {
         let start = rng.below(36_000) as u16;
@@ -98,7 +74,8 @@ fn main() {
             rng.range(-thirty, thirty) as f32,
             rng.range(-20.0, 20.0) as f32,
         ];
-        let Some(errors) = evaluate_ld06(&bytes, plane, mount_bits, rng.next() as u32, pose) else {
+        let Some(errors) = evaluate_ld06(&bytes, plane, mount_bits, rng.next_u64() as u32, pose)
+        else {
             eprintln!("refused: start {start} span {span} pose {pose:?}");
             continue;
         };

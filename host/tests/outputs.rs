@@ -26,6 +26,7 @@ use support::{
     device, fnv1a64, fused_occupancy, listen, listen_json, raw_cells, scratch, wait_or_kill, Plan,
     PATIENCE, W,
 };
+use terrain_pyramid_host::publish::only_loopback;
 
 fn py_dir() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/py")
@@ -586,18 +587,6 @@ fn a_foxglove_client_decodes_grids_while_a_stuck_client_holds_nothing_up() {
 
 /// The environment variable that marks the inner test's run inside its network namespace.
 const NETNS_MARK: &str = "TERRAIN_PYRAMID_TEST_NETNS";
-
-/// Whether this process sees no network interface but loopback (a namespace of its own).
-fn only_loopback() -> bool {
-    // /proc/net/dev lists the interfaces of the reader's network namespace (sysfs would show
-    // those of the namespace it was mounted in).
-    std::fs::read_to_string("/proc/net/dev").is_ok_and(|t| {
-        t.lines()
-            .skip(2)
-            .filter_map(|l| l.split(':').next())
-            .all(|name| name.trim() == "lo")
-    })
-}
 
 #[test]
 fn ros2_topics_reach_cyclone_dds_inside_a_network_namespace() {
