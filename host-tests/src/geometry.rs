@@ -50,14 +50,16 @@ pub struct Mount {
     pub position: Vec3,
 }
 
-/// The robot's pose: metres and radians.
+/// The robot's pose: metres and radians, world = T + `R_z(yaw)·R_y(pitch)·R_x(roll)`·robot
+/// (the library's convention).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Pose {
     /// x, metres.
     pub x: f64,
     /// y, metres.
     pub y: f64,
-    /// z, metres.
+    /// z of the robot frame's origin (the simulator's trajectories: the ground contact
+    /// point), metres.
     pub z: f64,
     /// Roll about x, radians.
     pub roll: f64,
