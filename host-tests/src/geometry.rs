@@ -425,6 +425,45 @@ pub fn evaluate_ld06(
     Some(out)
 }
 
+/// The maximum and the 99.9th percentile of a sample of errors in metres, both in mm
+/// (`(0, 0)` for no sample); sorts the sample.
+#[must_use]
+pub fn max_and_p999_mm(errors: &mut [f64]) -> (f64, f64) {
+    if errors.is_empty() {
+        return (0.0, 0.0);
+    }
+    errors.sort_by(f64::total_cmp);
+    let n = errors.len();
+    let p999 = errors[((n as f64 * 0.999).ceil() as usize).clamp(1, n) - 1];
+    (errors[n - 1] * 1e3, p999 * 1e3)
+}
+
+/// A random scan-centre position in the robot frame, as the library's fixed-point bits
+/// (2⁻¹⁶ m): x and y within ±2 m, z 0 ..= 3 m.
+#[allow(clippy::cast_possible_truncation)]
+pub fn draw_mount_bits(rng: &mut crate::workload::Rng) -> [i32; 3] {
+    [
+        rng.range(-131_072.0, 131_072.0) as i32,
+        rng.range(-131_072.0, 131_072.0) as i32,
+        rng.range(0.0, 196_608.0) as i32,
+    ]
+}
+
+/// A random pose as the host sends it: x and y within ±29 999 m, z within ±999 m, roll and
+/// pitch within ±30°, yaw within ±20 rad.
+#[allow(clippy::cast_possible_truncation)]
+pub fn draw_pose(rng: &mut crate::workload::Rng) -> [f32; 6] {
+    let thirty = 30_f64.to_radians();
+    [
+        rng.range(-29_999.0, 29_999.0) as f32,
+        rng.range(-29_999.0, 29_999.0) as f32,
+        rng.range(-999.0, 999.0) as f32,
+        rng.range(-thirty, thirty) as f32,
+        rng.range(-thirty, thirty) as f32,
+        rng.range(-20.0, 20.0) as f32,
+    ]
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
