@@ -311,21 +311,8 @@ pub fn evaluate(table: &lib::BeamTable, case: &Case) -> Option<CaseError> {
     if case.beam >= count {
         return None;
     }
-    let ref_mount = Mount {
-        plane: match case.plane {
-            lib::ScanPlane::PannedVertical => Plane::PannedVertical,
-            lib::ScanPlane::TiltedHorizontal => Plane::TiltedHorizontal,
-        },
-        position: [q16(mx), q16(my), q16(mz)],
-    };
-    let ref_pose = Pose {
-        x: f64::from(x),
-        y: f64::from(y),
-        z: f64::from(z),
-        roll: f64::from(roll),
-        pitch: f64::from(pitch),
-        yaw: f64::from(yaw),
-    };
+    let ref_mount = reference_mount(case.plane, [mx, my, mz]);
+    let ref_pose = reference_pose([x, y, z, roll, pitch, yaw]);
     let actuator_rad = f64::from(case.actuator_bits) / 4_294_967_296.0 * std::f64::consts::TAU;
     let theta = beam_angle_rad(start, step, case.beam);
     let range_m = f64::from(case.range_mm) / 1_000.0;
@@ -385,21 +372,8 @@ pub fn evaluate_ld06(
     let sweep = lib::SweepTransform::new(&mount, &lib_pose.frame());
     let at = sweep.at(actuator);
 
-    let ref_mount = Mount {
-        plane: match plane {
-            lib::ScanPlane::PannedVertical => Plane::PannedVertical,
-            lib::ScanPlane::TiltedHorizontal => Plane::TiltedHorizontal,
-        },
-        position: [q16(mx), q16(my), q16(mz)],
-    };
-    let ref_pose = Pose {
-        x: f64::from(x),
-        y: f64::from(y),
-        z: f64::from(z),
-        roll: f64::from(roll),
-        pitch: f64::from(pitch),
-        yaw: f64::from(yaw),
-    };
+    let ref_mount = reference_mount(plane, [mx, my, mz]);
+    let ref_pose = reference_pose([x, y, z, roll, pitch, yaw]);
     let actuator_rad = f64::from(actuator_bits) / 4_294_967_296.0 * std::f64::consts::TAU;
     let origin = sensor_origin(&ref_mount, &ref_pose);
     let start = f64::from(view.start_angle_centideg() % 36_000);
@@ -423,6 +397,30 @@ pub fn evaluate_ld06(
         });
     }
     Some(out)
+}
+
+/// The reference's mount for the library's scan plane and mount position bits (2⁻¹⁶ m).
+fn reference_mount(plane: lib::ScanPlane, [mx, my, mz]: [i32; 3]) -> Mount {
+    Mount {
+        plane: match plane {
+            lib::ScanPlane::PannedVertical => Plane::PannedVertical,
+            lib::ScanPlane::TiltedHorizontal => Plane::TiltedHorizontal,
+        },
+        position: [q16(mx), q16(my), q16(mz)],
+    }
+}
+
+/// The reference's pose for a pose as the host sends it (x, y, z in m, roll, pitch, yaw in
+/// rad, `f32`).
+fn reference_pose([x, y, z, roll, pitch, yaw]: [f32; 6]) -> Pose {
+    Pose {
+        x: f64::from(x),
+        y: f64::from(y),
+        z: f64::from(z),
+        roll: f64::from(roll),
+        pitch: f64::from(pitch),
+        yaw: f64::from(yaw),
+    }
 }
 
 /// The maximum and the 99.9th percentile of a sample of errors in metres, both in mm
