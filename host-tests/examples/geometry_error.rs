@@ -13,46 +13,10 @@
 
 use terrain_pyramid::geometry::{BeamTable, ScanPlane};
 use terrain_pyramid::wire::sick::Variant;
-use terrain_pyramid_host_tests::geometry::{error_bound_m, evaluate, Case};
-
-/// SplitMix64: a small, fixed-seed generator (no dependency).
-struct Rng(u64);
-
-impl Rng {
-    fn next(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-
-    /// Uniform in `[0, 1)`.
-    fn unit(&mut self) -> f64 {
-        (self.next() >> 11) as f64 / (1_u64 << 53) as f64
-    }
-
-    /// Uniform in `[lo, hi)`.
-    fn range(&mut self, lo: f64, hi: f64) -> f64 {
-        lo + (hi - lo) * self.unit()
-    }
-
-    /// Uniform in `0 ..= n − 1`.
-    fn below(&mut self, n: u64) -> u64 {
-        self.next() % n
-    }
-}
-
-/// The maximum and the 99.9th percentile of a sample, in mm.
-fn summary(errors: &mut [f64]) -> (f64, f64) {
-    if errors.is_empty() {
-        return (0.0, 0.0);
-    }
-    errors.sort_by(f64::total_cmp);
-    let n = errors.len();
-    let p999 = errors[((n as f64 * 0.999).ceil() as usize).clamp(1, n) - 1];
-    (errors[n - 1] * 1e3, p999 * 1e3)
-}
+use terrain_pyramid_host_tests::geometry::{
+    draw_mount_bits, draw_pose, error_bound_m, evaluate, max_and_p999_mm, Case,
+};
+use terrain_pyramid_host_tests::workload::Rng;
 
 fn main() {
     let samples: usize = std::env::args()
@@ -65,8 +29,7 @@ fn main() {
     let mut horizontal: [Vec<f64>; 3] = Default::default();
     let mut relative_max = 0.0_f64;
     let mut over_bound = 0_usize;
-    let mut rng = Rng(0x5EED_0F6E_00E7);
-    let thirty = 30_f64.to_radians();
+    let mut rng = Rng::new(0x5EED_0F6E_00E7);
 
     for _ in 0..samples {
         let v = rng.below(5) as usize;
@@ -79,20 +42,9 @@ fn main() {
             } else {
                 ScanPlane::TiltedHorizontal
             },
-            mount_bits: [
-                rng.range(-131_072.0, 131_072.0) as i32,
-                rng.range(-131_072.0, 131_072.0) as i32,
-                rng.range(0.0, 196_608.0) as i32,
-            ],
-            actuator_bits: rng.next() as u32,
-            pose: [
-                rng.range(-29_999.0, 29_999.0) as f32,
-                rng.range(-29_999.0, 29_999.0) as f32,
-                rng.range(-999.0, 999.0) as f32,
-                rng.range(-thirty, thirty) as f32,
-                rng.range(-thirty, thirty) as f32,
-                rng.range(-20.0, 20.0) as f32,
-            ],
+            mount_bits: draw_mount_bits(&mut rng),
+            actuator_bits: rng.next_u64() as u32,
+            pose: draw_pose(&mut rng),
         };
         let Some(e) = evaluate(table, &case) else {
             eprintln!("refused: {case:?}");
@@ -123,8 +75,8 @@ fn main() {
     );
     for (k, &limit) in limits.iter().enumerate() {
         let n = point[k].len();
-        let (pmax, p999) = summary(&mut point[k]);
-        let (hmax, h999) = summary(&mut horizontal[k]);
+        let (pmax, p999) = max_and_p999_mm(&mut point[k]);
+        let (hmax, h999) = max_and_p999_mm(&mut horizontal[k]);
         println!(
             "{:<14} {:>9} {:>11.4} mm {:>11.4} mm {:>13.4} mm {:>13.4} mm {:>7.3} mm",
             format!("<= {limit} m"),

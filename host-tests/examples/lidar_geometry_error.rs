@@ -15,43 +15,10 @@
 
 use terrain_pyramid::geometry::ScanPlane;
 use terrain_pyramid::wire::ld06::{Ld06Point, Ld06Repr};
-use terrain_pyramid_host_tests::geometry::{evaluate_ld06, lidar_error_bound_m};
-
-/// SplitMix64: a small, fixed-seed generator (no dependency).
-struct Rng(u64);
-
-impl Rng {
-    fn next(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-
-    fn unit(&mut self) -> f64 {
-        (self.next() >> 11) as f64 / (1_u64 << 53) as f64
-    }
-
-    fn range(&mut self, lo: f64, hi: f64) -> f64 {
-        lo + (hi - lo) * self.unit()
-    }
-
-    fn below(&mut self, n: u64) -> u64 {
-        self.next() % n
-    }
-}
-
-/// The maximum and the 99.9th percentile of a sample, in mm.
-fn summary(errors: &mut [f64]) -> (f64, f64) {
-    if errors.is_empty() {
-        return (0.0, 0.0);
-    }
-    errors.sort_by(f64::total_cmp);
-    let n = errors.len();
-    let p999 = errors[((n as f64 * 0.999).ceil() as usize).clamp(1, n) - 1];
-    (errors[n - 1] * 1e3, p999 * 1e3)
-}
+use terrain_pyramid_host_tests::geometry::{
+    draw_mount_bits, draw_pose, evaluate_ld06, lidar_error_bound_m, max_and_p999_mm,
+};
+use terrain_pyramid_host_tests::workload::Rng;
 
 fn main() {
     let packets: usize = std::env::args()
@@ -62,8 +29,7 @@ fn main() {
     let mut point: [Vec<f64>; 2] = Default::default();
     let mut horizontal: [Vec<f64>; 2] = Default::default();
     let mut over_bound = 0_usize;
-    let mut rng = Rng(0x11D0_6E0A_5EED);
-    let thirty = 30_f64.to_radians();
+    let mut rng = Rng::new(0x11D0_6E0A_5EED);
     for _ in 0..packets {
         let start = rng.below(36_000) as u16;
         let span = rng.below(1_201) as u16;
@@ -85,20 +51,10 @@ fn main() {
         } else {
             ScanPlane::TiltedHorizontal
         };
-        let mount_bits = [
-            rng.range(-131_072.0, 131_072.0) as i32,
-            rng.range(-131_072.0, 131_072.0) as i32,
-            rng.range(0.0, 196_608.0) as i32,
-        ];
-        let pose = [
-            rng.range(-29_999.0, 29_999.0) as f32,
-            rng.range(-29_999.0, 29_999.0) as f32,
-            rng.range(-999.0, 999.0) as f32,
-            rng.range(-thirty, thirty) as f32,
-            rng.range(-thirty, thirty) as f32,
-            rng.range(-20.0, 20.0) as f32,
-        ];
-        let Some(errors) = evaluate_ld06(&bytes, plane, mount_bits, rng.next() as u32, pose) else {
+        let mount_bits = draw_mount_bits(&mut rng);
+        let pose = draw_pose(&mut rng);
+        let Some(errors) = evaluate_ld06(&bytes, plane, mount_bits, rng.next_u64() as u32, pose)
+        else {
             eprintln!("refused: start {start} span {span} pose {pose:?}");
             continue;
         };
@@ -126,8 +82,8 @@ fn main() {
     );
     for (k, &limit) in limits.iter().enumerate() {
         let n = point[k].len();
-        let (pmax, p999) = summary(&mut point[k]);
-        let (hmax, h999) = summary(&mut horizontal[k]);
+        let (pmax, p999) = max_and_p999_mm(&mut point[k]);
+        let (hmax, h999) = max_and_p999_mm(&mut horizontal[k]);
         println!(
             "{:<10} {:>10} {:>10.4} mm {:>10.4} mm {:>10.4} mm {:>10.4} mm {:>7.4} mm",
             format!("<= {limit} m"),

@@ -50,14 +50,16 @@ pub struct Mount {
     pub position: Vec3,
 }
 
-/// The robot's pose: metres and radians.
+/// The robot's pose: metres and radians, world = T + `R_z(yaw)·R_y(pitch)·R_x(roll)`·robot
+/// (the library's convention).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Pose {
     /// x, metres.
     pub x: f64,
     /// y, metres.
     pub y: f64,
-    /// z, metres.
+    /// z of the robot frame's origin (the simulator's trajectories: the ground contact
+    /// point), metres.
     pub z: f64,
     /// Roll about x, radians.
     pub roll: f64,
@@ -309,21 +311,8 @@ pub fn evaluate(table: &lib::BeamTable, case: &Case) -> Option<CaseError> {
     if case.beam >= count {
         return None;
     }
-    let ref_mount = Mount {
-        plane: match case.plane {
-            lib::ScanPlane::PannedVertical => Plane::PannedVertical,
-            lib::ScanPlane::TiltedHorizontal => Plane::TiltedHorizontal,
-        },
-        position: [q16(mx), q16(my), q16(mz)],
-    };
-    let ref_pose = Pose {
-        x: f64::from(x),
-        y: f64::from(y),
-        z: f64::from(z),
-        roll: f64::from(roll),
-        pitch: f64::from(pitch),
-        yaw: f64::from(yaw),
-    };
+    let ref_mount = reference_mount(case.plane, [mx, my, mz]);
+    let ref_pose = reference_pose([x, y, z, roll, pitch, yaw]);
     let actuator_rad = f64::from(case.actuator_bits) / 4_294_967_296.0 * std::f64::consts::TAU;
     let theta = beam_angle_rad(start, step, case.beam);
     let range_m = f64::from(case.range_mm) / 1_000.0;
@@ -383,21 +372,8 @@ pub fn evaluate_ld06(
     let sweep = lib::SweepTransform::new(&mount, &lib_pose.frame());
     let at = sweep.at(actuator);
 
-    let ref_mount = Mount {
-        plane: match plane {
-            lib::ScanPlane::PannedVertical => Plane::PannedVertical,
-            lib::ScanPlane::TiltedHorizontal => Plane::TiltedHorizontal,
-        },
-        position: [q16(mx), q16(my), q16(mz)],
-    };
-    let ref_pose = Pose {
-        x: f64::from(x),
-        y: f64::from(y),
-        z: f64::from(z),
-        roll: f64::from(roll),
-        pitch: f64::from(pitch),
-        yaw: f64::from(yaw),
-    };
+    let ref_mount = reference_mount(plane, [mx, my, mz]);
+    let ref_pose = reference_pose([x, y, z, roll, pitch, yaw]);
     let actuator_rad = f64::from(actuator_bits) / 4_294_967_296.0 * std::f64::consts::TAU;
     let origin = sensor_origin(&ref_mount, &ref_pose);
     let start = f64::from(view.start_angle_centideg() % 36_000);
@@ -421,6 +397,69 @@ pub fn evaluate_ld06(
         });
     }
     Some(out)
+}
+
+/// The reference's mount for the library's scan plane and mount position bits (2⁻¹⁶ m).
+fn reference_mount(plane: lib::ScanPlane, [mx, my, mz]: [i32; 3]) -> Mount {
+    Mount {
+        plane: match plane {
+            lib::ScanPlane::PannedVertical => Plane::PannedVertical,
+            lib::ScanPlane::TiltedHorizontal => Plane::TiltedHorizontal,
+        },
+        position: [q16(mx), q16(my), q16(mz)],
+    }
+}
+
+/// The reference's pose for a pose as the host sends it (x, y, z in m, roll, pitch, yaw in
+/// rad, `f32`).
+fn reference_pose([x, y, z, roll, pitch, yaw]: [f32; 6]) -> Pose {
+    Pose {
+        x: f64::from(x),
+        y: f64::from(y),
+        z: f64::from(z),
+        roll: f64::from(roll),
+        pitch: f64::from(pitch),
+        yaw: f64::from(yaw),
+    }
+}
+
+/// The maximum and the 99.9th percentile of a sample of errors in metres, both in mm
+/// (`(0, 0)` for no sample); sorts the sample.
+#[must_use]
+pub fn max_and_p999_mm(errors: &mut [f64]) -> (f64, f64) {
+    if errors.is_empty() {
+        return (0.0, 0.0);
+    }
+    errors.sort_by(f64::total_cmp);
+    let n = errors.len();
+    let p999 = errors[((n as f64 * 0.999).ceil() as usize).clamp(1, n) - 1];
+    (errors[n - 1] * 1e3, p999 * 1e3)
+}
+
+/// A random scan-centre position in the robot frame, as the library's fixed-point bits
+/// (2⁻¹⁶ m): x and y within ±2 m, z 0 ..= 3 m.
+#[allow(clippy::cast_possible_truncation)]
+pub fn draw_mount_bits(rng: &mut crate::workload::Rng) -> [i32; 3] {
+    [
+        rng.range(-131_072.0, 131_072.0) as i32,
+        rng.range(-131_072.0, 131_072.0) as i32,
+        rng.range(0.0, 196_608.0) as i32,
+    ]
+}
+
+/// A random pose as the host sends it: x and y within ±29 999 m, z within ±999 m, roll and
+/// pitch within ±30°, yaw within ±20 rad.
+#[allow(clippy::cast_possible_truncation)]
+pub fn draw_pose(rng: &mut crate::workload::Rng) -> [f32; 6] {
+    let thirty = 30_f64.to_radians();
+    [
+        rng.range(-29_999.0, 29_999.0) as f32,
+        rng.range(-29_999.0, 29_999.0) as f32,
+        rng.range(-999.0, 999.0) as f32,
+        rng.range(-thirty, thirty) as f32,
+        rng.range(-thirty, thirty) as f32,
+        rng.range(-20.0, 20.0) as f32,
+    ]
 }
 
 #[cfg(test)]

@@ -125,6 +125,16 @@ impl Rng {
         (self.next_u64() >> 11) as f64 / (1u64 << 53) as f64
     }
 
+    /// Uniform in `[lo, hi)`.
+    pub fn range(&mut self, lo: f64, hi: f64) -> f64 {
+        lo + (hi - lo) * self.unit()
+    }
+
+    /// Uniform in `0 ..= n − 1` (`n` > 0).
+    pub fn below(&mut self, n: u64) -> u64 {
+        self.next_u64() % n
+    }
+
     /// Uniform in `lo ..= hi`.
     pub fn range_i64(&mut self, lo: i64, hi: i64) -> i64 {
         let span = (hi - lo + 1) as u64;

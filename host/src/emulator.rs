@@ -115,12 +115,7 @@ impl Machine {
     /// The target is missing or the build failed, with how to fix it.
     pub fn build(self) -> Result<PathBuf, String> {
         let target = self.target();
-        let installed = Command::new("rustup")
-            .args(["target", "list", "--installed"])
-            .output()
-            .map(|o| String::from_utf8_lossy(&o.stdout).contains(target))
-            .unwrap_or(true);
-        if !installed {
+        if !target_installed(target) {
             return Err(format!(
                 "the target {target} is missing: `rustup target add {target}`"
             ));
@@ -132,7 +127,7 @@ impl Machine {
             dir.display()
         );
         let mut target_dir = dir.join("target");
-        let mut cargo = Command::new(std::env::var("CARGO").unwrap_or_else(|_| "cargo".into()));
+        let mut cargo = cargo();
         cargo.args(["build", "--release", "--quiet", "--target", target]);
         if let Some((features, sub)) = self.features() {
             target_dir = target_dir.join(sub);
@@ -141,27 +136,54 @@ impl Machine {
                 .arg("--target-dir")
                 .arg(&target_dir);
         }
-        let status = cargo
-            .current_dir(&dir)
-            .env_remove("CARGO_TARGET_DIR")
-            .env_remove("RUSTFLAGS")
-            .status()
-            .map_err(|e| format!("cannot run cargo: {e}"))?;
-        if !status.success() {
-            return Err(format!(
-                "the firmware build failed in {} (`rustup target add {target}`)",
-                dir.display()
-            ));
-        }
-        let elf = target_dir.join(target).join("release").join(self.bin());
-        if elf.is_file() {
-            Ok(elf)
-        } else {
-            Err(format!(
-                "the firmware build left no ELF at {}",
-                elf.display()
-            ))
-        }
+        run_build(&mut cargo, &dir, &format!("`rustup target add {target}`"))?;
+        built_elf(target_dir.join(target).join("release").join(self.bin()))
+    }
+}
+
+/// Whether rustup lists `target` as installed (true when rustup cannot be asked: the build
+/// then says what is missing).
+fn target_installed(target: &str) -> bool {
+    Command::new("rustup")
+        .args(["target", "list", "--installed"])
+        .output()
+        .map(|o| String::from_utf8_lossy(&o.stdout).contains(target))
+        .unwrap_or(true)
+}
+
+/// The cargo that runs this program (`$CARGO`), else `cargo`.
+fn cargo() -> Command {
+    Command::new(std::env::var("CARGO").unwrap_or_else(|_| "cargo".into()))
+}
+
+/// Runs the firmware build `cargo` in the board crate `dir`, without the caller's
+/// `CARGO_TARGET_DIR` and `RUSTFLAGS`; a failure says `hint` (how to fix it).
+fn run_build(cargo: &mut Command, dir: &Path, hint: &str) -> Result<(), String> {
+    let status = cargo
+        .current_dir(dir)
+        .env_remove("CARGO_TARGET_DIR")
+        .env_remove("RUSTFLAGS")
+        .status()
+        .map_err(|e| format!("cannot run cargo: {e}"))?;
+    if status.success() {
+        Ok(())
+    } else {
+        Err(format!(
+            "the firmware build failed in {} ({hint})",
+            dir.display()
+        ))
+    }
+}
+
+/// `elf` when the build left it there, else the error that says so.
+fn built_elf(elf: PathBuf) -> Result<PathBuf, String> {
+    if elf.is_file() {
+        Ok(elf)
+    } else {
+        Err(format!(
+            "the firmware build left no ELF at {}",
+            elf.display()
+        ))
     }
 }
 
@@ -199,12 +221,7 @@ pub fn build_firmware_variant(
     bin: &str,
     feature: Option<&str>,
 ) -> Result<PathBuf, String> {
-    let installed = Command::new("rustup")
-        .args(["target", "list", "--installed"])
-        .output()
-        .map(|o| String::from_utf8_lossy(&o.stdout).contains(TARGET))
-        .unwrap_or(true);
-    if !installed {
+    if !target_installed(TARGET) {
         return Err(format!(
             "the Cortex-M target {TARGET} is missing: `rustup target add {TARGET}`"
         ));
@@ -218,7 +235,7 @@ pub fn build_firmware_variant(
         || board_dir.join("target"),
         |f| board_dir.join("target").join(f),
     );
-    let mut cargo = Command::new(std::env::var("CARGO").unwrap_or_else(|_| "cargo".into()));
+    let mut cargo = cargo();
     cargo.args(["build", "--release", "--quiet"]);
     if let Some(f) = feature {
         cargo
@@ -227,28 +244,9 @@ pub fn build_firmware_variant(
             .arg(&target_dir);
     }
     // Anything the build prints goes to stderr: a caller's stdout may be its JSON.
-    let status = cargo
-        .current_dir(board_dir)
-        .stdout(std::io::stderr())
-        .env_remove("CARGO_TARGET_DIR")
-        .env_remove("RUSTFLAGS")
-        .status()
-        .map_err(|e| format!("cannot run cargo: {e}"))?;
-    if !status.success() {
-        return Err(format!(
-            "the firmware build failed in {} ({INSTALL_HINT})",
-            board_dir.display()
-        ));
-    }
-    let elf = target_dir.join(TARGET).join("release").join(bin);
-    if elf.is_file() {
-        Ok(elf)
-    } else {
-        Err(format!(
-            "the firmware build left no ELF at {}",
-            elf.display()
-        ))
-    }
+    cargo.stdout(std::io::stderr());
+    run_build(&mut cargo, board_dir, INSTALL_HINT)?;
+    built_elf(target_dir.join(TARGET).join("release").join(bin))
 }
 
 /// A running QEMU with the firmware, its UARTs connected.

@@ -258,17 +258,8 @@ fn send_pending(device: &mut impl Device, pending: &mut Pending) -> Result<(), S
         }))?;
         sent = true;
     }
-    if let Some([x_m, y_m, z_m, roll_rad, pitch_rad, yaw_rad]) = pending.pose.take() {
-        device.send(&Message::Pose(PoseReport {
-            x_m,
-            y_m,
-            z_m,
-            roll_rad,
-            pitch_rad,
-            yaw_rad,
-            stamp_us: 0,
-            flags: 0,
-        }))?;
+    if let Some(pose) = pending.pose.take() {
+        device.send(&Message::Pose(PoseReport::unstamped(pose)))?;
         sent = true;
     }
     if sent {
@@ -348,19 +339,9 @@ pub fn play_watched<D: Device>(
             }
             Step::Angle(turns) => pending.angle = Some(*turns),
             Step::Pose(p) => {
-                let [x_m, y_m, z_m, roll_rad, pitch_rad, yaw_rad] = *p;
-                let report = PoseReport {
-                    x_m,
-                    y_m,
-                    z_m,
-                    roll_rad,
-                    pitch_rad,
-                    yaw_rad,
-                    stamp_us: 0,
-                    flags: 0,
-                };
+                let report = PoseReport::unstamped(*p);
                 if pose_of(&report).is_ok() {
-                    sensor_xy = (f64::from(x_m), f64::from(y_m));
+                    sensor_xy = (f64::from(report.x_m), f64::from(report.y_m));
                     pending.pose = Some(*p);
                 } else {
                     counts.poses_rejected += 1;

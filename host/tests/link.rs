@@ -2,7 +2,11 @@
 //! any field values; corrupted, truncated, oversized and old frames are refused and counted and
 //! the next frame still decodes; and after lossy streams and snapshot recovery the host's
 //! mirror equals the device's pyramid cell for cell.
+#[path = "support/device.rs"]
+mod support;
+
 use proptest::prelude::*;
+use support::{scatter, wander, Channel, Rng};
 use terrain_pyramid::design::{Schedule, SensorModel};
 use terrain_pyramid::link::{Command, Link, LinkConfig, SensorCounters};
 use terrain_pyramid::wire::link::{
@@ -13,8 +17,8 @@ use terrain_pyramid::wire::link::{
 };
 use terrain_pyramid::wire::FeedResult;
 use terrain_pyramid::{
-    Config, Decay, DecayMode, DefaultDesign, DefaultPyramid, Evidence, EvidenceClass, Meters,
-    TimeConstant, DEFAULT_CELLS_PER_SIDE,
+    Config, Decay, DecayMode, DefaultDesign, DefaultPyramid, Meters, TimeConstant,
+    DEFAULT_CELLS_PER_SIDE,
 };
 use terrain_pyramid_host::link::{HostLink, LinkEvent};
 
@@ -600,59 +604,6 @@ fn old_frames_are_refused_gaps_ask_for_a_snapshot_and_the_next_frame_applies() {
 
 // ------------------------------------------------------------------ device and mirror
 
-/// A small deterministic generator (xorshift64*), so the scenarios need no extra crate.
-struct Rng(u64);
-
-impl Rng {
-    fn next(&mut self) -> u64 {
-        self.0 ^= self.0 >> 12;
-        self.0 ^= self.0 << 25;
-        self.0 ^= self.0 >> 27;
-        self.0.wrapping_mul(0x2545_F491_4F6C_DD1D)
-    }
-    fn below(&mut self, n: u64) -> u64 {
-        self.next() % n
-    }
-    fn unit(&mut self) -> f64 {
-        (self.next() >> 11) as f64 / (1_u64 << 53) as f64
-    }
-    fn chance(&mut self, per_mille: u32) -> bool {
-        self.below(1000) < u64::from(per_mille)
-    }
-}
-
-/// The serial line up: forwards whole frames, deleting some and flipping a byte in others.
-struct Channel {
-    pending: Vec<u8>,
-    drop_per_mille: u32,
-    flip_per_mille: u32,
-    dropped: u32,
-    flipped: u32,
-}
-
-impl Channel {
-    fn pass(&mut self, rng: &mut Rng, bytes: &[u8]) -> Vec<u8> {
-        let mut out = Vec::new();
-        for &b in bytes {
-            self.pending.push(b);
-            if b == 0 {
-                let mut frame = std::mem::take(&mut self.pending);
-                if rng.chance(self.drop_per_mille) {
-                    self.dropped += 1;
-                    continue;
-                }
-                if rng.chance(self.flip_per_mille) && frame.len() > 1 {
-                    let at = rng.below(frame.len() as u64 - 1) as usize;
-                    frame[at] ^= 1 << rng.below(8);
-                    self.flipped += 1;
-                }
-                out.extend(frame);
-            }
-        }
-        out
-    }
-}
-
 struct Outcome {
     decay_frames: u32,
     cells_faded: u64,
@@ -768,36 +719,14 @@ fn scenario_with<const Q: usize>(
 
     for _ in 0..steps {
         // Drive: mostly small steps, sometimes a jump of several metres.
-        if rng.chance(20) {
-            x += (rng.unit() - 0.5) * 12.0;
-            y += (rng.unit() - 0.5) * 12.0;
-        } else {
-            x += (rng.unit() - 0.5) * 0.3;
-            y += (rng.unit() - 0.5) * 0.3;
-        }
-        let (mx, my) = (Meters::from_num(x), Meters::from_num(y));
+        let (mx, my) = wander(&mut rng, &mut x, &mut y);
         pyramid.recentre(mx, my);
         if collapse && rng.chance(30) {
             // A second move before the link is polled: the link must resend everything.
             pyramid.recentre(mx + Meters::from_num(0.35), my);
             pyramid.recentre(mx, my);
         }
-        for _ in 0..60 {
-            let k = rng.below(pyramid.layer_count() as u64) as usize;
-            let r = pyramid.layer(k).unwrap().resolution();
-            let evidence = Evidence {
-                layer: k as u8,
-                cell_x: r.cell_of(mx) + rng.below(70) as i32 - 35,
-                cell_y: r.cell_of(my) + rng.below(70) as i32 - 35,
-                class: if rng.chance(300) {
-                    EvidenceClass::Obstacle
-                } else {
-                    EvidenceClass::Navigable
-                },
-                weight: terrain_pyramid::Weight::from_num(rng.unit()),
-            };
-            pyramid.apply(&evidence);
-        }
+        scatter(&mut rng, &mut pyramid, mx, my, 60);
         if pings && rng.chance(300) {
             // Bursts of commands whose replies may find the small queue full.
             for _ in 0..20 {
@@ -911,13 +840,7 @@ fn scenario_with<const Q: usize>(
 }
 
 fn clean() -> Channel {
-    Channel {
-        pending: Vec::new(),
-        drop_per_mille: 0,
-        flip_per_mille: 0,
-        dropped: 0,
-        flipped: 0,
-    }
+    Channel::new(0, 0)
 }
 
 #[test]

@@ -17,11 +17,10 @@ use std::net::{TcpListener, UdpSocket};
 use std::process::{Command, Stdio};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
-use support::{design, PATIENCE};
+use support::{booted, PATIENCE};
 use terrain_pyramid::geometry::PoseTrack;
-use terrain_pyramid::link::{Command as DeviceCommand, Link, LinkConfig, SensorCounters};
+use terrain_pyramid::link::{Command as DeviceCommand, SensorCounters};
 use terrain_pyramid::wire::FeedResult;
-use terrain_pyramid::{Config, DefaultPyramid};
 
 /// The device's clock: `start + elapsed × (1 + PPM / 10⁶)` µs, wrapping.
 const PPM: i128 = 100;
@@ -81,13 +80,7 @@ fn serve(
         .set_read_timeout(Some(Duration::from_millis(1)))
         .unwrap();
     stream.set_nodelay(true).unwrap();
-    let mut pyramid = Box::new(DefaultPyramid::new());
-    let mut link: Box<Link> = Box::new(Link::new(LinkConfig {
-        stats_interval_ms: 200,
-        ..LinkConfig::DEFAULT
-    }));
-    pyramid.configure(&design(), &Config::default()).unwrap();
-    link.adopt(&design());
+    let (mut pyramid, mut link) = booted();
     let mut out = vec![0_u8; 4096];
     let mut rx = vec![0_u8; 4096];
     let start = Instant::now();
@@ -106,13 +99,7 @@ fn serve(
             boots.lock().unwrap().push(clock);
             boot += 1;
             track = PoseTrack::<16>::new();
-            *pyramid = DefaultPyramid::new();
-            pyramid.configure(&design(), &Config::default()).unwrap();
-            *link = Link::new(LinkConfig {
-                stats_interval_ms: 200,
-                ..LinkConfig::DEFAULT
-            });
-            link.adopt(&design());
+            (pyramid, link) = booted();
         }
         let now_ms = u32::try_from(start.elapsed().as_millis()).unwrap();
         link.poll(now_ms, &mut *pyramid, &SensorCounters::default());
@@ -164,8 +151,19 @@ fn wall_us() -> i128 {
         .as_micros() as i128
 }
 
-#[test]
-fn udp_poses_reach_the_device_stamped_in_its_own_clock() {
+/// A session under test: the device (rebooting once after `reboot_after`), its clocks and the
+/// poses it took, and `pyramid listen` on it for `duration_s` seconds with a UDP pose input,
+/// writing into a fresh directory.
+struct Session {
+    device: std::thread::JoinHandle<()>,
+    boots: Boots,
+    poses: Arc<Mutex<Vec<Received>>>,
+    pose_addr: std::net::SocketAddr,
+    dir: std::path::PathBuf,
+    child: std::process::Child,
+}
+
+fn start(name: &str, reboot_after: Option<Duration>, duration_s: &str) -> Session {
     let listener = TcpListener::bind("127.0.0.1:0").unwrap();
     let port = listener.local_addr().unwrap().port();
     let boots: Boots = Arc::new(Mutex::new(vec![DeviceClock {
@@ -175,15 +173,14 @@ fn udp_poses_reach_the_device_stamped_in_its_own_clock() {
     let poses = Arc::new(Mutex::new(Vec::new()));
     let device = {
         let (poses, boots) = (Arc::clone(&poses), Arc::clone(&boots));
-        std::thread::spawn(move || serve(listener, boots, poses, None))
+        std::thread::spawn(move || serve(listener, boots, poses, reboot_after))
     };
-    let clock = boots.lock().unwrap()[0];
     // A free UDP port for the pose input.
     let pose_addr = {
         let probe = UdpSocket::bind("127.0.0.1:0").unwrap();
         probe.local_addr().unwrap()
     };
-    let dir = std::env::temp_dir().join(format!("pyramid-listen-poses-{}", std::process::id()));
+    let dir = std::env::temp_dir().join(format!("pyramid-listen-{name}-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     let child = Command::new(env!("CARGO_BIN_EXE_pyramid"))
         .args([
@@ -193,7 +190,7 @@ fn udp_poses_reach_the_device_stamped_in_its_own_clock() {
             "--out",
             dir.to_str().unwrap(),
             "--duration-s",
-            "5",
+            duration_s,
             "--pose-udp",
             &pose_addr.to_string(),
         ])
@@ -201,6 +198,20 @@ fn udp_poses_reach_the_device_stamped_in_its_own_clock() {
         .stderr(Stdio::piped())
         .spawn()
         .unwrap();
+    Session {
+        device,
+        boots,
+        poses,
+        pose_addr,
+        dir,
+        child,
+    }
+}
+
+#[test]
+fn udp_poses_reach_the_device_stamped_in_its_own_clock() {
+    let session = start("poses", None, "5");
+    let clock = session.boots.lock().unwrap()[0];
 
     // The robot: 50 Hz poses, each stamped 30 ms before it is sent (the wall clock, as ROS
     // time), x = its index / 1000. Then one bad line and one pose older than the newest.
@@ -218,27 +229,30 @@ fn udp_poses_reach_the_device_stamped_in_its_own_clock() {
             stamp.div_euclid(1_000_000),
             stamp.rem_euclid(1_000_000)
         );
-        robot.send_to(line.as_bytes(), pose_addr).unwrap();
+        robot.send_to(line.as_bytes(), session.pose_addr).unwrap();
         sent.push((x, stamp));
         if i == 150 {
-            robot.send_to(b"{\"t\": oops}\n", pose_addr).unwrap();
+            robot
+                .send_to(b"{\"t\": oops}\n", session.pose_addr)
+                .unwrap();
             let (_, old) = sent[sent.len() - 5];
             let line = format!(
                 "{{\"t\": {}.{:06}, \"x\": 9.0, \"y\": 0, \"yaw\": 0}}\n",
                 old.div_euclid(1_000_000),
                 old.rem_euclid(1_000_000)
             );
-            robot.send_to(line.as_bytes(), pose_addr).unwrap();
+            robot.send_to(line.as_bytes(), session.pose_addr).unwrap();
         }
         std::thread::sleep(Duration::from_millis(20));
     }
-    let output = child.wait_with_output().unwrap();
+    let output = session.child.wait_with_output().unwrap();
     let stderr = String::from_utf8_lossy(&output.stderr);
     assert!(output.status.success(), "{stderr}");
-    device.join().unwrap();
+    session.device.join().unwrap();
 
     let summary: Value =
-        serde_json::from_str(&std::fs::read_to_string(dir.join("summary.json")).unwrap()).unwrap();
+        serde_json::from_str(&std::fs::read_to_string(session.dir.join("summary.json")).unwrap())
+            .unwrap();
     let sync = &summary["time_sync"];
     assert_eq!(sync["synced"], true, "{summary:#}");
     assert!(sync["exchanges"].as_u64().unwrap() >= 20, "{sync}");
@@ -255,7 +269,7 @@ fn udp_poses_reach_the_device_stamped_in_its_own_clock() {
     assert_eq!(p["frame"], "odom");
     assert_eq!(p["stale"], 0, "{p}");
     // The device's own count of the stamped poses.
-    let received = poses.lock().unwrap().clone();
+    let received = session.poses.lock().unwrap().clone();
     assert_eq!(
         p["forwarded"].as_u64().unwrap(),
         received.len() as u64,
@@ -287,7 +301,7 @@ fn udp_poses_reach_the_device_stamped_in_its_own_clock() {
     // is for a loaded machine.
     assert!(worst <= 500, "worst stamp error {worst} µs");
     assert!(stderr.contains("clock: synced"), "{stderr}");
-    let _ = std::fs::remove_dir_all(&dir);
+    let _ = std::fs::remove_dir_all(&session.dir);
 }
 
 /// The device reboots 2.5 s into the run (a new link, a boot Hello, its clock restarted far
@@ -296,41 +310,7 @@ fn udp_poses_reach_the_device_stamped_in_its_own_clock() {
 /// boot that takes it (none with the old mapping: that would be ~10⁹ µs off).
 #[test]
 fn a_device_reboot_resets_the_clock_and_no_pose_keeps_the_old_mapping() {
-    let listener = TcpListener::bind("127.0.0.1:0").unwrap();
-    let port = listener.local_addr().unwrap().port();
-    let boots: Boots = Arc::new(Mutex::new(vec![DeviceClock {
-        zero: Instant::now(),
-        start_us: DEVICE_START_US,
-    }]));
-    let poses = Arc::new(Mutex::new(Vec::new()));
-    let device = {
-        let (poses, boots) = (Arc::clone(&poses), Arc::clone(&boots));
-        std::thread::spawn(move || {
-            serve(listener, boots, poses, Some(Duration::from_millis(2_500)));
-        })
-    };
-    let pose_addr = {
-        let probe = UdpSocket::bind("127.0.0.1:0").unwrap();
-        probe.local_addr().unwrap()
-    };
-    let dir = std::env::temp_dir().join(format!("pyramid-listen-reboot-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    let child = Command::new(env!("CARGO_BIN_EXE_pyramid"))
-        .args([
-            "listen",
-            "--tcp",
-            &format!("127.0.0.1:{port}"),
-            "--out",
-            dir.to_str().unwrap(),
-            "--duration-s",
-            "6",
-            "--pose-udp",
-            &pose_addr.to_string(),
-        ])
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
+    let session = start("reboot", Some(Duration::from_millis(2_500)), "6");
     let robot = UdpSocket::bind("127.0.0.1:0").unwrap();
     let anchor = (Instant::now(), wall_us());
     let mut sent: Vec<(f64, i128)> = Vec::new();
@@ -345,24 +325,25 @@ fn a_device_reboot_resets_the_clock_and_no_pose_keeps_the_old_mapping() {
             stamp.div_euclid(1_000_000),
             stamp.rem_euclid(1_000_000)
         );
-        robot.send_to(line.as_bytes(), pose_addr).unwrap();
+        robot.send_to(line.as_bytes(), session.pose_addr).unwrap();
         sent.push((x, stamp));
         std::thread::sleep(Duration::from_millis(20));
     }
-    let output = child.wait_with_output().unwrap();
+    let output = session.child.wait_with_output().unwrap();
     let stderr = String::from_utf8_lossy(&output.stderr);
     assert!(output.status.success(), "{stderr}");
-    device.join().unwrap();
+    session.device.join().unwrap();
 
     let summary: Value =
-        serde_json::from_str(&std::fs::read_to_string(dir.join("summary.json")).unwrap()).unwrap();
+        serde_json::from_str(&std::fs::read_to_string(session.dir.join("summary.json")).unwrap())
+            .unwrap();
     let sync = &summary["time_sync"];
     assert_eq!(sync["synced"], true, "{summary:#}");
     assert!(sync["resets_boot"].as_u64().unwrap() >= 1, "{sync}");
     assert_eq!(sync["resets_reconnect"], 0, "{sync}");
-    let boots = boots.lock().unwrap().clone();
+    let boots = session.boots.lock().unwrap().clone();
     assert_eq!(boots.len(), 2, "the device rebooted once");
-    let all = poses.lock().unwrap().clone();
+    let all = session.poses.lock().unwrap().clone();
     // A pose listen stamped before it heard of the reboot may reach the rebooted device: its
     // track must refuse it (it is ~10⁹ µs behind the new clock).
     let refused: Vec<_> = all.iter().filter(|r| !r.taken).collect();
@@ -395,5 +376,5 @@ fn a_device_reboot_resets_the_clock_and_no_pose_keeps_the_old_mapping() {
         worst[0] <= 500 && worst[1] <= 500,
         "worst stamp errors {worst:?} µs"
     );
-    let _ = std::fs::remove_dir_all(&dir);
+    let _ = std::fs::remove_dir_all(&session.dir);
 }

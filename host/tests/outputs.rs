@@ -22,7 +22,11 @@ use std::time::{Duration, Instant};
 mod common;
 #[path = "support/device.rs"]
 mod support;
-use support::{device, fnv1a64, fused_occupancy, raw_cells, Plan, PATIENCE, W};
+use support::{
+    device, fnv1a64, fused_occupancy, listen, listen_json, raw_cells, scratch, wait_or_kill, Plan,
+    PATIENCE, W,
+};
+use terrain_pyramid_host::publish::only_loopback;
 
 fn py_dir() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/py")
@@ -42,24 +46,6 @@ fn python() -> &'static str {
         "the Python readers are missing: run host/tests/py/setup.sh (pip install -r host/tests/py/requirements.txt)"
     );
     "python3"
-}
-
-fn scratch(name: &str) -> PathBuf {
-    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("outputs-{name}"));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
-
-fn listen(args: &[&str]) -> Child {
-    Command::new(env!("CARGO_BIN_EXE_pyramid"))
-        .arg("listen")
-        .args(args)
-        .stdin(Stdio::null())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("the pyramid binary runs")
 }
 
 /// Stderr lines as they come, and the collected output at the end.
@@ -121,17 +107,7 @@ impl Running {
     }
 
     fn finish(mut self) -> Output {
-        let start = Instant::now();
-        let status = loop {
-            if let Some(s) = self.child.try_wait().unwrap() {
-                break s;
-            }
-            if start.elapsed() > PATIENCE {
-                let _ = self.child.kill();
-                break self.child.wait().unwrap();
-            }
-            std::thread::sleep(Duration::from_millis(20));
-        };
+        let status = wait_or_kill(&mut self.child);
         Output {
             status,
             stdout: self.stdout.join().unwrap(),
@@ -257,18 +233,9 @@ fn assert_fused_matches_pgm(
 fn the_mcap_recording_reads_back_with_another_reader_and_equals_the_maps_written() {
     let py = python();
     let dev = device(Plan::clean(3), true);
-    let dir = scratch("mcap");
+    let dir = scratch("outputs", "mcap");
     let mcap = dir.join("session.mcap");
-    let addr = format!("127.0.0.1:{}", dev.port);
-    let child = listen(&[
-        "--tcp",
-        &addr,
-        "--out",
-        dir.to_str().unwrap(),
-        "--json",
-        "--mcap",
-        mcap.to_str().unwrap(),
-    ]);
+    let child = listen_json(dev.port, &dir, &["--mcap", mcap.to_str().unwrap()]);
     let served = dev.handle.join().unwrap();
     let out = running(child).finish();
     let s = summary(&out);
@@ -411,7 +378,7 @@ fn pyramid_run_through_the_emulated_board_records_mcap_equal_to_its_maps() {
         return;
     }
     let py = python();
-    let dir = scratch("run-mcap");
+    let dir = scratch("outputs", "run-mcap");
     let recording = dir.join("synthetic.rec");
     common::synthetic_recording(&recording);
     let mcap = dir.join("run.mcap");
@@ -483,19 +450,12 @@ fn a_foxglove_client_decodes_grids_while_a_stuck_client_holds_nothing_up() {
         ..Plan::clean(17)
     };
     let dev = device(plan, false);
-    let dir = scratch("foxglove");
-    let addr = format!("127.0.0.1:{}", dev.port);
-    let run = running(listen(&[
-        "--tcp",
-        &addr,
-        "--out",
-        dir.to_str().unwrap(),
-        "--json",
-        "--foxglove",
-        "127.0.0.1:0",
-        "--publish-hz",
-        "50",
-    ]));
+    let dir = scratch("outputs", "foxglove");
+    let run = running(listen_json(
+        dev.port,
+        &dir,
+        &["--foxglove", "127.0.0.1:0", "--publish-hz", "50"],
+    ));
     let url = served_url(&run);
     assert!(url.starts_with("ws://127.0.0.1:"), "{url}");
     // The device's first Hello and snapshot have been published once the status says synced.
@@ -628,18 +588,6 @@ fn a_foxglove_client_decodes_grids_while_a_stuck_client_holds_nothing_up() {
 /// The environment variable that marks the inner test's run inside its network namespace.
 const NETNS_MARK: &str = "TERRAIN_PYRAMID_TEST_NETNS";
 
-/// Whether this process sees no network interface but loopback (a namespace of its own).
-fn only_loopback() -> bool {
-    // /proc/net/dev lists the interfaces of the reader's network namespace (sysfs would show
-    // those of the namespace it was mounted in).
-    std::fs::read_to_string("/proc/net/dev").is_ok_and(|t| {
-        t.lines()
-            .skip(2)
-            .filter_map(|l| l.split(':').next())
-            .all(|name| name.trim() == "lo")
-    })
-}
-
 #[test]
 fn ros2_topics_reach_cyclone_dds_inside_a_network_namespace() {
     python();
@@ -680,18 +628,12 @@ fn ros2_inner() {
         ..Plan::clean(29)
     };
     let dev = device(plan, true);
-    let dir = scratch("ros2");
-    let addr = format!("127.0.0.1:{}", dev.port);
-    let run = running(listen(&[
-        "--tcp",
-        &addr,
-        "--out",
-        dir.to_str().unwrap(),
-        "--json",
-        "--ros2",
-        "--ros-domain-id",
-        "7",
-    ]));
+    let dir = scratch("outputs", "ros2");
+    let run = running(listen_json(
+        dev.port,
+        &dir,
+        &["--ros2", "--ros-domain-id", "7"],
+    ));
     dev.settled
         .recv_timeout(PATIENCE)
         .expect("the device settled");
@@ -794,7 +736,7 @@ fn ros2_inner() {
 fn an_address_in_use_is_an_error_naming_the_flag() {
     let taken = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
     let addr = taken.local_addr().unwrap().to_string();
-    let dir = scratch("in-use");
+    let dir = scratch("outputs", "in-use");
     // The outputs start before the device is opened: no device is needed to see the error.
     let out = running(listen(&[
         "--tcp",
@@ -843,19 +785,13 @@ fn a_device_that_goes_away_and_comes_back_keeps_the_maps_and_resyncs() {
         ..Plan::clean(23)
     };
     let dev = device(plan, true);
-    let dir = scratch("reconnect");
+    let dir = scratch("outputs", "reconnect");
     let mcap = dir.join("s.mcap");
-    let addr = format!("127.0.0.1:{}", dev.port);
-    let run = running(listen(&[
-        "--tcp",
-        &addr,
-        "--out",
-        dir.to_str().unwrap(),
-        "--json",
-        "--reconnect",
-        "--mcap",
-        mcap.to_str().unwrap(),
-    ]));
+    let run = running(listen_json(
+        dev.port,
+        &dir,
+        &["--reconnect", "--mcap", mcap.to_str().unwrap()],
+    ));
     let gone = run.wait_for("stream ended");
     assert!(
         gone.contains("trying to reconnect every 1 s; the maps are kept"),
@@ -909,7 +845,7 @@ fn a_serial_port_open_elsewhere_is_refused_and_one_that_vanishes_is_waited_for()
         .unwrap();
     let path = path.trim().to_string();
     assert!(path.starts_with("/dev/pts/"), "{path}");
-    let dir = scratch("serial");
+    let dir = scratch("outputs", "serial");
     let first = running(listen(&["--port", &path, "--out", dir.to_str().unwrap()]));
     first.wait_for("listening on ");
     // A second listener is refused: the port is exclusive (TIOCEXCL and flock).

@@ -22,18 +22,10 @@ use std::time::{Duration, Instant};
 #[path = "support/device.rs"]
 mod support;
 use support::{device, Plan, PATIENCE};
+use terrain_pyramid_host::publish::only_loopback;
 
 /// Clock ticks per second of /proc/PID/stat (Linux: 100 on every common configuration).
 const TICKS: f64 = 100.0;
-
-fn only_loopback() -> bool {
-    std::fs::read_to_string("/proc/net/dev").is_ok_and(|t| {
-        t.lines()
-            .skip(2)
-            .filter_map(|l| l.split(':').next())
-            .all(|name| name.trim() == "lo")
-    })
-}
 
 /// utime + stime, seconds, and the peak RSS, KiB, of a process.
 fn usage(pid: u32) -> (f64, u64) {

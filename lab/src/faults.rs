@@ -302,7 +302,7 @@ fn run_kind(
                         sent = true;
                     }
                     Cmd::Pose(p) => {
-                        let report = wire_pose(*p);
+                        let report = PoseReport::unstamped(*p);
                         let message = Message::Pose(report);
                         match pose_of(&report) {
                             Ok(_) => {
@@ -509,20 +509,6 @@ fn configure_error(c: &Configure) -> Option<DesignError> {
     }
     let mut scratch = Box::new(DefaultPyramid::new());
     scratch.configure(&design, &config).err()
-}
-
-fn wire_pose(p: [f32; 6]) -> PoseReport {
-    let [x_m, y_m, z_m, roll_rad, pitch_rad, yaw_rad] = p;
-    PoseReport {
-        x_m,
-        y_m,
-        z_m,
-        roll_rad,
-        pitch_rad,
-        yaw_rad,
-        stamp_us: 0,
-        flags: 0,
-    }
 }
 
 /// Cells that differ between the mirror and the reference, over every layer (a layer whose

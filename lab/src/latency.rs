@@ -50,7 +50,7 @@ use terrain_pyramid_host::device::Device;
 use terrain_pyramid_host::emulator::{Emulator, Machine};
 use terrain_pyramid_host::link::{HostLink, LinkEvent};
 use terrain_pyramid_host::play::{steps, Step};
-use terrain_pyramid_host::publish::{Outputs, RobotPose};
+use terrain_pyramid_host::publish::{only_loopback, Outputs, RobotPose};
 use terrain_pyramid_host::run::{boot_emulator, run_config};
 
 /// Arguments of `lab latency`.
@@ -352,16 +352,6 @@ fn sample_sizes(path: PathBuf, stop: Arc<AtomicBool>) -> Vec<(i128, u64)> {
     samples
 }
 
-/// Whether this process sees no network interface but loopback (a namespace of its own).
-fn only_loopback() -> bool {
-    std::fs::read_to_string("/proc/net/dev").is_ok_and(|t| {
-        t.lines()
-            .skip(2)
-            .filter_map(|l| l.split(':').next())
-            .all(|name| name.trim() == "lo")
-    })
-}
-
 fn is_map_topic(topic: &str) -> bool {
     topic.contains("fused") || topic.contains("layer")
 }
@@ -608,17 +598,8 @@ pub fn execute(args: &Args) -> Result<Report, String> {
                     timestamp_ms: 0,
                 }))?;
             }
-            Step::Pose([x_m, y_m, z_m, roll_rad, pitch_rad, yaw_rad]) => {
-                timed.send(&Message::Pose(PoseReport {
-                    x_m: *x_m,
-                    y_m: *y_m,
-                    z_m: *z_m,
-                    roll_rad: *roll_rad,
-                    pitch_rad: *pitch_rad,
-                    yaw_rad: *yaw_rad,
-                    stamp_us: 0,
-                    flags: 0,
-                }))?;
+            Step::Pose(pose) => {
+                timed.send(&Message::Pose(PoseReport::unstamped(*pose)))?;
             }
             Step::Telegram {
                 bytes,

@@ -387,17 +387,7 @@ fn hold_frames(line: &DriveLine, last_pose: &mut Option<[f32; 6]>) -> Vec<Messag
         timestamp_ms: line_ms(line),
     })];
     if *last_pose != Some(line.pose) {
-        let [x_m, y_m, z_m, roll_rad, pitch_rad, yaw_rad] = line.pose;
-        frames.push(Message::Pose(PoseReport {
-            x_m,
-            y_m,
-            z_m,
-            roll_rad,
-            pitch_rad,
-            yaw_rad,
-            stamp_us: 0,
-            flags: 0,
-        }));
+        frames.push(Message::Pose(PoseReport::unstamped(line.pose)));
         *last_pose = Some(line.pose);
     }
     frames

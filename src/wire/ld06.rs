@@ -41,6 +41,7 @@
 use core::fmt;
 
 use super::laser::{turn_fraction, LaserReturn, TurnSteps};
+use super::resync::{self, Resync, Scan};
 use super::window::{bump, bump_by, Window};
 use super::FeedResult;
 use crate::angle::FineAngle;
@@ -511,19 +512,6 @@ pub struct Ld06Counters {
     pub garbage_bytes: u32,
 }
 
-/// What [`Ld06Accumulator::scan`] found at the front of the window.
-#[derive(Debug, Clone, Copy)]
-enum Scan {
-    /// A valid packet at the front, at this stream position.
-    Packet(u64),
-    /// A candidate refused (its header byte dropped), at this stream position.
-    Rejected(Ld06Error, u64),
-    /// A candidate needing this many more bytes (≥ 1).
-    Need(usize),
-    /// Nothing buffered.
-    Empty,
-}
-
 /// Reassembles LD06 packets from a byte stream fed in chunks of any size.
 ///
 /// It holds one packet (47 bytes): garbage is skipped in place, never copied.
@@ -556,8 +544,6 @@ enum Scan {
 #[derive(Debug, Clone)]
 pub struct Ld06Accumulator {
     window: Window<LD06_PACKET_LEN>,
-    /// Length of the packet handed out by the last call, at the front; dropped on the next.
-    delivered: usize,
     counters: Ld06Counters,
 }
 
@@ -586,7 +572,6 @@ impl Ld06Accumulator {
     pub const fn new() -> Self {
         Self {
             window: Window::new(),
-            delivered: 0,
             counters: Ld06Counters {
                 packets: 0,
                 checksum: 0,
@@ -605,90 +590,21 @@ impl Ld06Accumulator {
         &'s mut self,
         chunk: &'c [u8],
     ) -> FeedResult<'c, Ld06Packet<&'s [u8]>, Ld06Error> {
-        self.release();
-        let mut chunk = chunk;
-        loop {
-            let need = match self.scan() {
-                Scan::Packet(offset) => {
-                    return FeedResult::Item {
-                        item: self.packet_view(),
-                        offset,
-                        remaining: chunk,
-                    }
-                }
-                Scan::Rejected(error, offset) => {
-                    return FeedResult::Rejected {
-                        error,
-                        offset,
-                        remaining: chunk,
-                    }
-                }
-                Scan::Need(need) => need,
-                Scan::Empty => {
-                    // Hunt in place: garbage never touches the buffer.
-                    let at = chunk
-                        .iter()
-                        .position(|&b| b == LD06_HEADER)
-                        .unwrap_or(chunk.len());
-                    bump_by(&mut self.counters.garbage_bytes, at);
-                    self.window.skip(at);
-                    chunk = chunk.get(at..).unwrap_or(&[]);
-                    LD06_PACKET_LEN
-                }
-            };
-            if chunk.is_empty() {
-                return FeedResult::Consumed;
-            }
-            chunk = self.window.fill(chunk, need);
-        }
+        resync::feed(self, chunk)
     }
 
     /// Ends the stream: rejects a candidate still incomplete (`54 2C` and fewer than 45 more
     /// bytes) as [`Ld06Error::Truncated`] and counts a lone trailing 0x54 as garbage. Call it
     /// until it returns [`FeedResult::Consumed`].
     pub fn flush(&mut self) -> FeedResult<'static, Ld06Packet<&[u8]>, Ld06Error> {
-        self.release();
-        loop {
-            match self.scan() {
-                Scan::Packet(offset) => {
-                    return FeedResult::Item {
-                        item: self.packet_view(),
-                        offset,
-                        remaining: &[],
-                    }
-                }
-                Scan::Rejected(error, offset) => {
-                    return FeedResult::Rejected {
-                        error,
-                        offset,
-                        remaining: &[],
-                    }
-                }
-                Scan::Empty => return FeedResult::Consumed,
-                Scan::Need(_) => {
-                    let live = self.window.len();
-                    if live >= 2 {
-                        let offset = self.window.offset_of(0);
-                        bump(&mut self.counters.truncated);
-                        self.window.drop_front(1);
-                        return FeedResult::Rejected {
-                            error: Ld06Error::Truncated,
-                            offset,
-                            remaining: &[],
-                        };
-                    }
-                    bump_by(&mut self.counters.garbage_bytes, live);
-                    self.window.drop_front(live);
-                }
-            }
-        }
+        resync::flush(self)
     }
 
     /// The packet handed out by the last call, while it is valid (until the next call taking
     /// `&mut self`).
     #[must_use]
     pub fn packet(&self) -> Option<Ld06Packet<&[u8]>> {
-        (self.delivered > 0).then(|| self.packet_view())
+        (!self.window.handed_out().is_empty()).then(|| self.item())
     }
 
     /// The counters.
@@ -705,7 +621,7 @@ impl Ld06Accumulator {
     /// Bytes buffered and not yet resolved (a candidate in progress).
     #[must_use]
     pub const fn buffered(&self) -> usize {
-        self.window.len().saturating_sub(self.delivered)
+        self.window.unresolved()
     }
 
     /// Bytes taken from chunks since the accumulator was made (wrapping at 2⁶⁴): the stream
@@ -718,23 +634,22 @@ impl Ld06Accumulator {
     /// Drops everything buffered, uncounted; keeps the counters and the stream position.
     pub fn reset(&mut self) {
         self.window.clear();
-        self.delivered = 0;
+    }
+}
+
+impl Resync<LD06_PACKET_LEN> for Ld06Accumulator {
+    type Item<'a> = Ld06Packet<&'a [u8]>;
+    type Error = Ld06Error;
+
+    fn window(&mut self) -> &mut Window<LD06_PACKET_LEN> {
+        &mut self.window
     }
 
-    fn release(&mut self) {
-        if self.delivered > 0 {
-            self.window.drop_front(self.delivered);
-            self.delivered = 0;
-        }
+    fn item(&self) -> Ld06Packet<&[u8]> {
+        Ld06Packet::new_unchecked(self.window.handed_out())
     }
 
-    fn packet_view(&self) -> Ld06Packet<&[u8]> {
-        let live = self.window.live();
-        Ld06Packet::new_unchecked(live.get(..self.delivered).unwrap_or(live))
-    }
-
-    /// Resolves the front of the window as far as it goes.
-    fn scan(&mut self) -> Scan {
+    fn scan(&mut self) -> Scan<Ld06Error> {
         loop {
             let live = self.window.live();
             let Some(&first) = live.first() else {
@@ -751,7 +666,12 @@ impl Ld06Accumulator {
                 continue;
             }
             match live.get(1) {
-                None => return Scan::Need(1),
+                None => {
+                    return Scan::Need {
+                        more: 1,
+                        candidate: false,
+                    }
+                }
                 Some(&LD06_VER_LEN) => {}
                 Some(_) => {
                     bump(&mut self.counters.garbage_bytes);
@@ -760,22 +680,47 @@ impl Ld06Accumulator {
                 }
             }
             let Some(packet) = live.first_chunk::<LD06_PACKET_LEN>() else {
-                return Scan::Need(LD06_PACKET_LEN - live.len());
+                return Scan::Need {
+                    more: LD06_PACKET_LEN - live.len(),
+                    candidate: true,
+                };
             };
             let offset = self.window.offset_of(0);
             let (body, &[stored]) = packet.split_at(field::CRC) else {
-                return Scan::Need(1);
+                return Scan::Need {
+                    more: 1,
+                    candidate: true,
+                };
             };
             let computed = ld06_crc8(body);
             if stored == computed {
                 bump(&mut self.counters.packets);
-                self.delivered = LD06_PACKET_LEN;
-                return Scan::Packet(offset);
+                self.window.hand_out(LD06_PACKET_LEN);
+                return Scan::Item(offset);
             }
             bump(&mut self.counters.checksum);
             self.window.drop_front(1);
             return Scan::Rejected(Ld06Error::BadCrc { stored, computed }, offset);
         }
+    }
+
+    fn may_start(&self, byte: u8) -> bool {
+        byte == LD06_HEADER
+    }
+
+    fn first_need(&self) -> usize {
+        LD06_PACKET_LEN
+    }
+
+    fn count_garbage(&mut self, n: usize) {
+        bump_by(&mut self.counters.garbage_bytes, n);
+    }
+
+    fn truncate(&mut self) -> (Ld06Error, u64) {
+        let offset = self.window.offset_of(0);
+        bump(&mut self.counters.truncated);
+        self.window.drop_front(1);
+        (Ld06Error::Truncated, offset)
     }
 }
 
@@ -962,49 +907,27 @@ mod tests {
         R(u64, Ld06Error),
     }
 
+    fn record(r: FeedResult<'_, Ld06Packet<&[u8]>, Ld06Error>, out: &mut Vec<Ev>) -> bool {
+        match r {
+            FeedResult::Consumed => return false,
+            FeedResult::Item { item, offset, .. } => {
+                assert!(Ld06Packet::new_checked(item.as_bytes()).is_ok());
+                out.push(Ev::P(offset, item.as_bytes().to_vec()));
+            }
+            FeedResult::Rejected { error, offset, .. } => out.push(Ev::R(offset, error)),
+        }
+        true
+    }
+
     fn run(stream: &[u8], sizes: &[usize]) -> (Vec<Ev>, Ld06Counters) {
         let mut acc = Ld06Accumulator::new();
         let mut out = Vec::new();
-        let mut rest = stream;
-        let mut i = 0;
-        while !rest.is_empty() {
-            let n = sizes[i % sizes.len()].clamp(1, rest.len());
-            i += 1;
-            let (chunk, tail) = rest.split_at(n);
-            rest = tail;
-            let mut window = chunk;
-            loop {
-                match acc.feed(window) {
-                    FeedResult::Consumed => break,
-                    FeedResult::Item {
-                        item,
-                        offset,
-                        remaining,
-                    } => {
-                        assert!(Ld06Packet::new_checked(item.as_bytes()).is_ok());
-                        out.push(Ev::P(offset, item.as_bytes().to_vec()));
-                        window = remaining;
-                    }
-                    FeedResult::Rejected {
-                        error,
-                        offset,
-                        remaining,
-                    } => {
-                        out.push(Ev::R(offset, error));
-                        window = remaining;
-                    }
-                }
-            }
-        }
-        loop {
-            match acc.flush() {
-                FeedResult::Consumed => break,
-                FeedResult::Item { item, offset, .. } => {
-                    out.push(Ev::P(offset, item.as_bytes().to_vec()))
-                }
-                FeedResult::Rejected { error, offset, .. } => out.push(Ev::R(offset, error)),
-            }
-        }
+        resync::feed_in_chunks(stream, sizes, |window| {
+            let r = acc.feed(window);
+            let left = r.remaining();
+            record(r, &mut out).then_some(left)
+        });
+        while record(acc.flush(), &mut out) {}
         assert_eq!(acc.buffered(), 0);
         assert_eq!(acc.position(), stream.len() as u64);
         let c = acc.counters();

@@ -38,6 +38,7 @@ pub mod laser;
 pub mod ld06;
 pub mod link;
 pub mod recording;
+mod resync;
 pub mod rplidar;
 pub mod shared_line;
 pub mod sick;

@@ -5,12 +5,15 @@
 //! index maps back to its stream position. Nothing here panics: indices are clamped and every
 //! slice is taken with `get`.
 
-/// A fixed buffer of `N` bytes with a live range, and the count of bytes taken from chunks.
+/// A fixed buffer of `N` bytes with a live range, the unit handed out at its front, and the
+/// count of bytes taken from chunks.
 #[derive(Debug, Clone)]
 pub(crate) struct Window<const N: usize> {
     buf: [u8; N],
     start: usize,
     end: usize,
+    /// Length of the unit handed out by the last call, at the front; dropped on the next.
+    handed: usize,
     /// Bytes taken from chunks since the window was made (wrapping at 2⁶⁴).
     consumed: u64,
 }
@@ -22,6 +25,7 @@ impl<const N: usize> Window<N> {
             buf: [0; N],
             start: 0,
             end: 0,
+            handed: 0,
             consumed: 0,
         }
     }
@@ -45,10 +49,35 @@ impl<const N: usize> Window<N> {
         }
     }
 
-    /// Drops every live byte; keeps the stream position.
+    /// Drops every live byte (a unit handed out included); keeps the stream position.
     pub(crate) fn clear(&mut self) {
         self.start = 0;
         self.end = 0;
+        self.handed = 0;
+    }
+
+    /// Marks the first `len` live bytes as the unit handed out, dropped by [`Self::release`].
+    pub(crate) fn hand_out(&mut self, len: usize) {
+        self.handed = len;
+    }
+
+    /// The unit handed out (empty when there is none).
+    pub(crate) fn handed_out(&self) -> &[u8] {
+        let live = self.live();
+        live.get(..self.handed).unwrap_or(live)
+    }
+
+    /// Drops the unit handed out, if any.
+    pub(crate) fn release(&mut self) {
+        if self.handed > 0 {
+            self.drop_front(self.handed);
+            self.handed = 0;
+        }
+    }
+
+    /// How many live bytes are not yet resolved (the unit handed out not included).
+    pub(crate) const fn unresolved(&self) -> usize {
+        self.len().saturating_sub(self.handed)
     }
 
     /// Counts `n` bytes taken from a chunk without buffering them (skipped in place).

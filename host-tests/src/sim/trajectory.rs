@@ -9,23 +9,8 @@
 
 use super::scene::Scene;
 
-/// A robot pose: metres and radians, world = T + `R_z(yaw)·R_y(pitch)·R_x(roll)`·robot (the
-/// library's convention; positive pitch puts the nose down).
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
-pub struct Pose {
-    /// x, metres.
-    pub x: f64,
-    /// y, metres.
-    pub y: f64,
-    /// z of the ground contact point, metres.
-    pub z: f64,
-    /// Roll, radians.
-    pub roll: f64,
-    /// Pitch, radians.
-    pub pitch: f64,
-    /// Yaw, radians.
-    pub yaw: f64,
-}
+/// A robot pose (the one of [`crate::geometry`]): z is the ground contact point's here.
+pub use crate::geometry::Pose;
 
 impl Pose {
     /// The rotation `R_z(yaw)·R_y(pitch)·R_x(roll)`, row-major.

@@ -94,6 +94,20 @@ pub use published::{Frame, FusedOut, LayerOut, PoseSource, RobotPose, Update, Wi
 pub use worker::PublishCounts;
 use worker::{worker, Shared, Slot};
 
+/// Whether this process sees no network interface but loopback (a network namespace of its
+/// own, as `unshare -n` makes): where `--ros2`'s DDS multicast stays on this machine.
+#[must_use]
+pub fn only_loopback() -> bool {
+    // /proc/net/dev lists the interfaces of the reader's network namespace (sysfs would show
+    // those of the namespace it was mounted in).
+    std::fs::read_to_string("/proc/net/dev").is_ok_and(|t| {
+        t.lines()
+            .skip(2)
+            .filter_map(|l| l.split(':').next())
+            .all(|name| name.trim() == "lo")
+    })
+}
+
 /// An output that could not start: which flag, and why.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct StartError {

@@ -5,6 +5,8 @@
 #![allow(dead_code)]
 use std::io::{ErrorKind, Read, Write};
 use std::net::{TcpListener, TcpStream};
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, ExitStatus, Stdio};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{mpsc, Arc};
 use std::thread::JoinHandle;
@@ -45,6 +47,89 @@ impl Rng {
     }
 }
 
+/// A serial line that forwards whole frames (ending at a 0 byte), deleting some and flipping
+/// a bit in others.
+pub struct Channel {
+    /// Bytes of the frame still open.
+    pub pending: Vec<u8>,
+    /// Frames deleted, per mille.
+    pub drop_per_mille: u32,
+    /// Frames with one bit flipped, per mille.
+    pub flip_per_mille: u32,
+    /// Frames deleted so far.
+    pub dropped: u32,
+    /// Frames flipped so far.
+    pub flipped: u32,
+}
+
+impl Channel {
+    /// A line that deletes and flips frames at these rates (per mille).
+    pub fn new(drop_per_mille: u32, flip_per_mille: u32) -> Self {
+        Self {
+            pending: Vec::new(),
+            drop_per_mille,
+            flip_per_mille,
+            dropped: 0,
+            flipped: 0,
+        }
+    }
+
+    /// The frames of `bytes` that get through (each draws from `rng` whatever its rates).
+    pub fn pass(&mut self, rng: &mut Rng, bytes: &[u8]) -> Vec<u8> {
+        let mut out = Vec::new();
+        for &b in bytes {
+            self.pending.push(b);
+            if b == 0 {
+                let mut frame = std::mem::take(&mut self.pending);
+                if rng.chance(self.drop_per_mille) {
+                    self.dropped += 1;
+                    continue;
+                }
+                if rng.chance(self.flip_per_mille) && frame.len() > 1 {
+                    let at = rng.below(frame.len() as u64 - 1) as usize;
+                    frame[at] ^= 1 << rng.below(8);
+                    self.flipped += 1;
+                }
+                out.extend(frame);
+            }
+        }
+        out
+    }
+}
+
+/// One step of the robot's random walk from (`x`, `y`), metres: mostly small steps, sometimes
+/// a jump of several metres. Returns the new position.
+pub fn wander(rng: &mut Rng, x: &mut f64, y: &mut f64) -> (Meters, Meters) {
+    if rng.chance(20) {
+        *x += (rng.unit() - 0.5) * 12.0;
+        *y += (rng.unit() - 0.5) * 12.0;
+    } else {
+        *x += (rng.unit() - 0.5) * 0.3;
+        *y += (rng.unit() - 0.5) * 0.3;
+    }
+    (Meters::from_num(*x), Meters::from_num(*y))
+}
+
+/// Applies `count` random evidence updates (30 % obstacle) to random layers within 35 cells
+/// of (`mx`, `my`).
+pub fn scatter(rng: &mut Rng, pyramid: &mut DefaultPyramid, mx: Meters, my: Meters, count: usize) {
+    for _ in 0..count {
+        let k = rng.below(pyramid.layer_count() as u64) as usize;
+        let r = pyramid.layer(k).unwrap().resolution();
+        pyramid.apply(&Evidence {
+            layer: k as u8,
+            cell_x: r.cell_of(mx) + rng.below(70) as i32 - 35,
+            cell_y: r.cell_of(my) + rng.below(70) as i32 - 35,
+            class: if rng.chance(300) {
+                EvidenceClass::Obstacle
+            } else {
+                EvidenceClass::Navigable
+            },
+            weight: terrain_pyramid::Weight::from_num(rng.unit()),
+        });
+    }
+}
+
 /// How the device's session goes.
 #[derive(Clone, Copy, Debug)]
 pub struct Plan {
@@ -63,6 +148,11 @@ pub struct Plan {
     pub unplugged_steps: usize,
     /// Evidence updates per step (176 per 13 ms is the SICK LMS2xx's 13 575 points/s).
     pub evidence_per_step: usize,
+    /// Steps at the start whose output nobody hears (the host joins mid-stream).
+    pub deaf_steps: usize,
+    /// The line between device and host during the driving steps: frames deleted and
+    /// flipped, per mille (`None`: a clean line that draws nothing from the generator).
+    pub loss: Option<(u32, u32)>,
 }
 
 impl Plan {
@@ -76,6 +166,8 @@ impl Plan {
             unplug_at: None,
             unplugged_steps: 0,
             evidence_per_step: 60,
+            deaf_steps: 0,
+            loss: None,
         }
     }
 }
@@ -86,6 +178,9 @@ pub struct Served {
     pub snapshots: u32,
     pub connections: u32,
     pub bytes_sent: u64,
+    /// Frames the line deleted and flipped.
+    pub dropped: u32,
+    pub flipped: u32,
 }
 
 /// A running device.
@@ -163,6 +258,19 @@ pub fn design() -> DefaultDesign {
     DefaultDesign::new(SensorModel::default(), Schedule::default(), W).unwrap()
 }
 
+/// A device just booted: the default pyramid configured with the default design, and its
+/// link (Stats every 200 ms) announcing that design.
+pub fn booted() -> (Box<DefaultPyramid>, Box<Link>) {
+    let mut pyramid = Box::new(DefaultPyramid::new());
+    let mut link: Box<Link> = Box::new(Link::new(LinkConfig {
+        stats_interval_ms: 200,
+        ..LinkConfig::DEFAULT
+    }));
+    pyramid.configure(&design(), &Config::default()).unwrap();
+    link.adopt(&design());
+    (pyramid, link)
+}
+
 fn serve(
     listener: TcpListener,
     plan: Plan,
@@ -174,13 +282,8 @@ fn serve(
     let mut stream = Some(accept(&listener));
     let mut connections = 1;
     let mut rng = Rng(plan.seed | 1);
-    let mut pyramid = Box::new(DefaultPyramid::new());
-    let mut link: Box<Link> = Box::new(Link::new(LinkConfig {
-        stats_interval_ms: 200,
-        ..LinkConfig::DEFAULT
-    }));
-    pyramid.configure(&design(), &Config::default()).unwrap();
-    link.adopt(&design());
+    let (mut pyramid, mut link) = booted();
+    let mut channel = plan.loss.map(|(drop, flip)| Channel::new(drop, flip));
     let mut uart = vec![0_u8; 92_160 * 13 / 1000];
     let mut rx = vec![0_u8; 1024];
     let (mut x, mut y) = (0.0_f64, 0.0_f64);
@@ -200,30 +303,9 @@ fn serve(
                 stream = None;
                 unplugged_until = Some(step + plan.unplugged_steps);
             }
-            if rng.chance(20) {
-                x += (rng.unit() - 0.5) * 12.0;
-                y += (rng.unit() - 0.5) * 12.0;
-            } else {
-                x += (rng.unit() - 0.5) * 0.3;
-                y += (rng.unit() - 0.5) * 0.3;
-            }
-            let (mx, my) = (Meters::from_num(x), Meters::from_num(y));
+            let (mx, my) = wander(&mut rng, &mut x, &mut y);
             pyramid.recentre(mx, my);
-            for _ in 0..plan.evidence_per_step {
-                let k = rng.below(pyramid.layer_count() as u64) as usize;
-                let r = pyramid.layer(k).unwrap().resolution();
-                pyramid.apply(&Evidence {
-                    layer: k as u8,
-                    cell_x: r.cell_of(mx) + rng.below(70) as i32 - 35,
-                    cell_y: r.cell_of(my) + rng.below(70) as i32 - 35,
-                    class: if rng.chance(300) {
-                        EvidenceClass::Obstacle
-                    } else {
-                        EvidenceClass::Navigable
-                    },
-                    weight: terrain_pyramid::Weight::from_num(rng.unit()),
-                });
-            }
+            scatter(&mut rng, &mut pyramid, mx, my, plan.evidence_per_step);
         }
         now_ms += 13;
         link.poll(now_ms, &mut *pyramid, &SensorCounters::default());
@@ -234,11 +316,16 @@ fn serve(
             connections += 1;
             unplugged_until = Some(usize::MAX);
         }
+        let heard = match channel.as_mut() {
+            _ if step < plan.deaf_steps => Vec::new(),
+            Some(channel) if driving => channel.pass(&mut rng, &uart[..n]),
+            _ => uart[..n].to_vec(),
+        };
         if let Some(s) = stream.as_mut() {
-            if !send(s, &uart[..n]) {
+            if !send(s, &heard) {
                 break;
             }
-            bytes_sent += n as u64;
+            bytes_sent += heard.len() as u64;
             let mut host_gone = false;
             loop {
                 match s.read(&mut rx) {
@@ -287,6 +374,8 @@ fn serve(
         snapshots: link.counters().snapshots,
         connections,
         bytes_sent,
+        dropped: channel.as_ref().map_or(0, |c| c.dropped),
+        flipped: channel.as_ref().map_or(0, |c| c.flipped),
     }
 }
 
@@ -348,4 +437,49 @@ pub fn fused_occupancy(p: &DefaultPyramid) -> (Vec<i8>, usize) {
         })
         .collect();
     (values, n)
+}
+
+/// A fresh directory `<test>-<name>` for one test.
+pub fn scratch(test: &str, name: &str) -> PathBuf {
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("{test}-{name}"));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+/// `pyramid listen` with these arguments, its output piped.
+pub fn listen(args: &[&str]) -> Child {
+    Command::new(env!("CARGO_BIN_EXE_pyramid"))
+        .arg("listen")
+        .args(args)
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("the pyramid binary runs")
+}
+
+/// `pyramid listen --tcp 127.0.0.1:<port> --out <dir> --json` and the `extra` arguments, its
+/// output piped.
+pub fn listen_json(port: u16, dir: &Path, extra: &[&str]) -> Child {
+    let addr = format!("127.0.0.1:{port}");
+    let out = dir.to_str().unwrap();
+    let mut args = vec!["--tcp", &addr, "--out", out, "--json"];
+    args.extend_from_slice(extra);
+    listen(&args)
+}
+
+/// Waits for `child`, killing it after [`PATIENCE`].
+pub fn wait_or_kill(child: &mut Child) -> ExitStatus {
+    let start = Instant::now();
+    loop {
+        if let Some(status) = child.try_wait().unwrap() {
+            return status;
+        }
+        if start.elapsed() > PATIENCE {
+            let _ = child.kill();
+            return child.wait().unwrap();
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
 }

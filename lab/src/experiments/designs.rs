@@ -1,6 +1,6 @@
 //! The designs the experiments compare, all through the library's own [`Design::new`].
 
-use terrain_pyramid::{Design, DesignError, GateShape, Schedule, SensorModel};
+use terrain_pyramid::{Clamp, Config, Design, DesignError, GateShape, Schedule, SensorModel};
 
 /// The paper's sensor model (φ = 0.5°, ψ = 2°, σ = 0.15 m, h = 1 m) with maximum range `range_m`.
 pub fn paper_sensor(range_m: f32) -> SensorModel {
@@ -18,12 +18,41 @@ pub fn pyramid<const L: usize>(
     uniform: bool,
     cells: usize,
 ) -> Result<Design<L>, DesignError> {
+    pyramid_of(paper_sensor(range_m), gate, uniform, cells)
+}
+
+/// The pyramid of `sensor`'s bands (the library's default schedule) with `gate`, every layer
+/// at Δd when `uniform`, else at `r_k = k·γ·Δd`.
+pub fn pyramid_of<const L: usize>(
+    sensor: SensorModel,
+    gate: GateShape,
+    uniform: bool,
+    cells: usize,
+) -> Result<Design<L>, DesignError> {
     let schedule = Schedule {
         gate,
         uniform_resolution: uniform,
         ..Schedule::default()
     };
-    Design::new(paper_sensor(range_m), schedule, cells)
+    Design::new(sensor, schedule, cells)
+}
+
+/// The library's default configuration with the stored log-odds unclamped (the paper's
+/// baseline).
+pub fn unclamped() -> Config {
+    Config {
+        clamp: Clamp::Off,
+        ..Config::default()
+    }
+}
+
+/// The library's default configuration with the stored log-odds clamped to OctoMap's bounds
+/// (−2 ..= 3.5 nats).
+pub fn octomap_clamped() -> Config {
+    Config {
+        clamp: Clamp::OCTOMAP,
+        ..Config::default()
+    }
 }
 
 /// The flat grid: one layer of `cell_m` cells fed by every observation out to `range_m`.

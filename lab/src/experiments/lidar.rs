@@ -24,13 +24,14 @@
 //! PanAngle gives the co-processor.
 
 use super::coverage::{self, Holes};
+use super::designs;
 use super::engine::{decode, Decoded, Map, Runner};
 use super::picture::{self, Region};
 use super::stairs::{self, round3, round4, MapResult, Shares, FIRST_STEP_SHARE};
 use serde::Serialize;
 use std::path::Path;
 use terrain_pyramid::classify::ClassifierConfig;
-use terrain_pyramid::{Clamp, Config, Design, DesignError, GateShape, Schedule, SensorModel};
+use terrain_pyramid::{Config, Design, DesignError, GateShape, SensorModel};
 use terrain_pyramid_host_tests::sim::laser::LaserConfig;
 use terrain_pyramid_host_tests::sim::lidar::{
     simulate_lidar, LidarActuator, LidarKind, LidarSimConfig, LidarSimulation,
@@ -113,12 +114,7 @@ impl Ld19Design {
         uniform: bool,
         cells: usize,
     ) -> Result<Design<L>, DesignError> {
-        let schedule = Schedule {
-            gate,
-            uniform_resolution: uniform,
-            ..Schedule::default()
-        };
-        Design::new(self.sensor(range_m), schedule, cells)
+        designs::pyramid_of(self.sensor(range_m), gate, uniform, cells)
     }
 }
 
@@ -266,14 +262,8 @@ fn stairs_maps(decoded: &Decoded, setup: &StairsSetup) -> Result<Vec<Box<dyn Map
     let r = setup.range_m;
     #[allow(clippy::cast_possible_truncation)]
     let (rf, cell) = (r as f32, stairs::CELL_M as f32);
-    let off = Config {
-        clamp: Clamp::Off,
-        ..Config::default()
-    };
-    let clamped = Config {
-        clamp: Clamp::OCTOMAP,
-        ..Config::default()
-    };
+    let off = designs::unclamped();
+    let clamped = designs::octomap_clamped();
     let fc = decoded.frontend;
     let e = |e: DesignError| e.to_string();
     Ok(vec![

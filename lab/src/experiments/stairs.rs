@@ -11,7 +11,7 @@ use serde::Serialize;
 use std::path::Path;
 use terrain_pyramid::classify::ClassifierConfig;
 use terrain_pyramid::wire::sick::Unit;
-use terrain_pyramid::{Clamp, Config, Fused, GateShape};
+use terrain_pyramid::{Fused, GateShape};
 use terrain_pyramid_host_tests::sim::laser::{Actuator, LaserConfig};
 use terrain_pyramid_host_tests::sim::record::{simulate, SimConfig};
 use terrain_pyramid_host_tests::sim::scene::{GroundTruthSpec, Scene, StairsSpec};
@@ -256,14 +256,8 @@ fn maps(decoded: &Decoded, range_m: f64) -> Result<Vec<Box<dyn Map>>, String> {
     let r = range_m as f32;
     #[allow(clippy::cast_possible_truncation)]
     let cell = CELL_M as f32;
-    let off = Config {
-        clamp: Clamp::Off,
-        ..Config::default()
-    };
-    let clamped = Config {
-        clamp: Clamp::OCTOMAP,
-        ..Config::default()
-    };
+    let off = designs::unclamped();
+    let clamped = designs::octomap_clamped();
     let fc = decoded.frontend;
     let e = |e: terrain_pyramid::DesignError| e.to_string();
     Ok(vec![

@@ -21,7 +21,7 @@ use terrain_pyramid::grid::cell_of;
 use terrain_pyramid::link::convert::{configure_of_design, frontend_config_of_event};
 use terrain_pyramid::logodds::round_to_log_odds;
 use terrain_pyramid::wire::link::Message;
-use terrain_pyramid::{Cell as MapCell, Clamp, Config, Design, Fused, GateShape, Meters};
+use terrain_pyramid::{Cell as MapCell, Config, Design, Fused, GateShape, Meters};
 use terrain_pyramid_host::device::Device;
 use terrain_pyramid_host::emulator::{build_firmware_variant, Emulator, Machine, BOARD_DIR};
 use terrain_pyramid_host::export::MapSnapshot;
@@ -150,14 +150,8 @@ fn differing_cells(link: &HostLink, host: &MapSnapshot) -> u64 {
 fn map_specs(range_m: f64) -> Result<Vec<(&'static str, Design<BOARD_LAYERS>, Config)>, String> {
     #[allow(clippy::cast_possible_truncation)]
     let (r, cell) = (range_m as f32, CELL_M as f32);
-    let off = Config {
-        clamp: Clamp::Off,
-        ..Config::default()
-    };
-    let clamped = Config {
-        clamp: Clamp::OCTOMAP,
-        ..Config::default()
-    };
+    let off = designs::unclamped();
+    let clamped = designs::octomap_clamped();
     let e = |e: terrain_pyramid::DesignError| e.to_string();
     Ok(vec![
         ("flat", designs::flat(r, cell, CELLS).map_err(e)?, off),

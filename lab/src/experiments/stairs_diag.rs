@@ -5,12 +5,13 @@
 //! It watches the step cells of every layer between packets (each change is one observation's
 //! increment to that layer's cell), so it needs nothing from the library beyond its maps.
 
+use super::designs;
 use super::engine::{decode, Map, Runner};
 use super::lidar::{self, StairsSetup, LAYERS, STAIRS_CELLS};
 use super::stairs::{self, CELL_M};
 use std::fmt::Write as _;
 use terrain_pyramid::classify::ClassifierConfig;
-use terrain_pyramid::{Clamp, Config, Design, Fused};
+use terrain_pyramid::{Design, Fused};
 use terrain_pyramid_host_tests::sim::lidar::simulate_lidar;
 
 /// Packets between two looks at the step cells (a fifteenth of an LD19's second).
@@ -37,10 +38,7 @@ pub fn diagnose(
     let decoded = decode(&sim.bytes, classifier)?;
     let (steps, first) = stairs::step_cells(&scene);
     let riser_x = scene.scene.target_x.unwrap_or(0.0);
-    let config = Config {
-        clamp: Clamp::Off,
-        ..Config::default()
-    };
+    let config = designs::unclamped();
     let layers_text: Vec<String> = design
         .layers()
         .iter()

@@ -63,7 +63,7 @@ use serde::Serialize;
 use terrain_pyramid::classify::ClassifierConfig;
 use terrain_pyramid::link::convert::{frontend_config, setup_message_with_sensor};
 use terrain_pyramid::pipeline::FrontendConfig;
-use terrain_pyramid::{Clamp, Config, GateShape};
+use terrain_pyramid::{Config, GateShape};
 use terrain_pyramid_host::play::{steps, Step, Steps};
 use terrain_pyramid_host_tests::sim::laser::LaserConfig;
 use terrain_pyramid_host_tests::sim::lidar::{simulate_lidar, LidarSimConfig};
@@ -241,13 +241,6 @@ fn frontend_of(steps: &Steps) -> Result<FrontendConfig, String> {
     .map_err(|e| format!("the recording's setup: {e}"))
 }
 
-fn no_clamp() -> Config {
-    Config {
-        clamp: Clamp::Off,
-        ..Config::default()
-    }
-}
-
 /// The stairs scene's simulator setup (SICK, the stairs experiment's), quick or full.
 pub fn stairs_setup(quick: bool) -> stairs::Setup {
     if quick {
@@ -292,7 +285,7 @@ pub fn stairs_scene(quick: bool, feed: &PoseFeed) -> Result<SceneResult, String>
     .map_err(|e| e.to_string())?;
     let (_, first) = stairs::step_cells(&sim_config);
     let riser_x = sim_config.scene.target_x.unwrap_or(0.0);
-    let config = no_clamp();
+    let config = designs::unclamped();
     let input = Input {
         steps: &steps,
         late: &late,
@@ -439,7 +432,7 @@ pub fn ld19_scene(quick: bool, feed: &PoseFeed) -> Result<SceneResult, String> {
         .map_err(|e| e.to_string())?;
     let (_, first) = stairs::step_cells(&scene_config);
     let riser_x = scene_config.scene.target_x.unwrap_or(0.0);
-    let config = no_clamp();
+    let config = designs::unclamped();
     let input = Input {
         steps: &steps,
         late: &late,

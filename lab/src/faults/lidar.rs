@@ -290,17 +290,8 @@ pub fn run_kind(
                 reference.send(&m)?;
                 sent = true;
             }
-            if let Some([x_m, y_m, z_m, roll_rad, pitch_rad, yaw_rad]) = chunk.pose {
-                let m = Message::Pose(PoseReport {
-                    x_m,
-                    y_m,
-                    z_m,
-                    roll_rad,
-                    pitch_rad,
-                    yaw_rad,
-                    stamp_us: 0,
-                    flags: 0,
-                });
+            if let Some(pose) = chunk.pose {
+                let m = Message::Pose(PoseReport::unstamped(pose));
                 emu.send(&m)?;
                 reference.send(&m)?;
                 sent = true;

@@ -19,7 +19,9 @@ fn feed_all(reference: &mut Reference, steps: &[Step], lines: &[Line]) {
                         timestamp_ms: 0,
                     }))
                     .unwrap(),
-                Cmd::Pose(p) => reference.send(&Message::Pose(wire_pose(*p))).unwrap(),
+                Cmd::Pose(p) => reference
+                    .send(&Message::Pose(PoseReport::unstamped(*p)))
+                    .unwrap(),
                 Cmd::Configure(_) | Cmd::Setup(_) => {}
             }
         }

@@ -46,6 +46,24 @@ pub struct PoseReport {
 }
 
 impl PoseReport {
+    /// An unstamped pose (`stamp_us` and `flags` 0) from `[x, y, z]` in metres and
+    /// `[roll, pitch, yaw]` in radians, in that order; each within its field's bounds for the
+    /// device to take it.
+    #[must_use]
+    pub const fn unstamped(pose: [f32; 6]) -> Self {
+        let [x_m, y_m, z_m, roll_rad, pitch_rad, yaw_rad] = pose;
+        Self {
+            x_m,
+            y_m,
+            z_m,
+            roll_rad,
+            pitch_rad,
+            yaw_rad,
+            stamp_us: 0,
+            flags: 0,
+        }
+    }
+
     /// Whether the pose is stamped ([`POSE_STAMPED`]): it joins the device's pose track.
     #[must_use]
     pub const fn is_stamped(&self) -> bool {

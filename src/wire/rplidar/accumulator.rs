@@ -8,6 +8,7 @@ use super::{
     RplidarCapsule, RplidarDescriptor, RplidarError, RplidarNode, RPLIDAR_CAPSULE_LEN,
     RPLIDAR_DESCRIPTOR_LEN, RPLIDAR_DESCRIPTOR_SYNC, RPLIDAR_NODE_LEN, RPLIDAR_NODE_RUN,
 };
+use crate::wire::resync::{self, Resync, Scan};
 use crate::wire::window::{bump, bump_by, Window};
 use crate::wire::FeedResult;
 
@@ -117,19 +118,6 @@ enum Kind {
     Express,
 }
 
-#[derive(Debug, Clone, Copy)]
-enum Scan {
-    Item(u64),
-    Rejected(RplidarError, u64),
-    /// More bytes are needed; `candidate` when the front is a unit in progress (a truncation
-    /// at the end of the stream) rather than bytes still being hunted through.
-    Need {
-        more: usize,
-        candidate: bool,
-    },
-    Empty,
-}
-
 /// Follows an RPLIDAR byte stream fed in chunks of any size: response descriptors, then the
 /// data each announces (a single response, standard-scan nodes or legacy capsules), and the
 /// next descriptor whenever one starts at a unit boundary.
@@ -176,7 +164,7 @@ enum Scan {
 pub struct RplidarAccumulator {
     window: Window<WINDOW>,
     mode: Mode,
-    delivered: usize,
+    /// The kind of the unit handed out by the last call, at the front.
     kind: Kind,
     /// The latest valid capsule, waiting for its successor.
     prev: [u8; RPLIDAR_CAPSULE_LEN],
@@ -216,7 +204,6 @@ impl RplidarAccumulator {
         Self {
             window: Window::new(),
             mode: Mode::Descriptor,
-            delivered: 0,
             kind: Kind::Descriptor,
             prev: [0; RPLIDAR_CAPSULE_LEN],
             prev_valid: false,
@@ -272,42 +259,7 @@ impl RplidarAccumulator {
         &'s mut self,
         chunk: &'c [u8],
     ) -> FeedResult<'c, RplidarItem<'s>, RplidarError> {
-        self.release();
-        let mut chunk = chunk;
-        loop {
-            let need = match self.scan() {
-                Scan::Item(offset) => {
-                    return FeedResult::Item {
-                        item: self.item(),
-                        offset,
-                        remaining: chunk,
-                    }
-                }
-                Scan::Rejected(error, offset) => {
-                    return FeedResult::Rejected {
-                        error,
-                        offset,
-                        remaining: chunk,
-                    }
-                }
-                Scan::Need { more, .. } => more,
-                Scan::Empty => {
-                    // Skip in place what cannot start a unit in this mode.
-                    let at = chunk
-                        .iter()
-                        .position(|&b| self.may_start(b))
-                        .unwrap_or(chunk.len());
-                    bump_by(&mut self.counters.garbage_bytes, at);
-                    self.window.skip(at);
-                    chunk = chunk.get(at..).unwrap_or(&[]);
-                    self.first_need()
-                }
-            };
-            if chunk.is_empty() {
-                return FeedResult::Consumed;
-            }
-            chunk = self.window.fill(chunk, need);
-        }
+        resync::feed(self, chunk)
     }
 
     /// Ends the stream: rejects a unit still incomplete as [`RplidarError::Truncated`],
@@ -315,62 +267,7 @@ impl RplidarAccumulator {
     /// ([`RplidarError::CapsuleUnpaired`]). Call it until it returns
     /// [`FeedResult::Consumed`].
     pub fn flush(&mut self) -> FeedResult<'static, RplidarItem<'_>, RplidarError> {
-        self.release();
-        loop {
-            match self.scan() {
-                Scan::Item(offset) => {
-                    return FeedResult::Item {
-                        item: self.item(),
-                        offset,
-                        remaining: &[],
-                    }
-                }
-                Scan::Rejected(error, offset) => {
-                    return FeedResult::Rejected {
-                        error,
-                        offset,
-                        remaining: &[],
-                    }
-                }
-                Scan::Empty => {
-                    if let Some(offset) = self.drop_prev() {
-                        return FeedResult::Rejected {
-                            error: RplidarError::CapsuleUnpaired,
-                            offset,
-                            remaining: &[],
-                        };
-                    }
-                    return FeedResult::Consumed;
-                }
-                Scan::Need { candidate, .. } => {
-                    if candidate {
-                        if let Some(offset) = self.drop_prev() {
-                            return FeedResult::Rejected {
-                                error: RplidarError::CapsuleUnpaired,
-                                offset,
-                                remaining: &[],
-                            };
-                        }
-                        let offset = self.window.offset_of(0);
-                        bump(&mut self.counters.truncated);
-                        self.window.drop_front(1);
-                        if let Mode::Response(..) = self.mode {
-                            self.mode = Mode::Descriptor;
-                        }
-                        if let Mode::Nodes { .. } = self.mode {
-                            self.mode = Mode::Nodes { locked: false };
-                        }
-                        return FeedResult::Rejected {
-                            error: RplidarError::Truncated,
-                            offset,
-                            remaining: &[],
-                        };
-                    }
-                    bump(&mut self.counters.garbage_bytes);
-                    self.window.drop_front(1);
-                }
-            }
-        }
+        resync::flush(self)
     }
 
     /// The counters.
@@ -387,7 +284,7 @@ impl RplidarAccumulator {
     /// Bytes buffered and not yet resolved (the kept capsule not included).
     #[must_use]
     pub const fn buffered(&self) -> usize {
-        self.window.len().saturating_sub(self.delivered)
+        self.window.unresolved()
     }
 
     /// Bytes taken from chunks since the accumulator was made (wrapping at 2⁶⁴): the stream
@@ -401,51 +298,8 @@ impl RplidarAccumulator {
     /// keeps the counters and the stream position.
     pub fn reset(&mut self) {
         self.window.clear();
-        self.delivered = 0;
         self.prev_valid = false;
         self.mode = Mode::Descriptor;
-    }
-
-    /// Whether byte `b` may start a unit in the current mode (garbage is skipped in place
-    /// up to such a byte).
-    fn may_start(&self, b: u8) -> bool {
-        match self.mode {
-            Mode::Descriptor => b == RPLIDAR_DESCRIPTOR_SYNC[0],
-            Mode::Response(..) | Mode::Nodes { locked: true } => true,
-            // S ≠ !S: bits 0 and 1 differ (0xA5 of a descriptor too).
-            Mode::Nodes { locked: false } => matches!(b & 3, 1 | 2),
-            Mode::Capsules => b >> 4 == 0xA,
-        }
-    }
-
-    /// How many bytes to take first for a unit starting at the front.
-    fn first_need(&self) -> usize {
-        match self.mode {
-            Mode::Descriptor => RPLIDAR_DESCRIPTOR_LEN,
-            Mode::Response(_, len) => len.max(1),
-            Mode::Nodes { locked: true } => RPLIDAR_NODE_LEN,
-            Mode::Nodes { locked: false } => RPLIDAR_NODE_LEN * RPLIDAR_NODE_RUN,
-            Mode::Capsules => RPLIDAR_CAPSULE_LEN,
-        }
-    }
-
-    /// Drops the unit handed out by the last call; a capsule placed by the one at the front
-    /// makes way for it.
-    fn release(&mut self) {
-        if self.delivered == 0 {
-            return;
-        }
-        if self.kind == Kind::Express {
-            let wraps = self.express().is_some_and(|e| e.wraps_at_end());
-            if let Some(front) = self.window.live().first_chunk::<RPLIDAR_CAPSULE_LEN>() {
-                self.prev = *front;
-                self.prev_offset = self.window.offset_of(0);
-                self.prev_valid = true;
-                self.prev_wraps = wraps;
-            }
-        }
-        self.window.drop_front(self.delivered);
-        self.delivered = 0;
     }
 
     /// The kept capsule placed with the capsule at the front of the window.
@@ -460,26 +314,6 @@ impl RplidarAccumulator {
         })
     }
 
-    fn item(&self) -> RplidarItem<'_> {
-        let live = self.window.live();
-        let bytes = live.get(..self.delivered).unwrap_or(live);
-        match self.kind {
-            Kind::Descriptor => RplidarItem::Descriptor(RplidarDescriptor::new_unchecked(bytes)),
-            Kind::Response(data_type) => RplidarItem::Response(RplidarResponse {
-                data_type,
-                data: bytes,
-            }),
-            Kind::Node => RplidarItem::Node(RplidarNode::new_unchecked(bytes)),
-            Kind::Express => match self.express() {
-                Some(e) => RplidarItem::Express(e),
-                None => RplidarItem::Express(RplidarExpressScan::new(
-                    RplidarCapsule::new_unchecked(&self.prev[..]),
-                    0,
-                )),
-            },
-        }
-    }
-
     /// Drops the kept capsule, counting it; its stream position when there was one.
     fn drop_prev(&mut self) -> Option<u64> {
         if !self.prev_valid {
@@ -490,15 +324,15 @@ impl RplidarAccumulator {
         Some(self.prev_offset)
     }
 
-    fn deliver(&mut self, kind: Kind, len: usize) -> Scan {
+    fn deliver(&mut self, kind: Kind, len: usize) -> Scan<RplidarError> {
         self.kind = kind;
-        self.delivered = len;
+        self.window.hand_out(len);
         Scan::Item(self.window.offset_of(0))
     }
 
     /// Hands out a node that passed its check bits at the front, or refuses it whole (its 5
     /// bytes; the lock kept) when its angle cannot follow its neighbours.
-    fn deliver_node(&mut self, node: &[u8; RPLIDAR_NODE_LEN]) -> Scan {
+    fn deliver_node(&mut self, node: &[u8; RPLIDAR_NODE_LEN]) -> Scan<RplidarError> {
         let view = RplidarNode::new_unchecked(&node[..]);
         let offset = self.window.offset_of(0);
         if self.follower.judge(
@@ -521,7 +355,7 @@ impl RplidarAccumulator {
     }
 
     /// Rejects the unit at the front: counts it in `counter` and drops its first byte.
-    fn reject(&mut self, error: RplidarError) -> Scan {
+    fn reject(&mut self, error: RplidarError) -> Scan<RplidarError> {
         let counter = match error {
             RplidarError::BadNode => &mut self.counters.node_check,
             RplidarError::BadChecksum { .. } => &mut self.counters.checksum,
@@ -532,9 +366,51 @@ impl RplidarAccumulator {
         self.window.drop_front(1);
         Scan::Rejected(error, offset)
     }
+}
 
-    /// Resolves the front of the window as far as it goes.
-    fn scan(&mut self) -> Scan {
+impl Resync<WINDOW> for RplidarAccumulator {
+    type Item<'a> = RplidarItem<'a>;
+    type Error = RplidarError;
+
+    fn window(&mut self) -> &mut Window<WINDOW> {
+        &mut self.window
+    }
+
+    /// Drops the unit handed out by the last call; a capsule placed by the one at the front
+    /// makes way for it.
+    fn release(&mut self) {
+        if self.kind == Kind::Express && !self.window.handed_out().is_empty() {
+            let wraps = self.express().is_some_and(|e| e.wraps_at_end());
+            if let Some(front) = self.window.live().first_chunk::<RPLIDAR_CAPSULE_LEN>() {
+                self.prev = *front;
+                self.prev_offset = self.window.offset_of(0);
+                self.prev_valid = true;
+                self.prev_wraps = wraps;
+            }
+        }
+        self.window.release();
+    }
+
+    fn item(&self) -> RplidarItem<'_> {
+        let bytes = self.window.handed_out();
+        match self.kind {
+            Kind::Descriptor => RplidarItem::Descriptor(RplidarDescriptor::new_unchecked(bytes)),
+            Kind::Response(data_type) => RplidarItem::Response(RplidarResponse {
+                data_type,
+                data: bytes,
+            }),
+            Kind::Node => RplidarItem::Node(RplidarNode::new_unchecked(bytes)),
+            Kind::Express => match self.express() {
+                Some(e) => RplidarItem::Express(e),
+                None => RplidarItem::Express(RplidarExpressScan::new(
+                    RplidarCapsule::new_unchecked(&self.prev[..]),
+                    0,
+                )),
+            },
+        }
+    }
+
+    fn scan(&mut self) -> Scan<RplidarError> {
         loop {
             let live = self.window.live();
             let len = live.len();
@@ -669,7 +545,7 @@ impl RplidarAccumulator {
                     if follows && !view.start_flag() {
                         bump(&mut self.counters.capsules);
                         self.kind = Kind::Express;
-                        self.delivered = RPLIDAR_CAPSULE_LEN;
+                        self.window.hand_out(RPLIDAR_CAPSULE_LEN);
                         return Scan::Item(self.prev_offset);
                     }
                     // Keep this one; the one kept before it cannot be placed.
@@ -686,6 +562,57 @@ impl RplidarAccumulator {
                 }
             }
         }
+    }
+
+    /// Whether byte `b` may start a unit in the current mode (garbage is skipped in place
+    /// up to such a byte).
+    fn may_start(&self, byte: u8) -> bool {
+        match self.mode {
+            Mode::Descriptor => byte == RPLIDAR_DESCRIPTOR_SYNC[0],
+            Mode::Response(..) | Mode::Nodes { locked: true } => true,
+            // S ≠ !S: bits 0 and 1 differ (0xA5 of a descriptor too).
+            Mode::Nodes { locked: false } => matches!(byte & 3, 1 | 2),
+            Mode::Capsules => byte >> 4 == 0xA,
+        }
+    }
+
+    /// How many bytes to take first for a unit starting at the front.
+    fn first_need(&self) -> usize {
+        match self.mode {
+            Mode::Descriptor => RPLIDAR_DESCRIPTOR_LEN,
+            Mode::Response(_, len) => len.max(1),
+            Mode::Nodes { locked: true } => RPLIDAR_NODE_LEN,
+            Mode::Nodes { locked: false } => RPLIDAR_NODE_LEN * RPLIDAR_NODE_RUN,
+            Mode::Capsules => RPLIDAR_CAPSULE_LEN,
+        }
+    }
+
+    fn count_garbage(&mut self, n: usize) {
+        bump_by(&mut self.counters.garbage_bytes, n);
+    }
+
+    /// Reports the kept capsule first (it lies before the unit in progress), then the unit,
+    /// whose first byte it drops; a response or a node run is given up.
+    fn truncate(&mut self) -> (RplidarError, u64) {
+        if let Some(offset) = self.drop_prev() {
+            return (RplidarError::CapsuleUnpaired, offset);
+        }
+        let offset = self.window.offset_of(0);
+        bump(&mut self.counters.truncated);
+        self.window.drop_front(1);
+        if let Mode::Response(..) = self.mode {
+            self.mode = Mode::Descriptor;
+        }
+        if let Mode::Nodes { .. } = self.mode {
+            self.mode = Mode::Nodes { locked: false };
+        }
+        (RplidarError::Truncated, offset)
+    }
+
+    /// Drops the kept capsule: no capsule follows it.
+    fn end(&mut self) -> Option<(RplidarError, u64)> {
+        self.drop_prev()
+            .map(|offset| (RplidarError::CapsuleUnpaired, offset))
     }
 }
 
@@ -740,22 +667,11 @@ mod tests {
         sizes: &[usize],
     ) -> (Vec<Ev>, RplidarCounters) {
         let mut out = Vec::new();
-        let mut rest = stream;
-        let mut i = 0;
-        while !rest.is_empty() {
-            let n = sizes[i % sizes.len()].clamp(1, rest.len());
-            i += 1;
-            let (chunk, tail) = rest.split_at(n);
-            rest = tail;
-            let mut window = chunk;
-            loop {
-                let r = acc.feed(window);
-                window = r.remaining();
-                if !record(r, &mut out) {
-                    break;
-                }
-            }
-        }
+        resync::feed_in_chunks(stream, sizes, |window| {
+            let r = acc.feed(window);
+            let left = r.remaining();
+            record(r, &mut out).then_some(left)
+        });
         while record(acc.flush(), &mut out) {}
         assert_eq!(acc.buffered(), 0);
         assert_eq!(acc.position(), stream.len() as u64);

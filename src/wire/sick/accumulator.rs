@@ -657,15 +657,10 @@ mod tests {
     fn run<const N: usize>(stream: &[u8], sizes: &[usize]) -> (Vec<Ev>, SickCounters) {
         let mut acc = SickAccumulator::<N>::new();
         let mut out = Vec::new();
-        let mut rest = stream;
-        let mut i = 0;
-        while !rest.is_empty() {
-            let n = sizes[i % sizes.len()].clamp(1, rest.len());
-            i += 1;
-            let (chunk, tail) = rest.split_at(n);
+        crate::wire::resync::feed_in_chunks(stream, sizes, |chunk| {
             drive(&mut acc, chunk, &mut out);
-            rest = tail;
-        }
+            None
+        });
         finish(&mut acc, &mut out);
         assert_eq!(acc.position(), stream.len() as u64);
         (out, acc.stats())

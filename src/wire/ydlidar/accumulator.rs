@@ -6,6 +6,7 @@ use super::{
     YDLIDAR_DESCRIPTOR_LEN, YDLIDAR_DESCRIPTOR_SYNC, YDLIDAR_MAX_PACKET_LEN, YDLIDAR_PACKET_HEADER,
     YDLIDAR_PACKET_HEADER_LEN,
 };
+use crate::wire::resync::{self, Resync, Scan};
 use crate::wire::window::{bump, bump_by, Window};
 use crate::wire::FeedResult;
 
@@ -70,14 +71,6 @@ enum Kind {
     Descriptor,
 }
 
-#[derive(Debug, Clone, Copy)]
-enum Scan {
-    Item(u64),
-    Rejected(YdlidarError, u64),
-    Need(usize),
-    Empty,
-}
-
 /// Reassembles YDLIDAR packets and descriptors from a byte stream fed in chunks of any size.
 ///
 /// `N` is the capacity in bytes: [`YDLIDAR_DEFAULT_CAPACITY`] (520) holds every packet; a
@@ -117,8 +110,7 @@ enum Scan {
 #[derive(Debug, Clone)]
 pub struct YdlidarAccumulator<const N: usize = YDLIDAR_DEFAULT_CAPACITY> {
     window: Window<N>,
-    /// Length and kind of the item handed out by the last call, at the front.
-    delivered: usize,
+    /// The kind of the item handed out by the last call, at the front.
     kind: Kind,
     counters: YdlidarCounters,
 }
@@ -157,7 +149,6 @@ impl<const N: usize> YdlidarAccumulator<N> {
         let () = Self::CAPACITY_OK;
         Self {
             window: Window::new(),
-            delivered: 0,
             kind: Kind::Packet,
             counters: YdlidarCounters {
                 packets: 0,
@@ -180,41 +171,7 @@ impl<const N: usize> YdlidarAccumulator<N> {
         &'s mut self,
         chunk: &'c [u8],
     ) -> FeedResult<'c, YdlidarItem<'s>, YdlidarError> {
-        self.release();
-        let mut chunk = chunk;
-        loop {
-            let need = match self.scan() {
-                Scan::Item(offset) => {
-                    return FeedResult::Item {
-                        item: self.item(),
-                        offset,
-                        remaining: chunk,
-                    }
-                }
-                Scan::Rejected(error, offset) => {
-                    return FeedResult::Rejected {
-                        error,
-                        offset,
-                        remaining: chunk,
-                    }
-                }
-                Scan::Need(need) => need,
-                Scan::Empty => {
-                    let at = chunk
-                        .iter()
-                        .position(|&b| is_sync_start(b))
-                        .unwrap_or(chunk.len());
-                    bump_by(&mut self.counters.garbage_bytes, at);
-                    self.window.skip(at);
-                    chunk = chunk.get(at..).unwrap_or(&[]);
-                    YDLIDAR_PACKET_HEADER_LEN
-                }
-            };
-            if chunk.is_empty() {
-                return FeedResult::Consumed;
-            }
-            chunk = self.window.fill(chunk, need);
-        }
+        resync::feed(self, chunk)
     }
 
     /// Ends the stream: rejects a candidate still incomplete (a sync pair and less than the
@@ -222,39 +179,7 @@ impl<const N: usize> YdlidarAccumulator<N> {
     /// hands out what the bytes after a rejected candidate still hold. Call it until it
     /// returns [`FeedResult::Consumed`].
     pub fn flush(&mut self) -> FeedResult<'static, YdlidarItem<'_>, YdlidarError> {
-        self.release();
-        loop {
-            match self.scan() {
-                Scan::Item(offset) => {
-                    return FeedResult::Item {
-                        item: self.item(),
-                        offset,
-                        remaining: &[],
-                    }
-                }
-                Scan::Rejected(error, offset) => {
-                    return FeedResult::Rejected {
-                        error,
-                        offset,
-                        remaining: &[],
-                    }
-                }
-                Scan::Empty => return FeedResult::Consumed,
-                Scan::Need(_) => {
-                    let live = self.window.len();
-                    if live >= 2 {
-                        let (_, offset) = self.reject(YdlidarError::Truncated);
-                        return FeedResult::Rejected {
-                            error: YdlidarError::Truncated,
-                            offset,
-                            remaining: &[],
-                        };
-                    }
-                    bump_by(&mut self.counters.garbage_bytes, live);
-                    self.window.drop_front(live);
-                }
-            }
-        }
+        resync::flush(self)
     }
 
     /// The counters.
@@ -271,7 +196,7 @@ impl<const N: usize> YdlidarAccumulator<N> {
     /// Bytes buffered and not yet resolved.
     #[must_use]
     pub const fn buffered(&self) -> usize {
-        self.window.len().saturating_sub(self.delivered)
+        self.window.unresolved()
     }
 
     /// Bytes taken from chunks since the accumulator was made (wrapping at 2⁶⁴): the stream
@@ -284,23 +209,6 @@ impl<const N: usize> YdlidarAccumulator<N> {
     /// Drops everything buffered, uncounted; keeps the counters and the stream position.
     pub fn reset(&mut self) {
         self.window.clear();
-        self.delivered = 0;
-    }
-
-    fn release(&mut self) {
-        if self.delivered > 0 {
-            self.window.drop_front(self.delivered);
-            self.delivered = 0;
-        }
-    }
-
-    fn item(&self) -> YdlidarItem<'_> {
-        let live = self.window.live();
-        let bytes = live.get(..self.delivered).unwrap_or(live);
-        match self.kind {
-            Kind::Packet => YdlidarItem::Packet(YdlidarPacket::new_unchecked(bytes)),
-            Kind::Descriptor => YdlidarItem::Descriptor(YdlidarDescriptor::new_unchecked(bytes)),
-        }
     }
 
     /// Counts a rejected candidate and drops its first byte.
@@ -317,13 +225,13 @@ impl<const N: usize> YdlidarAccumulator<N> {
         (error, offset)
     }
 
-    fn deliver(&mut self, kind: Kind, len: usize) -> Scan {
+    fn deliver(&mut self, kind: Kind, len: usize) -> Scan<YdlidarError> {
         match kind {
             Kind::Packet => bump(&mut self.counters.packets),
             Kind::Descriptor => bump(&mut self.counters.descriptors),
         }
         self.kind = kind;
-        self.delivered = len;
+        self.window.hand_out(len);
         Scan::Item(self.window.offset_of(0))
     }
 
@@ -331,8 +239,25 @@ impl<const N: usize> YdlidarAccumulator<N> {
         bump_by(&mut self.counters.garbage_bytes, n);
         self.window.drop_front(n);
     }
+}
 
-    fn scan(&mut self) -> Scan {
+impl<const N: usize> Resync<N> for YdlidarAccumulator<N> {
+    type Item<'a> = YdlidarItem<'a>;
+    type Error = YdlidarError;
+
+    fn window(&mut self) -> &mut Window<N> {
+        &mut self.window
+    }
+
+    fn item(&self) -> YdlidarItem<'_> {
+        let bytes = self.window.handed_out();
+        match self.kind {
+            Kind::Packet => YdlidarItem::Packet(YdlidarPacket::new_unchecked(bytes)),
+            Kind::Descriptor => YdlidarItem::Descriptor(YdlidarDescriptor::new_unchecked(bytes)),
+        }
+    }
+
+    fn scan(&mut self) -> Scan<YdlidarError> {
         loop {
             let live = self.window.live();
             let len = live.len();
@@ -341,12 +266,20 @@ impl<const N: usize> YdlidarAccumulator<N> {
                     self.window.clear();
                     return Scan::Empty;
                 }
-                [_] => return Scan::Need(1),
+                [_] => {
+                    return Scan::Need {
+                        more: 1,
+                        candidate: false,
+                    }
+                }
                 [a, b, ..] => (a, b),
             };
             if [first, second] == YDLIDAR_PACKET_HEADER {
                 let Some(header) = live.first_chunk::<YDLIDAR_PACKET_HEADER_LEN>() else {
-                    return Scan::Need(YDLIDAR_PACKET_HEADER_LEN - len);
+                    return Scan::Need {
+                        more: YDLIDAR_PACKET_HEADER_LEN - len,
+                        candidate: true,
+                    };
                 };
                 let [_, _, _, lsn, fsa_lo, fsa_hi, lsa_lo, lsa_hi, _, _] = *header;
                 let total = YDLIDAR_PACKET_HEADER_LEN + 2 * usize::from(lsn);
@@ -371,7 +304,10 @@ impl<const N: usize> YdlidarAccumulator<N> {
                     return Scan::Rejected(error, offset);
                 }
                 let Some(packet) = live.get(..total) else {
-                    return Scan::Need(total - len);
+                    return Scan::Need {
+                        more: total - len,
+                        candidate: true,
+                    };
                 };
                 let stored = read_u16_le(packet, 8).unwrap_or(0);
                 let computed = ydlidar_checksum(packet);
@@ -383,7 +319,10 @@ impl<const N: usize> YdlidarAccumulator<N> {
             }
             if [first, second] == YDLIDAR_DESCRIPTOR_SYNC {
                 let Some(descriptor) = live.first_chunk::<YDLIDAR_DESCRIPTOR_LEN>() else {
-                    return Scan::Need(YDLIDAR_DESCRIPTOR_LEN - len);
+                    return Scan::Need {
+                        more: YDLIDAR_DESCRIPTOR_LEN - len,
+                        candidate: true,
+                    };
                 };
                 let Some(content) = known_content_len(descriptor) else {
                     self.garbage(1);
@@ -391,7 +330,10 @@ impl<const N: usize> YdlidarAccumulator<N> {
                 };
                 let total = YDLIDAR_DESCRIPTOR_LEN + content;
                 if len < total {
-                    return Scan::Need(total - len);
+                    return Scan::Need {
+                        more: total - len,
+                        candidate: true,
+                    };
                 }
                 return self.deliver(Kind::Descriptor, total);
             }
@@ -403,6 +345,22 @@ impl<const N: usize> YdlidarAccumulator<N> {
                 .map_or(len, |p| p + 1);
             self.garbage(skip);
         }
+    }
+
+    fn may_start(&self, byte: u8) -> bool {
+        is_sync_start(byte)
+    }
+
+    fn first_need(&self) -> usize {
+        YDLIDAR_PACKET_HEADER_LEN
+    }
+
+    fn count_garbage(&mut self, n: usize) {
+        bump_by(&mut self.counters.garbage_bytes, n);
+    }
+
+    fn truncate(&mut self) -> (YdlidarError, u64) {
+        self.reject(YdlidarError::Truncated)
     }
 }
 
@@ -446,22 +404,11 @@ mod tests {
     fn run<const N: usize>(stream: &[u8], sizes: &[usize]) -> (Vec<Ev>, YdlidarCounters) {
         let mut acc = YdlidarAccumulator::<N>::new();
         let mut out = Vec::new();
-        let mut rest = stream;
-        let mut i = 0;
-        while !rest.is_empty() {
-            let n = sizes[i % sizes.len()].clamp(1, rest.len());
-            i += 1;
-            let (chunk, tail) = rest.split_at(n);
-            rest = tail;
-            let mut window = chunk;
-            loop {
-                let r = acc.feed(window);
-                window = r.remaining();
-                if !record(r, &mut out) {
-                    break;
-                }
-            }
-        }
+        resync::feed_in_chunks(stream, sizes, |window| {
+            let r = acc.feed(window);
+            let left = r.remaining();
+            record(r, &mut out).then_some(left)
+        });
         while record(acc.flush(), &mut out) {}
         assert_eq!(acc.buffered(), 0);
         assert_eq!(acc.position(), stream.len() as u64);
