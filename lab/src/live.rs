@@ -727,12 +727,14 @@ pub fn run(args: &Args) -> ExitCode {
             } else {
                 eprintln!(
                     "lab live: {} chunks ({} late), {} of {} layers equal to the lock-step run's; \
-                     known cells equal to the on-time run's {} (worst layer {}); pose stamps' \
-                     clock error median {}; stamp to board median {} ms; {}",
+                     known cells equal to the board-timed run's {} (on-time run's {}, worst \
+                     layer {}); pose stamps' clock error median {}; stamp to board median {} \
+                     ms; {}",
                     r.chunks,
                     r.late_chunks,
                     r.layers_equal,
                     r.layers.len(),
+                    r.against_board_timed.equal_share,
                     r.against_on_time.equal_share,
                     r.against_on_time.worst_layer_equal_share,
                     us_as_ms(r.clock.stamp_error_us.median),
