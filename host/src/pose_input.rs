@@ -18,7 +18,7 @@
 use crate::clock_sync::ClockSync;
 use serde::{Deserialize, Serialize};
 use std::net::UdpSocket;
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::{mpsc, Arc};
 use std::thread::JoinHandle;
 use std::time::Duration;
@@ -553,6 +553,97 @@ pub struct Source {
     handle: Option<JoinHandle<()>>,
     /// What it listens on, in words (`udp 127.0.0.1:7420`, `ros2 /odom`).
     pub name: String,
+    /// The DDS publishers matched, for an Odometry subscription (`None` for UDP).
+    publishers: Option<Arc<PublisherCounts>>,
+}
+
+impl Source {
+    /// The DDS publishers the subscription has matched so far (an Odometry source; `None`
+    /// for the UDP input, which has no publishers to match).
+    #[must_use]
+    pub fn publishers(&self) -> Option<OdometryPublishers> {
+        self.publishers.as_deref().map(PublisherCounts::snapshot)
+    }
+}
+
+/// The DDS publishers (writers) an Odometry subscription has met, as its DDS library
+/// (RustDDS) reports them: matched ones (their QoS compatible with the subscription's) and
+/// those refused for their QoS. Counts of distinct writers; they saturate.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize)]
+pub struct OdometryPublishers {
+    /// Publishers matched now (matched and not lost since).
+    pub matched: u64,
+    /// Publishers matched since the subscription began, each counted once.
+    pub matched_total: u64,
+    /// Publishers on the topic whose QoS the subscription cannot match, each counted once
+    /// (with the subscription's best effort, volatile QoS, none should be).
+    pub incompatible: u64,
+}
+
+/// [`OdometryPublishers`] shared between the subscribing thread and the session.
+#[derive(Debug, Default)]
+struct PublisherCounts {
+    matched: AtomicU64,
+    matched_total: AtomicU64,
+    incompatible: AtomicU64,
+}
+
+impl PublisherCounts {
+    fn snapshot(&self) -> OdometryPublishers {
+        OdometryPublishers {
+            matched: self.matched.load(Ordering::Relaxed),
+            matched_total: self.matched_total.load(Ordering::Relaxed),
+            incompatible: self.incompatible.load(Ordering::Relaxed),
+        }
+    }
+}
+
+/// Follows the DDS discovery events of one subscription (its reader's GUID): the writers
+/// matched, lost and refused for their QoS.
+#[derive(Debug)]
+struct PublisherTracker {
+    reader: ros2_client::dds::rustdds::GUID,
+    matched: std::collections::BTreeSet<ros2_client::dds::rustdds::GUID>,
+    ever: std::collections::BTreeSet<ros2_client::dds::rustdds::GUID>,
+    incompatible: std::collections::BTreeSet<ros2_client::dds::rustdds::GUID>,
+    counts: Arc<PublisherCounts>,
+}
+
+impl PublisherTracker {
+    /// Takes one event of the participant (those of other readers are ignored).
+    fn take(&mut self, event: ros2_client::dds::rustdds::DomainParticipantStatusEvent) {
+        use ros2_client::dds::rustdds::DomainParticipantStatusEvent as E;
+        match event {
+            E::RemoteWriterMatched {
+                local_reader,
+                remote_writer,
+            } if local_reader == self.reader => {
+                self.matched.insert(remote_writer);
+                self.ever.insert(remote_writer);
+            }
+            E::WriterLost { guid, .. } => {
+                self.matched.remove(&guid);
+            }
+            E::RemoteWriterQosIncompatible {
+                local_reader,
+                remote_writer,
+                ..
+            } if local_reader == self.reader => {
+                self.incompatible.insert(remote_writer);
+            }
+            _ => return,
+        }
+        let n = |s: &std::collections::BTreeSet<_>| u64::try_from(s.len()).unwrap_or(u64::MAX);
+        self.counts
+            .matched
+            .store(n(&self.matched), Ordering::Relaxed);
+        self.counts
+            .matched_total
+            .store(n(&self.ever), Ordering::Relaxed);
+        self.counts
+            .incompatible
+            .store(n(&self.incompatible), Ordering::Relaxed);
+    }
 }
 
 impl std::fmt::Debug for Source {
@@ -611,6 +702,7 @@ pub fn spawn_udp(
             stop,
             handle: Some(handle),
             name: format!("udp {local}"),
+            publishers: None,
         },
         local,
     ))
@@ -634,7 +726,9 @@ pub fn datagram_events(bytes: &[u8]) -> Vec<SourceEvent> {
 /// Subscribes `topic` (`nav_msgs/msg/Odometry`) in DDS domain `domain` on a thread of its own
 /// (a participant of its own, node `/terrain_pyramid_odometry`), sending each message's pose
 /// ([`odometry_pose`]) or fault down `tx`. QoS best effort, volatile, keep last 10: it matches
-/// reliable and best-effort publishers, volatile and transient-local ones.
+/// reliable and best-effort publishers, volatile and transient-local ones. The publishers it
+/// matches (and any refused for their QoS) are counted from the participant's discovery
+/// events ([`Source::publishers`]).
 ///
 /// # Errors
 /// The participant, the node or the subscription cannot be made (reported before the
@@ -644,8 +738,11 @@ pub fn spawn_odometry(
     topic: &str,
     tx: mpsc::SyncSender<SourceEvent>,
 ) -> Result<Source, String> {
+    use ros2_client::dds::rustdds::StatusEvented;
     let stop = Arc::new(AtomicBool::new(false));
     let flag = Arc::clone(&stop);
+    let counts = Arc::new(PublisherCounts::default());
+    let shared = Arc::clone(&counts);
     let (ready_tx, ready_rx) = mpsc::channel::<Result<(), String>>();
     let topic_name = topic.to_string();
     let handle = std::thread::Builder::new()
@@ -661,8 +758,21 @@ pub fn spawn_odometry(
                     return;
                 }
             };
-            let (_context, _node, subscription) = subscription;
+            let (context, _node, subscription) = subscription;
+            // Nothing else reads the participant's events (no spinner runs): the matches
+            // are this subscription's to follow.
+            let status = context.domain_participant().status_listener();
+            let mut tracker = PublisherTracker {
+                reader: subscription.guid(),
+                matched: std::collections::BTreeSet::new(),
+                ever: std::collections::BTreeSet::new(),
+                incompatible: std::collections::BTreeSet::new(),
+                counts: shared,
+            };
             while !flag.load(Ordering::SeqCst) {
+                while let Some(event) = status.try_recv_status() {
+                    tracker.take(event);
+                }
                 match subscription.take() {
                     Ok(Some((message, _info))) => {
                         let event = odometry_pose(&message)
@@ -686,6 +796,7 @@ pub fn spawn_odometry(
         stop,
         handle: Some(handle),
         name: format!("ros2 {topic}"),
+        publishers: Some(counts),
     };
     match ready_rx.recv() {
         Ok(Ok(())) => Ok(source),

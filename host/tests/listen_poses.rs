@@ -14,6 +14,7 @@ mod support;
 use serde_json::Value;
 use std::io::{ErrorKind, Read, Write};
 use std::net::{TcpListener, UdpSocket};
+use std::path::Path;
 use std::process::{Command, Stdio};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
@@ -377,4 +378,243 @@ fn a_device_reboot_resets_the_clock_and_no_pose_keeps_the_old_mapping() {
         "worst stamp errors {worst:?} µs"
     );
     let _ = std::fs::remove_dir_all(&session.dir);
+}
+
+// ------------------------------------------------------------------ ROS 2: publishers' QoS
+
+/// The environment variable that marks the inner test's run inside its network namespace.
+const NETNS_MARK: &str = "TERRAIN_PYRAMID_TEST_NETNS";
+
+/// Whether this process sees no network interface but loopback (a namespace of its own:
+/// `/proc/net/dev` lists the reader's namespace's interfaces).
+fn only_loopback() -> bool {
+    std::fs::read_to_string("/proc/net/dev").is_ok_and(|t| {
+        t.lines()
+            .skip(2)
+            .filter_map(|l| l.split(':').next())
+            .all(|name| name.trim() == "lo")
+    })
+}
+
+/// `listen --odom-topic` takes the poses of publishers of another QoS than rclcpp's default:
+/// one best effort (a sensor driver's), one transient local (a latched publisher's), both
+/// Cyclone DDS (`lab/py/odom_pub.py`). The DDS traffic stays in a network namespace of its
+/// own: this test binary again inside `unshare -n` (root), loopback up with multicast routed
+/// to it, running [`odometry_qos_inner`].
+#[test]
+fn odometry_of_best_effort_and_transient_local_publishers_reaches_the_device() {
+    let ok = Command::new("python3")
+        .args(["-c", "import cyclonedds"])
+        .status()
+        .is_ok_and(|s| s.success());
+    assert!(
+        ok,
+        "the Python readers are missing: run host/tests/py/setup.sh (pip install -r host/tests/py/requirements.txt)"
+    );
+    let exe = std::env::current_exe().unwrap();
+    let out = Command::new("unshare")
+        .args([
+            "-n",
+            "sh",
+            "-c",
+            "ip link set lo up multicast on && ip route add 224.0.0.0/4 dev lo && exec \"$0\" odometry_qos_inner --exact --ignored --nocapture",
+        ])
+        .arg(&exe)
+        .env(NETNS_MARK, "1")
+        .output()
+        .expect("unshare runs");
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        out.status.success() && stdout.contains("1 passed"),
+        "the test inside `unshare -n` (root needed) failed:\n{stdout}\n{stderr}"
+    );
+    eprintln!(
+        "{}",
+        stderr
+            .lines()
+            .filter(|l| l.starts_with("qos:"))
+            .collect::<Vec<_>>()
+            .join("\n")
+    );
+}
+
+/// One Cyclone DDS publisher of the test: its QoS, and the x of its poses (its own range).
+struct Publisher {
+    reliability: &'static str,
+    durability: &'static str,
+    /// The poses' x: `x0 + k / 100`.
+    x0: f64,
+    /// When its first pose is stamped, seconds after the run's start.
+    from_s: f64,
+}
+
+/// The poses a publisher is given: 1 s at 50 Hz from `from_s`, x = `x0 + k / 100`.
+fn publisher_poses(p: &Publisher) -> String {
+    (0..50)
+        .map(|k| {
+            let t = p.from_s + f64::from(k) * 0.02;
+            let x = p.x0 + f64::from(k) / 100.0;
+            format!("{{\"t\": {t}, \"pose\": [{x}, 0.5, 0.0, 0.0, 0.0, 0.25]}}\n")
+        })
+        .collect()
+}
+
+#[test]
+#[ignore = "runs inside its own network namespace: odometry_of_best_effort_and_transient_local_publishers_reaches_the_device"]
+fn odometry_qos_inner() {
+    // DDS multicast must never leave the machine: refuse anywhere but an isolated namespace.
+    assert!(
+        std::env::var_os(NETNS_MARK).is_some() && only_loopback(),
+        "odometry_qos_inner runs only inside `unshare -n` (see the test that calls it)"
+    );
+    let listener = TcpListener::bind("127.0.0.1:0").unwrap();
+    let port = listener.local_addr().unwrap().port();
+    let boots: Boots = Arc::new(Mutex::new(vec![DeviceClock {
+        zero: Instant::now(),
+        start_us: DEVICE_START_US,
+    }]));
+    let poses = Arc::new(Mutex::new(Vec::new()));
+    let device = {
+        let (poses, boots) = (Arc::clone(&poses), Arc::clone(&boots));
+        std::thread::spawn(move || serve(listener, boots, poses, None))
+    };
+    let clock = boots.lock().unwrap()[0];
+    let dir = std::env::temp_dir().join(format!("pyramid-listen-qos-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let child = Command::new(env!("CARGO_BIN_EXE_pyramid"))
+        .args([
+            "listen",
+            "--tcp",
+            &format!("127.0.0.1:{port}"),
+            "--out",
+            dir.to_str().unwrap(),
+            "--duration-s",
+            "6",
+            "--ros2",
+            "--ros-domain-id",
+            "9",
+            "--odom-topic",
+            "/odom",
+        ])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    // The publishers' poses: the best-effort one's first, then the transient-local one's; t = 0
+    // 2.5 s from now (listen's clock synced after 1 s, DDS discovery done).
+    let publishers = [
+        Publisher {
+            reliability: "best-effort",
+            durability: "volatile",
+            x0: 10.0,
+            from_s: 0.0,
+        },
+        Publisher {
+            reliability: "reliable",
+            durability: "transient-local",
+            x0: 20.0,
+            from_s: 1.2,
+        },
+    ];
+    let anchor = (Instant::now(), wall_us());
+    let start_us = wall_us() + 2_500_000;
+    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("../lab/py/odom_pub.py");
+    let running: Vec<_> = publishers
+        .iter()
+        .enumerate()
+        .map(|(i, p)| {
+            let file = dir.join(format!("poses-{i}.ndjson"));
+            std::fs::write(&file, publisher_poses(p)).unwrap();
+            Command::new("python3")
+                .arg(&script)
+                .arg(&file)
+                .arg(format!(
+                    "{}.{:06}",
+                    start_us.div_euclid(1_000_000),
+                    start_us.rem_euclid(1_000_000)
+                ))
+                .args(["--domain", "9", "--wait-s", "4"])
+                .args(["--reliability", p.reliability])
+                .args(["--durability", p.durability])
+                .stdout(Stdio::piped())
+                .stderr(Stdio::piped())
+                .spawn()
+                .expect("python3 runs")
+        })
+        .collect();
+    let reports: Vec<Value> = running
+        .into_iter()
+        .map(|c| {
+            let out = c.wait_with_output().unwrap();
+            assert!(
+                out.status.success(),
+                "odom_pub.py: {}\n{}",
+                String::from_utf8_lossy(&out.stdout),
+                String::from_utf8_lossy(&out.stderr)
+            );
+            serde_json::from_slice(&out.stdout).unwrap()
+        })
+        .collect();
+    let output = child.wait_with_output().unwrap();
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(output.status.success(), "{stderr}");
+    device.join().unwrap();
+
+    let summary: Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("summary.json")).unwrap()).unwrap();
+    assert_eq!(summary["time_sync"]["synced"], true, "{summary:#}");
+    let p = &summary["poses"];
+    // Both publishers matched the subscription (each counted once), none refused for its QoS.
+    let m = &p["ros2_publishers"];
+    assert_eq!(m["matched_total"], 2, "{p}");
+    assert_eq!(m["incompatible"], 0, "{p}");
+    let received = poses.lock().unwrap().clone();
+    for (r, publisher) in reports.iter().zip(&publishers) {
+        assert_eq!(r["published"], 50, "{r}");
+        assert_eq!(r["matched"], 1, "{r}");
+        assert_eq!(r["reliability"], publisher.reliability, "{r}");
+        assert_eq!(r["durability"], publisher.durability, "{r}");
+    }
+    // Each publisher's poses reached the device (its own range of x), stamped in its clock;
+    // best effort on the loopback loses none but a loaded machine may drop a few.
+    let mut worst = 0_i64;
+    for publisher in &publishers {
+        let mine: Vec<&Received> = received
+            .iter()
+            .filter(|r| (r.x - publisher.x0 - 0.25).abs() < 0.3)
+            .collect();
+        eprintln!(
+            "qos: {} {}: {} of 50 poses taken by the device",
+            publisher.reliability,
+            publisher.durability,
+            mine.iter().filter(|r| r.taken).count()
+        );
+        assert!(
+            mine.iter().filter(|r| r.taken).count() >= 45,
+            "{} {}: {} poses; {p}",
+            publisher.reliability,
+            publisher.durability,
+            mine.len()
+        );
+        for r in mine {
+            let k = ((r.x - publisher.x0) * 100.0).round();
+            let stamp = start_us + ((publisher.from_s + k * 0.02) * 1e6).round() as i128;
+            let at = anchor.0 + Duration::from_micros(u64::try_from(stamp - anchor.1).unwrap());
+            let error = i64::from(r.stamp_us.wrapping_sub(clock.at(at)) as i32);
+            worst = worst.max(error.abs());
+        }
+    }
+    // Every pose received counted by listen, and forwarded as the device got it.
+    assert_eq!(
+        p["forwarded"].as_u64().unwrap(),
+        received.len() as u64,
+        "{p}"
+    );
+    assert!(p["received"].as_u64().unwrap() >= 90, "{p}");
+    eprintln!("qos: worst stamp error {worst} µs; listen's poses {p}");
+    // As the UDP test's (tens of µs on the loopback), with room for a loaded machine.
+    assert!(worst <= 1_000, "worst stamp error {worst} µs");
+    let _ = std::fs::remove_dir_all(&dir);
 }

@@ -4,16 +4,19 @@ stamped with the wall-clock time the robot was there, published `late ± jitter`
 
 The message types are declared here in IDL form under the names ROS 2 gives them on DDS
 (`nav_msgs::msg::dds_::Odometry_`, topic `rt/odom` for ROS 2's `/odom`), independently of the
-reader under test. QoS: reliable, volatile, keep last 10 (rclcpp's default for a publisher).
+reader under test. QoS: keep last 10; reliable and volatile by default (rclcpp's default for a
+publisher), or as --reliability and --durability say (a best-effort sensor driver, a
+transient-local latched publisher): a reader must take each of them.
 
 Input: NDJSON, one pose a line, `{"t": SECONDS, "pose": [x, y, z, roll, pitch, yaw]}` (metres,
 radians; t from the recording's start), in time order.
 
 Usage: odom_pub.py POSES.ndjson START_EPOCH_S [--late-ms 30] [--jitter-ms 10] [--seed 29]
        [--topic /odom] [--frame-id odom] [--domain 0] [--wait-s 5] [--log FILE]
+       [--reliability reliable|best-effort] [--durability volatile|transient-local]
 Waits up to --wait-s for a subscriber to match, then publishes pose k at START + t_k + late_k
 (late_k uniform in late ± jitter), stamped START + t_k. Prints one JSON object at the end:
-poses published, subscribers matched, and the publish delays (publish − stamp, ms). With
+poses published, subscribers matched, the QoS, and the publish delays (publish − stamp, ms). With
 --log, one line a pose in FILE: `{"stamp": S, "published": S}` (wall-clock seconds).
 Run it only inside a network namespace of its own (DDS multicast must not leave the machine).
 """
@@ -143,13 +146,17 @@ def main():
     ap.add_argument("--domain", type=int, default=0)
     ap.add_argument("--wait-s", type=float, default=5.0)
     ap.add_argument("--log")
+    ap.add_argument("--reliability", choices=["reliable", "best-effort"], default="reliable")
+    ap.add_argument("--durability", choices=["volatile", "transient-local"], default="volatile")
     a = ap.parse_args()
     with open(a.poses) as f:
         poses = [json.loads(line) for line in f if line.strip()]
     rng = random.Random(a.seed)
     qos = Qos(
-        Policy.Reliability.Reliable(duration(seconds=1)),
-        Policy.Durability.Volatile,
+        Policy.Reliability.Reliable(duration(seconds=1))
+        if a.reliability == "reliable"
+        else Policy.Reliability.BestEffort,
+        Policy.Durability.Volatile if a.durability == "volatile" else Policy.Durability.TransientLocal,
         Policy.History.KeepLast(10),
     )
     dp = DomainParticipant(a.domain)
@@ -196,6 +203,8 @@ def main():
     out = {
         "published": len(delays),
         "matched": matched,
+        "reliability": a.reliability,
+        "durability": a.durability,
         "delay_ms": {
             "median": delays[len(delays) // 2] if delays else None,
             "min": delays[0] if delays else None,

@@ -14,7 +14,7 @@
 //!   message out of the host. With ROS 2 (the default) the whole run, DDS publisher and reader
 //!   together, is inside a network namespace of its own (`unshare -n`, loopback up with
 //!   multicast routed to it), so no DDS traffic can leave the machine; root is needed.
-//! - `live [--json] [--check]`: `lab live --ros2` (a recording played as a robot lives: the
+//! - `live [--json] [--check] [--no-forward]`: `lab live --ros2` (a recording played as a robot lives: the
 //!   laser paced into the emulated board, Odometry from a Cyclone DDS publisher, `pyramid
 //!   listen --ros2 --odom-topic /odom`) inside a network namespace of its own, as `latency`.
 //! - `demo [FLAGS]`: installs what the emulated board needs, as `cargo xtask test` does (the
@@ -230,17 +230,20 @@ fn in_network_namespace(command: &str, pass: &[String], packages: &[&str]) -> Re
     }
 }
 
-/// `cargo xtask live [--json] [--check]`: `lab live --ros2` inside a network namespace of its
-/// own (the lab, `pyramid` and the firmware built outside it first; the Python readers
-/// installed). `--check` holds the run to `lab live`'s bounds (`cargo xtask test` runs it).
+/// `cargo xtask live [--json] [--check] [--no-forward]`: `lab live --ros2` inside a network
+/// namespace of its own (the lab, `pyramid` and the firmware built outside it first; the
+/// Python readers installed). `--check` holds the run to `lab live`'s bounds (`cargo xtask
+/// test` runs it); `--no-forward` runs listen without `--odom-topic`, the broken chain the
+/// bounds must fail.
 pub fn live(args: &[String]) -> Result<(), String> {
     let mut pass = Vec::new();
     for a in args {
         match a.as_str() {
-            "--json" | "--check" => pass.push(a.clone()),
+            "--json" | "--check" | "--no-forward" => pass.push(a.clone()),
             other => {
                 return Err(format!(
-                    "unknown option {other}; usage: cargo xtask live [--json] [--check]"
+                    "unknown option {other}; usage: cargo xtask live [--json] [--check] \
+                     [--no-forward]"
                 ))
             }
         }

@@ -5,8 +5,8 @@ use super::{
     TIME_REQUEST_SLOW,
 };
 use crate::clock_sync::{ClockCounters, ClockSync, ResetReason};
-use crate::pose_input::PoseCounters;
 use crate::pose_input::{self, PoseForwarder, Source, SourceEvent, WallAnchor};
+use crate::pose_input::{OdometryPublishers, PoseCounters};
 use crate::publish::ros_msgs;
 use crate::publish::RobotPose;
 use serde::Serialize;
@@ -139,6 +139,7 @@ impl Timing {
             sources: self.sources.iter().map(|s| s.name.clone()).collect(),
             frame: self.forwarder.frame().map(str::to_string),
             counters: self.forwarder.counters(),
+            ros2_publishers: self.sources.iter().find_map(Source::publishers),
         })
     }
 
@@ -194,15 +195,27 @@ impl Timing {
             let dropped = p.counters.dropped();
             let rising = dropped > self.dropped_before;
             self.dropped_before = dropped;
+            let refused = p.ros2_publishers.is_some_and(|m| m.incompatible > 0);
+            let publishers = p.ros2_publishers.map_or_else(String::new, |m| {
+                format!(
+                    "; {} publisher(s) matched{}",
+                    m.matched,
+                    if m.incompatible > 0 {
+                        format!(", {} refused for their QoS", m.incompatible)
+                    } else {
+                        String::new()
+                    }
+                )
+            });
             out.push(ros_msgs::DiagnosticStatus {
-                level: if rising || p.counters.forwarded == 0 {
+                level: if rising || refused || p.counters.forwarded == 0 {
                     ros_msgs::LEVEL_WARN
                 } else {
                     ros_msgs::LEVEL_OK
                 },
                 name: "terrain_pyramid: poses".into(),
                 message: format!(
-                    "{} forwarded, {} dropped ({}){}",
+                    "{} forwarded, {} dropped ({}){publishers}{}",
                     p.counters.forwarded,
                     dropped,
                     p.sources.join(", "),
@@ -219,6 +232,13 @@ impl Timing {
                     .iter()
                     .map(|(n, v)| kv(n, v.to_string()))
                     .chain(std::iter::once(kv("frame", p.frame.unwrap_or_default())))
+                    .chain(p.ros2_publishers.iter().flat_map(|m| {
+                        [
+                            kv("publishers_matched", m.matched.to_string()),
+                            kv("publishers_matched_total", m.matched_total.to_string()),
+                            kv("publishers_incompatible", m.incompatible.to_string()),
+                        ]
+                    }))
                     .collect(),
             });
         }
@@ -289,4 +309,7 @@ pub struct PosesReport {
     /// What became of the poses, by reason.
     #[serde(flatten)]
     pub counters: PoseCounters,
+    /// The Odometry subscription's DDS publishers (`--odom-topic`), matched and refused;
+    /// `None` without it.
+    pub ros2_publishers: Option<OdometryPublishers>,
 }

@@ -30,26 +30,36 @@ pub(super) struct Tap {
     pub(super) exchanges: Vec<(u64, u64, u32)>,
     /// Stamped Poses from listen: (when read, the pose).
     pub(super) poses: Vec<(u64, PoseReport)>,
+    /// The device's Stats as read: (when read, the laser bytes it had taken by then, the
+    /// host-link frames it had taken whole).
+    pub(super) stats: Vec<(u64, u32, u32)>,
 }
 
-/// Frames of the lab's own for the board (the recording's PanAngles), written into the host
-/// link between listen's frames: at once when listen's stream is between frames, else as soon
-/// as its frame in progress has ended.
+/// Frames of the lab's own for the board (the recording's PanAngles, the RequestStats that
+/// time the board's laser bytes), written into the host link between listen's frames: at once
+/// when listen's stream is between frames, else as soon as its frame in progress has ended.
 pub(super) struct Injector {
     /// The board's side of the link, once the relay has a client.
     uart: Option<UnixStream>,
     /// Whether listen's last bytes ended a frame.
     idle: bool,
-    /// Frames waiting for listen's frame to end.
-    pending: Vec<u8>,
-    /// Frames written.
+    /// Frames waiting for listen's frame to end, each with whether it is a PanAngle.
+    pending: Vec<(Vec<u8>, bool)>,
+    /// PanAngles written.
     pub(super) written: usize,
+    /// When each PanAngle was written to the board's UART, wall-clock µs since the epoch (in
+    /// the order sent; a frame lost with the link has none).
+    pub(super) angles_at: Vec<u64>,
+    /// When each frame the relay wrote to the board (listen's and the lab's, in the order of
+    /// the stream) was written, wall-clock µs since the epoch.
+    pub(super) frames_at: Vec<u64>,
 }
 
 impl Injector {
-    /// Writes `frame` now, or queues it until listen's frame in progress has ended.
-    pub(super) fn send(&mut self, frame: &[u8]) {
-        self.pending.extend_from_slice(frame);
+    /// Writes `frame` now, or queues it until listen's frame in progress has ended;
+    /// `angle`: it is a PanAngle (its time is kept).
+    pub(super) fn send(&mut self, frame: &[u8], angle: bool) {
+        self.pending.push((frame.to_vec(), angle));
         self.flush();
     }
 
@@ -58,10 +68,16 @@ impl Injector {
             return;
         }
         if let Some(u) = self.uart.as_mut() {
-            if u.write_all(&self.pending).is_ok() {
-                self.written += 1;
+            for (frame, angle) in self.pending.drain(..) {
+                if u.write_all(&frame).is_ok() {
+                    let at = wall_us();
+                    self.frames_at.push(at);
+                    if angle {
+                        self.written += 1;
+                        self.angles_at.push(at);
+                    }
+                }
             }
-            self.pending.clear();
         }
     }
 }
@@ -84,6 +100,8 @@ pub(super) fn relay(listener: TcpListener, uart1: UnixStream) -> Relay {
         idle: true,
         pending: Vec::new(),
         written: 0,
+        angles_at: Vec::new(),
+        frames_at: Vec::new(),
     }));
     let inject2 = Arc::clone(&inject);
     let stop = Arc::new(AtomicBool::new(false));
@@ -95,6 +113,8 @@ pub(super) fn relay(listener: TcpListener, uart1: UnixStream) -> Relay {
         };
         let _ = tcp.set_nodelay(true);
         let _ = uart1.set_read_timeout(Some(Duration::from_millis(100)));
+        // A board that stops taking the host link's bytes fails the writes, never holds them.
+        let _ = uart1.set_write_timeout(Some(Duration::from_secs(5)));
         let (Ok(mut tcp_r), Ok(uart_w)) = (tcp.try_clone(), uart1.try_clone()) else {
             return host;
         };
@@ -112,6 +132,7 @@ pub(super) fn relay(listener: TcpListener, uart1: UnixStream) -> Relay {
                 let at = wall_us();
                 let mut rest = buf.get(..n).unwrap_or_default();
                 let mut ended = false;
+                let mut completed = 0;
                 loop {
                     match frames.feed(rest) {
                         FeedResult::Consumed => break,
@@ -129,6 +150,7 @@ pub(super) fn relay(listener: TcpListener, uart1: UnixStream) -> Relay {
                             }
                             ended = remaining.is_empty();
                             rest = remaining;
+                            completed += 1;
                         }
                         FeedResult::Rejected { remaining, .. } => {
                             ended = remaining.is_empty();
@@ -145,11 +167,14 @@ pub(super) fn relay(listener: TcpListener, uart1: UnixStream) -> Relay {
                 if u.write_all(buf.get(..n).unwrap_or_default()).is_err() {
                     break;
                 }
+                let written = wall_us();
+                i.frames_at.extend(std::iter::repeat_n(written, completed));
                 i.idle = ended;
                 i.flush();
             }
         });
         let (mut uart_r, mut tcp_w) = (uart1, tcp);
+        let mut listening = true;
         let mut buf = [0_u8; 4096];
         while !stop2.load(Ordering::Relaxed) {
             let n = match uart_r.read(&mut buf) {
@@ -168,16 +193,26 @@ pub(super) fn relay(listener: TcpListener, uart1: UnixStream) -> Relay {
             let at = wall_us();
             let bytes = buf.get(..n).unwrap_or_default();
             for event in host.feed(bytes) {
-                if let LinkEvent::TimeReply(r) = event {
-                    if let Ok(mut t) = tap2.lock() {
-                        if let Some(sent) = t.requests.get(&r.host_us).copied() {
-                            t.exchanges.push((sent, at, r.device_us));
+                match event {
+                    LinkEvent::TimeReply(r) => {
+                        if let Ok(mut t) = tap2.lock() {
+                            if let Some(sent) = t.requests.get(&r.host_us).copied() {
+                                t.exchanges.push((sent, at, r.device_us));
+                            }
                         }
                     }
+                    LinkEvent::Stats(s) => {
+                        if let Ok(mut t) = tap2.lock() {
+                            t.stats.push((at, s.laser_bytes, s.rx_frames_ok));
+                        }
+                    }
+                    _ => {}
                 }
             }
-            if tcp_w.write_all(bytes).is_err() {
-                break;
+            // Once listen has gone, the board's output is still read (and dropped): a board
+            // whose output stalls stops reading its input, and the lab's writes would hang.
+            if listening && tcp_w.write_all(bytes).is_err() {
+                listening = false;
             }
         }
         host
