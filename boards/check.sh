@@ -21,8 +21,11 @@
 #   7. flash, static RAM and stack of each board.
 # Any failure stops the script with a non-zero exit code.
 #
-#   boards/check.sh            everything
-#   boards/check.sh --no-lint  skip step 3
+#   boards/check.sh                  everything
+#   boards/check.sh --no-lint        skip step 3
+#   boards/check.sh --runs-from DIR  step 5's three runs are not run again: their outputs are
+#                                    read from DIR, where `cargo test --workspace` left them
+#                                    with PYRAMID_QEMU_OUT=DIR (`cargo xtask test` does this)
 set -euo pipefail
 boards="$(cd "$(dirname "$0")" && pwd)"
 root="$(dirname "$boards")"
@@ -33,11 +36,18 @@ microbit_dir="$boards/microbit"
 nd_features=(--no-default-features --features chip-f405,log-semihosting --target-dir target/netduinoplus2)
 
 lint=1
-for arg in "$@"; do
-    case "$arg" in
+runs_from=""
+while [[ $# -gt 0 ]]; do
+    case "$1" in
         --no-lint) lint=0 ;;
-        *) echo "check.sh: unknown argument $arg" >&2; exit 2 ;;
+        --runs-from)
+            [[ $# -ge 2 ]] || { echo "check.sh: --runs-from needs a directory" >&2; exit 2; }
+            runs_from="$2"
+            shift
+            ;;
+        *) echo "check.sh: unknown argument $1" >&2; exit 2 ;;
     esac
+    shift
 done
 
 start=$SECONDS
@@ -69,17 +79,32 @@ step "the root memory.x is the default board's (boards/qemu-mps2/memory-an386.x)
 cmp "$root/memory.x" "$qemu_dir/memory-an386.x" || fail "memory.x and boards/qemu-mps2/memory-an386.x differ"
 
 if [[ $lint -eq 1 ]]; then
-    step "format and lints: qemu-mps2 (thumbv7em and thumbv6m, firmware and tests)"
-    (cd "$qemu_dir" && cargo fmt --check)
-    (cd "$qemu_dir" && cargo clippy --release --all-targets -- -D warnings)
-    (cd "$qemu_dir" && cargo clippy --release --all-targets --target thumbv6m-none-eabi -- -D warnings)
-    step "format and lints: stm32f4 (NUCLEO-F446RE and netduinoplus2 builds)"
-    (cd "$stm32_dir" && cargo fmt --check)
-    (cd "$stm32_dir" && cargo clippy --release -- -D warnings)
-    (cd "$stm32_dir" && cargo clippy --release "${nd_features[@]}" -- -D warnings)
-    step "format and lints: microbit"
-    (cd "$microbit_dir" && cargo fmt --check)
-    (cd "$microbit_dir" && cargo clippy --release -- -D warnings)
+    # The three crates have target directories of their own: their lints run side by side,
+    # each into its log, shown in order once all have ended.
+    step "format and lints: qemu-mps2 (thumbv7em and thumbv6m, firmware and tests), stm32f4 (NUCLEO-F446RE and netduinoplus2 builds), microbit"
+    lint_logs=$(mktemp -d)
+    (cd "$qemu_dir" && cargo fmt --check \
+        && cargo clippy --release --all-targets -- -D warnings \
+        && cargo clippy --release --all-targets --target thumbv6m-none-eabi -- -D warnings) \
+        > "$lint_logs/qemu-mps2" 2>&1 &
+    qemu_lint=$!
+    (cd "$stm32_dir" && cargo fmt --check \
+        && cargo clippy --release -- -D warnings \
+        && cargo clippy --release "${nd_features[@]}" -- -D warnings) \
+        > "$lint_logs/stm32f4" 2>&1 &
+    stm32_lint=$!
+    (cd "$microbit_dir" && cargo fmt --check && cargo clippy --release -- -D warnings) \
+        > "$lint_logs/microbit" 2>&1 &
+    microbit_lint=$!
+    lint_failed=()
+    for pair in "qemu-mps2 $qemu_lint" "stm32f4 $stm32_lint" "microbit $microbit_lint"; do
+        read -r board pid <<<"$pair"
+        wait "$pid" || lint_failed+=("$board")
+        echo "--- $board"
+        cat "$lint_logs/$board"
+    done
+    rm -rf "$lint_logs"
+    [[ ${#lint_failed[@]} -eq 0 ]] || fail "format or lints: ${lint_failed[*]}"
 fi
 
 step "build: qemu-mps2 (release)"
@@ -90,18 +115,33 @@ step "build: stm32f4 (release; NUCLEO-F446RE and netduinoplus2)"
 step "build: microbit (release)"
 (cd "$microbit_dir" && cargo build --release)
 
-# The host side of these runs (`pyramid`, the tests) in the test profile: the one `cargo test
-# --workspace` builds (`cargo xtask test` runs it first), so nothing is compiled twice; the
-# firmware is always the release build.
+# The host side of these runs (`pyramid`, the tests) is the build `cargo test --workspace`
+# makes (`cargo xtask test` runs it first): `--workspace` keeps the features unified as there,
+# so nothing is compiled again; the firmware is always the release build.
+# run_test NAME FILTER LOG: one test of host/tests/NAME.rs, its outputs kept under $smoke.
+run_test() {
+    (cd "$root" && PYRAMID_QEMU_OUT="$smoke" cargo test --workspace --test "$1" "$2" -- --nocapture) \
+        2>&1 | tee "$3"
+}
+if [[ -n "$runs_from" ]]; then
+    smoke="$(cd "$runs_from" && pwd)"
+    keep_smoke=1
+else
+    smoke=$(mktemp -d)
+    keep_smoke=0
+fi
+
 step "QEMU firmware: self-check, a recording through the pipeline, exit code"
-smoke=$(mktemp -d)
 # The synthetic recording of host/tests/run_qemu.rs through `pyramid run --board qemu` and
 # `--board host`: every cell must be identical, QEMU must exit with 0 after Shutdown.
-(cd "$root" && PYRAMID_QEMU_OUT="$smoke" cargo test -p terrain-pyramid-host \
-    --test run_qemu qemu_matches_host_on_a_synthetic_recording -- --nocapture) 2>&1 \
-    | tee "$smoke/test.log" \
-    || fail "the QEMU firmware run failed (exit codes: 101 panic, 102 HardFault, 124 timeout)"
-grep -q "identical" "$smoke/test.log" || fail "the emulated run did not match the host pipeline"
+if [[ -z "$runs_from" ]]; then
+    run_test run_qemu qemu_matches_host_on_a_synthetic_recording "$smoke/test.log" \
+        || fail "the QEMU firmware run failed (exit codes: 101 panic, 102 HardFault, 124 timeout)"
+    grep -q "identical" "$smoke/test.log" || fail "the emulated run did not match the host pipeline"
+else
+    echo "from $smoke (the test passed in cargo test --workspace)"
+fi
+[[ -f "$smoke/synthetic-qemu/qemu/firmware.defmt" ]] || fail "no firmware log in $smoke/synthetic-qemu"
 run_log="$smoke/firmware.log"
 defmt-print -e "$qemu_dir/target/thumbv7em-none-eabihf/release/qemu-mps2" \
     < "$smoke/synthetic-qemu/qemu/firmware.defmt" > "$run_log" 2>&1 || true
@@ -112,23 +152,28 @@ qemu_stack=$(sed -n 's/.*stack: high-water \([0-9]*\) bytes.*/\1/p' "$run_log" |
 [[ -n "$qemu_stack" ]] || fail "the firmware did not report its stack"
 
 step "stm32f4 on QEMU's netduinoplus2: the synthetic recording, bit-identical to the host"
-(cd "$root" && PYRAMID_QEMU_OUT="$smoke" cargo test -p terrain-pyramid-host \
-    --test run_qemu netduinoplus2_matches_host_on_a_synthetic_recording -- --nocapture) 2>&1 \
-    | tee "$smoke/nd.log" \
-    || fail "the netduinoplus2 run failed (exit codes: 101 panic, 102 HardFault)"
-grep -q "netduinoplus2: .* identical" "$smoke/nd.log" || fail "netduinoplus2 did not match the host"
+if [[ -z "$runs_from" ]]; then
+    run_test run_qemu netduinoplus2_matches_host_on_a_synthetic_recording "$smoke/nd.log" \
+        || fail "the netduinoplus2 run failed (exit codes: 101 panic, 102 HardFault)"
+    grep -q "netduinoplus2: .* identical" "$smoke/nd.log" || fail "netduinoplus2 did not match the host"
+else
+    echo "from $smoke (the test passed in cargo test --workspace)"
+fi
 nd_stack=$(sed -n 's/.*"stack_bytes":\([0-9]*\).*/\1/p' \
-    "$smoke/synthetic-netduinoplus2/netduinoplus2/summary.json")
+    "$smoke/synthetic-netduinoplus2/netduinoplus2/summary.json" 2>/dev/null || true)
 [[ -n "$nd_stack" ]] || fail "netduinoplus2: no stack high-water mark"
 step "stm32f4 on QEMU's netduinoplus2: the link against an independent implementation"
 (cd "$stm32_dir" && ./qemu-check.sh --no-build) || fail "stm32f4/qemu-check.sh"
 
 step "microbit on QEMU's microbit: the synthetic recording, bit-identical to the library"
-(cd "$root" && PYRAMID_QEMU_OUT="$smoke" cargo test -p terrain-pyramid-host \
-    --test run_microbit microbit_matches_the_host_on_a_synthetic_recording -- --nocapture) 2>&1 \
-    | tee "$smoke/mb.log" \
-    || fail "the microbit run failed (exit codes: 101 panic, 102 HardFault)"
-grep -q "microbit: .* on both" "$smoke/mb.log" || fail "microbit did not match the library"
+if [[ -z "$runs_from" ]]; then
+    run_test run_microbit microbit_matches_the_host_on_a_synthetic_recording "$smoke/mb.log" \
+        || fail "the microbit run failed (exit codes: 101 panic, 102 HardFault)"
+    grep -q "microbit: .* on both" "$smoke/mb.log" || fail "microbit did not match the library"
+else
+    echo "from $smoke (the test passed in cargo test --workspace)"
+fi
+[[ -f "$smoke/microbit-synthetic/firmware.defmt" ]] || fail "no firmware log in $smoke/microbit-synthetic"
 mb_log="$smoke/microbit-firmware.log"
 defmt-print -e "$microbit_dir/target/thumbv6m-none-eabi/release/microbit-board" \
     < "$smoke/microbit-synthetic/firmware.defmt" > "$mb_log" 2>&1 || true
@@ -198,7 +243,7 @@ printf '%-34s %12s %16s %22s\n' "microbit nRF51822 (256K/16K)" "$mb_flash" "$mb_
 # The painted stack cannot see past its region: keep 256 bytes never touched.
 [[ $((mb_ram + mb_stack)) -le $((16 * 1024 - 256)) ]] \
     || fail "microbit: statics $mb_ram + stack $mb_stack B leave under 256 B of its 16 KiB"
-rm -rf "$smoke"
+[[ $keep_smoke -eq 1 ]] || rm -rf "$smoke"
 
 step "done in $((SECONDS - start)) s"
 echo "on-target: $passed passed, 0 failed"
