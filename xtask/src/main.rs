@@ -1,8 +1,9 @@
 //! Project automation for terrain-pyramid (the ecosystem's `xtask` convention).
 //!
-//! - `cargo xtask test [--lint]`: the whole test suite on a fresh machine: installs what it
-//!   needs (the Cortex-M targets, QEMU, `defmt-print`), runs every host test (including the
-//!   bit-exact run of the firmware in QEMU), then the boards' checks: release builds, the
+//! - `cargo xtask test [--lint] [--jobs N]`: the whole test suite on a fresh machine: installs
+//!   what it needs (the Cortex-M targets, QEMU, `defmt-print`), runs every host test (including
+//!   the bit-exact run of the firmware in QEMU; the test binaries `N` at a time, by default one
+//!   per core: module `pool`), then the boards' checks: release builds, the
 //!   firmware on the emulated board, the on-target tests for thumbv7em and thumbv6m code, and
 //!   the firmware's flash, RAM and stack. `--lint` adds the boards' fmt and clippy.
 //! - `cargo xtask bench [--json] [--quick]`: exact per-return instruction counts on the
@@ -37,6 +38,7 @@ mod bench;
 mod install;
 mod lab;
 mod layers;
+mod pool;
 mod test;
 
 fn main() -> ExitCode {
@@ -57,7 +59,7 @@ fn main() -> ExitCode {
         "size" => lab::size(rest),
         "layers" => layers::task(rest),
         _ => Err(
-            "usage: cargo xtask test [--lint] | cargo xtask bench [--json] [--quick] \
+            "usage: cargo xtask test [--lint] [--jobs N] | cargo xtask bench [--json] [--quick] \
                   | cargo xtask demo [--board qemu|host] [--out DIR] \
                   | cargo xtask experiments [--out DIR] [--quick] [--json] [...] \
                   | cargo xtask faults [--json] [--quick] | cargo xtask soak [--json] [--quick] \

@@ -1,14 +1,33 @@
-//! `cargo xtask test [--lint]`: the whole test suite, from a fresh machine.
-use crate::install::{ensure_python_readers, ensure_qemu, ensure_targets, step};
+//! `cargo xtask test [--lint] [--jobs N]`: the whole test suite, from a fresh machine.
+use crate::install::{ensure_python_readers, ensure_qemu, ensure_targets, root, step};
+use crate::pool;
 
 /// Runs the whole suite.
-fn run_all(lint: bool) -> Result<(), String> {
+fn run_all(lint: bool, jobs: usize) -> Result<(), String> {
     ensure_targets()?;
     ensure_qemu()?;
     ensure_python_readers()?;
-    // Every host test: the library's unit and doc tests, the f64 references and property
-    // tests, the simulator, the tools, and the firmware in QEMU against the host, bit for bit.
-    step("cargo", &["test", "--workspace"])?;
+    let root = root();
+    // Every host test: the library's unit tests, the f64 references and property tests, the
+    // simulator, the tools, and the firmware in QEMU against the host, bit for bit. The same
+    // binaries `cargo test --workspace` builds and runs, here side by side (module `pool`).
+    // The emulated boards' runs keep their outputs in `runs`, where boards/check.sh reads the
+    // firmware's logs instead of running them again.
+    let work = root.join("target").join("xtask-test");
+    let runs = work.join("runs");
+    let _ = std::fs::remove_dir_all(&runs);
+    std::fs::create_dir_all(&runs).map_err(|e| format!("{}: {e}", runs.display()))?;
+    let binaries = pool::build(&root)?;
+    let (solo, shared): (Vec<_>, Vec<_>) = binaries
+        .into_iter()
+        .partition(|b| b.kind == "test" && pool::SOLO.contains(&b.name.as_str()));
+    let env = [("PYRAMID_QEMU_OUT", runs.as_path())];
+    let logs = work.join("logs");
+    let pooled = pool::run(pool::longest_first(shared), jobs, &env, &logs);
+    // The wall-clock bounds, on a machine that runs nothing else of ours.
+    let alone = pool::run(solo, 1, &env, &logs);
+    pooled.and(alone)?;
+    step("cargo", &["test", "--workspace", "--doc"])?;
     // The code's shape: imports point down the library's layers, no cycle, one definition
     // per public type name.
     step("cargo", &["xtask", "layers"])?;
@@ -19,27 +38,35 @@ fn run_all(lint: bool) -> Result<(), String> {
         Ok(()) => step("cargo", &["xtask", "live", "--check"])?,
         Err(why) => eprintln!("\n==> skipped: cargo xtask live --check ({why})"),
     }
-    // The boards: builds, the firmware on the emulated board, the on-target tests (thumbv7em
-    // and thumbv6m code), flash, RAM and stack. It installs defmt-print when missing.
-    if lint {
-        step("bash", &["boards/check.sh"])
-    } else {
-        step("bash", &["boards/check.sh", "--no-lint"])
+    // The boards: builds, the firmware on the emulated board (its runs' logs from above), the
+    // on-target tests (thumbv7em and thumbv6m code), flash, RAM and stack. It installs
+    // defmt-print when missing.
+    let runs = runs.to_string_lossy();
+    let mut check = vec!["boards/check.sh", "--runs-from", &runs];
+    if !lint {
+        check.push("--no-lint");
     }
+    step("bash", &check)
 }
 
-/// `cargo xtask test [--lint]`.
+/// `cargo xtask test [--lint] [--jobs N]`; `--jobs` defaults to the machine's cores.
 pub fn run(args: &[String]) -> Result<(), String> {
+    const USAGE: &str = "usage: cargo xtask test [--lint] [--jobs N]";
     let mut lint = false;
-    for arg in args {
+    let mut jobs = std::thread::available_parallelism().map_or(2, usize::from);
+    let mut args = args.iter();
+    while let Some(arg) = args.next() {
         match arg.as_str() {
             "--lint" => lint = true,
-            other => {
-                return Err(format!(
-                    "unknown option {other}; usage: cargo xtask test [--lint]"
-                ))
+            "--jobs" => {
+                jobs = args
+                    .next()
+                    .and_then(|n| n.parse().ok())
+                    .filter(|&n| n > 0)
+                    .ok_or_else(|| format!("--jobs needs a number above 0; {USAGE}"))?;
             }
+            other => return Err(format!("unknown option {other}; {USAGE}")),
         }
     }
-    run_all(lint)
+    run_all(lint, jobs)
 }
