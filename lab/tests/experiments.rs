@@ -192,10 +192,10 @@ fn qemu_ready() -> bool {
 
 /// The stairs recording through the firmware on the emulated board (`--board qemu`): each of
 /// the four maps on the device, asked at the same moments as the host's, must give the same
-/// figures, and its maps must equal the host's cell for cell. A short approach (1 s of
-/// standing, 4 m/s: about 220 telegrams a map) keeps it to about two minutes on two cores
-/// (each of the four maps streams megabytes of patches through QEMU's byte-at-a-time UART);
-/// docs/measurements.md's figures are from a 10 s stand.
+/// figures, and its maps must equal the host's cell for cell. A short approach (0.5 s of
+/// standing, 8 m/s: 110 telegrams a map, every observation synced and looked at) keeps it to
+/// about a minute of two cores (each of the four maps streams its patches through QEMU's
+/// byte-at-a-time UART); docs/measurements.md's figures are from a 10 s stand.
 #[test]
 fn the_firmware_reaches_the_same_stairs_outcome_as_the_host() {
     if !qemu_ready() {
@@ -204,7 +204,7 @@ fn the_firmware_reaches_the_same_stairs_outcome_as_the_host() {
     let dir = out_dir("board");
     let output = Command::new(env!("CARGO_BIN_EXE_lab"))
         .args(["experiments", "--stairs-only", "--board", "qemu", "--json"])
-        .args(["--stand-s", "1", "--speed", "4", "--out"])
+        .args(["--stand-s", "0.5", "--speed", "8", "--out"])
         .arg(&dir)
         .output()
         .expect("lab runs");
