@@ -209,6 +209,60 @@ fn sizes(elf_path: &Path) -> Result<(u64, u64, u64)> {
     Ok((flash - recording, ram, recording))
 }
 
+/// One bench binary through the emulator's trace: its counts, and its profiles by function,
+/// by address and by source line in `work` (`profile-`, `counts-`, `lines-TARGET-BIN.txt`).
+fn measure(
+    elf: &Path,
+    target: &str,
+    bin: &str,
+    work: &Path,
+    root: &Path,
+    singlestep: bool,
+) -> Result<Run> {
+    let t = Instant::now();
+    let fifo = work.join(format!("trace-{target}-{bin}.fifo"));
+    let r = trace(elf, &fifo, singlestep)?;
+    eprintln!(
+        "xtask bench: {target} {bin}: {} instructions, {} returns, {} lines, {} cells reset, stack {} B ({:.1} s)",
+        r.instructions,
+        r.returns,
+        r.lines,
+        r.cells,
+        r.stack,
+        t.elapsed().as_secs_f64()
+    );
+    let mut profile = String::new();
+    for (name, n) in &r.histogram {
+        profile.push_str(&format!(
+            "{n:>12} {:>6.1}% {:>8.2}/ret  {name}\n",
+            100.0 * *n as f64 / r.instructions.max(1) as f64,
+            *n as f64 / r.returns.max(1) as f64
+        ));
+    }
+    write_if_changed(
+        &work.join(format!("profile-{target}-{bin}.txt")),
+        profile.as_bytes(),
+    )?;
+    // Every executed address with its count, for annotating a disassembly
+    // (`arm-none-eabi-objdump -d` of the same ELF).
+    let mut counts = String::new();
+    let mut per_pc = r.per_pc.clone();
+    per_pc.sort_unstable();
+    for (pc, n) in per_pc {
+        counts.push_str(&format!("{pc:08x} {n}\n"));
+    }
+    write_if_changed(
+        &work.join(format!("counts-{target}-{bin}.txt")),
+        counts.as_bytes(),
+    )?;
+    let by_line = lines::profile(elf, &r, root)?;
+    write_if_changed(
+        &work.join(format!("lines-{target}-{bin}.txt")),
+        by_line.as_bytes(),
+    )?;
+    Ok(r)
+}
+
 fn bench(opts: &Opts) -> Result<()> {
     ensure_tools()?;
     let root = root();
@@ -270,53 +324,50 @@ fn bench(opts: &Opts) -> Result<()> {
     ];
     // `BENCH_ONLY=thumbv7em-none-eabihf/pyramid,…` restricts the runs (for profiling).
     let only = std::env::var("BENCH_ONLY").ok();
-    for &(target, bin) in variants {
-        if only
-            .as_deref()
-            .is_some_and(|o| !o.split(',').any(|v| v == format!("{target}/{bin}")))
-        {
-            continue;
+    let chosen: Vec<(&str, &str)> = variants
+        .iter()
+        .copied()
+        .filter(|(target, bin)| {
+            only.as_deref()
+                .is_none_or(|o| o.split(',').any(|v| v == format!("{target}/{bin}")))
+        })
+        .collect();
+    // Each count is exact whatever else runs: the emulator's trace, not a clock. Two runs at a
+    // time (each an emulator and this process reading its trace), in the listed order.
+    let jobs = std::thread::available_parallelism()
+        .map_or(1, usize::from)
+        .clamp(1, 2);
+    let next = std::sync::atomic::AtomicUsize::new(0);
+    let results: std::sync::Mutex<Vec<Option<Result<Run>>>> =
+        std::sync::Mutex::new(vec![None; chosen.len()]);
+    std::thread::scope(|scope| {
+        for _ in 0..jobs {
+            scope.spawn(|| loop {
+                let i = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                let Some(&(target, bin)) = chosen.get(i) else {
+                    break;
+                };
+                let r = measure(
+                    &elf(target, bin),
+                    target,
+                    bin,
+                    &work,
+                    &root,
+                    opts.singlestep,
+                );
+                if let Ok(mut all) = results.lock() {
+                    if let Some(slot) = all.get_mut(i) {
+                        *slot = Some(r);
+                    }
+                }
+            });
         }
-        let t = Instant::now();
-        let r = trace(&elf(target, bin), &work, opts.singlestep)?;
-        eprintln!(
-            "xtask bench: {target} {bin}: {} instructions, {} returns, {} lines, {} cells reset, stack {} B ({:.1} s)",
-            r.instructions,
-            r.returns,
-            r.lines,
-            r.cells,
-            r.stack,
-            t.elapsed().as_secs_f64()
-        );
-        let mut profile = String::new();
-        for (name, n) in &r.histogram {
-            profile.push_str(&format!(
-                "{n:>12} {:>6.1}% {:>8.2}/ret  {name}\n",
-                100.0 * *n as f64 / r.instructions.max(1) as f64,
-                *n as f64 / r.returns.max(1) as f64
-            ));
-        }
-        write_if_changed(
-            &work.join(format!("profile-{target}-{bin}.txt")),
-            profile.as_bytes(),
-        )?;
-        // Every executed address with its count, for annotating a disassembly
-        // (`arm-none-eabi-objdump -d` of the same ELF).
-        let mut counts = String::new();
-        let mut per_pc = r.per_pc.clone();
-        per_pc.sort_unstable();
-        for (pc, n) in per_pc {
-            counts.push_str(&format!("{pc:08x} {n}\n"));
-        }
-        write_if_changed(
-            &work.join(format!("counts-{target}-{bin}.txt")),
-            counts.as_bytes(),
-        )?;
-        let by_line = lines::profile(&elf(target, bin), &r, &root)?;
-        write_if_changed(
-            &work.join(format!("lines-{target}-{bin}.txt")),
-            by_line.as_bytes(),
-        )?;
+    });
+    let results = results
+        .into_inner()
+        .map_err(|_| "a bench run's worker panicked".to_string())?;
+    for (&(target, bin), r) in chosen.iter().zip(results) {
+        let r = r.ok_or_else(|| format!("{target} {bin}: not run"))??;
         runs.insert((target, bin), r);
     }
     let get = |t: &str, b: &str| runs.get(&(t, b)).cloned().unwrap_or_default();

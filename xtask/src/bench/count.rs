@@ -93,7 +93,7 @@ pub(super) fn short(name: &str) -> String {
 /// (`-d in_asm`) with their instruction counts, and each exec line adds its block's count:
 /// the same number as long as every block runs to its end, which holds here (no interrupt
 /// or fault is enabled in the measured region; `cargo xtask bench --singlestep` checks it).
-pub(super) fn trace(elf_path: &Path, work: &Path, singlestep: bool) -> Result<Run> {
+pub(super) fn trace(elf_path: &Path, fifo: &Path, singlestep: bool) -> Result<Run> {
     let elf = fs::read(elf_path).map_err(|e| format!("{}: {e}", elf_path.display()))?;
     let (start, _) = symbol_address(&elf, "bench_start")?;
     let (end, _) = symbol_address(&elf, "bench_end")?;
@@ -112,9 +112,8 @@ pub(super) fn trace(elf_path: &Path, work: &Path, singlestep: bool) -> Result<Ru
     let mut call_site = 0_u32;
     let mut entered: Option<usize> = None;
     let mut calls: HashMap<(u32, usize), u64> = HashMap::new();
-    let fifo = work.join("trace.fifo");
-    let _ = fs::remove_file(&fifo);
-    run(Command::new("mkfifo").arg(&fifo))?;
+    let _ = fs::remove_file(fifo);
+    run(Command::new("mkfifo").arg(fifo))?;
     let mut qemu = Command::new("qemu-system-arm")
         .args([
             "-machine",
@@ -141,14 +140,14 @@ pub(super) fn trace(elf_path: &Path, work: &Path, singlestep: bool) -> Result<Ru
             },
             "-D",
         ])
-        .arg(&fifo)
+        .arg(fifo)
         .arg("-kernel")
         .arg(elf_path)
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
         .spawn()
         .map_err(|e| format!("cannot start qemu-system-arm: {e}"))?;
-    let reader = fs::File::open(&fifo).map_err(|e| format!("{}: {e}", fifo.display()))?;
+    let reader = fs::File::open(fifo).map_err(|e| format!("{}: {e}", fifo.display()))?;
     let mut reader = BufReader::with_capacity(1 << 20, reader);
     let mut line = Vec::with_capacity(256);
     let mut counting = false;
@@ -251,7 +250,7 @@ pub(super) fn trace(elf_path: &Path, work: &Path, singlestep: bool) -> Result<Ru
         let _ = s.read_to_string(&mut stdout);
     }
     let status = qemu.wait().map_err(|e| e.to_string())?;
-    let _ = fs::remove_file(&fifo);
+    let _ = fs::remove_file(fifo);
     if !status.success() || !done {
         let mut stderr = String::new();
         if let Some(mut s) = qemu.stderr.take() {

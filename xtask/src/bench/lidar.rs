@@ -125,7 +125,7 @@ pub fn rows(quick: bool) -> Result<serde_json::Value> {
                 .join(target)
                 .join("release")
                 .join("lidar");
-            let r = trace(&elf, &work, false)?;
+            let r = trace(&elf, &work.join("trace.fifo"), false)?;
             let by_line = super::lines::profile(&elf, &r, &root)?;
             write_if_changed(
                 &work.join(format!(
