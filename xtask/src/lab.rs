@@ -77,6 +77,17 @@ fn lab(command: &str, args: &[String]) -> Result<(), String> {
         ));
     }
     .map_err(|e| format!("cannot run the lab: {e}"))?;
+    finished(command, started, status, &format!("lab {command}"))
+}
+
+/// Reports how long `cargo xtask command` took, and its run's exit `status` as the result:
+/// an error that names the run (`run`) unless it succeeded.
+fn finished(
+    command: &str,
+    started: Instant,
+    status: std::process::ExitStatus,
+    run: &str,
+) -> Result<(), String> {
     eprintln!(
         "xtask {command}: done in {:.1} s",
         started.elapsed().as_secs_f64()
@@ -84,7 +95,7 @@ fn lab(command: &str, args: &[String]) -> Result<(), String> {
     if status.success() {
         Ok(())
     } else {
-        Err(format!("lab {command} failed ({status})"))
+        Err(format!("{run} failed ({status})"))
     }
 }
 
@@ -217,17 +228,12 @@ fn in_network_namespace(command: &str, pass: &[String], packages: &[&str]) -> Re
         .current_dir(root())
         .status()
         .map_err(|e| format!("cannot run unshare (util-linux; root needed): {e}"))?;
-    eprintln!(
-        "xtask {command}: done in {:.1} s",
-        started.elapsed().as_secs_f64()
-    );
-    if status.success() {
-        Ok(())
-    } else {
-        Err(format!(
-            "lab {command} --ros2 inside `unshare -n` failed ({status})"
-        ))
-    }
+    finished(
+        command,
+        started,
+        status,
+        &format!("lab {command} --ros2 inside `unshare -n`"),
+    )
 }
 
 /// `cargo xtask live [--json] [--check] [--no-forward]`: `lab live --ros2` inside a network
