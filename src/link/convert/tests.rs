@@ -319,19 +319,25 @@ fn the_plane_rule_is_taken_only_where_built_in() {
     );
 }
 
+/// A recording's setup event of a SICK at 180° and `resolution_cdeg` (centidegrees), tilted
+/// horizontal, 0.5 m up, mode 0, an observation per sweep.
+fn sick_event(resolution_cdeg: u16) -> SetupEvent {
+    SetupEvent {
+        mount: MountKind::TiltedHorizontal,
+        measuring_mode: 0,
+        field_deg: 180,
+        resolution_cdeg,
+        sensor_m: [0.0, 0.0, 0.5],
+        lines_per_observation: 0,
+    }
+}
+
 #[test]
 #[cfg(feature = "plane-rule")]
 fn the_rule_block_travels_and_is_validated() {
     use crate::classify::Ratio;
     use crate::units::Meters;
-    let event = SetupEvent {
-        mount: MountKind::TiltedHorizontal,
-        measuring_mode: 0,
-        field_deg: 180,
-        resolution_cdeg: 50,
-        sensor_m: [0.0, 0.0, 0.5],
-        lines_per_observation: 0,
-    };
+    let event = sick_event(50);
     let custom = NavigabilityRule::Plane(PlaneRule {
         max_grade: Ratio::from_num(1),
         residual: Meters::from_num(0.03),
@@ -603,14 +609,7 @@ fn the_laser_block_is_validated_field_by_field() {
 /// A recording's setup event takes the same path.
 #[test]
 fn a_recording_setup_goes_through_the_same_rule() {
-    let event = SetupEvent {
-        mount: MountKind::TiltedHorizontal,
-        measuring_mode: 0,
-        field_deg: 180,
-        resolution_cdeg: 25,
-        sensor_m: [0.0, 0.0, 0.5],
-        lines_per_observation: 0,
-    };
+    let event = sick_event(25);
     let error = frontend_config_of_event(&event, &ClassifierConfig::default()).unwrap_err();
     assert_eq!(error.field(), SetupField::Variant);
     let ok = SetupEvent {
