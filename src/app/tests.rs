@@ -5,7 +5,7 @@ use crate::angle::AngleSource;
 use crate::design::{GateShape, Param, Schedule, SensorModel};
 use crate::link::convert;
 use crate::link::convert::{configure_of_design, param_of_code, ReplyText};
-use crate::link::tests::{command, decode_all, Out};
+use crate::link::tests::{command, decode_all, decode_taken, Out};
 use crate::wire::link::Reply;
 use crate::wire::link::{
     ClampRequest, Configure, DecodeError, HelloReason, Message, MessageType, PanAngle, PoseReport,
@@ -44,16 +44,7 @@ pub(super) fn booted() -> Box<Core> {
 
 /// Everything the co-processor queued, decoded.
 pub(super) fn output(core: &mut Core) -> Vec<(u16, Out)> {
-    let mut bytes = Vec::new();
-    let mut buf = [0_u8; 100];
-    loop {
-        let n = core.take_output(&mut buf);
-        if n == 0 {
-            break;
-        }
-        bytes.extend_from_slice(&buf[..n]);
-    }
-    decode_all(&bytes)
+    decode_taken(|buf| core.take_output(buf))
 }
 
 fn replies(out: &[(u16, Out)]) -> Vec<Reply> {

@@ -29,10 +29,16 @@ pub(crate) enum Out {
 }
 
 fn drain<const Q: usize>(link: &mut Link<Q>) -> Vec<(u16, Out)> {
+    decode_taken(|buf| link.pop_bytes(buf))
+}
+
+/// Every frame of a device's output, taken 100 bytes at a time through `take` (which fills
+/// the buffer it is given and returns the bytes it wrote, 0 when nothing is left), decoded.
+pub(crate) fn decode_taken(mut take: impl FnMut(&mut [u8]) -> usize) -> Vec<(u16, Out)> {
     let mut bytes = Vec::new();
     let mut buf = [0_u8; 100];
     loop {
-        let n = link.pop_bytes(&mut buf);
+        let n = take(&mut buf);
         if n == 0 {
             break;
         }
