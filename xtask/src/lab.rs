@@ -126,6 +126,18 @@ fn with_out(args: &[String], dir: &str) -> Vec<String> {
     pass
 }
 
+/// Passes the option `flag` on to the lab with the value that follows it in `rest`.
+fn pass_with_value<'a>(
+    flag: &str,
+    rest: &mut impl Iterator<Item = &'a String>,
+    pass: &mut Vec<String>,
+) -> Result<(), String> {
+    let value = rest.next().ok_or(format!("{flag} needs a value"))?;
+    pass.push(flag.to_string());
+    pass.push(value.clone());
+    Ok(())
+}
+
 /// `cargo xtask faults`.
 pub fn faults(args: &[String]) -> Result<(), String> {
     let mut pass = Vec::new();
@@ -133,11 +145,7 @@ pub fn faults(args: &[String]) -> Result<(), String> {
     while let Some(a) = rest.next() {
         match a.as_str() {
             "--json" | "--quick" => pass.push(a.clone()),
-            "--only" | "--lines" | "--jobs" => {
-                let value = rest.next().ok_or(format!("{a} needs a value"))?;
-                pass.push(a.clone());
-                pass.push(value.clone());
-            }
+            "--only" | "--lines" | "--jobs" => pass_with_value(a, &mut rest, &mut pass)?,
             other => {
                 return Err(format!(
                     "unknown option {other}; usage: cargo xtask faults [--json] [--quick] \
@@ -158,11 +166,7 @@ pub fn latency(args: &[String]) -> Result<(), String> {
         match a.as_str() {
             "--json" | "--quick" => pass.push(a.clone()),
             "--no-ros2" => ros2 = false,
-            "--publish-hz" | "--rate-hz" => {
-                let value = rest.next().ok_or(format!("{a} needs a value"))?;
-                pass.push(a.clone());
-                pass.push(value.clone());
-            }
+            "--publish-hz" | "--rate-hz" => pass_with_value(a, &mut rest, &mut pass)?,
             other => {
                 return Err(format!(
                     "unknown option {other}; usage: cargo xtask latency [--quick] [--json] \
