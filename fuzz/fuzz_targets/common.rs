@@ -130,3 +130,51 @@ pub fn feed_chunks<'c>(
         }
     }
 }
+
+/// Runs `chunks` through the accumulator `$acc`: one `feed` call at a time on what is left of
+/// each chunk ([`feed_chunks`], the calls on a chunk bounded by `$max_calls(chunk length)`),
+/// then `flush` calls until one hands out nothing; `$record(result, &mut events)` records each
+/// call's result and says whether it handed out something. Checks that nothing stays
+/// buffered, and evaluates to the events, the counters (`$counters`, the accumulator's method
+/// that returns them) and the stream position.
+///
+/// A macro: the accumulators share these methods by name, not through a trait.
+#[allow(unused_macros)] // Not every target runs an accumulator.
+macro_rules! run_accumulator {
+    ($acc:expr, $chunks:expr, $max_calls:expr, $record:expr, $counters:ident) => {{
+        let mut acc = $acc;
+        let mut events = Vec::new();
+        $crate::common::feed_chunks($chunks, $max_calls, |window| {
+            let r = acc.feed(window);
+            (r.remaining(), $record(r, &mut events))
+        });
+        while $record(acc.flush(), &mut events) {}
+        assert_eq!(acc.buffered(), 0);
+        (events, acc.$counters(), acc.position())
+    }};
+}
+#[allow(unused_imports)]
+pub(crate) use run_accumulator;
+
+/// Runs `stream` whole through `run` (events, counters, stream position) and checks the run
+/// with `check`; then runs it cut into chunks whose sizes cycle through `sizes` ([`chunks`])
+/// and asserts that the events, the counters and the position do not depend on the chunking.
+/// Returns the chunks, for further runs.
+pub fn check_chunking<'a, E, C>(
+    stream: &'a [u8],
+    sizes: &[u8],
+    run: impl Fn(&[&[u8]]) -> (Vec<E>, C, u64),
+    check: impl Fn(&[u8], &[E], C, u64),
+) -> Vec<&'a [u8]>
+where
+    E: PartialEq + std::fmt::Debug,
+    C: Copy + PartialEq + std::fmt::Debug,
+{
+    let (reference, counters, position) = run(&[stream]);
+    check(stream, &reference, counters, position);
+    let chunked = chunks(stream, sizes);
+    let (events, counters2, position2) = run(&chunked);
+    assert_eq!(events, reference, "the events depend on the chunking");
+    assert_eq!((counters2, position2), (counters, position));
+    chunked
+}

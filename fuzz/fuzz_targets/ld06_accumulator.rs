@@ -34,20 +34,13 @@ fn record(r: FeedResult<'_, Ld06Packet<&[u8]>, Ld06Error>, out: &mut Vec<Ev>) ->
 }
 
 fn run(chunks: &[&[u8]]) -> (Vec<Ev>, Ld06Counters, u64) {
-    let mut acc = Ld06Accumulator::new();
-    let mut out = Vec::new();
-    common::feed_chunks(
+    common::run_accumulator!(
+        Ld06Accumulator::new(),
         chunks,
         |len| 2 * (len + 47) + 2,
-        |window| {
-            let r = acc.feed(window);
-            let rest = r.remaining();
-            (rest, record(r, &mut out))
-        },
-    );
-    while record(acc.flush(), &mut out) {}
-    assert_eq!(acc.buffered(), 0);
-    (out, acc.counters(), acc.position())
+        record,
+        counters
+    )
 }
 
 fn check(stream: &[u8], events: &[Ev], c: Ld06Counters, position: u64) {
@@ -86,10 +79,5 @@ fn check(stream: &[u8], events: &[Ev], c: Ld06Counters, position: u64) {
 
 fuzz_target!(|data: &[u8]| {
     let (sizes, stream) = common::split_sizes(data);
-    let (reference, c, position) = run(&[stream]);
-    check(stream, &reference, c, position);
-    let chunked = common::chunks(stream, sizes);
-    let (events, c2, position2) = run(&chunked);
-    assert_eq!(events, reference, "the events depend on the chunking");
-    assert_eq!((c2, position2), (c, position));
+    common::check_chunking(stream, sizes, run, check);
 });

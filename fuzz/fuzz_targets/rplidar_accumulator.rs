@@ -71,20 +71,13 @@ fn accumulator(mode: u8) -> RplidarAccumulator {
 }
 
 fn run(mode: u8, chunks: &[&[u8]]) -> (Vec<Ev>, RplidarCounters, u64) {
-    let mut acc = accumulator(mode);
-    let mut out = Vec::new();
-    common::feed_chunks(
+    common::run_accumulator!(
+        accumulator(mode),
         chunks,
         |len| 3 * (len + 96) + 4,
-        |window| {
-            let r = acc.feed(window);
-            let rest = r.remaining();
-            (rest, record(r, &mut out))
-        },
-    );
-    while record(acc.flush(), &mut out) {}
-    assert_eq!(acc.buffered(), 0);
-    (out, acc.counters(), acc.position())
+        record,
+        counters
+    )
 }
 
 fn check(stream: &[u8], events: &[Ev], c: RplidarCounters, position: u64) {
@@ -153,10 +146,5 @@ fuzz_target!(|data: &[u8]| {
     let Some((&mode, stream)) = rest.split_first() else {
         return;
     };
-    let (reference, c, position) = run(mode, &[stream]);
-    check(stream, &reference, c, position);
-    let chunked = common::chunks(stream, sizes);
-    let (events, c2, position2) = run(mode, &chunked);
-    assert_eq!(events, reference, "the events depend on the chunking");
-    assert_eq!((c2, position2), (c, position));
+    common::check_chunking(stream, sizes, |chunks| run(mode, chunks), check);
 });

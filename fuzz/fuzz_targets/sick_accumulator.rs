@@ -59,26 +59,14 @@ fn record(r: &SickFeed<'_, '_>, out: &mut Vec<Ev>) -> bool {
 }
 
 fn run<const N: usize>(chunks: &[&[u8]]) -> (Vec<Ev>, SickCounters, u64) {
-    let mut acc = SickAccumulator::<N>::new();
-    let mut out = Vec::new();
     // Each event consumes a byte or resolves a buffered one: bounded by the bytes.
-    common::feed_chunks(
+    common::run_accumulator!(
+        SickAccumulator::<N>::new(),
         chunks,
         |len| 2 * (len + N) + 2,
-        |window| {
-            let r = acc.feed(window);
-            let rest = r.remaining();
-            (rest, record(&r, &mut out))
-        },
-    );
-    loop {
-        let r = acc.flush();
-        if !record(&r, &mut out) {
-            break;
-        }
-    }
-    assert_eq!(acc.buffered(), 0);
-    (out, acc.stats(), acc.position())
+        |r: SickFeed<'_, '_>, out: &mut Vec<Ev>| record(&r, out),
+        stats
+    )
 }
 
 fn check(stream: &[u8], events: &[Ev], stats: SickCounters, position: u64) {
@@ -145,14 +133,7 @@ fn check(stream: &[u8], events: &[Ev], stats: SickCounters, position: u64) {
 
 fuzz_target!(|data: &[u8]| {
     let (sizes, stream) = common::split_sizes(data);
-    let whole = [stream];
-    let (reference, stats, position) = run::<818>(&whole);
-    check(stream, &reference, stats, position);
-    let chunked = common::chunks(stream, sizes);
-    let (events, stats2, position2) = run::<818>(&chunked);
-    assert_eq!(events, reference, "the events depend on the chunking");
-    assert_eq!(stats2, stats);
-    assert_eq!(position2, position);
+    let chunked = common::check_chunking(stream, sizes, run::<818>, check);
     // A small accumulator: same invariants, longer telegrams refused as TooLong.
     let (small, stats3, position3) = run::<64>(&chunked);
     check(stream, &small, stats3, position3);

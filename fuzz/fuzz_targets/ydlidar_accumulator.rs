@@ -56,20 +56,13 @@ fn record(r: FeedResult<'_, YdlidarItem<'_>, YdlidarError>, out: &mut Vec<Ev>) -
 }
 
 fn run<const N: usize>(chunks: &[&[u8]]) -> (Vec<Ev>, YdlidarCounters, u64) {
-    let mut acc = YdlidarAccumulator::<N>::new();
-    let mut out = Vec::new();
-    common::feed_chunks(
+    common::run_accumulator!(
+        YdlidarAccumulator::<N>::new(),
         chunks,
         |len| 2 * (len + N) + 2,
-        |window| {
-            let r = acc.feed(window);
-            let rest = r.remaining();
-            (rest, record(r, &mut out))
-        },
-    );
-    while record(acc.flush(), &mut out) {}
-    assert_eq!(acc.buffered(), 0);
-    (out, acc.counters(), acc.position())
+        record,
+        counters
+    )
 }
 
 fn check(stream: &[u8], events: &[Ev], c: YdlidarCounters, position: u64) {
@@ -117,12 +110,7 @@ fn check(stream: &[u8], events: &[Ev], c: YdlidarCounters, position: u64) {
 
 fuzz_target!(|data: &[u8]| {
     let (sizes, stream) = common::split_sizes(data);
-    let (reference, c, position) = run::<520>(&[stream]);
-    check(stream, &reference, c, position);
-    let chunked = common::chunks(stream, sizes);
-    let (events, c2, position2) = run::<520>(&chunked);
-    assert_eq!(events, reference, "the events depend on the chunking");
-    assert_eq!((c2, position2), (c, position));
+    let chunked = common::check_chunking(stream, sizes, run::<520>, check);
     let (small, c3, position3) = run::<32>(&chunked);
     check(stream, &small, c3, position3);
 });

@@ -19,28 +19,20 @@ const TX_US: f64 = 47.0 * 10.0 / 230_400.0 * 1e6;
 
 fn setup(actuator: u8, latency_ms: f32) -> Setup {
     Setup {
-        mount_block: crate::wire::link::MountSetup::PRESET,
-        filter: crate::wire::link::FilterSetup::NONE,
-        mount: 1,
-        measuring_mode: 0,
         field_deg: 0,
         resolution_cdeg: 0,
         sensor_m: [0.0, 0.0, 0.5],
-        lines_per_observation: 0,
-        robot_height_m: 1.0,
-        step_threshold_m: 0.05,
-        drop_threshold_m: 0.0,
         ceiling_m: 0.0,
-        rule: crate::link::convert::rule_setup(&crate::classify::NavigabilityRule::DEFAULT),
         laser: LaserSetup {
-            sensor: 1,
             actuator,
-            baud: 0,
             servo_min_deg: 5.0,
             servo_max_deg: 35.0,
-            servo_rate_deg_s: 60.0,
             servo_latency_ms: latency_ms,
+            ..crate::wire::link::examples::LD06_ON_A_SERVO
         },
+        ..crate::wire::link::examples::sick_setup(crate::link::convert::rule_setup(
+            &crate::classify::NavigabilityRule::DEFAULT,
+        ))
     }
 }
 

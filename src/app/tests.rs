@@ -3,18 +3,16 @@ extern crate std;
 use super::*;
 use crate::angle::AngleSource;
 use crate::design::{GateShape, Param, Schedule, SensorModel};
-use crate::geometry::{Mount, ScanPlane};
 use crate::link::convert;
 use crate::link::convert::{configure_of_design, param_of_code, ReplyText};
-use crate::link::tests::{command, decode_all, Out};
-use crate::units::Point3;
+use crate::link::tests::{command, decode_all, decode_taken, Out};
 use crate::wire::link::Reply;
 use crate::wire::link::{
     ClampRequest, Configure, DecodeError, HelloReason, Message, MessageType, PanAngle, PoseReport,
     ReplyCode, Setup, SnapshotScope, TimeRequest,
 };
 use crate::wire::sick::MeasuredValues;
-use crate::wire::sick::{MeasuringMode, Unit, Variant};
+use crate::wire::sick::{Unit, Variant};
 use crate::DefaultDesign;
 use std::boxed::Box;
 use std::vec::Vec;
@@ -27,24 +25,7 @@ fn design() -> DefaultDesign {
 
 /// A SICK LMS 291 at 180°/0.5°, 0.5 m up on a tilt unit, one observation per line.
 fn setup() -> FrontendConfig {
-    FrontendConfig {
-        filter: crate::pipeline::ReturnFilter::NONE,
-        mount: Mount::new(
-            ScanPlane::TiltedHorizontal,
-            Point3 {
-                z: Meters::from_num(0.5),
-                ..Point3::default()
-            },
-        ),
-        sensor: crate::laser::Sensor::Sick,
-        baud: 500_000,
-        actuator: crate::actuator::Actuator::External,
-        variant: Variant::Fov180StepHalf,
-        measuring_mode: MeasuringMode::Mm8Cm80,
-        lines_per_observation: 1,
-        classifier: crate::classify::ClassifierConfig::default(),
-        missing_ground_within: None,
-    }
+    crate::pipeline::tests::sick_on_a_tilt_unit(1)
 }
 
 /// A booted co-processor whose boot Hello has been drained, Stats off.
@@ -63,16 +44,7 @@ pub(super) fn booted() -> Box<Core> {
 
 /// Everything the co-processor queued, decoded.
 pub(super) fn output(core: &mut Core) -> Vec<(u16, Out)> {
-    let mut bytes = Vec::new();
-    let mut buf = [0_u8; 100];
-    loop {
-        let n = core.take_output(&mut buf);
-        if n == 0 {
-            break;
-        }
-        bytes.extend_from_slice(&buf[..n]);
-    }
-    decode_all(&bytes)
+    decode_taken(|buf| core.take_output(buf))
 }
 
 fn replies(out: &[(u16, Out)]) -> Vec<Reply> {

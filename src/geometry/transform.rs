@@ -969,24 +969,11 @@ mod tests {
         }
     }
 
-    /// The restoring method on `u64` throughout: the reference of the 32-bit fast path.
+    /// The standard library's `u64` square root, rounded to the nearest (√x ≥ root + ½ exactly
+    /// when x − root² > root): the reference of the 32-bit fast path.
     fn isqrt_round_u64(x: u64) -> u64 {
-        if x == 0 {
-            return 0;
-        }
-        let mut bit: u64 = 1 << ((63 - x.leading_zeros()) & !1);
-        let (mut rem, mut root) = (x, 0_u64);
-        while bit != 0 {
-            let trial = root + bit;
-            if rem >= trial {
-                rem -= trial;
-                root = (root >> 1) + bit;
-            } else {
-                root >>= 1;
-            }
-            bit >>= 2;
-        }
-        root + u64::from(rem > root)
+        let root = x.isqrt();
+        root + u64::from(x - root * root > root)
     }
 
     #[test]

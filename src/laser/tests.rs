@@ -196,17 +196,23 @@ fn switching_sensors_keeps_the_counts() {
     assert_eq!(d.counts().bad_framing, 1);
 }
 
+/// The packet `decoder` hands out first on `bytes` (the test fails on anything else).
+fn first_packet<'d>(decoder: &'d mut LaserDecoder, bytes: &[u8]) -> Packet<'d> {
+    let FeedResult::Item {
+        item: LaserItem::Packet(p),
+        ..
+    } = decoder.feed(bytes)
+    else {
+        panic!()
+    };
+    p
+}
+
 #[test]
 fn spans_and_lags() {
     let mut d = LaserDecoder::new(Sensor::Ld06);
     let bytes = ld06(35_900, 820, 3_600);
-    let FeedResult::Item {
-        item: LaserItem::Packet(p),
-        ..
-    } = d.feed(&bytes)
-    else {
-        panic!()
-    };
+    let p = first_packet(&mut d, &bytes);
     assert_eq!(p.span(), turn_fraction(920, 36_000));
     assert_eq!(p.lag(), None);
     assert_eq!(p.reported_rate_deg_per_s(), Some(3_600));
@@ -244,13 +250,7 @@ fn packet_times_follow_the_rate_and_the_wire() {
     let mut d = LaserDecoder::new(Sensor::Ld06);
     // 9.6° at 3 600 °/s: 2 667 µs from the first return to the last.
     let bytes = ld06(1_000, 1_960, 3_600);
-    let FeedResult::Item {
-        item: LaserItem::Packet(p),
-        ..
-    } = d.feed(&bytes)
-    else {
-        panic!()
-    };
+    let p = first_packet(&mut d, &bytes);
     let mut timer = PacketTimer::new(230_400);
     // 47 bytes at 230 400 Bd: 2 040 µs.
     assert_eq!(timer.bytes_us(47), 2_039);
@@ -265,37 +265,19 @@ fn packet_times_follow_the_rate_and_the_wire() {
     let zero = ydlidar(0, 0, &[4_000], true);
     let mut times = Vec::new();
     for t in [0_u32, 140_000, 282_000] {
-        let FeedResult::Item {
-            item: LaserItem::Packet(p),
-            ..
-        } = d.feed(&zero)
-        else {
-            panic!()
-        };
+        let p = first_packet(&mut d, &zero);
         times.push(timer.times(&p, t, p.starts_revolution()));
     }
     // 140 ms, then the mean of 140 and 142.
     assert_eq!(timer.revolution_us(), (141_000, true));
     // A packet of 36° (a tenth of the turn) takes a tenth of the period.
     let bytes = ydlidar(0, 36 * 64, &[4_000; 40], false);
-    let FeedResult::Item {
-        item: LaserItem::Packet(p),
-        ..
-    } = d.feed(&bytes)
-    else {
-        panic!()
-    };
+    let p = first_packet(&mut d, &bytes);
     let (first, last) = timer.times(&p, 500_000, false);
     assert_eq!(last, 500_000 - timer.bytes_us(90));
     assert_eq!(last - first, 14_100);
     // A period outside 20 ms ..= 1 s is ignored.
-    let FeedResult::Item {
-        item: LaserItem::Packet(p),
-        ..
-    } = d.feed(&zero)
-    else {
-        panic!()
-    };
+    let p = first_packet(&mut d, &zero);
     timer.times(&p, 282_000 + 5_000_000, true);
     assert_eq!(timer.revolution_us(), (141_000, true));
     timer.reset(115_200);
@@ -334,13 +316,7 @@ fn an_ld06_revolution_between_two_packets_is_seen() {
     // crossing 0° inside.
     for (a, b) in [(35_040, 35_920), (0, 880), (960, 1_840), (35_500, 380)] {
         let bytes = ld06(a, b, 3_600);
-        let FeedResult::Item {
-            item: LaserItem::Packet(p),
-            ..
-        } = d.feed(&bytes)
-        else {
-            panic!()
-        };
+        let p = first_packet(&mut d, &bytes);
         starts.push(tracker.starts(&p));
     }
     assert_eq!(starts, [false, true, false, true]);

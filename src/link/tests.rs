@@ -29,10 +29,16 @@ pub(crate) enum Out {
 }
 
 fn drain<const Q: usize>(link: &mut Link<Q>) -> Vec<(u16, Out)> {
+    decode_taken(|buf| link.pop_bytes(buf))
+}
+
+/// Every frame of a device's output, taken 100 bytes at a time through `take` (which fills
+/// the buffer it is given and returns the bytes it wrote, 0 when nothing is left), decoded.
+pub(crate) fn decode_taken(mut take: impl FnMut(&mut [u8]) -> usize) -> Vec<(u16, Out)> {
     let mut bytes = Vec::new();
     let mut buf = [0_u8; 100];
     loop {
-        let n = link.pop_bytes(&mut buf);
+        let n = take(&mut buf);
         if n == 0 {
             break;
         }
@@ -229,16 +235,22 @@ fn the_budget_holds_and_deferred_tiles_go_later() {
     assert!(deferred > 0 && deferred <= 64, "{deferred}");
 }
 
-#[test]
-fn a_full_queue_puts_tiles_back_and_drops_no_patch() {
-    let (mut pyramid, _) = configured();
-    // Room for one 157-byte patch beside the reserve.
-    let mut link: Link<512> = Link::new(LinkConfig {
+/// A link of 512 bytes (room for one 157-byte patch beside the reserve), stats off, polled
+/// once on `pyramid` and drained: its Hello and first patches gone.
+fn small_link(pyramid: &mut DefaultPyramid) -> Link<512> {
+    let mut link = Link::new(LinkConfig {
         stats_interval_ms: 0,
         ..LinkConfig::DEFAULT
     });
-    link.poll(0, &mut pyramid, &SensorCounters::default());
+    link.poll(0, pyramid, &SensorCounters::default());
     drain(&mut link);
+    link
+}
+
+#[test]
+fn a_full_queue_puts_tiles_back_and_drops_no_patch() {
+    let (mut pyramid, _) = configured();
+    let mut link = small_link(&mut pyramid);
     for i in (-32..32).step_by(8) {
         pyramid.apply(&obstacle(0, i, 0));
     }
@@ -262,12 +274,7 @@ fn a_full_queue_puts_tiles_back_and_drops_no_patch() {
 #[test]
 fn a_tile_that_keeps_changing_while_it_waits_is_deferred_once_per_dirty_period() {
     let (mut pyramid, _) = configured();
-    let mut link: Link<512> = Link::new(LinkConfig {
-        stats_interval_ms: 0,
-        ..LinkConfig::DEFAULT
-    });
-    link.poll(0, &mut pyramid, &SensorCounters::default());
-    drain(&mut link);
+    let mut link = small_link(&mut pyramid);
     // Two tiles; the queue takes one per poll while nothing drains it.
     pyramid.apply(&obstacle(0, -32, 0));
     pyramid.apply(&obstacle(0, 0, 0));
@@ -286,12 +293,7 @@ fn a_tile_that_keeps_changing_while_it_waits_is_deferred_once_per_dirty_period()
 #[test]
 fn a_reply_that_finds_no_room_is_dropped_and_leaves_a_gap() {
     let (mut pyramid, _) = configured();
-    let mut link: Link<512> = Link::new(LinkConfig {
-        stats_interval_ms: 0,
-        ..LinkConfig::DEFAULT
-    });
-    link.poll(0, &mut pyramid, &SensorCounters::default());
-    drain(&mut link);
+    let mut link = small_link(&mut pyramid);
     // Fill the queue with pings' replies (27 bytes each) without draining it.
     let mut bytes = Vec::new();
     for seq in 0..30 {

@@ -66,7 +66,7 @@ pub mod filter;
 mod packet;
 mod sick;
 #[cfg(test)]
-mod tests;
+pub(crate) mod tests;
 mod timed;
 
 pub use config::{FrontendConfig, FrontendStats, LineError};

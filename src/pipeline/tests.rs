@@ -66,7 +66,16 @@ fn setup(
     let design = Design::<8>::new(SensorModel::default(), Schedule::default(), 64).unwrap();
     let mut p = std::boxed::Box::new(Pyramid::new());
     p.configure(&design, &Config::default()).unwrap();
-    let config = FrontendConfig {
+    let mut f = std::boxed::Box::new(Frontend::unconfigured());
+    f.configure(sick_on_a_tilt_unit(lines));
+    f.adopt_design(&design, &Config::default()).unwrap();
+    (f, p)
+}
+
+/// A SICK LMS 291 at 180°/0.5° (mm, 8 m), 0.5 m up on a tilt unit, an observation every
+/// `lines_per_observation` lines (0: per sweep).
+pub(crate) fn sick_on_a_tilt_unit(lines_per_observation: u32) -> FrontendConfig {
+    FrontendConfig {
         filter: crate::pipeline::ReturnFilter::NONE,
         mount: Mount::new(
             ScanPlane::TiltedHorizontal,
@@ -78,16 +87,12 @@ fn setup(
         sensor: Sensor::Sick,
         baud: 500_000,
         actuator: Actuator::External,
-        variant: Variant::from_sick(180, 50).unwrap(),
+        variant: Variant::Fov180StepHalf,
         measuring_mode: MeasuringMode::Mm8Cm80,
-        lines_per_observation: lines,
+        lines_per_observation,
         classifier: ClassifierConfig::default(),
         missing_ground_within: None,
-    };
-    let mut f = std::boxed::Box::new(Frontend::unconfigured());
-    f.configure(config);
-    f.adopt_design(&design, &Config::default()).unwrap();
-    (f, p)
+    }
 }
 
 fn sweep(f: &mut Frontend<4096, 8>, p: &mut Pyramid<64, 8>, degrees: impl Iterator<Item = u32>) {

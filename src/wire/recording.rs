@@ -728,19 +728,8 @@ mod tests {
         sectors[0] = (13_500, 22_500);
         let rig = RigEvent {
             mount: 2,
-            mount_block: crate::wire::link::MountSetup {
-                axis: 1,
-                sense: -1,
-                zero_deg: 5.0,
-                rpy_deg: [180.0, 0.0, 90.0],
-            },
-            filter: crate::wire::link::FilterSetup {
-                min_range_cm: 5,
-                max_range_cm: 1_200,
-                min_quality: 10,
-                sector_count: 1,
-                sectors,
-            },
+            mount_block: crate::wire::link::examples::GENERAL_MOUNT,
+            filter: crate::wire::link::examples::filter(1, sectors),
         };
         let mut file = std::vec![0_u8; 16 + EVENT_HEADER_LEN + RIG_LEN];
         emit_header_version(&mut file, 3).unwrap();

@@ -77,6 +77,17 @@ fn lab(command: &str, args: &[String]) -> Result<(), String> {
         ));
     }
     .map_err(|e| format!("cannot run the lab: {e}"))?;
+    finished(command, started, status, &format!("lab {command}"))
+}
+
+/// Reports how long `cargo xtask command` took, and its run's exit `status` as the result:
+/// an error that names the run (`run`) unless it succeeded.
+fn finished(
+    command: &str,
+    started: Instant,
+    status: std::process::ExitStatus,
+    run: &str,
+) -> Result<(), String> {
     eprintln!(
         "xtask {command}: done in {:.1} s",
         started.elapsed().as_secs_f64()
@@ -84,7 +95,7 @@ fn lab(command: &str, args: &[String]) -> Result<(), String> {
     if status.success() {
         Ok(())
     } else {
-        Err(format!("lab {command} failed ({status})"))
+        Err(format!("{run} failed ({status})"))
     }
 }
 
@@ -115,6 +126,18 @@ fn with_out(args: &[String], dir: &str) -> Vec<String> {
     pass
 }
 
+/// Passes the option `flag` on to the lab with the value that follows it in `rest`.
+fn pass_with_value<'a>(
+    flag: &str,
+    rest: &mut impl Iterator<Item = &'a String>,
+    pass: &mut Vec<String>,
+) -> Result<(), String> {
+    let value = rest.next().ok_or(format!("{flag} needs a value"))?;
+    pass.push(flag.to_string());
+    pass.push(value.clone());
+    Ok(())
+}
+
 /// `cargo xtask faults`.
 pub fn faults(args: &[String]) -> Result<(), String> {
     let mut pass = Vec::new();
@@ -122,11 +145,7 @@ pub fn faults(args: &[String]) -> Result<(), String> {
     while let Some(a) = rest.next() {
         match a.as_str() {
             "--json" | "--quick" => pass.push(a.clone()),
-            "--only" | "--lines" | "--jobs" => {
-                let value = rest.next().ok_or(format!("{a} needs a value"))?;
-                pass.push(a.clone());
-                pass.push(value.clone());
-            }
+            "--only" | "--lines" | "--jobs" => pass_with_value(a, &mut rest, &mut pass)?,
             other => {
                 return Err(format!(
                     "unknown option {other}; usage: cargo xtask faults [--json] [--quick] \
@@ -147,11 +166,7 @@ pub fn latency(args: &[String]) -> Result<(), String> {
         match a.as_str() {
             "--json" | "--quick" => pass.push(a.clone()),
             "--no-ros2" => ros2 = false,
-            "--publish-hz" | "--rate-hz" => {
-                let value = rest.next().ok_or(format!("{a} needs a value"))?;
-                pass.push(a.clone());
-                pass.push(value.clone());
-            }
+            "--publish-hz" | "--rate-hz" => pass_with_value(a, &mut rest, &mut pass)?,
             other => {
                 return Err(format!(
                     "unknown option {other}; usage: cargo xtask latency [--quick] [--json] \
@@ -217,17 +232,12 @@ fn in_network_namespace(command: &str, pass: &[String], packages: &[&str]) -> Re
         .current_dir(root())
         .status()
         .map_err(|e| format!("cannot run unshare (util-linux; root needed): {e}"))?;
-    eprintln!(
-        "xtask {command}: done in {:.1} s",
-        started.elapsed().as_secs_f64()
-    );
-    if status.success() {
-        Ok(())
-    } else {
-        Err(format!(
-            "lab {command} --ros2 inside `unshare -n` failed ({status})"
-        ))
-    }
+    finished(
+        command,
+        started,
+        status,
+        &format!("lab {command} --ros2 inside `unshare -n`"),
+    )
 }
 
 /// `cargo xtask live [--json] [--check] [--no-forward]`: `lab live --ros2` inside a network

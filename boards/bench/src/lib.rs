@@ -5,6 +5,11 @@
 //! Each binary (`src/bin/`) configures its pipeline, paints the stack, calls
 //! [`bench_start`], runs, calls [`bench_end`], and prints one line on the semihosting console:
 //! `BENCH returns=… lines=… cells=… stack=…`, then exits with 0.
+//!
+//! The helpers that set a pipeline up and run it ([`booted_core`], [`run`], [`run_fixed`],
+//! …) are always inlined: each binary's `main` stays the one function that holds the setup
+//! and the measured region, as when each binary spelt them out, so that the measured stack
+//! and instruction counts do not depend on where the setup is written.
 #![no_std]
 #![deny(missing_docs)]
 
@@ -132,6 +137,57 @@ fn panic(info: &core::panic::PanicInfo<'_>) -> ! {
     semihosting::process::exit(101)
 }
 
+/// The recording's frontend configuration (from its setup event), with its navigability rule
+/// replaced by `rule` when given: the configuration of the binaries without the link.
+#[inline(always)]
+fn recording_frontend_config(
+    recording: &[u8],
+    rule: Option<terrain_pyramid::classify::NavigabilityRule>,
+) -> terrain_pyramid::pipeline::FrontendConfig {
+    use terrain_pyramid_bench::{frontend_config, setup};
+    let Some(mut config) = setup(recording).as_ref().and_then(frontend_config) else {
+        panic!("the recording has no usable setup");
+    };
+    if let Some(rule) = rule {
+        config.classifier.rule = rule;
+    }
+    config
+}
+
+/// The default pipeline without the link, measured: the default pyramid (8 layers of 64²,
+/// soft gate) fed by the per-line frontend, under the recording's configuration with its rule
+/// replaced by `rule` when given. The `pyramid-nolink` and `pyramid-paper` binaries.
+#[inline(always)]
+pub fn run_fixed(rule: Option<terrain_pyramid::classify::NavigabilityRule>) -> ! {
+    use static_cell::ConstStaticCell;
+    use terrain_pyramid::wire::sick::SickAccumulator;
+    use terrain_pyramid::{Config, DefaultFrontend, DefaultPyramid};
+    use terrain_pyramid_bench::{default_design, Fixed};
+
+    static PYRAMID: ConstStaticCell<DefaultPyramid> = ConstStaticCell::new(DefaultPyramid::new());
+    static ACC: ConstStaticCell<SickAccumulator> = ConstStaticCell::new(SickAccumulator::new());
+    static FRONTEND: ConstStaticCell<DefaultFrontend> =
+        ConstStaticCell::new(DefaultFrontend::unconfigured());
+
+    let rec = recording();
+    let config = recording_frontend_config(rec, rule);
+    let pyramid = PYRAMID.take();
+    let design = design_or_panic(default_design::<64, 8>());
+    let frontend = FRONTEND.take();
+    frontend.configure(config);
+    if pyramid.configure(&design, &Config::default()).is_err()
+        || frontend.adopt_design(&design, &Config::default()).is_err()
+    {
+        panic!("configure");
+    }
+    let mut p = Fixed {
+        accumulator: ACC.take(),
+        frontend,
+        pyramid,
+    };
+    run(&mut p)
+}
+
 /// The f32 counterpart (`terrain-pyramid-f32`) of the pipeline without the link, measured:
 /// the default design's 8 layers of 64², f32 cells, f32 geometry and classifier, 1 024 slots,
 /// under the recording's configuration with its rule replaced by `rule` when given. The
@@ -141,23 +197,16 @@ pub fn run_f32(rule: Option<terrain_pyramid::classify::NavigabilityRule>) -> ! {
     use terrain_pyramid::wire::sick::SickAccumulator;
     use terrain_pyramid::Config;
     use terrain_pyramid_bench::f32_pipeline::{Frontend, Pyramid};
-    use terrain_pyramid_bench::{default_design, frontend_config, setup, Pipeline, F32};
+    use terrain_pyramid_bench::{default_design, F32};
 
     static PYRAMID: ConstStaticCell<Pyramid<64, 8>> = ConstStaticCell::new(Pyramid::new());
     static ACC: ConstStaticCell<SickAccumulator> = ConstStaticCell::new(SickAccumulator::new());
     static FRONTEND: StaticCell<Frontend<1024>> = StaticCell::new();
 
     let rec = recording();
-    let Some(mut config) = setup(rec).as_ref().and_then(frontend_config) else {
-        panic!("the recording has no usable setup");
-    };
-    if let Some(rule) = rule {
-        config.classifier.rule = rule;
-    }
+    let config = recording_frontend_config(rec, rule);
     let pyramid = PYRAMID.take();
-    let Some(design) = default_design::<64, 8>() else {
-        panic!("default design");
-    };
+    let design = design_or_panic(default_design::<64, 8>());
     if pyramid.configure(&design, &Config::default()).is_err() {
         panic!("configure");
     }
@@ -167,6 +216,97 @@ pub fn run_f32(rule: Option<terrain_pyramid::classify::NavigabilityRule>) -> ! {
         frontend,
         pyramid,
     };
-    let stack = measure(rec, &mut p);
-    report(p.returns(), p.lines(), 0, stack)
+    run(&mut p)
+}
+
+/// Boots `core` on the recording under `design` with `boot` (one of `terrain_pyramid_bench`'s
+/// `boot` functions), and pairs it with the recording's actuator angle: the pipeline of the
+/// binaries with the link. Panics when the design is `None` or the boot fails.
+#[inline(always)]
+pub fn booted_core<'a, const W: usize, const L: usize, const C: usize, const Q: usize>(
+    core: &'a mut terrain_pyramid::app::CoProcessor<W, L, C, Q>,
+    design: Option<terrain_pyramid::Design<L>>,
+    boot: impl FnOnce(
+        &mut terrain_pyramid::app::CoProcessor<W, L, C, Q>,
+        &[u8],
+        &terrain_pyramid::Design<L>,
+    ) -> bool,
+) -> terrain_pyramid_bench::Core<'a, W, L, C, Q> {
+    let design = design_or_panic(design);
+    if !boot(core, recording(), &design) {
+        panic!("boot");
+    }
+    terrain_pyramid_bench::Core {
+        core,
+        angle: terrain_pyramid::drivers::angle::HostSuppliedAngle::new(),
+    }
+}
+
+/// The default pyramid (8 layers of 64², the default design) configured under `config`, for
+/// the binaries that measure one of its sweeps alone (`decay`, `window`). Call it once.
+#[inline(always)]
+pub fn configured_default_pyramid(
+    config: &terrain_pyramid::Config,
+) -> &'static mut terrain_pyramid::DefaultPyramid {
+    use static_cell::ConstStaticCell;
+    use terrain_pyramid::{DefaultDesign, DefaultPyramid, Schedule, SensorModel};
+
+    static PYRAMID: ConstStaticCell<DefaultPyramid> = ConstStaticCell::new(DefaultPyramid::new());
+
+    let pyramid = PYRAMID.take();
+    let Ok(design) = DefaultDesign::new(
+        SensorModel::default(),
+        Schedule::default(),
+        terrain_pyramid::DEFAULT_CELLS_PER_SIDE,
+    ) else {
+        panic!("default design");
+    };
+    if pyramid.configure(&design, config).is_err() {
+        panic!("configure");
+    }
+    pyramid
+}
+
+/// The design a binary built, or a panic when it could not build one.
+#[inline(always)]
+pub fn design_or_panic<const L: usize>(
+    design: Option<terrain_pyramid::Design<L>>,
+) -> terrain_pyramid::Design<L> {
+    let Some(design) = design else {
+        panic!("design");
+    };
+    design
+}
+
+/// The default co-processor (8 layers of 64², the default pipeline and the host link), in a
+/// static. Call it once.
+#[inline(always)]
+pub fn default_core() -> &'static mut terrain_pyramid::DefaultCoProcessor {
+    use static_cell::ConstStaticCell;
+    use terrain_pyramid::DefaultCoProcessor;
+
+    static CORE: ConstStaticCell<DefaultCoProcessor> =
+        ConstStaticCell::new(DefaultCoProcessor::new());
+    CORE.take()
+}
+
+/// Runs the whole recording through `pipeline` between the markers ([`measure`]) and reports
+/// its returns and lines (no cells): the end of every binary that measures a pipeline.
+#[inline(always)]
+pub fn run<P: terrain_pyramid_bench::Pipeline>(pipeline: &mut P) -> ! {
+    let stack = measure(recording(), pipeline);
+    report(pipeline.returns(), pipeline.lines(), 0, stack)
+}
+
+/// The decay at its most expensive: all evidence, every layer at the shortest time constant
+/// its sweep's budget allows (τ = 1 s, a step every 125 ms), the rest of the default
+/// configuration. The `decay` and `pyramid-decay` binaries.
+#[must_use]
+#[inline(always)]
+pub fn shortest_decay_config() -> terrain_pyramid::Config {
+    use terrain_pyramid::{Config, Decay, DecayMode, TimeConstant};
+    Config {
+        decay: Decay::uniform(DecayMode::All, TimeConstant::MIN, 8),
+        ..Config::default()
+    }
 }

@@ -185,22 +185,8 @@ fn pose_validation_is_the_geometry_rule() {
 /// The worked Setup of `docs/protocol.md` (section 10), validated field by field.
 #[test]
 fn setup_validation_names_the_field() {
-    let setup = Setup {
-        mount_block: crate::wire::link::MountSetup::PRESET,
-        filter: crate::wire::link::FilterSetup::NONE,
-        mount: 1,
-        measuring_mode: 0,
-        field_deg: 180,
-        resolution_cdeg: 50,
-        sensor_m: [0.25, -0.5, 0.75],
-        lines_per_observation: 0,
-        robot_height_m: 1.0,
-        step_threshold_m: 0.05,
-        drop_threshold_m: 0.0,
-        ceiling_m: 2.0,
-        rule: rule_setup(&NavigabilityRule::DEFAULT),
-        laser: LaserSetup::SICK,
-    };
+    let setup = crate::wire::link::examples::sick_setup(rule_setup(&NavigabilityRule::DEFAULT));
+
     // Validation: the variant, the mode, finiteness, thresholds.
     let config = frontend_config(&setup).unwrap();
     assert_eq!(config.variant.beam_count(), 361);
@@ -333,19 +319,25 @@ fn the_plane_rule_is_taken_only_where_built_in() {
     );
 }
 
+/// A recording's setup event of a SICK at 180° and `resolution_cdeg` (centidegrees), tilted
+/// horizontal, 0.5 m up, mode 0, an observation per sweep.
+fn sick_event(resolution_cdeg: u16) -> SetupEvent {
+    SetupEvent {
+        mount: MountKind::TiltedHorizontal,
+        measuring_mode: 0,
+        field_deg: 180,
+        resolution_cdeg,
+        sensor_m: [0.0, 0.0, 0.5],
+        lines_per_observation: 0,
+    }
+}
+
 #[test]
 #[cfg(feature = "plane-rule")]
 fn the_rule_block_travels_and_is_validated() {
     use crate::classify::Ratio;
     use crate::units::Meters;
-    let event = SetupEvent {
-        mount: MountKind::TiltedHorizontal,
-        measuring_mode: 0,
-        field_deg: 180,
-        resolution_cdeg: 50,
-        sensor_m: [0.0, 0.0, 0.5],
-        lines_per_observation: 0,
-    };
+    let event = sick_event(50);
     let custom = NavigabilityRule::Plane(PlaneRule {
         max_grade: Ratio::from_num(1),
         residual: Meters::from_num(0.03),
@@ -442,31 +434,9 @@ fn the_rule_block_travels_and_is_validated() {
 /// its own, its variant fields ignored; the servo's sweep converted exactly enough.
 #[test]
 fn the_laser_block_is_validated_field_by_field() {
-    let servo = LaserSetup {
-        sensor: 1,
-        actuator: 1,
-        baud: 0,
-        servo_min_deg: -10.0,
-        servo_max_deg: 30.0,
-        servo_rate_deg_s: 60.0,
-        servo_latency_ms: 25.0,
-    };
-    let setup = Setup {
-        mount_block: crate::wire::link::MountSetup::PRESET,
-        filter: crate::wire::link::FilterSetup::NONE,
-        mount: 1,
-        measuring_mode: 0,
-        field_deg: 0,
-        resolution_cdeg: 0,
-        sensor_m: [0.1, 0.0, 0.4],
-        lines_per_observation: 2,
-        robot_height_m: 0.5,
-        step_threshold_m: 0.08,
-        drop_threshold_m: 0.0,
-        ceiling_m: 0.0,
-        rule: rule_setup(&NavigabilityRule::DEFAULT),
-        laser: servo,
-    };
+    let servo = crate::wire::link::examples::LD06_ON_A_SERVO;
+    let setup =
+        crate::wire::link::examples::lidar_on_a_servo_setup(rule_setup(&NavigabilityRule::DEFAULT));
     let config = frontend_config(&setup).unwrap();
     assert_eq!(config.sensor, Sensor::Ld06);
     assert_eq!(config.baud, 230_400);
@@ -639,14 +609,7 @@ fn the_laser_block_is_validated_field_by_field() {
 /// A recording's setup event takes the same path.
 #[test]
 fn a_recording_setup_goes_through_the_same_rule() {
-    let event = SetupEvent {
-        mount: MountKind::TiltedHorizontal,
-        measuring_mode: 0,
-        field_deg: 180,
-        resolution_cdeg: 25,
-        sensor_m: [0.0, 0.0, 0.5],
-        lines_per_observation: 0,
-    };
+    let event = sick_event(25);
     let error = frontend_config_of_event(&event, &ClassifierConfig::default()).unwrap_err();
     assert_eq!(error.field(), SetupField::Variant);
     let ok = SetupEvent {
@@ -710,20 +673,9 @@ fn the_mount_and_filter_blocks_are_validated_field_by_field() {
     use crate::geometry::{ActuatorAxis, Mount, ScanPlane};
     use crate::wire::link::{FilterSetup, MountSetup};
     let base = Setup {
-        mount_block: MountSetup::PRESET,
-        filter: FilterSetup::NONE,
-        mount: 1,
-        measuring_mode: 0,
-        field_deg: 180,
-        resolution_cdeg: 50,
         sensor_m: [0.0, 0.0, 0.5],
-        lines_per_observation: 0,
-        robot_height_m: 1.0,
-        step_threshold_m: 0.05,
-        drop_threshold_m: 0.0,
         ceiling_m: 0.0,
-        rule: RuleSetup::SPREAD,
-        laser: LaserSetup::SICK,
+        ..crate::wire::link::examples::sick_setup(RuleSetup::SPREAD)
     };
     let preset = frontend_config(&base).unwrap().mount;
     assert_eq!(preset.preset(), Some(ScanPlane::TiltedHorizontal));

@@ -402,4 +402,6 @@ fn le4(bytes: &[u8]) -> [u8; 4] {
 }
 
 #[cfg(test)]
+pub(crate) mod examples;
+#[cfg(test)]
 mod tests;

@@ -573,22 +573,7 @@ fn encoders_refuse_what_the_format_cannot_carry() {
 /// 1 m, step 0.05 m, drop off, ceiling 2 m; then the empty commands 0x88 ..= 0x8A.
 #[test]
 fn setup_and_the_empty_commands_golden() {
-    let setup = Setup {
-        mount_block: crate::wire::link::MountSetup::PRESET,
-        filter: crate::wire::link::FilterSetup::NONE,
-        mount: 1,
-        measuring_mode: 0,
-        field_deg: 180,
-        resolution_cdeg: 50,
-        sensor_m: [0.25, -0.5, 0.75],
-        lines_per_observation: 0,
-        robot_height_m: 1.0,
-        step_threshold_m: 0.05,
-        drop_threshold_m: 0.0,
-        ceiling_m: 2.0,
-        rule: RuleSetup::SPREAD,
-        laser: LaserSetup::SICK,
-    };
+    let setup = examples::sick_setup(RuleSetup::SPREAD);
     golden(
         7,
         &Message::Setup(setup),
@@ -651,38 +636,15 @@ fn set_rule_golden() {
 /// height 0.5 m, step 0.08 m, drop and ceiling off; the SICK fields zero (ignored).
 #[test]
 fn setup_with_a_lidar_on_a_servo_golden() {
-    let setup = Setup {
-        mount_block: crate::wire::link::MountSetup::PRESET,
-        filter: crate::wire::link::FilterSetup::NONE,
-        mount: 1,
-        measuring_mode: 0,
-        field_deg: 0,
-        resolution_cdeg: 0,
-        sensor_m: [0.1, 0.0, 0.4],
-        lines_per_observation: 2,
-        robot_height_m: 0.5,
-        step_threshold_m: 0.08,
-        drop_threshold_m: 0.0,
-        ceiling_m: 0.0,
-        rule: RuleSetup {
-            rule: 1,
-            // The Q16.16 defaults, exact in f32.
-            max_grade: 23_853.0 / 65_536.0,
-            residual_m: 983.0 / 65_536.0,
-            range_sigma_m: 1_311.0 / 65_536.0,
-            angle_sigma_rad: 86.0 / 65_536.0,
-            noise_factor: 2.0,
-        },
-        laser: LaserSetup {
-            sensor: 1,
-            actuator: 1,
-            baud: 0,
-            servo_min_deg: -10.0,
-            servo_max_deg: 30.0,
-            servo_rate_deg_s: 60.0,
-            servo_latency_ms: 25.0,
-        },
-    };
+    let setup = examples::lidar_on_a_servo_setup(RuleSetup {
+        rule: 1,
+        // The Q16.16 defaults, exact in f32.
+        max_grade: 23_853.0 / 65_536.0,
+        residual_m: 983.0 / 65_536.0,
+        range_sigma_m: 1_311.0 / 65_536.0,
+        angle_sigma_rad: 86.0 / 65_536.0,
+        noise_factor: 2.0,
+    });
     golden(
         8,
         &Message::Setup(setup),
@@ -751,38 +713,9 @@ fn setup_with_a_general_mount_and_filters_golden() {
     sectors[1] = (35_000, 1_000);
     let setup = Setup {
         mount: 2,
-        measuring_mode: 0,
-        field_deg: 0,
-        resolution_cdeg: 0,
-        sensor_m: [0.1, 0.0, 0.4],
-        lines_per_observation: 2,
-        robot_height_m: 0.5,
-        step_threshold_m: 0.08,
-        drop_threshold_m: 0.0,
-        ceiling_m: 0.0,
-        rule: RuleSetup::SPREAD,
-        laser: LaserSetup {
-            sensor: 1,
-            actuator: 1,
-            baud: 0,
-            servo_min_deg: -10.0,
-            servo_max_deg: 30.0,
-            servo_rate_deg_s: 60.0,
-            servo_latency_ms: 25.0,
-        },
-        mount_block: crate::wire::link::MountSetup {
-            axis: 1,
-            sense: -1,
-            zero_deg: 5.0,
-            rpy_deg: [180.0, 0.0, 90.0],
-        },
-        filter: crate::wire::link::FilterSetup {
-            min_range_cm: 5,
-            max_range_cm: 1_200,
-            min_quality: 10,
-            sector_count: 2,
-            sectors,
-        },
+        mount_block: examples::GENERAL_MOUNT,
+        filter: examples::filter(2, sectors),
+        ..examples::lidar_on_a_servo_setup(RuleSetup::SPREAD)
     };
     golden(
         13,

@@ -5,31 +5,12 @@
 #![no_main]
 
 use bench_firmware as b;
-use static_cell::ConstStaticCell;
-use terrain_pyramid::{
-    Config, Decay, DecayMode, DefaultDesign, DefaultPyramid, Evidence, EvidenceClass, Schedule,
-    SensorModel, TimeConstant, Weight, DEFAULT_CELLS_PER_SIDE,
-};
-
-static PYRAMID: ConstStaticCell<DefaultPyramid> = ConstStaticCell::new(DefaultPyramid::new());
+use terrain_pyramid::{Evidence, EvidenceClass, Weight};
 
 #[cortex_m_rt::entry]
 fn main() -> ! {
-    let pyramid = PYRAMID.take();
-    let Ok(design) = DefaultDesign::new(
-        SensorModel::default(),
-        Schedule::default(),
-        DEFAULT_CELLS_PER_SIDE,
-    ) else {
-        panic!("default design");
-    };
-    let config = Config {
-        decay: Decay::uniform(DecayMode::All, TimeConstant::MIN, 8),
-        ..Config::default()
-    };
-    if pyramid.configure(&design, &config).is_err() {
-        panic!("configure");
-    }
+    let config = b::shortest_decay_config();
+    let pyramid = b::configured_default_pyramid(&config);
     for k in 0..8_u8 {
         for x in -32..32 {
             for y in -32..32 {

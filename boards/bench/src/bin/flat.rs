@@ -6,17 +6,14 @@
 use bench_firmware as b;
 use static_cell::ConstStaticCell;
 use terrain_pyramid::app::CoProcessor;
-use terrain_pyramid::drivers::angle::HostSuppliedAngle;
 use terrain_pyramid::{Design, GateShape, Schedule, SensorModel, DEFAULT_CLASSIFIER_SLOTS};
-use terrain_pyramid_bench::{boot, Core, Pipeline};
+use terrain_pyramid_bench::boot;
 
 type Flat = CoProcessor<200, 1, DEFAULT_CLASSIFIER_SLOTS, 2048>;
 static CORE: ConstStaticCell<Flat> = ConstStaticCell::new(Flat::new());
 
 #[cortex_m_rt::entry]
 fn main() -> ! {
-    let rec = b::recording();
-    let core = CORE.take();
     // A design of exactly one layer at Δd = 0.1 m: a sensor model whose range (0.5 m) the
     // base layer already reaches. Hard gate; the only layer is the last, so its weight is 1 at
     // every distance (distances past 0.5 m fall in the last bin): every point feeds it.
@@ -28,16 +25,6 @@ fn main() -> ! {
         gate: GateShape::Hard,
         ..Schedule::default()
     };
-    let Ok(design) = Design::<1>::new(sensor, schedule, 200) else {
-        panic!("flat design");
-    };
-    if !boot(core, rec, &design) {
-        panic!("boot");
-    }
-    let mut p = Core {
-        core,
-        angle: HostSuppliedAngle::new(),
-    };
-    let stack = b::measure(rec, &mut p);
-    b::report(p.returns(), p.lines(), 0, stack)
+    let design = Design::<1>::new(sensor, schedule, 200).ok();
+    b::run(&mut b::booted_core(CORE.take(), design, boot))
 }

@@ -6,32 +6,17 @@
 #![no_main]
 
 use bench_firmware as b;
-use static_cell::ConstStaticCell;
-use terrain_pyramid::drivers::angle::HostSuppliedAngle;
-use terrain_pyramid::{Config, Decay, DecayMode, DefaultCoProcessor, TimeConstant};
-use terrain_pyramid_bench::{boot_with, default_design, Core, Pipeline};
-
-static CORE: ConstStaticCell<DefaultCoProcessor> = ConstStaticCell::new(DefaultCoProcessor::new());
+use terrain_pyramid_bench::{boot_with, default_design, Pipeline};
 
 #[cortex_m_rt::entry]
 fn main() -> ! {
-    let rec = b::recording();
-    let core = CORE.take();
-    let Some(design) = default_design::<64, 8>() else {
-        panic!("default design");
-    };
-    let config = Config {
-        decay: Decay::uniform(DecayMode::All, TimeConstant::MIN, 8),
-        ..Config::default()
-    };
-    if !boot_with(core, rec, &design, &config) {
-        panic!("boot");
-    }
-    let mut p = Core {
-        core,
-        angle: HostSuppliedAngle::new(),
-    };
-    let stack = b::measure(rec, &mut p);
+    let config = b::shortest_decay_config();
+    let mut p = b::booted_core(
+        b::default_core(),
+        default_design::<64, 8>(),
+        |core, rec, design| boot_with(core, rec, design, &config),
+    );
+    let stack = b::measure(b::recording(), &mut p);
     let cells = p.core.pyramid().stats().rows_decayed * 64;
     b::report(p.returns(), p.lines(), cells, stack)
 }

@@ -5,26 +5,11 @@
 #![no_main]
 
 use bench_firmware as b;
-use static_cell::ConstStaticCell;
-use terrain_pyramid::{
-    Config, DefaultDesign, DefaultPyramid, Meters, Schedule, SensorModel, DEFAULT_CELLS_PER_SIDE,
-};
-
-static PYRAMID: ConstStaticCell<DefaultPyramid> = ConstStaticCell::new(DefaultPyramid::new());
+use terrain_pyramid::{Config, Meters};
 
 #[cortex_m_rt::entry]
 fn main() -> ! {
-    let pyramid = PYRAMID.take();
-    let Ok(design) = DefaultDesign::new(
-        SensorModel::default(),
-        Schedule::default(),
-        DEFAULT_CELLS_PER_SIDE,
-    ) else {
-        panic!("default design");
-    };
-    if pyramid.configure(&design, &Config::default()).is_err() {
-        panic!("configure");
-    }
+    let pyramid = b::configured_default_pyramid(&Config::default());
     let step = Meters::from_bits(6554); // 0.1 m
     let mut path = [(Meters::ZERO, Meters::ZERO); 160];
     let (mut x, mut y) = (Meters::ZERO, Meters::ZERO);
