@@ -4,6 +4,9 @@
 //! field is given to both in wire order; the frames must be equal byte for byte, and the
 //! library must decode Python's frame back to the same Setup.
 use std::process::Command;
+
+mod common;
+use common::succeeded;
 use terrain_pyramid::classify::ClassifierConfig;
 use terrain_pyramid::classify::{NavigabilityRule, PlaneRule, Ratio};
 use terrain_pyramid::link::convert::{frontend_config, rule_setup, set_rule_message, set_rule_of};
@@ -119,16 +122,7 @@ fn python_set_rule(seq: u16, s: &SetRule) -> Vec<u8> {
         .iter()
         .map(f32::to_string),
     );
-    let out = Command::new("python3")
-        .arg(SCRIPT)
-        .args(&args)
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let out = succeeded(Command::new("python3").arg(SCRIPT).args(&args), "");
     String::from_utf8(out.stdout)
         .unwrap()
         .split_whitespace()
