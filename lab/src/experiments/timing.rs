@@ -254,15 +254,15 @@ struct Feeds {
 }
 
 impl Feeds {
-    /// Decodes a simulated recording (`bytes`, `duration_us` µs long) and samples its
-    /// trajectory through `scene` for the three feeds.
+    /// Decodes a simulated recording (`bytes`, `duration_us` µs long) and samples the robot's
+    /// `motion` (its trajectory through the scene) for the three feeds.
     fn of(
         bytes: &[u8],
-        trajectory: &Trajectory,
-        scene: &Scene,
         duration_us: u64,
+        motion: (&Trajectory, &Scene),
         feed: &PoseFeed,
     ) -> Result<Self, String> {
+        let (trajectory, scene) = motion;
         Ok(Self {
             steps: steps(bytes)?,
             late: late_poses(trajectory, scene, duration_us, feed),
@@ -329,13 +329,8 @@ pub fn stairs_scene(quick: bool, feed: &PoseFeed) -> Result<SceneResult, String>
         ..setup.sim()
     };
     let sim = simulate(&sim_config).map_err(|e| e.to_string())?;
-    let feeds = Feeds::of(
-        &sim.bytes,
-        &sim_config.trajectory,
-        &sim_config.scene,
-        sim.duration_us,
-        feed,
-    )?;
+    let motion = (&sim_config.trajectory, &sim_config.scene);
+    let feeds = Feeds::of(&sim.bytes, sim.duration_us, motion, feed)?;
     #[allow(clippy::cast_possible_truncation)]
     let design = designs::pyramid::<{ stairs::LAYERS }>(
         setup.range_m as f32,
@@ -399,13 +394,8 @@ pub fn turning_sim(quick: bool, seed: u64) -> SimConfig {
 pub fn turning_scene(quick: bool, feed: &PoseFeed) -> Result<SceneResult, String> {
     let sim_config = turning_sim(quick, 1);
     let sim = simulate(&sim_config).map_err(|e| e.to_string())?;
-    let feeds = Feeds::of(
-        &sim.bytes,
-        &sim_config.trajectory,
-        &sim_config.scene,
-        sim.duration_us,
-        feed,
-    )?;
+    let motion = (&sim_config.trajectory, &sim_config.scene);
+    let feeds = Feeds::of(&sim.bytes, sim.duration_us, motion, feed)?;
     let design = designs::pyramid::<TURN_LAYERS>(8.0, GateShape::default(), false, TURN_CELLS)
         .map_err(|e| e.to_string())?;
     let config = Config::default();
@@ -457,13 +447,8 @@ pub fn ld19_scene(quick: bool, feed: &PoseFeed) -> Result<SceneResult, String> {
         )
     };
     let sim = simulate_lidar(&sim_config).map_err(|e| e.to_string())?;
-    let feeds = Feeds::of(
-        &sim.bytes,
-        &sim_config.trajectory,
-        &sim_config.scene,
-        sim.duration_us,
-        feed,
-    )?;
+    let motion = (&sim_config.trajectory, &sim_config.scene);
+    let feeds = Feeds::of(&sim.bytes, sim.duration_us, motion, feed)?;
     let design = Ld19Design::from_datasheet()
         .pyramid::<L>(setup.range_m, GateShape::default(), true, W)
         .map_err(|e| e.to_string())?;
