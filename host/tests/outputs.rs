@@ -19,8 +19,11 @@ use std::time::{Duration, Instant};
 
 mod common;
 use common::succeeded;
+#[path = "support/netns.rs"]
+mod netns;
 #[path = "support/device.rs"]
 mod support;
+use netns::{run_in_own_network_namespace, NETNS_MARK};
 use support::{
     device, fnv1a64, fused_occupancy, listen, listen_json, raw_cells, scratch, Plan, PATIENCE, W,
 };
@@ -340,32 +343,12 @@ fn a_foxglove_client_decodes_grids_while_a_stuck_client_holds_nothing_up() {
 
 // ------------------------------------------------------------------ ROS 2
 
-/// The environment variable that marks the inner test's run inside its network namespace.
-const NETNS_MARK: &str = "TERRAIN_PYRAMID_TEST_NETNS";
-
 #[test]
 fn ros2_topics_reach_cyclone_dds_inside_a_network_namespace() {
     python();
     // This test binary again, inside a new network namespace with only loopback (multicast
     // on, routed to lo), running the inner test: device, publisher and subscriber all there.
-    let exe = std::env::current_exe().unwrap();
-    let out = Command::new("unshare")
-        .args([
-            "-n",
-            "sh",
-            "-c",
-            "ip link set lo up multicast on && ip route add 224.0.0.0/4 dev lo && exec \"$0\" ros2_inner --exact --ignored --nocapture",
-        ])
-        .arg(&exe)
-        .env(NETNS_MARK, "1")
-        .output()
-        .expect("unshare runs");
-    let stdout = String::from_utf8_lossy(&out.stdout);
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    assert!(
-        out.status.success() && stdout.contains("1 passed"),
-        "the test inside `unshare -n` (root needed) failed:\n{stdout}\n{stderr}"
-    );
+    run_in_own_network_namespace("ros2_inner");
 }
 
 #[test]
