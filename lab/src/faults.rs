@@ -746,14 +746,10 @@ pub fn run(args: &Args) -> ExitCode {
     let started = Instant::now();
     match execute(args) {
         Ok(outcomes) => {
-            if args.json {
-                match serde_json::to_string(&Report { faults: &outcomes }) {
-                    Ok(s) => println!("{s}"),
-                    Err(e) => {
-                        eprintln!("error: {e}");
-                        return ExitCode::FAILURE;
-                    }
-                }
+            if args.json
+                && !terrain_pyramid_host::json_line::print(&Report { faults: &outcomes }, "error: ")
+            {
+                return ExitCode::FAILURE;
             }
             let bad: Vec<&str> = outcomes
                 .iter()

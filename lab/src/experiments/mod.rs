@@ -612,12 +612,8 @@ fn finish<T: Serialize>(
                 }
             }
             if args.json {
-                match serde_json::to_string(&results) {
-                    Ok(json) => println!("{json}"),
-                    Err(e) => {
-                        eprintln!("error: {e}");
-                        return ExitCode::FAILURE;
-                    }
+                if !terrain_pyramid_host::json_line::print(&results, "error: ") {
+                    return ExitCode::FAILURE;
                 }
             } else {
                 eprintln!("results written to {}", display(&args.out));

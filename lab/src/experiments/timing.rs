@@ -622,12 +622,8 @@ pub fn run_command(args: &Args) -> std::process::ExitCode {
     match written {
         Ok(r) => {
             if args.json {
-                match serde_json::to_string(&r) {
-                    Ok(j) => println!("{j}"),
-                    Err(e) => {
-                        eprintln!("error: {e}");
-                        return std::process::ExitCode::FAILURE;
-                    }
+                if !terrain_pyramid_host::json_line::print(&r, "error: ") {
+                    return std::process::ExitCode::FAILURE;
                 }
             } else {
                 eprint!("{}", report(&r));
