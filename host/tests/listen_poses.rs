@@ -419,17 +419,6 @@ fn a_device_reboot_resets_the_clock_and_no_pose_keeps_the_old_mapping() {
 
 // ------------------------------------------------------------------ ROS 2: publishers' QoS
 
-/// Whether this process sees no network interface but loopback (a namespace of its own:
-/// `/proc/net/dev` lists the reader's namespace's interfaces).
-fn only_loopback() -> bool {
-    std::fs::read_to_string("/proc/net/dev").is_ok_and(|t| {
-        t.lines()
-            .skip(2)
-            .filter_map(|l| l.split(':').next())
-            .all(|name| name.trim() == "lo")
-    })
-}
-
 /// `listen --odom-topic` takes the poses of publishers of another QoS than rclcpp's default:
 /// one best effort (a sensor driver's), one transient local (a latched publisher's), both
 /// Cyclone DDS (`lab/py/odom_pub.py`). The DDS traffic stays in a network namespace of its
@@ -482,7 +471,7 @@ fn publisher_poses(p: &Publisher) -> String {
 fn odometry_qos_inner() {
     // DDS multicast must never leave the machine: refuse anywhere but an isolated namespace.
     assert!(
-        std::env::var_os(NETNS_MARK).is_some() && only_loopback(),
+        std::env::var_os(NETNS_MARK).is_some() && terrain_pyramid_host::publish::only_loopback(),
         "odometry_qos_inner runs only inside `unshare -n` (see the test that calls it)"
     );
     let (port, device, boots, poses) = spawn_device(None);

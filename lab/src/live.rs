@@ -193,17 +193,6 @@ impl Drop for Reaped {
     }
 }
 
-/// Whether this process's network namespace has no interface but loopback (`/proc/net/dev`
-/// is the namespace's own; `/sys/class/net` shows the namespace sysfs was mounted in).
-fn only_loopback() -> bool {
-    std::fs::read_to_string("/proc/net/dev").is_ok_and(|t| {
-        t.lines()
-            .skip(2)
-            .filter_map(|l| l.split(':').next())
-            .all(|name| name.trim() == "lo")
-    })
-}
-
 /// The wall clock, µs since the Unix epoch.
 fn wall_us() -> u64 {
     SystemTime::now()
@@ -299,7 +288,7 @@ fn request_stats(
 /// A part of the chain failed to start or to finish.
 #[allow(clippy::too_many_lines)]
 pub fn execute(args: &Args) -> Result<Report, String> {
-    if args.ros2 && !only_loopback() {
+    if args.ros2 && !terrain_pyramid_host::publish::only_loopback() {
         return Err(
             "--ros2 runs DDS: only inside a network namespace with nothing but loopback \
              (`cargo xtask live`)"
