@@ -193,6 +193,15 @@ impl Drop for Reaped {
     }
 }
 
+/// Whether a read of the board's UART ended without bytes only because its timeout passed
+/// (the socket's read timeout or non-blocking mode), not for an error.
+fn read_timed_out(e: &std::io::Error) -> bool {
+    matches!(
+        e.kind(),
+        std::io::ErrorKind::WouldBlock | std::io::ErrorKind::TimedOut
+    )
+}
+
 /// The wall clock, µs since the Unix epoch.
 fn wall_us() -> u64 {
     SystemTime::now()

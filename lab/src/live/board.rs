@@ -56,14 +56,7 @@ pub(super) fn setup_device(uart1: &mut UnixStream, steps: &Steps) -> Result<(), 
         }
         let n = match uart1.read(&mut buf) {
             Ok(n) => n,
-            Err(e)
-                if matches!(
-                    e.kind(),
-                    std::io::ErrorKind::WouldBlock | std::io::ErrorKind::TimedOut
-                ) =>
-            {
-                0
-            }
+            Err(e) if super::read_timed_out(&e) => 0,
             Err(e) => return Err(format!("the link: {e}")),
         };
         for event in host.feed(buf.get(..n).unwrap_or_default()) {
