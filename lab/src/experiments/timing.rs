@@ -630,9 +630,6 @@ pub fn run_command(args: &Args) -> std::process::ExitCode {
             }
             std::process::ExitCode::SUCCESS
         }
-        Err(e) => {
-            eprintln!("error: {e}");
-            std::process::ExitCode::FAILURE
-        }
+        Err(e) => crate::command_failed(e),
     }
 }
