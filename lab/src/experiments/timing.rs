@@ -53,7 +53,7 @@ mod runner;
 pub use agreement::{agreement, Agreement, LayerAgreement};
 pub use poses::{late_poses, on_time_poses, true_poses, LatePose, PoseFeed};
 pub use runner::{
-    run, Input, PoseRule, RunOutcome, ON_TIME_PERIOD_US, TRUTH_PERIOD_US, TRUTH_TRACK,
+    run, Input, PoseRule, RunCounters, RunOutcome, ON_TIME_PERIOD_US, TRUTH_PERIOD_US, TRUTH_TRACK,
 };
 
 use super::designs;
@@ -76,18 +76,9 @@ use terrain_pyramid_host_tests::sim::trajectory::Trajectory;
 pub struct RunFigures {
     /// Its cells against the lock-step run's (the lock-step run: all equal).
     pub cells: Agreement,
-    /// The robot's distance to the first riser when the first step was seen, metres.
-    pub first_step_m: Option<f64>,
-    /// Returns placed with an extrapolated pose.
-    pub returns_extrapolated: u64,
-    /// Returns refused for want of a pose.
-    pub returns_without_pose: u64,
-    /// Stamped poses taken.
-    pub poses_stamped: u64,
-    /// Stamped poses refused.
-    pub poses_refused: u64,
-    /// Observations applied.
-    pub observations: u64,
+    /// Its first-step distance and the device's counters (in the JSON beside `cells`).
+    #[serde(flatten)]
+    pub counters: RunCounters,
 }
 
 /// A scene's figures.
@@ -135,12 +126,7 @@ pub struct TimingResult {
 fn figures(o: &RunOutcome, reference: &RunOutcome) -> RunFigures {
     RunFigures {
         cells: agreement(&o.snapshot, &reference.snapshot),
-        first_step_m: o.first_step_m,
-        returns_extrapolated: o.returns_extrapolated,
-        returns_without_pose: o.returns_without_pose,
-        poses_stamped: o.poses_stamped,
-        poses_refused: o.poses_refused,
-        observations: o.observations,
+        counters: o.counters,
     }
 }
 
@@ -209,7 +195,7 @@ fn scene_result(
         })
         .max()
         .unwrap_or(0);
-    let delta = |o: &RunOutcome| match (o.first_step_m, lock.first_step_m) {
+    let delta = |o: &RunOutcome| match (o.counters.first_step_m, lock.counters.first_step_m) {
         (Some(a), Some(b)) => Some(round3(a - b)),
         _ => None,
     };
@@ -569,11 +555,11 @@ pub fn report(r: &TimingResult) -> String {
                 pct(f.cells.worst_layer_equal_share),
                 pct(f.cells.same_side_share),
                 f.cells.known,
-                metres(f.first_step_m),
+                metres(f.counters.first_step_m),
                 delta.map_or_else(|| "-".into(), |d| format!("{d:+.2} m")),
-                f.returns_extrapolated,
-                f.returns_without_pose,
-                f.poses_refused
+                f.counters.returns_extrapolated,
+                f.counters.returns_without_pose,
+                f.counters.poses_refused
             );
         }
         let _ = writeln!(
