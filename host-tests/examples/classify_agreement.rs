@@ -12,13 +12,14 @@
 //! sensor, so the robot's ground plane is only used for the optional drop-off check, which is
 //! off). The "no echo" value (3276.7 cm) is not a point.
 
-use std::collections::BTreeMap;
 use terrain_pyramid::classify::{Classifier, ClassifierConfig, NavigabilityRule};
 use terrain_pyramid::{
-    Config, DefaultDesign, DefaultPyramid, EvidenceClass, GateShape, Meters, Point3, Schedule,
-    SensorModel,
+    Config, DefaultDesign, DefaultPyramid, EvidenceClass, GateShape, Meters, Schedule, SensorModel,
 };
 use terrain_pyramid_host_tests::classify::{classify, RefClassifierConfig, RefPoint, RefRule};
+use terrain_pyramid_host_tests::harness::{
+    add_ref_points, evidence_by_cell, gate_feeds, layer_resolutions_m,
+};
 
 fn main() {
     let path = std::env::args()
@@ -71,35 +72,10 @@ fn main() {
         });
         c.adopt_design(&design, p.increments()).unwrap();
         c.begin(Meters::ZERO);
-        for r in &points {
-            let point = Point3 {
-                x: Meters::from_num(r.x),
-                y: Meters::from_num(r.y),
-                z: Meters::from_num(r.z),
-            };
-            c.add_point(point, Meters::from_num(r.distance), Meters::from_num(-1.0));
-        }
-        let mut lib = BTreeMap::new();
-        c.finish(|e| {
-            lib.insert(
-                (
-                    usize::from(e.layer),
-                    i64::from(e.cell_x),
-                    i64::from(e.cell_y),
-                ),
-                e.class == EvidenceClass::Obstacle,
-            );
-        });
-        let resolutions: Vec<f64> = (0..p.layer_count())
-            .map(|k| f64::from(p.layer(k).unwrap().resolution().to_bits()) / 65536.0)
-            .collect();
-        let inc = p.increments();
-        let gates = c.gates();
-        let feeds = |k: usize, d: f64| {
-            let w = gates.weight_at(k, Meters::from_num(d));
-            terrain_pyramid::logodds::gated(inc.obstacle, w) != 0
-                || terrain_pyramid::logodds::gated(inc.free, w) != 0
-        };
+        add_ref_points(&mut c, &points);
+        let lib = evidence_by_cell(&mut c, |e| e.class == EvidenceClass::Obstacle);
+        let resolutions = layer_resolutions_m(&p);
+        let feeds = gate_feeds(c.gates(), p.increments());
         let reference = classify(
             &points,
             &resolutions,

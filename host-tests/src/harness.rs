@@ -385,3 +385,67 @@ pub fn compare<const W: usize, const L: usize>(
 pub fn meters(raw: i32) -> Meters {
     Meters::from_bits(raw)
 }
+
+/// Hands the library classifier the reference's points (world metres and horizontal
+/// distances, to fixed point), each above a ground at −1 m (below every point: no drop-off).
+pub fn add_ref_points<const C: usize, const L: usize>(
+    classifier: &mut tp::classify::Classifier<C, L>,
+    points: &[crate::classify::RefPoint],
+) {
+    for r in points {
+        let point = tp::Point3 {
+            x: Meters::from_num(r.x),
+            y: Meters::from_num(r.y),
+            z: Meters::from_num(r.z),
+        };
+        classifier.add_point(point, Meters::from_num(r.distance), Meters::from_num(-1.0));
+    }
+}
+
+/// Ends the library classifier's observation and keeps its evidence by (layer, cell x,
+/// cell y), each as `value_of` makes it.
+pub fn evidence_by_cell<const C: usize, const L: usize, T>(
+    classifier: &mut tp::classify::Classifier<C, L>,
+    value_of: impl Fn(tp::Evidence) -> T,
+) -> std::collections::BTreeMap<(usize, i64, i64), T> {
+    let mut by_cell = std::collections::BTreeMap::new();
+    classifier.finish(|e| {
+        by_cell.insert(
+            (
+                usize::from(e.layer),
+                i64::from(e.cell_x),
+                i64::from(e.cell_y),
+            ),
+            value_of(e),
+        );
+    });
+    by_cell
+}
+
+/// Every layer's cell side of the library pyramid `pyramid`, metres (the reference
+/// classifier's resolutions).
+#[must_use]
+pub fn layer_resolutions_m<const W: usize, const L: usize>(
+    pyramid: &tp::Pyramid<W, L>,
+) -> Vec<f64> {
+    (0..pyramid.layer_count())
+        .map(|k| {
+            let layer = pyramid.layer(k).expect("every layer below the count");
+            f64::from(layer.resolution().to_bits()) / 65536.0
+        })
+        .collect()
+}
+
+/// Whether the library's `gates` let a point `d` metres away feed layer `k` any evidence: its
+/// obstacle or its free increment (`increments`) gated is not 0 (the reference classifier's
+/// `feeds`).
+pub fn gate_feeds<const L: usize>(
+    gates: &tp::gate::Gates<L>,
+    increments: tp::logodds::Increments,
+) -> impl Fn(usize, f64) -> bool + '_ {
+    move |k, d| {
+        let w = gates.weight_at(k, Meters::from_num(d));
+        tp::logodds::gated(increments.obstacle, w) != 0
+            || tp::logodds::gated(increments.free, w) != 0
+    }
+}

@@ -19,10 +19,12 @@
 use proptest::prelude::*;
 use terrain_pyramid::classify::{Classifier, ClassifierConfig, NavigabilityRule};
 use terrain_pyramid::{
-    Config, DefaultDesign, DefaultPyramid, EvidenceClass, GateShape, Meters, Point3, Schedule,
-    SensorModel,
+    Config, DefaultDesign, DefaultPyramid, EvidenceClass, GateShape, Meters, Schedule, SensorModel,
 };
 use terrain_pyramid_host_tests::classify::{classify, RefClassifierConfig, RefPoint, RefRule};
+use terrain_pyramid_host_tests::harness::{
+    add_ref_points, evidence_by_cell, gate_feeds, layer_resolutions_m,
+};
 
 fn design(gate: GateShape) -> DefaultDesign {
     let schedule = Schedule {
@@ -75,36 +77,12 @@ fn compare(points: &[(f64, f64, f64)], gate: GateShape, rule: Rule) -> (usize, u
     });
     c.adopt_design(&design, p.increments()).unwrap();
     c.begin(Meters::ZERO);
-    for r in &pts {
-        let point = Point3 {
-            x: Meters::from_num(r.x),
-            y: Meters::from_num(r.y),
-            z: Meters::from_num(r.z),
-        };
-        c.add_point(point, Meters::from_num(r.distance), Meters::from_num(-1.0));
-    }
-    let mut lib = std::collections::BTreeMap::new();
-    c.finish(|e| {
-        lib.insert(
-            (
-                usize::from(e.layer),
-                i64::from(e.cell_x),
-                i64::from(e.cell_y),
-            ),
-            (e.class, e.weight),
-        );
-    });
+    add_ref_points(&mut c, &pts);
+    let lib = evidence_by_cell(&mut c, |e| (e.class, e.weight));
     assert_eq!(c.stats().overflow_points, 0);
-    let resolutions: Vec<f64> = (0..p.layer_count())
-        .map(|k| f64::from(p.layer(k).unwrap().resolution().to_bits()) / 65536.0)
-        .collect();
-    let inc = p.increments();
+    let resolutions = layer_resolutions_m(&p);
     let gates = c.gates();
-    let feeds = |k: usize, d: f64| {
-        let w = gates.weight_at(k, Meters::from_num(d));
-        terrain_pyramid::logodds::gated(inc.obstacle, w) != 0
-            || terrain_pyramid::logodds::gated(inc.free, w) != 0
-    };
+    let feeds = gate_feeds(gates, p.increments());
     let config = RefClassifierConfig {
         rule: match rule {
             Rule::Spread => RefRule::Spread,

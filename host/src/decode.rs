@@ -197,12 +197,8 @@ pub fn run(args: &Args) -> ExitCode {
             packets,
             errors,
         };
-        match serde_json::to_string(&out) {
-            Ok(json) => println!("{json}"),
-            Err(e) => {
-                eprintln!("pyramid decode: cannot write JSON: {e}");
-                return ExitCode::FAILURE;
-            }
+        if !crate::json_line::print(&out, "pyramid decode: cannot write JSON: ") {
+            return ExitCode::FAILURE;
         }
     } else {
         print_lidar_summary(sensor, &packets, &errors);
@@ -350,12 +346,8 @@ fn run_sick(args: &Args, bytes: &[u8]) -> ExitCode {
                 garbage_bytes: stats.garbage_bytes,
             },
         };
-        match serde_json::to_string(&out) {
-            Ok(json) => println!("{json}"),
-            Err(e) => {
-                eprintln!("pyramid decode: cannot write JSON: {e}");
-                return ExitCode::FAILURE;
-            }
+        if !crate::json_line::print(&out, "pyramid decode: cannot write JSON: ") {
+            return ExitCode::FAILURE;
         }
     } else {
         print_summary(&telegrams, refused.len(), &stats);

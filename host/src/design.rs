@@ -408,12 +408,8 @@ pub fn run(args: &Args) -> ExitCode {
     }
     let report = report(&design);
     if args.json {
-        match serde_json::to_string(&report) {
-            Ok(json) => println!("{json}"),
-            Err(e) => {
-                eprintln!("error: cannot encode the report as JSON: {e}");
-                return ExitCode::FAILURE;
-            }
+        if !crate::json_line::print(&report, "error: cannot encode the report as JSON: ") {
+            return ExitCode::FAILURE;
         }
     } else {
         print!("{}", table(&args.design, &design, &report));

@@ -279,7 +279,31 @@ impl Drop for TempDir {
     }
 }
 
-fn connect(path: &Path, child: &mut Child) -> Result<UnixStream, String> {
+/// The QEMU command that boots `elf` on `machine` without graphics or monitor, semihosting
+/// on, its UARTs (the first [`Machine::uarts`] of `uart_sockets`) served on those Unix sockets
+/// and waiting for a connection; its standard streams are the caller's to set.
+pub fn qemu_command(machine: Machine, elf: &Path, uart_sockets: [&Path; 2]) -> Command {
+    let mut qemu = Command::new("qemu-system-arm");
+    qemu.args(["-machine", machine.qemu_machine(), "-nographic"]);
+    if machine == Machine::Mps2An386 {
+        qemu.args(["-cpu", "cortex-m4"]);
+    }
+    qemu.args(["-monitor", "none", "-semihosting-config"])
+        .arg("enable=on,target=native");
+    for socket in uart_sockets.into_iter().take(machine.uarts()) {
+        qemu.arg("-serial")
+            .arg(format!("unix:{},server=on,wait=on", socket.display()));
+    }
+    qemu.arg("-kernel").arg(elf);
+    qemu
+}
+
+/// Connects to the emulated board's UART socket at `path`, retrying every 20 ms while QEMU
+/// (`child`) starts it.
+///
+/// # Errors
+/// QEMU exited first, or the socket did not open within 20 s.
+pub fn connect(path: &Path, child: &mut Child) -> Result<UnixStream, String> {
     let start = Instant::now();
     loop {
         match UnixStream::connect(path) {
@@ -352,20 +376,7 @@ impl Emulator {
         let (s0, s1) = (dir.0.join("uart0.sock"), dir.0.join("uart1.sock"));
         let log = std::fs::File::create(defmt_log)
             .map_err(|e| format!("cannot create {}: {e}", defmt_log.display()))?;
-        let mut qemu = Command::new("qemu-system-arm");
-        qemu.args(["-machine", machine.qemu_machine(), "-nographic"]);
-        if machine == Machine::Mps2An386 {
-            qemu.args(["-cpu", "cortex-m4"]);
-        }
-        qemu.args(["-monitor", "none", "-semihosting-config"])
-            .arg("enable=on,target=native");
-        for socket in [&s0, &s1].into_iter().take(machine.uarts()) {
-            qemu.arg("-serial")
-                .arg(format!("unix:{},server=on,wait=on", socket.display()));
-        }
-        let mut child = qemu
-            .arg("-kernel")
-            .arg(elf)
+        let mut child = qemu_command(machine, elf, [&s0, &s1])
             .stdin(Stdio::null())
             .stdout(log)
             .stderr(Stdio::piped())

@@ -348,13 +348,9 @@ pub fn play_watched<D: Device>(
                 }
             }
             Step::Telegram {
-                bytes,
-                measured,
-                time_us,
-            } => {
-                if !measured {
-                    continue;
-                }
+                measured: false, ..
+            } => continue,
+            Step::Telegram { bytes, time_us, .. } => {
                 let robot_xy = sensor_xy;
                 watch(
                     device,

@@ -471,12 +471,8 @@ pub fn run(args: &Args) -> ExitCode {
     match execute(args, &stop) {
         Ok(report) => {
             if args.json {
-                match serde_json::to_string(&report) {
-                    Ok(json) => println!("{json}"),
-                    Err(e) => {
-                        eprintln!("error: {e}");
-                        return ExitCode::FAILURE;
-                    }
+                if !crate::json_line::print(&report, "error: ") {
+                    return ExitCode::FAILURE;
                 }
             } else {
                 eprintln!(

@@ -561,12 +561,9 @@ pub fn run(args: &Args) -> ExitCode {
     match result {
         Ok(summary) => {
             if args.json {
-                match serde_json::to_string(&summary) {
-                    Ok(json) => println!("{json}"),
-                    Err(e) => {
-                        eprintln!("error: cannot encode the summary as JSON: {e}");
-                        return ExitCode::FAILURE;
-                    }
+                if !crate::json_line::print(&summary, "error: cannot encode the summary as JSON: ")
+                {
+                    return ExitCode::FAILURE;
                 }
             } else {
                 print!("{}", table(args, &summary));

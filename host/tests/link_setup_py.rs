@@ -4,6 +4,9 @@
 //! field is given to both in wire order; the frames must be equal byte for byte, and the
 //! library must decode Python's frame back to the same Setup.
 use std::process::Command;
+
+mod common;
+use common::succeeded;
 use terrain_pyramid::classify::ClassifierConfig;
 use terrain_pyramid::classify::{NavigabilityRule, PlaneRule, Ratio};
 use terrain_pyramid::link::convert::{frontend_config, rule_setup, set_rule_message, set_rule_of};
@@ -15,6 +18,28 @@ use terrain_pyramid::wire::FeedResult;
 use terrain_pyramid::Meters;
 
 const SCRIPT: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/py/link_setup.py");
+
+/// The script's arguments for a navigability rule: its number, then its parameters (f32's
+/// Display: the shortest decimal that reads back as the same f32).
+fn rule_args(rule: &RuleSetup) -> [String; 6] {
+    [
+        rule.rule.to_string(),
+        rule.max_grade.to_string(),
+        rule.residual_m.to_string(),
+        rule.range_sigma_m.to_string(),
+        rule.angle_sigma_rad.to_string(),
+        rule.noise_factor.to_string(),
+    ]
+}
+
+/// The frame the script printed: its bytes in hex, separated by white space.
+fn frame_of_hex(stdout: Vec<u8>) -> Vec<u8> {
+    String::from_utf8(stdout)
+        .unwrap()
+        .split_whitespace()
+        .map(|b| u8::from_str_radix(b, 16).unwrap())
+        .collect()
+}
 
 /// Python's frame of `setup` as sequence number `seq`.
 fn python_frame(seq: u16, s: &Setup) -> Vec<u8> {
@@ -38,18 +63,7 @@ fn python_frame(seq: u16, s: &Setup) -> Vec<u8> {
         .iter()
         .map(f32::to_string),
     );
-    args.push(s.rule.rule.to_string());
-    args.extend(
-        [
-            s.rule.max_grade,
-            s.rule.residual_m,
-            s.rule.range_sigma_m,
-            s.rule.angle_sigma_rad,
-            s.rule.noise_factor,
-        ]
-        .iter()
-        .map(f32::to_string),
-    );
+    args.extend(rule_args(&s.rule));
     let l = &s.laser;
     args.extend([
         l.sensor.to_string(),
@@ -93,11 +107,7 @@ fn python_frame(seq: u16, s: &Setup) -> Vec<u8> {
         "{SCRIPT} failed: {}",
         String::from_utf8_lossy(&out.stderr)
     );
-    String::from_utf8(out.stdout)
-        .unwrap()
-        .split_whitespace()
-        .map(|b| u8::from_str_radix(b, 16).unwrap())
-        .collect()
+    frame_of_hex(out.stdout)
 }
 
 /// Python's SetRule frame.
@@ -106,34 +116,10 @@ fn python_set_rule(seq: u16, s: &SetRule) -> Vec<u8> {
         "setrule".to_string(),
         seq.to_string(),
         s.step_threshold_m.to_string(),
-        s.rule.rule.to_string(),
     ];
-    args.extend(
-        [
-            s.rule.max_grade,
-            s.rule.residual_m,
-            s.rule.range_sigma_m,
-            s.rule.angle_sigma_rad,
-            s.rule.noise_factor,
-        ]
-        .iter()
-        .map(f32::to_string),
-    );
-    let out = Command::new("python3")
-        .arg(SCRIPT)
-        .args(&args)
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    String::from_utf8(out.stdout)
-        .unwrap()
-        .split_whitespace()
-        .map(|b| u8::from_str_radix(b, 16).unwrap())
-        .collect()
+    args.extend(rule_args(&s.rule));
+    let out = succeeded(Command::new("python3").arg(SCRIPT).args(&args), "");
+    frame_of_hex(out.stdout)
 }
 
 #[test]

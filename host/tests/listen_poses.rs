@@ -8,8 +8,11 @@
 //!
 //! The truth is computed here: the test knows the device's clock as a function of its own
 //! monotonic clock, and its own wall clock against that.
+#[path = "support/netns.rs"]
+mod netns;
 #[path = "support/device.rs"]
 mod support;
+use netns::{run_in_own_network_namespace, NETNS_MARK};
 
 use serde_json::Value;
 use std::io::{ErrorKind, Read, Write};
@@ -152,6 +155,101 @@ fn wall_us() -> i128 {
         .as_micros() as i128
 }
 
+/// A simulated device on a free 127.0.0.1 port, its clock starting at [`DEVICE_START_US`]
+/// (rebooting once after `reboot_after`): the port, the thread serving it ([`serve`]), its
+/// boots' clocks and the poses it takes.
+fn spawn_device(
+    reboot_after: Option<Duration>,
+) -> (
+    u16,
+    std::thread::JoinHandle<()>,
+    Boots,
+    Arc<Mutex<Vec<Received>>>,
+) {
+    let listener = TcpListener::bind("127.0.0.1:0").unwrap();
+    let port = listener.local_addr().unwrap().port();
+    let boots: Boots = Arc::new(Mutex::new(vec![DeviceClock {
+        zero: Instant::now(),
+        start_us: DEVICE_START_US,
+    }]));
+    let poses = Arc::new(Mutex::new(Vec::new()));
+    let device = {
+        let (poses, boots) = (Arc::clone(&poses), Arc::clone(&boots));
+        std::thread::spawn(move || serve(listener, boots, poses, reboot_after))
+    };
+    (port, device, boots, poses)
+}
+
+/// `pyramid listen` on the device at 127.0.0.1:`port` for `duration_s` seconds, writing into
+/// `dir`; more arguments may follow.
+fn listen_command(port: u16, dir: &Path, duration_s: &str) -> Command {
+    let mut command = Command::new(env!("CARGO_BIN_EXE_pyramid"));
+    command.args([
+        "listen",
+        "--tcp",
+        &format!("127.0.0.1:{port}"),
+        "--out",
+        dir.to_str().unwrap(),
+        "--duration-s",
+        duration_s,
+    ]);
+    command
+}
+
+/// Waits for `pyramid listen` (`child`, which must succeed) and the device's thread; the
+/// summary it wrote into `dir` and its stderr.
+fn finished(
+    child: std::process::Child,
+    device: std::thread::JoinHandle<()>,
+    dir: &Path,
+) -> (Value, String) {
+    let output = child.wait_with_output().unwrap();
+    let stderr = String::from_utf8_lossy(&output.stderr).into_owned();
+    assert!(output.status.success(), "{stderr}");
+    device.join().unwrap();
+    let summary: Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("summary.json")).unwrap()).unwrap();
+    (summary, stderr)
+}
+
+/// An NDJSON pose line stamped `stamp_us` (wall-clock µs, written as seconds), the other
+/// fields `fields` (JSON members, comma-separated).
+fn pose_line(stamp_us: i128, fields: &str) -> String {
+    format!(
+        "{{\"t\": {}.{:06}, {fields}}}\n",
+        stamp_us.div_euclid(1_000_000),
+        stamp_us.rem_euclid(1_000_000)
+    )
+}
+
+/// A robot sending poses to `addr` for `duration`: one every 20 ms (50 Hz), each stamped
+/// 30 ms before it is sent (the wall clock, as ROS time), x = its index (from 1) / 1000, its
+/// fields `fields_of(x)`; `after_each(index, robot, sent)` runs after each is sent. The
+/// monotonic and wall clocks read together at the start, and every (x, stamp µs) sent.
+fn send_poses(
+    addr: std::net::SocketAddr,
+    duration: Duration,
+    fields_of: impl Fn(f64) -> String,
+    mut after_each: impl FnMut(u32, &UdpSocket, &[(f64, i128)]),
+) -> ((Instant, i128), Vec<(f64, i128)>) {
+    let robot = UdpSocket::bind("127.0.0.1:0").unwrap();
+    let anchor = (Instant::now(), wall_us());
+    let mut sent: Vec<(f64, i128)> = Vec::new();
+    let stop_at = Instant::now() + duration;
+    let mut i = 0_u32;
+    while Instant::now() < stop_at {
+        i += 1;
+        let stamp = wall_us() - 30_000;
+        let x = f64::from(i) / 1000.0;
+        let line = pose_line(stamp, &fields_of(x));
+        robot.send_to(line.as_bytes(), addr).unwrap();
+        sent.push((x, stamp));
+        after_each(i, &robot, &sent);
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    (anchor, sent)
+}
+
 /// A session under test: the device (rebooting once after `reboot_after`), its clocks and the
 /// poses it took, and `pyramid listen` on it for `duration_s` seconds with a UDP pose input,
 /// writing into a fresh directory.
@@ -165,17 +263,7 @@ struct Session {
 }
 
 fn start(name: &str, reboot_after: Option<Duration>, duration_s: &str) -> Session {
-    let listener = TcpListener::bind("127.0.0.1:0").unwrap();
-    let port = listener.local_addr().unwrap().port();
-    let boots: Boots = Arc::new(Mutex::new(vec![DeviceClock {
-        zero: Instant::now(),
-        start_us: DEVICE_START_US,
-    }]));
-    let poses = Arc::new(Mutex::new(Vec::new()));
-    let device = {
-        let (poses, boots) = (Arc::clone(&poses), Arc::clone(&boots));
-        std::thread::spawn(move || serve(listener, boots, poses, reboot_after))
-    };
+    let (port, device, boots, poses) = spawn_device(reboot_after);
     // A free UDP port for the pose input.
     let pose_addr = {
         let probe = UdpSocket::bind("127.0.0.1:0").unwrap();
@@ -183,18 +271,8 @@ fn start(name: &str, reboot_after: Option<Duration>, duration_s: &str) -> Sessio
     };
     let dir = std::env::temp_dir().join(format!("pyramid-listen-{name}-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
-    let child = Command::new(env!("CARGO_BIN_EXE_pyramid"))
-        .args([
-            "listen",
-            "--tcp",
-            &format!("127.0.0.1:{port}"),
-            "--out",
-            dir.to_str().unwrap(),
-            "--duration-s",
-            duration_s,
-            "--pose-udp",
-            &pose_addr.to_string(),
-        ])
+    let child = listen_command(port, &dir, duration_s)
+        .args(["--pose-udp", &pose_addr.to_string()])
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
         .spawn()
@@ -216,44 +294,22 @@ fn udp_poses_reach_the_device_stamped_in_its_own_clock() {
 
     // The robot: 50 Hz poses, each stamped 30 ms before it is sent (the wall clock, as ROS
     // time), x = its index / 1000. Then one bad line and one pose older than the newest.
-    let robot = UdpSocket::bind("127.0.0.1:0").unwrap();
-    let anchor = (Instant::now(), wall_us());
-    let mut sent: Vec<(f64, i128)> = Vec::new();
-    let stop_at = Instant::now() + Duration::from_millis(4_000);
-    let mut i = 0_u32;
-    while Instant::now() < stop_at {
-        i += 1;
-        let stamp = wall_us() - 30_000;
-        let x = f64::from(i) / 1000.0;
-        let line = format!(
-            "{{\"t\": {}.{:06}, \"frame\": \"odom\", \"x\": {x}, \"y\": 0.5, \"z\": 0, \"yaw\": 0.25}}\n",
-            stamp.div_euclid(1_000_000),
-            stamp.rem_euclid(1_000_000)
-        );
-        robot.send_to(line.as_bytes(), session.pose_addr).unwrap();
-        sent.push((x, stamp));
-        if i == 150 {
-            robot
-                .send_to(b"{\"t\": oops}\n", session.pose_addr)
-                .unwrap();
-            let (_, old) = sent[sent.len() - 5];
-            let line = format!(
-                "{{\"t\": {}.{:06}, \"x\": 9.0, \"y\": 0, \"yaw\": 0}}\n",
-                old.div_euclid(1_000_000),
-                old.rem_euclid(1_000_000)
-            );
-            robot.send_to(line.as_bytes(), session.pose_addr).unwrap();
-        }
-        std::thread::sleep(Duration::from_millis(20));
-    }
-    let output = session.child.wait_with_output().unwrap();
-    let stderr = String::from_utf8_lossy(&output.stderr);
-    assert!(output.status.success(), "{stderr}");
-    session.device.join().unwrap();
-
-    let summary: Value =
-        serde_json::from_str(&std::fs::read_to_string(session.dir.join("summary.json")).unwrap())
-            .unwrap();
+    let (anchor, sent) = send_poses(
+        session.pose_addr,
+        Duration::from_millis(4_000),
+        |x| format!("\"frame\": \"odom\", \"x\": {x}, \"y\": 0.5, \"z\": 0, \"yaw\": 0.25"),
+        |i, robot, sent| {
+            if i == 150 {
+                robot
+                    .send_to(b"{\"t\": oops}\n", session.pose_addr)
+                    .unwrap();
+                let (_, old) = sent[sent.len() - 5];
+                let line = pose_line(old, "\"x\": 9.0, \"y\": 0, \"yaw\": 0");
+                robot.send_to(line.as_bytes(), session.pose_addr).unwrap();
+            }
+        },
+    );
+    let (summary, stderr) = finished(session.child, session.device, &session.dir);
     let sync = &summary["time_sync"];
     assert_eq!(sync["synced"], true, "{summary:#}");
     assert!(sync["exchanges"].as_u64().unwrap() >= 20, "{sync}");
@@ -312,32 +368,13 @@ fn udp_poses_reach_the_device_stamped_in_its_own_clock() {
 #[test]
 fn a_device_reboot_resets_the_clock_and_no_pose_keeps_the_old_mapping() {
     let session = start("reboot", Some(Duration::from_millis(2_500)), "6");
-    let robot = UdpSocket::bind("127.0.0.1:0").unwrap();
-    let anchor = (Instant::now(), wall_us());
-    let mut sent: Vec<(f64, i128)> = Vec::new();
-    let stop_at = Instant::now() + Duration::from_millis(5_000);
-    let mut i = 0_u32;
-    while Instant::now() < stop_at {
-        i += 1;
-        let stamp = wall_us() - 30_000;
-        let x = f64::from(i) / 1000.0;
-        let line = format!(
-            "{{\"t\": {}.{:06}, \"x\": {x}, \"y\": 0.5, \"yaw\": 0.25}}\n",
-            stamp.div_euclid(1_000_000),
-            stamp.rem_euclid(1_000_000)
-        );
-        robot.send_to(line.as_bytes(), session.pose_addr).unwrap();
-        sent.push((x, stamp));
-        std::thread::sleep(Duration::from_millis(20));
-    }
-    let output = session.child.wait_with_output().unwrap();
-    let stderr = String::from_utf8_lossy(&output.stderr);
-    assert!(output.status.success(), "{stderr}");
-    session.device.join().unwrap();
-
-    let summary: Value =
-        serde_json::from_str(&std::fs::read_to_string(session.dir.join("summary.json")).unwrap())
-            .unwrap();
+    let (anchor, sent) = send_poses(
+        session.pose_addr,
+        Duration::from_millis(5_000),
+        |x| format!("\"x\": {x}, \"y\": 0.5, \"yaw\": 0.25"),
+        |_, _, _| {},
+    );
+    let (summary, _) = finished(session.child, session.device, &session.dir);
     let sync = &summary["time_sync"];
     assert_eq!(sync["synced"], true, "{summary:#}");
     assert!(sync["resets_boot"].as_u64().unwrap() >= 1, "{sync}");
@@ -382,20 +419,6 @@ fn a_device_reboot_resets_the_clock_and_no_pose_keeps_the_old_mapping() {
 
 // ------------------------------------------------------------------ ROS 2: publishers' QoS
 
-/// The environment variable that marks the inner test's run inside its network namespace.
-const NETNS_MARK: &str = "TERRAIN_PYRAMID_TEST_NETNS";
-
-/// Whether this process sees no network interface but loopback (a namespace of its own:
-/// `/proc/net/dev` lists the reader's namespace's interfaces).
-fn only_loopback() -> bool {
-    std::fs::read_to_string("/proc/net/dev").is_ok_and(|t| {
-        t.lines()
-            .skip(2)
-            .filter_map(|l| l.split(':').next())
-            .all(|name| name.trim() == "lo")
-    })
-}
-
 /// `listen --odom-topic` takes the poses of publishers of another QoS than rclcpp's default:
 /// one best effort (a sensor driver's), one transient local (a latched publisher's), both
 /// Cyclone DDS (`lab/py/odom_pub.py`). The DDS traffic stays in a network namespace of its
@@ -411,24 +434,7 @@ fn odometry_of_best_effort_and_transient_local_publishers_reaches_the_device() {
         ok,
         "the Python readers are missing: run host/tests/py/setup.sh (pip install -r host/tests/py/requirements.txt)"
     );
-    let exe = std::env::current_exe().unwrap();
-    let out = Command::new("unshare")
-        .args([
-            "-n",
-            "sh",
-            "-c",
-            "ip link set lo up multicast on && ip route add 224.0.0.0/4 dev lo && exec \"$0\" odometry_qos_inner --exact --ignored --nocapture",
-        ])
-        .arg(&exe)
-        .env(NETNS_MARK, "1")
-        .output()
-        .expect("unshare runs");
-    let stdout = String::from_utf8_lossy(&out.stdout);
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    assert!(
-        out.status.success() && stdout.contains("1 passed"),
-        "the test inside `unshare -n` (root needed) failed:\n{stdout}\n{stderr}"
-    );
+    let stderr = run_in_own_network_namespace("odometry_qos_inner");
     eprintln!(
         "{}",
         stderr
@@ -465,39 +471,16 @@ fn publisher_poses(p: &Publisher) -> String {
 fn odometry_qos_inner() {
     // DDS multicast must never leave the machine: refuse anywhere but an isolated namespace.
     assert!(
-        std::env::var_os(NETNS_MARK).is_some() && only_loopback(),
+        std::env::var_os(NETNS_MARK).is_some() && terrain_pyramid_host::publish::only_loopback(),
         "odometry_qos_inner runs only inside `unshare -n` (see the test that calls it)"
     );
-    let listener = TcpListener::bind("127.0.0.1:0").unwrap();
-    let port = listener.local_addr().unwrap().port();
-    let boots: Boots = Arc::new(Mutex::new(vec![DeviceClock {
-        zero: Instant::now(),
-        start_us: DEVICE_START_US,
-    }]));
-    let poses = Arc::new(Mutex::new(Vec::new()));
-    let device = {
-        let (poses, boots) = (Arc::clone(&poses), Arc::clone(&boots));
-        std::thread::spawn(move || serve(listener, boots, poses, None))
-    };
+    let (port, device, boots, poses) = spawn_device(None);
     let clock = boots.lock().unwrap()[0];
     let dir = std::env::temp_dir().join(format!("pyramid-listen-qos-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
-    let child = Command::new(env!("CARGO_BIN_EXE_pyramid"))
-        .args([
-            "listen",
-            "--tcp",
-            &format!("127.0.0.1:{port}"),
-            "--out",
-            dir.to_str().unwrap(),
-            "--duration-s",
-            "6",
-            "--ros2",
-            "--ros-domain-id",
-            "9",
-            "--odom-topic",
-            "/odom",
-        ])
+    let child = listen_command(port, &dir, "6")
+        .args(["--ros2", "--ros-domain-id", "9", "--odom-topic", "/odom"])
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
         .spawn()

@@ -8,10 +8,13 @@ use std::time::{Duration, Instant};
 use terrain_pyramid::classify::ClassifierConfig;
 use terrain_pyramid::link::convert::set_rule_message;
 use terrain_pyramid::wire::link::{
-    Decoded, FrameAccumulator, Message, RuleSetup, SetRule, SnapshotScope, MAX_FRAME,
+    FrameAccumulator, Message, RuleSetup, SetRule, SnapshotScope, MAX_FRAME,
 };
-use terrain_pyramid::wire::FeedResult;
 use terrain_pyramid::Meters;
+
+#[path = "support/listen_device.rs"]
+mod listen_device;
+use listen_device::{each_frame, refused_before_connecting};
 
 /// The frames `pyramid listen` sends with `flags` in its first second, decoded: (type, the
 /// SetRule if it is one).
@@ -51,31 +54,19 @@ fn sent(flags: &[&str]) -> Vec<(u8, Option<SetRule>)> {
     let _ = std::fs::remove_dir_all(&out);
     let mut acc = FrameAccumulator::<MAX_FRAME>::new();
     let mut frames = Vec::new();
-    let mut rest: &[u8] = &bytes;
-    while !rest.is_empty() {
-        match acc.feed(rest) {
-            FeedResult::Item {
-                item: Decoded { message, .. },
-                remaining,
-                ..
-            } => {
-                let set = match message {
-                    Message::SetRule(s) => Some(s),
-                    _ => None,
-                };
-                if let Message::RequestSnapshot(scope) = message {
-                    assert_eq!(scope, SnapshotScope::All);
-                }
-                // The time exchange's requests go on beside the commands (docs/poses.md).
-                if !matches!(message, Message::TimeRequest(_)) {
-                    frames.push((message.msg_type().to_u8(), set));
-                }
-                rest = remaining;
-            }
-            FeedResult::Consumed => break,
-            FeedResult::Rejected { remaining, .. } => rest = remaining,
+    each_frame(&mut acc, &bytes, |_, message| {
+        let set = match message {
+            Message::SetRule(s) => Some(s),
+            _ => None,
+        };
+        if let Message::RequestSnapshot(scope) = message {
+            assert_eq!(scope, SnapshotScope::All);
         }
-    }
+        // The time exchange's requests go on beside the commands (docs/poses.md).
+        if !matches!(message, Message::TimeRequest(_)) {
+            frames.push((message.msg_type().to_u8(), set));
+        }
+    });
     frames
 }
 
@@ -109,18 +100,6 @@ fn without_rule_flags_the_device_keeps_its_rule() {
 
 #[test]
 fn a_bad_rule_flag_is_refused_before_connecting() {
-    let out = Command::new(env!("CARGO_BIN_EXE_pyramid"))
-        .args([
-            "listen",
-            "--tcp",
-            "127.0.0.1:9",
-            "--out",
-            "/nonexistent-dir",
-        ])
-        .args(["--rule", "plane", "--noise-factor", "-1"])
-        .output()
-        .unwrap();
-    assert_eq!(out.status.code(), Some(2));
-    let stderr = String::from_utf8_lossy(&out.stderr);
+    let stderr = refused_before_connecting(&["--rule", "plane", "--noise-factor", "-1"]);
     assert!(stderr.contains("--noise-factor"), "{stderr}");
 }

@@ -12,9 +12,12 @@ use std::time::{Duration, Instant};
 use terrain_pyramid::classify::ClassifierConfig;
 use terrain_pyramid::link::convert::{setup_refusal, SetupError, SetupField};
 use terrain_pyramid::link::{Link, LinkConfig};
-use terrain_pyramid::wire::link::{Decoded, FrameAccumulator, Header, Message, Setup, MAX_FRAME};
-use terrain_pyramid::wire::FeedResult;
+use terrain_pyramid::wire::link::{FrameAccumulator, Header, Message, Setup, MAX_FRAME};
 use terrain_pyramid_host::rigfile::{device_setup, read_rig_file};
+
+#[path = "support/listen_device.rs"]
+mod listen_device;
+use listen_device::{each_frame, refused_before_connecting};
 
 fn example(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -71,28 +74,16 @@ fn frames(
             Ok(n) => n,
             Err(_) => continue,
         };
-        let mut rest: &[u8] = &buf[..n];
-        while !rest.is_empty() {
-            match acc.feed(rest) {
-                FeedResult::Item {
-                    item: Decoded { header, message },
-                    remaining,
-                    ..
-                } => {
-                    answer(stream, header, &message);
-                    if !matches!(message, Message::TimeRequest(_)) {
-                        let setup = match message {
-                            Message::Setup(s) => Some(s),
-                            _ => None,
-                        };
-                        out.push((message.msg_type().to_u8(), setup));
-                    }
-                    rest = remaining;
-                }
-                FeedResult::Consumed => break,
-                FeedResult::Rejected { remaining, .. } => rest = remaining,
+        each_frame(&mut acc, &buf[..n], |header, message| {
+            answer(stream, header, &message);
+            if !matches!(message, Message::TimeRequest(_)) {
+                let setup = match message {
+                    Message::Setup(s) => Some(s),
+                    _ => None,
+                };
+                out.push((message.msg_type().to_u8(), setup));
             }
-        }
+        });
     }
     out
 }
@@ -213,19 +204,15 @@ fn a_refused_setup_shows_the_field_and_its_rule() {
 
 #[test]
 fn a_rig_the_device_would_refuse_is_refused_before_connecting() {
-    let o = Command::new(env!("CARGO_BIN_EXE_pyramid"))
-        .args([
-            "listen",
-            "--tcp",
-            "127.0.0.1:9",
-            "--out",
-            "/nonexistent-dir",
-        ])
-        .args(["--sensor", "ld06", "--mask-deg", "170:190"])
-        .args(["--filter-min-range-m", "0.5", "--filter-max-range-m", "0.2"])
-        .output()
-        .unwrap();
-    assert_eq!(o.status.code(), Some(2));
-    let stderr = String::from_utf8_lossy(&o.stderr);
+    let stderr = refused_before_connecting(&[
+        "--sensor",
+        "ld06",
+        "--mask-deg",
+        "170:190",
+        "--filter-min-range-m",
+        "0.5",
+        "--filter-max-range-m",
+        "0.2",
+    ]);
     assert!(stderr.contains("--filter-max-range-m"), "{stderr}");
 }

@@ -6,21 +6,17 @@ use std::path::Path;
 use std::process::Command;
 
 mod common;
-use common::{record_3dtk, synthetic_recording, tmp, PYRAMID};
+use common::{record_3dtk, succeeded, synthetic_recording, tmp, PYRAMID};
 
 /// `pyramid run --board host --json` on `recording`; its summary.
 fn run(recording: &Path, out: &Path) -> serde_json::Value {
-    let output = Command::new(PYRAMID)
-        .args(["run", "--board", "host", "--json", "--recording"])
-        .arg(recording)
-        .arg("--out")
-        .arg(out)
-        .output()
-        .unwrap();
-    assert!(
-        output.status.success(),
-        "pyramid run failed: {}",
-        String::from_utf8_lossy(&output.stderr)
+    let output = succeeded(
+        Command::new(PYRAMID)
+            .args(["run", "--board", "host", "--json", "--recording"])
+            .arg(recording)
+            .arg("--out")
+            .arg(out),
+        "pyramid run failed: ",
     );
     serde_json::from_slice(&output.stdout).unwrap()
 }

@@ -12,220 +12,28 @@
 //!
 //! The Python readers are installed by `host/tests/py/setup.sh`.
 use serde_json::Value;
-use std::io::{BufRead, BufReader, Read};
-use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Output, Stdio};
+use std::io::{BufRead, BufReader};
+use std::process::{Command, Stdio};
 use std::sync::atomic::Ordering;
-use std::sync::mpsc;
 use std::time::{Duration, Instant};
 
 mod common;
+use common::succeeded;
+#[path = "support/netns.rs"]
+mod netns;
 #[path = "support/device.rs"]
 mod support;
+use netns::{run_in_own_network_namespace, NETNS_MARK};
 use support::{
-    device, fnv1a64, fused_occupancy, listen, listen_json, raw_cells, scratch, wait_or_kill, Plan,
-    PATIENCE, W,
+    device, fnv1a64, fused_occupancy, listen, listen_json, raw_cells, scratch, Plan, PATIENCE, W,
+};
+#[path = "support/outputs.rs"]
+mod outputs_support;
+use outputs_support::{
+    assert_fused_matches_pgm, fused_grid, grey, ints, pgm_rows_bottom_up, py_dir, python,
+    read_mcap, running, stderr_of, summary, Running,
 };
 use terrain_pyramid_host::publish::only_loopback;
-
-fn py_dir() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/py")
-}
-
-/// Python with the readers installed, or a failure that says how to install them.
-fn python() -> &'static str {
-    let ok = Command::new("python3")
-        .args([
-            "-c",
-            "import mcap, mcap_ros2, mcap_protobuf, websockets, cyclonedds",
-        ])
-        .status()
-        .is_ok_and(|s| s.success());
-    assert!(
-        ok,
-        "the Python readers are missing: run host/tests/py/setup.sh (pip install -r host/tests/py/requirements.txt)"
-    );
-    "python3"
-}
-
-/// Stderr lines as they come, and the collected output at the end.
-struct Running {
-    child: Child,
-    lines: mpsc::Receiver<String>,
-    stderr: std::thread::JoinHandle<String>,
-    stdout: std::thread::JoinHandle<Vec<u8>>,
-}
-
-fn running(mut child: Child) -> Running {
-    let err = child.stderr.take().unwrap();
-    let mut out = child.stdout.take().unwrap();
-    let (tx, rx) = mpsc::channel();
-    let stderr = std::thread::spawn(move || {
-        let mut all = String::new();
-        for line in BufReader::new(err).lines() {
-            let Ok(line) = line else { break };
-            let _ = tx.send(line.clone());
-            all.push_str(&line);
-            all.push('\n');
-        }
-        all
-    });
-    let stdout = std::thread::spawn(move || {
-        let mut v = Vec::new();
-        let _ = out.read_to_end(&mut v);
-        v
-    });
-    Running {
-        child,
-        lines: rx,
-        stderr,
-        stdout,
-    }
-}
-
-impl Running {
-    /// Waits for a stderr line containing `needle`; returns it.
-    fn wait_for(&self, needle: &str) -> String {
-        let start = Instant::now();
-        loop {
-            let left = PATIENCE.saturating_sub(start.elapsed());
-            match self.lines.recv_timeout(left) {
-                Ok(line) if line.contains(needle) => return line,
-                Ok(_) => {}
-                Err(_) => panic!("no line with {needle:?} on stderr"),
-            }
-        }
-    }
-
-    fn interrupt(&self) {
-        let pid = self.child.id().to_string();
-        assert!(Command::new("kill")
-            .args(["-INT", &pid])
-            .status()
-            .unwrap()
-            .success());
-    }
-
-    fn finish(mut self) -> Output {
-        let status = wait_or_kill(&mut self.child);
-        Output {
-            status,
-            stdout: self.stdout.join().unwrap(),
-            stderr: self.stderr.join().unwrap().into_bytes(),
-        }
-    }
-}
-
-fn summary(out: &Output) -> Value {
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    assert!(out.status.success(), "pyramid listen failed: {stderr}");
-    serde_json::from_slice(out.stdout.trim_ascii()).unwrap()
-}
-
-/// A binary PGM's pixels, rows from the lowest y (as the grids are).
-fn pgm_rows_bottom_up(path: &Path) -> (usize, usize, Vec<u8>) {
-    let bytes = std::fs::read(path).unwrap();
-    let text_end = {
-        // "P5\nW H\n255\n"
-        let mut newlines = 0;
-        let mut at = 0;
-        for (i, &b) in bytes.iter().enumerate() {
-            if b == b'\n' {
-                newlines += 1;
-                if newlines == 3 {
-                    at = i + 1;
-                    break;
-                }
-            }
-        }
-        at
-    };
-    let header = std::str::from_utf8(&bytes[..text_end]).unwrap();
-    let mut it = header.split_whitespace().skip(1);
-    let w: usize = it.next().unwrap().parse().unwrap();
-    let h: usize = it.next().unwrap().parse().unwrap();
-    let pixels = &bytes[text_end..];
-    assert_eq!(pixels.len(), w * h);
-    let mut rows = Vec::with_capacity(w * h);
-    for row in pixels.chunks(w).rev() {
-        rows.extend_from_slice(row);
-    }
-    (w, h, rows)
-}
-
-/// The PGM value of an OccupancyGrid value of the fused map.
-fn grey(v: i64) -> u8 {
-    match v {
-        100 => 0,
-        0 => 254,
-        -1 => 205,
-        other => panic!("fused value {other}"),
-    }
-}
-
-fn ints(v: &Value) -> Vec<i64> {
-    v.as_array()
-        .unwrap()
-        .iter()
-        .map(|x| x.as_i64().unwrap())
-        .collect()
-}
-
-/// Checks a bounded fused grid (OccupancyGrid or foxglove.Grid as decoded) against `fused.pgm`
-/// and its YAML: same cell size, lattices that coincide, equal cells where both lie, unknown
-/// elsewhere. Returns how many cells both cover.
-fn assert_fused_matches_pgm(
-    dir: &Path,
-    origin: (f64, f64),
-    r: f64,
-    width: usize,
-    cells: &[i64],
-) -> usize {
-    let (pw, ph, pixels) = pgm_rows_bottom_up(&dir.join("fused.pgm"));
-    let yaml = std::fs::read_to_string(dir.join("fused.yaml")).unwrap();
-    let field = |key: &str| -> String {
-        yaml.lines()
-            .find_map(|l| l.strip_prefix(key))
-            .unwrap()
-            .trim()
-            .to_string()
-    };
-    let pr: f64 = field("resolution:").parse().unwrap();
-    let o = field("origin:");
-    let o: Vec<f64> = o
-        .trim_matches(|c| c == '[' || c == ']')
-        .split(',')
-        .map(|s| s.trim().parse().unwrap())
-        .collect();
-    assert!((pr - r).abs() < 1e-6, "resolution {r} against {pr}");
-    let height = cells.len() / width;
-    let mut both = 0;
-    for j in 0..height {
-        for i in 0..width {
-            let v = cells[j * width + i];
-            let x = origin.0 + (i as f64 + 0.5) * r;
-            let y = origin.1 + (j as f64 + 0.5) * r;
-            let fx = (x - o[0]) / r;
-            let fy = (y - o[1]) / r;
-            assert!(
-                (fx - fx.floor() - 0.5).abs() < 1e-3,
-                "lattices differ: {fx}"
-            );
-            let (pi, pj) = (fx.floor(), fy.floor());
-            if pi >= 0.0 && pj >= 0.0 && (pi as usize) < pw && (pj as usize) < ph {
-                both += 1;
-                assert_eq!(
-                    grey(v),
-                    pixels[pj as usize * pw + pi as usize],
-                    "fused cell ({i}, {j})"
-                );
-            } else {
-                assert_eq!(v, -1, "outside the coarsest window: unknown");
-            }
-        }
-    }
-    both
-}
 
 // ------------------------------------------------------------------ MCAP
 
@@ -245,18 +53,7 @@ fn the_mcap_recording_reads_back_with_another_reader_and_equals_the_maps_written
         outputs["frames_published"].as_u64().unwrap() >= 1,
         "{outputs}"
     );
-    let read = Command::new(py)
-        .arg(py_dir().join("read_mcap.py"))
-        .arg(&mcap)
-        .output()
-        .unwrap();
-    assert!(
-        read.status.success(),
-        "read_mcap.py: {}",
-        String::from_utf8_lossy(&read.stderr)
-    );
-    let m: Value = serde_json::from_slice(&read.stdout).unwrap();
-    assert_eq!(m["errors"], Value::Array(vec![]), "{}", m["errors"]);
+    let m = read_mcap(py, &mcap);
     // Indexed and chunked, compressed.
     assert!(
         m["summary"]["chunks"].as_u64().unwrap() >= 1,
@@ -304,22 +101,16 @@ fn the_mcap_recording_reads_back_with_another_reader_and_equals_the_maps_written
     // The last fused grid (ROS and Foxglove) against fused.pgm, cell for cell.
     let f = &last["/terrain/fused"];
     assert_eq!(f["frame_id"], "odom");
-    let width = f["width"].as_u64().unwrap() as usize;
-    let r = f["resolution"].as_f64().unwrap();
-    let origin = (
-        f["origin"][0].as_f64().unwrap(),
-        f["origin"][1].as_f64().unwrap(),
-    );
-    let cells = ints(&f["data"]);
+    let grid = fused_grid(f);
     // ±10 m at 0.1 m: 200 cells.
-    assert_eq!(width, 200);
-    assert_eq!(cells.len(), 200 * 200);
-    let both = assert_fused_matches_pgm(&dir, origin, r, width, &cells);
+    assert_eq!(grid.width, 200);
+    assert_eq!(grid.cells.len(), 200 * 200);
+    let both = grid.assert_matches_pgm(&dir);
     assert!(both > 10_000, "{both} cells in common");
-    assert!(cells.contains(&100) && cells.contains(&0));
+    assert!(grid.cells.contains(&100) && grid.cells.contains(&0));
     let g = &last["/terrain/grid/fused"];
-    assert_eq!(ints(&g["occupancy"]), cells);
-    assert_eq!(g["origin"][0].as_f64().unwrap(), origin.0);
+    assert_eq!(ints(&g["occupancy"]), grid.cells);
+    assert_eq!(g["origin"][0].as_f64().unwrap(), grid.origin.0);
     // And the device's own fused query agrees with fused.pgm (so with both grids).
     let (device_fused, n) = fused_occupancy(&served.pyramid);
     let (pw, _, pixels) = pgm_rows_bottom_up(&dir.join("fused.pgm"));
@@ -382,49 +173,28 @@ fn pyramid_run_through_the_emulated_board_records_mcap_equal_to_its_maps() {
     let recording = dir.join("synthetic.rec");
     common::synthetic_recording(&recording);
     let mcap = dir.join("run.mcap");
-    let out = Command::new(common::PYRAMID)
-        .args(["run", "--board", "qemu", "--json", "--drop-m", "0.3"])
-        .arg("--recording")
-        .arg(&recording)
-        .arg("--out")
-        .arg(&dir)
-        .arg("--mcap")
-        .arg(&mcap)
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "pyramid run: {}",
-        String::from_utf8_lossy(&out.stderr)
+    let out = succeeded(
+        Command::new(common::PYRAMID)
+            .args(["run", "--board", "qemu", "--json", "--drop-m", "0.3"])
+            .arg("--recording")
+            .arg(&recording)
+            .arg("--out")
+            .arg(&dir)
+            .arg("--mcap")
+            .arg(&mcap),
+        "pyramid run: ",
     );
     let s: Value = serde_json::from_slice(&out.stdout).unwrap();
     let outputs = &s["outputs"];
     assert!(outputs["frames_published"].as_u64().unwrap() >= 1, "{s}");
     assert_eq!(outputs["pose_source"], "given");
-    let read = Command::new(py)
-        .arg(py_dir().join("read_mcap.py"))
-        .arg(&mcap)
-        .output()
-        .unwrap();
-    assert!(
-        read.status.success(),
-        "read_mcap.py: {}",
-        String::from_utf8_lossy(&read.stderr)
-    );
-    let m: Value = serde_json::from_slice(&read.stdout).unwrap();
-    assert_eq!(m["errors"], Value::Array(vec![]), "{}", m["errors"]);
+    let m = read_mcap(py, &mcap);
     let f = &m["last"]["/terrain/fused"];
-    let width = f["width"].as_u64().unwrap() as usize;
-    let r = f["resolution"].as_f64().unwrap();
-    let origin = (
-        f["origin"][0].as_f64().unwrap(),
-        f["origin"][1].as_f64().unwrap(),
-    );
-    let cells = ints(&f["data"]);
-    let both = assert_fused_matches_pgm(&dir, origin, r, width, &cells);
+    let grid = fused_grid(f);
+    let both = grid.assert_matches_pgm(&dir);
     assert!(both > 1_000, "{both} cells in common");
     assert!(
-        cells.contains(&100) && cells.contains(&0),
+        grid.cells.contains(&100) && grid.cells.contains(&0),
         "obstacles and ground"
     );
     // The recording's second pose (x 0.35, y 0.1): the last one sent.
@@ -470,13 +240,7 @@ fn a_foxglove_client_decodes_grids_while_a_stuck_client_holds_nothing_up() {
     let mut lines = BufReader::new(client.stdout.take().unwrap()).lines();
     let first = lines.next().and_then(Result::ok);
     if first.as_deref() != Some("ready") {
-        let mut err = String::new();
-        client
-            .stderr
-            .take()
-            .unwrap()
-            .read_to_string(&mut err)
-            .unwrap();
+        let err = stderr_of(&mut client);
         panic!("foxglove_client.py: {first:?}: {err}");
     }
     // Now the device drives: thousands of frames while one client never reads.
@@ -491,13 +255,7 @@ fn a_foxglove_client_decodes_grids_while_a_stuck_client_holds_nothing_up() {
     let served = dev.handle.join().unwrap();
     let result = lines.next().unwrap().unwrap();
     let status = client.wait().unwrap();
-    let mut err = String::new();
-    client
-        .stderr
-        .take()
-        .unwrap()
-        .read_to_string(&mut err)
-        .unwrap();
+    let err = stderr_of(&mut client);
     assert!(status.success(), "foxglove_client.py: {err}");
     let s = summary(&out);
     // No frame of the link was lost, the mirror is the device's.
@@ -585,32 +343,12 @@ fn a_foxglove_client_decodes_grids_while_a_stuck_client_holds_nothing_up() {
 
 // ------------------------------------------------------------------ ROS 2
 
-/// The environment variable that marks the inner test's run inside its network namespace.
-const NETNS_MARK: &str = "TERRAIN_PYRAMID_TEST_NETNS";
-
 #[test]
 fn ros2_topics_reach_cyclone_dds_inside_a_network_namespace() {
     python();
     // This test binary again, inside a new network namespace with only loopback (multicast
     // on, routed to lo), running the inner test: device, publisher and subscriber all there.
-    let exe = std::env::current_exe().unwrap();
-    let out = Command::new("unshare")
-        .args([
-            "-n",
-            "sh",
-            "-c",
-            "ip link set lo up multicast on && ip route add 224.0.0.0/4 dev lo && exec \"$0\" ros2_inner --exact --ignored --nocapture",
-        ])
-        .arg(&exe)
-        .env(NETNS_MARK, "1")
-        .output()
-        .expect("unshare runs");
-    let stdout = String::from_utf8_lossy(&out.stdout);
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    assert!(
-        out.status.success() && stdout.contains("1 passed"),
-        "the test inside `unshare -n` (root needed) failed:\n{stdout}\n{stderr}"
-    );
+    run_in_own_network_namespace("ros2_inner");
 }
 
 #[test]

@@ -4,9 +4,10 @@
 mod common;
 
 use common::{tmp, PYRAMID};
+use serialport::{SerialPort, TTYPort};
 use std::io::Write;
-use std::path::Path;
-use std::process::Command;
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Output};
 use terrain_pyramid::wire::recording::{Payload, Reader, HEADER_LEN};
 
 /// The laser bytes of a recording, concatenated, and each angle with the number of laser
@@ -37,16 +38,72 @@ fn run_host(recording: &Path, out: &Path) -> serde_json::Value {
     serde_json::from_slice(&o.stdout).unwrap()
 }
 
-#[test]
-fn a_raw_capture_and_its_angles_replay_to_the_original_maps() {
+/// The shared 3DTK scan (`scan000.3d`), or `None`, said on stderr, when it is absent (the
+/// comparison is then skipped).
+fn shared_scan() -> Option<PathBuf> {
     let scan = common::shared("scan000.3d");
-    if !scan.is_file() {
+    if scan.is_file() {
+        Some(scan)
+    } else {
         eprintln!(
             "note: {} is absent: the comparison is skipped",
             scan.display()
         );
-        return;
+        None
     }
+}
+
+/// A pseudo-terminal pair, no hardware: the side the test writes to, and the name of the
+/// other side (closed here) that `pyramid record --port` opens.
+fn pseudo_terminal() -> (TTYPort, String) {
+    let (master, slave) = TTYPort::pair().expect("a pseudo-terminal pair");
+    let name = slave.name().expect("the pair's name");
+    drop(slave);
+    (master, name)
+}
+
+/// Runs `pyramid record ARGS` on the raw capture `dir/capture.bin` with the angles CSV and
+/// the recording written, `(angles, out)`, both in `dir`; what it printed and its status.
+fn record_capture(args: &[&str], dir: &Path, (angles, out): (&str, &str)) -> Output {
+    Command::new(PYRAMID)
+        .arg("record")
+        .args(args)
+        .arg("--from")
+        .arg(dir.join("capture.bin"))
+        .arg("--angles")
+        .arg(dir.join(angles))
+        .arg("--out")
+        .arg(dir.join(out))
+        .output()
+        .unwrap()
+}
+
+/// Starts `pyramid record --json ARGS --out OUT`, its stdout (the JSON report) piped.
+fn spawn_record(args: &[&str], out: &Path) -> Child {
+    Command::new(PYRAMID)
+        .args(["record", "--json"])
+        .args(args)
+        .arg("--out")
+        .arg(out)
+        .stdout(std::process::Stdio::piped())
+        .spawn()
+        .unwrap()
+}
+
+/// Writes `bytes` to `port` in parts of `part_len` bytes, each flushed, `pause_ms` ms apart.
+fn write_in_parts(port: &mut TTYPort, bytes: &[u8], part_len: usize, pause_ms: u64) {
+    for part in bytes.chunks(part_len) {
+        port.write_all(part).unwrap();
+        port.flush().unwrap();
+        std::thread::sleep(std::time::Duration::from_millis(pause_ms));
+    }
+}
+
+#[test]
+fn a_raw_capture_and_its_angles_replay_to_the_original_maps() {
+    let Some(scan) = shared_scan() else {
+        return;
+    };
     let dir = tmp("record-from");
     // The 3DTK tilt scan as a recording of real SICK telegrams, from the shared data.
     let status = Command::new(PYRAMID)
@@ -89,27 +146,25 @@ fn a_raw_capture_and_its_angles_replay_to_the_original_maps() {
     }
     std::fs::write(dir.join("angles.csv"), csv).unwrap();
     let [x, y, z] = setup.sensor_m;
-    let o = Command::new(PYRAMID)
-        .args(["record", "--json", "--sensor", "sick", "--baud", "500000"])
-        .args(["--sensor-mode", &setup.measuring_mode.to_string()])
-        .args([
+    let o = record_capture(
+        &[
+            "--json",
+            "--sensor",
+            "sick",
+            "--baud",
+            "500000",
+            "--sensor-mode",
+            &setup.measuring_mode.to_string(),
             "--actuator",
             "tilt",
             "--mount-xyz-m",
             &format!("{x},{y},{z}"),
-        ])
-        .args([
             "--lines-per-observation",
             &setup.lines_per_observation.to_string(),
-        ])
-        .arg("--from")
-        .arg(dir.join("capture.bin"))
-        .arg("--angles")
-        .arg(dir.join("angles.csv"))
-        .arg("--out")
-        .arg(dir.join("mine.rec"))
-        .output()
-        .unwrap();
+        ],
+        &dir,
+        ("angles.csv", "mine.rec"),
+    );
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let report: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     assert_eq!(report["laser_bytes"], bytes.len());
@@ -142,35 +197,26 @@ fn a_raw_capture_and_its_angles_replay_to_the_original_maps() {
 
 #[test]
 fn a_serial_port_is_recorded_byte_for_byte_with_host_times() {
-    use serialport::SerialPort;
-    let (mut master, slave) = serialport::TTYPort::pair().expect("a pseudo-terminal pair");
-    let name = slave.name().expect("the pair's name");
-    drop(slave);
+    let (mut master, name) = pseudo_terminal();
     let dir = tmp("record-port");
     let out = dir.join("port.rec");
-    let child = Command::new(PYRAMID)
-        .args([
-            "record",
-            "--json",
+    let child = spawn_record(
+        &[
             "--sensor",
             "rplidar",
             "--actuator",
             "pan",
-        ])
-        .args(["--port", &name, "--duration-s", "2.5"])
-        .arg("--out")
-        .arg(&out)
-        .stdout(std::process::Stdio::piped())
-        .spawn()
-        .unwrap();
+            "--port",
+            &name,
+            "--duration-s",
+            "2.5",
+        ],
+        &out,
+    );
     std::thread::sleep(std::time::Duration::from_millis(700));
     // Bytes that are not all a lidar's packets: the recording keeps them as they came.
     let sent: Vec<u8> = (0..3000_u32).map(|i| (i * 7 + i / 256) as u8).collect();
-    for part in sent.chunks(500) {
-        master.write_all(part).unwrap();
-        master.flush().unwrap();
-        std::thread::sleep(std::time::Duration::from_millis(100));
-    }
+    write_in_parts(&mut master, &sent, 500, 100);
     let o = child.wait_with_output().unwrap();
     assert!(o.status.success());
     let report: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
@@ -210,16 +256,7 @@ fn a_bad_angles_csv_is_named_by_its_line() {
     let dir = tmp("record-bad-csv");
     std::fs::write(dir.join("capture.bin"), [0_u8; 10]).unwrap();
     std::fs::write(dir.join("a.csv"), "time_s,angle_deg\n0.0,1\n0.5,2\n0.4,3\n").unwrap();
-    let o = Command::new(PYRAMID)
-        .args(["record", "--sensor", "ld19"])
-        .arg("--from")
-        .arg(dir.join("capture.bin"))
-        .arg("--angles")
-        .arg(dir.join("a.csv"))
-        .arg("--out")
-        .arg(dir.join("x.rec"))
-        .output()
-        .unwrap();
+    let o = record_capture(&["--sensor", "ld19"], &dir, ("a.csv", "x.rec"));
     assert_eq!(o.status.code(), Some(2));
     let stderr = String::from_utf8_lossy(&o.stderr);
     assert!(
@@ -231,12 +268,7 @@ fn a_bad_angles_csv_is_named_by_its_line() {
 
 #[test]
 fn run_with_a_rig_file_takes_its_setup_over_the_recording_s() {
-    let scan = common::shared("scan000.3d");
-    if !scan.is_file() {
-        eprintln!(
-            "note: {} is absent: the comparison is skipped",
-            scan.display()
-        );
+    if shared_scan().is_none() {
         return;
     }
     let dir = tmp("run-rig");
@@ -281,26 +313,13 @@ fn run_with_a_rig_file_takes_its_setup_over_the_recording_s() {
 
 #[test]
 fn ctrl_c_ends_a_port_recording_with_a_complete_file() {
-    use serialport::SerialPort;
-    let (mut master, slave) = serialport::TTYPort::pair().expect("a pseudo-terminal pair");
-    let name = slave.name().expect("the pair's name");
-    drop(slave);
+    let (mut master, name) = pseudo_terminal();
     let dir = tmp("record-ctrl-c");
     let out = dir.join("port.rec");
-    let child = Command::new(PYRAMID)
-        .args(["record", "--json", "--sensor", "ld19", "--port", &name])
-        .arg("--out")
-        .arg(&out)
-        .stdout(std::process::Stdio::piped())
-        .spawn()
-        .unwrap();
+    let child = spawn_record(&["--sensor", "ld19", "--port", &name], &out);
     std::thread::sleep(std::time::Duration::from_millis(700));
     let sent: Vec<u8> = (0..2000_u32).map(|i| (i % 251) as u8).collect();
-    for part in sent.chunks(400) {
-        master.write_all(part).unwrap();
-        master.flush().unwrap();
-        std::thread::sleep(std::time::Duration::from_millis(50));
-    }
+    write_in_parts(&mut master, &sent, 400, 50);
     std::thread::sleep(std::time::Duration::from_millis(300));
     let status = Command::new("kill")
         .args(["-INT", &child.id().to_string()])

@@ -10,24 +10,20 @@
 //!   reason.
 mod common;
 
-use common::{record_3dtk, tmp, PYRAMID};
+use common::{record_3dtk, succeeded, tmp, PYRAMID};
 use std::path::Path;
 use std::process::Command;
 
 fn hash(recording: &Path, out: &Path, rule: &[&str]) -> String {
-    let output = Command::new(PYRAMID)
-        .args(["run", "--board", "host", "--json", "--recording"])
-        .arg(recording)
-        .arg("--out")
-        .arg(out)
-        .args(["--height-m", "0.4", "--max-range-m", "8", "--gamma", "3"])
-        .args(rule)
-        .output()
-        .unwrap();
-    assert!(
-        output.status.success(),
-        "{}",
-        String::from_utf8_lossy(&output.stderr)
+    let output = succeeded(
+        Command::new(PYRAMID)
+            .args(["run", "--board", "host", "--json", "--recording"])
+            .arg(recording)
+            .arg("--out")
+            .arg(out)
+            .args(["--height-m", "0.4", "--max-range-m", "8", "--gamma", "3"])
+            .args(rule),
+        "",
     );
     let v: serde_json::Value = serde_json::from_slice(&output.stdout).unwrap();
     v["layers_hash"].as_str().unwrap().to_string()
@@ -88,19 +84,15 @@ fn replay_names_and_applies_the_rule() {
     }
     let dir = tmp("rule-replay");
     let run = |rule: &str| -> serde_json::Value {
-        let output = Command::new(PYRAMID)
-            .args(["replay", "--json", "--points"])
-            .arg(&scan)
-            .arg("--out")
-            .arg(dir.join(rule))
-            .args(["--height-m", "0.4", "--max-range-m", "8", "--gamma", "3"])
-            .args(["--ceiling-m", "1.2", "--rule", rule])
-            .output()
-            .unwrap();
-        assert!(
-            output.status.success(),
-            "{}",
-            String::from_utf8_lossy(&output.stderr)
+        let output = succeeded(
+            Command::new(PYRAMID)
+                .args(["replay", "--json", "--points"])
+                .arg(&scan)
+                .arg("--out")
+                .arg(dir.join(rule))
+                .args(["--height-m", "0.4", "--max-range-m", "8", "--gamma", "3"])
+                .args(["--ceiling-m", "1.2", "--rule", rule]),
+            "",
         );
         serde_json::from_slice(&output.stdout).unwrap()
     };

@@ -398,17 +398,7 @@ fn run_kind(
         sim.crc_errors,
         sim.length_errors + sim.truncated,
     );
-    let got = (
-        stats.telegrams_ok,
-        stats.telegrams_bad_checksum,
-        stats.telegrams_bad_framing,
-    );
-    if want != got {
-        outcome.failures.push(format!(
-            "the firmware's SICK counters (ok, checksum, framing) {got:?} differ from the host \
-             accumulator's {want:?} over the same bytes"
-        ));
-    }
+    check_counters(outcome, &stats, want, ("SICK", "accumulator"));
     // Shutdown: QEMU must exit with 0 (a panic or HardFault is an error, hence `crashed`).
     emu.shutdown()?;
     Ok(())
@@ -547,6 +537,28 @@ fn compare(
         ));
     }
     Ok(diff)
+}
+
+/// Adds a failure to `outcome` unless the firmware's telegram counters in `stats` (ok, bad
+/// checksum, bad framing) equal `want`, the host's count over the same bytes; `(counters,
+/// host)` name them in the failure (`SICK`, `accumulator`; `packet`, `decoder`).
+fn check_counters(
+    outcome: &mut Outcome,
+    stats: &Stats,
+    want: (u32, u32, u32),
+    (counters, host): (&str, &str),
+) {
+    let got = (
+        stats.telegrams_ok,
+        stats.telegrams_bad_checksum,
+        stats.telegrams_bad_framing,
+    );
+    if want != got {
+        outcome.failures.push(format!(
+            "the firmware's {counters} counters (ok, checksum, framing) {got:?} differ from the \
+             host {host}'s {want:?} over the same bytes"
+        ));
+    }
 }
 
 /// Cells of every layer that are not unknown.
@@ -746,14 +758,10 @@ pub fn run(args: &Args) -> ExitCode {
     let started = Instant::now();
     match execute(args) {
         Ok(outcomes) => {
-            if args.json {
-                match serde_json::to_string(&Report { faults: &outcomes }) {
-                    Ok(s) => println!("{s}"),
-                    Err(e) => {
-                        eprintln!("error: {e}");
-                        return ExitCode::FAILURE;
-                    }
-                }
+            if args.json
+                && !terrain_pyramid_host::json_line::print(&Report { faults: &outcomes }, "error: ")
+            {
+                return ExitCode::FAILURE;
             }
             let bad: Vec<&str> = outcomes
                 .iter()
@@ -776,10 +784,7 @@ pub fn run(args: &Args) -> ExitCode {
                 ExitCode::FAILURE
             }
         }
-        Err(e) => {
-            eprintln!("error: {e}");
-            ExitCode::FAILURE
-        }
+        Err(e) => crate::command_failed(e),
     }
 }
 

@@ -602,13 +602,9 @@ pub fn execute(args: &Args) -> Result<Report, String> {
                 timed.send(&Message::Pose(PoseReport::unstamped(*pose)))?;
             }
             Step::Telegram {
-                bytes,
-                measured,
-                time_us,
-            } => {
-                if !measured {
-                    continue;
-                }
+                measured: false, ..
+            } => continue,
+            Step::Telegram { bytes, time_us, .. } => {
                 // Paced at the recording's times; what the device sent meanwhile is read as
                 // it comes, and offered to the outputs.
                 let (start, first) = *clock.get_or_insert((Instant::now(), *time_us));
@@ -705,10 +701,7 @@ pub fn run(args: &Args) -> ExitCode {
             }
             ExitCode::SUCCESS
         }
-        Err(e) => {
-            eprintln!("error: {e}");
-            ExitCode::FAILURE
-        }
+        Err(e) => crate::command_failed(e),
     }
 }
 

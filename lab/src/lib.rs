@@ -22,3 +22,9 @@ pub mod latency;
 pub mod live;
 pub mod size;
 pub mod soak;
+
+/// Ends a lab command that failed: says `error: {e}` on stderr; the failing exit status.
+pub fn command_failed(e: impl std::fmt::Display) -> std::process::ExitCode {
+    eprintln!("error: {e}");
+    std::process::ExitCode::FAILURE
+}

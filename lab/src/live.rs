@@ -193,15 +193,13 @@ impl Drop for Reaped {
     }
 }
 
-/// Whether this process's network namespace has no interface but loopback (`/proc/net/dev`
-/// is the namespace's own; `/sys/class/net` shows the namespace sysfs was mounted in).
-fn only_loopback() -> bool {
-    std::fs::read_to_string("/proc/net/dev").is_ok_and(|t| {
-        t.lines()
-            .skip(2)
-            .filter_map(|l| l.split(':').next())
-            .all(|name| name.trim() == "lo")
-    })
+/// Whether a read of the board's UART ended without bytes only because its timeout passed
+/// (the socket's read timeout or non-blocking mode), not for an error.
+fn read_timed_out(e: &std::io::Error) -> bool {
+    matches!(
+        e.kind(),
+        std::io::ErrorKind::WouldBlock | std::io::ErrorKind::TimedOut
+    )
 }
 
 /// The wall clock, µs since the Unix epoch.
@@ -299,7 +297,7 @@ fn request_stats(
 /// A part of the chain failed to start or to finish.
 #[allow(clippy::too_many_lines)]
 pub fn execute(args: &Args) -> Result<Report, String> {
-    if args.ros2 && !only_loopback() {
+    if args.ros2 && !terrain_pyramid_host::publish::only_loopback() {
         return Err(
             "--ros2 runs DDS: only inside a network namespace with nothing but loopback \
              (`cargo xtask live`)"
@@ -744,10 +742,7 @@ pub fn run(args: &Args) -> ExitCode {
             }
             ExitCode::SUCCESS
         }
-        Err(e) => {
-            eprintln!("error: {e}");
-            ExitCode::FAILURE
-        }
+        Err(e) => crate::command_failed(e),
     }
 }
 

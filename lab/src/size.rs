@@ -207,12 +207,8 @@ pub fn run(args: &Args) -> ExitCode {
     match measure() {
         Ok(sizes) => {
             if args.json {
-                match serde_json::to_string(&sizes) {
-                    Ok(json) => println!("{json}"),
-                    Err(e) => {
-                        eprintln!("error: {e}");
-                        return ExitCode::FAILURE;
-                    }
+                if !terrain_pyramid_host::json_line::print(&sizes, "error: ") {
+                    return ExitCode::FAILURE;
                 }
             } else {
                 println!(
@@ -250,9 +246,6 @@ pub fn run(args: &Args) -> ExitCode {
             }
             ExitCode::SUCCESS
         }
-        Err(e) => {
-            eprintln!("error: {e}");
-            ExitCode::FAILURE
-        }
+        Err(e) => crate::command_failed(e),
     }
 }

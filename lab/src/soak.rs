@@ -686,14 +686,8 @@ pub fn run(args: &Args) -> ExitCode {
     match execute(args) {
         Ok(report) => {
             print_summary(&report);
-            if args.json {
-                match serde_json::to_string(&report) {
-                    Ok(json) => println!("{json}"),
-                    Err(e) => {
-                        eprintln!("error: {e}");
-                        return ExitCode::FAILURE;
-                    }
-                }
+            if args.json && !terrain_pyramid_host::json_line::print(&report, "error: ") {
+                return ExitCode::FAILURE;
             }
             if report.passed {
                 ExitCode::SUCCESS
@@ -701,9 +695,6 @@ pub fn run(args: &Args) -> ExitCode {
                 ExitCode::FAILURE
             }
         }
-        Err(e) => {
-            eprintln!("error: {e}");
-            ExitCode::FAILURE
-        }
+        Err(e) => crate::command_failed(e),
     }
 }

@@ -2,6 +2,7 @@
 //! reference, cell by cell, on the 3DTK scan and the simulated street.
 
 use super::*;
+use terrain_pyramid_host_tests::harness::evidence_by_cell;
 
 /// The library's plane rule against the f64 reference on one observation: (cells, agreeing,
 /// cells away from the thresholds, agreeing among those).
@@ -46,17 +47,7 @@ fn agreement<const W: usize>(
             distance: d.to_num(),
         });
     }
-    let mut lib = BTreeMap::new();
-    c.finish(|e| {
-        lib.insert(
-            (
-                usize::from(e.layer),
-                i64::from(e.cell_x),
-                i64::from(e.cell_y),
-            ),
-            e.class == EvidenceClass::Obstacle,
-        );
-    });
+    let lib = evidence_by_cell(&mut c, |e| e.class == EvidenceClass::Obstacle);
     let resolutions: Vec<f64> = (0..g.layer_count())
         .filter_map(|k| g.resolution(k))
         .map(|r| f64::from(r.to_bits()) / 65_536.0)

@@ -104,22 +104,11 @@ impl Pyramid {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::reference::bands::{design, Schedule};
-    use crate::reference::bound::Sensor;
-    use crate::reference::logodds::{Arithmetic, Clamp, InverseModel, Model};
-    use crate::reference::window::Evidence;
+    use crate::reference::window::{default_quantised, Evidence};
 
     #[test]
     fn finer_positive_evidence_wins_and_undecided_falls_through() {
-        let d = design(&Sensor::default(), &Schedule::default(), 64, 16)
-            .result
-            .unwrap();
-        let model = Model {
-            arithmetic: Arithmetic::Quantised,
-            inverse: InverseModel::default(),
-            clamp: Clamp::DEFAULT,
-        };
-        let mut p = Pyramid::new(&d, model, 0.0);
+        let (d, mut p) = default_quantised();
         assert_eq!(p.fused(0, 0), Fused::Unknown);
         // Layer 1 (r = 0.2 m) says free at the origin; layer 0 says nothing yet.
         let l1 = d.layers[1].centre;

@@ -293,23 +293,32 @@ impl Pyramid {
     }
 }
 
+/// The default sensor's and schedule's design (64 cells, at most 16 layers) and its reference
+/// pyramid at the origin, in quantised arithmetic with the default inverse model and clamp:
+/// the tests' pyramid.
 #[cfg(test)]
-mod tests {
-    use super::*;
+pub(crate) fn default_quantised() -> (crate::reference::bands::Design, Pyramid) {
     use crate::reference::bands::{design, Schedule};
     use crate::reference::bound::Sensor;
     use crate::reference::logodds::{Arithmetic, Clamp, InverseModel};
+    let d = design(&Sensor::default(), &Schedule::default(), 64, 16)
+        .result
+        .unwrap();
+    let model = Model {
+        arithmetic: Arithmetic::Quantised,
+        inverse: InverseModel::default(),
+        clamp: Clamp::DEFAULT,
+    };
+    let pyramid = Pyramid::new(&d, model, 0.0);
+    (d, pyramid)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
 
     fn pyramid() -> Pyramid {
-        let d = design(&Sensor::default(), &Schedule::default(), 64, 16)
-            .result
-            .unwrap();
-        let model = Model {
-            arithmetic: Arithmetic::Quantised,
-            inverse: InverseModel::default(),
-            clamp: Clamp::DEFAULT,
-        };
-        Pyramid::new(&d, model, 0.0)
+        default_quantised().1
     }
 
     #[test]

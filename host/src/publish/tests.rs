@@ -89,18 +89,20 @@ fn config(hz: f64) -> Config {
     }
 }
 
+/// Outputs publishing at most `hz` times a second to one [`Stuck`] sink (`release`, `seen`).
+fn stuck_outputs(hz: f64, release: Receiver<()>, seen: Sender<(Vec<usize>, bool)>) -> Outputs {
+    Outputs::start_with(&config(hz), move |_| {
+        let sinks: Vec<Box<dyn Sink>> = vec![Box::new(Stuck { release, seen })];
+        Ok((sinks, None))
+    })
+    .unwrap()
+}
+
 #[test]
 fn a_stuck_output_never_holds_up_the_reader_and_the_latest_map_wins() {
     let (release_tx, release_rx) = mpsc::channel();
     let (seen_tx, seen_rx) = mpsc::channel();
-    let mut outputs = Outputs::start_with(&config(1000.0), move |_| {
-        let sinks: Vec<Box<dyn Sink>> = vec![Box::new(Stuck {
-            release: release_rx,
-            seen: seen_tx,
-        })];
-        Ok((sinks, None))
-    })
-    .unwrap();
+    let mut outputs = stuck_outputs(1000.0, release_rx, seen_tx);
     let mut pair = Pair::new();
     // The first hand-off is taken; the sink blocks in it.
     assert!(outputs.offer(pair.host.mirror(), None));
@@ -138,14 +140,7 @@ fn offers_are_bounded_by_the_rate_and_skip_unchanged_maps() {
     for _ in 0..1000 {
         release_tx.send(()).unwrap();
     }
-    let mut outputs = Outputs::start_with(&config(10.0), move |_| {
-        let sinks: Vec<Box<dyn Sink>> = vec![Box::new(Stuck {
-            release: release_rx,
-            seen: seen_tx,
-        })];
-        Ok((sinks, None))
-    })
-    .unwrap();
+    let mut outputs = stuck_outputs(10.0, release_rx, seen_tx);
     let mut pair = Pair::new();
     let start = Instant::now();
     let mut handed = 0;

@@ -143,6 +143,18 @@ pub fn pyramid(args: &[&str]) -> Output {
     Command::new(PYRAMID).args(args).output().unwrap()
 }
 
+/// Runs `command` to its end and returns what it printed; fails the test, with `what_failed`
+/// followed by the command's stderr, when it does not exit successfully.
+pub fn succeeded(command: &mut Command, what_failed: &str) -> Output {
+    let output = command.output().unwrap();
+    assert!(
+        output.status.success(),
+        "{what_failed}{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    output
+}
+
 /// Writes `bytes` to a fresh file in the system's temporary directory
 /// (`pyramid-WHAT-TAG-PID-NANOS.bin`); its path.
 pub fn temp_file(what: &str, tag: &str, bytes: &[u8]) -> PathBuf {

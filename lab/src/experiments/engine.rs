@@ -89,13 +89,9 @@ pub fn decode(data: &[u8], classifier: &ClassifierConfig) -> Result<Decoded, Str
                 pending_pose = Some(*pose);
             }
             Step::Telegram {
-                bytes,
-                measured,
-                time_us,
-            } => {
-                if !measured {
-                    continue;
-                }
+                measured: false, ..
+            } => continue,
+            Step::Telegram { bytes, time_us, .. } => {
                 let telegram = Telegram::new_checked(&bytes[..])
                     .map_err(|e| format!("a decoded telegram: {e:?}"))?;
                 lines.push(Line {

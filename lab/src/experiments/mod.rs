@@ -612,22 +612,15 @@ fn finish<T: Serialize>(
                 }
             }
             if args.json {
-                match serde_json::to_string(&results) {
-                    Ok(json) => println!("{json}"),
-                    Err(e) => {
-                        eprintln!("error: {e}");
-                        return ExitCode::FAILURE;
-                    }
+                if !terrain_pyramid_host::json_line::print(&results, "error: ") {
+                    return ExitCode::FAILURE;
                 }
             } else {
                 eprintln!("results written to {}", display(&args.out));
             }
             ExitCode::SUCCESS
         }
-        Err(e) => {
-            eprintln!("error: {e}");
-            ExitCode::FAILURE
-        }
+        Err(e) => crate::command_failed(e),
     }
 }
 

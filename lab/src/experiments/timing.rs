@@ -53,17 +53,17 @@ mod runner;
 pub use agreement::{agreement, Agreement, LayerAgreement};
 pub use poses::{late_poses, on_time_poses, true_poses, LatePose, PoseFeed};
 pub use runner::{
-    run, Input, PoseRule, RunOutcome, ON_TIME_PERIOD_US, TRUTH_PERIOD_US, TRUTH_TRACK,
+    run, Input, PoseRule, RunCounters, RunOutcome, ON_TIME_PERIOD_US, TRUTH_PERIOD_US, TRUTH_TRACK,
 };
 
 use super::designs;
 use super::lidar::{ld19_sim, Ld19Design, StairsSetup as Ld19Setup};
-use super::stairs::{self, round3};
+use super::stairs::{self, round3, Cell};
 use serde::Serialize;
 use terrain_pyramid::classify::ClassifierConfig;
 use terrain_pyramid::link::convert::{frontend_config, setup_message_with_sensor};
 use terrain_pyramid::pipeline::FrontendConfig;
-use terrain_pyramid::{Config, GateShape};
+use terrain_pyramid::{Config, Design, GateShape};
 use terrain_pyramid_host::play::{steps, Step, Steps};
 use terrain_pyramid_host_tests::sim::laser::LaserConfig;
 use terrain_pyramid_host_tests::sim::lidar::{simulate_lidar, LidarSimConfig};
@@ -76,18 +76,9 @@ use terrain_pyramid_host_tests::sim::trajectory::Trajectory;
 pub struct RunFigures {
     /// Its cells against the lock-step run's (the lock-step run: all equal).
     pub cells: Agreement,
-    /// The robot's distance to the first riser when the first step was seen, metres.
-    pub first_step_m: Option<f64>,
-    /// Returns placed with an extrapolated pose.
-    pub returns_extrapolated: u64,
-    /// Returns refused for want of a pose.
-    pub returns_without_pose: u64,
-    /// Stamped poses taken.
-    pub poses_stamped: u64,
-    /// Stamped poses refused.
-    pub poses_refused: u64,
-    /// Observations applied.
-    pub observations: u64,
+    /// Its first-step distance and the device's counters (in the JSON beside `cells`).
+    #[serde(flatten)]
+    pub counters: RunCounters,
 }
 
 /// A scene's figures.
@@ -135,12 +126,7 @@ pub struct TimingResult {
 fn figures(o: &RunOutcome, reference: &RunOutcome) -> RunFigures {
     RunFigures {
         cells: agreement(&o.snapshot, &reference.snapshot),
-        first_step_m: o.first_step_m,
-        returns_extrapolated: o.returns_extrapolated,
-        returns_without_pose: o.returns_without_pose,
-        poses_stamped: o.poses_stamped,
-        poses_refused: o.poses_refused,
-        observations: o.observations,
+        counters: o.counters,
     }
 }
 
@@ -209,7 +195,7 @@ fn scene_result(
         })
         .max()
         .unwrap_or(0);
-    let delta = |o: &RunOutcome| match (o.first_step_m, lock.first_step_m) {
+    let delta = |o: &RunOutcome| match (o.counters.first_step_m, lock.counters.first_step_m) {
         (Some(a), Some(b)) => Some(round3(a - b)),
         _ => None,
     };
@@ -241,6 +227,69 @@ fn frontend_of(steps: &Steps) -> Result<FrontendConfig, String> {
     .map_err(|e| format!("the recording's setup: {e}"))
 }
 
+/// A scene's decoded recording and the three pose feeds drawn from its trajectory.
+struct Feeds {
+    /// The decoded recording.
+    steps: Steps,
+    /// The late feed ([`late_poses`]).
+    late: Vec<LatePose>,
+    /// The on-time control's feed ([`on_time_poses`]).
+    on_time: Vec<LatePose>,
+    /// The reference's true poses ([`true_poses`]).
+    truth: Vec<LatePose>,
+}
+
+impl Feeds {
+    /// Decodes a simulated recording (`bytes`, `duration_us` µs long) and samples the robot's
+    /// `motion` (its trajectory through the scene) for the three feeds.
+    fn of(
+        bytes: &[u8],
+        duration_us: u64,
+        motion: (&Trajectory, &Scene),
+        feed: &PoseFeed,
+    ) -> Result<Self, String> {
+        let (trajectory, scene) = motion;
+        Ok(Self {
+            steps: steps(bytes)?,
+            late: late_poses(trajectory, scene, duration_us, feed),
+            on_time: on_time_poses(trajectory, scene, duration_us),
+            truth: true_poses(trajectory, scene, duration_us),
+        })
+    }
+}
+
+/// Runs a scene's four runs on a `W`-cell, `L`-layer, `C`-slot co-processor booted with
+/// `design` and `config` (the observation under way applied at the end) and gathers its
+/// figures; `first_riser` as [`Input::first_riser`].
+fn measure<const W: usize, const L: usize, const C: usize>(
+    scene: &str,
+    description: String,
+    feeds: &Feeds,
+    design: &Design<L>,
+    config: &Config,
+    first_riser: Option<(&[Cell], f64)>,
+) -> Result<SceneResult, String> {
+    let input = Input {
+        steps: &feeds.steps,
+        late: &feeds.late,
+        on_time: &feeds.on_time,
+        truth: &feeds.truth,
+        design,
+        config,
+        frontend: frontend_of(&feeds.steps)?,
+        first_riser,
+        end_observation: true,
+    };
+    let runs = four::<W, L, C>(&input)?;
+    Ok(scene_result(
+        scene,
+        description,
+        &feeds.steps,
+        &feeds.late,
+        &runs,
+    ))
+}
+
 /// The stairs scene's simulator setup (SICK, the stairs experiment's), quick or full.
 pub fn stairs_setup(quick: bool) -> stairs::Setup {
     if quick {
@@ -266,15 +315,8 @@ pub fn stairs_scene(quick: bool, feed: &PoseFeed) -> Result<SceneResult, String>
         ..setup.sim()
     };
     let sim = simulate(&sim_config).map_err(|e| e.to_string())?;
-    let steps = steps(&sim.bytes)?;
-    let late = late_poses(
-        &sim_config.trajectory,
-        &sim_config.scene,
-        sim.duration_us,
-        feed,
-    );
-    let on_time = on_time_poses(&sim_config.trajectory, &sim_config.scene, sim.duration_us);
-    let truth = true_poses(&sim_config.trajectory, &sim_config.scene, sim.duration_us);
+    let motion = (&sim_config.trajectory, &sim_config.scene);
+    let feeds = Feeds::of(&sim.bytes, sim.duration_us, motion, feed)?;
     #[allow(clippy::cast_possible_truncation)]
     let design = designs::pyramid::<{ stairs::LAYERS }>(
         setup.range_m as f32,
@@ -286,34 +328,24 @@ pub fn stairs_scene(quick: bool, feed: &PoseFeed) -> Result<SceneResult, String>
     let (_, first) = stairs::step_cells(&sim_config);
     let riser_x = sim_config.scene.target_x.unwrap_or(0.0);
     let config = designs::unclamped();
-    let input = Input {
-        steps: &steps,
-        late: &late,
-        on_time: &on_time,
-        truth: &truth,
-        design: &design,
-        config: &config,
-        frontend: frontend_of(&steps)?,
-        first_riser: Some((&first, riser_x)),
-        end_observation: true,
-    };
-    let runs = four::<{ stairs::CELLS }, { stairs::LAYERS }, { stairs::SLOTS }>(&input)?;
-    Ok(scene_result(
+    let description = format!(
+        "SICK LMS291 panned ±45° at {}°/s, standing {} s {:.2} m from the stairs, then \
+         driving at {} m/s to {} m; soft-gated pyramid, every layer 0.1 m, to {} m",
+        setup.pan_rate_deg_s,
+        setup.stand_s,
+        setup.stand_distance_m,
+        setup.speed_mps,
+        setup.stop_distance_m,
+        setup.range_m
+    );
+    measure::<{ stairs::CELLS }, { stairs::LAYERS }, { stairs::SLOTS }>(
         "stairs",
-        format!(
-            "SICK LMS291 panned ±45° at {}°/s, standing {} s {:.2} m from the stairs, then \
-             driving at {} m/s to {} m; soft-gated pyramid, every layer 0.1 m, to {} m",
-            setup.pan_rate_deg_s,
-            setup.stand_s,
-            setup.stand_distance_m,
-            setup.speed_mps,
-            setup.stop_distance_m,
-            setup.range_m
-        ),
-        &steps,
-        &late,
-        &runs,
-    ))
+        description,
+        &feeds,
+        &design,
+        &config,
+        Some((&first, riser_x)),
+    )
 }
 
 /// The turning scene's room: half extents, metres.
@@ -348,43 +380,26 @@ pub fn turning_sim(quick: bool, seed: u64) -> SimConfig {
 pub fn turning_scene(quick: bool, feed: &PoseFeed) -> Result<SceneResult, String> {
     let sim_config = turning_sim(quick, 1);
     let sim = simulate(&sim_config).map_err(|e| e.to_string())?;
-    let steps = steps(&sim.bytes)?;
-    let late = late_poses(
-        &sim_config.trajectory,
-        &sim_config.scene,
-        sim.duration_us,
-        feed,
-    );
-    let on_time = on_time_poses(&sim_config.trajectory, &sim_config.scene, sim.duration_us);
-    let truth = true_poses(&sim_config.trajectory, &sim_config.scene, sim.duration_us);
+    let motion = (&sim_config.trajectory, &sim_config.scene);
+    let feeds = Feeds::of(&sim.bytes, sim.duration_us, motion, feed)?;
     let design = designs::pyramid::<TURN_LAYERS>(8.0, GateShape::default(), false, TURN_CELLS)
         .map_err(|e| e.to_string())?;
     let config = Config::default();
-    let input = Input {
-        steps: &steps,
-        late: &late,
-        on_time: &on_time,
-        truth: &truth,
-        design: &design,
-        config: &config,
-        frontend: frontend_of(&steps)?,
-        first_riser: None,
-        end_observation: true,
-    };
-    let runs = four::<TURN_CELLS, TURN_LAYERS, { stairs::SLOTS }>(&input)?;
-    Ok(scene_result(
+    let description = format!(
+        "SICK LMS291 panned ±45° at 75°/s, turning in place at {TURN_RAD_S} rad/s for \
+         {:.0} s in a {} m × {} m room (2 m walls, two pillars); the paper's pyramid to 8 m",
+        sim_config.trajectory.duration_s(),
+        2.0 * ROOM_HALF_M.0,
+        2.0 * ROOM_HALF_M.1
+    );
+    measure::<TURN_CELLS, TURN_LAYERS, { stairs::SLOTS }>(
         "turning",
-        format!(
-            "SICK LMS291 panned ±45° at 75°/s, turning in place at {TURN_RAD_S} rad/s for \
-             {:.0} s in a {} m × {} m room (2 m walls, two pillars); the paper's pyramid to 8 m",
-            sim_config.trajectory.duration_s(),
-            2.0 * ROOM_HALF_M.0,
-            2.0 * ROOM_HALF_M.1
-        ),
-        &steps,
-        &late,
-        &runs,
-    ))
+        description,
+        &feeds,
+        &design,
+        &config,
+        None,
+    )
 }
 
 /// The LD19 scene's setup: its stairs run, quick or full.
@@ -418,48 +433,31 @@ pub fn ld19_scene(quick: bool, feed: &PoseFeed) -> Result<SceneResult, String> {
         )
     };
     let sim = simulate_lidar(&sim_config).map_err(|e| e.to_string())?;
-    let steps = steps(&sim.bytes)?;
-    let late = late_poses(
-        &sim_config.trajectory,
-        &sim_config.scene,
-        sim.duration_us,
-        feed,
-    );
-    let on_time = on_time_poses(&sim_config.trajectory, &sim_config.scene, sim.duration_us);
-    let truth = true_poses(&sim_config.trajectory, &sim_config.scene, sim.duration_us);
+    let motion = (&sim_config.trajectory, &sim_config.scene);
+    let feeds = Feeds::of(&sim.bytes, sim.duration_us, motion, feed)?;
     let design = Ld19Design::from_datasheet()
         .pyramid::<L>(setup.range_m, GateShape::default(), true, W)
         .map_err(|e| e.to_string())?;
     let (_, first) = stairs::step_cells(&scene_config);
     let riser_x = scene_config.scene.target_x.unwrap_or(0.0);
     let config = designs::unclamped();
-    let input = Input {
-        steps: &steps,
-        late: &late,
-        on_time: &on_time,
-        truth: &truth,
-        design: &design,
-        config: &config,
-        frontend: frontend_of(&steps)?,
-        first_riser: Some((&first, riser_x)),
-        end_observation: true,
-    };
-    let runs = four::<W, L, { stairs::SLOTS }>(&input)?;
-    Ok(scene_result(
+    let description = format!(
+        "LD19 nodding 2°–35° at 20°/s on a servo, standing {} s {:.2} m from the stairs, \
+         then driving at {} m/s to {} m; soft-gated pyramid, every layer 0.1 m, to {} m",
+        setup.stand_s,
+        setup.stand_distance_m,
+        setup.speed_mps,
+        setup.stop_distance_m,
+        setup.range_m
+    );
+    measure::<W, L, { stairs::SLOTS }>(
         "ld19",
-        format!(
-            "LD19 nodding 2°–35° at 20°/s on a servo, standing {} s {:.2} m from the stairs, \
-             then driving at {} m/s to {} m; soft-gated pyramid, every layer 0.1 m, to {} m",
-            setup.stand_s,
-            setup.stand_distance_m,
-            setup.speed_mps,
-            setup.stop_distance_m,
-            setup.range_m
-        ),
-        &steps,
-        &late,
-        &runs,
-    ))
+        description,
+        &feeds,
+        &design,
+        &config,
+        Some((&first, riser_x)),
+    )
 }
 
 /// The three scenes.
@@ -557,11 +555,11 @@ pub fn report(r: &TimingResult) -> String {
                 pct(f.cells.worst_layer_equal_share),
                 pct(f.cells.same_side_share),
                 f.cells.known,
-                metres(f.first_step_m),
+                metres(f.counters.first_step_m),
                 delta.map_or_else(|| "-".into(), |d| format!("{d:+.2} m")),
-                f.returns_extrapolated,
-                f.returns_without_pose,
-                f.poses_refused
+                f.counters.returns_extrapolated,
+                f.counters.returns_without_pose,
+                f.counters.poses_refused
             );
         }
         let _ = writeln!(
@@ -610,21 +608,14 @@ pub fn run_command(args: &Args) -> std::process::ExitCode {
     match written {
         Ok(r) => {
             if args.json {
-                match serde_json::to_string(&r) {
-                    Ok(j) => println!("{j}"),
-                    Err(e) => {
-                        eprintln!("error: {e}");
-                        return std::process::ExitCode::FAILURE;
-                    }
+                if !terrain_pyramid_host::json_line::print(&r, "error: ") {
+                    return std::process::ExitCode::FAILURE;
                 }
             } else {
                 eprint!("{}", report(&r));
             }
             std::process::ExitCode::SUCCESS
         }
-        Err(e) => {
-            eprintln!("error: {e}");
-            std::process::ExitCode::FAILURE
-        }
+        Err(e) => crate::command_failed(e),
     }
 }

@@ -35,7 +35,7 @@
 //! is over (applied > 0; the harness waits 800 ms after the Setup). The map is not compared:
 //! the model runs on the board's clock.
 
-use super::{compare, known_cells, Counters, Outcome, Rng};
+use super::{check_counters, compare, known_cells, Counters, Outcome, Rng};
 use std::path::Path;
 use terrain_pyramid::classify::ClassifierConfig;
 use terrain_pyramid::laser::{LaserDecoder, LaserItem, Sensor, SensorKind};
@@ -377,17 +377,7 @@ pub fn run_kind(
     outcome.reference_known_cells = known_cells(reference.core().pyramid());
     outcome.counters = Some(Counters::from(&stats));
     let want = (c.ok, c.bad_checksum, c.bad_framing);
-    let got = (
-        stats.telegrams_ok,
-        stats.telegrams_bad_checksum,
-        stats.telegrams_bad_framing,
-    );
-    if want != got {
-        outcome.failures.push(format!(
-            "the firmware's packet counters (ok, checksum, framing) {got:?} differ from the \
-             host decoder's {want:?} over the same bytes"
-        ));
-    }
+    check_counters(outcome, &stats, want, ("packet", "decoder"));
     // A bad RPLIDAR node drops the accumulator's lock; it locks again on a run of 16 valid
     // nodes, so up to 16 nodes (4 chunks of 5) after each damage run go by design.
     let runs = damage_runs(&damaged);

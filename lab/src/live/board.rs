@@ -4,32 +4,14 @@ use super::Reaped;
 use std::io::{Read, Write};
 use std::os::unix::net::UnixStream;
 use std::path::Path;
-use std::process::{Child, Command, Stdio};
+use std::process::Stdio;
 use std::time::{Duration, Instant};
 use terrain_pyramid::classify::ClassifierConfig;
 use terrain_pyramid::link::convert::setup_message_with_sensor;
 use terrain_pyramid::wire::link::Message;
-use terrain_pyramid_host::emulator::Machine;
+use terrain_pyramid_host::emulator::{connect, qemu_command, Machine};
 use terrain_pyramid_host::link::{HostLink, LinkEvent};
 use terrain_pyramid_host::play::Steps;
-
-fn connect(path: &Path, child: &mut Child) -> Result<UnixStream, String> {
-    let start = Instant::now();
-    loop {
-        match UnixStream::connect(path) {
-            Ok(s) => return Ok(s),
-            Err(e) => {
-                if let Ok(Some(status)) = child.try_wait() {
-                    return Err(format!("QEMU exited before its UARTs opened ({status})"));
-                }
-                if start.elapsed() > Duration::from_secs(20) {
-                    return Err(format!("cannot connect to {}: {e}", path.display()));
-                }
-                std::thread::sleep(Duration::from_millis(20));
-            }
-        }
-    }
-}
 
 /// QEMU with the firmware, its UARTs on sockets in `dir`.
 pub(super) fn start_qemu(
@@ -40,26 +22,7 @@ pub(super) fn start_qemu(
     let (s0, s1) = (dir.join("uart0.sock"), dir.join("uart1.sock"));
     let log = std::fs::File::create(dir.join("firmware.defmt"))
         .map_err(|e| format!("cannot create the firmware's log: {e}"))?;
-    let mut child = Command::new("qemu-system-arm")
-        .args([
-            "-machine",
-            machine.qemu_machine(),
-            "-nographic",
-            "-cpu",
-            "cortex-m4",
-        ])
-        .args([
-            "-monitor",
-            "none",
-            "-semihosting-config",
-            "enable=on,target=native",
-        ])
-        .arg("-serial")
-        .arg(format!("unix:{},server=on,wait=on", s0.display()))
-        .arg("-serial")
-        .arg(format!("unix:{},server=on,wait=on", s1.display()))
-        .arg("-kernel")
-        .arg(elf)
+    let mut child = qemu_command(machine, elf, [&s0, &s1])
         .stdin(Stdio::null())
         .stdout(log)
         .stderr(Stdio::null())
@@ -93,14 +56,7 @@ pub(super) fn setup_device(uart1: &mut UnixStream, steps: &Steps) -> Result<(), 
         }
         let n = match uart1.read(&mut buf) {
             Ok(n) => n,
-            Err(e)
-                if matches!(
-                    e.kind(),
-                    std::io::ErrorKind::WouldBlock | std::io::ErrorKind::TimedOut
-                ) =>
-            {
-                0
-            }
+            Err(e) if super::read_timed_out(&e) => 0,
             Err(e) => return Err(format!("the link: {e}")),
         };
         for event in host.feed(buf.get(..n).unwrap_or_default()) {

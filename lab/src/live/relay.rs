@@ -180,14 +180,7 @@ pub(super) fn relay(listener: TcpListener, uart1: UnixStream) -> Relay {
             let n = match uart_r.read(&mut buf) {
                 Ok(0) => break,
                 Ok(n) => n,
-                Err(e)
-                    if matches!(
-                        e.kind(),
-                        std::io::ErrorKind::WouldBlock | std::io::ErrorKind::TimedOut
-                    ) =>
-                {
-                    continue
-                }
+                Err(e) if super::read_timed_out(&e) => continue,
                 Err(_) => break,
             };
             let at = wall_us();

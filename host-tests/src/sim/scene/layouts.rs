@@ -218,17 +218,7 @@ impl Scene {
             .collect();
         let features = boxes
             .iter()
-            .map(|&(min, max)| Feature {
-                kind: FeatureKind::Block,
-                footprint: Footprint::Rect {
-                    x_min: min[0],
-                    x_max: max[0],
-                    y_min: min[1],
-                    y_max: max[1],
-                },
-                bottom_m: 0.0,
-                height_m: max[2],
-            })
+            .map(|&(min, max)| Feature::block(min, max))
             .collect();
         Self {
             name: "room",

@@ -60,6 +60,25 @@ pub struct Feature {
     pub height_m: f64,
 }
 
+impl Feature {
+    /// A block standing on the ground (a wall, a pillar, a parked car) over `min`..`max`
+    /// (x, y, metres), `max[2] − min[2]` metres tall.
+    #[must_use]
+    pub fn block(min: [f64; 3], max: [f64; 3]) -> Self {
+        Self {
+            kind: FeatureKind::Block,
+            footprint: Footprint::Rect {
+                x_min: min[0],
+                x_max: max[0],
+                y_min: min[1],
+                y_max: max[1],
+            },
+            bottom_m: 0.0,
+            height_m: max[2] - min[2],
+        }
+    }
+}
+
 /// The cells a map should mark as obstacles: the grid and the rule ([`Scene::obstacle_cells`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct GroundTruthSpec {

@@ -97,20 +97,7 @@ fn platform_edges(rect: Rect, height: f64, kind: FeatureKind) -> Vec<Feature> {
 
 /// A box standing on the ground (a wall, a parked car) as a solid and its feature.
 fn block(min: [f64; 3], max: [f64; 3]) -> (Solid, Feature) {
-    (
-        Solid::Box { min, max },
-        Feature {
-            kind: FeatureKind::Block,
-            footprint: Footprint::Rect {
-                x_min: min[0],
-                x_max: max[0],
-                y_min: min[1],
-                y_max: max[1],
-            },
-            bottom_m: 0.0,
-            height_m: max[2] - min[2],
-        },
-    )
+    (Solid::Box { min, max }, Feature::block(min, max))
 }
 
 /// A pole of radius 0.05 m and 2.5 m standing at `(x, y)` on ground at `z0`.

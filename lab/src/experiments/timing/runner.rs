@@ -51,6 +51,13 @@ pub const TRUTH_TRACK: usize = 64;
 pub struct RunOutcome {
     /// The maps at the end.
     pub snapshot: MapSnapshot,
+    /// Its first-step distance and the device's counters.
+    pub counters: RunCounters,
+}
+
+/// A run's first-step distance and the device's counters.
+#[derive(Debug, Clone, Copy, Serialize)]
+pub struct RunCounters {
     /// The robot's distance to the first riser when the first step was first seen, metres
     /// (a scene with stairs).
     pub first_step_m: Option<f64>,
@@ -217,12 +224,14 @@ fn run_with<const W: usize, const L: usize, const C: usize, const N: usize>(
     let track = track_counters(&core);
     Ok(RunOutcome {
         snapshot,
-        first_step_m,
-        returns_extrapolated: track.0,
-        returns_without_pose: track.1,
-        poses_stamped: track.2,
-        poses_refused: track.3,
-        observations: u64::from(counters.frontend.observations),
+        counters: RunCounters {
+            first_step_m,
+            returns_extrapolated: track.0,
+            returns_without_pose: track.1,
+            poses_stamped: track.2,
+            poses_refused: track.3,
+            observations: u64::from(counters.frontend.observations),
+        },
     })
 }
 
