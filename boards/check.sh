@@ -118,10 +118,28 @@ step "build: microbit (release)"
 # The host side of these runs (`pyramid`, the tests) is the build `cargo test --workspace`
 # makes (`cargo xtask test` runs it first): `--workspace` keeps the features unified as there,
 # so nothing is compiled again; the firmware is always the release build.
-# run_test NAME FILTER LOG: one test of host/tests/NAME.rs, its outputs kept under $smoke.
-run_test() {
+# board_run NAME FILTER WHAT PATTERN: one test of host/tests/NAME.rs, its outputs kept under
+# $smoke and its log required to hold PATTERN; with --runs-from, the test passed already and
+# its outputs are read from there.
+board_run() {
+    if [[ -n "$runs_from" ]]; then
+        echo "from $smoke (the test passed in cargo test --workspace)"
+        return
+    fi
+    local log="$smoke/$2.log"
     (cd "$root" && PYRAMID_QEMU_OUT="$smoke" cargo test --workspace --test "$1" "$2" -- --nocapture) \
-        2>&1 | tee "$3"
+        2>&1 | tee "$log" \
+        || fail "the $3 run failed (exit codes: 101 panic, 102 HardFault, 124 timeout)"
+    grep -q "$4" "$log" || fail "$3 did not match"
+}
+# firmware_stack ELF DEFMT LOG: the firmware's defmt log decoded into LOG (and shown), its
+# clean shutdown checked; prints its stack high-water mark.
+firmware_stack() {
+    [[ -f "$2" ]] || fail "no firmware log at $2"
+    defmt-print -e "$1" < "$2" > "$3" 2>&1 || true
+    cat "$3" >&2
+    grep -q "shutdown:" "$3" || fail "the firmware of $1 did not shut down cleanly"
+    sed -n 's/.*stack: high-water \([0-9]*\) bytes.*/\1/p' "$3" | tail -1
 }
 if [[ -n "$runs_from" ]]; then
     smoke="$(cd "$runs_from" && pwd)"
@@ -134,31 +152,16 @@ fi
 step "QEMU firmware: self-check, a recording through the pipeline, exit code"
 # The synthetic recording of host/tests/run_qemu.rs through `pyramid run --board qemu` and
 # `--board host`: every cell must be identical, QEMU must exit with 0 after Shutdown.
-if [[ -z "$runs_from" ]]; then
-    run_test run_qemu qemu_matches_host_on_a_synthetic_recording "$smoke/test.log" \
-        || fail "the QEMU firmware run failed (exit codes: 101 panic, 102 HardFault, 124 timeout)"
-    grep -q "identical" "$smoke/test.log" || fail "the emulated run did not match the host pipeline"
-else
-    echo "from $smoke (the test passed in cargo test --workspace)"
-fi
-[[ -f "$smoke/synthetic-qemu/qemu/firmware.defmt" ]] || fail "no firmware log in $smoke/synthetic-qemu"
+board_run run_qemu qemu_matches_host_on_a_synthetic_recording "QEMU firmware" "identical"
 run_log="$smoke/firmware.log"
-defmt-print -e "$qemu_dir/target/thumbv7em-none-eabihf/release/qemu-mps2" \
-    < "$smoke/synthetic-qemu/qemu/firmware.defmt" > "$run_log" 2>&1 || true
-cat "$run_log"
+qemu_stack=$(firmware_stack "$qemu_dir/target/thumbv7em-none-eabihf/release/qemu-mps2" \
+    "$smoke/synthetic-qemu/qemu/firmware.defmt" "$run_log")
 grep -q "self-check passed" "$run_log" || fail "no self-check in the firmware's log"
-grep -q "shutdown:" "$run_log" || fail "the firmware did not shut down cleanly"
-qemu_stack=$(sed -n 's/.*stack: high-water \([0-9]*\) bytes.*/\1/p' "$run_log" | tail -1)
 [[ -n "$qemu_stack" ]] || fail "the firmware did not report its stack"
 
 step "stm32f4 on QEMU's netduinoplus2: the synthetic recording, bit-identical to the host"
-if [[ -z "$runs_from" ]]; then
-    run_test run_qemu netduinoplus2_matches_host_on_a_synthetic_recording "$smoke/nd.log" \
-        || fail "the netduinoplus2 run failed (exit codes: 101 panic, 102 HardFault)"
-    grep -q "netduinoplus2: .* identical" "$smoke/nd.log" || fail "netduinoplus2 did not match the host"
-else
-    echo "from $smoke (the test passed in cargo test --workspace)"
-fi
+board_run run_qemu netduinoplus2_matches_host_on_a_synthetic_recording netduinoplus2 \
+    "netduinoplus2: .* identical"
 nd_stack=$(sed -n 's/.*"stack_bytes":\([0-9]*\).*/\1/p' \
     "$smoke/synthetic-netduinoplus2/netduinoplus2/summary.json" 2>/dev/null || true)
 [[ -n "$nd_stack" ]] || fail "netduinoplus2: no stack high-water mark"
@@ -166,20 +169,10 @@ step "stm32f4 on QEMU's netduinoplus2: the link against an independent implement
 (cd "$stm32_dir" && ./qemu-check.sh --no-build) || fail "stm32f4/qemu-check.sh"
 
 step "microbit on QEMU's microbit: the synthetic recording, bit-identical to the library"
-if [[ -z "$runs_from" ]]; then
-    run_test run_microbit microbit_matches_the_host_on_a_synthetic_recording "$smoke/mb.log" \
-        || fail "the microbit run failed (exit codes: 101 panic, 102 HardFault)"
-    grep -q "microbit: .* on both" "$smoke/mb.log" || fail "microbit did not match the library"
-else
-    echo "from $smoke (the test passed in cargo test --workspace)"
-fi
-[[ -f "$smoke/microbit-synthetic/firmware.defmt" ]] || fail "no firmware log in $smoke/microbit-synthetic"
-mb_log="$smoke/microbit-firmware.log"
-defmt-print -e "$microbit_dir/target/thumbv6m-none-eabi/release/microbit-board" \
-    < "$smoke/microbit-synthetic/firmware.defmt" > "$mb_log" 2>&1 || true
-cat "$mb_log"
-grep -q "shutdown:" "$mb_log" || fail "the microbit firmware did not shut down cleanly"
-mb_stack=$(sed -n 's/.*stack: high-water \([0-9]*\) bytes.*/\1/p' "$mb_log" | tail -1)
+board_run run_microbit microbit_matches_the_host_on_a_synthetic_recording microbit \
+    "microbit: .* on both"
+mb_stack=$(firmware_stack "$microbit_dir/target/thumbv6m-none-eabi/release/microbit-board" \
+    "$smoke/microbit-synthetic/firmware.defmt" "$smoke/microbit-firmware.log")
 [[ -n "$mb_stack" ]] || fail "the microbit firmware did not report its stack"
 
 passed=0
