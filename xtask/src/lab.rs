@@ -1,6 +1,6 @@
-//! The lab's tasks: `cargo xtask experiments|faults|soak|size|demo` build the lab (release)
-//! and run `cargo run --profile tools -p terrain-pyramid-lab -- COMMAND FLAGS` from the root. The
-//! lab's stdout (its one JSON object with `--json`) is the task's; progress goes to stderr.
+//! The lab's tasks: `cargo xtask experiments|faults|soak|size|demo` build the lab (the `tools`
+//! profile: release without fat LTO; `XTASK_LAB_PROFILE=dev` for the test build's) and run
+//! `lab COMMAND FLAGS` from the root. The lab's stdout (its one JSON object with `--json`) is the task's; progress goes to stderr.
 //!
 //! - `faults [--json] [--quick] [--only KIND,..] [--lines N] [--jobs N]`: fault injection
 //!   through the emulated board (RELIABILITY.md), N kinds at once (default: the cores); the
@@ -28,55 +28,76 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::Instant;
 
-/// `cargo run --profile tools -p terrain-pyramid-lab -- command args` from the root (the
-/// `tools` profile of the root Cargo.toml: release without fat LTO).
-///
-/// `XTASK_LAB_PROFILE=dev` runs the lab of the dev profile instead, as the workspace's tests
-/// build it (`cargo test --workspace --no-run`): right after `cargo test --workspace` it exists
-/// already, so CI's fault and soak smokes reuse it rather than compile the lab a second time
-/// (the dev profile optimises the library, the host side and the lab: root Cargo.toml).
-fn lab(command: &str, args: &[String]) -> Result<(), String> {
-    let started = Instant::now();
-    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
-    let profile = std::env::var("XTASK_LAB_PROFILE").unwrap_or_else(|_| "tools".into());
-    let status = if profile == "tools" {
-        Command::new(cargo)
-            .args([
-                "run",
-                "--profile",
-                "tools",
-                "--quiet",
-                "-p",
-                "terrain-pyramid-lab",
-                "--",
-            ])
-            .arg(command)
-            .args(args)
-            .current_dir(root())
-            .status()
-    } else if profile == "dev" {
-        // What `cargo test --workspace` builds, with its features (the dev-dependencies'
-        // included): nothing to compile after the test suite, which builds the lab for its
-        // own tests.
-        let built = Command::new(&cargo)
-            .args(["test", "--quiet", "--workspace", "--no-run"])
+/// Which build of the lab a task runs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LabProfile {
+    /// The `tools` profile of the root Cargo.toml: release without fat LTO (the default).
+    Tools,
+    /// The dev profile, as the workspace's tests build it (`cargo test --workspace
+    /// --no-run`): right after `cargo test --workspace` it exists already, so the test suite's
+    /// live check and CI's fault and soak smokes reuse it rather than compile the lab and its
+    /// dependencies a second time (the dev profile optimises the library, the host side and
+    /// the lab: root Cargo.toml).
+    Dev,
+}
+
+impl LabProfile {
+    /// `XTASK_LAB_PROFILE` (`tools` or `dev`; `tools` when unset).
+    fn from_env() -> Result<Self, String> {
+        match std::env::var("XTASK_LAB_PROFILE").as_deref() {
+            Err(_) | Ok("tools") => Ok(Self::Tools),
+            Ok("dev") => Ok(Self::Dev),
+            Ok(other) => Err(format!(
+                "XTASK_LAB_PROFILE={other}: use tools (the default) or dev"
+            )),
+        }
+    }
+
+    /// Builds the lab and the other `packages` in this profile (cargo does nothing when they
+    /// are up to date); returns the lab's binary, beside which `pyramid` lies.
+    fn build(self, packages: &[&str]) -> Result<PathBuf, String> {
+        let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+        let mut build = Command::new(&cargo);
+        let dir = match self {
+            Self::Tools => {
+                build.args(["build", "--profile", "tools", "--quiet", "-p", LAB]);
+                for p in packages {
+                    build.args(["-p", p]);
+                }
+                "tools"
+            }
+            // What `cargo test --workspace` builds, with its features (the dev-dependencies'
+            // included): every package's binaries, the lab's and `pyramid` among them.
+            Self::Dev => {
+                build.args(["test", "--quiet", "--workspace", "--no-run"]);
+                "debug"
+            }
+        };
+        let built = build
             .current_dir(root())
             .status()
             .map_err(|e| format!("cannot run cargo: {e}"))?;
         if !built.success() {
-            return Err(format!("building the workspace's tests failed ({built})"));
+            return Err(format!("building the lab ({self:?}) failed ({built})"));
         }
-        Command::new(root().join("target").join("debug").join("lab"))
-            .arg(command)
-            .args(args)
-            .current_dir(root())
-            .status()
-    } else {
-        return Err(format!(
-            "XTASK_LAB_PROFILE={profile}: use tools (the default) or dev"
-        ));
+        Ok(root().join("target").join(dir).join("lab"))
     }
-    .map_err(|e| format!("cannot run the lab: {e}"))?;
+}
+
+/// The lab's package.
+const LAB: &str = "terrain-pyramid-lab";
+
+/// Runs `lab command args` from the root, the lab built in `XTASK_LAB_PROFILE`'s profile
+/// ([`LabProfile`]; by default `tools`, as `cargo run --profile tools -p terrain-pyramid-lab`).
+fn lab(command: &str, args: &[String]) -> Result<(), String> {
+    let started = Instant::now();
+    let lab = LabProfile::from_env()?.build(&[])?;
+    let status = Command::new(lab)
+        .arg(command)
+        .args(args)
+        .current_dir(root())
+        .status()
+        .map_err(|e| format!("cannot run the lab: {e}"))?;
     finished(command, started, status, &format!("lab {command}"))
 }
 
@@ -182,27 +203,21 @@ pub fn latency(args: &[String]) -> Result<(), String> {
     if !ros2 {
         return lab("latency", &pass);
     }
-    in_network_namespace("latency", &pass, &["terrain-pyramid-lab"])
+    in_network_namespace("latency", &pass, &[], LabProfile::from_env()?)
 }
 
 /// Runs `lab COMMAND --ros2 PASS…` inside a network namespace of its own (`unshare -n`,
 /// loopback up with multicast on and the multicast route on it: DDS discovery stays on this
-/// machine). `packages` (in the tools profile) and the emulated board's firmware are built
-/// outside it first: crates.io is not reachable inside.
-fn in_network_namespace(command: &str, pass: &[String], packages: &[&str]) -> Result<(), String> {
+/// machine). The lab and the other `packages` (in `profile`) and the emulated board's firmware
+/// are built outside it first: crates.io is not reachable inside.
+fn in_network_namespace(
+    command: &str,
+    pass: &[String],
+    packages: &[&str],
+    profile: LabProfile,
+) -> Result<(), String> {
+    let lab = profile.build(packages)?;
     let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
-    let mut build = Command::new(&cargo);
-    build.args(["build", "--profile", "tools", "--quiet"]);
-    for p in packages {
-        build.args(["-p", p]);
-    }
-    let built = build
-        .current_dir(root())
-        .status()
-        .map_err(|e| format!("cannot run cargo: {e}"))?;
-    if !built.success() {
-        return Err(format!("building {} failed ({built})", packages.join(", ")));
-    }
     let firmware = Command::new(&cargo)
         .args([
             "build",
@@ -225,7 +240,7 @@ fn in_network_namespace(command: &str, pass: &[String], packages: &[&str]) -> Re
             "-c",
             "ip link set lo up multicast on && ip route add 224.0.0.0/4 dev lo && exec \"$0\" \"$@\"",
         ])
-        .arg(root().join("target/tools/lab"))
+        .arg(lab)
         .arg(command)
         .arg("--ros2")
         .args(pass)
@@ -244,8 +259,13 @@ fn in_network_namespace(command: &str, pass: &[String], packages: &[&str]) -> Re
 /// namespace of its own (the lab, `pyramid` and the firmware built outside it first; the
 /// Python readers installed). `--check` holds the run to `lab live`'s bounds (`cargo xtask
 /// test` runs it); `--no-forward` runs listen without `--odom-topic`, the broken chain the
-/// bounds must fail.
+/// bounds must fail. The lab is built in `XTASK_LAB_PROFILE`'s profile ([`LabProfile`]).
 pub fn live(args: &[String]) -> Result<(), String> {
+    live_in(LabProfile::from_env()?, args)
+}
+
+/// [`live`] with the lab of `profile`.
+pub fn live_in(profile: LabProfile, args: &[String]) -> Result<(), String> {
     let mut pass = Vec::new();
     for a in args {
         match a.as_str() {
@@ -264,7 +284,8 @@ pub fn live(args: &[String]) -> Result<(), String> {
     in_network_namespace(
         "live",
         &with_out(&pass, "target/live"),
-        &["terrain-pyramid-lab", "terrain-pyramid-host"],
+        &["terrain-pyramid-host"],
+        profile,
     )
 }
 

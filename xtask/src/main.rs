@@ -39,6 +39,7 @@ mod install;
 mod lab;
 mod layers;
 mod pool;
+mod prebuild;
 mod test;
 
 fn main() -> ExitCode {

@@ -1,6 +1,6 @@
 //! `cargo xtask test [--lint] [--jobs N]`: the whole test suite, from a fresh machine.
 use crate::install::{ensure_python_readers, ensure_qemu, ensure_targets, root, step};
-use crate::pool;
+use crate::{pool, prebuild};
 
 /// Runs the whole suite.
 fn run_all(lint: bool, jobs: usize) -> Result<(), String> {
@@ -17,6 +17,14 @@ fn run_all(lint: bool, jobs: usize) -> Result<(), String> {
     let runs = work.join("runs");
     let _ = std::fs::remove_dir_all(&runs);
     std::fs::create_dir_all(&runs).map_err(|e| format!("{}: {e}", runs.display()))?;
+    std::fs::create_dir_all(work.join("logs")).map_err(|e| format!("{}: {e}", work.display()))?;
+    let firmware_log = work.join("logs").join("firmware-prebuild.log");
+    let _ = std::fs::remove_file(&firmware_log);
+    eprintln!(
+        "\n==> the firmware builds, beside the host's (log in {})",
+        firmware_log.display()
+    );
+    let firmware = prebuild::start(&root, firmware_log);
     let binaries = pool::build(&root)?;
     let (solo, shared): (Vec<_>, Vec<_>) = binaries
         .into_iter()
@@ -26,6 +34,10 @@ fn run_all(lint: bool, jobs: usize) -> Result<(), String> {
     let pooled = pool::run(pool::longest_first(shared), jobs, &env, &logs);
     // The wall-clock bounds, on a machine that runs nothing else of ours.
     let alone = pool::run(solo, 1, &env, &logs);
+    let failed = firmware.join().unwrap_or_default();
+    for build in &failed {
+        eprintln!("note: the firmware build for {build} failed beside the host's build");
+    }
     pooled.and(alone)?;
     step("cargo", &["test", "--workspace", "--doc"])?;
     // The code's shape: imports point down the library's layers, no cycle, one definition
@@ -34,8 +46,14 @@ fn run_all(lint: bool, jobs: usize) -> Result<(), String> {
     // The live chain: a short recording paced into the emulated board, Odometry from a
     // Cyclone DDS publisher through `pyramid listen --ros2 --odom-topic /odom`, inside a
     // network namespace of its own; held to `lab live`'s bounds. It needs root and unshare.
+    // It runs the lab and `pyramid` the test build above made (the dev profile), not a
+    // second build of them and their dependencies in the tools profile (about 3.5 minutes on
+    // two cores).
     match crate::lab::live_can_run() {
-        Ok(()) => step("cargo", &["xtask", "live", "--check"])?,
+        Ok(()) => {
+            eprintln!("\n==> cargo xtask live --check (the lab of the test build)");
+            crate::lab::live_in(crate::lab::LabProfile::Dev, &["--check".to_string()])?;
+        }
         Err(why) => eprintln!("\n==> skipped: cargo xtask live --check ({why})"),
     }
     // The boards: builds, the firmware on the emulated board (its runs' logs from above), the

@@ -1,0 +1,202 @@
+//! The firmware the test suite runs, built beside the host's test build.
+//!
+//! The board crates build into their own target directories (they are not in the workspace),
+//! so cargo lets their builds run while `cargo test --workspace --no-run` compiles the host
+//! side: the firmware's fat-LTO links and the board crates' dependency chains are mostly
+//! serial, and fill the core the host build leaves idle in its long tail. Without this, the
+//! emulator tests each build their firmware when they first need it, in the middle of the
+//! pooled test runs, and `boards/check.sh` builds the rest at the end.
+//!
+//! Each build here is the exact command its consumer runs (the same arguments, hence the same
+//! fingerprints): the consumer's own `cargo build` then finds it up to date. A command that
+//! drifted from its consumer's costs one build more, never a wrong firmware: the consumer
+//! always builds (and waits on cargo's lock while a build here runs). A build that fails here
+//! is reported and left to its consumer, which fails with its own message.
+use std::fs::File;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+use std::thread::JoinHandle;
+
+/// One firmware build: the board crate (a folder under `boards/`), cargo's arguments, and
+/// `CARGO_TARGET_DIR` (under `boards/`) when its consumer sets one.
+struct FirmwareBuild {
+    /// The board crate's folder under `boards/`.
+    board: &'static str,
+    /// cargo's arguments, as the consumer gives them.
+    args: &'static [&'static str],
+    /// `CARGO_TARGET_DIR` under `boards/`, or `None` for cargo's default.
+    target_dir: Option<&'static str>,
+    /// Who runs it, for the log.
+    consumer: &'static str,
+}
+
+/// The builds, in the order the suite first needs them: the pooled tests' firmware (the
+/// longest tests start first), then what `boards/check.sh` builds after the pool.
+const BUILDS: &[FirmwareBuild] = &[
+    FirmwareBuild {
+        board: "qemu-mps2",
+        args: &[
+            "build",
+            "--release",
+            "--quiet",
+            "--target",
+            "thumbv7em-none-eabihf",
+        ],
+        target_dir: None,
+        consumer: "host/src/emulator.rs: Machine::Mps2An386.build()",
+    },
+    FirmwareBuild {
+        board: "qemu-mps2",
+        args: &[
+            "build",
+            "--release",
+            "--quiet",
+            "--features",
+            "paper-stairs",
+            "--target-dir",
+            "target/paper-stairs",
+        ],
+        target_dir: None,
+        consumer: "host/src/emulator.rs: build_firmware_variant(.., Some(\"paper-stairs\"))",
+    },
+    FirmwareBuild {
+        board: "stm32f4",
+        args: &[
+            "build",
+            "--release",
+            "--quiet",
+            "--target",
+            "thumbv7em-none-eabihf",
+            "--no-default-features",
+            "--features",
+            "chip-f405,log-semihosting",
+            "--target-dir",
+            "target/netduinoplus2",
+        ],
+        target_dir: None,
+        consumer: "host/src/emulator.rs: Machine::Netduinoplus2.build()",
+    },
+    FirmwareBuild {
+        board: "microbit",
+        args: &[
+            "build",
+            "--release",
+            "--quiet",
+            "--target",
+            "thumbv6m-none-eabi",
+        ],
+        target_dir: None,
+        consumer: "host/src/emulator.rs: Machine::Microbit.build()",
+    },
+    FirmwareBuild {
+        board: "stm32f4",
+        args: &["build", "--release"],
+        target_dir: None,
+        consumer: "boards/check.sh: the NUCLEO-F446RE build",
+    },
+    FirmwareBuild {
+        board: "qemu-mps2",
+        args: &[
+            "test",
+            "--release",
+            "--target",
+            "thumbv7em-none-eabihf",
+            "--no-run",
+        ],
+        target_dir: None,
+        consumer: "boards/check.sh: on-target tests, thumbv7em-none-eabihf",
+    },
+    FirmwareBuild {
+        board: "qemu-mps2",
+        args: &[
+            "test",
+            "--release",
+            "--target",
+            "thumbv6m-none-eabi",
+            "--no-run",
+        ],
+        target_dir: None,
+        consumer: "boards/check.sh: on-target tests, thumbv6m-none-eabi",
+    },
+    FirmwareBuild {
+        board: "qemu-mps2",
+        args: &MICROBIT_TEST_ARITH,
+        target_dir: Some("microbit/target/mps2-tests"),
+        consumer: "boards/microbit/run-mps2-tests.sh: arith",
+    },
+    FirmwareBuild {
+        board: "qemu-mps2",
+        args: &MICROBIT_TEST_PYRAMID,
+        target_dir: Some("microbit/target/mps2-tests"),
+        consumer: "boards/microbit/run-mps2-tests.sh: pyramid",
+    },
+];
+
+/// `boards/microbit/run-mps2-tests.sh`'s build of qemu-mps2's on-target test `arith` for the
+/// microbit (its stack at the top of the 16 KiB).
+const MICROBIT_TEST_ARITH: [&str; 9] = microbit_test("arith");
+/// The same for the on-target test `pyramid`.
+const MICROBIT_TEST_PYRAMID: [&str; 9] = microbit_test("pyramid");
+
+/// The arguments `boards/microbit/run-mps2-tests.sh` builds the test `name` with.
+const fn microbit_test(name: &'static str) -> [&'static str; 9] {
+    [
+        "rustc",
+        "--release",
+        "--target",
+        "thumbv6m-none-eabi",
+        "--test",
+        name,
+        "--",
+        "-C",
+        "link-arg=--defsym=_stack_start=0x20004000",
+    ]
+}
+
+/// Starts the builds in a thread of their own, their output in `log`; the thread's result
+/// lists the builds that failed (left to their consumers).
+pub fn start(root: &Path, log: PathBuf) -> JoinHandle<Vec<String>> {
+    let boards = root.join("boards");
+    std::thread::spawn(move || {
+        let mut failed = Vec::new();
+        for build in BUILDS {
+            if let Err(why) = run(&boards, build, &log) {
+                failed.push(format!("{} ({why})", build.consumer));
+            }
+        }
+        failed
+    })
+}
+
+/// Runs one build, its output appended to `log`.
+fn run(boards: &Path, build: &FirmwareBuild, log: &Path) -> Result<(), String> {
+    let out = File::options()
+        .create(true)
+        .append(true)
+        .open(log)
+        .map_err(|e| format!("{}: {e}", log.display()))?;
+    let err = out.try_clone().map_err(|e| e.to_string())?;
+    let dir = boards.join(build.board);
+    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+    let mut command = Command::new(cargo);
+    command
+        .args(build.args)
+        .current_dir(&dir)
+        // As the consumers run it (host/src/emulator.rs: run_build).
+        .env_remove("RUSTFLAGS")
+        .stdin(Stdio::null())
+        .stdout(Stdio::from(out))
+        .stderr(Stdio::from(err));
+    match build.target_dir {
+        Some(sub) => command.env("CARGO_TARGET_DIR", boards.join(sub)),
+        None => command.env_remove("CARGO_TARGET_DIR"),
+    };
+    let status = command
+        .status()
+        .map_err(|e| format!("cannot run cargo: {e}"))?;
+    if status.success() {
+        Ok(())
+    } else {
+        Err(format!("{status}; see {}", log.display()))
+    }
+}
