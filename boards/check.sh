@@ -23,6 +23,8 @@
 #
 #   boards/check.sh                  everything
 #   boards/check.sh --no-lint        skip step 3
+#   boards/check.sh --lint-only      steps 1 to 3 only (`cargo xtask test --lint` runs them
+#                                    beside the host's test build, then the rest --no-lint)
 #   boards/check.sh --runs-from DIR  step 5's three runs are not run again: their outputs are
 #                                    read from DIR, where `cargo test --workspace` left them
 #                                    with PYRAMID_QEMU_OUT=DIR (`cargo xtask test` does this)
@@ -36,10 +38,12 @@ microbit_dir="$boards/microbit"
 nd_features=(--no-default-features --features chip-f405,log-semihosting --target-dir target/netduinoplus2)
 
 lint=1
+lint_only=0
 runs_from=""
 while [[ $# -gt 0 ]]; do
     case "$1" in
         --no-lint) lint=0 ;;
+        --lint-only) lint_only=1 ;;
         --runs-from)
             [[ $# -ge 2 ]] || { echo "check.sh: --runs-from needs a directory" >&2; exit 2; }
             runs_from="$2"
@@ -105,6 +109,11 @@ if [[ $lint -eq 1 ]]; then
     done
     rm -rf "$lint_logs"
     [[ ${#lint_failed[@]} -eq 0 ]] || fail "format or lints: ${lint_failed[*]}"
+fi
+if [[ $lint_only -eq 1 ]]; then
+    [[ $lint -eq 1 ]] || fail "--lint-only and --no-lint leave nothing to do"
+    step "done (format and lints only) in $((SECONDS - start)) s"
+    exit 0
 fi
 
 step "build: qemu-mps2 (release)"

@@ -12,6 +12,9 @@
 //! drifted from its consumer's costs one build more, never a wrong firmware: the consumer
 //! always builds (and waits on cargo's lock while a build here runs). A build that fails here
 //! is reported and left to its consumer, which fails with its own message.
+//!
+//! With `--lint`, the board crates' format and lints (`boards/check.sh --lint-only`) follow
+//! the builds in the same thread; `boards/check.sh` then runs with `--no-lint` at the end.
 use std::fs::File;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
@@ -153,19 +156,55 @@ const fn microbit_test(name: &'static str) -> [&'static str; 9] {
     ]
 }
 
-/// Starts the builds in a thread of their own, their output in `log`; the thread's result
-/// lists the builds that failed (left to their consumers).
-pub fn start(root: &Path, log: PathBuf) -> JoinHandle<Vec<String>> {
+/// What the thread did: the builds that failed (left to their consumers), and the board
+/// crates' lints' outcome when they ran (`Err` names their log).
+pub struct Outcome {
+    /// The consumers of the builds that failed, with why.
+    pub failed_builds: Vec<String>,
+    /// `boards/check.sh --lint-only`: `None` when not asked for.
+    pub lints: Option<Result<(), String>>,
+}
+
+/// Starts the builds in a thread of their own, their output in `log`, and then, with `lint`,
+/// the board crates' format and lints (`boards/check.sh --lint-only`, the same steps the
+/// script runs without `--no-lint`), their output in `lint_log`.
+pub fn start(root: &Path, log: PathBuf, lint: Option<PathBuf>) -> JoinHandle<Outcome> {
     let boards = root.join("boards");
     std::thread::spawn(move || {
-        let mut failed = Vec::new();
+        let mut failed_builds = Vec::new();
         for build in BUILDS {
             if let Err(why) = run(&boards, build, &log) {
-                failed.push(format!("{} ({why})", build.consumer));
+                failed_builds.push(format!("{} ({why})", build.consumer));
             }
         }
-        failed
+        let lints = lint.map(|lint_log| lint_boards(&boards, &lint_log));
+        Outcome {
+            failed_builds,
+            lints,
+        }
     })
+}
+
+/// `boards/check.sh --lint-only`, its output in `log`.
+fn lint_boards(boards: &Path, log: &Path) -> Result<(), String> {
+    let out = File::create(log).map_err(|e| format!("{}: {e}", log.display()))?;
+    let err = out.try_clone().map_err(|e| e.to_string())?;
+    let status = Command::new("bash")
+        .arg(boards.join("check.sh"))
+        .arg("--lint-only")
+        .stdin(Stdio::null())
+        .stdout(Stdio::from(out))
+        .stderr(Stdio::from(err))
+        .status()
+        .map_err(|e| format!("cannot run boards/check.sh: {e}"))?;
+    if status.success() {
+        Ok(())
+    } else {
+        Err(format!(
+            "boards/check.sh --lint-only failed ({status}); its output: {}",
+            log.display()
+        ))
+    }
 }
 
 /// Runs one build, its output appended to `log`.

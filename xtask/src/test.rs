@@ -20,11 +20,17 @@ fn run_all(lint: bool, jobs: usize) -> Result<(), String> {
     std::fs::create_dir_all(work.join("logs")).map_err(|e| format!("{}: {e}", work.display()))?;
     let firmware_log = work.join("logs").join("firmware-prebuild.log");
     let _ = std::fs::remove_file(&firmware_log);
+    let lint_log = work.join("logs").join("boards-lint.log");
     eprintln!(
-        "\n==> the firmware builds, beside the host's (log in {})",
+        "\n==> the firmware builds{}, beside the host's (log in {})",
+        if lint {
+            " and the board crates' lints"
+        } else {
+            ""
+        },
         firmware_log.display()
     );
-    let firmware = prebuild::start(&root, firmware_log);
+    let firmware = prebuild::start(&root, firmware_log, lint.then(|| lint_log.clone()));
     let binaries = pool::build(&root)?;
     let (solo, shared): (Vec<_>, Vec<_>) = binaries
         .into_iter()
@@ -34,8 +40,10 @@ fn run_all(lint: bool, jobs: usize) -> Result<(), String> {
     let pooled = pool::run(pool::longest_first(shared), jobs, &env, &logs);
     // The wall-clock bounds, on a machine that runs nothing else of ours.
     let alone = pool::run(solo, 1, &env, &logs);
-    let failed = firmware.join().unwrap_or_default();
-    for build in &failed {
+    let prebuilt = firmware
+        .join()
+        .map_err(|_| "the firmware builds' thread failed".to_string())?;
+    for build in &prebuilt.failed_builds {
         eprintln!("note: the firmware build for {build} failed beside the host's build");
     }
     pooled.and(alone)?;
@@ -60,11 +68,19 @@ fn run_all(lint: bool, jobs: usize) -> Result<(), String> {
     // on-target tests (thumbv7em and thumbv6m code), flash, RAM and stack. It installs
     // defmt-print when missing.
     let runs = runs.to_string_lossy();
-    let mut check = vec!["boards/check.sh", "--runs-from", &runs];
-    if !lint {
-        check.push("--no-lint");
+    // Its format and lints ran beside the host's build (module `prebuild`) with --lint.
+    if let Some(lints) = prebuilt.lints {
+        eprintln!("\n==> boards/check.sh --lint-only (beside the host's test build)");
+        if let Err(why) = lints {
+            eprintln!("{}", std::fs::read_to_string(&lint_log).unwrap_or_default());
+            return Err(why);
+        }
+        eprintln!("the board crates' format and lints passed");
     }
-    step("bash", &check)
+    step(
+        "bash",
+        &["boards/check.sh", "--runs-from", &runs, "--no-lint"],
+    )
 }
 
 /// `cargo xtask test [--lint] [--jobs N]`; `--jobs` defaults to the machine's cores.
