@@ -25,136 +25,60 @@ use std::thread::JoinHandle;
 struct FirmwareBuild {
     /// The board crate's folder under `boards/`.
     board: &'static str,
-    /// cargo's arguments, as the consumer gives them.
-    args: &'static [&'static str],
+    /// cargo's arguments as the consumer gives them, separated by spaces.
+    args: &'static str,
     /// `CARGO_TARGET_DIR` under `boards/`, or `None` for cargo's default.
     target_dir: Option<&'static str>,
     /// Who runs it, for the log.
     consumer: &'static str,
 }
 
+/// A build into cargo's default target directory (or the one its arguments name).
+const fn at(board: &'static str, args: &'static str, consumer: &'static str) -> FirmwareBuild {
+    FirmwareBuild {
+        board,
+        args,
+        target_dir: None,
+        consumer,
+    }
+}
+
+/// `boards/microbit/run-mps2-tests.sh`'s build of qemu-mps2's on-target test (`args` name
+/// it) for the microbit, its stack at the top of the 16 KiB, into the script's target folder.
+const fn microbit_test(args: &'static str, consumer: &'static str) -> FirmwareBuild {
+    FirmwareBuild {
+        board: "qemu-mps2",
+        args,
+        target_dir: Some("microbit/target/mps2-tests"),
+        consumer,
+    }
+}
+
 /// The builds, in the order the suite first needs them: the pooled tests' firmware (the
 /// longest tests start first), then what `boards/check.sh` builds after the pool.
+#[rustfmt::skip]
 const BUILDS: &[FirmwareBuild] = &[
-    FirmwareBuild {
-        board: "qemu-mps2",
-        args: &[
-            "build",
-            "--release",
-            "--quiet",
-            "--target",
-            "thumbv7em-none-eabihf",
-        ],
-        target_dir: None,
-        consumer: "host/src/emulator.rs: Machine::Mps2An386.build()",
-    },
-    FirmwareBuild {
-        board: "qemu-mps2",
-        args: &[
-            "build",
-            "--release",
-            "--quiet",
-            "--features",
-            "paper-stairs",
-            "--target-dir",
-            "target/paper-stairs",
-        ],
-        target_dir: None,
-        consumer: "host/src/emulator.rs: build_firmware_variant(.., Some(\"paper-stairs\"))",
-    },
-    FirmwareBuild {
-        board: "stm32f4",
-        args: &[
-            "build",
-            "--release",
-            "--quiet",
-            "--target",
-            "thumbv7em-none-eabihf",
-            "--no-default-features",
-            "--features",
-            "chip-f405,log-semihosting",
-            "--target-dir",
-            "target/netduinoplus2",
-        ],
-        target_dir: None,
-        consumer: "host/src/emulator.rs: Machine::Netduinoplus2.build()",
-    },
-    FirmwareBuild {
-        board: "microbit",
-        args: &[
-            "build",
-            "--release",
-            "--quiet",
-            "--target",
-            "thumbv6m-none-eabi",
-        ],
-        target_dir: None,
-        consumer: "host/src/emulator.rs: Machine::Microbit.build()",
-    },
-    FirmwareBuild {
-        board: "stm32f4",
-        args: &["build", "--release"],
-        target_dir: None,
-        consumer: "boards/check.sh: the NUCLEO-F446RE build",
-    },
-    FirmwareBuild {
-        board: "qemu-mps2",
-        args: &[
-            "test",
-            "--release",
-            "--target",
-            "thumbv7em-none-eabihf",
-            "--no-run",
-        ],
-        target_dir: None,
-        consumer: "boards/check.sh: on-target tests, thumbv7em-none-eabihf",
-    },
-    FirmwareBuild {
-        board: "qemu-mps2",
-        args: &[
-            "test",
-            "--release",
-            "--target",
-            "thumbv6m-none-eabi",
-            "--no-run",
-        ],
-        target_dir: None,
-        consumer: "boards/check.sh: on-target tests, thumbv6m-none-eabi",
-    },
-    FirmwareBuild {
-        board: "qemu-mps2",
-        args: &MICROBIT_TEST_ARITH,
-        target_dir: Some("microbit/target/mps2-tests"),
-        consumer: "boards/microbit/run-mps2-tests.sh: arith",
-    },
-    FirmwareBuild {
-        board: "qemu-mps2",
-        args: &MICROBIT_TEST_PYRAMID,
-        target_dir: Some("microbit/target/mps2-tests"),
-        consumer: "boards/microbit/run-mps2-tests.sh: pyramid",
-    },
+    at("qemu-mps2", "build --release --quiet --target thumbv7em-none-eabihf",
+        "host/src/emulator.rs: Machine::Mps2An386.build()"),
+    at("qemu-mps2", "build --release --quiet --features paper-stairs --target-dir target/paper-stairs",
+        "host/src/emulator.rs: build_firmware_variant(.., Some(\"paper-stairs\"))"),
+    at("stm32f4", "build --release --quiet --target thumbv7em-none-eabihf --no-default-features \
+        --features chip-f405,log-semihosting --target-dir target/netduinoplus2",
+        "host/src/emulator.rs: Machine::Netduinoplus2.build()"),
+    at("microbit", "build --release --quiet --target thumbv6m-none-eabi",
+        "host/src/emulator.rs: Machine::Microbit.build()"),
+    at("stm32f4", "build --release", "boards/check.sh: the NUCLEO-F446RE build"),
+    at("qemu-mps2", "test --release --target thumbv7em-none-eabihf --no-run",
+        "boards/check.sh: on-target tests, thumbv7em-none-eabihf"),
+    at("qemu-mps2", "test --release --target thumbv6m-none-eabi --no-run",
+        "boards/check.sh: on-target tests, thumbv6m-none-eabi"),
+    microbit_test("rustc --release --target thumbv6m-none-eabi --test arith \
+        -- -C link-arg=--defsym=_stack_start=0x20004000",
+        "boards/microbit/run-mps2-tests.sh: arith"),
+    microbit_test("rustc --release --target thumbv6m-none-eabi --test pyramid \
+        -- -C link-arg=--defsym=_stack_start=0x20004000",
+        "boards/microbit/run-mps2-tests.sh: pyramid"),
 ];
-
-/// `boards/microbit/run-mps2-tests.sh`'s build of qemu-mps2's on-target test `arith` for the
-/// microbit (its stack at the top of the 16 KiB).
-const MICROBIT_TEST_ARITH: [&str; 9] = microbit_test("arith");
-/// The same for the on-target test `pyramid`.
-const MICROBIT_TEST_PYRAMID: [&str; 9] = microbit_test("pyramid");
-
-/// The arguments `boards/microbit/run-mps2-tests.sh` builds the test `name` with.
-const fn microbit_test(name: &'static str) -> [&'static str; 9] {
-    [
-        "rustc",
-        "--release",
-        "--target",
-        "thumbv6m-none-eabi",
-        "--test",
-        name,
-        "--",
-        "-C",
-        "link-arg=--defsym=_stack_start=0x20004000",
-    ]
-}
 
 /// What the thread did: the builds that failed (left to their consumers), and the board
 /// crates' lints' outcome when they ran (`Err` names their log).
@@ -189,56 +113,77 @@ pub fn start(root: &Path, log: PathBuf, lint: Option<PathBuf>) -> JoinHandle<Out
 /// suite's end, so they run at a lower priority (`nice -n 10`): they take the cores the host's
 /// build and the tests leave idle, and do not slow the tests with wall-clock bounds.
 fn lint_boards(boards: &Path, log: &Path) -> Result<(), String> {
-    let out = File::create(log).map_err(|e| format!("{}: {e}", log.display()))?;
-    let err = out.try_clone().map_err(|e| e.to_string())?;
-    let status = Command::new("nice")
-        .args(["-n", "10", "bash"])
+    let mut lint = Command::new("nice");
+    lint.args(["-n", "10", "bash"])
         .arg(boards.join("check.sh"))
-        .arg("--lint-only")
-        .stdin(Stdio::null())
-        .stdout(Stdio::from(out))
-        .stderr(Stdio::from(err))
-        .status()
-        .map_err(|e| format!("cannot run boards/check.sh: {e}"))?;
-    if status.success() {
-        Ok(())
-    } else {
-        Err(format!(
-            "boards/check.sh --lint-only failed ({status}); its output: {}",
-            log.display()
-        ))
-    }
+        .arg("--lint-only");
+    File::create(log).map_err(|e| format!("{}: {e}", log.display()))?;
+    logged(&mut lint, log).map_err(|why| format!("boards/check.sh --lint-only: {why}"))
 }
 
 /// Runs one build, its output appended to `log`.
 fn run(boards: &Path, build: &FirmwareBuild, log: &Path) -> Result<(), String> {
+    let dir = boards.join(build.board);
+    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+    let mut command = Command::new(cargo);
+    command
+        .args(build.args.split_whitespace())
+        .current_dir(&dir)
+        // As the consumers run it (host/src/emulator.rs: run_build).
+        .env_remove("RUSTFLAGS");
+    match build.target_dir {
+        Some(sub) => command.env("CARGO_TARGET_DIR", boards.join(sub)),
+        None => command.env_remove("CARGO_TARGET_DIR"),
+    };
+    logged(&mut command, log)
+}
+
+/// Runs `command` with its output appended to `log`; an error says how it ended and where
+/// its output is.
+fn logged(command: &mut Command, log: &Path) -> Result<(), String> {
     let out = File::options()
         .create(true)
         .append(true)
         .open(log)
         .map_err(|e| format!("{}: {e}", log.display()))?;
     let err = out.try_clone().map_err(|e| e.to_string())?;
-    let dir = boards.join(build.board);
-    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
-    let mut command = Command::new(cargo);
-    command
-        .args(build.args)
-        .current_dir(&dir)
-        // As the consumers run it (host/src/emulator.rs: run_build).
-        .env_remove("RUSTFLAGS")
+    let status = command
         .stdin(Stdio::null())
         .stdout(Stdio::from(out))
-        .stderr(Stdio::from(err));
-    match build.target_dir {
-        Some(sub) => command.env("CARGO_TARGET_DIR", boards.join(sub)),
-        None => command.env_remove("CARGO_TARGET_DIR"),
-    };
-    let status = command
+        .stderr(Stdio::from(err))
         .status()
-        .map_err(|e| format!("cannot run cargo: {e}"))?;
-    if status.success() {
-        Ok(())
-    } else {
-        Err(format!("{status}; see {}", log.display()))
+        .map_err(|e| format!("cannot run {:?}: {e}", command.get_program()))?;
+    match status.code() {
+        Some(0) => Ok(()),
+        _ => Err(format!("{status}; its output: {}", log.display())),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::BUILDS;
+    use std::path::Path;
+
+    /// Each build names a board crate that exists, and each on-target test it names has its
+    /// source: a renamed crate or test fails here, not as a silent second build.
+    #[test]
+    fn every_build_names_what_exists() {
+        let boards = Path::new(env!("CARGO_MANIFEST_DIR")).join("../boards");
+        for build in BUILDS {
+            let crate_dir = boards.join(build.board);
+            assert!(crate_dir.join("Cargo.toml").is_file(), "{}", build.board);
+            let args: Vec<&str> = build.args.split_whitespace().collect();
+            assert!(
+                matches!(args.first(), Some(&("build" | "test" | "rustc"))),
+                "{args:?}"
+            );
+            if let Some(i) = args.iter().position(|a| *a == "--test") {
+                let name = args.get(i + 1).expect("a test name after --test");
+                assert!(
+                    crate_dir.join("tests").join(format!("{name}.rs")).is_file(),
+                    "{name}"
+                );
+            }
+        }
     }
 }
