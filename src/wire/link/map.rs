@@ -27,19 +27,20 @@ pub struct FirmwareVersion {
     pub patch: u8,
 }
 
-/// Why a Hello was sent.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-#[repr(u8)]
-pub enum HelloReason {
-    /// The device started: every cell unknown.
-    Boot = 0,
-    /// A configuration was adopted: every cell unknown.
-    Configured = 1,
-    /// The maps were reset: every cell unknown.
-    Reset = 2,
-    /// A snapshot was requested: maps kept, the layers in `resend` follow in full.
-    Snapshot = 3,
+byte_enum! {
+    /// Why a Hello was sent.
+    pub enum HelloReason {
+        /// The device started: every cell unknown.
+        Boot = 0,
+        /// A configuration was adopted: every cell unknown.
+        Configured = 1,
+        /// The maps were reset: every cell unknown.
+        Reset = 2,
+        /// A snapshot was requested: maps kept, the layers in `resend` follow in full.
+        Snapshot = 3,
+    }
+    /// The reason of a Hello's reason byte, or `None`.
+    pub(super) fn from_u8;
 }
 
 impl HelloReason {
@@ -48,58 +49,33 @@ impl HelloReason {
     pub const fn clears_maps(self) -> bool {
         !matches!(self, Self::Snapshot)
     }
-
-    pub(super) const fn from_u8(byte: u8) -> Option<Self> {
-        Some(match byte {
-            0 => Self::Boot,
-            1 => Self::Configured,
-            2 => Self::Reset,
-            3 => Self::Snapshot,
-            _ => return None,
-        })
-    }
 }
 
-/// The clock the device's board runs on, as it started it (Hello offset 12): how a host learns
-/// that a board fell back to its internal oscillator (its UARTs' rates and its timing then
-/// carry that oscillator's tolerance, about ±1 % on an STM32F4's HSI).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-#[repr(u8)]
-pub enum ClockSource {
-    /// The board does not say.
-    #[default]
-    NotReported = 0,
-    /// The external crystal or clock (through the PLL where there is one): as intended.
-    External = 1,
-    /// The internal oscillator through the PLL: the external clock never became ready.
-    InternalPll = 2,
-    /// The internal oscillator alone: neither the external clock nor a PLL became ready.
-    Internal = 3,
-    /// No clock tree answered (every ready flag reads 0): an emulator that does not model it.
-    Unmodelled = 4,
+byte_enum! {
+    /// The clock the device's board runs on, as it started it (Hello offset 12): how a host
+    /// learns that a board fell back to its internal oscillator (its UARTs' rates and its
+    /// timing then carry that oscillator's tolerance, about ±1 % on an STM32F4's HSI).
+    #[derive(Default)]
+    pub enum ClockSource {
+        /// The board does not say.
+        #[default]
+        NotReported = 0,
+        /// The external crystal or clock (through the PLL where there is one): as intended.
+        External = 1,
+        /// The internal oscillator through the PLL: the external clock never became ready.
+        InternalPll = 2,
+        /// The internal oscillator alone: neither the external clock nor a PLL became ready.
+        Internal = 3,
+        /// No clock tree answered (every ready flag reads 0): an emulator that does not model it.
+        Unmodelled = 4,
+    }
+    /// The source of a wire code, if it is one.
+    pub fn from_code;
+    /// The wire code, 0 ..= 4.
+    pub fn code;
 }
 
 impl ClockSource {
-    /// The wire code, 0 ..= 4.
-    #[must_use]
-    pub const fn code(self) -> u8 {
-        self as u8
-    }
-
-    /// The source of a wire code, if it is one.
-    #[must_use]
-    pub const fn from_code(byte: u8) -> Option<Self> {
-        Some(match byte {
-            0 => Self::NotReported,
-            1 => Self::External,
-            2 => Self::InternalPll,
-            3 => Self::Internal,
-            4 => Self::Unmodelled,
-            _ => return None,
-        })
-    }
-
     /// Whether the board runs on a fallback, not on the clock it was built for.
     #[must_use]
     pub const fn is_fallback(self) -> bool {

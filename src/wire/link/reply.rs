@@ -6,55 +6,36 @@ use super::Header;
 /// Bytes of a Reply body.
 pub(crate) const REPLY_LEN: usize = 17;
 
-/// A Reply's code (`docs/protocol.md`, "Reply").
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-#[repr(u8)]
-pub enum ReplyCode {
-    /// Done.
-    Ok = 0,
-    /// A value is NaN or infinite.
-    NotFinite = 1,
-    /// A value must be positive.
-    NotPositive = 2,
-    /// A value lies outside `[a, b]`.
-    OutOfRange = 3,
-    /// γ ≤ 1.
-    GammaNotAboveOne = 4,
-    /// Δd ≤ φ·h.
-    BaseBelowBound = 5,
-    /// The design needs more layers than compiled in.
-    TooManyLayers = 6,
-    /// The window size is odd or out of range.
-    BadWindow = 7,
-    /// A layer's window cannot hold its band.
-    WindowTooSmall = 8,
-    /// The layer asked for does not exist.
-    BadLayer = 9,
-    /// The device does not take this type.
-    Unsupported = 10,
-    /// The frame's body was bad.
-    Malformed = 11,
-}
-
-impl ReplyCode {
-    pub(super) const fn from_u8(byte: u8) -> Option<Self> {
-        Some(match byte {
-            0 => Self::Ok,
-            1 => Self::NotFinite,
-            2 => Self::NotPositive,
-            3 => Self::OutOfRange,
-            4 => Self::GammaNotAboveOne,
-            5 => Self::BaseBelowBound,
-            6 => Self::TooManyLayers,
-            7 => Self::BadWindow,
-            8 => Self::WindowTooSmall,
-            9 => Self::BadLayer,
-            10 => Self::Unsupported,
-            11 => Self::Malformed,
-            _ => return None,
-        })
+byte_enum! {
+    /// A Reply's code (`docs/protocol.md`, "Reply").
+    pub enum ReplyCode {
+        /// Done.
+        Ok = 0,
+        /// A value is NaN or infinite.
+        NotFinite = 1,
+        /// A value must be positive.
+        NotPositive = 2,
+        /// A value lies outside `[a, b]`.
+        OutOfRange = 3,
+        /// γ ≤ 1.
+        GammaNotAboveOne = 4,
+        /// Δd ≤ φ·h.
+        BaseBelowBound = 5,
+        /// The design needs more layers than compiled in.
+        TooManyLayers = 6,
+        /// The window size is odd or out of range.
+        BadWindow = 7,
+        /// A layer's window cannot hold its band.
+        WindowTooSmall = 8,
+        /// The layer asked for does not exist.
+        BadLayer = 9,
+        /// The device does not take this type.
+        Unsupported = 10,
+        /// The frame's body was bad.
+        Malformed = 11,
     }
+    /// The code of a Reply's code byte, or `None`.
+    pub(super) fn from_u8;
 }
 
 /// The Reply `param` of the snapshot's layer.
