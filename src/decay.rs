@@ -69,23 +69,23 @@ pub const DECAY_LAYERS: usize = 32;
 pub const MAX_CELLS_PER_SECOND: u64 = 32_768;
 
 byte_enum! {
-    /// Which evidence ages.
-    #[derive(Default)]
-    pub enum DecayMode {
-        /// Nothing decays: the paper's behaviour (the default).
-        #[default]
-        Off = 0,
-        /// Every observed cell decays toward unknown.
-        All = 1,
-        /// Only obstacle evidence (L > 0) decays; free ground is kept.
-        Obstacle = 2,
-        /// Only free evidence (L < 0) decays; obstacles are kept.
-        Free = 3,
-    }
-    /// The mode of a wire byte (0 ..= 3), or `None`.
-    pub fn from_u8;
-    /// The wire byte.
-    pub fn to_u8;
+/// Which evidence ages.
+#[derive(Default)]
+pub enum DecayMode {
+    /// Nothing decays: the paper's behaviour (the default).
+    #[default]
+    Off = 0,
+    /// Every observed cell decays toward unknown.
+    All = 1,
+    /// Only obstacle evidence (L > 0) decays; free ground is kept.
+    Obstacle = 2,
+    /// Only free evidence (L < 0) decays; obstacles are kept.
+    Free = 3,
+}
+/// The mode of a wire byte (0 ..= 3), or `None`.
+pub fn from_u8;
+/// The wire byte.
+pub fn to_u8;
 }
 
 impl DecayMode {

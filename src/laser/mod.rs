@@ -50,21 +50,21 @@ use crate::wire::ydlidar::{
 use crate::wire::{FeedResult, LaserReturn};
 
 byte_enum! {
-    /// A laser kind: the Setup's sensor code (`docs/protocol.md`, Setup).
-    pub enum SensorKind {
-        /// SICK LMS2xx (code 0).
-        Sick = 0,
-        /// LDROBOT LD06, LD19 or STL-19P (code 1).
-        Ld06 = 1,
-        /// Slamtec RPLIDAR (code 2).
-        Rplidar = 2,
-        /// YDLIDAR X4 or X2 (code 3).
-        Ydlidar = 3,
-    }
-    /// The kind of a Setup's sensor code, if it names one.
-    pub fn from_code;
-    /// The Setup's sensor code.
-    pub fn code;
+/// A laser kind: the Setup's sensor code (`docs/protocol.md`, Setup).
+pub enum SensorKind {
+    /// SICK LMS2xx (code 0).
+    Sick = 0,
+    /// LDROBOT LD06, LD19 or STL-19P (code 1).
+    Ld06 = 1,
+    /// Slamtec RPLIDAR (code 2).
+    Rplidar = 2,
+    /// YDLIDAR X4 or X2 (code 3).
+    Ydlidar = 3,
+}
+/// The kind of a Setup's sensor code, if it names one.
+pub fn from_code;
+/// The Setup's sensor code.
+pub fn code;
 }
 
 impl SensorKind {

@@ -14,78 +14,78 @@ use crate::wire::link::{Header, LaserSetup, Setup};
 use crate::wire::recording::{MountKind, RigEvent, SensorEvent, SetupEvent};
 
 byte_enum! {
-    /// A field of a [`Setup`], as a Reply names it (`param` 48 ..= 57, and 58 ..= 64 for the
-    /// laser block of protocol version 3).
-    pub enum SetupField {
-        /// The mount: 0 panned vertical, 1 tilted horizontal.
-        Mount = 48,
-        /// The SICK measuring mode (the 0x77 mode number).
-        MeasuringMode = 49,
-        /// The scanner variant: field of view and resolution together.
-        Variant = 50,
-        /// The sensor's x in the robot frame.
-        SensorX = 51,
-        /// The sensor's y in the robot frame.
-        SensorY = 52,
-        /// The sensor's z in the robot frame.
-        SensorZ = 53,
-        /// The robot's height (overhang above the cell's ground).
-        RobotHeight = 54,
-        /// The step threshold.
-        StepThreshold = 55,
-        /// The drop threshold (0 = off).
-        DropThreshold = 56,
-        /// The ceiling (0 = off).
-        Ceiling = 57,
-        /// The sensor: 0 SICK, 1 LD06, 2 RPLIDAR, 3 YDLIDAR.
-        Sensor = 58,
-        /// The laser UART's baud rate (0 = the sensor's default).
-        Baud = 59,
-        /// The actuator: 0 external, 1 nodding servo.
-        Actuator = 60,
-        /// The servo sweep's lower end.
-        ServoMin = 61,
-        /// The servo sweep's upper end.
-        ServoMax = 62,
-        /// The servo sweep's rate.
-        ServoRate = 63,
-        /// The servo's latency.
-        ServoLatency = 64,
-        /// The navigability rule: 0 the paper's spread rule, 1 the plane rule.
-        Rule = 65,
-        /// The plane rule's largest slope, as a grade.
-        MaxGrade = 66,
-        /// The plane rule's residual allowance.
-        Residual = 67,
-        /// The plane rule's range noise σ.
-        RangeSigma = 68,
-        /// The plane rule's elevation error σ_a.
-        AngleSigma = 69,
-        /// The plane rule's noise factor.
-        NoiseFactor = 70,
-        /// The general mount's actuator axis: 0 pan, 1 tilt, 2 none (version 5).
-        MountAxis = 71,
-        /// The actuator's sense: +1 or −1.
-        MountSense = 72,
-        /// The actuator's zero, degrees.
-        MountZero = 73,
-        /// The general mount's roll, degrees.
-        MountRoll = 74,
-        /// The general mount's pitch, degrees.
-        MountPitch = 75,
-        /// The general mount's yaw, degrees.
-        MountYaw = 76,
-        /// The minimum range, centimetres.
-        MinRange = 77,
-        /// The maximum range, centimetres.
-        MaxRange = 78,
-        /// The number of masked sectors.
-        SectorCount = 79,
-        /// A masked sector's start or end (the value the bad angle, `min` the sector's index).
-        Sector = 80,
-    }
-    /// The field a Reply `param` names, if it names one.
-    pub fn from_param;
+/// A field of a [`Setup`], as a Reply names it (`param` 48 ..= 57, and 58 ..= 64 for the
+/// laser block of protocol version 3).
+pub enum SetupField {
+    /// The mount: 0 panned vertical, 1 tilted horizontal.
+    Mount = 48,
+    /// The SICK measuring mode (the 0x77 mode number).
+    MeasuringMode = 49,
+    /// The scanner variant: field of view and resolution together.
+    Variant = 50,
+    /// The sensor's x in the robot frame.
+    SensorX = 51,
+    /// The sensor's y in the robot frame.
+    SensorY = 52,
+    /// The sensor's z in the robot frame.
+    SensorZ = 53,
+    /// The robot's height (overhang above the cell's ground).
+    RobotHeight = 54,
+    /// The step threshold.
+    StepThreshold = 55,
+    /// The drop threshold (0 = off).
+    DropThreshold = 56,
+    /// The ceiling (0 = off).
+    Ceiling = 57,
+    /// The sensor: 0 SICK, 1 LD06, 2 RPLIDAR, 3 YDLIDAR.
+    Sensor = 58,
+    /// The laser UART's baud rate (0 = the sensor's default).
+    Baud = 59,
+    /// The actuator: 0 external, 1 nodding servo.
+    Actuator = 60,
+    /// The servo sweep's lower end.
+    ServoMin = 61,
+    /// The servo sweep's upper end.
+    ServoMax = 62,
+    /// The servo sweep's rate.
+    ServoRate = 63,
+    /// The servo's latency.
+    ServoLatency = 64,
+    /// The navigability rule: 0 the paper's spread rule, 1 the plane rule.
+    Rule = 65,
+    /// The plane rule's largest slope, as a grade.
+    MaxGrade = 66,
+    /// The plane rule's residual allowance.
+    Residual = 67,
+    /// The plane rule's range noise σ.
+    RangeSigma = 68,
+    /// The plane rule's elevation error σ_a.
+    AngleSigma = 69,
+    /// The plane rule's noise factor.
+    NoiseFactor = 70,
+    /// The general mount's actuator axis: 0 pan, 1 tilt, 2 none (version 5).
+    MountAxis = 71,
+    /// The actuator's sense: +1 or −1.
+    MountSense = 72,
+    /// The actuator's zero, degrees.
+    MountZero = 73,
+    /// The general mount's roll, degrees.
+    MountRoll = 74,
+    /// The general mount's pitch, degrees.
+    MountPitch = 75,
+    /// The general mount's yaw, degrees.
+    MountYaw = 76,
+    /// The minimum range, centimetres.
+    MinRange = 77,
+    /// The maximum range, centimetres.
+    MaxRange = 78,
+    /// The number of masked sectors.
+    SectorCount = 79,
+    /// A masked sector's start or end (the value the bad angle, `min` the sector's index).
+    Sector = 80,
+}
+/// The field a Reply `param` names, if it names one.
+pub fn from_param;
 }
 
 impl SetupField {

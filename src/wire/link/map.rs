@@ -28,19 +28,19 @@ pub struct FirmwareVersion {
 }
 
 byte_enum! {
-    /// Why a Hello was sent.
-    pub enum HelloReason {
-        /// The device started: every cell unknown.
-        Boot = 0,
-        /// A configuration was adopted: every cell unknown.
-        Configured = 1,
-        /// The maps were reset: every cell unknown.
-        Reset = 2,
-        /// A snapshot was requested: maps kept, the layers in `resend` follow in full.
-        Snapshot = 3,
-    }
-    /// The reason of a Hello's reason byte, or `None`.
-    pub(super) fn from_u8;
+/// Why a Hello was sent.
+pub enum HelloReason {
+    /// The device started: every cell unknown.
+    Boot = 0,
+    /// A configuration was adopted: every cell unknown.
+    Configured = 1,
+    /// The maps were reset: every cell unknown.
+    Reset = 2,
+    /// A snapshot was requested: maps kept, the layers in `resend` follow in full.
+    Snapshot = 3,
+}
+/// The reason of a Hello's reason byte, or `None`.
+pub(super) fn from_u8;
 }
 
 impl HelloReason {
@@ -52,27 +52,27 @@ impl HelloReason {
 }
 
 byte_enum! {
-    /// The clock the device's board runs on, as it started it (Hello offset 12): how a host
-    /// learns that a board fell back to its internal oscillator (its UARTs' rates and its
-    /// timing then carry that oscillator's tolerance, about ±1 % on an STM32F4's HSI).
-    #[derive(Default)]
-    pub enum ClockSource {
-        /// The board does not say.
-        #[default]
-        NotReported = 0,
-        /// The external crystal or clock (through the PLL where there is one): as intended.
-        External = 1,
-        /// The internal oscillator through the PLL: the external clock never became ready.
-        InternalPll = 2,
-        /// The internal oscillator alone: neither the external clock nor a PLL became ready.
-        Internal = 3,
-        /// No clock tree answered (every ready flag reads 0): an emulator that does not model it.
-        Unmodelled = 4,
-    }
-    /// The source of a wire code, if it is one.
-    pub fn from_code;
-    /// The wire code, 0 ..= 4.
-    pub fn code;
+/// The clock the device's board runs on, as it started it (Hello offset 12): how a host
+/// learns that a board fell back to its internal oscillator (its UARTs' rates and its
+/// timing then carry that oscillator's tolerance, about ±1 % on an STM32F4's HSI).
+#[derive(Default)]
+pub enum ClockSource {
+    /// The board does not say.
+    #[default]
+    NotReported = 0,
+    /// The external crystal or clock (through the PLL where there is one): as intended.
+    External = 1,
+    /// The internal oscillator through the PLL: the external clock never became ready.
+    InternalPll = 2,
+    /// The internal oscillator alone: neither the external clock nor a PLL became ready.
+    Internal = 3,
+    /// No clock tree answered (every ready flag reads 0): an emulator that does not model it.
+    Unmodelled = 4,
+}
+/// The source of a wire code, if it is one.
+pub fn from_code;
+/// The wire code, 0 ..= 4.
+pub fn code;
 }
 
 impl ClockSource {

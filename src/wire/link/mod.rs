@@ -96,55 +96,55 @@ pub const fn encoded_len_max(decoded: usize) -> usize {
 }
 
 byte_enum! {
-    /// The message types (`docs/protocol.md`, section 4). Bit 7 set: host to device.
-    pub enum MessageType {
-        /// Device to host: the pyramid in force.
-        Hello = 0x01,
-        /// Device to host: a rectangle of one layer's cells.
-        LayerPatch = 0x02,
-        /// Device to host: new window origins.
-        WindowMoved = 0x03,
-        /// Device to host: counters.
-        Stats = 0x04,
-        /// Device to host: the answer to a command.
-        Reply = 0x05,
-        /// Device to host: rows that took a decay step.
-        Decayed = 0x06,
-        /// Device to host: the answer to a TimeRequest (version 4).
-        TimeReply = 0x07,
-        /// Device to host: an observation was applied, and when its returns were measured
-        /// (version 4).
-        Observed = 0x08,
-        /// Host to device: the robot's pose.
-        Pose = 0x81,
-        /// Host to device: the pan angle.
-        PanAngle = 0x82,
-        /// Host to device: a new design and configuration.
-        Configure = 0x83,
-        /// Host to device: forget every observation.
-        Reset = 0x84,
-        /// Host to device: send every cell of one layer or all layers again.
-        RequestSnapshot = 0x85,
-        /// Host to device: answer with Reply Ok.
-        Ping = 0x86,
-        /// Host to device: how the laser is mounted and how its lines make observations.
-        Setup = 0x87,
-        /// Host to device: send a Stats frame at once.
-        RequestStats = 0x88,
-        /// Host to device: flush the queue and stop (emulated boards and tests).
-        Shutdown = 0x89,
-        /// Host to device: end the current observation now (apply its evidence).
-        EndObservation = 0x8A,
-        /// Host to device: the classifier's step threshold and navigability rule, the rest of the
-        /// setup unchanged.
-        SetRule = 0x8B,
-        /// Host to device: the host's clock, answered with a TimeReply (version 4).
-        TimeRequest = 0x8C,
-    }
-    /// The type of a type byte, or `None` when unknown.
-    pub fn from_u8;
-    /// The type byte.
-    pub fn to_u8;
+/// The message types (`docs/protocol.md`, section 4). Bit 7 set: host to device.
+pub enum MessageType {
+    /// Device to host: the pyramid in force.
+    Hello = 0x01,
+    /// Device to host: a rectangle of one layer's cells.
+    LayerPatch = 0x02,
+    /// Device to host: new window origins.
+    WindowMoved = 0x03,
+    /// Device to host: counters.
+    Stats = 0x04,
+    /// Device to host: the answer to a command.
+    Reply = 0x05,
+    /// Device to host: rows that took a decay step.
+    Decayed = 0x06,
+    /// Device to host: the answer to a TimeRequest (version 4).
+    TimeReply = 0x07,
+    /// Device to host: an observation was applied, and when its returns were measured
+    /// (version 4).
+    Observed = 0x08,
+    /// Host to device: the robot's pose.
+    Pose = 0x81,
+    /// Host to device: the pan angle.
+    PanAngle = 0x82,
+    /// Host to device: a new design and configuration.
+    Configure = 0x83,
+    /// Host to device: forget every observation.
+    Reset = 0x84,
+    /// Host to device: send every cell of one layer or all layers again.
+    RequestSnapshot = 0x85,
+    /// Host to device: answer with Reply Ok.
+    Ping = 0x86,
+    /// Host to device: how the laser is mounted and how its lines make observations.
+    Setup = 0x87,
+    /// Host to device: send a Stats frame at once.
+    RequestStats = 0x88,
+    /// Host to device: flush the queue and stop (emulated boards and tests).
+    Shutdown = 0x89,
+    /// Host to device: end the current observation now (apply its evidence).
+    EndObservation = 0x8A,
+    /// Host to device: the classifier's step threshold and navigability rule, the rest of the
+    /// setup unchanged.
+    SetRule = 0x8B,
+    /// Host to device: the host's clock, answered with a TimeReply (version 4).
+    TimeRequest = 0x8C,
+}
+/// The type of a type byte, or `None` when unknown.
+pub fn from_u8;
+/// The type byte.
+pub fn to_u8;
 }
 
 impl MessageType {

@@ -7,35 +7,35 @@ use super::Header;
 pub(crate) const REPLY_LEN: usize = 17;
 
 byte_enum! {
-    /// A Reply's code (`docs/protocol.md`, "Reply").
-    pub enum ReplyCode {
-        /// Done.
-        Ok = 0,
-        /// A value is NaN or infinite.
-        NotFinite = 1,
-        /// A value must be positive.
-        NotPositive = 2,
-        /// A value lies outside `[a, b]`.
-        OutOfRange = 3,
-        /// γ ≤ 1.
-        GammaNotAboveOne = 4,
-        /// Δd ≤ φ·h.
-        BaseBelowBound = 5,
-        /// The design needs more layers than compiled in.
-        TooManyLayers = 6,
-        /// The window size is odd or out of range.
-        BadWindow = 7,
-        /// A layer's window cannot hold its band.
-        WindowTooSmall = 8,
-        /// The layer asked for does not exist.
-        BadLayer = 9,
-        /// The device does not take this type.
-        Unsupported = 10,
-        /// The frame's body was bad.
-        Malformed = 11,
-    }
-    /// The code of a Reply's code byte, or `None`.
-    pub(super) fn from_u8;
+/// A Reply's code (`docs/protocol.md`, "Reply").
+pub enum ReplyCode {
+    /// Done.
+    Ok = 0,
+    /// A value is NaN or infinite.
+    NotFinite = 1,
+    /// A value must be positive.
+    NotPositive = 2,
+    /// A value lies outside `[a, b]`.
+    OutOfRange = 3,
+    /// γ ≤ 1.
+    GammaNotAboveOne = 4,
+    /// Δd ≤ φ·h.
+    BaseBelowBound = 5,
+    /// The design needs more layers than compiled in.
+    TooManyLayers = 6,
+    /// The window size is odd or out of range.
+    BadWindow = 7,
+    /// A layer's window cannot hold its band.
+    WindowTooSmall = 8,
+    /// The layer asked for does not exist.
+    BadLayer = 9,
+    /// The device does not take this type.
+    Unsupported = 10,
+    /// The frame's body was bad.
+    Malformed = 11,
+}
+/// The code of a Reply's code byte, or `None`.
+pub(super) fn from_u8;
 }
 
 /// The Reply `param` of the snapshot's layer.
