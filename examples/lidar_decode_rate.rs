@@ -7,6 +7,9 @@
 //! decoded (angles interpolated, the YDLIDAR correction, the RPLIDAR capsule compensation).
 //!
 //! Run with `cargo run --release --example lidar_decode_rate`.
+mod common;
+
+use common::XorShift;
 use std::error::Error;
 use std::hint::black_box;
 use std::time::{Duration, Instant};
@@ -15,23 +18,12 @@ use terrain_pyramid::wire::rplidar::{
     RplidarAccumulator, RplidarCapsuleRepr, RplidarDescriptorRepr, RplidarItem, RplidarNodeRepr,
 };
 use terrain_pyramid::wire::ydlidar::{YdlidarAccumulator, YdlidarItem, YdlidarRepr};
-use terrain_pyramid::wire::FeedResult;
+use terrain_pyramid::wire::{FeedResult, LaserReturn};
 
 /// Bytes of stream to build per format.
 const TARGET_BYTES: usize = 20_000_000;
 /// Bytes per feed call.
 const CHUNK: usize = 64;
-
-struct XorShift(u64);
-
-impl XorShift {
-    fn next(&mut self) -> u64 {
-        self.0 ^= self.0 << 13;
-        self.0 ^= self.0 >> 7;
-        self.0 ^= self.0 << 17;
-        self.0
-    }
-}
 
 /// A wall distance in millimetres for sample `i`, with noise; 0 (no return) one time in 16.
 fn wall_mm(rng: &mut XorShift, i: u64) -> u16 {
@@ -200,94 +192,90 @@ fn feed_chunks<'s>(stream: &'s [u8], mut feed: impl FnMut(&'s [u8]) -> Option<&'
     }
 }
 
-fn ld06(stream: &[u8], decode: bool) -> (u64, u64) {
-    let mut acc = Ld06Accumulator::new();
-    let (mut n, mut sum) = (0_u64, 0_u64);
-    feed_chunks(stream, |window| match acc.feed(window) {
-        FeedResult::Consumed => None,
-        FeedResult::Item {
-            item, remaining, ..
-        } => {
-            n += 12;
-            if decode {
-                for r in item.returns() {
-                    sum = sum.wrapping_add(u64::from(r.angle.to_bits()) ^ u64::from(r.range_mm));
-                }
-            } else {
-                sum = sum.wrapping_add(u64::from(item.start_angle_centideg()));
+/// Runs the accumulator `$acc` over `$stream` in chunks ([`feed_chunks`]), evaluating `$on_item`
+/// with each item it hands out bound to `$item`, then flushes it. A macro: the accumulators
+/// share `feed` and `flush` by name, not through a trait.
+macro_rules! drain {
+    ($acc:expr, $stream:expr, |$item:ident| $on_item:block) => {{
+        let mut acc = $acc;
+        feed_chunks($stream, |window| match acc.feed(window) {
+            FeedResult::Consumed => None,
+            FeedResult::Item {
+                item: $item,
+                remaining,
+                ..
+            } => {
+                $on_item
+                Some(remaining)
             }
-            Some(remaining)
-        }
-        FeedResult::Rejected { remaining, .. } => Some(remaining),
+            FeedResult::Rejected { remaining, .. } => Some(remaining),
+        });
+        while !matches!(acc.flush(), FeedResult::Consumed) {}
+    }};
+}
+
+/// A return's part of the checksum: its angle's bits XOR its range.
+fn return_key(r: &LaserReturn) -> u64 {
+    u64::from(r.angle.to_bits()) ^ u64::from(r.range_mm)
+}
+
+/// `sum` with the keys of `returns` added, wrapping.
+fn add_returns(sum: u64, returns: impl Iterator<Item = LaserReturn>) -> u64 {
+    returns.fold(sum, |sum, r| sum.wrapping_add(return_key(&r)))
+}
+
+fn ld06(stream: &[u8], decode: bool) -> (u64, u64) {
+    let (mut n, mut sum) = (0_u64, 0_u64);
+    drain!(Ld06Accumulator::new(), stream, |item| {
+        n += 12;
+        sum = if decode {
+            add_returns(sum, item.returns())
+        } else {
+            sum.wrapping_add(u64::from(item.start_angle_centideg()))
+        };
     });
-    while !matches!(acc.flush(), FeedResult::Consumed) {}
     (n, sum)
 }
 
 fn ydlidar(stream: &[u8], decode: bool) -> (u64, u64) {
-    let mut acc: YdlidarAccumulator = YdlidarAccumulator::new();
     let (mut n, mut sum) = (0_u64, 0_u64);
-    feed_chunks(stream, |window| match acc.feed(window) {
-        FeedResult::Consumed => None,
-        FeedResult::Item {
-            item, remaining, ..
-        } => {
-            if let YdlidarItem::Packet(p) = item {
-                n += u64::from(p.sample_count());
-                if decode {
-                    for r in p.returns() {
-                        sum =
-                            sum.wrapping_add(u64::from(r.angle.to_bits()) ^ u64::from(r.range_mm));
-                    }
-                } else {
-                    sum = sum.wrapping_add(u64::from(p.first_angle_q6()));
-                }
-            }
-            Some(remaining)
+    drain!(<YdlidarAccumulator>::new(), stream, |item| {
+        if let YdlidarItem::Packet(p) = item {
+            n += u64::from(p.sample_count());
+            sum = if decode {
+                add_returns(sum, p.returns())
+            } else {
+                sum.wrapping_add(u64::from(p.first_angle_q6()))
+            };
         }
-        FeedResult::Rejected { remaining, .. } => Some(remaining),
     });
-    while !matches!(acc.flush(), FeedResult::Consumed) {}
     (n, sum)
 }
 
 fn rplidar(stream: &[u8], decode: bool) -> (u64, u64) {
-    let mut acc = RplidarAccumulator::new();
     let (mut n, mut sum) = (0_u64, 0_u64);
-    feed_chunks(stream, |window| match acc.feed(window) {
-        FeedResult::Consumed => None,
-        FeedResult::Item {
-            item, remaining, ..
-        } => {
-            match item {
-                RplidarItem::Node(node) => {
-                    n += 1;
-                    let r = if decode {
-                        let r = node.to_return();
-                        u64::from(r.angle.to_bits()) ^ u64::from(r.range_mm)
-                    } else {
-                        u64::from(node.angle_q6())
-                    };
-                    sum = sum.wrapping_add(r);
-                }
-                RplidarItem::Express(e) => {
-                    n += 32;
-                    if decode {
-                        for r in e.returns() {
-                            sum = sum
-                                .wrapping_add(u64::from(r.angle.to_bits()) ^ u64::from(r.range_mm));
-                        }
-                    } else {
-                        sum = sum.wrapping_add(u64::from(e.next_start_angle_q6()));
-                    }
-                }
-                _ => {}
+    drain!(RplidarAccumulator::new(), stream, |item| {
+        match item {
+            RplidarItem::Node(node) => {
+                n += 1;
+                let r = if decode {
+                    return_key(&node.to_return())
+                } else {
+                    u64::from(node.angle_q6())
+                };
+                sum = sum.wrapping_add(r);
             }
-            Some(remaining)
+            RplidarItem::Express(e) => {
+                n += 32;
+                sum = if decode {
+                    add_returns(sum, e.returns())
+                } else {
+                    sum.wrapping_add(u64::from(e.next_start_angle_q6()))
+                };
+            }
+            _ => {}
         }
-        FeedResult::Rejected { remaining, .. } => Some(remaining),
     });
-    while !matches!(acc.flush(), FeedResult::Consumed) {}
     (n, sum)
 }
 

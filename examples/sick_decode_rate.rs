@@ -7,6 +7,9 @@
 //! measured values parsed and every range decoded.
 //!
 //! Run with `cargo run --release --example sick_decode_rate`.
+mod common;
+
+use common::XorShift;
 use std::error::Error;
 use std::hint::black_box;
 use std::time::{Duration, Instant};
@@ -21,17 +24,6 @@ const TARGET_BYTES: usize = 50_000_000;
 const CHUNK: usize = 64;
 /// Values per scan: 180° at 0.5°.
 const VALUES: usize = 361;
-
-struct XorShift(u64);
-
-impl XorShift {
-    fn next(&mut self) -> u64 {
-        self.0 ^= self.0 << 13;
-        self.0 ^= self.0 >> 7;
-        self.0 ^= self.0 << 17;
-        self.0
-    }
-}
 
 fn build(rng: &mut XorShift) -> Result<(Vec<u8>, u64), Box<dyn Error>> {
     let mut stream = Vec::with_capacity(TARGET_BYTES + 1024);

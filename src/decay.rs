@@ -68,10 +68,9 @@ pub const DECAY_LAYERS: usize = 32;
 /// `τ ≥ 8 · W² / MAX_CELLS_PER_SECOND` s (1 s for W = 64, 58 s for W = 488).
 pub const MAX_CELLS_PER_SECOND: u64 = 32_768;
 
+byte_enum! {
 /// Which evidence ages.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-#[repr(u8)]
+#[derive(Default)]
 pub enum DecayMode {
     /// Nothing decays: the paper's behaviour (the default).
     #[default]
@@ -83,26 +82,13 @@ pub enum DecayMode {
     /// Only free evidence (L < 0) decays; obstacles are kept.
     Free = 3,
 }
+/// The mode of a wire byte (0 ..= 3), or `None`.
+pub fn from_u8;
+/// The wire byte.
+pub fn to_u8;
+}
 
 impl DecayMode {
-    /// The mode of a wire byte (0 ..= 3), or `None`.
-    #[must_use]
-    pub const fn from_u8(byte: u8) -> Option<Self> {
-        Some(match byte {
-            0 => Self::Off,
-            1 => Self::All,
-            2 => Self::Obstacle,
-            3 => Self::Free,
-            _ => return None,
-        })
-    }
-
-    /// The wire byte.
-    #[must_use]
-    pub const fn to_u8(self) -> u8 {
-        self as u8
-    }
-
     /// Whether a cell holding raw log-odds `raw` (not unknown) ages in this mode.
     #[must_use]
     #[inline]

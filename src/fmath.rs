@@ -190,21 +190,7 @@ mod tests {
         if x > 1.0 {
             return FRAC_PI_2 - atan_recursive(1.0 / x);
         }
-        // Halve the angle once: atan(x) = 2·atan(x / (1 + √(1 + x²))), so |t| ≤ tan(π/8) ≈ 0.414.
-        let t = x / (1.0 + sqrt(1.0 + x * x));
-        let t2 = t * t;
-        // atan(t) = t − t³/3 + t⁵/5 − …; 10 terms leave < 0.414²¹/21 ≈ 4·10⁻¹⁰.
-        let mut sum = 0.0_f32;
-        let mut power = t;
-        let mut sign = 1.0_f32;
-        let mut denominator = 1.0_f32;
-        for _ in 0..10 {
-            sum += sign * power / denominator;
-            power *= t2;
-            sign = -sign;
-            denominator += 2.0;
-        }
-        2.0 * sum
+        atan_unit(x)
     }
 
     /// Compares `atan` with `atan_recursive` on every `stride`-th f32 bit pattern (both

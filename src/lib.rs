@@ -50,6 +50,9 @@
 #![deny(unsafe_code)]
 #![deny(missing_docs)]
 
+#[macro_use]
+mod macros;
+
 pub mod actuator;
 pub mod angle;
 pub mod fmath;

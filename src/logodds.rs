@@ -253,17 +253,11 @@ impl defmt::Format for Clamp {
 }
 
 #[cfg(feature = "defmt")]
-impl defmt::Format for Increments {
-    fn format(&self, f: defmt::Formatter<'_>) {
-        defmt::write!(
-            f,
-            "Increments {{ obstacle: {=i16}, free: {=i16}, initial: {=i16} }} (raw Q8.8)",
-            self.obstacle.to_bits(),
-            self.free.to_bits(),
-            self.initial.to_bits()
-        );
-    }
-}
+defmt_raw!(
+    Increments,
+    "Increments {{ obstacle: {=i16}, free: {=i16}, initial: {=i16} }} (raw Q8.8)",
+    [obstacle, free, initial]
+);
 
 impl Default for Clamp {
     fn default() -> Self {

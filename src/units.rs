@@ -49,17 +49,11 @@ pub struct Point3 {
 }
 
 #[cfg(feature = "defmt")]
-impl defmt::Format for Point3 {
-    fn format(&self, f: defmt::Formatter<'_>) {
-        defmt::write!(
-            f,
-            "Point3({=i32}, {=i32}, {=i32}) raw Q16.16",
-            self.x.to_bits(),
-            self.y.to_bits(),
-            self.z.to_bits()
-        );
-    }
-}
+defmt_raw!(
+    Point3,
+    "Point3({=i32}, {=i32}, {=i32}) raw Q16.16",
+    [x, y, z]
+);
 
 #[cfg(test)]
 mod tests {

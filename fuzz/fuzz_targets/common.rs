@@ -156,6 +156,26 @@ macro_rules! run_accumulator {
 #[allow(unused_imports)]
 pub(crate) use run_accumulator;
 
+/// The stream's byte at `offset` (where a rejected candidate started, say).
+pub fn byte_at(stream: &[u8], offset: u64) -> u8 {
+    stream[usize::try_from(offset).unwrap()]
+}
+
+/// Asserts that `bytes`, handed out at stream offset `offset`, are the stream's own there.
+pub fn assert_in_stream(stream: &[u8], offset: u64, bytes: &[u8]) {
+    let at = usize::try_from(offset).unwrap();
+    assert_eq!(&stream[at..at + bytes.len()], bytes);
+}
+
+/// Asserts that a unit handed out at `offset` is the stream's own `bytes` there
+/// ([`assert_in_stream`]) and starts at or after `*last_end`, where the previous one ended;
+/// then moves `*last_end` to its own end. `what` names the units in the message.
+pub fn assert_next_unit(stream: &[u8], offset: u64, bytes: &[u8], last_end: &mut u64, what: &str) {
+    assert_in_stream(stream, offset, bytes);
+    assert!(offset >= *last_end, "{what} overlap");
+    *last_end = offset + bytes.len() as u64;
+}
+
 /// Runs `stream` whole through `run` (events, counters, stream position) and checks the run
 /// with `check`; then runs it cut into chunks whose sizes cycle through `sizes` ([`chunks`])
 /// and asserts that the events, the counters and the position do not depend on the chunking.

@@ -51,13 +51,10 @@ fn check(stream: &[u8], events: &[Ev], c: Ld06Counters, position: u64) {
         match ev {
             Ev::P(offset, bytes) => {
                 packets += 1;
-                let at = usize::try_from(*offset).unwrap();
-                assert_eq!(&stream[at..at + bytes.len()], &bytes[..]);
-                assert!(*offset >= last_end, "packets overlap");
-                last_end = offset + bytes.len() as u64;
+                common::assert_next_unit(stream, *offset, bytes, &mut last_end, "packets");
             }
             Ev::R(offset, e) => {
-                assert_eq!(stream[usize::try_from(*offset).unwrap()], 0x54);
+                assert_eq!(common::byte_at(stream, *offset), 0x54);
                 match e {
                     Ld06Error::BadCrc { .. } => crc += 1,
                     Ld06Error::Truncated => truncated += 1,

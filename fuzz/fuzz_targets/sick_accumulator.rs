@@ -79,24 +79,21 @@ fn check(stream: &[u8], events: &[Ev], stats: SickCounters, position: u64) {
         match ev {
             Ev::T(offset, bytes) => {
                 ok += 1;
-                let start = usize::try_from(*offset).unwrap();
-                assert_eq!(&stream[start..start + bytes.len()], &bytes[..]);
-                assert!(*offset >= last_end, "telegrams overlap");
-                last_end = offset + bytes.len() as u64;
+                common::assert_next_unit(stream, *offset, bytes, &mut last_end, "telegrams");
                 accounted += bytes.len() as u64;
             }
             Ev::Ack(offset) => {
                 ack += 1;
-                assert_eq!(stream[usize::try_from(*offset).unwrap()], 0x06);
+                assert_eq!(common::byte_at(stream, *offset), 0x06);
                 accounted += 1;
             }
             Ev::Nak(offset) => {
                 nak += 1;
-                assert_eq!(stream[usize::try_from(*offset).unwrap()], 0x15);
+                assert_eq!(common::byte_at(stream, *offset), 0x15);
                 accounted += 1;
             }
             Ev::R(offset, e) => {
-                assert_eq!(stream[usize::try_from(*offset).unwrap()], 0x02);
+                assert_eq!(common::byte_at(stream, *offset), 0x02);
                 match e {
                     SickFrameError::BadLength { .. } | SickFrameError::TooLong { .. } => {
                         length += 1

@@ -78,15 +78,11 @@ fn check(stream: &[u8], events: &[Ev], c: YdlidarCounters, position: u64) {
                 } else {
                     seen.descriptors += 1;
                 }
-                let at = usize::try_from(*offset).unwrap();
-                assert_eq!(&stream[at..at + bytes.len()], &bytes[..]);
-                assert!(*offset >= last_end, "items overlap");
-                last_end = offset + bytes.len() as u64;
+                common::assert_next_unit(stream, *offset, bytes, &mut last_end, "items");
                 items += bytes.len() as u64;
             }
             Ev::R(offset, e) => {
-                let at = usize::try_from(*offset).unwrap();
-                assert!(matches!(stream[at], 0xAA | 0xA5));
+                assert!(matches!(common::byte_at(stream, *offset), 0xAA | 0xA5));
                 match e {
                     YdlidarError::BadChecksum { .. } => seen.checksum += 1,
                     YdlidarError::BadCheckBit { .. } => seen.check_bits += 1,

@@ -104,16 +104,11 @@ pub struct SinCos {
 }
 
 #[cfg(feature = "defmt")]
-impl defmt::Format for SinCos {
-    fn format(&self, f: defmt::Formatter<'_>) {
-        defmt::write!(
-            f,
-            "SinCos(sin {=i32}, cos {=i32}) raw Q2.30",
-            self.sin.to_bits(),
-            self.cos.to_bits()
-        );
-    }
-}
+defmt_raw!(
+    SinCos,
+    "SinCos(sin {=i32}, cos {=i32}) raw Q2.30",
+    [sin, cos]
+);
 
 /// An angle as a fraction of a turn in `[0, 1)`, unsigned Q0.32 (the "binary angle").
 ///

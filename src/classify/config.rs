@@ -49,17 +49,12 @@ impl Default for ClassifierConfig {
 }
 
 #[cfg(feature = "defmt")]
-impl defmt::Format for ClassifierConfig {
-    fn format(&self, f: defmt::Formatter<'_>) {
-        defmt::write!(
-            f,
-            "ClassifierConfig {{ robot_height: {=i32}, step_threshold: {=i32} }} (raw Q16.16), rule {}",
-            self.robot_height.to_bits(),
-            self.step_threshold.to_bits(),
-            self.rule
-        );
-    }
-}
+defmt_raw!(
+    ClassifierConfig,
+    "ClassifierConfig {{ robot_height: {=i32}, step_threshold: {=i32} }} (raw Q16.16), rule {}",
+    [robot_height, step_threshold],
+    [rule]
+);
 
 /// Counters of the classifier. They saturate at `u32::MAX`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]

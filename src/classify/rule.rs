@@ -153,19 +153,7 @@ impl Default for PlaneRule {
 }
 
 #[cfg(feature = "defmt")]
-impl defmt::Format for PlaneRule {
-    fn format(&self, f: defmt::Formatter<'_>) {
-        defmt::write!(
-            f,
-            "PlaneRule {{ max_grade: {=i32}, residual: {=i32}, range_sigma: {=i32}, angle_sigma: {=i32}, noise_factor: {=i32} }} (raw Q16.16)",
-            self.max_grade.to_bits(),
-            self.residual.to_bits(),
-            self.range_sigma.to_bits(),
-            self.angle_sigma.to_bits(),
-            self.noise_factor.to_bits()
-        );
-    }
-}
+defmt_raw!(PlaneRule, "PlaneRule {{ max_grade: {=i32}, residual: {=i32}, range_sigma: {=i32}, angle_sigma: {=i32}, noise_factor: {=i32} }} (raw Q16.16)", [max_grade, residual, range_sigma, angle_sigma, noise_factor]);
 
 #[cfg(feature = "plane-rule")]
 /// The number of summed points at which the sums are halved.

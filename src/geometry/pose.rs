@@ -241,20 +241,11 @@ fn angle(field: PoseField, value: f32) -> Result<FineAngle, PoseError> {
 }
 
 #[cfg(feature = "defmt")]
-impl defmt::Format for Pose {
-    fn format(&self, f: defmt::Formatter<'_>) {
-        defmt::write!(
-            f,
-            "Pose({=i32}, {=i32}, {=i32} raw Q16.16; rpy {=u32}, {=u32}, {=u32} raw Q0.32 turn)",
-            self.x.to_bits(),
-            self.y.to_bits(),
-            self.z.to_bits(),
-            self.roll.to_bits(),
-            self.pitch.to_bits(),
-            self.yaw.to_bits()
-        );
-    }
-}
+defmt_raw!(
+    Pose,
+    "Pose({=i32}, {=i32}, {=i32} raw Q16.16; rpy {=u32}, {=u32}, {=u32} raw Q0.32 turn)",
+    [x, y, z, roll, pitch, yaw]
+);
 
 /// A rotation matrix in signed Q2.30 (entries within −1 ..= +1).
 ///

@@ -49,10 +49,8 @@ use crate::wire::ydlidar::{
 };
 use crate::wire::{FeedResult, LaserReturn};
 
+byte_enum! {
 /// A laser kind: the Setup's sensor code (`docs/protocol.md`, Setup).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-#[repr(u8)]
 pub enum SensorKind {
     /// SICK LMS2xx (code 0).
     Sick = 0,
@@ -63,26 +61,13 @@ pub enum SensorKind {
     /// YDLIDAR X4 or X2 (code 3).
     Ydlidar = 3,
 }
+/// The kind of a Setup's sensor code, if it names one.
+pub fn from_code;
+/// The Setup's sensor code.
+pub fn code;
+}
 
 impl SensorKind {
-    /// The kind of a Setup's sensor code, if it names one.
-    #[must_use]
-    pub const fn from_code(code: u8) -> Option<Self> {
-        Some(match code {
-            0 => Self::Sick,
-            1 => Self::Ld06,
-            2 => Self::Rplidar,
-            3 => Self::Ydlidar,
-            _ => return None,
-        })
-    }
-
-    /// The Setup's sensor code.
-    #[must_use]
-    pub const fn code(self) -> u8 {
-        self as u8
-    }
-
     /// A short name: `sick`, `ld06`, `rplidar`, `ydlidar`.
     #[must_use]
     pub const fn name(self) -> &'static str {

@@ -607,29 +607,10 @@ impl Ld06Accumulator {
         (!self.window.handed_out().is_empty()).then(|| self.item())
     }
 
-    /// The counters.
-    #[must_use]
-    pub const fn counters(&self) -> Ld06Counters {
-        self.counters
-    }
-
-    /// Zeroes the counters.
-    pub fn clear_counters(&mut self) {
-        self.counters = Ld06Counters::default();
-    }
-
-    /// Bytes buffered and not yet resolved (a candidate in progress).
-    #[must_use]
-    pub const fn buffered(&self) -> usize {
-        self.window.unresolved()
-    }
-
-    /// Bytes taken from chunks since the accumulator was made (wrapping at 2⁶⁴): the stream
-    /// position of the next byte fed.
-    #[must_use]
-    pub const fn position(&self) -> u64 {
-        self.window.position()
-    }
+    resync::stream_accessors!(
+        Ld06Counters,
+        "Bytes buffered and not yet resolved (a candidate in progress)."
+    );
 
     /// Drops everything buffered, uncounted; keeps the counters and the stream position.
     pub fn reset(&mut self) {

@@ -11,6 +11,39 @@
 use super::window::Window;
 use super::FeedResult;
 
+/// The accessors each accumulator has over its `counters` and `window` fields, written once:
+/// `counters`, `clear_counters`, `buffered` (with the doc given, as what it leaves out differs
+/// between the accumulators) and `position`. Expands inside the accumulator's `impl` block;
+/// `$counters` is its counters' type.
+macro_rules! stream_accessors {
+    ($counters:ty, $buffered_doc:literal) => {
+        /// The counters.
+        #[must_use]
+        pub const fn counters(&self) -> $counters {
+            self.counters
+        }
+
+        /// Zeroes the counters.
+        pub fn clear_counters(&mut self) {
+            self.counters = <$counters>::default();
+        }
+
+        #[doc = $buffered_doc]
+        #[must_use]
+        pub const fn buffered(&self) -> usize {
+            self.window.unresolved()
+        }
+
+        /// Bytes taken from chunks since the accumulator was made (wrapping at 2⁶⁴): the
+        /// stream position of the next byte fed.
+        #[must_use]
+        pub const fn position(&self) -> u64 {
+            self.window.position()
+        }
+    };
+}
+pub(crate) use stream_accessors;
+
 /// What the front of an accumulator's window resolves to.
 #[derive(Debug, Clone, Copy)]
 pub(crate) enum Scan<E> {

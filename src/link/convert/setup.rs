@@ -13,11 +13,9 @@ use crate::units::Meters;
 use crate::wire::link::{Header, LaserSetup, Setup};
 use crate::wire::recording::{MountKind, RigEvent, SensorEvent, SetupEvent};
 
+byte_enum! {
 /// A field of a [`Setup`], as a Reply names it (`param` 48 ..= 57, and 58 ..= 64 for the
 /// laser block of protocol version 3).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-#[repr(u8)]
 pub enum SetupField {
     /// The mount: 0 panned vertical, 1 tilted horizontal.
     Mount = 48,
@@ -86,49 +84,11 @@ pub enum SetupField {
     /// A masked sector's start or end (the value the bad angle, `min` the sector's index).
     Sector = 80,
 }
+/// The field a Reply `param` names, if it names one.
+pub fn from_param;
+}
 
 impl SetupField {
-    /// The field a Reply `param` names, if it names one.
-    #[must_use]
-    pub const fn from_param(param: u8) -> Option<Self> {
-        Some(match param {
-            48 => Self::Mount,
-            49 => Self::MeasuringMode,
-            50 => Self::Variant,
-            51 => Self::SensorX,
-            52 => Self::SensorY,
-            53 => Self::SensorZ,
-            54 => Self::RobotHeight,
-            55 => Self::StepThreshold,
-            56 => Self::DropThreshold,
-            57 => Self::Ceiling,
-            58 => Self::Sensor,
-            59 => Self::Baud,
-            60 => Self::Actuator,
-            61 => Self::ServoMin,
-            62 => Self::ServoMax,
-            63 => Self::ServoRate,
-            64 => Self::ServoLatency,
-            65 => Self::Rule,
-            66 => Self::MaxGrade,
-            67 => Self::Residual,
-            68 => Self::RangeSigma,
-            69 => Self::AngleSigma,
-            70 => Self::NoiseFactor,
-            71 => Self::MountAxis,
-            72 => Self::MountSense,
-            73 => Self::MountZero,
-            74 => Self::MountRoll,
-            75 => Self::MountPitch,
-            76 => Self::MountYaw,
-            77 => Self::MinRange,
-            78 => Self::MaxRange,
-            79 => Self::SectorCount,
-            80 => Self::Sector,
-            _ => return None,
-        })
-    }
-
     /// The field's name for messages.
     #[must_use]
     pub const fn name(self) -> &'static str {

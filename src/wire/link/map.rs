@@ -27,10 +27,8 @@ pub struct FirmwareVersion {
     pub patch: u8,
 }
 
+byte_enum! {
 /// Why a Hello was sent.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-#[repr(u8)]
 pub enum HelloReason {
     /// The device started: every cell unknown.
     Boot = 0,
@@ -41,6 +39,9 @@ pub enum HelloReason {
     /// A snapshot was requested: maps kept, the layers in `resend` follow in full.
     Snapshot = 3,
 }
+/// The reason of a Hello's reason byte, or `None`.
+pub(super) fn from_u8;
+}
 
 impl HelloReason {
     /// Whether the device's maps were cleared: the host must clear its copy.
@@ -48,24 +49,13 @@ impl HelloReason {
     pub const fn clears_maps(self) -> bool {
         !matches!(self, Self::Snapshot)
     }
-
-    pub(super) const fn from_u8(byte: u8) -> Option<Self> {
-        Some(match byte {
-            0 => Self::Boot,
-            1 => Self::Configured,
-            2 => Self::Reset,
-            3 => Self::Snapshot,
-            _ => return None,
-        })
-    }
 }
 
-/// The clock the device's board runs on, as it started it (Hello offset 12): how a host learns
-/// that a board fell back to its internal oscillator (its UARTs' rates and its timing then
-/// carry that oscillator's tolerance, about ±1 % on an STM32F4's HSI).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-#[repr(u8)]
+byte_enum! {
+/// The clock the device's board runs on, as it started it (Hello offset 12): how a host
+/// learns that a board fell back to its internal oscillator (its UARTs' rates and its
+/// timing then carry that oscillator's tolerance, about ±1 % on an STM32F4's HSI).
+#[derive(Default)]
 pub enum ClockSource {
     /// The board does not say.
     #[default]
@@ -79,27 +69,13 @@ pub enum ClockSource {
     /// No clock tree answered (every ready flag reads 0): an emulator that does not model it.
     Unmodelled = 4,
 }
+/// The source of a wire code, if it is one.
+pub fn from_code;
+/// The wire code, 0 ..= 4.
+pub fn code;
+}
 
 impl ClockSource {
-    /// The wire code, 0 ..= 4.
-    #[must_use]
-    pub const fn code(self) -> u8 {
-        self as u8
-    }
-
-    /// The source of a wire code, if it is one.
-    #[must_use]
-    pub const fn from_code(byte: u8) -> Option<Self> {
-        Some(match byte {
-            0 => Self::NotReported,
-            1 => Self::External,
-            2 => Self::InternalPll,
-            3 => Self::Internal,
-            4 => Self::Unmodelled,
-            _ => return None,
-        })
-    }
-
     /// Whether the board runs on a fallback, not on the clock it was built for.
     #[must_use]
     pub const fn is_fallback(self) -> bool {

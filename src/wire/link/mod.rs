@@ -95,10 +95,8 @@ pub const fn encoded_len_max(decoded: usize) -> usize {
     cobs::max_encoded_len(decoded) + 1
 }
 
+byte_enum! {
 /// The message types (`docs/protocol.md`, section 4). Bit 7 set: host to device.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-#[repr(u8)]
 pub enum MessageType {
     /// Device to host: the pyramid in force.
     Hello = 0x01,
@@ -143,42 +141,13 @@ pub enum MessageType {
     /// Host to device: the host's clock, answered with a TimeReply (version 4).
     TimeRequest = 0x8C,
 }
+/// The type of a type byte, or `None` when unknown.
+pub fn from_u8;
+/// The type byte.
+pub fn to_u8;
+}
 
 impl MessageType {
-    /// The type of a type byte, or `None` when unknown.
-    #[must_use]
-    pub const fn from_u8(byte: u8) -> Option<Self> {
-        Some(match byte {
-            0x01 => Self::Hello,
-            0x02 => Self::LayerPatch,
-            0x03 => Self::WindowMoved,
-            0x04 => Self::Stats,
-            0x05 => Self::Reply,
-            0x06 => Self::Decayed,
-            0x07 => Self::TimeReply,
-            0x08 => Self::Observed,
-            0x81 => Self::Pose,
-            0x82 => Self::PanAngle,
-            0x83 => Self::Configure,
-            0x84 => Self::Reset,
-            0x85 => Self::RequestSnapshot,
-            0x86 => Self::Ping,
-            0x87 => Self::Setup,
-            0x88 => Self::RequestStats,
-            0x89 => Self::Shutdown,
-            0x8A => Self::EndObservation,
-            0x8B => Self::SetRule,
-            0x8C => Self::TimeRequest,
-            _ => return None,
-        })
-    }
-
-    /// The type byte.
-    #[must_use]
-    pub const fn to_u8(self) -> u8 {
-        self as u8
-    }
-
     /// Whether the host sends this type (bit 7 set).
     #[must_use]
     pub const fn is_command(self) -> bool {

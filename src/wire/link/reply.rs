@@ -6,10 +6,8 @@ use super::Header;
 /// Bytes of a Reply body.
 pub(crate) const REPLY_LEN: usize = 17;
 
+byte_enum! {
 /// A Reply's code (`docs/protocol.md`, "Reply").
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-#[repr(u8)]
 pub enum ReplyCode {
     /// Done.
     Ok = 0,
@@ -36,25 +34,8 @@ pub enum ReplyCode {
     /// The frame's body was bad.
     Malformed = 11,
 }
-
-impl ReplyCode {
-    pub(super) const fn from_u8(byte: u8) -> Option<Self> {
-        Some(match byte {
-            0 => Self::Ok,
-            1 => Self::NotFinite,
-            2 => Self::NotPositive,
-            3 => Self::OutOfRange,
-            4 => Self::GammaNotAboveOne,
-            5 => Self::BaseBelowBound,
-            6 => Self::TooManyLayers,
-            7 => Self::BadWindow,
-            8 => Self::WindowTooSmall,
-            9 => Self::BadLayer,
-            10 => Self::Unsupported,
-            11 => Self::Malformed,
-            _ => return None,
-        })
-    }
+/// The code of a Reply's code byte, or `None`.
+pub(super) fn from_u8;
 }
 
 /// The Reply `param` of the snapshot's layer.

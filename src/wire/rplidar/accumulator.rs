@@ -270,29 +270,10 @@ impl RplidarAccumulator {
         resync::flush(self)
     }
 
-    /// The counters.
-    #[must_use]
-    pub const fn counters(&self) -> RplidarCounters {
-        self.counters
-    }
-
-    /// Zeroes the counters.
-    pub fn clear_counters(&mut self) {
-        self.counters = RplidarCounters::default();
-    }
-
-    /// Bytes buffered and not yet resolved (the kept capsule not included).
-    #[must_use]
-    pub const fn buffered(&self) -> usize {
-        self.window.unresolved()
-    }
-
-    /// Bytes taken from chunks since the accumulator was made (wrapping at 2⁶⁴): the stream
-    /// position of the next byte fed.
-    #[must_use]
-    pub const fn position(&self) -> u64 {
-        self.window.position()
-    }
+    resync::stream_accessors!(
+        RplidarCounters,
+        "Bytes buffered and not yet resolved (the kept capsule not included)."
+    );
 
     /// Drops everything buffered and the kept capsule, uncounted, and expects a descriptor;
     /// keeps the counters and the stream position.

@@ -182,29 +182,7 @@ impl<const N: usize> YdlidarAccumulator<N> {
         resync::flush(self)
     }
 
-    /// The counters.
-    #[must_use]
-    pub const fn counters(&self) -> YdlidarCounters {
-        self.counters
-    }
-
-    /// Zeroes the counters.
-    pub fn clear_counters(&mut self) {
-        self.counters = YdlidarCounters::default();
-    }
-
-    /// Bytes buffered and not yet resolved.
-    #[must_use]
-    pub const fn buffered(&self) -> usize {
-        self.window.unresolved()
-    }
-
-    /// Bytes taken from chunks since the accumulator was made (wrapping at 2⁶⁴): the stream
-    /// position of the next byte fed.
-    #[must_use]
-    pub const fn position(&self) -> u64 {
-        self.window.position()
-    }
+    resync::stream_accessors!(YdlidarCounters, "Bytes buffered and not yet resolved.");
 
     /// Drops everything buffered, uncounted; keeps the counters and the stream position.
     pub fn reset(&mut self) {
