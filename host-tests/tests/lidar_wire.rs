@@ -8,19 +8,20 @@
 
 mod common;
 
-use common::{chunks, feed_chunks, seeded};
+use common::feed::{checked_ld06, checked_ydlidar, feed_all, tally};
+use common::{chunks, seeded};
 use proptest::prelude::*;
 use terrain_pyramid::angle::FineAngle;
 use terrain_pyramid::wire::ld06::{
-    Ld06Accumulator, Ld06Counters, Ld06Error, Ld06Packet, Ld06Point, Ld06Repr, LD06_PACKET_LEN,
+    Ld06Accumulator, Ld06Counters, Ld06Packet, Ld06Point, Ld06Repr, LD06_PACKET_LEN,
 };
 use terrain_pyramid::wire::rplidar::{
     RplidarAccumulator, RplidarCapsule, RplidarCapsuleRepr, RplidarCounters, RplidarDescriptor,
     RplidarDescriptorRepr, RplidarError, RplidarItem, RplidarNode, RplidarNodeRepr,
 };
 use terrain_pyramid::wire::ydlidar::{
-    YdlidarAccumulator, YdlidarAngleCorrection, YdlidarCounters, YdlidarItem, YdlidarPacket,
-    YdlidarRepr, YDLIDAR_CORRECTION_MAX_ERROR_DEG,
+    YdlidarAccumulator, YdlidarAngleCorrection, YdlidarCounters, YdlidarPacket, YdlidarRepr,
+    YDLIDAR_CORRECTION_MAX_ERROR_DEG,
 };
 use terrain_pyramid::wire::FeedResult;
 
@@ -81,29 +82,14 @@ fn ld06_bytes(repr: &Ld06Repr) -> Vec<u8> {
 /// Feeds the chunks and flushes: (offset, packet) delivered, rejections, counters.
 fn ld06_run(chunks: &[&[u8]]) -> (Vec<(u64, Vec<u8>)>, usize, Ld06Counters, u64) {
     let mut acc = Ld06Accumulator::new();
-    let mut delivered = Vec::new();
-    let mut rejected = 0;
-    let mut handle = |r: FeedResult<'_, Ld06Packet<&[u8]>, Ld06Error>| -> bool {
-        match r {
-            FeedResult::Consumed => false,
-            FeedResult::Item { item, offset, .. } => {
-                assert!(Ld06Packet::new_checked(item.as_bytes()).is_ok());
-                delivered.push((offset, item.as_bytes().to_vec()));
-                true
-            }
-            FeedResult::Rejected { .. } => {
-                rejected += 1;
-                true
-            }
-        }
-    };
-    feed_chunks(chunks, |window| {
-        let r = acc.feed(window);
-        (r.remaining(), handle(r))
-    });
-    while handle(acc.flush()) {}
+    let t = tally(&mut acc, chunks, checked_ld06);
     assert_eq!(acc.buffered(), 0);
-    (delivered, rejected, acc.counters(), acc.position())
+    (
+        t.delivered,
+        t.rejected as usize,
+        acc.counters(),
+        acc.position(),
+    )
 }
 
 proptest! {
@@ -213,31 +199,14 @@ fn ydlidar_bytes(ct: u8, first: u16, last: u16, samples: &[u16]) -> Vec<u8> {
 
 fn ydlidar_run(chunks: &[&[u8]]) -> (Vec<(u64, Vec<u8>)>, usize, YdlidarCounters, u64) {
     let mut acc: YdlidarAccumulator = YdlidarAccumulator::new();
-    let mut delivered = Vec::new();
-    let mut rejected = 0;
-    let mut handle = |r: FeedResult<'_, YdlidarItem<'_>, _>| -> bool {
-        match r {
-            FeedResult::Consumed => false,
-            FeedResult::Item { item, offset, .. } => {
-                if let YdlidarItem::Packet(p) = item {
-                    assert!(YdlidarPacket::new_checked(p.as_bytes()).is_ok());
-                }
-                delivered.push((offset, item.as_bytes().to_vec()));
-                true
-            }
-            FeedResult::Rejected { .. } => {
-                rejected += 1;
-                true
-            }
-        }
-    };
-    feed_chunks(chunks, |window| {
-        let r = acc.feed(window);
-        (r.remaining(), handle(r))
-    });
-    while handle(acc.flush()) {}
+    let t = tally(&mut acc, chunks, checked_ydlidar);
     assert_eq!(acc.buffered(), 0);
-    (delivered, rejected, acc.counters(), acc.position())
+    (
+        t.delivered,
+        t.rejected as usize,
+        acc.counters(),
+        acc.position(),
+    )
 }
 
 proptest! {
@@ -382,7 +351,7 @@ enum Rp {
 fn rplidar_run(acc: RplidarAccumulator, chunks: &[&[u8]]) -> (Vec<Rp>, RplidarCounters, u64) {
     let mut acc = acc;
     let mut out = Vec::new();
-    let mut handle = |r: FeedResult<'_, RplidarItem<'_>, RplidarError>| -> bool {
+    feed_all(&mut acc, chunks, |r| {
         match r {
             FeedResult::Consumed => return false,
             FeedResult::Item { item, offset, .. } => out.push(match item {
@@ -410,12 +379,7 @@ fn rplidar_run(acc: RplidarAccumulator, chunks: &[&[u8]]) -> (Vec<Rp>, RplidarCo
             FeedResult::Rejected { error, offset, .. } => out.push(Rp::R(offset, error)),
         }
         true
-    };
-    feed_chunks(chunks, |window| {
-        let r = acc.feed(window);
-        (r.remaining(), handle(r))
     });
-    while handle(acc.flush()) {}
     assert_eq!(acc.buffered(), 0);
     let c = acc.counters();
     (out, c, acc.position())

@@ -186,7 +186,10 @@ pub struct Simulation {
 }
 
 /// Appends one event to `out`.
-fn push(out: &mut Vec<u8>, event: &Event<'_>) -> Result<(), SimError> {
+///
+/// # Errors
+/// The event could not be written.
+pub(crate) fn push(out: &mut Vec<u8>, event: &Event<'_>) -> Result<(), SimError> {
     let start = out.len();
     out.resize(start + event.buffer_len(), 0);
     let tail = out.get_mut(start..).unwrap_or_default();

@@ -1,6 +1,8 @@
 //! Strategies and helpers shared by the property tests.
 #![allow(dead_code)]
 
+pub mod feed;
+
 use proptest::prelude::*;
 use terrain_pyramid as tp;
 use terrain_pyramid_host_tests::harness;
@@ -121,6 +123,9 @@ pub fn seeded(cases: u32, seed: u64) -> proptest::test_runner::Config {
         ..proptest::test_runner::Config::default()
     }
 }
+
+/// Units of a stream: their offsets (of the first byte in the stream) and bytes.
+pub type Units = Vec<(u64, Vec<u8>)>;
 
 /// Cuts `stream` into chunks whose sizes cycle through `sizes`.
 pub fn chunks<'a>(stream: &'a [u8], sizes: &[usize]) -> Vec<&'a [u8]> {
