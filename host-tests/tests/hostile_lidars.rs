@@ -15,7 +15,9 @@
 
 mod common;
 
-use common::feed::{checked_ld06, checked_node, checked_ydlidar, feed_all, tally, Tally};
+use common::feed::{
+    checked_ld06, checked_node, checked_ydlidar, feed_all, tally, Accumulate, Tally,
+};
 use common::{chunks, seeded, Units};
 use proptest::prelude::*;
 
@@ -120,6 +122,24 @@ fn check_delivery(
     Ok(())
 }
 
+/// Feeds `stream` in chunks of `sizes` to `acc`, keeping the units `keep` gives bytes for;
+/// checks them against `intact` ([`check_delivery`]) and, when the stream was not `damaged`,
+/// that they are exactly the intact units. Returns the tally.
+fn intact_delivered<A: Accumulate>(
+    acc: &mut A,
+    stream: &[u8],
+    sizes: &[usize],
+    (intact, damaged): (&[(u64, Vec<u8>)], bool),
+    keep: impl FnMut(A::Unit<'_>) -> Option<Vec<u8>>,
+) -> Result<Tally, TestCaseError> {
+    let t = tally(acc, &chunks(stream, sizes), keep);
+    check_delivery(stream, &t.delivered, intact, &[])?;
+    if !damaged {
+        prop_assert_eq!(&t.delivered, &intact);
+    }
+    Ok(t)
+}
+
 fn ld06_packet() -> impl Strategy<Value = Vec<u8>> + Clone {
     (
         any::<u16>(),
@@ -209,16 +229,12 @@ proptest! {
     ) {
         let (stream, intact, damaged) = lidar_stream(&pieces, &[]);
         let mut acc = Ld06Accumulator::new();
-        let Tally { delivered, rejected } = tally(&mut acc, &chunks(&stream, &sizes), checked_ld06);
-        check_delivery(&stream, &delivered, &intact, &[])?;
+        let Tally { delivered, rejected } = intact_delivered(&mut acc, &stream, &sizes, (&intact, damaged), checked_ld06)?;
         let c = acc.counters();
         prop_assert_eq!(c.packets as usize, delivered.len());
         prop_assert_eq!(c.checksum + c.truncated, rejected);
         prop_assert_eq!(47 * u64::from(c.packets) + u64::from(c.checksum + c.truncated + c.garbage_bytes), stream.len() as u64);
         prop_assert_eq!(acc.position(), stream.len() as u64);
-        if !damaged {
-            prop_assert_eq!(&delivered, &intact);
-        }
     }
 
     #[test]
@@ -230,16 +246,12 @@ proptest! {
         let (stream, mut intact, damaged) = lidar_stream(&pieces, &scan);
         intact.insert(0, (0, scan.to_vec()));
         let mut acc: Box<YdlidarAccumulator> = Box::default();
-        let Tally { delivered, rejected } = tally(acc.as_mut(), &chunks(&stream, &sizes), checked_ydlidar);
-        check_delivery(&stream, &delivered, &intact, &[])?;
+        let Tally { delivered, rejected } = intact_delivered(acc.as_mut(), &stream, &sizes, (&intact, damaged), checked_ydlidar)?;
         let c = acc.counters();
         prop_assert_eq!((c.packets + c.descriptors) as usize, delivered.len());
         prop_assert_eq!(c.checksum + c.check_bits + c.bad_length + c.truncated, rejected);
         let items: u64 = delivered.iter().map(|(_, b)| b.len() as u64).sum();
         prop_assert_eq!(items + u64::from(c.checksum + c.check_bits + c.bad_length + c.truncated + c.garbage_bytes), stream.len() as u64);
-        if !damaged {
-            prop_assert_eq!(&delivered, &intact);
-        }
     }
 
     #[test]
