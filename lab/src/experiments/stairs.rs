@@ -286,31 +286,21 @@ pub fn four_maps<const W: usize, const L: usize>(
     let clamped = designs::octomap_clamped();
     let fc = decoded.frontend;
     let e = |e: DesignError| e.to_string();
+    let flat = |name: &str, config| -> Result<Box<dyn Map>, String> {
+        let design = designs::flat(range, cell, W).map_err(e)?;
+        Ok(Box::new(Runner::<W, 1, SLOTS>::new(
+            name, design, config, fc,
+        )?))
+    };
+    let gated = |name: &str, gate| -> Result<Box<dyn Map>, String> {
+        let design = pyramid(gate).map_err(e)?;
+        Ok(Box::new(Runner::<W, L, SLOTS>::new(name, design, off, fc)?))
+    };
     Ok(vec![
-        Box::new(Runner::<W, 1, SLOTS>::new(
-            "flat",
-            designs::flat(range, cell, W).map_err(e)?,
-            off,
-            fc,
-        )?),
-        Box::new(Runner::<W, 1, SLOTS>::new(
-            "flat_clamped",
-            designs::flat(range, cell, W).map_err(e)?,
-            clamped,
-            fc,
-        )?),
-        Box::new(Runner::<W, L, SLOTS>::new(
-            "pyramid",
-            pyramid(GateShape::Hard).map_err(e)?,
-            off,
-            fc,
-        )?),
-        Box::new(Runner::<W, L, SLOTS>::new(
-            "pyramid_soft",
-            pyramid(GateShape::default()).map_err(e)?,
-            off,
-            fc,
-        )?),
+        flat("flat", off)?,
+        flat("flat_clamped", clamped)?,
+        gated("pyramid", GateShape::Hard)?,
+        gated("pyramid_soft", GateShape::default())?,
     ])
 }
 
@@ -325,6 +315,8 @@ pub fn four<T>(results: Vec<T>) -> Result<[T; 4], String> {
 /// The cells and the moment a stairs run is measured by, from its simulator configuration.
 #[derive(Debug, Clone)]
 pub struct Watched {
+    /// The first riser's x, metres.
+    pub riser_x: f64,
     /// The step cells (world cell indices at [`CELL_M`]).
     pub steps: Vec<Cell>,
     /// The first riser's cells.
@@ -332,8 +324,6 @@ pub struct Watched {
     /// The flat ground before the stairs, |y| ≤ 1.5 m, from x = 0 to 0.5 m before the first
     /// riser: no cell there is an obstacle.
     pub ground: Vec<Cell>,
-    /// The first riser's x, metres.
-    pub riser_x: f64,
     /// When the robot starts driving, microseconds of the recording's clock (whole).
     pub drive_start_us: f64,
 }
@@ -348,10 +338,10 @@ impl Watched {
             .flat_map(|ix| (-15..15).map(move |iy| (ix, iy)))
             .collect();
         Self {
+            riser_x,
             steps,
             first,
             ground,
-            riser_x,
             drive_start_us: (sim.trajectory.drive_start_s() * 1e6).round(),
         }
     }
