@@ -38,14 +38,13 @@
 use super::{check_counters, compare, known_cells, Counters, Outcome, Rng};
 use std::path::Path;
 use terrain_pyramid::classify::ClassifierConfig;
-use terrain_pyramid::laser::{LaserDecoder, LaserItem, Sensor, SensorKind};
+use terrain_pyramid::laser::{LaserDecoder, Sensor, SensorKind};
 use terrain_pyramid::link::convert::{configure_of_design, setup_message_with_sensor};
 use terrain_pyramid::wire::link::{Message, PanAngle, PoseReport, Setup};
-use terrain_pyramid::wire::FeedResult;
 use terrain_pyramid::Config;
 use terrain_pyramid_host::device::Device;
 use terrain_pyramid_host::emulator::{Emulator, Machine};
-use terrain_pyramid_host::play::{steps, Step as PlayStep};
+use terrain_pyramid_host::play::{each_packet, steps, Step as PlayStep};
 use terrain_pyramid_host::run::boot_host_device;
 use terrain_pyramid_host_tests::sim::lidar::{
     simulate_lidar, LidarActuator, LidarKind, LidarSimConfig,
@@ -308,33 +307,21 @@ pub fn run_kind(
         stream.extend_from_slice(bytes);
         written += bytes.len() as u64;
         super::barrier(&mut emu, written)?;
-        let mut rest = &bytes[..];
-        loop {
-            rest = match decoder.feed(rest) {
-                FeedResult::Consumed => break,
-                FeedResult::Item {
-                    item: LaserItem::Packet(p),
-                    offset,
-                    remaining,
-                } => {
-                    let len = p.wire_len() as u64;
-                    let hit = expected
-                        .iter()
-                        .find(|&&(at, l, _)| at <= offset && offset + len <= at + l as u64);
-                    if let Some(&(_, _, k)) = hit {
-                        intact[k] = true;
-                    }
-                    let bytes = usize::try_from(offset)
-                        .ok()
-                        .and_then(|o| stream.get(o..o + p.wire_len()));
-                    if !bytes.is_some_and(|b| originals.contains(b)) {
-                        corrupt += 1;
-                    }
-                    remaining
-                }
-                other => other.remaining(),
-            };
-        }
+        each_packet(&mut decoder, bytes, |p, offset| {
+            let len = p.wire_len() as u64;
+            let hit = expected
+                .iter()
+                .find(|&&(at, l, _)| at <= offset && offset + len <= at + l as u64);
+            if let Some(&(_, _, k)) = hit {
+                intact[k] = true;
+            }
+            let bytes = usize::try_from(offset)
+                .ok()
+                .and_then(|o| stream.get(o..o + p.wire_len()));
+            if !bytes.is_some_and(|b| originals.contains(b)) {
+                corrupt += 1;
+            }
+        });
         let c = decoder.counts();
         // A damage run shows as a rejected candidate, skipped bytes, or a packet that passed
         // its check damaged (an RPLIDAR node's check bits do not cover its distance).
@@ -433,26 +420,14 @@ fn packets_of<'a>(
     let mut out = std::collections::HashSet::new();
     for chunk in chunks {
         stream.extend_from_slice(chunk);
-        let mut rest = chunk;
-        loop {
-            rest = match decoder.feed(rest) {
-                FeedResult::Consumed => break,
-                FeedResult::Item {
-                    item: LaserItem::Packet(p),
-                    offset,
-                    remaining,
-                } => {
-                    if let Some(b) = usize::try_from(offset)
-                        .ok()
-                        .and_then(|o| stream.get(o..o + p.wire_len()))
-                    {
-                        out.insert(b.to_vec());
-                    }
-                    remaining
-                }
-                other => other.remaining(),
-            };
-        }
+        each_packet(&mut decoder, chunk, |p, offset| {
+            if let Some(b) = usize::try_from(offset)
+                .ok()
+                .and_then(|o| stream.get(o..o + p.wire_len()))
+            {
+                out.insert(b.to_vec());
+            }
+        });
     }
     Ok(out)
 }
