@@ -63,7 +63,7 @@ pub use mount::{LidarActuator, SimRig};
 pub use stream::ydlidar_correction_deg;
 
 use super::laser::{angle_to_u16, u16_to_angle_deg};
-use super::record::{push, SimError};
+use super::record::{push, push_laser, SimError};
 use super::rng::Rng;
 use super::scene::{GroundTruthSpec, ObstacleCell, Scene};
 use super::trajectory::Trajectory;
@@ -483,26 +483,8 @@ pub fn simulate_lidar(config: &LidarSimConfig) -> Result<LidarSimulation, SimErr
         }
         chunks += 1;
         let split = config.split_every != 0 && chunks.is_multiple_of(u64::from(config.split_every));
-        let cut = if split && chunk.len() > 1 {
-            usize::try_from(1 + splits.below(chunk.len() as u64 - 1)).unwrap_or(1)
-        } else {
-            chunk.len()
-        };
-        for part in [chunk.get(..cut), chunk.get(cut..)]
-            .into_iter()
-            .flatten()
-            .filter(|p| !p.is_empty())
-        {
-            push(
-                &mut bytes,
-                &Event {
-                    time_us: now,
-                    payload: Payload::Laser(part),
-                },
-            )?;
-            sim.laser_events += 1;
-            sim.laser_bytes += part.len() as u64;
-        }
+        sim.laser_events += u64::from(push_laser(&mut bytes, now, &chunk, split, &mut splits)?);
+        sim.laser_bytes += chunk.len() as u64;
         if arrival >= duration {
             break;
         }

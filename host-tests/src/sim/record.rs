@@ -199,6 +199,44 @@ pub(crate) fn push(out: &mut Vec<u8>, event: &Event<'_>) -> Result<(), SimError>
     Ok(())
 }
 
+/// Writes `chunk` as laser-byte events at `time_us` (µs): cut in two at a point drawn from
+/// `splits` (both halves non-empty) when `split` and it has 2 bytes or more, else whole.
+/// Returns the number of events written (0 for an empty chunk, else 1 or 2).
+///
+/// # Errors
+/// An event could not be written.
+pub(crate) fn push_laser(
+    out: &mut Vec<u8>,
+    time_us: u64,
+    chunk: &[u8],
+    split: bool,
+    splits: &mut Rng,
+) -> Result<u32, SimError> {
+    let cut = if split && chunk.len() > 1 {
+        // 1 ..= len − 1: both halves non-empty.
+        let len = chunk.len() as u64;
+        usize::try_from(1 + splits.below(len - 1)).unwrap_or(1)
+    } else {
+        chunk.len()
+    };
+    let mut events = 0;
+    for part in [chunk.get(..cut), chunk.get(cut..)]
+        .into_iter()
+        .flatten()
+        .filter(|p| !p.is_empty())
+    {
+        push(
+            out,
+            &Event {
+                time_us,
+                payload: Payload::Laser(part),
+            },
+        )?;
+        events += 1;
+    }
+    Ok(events)
+}
+
 /// Salt of the split-point generator's seed, so that the noise does not depend on chunking.
 const SPLIT_SALT: u64 = 0x5EED_C0DE_5EED_C0DE;
 
@@ -386,27 +424,7 @@ pub fn simulate_with(
         });
         let telegram = laser.telegram(&line).map_err(SimError)?;
         let split = config.split_every != 0 && (i + 1) % config.split_every == 0;
-        let cut = if split {
-            // 1 ..= len − 1: both halves non-empty.
-            let len = telegram.len() as u64;
-            usize::try_from(1 + splits.below(len - 1)).unwrap_or(1)
-        } else {
-            telegram.len()
-        };
-        for part in [telegram.get(..cut), telegram.get(cut..)]
-            .into_iter()
-            .flatten()
-            .filter(|p| !p.is_empty())
-        {
-            push(
-                &mut bytes,
-                &Event {
-                    time_us: now,
-                    payload: Payload::Laser(part),
-                },
-            )?;
-            laser_events += 1;
-        }
+        laser_events += push_laser(&mut bytes, now, &telegram, split, &mut splits)?;
     }
 
     Ok(Simulation {
