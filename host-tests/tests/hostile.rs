@@ -23,7 +23,7 @@
 
 mod common;
 
-use common::{chunks, seeded, Units};
+use common::{chunks, seeded, Piece, Units};
 use proptest::prelude::*;
 use terrain_pyramid::design::cells_to_hold;
 use terrain_pyramid::wire::link::{
@@ -42,18 +42,17 @@ use terrain_pyramid::{
 
 // ------------------------------------------------------------------------------------- SICK
 
-/// One piece of a SICK stream.
+/// One piece of a SICK stream: `Intact` holds a valid reply telegram's payload, as do
+/// `Flipped` and `Truncated` (a telegram cut with at least 1 byte gone); `Garbage` holds no
+/// STX, ACK or NAK.
+type SickPiece = Piece<SickOwn>;
+
+/// The SICK stream's own pieces.
 #[derive(Debug, Clone)]
-enum SickPiece {
-    /// A valid reply telegram with this payload.
-    Intact(Vec<u8>),
-    /// Bytes with no STX, ACK or NAK.
-    Garbage(Vec<u8>),
-    /// A telegram with one bit flipped (bit index modulo its length in bits).
-    Flipped(Vec<u8>, usize),
-    /// A telegram cut after this many bytes (modulo its length, at least 1 byte gone).
-    Truncated(Vec<u8>, usize),
+enum SickOwn {
+    /// A lone ACK.
     Ack,
+    /// A lone NAK.
     Nak,
     /// `02 80` and a LEN, with nothing of a telegram after it.
     FalseHeader(u16),
@@ -97,9 +96,9 @@ fn sick_piece() -> impl Strategy<Value = SickPiece> {
         }),
         1 => (sick_payload(), any::<usize>()).prop_map(|(p, bit)| SickPiece::Flipped(p, bit)),
         1 => (sick_payload(), any::<usize>()).prop_map(|(p, at)| SickPiece::Truncated(p, at)),
-        1 => Just(SickPiece::Ack),
-        1 => Just(SickPiece::Nak),
-        1 => any::<u16>().prop_map(SickPiece::FalseHeader),
+        1 => Just(SickPiece::Own(SickOwn::Ack)),
+        1 => Just(SickPiece::Own(SickOwn::Nak)),
+        1 => any::<u16>().prop_map(|len| SickPiece::Own(SickOwn::FalseHeader(len))),
     ]
 }
 
@@ -134,15 +133,15 @@ proptest! {
                     stream.extend_from_slice(&t[..at % t.len()]);
                     damaged += 1;
                 }
-                SickPiece::Ack => {
+                SickPiece::Own(SickOwn::Ack) => {
                     stream.push(0x06);
                     acks += 1;
                 }
-                SickPiece::Nak => {
+                SickPiece::Own(SickOwn::Nak) => {
                     stream.push(0x15);
                     naks += 1;
                 }
-                SickPiece::FalseHeader(len) => {
+                SickPiece::Own(SickOwn::FalseHeader(len)) => {
                     stream.extend_from_slice(&[0x02, 0x80]);
                     stream.extend_from_slice(&len.to_le_bytes());
                     damaged += 1;
@@ -227,20 +226,14 @@ proptest! {
 
 // ------------------------------------------------------------------------------------- link
 
-/// One piece of a link stream.
+/// One piece of a link stream: `Intact` holds a valid frame; `Garbage` bytes ending with a
+/// delimiter; `Flipped` a frame with one bit of a non-delimiter byte flipped; `Truncated` a
+/// frame cut short, its delimiter gone (it runs into the next piece); `Own` a spare delimiter.
+type LinkPiece = Piece<Delimiter>;
+
+/// A spare delimiter in a link stream.
 #[derive(Debug, Clone)]
-enum LinkPiece {
-    /// A valid frame.
-    Intact(Vec<u8>),
-    /// Bytes ending with a delimiter.
-    Garbage(Vec<u8>),
-    /// A frame with one bit of a non-delimiter byte flipped.
-    Flipped(Vec<u8>, usize),
-    /// A frame cut short (its delimiter gone: it runs into the next piece).
-    Truncated(Vec<u8>, usize),
-    /// A spare delimiter.
-    Delimiter,
-}
+struct Delimiter;
 
 fn link_message() -> impl Strategy<Value = Message<'static>> {
     prop_oneof![
@@ -293,7 +286,7 @@ fn link_piece() -> impl Strategy<Value = LinkPiece> {
         }),
         1 => (frame(), any::<usize>()).prop_map(|(f, bit)| LinkPiece::Flipped(f, bit)),
         1 => (frame(), any::<usize>()).prop_map(|(f, at)| LinkPiece::Truncated(f, at)),
-        1 => Just(LinkPiece::Delimiter),
+        1 => Just(LinkPiece::Own(Delimiter)),
     ]
 }
 
@@ -325,7 +318,7 @@ proptest! {
                     stream.extend_from_slice(&f);
                 }
                 LinkPiece::Truncated(f, at) => stream.extend_from_slice(&f[..at % (f.len() - 1)]),
-                LinkPiece::Delimiter => stream.push(0),
+                LinkPiece::Own(Delimiter) => stream.push(0),
             }
         }
         // Every non-empty run between delimiters ends as one event, if its delimiter came.

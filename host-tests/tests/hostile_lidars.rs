@@ -18,8 +18,9 @@ mod common;
 use common::feed::{
     checked_ld06, checked_node, checked_ydlidar, feed_all, tally, Accumulate, Tally,
 };
-use common::{chunks, seeded, Units};
+use common::{chunks, seeded, Piece, Units};
 use proptest::prelude::*;
+use std::convert::Infallible;
 
 use terrain_pyramid::wire::ld06::{Ld06Accumulator, Ld06Point, Ld06Repr};
 use terrain_pyramid::wire::rplidar::{
@@ -29,18 +30,10 @@ use terrain_pyramid::wire::rplidar::{
 use terrain_pyramid::wire::ydlidar::{YdlidarAccumulator, YdlidarRepr};
 use terrain_pyramid::wire::FeedResult as WireFeed;
 
-/// One piece of a lidar stream, generic over the packet's bytes.
-#[derive(Debug, Clone)]
-enum LidarPiece {
-    /// A valid packet.
-    Intact(Vec<u8>),
-    /// Arbitrary bytes.
-    Garbage(Vec<u8>),
-    /// A packet with one bit flipped (bit index modulo its length in bits).
-    Flipped(Vec<u8>, usize),
-    /// A packet cut after this many bytes (modulo its length, at least 1 byte gone).
-    Truncated(Vec<u8>, usize),
-}
+/// One piece of a lidar stream, whatever the packet: `Intact` holds a valid packet, `Garbage`
+/// arbitrary bytes, `Flipped` and `Truncated` a packet (cut with at least 1 byte gone); a
+/// lidar stream has no pieces of its own.
+type LidarPiece = Piece<Infallible>;
 
 /// Builds the stream; returns it with the offsets and bytes of the intact packets, and
 /// whether any piece was damage (garbage included).
@@ -69,6 +62,7 @@ fn lidar_stream(pieces: &[LidarPiece], prefix: &[u8]) -> (Vec<u8>, Units, bool) 
                 stream.extend_from_slice(&p[..at % p.len()]);
                 damaged = true;
             }
+            LidarPiece::Own(never) => match *never {},
         }
     }
     (stream, intact, damaged)

@@ -124,6 +124,22 @@ pub fn seeded(cases: u32, seed: u64) -> proptest::test_runner::Config {
     }
 }
 
+/// One piece of a hostile stream, as a stream's strategy draws it; what each piece holds is
+/// the stream's (see its alias of this type).
+#[derive(Debug, Clone)]
+pub enum Piece<Own> {
+    /// A valid unit.
+    Intact(Vec<u8>),
+    /// Bytes between units.
+    Garbage(Vec<u8>),
+    /// A unit with one bit flipped (bit index modulo its length in bits).
+    Flipped(Vec<u8>, usize),
+    /// A unit cut short after this many bytes (modulo its length).
+    Truncated(Vec<u8>, usize),
+    /// A piece only this stream has.
+    Own(Own),
+}
+
 /// Units of a stream: their offsets (of the first byte in the stream) and bytes.
 pub type Units = Vec<(u64, Vec<u8>)>;
 
