@@ -8,7 +8,7 @@
 
 mod common;
 
-use common::feed::{checked_ld06, checked_ydlidar, feed_all, tally};
+use common::feed::{checked_ld06, checked_ydlidar, feed_all, run_to_end};
 use common::{chunks, seeded};
 use proptest::prelude::*;
 use terrain_pyramid::angle::FineAngle;
@@ -81,15 +81,7 @@ fn ld06_bytes(repr: &Ld06Repr) -> Vec<u8> {
 
 /// Feeds the chunks and flushes: (offset, packet) delivered, rejections, counters.
 fn ld06_run(chunks: &[&[u8]]) -> (Vec<(u64, Vec<u8>)>, usize, Ld06Counters, u64) {
-    let mut acc = Ld06Accumulator::new();
-    let t = tally(&mut acc, chunks, checked_ld06);
-    assert_eq!(acc.buffered(), 0);
-    (
-        t.delivered,
-        t.rejected as usize,
-        acc.counters(),
-        acc.position(),
-    )
+    run_to_end(Ld06Accumulator::new(), chunks, checked_ld06)
 }
 
 proptest! {
@@ -198,15 +190,7 @@ fn ydlidar_bytes(ct: u8, first: u16, last: u16, samples: &[u16]) -> Vec<u8> {
 }
 
 fn ydlidar_run(chunks: &[&[u8]]) -> (Vec<(u64, Vec<u8>)>, usize, YdlidarCounters, u64) {
-    let mut acc: YdlidarAccumulator = YdlidarAccumulator::new();
-    let t = tally(&mut acc, chunks, checked_ydlidar);
-    assert_eq!(acc.buffered(), 0);
-    (
-        t.delivered,
-        t.rejected as usize,
-        acc.counters(),
-        acc.position(),
-    )
+    run_to_end(YdlidarAccumulator::new(), chunks, checked_ydlidar)
 }
 
 proptest! {
@@ -339,6 +323,21 @@ fn descriptor_bytes(d: RplidarDescriptorRepr) -> Vec<u8> {
     b
 }
 
+/// A stream of `descriptor` and then every unit's `bytes`, with the offset of each unit.
+fn after_descriptor<T>(
+    descriptor: RplidarDescriptorRepr,
+    units: &[T],
+    bytes: impl Fn(&T) -> Vec<u8>,
+) -> (Vec<u8>, Vec<u64>) {
+    let mut stream = descriptor_bytes(descriptor);
+    let mut offsets = Vec::new();
+    for unit in units {
+        offsets.push(stream.len() as u64);
+        stream.extend(bytes(unit));
+    }
+    (stream, offsets)
+}
+
 #[derive(Debug, Clone, PartialEq, Eq)]
 enum Rp {
     D(u64),
@@ -428,12 +427,7 @@ proptest! {
         nodes in proptest::collection::vec(node_repr(), 1..80),
         sizes in proptest::collection::vec(1_usize..50, 1..5),
     ) {
-        let mut stream = descriptor_bytes(RplidarDescriptorRepr::SCAN);
-        let mut offsets = Vec::new();
-        for n in &nodes {
-            offsets.push(stream.len() as u64);
-            stream.extend(node_bytes(n));
-        }
+        let (stream, offsets) = after_descriptor(RplidarDescriptorRepr::SCAN, &nodes, node_bytes);
         let (events, c, position) = rplidar_run(RplidarAccumulator::new(), &chunks(&stream, &sizes));
         prop_assert_eq!(position, stream.len() as u64);
         prop_assert_eq!(events.len(), 1 + nodes.len());
@@ -463,12 +457,7 @@ proptest! {
         caps in proptest::collection::vec(capsule_repr(), 1..8),
         sizes in proptest::collection::vec(1_usize..200, 1..5),
     ) {
-        let mut stream = descriptor_bytes(RplidarDescriptorRepr::EXPRESS_SCAN);
-        let mut offsets = Vec::new();
-        for c in &caps {
-            offsets.push(stream.len() as u64);
-            stream.extend(capsule_bytes(c));
-        }
+        let (stream, offsets) = after_descriptor(RplidarDescriptorRepr::EXPRESS_SCAN, &caps, capsule_bytes);
         let (events, c, _) = rplidar_run(RplidarAccumulator::new(), &chunks(&stream, &sizes));
         prop_assert_eq!(events.len(), 1 + caps.len());
         prop_assert_eq!(&events[0], &Rp::D(0));

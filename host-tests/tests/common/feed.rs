@@ -2,10 +2,12 @@
 //! out.
 
 use super::{feed_chunks, Units};
-use terrain_pyramid::wire::ld06::{Ld06Accumulator, Ld06Error, Ld06Packet};
-use terrain_pyramid::wire::rplidar::{RplidarAccumulator, RplidarError, RplidarItem, RplidarNode};
+use terrain_pyramid::wire::ld06::{Ld06Accumulator, Ld06Counters, Ld06Error, Ld06Packet};
+use terrain_pyramid::wire::rplidar::{
+    RplidarAccumulator, RplidarCounters, RplidarError, RplidarItem, RplidarNode,
+};
 use terrain_pyramid::wire::ydlidar::{
-    YdlidarAccumulator, YdlidarError, YdlidarItem, YdlidarPacket,
+    YdlidarAccumulator, YdlidarCounters, YdlidarError, YdlidarItem, YdlidarPacket,
 };
 use terrain_pyramid::wire::FeedResult;
 
@@ -24,16 +26,34 @@ pub trait Accumulate {
     ) -> FeedResult<'c, Self::Unit<'s>, Self::Error>;
     /// The accumulator's `flush`: one result from what is buffered at the end of the stream.
     fn flush_end(&mut self) -> FeedResult<'static, Self::Unit<'_>, Self::Error>;
+    /// Its counters.
+    type Counters;
+    /// The accumulator's `counters`.
+    fn counters_now(&self) -> Self::Counters;
+    /// The accumulator's `buffered`: bytes held, not yet handed out or refused.
+    fn buffered_now(&self) -> usize;
+    /// The accumulator's `position`: bytes fed so far.
+    fn position_now(&self) -> u64;
 }
 
 /// `Accumulate` for an accumulator whose `feed` and `flush` hand out `$unit` (borrowing it
 /// for `'s`) or refuse with `$error`: three accumulators of the library with the same two
 /// inherent methods and no trait of their own.
 macro_rules! accumulate {
-    ($acc:ty, $unit:ty, $error:ty) => {
+    ($acc:ty, $unit:ty, $error:ty, $counters:ty) => {
         impl Accumulate for $acc {
             type Unit<'s> = $unit;
             type Error = $error;
+            type Counters = $counters;
+            fn counters_now(&self) -> $counters {
+                self.counters()
+            }
+            fn buffered_now(&self) -> usize {
+                self.buffered()
+            }
+            fn position_now(&self) -> u64 {
+                self.position()
+            }
             fn feed_chunk<'s, 'c>(&'s mut self, chunk: &'c [u8]) -> FeedResult<'c, $unit, $error> {
                 self.feed(chunk)
             }
@@ -44,9 +64,24 @@ macro_rules! accumulate {
     };
 }
 
-accumulate!(Ld06Accumulator, Ld06Packet<&'s [u8]>, Ld06Error);
-accumulate!(YdlidarAccumulator, YdlidarItem<'s>, YdlidarError);
-accumulate!(RplidarAccumulator, RplidarItem<'s>, RplidarError);
+accumulate!(
+    Ld06Accumulator,
+    Ld06Packet<&'s [u8]>,
+    Ld06Error,
+    Ld06Counters
+);
+accumulate!(
+    YdlidarAccumulator,
+    YdlidarItem<'s>,
+    YdlidarError,
+    YdlidarCounters
+);
+accumulate!(
+    RplidarAccumulator,
+    RplidarItem<'s>,
+    RplidarError,
+    RplidarCounters
+);
 
 /// Feeds every chunk to `acc` (again on what is left of a chunk until it is consumed), then
 /// flushes it until it has nothing more; `note` sees every result and says whether to go on
@@ -130,4 +165,22 @@ pub fn checked_node(item: RplidarItem<'_>) -> Option<Vec<u8>> {
     };
     assert!(RplidarNode::new_checked(n.as_bytes()).is_ok());
     Some(n.as_bytes().to_vec())
+}
+
+/// Feeds `chunks` to `acc` and flushes it, keeping the units `keep` gives bytes for; checks
+/// that nothing stays buffered. Returns the kept units, the refusals, the counters and the
+/// stream position (bytes).
+pub fn run_to_end<A: Accumulate>(
+    mut acc: A,
+    chunks: &[&[u8]],
+    keep: impl FnMut(A::Unit<'_>) -> Option<Vec<u8>>,
+) -> (Units, usize, A::Counters, u64) {
+    let t = tally(&mut acc, chunks, keep);
+    assert_eq!(acc.buffered_now(), 0);
+    (
+        t.delivered,
+        t.rejected as usize,
+        acc.counters_now(),
+        acc.position_now(),
+    )
 }
