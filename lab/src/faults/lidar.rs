@@ -111,25 +111,13 @@ fn recording(laser: LidarKind, stalled: bool, n: usize) -> Result<Vec<Chunk>, St
     config.servo_lead_s = 1.5;
     let sim = simulate_lidar(&config).map_err(|e| e.0)?;
     let decoded = steps(&sim.bytes)?;
-    let (mut angle, mut pose) = (None, None);
-    let mut out = Vec::new();
-    for step in &decoded.steps {
-        match step {
-            PlayStep::Angle(t) => angle = Some(*t),
-            PlayStep::Pose(p) => pose = Some(*p),
-            PlayStep::Laser { bytes, .. } => {
-                out.push(Chunk {
-                    angle: angle.take(),
-                    pose: pose.take(),
-                    bytes: bytes.clone(),
-                });
-                if out.len() >= n {
-                    break;
-                }
-            }
-            PlayStep::Setup(_) | PlayStep::Telegram { .. } => {}
-        }
-    }
+    let out = super::plan::in_force(&decoded.steps, n, |step| match step {
+        PlayStep::Laser { bytes, .. } => Some(bytes),
+        _ => None,
+    })
+    .into_iter()
+    .map(|(angle, pose, bytes)| Chunk { angle, pose, bytes })
+    .collect();
     Ok(out)
 }
 

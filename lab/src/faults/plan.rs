@@ -79,35 +79,54 @@ impl Rng {
     }
 }
 
+/// A unit of a recording with what is in force when it arrives: the angle (2⁻¹⁶ turn) and
+/// the pose (x, y, z m, roll, pitch, yaw rad) sent since the unit before it, and its bytes.
+pub(super) type InForce = (Option<u16>, Option<[f32; 6]>, Vec<u8>);
+
+/// The first `n` units (at least one) of `steps` that `unit` takes (it gives their bytes),
+/// each with the angle and the pose in force: the last of each that came since the unit
+/// before it.
+pub(super) fn in_force<'a>(
+    steps: &'a [PlayStep],
+    n: usize,
+    unit: impl Fn(&'a PlayStep) -> Option<&'a Vec<u8>>,
+) -> Vec<InForce> {
+    let (mut angle, mut pose) = (None, None);
+    steps
+        .iter()
+        .filter_map(move |step| {
+            match step {
+                PlayStep::Angle(t) => angle = Some(*t),
+                PlayStep::Pose(p) => pose = Some(*p),
+                _ => {}
+            }
+            unit(step).map(|bytes| (angle.take(), pose.take(), bytes.clone()))
+        })
+        .take(n.max(1))
+        .collect()
+}
+
 /// The recording: the simulated stairs drive (as the demo's), its setup and first lines,
 /// decoded by the host tool's player.
 pub(super) fn recording(lines: usize) -> Result<(SetupEvent, Vec<Line>), String> {
     let sim = simulate(&SimConfig::paper_stairs(0.5, 0.5, 1.0)).map_err(|e| e.0)?;
     let decoded = steps(&sim.bytes)?;
     let setup = decoded.setup().ok_or("the recording has no setup")?;
-    let (mut angle, mut pose) = (None, None);
-    let mut out = Vec::new();
-    for step in &decoded.steps {
-        match step {
-            PlayStep::Angle(t) => angle = Some(*t),
-            PlayStep::Pose(p) => pose = Some(*p),
-            PlayStep::Telegram {
-                bytes,
-                measured: true,
-                ..
-            } => {
-                out.push(Line {
-                    angle: angle.take(),
-                    pose: pose.take(),
-                    telegram: bytes.clone(),
-                });
-                if out.len() >= lines {
-                    break;
-                }
-            }
-            PlayStep::Setup(_) | PlayStep::Telegram { .. } | PlayStep::Laser { .. } => {}
-        }
-    }
+    let out = in_force(&decoded.steps, lines, |step| match step {
+        PlayStep::Telegram {
+            bytes,
+            measured: true,
+            ..
+        } => Some(bytes),
+        _ => None,
+    })
+    .into_iter()
+    .map(|(angle, pose, telegram)| Line {
+        angle,
+        pose,
+        telegram,
+    })
+    .collect();
     Ok((setup, out))
 }
 
