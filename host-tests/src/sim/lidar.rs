@@ -63,7 +63,7 @@ pub use mount::{LidarActuator, SimRig};
 pub use stream::ydlidar_correction_deg;
 
 use super::laser::{angle_to_u16, u16_to_angle_deg};
-use super::record::{push, push_laser, SimError};
+use super::record::{push, push_laser, push_pose_change, SimError};
 use super::rng::Rng;
 use super::scene::{GroundTruthSpec, ObstacleCell, Scene};
 use super::trajectory::Trajectory;
@@ -456,17 +456,7 @@ pub fn simulate_lidar(config: &LidarSimConfig) -> Result<LidarSimulation, SimErr
         #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
         let now = ((arrival * 1e6).round() as u64).max(last_time_us);
         last_time_us = now;
-        let pose_f32 = pose.to_f32();
-        if last_pose != Some(pose_f32) {
-            push(
-                &mut bytes,
-                &Event {
-                    time_us: now,
-                    payload: Payload::Pose(pose_f32),
-                },
-            )?;
-            last_pose = Some(pose_f32);
-        }
+        push_pose_change(&mut bytes, now, pose.to_f32(), &mut last_pose)?;
         if !times.is_empty() {
             #[allow(clippy::cast_precision_loss)]
             let mean = times.iter().sum::<f64>() / times.len() as f64;

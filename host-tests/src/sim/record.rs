@@ -199,6 +199,32 @@ pub(crate) fn push(out: &mut Vec<u8>, event: &Event<'_>) -> Result<(), SimError>
     Ok(())
 }
 
+/// Writes a pose event of `pose` (x, y, z m, roll, pitch, yaw rad) at `time_us` (µs) unless
+/// `last`, the pose written last, is the same; `last` becomes `pose`. Returns whether it
+/// wrote one.
+///
+/// # Errors
+/// The event could not be written.
+pub(crate) fn push_pose_change(
+    out: &mut Vec<u8>,
+    time_us: u64,
+    pose: [f32; 6],
+    last: &mut Option<[f32; 6]>,
+) -> Result<bool, SimError> {
+    if *last == Some(pose) {
+        return Ok(false);
+    }
+    push(
+        out,
+        &Event {
+            time_us,
+            payload: Payload::Pose(pose),
+        },
+    )?;
+    *last = Some(pose);
+    Ok(true)
+}
+
 /// Writes `chunk` as laser-byte events at `time_us` (µs): cut in two at a point drawn from
 /// `splits` (both halves non-empty) when `split` and it has 2 bytes or more, else whole.
 /// Returns the number of events written (0 for an empty chunk, else 1 or 2).
@@ -357,18 +383,12 @@ pub fn simulate_with(
             )
         };
         time_us = now;
-        let pose_f32 = pose.to_f32();
-        if last_pose != Some(pose_f32) {
-            push(
-                &mut bytes,
-                &Event {
-                    time_us: now,
-                    payload: Payload::Pose(pose_f32),
-                },
-            )?;
-            pose_events += 1;
-            last_pose = Some(pose_f32);
-        }
+        pose_events += u32::from(push_pose_change(
+            &mut bytes,
+            now,
+            pose.to_f32(),
+            &mut last_pose,
+        )?);
         let phase = trajectory.phase(t);
         let mut due = Vec::new();
         if drives && !started && phase != Phase::Standing {
