@@ -162,10 +162,8 @@ fn damage(kind: &str, chunks: &[Chunk]) -> Vec<(Vec<u8>, bool)> {
                         }
                     }
                     if rng.chance(0.1) {
-                        let len = rng.range(1, body.len().min(16));
-                        let at = rng.range(0, body.len() - len);
-                        let noise = rng.bytes(len);
-                        body[at..at + len].copy_from_slice(&noise);
+                        let longest = body.len().min(16);
+                        rng.overwrite(&mut body, longest);
                     }
                     if rng.chance(0.1) {
                         let k = rng.range(1, 40);

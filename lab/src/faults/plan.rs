@@ -77,6 +77,14 @@ impl Rng {
     pub(super) fn bytes(&mut self, n: usize) -> Vec<u8> {
         (0..n).map(|_| self.next() as u8).collect()
     }
+    /// Overwrites a run of `body` with random bytes: its length uniform in 1 ..= `longest`
+    /// (at most `body`'s length), its start uniform over the places it fits.
+    pub(super) fn overwrite(&mut self, body: &mut [u8], longest: usize) {
+        let len = self.range(1, longest);
+        let at = self.range(0, body.len() - len);
+        let noise = self.bytes(len);
+        body[at..at + len].copy_from_slice(&noise);
+    }
 }
 
 /// A unit of a recording with what is in force when it arrives: the angle (2⁻¹⁶ turn) and
@@ -182,10 +190,7 @@ pub(super) fn plan(kind: &str, lines: &[Line], setup: &Setup) -> Vec<Step> {
                     }
                     if rng.chance(0.1) {
                         // Noise over the telegram itself.
-                        let len = rng.range(1, 64);
-                        let at = rng.range(0, body.len() - len);
-                        let noise = rng.bytes(len);
-                        body[at..at + len].copy_from_slice(&noise);
+                        rng.overwrite(&mut body, 64);
                     }
                     if rng.chance(0.1) {
                         let k = rng.range(1, 40);
