@@ -6,7 +6,7 @@
 mod support;
 
 use proptest::prelude::*;
-use support::{scatter, wander, Channel, Rng};
+use support::{hello_message, scatter, wander, Channel, Rng};
 use terrain_pyramid::design::{Schedule, SensorModel};
 use terrain_pyramid::link::{Command, Link, LinkConfig, SensorCounters};
 use terrain_pyramid::wire::link::{
@@ -510,26 +510,7 @@ fn device_frame(seq: u16, message: &Message<'_>) -> Vec<u8> {
 }
 
 fn small_hello() -> Message<'static> {
-    let mut hello = Hello {
-        protocol: 1,
-        firmware: FirmwareVersion::default(),
-        reason: HelloReason::Boot,
-        cells_per_side: 8,
-        resend: 0,
-        clock: Default::default(),
-        layers: Default::default(),
-    };
-    hello
-        .layers
-        .push(LayerInfo {
-            resolution_q16: 6554,
-            band_inner_m: 0.0,
-            band_outer_m: 0.5,
-            origin_x: -4,
-            origin_y: -4,
-        })
-        .unwrap();
-    Message::Hello(hello)
+    hello_message(8, 1, -4)
 }
 
 #[test]

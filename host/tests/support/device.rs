@@ -13,7 +13,7 @@ use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 use terrain_pyramid::design::{Schedule, SensorModel};
 use terrain_pyramid::link::{Link, LinkConfig, SensorCounters};
-use terrain_pyramid::wire::link::Reply;
+use terrain_pyramid::wire::link::{FirmwareVersion, Hello, HelloReason, LayerInfo, Message, Reply};
 use terrain_pyramid::wire::FeedResult;
 use terrain_pyramid::{
     Config, DefaultDesign, DefaultPyramid, Evidence, EvidenceClass, Fused, Meters,
@@ -482,4 +482,32 @@ pub fn wait_or_kill(child: &mut Child) -> ExitStatus {
         }
         std::thread::sleep(Duration::from_millis(20));
     }
+}
+
+/// The Hello of a booting device (protocol 1): windows of `cells_per_side` cells a side and
+/// `layers` layers of 0.1 m cells (6554 in Q16.16) over the band 0 ..= 0.5 m, every window's
+/// lower-left cell at (`origin`, `origin`).
+pub fn hello_message(cells_per_side: u16, layers: usize, origin: i32) -> Message<'static> {
+    let mut hello = Hello {
+        protocol: 1,
+        firmware: FirmwareVersion::default(),
+        reason: HelloReason::Boot,
+        cells_per_side,
+        resend: 0,
+        clock: Default::default(),
+        layers: Default::default(),
+    };
+    for _ in 0..layers {
+        hello
+            .layers
+            .push(LayerInfo {
+                resolution_q16: 6554,
+                band_inner_m: 0.0,
+                band_outer_m: 0.5,
+                origin_x: origin,
+                origin_y: origin,
+            })
+            .unwrap();
+    }
+    Message::Hello(hello)
 }
