@@ -6,14 +6,13 @@
 mod support;
 
 use proptest::prelude::*;
-use support::{hello_message, scatter, wander, Channel, Rng};
+use support::{each_request, hello_message, scatter, wander, Channel, Rng};
 use terrain_pyramid::design::{Schedule, SensorModel};
 use terrain_pyramid::link::{Command, Link, LinkConfig, SensorCounters};
 use terrain_pyramid::wire::link::{
     encode, DecodeError, Header, LayerPatch, Message, PatchArea, PatchCells, Reply, SnapshotScope,
     MAX_ENCODED_FRAME,
 };
-use terrain_pyramid::wire::FeedResult;
 use terrain_pyramid::{
     Config, Decay, DecayMode, DefaultDesign, DefaultPyramid, Meters, TimeConstant,
     DEFAULT_CELLS_PER_SIDE,
@@ -124,20 +123,11 @@ fn deliver<const Q: usize>(
     bytes: &[u8],
 ) -> Vec<Command<8>> {
     let mut commands = Vec::new();
-    let mut input = bytes;
-    loop {
-        input = match link.receive(input) {
-            FeedResult::Consumed => return commands,
-            FeedResult::Item {
-                item, remaining, ..
-            } => {
-                commands.push(item.command.clone());
-                link.serve(pyramid, item);
-                remaining
-            }
-            FeedResult::Rejected { remaining, .. } => remaining,
-        };
-    }
+    each_request(link, bytes, |link, request| {
+        commands.push(request.command.clone());
+        link.serve(pyramid, request);
+    });
+    commands
 }
 
 /// Drives a default pyramid with random evidence and moves, streams its link through a lossy
@@ -187,13 +177,14 @@ fn scenario_with<const Q: usize>(
     let uart_per_step = 92_160 * 13 / 1000;
     let mut last_request: Option<u32> = None;
 
+    // One 13 ms step of the line: the device's link polled, its bytes carried to the host
+    // (through the channel when `lossy`).
     let mut step = |pyramid: &mut DefaultPyramid,
                     link: &mut Link<Q>,
                     host: &mut HostLink,
-                    channel: &mut Channel,
                     rng: &mut Rng,
-                    now_ms: u32,
                     lossy: bool| {
+        now_ms += 13;
         link.poll(now_ms, pyramid, &SensorCounters::default());
         let mut uart = vec![0_u8; uart_per_step];
         let n = link.pop_bytes(&mut uart);
@@ -235,30 +226,12 @@ fn scenario_with<const Q: usize>(
                 deliver(&mut link, &mut pyramid, &cmd);
             }
         }
-        now_ms += 13;
-        step(
-            &mut pyramid,
-            &mut link,
-            &mut host,
-            &mut channel,
-            &mut rng,
-            now_ms,
-            true,
-        );
+        step(&mut pyramid, &mut link, &mut host, &mut rng, true);
     }
     // Settle over a clean line.
     let mut settled = false;
     for _ in 0..5000 {
-        now_ms += 13;
-        step(
-            &mut pyramid,
-            &mut link,
-            &mut host,
-            &mut channel,
-            &mut rng,
-            now_ms,
-            false,
-        );
+        step(&mut pyramid, &mut link, &mut host, &mut rng, false);
         let quiet = link.queue().is_empty()
             && (0..pyramid.layer_count()).all(|k| pyramid.layer(k).unwrap().dirty() == 0);
         if quiet && host.mirror().is_synced() {
@@ -513,7 +486,6 @@ fn a_version_4_device_is_refused_and_named() {
 #[test]
 fn time_replies_and_observed_frames_become_events() {
     use terrain_pyramid::wire::link::{Observed, TimeReply};
-    let mut host = HostLink::new();
     let reply = TimeReply {
         host_us: 1_234_567_890_123,
         device_us: 4_000_123,
@@ -524,6 +496,7 @@ fn time_replies_and_observed_frames_become_events() {
         first_us: 3_990_000,
         last_us: 4_090_000,
     };
+    let mut host = HostLink::new();
     let mut bytes = device_frame(0, &Message::TimeReply(reply));
     bytes.extend(device_frame(1, &Message::Observed(observed)));
     let events = host.feed(&bytes);

@@ -12,7 +12,7 @@ use std::sync::{mpsc, Arc};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 use terrain_pyramid::design::{Schedule, SensorModel};
-use terrain_pyramid::link::{Link, LinkConfig, SensorCounters};
+use terrain_pyramid::link::{Link, LinkConfig, Request, SensorCounters};
 use terrain_pyramid::wire::link::{FirmwareVersion, Hello, HelloReason, LayerInfo, Message, Reply};
 use terrain_pyramid::wire::FeedResult;
 use terrain_pyramid::{
@@ -231,21 +231,34 @@ fn accept(listener: &TcpListener) -> TcpStream {
 /// Returns whether any was other than a TimeRequest (the host's time exchange goes on all the
 /// session: it does not keep a device from settling).
 pub fn serve_commands(link: &mut Link, pyramid: &mut DefaultPyramid, bytes: &[u8]) -> bool {
-    let mut input = bytes;
     let mut commanded = false;
+    each_request(link, bytes, |link, request| {
+        commanded |= !matches!(
+            request.command,
+            terrain_pyramid::link::Command::TimeRequest { .. }
+        );
+        if let Some(other) = link.serve(pyramid, request) {
+            link.answer(Reply::ok(other.header));
+        }
+    });
+    commanded
+}
+
+/// Hands host bytes to the device's link and every request it decodes, in order, to
+/// `request` with the link (the link counts and skips the frames it refuses).
+pub fn each_request<const Q: usize, const N: usize>(
+    link: &mut Link<Q, N>,
+    bytes: &[u8],
+    mut request: impl FnMut(&mut Link<Q, N>, Request<N>),
+) {
+    let mut input = bytes;
     loop {
         input = match link.receive(input) {
-            FeedResult::Consumed => return commanded,
+            FeedResult::Consumed => return,
             FeedResult::Item {
                 item, remaining, ..
             } => {
-                commanded |= !matches!(
-                    item.command,
-                    terrain_pyramid::link::Command::TimeRequest { .. }
-                );
-                if let Some(other) = link.serve(pyramid, item) {
-                    link.answer(Reply::ok(other.header));
-                }
+                request(link, item);
                 remaining
             }
             FeedResult::Rejected { remaining, .. } => remaining,
