@@ -8,19 +8,20 @@
 
 mod common;
 
-use common::{chunks, feed_chunks, seeded};
+use common::feed::{checked_ld06, checked_ydlidar, feed_all, run_to_end};
+use common::{chunks, seeded};
 use proptest::prelude::*;
 use terrain_pyramid::angle::FineAngle;
 use terrain_pyramid::wire::ld06::{
-    Ld06Accumulator, Ld06Counters, Ld06Error, Ld06Packet, Ld06Point, Ld06Repr, LD06_PACKET_LEN,
+    Ld06Accumulator, Ld06Counters, Ld06Packet, Ld06Point, Ld06Repr, LD06_PACKET_LEN,
 };
 use terrain_pyramid::wire::rplidar::{
     RplidarAccumulator, RplidarCapsule, RplidarCapsuleRepr, RplidarCounters, RplidarDescriptor,
     RplidarDescriptorRepr, RplidarError, RplidarItem, RplidarNode, RplidarNodeRepr,
 };
 use terrain_pyramid::wire::ydlidar::{
-    YdlidarAccumulator, YdlidarAngleCorrection, YdlidarCounters, YdlidarItem, YdlidarPacket,
-    YdlidarRepr, YDLIDAR_CORRECTION_MAX_ERROR_DEG,
+    YdlidarAccumulator, YdlidarAngleCorrection, YdlidarCounters, YdlidarPacket, YdlidarRepr,
+    YDLIDAR_CORRECTION_MAX_ERROR_DEG,
 };
 use terrain_pyramid::wire::FeedResult;
 
@@ -80,30 +81,7 @@ fn ld06_bytes(repr: &Ld06Repr) -> Vec<u8> {
 
 /// Feeds the chunks and flushes: (offset, packet) delivered, rejections, counters.
 fn ld06_run(chunks: &[&[u8]]) -> (Vec<(u64, Vec<u8>)>, usize, Ld06Counters, u64) {
-    let mut acc = Ld06Accumulator::new();
-    let mut delivered = Vec::new();
-    let mut rejected = 0;
-    let mut handle = |r: FeedResult<'_, Ld06Packet<&[u8]>, Ld06Error>| -> bool {
-        match r {
-            FeedResult::Consumed => false,
-            FeedResult::Item { item, offset, .. } => {
-                assert!(Ld06Packet::new_checked(item.as_bytes()).is_ok());
-                delivered.push((offset, item.as_bytes().to_vec()));
-                true
-            }
-            FeedResult::Rejected { .. } => {
-                rejected += 1;
-                true
-            }
-        }
-    };
-    feed_chunks(chunks, |window| {
-        let r = acc.feed(window);
-        (r.remaining(), handle(r))
-    });
-    while handle(acc.flush()) {}
-    assert_eq!(acc.buffered(), 0);
-    (delivered, rejected, acc.counters(), acc.position())
+    run_to_end(Ld06Accumulator::new(), chunks, checked_ld06)
 }
 
 proptest! {
@@ -212,32 +190,7 @@ fn ydlidar_bytes(ct: u8, first: u16, last: u16, samples: &[u16]) -> Vec<u8> {
 }
 
 fn ydlidar_run(chunks: &[&[u8]]) -> (Vec<(u64, Vec<u8>)>, usize, YdlidarCounters, u64) {
-    let mut acc: YdlidarAccumulator = YdlidarAccumulator::new();
-    let mut delivered = Vec::new();
-    let mut rejected = 0;
-    let mut handle = |r: FeedResult<'_, YdlidarItem<'_>, _>| -> bool {
-        match r {
-            FeedResult::Consumed => false,
-            FeedResult::Item { item, offset, .. } => {
-                if let YdlidarItem::Packet(p) = item {
-                    assert!(YdlidarPacket::new_checked(p.as_bytes()).is_ok());
-                }
-                delivered.push((offset, item.as_bytes().to_vec()));
-                true
-            }
-            FeedResult::Rejected { .. } => {
-                rejected += 1;
-                true
-            }
-        }
-    };
-    feed_chunks(chunks, |window| {
-        let r = acc.feed(window);
-        (r.remaining(), handle(r))
-    });
-    while handle(acc.flush()) {}
-    assert_eq!(acc.buffered(), 0);
-    (delivered, rejected, acc.counters(), acc.position())
+    run_to_end(YdlidarAccumulator::new(), chunks, checked_ydlidar)
 }
 
 proptest! {
@@ -370,6 +323,21 @@ fn descriptor_bytes(d: RplidarDescriptorRepr) -> Vec<u8> {
     b
 }
 
+/// A stream of `descriptor` and then every unit's `bytes`, with the offset of each unit.
+fn after_descriptor<T>(
+    descriptor: RplidarDescriptorRepr,
+    units: &[T],
+    bytes: impl Fn(&T) -> Vec<u8>,
+) -> (Vec<u8>, Vec<u64>) {
+    let mut stream = descriptor_bytes(descriptor);
+    let mut offsets = Vec::new();
+    for unit in units {
+        offsets.push(stream.len() as u64);
+        stream.extend(bytes(unit));
+    }
+    (stream, offsets)
+}
+
 #[derive(Debug, Clone, PartialEq, Eq)]
 enum Rp {
     D(u64),
@@ -382,7 +350,7 @@ enum Rp {
 fn rplidar_run(acc: RplidarAccumulator, chunks: &[&[u8]]) -> (Vec<Rp>, RplidarCounters, u64) {
     let mut acc = acc;
     let mut out = Vec::new();
-    let mut handle = |r: FeedResult<'_, RplidarItem<'_>, RplidarError>| -> bool {
+    feed_all(&mut acc, chunks, |r| {
         match r {
             FeedResult::Consumed => return false,
             FeedResult::Item { item, offset, .. } => out.push(match item {
@@ -410,12 +378,7 @@ fn rplidar_run(acc: RplidarAccumulator, chunks: &[&[u8]]) -> (Vec<Rp>, RplidarCo
             FeedResult::Rejected { error, offset, .. } => out.push(Rp::R(offset, error)),
         }
         true
-    };
-    feed_chunks(chunks, |window| {
-        let r = acc.feed(window);
-        (r.remaining(), handle(r))
     });
-    while handle(acc.flush()) {}
     assert_eq!(acc.buffered(), 0);
     let c = acc.counters();
     (out, c, acc.position())
@@ -464,12 +427,7 @@ proptest! {
         nodes in proptest::collection::vec(node_repr(), 1..80),
         sizes in proptest::collection::vec(1_usize..50, 1..5),
     ) {
-        let mut stream = descriptor_bytes(RplidarDescriptorRepr::SCAN);
-        let mut offsets = Vec::new();
-        for n in &nodes {
-            offsets.push(stream.len() as u64);
-            stream.extend(node_bytes(n));
-        }
+        let (stream, offsets) = after_descriptor(RplidarDescriptorRepr::SCAN, &nodes, node_bytes);
         let (events, c, position) = rplidar_run(RplidarAccumulator::new(), &chunks(&stream, &sizes));
         prop_assert_eq!(position, stream.len() as u64);
         prop_assert_eq!(events.len(), 1 + nodes.len());
@@ -499,12 +457,7 @@ proptest! {
         caps in proptest::collection::vec(capsule_repr(), 1..8),
         sizes in proptest::collection::vec(1_usize..200, 1..5),
     ) {
-        let mut stream = descriptor_bytes(RplidarDescriptorRepr::EXPRESS_SCAN);
-        let mut offsets = Vec::new();
-        for c in &caps {
-            offsets.push(stream.len() as u64);
-            stream.extend(capsule_bytes(c));
-        }
+        let (stream, offsets) = after_descriptor(RplidarDescriptorRepr::EXPRESS_SCAN, &caps, capsule_bytes);
         let (events, c, _) = rplidar_run(RplidarAccumulator::new(), &chunks(&stream, &sizes));
         prop_assert_eq!(events.len(), 1 + caps.len());
         prop_assert_eq!(&events[0], &Rp::D(0));

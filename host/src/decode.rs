@@ -28,12 +28,11 @@ use std::collections::BTreeMap;
 use std::path::PathBuf;
 use std::process::ExitCode;
 use terrain_pyramid::laser::{
-    LaserCounters, LaserDecoder, LaserItem, Packet, RevolutionTracker, Sensor,
+    LaserCounters, LaserDecoder, LaserFeed, LaserItem, Packet, RevolutionTracker, Sensor,
 };
 use terrain_pyramid::wire::rplidar::RplidarScanMode;
 use terrain_pyramid::wire::sick::{
-    MeasuredValues, MeasuringMode, SickAccumulator, SickCounters, SickItem, Telegram,
-    MEASURED_VALUES_REPLY,
+    MeasuredValues, MeasuringMode, SickCounters, Telegram, MEASURED_VALUES_REPLY,
 };
 use terrain_pyramid::wire::ydlidar::YdlidarAngleCorrection;
 use terrain_pyramid::wire::FeedResult;
@@ -228,70 +227,85 @@ fn degrees(bits: u32) -> f64 {
     (exact * 1e6).round() / 1e6
 }
 
-/// Feeds the whole stream through the decoder of `sensor`, flushes it, and keeps every
-/// packet whose check held.
-#[must_use]
-pub fn decode_lidar(bytes: &[u8], sensor: Sensor) -> (Vec<PacketOut>, LaserCounters) {
+/// Feeds all of `bytes` to a fresh decoder of `sensor` and flushes it, handing every unit
+/// that passed its checks to `unit` with its stream offset (bytes from the start); returns
+/// the decoder's counters.
+fn decode_stream(
+    bytes: &[u8],
+    sensor: Sensor,
+    mut unit: impl FnMut(LaserItem<'_>, u64),
+) -> LaserCounters {
     let mut decoder = LaserDecoder::new(sensor);
-    let mut tracker = RevolutionTracker::new();
-    let mut packets = Vec::new();
+    // False once the decoder wants more bytes.
+    let mut take = |result: LaserFeed<'_, '_>| match result {
+        FeedResult::Consumed => false,
+        FeedResult::Item { item, offset, .. } => {
+            unit(item, offset);
+            true
+        }
+        FeedResult::Rejected { .. } => true,
+    };
     let mut window = bytes;
     loop {
         let result = decoder.feed(window);
         window = result.remaining();
-        match result {
-            FeedResult::Consumed => break,
-            FeedResult::Item {
-                item: LaserItem::Packet(p),
-                ..
-            } => packets.push(packet_out(&p, tracker.starts(&p))),
-            _ => {}
+        if !take(result) {
+            break;
         }
     }
-    loop {
-        match decoder.flush() {
-            FeedResult::Consumed => break,
-            FeedResult::Item {
-                item: LaserItem::Packet(p),
-                ..
-            } => packets.push(packet_out(&p, tracker.starts(&p))),
-            _ => {}
+    while take(decoder.flush()) {}
+    decoder.counters()
+}
+
+/// Feeds the whole stream through the decoder of `sensor`, flushes it, and keeps every
+/// packet whose check held.
+#[must_use]
+pub fn decode_lidar(bytes: &[u8], sensor: Sensor) -> (Vec<PacketOut>, LaserCounters) {
+    let mut tracker = RevolutionTracker::new();
+    let mut packets = Vec::new();
+    let counters = decode_stream(bytes, sensor, |item, _| {
+        if let LaserItem::Packet(p) = item {
+            packets.push(packet_out(&p, tracker.starts(&p)));
         }
-    }
-    (packets, decoder.counters())
+    });
+    (packets, counters)
 }
 
 /// Every error counter of a lidar decoder, by the accumulator's own name.
 fn error_counts(counters: &LaserCounters) -> BTreeMap<&'static str, u32> {
-    let pairs: Vec<(&'static str, u32)> = match *counters {
-        LaserCounters::Sick(c) => vec![
-            ("crc", c.crc_errors),
-            ("length", c.length_errors),
-            ("truncated", c.truncated),
-            ("garbage_bytes", c.garbage_bytes),
-        ],
-        LaserCounters::Ld06(c) => vec![
-            ("checksum", c.checksum),
-            ("truncated", c.truncated),
-            ("garbage_bytes", c.garbage_bytes),
-        ],
-        LaserCounters::Rplidar(c) => vec![
-            ("checksum", c.checksum),
-            ("node_check", c.node_check),
-            ("implausible", c.implausible),
-            ("capsules_unpaired", c.capsules_unpaired),
-            ("unsupported", c.unsupported),
-            ("truncated", c.truncated),
-            ("garbage_bytes", c.garbage_bytes),
-        ],
-        LaserCounters::Ydlidar(c) => vec![
-            ("checksum", c.checksum),
-            ("check_bits", c.check_bits),
-            ("bad_length", c.bad_length),
-            ("truncated", c.truncated),
-            ("garbage_bytes", c.garbage_bytes),
-        ],
+    // Every decoder counts the candidates cut off by the end of the stream and the bytes
+    // between units; the rest are its own.
+    let (own, truncated, garbage_bytes): (Vec<(&'static str, u32)>, u32, u32) = match *counters {
+        LaserCounters::Sick(c) => (
+            vec![("crc", c.crc_errors), ("length", c.length_errors)],
+            c.truncated,
+            c.garbage_bytes,
+        ),
+        LaserCounters::Ld06(c) => (vec![("checksum", c.checksum)], c.truncated, c.garbage_bytes),
+        LaserCounters::Rplidar(c) => (
+            vec![
+                ("checksum", c.checksum),
+                ("node_check", c.node_check),
+                ("implausible", c.implausible),
+                ("capsules_unpaired", c.capsules_unpaired),
+                ("unsupported", c.unsupported),
+            ],
+            c.truncated,
+            c.garbage_bytes,
+        ),
+        LaserCounters::Ydlidar(c) => (
+            vec![
+                ("checksum", c.checksum),
+                ("check_bits", c.check_bits),
+                ("bad_length", c.bad_length),
+            ],
+            c.truncated,
+            c.garbage_bytes,
+        ),
     };
+    let pairs = own
+        .into_iter()
+        .chain([("truncated", truncated), ("garbage_bytes", garbage_bytes)]);
     pairs.into_iter().collect()
 }
 
@@ -357,35 +371,14 @@ fn run_sick(args: &Args, bytes: &[u8]) -> ExitCode {
 
 /// Feeds the whole stream through the accumulator and keeps the measured-values telegrams.
 fn decode(bytes: &[u8], mode: MeasuringMode) -> (Vec<TelegramOut>, Vec<Refused>, SickCounters) {
-    let mut acc: SickAccumulator = SickAccumulator::new();
     let mut telegrams = Vec::new();
     let mut refused = Vec::new();
-    let mut window = bytes;
-    loop {
-        let result = acc.feed(window);
-        window = result.remaining();
-        match result {
-            FeedResult::Consumed => break,
-            FeedResult::Item {
-                item: SickItem::Telegram(telegram),
-                offset,
-                ..
-            } => keep(&telegram, offset, mode, &mut telegrams, &mut refused),
-            _ => {}
+    let counters = decode_stream(bytes, Sensor::Sick, |item, offset| {
+        if let LaserItem::Telegram(telegram) = item {
+            keep(&telegram, offset, mode, &mut telegrams, &mut refused);
         }
-    }
-    loop {
-        match acc.flush() {
-            FeedResult::Consumed => break,
-            FeedResult::Item {
-                item: SickItem::Telegram(telegram),
-                offset,
-                ..
-            } => keep(&telegram, offset, mode, &mut telegrams, &mut refused),
-            _ => {}
-        }
-    }
-    (telegrams, refused, acc.stats())
+    });
+    (telegrams, refused, counters.sick().unwrap_or_default())
 }
 
 fn keep(

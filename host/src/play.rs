@@ -23,12 +23,12 @@ use crate::device::Device;
 use crate::export::{LayerSnapshot, MapSnapshot};
 use serde::Serialize;
 use terrain_pyramid::classify::ClassifierConfig;
-use terrain_pyramid::laser::{LaserDecoder, LaserItem, Sensor, SensorKind};
+use terrain_pyramid::laser::{LaserDecoder, LaserItem, Packet, Sensor, SensorKind};
 use terrain_pyramid::link::convert::{pose_of, setup_message_with_sensor, setup_with_rig};
 use terrain_pyramid::logodds::round_to_log_odds;
 use terrain_pyramid::wire::link::{Message, PanAngle, PoseReport};
 use terrain_pyramid::wire::recording::{Payload, Reader, SensorEvent, SetupEvent};
-use terrain_pyramid::wire::sick::{MeasuredValues, SickAccumulator, SickItem};
+use terrain_pyramid::wire::sick::MeasuredValues;
 use terrain_pyramid::wire::FeedResult;
 use terrain_pyramid::{Config, Design, Resolution};
 
@@ -114,6 +114,42 @@ fn sensor_of(event: &SensorEvent) -> Result<Sensor, String> {
         })
 }
 
+/// Feeds `chunk` to `decoder` until it wants more bytes, handing every packet the chunk
+/// completes to `packet` with its stream offset (bytes from the start of the stream); returns
+/// how many candidates the decoder refused.
+pub fn each_packet(
+    decoder: &mut LaserDecoder,
+    chunk: &[u8],
+    mut packet: impl FnMut(Packet<'_>, u64),
+) -> u64 {
+    each_unit(decoder, chunk, |item, offset| {
+        if let LaserItem::Packet(p) = item {
+            packet(p, offset);
+        }
+    })
+}
+
+/// Feeds `chunk` to `decoder` until it wants more bytes, handing every unit the chunk
+/// completes (a telegram, a packet or another valid unit) to `unit` with its stream offset
+/// (bytes from the start of the stream); returns how many candidates the decoder refused.
+pub fn each_unit(
+    decoder: &mut LaserDecoder,
+    chunk: &[u8],
+    mut unit: impl FnMut(LaserItem<'_>, u64),
+) -> u64 {
+    let mut refused = 0;
+    let mut rest = chunk;
+    loop {
+        let result = decoder.feed(rest);
+        rest = result.remaining();
+        match result {
+            FeedResult::Consumed => return refused,
+            FeedResult::Rejected { .. } => refused += 1,
+            FeedResult::Item { item, offset, .. } => unit(item, offset),
+        }
+    }
+}
+
 /// Decodes a whole recording into [`Steps`].
 ///
 /// # Errors
@@ -121,7 +157,7 @@ fn sensor_of(event: &SensorEvent) -> Result<Sensor, String> {
 /// them.
 pub fn steps(data: &[u8]) -> Result<Steps, String> {
     let reader = Reader::new(data).map_err(|e| format!("the recording: {e}"))?;
-    let mut accumulator: Box<SickAccumulator> = Box::new(SickAccumulator::new());
+    let mut sick = Box::new(LaserDecoder::new(Sensor::Sick));
     let mut lidar: Option<Box<LaserDecoder>> = None;
     let mut out = Steps::default();
     let mut have_setup = false;
@@ -156,25 +192,7 @@ pub fn steps(data: &[u8]) -> Result<Steps, String> {
                 have_laser = true;
                 if let Some(decoder) = lidar.as_mut() {
                     let mut packets = 0;
-                    let mut rest = bytes;
-                    loop {
-                        rest = match decoder.feed(rest) {
-                            FeedResult::Consumed => break,
-                            FeedResult::Item {
-                                item: LaserItem::Packet(_),
-                                remaining,
-                                ..
-                            } => {
-                                packets += 1;
-                                remaining
-                            }
-                            FeedResult::Rejected { remaining, .. } => {
-                                out.telegrams_rejected += 1;
-                                remaining
-                            }
-                            other => other.remaining(),
-                        };
-                    }
+                    out.telegrams_rejected += each_packet(decoder, bytes, |_, _| packets += 1);
                     out.steps.push(Step::Laser {
                         bytes: bytes.to_vec(),
                         packets,
@@ -182,29 +200,15 @@ pub fn steps(data: &[u8]) -> Result<Steps, String> {
                     });
                     continue;
                 }
-                let mut rest = bytes;
-                loop {
-                    rest = match accumulator.feed(rest) {
-                        FeedResult::Consumed => break,
-                        FeedResult::Item {
-                            item: SickItem::Telegram(telegram),
-                            remaining,
-                            ..
-                        } => {
-                            out.steps.push(Step::Telegram {
-                                bytes: telegram.as_bytes().to_vec(),
-                                measured: MeasuredValues::parse(&telegram).is_ok(),
-                                time_us: event.time_us,
-                            });
-                            remaining
-                        }
-                        FeedResult::Rejected { remaining, .. } => {
-                            out.telegrams_rejected += 1;
-                            remaining
-                        }
-                        other => other.remaining(),
-                    };
-                }
+                out.telegrams_rejected += each_unit(&mut sick, bytes, |item, _| {
+                    if let LaserItem::Telegram(telegram) = item {
+                        out.steps.push(Step::Telegram {
+                            bytes: telegram.as_bytes().to_vec(),
+                            measured: MeasuredValues::parse(&telegram).is_ok(),
+                            time_us: event.time_us,
+                        });
+                    }
+                });
             }
             Payload::Marker(_) | Payload::Unknown { .. } => {}
         }

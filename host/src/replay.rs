@@ -595,31 +595,23 @@ mod tests {
     fn the_mount_turns_points_about_the_sensor() {
         // Yaw 90°: x to y; roll 90°: y to z; pitch 90°: z to x (right-handed).
         let close = |a: [f64; 3], b: [f64; 3]| a.iter().zip(b).all(|(u, v)| (u - v).abs() < 1e-12);
-        let yaw = rotation_of_rpy_deg([0.0, 0.0, 90.0]);
-        assert!(close(
-            mounted(&yaw, [0.0; 3], [1.0, 0.0, 0.0]),
-            [0.0, 1.0, 0.0]
-        ));
-        let roll = rotation_of_rpy_deg([90.0, 0.0, 0.0]);
-        assert!(close(
-            mounted(&roll, [0.0; 3], [0.0, 1.0, 0.0]),
-            [0.0, 0.0, 1.0]
-        ));
-        let pitch = rotation_of_rpy_deg([0.0, 90.0, 0.0]);
-        assert!(close(
-            mounted(&pitch, [0.0; 3], [0.0, 0.0, 1.0]),
-            [1.0, 0.0, 0.0]
-        ));
+        // (roll, pitch, yaw in degrees, point, where it turns to), about a sensor at 0.
         // Roll first, then pitch, then yaw: (0, 1, 0) by roll 90° is z, by yaw 90° still z.
+        for (rpy, point, want) in [
+            ([0.0, 0.0, 90.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]),
+            ([90.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]),
+            ([0.0, 90.0, 0.0], [0.0, 0.0, 1.0], [1.0, 0.0, 0.0]),
+            ([90.0, 0.0, 90.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]),
+            ([90.0, 0.0, 90.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]),
+        ] {
+            let turn = rotation_of_rpy_deg(rpy);
+            assert!(
+                close(mounted(&turn, [0.0; 3], point), want),
+                "{rpy:?} {point:?}"
+            );
+        }
+        let yaw = rotation_of_rpy_deg([0.0, 0.0, 90.0]);
         let both = rotation_of_rpy_deg([90.0, 0.0, 90.0]);
-        assert!(close(
-            mounted(&both, [0.0; 3], [0.0, 1.0, 0.0]),
-            [0.0, 0.0, 1.0]
-        ));
-        assert!(close(
-            mounted(&both, [0.0; 3], [1.0, 0.0, 0.0]),
-            [0.0, 1.0, 0.0]
-        ));
         // About the sensor: the sensor stays where it is.
         let o = [0.5, -0.2, 1.0];
         assert!(close(mounted(&both, o, o), o));

@@ -42,22 +42,22 @@ fn decode(tag: &str, sensor: &str, bytes: &[u8], extra: &[&str]) -> Value {
     serde_json::from_str(&text).unwrap()
 }
 
-fn angles(packet: &Value) -> Vec<f64> {
+/// `field` of every return of `packet`, in order.
+fn each_return<T>(packet: &Value, field: impl Fn(&Value) -> T) -> Vec<T> {
     packet["returns"]
         .as_array()
         .unwrap()
         .iter()
-        .map(|r| r["angle_deg"].as_f64().unwrap())
+        .map(field)
         .collect()
 }
 
+fn angles(packet: &Value) -> Vec<f64> {
+    each_return(packet, |r| r["angle_deg"].as_f64().unwrap())
+}
+
 fn ranges(packet: &Value) -> Vec<u64> {
-    packet["returns"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|r| r["range_mm"].as_u64().unwrap())
-        .collect()
+    each_return(packet, |r| r["range_mm"].as_u64().unwrap())
 }
 
 #[test]

@@ -1,33 +1,14 @@
 //! Regressions found by the fuzz targets (`fuzz/README.md`).
-use terrain_pyramid::wire::link::{
-    encode, FirmwareVersion, Hello, HelloReason, LayerInfo, Message, MAX_ENCODED_FRAME,
-};
+#[path = "support/device.rs"]
+mod support;
+
+use support::hello_message;
+use terrain_pyramid::wire::link::{encode, MAX_ENCODED_FRAME};
 use terrain_pyramid_host::link::{HostLink, LinkEvent};
 
 fn hello(cells_per_side: u16, layers: usize) -> Vec<u8> {
-    let mut hello = Hello {
-        protocol: 1,
-        firmware: FirmwareVersion::default(),
-        reason: HelloReason::Boot,
-        cells_per_side,
-        resend: 0,
-        clock: Default::default(),
-        layers: Default::default(),
-    };
-    for _ in 0..layers {
-        hello
-            .layers
-            .push(LayerInfo {
-                resolution_q16: 6554,
-                band_inner_m: 0.0,
-                band_outer_m: 0.5,
-                origin_x: 0,
-                origin_y: 0,
-            })
-            .unwrap();
-    }
     let mut out = vec![0_u8; MAX_ENCODED_FRAME];
-    let n = encode(0, &Message::Hello(hello), &mut out).unwrap();
+    let n = encode(0, &hello_message(cells_per_side, layers, 0), &mut out).unwrap();
     out.truncate(n);
     out
 }

@@ -15,6 +15,9 @@
 //!
 //! The claims hold under both navigability rules (`--rule plane`, the default, and
 //! `--rule paper`).
+mod common;
+
+use common::{f, run_lab};
 use serde_json::Value;
 use std::path::PathBuf;
 use std::process::Command;
@@ -29,27 +32,11 @@ fn out_dir(test: &str) -> PathBuf {
 
 fn run_quick(rule: &str) -> (Value, PathBuf) {
     let dir = out_dir(&format!("quick-{rule}"));
-    let output = Command::new(env!("CARGO_BIN_EXE_lab"))
-        .args(["experiments", "--quick", "--json", "--rule", rule, "--out"])
-        .arg(&dir)
-        .output()
-        .expect("lab runs");
-    assert!(
-        output.status.success(),
-        "lab experiments failed: {}",
-        String::from_utf8_lossy(&output.stderr)
+    let (json, _) = run_lab(
+        &["experiments", "--quick", "--json", "--rule", rule, "--out"],
+        &dir,
     );
-    let json: Value = serde_json::from_slice(&output.stdout).expect("one JSON object");
     (json, dir)
-}
-
-fn f(v: &Value, path: &[&str]) -> f64 {
-    let mut v = v;
-    for p in path {
-        v = &v[*p];
-    }
-    v.as_f64()
-        .unwrap_or_else(|| panic!("{path:?} is not a number: {v}"))
 }
 
 #[test]
@@ -202,18 +189,21 @@ fn the_firmware_reaches_the_same_stairs_outcome_as_the_host() {
         return;
     }
     let dir = out_dir("board");
-    let output = Command::new(env!("CARGO_BIN_EXE_lab"))
-        .args(["experiments", "--stairs-only", "--board", "qemu", "--json"])
-        .args(["--stand-s", "0.5", "--speed", "8", "--out"])
-        .arg(&dir)
-        .output()
-        .expect("lab runs");
-    assert!(
-        output.status.success(),
-        "lab experiments --board qemu failed: {}",
-        String::from_utf8_lossy(&output.stderr)
+    let (r, _) = run_lab(
+        &[
+            "experiments",
+            "--stairs-only",
+            "--board",
+            "qemu",
+            "--json",
+            "--stand-s",
+            "0.5",
+            "--speed",
+            "8",
+            "--out",
+        ],
+        &dir,
     );
-    let r: Value = serde_json::from_slice(&output.stdout).expect("one JSON object");
     for map in ["flat", "flat_clamped", "pyramid", "pyramid_soft"] {
         let board = &r["stairs_board"][map];
         let host = &r["stairs"][map];

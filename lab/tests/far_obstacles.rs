@@ -2,8 +2,10 @@
 //! its JSON object holds both rules with every ring and kind, its counts add up to the fused
 //! map at the returns, and its table (stderr with `--json`, and `report.md`) holds every ring
 //! and every kind that has returns.
+mod common;
+
+use common::run_lab;
 use serde_json::Value;
-use std::process::Command;
 
 fn n(v: &Value) -> u64 {
     v.as_u64().unwrap_or_else(|| panic!("not a count: {v}"))
@@ -13,20 +15,16 @@ fn n(v: &Value) -> u64 {
 fn the_quick_far_obstacles_table_holds_every_ring_and_kind() {
     let dir = std::env::temp_dir().join(format!("pyramid-far-obstacles-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
-    let output = Command::new(env!("CARGO_BIN_EXE_lab"))
-        .args([
+    let (json, table) = run_lab(
+        &[
             "experiments",
             "--far-obstacles-only",
             "--quick",
             "--json",
             "--out",
-        ])
-        .arg(&dir)
-        .output()
-        .expect("lab runs");
-    let table = String::from_utf8_lossy(&output.stderr).to_string();
-    assert!(output.status.success(), "lab experiments failed: {table}");
-    let json: Value = serde_json::from_slice(&output.stdout).expect("one JSON object");
+        ],
+        &dir,
+    );
     let far = &json["far_obstacles"];
     assert_eq!(json["quick"], true);
     assert_eq!(far["setup"]["xs"].as_array().map(Vec::len), Some(3));

@@ -13,32 +13,14 @@
 //!   than the latest-pose rule's;
 //! - no return is refused for want of a pose with the 50 Hz, 30 ± 10 ms feed, and no stamped
 //!   pose is refused.
-use serde_json::Value;
-use std::process::Command;
+mod common;
 
-fn f(v: &Value, path: &[&str]) -> f64 {
-    let mut v = v;
-    for p in path {
-        v = &v[*p];
-    }
-    v.as_f64()
-        .unwrap_or_else(|| panic!("{path:?} is not a number: {v}"))
-}
+use common::{f, run_lab};
 
 #[test]
 fn stamped_late_poses_place_returns_as_perfect_poses_do() {
     let dir = std::env::temp_dir().join(format!("pyramid-timing-{}", std::process::id()));
-    let output = Command::new(env!("CARGO_BIN_EXE_lab"))
-        .args(["timing", "--quick", "--json", "--out"])
-        .arg(&dir)
-        .output()
-        .expect("lab runs");
-    assert!(
-        output.status.success(),
-        "lab timing failed: {}",
-        String::from_utf8_lossy(&output.stderr)
-    );
-    let json: Value = serde_json::from_slice(&output.stdout).expect("one JSON object");
+    let (json, _) = run_lab(&["timing", "--quick", "--json", "--out"], &dir);
     let scenes = json["scenes"].as_array().expect("scenes");
     assert_eq!(scenes.len(), 3);
     for sc in scenes {

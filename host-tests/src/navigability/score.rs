@@ -51,8 +51,32 @@ pub fn layer_tally<const W: usize, const L: usize>(
     robot_height_m: f64,
 ) -> Tally {
     let mut t = Tally::default();
+    each_classed_cell(pyramid, k, |c, i, j, obstacle| {
+        match cell_truth(scene, c, i64::from(i), i64::from(j), robot_height_m).truth() {
+            Truth::Navigable => {
+                t.navigable += 1;
+                t.navigable_ok += usize::from(!obstacle);
+            }
+            Truth::Obstacle => {
+                t.obstacle += 1;
+                t.obstacle_ok += usize::from(obstacle);
+            }
+            Truth::Between => {}
+        }
+    });
+    t
+}
+
+/// Hands every cell of layer `k` classed obstacle or navigable to `classed`: the layer's cell
+/// size (metres), the cell's world index `(i, j)` and whether it is an obstacle. Nothing when
+/// there is no layer `k`.
+fn each_classed_cell<const W: usize, const L: usize>(
+    pyramid: &Pyramid<W, L>,
+    k: usize,
+    mut classed: impl FnMut(f64, i32, i32, bool),
+) {
     let Some(layer) = pyramid.layer(k) else {
-        return t;
+        return;
     };
     let c = f64::from(layer.resolution().to_bits()) / 65_536.0;
     let (ox, oy) = layer.origin();
@@ -68,20 +92,9 @@ pub fn layer_tally<const W: usize, const L: usize>(
                 CellClass::Navigable => false,
                 _ => continue,
             };
-            match cell_truth(scene, c, i64::from(i), i64::from(j), robot_height_m).truth() {
-                Truth::Navigable => {
-                    t.navigable += 1;
-                    t.navigable_ok += usize::from(!obstacle);
-                }
-                Truth::Obstacle => {
-                    t.obstacle += 1;
-                    t.obstacle_ok += usize::from(obstacle);
-                }
-                Truth::Between => {}
-            }
+            classed(c, i, j, obstacle);
         }
     }
-    t
 }
 
 /// Per layer, per step height of `heights`: (cells whose tallest feature is that height,
@@ -95,36 +108,60 @@ pub fn step_detection<const W: usize, const L: usize>(
     robot_height_m: f64,
 ) -> Vec<(usize, usize)> {
     let mut out = vec![(0, 0); heights.len()];
-    let Some(layer) = pyramid.layer(k) else {
-        return out;
-    };
-    let c = f64::from(layer.resolution().to_bits()) / 65_536.0;
-    let (ox, oy) = layer.origin();
-    #[allow(clippy::cast_possible_wrap, clippy::cast_possible_truncation)]
-    let w = W as i32;
-    for i in ox..ox + w {
-        for j in oy..oy + w {
-            let Some(cell) = layer.get(i, j) else {
-                continue;
-            };
-            let obstacle = match cell.class() {
-                CellClass::Obstacle => true,
-                CellClass::Navigable => false,
-                _ => continue,
-            };
-            let truth = cell_truth(scene, c, i64::from(i), i64::from(j), robot_height_m);
-            if let Some(h) = heights
-                .iter()
-                .position(|&h| (h - truth.step_m).abs() < 1e-9)
-            {
-                if let Some(entry) = out.get_mut(h) {
-                    entry.0 += 1;
-                    entry.1 += usize::from(obstacle);
-                }
+    each_classed_cell(pyramid, k, |c, i, j, obstacle| {
+        let truth = cell_truth(scene, c, i64::from(i), i64::from(j), robot_height_m);
+        if let Some(h) = heights
+            .iter()
+            .position(|&h| (h - truth.step_m).abs() < 1e-9)
+        {
+            if let Some(entry) = out.get_mut(h) {
+                entry.0 += 1;
+                entry.1 += usize::from(obstacle);
             }
         }
-    }
+    });
     out
+}
+
+/// The fused answer of `pyramid` at the centre of cell `(i, j)` of the grid of `cell_m`
+/// metres.
+fn fused_at_cell<const W: usize, const L: usize>(
+    pyramid: &Pyramid<W, L>,
+    cell_m: f64,
+    i: i64,
+    j: i64,
+) -> Fused {
+    #[allow(clippy::cast_precision_loss)]
+    let (x, y) = ((i as f64 + 0.5) * cell_m, (j as f64 + 0.5) * cell_m);
+    pyramid.fused(
+        Meters::saturating_from_num(x),
+        Meters::saturating_from_num(y),
+    )
+}
+
+/// Whether no feature of `scene` lies within `grow` cells of cell `(i, j)` of the grid of
+/// `cell_m` metres: the cell grown by the margin is clear.
+fn clear_around(
+    scene: &Scene,
+    cell_m: f64,
+    (i, j): (i64, i64),
+    grow: i64,
+    robot_height_m: f64,
+) -> bool {
+    #[allow(clippy::cast_precision_loss)]
+    let grown = crate::sim::terrain::Rect::new(
+        (i - grow) as f64 * cell_m,
+        (i + 1 + grow) as f64 * cell_m,
+        (j - grow) as f64 * cell_m,
+        (j + 1 + grow) as f64 * cell_m,
+    );
+    crate::sim::terrain::clear_of_features(scene, &grown, robot_height_m)
+}
+
+/// Whether `fused_at` (the fused answer at a cell's world index) is an obstacle at `(i, j)`
+/// or a cell up to two away.
+fn obstacle_near(fused_at: &impl Fn(i64, i64) -> Fused, i: i64, j: i64) -> bool {
+    (-2..=2).any(|di| (-2..=2).any(|dj| matches!(fused_at(i + di, j + dj), Fused::Obstacle { .. })))
 }
 
 /// The fused map against the truth on the 0.1 m grid, over the cells that hold at least one
@@ -141,14 +178,7 @@ pub fn fused_tally<const W: usize, const L: usize>(
     robot_height_m: f64,
 ) -> Tally {
     const C: f64 = 0.1;
-    let fused_at = |i: i64, j: i64| {
-        #[allow(clippy::cast_precision_loss)]
-        let (x, y) = ((i as f64 + 0.5) * C, (j as f64 + 0.5) * C);
-        pyramid.fused(
-            Meters::saturating_from_num(x),
-            Meters::saturating_from_num(y),
-        )
-    };
+    let fused_at = |i: i64, j: i64| fused_at_cell(pyramid, C, i, j);
     let mut t = Tally::default();
     // Cells within `clear_m` of a feature: the truth of a cell grown by the margin.
     #[allow(clippy::cast_possible_truncation)]
@@ -156,14 +186,7 @@ pub fn fused_tally<const W: usize, const L: usize>(
     for &(i, j) in seen {
         match cell_truth(scene, C, i, j, robot_height_m).truth() {
             Truth::Navigable => {
-                #[allow(clippy::cast_precision_loss)]
-                let grown = crate::sim::terrain::Rect::new(
-                    (i - grow) as f64 * C,
-                    (i + 1 + grow) as f64 * C,
-                    (j - grow) as f64 * C,
-                    (j + 1 + grow) as f64 * C,
-                );
-                if !crate::sim::terrain::clear_of_features(scene, &grown, robot_height_m) {
+                if !clear_around(scene, C, (i, j), grow, robot_height_m) {
                     continue;
                 }
                 t.navigable += 1;
@@ -171,10 +194,7 @@ pub fn fused_tally<const W: usize, const L: usize>(
             }
             Truth::Obstacle => {
                 t.obstacle += 1;
-                let near = (-2..=2).any(|di| {
-                    (-2..=2).any(|dj| matches!(fused_at(i + di, j + dj), Fused::Obstacle { .. }))
-                });
-                t.obstacle_ok += usize::from(near);
+                t.obstacle_ok += usize::from(obstacle_near(&fused_at, i, j));
             }
             Truth::Between => {}
         }
@@ -246,14 +266,7 @@ pub fn fused_points<const W: usize, const L: usize>(
 ) -> Tally {
     const C: f64 = 0.1;
     let mut verdict: BTreeMap<(i64, i64), Option<bool>> = BTreeMap::new();
-    let fused_at = |i: i64, j: i64| {
-        #[allow(clippy::cast_precision_loss)]
-        let (x, y) = ((i as f64 + 0.5) * C, (j as f64 + 0.5) * C);
-        pyramid.fused(
-            Meters::saturating_from_num(x),
-            Meters::saturating_from_num(y),
-        )
-    };
+    let fused_at = |i: i64, j: i64| fused_at_cell(pyramid, C, i, j);
     #[allow(clippy::cast_possible_truncation)]
     let grow = (clear_m / C).ceil() as i64;
     let mut t = Tally::default();
@@ -271,15 +284,7 @@ pub fn fused_points<const W: usize, const L: usize>(
                     Truth::Obstacle => Some(true),
                     Truth::Between => None,
                     Truth::Navigable => {
-                        #[allow(clippy::cast_precision_loss)]
-                        let grown = crate::sim::terrain::Rect::new(
-                            (i - grow) as f64 * C,
-                            (i + 1 + grow) as f64 * C,
-                            (j - grow) as f64 * C,
-                            (j + 1 + grow) as f64 * C,
-                        );
-                        crate::sim::terrain::clear_of_features(scene, &grown, robot_height_m)
-                            .then_some(false)
+                        clear_around(scene, C, (i, j), grow, robot_height_m).then_some(false)
                     }
                 }
             });
@@ -291,11 +296,7 @@ pub fn fused_points<const W: usize, const L: usize>(
                 }
                 Some(true) => {
                     t.obstacle += 1;
-                    let near = (-2..=2).any(|di| {
-                        (-2..=2)
-                            .any(|dj| matches!(fused_at(i + di, j + dj), Fused::Obstacle { .. }))
-                    });
-                    t.obstacle_ok += usize::from(near);
+                    t.obstacle_ok += usize::from(obstacle_near(&fused_at, i, j));
                 }
                 None => {}
             }

@@ -63,12 +63,12 @@ pub use mount::{LidarActuator, SimRig};
 pub use stream::ydlidar_correction_deg;
 
 use super::laser::{angle_to_u16, u16_to_angle_deg};
+use super::record::{push, push_laser, push_pose_change, SimError};
 use super::rng::Rng;
 use super::scene::{GroundTruthSpec, ObstacleCell, Scene};
 use super::trajectory::Trajectory;
-use core::fmt;
 use mount::Sweep;
-use stream::{push, Caster, Packets};
+use stream::{Caster, Packets};
 use terrain_pyramid::laser::{Sensor, SensorKind};
 use terrain_pyramid::wire::recording::SetupEvent as Setup;
 use terrain_pyramid::wire::recording::{
@@ -286,18 +286,18 @@ impl LidarSimConfig {
     ///
     /// # Errors
     /// The first one out of bounds.
-    pub fn validate(&self) -> Result<(), LidarSimError> {
-        self.trajectory.validate().map_err(LidarSimError)?;
+    pub fn validate(&self) -> Result<(), SimError> {
+        self.trajectory.validate().map_err(SimError)?;
         if !(self.sigma_m >= 0.0 && self.sigma_m.is_finite()) {
-            return Err(LidarSimError("lidar: σ must be ≥ 0".into()));
+            return Err(SimError("lidar: σ must be ≥ 0".into()));
         }
         if !self.position_m.iter().all(|v| v.is_finite()) {
-            return Err(LidarSimError("lidar: the position must be finite".into()));
+            return Err(SimError("lidar: the position must be finite".into()));
         }
         match self.actuator {
             LidarActuator::Servo(p) => {
                 if p.span_bits() == 0 || p.rate_mdeg_per_s == 0 {
-                    return Err(LidarSimError("lidar: the servo's sweep is empty".into()));
+                    return Err(SimError("lidar: the servo's sweep is empty".into()));
                 }
             }
             LidarActuator::Pan {
@@ -305,25 +305,13 @@ impl LidarSimConfig {
                 rate_cdeg_s,
             } => {
                 if !(1..18_000).contains(&half_width_cdeg) || rate_cdeg_s == 0 {
-                    return Err(LidarSimError("lidar: the pan is out of bounds".into()));
+                    return Err(SimError("lidar: the pan is out of bounds".into()));
                 }
             }
         }
         Ok(())
     }
 }
-
-/// A configuration the lidar simulator refuses.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub struct LidarSimError(pub String);
-
-impl fmt::Display for LidarSimError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(&self.0)
-    }
-}
-
-impl std::error::Error for LidarSimError {}
 
 /// A simulated lidar run: the recording and what is known about it.
 #[derive(Debug, Clone, PartialEq)]
@@ -360,7 +348,7 @@ const SPLIT_SALT: u64 = 0x11DA_C0DE_11DA_C0DE;
 ///
 /// # Errors
 /// A configuration [`LidarSimConfig::validate`] refuses, or an emitter's refusal.
-pub fn simulate_lidar(config: &LidarSimConfig) -> Result<LidarSimulation, LidarSimError> {
+pub fn simulate_lidar(config: &LidarSimConfig) -> Result<LidarSimulation, SimError> {
     config.validate()?;
     let setup = config.setup();
     let sensor = config.kind.sensor_event();
@@ -377,7 +365,7 @@ pub fn simulate_lidar(config: &LidarSimConfig) -> Result<LidarSimulation, LidarS
     } else {
         terrain_pyramid::wire::recording::VERSION_WITHOUT_RIG
     };
-    emit_header_version(&mut bytes, version).map_err(|e| LidarSimError(format!("emit: {e}")))?;
+    emit_header_version(&mut bytes, version).map_err(|e| SimError(format!("emit: {e}")))?;
     push(
         &mut bytes,
         &Event {
@@ -468,17 +456,7 @@ pub fn simulate_lidar(config: &LidarSimConfig) -> Result<LidarSimulation, LidarS
         #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
         let now = ((arrival * 1e6).round() as u64).max(last_time_us);
         last_time_us = now;
-        let pose_f32 = pose.to_f32();
-        if last_pose != Some(pose_f32) {
-            push(
-                &mut bytes,
-                &Event {
-                    time_us: now,
-                    payload: Payload::Pose(pose_f32),
-                },
-            )?;
-            last_pose = Some(pose_f32);
-        }
+        push_pose_change(&mut bytes, now, pose.to_f32(), &mut last_pose)?;
         if !times.is_empty() {
             #[allow(clippy::cast_precision_loss)]
             let mean = times.iter().sum::<f64>() / times.len() as f64;
@@ -495,26 +473,8 @@ pub fn simulate_lidar(config: &LidarSimConfig) -> Result<LidarSimulation, LidarS
         }
         chunks += 1;
         let split = config.split_every != 0 && chunks.is_multiple_of(u64::from(config.split_every));
-        let cut = if split && chunk.len() > 1 {
-            usize::try_from(1 + splits.below(chunk.len() as u64 - 1)).unwrap_or(1)
-        } else {
-            chunk.len()
-        };
-        for part in [chunk.get(..cut), chunk.get(cut..)]
-            .into_iter()
-            .flatten()
-            .filter(|p| !p.is_empty())
-        {
-            push(
-                &mut bytes,
-                &Event {
-                    time_us: now,
-                    payload: Payload::Laser(part),
-                },
-            )?;
-            sim.laser_events += 1;
-            sim.laser_bytes += part.len() as u64;
-        }
+        sim.laser_events += u64::from(push_laser(&mut bytes, now, &chunk, split, &mut splits)?);
+        sim.laser_bytes += chunk.len() as u64;
         if arrival >= duration {
             break;
         }

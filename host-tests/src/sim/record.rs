@@ -186,7 +186,10 @@ pub struct Simulation {
 }
 
 /// Appends one event to `out`.
-fn push(out: &mut Vec<u8>, event: &Event<'_>) -> Result<(), SimError> {
+///
+/// # Errors
+/// The event could not be written.
+pub(crate) fn push(out: &mut Vec<u8>, event: &Event<'_>) -> Result<(), SimError> {
     let start = out.len();
     out.resize(start + event.buffer_len(), 0);
     let tail = out.get_mut(start..).unwrap_or_default();
@@ -194,6 +197,70 @@ fn push(out: &mut Vec<u8>, event: &Event<'_>) -> Result<(), SimError> {
         .emit(tail)
         .map_err(|e| SimError(format!("emit: {e}")))?;
     Ok(())
+}
+
+/// Writes a pose event of `pose` (x, y, z m, roll, pitch, yaw rad) at `time_us` (µs) unless
+/// `last`, the pose written last, is the same; `last` becomes `pose`. Returns whether it
+/// wrote one.
+///
+/// # Errors
+/// The event could not be written.
+pub(crate) fn push_pose_change(
+    out: &mut Vec<u8>,
+    time_us: u64,
+    pose: [f32; 6],
+    last: &mut Option<[f32; 6]>,
+) -> Result<bool, SimError> {
+    if *last == Some(pose) {
+        return Ok(false);
+    }
+    push(
+        out,
+        &Event {
+            time_us,
+            payload: Payload::Pose(pose),
+        },
+    )?;
+    *last = Some(pose);
+    Ok(true)
+}
+
+/// Writes `chunk` as laser-byte events at `time_us` (µs): cut in two at a point drawn from
+/// `splits` (both halves non-empty) when `split` and it has 2 bytes or more, else whole.
+/// Returns the number of events written (0 for an empty chunk, else 1 or 2).
+///
+/// # Errors
+/// An event could not be written.
+pub(crate) fn push_laser(
+    out: &mut Vec<u8>,
+    time_us: u64,
+    chunk: &[u8],
+    split: bool,
+    splits: &mut Rng,
+) -> Result<u32, SimError> {
+    let cut = if split && chunk.len() > 1 {
+        // 1 ..= len − 1: both halves non-empty.
+        let len = chunk.len() as u64;
+        usize::try_from(1 + splits.below(len - 1)).unwrap_or(1)
+    } else {
+        chunk.len()
+    };
+    let mut events = 0;
+    for part in [chunk.get(..cut), chunk.get(cut..)]
+        .into_iter()
+        .flatten()
+        .filter(|p| !p.is_empty())
+    {
+        push(
+            out,
+            &Event {
+                time_us,
+                payload: Payload::Laser(part),
+            },
+        )?;
+        events += 1;
+    }
+    Ok(events)
 }
 
 /// Salt of the split-point generator's seed, so that the noise does not depend on chunking.
@@ -316,18 +383,12 @@ pub fn simulate_with(
             )
         };
         time_us = now;
-        let pose_f32 = pose.to_f32();
-        if last_pose != Some(pose_f32) {
-            push(
-                &mut bytes,
-                &Event {
-                    time_us: now,
-                    payload: Payload::Pose(pose_f32),
-                },
-            )?;
-            pose_events += 1;
-            last_pose = Some(pose_f32);
-        }
+        pose_events += u32::from(push_pose_change(
+            &mut bytes,
+            now,
+            pose.to_f32(),
+            &mut last_pose,
+        )?);
         let phase = trajectory.phase(t);
         let mut due = Vec::new();
         if drives && !started && phase != Phase::Standing {
@@ -383,27 +444,7 @@ pub fn simulate_with(
         });
         let telegram = laser.telegram(&line).map_err(SimError)?;
         let split = config.split_every != 0 && (i + 1) % config.split_every == 0;
-        let cut = if split {
-            // 1 ..= len − 1: both halves non-empty.
-            let len = telegram.len() as u64;
-            usize::try_from(1 + splits.below(len - 1)).unwrap_or(1)
-        } else {
-            telegram.len()
-        };
-        for part in [telegram.get(..cut), telegram.get(cut..)]
-            .into_iter()
-            .flatten()
-            .filter(|p| !p.is_empty())
-        {
-            push(
-                &mut bytes,
-                &Event {
-                    time_us: now,
-                    payload: Payload::Laser(part),
-                },
-            )?;
-            laser_events += 1;
-        }
+        laser_events += push_laser(&mut bytes, now, &telegram, split, &mut splits)?;
     }
 
     Ok(Simulation {

@@ -187,6 +187,14 @@ impl Scene {
 mod tests {
     use super::*;
 
+    /// A ray from `origin` along +x.
+    fn along_x(origin: Vec3) -> Ray {
+        Ray {
+            origin,
+            dir: [1.0, 0.0, 0.0],
+        }
+    }
+
     fn down_ray(origin: Vec3, depression_deg: f64) -> Ray {
         let a = depression_deg.to_radians();
         Ray {
@@ -204,10 +212,7 @@ mod tests {
             assert!((hit.t - expected).abs() < 1e-9, "{deg}: {}", hit.t);
             assert!(hit.point[2].abs() < 1e-9);
         }
-        let up = Ray {
-            origin: [0.0, 0.0, 1.0],
-            dir: [1.0, 0.0, 0.0],
-        };
+        let up = along_x([0.0, 0.0, 1.0]);
         assert_eq!(scene.cast(&up, 80.0), None);
     }
 
@@ -215,34 +220,22 @@ mod tests {
     fn a_riser_is_hit_on_its_face() {
         let scene = Scene::scenario(Scenario::Stairs);
         // Horizontal ray at 0.1 m: hits the first riser's face at x = 5.05.
-        let ray = Ray {
-            origin: [0.0, 0.0, 0.1],
-            dir: [1.0, 0.0, 0.0],
-        };
+        let ray = along_x([0.0, 0.0, 0.1]);
         let hit = scene.cast(&ray, 20.0).unwrap();
         assert!((hit.point[0] - 5.05).abs() < 1e-9, "{:?}", hit);
         // At 0.3 m: the second riser (steps at 0.17, 0.34).
-        let ray = Ray {
-            origin: [0.0, 0.0, 0.3],
-            dir: [1.0, 0.0, 0.0],
-        };
+        let ray = along_x([0.0, 0.0, 0.3]);
         let hit = scene.cast(&ray, 20.0).unwrap();
         assert!((hit.point[0] - 5.35).abs() < 1e-9, "{:?}", hit);
         // Beside the flight: nothing.
-        let ray = Ray {
-            origin: [0.0, 2.0, 0.3],
-            dir: [1.0, 0.0, 0.0],
-        };
+        let ray = along_x([0.0, 2.0, 0.3]);
         assert_eq!(scene.cast(&ray, 20.0), None);
     }
 
     #[test]
     fn posts_and_bars_are_hit() {
         let scene = Scene::scenario(Scenario::Gate);
-        let ray = Ray {
-            origin: [0.0, 0.75, 1.0],
-            dir: [1.0, 0.0, 0.0],
-        };
+        let ray = along_x([0.0, 0.75, 1.0]);
         let hit = scene.cast(&ray, 20.0).unwrap();
         assert!((hit.point[0] - (5.05 - 0.06)).abs() < 1e-9, "{:?}", hit);
         assert_eq!(hit.surface, Surface::Solid(1));
@@ -279,10 +272,7 @@ mod tests {
     #[test]
     fn slope_is_met_by_a_rising_ray() {
         let scene = Scene::scenario(Scenario::Slope);
-        let ray = Ray {
-            origin: [0.0, 0.0, 1.0],
-            dir: [1.0, 0.0, 0.0],
-        };
+        let ray = along_x([0.0, 0.0, 1.0]);
         let hit = scene.cast(&ray, 20.0).unwrap();
         let x = 3.05 + 1.0 / 10f64.to_radians().tan();
         assert!((hit.point[0] - x).abs() < 1e-6, "{:?}", hit);

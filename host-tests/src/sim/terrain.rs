@@ -273,14 +273,7 @@ impl TerrainTerm {
                 }
             }
             Self::SideSlope { .. } => self.height(0.0, y_lo).max(self.height(0.0, y_hi)),
-            Self::Platform { rect, height } => {
-                if rect.meets(x_lo, x_hi, y_lo, y_hi) {
-                    height.max(0.0)
-                } else {
-                    0.0
-                }
-            }
-            Self::Ramp { rect, height, .. } => {
+            Self::Platform { rect, height } | Self::Ramp { rect, height, .. } => {
                 if rect.meets(x_lo, x_hi, y_lo, y_hi) {
                     height.max(0.0)
                 } else {

@@ -1,6 +1,8 @@
 //! Strategies and helpers shared by the property tests.
 #![allow(dead_code)]
 
+pub mod feed;
+
 use proptest::prelude::*;
 use terrain_pyramid as tp;
 use terrain_pyramid_host_tests::harness;
@@ -121,6 +123,25 @@ pub fn seeded(cases: u32, seed: u64) -> proptest::test_runner::Config {
         ..proptest::test_runner::Config::default()
     }
 }
+
+/// One piece of a hostile stream, as a stream's strategy draws it; what each piece holds is
+/// the stream's (see its alias of this type).
+#[derive(Debug, Clone)]
+pub enum Piece<Own> {
+    /// A valid unit.
+    Intact(Vec<u8>),
+    /// Bytes between units.
+    Garbage(Vec<u8>),
+    /// A unit with one bit flipped (bit index modulo its length in bits).
+    Flipped(Vec<u8>, usize),
+    /// A unit cut short after this many bytes (modulo its length).
+    Truncated(Vec<u8>, usize),
+    /// A piece only this stream has.
+    Own(Own),
+}
+
+/// Units of a stream: their offsets (of the first byte in the stream) and bytes.
+pub type Units = Vec<(u64, Vec<u8>)>;
 
 /// Cuts `stream` into chunks whose sizes cycle through `sizes`.
 pub fn chunks<'a>(stream: &'a [u8], sizes: &[usize]) -> Vec<&'a [u8]> {

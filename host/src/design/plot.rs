@@ -10,7 +10,7 @@ use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 use plotters::style::{register_font, FontStyle};
 use std::path::Path;
-use terrain_pyramid::design::LayerDesign;
+use terrain_pyramid::design::{BoundTerms, LayerDesign};
 use terrain_pyramid::Design;
 
 /// The picture's size, pixels.
@@ -135,23 +135,20 @@ fn figure<DB: DrawingBackend, const L: usize>(
         .label("cell size r_k of the band's layer (the band ends where δ(d) = r_k)")
         .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 30, y)], STEP.stroke_width(2)));
 
-    chart
-        .draw_series(LineSeries::new(
-            samples.iter().map(|t| (t.d_m, t.vertical_m)),
-            GREY.stroke_width(3),
-        ))
-        .map_err(text)?
-        .label("vertical resolution  φ(d² + h²)/h  (eq. 14)")
-        .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 30, y)], GREY.stroke_width(3)));
-
-    chart
-        .draw_series(LineSeries::new(
-            samples.iter().map(|t| (t.d_m, t.horizontal_m)),
-            BLACK.stroke_width(1),
-        ))
-        .map_err(text)?
-        .label("horizontal resolution  2d·atan(ψ/2)  (eq. 16)")
-        .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 30, y)], BLACK.stroke_width(1)));
+    solid_curve(
+        &mut chart,
+        &samples,
+        |t| t.vertical_m,
+        GREY.stroke_width(3),
+        "vertical resolution  φ(d² + h²)/h  (eq. 14)",
+    )?;
+    solid_curve(
+        &mut chart,
+        &samples,
+        |t| t.horizontal_m,
+        BLACK.stroke_width(1),
+        "horizontal resolution  2d·atan(ψ/2)  (eq. 16)",
+    )?;
 
     chart
         .draw_series(DashedLineSeries::new(
@@ -166,14 +163,13 @@ fn figure<DB: DrawingBackend, const L: usize>(
             DashedPathElement::new(vec![(x, y), (x + 30, y)], 10, 7, BLACK.stroke_width(2))
         });
 
-    chart
-        .draw_series(LineSeries::new(
-            samples.iter().map(|t| (t.d_m, t.total_m)),
-            BLACK.stroke_width(4),
-        ))
-        .map_err(text)?
-        .label("bound δ(d), the sum of the three")
-        .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 30, y)], BLACK.stroke_width(4)));
+    solid_curve(
+        &mut chart,
+        &samples,
+        |t| t.total_m,
+        BLACK.stroke_width(4),
+        "bound δ(d), the sum of the three",
+    )?;
 
     chart
         .configure_series_labels()
@@ -185,6 +181,26 @@ fn figure<DB: DrawingBackend, const L: usize>(
         .border_style(BLACK.mix(0.4))
         .draw()
         .map_err(text)?;
+    Ok(())
+}
+
+/// Draws `value` (metres) of every sample against its distance as a solid line of `style`,
+/// with `label` in the legend.
+fn solid_curve<DB: DrawingBackend, CT: CoordTranslate<From = (f32, f32)>>(
+    chart: &mut ChartContext<'_, DB, CT>,
+    samples: &[BoundTerms],
+    value: fn(&BoundTerms) -> f32,
+    style: ShapeStyle,
+    label: &str,
+) -> Result<(), String> {
+    chart
+        .draw_series(LineSeries::new(
+            samples.iter().map(|t| (t.d_m, value(t))),
+            style,
+        ))
+        .map_err(text)?
+        .label(label)
+        .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 30, y)], style));
     Ok(())
 }
 

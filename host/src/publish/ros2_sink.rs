@@ -21,23 +21,24 @@ use std::collections::BTreeMap;
 /// The QoS of the map topics (Nav2's static layer subscribes reliable, transient local).
 #[must_use]
 pub fn map_qos() -> QosProfile {
-    QosProfile::publisher_default()
-        .reliability(Reliability::Reliable {
-            when_full: WhenFull::Fail,
-        })
-        .durability(Durability::TransientLocal)
-        .history(History::KeepLast { depth: 1 })
+    reliable_qos(Durability::TransientLocal, 1)
 }
 
 /// The QoS of `/diagnostics` (ROS 2's default publisher QoS, never waiting).
 #[must_use]
 pub fn diagnostics_qos() -> QosProfile {
+    reliable_qos(Durability::Volatile, 10)
+}
+
+/// ROS 2's default publisher QoS, reliable without waiting when full, with `durability` and
+/// the last `depth` messages kept.
+fn reliable_qos(durability: Durability, depth: usize) -> QosProfile {
     QosProfile::publisher_default()
         .reliability(Reliability::Reliable {
             when_full: WhenFull::Fail,
         })
-        .durability(Durability::Volatile)
-        .history(History::KeepLast { depth: 10 })
+        .durability(durability)
+        .history(History::KeepLast { depth })
 }
 
 /// The node and its publishers.

@@ -376,11 +376,19 @@ pub fn parse_rig(path: &Path, text: &str) -> Result<Rig, String> {
         }
     }
     if let Some(k) = &file.classifier {
-        let metres = |v: &Option<Spanned<f64>>, key: &str| -> Result<Option<f64>, String> {
+        // An optional number of `[classifier]` in [0, `limit`), `rule` saying so in the
+        // refusal.
+        let below = |v: &Option<Spanned<f64>>,
+                     key: &str,
+                     limit: f64,
+                     rule: &str|
+         -> Result<Option<f64>, String> {
+            let key = format!("classifier.{key}");
             v.as_ref()
-                .map(|v| c.num(v, key, |x| (0.0..LIMIT_M).contains(&x), "in [0, 1000) m"))
+                .map(|v| c.num(v, &key, |x| (0.0..limit).contains(&x), rule))
                 .transpose()
         };
+        let metres = |v: &Option<Spanned<f64>>, key: &str| below(v, key, LIMIT_M, "in [0, 1000) m");
         let spec = &mut rig.classifier;
         if let Some(v) = &k.rule {
             spec.rule.rule = Some(match v.get_ref().as_str() {
@@ -395,45 +403,13 @@ pub fn parse_rig(path: &Path, text: &str) -> Result<Rig, String> {
                 }
             });
         }
-        spec.rule.step_m = metres(&k.step_m, "classifier.step_m")?;
-        spec.rule.residual_m = metres(&k.residual_m, "classifier.residual_m")?;
-        spec.rule.noise_sigma_m = metres(&k.noise_sigma_m, "classifier.noise_sigma_m")?;
-        spec.rule.max_slope_deg = k
-            .max_slope_deg
-            .as_ref()
-            .map(|v| {
-                c.num(
-                    v,
-                    "classifier.max_slope_deg",
-                    |x| (0.0..89.0).contains(&x),
-                    "in [0, 89)",
-                )
-            })
-            .transpose()?;
-        spec.rule.angle_sigma_deg = k
-            .angle_sigma_deg
-            .as_ref()
-            .map(|v| {
-                c.num(
-                    v,
-                    "classifier.angle_sigma_deg",
-                    |x| (0.0..45.0).contains(&x),
-                    "in [0, 45)",
-                )
-            })
-            .transpose()?;
-        spec.rule.noise_factor = k
-            .noise_factor
-            .as_ref()
-            .map(|v| {
-                c.num(
-                    v,
-                    "classifier.noise_factor",
-                    |x| (0.0..100.0).contains(&x),
-                    "in [0, 100)",
-                )
-            })
-            .transpose()?;
+        spec.rule.step_m = metres(&k.step_m, "step_m")?;
+        spec.rule.residual_m = metres(&k.residual_m, "residual_m")?;
+        spec.rule.noise_sigma_m = metres(&k.noise_sigma_m, "noise_sigma_m")?;
+        spec.rule.max_slope_deg = below(&k.max_slope_deg, "max_slope_deg", 89.0, "in [0, 89)")?;
+        spec.rule.angle_sigma_deg =
+            below(&k.angle_sigma_deg, "angle_sigma_deg", 45.0, "in [0, 45)")?;
+        spec.rule.noise_factor = below(&k.noise_factor, "noise_factor", 100.0, "in [0, 100)")?;
         if let Some(v) = &k.robot_height_m {
             spec.robot_height_m = Some(c.num(
                 v,
@@ -442,8 +418,8 @@ pub fn parse_rig(path: &Path, text: &str) -> Result<Rig, String> {
                 "in (0, 1000) m",
             )?);
         }
-        spec.drop_m = metres(&k.drop_m, "classifier.drop_m")?;
-        spec.ceiling_m = metres(&k.ceiling_m, "classifier.ceiling_m")?;
+        spec.drop_m = metres(&k.drop_m, "drop_m")?;
+        spec.ceiling_m = metres(&k.ceiling_m, "ceiling_m")?;
         // A plane parameter under the paper's rule is refused here, with its line.
         if let Err(e) = spec.rule.apply(ClassifierConfig::DEFAULT) {
             return Err(format!("{}: [classifier]: {e}", path.display()));

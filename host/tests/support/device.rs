@@ -12,8 +12,8 @@ use std::sync::{mpsc, Arc};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 use terrain_pyramid::design::{Schedule, SensorModel};
-use terrain_pyramid::link::{Link, LinkConfig, SensorCounters};
-use terrain_pyramid::wire::link::Reply;
+use terrain_pyramid::link::{Link, LinkConfig, Request, SensorCounters};
+use terrain_pyramid::wire::link::{FirmwareVersion, Hello, HelloReason, LayerInfo, Message, Reply};
 use terrain_pyramid::wire::FeedResult;
 use terrain_pyramid::{
     Config, DefaultDesign, DefaultPyramid, Evidence, EvidenceClass, Fused, Meters,
@@ -231,21 +231,34 @@ fn accept(listener: &TcpListener) -> TcpStream {
 /// Returns whether any was other than a TimeRequest (the host's time exchange goes on all the
 /// session: it does not keep a device from settling).
 pub fn serve_commands(link: &mut Link, pyramid: &mut DefaultPyramid, bytes: &[u8]) -> bool {
-    let mut input = bytes;
     let mut commanded = false;
+    each_request(link, bytes, |link, request| {
+        commanded |= !matches!(
+            request.command,
+            terrain_pyramid::link::Command::TimeRequest { .. }
+        );
+        if let Some(other) = link.serve(pyramid, request) {
+            link.answer(Reply::ok(other.header));
+        }
+    });
+    commanded
+}
+
+/// Hands host bytes to the device's link and every request it decodes, in order, to
+/// `request` with the link (the link counts and skips the frames it refuses).
+pub fn each_request<const Q: usize, const N: usize>(
+    link: &mut Link<Q, N>,
+    bytes: &[u8],
+    mut request: impl FnMut(&mut Link<Q, N>, Request<N>),
+) {
+    let mut input = bytes;
     loop {
         input = match link.receive(input) {
-            FeedResult::Consumed => return commanded,
+            FeedResult::Consumed => return,
             FeedResult::Item {
                 item, remaining, ..
             } => {
-                commanded |= !matches!(
-                    item.command,
-                    terrain_pyramid::link::Command::TimeRequest { .. }
-                );
-                if let Some(other) = link.serve(pyramid, item) {
-                    link.answer(Reply::ok(other.header));
-                }
+                request(link, item);
                 remaining
             }
             FeedResult::Rejected { remaining, .. } => remaining,
@@ -482,4 +495,32 @@ pub fn wait_or_kill(child: &mut Child) -> ExitStatus {
         }
         std::thread::sleep(Duration::from_millis(20));
     }
+}
+
+/// The Hello of a booting device (protocol 1): windows of `cells_per_side` cells a side and
+/// `layers` layers of 0.1 m cells (6554 in Q16.16) over the band 0 ..= 0.5 m, every window's
+/// lower-left cell at (`origin`, `origin`).
+pub fn hello_message(cells_per_side: u16, layers: usize, origin: i32) -> Message<'static> {
+    let mut hello = Hello {
+        protocol: 1,
+        firmware: FirmwareVersion::default(),
+        reason: HelloReason::Boot,
+        cells_per_side,
+        resend: 0,
+        clock: Default::default(),
+        layers: Default::default(),
+    };
+    for _ in 0..layers {
+        hello
+            .layers
+            .push(LayerInfo {
+                resolution_q16: 6554,
+                band_inner_m: 0.0,
+                band_outer_m: 0.5,
+                origin_x: origin,
+                origin_y: origin,
+            })
+            .unwrap();
+    }
+    Message::Hello(hello)
 }

@@ -14,7 +14,7 @@
 
 use super::designs;
 use super::engine::{decode, Map, Runner};
-use super::stairs::{self, round3, round4, shares, step_cells, MapResult, Shares};
+use super::stairs::{self, MapResult, Shares, Watched};
 use serde::Serialize;
 use terrain_pyramid::{Clamp, Config, Decay, DecayMode, GateShape, TimeConstant};
 use terrain_pyramid_host_tests::fading::{measure, SceneResult};
@@ -73,8 +73,7 @@ pub fn stairs_with_decay(
     let sim_config = setup.sim();
     let sim = simulate(&sim_config).map_err(|e| e.to_string())?;
     let decoded = decode(&sim.bytes, &setup.classifier)?;
-    let (steps, first) = step_cells(&sim_config);
-    let riser_x = sim_config.scene.target_x.unwrap_or(0.0);
+    let watched = Watched::of(&sim_config);
     #[allow(clippy::cast_possible_truncation)]
     let design = designs::pyramid(
         setup.range_m as f32,
@@ -89,48 +88,29 @@ pub fn stairs_with_decay(
         decay: Decay::uniform(DecayMode::All, tau, design.layers().len()),
         ..Config::default()
     };
-    let mut map = Runner::<{ stairs::CELLS }, { stairs::LAYERS }, { stairs::SLOTS }>::new(
+    let mut maps: [Box<dyn Map>; 1] = [Box::new(Runner::<
+        { stairs::CELLS },
+        { stairs::LAYERS },
+        { stairs::SLOTS },
+    >::new(
         "pyramid_soft_decay",
         design,
         config,
         decoded.frontend,
-    )?;
-    #[allow(clippy::cast_possible_truncation)]
-    let ground: Vec<(i32, i32)> = (0..((riser_x - 0.5) / stairs::CELL_M).floor() as i32)
-        .flat_map(|ix| (-15..15).map(move |iy| (ix, iy)))
-        .collect();
+    )?)];
     let per = decoded.frontend.lines_per_observation.max(1) as usize;
-    let drive_start_us = (sim_config.trajectory.drive_start_s() * 1e6).round();
-    let mut detect = None;
-    let mut far = None;
-    let count = decoded.lines.len();
-    for (i, line) in decoded.lines.iter().enumerate() {
-        #[allow(clippy::cast_precision_loss)]
-        let driving = line.time_us as f64 >= drive_start_us;
-        if driving && far.is_none() {
-            far = Some(shares(&map, &steps));
-        }
-        map.line(line);
-        let last = i + 1 == count;
-        if last {
-            map.flush();
-        }
-        if ((i + 1) % per == 0 || last)
-            && detect.is_none()
-            && shares(&map, &first).obstacle >= stairs::FIRST_STEP_SHARE
-        {
-            detect = Some(round3(riser_x - line.robot_xy.0));
-        }
-    }
+    let pass = stairs::watch(&decoded, &mut maps, &watched, per, false, |_, _| {});
+    let [map] = maps;
+    let with = watched.result(map.as_ref(), pass.detect[0], pass.far[0]);
     Ok(StairsDecay {
         mode: DecayMode::All.name(),
         tau_s: f64::from(tau.seconds().unwrap_or(0.0)),
-        detected_fraction: round4(shares(&map, &steps).obstacle),
+        detected_fraction: with.detected_fraction,
         detected_fraction_without: without.detected_fraction,
-        detect_distance_m: detect,
+        detect_distance_m: with.detect_distance_m,
         detect_distance_m_without: without.detect_distance_m,
-        far: far.unwrap_or_default(),
-        false_obstacle_fraction: round4(shares(&map, &ground).obstacle),
+        far: with.far,
+        false_obstacle_fraction: with.false_obstacle_fraction,
         cells_faded: u64::from(map.stats().cells_faded),
     })
 }

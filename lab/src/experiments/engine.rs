@@ -11,15 +11,15 @@
 use terrain_pyramid::angle::FineAngle;
 use terrain_pyramid::classify::ClassifierConfig;
 use terrain_pyramid::geometry::Pose;
-use terrain_pyramid::laser::{LaserDecoder, LaserItem, Sensor, SensorKind};
+use terrain_pyramid::laser::{LaserDecoder, Sensor, SensorKind};
 use terrain_pyramid::link::convert::{frontend_config, setup_message_with_sensor};
 use terrain_pyramid::pipeline::{Frontend, FrontendConfig, PacketActuator};
 use terrain_pyramid::wire::recording::SensorEvent;
 use terrain_pyramid::wire::sick::{MeasuredValues, Telegram};
-use terrain_pyramid::wire::{FeedResult, LaserReturn};
+use terrain_pyramid::wire::LaserReturn;
 use terrain_pyramid::{Config, Design, Fused, Meters, Pyramid, PyramidStats};
 use terrain_pyramid_host::export::MapSnapshot;
-use terrain_pyramid_host::play::{steps, Step};
+use terrain_pyramid_host::play::{each_packet, steps, Step};
 
 /// One scan line of a recording, with the pose and actuator angle in force for it.
 #[derive(Debug, Clone)]
@@ -119,21 +119,9 @@ fn lidar_decoder(sensor: &SensorEvent) -> Result<Option<Box<LaserDecoder>>, Stri
 /// The packets a chunk of lidar bytes completes: their returns and revolution flags.
 fn lidar_packets(decoder: &mut LaserDecoder, bytes: &[u8]) -> Vec<(Vec<LaserReturn>, bool)> {
     let mut out = Vec::new();
-    let mut rest = bytes;
-    loop {
-        rest = match decoder.feed(rest) {
-            FeedResult::Consumed => break,
-            FeedResult::Item {
-                item: LaserItem::Packet(p),
-                remaining,
-                ..
-            } => {
-                out.push((p.returns().collect(), p.starts_revolution()));
-                remaining
-            }
-            other => other.remaining(),
-        };
-    }
+    each_packet(decoder, bytes, |p, _| {
+        out.push((p.returns().collect(), p.starts_revolution()));
+    });
     out
 }
 

@@ -25,9 +25,9 @@
 
 use super::coverage::{self, Holes};
 use super::designs;
-use super::engine::{decode, Decoded, Map, Runner};
-use super::picture::{self, Region};
-use super::stairs::{self, round3, round4, MapResult, Shares, FIRST_STEP_SHARE};
+use super::engine::{decode, Map, Runner};
+use super::picture;
+use super::stairs::{self, MapResult, Watched};
 use serde::Serialize;
 use std::path::Path;
 use terrain_pyramid::classify::ClassifierConfig;
@@ -37,7 +37,7 @@ use terrain_pyramid_host_tests::sim::lidar::{
     simulate_lidar, LidarActuator, LidarKind, LidarSimConfig, LidarSimulation,
 };
 use terrain_pyramid_host_tests::sim::record::SimConfig;
-use terrain_pyramid_host_tests::sim::scene::{GroundTruthSpec, Scene, StairsSpec};
+use terrain_pyramid_host_tests::sim::scene::Scene;
 use terrain_pyramid_host_tests::sim::trajectory::Trajectory;
 
 /// The servo's sweep: lowest and highest tilt (degrees), rate (°/s), latency (ms).
@@ -196,29 +196,13 @@ impl StairsSetup {
 
     /// The SICK-shaped configuration of the same scene and trajectory (for the step cells).
     pub fn scene_config(&self) -> SimConfig {
-        let spec = StairsSpec {
-            first_riser_x: self.stand_distance_m,
-            ..StairsSpec::default()
-        };
-        let mut sim = SimConfig::new(
-            Scene::stairs(spec),
+        stairs::approach_config(
+            self.stand_distance_m,
+            self.stand_s,
+            self.speed_mps,
+            self.stop_distance_m,
             LaserConfig::paper(),
-            Trajectory::approach(
-                self.stand_s,
-                self.speed_mps,
-                spec.first_riser_x,
-                self.stop_distance_m,
-            ),
-        );
-        sim.truth = GroundTruthSpec {
-            cell_m: stairs::CELL_M,
-            x_min: spec.first_riser_x - 0.5,
-            x_max: spec.riser_x(spec.steps - 1) + 0.5,
-            y_min: -0.5 * spec.width_m - 0.5,
-            y_max: 0.5 * spec.width_m + 0.5,
-            ..GroundTruthSpec::default()
-        };
-        sim
+        )
     }
 
     /// The run of the setup's lidar.
@@ -255,45 +239,6 @@ pub struct StairsResult {
     pub echoes: u64,
 }
 
-fn stairs_maps(decoded: &Decoded, setup: &StairsSetup) -> Result<Vec<Box<dyn Map>>, String> {
-    const C: usize = STAIRS_CELLS;
-    const SLOTS: usize = stairs::SLOTS;
-    let d = Ld19Design::for_kind_at(setup.kind, setup.servo.2);
-    let r = setup.range_m;
-    #[allow(clippy::cast_possible_truncation)]
-    let (rf, cell) = (r as f32, stairs::CELL_M as f32);
-    let off = designs::unclamped();
-    let clamped = designs::octomap_clamped();
-    let fc = decoded.frontend;
-    let e = |e: DesignError| e.to_string();
-    Ok(vec![
-        Box::new(Runner::<C, 1, SLOTS>::new(
-            "flat",
-            super::designs::flat(rf, cell, C).map_err(e)?,
-            off,
-            fc,
-        )?),
-        Box::new(Runner::<C, 1, SLOTS>::new(
-            "flat_clamped",
-            super::designs::flat(rf, cell, C).map_err(e)?,
-            clamped,
-            fc,
-        )?),
-        Box::new(Runner::<C, RIG_LAYERS, SLOTS>::new(
-            "pyramid",
-            d.pyramid(r, GateShape::Hard, true, C).map_err(e)?,
-            off,
-            fc,
-        )?),
-        Box::new(Runner::<C, RIG_LAYERS, SLOTS>::new(
-            "pyramid_soft",
-            d.pyramid(r, GateShape::default(), true, C).map_err(e)?,
-            off,
-            fc,
-        )?),
-    ])
-}
-
 /// Packets between two looks at the maps (one second of an LD19).
 const CHECK_EVERY: usize = 375;
 
@@ -313,59 +258,19 @@ pub fn run_stairs(
     if setup.revolutions_per_observation > 0 {
         decoded.frontend.lines_per_observation = setup.revolutions_per_observation;
     }
-    let (steps, first) = stairs::step_cells(&scene_config);
-    let riser_x = scene_config.scene.target_x.unwrap_or(0.0);
-    let mut maps = stairs_maps(&decoded, setup)?;
+    let watched = Watched::of(&scene_config);
+    let design = Ld19Design::for_kind_at(setup.kind, setup.servo.2);
+    let mut maps =
+        stairs::four_maps::<STAIRS_CELLS, RIG_LAYERS>(&decoded, setup.range_m, |gate| {
+            design.pyramid(setup.range_m, gate, true, STAIRS_CELLS)
+        })?;
     let layers = maps.get(2).map_or(0, |m| m.layer_count());
-    let drive_start_us = (scene_config.trajectory.drive_start_s() * 1e6).round();
-    let n = maps.len();
-    let mut detect: Vec<Option<f64>> = vec![None; n];
-    let mut far: Vec<Shares> = vec![Shares::default(); n];
-    #[allow(clippy::cast_possible_truncation)]
-    let ground: Vec<(i32, i32)> = (0..((riser_x - 0.5) / stairs::CELL_M).floor() as i32)
-        .flat_map(|ix| (-15..15).map(move |iy| (ix, iy)))
-        .collect();
-    let mut standing_done = false;
+    let pass = stairs::watch(&decoded, &mut maps, &watched, CHECK_EVERY, false, |_, _| {});
     let count = decoded.lines.len();
-    for (i, line) in decoded.lines.iter().enumerate() {
-        #[allow(clippy::cast_precision_loss)]
-        let driving = line.time_us as f64 >= drive_start_us;
-        if driving && !standing_done {
-            standing_done = true;
-            for (k, map) in maps.iter().enumerate() {
-                far[k] = stairs::shares(map.as_ref(), &steps);
-            }
-        }
-        for map in &mut maps {
-            map.line(line);
-        }
-        let last = i + 1 == count;
-        if last {
-            for map in &mut maps {
-                map.flush();
-            }
-        }
-        if (i + 1) % CHECK_EVERY == 0 || last {
-            let distance = riser_x - line.robot_xy.0;
-            for (k, map) in maps.iter().enumerate() {
-                if detect[k].is_none()
-                    && stairs::shares(map.as_ref(), &first).obstacle >= FIRST_STEP_SHARE
-                {
-                    detect[k] = Some(round3(distance));
-                }
-            }
-        }
-    }
     let robot = decoded.lines.last().map_or((0.0, 0.0), |l| l.robot_xy);
     let mut results = Vec::new();
     let mut panels = Vec::new();
-    let region = Region {
-        x0: riser_x - 6.05,
-        y0: -3.0,
-        x1: riser_x + 2.45,
-        y1: 3.0,
-        cell: stairs::CELL_M,
-    };
+    let region = watched.region();
     let names = [
         "LD19: flat grid, no clamping",
         "LD19: flat grid, OctoMap clamping",
@@ -373,28 +278,15 @@ pub fn run_stairs(
         "LD19: pyramid (0.1 m), soft gate",
     ];
     for (k, map) in maps.iter().enumerate() {
-        let near = stairs::shares(map.as_ref(), &steps);
-        let stats = map.stats();
-        results.push(MapResult {
-            detected_fraction: round4(near.obstacle),
-            detect_distance_m: detect[k],
-            far: far[k],
-            near,
-            first_step_near: stairs::shares(map.as_ref(), &first),
-            false_obstacle_fraction: round4(stairs::shares(map.as_ref(), &ground).obstacle),
-            records: map.records(),
-            applied: u64::from(stats.applied),
-            layers: map.layer_count(),
-            series: Vec::new(),
-            final_map: None,
-        });
-        let mut p = picture::panel(map.as_ref(), &region, robot, &steps);
+        let result = watched.result(map.as_ref(), pass.detect[k], pass.far[k]);
+        let mut p = picture::panel(map.as_ref(), &region, robot, &watched.steps);
         p.title = format!(
             "{}: at {:.1} m, {:.0} % of step cells obstacle",
             names.get(k).copied().unwrap_or(""),
             setup.stop_distance_m,
-            100.0 * near.obstacle
+            100.0 * result.near.obstacle
         );
+        results.push(result);
         panels.push(p);
     }
     if let Some(dir) = out {
@@ -405,17 +297,16 @@ pub fn run_stairs(
             4,
         )?;
     }
-    let mut it = results.into_iter();
-    let mut next = || it.next().ok_or_else(|| "missing map".to_string());
+    let [flat, flat_clamped, pyramid, pyramid_soft] = stairs::four(results)?;
     Ok(StairsResult {
-        flat: next()?,
-        flat_clamped: next()?,
-        pyramid: next()?,
-        pyramid_soft: next()?,
+        flat,
+        flat_clamped,
+        pyramid,
+        pyramid_soft,
         setup: *setup,
-        design: Ld19Design::for_kind_at(setup.kind, setup.servo.2),
+        design,
         layers,
-        step_cells: steps.len(),
+        step_cells: watched.steps.len(),
         packets: count,
         echoes: sim.echoes,
     })

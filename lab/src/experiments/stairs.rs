@@ -11,7 +11,7 @@ use serde::Serialize;
 use std::path::Path;
 use terrain_pyramid::classify::ClassifierConfig;
 use terrain_pyramid::wire::sick::Unit;
-use terrain_pyramid::{Fused, GateShape};
+use terrain_pyramid::{Design, DesignError, Fused, GateShape};
 use terrain_pyramid_host_tests::sim::laser::{Actuator, LaserConfig};
 use terrain_pyramid_host_tests::sim::record::{simulate, SimConfig};
 use terrain_pyramid_host_tests::sim::scene::{GroundTruthSpec, Scene, StairsSpec};
@@ -81,10 +81,6 @@ impl Setup {
 
     /// The simulator's configuration for this setup.
     pub fn sim(&self) -> SimConfig {
-        let spec = StairsSpec {
-            first_riser_x: self.stand_distance_m,
-            ..StairsSpec::default()
-        };
         let laser = LaserConfig {
             unit: if self.unit == "cm" {
                 Unit::Centimetre
@@ -98,27 +94,47 @@ impl Setup {
             },
             ..LaserConfig::paper()
         };
-        let mut sim = SimConfig::new(
-            Scene::stairs(spec),
+        let mut sim = approach_config(
+            self.stand_distance_m,
+            self.stand_s,
+            self.speed_mps,
+            self.stop_distance_m,
             laser,
-            Trajectory::approach(
-                self.stand_s,
-                self.speed_mps,
-                spec.first_riser_x,
-                self.stop_distance_m,
-            ),
         );
         sim.seed = self.seed;
-        sim.truth = GroundTruthSpec {
-            cell_m: CELL_M,
-            x_min: spec.first_riser_x - 0.5,
-            x_max: spec.riser_x(spec.steps - 1) + 0.5,
-            y_min: -0.5 * spec.width_m - 0.5,
-            y_max: 0.5 * spec.width_m + 0.5,
-            ..GroundTruthSpec::default()
-        };
         sim
     }
+}
+
+/// A run in front of the default stairs seen by `laser`: standing `stand_distance_m` metres
+/// from the first riser for `stand_s` seconds, then driving at `speed_mps` (m/s) up to
+/// `stop_distance_m` metres before it. The ground truth covers the stairs at [`CELL_M`] with
+/// 0.5 m to spare on every side; the seed is the simulator's default.
+pub fn approach_config(
+    stand_distance_m: f64,
+    stand_s: f64,
+    speed_mps: f64,
+    stop_distance_m: f64,
+    laser: LaserConfig,
+) -> SimConfig {
+    let spec = StairsSpec {
+        first_riser_x: stand_distance_m,
+        ..StairsSpec::default()
+    };
+    let mut sim = SimConfig::new(
+        Scene::stairs(spec),
+        laser,
+        Trajectory::approach(stand_s, speed_mps, spec.first_riser_x, stop_distance_m),
+    );
+    sim.truth = GroundTruthSpec {
+        cell_m: CELL_M,
+        x_min: spec.first_riser_x - 0.5,
+        x_max: spec.riser_x(spec.steps - 1) + 0.5,
+        y_min: -0.5 * spec.width_m - 0.5,
+        y_max: 0.5 * spec.width_m + 0.5,
+        ..GroundTruthSpec::default()
+    };
+    sim
 }
 
 /// What the fused query says about a set of cells.
@@ -251,41 +267,185 @@ pub fn shares_by(fused: impl Fn(f64, f64) -> Fused, cells: &[(i32, i32)]) -> Sha
     }
 }
 
-fn maps(decoded: &Decoded, range_m: f64) -> Result<Vec<Box<dyn Map>>, String> {
+/// The four maps of a stairs run, in this order: the flat grid without clamping
+/// ("flat"), the flat grid with OctoMap's clamping ("flat_clamped"), and the pyramid `pyramid`
+/// designs for a gate, with the hard gate ("pyramid") and the soft one ("pyramid_soft"). Every
+/// map has windows of `W` cells a side at [`CELL_M`], reaches `range_m` metres and has
+/// [`SLOTS`] classifier slots; the pyramids hold at most `L` layers.
+///
+/// # Errors
+/// The library refused a design or a configuration.
+pub fn four_maps<const W: usize, const L: usize>(
+    decoded: &Decoded,
+    range_m: f64,
+    pyramid: impl Fn(GateShape) -> Result<Design<L>, DesignError>,
+) -> Result<Vec<Box<dyn Map>>, String> {
     #[allow(clippy::cast_possible_truncation)]
-    let r = range_m as f32;
-    #[allow(clippy::cast_possible_truncation)]
-    let cell = CELL_M as f32;
+    let (range, cell) = (range_m as f32, CELL_M as f32);
     let off = designs::unclamped();
     let clamped = designs::octomap_clamped();
     let fc = decoded.frontend;
-    let e = |e: terrain_pyramid::DesignError| e.to_string();
+    let e = |e: DesignError| e.to_string();
+    let flat = |name: &str, config| -> Result<Box<dyn Map>, String> {
+        let design = designs::flat(range, cell, W).map_err(e)?;
+        Ok(Box::new(Runner::<W, 1, SLOTS>::new(
+            name, design, config, fc,
+        )?))
+    };
+    let gated = |name: &str, gate| -> Result<Box<dyn Map>, String> {
+        let design = pyramid(gate).map_err(e)?;
+        Ok(Box::new(Runner::<W, L, SLOTS>::new(name, design, off, fc)?))
+    };
     Ok(vec![
-        Box::new(Runner::<CELLS, 1, SLOTS>::new(
-            "flat",
-            designs::flat(r, cell, CELLS).map_err(e)?,
-            off,
-            fc,
-        )?),
-        Box::new(Runner::<CELLS, 1, SLOTS>::new(
-            "flat_clamped",
-            designs::flat(r, cell, CELLS).map_err(e)?,
-            clamped,
-            fc,
-        )?),
-        Box::new(Runner::<CELLS, LAYERS, SLOTS>::new(
-            "pyramid",
-            designs::pyramid(r, GateShape::Hard, true, CELLS).map_err(e)?,
-            off,
-            fc,
-        )?),
-        Box::new(Runner::<CELLS, LAYERS, SLOTS>::new(
-            "pyramid_soft",
-            designs::pyramid(r, GateShape::default(), true, CELLS).map_err(e)?,
-            off,
-            fc,
-        )?),
+        flat("flat", off)?,
+        flat("flat_clamped", clamped)?,
+        gated("pyramid", GateShape::Hard)?,
+        gated("pyramid_soft", GateShape::default())?,
     ])
+}
+
+/// The four results of [`four_maps`], in their order.
+///
+/// # Errors
+/// There are not exactly four.
+pub fn four<T>(results: Vec<T>) -> Result<[T; 4], String> {
+    results.try_into().map_err(|_| "missing map".to_string())
+}
+
+/// The cells and the moment a stairs run is measured by, from its simulator configuration.
+#[derive(Debug, Clone)]
+pub struct Watched {
+    /// The first riser's x, metres.
+    pub riser_x: f64,
+    /// The step cells (world cell indices at [`CELL_M`]).
+    pub steps: Vec<Cell>,
+    /// The first riser's cells.
+    pub first: Vec<Cell>,
+    /// The flat ground before the stairs, |y| ≤ 1.5 m, from x = 0 to 0.5 m before the first
+    /// riser: no cell there is an obstacle.
+    pub ground: Vec<Cell>,
+    /// When the robot starts driving, microseconds of the recording's clock (whole).
+    pub drive_start_us: f64,
+}
+
+impl Watched {
+    /// The step cells, the ground and the start of driving of the run `sim`.
+    pub fn of(sim: &SimConfig) -> Self {
+        let (steps, first) = step_cells(sim);
+        let riser_x = sim.scene.target_x.unwrap_or(0.0);
+        #[allow(clippy::cast_possible_truncation)]
+        let ground: Vec<Cell> = (0..((riser_x - 0.5) / CELL_M).floor() as i32)
+            .flat_map(|ix| (-15..15).map(move |iy| (ix, iy)))
+            .collect();
+        Self {
+            riser_x,
+            steps,
+            first,
+            ground,
+            drive_start_us: (sim.trajectory.drive_start_s() * 1e6).round(),
+        }
+    }
+
+    /// The pictures' region: 6 m before the first riser to 2.5 m past it, |y| ≤ 3 m, at
+    /// [`CELL_M`].
+    pub fn region(&self) -> Region {
+        Region {
+            x0: self.riser_x - 6.05,
+            y0: -3.0,
+            x1: self.riser_x + 2.45,
+            y1: 3.0,
+            cell: CELL_M,
+        }
+    }
+
+    /// What `map` shows at the end of a run: the step cells' shares and the false obstacles
+    /// (rounded to 4 decimals), the first riser's shares and the pipeline's counts, with the
+    /// pass's `detect_distance_m` and `far` shares. No series and no final map.
+    pub fn result(&self, map: &dyn Map, detect_distance_m: Option<f64>, far: Shares) -> MapResult {
+        let near = shares(map, &self.steps);
+        MapResult {
+            detected_fraction: round4(near.obstacle),
+            detect_distance_m,
+            far,
+            near,
+            first_step_near: shares(map, &self.first),
+            false_obstacle_fraction: round4(shares(map, &self.ground).obstacle),
+            records: map.records(),
+            applied: u64::from(map.stats().applied),
+            layers: map.layer_count(),
+            series: Vec::new(),
+            final_map: None,
+        }
+    }
+}
+
+/// What one pass over a stairs recording saw, one entry a map.
+#[derive(Debug, Clone)]
+pub struct Pass {
+    /// Distance to the first riser when the first step was first seen (metres, to 1 mm), or
+    /// `None`.
+    pub detect: Vec<Option<f64>>,
+    /// The step cells' shares at the end of standing.
+    pub far: Vec<Shares>,
+    /// (distance to the first riser, share of step cells obstacle) while driving; empty
+    /// unless the pass was asked for it.
+    pub series: Vec<Vec<(f64, f64)>>,
+}
+
+/// Feeds every line of `decoded` to every map of `maps` (flushing them after the last), and
+/// looks at them: once at the end of standing (the far shares, and `at_standing_end` with
+/// each map and the robot's position), and after every `check_every` lines and the last
+/// (whether the first step is seen, and the series when `series`).
+pub fn watch(
+    decoded: &Decoded,
+    maps: &mut [Box<dyn Map>],
+    watched: &Watched,
+    check_every: usize,
+    series: bool,
+    mut at_standing_end: impl FnMut(&dyn Map, (f64, f64)),
+) -> Pass {
+    let n = maps.len();
+    let mut pass = Pass {
+        detect: vec![None; n],
+        far: vec![Shares::default(); n],
+        series: vec![Vec::new(); n],
+    };
+    let mut standing_done = false;
+    let count = decoded.lines.len();
+    for (i, line) in decoded.lines.iter().enumerate() {
+        #[allow(clippy::cast_precision_loss)]
+        let driving = line.time_us as f64 >= watched.drive_start_us;
+        if driving && !standing_done {
+            standing_done = true;
+            for (k, map) in maps.iter().enumerate() {
+                pass.far[k] = shares(map.as_ref(), &watched.steps);
+                at_standing_end(map.as_ref(), line.robot_xy);
+            }
+        }
+        for map in maps.iter_mut() {
+            map.line(line);
+        }
+        let last = i + 1 == count;
+        if last {
+            for map in maps.iter_mut() {
+                map.flush();
+            }
+        }
+        if (i + 1) % check_every == 0 || last {
+            let distance = watched.riser_x - line.robot_xy.0;
+            for (k, map) in maps.iter().enumerate() {
+                if pass.detect[k].is_none()
+                    && shares(map.as_ref(), &watched.first).obstacle >= FIRST_STEP_SHARE
+                {
+                    pass.detect[k] = Some(round3(distance));
+                }
+                if driving && series {
+                    pass.series[k].push((distance, shares(map.as_ref(), &watched.steps).obstacle));
+                }
+            }
+        }
+    }
+    pass
 }
 
 /// Runs the experiment; writes the pictures into `out` when given.
@@ -296,85 +456,30 @@ pub fn run(setup: &Setup, out: Option<&Path>) -> Result<StairsResult, String> {
     let sim_config = setup.sim();
     let sim = simulate(&sim_config).map_err(|e| e.to_string())?;
     let decoded = decode(&sim.bytes, &setup.classifier)?;
-    let (steps, first) = step_cells(&sim_config);
-    let riser_x = sim_config.scene.target_x.unwrap_or(0.0);
-    let mut maps = maps(&decoded, setup.range_m)?;
-    let per = decoded.frontend.lines_per_observation.max(1) as usize;
-    let drive_start_us = (sim_config.trajectory.drive_start_s() * 1e6).round();
-    let n = maps.len();
-    let mut detect: Vec<Option<f64>> = vec![None; n];
-    let mut far: Vec<Shares> = vec![Shares::default(); n];
-    let mut series: Vec<Vec<(f64, f64)>> = vec![Vec::new(); n];
-    let mut far_panels: Vec<Panel> = Vec::new();
-    let region = Region {
-        x0: riser_x - 6.05,
-        y0: -3.0,
-        x1: riser_x + 2.45,
-        y1: 3.0,
-        cell: CELL_M,
-    };
-    // Flat ground before the stairs, |y| ≤ 1.5 m, from the start to 0.5 m before the first
-    // riser: no cell there is an obstacle.
+    let watched = Watched::of(&sim_config);
+    let riser_x = watched.riser_x;
     #[allow(clippy::cast_possible_truncation)]
-    let ground: Vec<(i32, i32)> = (0..((riser_x - 0.5) / CELL_M).floor() as i32)
-        .flat_map(|ix| (-15..15).map(move |iy| (ix, iy)))
-        .collect();
-    let mut standing_done = false;
+    let mut maps = four_maps::<CELLS, LAYERS>(&decoded, setup.range_m, |gate| {
+        designs::pyramid(setup.range_m as f32, gate, true, CELLS)
+    })?;
+    let per = decoded.frontend.lines_per_observation.max(1) as usize;
+    let region = watched.region();
+    let mut far_panels: Vec<Panel> = Vec::new();
+    let mut pass = watch(&decoded, &mut maps, &watched, per, true, |map, robot_xy| {
+        // The end of standing: the far picture (Fig. 5).
+        far_panels.push(picture::panel(map, &region, robot_xy, &watched.steps));
+    });
     let count = decoded.lines.len();
-    for (i, line) in decoded.lines.iter().enumerate() {
-        #[allow(clippy::cast_precision_loss)]
-        let driving = line.time_us as f64 >= drive_start_us;
-        if driving && !standing_done {
-            // The end of standing: the far picture (Fig. 5).
-            standing_done = true;
-            for (k, map) in maps.iter_mut().enumerate() {
-                far[k] = shares(map.as_ref(), &steps);
-                far_panels.push(picture::panel(map.as_ref(), &region, line.robot_xy, &steps));
-            }
-        }
-        for map in &mut maps {
-            map.line(line);
-        }
-        let last = i + 1 == count;
-        if last {
-            for map in &mut maps {
-                map.flush();
-            }
-        }
-        if (i + 1) % per == 0 || last {
-            let distance = riser_x - line.robot_xy.0;
-            for (k, map) in maps.iter().enumerate() {
-                if detect[k].is_none() && shares(map.as_ref(), &first).obstacle >= FIRST_STEP_SHARE
-                {
-                    detect[k] = Some(round3(distance));
-                }
-                if driving {
-                    series[k].push((distance, shares(map.as_ref(), &steps).obstacle));
-                }
-            }
-        }
-    }
     let robot = decoded.lines.last().map_or((0.0, 0.0), |l| l.robot_xy);
     let mut results = Vec::new();
     let mut near_panels = Vec::new();
     for (k, map) in maps.iter().enumerate() {
-        let near = shares(map.as_ref(), &steps);
-        let false_obstacle = shares(map.as_ref(), &ground).obstacle;
-        let stats = map.stats();
         results.push(MapResult {
-            detected_fraction: round4(near.obstacle),
-            detect_distance_m: detect[k],
-            far: far[k],
-            near,
-            first_step_near: shares(map.as_ref(), &first),
-            false_obstacle_fraction: round4(false_obstacle),
-            records: map.records(),
-            applied: u64::from(stats.applied),
-            layers: map.layer_count(),
-            series: std::mem::take(&mut series[k]),
+            series: std::mem::take(&mut pass.series[k]),
             final_map: Some(map.snapshot(robot)),
+            ..watched.result(map.as_ref(), pass.detect[k], pass.far[k])
         });
-        near_panels.push(picture::panel(map.as_ref(), &region, robot, &steps));
+        near_panels.push(picture::panel(map.as_ref(), &region, robot, &watched.steps));
     }
     if let Some(dir) = out {
         let names = [
@@ -417,15 +522,14 @@ pub fn run(setup: &Setup, out: Option<&Path>) -> Result<StairsResult, String> {
             &curves,
         )?;
     }
-    let mut it = results.into_iter();
-    let mut next = || it.next().ok_or_else(|| "missing map".to_string());
+    let [flat, flat_clamped, pyramid, pyramid_soft] = four(results)?;
     Ok(StairsResult {
-        flat: next()?,
-        flat_clamped: next()?,
-        pyramid: next()?,
-        pyramid_soft: next()?,
+        flat,
+        flat_clamped,
+        pyramid,
+        pyramid_soft,
         setup: *setup,
-        step_cells: steps.len(),
+        step_cells: watched.steps.len(),
         lines: count,
     })
 }

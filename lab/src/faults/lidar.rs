@@ -38,14 +38,13 @@
 use super::{check_counters, compare, known_cells, Counters, Outcome, Rng};
 use std::path::Path;
 use terrain_pyramid::classify::ClassifierConfig;
-use terrain_pyramid::laser::{LaserDecoder, LaserItem, Sensor, SensorKind};
+use terrain_pyramid::laser::{LaserDecoder, Sensor, SensorKind};
 use terrain_pyramid::link::convert::{configure_of_design, setup_message_with_sensor};
 use terrain_pyramid::wire::link::{Message, PanAngle, PoseReport, Setup};
-use terrain_pyramid::wire::FeedResult;
 use terrain_pyramid::Config;
 use terrain_pyramid_host::device::Device;
 use terrain_pyramid_host::emulator::{Emulator, Machine};
-use terrain_pyramid_host::play::{steps, Step as PlayStep};
+use terrain_pyramid_host::play::{each_packet, steps, Step as PlayStep};
 use terrain_pyramid_host::run::boot_host_device;
 use terrain_pyramid_host_tests::sim::lidar::{
     simulate_lidar, LidarActuator, LidarKind, LidarSimConfig,
@@ -112,25 +111,13 @@ fn recording(laser: LidarKind, stalled: bool, n: usize) -> Result<Vec<Chunk>, St
     config.servo_lead_s = 1.5;
     let sim = simulate_lidar(&config).map_err(|e| e.0)?;
     let decoded = steps(&sim.bytes)?;
-    let (mut angle, mut pose) = (None, None);
-    let mut out = Vec::new();
-    for step in &decoded.steps {
-        match step {
-            PlayStep::Angle(t) => angle = Some(*t),
-            PlayStep::Pose(p) => pose = Some(*p),
-            PlayStep::Laser { bytes, .. } => {
-                out.push(Chunk {
-                    angle: angle.take(),
-                    pose: pose.take(),
-                    bytes: bytes.clone(),
-                });
-                if out.len() >= n {
-                    break;
-                }
-            }
-            PlayStep::Setup(_) | PlayStep::Telegram { .. } => {}
-        }
-    }
+    let out = super::plan::in_force(&decoded.steps, n, |step| match step {
+        PlayStep::Laser { bytes, .. } => Some(bytes),
+        _ => None,
+    })
+    .into_iter()
+    .map(|(angle, pose, bytes)| Chunk { angle, pose, bytes })
+    .collect();
     Ok(out)
 }
 
@@ -175,10 +162,8 @@ fn damage(kind: &str, chunks: &[Chunk]) -> Vec<(Vec<u8>, bool)> {
                         }
                     }
                     if rng.chance(0.1) {
-                        let len = rng.range(1, body.len().min(16));
-                        let at = rng.range(0, body.len() - len);
-                        let noise = rng.bytes(len);
-                        body[at..at + len].copy_from_slice(&noise);
+                        let longest = body.len().min(16);
+                        rng.overwrite(&mut body, longest);
                     }
                     if rng.chance(0.1) {
                         let k = rng.range(1, 40);
@@ -308,33 +293,21 @@ pub fn run_kind(
         stream.extend_from_slice(bytes);
         written += bytes.len() as u64;
         super::barrier(&mut emu, written)?;
-        let mut rest = &bytes[..];
-        loop {
-            rest = match decoder.feed(rest) {
-                FeedResult::Consumed => break,
-                FeedResult::Item {
-                    item: LaserItem::Packet(p),
-                    offset,
-                    remaining,
-                } => {
-                    let len = p.wire_len() as u64;
-                    let hit = expected
-                        .iter()
-                        .find(|&&(at, l, _)| at <= offset && offset + len <= at + l as u64);
-                    if let Some(&(_, _, k)) = hit {
-                        intact[k] = true;
-                    }
-                    let bytes = usize::try_from(offset)
-                        .ok()
-                        .and_then(|o| stream.get(o..o + p.wire_len()));
-                    if !bytes.is_some_and(|b| originals.contains(b)) {
-                        corrupt += 1;
-                    }
-                    remaining
-                }
-                other => other.remaining(),
-            };
-        }
+        each_packet(&mut decoder, bytes, |p, offset| {
+            let len = p.wire_len() as u64;
+            let hit = expected
+                .iter()
+                .find(|&&(at, l, _)| at <= offset && offset + len <= at + l as u64);
+            if let Some(&(_, _, k)) = hit {
+                intact[k] = true;
+            }
+            let bytes = usize::try_from(offset)
+                .ok()
+                .and_then(|o| stream.get(o..o + p.wire_len()));
+            if !bytes.is_some_and(|b| originals.contains(b)) {
+                corrupt += 1;
+            }
+        });
         let c = decoder.counts();
         // A damage run shows as a rejected candidate, skipped bytes, or a packet that passed
         // its check damaged (an RPLIDAR node's check bits do not cover its distance).
@@ -433,26 +406,14 @@ fn packets_of<'a>(
     let mut out = std::collections::HashSet::new();
     for chunk in chunks {
         stream.extend_from_slice(chunk);
-        let mut rest = chunk;
-        loop {
-            rest = match decoder.feed(rest) {
-                FeedResult::Consumed => break,
-                FeedResult::Item {
-                    item: LaserItem::Packet(p),
-                    offset,
-                    remaining,
-                } => {
-                    if let Some(b) = usize::try_from(offset)
-                        .ok()
-                        .and_then(|o| stream.get(o..o + p.wire_len()))
-                    {
-                        out.insert(b.to_vec());
-                    }
-                    remaining
-                }
-                other => other.remaining(),
-            };
-        }
+        each_packet(&mut decoder, chunk, |p, offset| {
+            if let Some(b) = usize::try_from(offset)
+                .ok()
+                .and_then(|o| stream.get(o..o + p.wire_len()))
+            {
+                out.insert(b.to_vec());
+            }
+        });
     }
     Ok(out)
 }

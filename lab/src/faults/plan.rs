@@ -77,6 +77,41 @@ impl Rng {
     pub(super) fn bytes(&mut self, n: usize) -> Vec<u8> {
         (0..n).map(|_| self.next() as u8).collect()
     }
+    /// Overwrites a run of `body` with random bytes: its length uniform in 1 ..= `longest`
+    /// (at most `body`'s length), its start uniform over the places it fits.
+    pub(super) fn overwrite(&mut self, body: &mut [u8], longest: usize) {
+        let len = self.range(1, longest);
+        let at = self.range(0, body.len() - len);
+        let noise = self.bytes(len);
+        body[at..at + len].copy_from_slice(&noise);
+    }
+}
+
+/// A unit of a recording with what is in force when it arrives: the angle (2⁻¹⁶ turn) and
+/// the pose (x, y, z m, roll, pitch, yaw rad) sent since the unit before it, and its bytes.
+pub(super) type InForce = (Option<u16>, Option<[f32; 6]>, Vec<u8>);
+
+/// The first `n` units (at least one) of `steps` that `unit` takes (it gives their bytes),
+/// each with the angle and the pose in force: the last of each that came since the unit
+/// before it.
+pub(super) fn in_force<'a>(
+    steps: &'a [PlayStep],
+    n: usize,
+    unit: impl Fn(&'a PlayStep) -> Option<&'a Vec<u8>>,
+) -> Vec<InForce> {
+    let (mut angle, mut pose) = (None, None);
+    steps
+        .iter()
+        .filter_map(move |step| {
+            match step {
+                PlayStep::Angle(t) => angle = Some(*t),
+                PlayStep::Pose(p) => pose = Some(*p),
+                _ => {}
+            }
+            unit(step).map(|bytes| (angle.take(), pose.take(), bytes.clone()))
+        })
+        .take(n.max(1))
+        .collect()
 }
 
 /// The recording: the simulated stairs drive (as the demo's), its setup and first lines,
@@ -85,29 +120,21 @@ pub(super) fn recording(lines: usize) -> Result<(SetupEvent, Vec<Line>), String>
     let sim = simulate(&SimConfig::paper_stairs(0.5, 0.5, 1.0)).map_err(|e| e.0)?;
     let decoded = steps(&sim.bytes)?;
     let setup = decoded.setup().ok_or("the recording has no setup")?;
-    let (mut angle, mut pose) = (None, None);
-    let mut out = Vec::new();
-    for step in &decoded.steps {
-        match step {
-            PlayStep::Angle(t) => angle = Some(*t),
-            PlayStep::Pose(p) => pose = Some(*p),
-            PlayStep::Telegram {
-                bytes,
-                measured: true,
-                ..
-            } => {
-                out.push(Line {
-                    angle: angle.take(),
-                    pose: pose.take(),
-                    telegram: bytes.clone(),
-                });
-                if out.len() >= lines {
-                    break;
-                }
-            }
-            PlayStep::Setup(_) | PlayStep::Telegram { .. } | PlayStep::Laser { .. } => {}
-        }
-    }
+    let out = in_force(&decoded.steps, lines, |step| match step {
+        PlayStep::Telegram {
+            bytes,
+            measured: true,
+            ..
+        } => Some(bytes),
+        _ => None,
+    })
+    .into_iter()
+    .map(|(angle, pose, telegram)| Line {
+        angle,
+        pose,
+        telegram,
+    })
+    .collect();
     Ok((setup, out))
 }
 
@@ -163,10 +190,7 @@ pub(super) fn plan(kind: &str, lines: &[Line], setup: &Setup) -> Vec<Step> {
                     }
                     if rng.chance(0.1) {
                         // Noise over the telegram itself.
-                        let len = rng.range(1, 64);
-                        let at = rng.range(0, body.len() - len);
-                        let noise = rng.bytes(len);
-                        body[at..at + len].copy_from_slice(&noise);
+                        rng.overwrite(&mut body, 64);
                     }
                     if rng.chance(0.1) {
                         let k = rng.range(1, 40);

@@ -3,13 +3,14 @@
 //! and the samples packed into the packets (and descriptors) each sensor sends, appended to
 //! a recording as events.
 use super::mount::{mat3, rot, Sweep};
-use super::{LidarKind, LidarSimConfig, LidarSimError};
+use super::{LidarKind, LidarSimConfig};
+use crate::sim::record::SimError;
 use crate::sim::rng::Rng;
 use crate::sim::scene::Ray;
 use crate::sim::trajectory::Pose;
 use core::fmt;
 use terrain_pyramid::wire::ld06::{Ld06Point, Ld06Repr};
-use terrain_pyramid::wire::recording::{Event, MountKind};
+use terrain_pyramid::wire::recording::MountKind;
 use terrain_pyramid::wire::rplidar::{RplidarCapsuleRepr, RplidarDescriptorRepr, RplidarNodeRepr};
 use terrain_pyramid::wire::ydlidar::{YdlidarDescriptorRepr, YdlidarRepr};
 
@@ -235,9 +236,9 @@ impl Packets<'_> {
         w
     }
 
-    pub(super) fn next_packet(&mut self) -> Result<Sent, LidarSimError> {
+    pub(super) fn next_packet(&mut self) -> Result<Sent, SimError> {
         let kind = self.caster.config.kind;
-        let err = |e: &dyn fmt::Debug| LidarSimError(format!("emit: {e:?}"));
+        let err = |e: &dyn fmt::Debug| SimError(format!("emit: {e:?}"));
         if !self.header_sent {
             self.header_sent = true;
             let mut buf = vec![0_u8; 7];
@@ -354,7 +355,7 @@ impl Packets<'_> {
         }
     }
 
-    fn x4_packet(&self, samples: &[Sample], start: bool) -> Result<Sent, LidarSimError> {
+    fn x4_packet(&self, samples: &[Sample], start: bool) -> Result<Sent, SimError> {
         let raw: Vec<u16> = samples.iter().map(|s| u16_units(s.units)).collect();
         let repr = YdlidarRepr {
             packet_type: u8::from(start),
@@ -364,18 +365,7 @@ impl Packets<'_> {
         };
         let mut buf = vec![0_u8; repr.buffer_len()];
         repr.emit(&mut buf)
-            .map_err(|e| LidarSimError(format!("emit: {e:?}")))?;
+            .map_err(|e| SimError(format!("emit: {e:?}")))?;
         Ok(self.sent(buf, samples, start))
     }
-}
-
-/// Appends one event to `out`.
-pub(super) fn push(out: &mut Vec<u8>, event: &Event<'_>) -> Result<(), LidarSimError> {
-    let start = out.len();
-    out.resize(start + event.buffer_len(), 0);
-    let tail = out.get_mut(start..).unwrap_or_default();
-    event
-        .emit(tail)
-        .map_err(|e| LidarSimError(format!("emit: {e}")))?;
-    Ok(())
 }
