@@ -444,9 +444,10 @@ proptest! {
         }
         let mut garbage_ends = false;
         if let Some((index, len)) = garbage {
-            // Oversized: a run of non-zero bytes inside some frame, longer than any frame.
-            let at = index.index(stream.len());
-            let owner = stream[at].1;
+            // Oversized: a run of non-zero bytes inside some frame, longer than any frame. A
+            // cut may have taken the whole stream: the garbage is then all there is.
+            let at = if stream.is_empty() { 0 } else { index.index(stream.len()) };
+            let owner = stream.get(at).and_then(|(_, owner)| *owner);
             if let Some(i) = owner {
                 damaged[i] = true;
             }
