@@ -18,8 +18,9 @@
 //!
 //! The seeds are fixed (`RngSeed::Fixed`) so the run is reproducible: a false `02 80` passes
 //! the SICK CRC-16 by chance about once in 65 536 candidates, and a fixed seed keeps that
-//! from making CI flaky. Debug build (`cargo test --workspace`), 2-core machine: about 12 s
-//! with the default test threads, 35 s with `--test-threads=1`; the case counts below set it.
+//! from making CI flaky. Debug build (`cargo xtask test`), 2-core machine: about 10 s with
+//! the default test threads (the lidars' part, in its own file, 2 s); the case counts below
+//! set it.
 
 mod common;
 
