@@ -153,10 +153,10 @@ fn logged(command: &mut Command, log: &Path) -> Result<(), String> {
         .stderr(Stdio::from(err))
         .status()
         .map_err(|e| format!("cannot run {:?}: {e}", command.get_program()))?;
-    match status.code() {
-        Some(0) => Ok(()),
-        _ => Err(format!("{status}; its output: {}", log.display())),
-    }
+    status
+        .success()
+        .then_some(())
+        .ok_or_else(|| format!("{status}; its output: {}", log.display()))
 }
 
 #[cfg(test)]

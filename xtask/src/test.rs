@@ -17,10 +17,11 @@ fn run_all(lint: bool, jobs: usize) -> Result<(), String> {
     let runs = work.join("runs");
     let _ = std::fs::remove_dir_all(&runs);
     std::fs::create_dir_all(&runs).map_err(|e| format!("{}: {e}", runs.display()))?;
-    std::fs::create_dir_all(work.join("logs")).map_err(|e| format!("{}: {e}", work.display()))?;
-    let firmware_log = work.join("logs").join("firmware-prebuild.log");
+    let logs = work.join("logs");
+    std::fs::create_dir_all(&logs).map_err(|e| format!("{}: {e}", logs.display()))?;
+    let firmware_log = logs.join("firmware-prebuild.log");
     let _ = std::fs::remove_file(&firmware_log);
-    let lint_log = work.join("logs").join("boards-lint.log");
+    let lint_log = logs.join("boards-lint.log");
     eprintln!(
         "\n==> the firmware builds{}, beside the host's (log in {})",
         if lint {
@@ -36,7 +37,6 @@ fn run_all(lint: bool, jobs: usize) -> Result<(), String> {
         .into_iter()
         .partition(|b| b.kind == "test" && pool::SOLO.contains(&b.name.as_str()));
     let env = [("PYRAMID_QEMU_OUT", runs.as_path())];
-    let logs = work.join("logs");
     let pooled = pool::run(pool::longest_first(shared), jobs, &env, &logs);
     // The wall-clock bounds, on a machine that runs nothing else of ours.
     let alone = pool::run(solo, 1, &env, &logs);
@@ -64,11 +64,8 @@ fn run_all(lint: bool, jobs: usize) -> Result<(), String> {
         }
         Err(why) => eprintln!("\n==> skipped: cargo xtask live --check ({why})"),
     }
-    // The boards: builds, the firmware on the emulated board (its runs' logs from above), the
-    // on-target tests (thumbv7em and thumbv6m code), flash, RAM and stack. It installs
-    // defmt-print when missing.
-    let runs = runs.to_string_lossy();
-    // Its format and lints ran beside the host's build (module `prebuild`) with --lint.
+    // The board crates' format and lints ran beside the host's build (module `prebuild`)
+    // with --lint.
     if let Some(lints) = prebuilt.lints {
         eprintln!("\n==> boards/check.sh --lint-only (beside the host's test build)");
         if let Err(why) = lints {
@@ -77,6 +74,10 @@ fn run_all(lint: bool, jobs: usize) -> Result<(), String> {
         }
         eprintln!("the board crates' format and lints passed");
     }
+    // The boards: builds (made above), the firmware on the emulated board (its runs' logs
+    // from above), the on-target tests (thumbv7em and thumbv6m code), flash, RAM and stack.
+    // It installs defmt-print when missing.
+    let runs = runs.to_string_lossy();
     step(
         "bash",
         &["boards/check.sh", "--runs-from", &runs, "--no-lint"],
