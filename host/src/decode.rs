@@ -28,7 +28,7 @@ use std::collections::BTreeMap;
 use std::path::PathBuf;
 use std::process::ExitCode;
 use terrain_pyramid::laser::{
-    LaserCounters, LaserDecoder, LaserFeed, LaserItem, Packet, RevolutionTracker, Sensor,
+    LaserCounters, LaserDecoder, LaserItem, Packet, RevolutionTracker, Sensor,
 };
 use terrain_pyramid::wire::rplidar::RplidarScanMode;
 use terrain_pyramid::wire::sick::{
@@ -236,24 +236,14 @@ fn decode_stream(
     mut unit: impl FnMut(LaserItem<'_>, u64),
 ) -> LaserCounters {
     let mut decoder = LaserDecoder::new(sensor);
-    // False once the decoder wants more bytes.
-    let mut take = |result: LaserFeed<'_, '_>| match result {
-        FeedResult::Consumed => false,
-        FeedResult::Item { item, offset, .. } => {
-            unit(item, offset);
-            true
-        }
-        FeedResult::Rejected { .. } => true,
-    };
-    let mut window = bytes;
+    crate::play::each_unit(&mut decoder, bytes, &mut unit);
     loop {
-        let result = decoder.feed(window);
-        window = result.remaining();
-        if !take(result) {
-            break;
+        match decoder.flush() {
+            FeedResult::Consumed => break,
+            FeedResult::Item { item, offset, .. } => unit(item, offset),
+            FeedResult::Rejected { .. } => {}
         }
     }
-    while take(decoder.flush()) {}
     decoder.counters()
 }
 
