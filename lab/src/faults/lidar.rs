@@ -162,8 +162,7 @@ fn damage(kind: &str, chunks: &[Chunk]) -> Vec<(Vec<u8>, bool)> {
                         }
                     }
                     if rng.chance(0.1) {
-                        let longest = body.len().min(16);
-                        rng.overwrite(&mut body, longest);
+                        rng.overwrite(&mut body, 16);
                     }
                     if rng.chance(0.1) {
                         let k = rng.range(1, 40);

@@ -80,7 +80,7 @@ impl Rng {
     /// Overwrites a run of `body` with random bytes: its length uniform in 1 ..= `longest`
     /// (at most `body`'s length), its start uniform over the places it fits.
     pub(super) fn overwrite(&mut self, body: &mut [u8], longest: usize) {
-        let len = self.range(1, longest);
+        let len = self.range(1, longest.min(body.len()));
         let at = self.range(0, body.len() - len);
         let noise = self.bytes(len);
         body[at..at + len].copy_from_slice(&noise);
