@@ -270,6 +270,22 @@ pub struct OperatingModeReply {
     pub status: u8,
 }
 
+/// Why `telegram` is not the reply `command` with its payload's length: a wrong length when
+/// its payload starts with `command`, another command otherwise.
+fn not_the_reply<T: AsRef<[u8]> + ?Sized>(telegram: &Telegram<&T>, command: u8) -> Error {
+    let payload = telegram.payload();
+    if payload.first() == Some(&command) {
+        Error::BadPayloadLength {
+            command,
+            len: payload.len(),
+        }
+    } else {
+        Error::UnexpectedCommand {
+            found: telegram.command(),
+        }
+    }
+}
+
 impl OperatingModeReply {
     /// Whether the mode changed (result 0x00).
     #[must_use]
@@ -286,13 +302,7 @@ impl OperatingModeReply {
         telegram.check_len()?;
         match *telegram.payload() {
             [OPERATING_MODE_REPLY, result, status] => Ok(Self { result, status }),
-            [OPERATING_MODE_REPLY, ..] => Err(Error::BadPayloadLength {
-                command: OPERATING_MODE_REPLY,
-                len: telegram.payload().len(),
-            }),
-            _ => Err(Error::UnexpectedCommand {
-                found: telegram.command(),
-            }),
+            _ => Err(not_the_reply(telegram, OPERATING_MODE_REPLY)),
         }
     }
 
@@ -360,13 +370,7 @@ impl VariantReply {
                 resolution_centideg: u16::from_le_bytes([r0, r1]),
                 status,
             }),
-            [VARIANT_REPLY, ..] => Err(Error::BadPayloadLength {
-                command: VARIANT_REPLY,
-                len: telegram.payload().len(),
-            }),
-            _ => Err(Error::UnexpectedCommand {
-                found: telegram.command(),
-            }),
+            _ => Err(not_the_reply(telegram, VARIANT_REPLY)),
         }
     }
 
