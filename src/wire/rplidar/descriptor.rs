@@ -5,60 +5,35 @@ use super::{
     RPLIDAR_DESCRIPTOR_SYNC, RPLIDAR_NODE_LEN, RPLIDAR_TYPE_CAPSULED, RPLIDAR_TYPE_HEALTH,
     RPLIDAR_TYPE_INFO, RPLIDAR_TYPE_MEASUREMENT, RPLIDAR_TYPE_SAMPLE_RATE,
 };
+use crate::wire::{check, view};
 
-/// A zero-copy view over a 7-byte response descriptor: `A5 5A`, a little-endian word with
-/// the data-response length in bits 29..0 and the send mode in bits 31..30, the data type.
-///
-/// Made with [`RplidarDescriptor::new_checked`], the buffer holds 7 bytes starting `A5 5A`;
-/// made with [`RplidarDescriptor::new_unchecked`], absent bytes read as 0.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub struct RplidarDescriptor<T: AsRef<[u8]>> {
-    buffer: T,
-}
-
-impl<T: AsRef<[u8]>> RplidarDescriptor<T> {
-    /// Wraps a buffer without checking it.
-    pub const fn new_unchecked(buffer: T) -> Self {
-        Self { buffer }
-    }
+view::fixed_view! {
+    /// A zero-copy view over a 7-byte response descriptor: `A5 5A`, a little-endian word with
+    /// the data-response length in bits 29..0 and the send mode in bits 31..30, the data type.
+    ///
+    /// Made with [`RplidarDescriptor::new_checked`], the buffer holds 7 bytes starting `A5 5A`;
+    /// made with [`RplidarDescriptor::new_unchecked`], absent bytes read as 0.
+    pub struct RplidarDescriptor: RPLIDAR_DESCRIPTOR_LEN bytes, a "descriptor",
+        refused with RplidarError;
 
     /// Wraps a buffer after [`check_len`](Self::check_len) and the sync check.
     ///
     /// # Errors
     /// [`RplidarError::Truncated`] or [`RplidarError::BadSync`].
-    pub fn new_checked(buffer: T) -> Result<Self, RplidarError> {
-        let d = Self::new_unchecked(buffer);
-        d.check_len()?;
-        match d.buffer.as_ref().first_chunk::<2>() {
-            Some(&pair) if pair == RPLIDAR_DESCRIPTOR_SYNC => Ok(d),
+    fn new_checked: check_sync;
+}
+
+impl<T: AsRef<[u8]>> RplidarDescriptor<T> {
+    /// Checks the sync bytes `A5 5A`.
+    ///
+    /// # Errors
+    /// [`RplidarError::Truncated`] for fewer than 2 bytes, [`RplidarError::BadSync`].
+    pub fn check_sync(&self) -> Result<(), RplidarError> {
+        match self.buffer.as_ref().first_chunk::<2>() {
+            Some(&pair) if pair == RPLIDAR_DESCRIPTOR_SYNC => Ok(()),
             Some(&found) => Err(RplidarError::BadSync { found }),
             None => Err(RplidarError::Truncated),
         }
-    }
-
-    /// Checks that the buffer holds 7 bytes.
-    ///
-    /// # Errors
-    /// [`RplidarError::Truncated`].
-    pub fn check_len(&self) -> Result<(), RplidarError> {
-        if self.buffer.as_ref().len() < RPLIDAR_DESCRIPTOR_LEN {
-            Err(RplidarError::Truncated)
-        } else {
-            Ok(())
-        }
-    }
-
-    /// Unwraps the buffer.
-    #[must_use]
-    pub fn into_inner(self) -> T {
-        self.buffer
-    }
-
-    /// The 7 descriptor bytes (the whole buffer when shorter).
-    pub fn as_bytes(&self) -> &[u8] {
-        let data = self.buffer.as_ref();
-        data.get(..RPLIDAR_DESCRIPTOR_LEN).unwrap_or(data)
     }
 
     fn word(&self) -> u32 {
@@ -80,7 +55,7 @@ impl<T: AsRef<[u8]>> RplidarDescriptor<T> {
 
     /// The data type (0x81 nodes, 0x82 capsules, 0x06 health, 0x04 info, 0x15 sample rate).
     pub fn data_type(&self) -> u8 {
-        self.buffer.as_ref().get(6).copied().unwrap_or(0)
+        self.byte(6)
     }
 }
 
@@ -252,11 +227,8 @@ impl<T: AsRef<[u8]>> RplidarHealth<T> {
     /// # Errors
     /// [`RplidarError::Truncated`].
     pub fn new_checked(buffer: T) -> Result<Self, RplidarError> {
-        if buffer.as_ref().len() < 3 {
-            Err(RplidarError::Truncated)
-        } else {
-            Ok(Self { buffer })
-        }
+        check::at_least(buffer.as_ref(), 3, RplidarError::Truncated)?;
+        Ok(Self { buffer })
     }
 
     /// The status: 0 good, 1 warning, 2 error (the device is in its protection stop state);
@@ -311,11 +283,8 @@ impl<T: AsRef<[u8]>> RplidarInfo<T> {
     /// # Errors
     /// [`RplidarError::Truncated`].
     pub fn new_checked(buffer: T) -> Result<Self, RplidarError> {
-        if buffer.as_ref().len() < 20 {
-            Err(RplidarError::Truncated)
-        } else {
-            Ok(Self { buffer })
-        }
+        check::at_least(buffer.as_ref(), 20, RplidarError::Truncated)?;
+        Ok(Self { buffer })
     }
 
     fn byte(&self, at: usize) -> u8 {
