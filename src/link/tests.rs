@@ -115,6 +115,14 @@ fn configured() -> (DefaultPyramid, Link) {
     (pyramid, link)
 }
 
+/// A [`configured`] pyramid and link, its first poll's output (the Hello) taken.
+fn greeted() -> (DefaultPyramid, Link) {
+    let (mut pyramid, mut link) = configured();
+    link.poll(0, &mut pyramid, &SensorCounters::default());
+    drain(&mut link);
+    (pyramid, link)
+}
+
 /// An obstacle seen by `layer` at 0.2 m, weighted by the default design's gate.
 fn obstacle(layer: u8, x: i32, y: i32) -> Evidence {
     let design = DefaultDesign::new(SensorModel::default(), Schedule::default(), 64).unwrap();
@@ -189,9 +197,7 @@ fn first_poll_says_hello_then_patches_follow_changes() {
 
 #[test]
 fn window_moves_go_out_before_patches_at_the_new_origin() {
-    let (mut pyramid, mut link) = configured();
-    link.poll(0, &mut pyramid, &SensorCounters::default());
-    drain(&mut link);
+    let (mut pyramid, mut link) = greeted();
     pyramid.recentre(Meters::from_num(0.25), Meters::ZERO);
     pyramid.apply(&obstacle(0, 5, 0));
     link.poll(10, &mut pyramid, &SensorCounters::default());
@@ -208,9 +214,7 @@ fn window_moves_go_out_before_patches_at_the_new_origin() {
 
 #[test]
 fn moves_that_collapse_between_polls_force_a_full_resend() {
-    let (mut pyramid, mut link) = configured();
-    link.poll(0, &mut pyramid, &SensorCounters::default());
-    drain(&mut link);
+    let (mut pyramid, mut link) = greeted();
     // Out and back between two polls: no net move, but a column was reset.
     pyramid.recentre(Meters::from_num(0.15), Meters::ZERO);
     pyramid.recentre(Meters::from_num(0.05), Meters::ZERO);
@@ -726,9 +730,7 @@ fn pose_flags_are_validated() {
 /// carries the pose counters the application gives it.
 #[test]
 fn observed_goes_ahead_of_the_patches_and_stats_carry_the_pose_counters() {
-    let (mut pyramid, mut link) = configured();
-    link.poll(0, &mut pyramid, &SensorCounters::default());
-    drain(&mut link);
+    let (mut pyramid, mut link) = greeted();
     pyramid.apply(&obstacle(0, 3, 4));
     assert!(link.observed(1, 3_990_000, 4_090_000));
     link.poll(10, &mut pyramid, &SensorCounters::default());
