@@ -612,28 +612,37 @@ mod tests {
 
     #[test]
     fn beam_angles() {
-        let v = Variant::Fov180StepHalf;
-        assert_eq!(v.beam_count(), 361);
-        assert_eq!(v.beam_angle_centideg(361, 0, 0), Some(0));
-        assert_eq!(v.beam_angle_centideg(361, 0, 1), Some(50));
-        assert_eq!(v.beam_angle_centideg(361, 0, 180), Some(9_000));
-        assert_eq!(v.beam_angle_centideg(361, 0, 360), Some(18_000));
-        assert_eq!(v.beam_angle_centideg(361, 0, 361), None);
-        // A 1° partial scan of the interlaced 0.5° mode, second phase.
-        assert_eq!(v.beam_angle_centideg(181, 2, 0), Some(50));
-        assert_eq!(v.beam_angle_centideg(181, 2, 1), Some(150));
-        assert_eq!(v.beam_angle_centideg(181, 4, 1), None);
-        assert_eq!(v.beam_angle_centideg(1, 0, 0), None);
-
-        let q = Variant::Fov100StepQuarter;
-        assert_eq!(q.beam_count(), 401);
-        assert_eq!(q.beam_angle_centideg(401, 0, 0), Some(4_000));
-        assert_eq!(q.beam_angle_centideg(401, 0, 1), Some(4_025));
-        assert_eq!(q.beam_angle_centideg(401, 0, 400), Some(14_000));
-        assert_eq!(q.beam_angle_centideg(101, 3, 0), Some(4_075));
-        let one = Variant::Fov180Step1;
-        assert_eq!(one.beam_count(), 181);
-        assert_eq!(one.beam_angle_centideg(181, 0, 90), Some(9_000));
+        for (variant, beams) in [
+            (Variant::Fov180StepHalf, 361),
+            (Variant::Fov100StepQuarter, 401),
+            (Variant::Fov180Step1, 181),
+        ] {
+            assert_eq!(variant.beam_count(), beams);
+        }
+        // (variant, beams in the scan, partial-scan phase, beam index, angle in centidegrees)
+        for (variant, beams, phase, index, angle) in [
+            (Variant::Fov180StepHalf, 361, 0, 0, Some(0)),
+            (Variant::Fov180StepHalf, 361, 0, 1, Some(50)),
+            (Variant::Fov180StepHalf, 361, 0, 180, Some(9_000)),
+            (Variant::Fov180StepHalf, 361, 0, 360, Some(18_000)),
+            (Variant::Fov180StepHalf, 361, 0, 361, None),
+            // A 1° partial scan of the interlaced 0.5° mode, second phase.
+            (Variant::Fov180StepHalf, 181, 2, 0, Some(50)),
+            (Variant::Fov180StepHalf, 181, 2, 1, Some(150)),
+            (Variant::Fov180StepHalf, 181, 4, 1, None),
+            (Variant::Fov180StepHalf, 1, 0, 0, None),
+            (Variant::Fov100StepQuarter, 401, 0, 0, Some(4_000)),
+            (Variant::Fov100StepQuarter, 401, 0, 1, Some(4_025)),
+            (Variant::Fov100StepQuarter, 401, 0, 400, Some(14_000)),
+            (Variant::Fov100StepQuarter, 101, 3, 0, Some(4_075)),
+            (Variant::Fov180Step1, 181, 0, 90, Some(9_000)),
+        ] {
+            assert_eq!(
+                variant.beam_angle_centideg(beams, phase, index),
+                angle,
+                "{variant:?} {beams} {phase} {index}"
+            );
+        }
         assert!(Variant::from_fields(180, 25).is_err());
         assert_eq!(reply_command(VARIANT), VARIANT_REPLY);
         assert_eq!(reply_command(OPERATING_MODE), OPERATING_MODE_REPLY);
