@@ -34,6 +34,7 @@
 //! tests, and every arithmetic on a value read from the wire is checked or saturating.
 
 mod check;
+mod descriptor;
 mod feed;
 pub mod laser;
 pub mod ld06;

@@ -5,7 +5,7 @@ use super::{
     RPLIDAR_DESCRIPTOR_SYNC, RPLIDAR_NODE_LEN, RPLIDAR_TYPE_CAPSULED, RPLIDAR_TYPE_HEALTH,
     RPLIDAR_TYPE_INFO, RPLIDAR_TYPE_MEASUREMENT, RPLIDAR_TYPE_SAMPLE_RATE,
 };
-use crate::wire::{check, view};
+use crate::wire::{check, descriptor, view};
 
 view::fixed_view! {
     /// A zero-copy view over a 7-byte response descriptor: `A5 5A`, a little-endian word with
@@ -36,21 +36,14 @@ impl<T: AsRef<[u8]>> RplidarDescriptor<T> {
         }
     }
 
-    fn word(&self) -> u32 {
-        match self.buffer.as_ref().get(2..6) {
-            Some(&[a, b, c, d]) => u32::from_le_bytes([a, b, c, d]),
-            _ => 0,
-        }
-    }
-
     /// The length of one data response, bytes (30 bits).
     pub fn response_len(&self) -> u32 {
-        self.word() & 0x3FFF_FFFF
+        descriptor::len_and_mode(self.buffer.as_ref()).0
     }
 
     /// The send mode: 0 single response, 1 multiple responses (2 and 3 reserved).
     pub fn send_mode(&self) -> u8 {
-        u8::try_from(self.word() >> 30).unwrap_or(0)
+        descriptor::len_and_mode(self.buffer.as_ref()).1
     }
 
     /// The data type (0x81 nodes, 0x82 capsules, 0x06 health, 0x04 info, 0x15 sample rate).
@@ -112,12 +105,9 @@ impl RplidarDescriptorRepr {
     /// [`RplidarError::OutOfRange`] for a length of 2³⁰ or more or a send mode above 3,
     /// [`RplidarError::BufferTooSmall`]; nothing is written then.
     pub fn emit(&self, out: &mut [u8]) -> Result<usize, RplidarError> {
-        if self.response_len > 0x3FFF_FFFF || self.send_mode > 3 {
-            return Err(RplidarError::OutOfRange);
-        }
-        let [a, b, c, d] = (self.response_len | (u32::from(self.send_mode) << 30)).to_le_bytes();
-        let [s0, s1] = RPLIDAR_DESCRIPTOR_SYNC;
-        write_all(out, &[s0, s1, a, b, c, d, self.data_type])
+        let bytes = descriptor::encode(self.response_len, self.send_mode, self.data_type)
+            .ok_or(RplidarError::OutOfRange)?;
+        write_all(out, &bytes)
     }
 }
 
@@ -157,14 +147,7 @@ const KNOWN: [([u8; 5], Follow); 7] = [
 
 /// What follows `descriptor` when it is one the accumulator knows.
 pub(super) fn known(descriptor: &[u8; RPLIDAR_DESCRIPTOR_LEN]) -> Option<Follow> {
-    let (sync, tail) = descriptor.split_first_chunk::<2>()?;
-    if *sync != RPLIDAR_DESCRIPTOR_SYNC {
-        return None;
-    }
-    KNOWN
-        .iter()
-        .find(|(bytes, _)| bytes[..] == tail[..])
-        .map(|&(_, follow)| follow)
+    descriptor::lookup(descriptor, &KNOWN)
 }
 
 /// A single response as the accumulator hands it out: its data type (from the descriptor)
