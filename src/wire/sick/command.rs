@@ -436,13 +436,11 @@ mod tests {
     extern crate std;
 
     use super::*;
+    use crate::wire::sick::test_support::emitted;
     use std::vec::Vec;
 
     fn emit(request: SickRequest) -> Vec<u8> {
-        let mut buf = [0u8; 32];
-        let n = request.emit(&mut buf).unwrap();
-        assert_eq!(n, request.buffer_len());
-        buf[..n].to_vec()
+        emitted(request.buffer_len(), |buf| request.emit(buf))
     }
 
     #[test]
