@@ -40,6 +40,23 @@ fn garbage(rng: &mut XorShift, stream: &mut Vec<u8>) {
     }
 }
 
+/// Appends the unit of `N` bytes `emit` writes, then, after one unit in `garbage_one_in`
+/// (every unit for 1), the chance of garbage [`garbage`] gives.
+fn push_unit<const N: usize, E: Error + 'static>(
+    rng: &mut XorShift,
+    stream: &mut Vec<u8>,
+    garbage_one_in: u64,
+    emit: impl FnOnce(&mut [u8]) -> Result<usize, E>,
+) -> Result<(), Box<dyn Error>> {
+    let mut unit = [0; N];
+    emit(&mut unit)?;
+    stream.extend_from_slice(&unit);
+    if garbage_one_in == 1 || rng.next().is_multiple_of(garbage_one_in) {
+        garbage(rng, stream);
+    }
+    Ok(())
+}
+
 fn ld06_stream(rng: &mut XorShift) -> Result<Vec<u8>, Box<dyn Error>> {
     let mut stream = Vec::with_capacity(TARGET_BYTES + 1024);
     let mut angle = 0_u32;
@@ -60,10 +77,7 @@ fn ld06_stream(rng: &mut XorShift) -> Result<Vec<u8>, Box<dyn Error>> {
             points,
         };
         angle += 960;
-        let mut b = [0; 47];
-        repr.emit(&mut b)?;
-        stream.extend_from_slice(&b);
-        garbage(rng, &mut stream);
+        push_unit::<47, _>(rng, &mut stream, 1, |b| repr.emit(b))?;
     }
     Ok(stream)
 }
@@ -86,10 +100,7 @@ fn ydlidar_stream(rng: &mut XorShift) -> Result<Vec<u8>, Box<dyn Error>> {
             samples: &samples,
         };
         angle += 1280;
-        let mut b = [0; 90];
-        repr.emit(&mut b)?;
-        stream.extend_from_slice(&b);
-        garbage(rng, &mut stream);
+        push_unit::<90, _>(rng, &mut stream, 1, |b| repr.emit(b))?;
     }
     Ok(stream)
 }
@@ -110,13 +121,8 @@ fn rplidar_node_stream(rng: &mut XorShift) -> Result<Vec<u8>, Box<dyn Error>> {
         };
         angle += 29;
         i += 1;
-        let mut b = [0; 5];
-        repr.emit(&mut b)?;
-        stream.extend_from_slice(&b);
         // Garbage in a node stream costs a resynchronisation on 16 nodes: keep it rare.
-        if rng.next().is_multiple_of(20) {
-            garbage(rng, &mut stream);
-        }
+        push_unit::<5, _>(rng, &mut stream, 20, |b| repr.emit(b))?;
     }
     Ok(stream)
 }
@@ -145,12 +151,7 @@ fn rplidar_capsule_stream(rng: &mut XorShift) -> Result<Vec<u8>, Box<dyn Error>>
         }
         // 4 000 samples/s at 10 Hz: 0.9° per point, 28.8° per capsule.
         angle += 1843;
-        let mut b = [0; 84];
-        repr.emit(&mut b)?;
-        stream.extend_from_slice(&b);
-        if rng.next().is_multiple_of(20) {
-            garbage(rng, &mut stream);
-        }
+        push_unit::<84, _>(rng, &mut stream, 20, |b| repr.emit(b))?;
     }
     Ok(stream)
 }

@@ -489,17 +489,21 @@ mod tests {
 
     #[test]
     fn bad_probabilities_are_refused_by_name() {
-        let m = InverseSensorModel {
-            p_obstacle: 0.4,
-            ..InverseSensorModel::default()
-        };
-        assert!(matches!(
-            m.increments(),
-            Err(DesignError::OutOfRange {
-                param: Param::PObstacle,
-                ..
-            })
-        ));
+        // A p(x|z) for an obstacle below the prior, and one so close to the prior that its
+        // increment rounds to 0.
+        for p_obstacle in [0.4, 0.5004] {
+            let m = InverseSensorModel {
+                p_obstacle,
+                ..InverseSensorModel::default()
+            };
+            assert!(matches!(
+                m.increments(),
+                Err(DesignError::OutOfRange {
+                    param: Param::PObstacle,
+                    ..
+                })
+            ));
+        }
         let m = InverseSensorModel {
             prior: f32::NAN,
             ..InverseSensorModel::default()
@@ -513,18 +517,6 @@ mod tests {
         assert!(Clamp::bounds(1.0, 3.0).is_err());
         // Bounds that round to 0 nats in Q8.8 are refused, not clamped.
         assert!(Clamp::bounds(-1e-10, 1e-10).is_err());
-        // A p(x|z) so close to the prior that its increment rounds to 0 is refused.
-        let m = InverseSensorModel {
-            p_obstacle: 0.5004,
-            ..InverseSensorModel::default()
-        };
-        assert!(matches!(
-            m.increments(),
-            Err(DesignError::OutOfRange {
-                param: Param::PObstacle,
-                ..
-            })
-        ));
         assert!(Clamp::bounds(-2.0, f32::INFINITY).is_err());
         assert_eq!(Clamp::bounds(-2.0, 3.5), Ok(Clamp::OCTOMAP));
     }

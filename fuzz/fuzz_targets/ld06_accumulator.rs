@@ -10,50 +10,38 @@ mod common;
 
 use libfuzzer_sys::fuzz_target;
 use terrain_pyramid::wire::ld06::{Ld06Accumulator, Ld06Counters, Ld06Error, Ld06Packet};
-use terrain_pyramid::wire::FeedResult;
 
-#[derive(Debug, Clone, PartialEq, Eq)]
-enum Ev {
-    P(u64, Vec<u8>),
-    R(u64, Ld06Error),
+type Ev = common::Event<(), Ld06Error>;
+
+/// Checks a packet handed out: valid, with 12 returns; its bytes.
+fn packet(item: Ld06Packet<&[u8]>) -> ((), Vec<u8>) {
+    let bytes = item.as_bytes();
+    let checked = Ld06Packet::new_checked(bytes).expect("a delivered packet is valid");
+    assert_eq!(checked.returns().count(), 12);
+    let _ = checked.wrap_index();
+    ((), bytes.to_vec())
 }
 
-fn record(r: FeedResult<'_, Ld06Packet<&[u8]>, Ld06Error>, out: &mut Vec<Ev>) -> bool {
-    match r {
-        FeedResult::Consumed => return false,
-        FeedResult::Item { item, offset, .. } => {
-            let bytes = item.as_bytes();
-            let checked = Ld06Packet::new_checked(bytes).expect("a delivered packet is valid");
-            assert_eq!(checked.returns().count(), 12);
-            let _ = checked.wrap_index();
-            out.push(Ev::P(offset, bytes.to_vec()));
-        }
-        FeedResult::Rejected { error, offset, .. } => out.push(Ev::R(offset, error)),
-    }
-    true
-}
-
-fn run(chunks: &[&[u8]]) -> (Vec<Ev>, Ld06Counters, u64) {
+fn run(chunks: &[&[u8]]) -> (Vec<Ev>, Ld06Counters) {
     common::run_accumulator!(
         Ld06Accumulator::new(),
         chunks,
         |len| 2 * (len + 47) + 2,
-        record,
+        packet,
         counters
     )
 }
 
-fn check(stream: &[u8], events: &[Ev], c: Ld06Counters, position: u64) {
-    assert_eq!(position, stream.len() as u64);
+fn check(stream: &[u8], events: &[Ev], c: Ld06Counters) {
     let (mut packets, mut crc, mut truncated) = (0u32, 0u32, 0u32);
     let mut last_end = 0u64;
     for ev in events {
         match ev {
-            Ev::P(offset, bytes) => {
+            Ev::Unit(offset, (), bytes) => {
                 packets += 1;
                 common::assert_next_unit(stream, *offset, bytes, &mut last_end, "packets");
             }
-            Ev::R(offset, e) => {
+            Ev::Refused(offset, e) => {
                 assert_eq!(common::byte_at(stream, *offset), 0x54);
                 match e {
                     Ld06Error::BadCrc { .. } => crc += 1,

@@ -95,10 +95,12 @@ fuzz_target!(|data: &[u8]| {
             if n == 0 {
                 break;
             }
-            let mut window = &uart[..n];
-            loop {
-                match host.feed(window) {
-                    FeedResult::Consumed => break,
+            // Every frame takes at least one byte: no more calls than bytes.
+            common::feed_chunks(
+                &[&uart[..n]],
+                |len| len,
+                |window| match host.feed(window) {
+                    FeedResult::Consumed => (&[], false),
                     FeedResult::Item {
                         item: Decoded { message, .. },
                         remaining,
@@ -107,13 +109,13 @@ fuzz_target!(|data: &[u8]| {
                         if let Message::Hello(hello) = message {
                             announced |= hello.reason.clears_maps();
                         }
-                        window = remaining;
+                        (remaining, true)
                     }
                     FeedResult::Rejected { error, .. } => {
                         panic!("the device sent a bad frame: {error:?}")
                     }
-                }
-            }
+                },
+            );
         }
         if !announced {
             assert_eq!(

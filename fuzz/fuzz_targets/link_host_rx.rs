@@ -46,18 +46,19 @@ fn run(chunks: &[&[u8]]) -> Vec<Ev> {
     let mut acc = Box::new(FrameAccumulator::<MAX_FRAME>::new());
     let mut out = Vec::new();
     let mut scratch = vec![0_u8; MAX_ENCODED_FRAME];
-    for chunk in chunks {
-        let mut window: &[u8] = chunk;
-        loop {
-            match acc.feed(window) {
-                FeedResult::Consumed => break,
+    // Every item or refusal takes at least one byte: no more calls than bytes.
+    common::feed_chunks(
+        chunks,
+        |len| len,
+        |window| {
+            let r = acc.feed(window);
+            let rest = r.remaining();
+            let handed_out = match r {
+                FeedResult::Consumed => false,
                 FeedResult::Item {
                     item: Decoded { header, message },
-                    remaining,
                     ..
                 } => {
-                    assert!(remaining.len() < window.len());
-                    window = remaining;
                     let n = encode(header.seq, &message, &mut scratch)
                         .expect("a decoded message encodes");
                     assert!(n <= message.encoded_len_max());
@@ -69,19 +70,20 @@ fn run(chunks: &[&[u8]]) -> Vec<Ev> {
                     let n2 = encode(h2.seq, &m2, &mut scratch).expect("encodes again");
                     assert_eq!(&scratch[..n2], &encoded[..]);
                     out.push(Ev::Frame(header, encoded));
+                    true
                 }
                 FeedResult::Rejected {
                     error: Undecoded { error, header },
-                    remaining,
                     ..
                 } => {
-                    assert!(remaining.len() < window.len());
-                    window = remaining;
                     out.push(Ev::Error(error, header));
+                    true
                 }
-            }
-        }
-    }
+            };
+            assert!(!handed_out || rest.len() < window.len());
+            (rest, handed_out)
+        },
+    );
     let counters = acc.counters();
     let frames = out.iter().filter(|e| matches!(e, Ev::Frame(..))).count();
     assert_eq!(counters.frames_ok as usize, frames);

@@ -15,51 +15,47 @@ use terrain_pyramid::wire::rplidar::{
     RplidarAccumulator, RplidarCapsule, RplidarCounters, RplidarDescriptor, RplidarError,
     RplidarItem, RplidarNode, RplidarScanMode,
 };
-use terrain_pyramid::wire::FeedResult;
 
-#[derive(Debug, Clone, PartialEq, Eq)]
-enum Ev {
-    D(u64, Vec<u8>),
-    Resp(u64, u8, Vec<u8>),
-    N(u64, Vec<u8>),
-    X(u64, Vec<u8>, u16, Option<usize>),
-    R(u64, RplidarError),
+/// The kind of a unit handed out, with what it says beyond its bytes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Kind {
+    Descriptor,
+    /// A single response, of this data type.
+    Response(u8),
+    Node,
+    /// A capsule, with the next one's start angle and where a revolution starts.
+    Express(u16, Option<usize>),
 }
 
-fn record(r: FeedResult<'_, RplidarItem<'_>, RplidarError>, out: &mut Vec<Ev>) -> bool {
-    match r {
-        FeedResult::Consumed => return false,
-        FeedResult::Item { item, offset, .. } => out.push(match item {
-            RplidarItem::Descriptor(d) => {
-                let bytes = d.into_inner();
-                RplidarDescriptor::new_checked(bytes).expect("a known descriptor");
-                Ev::D(offset, bytes.to_vec())
-            }
-            RplidarItem::Response(r) => {
-                let _ = (r.health(), r.info());
-                Ev::Resp(offset, r.data_type, r.data.to_vec())
-            }
-            RplidarItem::Node(n) => {
-                let bytes = n.into_inner();
-                let n = RplidarNode::new_checked(bytes).expect("a delivered node is valid");
-                let _ = n.to_return();
-                Ev::N(offset, bytes.to_vec())
-            }
-            RplidarItem::Express(e) => {
-                let bytes = e.capsule().into_inner();
-                RplidarCapsule::new_checked(bytes).expect("a delivered capsule is valid");
-                assert_eq!(e.returns().count(), 32);
-                Ev::X(
-                    offset,
-                    bytes.to_vec(),
-                    e.next_start_angle_q6(),
-                    e.revolution_start(),
-                )
-            }
-        }),
-        FeedResult::Rejected { error, offset, .. } => out.push(Ev::R(offset, error)),
+type Ev = common::Event<Kind, RplidarError>;
+
+/// Checks an item handed out (descriptors known, nodes and capsules valid, a capsule with 32
+/// returns); its kind and bytes.
+fn item(item: RplidarItem<'_>) -> (Kind, Vec<u8>) {
+    match item {
+        RplidarItem::Descriptor(d) => {
+            let bytes = d.into_inner();
+            RplidarDescriptor::new_checked(bytes).expect("a known descriptor");
+            (Kind::Descriptor, bytes.to_vec())
+        }
+        RplidarItem::Response(r) => {
+            let _ = (r.health(), r.info());
+            (Kind::Response(r.data_type), r.data.to_vec())
+        }
+        RplidarItem::Node(n) => {
+            let bytes = n.into_inner();
+            let n = RplidarNode::new_checked(bytes).expect("a delivered node is valid");
+            let _ = n.to_return();
+            (Kind::Node, bytes.to_vec())
+        }
+        RplidarItem::Express(e) => {
+            let bytes = e.capsule().into_inner();
+            RplidarCapsule::new_checked(bytes).expect("a delivered capsule is valid");
+            assert_eq!(e.returns().count(), 32);
+            let kind = Kind::Express(e.next_start_angle_q6(), e.revolution_start());
+            (kind, bytes.to_vec())
+        }
     }
-    true
 }
 
 fn accumulator(mode: u8) -> RplidarAccumulator {
@@ -70,59 +66,47 @@ fn accumulator(mode: u8) -> RplidarAccumulator {
     }
 }
 
-fn run(mode: u8, chunks: &[&[u8]]) -> (Vec<Ev>, RplidarCounters, u64) {
+fn run(mode: u8, chunks: &[&[u8]]) -> (Vec<Ev>, RplidarCounters) {
     common::run_accumulator!(
         accumulator(mode),
         chunks,
         |len| 3 * (len + 96) + 4,
-        record,
+        item,
         counters
     )
 }
 
-fn check(stream: &[u8], events: &[Ev], c: RplidarCounters, position: u64) {
-    assert_eq!(position, stream.len() as u64);
+fn check(stream: &[u8], events: &[Ev], c: RplidarCounters) {
     let mut seen = RplidarCounters::default();
     let mut response_bytes = 0u64;
     let mut last_end = 0u64;
     for ev in events {
-        let unit = match ev {
-            Ev::D(o, b) => {
-                seen.descriptors += 1;
-                Some((o, b))
-            }
-            Ev::Resp(o, _, b) => {
-                seen.responses += 1;
-                response_bytes += b.len() as u64;
-                Some((o, b))
-            }
-            Ev::N(o, b) => {
-                seen.nodes += 1;
-                Some((o, b))
-            }
-            Ev::X(o, b, ..) => {
-                seen.capsules += 1;
-                Some((o, b))
-            }
-            Ev::R(_, e) => {
-                match e {
-                    RplidarError::BadNode => seen.node_check += 1,
-                    RplidarError::Implausible => seen.implausible += 1,
-                    RplidarError::BadChecksum { .. } => seen.checksum += 1,
-                    RplidarError::CapsuleUnpaired => seen.capsules_unpaired += 1,
-                    RplidarError::Truncated => seen.truncated += 1,
-                    other => panic!("unexpected rejection {other:?}"),
+        match ev {
+            Ev::Unit(offset, kind, bytes) => {
+                match kind {
+                    Kind::Descriptor => seen.descriptors += 1,
+                    Kind::Response(_) => {
+                        seen.responses += 1;
+                        response_bytes += bytes.len() as u64;
+                    }
+                    Kind::Node => seen.nodes += 1,
+                    Kind::Express(..) => seen.capsules += 1,
                 }
-                None
+                // Express items come one capsule behind, so check order only among the rest.
+                if matches!(kind, Kind::Express(..)) {
+                    common::assert_in_stream(stream, *offset, bytes);
+                } else {
+                    common::assert_next_unit(stream, *offset, bytes, &mut last_end, "units");
+                }
             }
-        };
-        if let Some((offset, bytes)) = unit {
-            // Express items come one capsule behind, so check order only among the rest.
-            if matches!(ev, Ev::X(..)) {
-                common::assert_in_stream(stream, *offset, bytes);
-            } else {
-                common::assert_next_unit(stream, *offset, bytes, &mut last_end, "units");
-            }
+            Ev::Refused(_, e) => match e {
+                RplidarError::BadNode => seen.node_check += 1,
+                RplidarError::Implausible => seen.implausible += 1,
+                RplidarError::BadChecksum { .. } => seen.checksum += 1,
+                RplidarError::CapsuleUnpaired => seen.capsules_unpaired += 1,
+                RplidarError::Truncated => seen.truncated += 1,
+                other => panic!("unexpected rejection {other:?}"),
+            },
         }
     }
     seen.unsupported = c.unsupported;

@@ -10,27 +10,18 @@ mod common;
 
 use libfuzzer_sys::fuzz_target;
 use terrain_pyramid::wire::sick::{
-    MeasuredValues, SickAccumulator, SickCounters, SickFeed, SickFrameError, SickItem, SickReply,
-    Telegram, ADDRESS_REPLY,
+    MeasuredValues, SickAccumulator, SickCounters, SickFrameError, SickItem, SickReply, Telegram,
+    ADDRESS_REPLY,
 };
-use terrain_pyramid::wire::FeedResult;
 
-#[derive(Debug, Clone, PartialEq, Eq)]
-enum Ev {
-    T(u64, Vec<u8>),
-    Ack(u64),
-    Nak(u64),
-    R(u64, SickFrameError),
-}
+/// Events, the units named "telegram", "ACK" or "NAK".
+type Ev = common::Event<&'static str, SickFrameError>;
 
-fn record(r: &SickFeed<'_, '_>, out: &mut Vec<Ev>) -> bool {
-    match r {
-        FeedResult::Consumed => return false,
-        FeedResult::Item {
-            item: SickItem::Telegram(telegram),
-            offset,
-            ..
-        } => {
+/// Checks an item handed out: a valid reply telegram that parses (or is refused) without
+/// panicking, or a lone ACK or NAK byte (no bytes kept); its kind and bytes.
+fn item(item: SickItem<'_>) -> (&'static str, Vec<u8>) {
+    match item {
+        SickItem::Telegram(telegram) => {
             let bytes = telegram.as_bytes();
             let checked = Telegram::new_checked(bytes).expect("a delivered telegram is valid");
             assert_eq!(checked.address(), ADDRESS_REPLY);
@@ -41,58 +32,48 @@ fn record(r: &SickFeed<'_, '_>, out: &mut Vec<Ev>) -> bool {
                 let _ = mv.flags(Default::default()).count();
                 assert_eq!(usize::from(mv.count()) * 2, mv.values_le().len());
             }
-            out.push(Ev::T(*offset, bytes.to_vec()));
+            ("telegram", bytes.to_vec())
         }
-        FeedResult::Item {
-            item: SickItem::Ack,
-            offset,
-            ..
-        } => out.push(Ev::Ack(*offset)),
-        FeedResult::Item {
-            item: SickItem::Nak,
-            offset,
-            ..
-        } => out.push(Ev::Nak(*offset)),
-        FeedResult::Rejected { error, offset, .. } => out.push(Ev::R(*offset, *error)),
+        SickItem::Ack => ("ACK", Vec::new()),
+        SickItem::Nak => ("NAK", Vec::new()),
     }
-    true
 }
 
-fn run<const N: usize>(chunks: &[&[u8]]) -> (Vec<Ev>, SickCounters, u64) {
+fn run<const N: usize>(chunks: &[&[u8]]) -> (Vec<Ev>, SickCounters) {
     // Each event consumes a byte or resolves a buffered one: bounded by the bytes.
     common::run_accumulator!(
         SickAccumulator::<N>::new(),
         chunks,
         |len| 2 * (len + N) + 2,
-        |r: SickFeed<'_, '_>, out: &mut Vec<Ev>| record(&r, out),
+        item,
         stats
     )
 }
 
-fn check(stream: &[u8], events: &[Ev], stats: SickCounters, position: u64) {
-    assert_eq!(position, stream.len() as u64);
+fn check(stream: &[u8], events: &[Ev], stats: SickCounters) {
     let mut ok = 0u32;
     let (mut ack, mut nak, mut crc, mut length, mut truncated) = (0u32, 0u32, 0u32, 0u32, 0u32);
     let mut accounted = 0u64;
     let mut last_end = 0u64;
     for ev in events {
         match ev {
-            Ev::T(offset, bytes) => {
+            Ev::Unit(offset, "telegram", bytes) => {
                 ok += 1;
                 common::assert_next_unit(stream, *offset, bytes, &mut last_end, "telegrams");
                 accounted += bytes.len() as u64;
             }
-            Ev::Ack(offset) => {
+            Ev::Unit(offset, "ACK", _) => {
                 ack += 1;
                 assert_eq!(common::byte_at(stream, *offset), 0x06);
                 accounted += 1;
             }
-            Ev::Nak(offset) => {
+            Ev::Unit(offset, "NAK", _) => {
                 nak += 1;
                 assert_eq!(common::byte_at(stream, *offset), 0x15);
                 accounted += 1;
             }
-            Ev::R(offset, e) => {
+            Ev::Unit(_, other, _) => panic!("unexpected unit {other}"),
+            Ev::Refused(offset, e) => {
                 assert_eq!(common::byte_at(stream, *offset), 0x02);
                 match e {
                     SickFrameError::BadLength { .. } | SickFrameError::TooLong { .. } => {
@@ -132,6 +113,6 @@ fuzz_target!(|data: &[u8]| {
     let (sizes, stream) = common::split_sizes(data);
     let chunked = common::check_chunking(stream, sizes, run::<818>, check);
     // A small accumulator: same invariants, longer telegrams refused as TooLong.
-    let (small, stats3, position3) = run::<64>(&chunked);
-    check(stream, &small, stats3, position3);
+    let (small, stats3) = run::<64>(&chunked);
+    check(stream, &small, stats3);
 });

@@ -15,73 +15,58 @@ use terrain_pyramid::wire::ydlidar::{
     YdlidarAccumulator, YdlidarAngleCorrection, YdlidarCounters, YdlidarDescriptor, YdlidarError,
     YdlidarItem, YdlidarPacket,
 };
-use terrain_pyramid::wire::FeedResult;
 
-#[derive(Debug, Clone, PartialEq, Eq)]
-enum Ev {
-    P(u64, Vec<u8>),
-    D(u64, Vec<u8>),
-    R(u64, YdlidarError),
-}
+/// Events, the units named "packet" or "descriptor".
+type Ev = common::Event<&'static str, YdlidarError>;
 
-fn record(r: FeedResult<'_, YdlidarItem<'_>, YdlidarError>, out: &mut Vec<Ev>) -> bool {
-    match r {
-        FeedResult::Consumed => return false,
-        FeedResult::Item {
-            item: YdlidarItem::Packet(p),
-            offset,
-            ..
-        } => {
+/// Checks an item handed out: a valid packet yielding LSN returns with either correction, or
+/// a known descriptor with its content; its kind and bytes.
+fn item(item: YdlidarItem<'_>) -> (&'static str, Vec<u8>) {
+    match item {
+        YdlidarItem::Packet(p) => {
             let bytes = p.into_inner();
             let checked = YdlidarPacket::new_checked(bytes).expect("a delivered packet is valid");
             assert_eq!(checked.total_len(), bytes.len());
             let n = usize::from(checked.sample_count());
             assert_eq!(checked.returns().count(), n);
             assert_eq!(checked.returns_with(YdlidarAngleCorrection::Off).count(), n);
-            out.push(Ev::P(offset, bytes.to_vec()));
+            ("packet", bytes.to_vec())
         }
-        FeedResult::Item {
-            item: YdlidarItem::Descriptor(d),
-            offset,
-            ..
-        } => {
+        YdlidarItem::Descriptor(d) => {
             let bytes = d.into_inner();
             let checked = YdlidarDescriptor::new_checked(bytes).expect("a known descriptor");
             assert_eq!(checked.as_bytes().len(), bytes.len());
-            out.push(Ev::D(offset, bytes.to_vec()));
+            ("descriptor", bytes.to_vec())
         }
-        FeedResult::Rejected { error, offset, .. } => out.push(Ev::R(offset, error)),
     }
-    true
 }
 
-fn run<const N: usize>(chunks: &[&[u8]]) -> (Vec<Ev>, YdlidarCounters, u64) {
+fn run<const N: usize>(chunks: &[&[u8]]) -> (Vec<Ev>, YdlidarCounters) {
     common::run_accumulator!(
         YdlidarAccumulator::<N>::new(),
         chunks,
         |len| 2 * (len + N) + 2,
-        record,
+        item,
         counters
     )
 }
 
-fn check(stream: &[u8], events: &[Ev], c: YdlidarCounters, position: u64) {
-    assert_eq!(position, stream.len() as u64);
+fn check(stream: &[u8], events: &[Ev], c: YdlidarCounters) {
     let mut seen = YdlidarCounters::default();
     let mut items = 0u64;
     let mut last_end = 0u64;
     for ev in events {
         match ev {
-            Ev::P(offset, bytes) | Ev::D(offset, bytes) => {
-                if matches!(ev, Ev::P(..)) {
-                    seen.packets += 1;
-                } else {
-                    seen.descriptors += 1;
+            Ev::Unit(offset, kind, bytes) => {
+                match *kind {
+                    "packet" => seen.packets += 1,
+                    "descriptor" => seen.descriptors += 1,
+                    other => panic!("unexpected unit {other}"),
                 }
                 common::assert_next_unit(stream, *offset, bytes, &mut last_end, "items");
                 items += bytes.len() as u64;
             }
-            Ev::R(offset, e) => {
+            Ev::Refused(offset, e) => {
                 assert!(matches!(common::byte_at(stream, *offset), 0xAA | 0xA5));
                 match e {
                     YdlidarError::BadChecksum { .. } => seen.checksum += 1,
@@ -107,6 +92,6 @@ fn check(stream: &[u8], events: &[Ev], c: YdlidarCounters, position: u64) {
 fuzz_target!(|data: &[u8]| {
     let (sizes, stream) = common::split_sizes(data);
     let chunked = common::check_chunking(stream, sizes, run::<520>, check);
-    let (small, c3, position3) = run::<32>(&chunked);
-    check(stream, &small, c3, position3);
+    let (small, c3) = run::<32>(&chunked);
+    check(stream, &small, c3);
 });

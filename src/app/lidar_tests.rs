@@ -76,13 +76,7 @@ fn arrival_us(n: u32) -> u32 {
 fn stats(core: &mut Core, seq: u16) -> Stats {
     core.host(&command(seq, &Message::RequestStats));
     core.poll(1_000);
-    output(core)
-        .iter()
-        .find_map(|(_, o)| match o {
-            Out::Stats(s) => Some(*s),
-            _ => None,
-        })
-        .unwrap()
+    output(core).iter().find_map(|(_, o)| o.stats()).unwrap()
 }
 
 /// Obstacles the fused map holds within 4 m ahead and to the sides.
@@ -115,10 +109,7 @@ fn a_setup_chooses_the_laser_and_its_baud_rate() {
     core.host(&command(0, &Message::Setup(setup(0, 0.0))));
     let replies: Vec<_> = output(&mut core)
         .into_iter()
-        .filter_map(|(_, o)| match o {
-            Out::Reply(r) => Some(r),
-            _ => None,
-        })
+        .filter_map(|(_, o)| o.reply())
         .collect();
     assert!(replies[0].is_ok(), "{replies:?}");
     assert_eq!(
@@ -385,13 +376,7 @@ fn a_poll_sends_the_observed_span_ahead_of_its_patches_and_stats_count_the_poses
         .position(|(_, o)| matches!(o, Out::Patch(..)))
         .expect("the observation's patches");
     assert!(observed < first_patch, "{out:?}");
-    let o = out
-        .iter()
-        .find_map(|(_, o)| match o {
-            Out::Observed(o) => Some(*o),
-            _ => None,
-        })
-        .unwrap();
+    let o = out.iter().find_map(|(_, o)| o.observed()).unwrap();
     assert_eq!(o.observation, counted.frontend.observations);
     assert!(
         o.first_us < o.last_us && o.last_us <= arrival_us(199),

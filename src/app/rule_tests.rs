@@ -7,7 +7,7 @@ use super::tests::{booted, output};
 use super::*;
 use crate::classify::{NavigabilityRule, PlaneRule};
 use crate::link::convert::{rule_setup, set_rule_message, ReplyText, SetupField};
-use crate::link::tests::{command, Out};
+use crate::link::tests::command;
 use crate::wire::link::Reply;
 use crate::wire::link::{LaserSetup, Message, ReplyCode, RuleSetup, SetRule, Setup};
 use std::vec::Vec;
@@ -15,10 +15,7 @@ use std::vec::Vec;
 fn replies(core: &mut super::tests::Core) -> Vec<Reply> {
     output(core)
         .into_iter()
-        .filter_map(|(_, o)| match o {
-            Out::Reply(r) => Some(r),
-            _ => None,
-        })
+        .filter_map(|(_, o)| o.reply())
         .collect()
 }
 

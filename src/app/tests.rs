@@ -48,12 +48,22 @@ pub(super) fn output(core: &mut Core) -> Vec<(u16, Out)> {
 }
 
 fn replies(out: &[(u16, Out)]) -> Vec<Reply> {
-    out.iter()
-        .filter_map(|(_, o)| match o {
-            Out::Reply(r) => Some(*r),
-            _ => None,
-        })
-        .collect()
+    out.iter().filter_map(|(_, o)| o.reply()).collect()
+}
+
+/// Polls at 10 ms and takes the output and its replies, asserting that there are `n`.
+fn poll_replies(core: &mut Core, n: usize) -> (Vec<(u16, Out)>, Vec<Reply>) {
+    core.poll(10);
+    let out = output(core);
+    let r = replies(&out);
+    assert_eq!(r.len(), n, "{out:?}");
+    (out, r)
+}
+
+/// The reply to `configure`, sent as command `seq`.
+fn configure_reply(core: &mut Core, seq: u16, configure: Configure) -> Reply {
+    core.host(&command(seq, &Message::Configure(configure)));
+    replies(&output(core))[0]
 }
 
 /// One 361-beam line of a SICK 0.5 m above flat floor, tilted 20° down: every beam below the
@@ -192,13 +202,7 @@ fn a_line_needs_an_angle_from_the_board_or_the_host() {
     core.host(&command(1, &Message::RequestStats));
     core.poll(5);
     let out = output(&mut core);
-    let stats = out
-        .iter()
-        .find_map(|(_, o)| match o {
-            Out::Stats(s) => Some(*s),
-            _ => None,
-        })
-        .unwrap();
+    let stats = out.iter().find_map(|(_, o)| o.stats()).unwrap();
     assert_eq!((stats.telegrams_ok, stats.telegrams_bad_other), (4, 1));
     assert_eq!(stats.observations, 3);
 }
@@ -232,8 +236,7 @@ fn configure_is_validated_by_the_librarys_rules() {
         gamma: 1.0,
         ..default
     };
-    core.host(&command(5, &Message::Configure(bad)));
-    let reply = replies(&output(&mut core))[0];
+    let reply = configure_reply(&mut core, 5, bad);
     assert_eq!(reply.to_seq, 5);
     assert_eq!(reply.to_type, MessageType::Configure.to_u8());
     assert_eq!(reply.code, ReplyCode::GammaNotAboveOne);
@@ -248,8 +251,7 @@ fn configure_is_validated_by_the_librarys_rules() {
         clamp: ClampRequest::Bounds { min: 1.0, max: 3.5 },
         ..default
     };
-    core.host(&command(6, &Message::Configure(bad)));
-    let reply = replies(&output(&mut core))[0];
+    let reply = configure_reply(&mut core, 6, bad);
     assert_eq!(
         (reply.code, param_of_code(reply.param)),
         (ReplyCode::OutOfRange, Some(Param::ClampMin))
@@ -259,16 +261,14 @@ fn configure_is_validated_by_the_librarys_rules() {
         p_free: 0.6,
         ..default
     };
-    core.host(&command(7, &Message::Configure(bad)));
-    let reply = replies(&output(&mut core))[0];
+    let reply = configure_reply(&mut core, 7, bad);
     assert_eq!(param_of_code(reply.param), Some(Param::PFree));
     // A window the pyramid was not compiled for: refused when it is applied.
     let bad = Configure {
         cells_per_side: 128,
         ..default
     };
-    core.host(&command(8, &Message::Configure(bad)));
-    let reply = replies(&output(&mut core))[0];
+    let reply = configure_reply(&mut core, 8, bad);
     assert_eq!(param_of_code(reply.param), Some(Param::Cells));
     assert_eq!(observed(&core), before);
     // A good one: Reply Ok, then Hello(configured), maps cleared, the classifier's gating
@@ -457,10 +457,7 @@ fn setup_request_stats_end_observation_and_shutdown() {
     // A second answer adds nothing.
     core.answer_shutdown(StackUsage::default());
     // Stats goes out at the next poll although the interval is 0 (never).
-    core.poll(10);
-    let out = output(&mut core);
-    let r = replies(&out);
-    assert_eq!(r.len(), 3, "{out:?}");
+    let (out, r) = poll_replies(&mut core, 3);
     assert!(r[0].is_ok() && r[0].to_type == 0x87);
     assert_eq!((r[1].code, r[1].param), (ReplyCode::OutOfRange, 49));
     assert_eq!((r[2].to_type, r[2].value, r[2].a), (0x89, 1234.0, 4096.0));
@@ -516,10 +513,7 @@ fn set_rule_changes_only_the_classifiers_rule() {
             NavigabilityRule::Spread
         }
     );
-    core.poll(10);
-    let out = output(&mut core);
-    let r = replies(&out);
-    assert_eq!(r.len(), 3, "{out:?}");
+    let (_, r) = poll_replies(&mut core, 3);
     assert!(r[0].is_ok() && r[0].to_type == 0x8B);
     assert_eq!((r[1].code, r[1].param), (ReplyCode::OutOfRange, 65));
     assert!(r[2].is_ok());
@@ -594,10 +588,7 @@ fn a_time_request_is_answered_with_the_time_of_its_bytes() {
     core.poll(5);
     let stats = output(&mut core)
         .into_iter()
-        .find_map(|(_, o)| match o {
-            Out::Stats(s) => Some(s),
-            _ => None,
-        })
+        .find_map(|(_, o)| o.stats())
         .unwrap();
     assert_eq!(stats.time_requests, 3);
 }

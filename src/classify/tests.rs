@@ -45,6 +45,16 @@ fn pt(x: f32, y: f32, z: f32) -> Point3 {
     }
 }
 
+/// Configures `c` with `config` and begins an observation at ground level 0 with `points`,
+/// each at horizontal distance `d`.
+fn observe(c: &mut Classifier<256, 8>, config: ClassifierConfig, points: &[Point3], d: Meters) {
+    c.configure(config);
+    c.begin(Meters::ZERO);
+    for &q in points {
+        c.add_point(q, d, Meters::ZERO);
+    }
+}
+
 fn records(c: &mut Classifier<256, 8>) -> Vec<Evidence> {
     let mut out = Vec::new();
     c.finish(|r| out.push(r));
@@ -252,10 +262,6 @@ fn drop_offs_and_missing_ground_are_obstacles_when_enabled() {
     let d = Meters::from_num(0.3);
     for rule in [NavigabilityRule::DEFAULT, NavigabilityRule::Spread] {
         let mut c = classifier::<256>(GateShape::Hard);
-        c.configure(ClassifierConfig {
-            rule,
-            ..ClassifierConfig::default()
-        });
         // A flat patch of ground 0.5 m below the robot's ground plane, and no return where
         // the ground should have been next to it.
         let patch = [
@@ -264,20 +270,17 @@ fn drop_offs_and_missing_ground_are_obstacles_when_enabled() {
             pt(0.31, 0.09, -0.5),
             pt(0.39, 0.09, -0.5),
         ];
-        c.begin(Meters::ZERO);
-        for q in patch {
-            c.add_point(q, d, Meters::ZERO);
-        }
-        assert_eq!(records(&mut c)[0].class, EvidenceClass::Navigable);
-        c.configure(ClassifierConfig {
-            drop_threshold: Some(Meters::from_num(0.3)),
+        let config = ClassifierConfig {
             rule,
             ..ClassifierConfig::default()
-        });
-        c.begin(Meters::ZERO);
-        for q in patch {
-            c.add_point(q, d, Meters::ZERO);
-        }
+        };
+        observe(&mut c, config, &patch, d);
+        assert_eq!(records(&mut c)[0].class, EvidenceClass::Navigable);
+        let drop_off = ClassifierConfig {
+            drop_threshold: Some(Meters::from_num(0.3)),
+            ..config
+        };
+        observe(&mut c, drop_off, &patch, d);
         c.add_missing_ground(pt(0.15, 0.05, 0.0), d);
         let r = records(&mut c);
         assert!(
@@ -296,28 +299,21 @@ fn a_ceiling_cut_drops_roof_points_before_any_cell_sees_them() {
     let roof = [pt(0.35, 0.05, 2.0), pt(0.36, 0.05, 2.2)];
     for rule in [NavigabilityRule::DEFAULT, NavigabilityRule::Spread] {
         let mut c = classifier::<256>(GateShape::Hard);
-        c.configure(ClassifierConfig {
+        let config = ClassifierConfig {
             rule,
             ..ClassifierConfig::default()
-        });
-        c.begin(Meters::ZERO);
-        for r in roof {
-            c.add_point(r, d, Meters::ZERO);
-        }
+        };
+        observe(&mut c, config, &roof, d);
         assert_eq!(
             records(&mut c)[0].class,
             EvidenceClass::Obstacle,
             "{rule:?}"
         );
-        c.configure(ClassifierConfig {
+        let cut = ClassifierConfig {
             ceiling: Some(Meters::from_num(1.5)),
-            rule,
-            ..ClassifierConfig::default()
-        });
-        c.begin(Meters::ZERO);
-        for r in roof {
-            c.add_point(r, d, Meters::ZERO);
-        }
+            ..config
+        };
+        observe(&mut c, cut, &roof, d);
         assert!(records(&mut c).is_empty());
         assert_eq!(c.stats().overhang_points, 2);
     }

@@ -55,6 +55,17 @@ pub(super) fn meters_q40(value: i64) -> Meters {
     Meters::from_bits(sat_i32(value.saturating_add(1 << 23) >> 24))
 }
 
+/// The point of Q40 metres coordinates `[x, y, z]`, each rounded to Q16.16 ([`meters_q40`],
+/// saturating at ±32 768 m).
+#[inline]
+pub(super) fn point_q40([x, y, z]: [i64; 3]) -> Point3 {
+    Point3 {
+        x: meters_q40(x),
+        y: meters_q40(y),
+        z: meters_q40(z),
+    }
+}
+
 /// `round(√x)` for any `u64`, by the bit-by-bit (restoring) method: no multiply, no divide.
 /// One iteration per result bit.
 pub(crate) fn isqrt_round(x: u64) -> u64 {

@@ -47,8 +47,8 @@
 use core::fmt;
 
 use super::fixed::{
-    horizontal, horizontal_squared, meters_q40, per_mm_words, sat_i32, LinePoint, LinePointSquared,
-    MAX_RANGE_MM,
+    horizontal, horizontal_squared, meters_q40, per_mm_words, point_q40, sat_i32, LinePoint,
+    LinePointSquared, MAX_RANGE_MM,
 };
 use super::mount::{ActuatorAxis, Mount};
 use super::pose::PoseFrame;
@@ -206,12 +206,7 @@ impl SweepTransform {
     /// The scanner's centre in the world frame, metres (saturated at ±32 768 m).
     #[must_use]
     pub fn sensor_origin(&self) -> Point3 {
-        let [x, y, z] = self.origin;
-        Point3 {
-            x: meters_q40(x),
-            y: meters_q40(y),
-            z: meters_q40(z),
-        }
+        point_q40(self.origin)
     }
 
     /// The scan plane at the reported actuator angle `actuator` (the mount's zero and sense
@@ -341,12 +336,7 @@ impl ActuatedPlane {
     /// The scanner's centre in the world frame, metres.
     #[must_use]
     pub fn sensor_origin(&self) -> Point3 {
-        let [x, y, z] = self.origin;
-        Point3 {
-            x: meters_q40(x),
-            y: meters_q40(y),
-            z: meters_q40(z),
-        }
+        point_q40(self.origin)
     }
 }
 

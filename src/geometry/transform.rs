@@ -52,7 +52,7 @@
 use core::fmt;
 
 use super::beams::{BeamDir, BeamTable};
-use super::fixed::{meters_q40, root_meters, sat_i32};
+use super::fixed::{point_q40, root_meters, sat_i32};
 pub use super::fixed::{LinePoint, LinePointSquared, MAX_RANGE_MM};
 use super::mount::Mount;
 use super::pose::{Pose, PoseFrame};
@@ -306,12 +306,7 @@ impl<'a> LineTransform<'a> {
     /// The scanner's centre in the world frame, metres (saturated at ±32 768 m).
     #[must_use]
     pub fn sensor_origin(&self) -> Point3 {
-        let [x, y, z] = self.origin;
-        Point3 {
-            x: meters_q40(x),
-            y: meters_q40(y),
-            z: meters_q40(z),
-        }
+        point_q40(self.origin)
     }
 
     /// The world point of beam `beam_index` at `range_mm` millimetres.

@@ -57,6 +57,52 @@ const fn tile_range(first: usize, end: usize) -> u64 {
     below_end & !below_first
 }
 
+/// The layers a poll schedules (`count`: the pyramid's, at most `N`), their tiles
+/// (`total`: 64 a layer) and their dirty tiles, taken (the pyramid's dirty bits cleared; bit
+/// `t` of entry `k` is tile `t` of layer `k`); `None` when there is no tile.
+pub(super) fn take_dirty<const N: usize, const W: usize, const L: usize>(
+    pyramid: &mut Pyramid<W, L>,
+) -> Option<(usize, usize, [u64; N])> {
+    let count = layers_of(pyramid).min(N);
+    let total = count * TILES;
+    if total == 0 {
+        return None;
+    }
+    let mut dirty = [0_u64; N];
+    for (k, bits) in dirty.iter_mut().enumerate().take(count) {
+        if let Some(mut tiles) = pyramid.layer_dirty_mut(k) {
+            *bits = tiles.take();
+        }
+    }
+    Some((count, total, dirty))
+}
+
+/// Marks the tiles still set in `dirty` (of the first `count` layers) dirty again in
+/// `pyramid`, for a later poll, and counts them: all of them, and those at age 1 in `ages`.
+pub(super) fn put_back<const N: usize, const W: usize, const L: usize>(
+    pyramid: &mut Pyramid<W, L>,
+    dirty: &[u64; N],
+    ages: &[[u8; TILES]; N],
+    count: usize,
+) -> (u32, u32) {
+    let mut deferred = 0_u32;
+    let mut newly_deferred = 0_u32;
+    for ((k, &bits), ages) in dirty.iter().enumerate().zip(ages.iter()).take(count) {
+        if bits != 0 {
+            if let Some(mut tiles) = pyramid.layer_dirty_mut(k) {
+                tiles.mark(bits);
+            }
+            deferred += bits.count_ones();
+            // Age 1: the tile's first poll since it changed (or was last sent). A tile that
+            // keeps waiting is counted once, not at every poll.
+            newly_deferred += tiles_of(bits)
+                .filter(|&tile| ages.get(tile) == Some(&1))
+                .count() as u32;
+        }
+    }
+    (deferred, newly_deferred)
+}
+
 impl<const Q: usize, const N: usize> Link<Q, N> {
     /// Sends the pending Hello; `true` when none is pending any more.
     pub(super) fn flush_hello<const W: usize, const L: usize>(
@@ -207,17 +253,9 @@ impl<const Q: usize, const N: usize> Link<Q, N> {
         pyramid: &mut Pyramid<W, L>,
         report: &mut PollReport,
     ) {
-        let count = layers_of(pyramid).min(N);
-        let total = count * TILES;
-        if total == 0 {
+        let Some((count, total, mut dirty)) = take_dirty::<N, W, L>(pyramid) else {
             return;
-        }
-        let mut dirty = [0_u64; N];
-        for (k, bits) in dirty.iter_mut().enumerate().take(count) {
-            if let Some(mut tiles) = pyramid.layer_dirty_mut(k) {
-                *bits = tiles.take();
-            }
-        }
+        };
         // Each waiting tile ages by one poll (saturating); every other tile's age is 0.
         for ((bits, ages), aged) in dirty
             .iter()
@@ -285,21 +323,7 @@ impl<const Q: usize, const N: usize> Link<Q, N> {
             }
             level = top - 1;
         }
-        let mut deferred = 0_u32;
-        let mut newly_deferred = 0_u32;
-        for ((k, &bits), ages) in dirty.iter().enumerate().zip(self.ages.iter()).take(count) {
-            if bits != 0 {
-                if let Some(mut tiles) = pyramid.layer_dirty_mut(k) {
-                    tiles.mark(bits);
-                }
-                deferred += bits.count_ones();
-                // Age 1: the tile's first poll since it changed (or was last sent). A tile
-                // that keeps waiting is counted once, not at every poll.
-                newly_deferred += tiles_of(bits)
-                    .filter(|&tile| ages.get(tile) == Some(&1))
-                    .count() as u32;
-            }
-        }
+        let (deferred, newly_deferred) = put_back(pyramid, &dirty, &self.ages, count);
         report.deferred_tiles = deferred;
         self.counters.patches_deferred = self
             .counters

@@ -28,6 +28,32 @@ pub(crate) enum Out {
     Observed(Observed),
 }
 
+impl Out {
+    /// The Stats, if the frame is one.
+    pub(crate) fn stats(&self) -> Option<Stats> {
+        match self {
+            Out::Stats(s) => Some(*s),
+            _ => None,
+        }
+    }
+
+    /// The Reply, if the frame is one.
+    pub(crate) fn reply(&self) -> Option<Reply> {
+        match self {
+            Out::Reply(r) => Some(*r),
+            _ => None,
+        }
+    }
+
+    /// The Observed report, if the frame is one.
+    pub(crate) fn observed(&self) -> Option<Observed> {
+        match self {
+            Out::Observed(o) => Some(*o),
+            _ => None,
+        }
+    }
+}
+
 fn drain<const Q: usize>(link: &mut Link<Q>) -> Vec<(u16, Out)> {
     decode_taken(|buf| link.pop_bytes(buf))
 }
@@ -86,6 +112,14 @@ fn configured() -> (DefaultPyramid, Link) {
     let design = DefaultDesign::new(SensorModel::default(), Schedule::default(), 64).unwrap();
     pyramid.configure(&design, &Config::default()).unwrap();
     link.adopt(&design);
+    (pyramid, link)
+}
+
+/// A [`configured`] pyramid and link, its first poll's output (the Hello) taken.
+fn greeted() -> (DefaultPyramid, Link) {
+    let (mut pyramid, mut link) = configured();
+    link.poll(0, &mut pyramid, &SensorCounters::default());
+    drain(&mut link);
     (pyramid, link)
 }
 
@@ -163,9 +197,7 @@ fn first_poll_says_hello_then_patches_follow_changes() {
 
 #[test]
 fn window_moves_go_out_before_patches_at_the_new_origin() {
-    let (mut pyramid, mut link) = configured();
-    link.poll(0, &mut pyramid, &SensorCounters::default());
-    drain(&mut link);
+    let (mut pyramid, mut link) = greeted();
     pyramid.recentre(Meters::from_num(0.25), Meters::ZERO);
     pyramid.apply(&obstacle(0, 5, 0));
     link.poll(10, &mut pyramid, &SensorCounters::default());
@@ -182,9 +214,7 @@ fn window_moves_go_out_before_patches_at_the_new_origin() {
 
 #[test]
 fn moves_that_collapse_between_polls_force_a_full_resend() {
-    let (mut pyramid, mut link) = configured();
-    link.poll(0, &mut pyramid, &SensorCounters::default());
-    drain(&mut link);
+    let (mut pyramid, mut link) = greeted();
     // Out and back between two polls: no net move, but a column was reset.
     pyramid.recentre(Meters::from_num(0.15), Meters::ZERO);
     pyramid.recentre(Meters::from_num(0.05), Meters::ZERO);
@@ -372,6 +402,7 @@ fn the_default_link_fits_its_budget() {
 
 /// The tile scheduler as it was before it visited only the waiting tiles (every age of every
 /// layer at every poll): the reference the new one must equal, order and counters included.
+/// Taking the dirty tiles and putting back those left waiting are the scheduler's own.
 mod reference {
     use super::super::*;
     const N: usize = crate::DEFAULT_LAYERS;
@@ -398,17 +429,9 @@ mod reference {
         pyramid: &mut Pyramid<W, L>,
         report: &mut PollReport,
     ) {
-        let count = layers_of(pyramid).min(N);
-        let total = count * TILES;
-        if total == 0 {
+        let Some((count, total, mut dirty)) = poll::take_dirty::<N, W, L>(pyramid) else {
             return;
-        }
-        let mut dirty = [0_u64; N];
-        for (k, bits) in dirty.iter_mut().enumerate().take(count) {
-            if let Some(mut tiles) = pyramid.layer_dirty_mut(k) {
-                *bits = tiles.take();
-            }
-        }
+        };
         // Each waiting tile ages by one poll; the oldest go first, round-robin within an age.
         for (bits, ages) in dirty.iter().zip(link.ages.iter_mut()).take(count) {
             for (tile, age) in ages.iter_mut().enumerate() {
@@ -451,23 +474,7 @@ mod reference {
             }
             level = top - 1;
         }
-        let mut deferred = 0_u32;
-        let mut newly_deferred = 0_u32;
-        for ((k, &bits), ages) in dirty.iter().enumerate().zip(link.ages.iter()).take(count) {
-            if bits != 0 {
-                if let Some(mut tiles) = pyramid.layer_dirty_mut(k) {
-                    tiles.mark(bits);
-                }
-                deferred += bits.count_ones();
-                // Age 1: the tile's first poll since it changed (or was last sent). A tile
-                // that keeps waiting is counted once, not at every poll.
-                newly_deferred += ages
-                    .iter()
-                    .enumerate()
-                    .filter(|&(tile, &age)| bits & (1 << tile) != 0 && age == 1)
-                    .count() as u32;
-            }
-        }
+        let (deferred, newly_deferred) = poll::put_back(pyramid, &dirty, &link.ages, count);
         report.deferred_tiles = deferred;
         link.counters.patches_deferred = link
             .counters
@@ -723,9 +730,7 @@ fn pose_flags_are_validated() {
 /// carries the pose counters the application gives it.
 #[test]
 fn observed_goes_ahead_of_the_patches_and_stats_carry_the_pose_counters() {
-    let (mut pyramid, mut link) = configured();
-    link.poll(0, &mut pyramid, &SensorCounters::default());
-    drain(&mut link);
+    let (mut pyramid, mut link) = greeted();
     pyramid.apply(&obstacle(0, 3, 4));
     assert!(link.observed(1, 3_990_000, 4_090_000));
     link.poll(10, &mut pyramid, &SensorCounters::default());
@@ -748,11 +753,6 @@ fn observed_goes_ahead_of_the_patches_and_stats_carry_the_pose_counters() {
             returns_extrapolated: 4,
             returns_without_pose: 5,
         },
-        ..SensorCounters::default()
-    };
-    let stats = link.stats(0, &pyramid, &sensor);
-    assert_eq!(stats.to_array()[30..36], [1, 2, 3, 4, 5, 0]);
-    let sensor = SensorCounters {
         filtered: crate::link::FilterCounters {
             returns_masked: 6,
             returns_too_near: 7,
@@ -763,8 +763,13 @@ fn observed_goes_ahead_of_the_patches_and_stats_carry_the_pose_counters() {
         returns_implausible: 11,
         ..SensorCounters::default()
     };
+    // Each counter in its own place; between the pose and the filter counters, the link's
+    // own count of TimeRequests.
     let stats = link.stats(0, &pyramid, &sensor);
-    assert_eq!(stats.to_array()[36..], [6, 7, 8, 9, 10, 11]);
+    assert_eq!(
+        stats.to_array()[30..],
+        [1, 2, 3, 4, 5, 0, 6, 7, 8, 9, 10, 11]
+    );
 }
 
 /// A queue too small to hold a Stats beside the whole control reserve (the micro:bit's 400

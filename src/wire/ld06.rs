@@ -44,6 +44,7 @@ use super::laser::{turn_fraction, LaserReturn, TurnSteps};
 use super::resync::{self, Resync, Scan};
 use super::window::{bump, bump_by, Window};
 use super::FeedResult;
+use super::{check, view};
 use crate::angle::FineAngle;
 
 /// The first byte of every packet.
@@ -181,23 +182,15 @@ pub struct Ld06Point {
     pub intensity: u8,
 }
 
-/// A zero-copy view over one 47-byte LD06 packet held in `T`.
-///
-/// Made with [`Ld06Packet::new_checked`], the buffer holds 47 bytes, starts `54 2C` and the
-/// CRC matches; bytes after the 47th are ignored. Made with [`Ld06Packet::new_unchecked`],
-/// the accessors still never panic: absent bytes read as zero (see the
-/// [panic contract](crate::wire)).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub struct Ld06Packet<T: AsRef<[u8]>> {
-    buffer: T,
-}
-
-impl<T: AsRef<[u8]>> Ld06Packet<T> {
-    /// Wraps a buffer without checking it.
-    pub const fn new_unchecked(buffer: T) -> Self {
-        Self { buffer }
-    }
+view::fixed_view! {
+    /// A zero-copy view over one 47-byte LD06 packet held in `T`.
+    ///
+    /// Made with [`Ld06Packet::new_checked`], the buffer holds 47 bytes, starts `54 2C` and the
+    /// CRC matches; bytes after the 47th are ignored. Made with [`Ld06Packet::new_unchecked`],
+    /// the accessors still never panic: absent bytes read as zero (see the
+    /// [panic contract](crate::wire)).
+    pub struct Ld06Packet: LD06_PACKET_LEN bytes, a "packet",
+        refused with Ld06Error;
 
     /// Wraps a buffer after [`check_len`](Self::check_len), the header check and the CRC
     /// check.
@@ -205,26 +198,10 @@ impl<T: AsRef<[u8]>> Ld06Packet<T> {
     /// # Errors
     /// [`Ld06Error::Truncated`], [`Ld06Error::BadHeader`], [`Ld06Error::BadVerLen`] or
     /// [`Ld06Error::BadCrc`].
-    pub fn new_checked(buffer: T) -> Result<Self, Ld06Error> {
-        let packet = Self::new_unchecked(buffer);
-        packet.check_len()?;
-        packet.check_header()?;
-        packet.check_crc()?;
-        Ok(packet)
-    }
+    fn new_checked: check_header, check_crc;
+}
 
-    /// Checks that the buffer holds a whole packet (47 bytes).
-    ///
-    /// # Errors
-    /// [`Ld06Error::Truncated`] when it is shorter.
-    pub fn check_len(&self) -> Result<(), Ld06Error> {
-        if self.buffer.as_ref().len() < LD06_PACKET_LEN {
-            Err(Ld06Error::Truncated)
-        } else {
-            Ok(())
-        }
-    }
-
+impl<T: AsRef<[u8]>> Ld06Packet<T> {
     /// Checks the two header bytes `54 2C`.
     ///
     /// # Errors
@@ -246,23 +223,10 @@ impl<T: AsRef<[u8]>> Ld06Packet<T> {
     pub fn check_crc(&self) -> Result<(), Ld06Error> {
         self.check_len()?;
         let (stored, computed) = (self.crc(), self.computed_crc());
-        if stored == computed {
-            Ok(())
-        } else {
-            Err(Ld06Error::BadCrc { stored, computed })
-        }
-    }
-
-    /// Unwraps the buffer.
-    #[must_use]
-    pub fn into_inner(self) -> T {
-        self.buffer
-    }
-
-    /// The packet's 47 bytes (the whole buffer when it is shorter).
-    pub fn as_bytes(&self) -> &[u8] {
-        let data = self.buffer.as_ref();
-        data.get(..LD06_PACKET_LEN).unwrap_or(data)
+        check::stored_matches(stored, computed, |stored, computed| Ld06Error::BadCrc {
+            stored,
+            computed,
+        })
     }
 
     /// Byte 0 (0x54 in a valid packet); 0 if absent.
@@ -393,10 +357,6 @@ impl<T: AsRef<[u8]>> Ld06Packet<T> {
     /// [`wrap_index`](Self::wrap_index) is `Some`.
     pub fn starts_revolution(&self) -> bool {
         self.wrap_index().is_some()
-    }
-
-    fn byte(&self, at: usize) -> u8 {
-        self.buffer.as_ref().get(at).copied().unwrap_or(0)
     }
 
     fn u16_at(&self, at: usize) -> u16 {
@@ -547,24 +507,7 @@ pub struct Ld06Accumulator {
     counters: Ld06Counters,
 }
 
-impl Default for Ld06Accumulator {
-    fn default() -> Self {
-        Self::new()
-    }
-}
-
-#[cfg(feature = "defmt")]
-impl defmt::Format for Ld06Accumulator {
-    fn format(&self, f: defmt::Formatter<'_>) {
-        defmt::write!(
-            f,
-            "Ld06Accumulator {{ buffered: {=usize}, position: {=u64}, counters: {} }}",
-            self.buffered(),
-            self.position(),
-            self.counters
-        );
-    }
-}
+resync::accumulator_impls!(Ld06Accumulator);
 
 impl Ld06Accumulator {
     /// An empty accumulator at stream position 0 with zeroed counters.
@@ -902,15 +845,7 @@ mod tests {
 
     fn run(stream: &[u8], sizes: &[usize]) -> (Vec<Ev>, Ld06Counters) {
         let mut acc = Ld06Accumulator::new();
-        let mut out = Vec::new();
-        resync::feed_in_chunks(stream, sizes, |window| {
-            let r = acc.feed(window);
-            let left = r.remaining();
-            record(r, &mut out).then_some(left)
-        });
-        while record(acc.flush(), &mut out) {}
-        assert_eq!(acc.buffered(), 0);
-        assert_eq!(acc.position(), stream.len() as u64);
+        let out = resync::run_in_chunks!(acc, stream, sizes, record);
         let c = acc.counters();
         assert_eq!(
             u64::from(c.packets) * 47

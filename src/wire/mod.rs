@@ -33,6 +33,8 @@
 //! Clippy denies `unwrap`, `expect`, `panic!`, `unreachable!` and unchecked indexing outside
 //! tests, and every arithmetic on a value read from the wire is checked or saturating.
 
+mod check;
+mod descriptor;
 mod feed;
 pub mod laser;
 pub mod ld06;
@@ -42,6 +44,7 @@ mod resync;
 pub mod rplidar;
 pub mod shared_line;
 pub mod sick;
+mod view;
 mod window;
 pub mod ydlidar;
 

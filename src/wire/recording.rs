@@ -687,17 +687,7 @@ mod tests {
         assert_eq!(r.version(), 2);
         assert_eq!(r.next(), Some(Ok(sensor)));
         // The same bytes in a version-1 file: an unknown event, skipped.
-        let mut v1 = buf[..n].to_vec();
-        v1[8] = 1;
-        let mut r = Reader::new(&v1).unwrap();
-        assert!(matches!(
-            r.next(),
-            Some(Ok(Event {
-                payload: Payload::Unknown { kind: 0x06, .. },
-                ..
-            }))
-        ));
-        assert_eq!(r.unknown_events(), 1);
+        assert_eq!(first_unknown(&buf[..n], 1, 0x06), 1);
         // A sensor code past 3, reserved bytes set, a wrong length: refused.
         for (at, byte) in [(HEADER_LEN + 11, 4), (HEADER_LEN + 13, 1)] {
             let mut bad = buf[..n].to_vec();
@@ -717,6 +707,22 @@ mod tests {
         let mut old = DOC_EXAMPLE.to_vec();
         old[8] = 1;
         assert_eq!(Reader::new(&old).unwrap().count(), 2);
+    }
+
+    /// Reads `file` as a file of version `version`, whose first event must be an unknown one
+    /// of kind `kind`; the unknown events counted once it is skipped.
+    fn first_unknown(file: &[u8], version: u8, kind: u8) -> u32 {
+        let mut older = file.to_vec();
+        older[8] = version;
+        let mut r = Reader::new(&older).unwrap();
+        assert!(matches!(
+            r.next(),
+            Some(Ok(Event {
+                payload: Payload::Unknown { kind: k, .. },
+                ..
+            })) if k == kind
+        ));
+        r.unknown_events()
     }
 
     /// The rig event of version 3 (`docs/recording.md`, "Rig payload"): its bytes as the
@@ -756,17 +762,8 @@ mod tests {
         let got: Vec<_> = Reader::new(&file).unwrap().map(Result::unwrap).collect();
         assert_eq!(got, [ev]);
         // A version-2 reader's view: an unknown kind, skipped.
-        file[8] = 2;
-        let mut r = Reader::new(&file).unwrap();
-        assert!(matches!(
-            r.next(),
-            Some(Ok(Event {
-                payload: Payload::Unknown { kind: 7, .. },
-                ..
-            }))
-        ));
+        assert_eq!(first_unknown(&file, 2, 7), 1);
         // A bad mount byte, a reserved byte set.
-        file[8] = 3;
         for (at, v) in [(0, 3_u8), (2, 1)] {
             let mut bad = file.clone();
             bad[16 + EVENT_HEADER_LEN + at] = v;

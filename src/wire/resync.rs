@@ -44,6 +44,57 @@ macro_rules! stream_accessors {
 }
 pub(crate) use stream_accessors;
 
+/// `feed` and `flush` for an accumulator handing out `$item<'_>`s and refusing candidates
+/// with `$error`, written once: they are [`feed`] and [`flush`] on it. Expands inside the
+/// accumulator's `impl` block, where [`FeedResult`] is in scope; `$flush_doc` says what the
+/// end of the stream does to what it holds.
+macro_rules! feed_and_flush {
+    ($item:ident, $error:ty, $flush_doc:literal) => {
+        /// Feeds a chunk of the stream and returns the first item or rejection it completes,
+        /// with the rest of the chunk. Call it again with `remaining` until it returns
+        /// [`FeedResult::Consumed`]; an empty chunk is fine.
+        ///
+        /// An item handed out borrows the accumulator until the next call.
+        pub fn feed<'s, 'c>(&'s mut self, chunk: &'c [u8]) -> FeedResult<'c, $item<'s>, $error> {
+            $crate::wire::resync::feed(self, chunk)
+        }
+
+        #[doc = $flush_doc]
+        pub fn flush(&mut self) -> FeedResult<'static, $item<'_>, $error> {
+            $crate::wire::resync::flush(self)
+        }
+    };
+}
+pub(crate) use feed_and_flush;
+
+/// `Default` (what `new` makes) and, with the `defmt` feature, `defmt::Format` (the bytes
+/// buffered, the stream position and the counters, on one line) for the accumulator `$name`,
+/// one without a capacity parameter, written once.
+macro_rules! accumulator_impls {
+    ($name:ident) => {
+        impl Default for $name {
+            fn default() -> Self {
+                Self::new()
+            }
+        }
+
+        #[cfg(feature = "defmt")]
+        impl defmt::Format for $name {
+            fn format(&self, f: defmt::Formatter<'_>) {
+                defmt::write!(
+                    f,
+                    "{=str} {{ buffered: {=usize}, position: {=u64}, counters: {} }}",
+                    stringify!($name),
+                    self.buffered(),
+                    self.position(),
+                    self.counters
+                );
+            }
+        }
+    };
+}
+pub(crate) use accumulator_impls;
+
 /// What the front of an accumulator's window resolves to.
 #[derive(Debug, Clone, Copy)]
 pub(crate) enum Scan<E> {
@@ -219,3 +270,31 @@ pub(crate) fn feed_in_chunks<'c>(
         }
     }
 }
+
+/// Runs `stream` through the accumulator `$acc` in chunks of the sizes `$sizes`
+/// ([`feed_in_chunks`]), one `feed` call at a time on what is left of each chunk, then
+/// `flush` calls until one hands out nothing; `$record(result, &mut events)` records each
+/// call's result and says whether it handed out something. Checks that nothing stays
+/// buffered and that the position is the stream's length; evaluates to the events.
+///
+/// A macro: the accumulators share `feed`, `flush`, `buffered` and `position` by name, not
+/// through a trait.
+#[cfg(test)]
+macro_rules! run_in_chunks {
+    ($acc:expr, $stream:expr, $sizes:expr, $record:expr) => {{
+        let acc = &mut $acc;
+        let stream: &[u8] = $stream;
+        let mut events = std::vec::Vec::new();
+        $crate::wire::resync::feed_in_chunks(stream, $sizes, |window| {
+            let r = acc.feed(window);
+            let left = r.remaining();
+            $record(r, &mut events).then_some(left)
+        });
+        while $record(acc.flush(), &mut events) {}
+        assert_eq!(acc.buffered(), 0);
+        assert_eq!(acc.position(), stream.len() as u64);
+        events
+    }};
+}
+#[cfg(test)]
+pub(crate) use run_in_chunks;

@@ -82,7 +82,7 @@ pub const YDLIDAR_MAX_PACKET_LEN: usize = YDLIDAR_PACKET_HEADER_LEN + 2 * YDLIDA
 /// Angle units per turn: the angle fields count degrees·64.
 pub const YDLIDAR_Q6_PER_TURN: u32 = 360 * 64;
 /// The start sign of every response message (descriptor): `A5 5A`.
-pub const YDLIDAR_DESCRIPTOR_SYNC: [u8; 2] = [0xA5, 0x5A];
+pub const YDLIDAR_DESCRIPTOR_SYNC: [u8; 2] = super::descriptor::SYNC;
 /// Bytes of a response descriptor.
 pub const YDLIDAR_DESCRIPTOR_LEN: usize = 7;
 

@@ -63,12 +63,12 @@ impl Fields<'_> {
     }
 }
 
-/// Copies `bytes` into `out` from `at`; the offset after them.
-fn put(out: &mut [u8], at: usize, bytes: &[u8]) -> usize {
-    for (o, b) in out.iter_mut().skip(at).zip(bytes) {
+/// Copies `bytes` into `out` from `*at` and moves `*at` past them.
+fn put(out: &mut [u8], at: &mut usize, bytes: &[u8]) {
+    for (o, b) in out.iter_mut().skip(*at).zip(bytes) {
         *o = *b;
     }
-    at + bytes.len()
+    *at += bytes.len();
 }
 
 impl TimeRequest {
@@ -87,48 +87,31 @@ impl TimeRequest {
     }
 }
 
-impl TimeReply {
-    /// The reply of its body's bytes.
-    #[must_use]
-    pub fn from_le_bytes(body: &[u8; TIME_REPLY_LEN]) -> Self {
-        let mut f = Fields(body);
-        Self {
-            host_us: u64::from_le_bytes(f.take()),
-            device_us: u32::from_le_bytes(f.take()),
-            queued_ahead: u16::from_le_bytes(f.take()),
-        }
-    }
+/// `from_le_bytes` and `to_le_bytes` for the message `$name` whose `$len`-byte body is its
+/// fields, little-endian, in the order given, written once; `$what` names it in the docs.
+macro_rules! le_body {
+    ($name:ident, $len:ident, $what:literal, $($field:ident: $ty:ty),+) => {
+        impl $name {
+            #[doc = concat!("The ", $what, " of its body's bytes.")]
+            #[must_use]
+            pub fn from_le_bytes(body: &[u8; $len]) -> Self {
+                let mut f = Fields(body);
+                Self {
+                    $($field: <$ty>::from_le_bytes(f.take()),)+
+                }
+            }
 
-    /// The body's bytes.
-    #[must_use]
-    pub fn to_le_bytes(&self) -> [u8; TIME_REPLY_LEN] {
-        let mut out = [0_u8; TIME_REPLY_LEN];
-        let at = put(&mut out, 0, &self.host_us.to_le_bytes());
-        let at = put(&mut out, at, &self.device_us.to_le_bytes());
-        put(&mut out, at, &self.queued_ahead.to_le_bytes());
-        out
-    }
+            /// The body's bytes.
+            #[must_use]
+            pub fn to_le_bytes(&self) -> [u8; $len] {
+                let mut out = [0_u8; $len];
+                let mut at = 0;
+                $(put(&mut out, &mut at, &self.$field.to_le_bytes());)+
+                out
+            }
+        }
+    };
 }
 
-impl Observed {
-    /// The report of its body's bytes.
-    #[must_use]
-    pub fn from_le_bytes(body: &[u8; OBSERVED_LEN]) -> Self {
-        let mut f = Fields(body);
-        Self {
-            observation: u32::from_le_bytes(f.take()),
-            first_us: u32::from_le_bytes(f.take()),
-            last_us: u32::from_le_bytes(f.take()),
-        }
-    }
-
-    /// The body's bytes.
-    #[must_use]
-    pub fn to_le_bytes(&self) -> [u8; OBSERVED_LEN] {
-        let mut out = [0_u8; OBSERVED_LEN];
-        let at = put(&mut out, 0, &self.observation.to_le_bytes());
-        let at = put(&mut out, at, &self.first_us.to_le_bytes());
-        put(&mut out, at, &self.last_us.to_le_bytes());
-        out
-    }
-}
+le_body!(TimeReply, TIME_REPLY_LEN, "reply", host_us: u64, device_us: u32, queued_ahead: u16);
+le_body!(Observed, OBSERVED_LEN, "report", observation: u32, first_us: u32, last_us: u32);

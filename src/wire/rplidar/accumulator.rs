@@ -177,24 +177,7 @@ pub struct RplidarAccumulator {
     counters: RplidarCounters,
 }
 
-impl Default for RplidarAccumulator {
-    fn default() -> Self {
-        Self::new()
-    }
-}
-
-#[cfg(feature = "defmt")]
-impl defmt::Format for RplidarAccumulator {
-    fn format(&self, f: defmt::Formatter<'_>) {
-        defmt::write!(
-            f,
-            "RplidarAccumulator {{ buffered: {=usize}, position: {=u64}, counters: {} }}",
-            self.buffered(),
-            self.position(),
-            self.counters
-        );
-    }
-}
+resync::accumulator_impls!(RplidarAccumulator);
 
 impl RplidarAccumulator {
     /// An accumulator expecting a response descriptor, at stream position 0, with zeroed
@@ -250,25 +233,13 @@ impl RplidarAccumulator {
         self.mode = Mode::Descriptor;
     }
 
-    /// Feeds a chunk of the stream and returns the first unit or rejection it completes, with
-    /// the rest of the chunk. Call it again with `remaining` until it returns
-    /// [`FeedResult::Consumed`]; an empty chunk is fine.
-    ///
-    /// A unit handed out borrows the accumulator until the next call.
-    pub fn feed<'s, 'c>(
-        &'s mut self,
-        chunk: &'c [u8],
-    ) -> FeedResult<'c, RplidarItem<'s>, RplidarError> {
-        resync::feed(self, chunk)
-    }
-
-    /// Ends the stream: rejects a unit still incomplete as [`RplidarError::Truncated`],
-    /// counts bytes still being hunted through as garbage, and drops a kept capsule
-    /// ([`RplidarError::CapsuleUnpaired`]). Call it until it returns
-    /// [`FeedResult::Consumed`].
-    pub fn flush(&mut self) -> FeedResult<'static, RplidarItem<'_>, RplidarError> {
-        resync::flush(self)
-    }
+    resync::feed_and_flush!(
+        RplidarItem,
+        RplidarError,
+        "Ends the stream: rejects a unit still incomplete as [`RplidarError::Truncated`], counts \
+         bytes still being hunted through as garbage, and drops a kept capsule \
+         ([`RplidarError::CapsuleUnpaired`]). Call it until it returns [`FeedResult::Consumed`]."
+    );
 
     resync::stream_accessors!(
         RplidarCounters,
@@ -647,15 +618,7 @@ mod tests {
         stream: &[u8],
         sizes: &[usize],
     ) -> (Vec<Ev>, RplidarCounters) {
-        let mut out = Vec::new();
-        resync::feed_in_chunks(stream, sizes, |window| {
-            let r = acc.feed(window);
-            let left = r.remaining();
-            record(r, &mut out).then_some(left)
-        });
-        while record(acc.flush(), &mut out) {}
-        assert_eq!(acc.buffered(), 0);
-        assert_eq!(acc.position(), stream.len() as u64);
+        let out = resync::run_in_chunks!(acc, stream, sizes, record);
         let c = acc.counters();
         let response_bytes: u64 = out
             .iter()

@@ -7,6 +7,7 @@ use super::{
 use crate::angle::FineAngle;
 use crate::wire::laser::{signed_turn_fraction, turn_fraction_45ths};
 use crate::wire::LaserReturn;
+use crate::wire::{check, view};
 
 /// High nibble of byte 0.
 const SYNC1: u8 = 0xA;
@@ -50,31 +51,23 @@ fn xor_body(bytes: &[u8]) -> u8 {
         .fold(0, |acc, b| acc ^ b)
 }
 
-/// A zero-copy view over one 84-byte legacy express-scan capsule (Figures 4-11 to 4-13):
-///
-/// ```text
-/// byte 0: sync1 0xA (bits 7..4) | checksum bits 3..0
-/// byte 1: sync2 0x5 (bits 7..4) | checksum bits 7..4
-/// bytes 2..4: start_angle_q6 (bits 14..0, degrees·64) | S (bit 15) (u16 LE)
-/// 16 cabins of 5 bytes: distance_angle_1 (u16 LE: distance1 mm in bits 15..2, dθ1 bits 5..4
-///   in bits 1..0), distance_angle_2 (likewise), dθ1 bits 3..0 | dθ2 bits 3..0 << 4
-/// ```
-///
-/// The checksum is the XOR of bytes 2..84. Made with [`RplidarCapsule::new_checked`], the
-/// buffer holds 84 bytes, the sync nibbles and the checksum are right; made with
-/// [`RplidarCapsule::new_unchecked`], absent bytes read as 0. A capsule's points are placed
-/// with the next capsule's start angle: [`RplidarExpressScan`].
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub struct RplidarCapsule<T: AsRef<[u8]>> {
-    buffer: T,
-}
-
-impl<T: AsRef<[u8]>> RplidarCapsule<T> {
-    /// Wraps a buffer without checking it.
-    pub const fn new_unchecked(buffer: T) -> Self {
-        Self { buffer }
-    }
+view::fixed_view! {
+    /// A zero-copy view over one 84-byte legacy express-scan capsule (Figures 4-11 to 4-13):
+    ///
+    /// ```text
+    /// byte 0: sync1 0xA (bits 7..4) | checksum bits 3..0
+    /// byte 1: sync2 0x5 (bits 7..4) | checksum bits 7..4
+    /// bytes 2..4: start_angle_q6 (bits 14..0, degrees·64) | S (bit 15) (u16 LE)
+    /// 16 cabins of 5 bytes: distance_angle_1 (u16 LE: distance1 mm in bits 15..2, dθ1 bits 5..4
+    ///   in bits 1..0), distance_angle_2 (likewise), dθ1 bits 3..0 | dθ2 bits 3..0 << 4
+    /// ```
+    ///
+    /// The checksum is the XOR of bytes 2..84. Made with [`RplidarCapsule::new_checked`], the
+    /// buffer holds 84 bytes, the sync nibbles and the checksum are right; made with
+    /// [`RplidarCapsule::new_unchecked`], absent bytes read as 0. A capsule's points are placed
+    /// with the next capsule's start angle: [`RplidarExpressScan`].
+    pub struct RplidarCapsule: RPLIDAR_CAPSULE_LEN bytes, a "capsule",
+        refused with RplidarError;
 
     /// Wraps a buffer after [`check_len`](Self::check_len), the sync check and the checksum
     /// check.
@@ -82,26 +75,10 @@ impl<T: AsRef<[u8]>> RplidarCapsule<T> {
     /// # Errors
     /// [`RplidarError::Truncated`], [`RplidarError::BadSync`] or
     /// [`RplidarError::BadChecksum`].
-    pub fn new_checked(buffer: T) -> Result<Self, RplidarError> {
-        let capsule = Self::new_unchecked(buffer);
-        capsule.check_len()?;
-        capsule.check_sync()?;
-        capsule.check_checksum()?;
-        Ok(capsule)
-    }
+    fn new_checked: check_sync, check_checksum;
+}
 
-    /// Checks that the buffer holds 84 bytes.
-    ///
-    /// # Errors
-    /// [`RplidarError::Truncated`].
-    pub fn check_len(&self) -> Result<(), RplidarError> {
-        if self.buffer.as_ref().len() < RPLIDAR_CAPSULE_LEN {
-            Err(RplidarError::Truncated)
-        } else {
-            Ok(())
-        }
-    }
-
+impl<T: AsRef<[u8]>> RplidarCapsule<T> {
     /// Checks the sync nibbles 0xA and 0x5.
     ///
     /// # Errors
@@ -121,27 +98,9 @@ impl<T: AsRef<[u8]>> RplidarCapsule<T> {
     pub fn check_checksum(&self) -> Result<(), RplidarError> {
         self.check_len()?;
         let (stored, computed) = (self.checksum(), self.computed_checksum());
-        if stored == computed {
-            Ok(())
-        } else {
-            Err(RplidarError::BadChecksum { stored, computed })
-        }
-    }
-
-    /// Unwraps the buffer.
-    #[must_use]
-    pub fn into_inner(self) -> T {
-        self.buffer
-    }
-
-    /// The capsule's 84 bytes (the whole buffer when shorter).
-    pub fn as_bytes(&self) -> &[u8] {
-        let data = self.buffer.as_ref();
-        data.get(..RPLIDAR_CAPSULE_LEN).unwrap_or(data)
-    }
-
-    fn byte(&self, at: usize) -> u8 {
-        self.buffer.as_ref().get(at).copied().unwrap_or(0)
+        check::stored_matches(stored, computed, |stored, computed| {
+            RplidarError::BadChecksum { stored, computed }
+        })
     }
 
     /// The checksum the capsule carries (its two low nibbles).

@@ -5,82 +5,50 @@ use super::{
     RPLIDAR_DESCRIPTOR_SYNC, RPLIDAR_NODE_LEN, RPLIDAR_TYPE_CAPSULED, RPLIDAR_TYPE_HEALTH,
     RPLIDAR_TYPE_INFO, RPLIDAR_TYPE_MEASUREMENT, RPLIDAR_TYPE_SAMPLE_RATE,
 };
+use crate::wire::{check, descriptor, view};
 
-/// A zero-copy view over a 7-byte response descriptor: `A5 5A`, a little-endian word with
-/// the data-response length in bits 29..0 and the send mode in bits 31..30, the data type.
-///
-/// Made with [`RplidarDescriptor::new_checked`], the buffer holds 7 bytes starting `A5 5A`;
-/// made with [`RplidarDescriptor::new_unchecked`], absent bytes read as 0.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub struct RplidarDescriptor<T: AsRef<[u8]>> {
-    buffer: T,
-}
-
-impl<T: AsRef<[u8]>> RplidarDescriptor<T> {
-    /// Wraps a buffer without checking it.
-    pub const fn new_unchecked(buffer: T) -> Self {
-        Self { buffer }
-    }
+view::fixed_view! {
+    /// A zero-copy view over a 7-byte response descriptor: `A5 5A`, a little-endian word with
+    /// the data-response length in bits 29..0 and the send mode in bits 31..30, the data type.
+    ///
+    /// Made with [`RplidarDescriptor::new_checked`], the buffer holds 7 bytes starting `A5 5A`;
+    /// made with [`RplidarDescriptor::new_unchecked`], absent bytes read as 0.
+    pub struct RplidarDescriptor: RPLIDAR_DESCRIPTOR_LEN bytes, a "descriptor",
+        refused with RplidarError;
 
     /// Wraps a buffer after [`check_len`](Self::check_len) and the sync check.
     ///
     /// # Errors
     /// [`RplidarError::Truncated`] or [`RplidarError::BadSync`].
-    pub fn new_checked(buffer: T) -> Result<Self, RplidarError> {
-        let d = Self::new_unchecked(buffer);
-        d.check_len()?;
-        match d.buffer.as_ref().first_chunk::<2>() {
-            Some(&pair) if pair == RPLIDAR_DESCRIPTOR_SYNC => Ok(d),
+    fn new_checked: check_sync;
+}
+
+impl<T: AsRef<[u8]>> RplidarDescriptor<T> {
+    /// Checks the sync bytes `A5 5A`.
+    ///
+    /// # Errors
+    /// [`RplidarError::Truncated`] for fewer than 2 bytes, [`RplidarError::BadSync`].
+    pub fn check_sync(&self) -> Result<(), RplidarError> {
+        match self.buffer.as_ref().first_chunk::<2>() {
+            Some(&pair) if pair == RPLIDAR_DESCRIPTOR_SYNC => Ok(()),
             Some(&found) => Err(RplidarError::BadSync { found }),
             None => Err(RplidarError::Truncated),
         }
     }
 
-    /// Checks that the buffer holds 7 bytes.
-    ///
-    /// # Errors
-    /// [`RplidarError::Truncated`].
-    pub fn check_len(&self) -> Result<(), RplidarError> {
-        if self.buffer.as_ref().len() < RPLIDAR_DESCRIPTOR_LEN {
-            Err(RplidarError::Truncated)
-        } else {
-            Ok(())
-        }
-    }
-
-    /// Unwraps the buffer.
-    #[must_use]
-    pub fn into_inner(self) -> T {
-        self.buffer
-    }
-
-    /// The 7 descriptor bytes (the whole buffer when shorter).
-    pub fn as_bytes(&self) -> &[u8] {
-        let data = self.buffer.as_ref();
-        data.get(..RPLIDAR_DESCRIPTOR_LEN).unwrap_or(data)
-    }
-
-    fn word(&self) -> u32 {
-        match self.buffer.as_ref().get(2..6) {
-            Some(&[a, b, c, d]) => u32::from_le_bytes([a, b, c, d]),
-            _ => 0,
-        }
-    }
-
     /// The length of one data response, bytes (30 bits).
     pub fn response_len(&self) -> u32 {
-        self.word() & 0x3FFF_FFFF
+        descriptor::len_and_mode(self.buffer.as_ref()).0
     }
 
     /// The send mode: 0 single response, 1 multiple responses (2 and 3 reserved).
     pub fn send_mode(&self) -> u8 {
-        u8::try_from(self.word() >> 30).unwrap_or(0)
+        descriptor::len_and_mode(self.buffer.as_ref()).1
     }
 
     /// The data type (0x81 nodes, 0x82 capsules, 0x06 health, 0x04 info, 0x15 sample rate).
     pub fn data_type(&self) -> u8 {
-        self.buffer.as_ref().get(6).copied().unwrap_or(0)
+        self.byte(6)
     }
 }
 
@@ -137,12 +105,9 @@ impl RplidarDescriptorRepr {
     /// [`RplidarError::OutOfRange`] for a length of 2³⁰ or more or a send mode above 3,
     /// [`RplidarError::BufferTooSmall`]; nothing is written then.
     pub fn emit(&self, out: &mut [u8]) -> Result<usize, RplidarError> {
-        if self.response_len > 0x3FFF_FFFF || self.send_mode > 3 {
-            return Err(RplidarError::OutOfRange);
-        }
-        let [a, b, c, d] = (self.response_len | (u32::from(self.send_mode) << 30)).to_le_bytes();
-        let [s0, s1] = RPLIDAR_DESCRIPTOR_SYNC;
-        write_all(out, &[s0, s1, a, b, c, d, self.data_type])
+        let bytes = descriptor::encode(self.response_len, self.send_mode, self.data_type)
+            .ok_or(RplidarError::OutOfRange)?;
+        write_all(out, &bytes)
     }
 }
 
@@ -182,14 +147,7 @@ const KNOWN: [([u8; 5], Follow); 7] = [
 
 /// What follows `descriptor` when it is one the accumulator knows.
 pub(super) fn known(descriptor: &[u8; RPLIDAR_DESCRIPTOR_LEN]) -> Option<Follow> {
-    let (sync, tail) = descriptor.split_first_chunk::<2>()?;
-    if *sync != RPLIDAR_DESCRIPTOR_SYNC {
-        return None;
-    }
-    KNOWN
-        .iter()
-        .find(|(bytes, _)| bytes[..] == tail[..])
-        .map(|&(_, follow)| follow)
+    descriptor::lookup(descriptor, &KNOWN)
 }
 
 /// A single response as the accumulator hands it out: its data type (from the descriptor)
@@ -252,11 +210,8 @@ impl<T: AsRef<[u8]>> RplidarHealth<T> {
     /// # Errors
     /// [`RplidarError::Truncated`].
     pub fn new_checked(buffer: T) -> Result<Self, RplidarError> {
-        if buffer.as_ref().len() < 3 {
-            Err(RplidarError::Truncated)
-        } else {
-            Ok(Self { buffer })
-        }
+        check::at_least(buffer.as_ref(), 3, RplidarError::Truncated)?;
+        Ok(Self { buffer })
     }
 
     /// The status: 0 good, 1 warning, 2 error (the device is in its protection stop state);
@@ -311,11 +266,8 @@ impl<T: AsRef<[u8]>> RplidarInfo<T> {
     /// # Errors
     /// [`RplidarError::Truncated`].
     pub fn new_checked(buffer: T) -> Result<Self, RplidarError> {
-        if buffer.as_ref().len() < 20 {
-            Err(RplidarError::Truncated)
-        } else {
-            Ok(Self { buffer })
-        }
+        check::at_least(buffer.as_ref(), 20, RplidarError::Truncated)?;
+        Ok(Self { buffer })
     }
 
     fn byte(&self, at: usize) -> u8 {

@@ -93,7 +93,7 @@ pub use request::RplidarRequest;
 /// The first byte of every request and of every response descriptor.
 pub const RPLIDAR_SYNC: u8 = 0xA5;
 /// The first two bytes of every response descriptor.
-pub const RPLIDAR_DESCRIPTOR_SYNC: [u8; 2] = [0xA5, 0x5A];
+pub const RPLIDAR_DESCRIPTOR_SYNC: [u8; 2] = super::descriptor::SYNC;
 /// Bytes of a response descriptor.
 pub const RPLIDAR_DESCRIPTOR_LEN: usize = 7;
 /// Bytes of a standard-scan node.

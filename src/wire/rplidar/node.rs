@@ -5,6 +5,7 @@ use crate::angle::FineAngle;
 #[cfg(test)]
 use crate::wire::laser::turn_fraction;
 use crate::wire::laser::turn_fraction_45ths;
+use crate::wire::view;
 use crate::wire::LaserReturn;
 
 /// Whether five bytes pass a node's checks: S ≠ !S (byte 0 bits 0 and 1), C = 1 (byte 1
@@ -17,55 +18,32 @@ pub(super) fn node_is_valid(node: &[u8; RPLIDAR_NODE_LEN]) -> bool {
     flags_ok && check_ok && angle_q6 < RPLIDAR_Q6_PER_TURN
 }
 
-/// A zero-copy view over one 5-byte standard-scan node: a packet of one return.
-///
-/// ```text
-/// byte 0: quality (bits 7..2) | !S (bit 1) | S (bit 0, a new revolution starts here)
-/// byte 1: angle_q6 bits 6..0 (bits 7..1) | C (bit 0, always 1)
-/// byte 2: angle_q6 bits 14..7
-/// bytes 3..5: distance_q2 (u16 LE; mm·4; 0 = no return)
-/// ```
-///
-/// Made with [`RplidarNode::new_checked`], the buffer holds 5 bytes that pass the checks
-/// (S ≠ !S, C = 1, angle below 360°); the checks are weak, see the
-/// [module documentation](super). Made with [`RplidarNode::new_unchecked`], absent bytes read
-/// as 0.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub struct RplidarNode<T: AsRef<[u8]>> {
-    buffer: T,
-}
-
-impl<T: AsRef<[u8]>> RplidarNode<T> {
-    /// Wraps a buffer without checking it.
-    pub const fn new_unchecked(buffer: T) -> Self {
-        Self { buffer }
-    }
+view::fixed_view! {
+    /// A zero-copy view over one 5-byte standard-scan node: a packet of one return.
+    ///
+    /// ```text
+    /// byte 0: quality (bits 7..2) | !S (bit 1) | S (bit 0, a new revolution starts here)
+    /// byte 1: angle_q6 bits 6..0 (bits 7..1) | C (bit 0, always 1)
+    /// byte 2: angle_q6 bits 14..7
+    /// bytes 3..5: distance_q2 (u16 LE; mm·4; 0 = no return)
+    /// ```
+    ///
+    /// Made with [`RplidarNode::new_checked`], the buffer holds 5 bytes that pass the checks
+    /// (S ≠ !S, C = 1, angle below 360°); the checks are weak, see the
+    /// [module documentation](super). Made with [`RplidarNode::new_unchecked`], absent bytes read
+    /// as 0.
+    pub struct RplidarNode: RPLIDAR_NODE_LEN bytes, a "node",
+        refused with RplidarError;
 
     /// Wraps a buffer after [`check_len`](Self::check_len) and
     /// [`check_bits`](Self::check_bits).
     ///
     /// # Errors
     /// [`RplidarError::Truncated`] or [`RplidarError::BadNode`].
-    pub fn new_checked(buffer: T) -> Result<Self, RplidarError> {
-        let node = Self::new_unchecked(buffer);
-        node.check_len()?;
-        node.check_bits()?;
-        Ok(node)
-    }
+    fn new_checked: check_bits;
+}
 
-    /// Checks that the buffer holds 5 bytes.
-    ///
-    /// # Errors
-    /// [`RplidarError::Truncated`].
-    pub fn check_len(&self) -> Result<(), RplidarError> {
-        if self.buffer.as_ref().len() < RPLIDAR_NODE_LEN {
-            Err(RplidarError::Truncated)
-        } else {
-            Ok(())
-        }
-    }
-
+impl<T: AsRef<[u8]>> RplidarNode<T> {
     /// Checks S ≠ !S, C = 1 and the angle range.
     ///
     /// # Errors
@@ -76,22 +54,6 @@ impl<T: AsRef<[u8]>> RplidarNode<T> {
             Some(node) if node_is_valid(node) => Ok(()),
             Some(_) => Err(RplidarError::BadNode),
         }
-    }
-
-    /// Unwraps the buffer.
-    #[must_use]
-    pub fn into_inner(self) -> T {
-        self.buffer
-    }
-
-    /// The node's 5 bytes (the whole buffer when shorter).
-    pub fn as_bytes(&self) -> &[u8] {
-        let data = self.buffer.as_ref();
-        data.get(..RPLIDAR_NODE_LEN).unwrap_or(data)
-    }
-
-    fn byte(&self, at: usize) -> u8 {
-        self.buffer.as_ref().get(at).copied().unwrap_or(0)
     }
 
     /// The quality, 0..=63 (related to the reflected pulse strength).

@@ -656,13 +656,12 @@ mod tests {
     /// Feeds `stream` cut at the given chunk sizes (cycled), then flushes.
     fn run<const N: usize>(stream: &[u8], sizes: &[usize]) -> (Vec<Ev>, SickCounters) {
         let mut acc = SickAccumulator::<N>::new();
-        let mut out = Vec::new();
-        crate::wire::resync::feed_in_chunks(stream, sizes, |chunk| {
-            drive(&mut acc, chunk, &mut out);
-            None
-        });
-        finish(&mut acc, &mut out);
-        assert_eq!(acc.position(), stream.len() as u64);
+        let out = crate::wire::resync::run_in_chunks!(
+            acc,
+            stream,
+            sizes,
+            |r: SickFeed<'_, '_>, out: &mut Vec<Ev>| record(&r, out)
+        );
         (out, acc.stats())
     }
 

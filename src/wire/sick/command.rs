@@ -270,6 +270,22 @@ pub struct OperatingModeReply {
     pub status: u8,
 }
 
+/// Why `telegram` is not the reply `command` with its payload's length: a wrong length when
+/// its payload starts with `command`, another command otherwise.
+fn not_the_reply<T: AsRef<[u8]> + ?Sized>(telegram: &Telegram<&T>, command: u8) -> Error {
+    let payload = telegram.payload();
+    if payload.first() == Some(&command) {
+        Error::BadPayloadLength {
+            command,
+            len: payload.len(),
+        }
+    } else {
+        Error::UnexpectedCommand {
+            found: telegram.command(),
+        }
+    }
+}
+
 impl OperatingModeReply {
     /// Whether the mode changed (result 0x00).
     #[must_use]
@@ -286,13 +302,7 @@ impl OperatingModeReply {
         telegram.check_len()?;
         match *telegram.payload() {
             [OPERATING_MODE_REPLY, result, status] => Ok(Self { result, status }),
-            [OPERATING_MODE_REPLY, ..] => Err(Error::BadPayloadLength {
-                command: OPERATING_MODE_REPLY,
-                len: telegram.payload().len(),
-            }),
-            _ => Err(Error::UnexpectedCommand {
-                found: telegram.command(),
-            }),
+            _ => Err(not_the_reply(telegram, OPERATING_MODE_REPLY)),
         }
     }
 
@@ -360,13 +370,7 @@ impl VariantReply {
                 resolution_centideg: u16::from_le_bytes([r0, r1]),
                 status,
             }),
-            [VARIANT_REPLY, ..] => Err(Error::BadPayloadLength {
-                command: VARIANT_REPLY,
-                len: telegram.payload().len(),
-            }),
-            _ => Err(Error::UnexpectedCommand {
-                found: telegram.command(),
-            }),
+            _ => Err(not_the_reply(telegram, VARIANT_REPLY)),
         }
     }
 
@@ -432,13 +436,11 @@ mod tests {
     extern crate std;
 
     use super::*;
+    use crate::wire::sick::test_support::emitted;
     use std::vec::Vec;
 
     fn emit(request: SickRequest) -> Vec<u8> {
-        let mut buf = [0u8; 32];
-        let n = request.emit(&mut buf).unwrap();
-        assert_eq!(n, request.buffer_len());
-        buf[..n].to_vec()
+        emitted(request.buffer_len(), |buf| request.emit(buf))
     }
 
     #[test]
@@ -608,28 +610,37 @@ mod tests {
 
     #[test]
     fn beam_angles() {
-        let v = Variant::Fov180StepHalf;
-        assert_eq!(v.beam_count(), 361);
-        assert_eq!(v.beam_angle_centideg(361, 0, 0), Some(0));
-        assert_eq!(v.beam_angle_centideg(361, 0, 1), Some(50));
-        assert_eq!(v.beam_angle_centideg(361, 0, 180), Some(9_000));
-        assert_eq!(v.beam_angle_centideg(361, 0, 360), Some(18_000));
-        assert_eq!(v.beam_angle_centideg(361, 0, 361), None);
-        // A 1° partial scan of the interlaced 0.5° mode, second phase.
-        assert_eq!(v.beam_angle_centideg(181, 2, 0), Some(50));
-        assert_eq!(v.beam_angle_centideg(181, 2, 1), Some(150));
-        assert_eq!(v.beam_angle_centideg(181, 4, 1), None);
-        assert_eq!(v.beam_angle_centideg(1, 0, 0), None);
-
-        let q = Variant::Fov100StepQuarter;
-        assert_eq!(q.beam_count(), 401);
-        assert_eq!(q.beam_angle_centideg(401, 0, 0), Some(4_000));
-        assert_eq!(q.beam_angle_centideg(401, 0, 1), Some(4_025));
-        assert_eq!(q.beam_angle_centideg(401, 0, 400), Some(14_000));
-        assert_eq!(q.beam_angle_centideg(101, 3, 0), Some(4_075));
-        let one = Variant::Fov180Step1;
-        assert_eq!(one.beam_count(), 181);
-        assert_eq!(one.beam_angle_centideg(181, 0, 90), Some(9_000));
+        for (variant, beams) in [
+            (Variant::Fov180StepHalf, 361),
+            (Variant::Fov100StepQuarter, 401),
+            (Variant::Fov180Step1, 181),
+        ] {
+            assert_eq!(variant.beam_count(), beams);
+        }
+        // (variant, beams in the scan, partial-scan phase, beam index, angle in centidegrees)
+        for (variant, beams, phase, index, angle) in [
+            (Variant::Fov180StepHalf, 361, 0, 0, Some(0)),
+            (Variant::Fov180StepHalf, 361, 0, 1, Some(50)),
+            (Variant::Fov180StepHalf, 361, 0, 180, Some(9_000)),
+            (Variant::Fov180StepHalf, 361, 0, 360, Some(18_000)),
+            (Variant::Fov180StepHalf, 361, 0, 361, None),
+            // A 1° partial scan of the interlaced 0.5° mode, second phase.
+            (Variant::Fov180StepHalf, 181, 2, 0, Some(50)),
+            (Variant::Fov180StepHalf, 181, 2, 1, Some(150)),
+            (Variant::Fov180StepHalf, 181, 4, 1, None),
+            (Variant::Fov180StepHalf, 1, 0, 0, None),
+            (Variant::Fov100StepQuarter, 401, 0, 0, Some(4_000)),
+            (Variant::Fov100StepQuarter, 401, 0, 1, Some(4_025)),
+            (Variant::Fov100StepQuarter, 401, 0, 400, Some(14_000)),
+            (Variant::Fov100StepQuarter, 101, 3, 0, Some(4_075)),
+            (Variant::Fov180Step1, 181, 0, 90, Some(9_000)),
+        ] {
+            assert_eq!(
+                variant.beam_angle_centideg(beams, phase, index),
+                angle,
+                "{variant:?} {beams} {phase} {index}"
+            );
+        }
         assert!(Variant::from_fields(180, 25).is_err());
         assert_eq!(reply_command(VARIANT), VARIANT_REPLY);
         assert_eq!(reply_command(OPERATING_MODE), OPERATING_MODE_REPLY);

@@ -478,6 +478,7 @@ mod tests {
     extern crate std;
 
     use super::*;
+    use crate::wire::sick::test_support::emitted;
     use crate::wire::sick::{emit_telegram, SickReply};
     use std::vec::Vec;
 
@@ -486,10 +487,7 @@ mod tests {
     }
 
     fn emit(m: &MeasuredValues<'_>) -> Vec<u8> {
-        let mut buf = [0u8; 818];
-        let n = m.emit(&mut buf).unwrap();
-        assert_eq!(n, m.buffer_len());
-        buf[..n].to_vec()
+        emitted(m.buffer_len(), |buf| m.emit(buf))
     }
 
     #[test]

@@ -33,6 +33,8 @@ mod command;
 mod crc;
 mod measured;
 mod telegram;
+#[cfg(test)]
+mod test_support;
 mod variant;
 
 pub use accumulator::{

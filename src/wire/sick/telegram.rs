@@ -1,6 +1,7 @@
 //! The framed telegram: a zero-copy view, as smoltcp's `Packet`.
 
 use super::{crc16, read_u16_le, Error};
+use crate::wire::check;
 
 /// Start of text, the first byte of every telegram.
 pub const STX: u8 = 0x02;
@@ -103,11 +104,10 @@ impl<T: AsRef<[u8]>> Telegram<T> {
             return Err(Error::Truncated);
         };
         let computed = crc16(body);
-        if stored == computed {
-            Ok(())
-        } else {
-            Err(Error::BadCrc { stored, computed })
-        }
+        check::stored_matches(stored, computed, |stored, computed| Error::BadCrc {
+            stored,
+            computed,
+        })
     }
 
     /// Unwraps the buffer.

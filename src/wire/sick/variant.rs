@@ -113,10 +113,9 @@ impl Variant {
     /// The angle of the first beam, θ_0, in quarter degrees: 0 (180° field) or 160 (40°).
     #[must_use]
     pub const fn first_quarter_degrees(self) -> u16 {
-        match self {
-            Self::Fov180Step1 | Self::Fov180StepHalf => 0,
-            Self::Fov100Step1 | Self::Fov100StepHalf | Self::Fov100StepQuarter => 160,
-        }
+        // The field is centred on 90°: it starts (180° − the scan angle)/2 in, 2 quarter
+        // degrees a degree of the difference.
+        (180 - self.scan_angle_deg()) * 2
     }
 
     /// The step between beams, Δθ, in quarter degrees: 4 (1°), 2 (0.5°) or 1 (0.25°).

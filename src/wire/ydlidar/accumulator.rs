@@ -162,25 +162,14 @@ impl<const N: usize> YdlidarAccumulator<N> {
         }
     }
 
-    /// Feeds a chunk of the stream and returns the first item or rejection it completes, with
-    /// the rest of the chunk. Call it again with `remaining` until it returns
-    /// [`FeedResult::Consumed`]; an empty chunk is fine.
-    ///
-    /// An item handed out borrows the accumulator's buffer until the next call.
-    pub fn feed<'s, 'c>(
-        &'s mut self,
-        chunk: &'c [u8],
-    ) -> FeedResult<'c, YdlidarItem<'s>, YdlidarError> {
-        resync::feed(self, chunk)
-    }
-
-    /// Ends the stream: rejects a candidate still incomplete (a sync pair and less than the
-    /// rest) as [`YdlidarError::Truncated`], counts a lone trailing sync byte as garbage, and
-    /// hands out what the bytes after a rejected candidate still hold. Call it until it
-    /// returns [`FeedResult::Consumed`].
-    pub fn flush(&mut self) -> FeedResult<'static, YdlidarItem<'_>, YdlidarError> {
-        resync::flush(self)
-    }
+    resync::feed_and_flush!(
+        YdlidarItem,
+        YdlidarError,
+        "Ends the stream: rejects a candidate still incomplete (a sync pair and less than the \
+         rest) as [`YdlidarError::Truncated`], counts a lone trailing sync byte as garbage, and \
+         hands out what the bytes after a rejected candidate still hold. Call it until it returns \
+         [`FeedResult::Consumed`]."
+    );
 
     resync::stream_accessors!(YdlidarCounters, "Bytes buffered and not yet resolved.");
 
@@ -381,15 +370,7 @@ mod tests {
 
     fn run<const N: usize>(stream: &[u8], sizes: &[usize]) -> (Vec<Ev>, YdlidarCounters) {
         let mut acc = YdlidarAccumulator::<N>::new();
-        let mut out = Vec::new();
-        resync::feed_in_chunks(stream, sizes, |window| {
-            let r = acc.feed(window);
-            let left = r.remaining();
-            record(r, &mut out).then_some(left)
-        });
-        while record(acc.flush(), &mut out) {}
-        assert_eq!(acc.buffered(), 0);
-        assert_eq!(acc.position(), stream.len() as u64);
+        let out = resync::run_in_chunks!(acc, stream, sizes, record);
         let c = acc.counters();
         let items: u64 = out
             .iter()

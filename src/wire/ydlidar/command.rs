@@ -1,6 +1,7 @@
 //! The system commands a host sends, and the response descriptor the device answers with.
 
 use super::{YdlidarError, YDLIDAR_DESCRIPTOR_LEN, YDLIDAR_DESCRIPTOR_SYNC};
+use crate::wire::descriptor;
 use crate::wire::laser::{LidarCommand, LIDAR_COMMAND_MAX_LEN};
 
 /// The first byte of every command.
@@ -75,14 +76,7 @@ const KNOWN: [([u8; 5], usize); 3] = [
 /// The response bytes following a known descriptor: `Some(0)` for the scan descriptor,
 /// `Some(20)` for device information, `Some(3)` for health, `None` for anything else.
 pub(super) fn known_content_len(descriptor: &[u8; YDLIDAR_DESCRIPTOR_LEN]) -> Option<usize> {
-    let (sync, tail) = descriptor.split_first_chunk::<2>()?;
-    if *sync != YDLIDAR_DESCRIPTOR_SYNC {
-        return None;
-    }
-    KNOWN
-        .iter()
-        .find(|(known, _)| known[..] == tail[..])
-        .map(|&(_, len)| len)
+    descriptor::lookup(descriptor, &KNOWN)
 }
 
 /// A zero-copy view over a response descriptor (`A5 5A`, 30-bit response length, 2-bit
@@ -125,21 +119,14 @@ impl<T: AsRef<[u8]>> YdlidarDescriptor<T> {
         self.buffer
     }
 
-    fn word(&self) -> u32 {
-        match self.buffer.as_ref().get(2..6) {
-            Some(&[a, b, c, d]) => u32::from_le_bytes([a, b, c, d]),
-            _ => 0,
-        }
-    }
-
     /// The response length, bytes (30 bits); meaningless for a continuous response.
     pub fn response_len(&self) -> u32 {
-        self.word() & 0x3FFF_FFFF
+        descriptor::len_and_mode(self.buffer.as_ref()).0
     }
 
     /// The response mode: 0 single, 1 continuous, 2 and 3 undefined.
     pub fn mode(&self) -> u8 {
-        u8::try_from(self.word() >> 30).unwrap_or(0)
+        descriptor::len_and_mode(self.buffer.as_ref()).1
     }
 
     /// The type code (0x81 scan data, 0x04 device information, 0x06 health).
@@ -211,9 +198,8 @@ impl YdlidarDescriptorRepr {
     /// [`YdlidarError::OutOfRange`] for a length of 2³⁰ or more or a mode above 3,
     /// [`YdlidarError::BufferTooSmall`]; nothing is written then.
     pub fn emit(&self, out: &mut [u8]) -> Result<usize, YdlidarError> {
-        if self.response_len > 0x3FFF_FFFF || self.mode > 3 {
-            return Err(YdlidarError::OutOfRange);
-        }
+        let bytes = descriptor::encode(self.response_len, self.mode, self.data_type)
+            .ok_or(YdlidarError::OutOfRange)?;
         let available = out.len();
         let Some(dst) = out.first_chunk_mut::<YDLIDAR_DESCRIPTOR_LEN>() else {
             return Err(YdlidarError::BufferTooSmall {
@@ -221,10 +207,7 @@ impl YdlidarDescriptorRepr {
                 available,
             });
         };
-        let word = self.response_len | (u32::from(self.mode) << 30);
-        let [a, b, c, d] = word.to_le_bytes();
-        let [s0, s1] = YDLIDAR_DESCRIPTOR_SYNC;
-        *dst = [s0, s1, a, b, c, d, self.data_type];
+        *dst = bytes;
         Ok(YDLIDAR_DESCRIPTOR_LEN)
     }
 }

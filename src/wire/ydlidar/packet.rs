@@ -6,6 +6,7 @@ use super::{
     YDLIDAR_Q6_PER_TURN,
 };
 use crate::angle::FineAngle;
+use crate::wire::check;
 use crate::wire::laser::{turn_fraction, TurnSteps};
 use crate::wire::LaserReturn;
 
@@ -124,11 +125,9 @@ impl<T: AsRef<[u8]>> YdlidarPacket<T> {
             return Err(YdlidarError::Truncated);
         }
         let (stored, computed) = (self.checksum(), self.computed_checksum());
-        if stored == computed {
-            Ok(())
-        } else {
-            Err(YdlidarError::BadChecksum { stored, computed })
-        }
+        check::stored_matches(stored, computed, |stored, computed| {
+            YdlidarError::BadChecksum { stored, computed }
+        })
     }
 
     /// Unwraps the buffer.
