@@ -18,6 +18,7 @@ pub mod listen;
 pub mod play;
 pub mod pose_input;
 pub mod publish;
+pub mod pyramid_args;
 pub mod record;
 pub mod record3dtk;
 pub mod replay;

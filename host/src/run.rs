@@ -24,13 +24,12 @@
 //! with the mirror's own decay of them.
 
 use crate::decay::{DecayArgs, DecaySummary};
-use crate::design::DesignArgs;
 use crate::device::{Device, InProcess};
 use crate::emulator::{qemu_available, Emulator, Machine, INSTALL_HINT};
 use crate::export::{write_maps, MapSnapshot};
 use crate::play::{mirror_snapshot, play, steps, RunCounts, Step, Steps};
 use crate::publish::{OutputArgs, Outputs, OutputsReport, Publishing};
-use crate::replay::ClampArg;
+use crate::pyramid_args::PyramidArgs;
 use crate::rigfile::{
     merged_rule, mount_rig, read_rig_file, recording_setup, SensorName, SensorSpec,
 };
@@ -45,8 +44,8 @@ use terrain_pyramid::link::LinkConfig;
 use terrain_pyramid::pipeline::FrontendConfig;
 use terrain_pyramid::wire::link::Message;
 use terrain_pyramid::{
-    Clamp, Config, DefaultDesign, LogOddsFixed, Meters, Schedule, SensorModel,
-    DEFAULT_CELLS_PER_SIDE, DEFAULT_CLASSIFIER_SLOTS, DEFAULT_LAYERS,
+    Config, DefaultDesign, LogOddsFixed, Schedule, SensorModel, DEFAULT_CELLS_PER_SIDE,
+    DEFAULT_CLASSIFIER_SLOTS, DEFAULT_LAYERS,
 };
 
 /// Where the pipeline runs.
@@ -114,21 +113,10 @@ pub struct Args {
     /// Print the summary as one JSON object on stdout.
     #[arg(long)]
     pub json: bool,
-    /// The pyramid's design, as for `pyramid design` (the window is the firmware's: 64).
+    /// The pyramid's design (the window is the board's: `--cells` must match), the clamping
+    /// and the classifier (its rule is sent to the device in the Setup).
     #[command(flatten)]
-    pub design: DesignArgs,
-    /// Clamping of the stored log-odds.
-    #[arg(long, value_enum, default_value_t = ClampArg::Octomap)]
-    pub clamp: ClampArg,
-    /// Returns higher than this above the robot's ground plane are overhang, metres.
-    #[arg(long, value_name = "M")]
-    pub ceiling_m: Option<f64>,
-    /// Returns this far below the robot's ground plane mark a drop-off, metres.
-    #[arg(long, value_name = "M")]
-    pub drop_m: Option<f64>,
-    /// The navigability rule and its parameters (sent to the device in the Setup).
-    #[command(flatten)]
-    pub rule: crate::rule::RuleArgs,
+    pub pyramid: PyramidArgs,
     /// The live outputs, as `pyramid listen`'s: the maps as the device sends them while the
     /// recording plays.
     #[command(flatten)]
@@ -288,9 +276,9 @@ pub fn write_outputs(
 /// An invalid design (exit status 2).
 pub fn run_config(args: &Args) -> Result<(DefaultDesign, Config, ClassifierConfig), (u8, String)> {
     let design: DefaultDesign = DefaultDesign::new(
-        crate::design::sensor_model(&args.design),
-        crate::design::schedule(&args.design),
-        args.design.cells,
+        crate::design::sensor_model(&args.pyramid.design),
+        crate::design::schedule(&args.pyramid.design),
+        args.pyramid.design.cells,
     )
     .map_err(|e| (2, format!("error: {e}")))?;
     let cells = args.board.cells_per_side();
@@ -304,10 +292,7 @@ pub fn run_config(args: &Args) -> Result<(DefaultDesign, Config, ClassifierConfi
         ));
     }
     let config = Config {
-        clamp: match args.clamp {
-            ClampArg::Off => Clamp::Off,
-            ClampArg::Octomap => Clamp::OCTOMAP,
-        },
+        clamp: args.pyramid.clamp(),
         decay: args
             .decay
             .decay(design.layers().len(), design.cells_per_side())
@@ -315,16 +300,12 @@ pub fn run_config(args: &Args) -> Result<(DefaultDesign, Config, ClassifierConfi
         ..Config::default()
     };
     let classifier = match &args.rig {
-        None => args.rule.apply(ClassifierConfig {
-            ceiling: args.ceiling_m.map(Meters::saturating_from_num),
-            drop_threshold: args.drop_m.map(Meters::saturating_from_num),
-            ..ClassifierConfig::default()
-        }),
+        None => args.pyramid.classifier(),
         Some(path) => read_rig_file(path).and_then(|rig| {
             let mut spec = rig.classifier;
-            spec.rule = merged_rule(&spec.rule, &args.rule);
-            spec.ceiling_m = args.ceiling_m.or(spec.ceiling_m);
-            spec.drop_m = args.drop_m.or(spec.drop_m);
+            spec.rule = merged_rule(&spec.rule, &args.pyramid.rule);
+            spec.ceiling_m = args.pyramid.ceiling_m.or(spec.ceiling_m);
+            spec.drop_m = args.pyramid.drop_m.or(spec.drop_m);
             spec.apply(ClassifierConfig::default())
         }),
     }
