@@ -26,4 +26,5 @@ pub mod rig;
 pub mod rigfile;
 pub mod rule;
 pub mod run;
+pub mod serial;
 pub mod uos;
