@@ -102,6 +102,28 @@ pub struct Sample {
     pub stats: Vec<(String, u32)>,
 }
 
+impl Sample {
+    /// The sample at simulated time `sim_s` (seconds): `lines_in` telegrams played in the
+    /// last `interval_s` wall seconds, the wall time since `started`, the process's resident
+    /// set (KiB) when measured, and the device's counters `stats`.
+    #[allow(clippy::cast_precision_loss)]
+    fn new(
+        sim_s: f64,
+        started: Instant,
+        (lines_in, interval_s): (u64, f64),
+        rss_kib: Option<u64>,
+        stats: &Stats,
+    ) -> Self {
+        Self {
+            sim_s,
+            wall_s: started.elapsed().as_secs_f64(),
+            telegrams_per_s: lines_in as f64 / interval_s.max(1e-9),
+            rss_kib,
+            stats: named(stats),
+        }
+    }
+}
+
 /// A counter's growth and when it would saturate.
 #[derive(Serialize, Debug, Clone)]
 pub struct Projection {
@@ -476,13 +498,7 @@ fn host_soak(minutes: f64, failures: &mut Vec<String>) -> Result<HostReport, Str
                 failures.push(format!("host: the mirror lost frames: {m:?}"));
             }
             let rss = rss_kib();
-            let sample = Sample {
-                sim_s,
-                wall_s: started.elapsed().as_secs_f64(),
-                telegrams_per_s: lines_in as f64 / wall.max(1e-9),
-                rss_kib: rss,
-                stats: named(&stats),
-            };
+            let sample = Sample::new(sim_s, started, (lines_in, wall), rss, &stats);
             if !report.samples.is_empty() || rss.is_some() {
                 eprintln!(
                     "  {:6.0} s simulated, {:6.1} s wall: {:7.0} telegrams/s, RSS {} KiB, points {}, patches {}, deferred {}",
