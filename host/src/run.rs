@@ -39,10 +39,8 @@ use std::process::ExitCode;
 use std::time::Instant;
 use terrain_pyramid::classify::ClassifierConfig;
 use terrain_pyramid::geometry::ScanPlane;
-use terrain_pyramid::link::convert::configure_of_design;
 use terrain_pyramid::link::LinkConfig;
 use terrain_pyramid::pipeline::FrontendConfig;
-use terrain_pyramid::wire::link::Message;
 use terrain_pyramid::{
     Config, DefaultDesign, LogOddsFixed, Schedule, SensorModel, DEFAULT_CELLS_PER_SIDE,
     DEFAULT_CLASSIFIER_SLOTS, DEFAULT_LAYERS,
@@ -362,11 +360,7 @@ pub fn drive(
     config: &Config,
     classifier: &ClassifierConfig,
 ) -> Result<(RunCounts, MapSnapshot), String> {
-    device.wait_for("Hello", |link, _| link.mirror().firmware().is_some())?;
-    device.command(
-        "Configure",
-        &Message::Configure(configure_of_design(design, config)),
-    )?;
+    device.configure_after_hello(design, config)?;
     let (mut counts, sensor_xy) = play(device, steps, classifier)?;
     // Every change on the wire before the snapshot, so that it compares only what was sent:
     // a tile the link's budget still held back would otherwise count as differing. (With

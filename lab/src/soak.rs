@@ -27,9 +27,7 @@ use std::process::ExitCode;
 use std::time::Instant;
 use terrain_pyramid::classify::ClassifierConfig;
 use terrain_pyramid::geometry::ScanPlane;
-use terrain_pyramid::link::convert::{
-    configure_of_design, frontend_config_of_event, setup_message,
-};
+use terrain_pyramid::link::convert::{frontend_config_of_event, setup_message};
 use terrain_pyramid::link::{LinkConfig, DEFAULT_QUEUE_BYTES};
 use terrain_pyramid::pipeline::FrontendConfig;
 use terrain_pyramid::wire::link::{Message, PanAngle, PoseReport, Stats, STATS_COUNTERS};
@@ -284,11 +282,7 @@ fn in_process(
         config,
         FrontendConfig::lms291_boot(ScanPlane::TiltedHorizontal),
     )?;
-    device.wait_for("Hello", |link, _| link.mirror().firmware().is_some())?;
-    device.command(
-        "Configure",
-        &Message::Configure(configure_of_design(design, config)),
-    )?;
+    device.configure_after_hello(design, config)?;
     device.command("Setup", &Message::Setup(setup_message(setup, &classifier)))?;
     Ok(device)
 }

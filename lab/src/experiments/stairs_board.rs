@@ -18,9 +18,8 @@ use std::path::Path;
 use std::time::Instant;
 use terrain_pyramid::classify::ClassifierConfig;
 use terrain_pyramid::grid::cell_of;
-use terrain_pyramid::link::convert::{configure_of_design, frontend_config_of_event};
+use terrain_pyramid::link::convert::frontend_config_of_event;
 use terrain_pyramid::logodds::round_to_log_odds;
-use terrain_pyramid::wire::link::Message;
 use terrain_pyramid::{Cell as MapCell, Config, Design, Fused, GateShape, Meters};
 use terrain_pyramid_host::device::Device;
 use terrain_pyramid_host::emulator::{build_firmware_variant, Emulator, Machine, BOARD_DIR};
@@ -291,11 +290,7 @@ impl BoardRun<'_> {
             elf,
             &out.join(format!("stairs-board-{name}.defmt")),
         )?;
-        emu.wait_for("Hello", |link, _| link.mirror().firmware().is_some())?;
-        emu.command(
-            "Configure",
-            &Message::Configure(configure_of_design(design, config)),
-        )?;
+        emu.configure_after_hello(design, config)?;
         let margin = round_to_log_odds(config.fused_margin).to_bits();
         // The host experiment's looks at its maps: the step cells at the end of standing
         // (before the first driving line), and whether the first step is seen after every

@@ -74,13 +74,7 @@ pub(super) fn board_soak(
         emu,
         round_trips: 0,
     };
-    board
-        .emu
-        .wait_for("Hello", |link, _| link.mirror().firmware().is_some())?;
-    board.command(
-        "Configure",
-        &Message::Configure(configure_of_design(&design, &config)),
-    )?;
+    board.emu.configure_after_hello(&design, &config)?;
     board.command("Setup", &Message::Setup(setup_message(&setup, &classifier)))?;
 
     let drive = Drive::new(drive_config);
