@@ -23,7 +23,7 @@ use terrain_pyramid::logodds::round_to_log_odds;
 use terrain_pyramid::{Cell as MapCell, Config, Design, Fused, GateShape, Meters};
 use terrain_pyramid_host::device::Device;
 use terrain_pyramid_host::emulator::{build_firmware_variant, Emulator, Machine, BOARD_DIR};
-use terrain_pyramid_host::export::MapSnapshot;
+use terrain_pyramid_host::export::{fused_answer, MapSnapshot};
 use terrain_pyramid_host::link::HostLink;
 use terrain_pyramid_host::play::{play_watched, steps, Moment, Steps};
 use terrain_pyramid_host_tests::sim::record::simulate;
@@ -84,36 +84,22 @@ fn mirror_fused(link: &HostLink, margin_raw: i16, x: f64, y: f64) -> Fused {
         Meters::saturating_from_num(x).to_bits(),
         Meters::saturating_from_num(y).to_bits(),
     );
-    for k in 0..mirror.layer_count() {
-        let Some(layer) = mirror.layer(k) else {
-            continue;
-        };
+    let cell = |k: usize| {
+        let layer = mirror.layer(k)?;
         let r = layer.resolution_q16;
         let offset = |bits: i32, origin: i32| {
             usize::try_from(i64::from(cell_of(bits, r)) - i64::from(origin))
                 .ok()
                 .filter(|&o| o < w)
         };
-        let (Some(dx), Some(dy)) = (offset(xb, layer.origin.0), offset(yb, layer.origin.1)) else {
-            continue;
-        };
-        let Some(value) = layer
+        let dx = offset(xb, layer.origin.0)?;
+        let dy = offset(yb, layer.origin.1)?;
+        layer
             .cells()
             .get(dy * w + dx)
-            .and_then(|&raw| MapCell::from_raw(raw).log_odds())
-        else {
-            continue;
-        };
-        let raw = value.to_bits();
-        let layer = u8::try_from(k).unwrap_or(u8::MAX);
-        if raw > 0 {
-            return Fused::Obstacle { layer };
-        }
-        if raw < -margin_raw {
-            return Fused::Navigable { layer };
-        }
-    }
-    Fused::Unknown
+            .map(|&raw| MapCell::from_raw(raw))
+    };
+    fused_answer(margin_raw, (0..mirror.layer_count()).map(cell))
 }
 
 fn mirror_shares(link: &HostLink, margin_raw: i16, cells: &[Cell]) -> Shares {
