@@ -27,4 +27,5 @@ pub mod rigfile;
 pub mod rule;
 pub mod run;
 pub mod serial;
+pub mod summary_args;
 pub mod uos;

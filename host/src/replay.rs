@@ -27,6 +27,7 @@ use crate::design;
 use crate::export::{self, MapSnapshot, MapSummary};
 use crate::pyramid_args::PyramidArgs;
 use crate::rule;
+use crate::summary_args::SummaryArgs;
 use crate::uos::{self, UosReader};
 use serde::Serialize;
 use std::fs::File;
@@ -81,14 +82,9 @@ pub struct Args {
     /// each within ±360), the points turned about the sensor's position; `0,0,0` by default.
     #[arg(long, value_name = "R,P,Y", allow_hyphen_values = true)]
     pub mount_rpy_deg: Option<Xyz>,
-    /// The directory the maps, the picture and `summary.json` are written into (created if
-    /// missing).
-    #[arg(long, value_name = "DIR")]
-    pub out: PathBuf,
-    /// Print the summary as one JSON object on stdout (it is always written to
-    /// `DIR/summary.json`).
-    #[arg(long)]
-    pub json: bool,
+    /// The output directory, and whether the summary is also printed.
+    #[command(flatten)]
+    pub summary: SummaryArgs,
     /// The design, the clamping and the classifier.
     #[command(flatten)]
     pub pyramid: PyramidArgs,
@@ -428,7 +424,8 @@ pub fn replay(args: &Args) -> Result<Summary, Failure> {
         ),
         run.points_read
     );
-    let written = export::write_maps(&args.out, &run.snapshot, &title).map_err(Failure::input)?;
+    let written =
+        export::write_maps(&args.summary.out, &run.snapshot, &title).map_err(Failure::input)?;
     let MapSummary { layers, fused } = written.summary;
     let c = run.classifier;
     let mut summary = Summary {
@@ -456,7 +453,7 @@ pub fn replay(args: &Args) -> Result<Summary, Failure> {
     let json = serde_json::to_string_pretty(&summary)
         .map_err(|e| Failure::input(format!("cannot encode the summary as JSON: {e}")))?;
     export::write_file(
-        &args.out.join("summary.json"),
+        &args.summary.out.join("summary.json"),
         format!("{json}\n").as_bytes(),
     )
     .map_err(Failure::input)?;
@@ -499,7 +496,7 @@ fn table(args: &Args, s: &Summary) -> String {
         out,
         "Wrote {} files into {}",
         s.files.len(),
-        args.out.display()
+        args.summary.out.display()
     );
     out
 }
@@ -525,7 +522,7 @@ pub fn run(args: &Args) -> ExitCode {
     };
     match result {
         Ok(summary) => {
-            if args.json {
+            if args.summary.json {
                 if !crate::json_line::print(&summary, "error: cannot encode the summary as JSON: ")
                 {
                     return ExitCode::FAILURE;

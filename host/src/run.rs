@@ -33,6 +33,7 @@ use crate::pyramid_args::PyramidArgs;
 use crate::rigfile::{
     merged_rule, mount_rig, read_rig_file, recording_setup, SensorName, SensorSpec,
 };
+use crate::summary_args::SummaryArgs;
 use serde::Serialize;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -105,12 +106,9 @@ pub struct Args {
     /// The recording to play (`docs/recording.md`).
     #[arg(long, value_name = "FILE.rec")]
     pub recording: PathBuf,
-    /// The directory the maps, the picture and `summary.json` are written into.
-    #[arg(long, value_name = "DIR")]
-    pub out: PathBuf,
-    /// Print the summary as one JSON object on stdout.
-    #[arg(long)]
-    pub json: bool,
+    /// The output directory, and whether the summary is also printed.
+    #[command(flatten)]
+    pub summary: SummaryArgs,
     /// The pyramid's design (the window is the board's: `--cells` must match), the clamping
     /// and the classifier (its rule is sent to the device in the Setup).
     #[command(flatten)]
@@ -412,10 +410,10 @@ pub fn execute(args: &Args) -> Result<String, (u8, String)> {
             ),
         )
     })?;
-    std::fs::create_dir_all(&args.out).map_err(|e| {
+    std::fs::create_dir_all(&args.summary.out).map_err(|e| {
         (
             1,
-            format!("error: cannot create {}: {e}", args.out.display()),
+            format!("error: cannot create {}: {e}", args.summary.out.display()),
         )
     })?;
     let fail = |e: String| (1, format!("error: {e}"));
@@ -446,7 +444,8 @@ pub fn execute(args: &Args) -> Result<String, (u8, String)> {
             (counts, snapshot, None, published, mirror)
         }
         Some(machine) => {
-            let mut emu = boot_emulator(machine, &args.out.join("firmware.defmt")).map_err(fail)?;
+            let mut emu =
+                boot_emulator(machine, &args.summary.out.join("firmware.defmt")).map_err(fail)?;
             let (counts, snapshot, published) =
                 drive_published(&mut emu, outputs, &steps, &design, &config, &classifier)
                     .map_err(fail)?;
@@ -469,7 +468,7 @@ pub fn execute(args: &Args) -> Result<String, (u8, String)> {
         counts.telegrams_applied
     );
     write_outputs(
-        &args.out,
+        &args.summary.out,
         &snapshot,
         &title,
         &counts,
@@ -545,10 +544,10 @@ pub fn rig_over_recording(path: &Path, steps: &mut Steps) -> Result<(), String> 
 pub fn run(args: &Args) -> ExitCode {
     match execute(args) {
         Ok(json) => {
-            if args.json {
+            if args.summary.json {
                 println!("{json}");
             } else {
-                eprintln!("maps written to {}", args.out.display());
+                eprintln!("maps written to {}", args.summary.out.display());
             }
             ExitCode::SUCCESS
         }
