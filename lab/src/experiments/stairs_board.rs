@@ -75,6 +75,19 @@ pub struct BoardStairsResult {
     pub same_outcome_as_host: bool,
 }
 
+impl BoardStairsResult {
+    /// The four maps, in the order of [`StairsResult::maps`].
+    #[must_use]
+    pub const fn maps(&self) -> [&BoardMapResult; 4] {
+        [
+            &self.flat,
+            &self.flat_clamped,
+            &self.pyramid,
+            &self.pyramid_soft,
+        ]
+    }
+}
+
 /// The fused answer of the host's mirror of the device's maps at world point `(x, y)`: the
 /// library's rule ([`terrain_pyramid::Pyramid::fused`]) on the mirror's layers.
 fn mirror_fused(link: &HostLink, margin_raw: i16, x: f64, y: f64) -> Fused {
@@ -180,12 +193,7 @@ pub fn run(setup: &Setup, host: &StairsResult, out: &Path) -> Result<BoardStairs
     let (steps, first) = stairs::step_cells(&sim_config);
     let riser_x = sim_config.scene.target_x.unwrap_or(0.0);
     let drive_start_us = (sim_config.trajectory.drive_start_s() * 1e6).round();
-    let host_maps = [
-        &host.flat,
-        &host.flat_clamped,
-        &host.pyramid,
-        &host.pyramid_soft,
-    ];
+    let host_maps = host.maps();
     let specs = map_specs(setup.range_m)?;
     // One emulator per map, all at once: each run waits on its UARTs far more than it computes.
     let results: Vec<Result<BoardMapResult, String>> = std::thread::scope(|scope| {
