@@ -70,7 +70,7 @@ use std::sync::Arc;
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 use terrain_pyramid::classify::ClassifierConfig;
 use terrain_pyramid::link::convert::setup_message_with_sensor;
-use terrain_pyramid::wire::link::{Message, PanAngle};
+use terrain_pyramid::wire::link::Message;
 use terrain_pyramid::LogOddsFixed;
 use terrain_pyramid::{
     Config, DefaultDesign, Schedule, SensorModel, DEFAULT_CELLS_PER_SIDE, DEFAULT_CLASSIFIER_SLOTS,
@@ -451,12 +451,7 @@ pub fn execute(args: &Args) -> Result<Report, String> {
             // The actuator's angle before the chunk it precedes, as `pyramid run` sends it
             // (this board has no encoder and the setup no servo).
             if let Some(turns) = angle.take() {
-                let frame = angles
-                    .command(&Message::PanAngle(PanAngle {
-                        turns,
-                        timestamp_ms: 0,
-                    }))
-                    .map_err(|e| e.to_string())?;
+                let frame = timing::pan_angle_frame(&mut angles, turns)?;
                 if let Ok(mut i) = relay.inject.lock() {
                     i.send(&frame, true);
                 }
