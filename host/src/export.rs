@@ -812,12 +812,7 @@ mod tests {
         use crate::link::HostLink;
         use terrain_pyramid::link::{Link, LinkConfig, SensorCounters};
         let config = Config::default();
-        let design = DefaultDesign::new(
-            SensorModel::default(),
-            Schedule::default(),
-            DEFAULT_CELLS_PER_SIDE,
-        )
-        .unwrap();
+        let design = crate::design::firmware_design().unwrap();
         let mut p = Box::new(DefaultPyramid::new());
         let mut link: Box<Link> = Box::new(Link::new(LinkConfig::DEFAULT));
         let mut host = HostLink::new();

@@ -43,8 +43,8 @@ use terrain_pyramid::geometry::ScanPlane;
 use terrain_pyramid::link::LinkConfig;
 use terrain_pyramid::pipeline::FrontendConfig;
 use terrain_pyramid::{
-    Config, DefaultDesign, LogOddsFixed, Schedule, SensorModel, DEFAULT_CELLS_PER_SIDE,
-    DEFAULT_CLASSIFIER_SLOTS, DEFAULT_LAYERS,
+    Config, DefaultDesign, LogOddsFixed, DEFAULT_CELLS_PER_SIDE, DEFAULT_CLASSIFIER_SLOTS,
+    DEFAULT_LAYERS,
 };
 
 /// Where the pipeline runs.
@@ -319,12 +319,7 @@ pub type HostDevice =
 /// # Errors
 /// The boot was refused.
 pub fn boot_host_device() -> Result<HostDevice, String> {
-    let design = DefaultDesign::new(
-        SensorModel::default(),
-        Schedule::default(),
-        DEFAULT_CELLS_PER_SIDE,
-    )
-    .map_err(|e| e.to_string())?;
+    let design = crate::design::firmware_design()?;
     HostDevice::boot(
         LinkConfig::DEFAULT,
         &design,

@@ -32,9 +32,9 @@ use terrain_pyramid::link::{LinkConfig, DEFAULT_QUEUE_BYTES};
 use terrain_pyramid::pipeline::FrontendConfig;
 use terrain_pyramid::wire::link::{Message, PanAngle, PoseReport, Stats, STATS_COUNTERS};
 use terrain_pyramid::{
-    Clamp, Config, DefaultDesign, Schedule, SensorModel, DEFAULT_CELLS_PER_SIDE,
-    DEFAULT_CLASSIFIER_SLOTS, DEFAULT_LAYERS,
+    Clamp, Config, DefaultDesign, DEFAULT_CELLS_PER_SIDE, DEFAULT_CLASSIFIER_SLOTS, DEFAULT_LAYERS,
 };
+use terrain_pyramid_host::design::firmware_design;
 use terrain_pyramid_host::device::Device;
 use terrain_pyramid_host::device::InProcess;
 use terrain_pyramid_host::emulator::{
@@ -248,13 +248,7 @@ const BOARD_SAMPLE_LINES: u64 = 1125;
 
 /// The design and configuration the firmware boots with (the link's Configure repeats them).
 fn design_and_config() -> Result<(DefaultDesign, Config), String> {
-    let design = DefaultDesign::new(
-        SensorModel::default(),
-        Schedule::default(),
-        DEFAULT_CELLS_PER_SIDE,
-    )
-    .map_err(|e| e.to_string())?;
-    Ok((design, Config::default()))
+    Ok((firmware_design()?, Config::default()))
 }
 
 /// The soak's in-process co-processor: the firmware's pyramid and classifier, and the link's
