@@ -13,6 +13,18 @@ import zlib
 
 VERSION = 5
 
+# The Setup body's blocks (section 7): the base part (38 bytes), the rule block (21 bytes:
+# rule, max grade, residual, range sigma, angle sigma, noise factor), the laser block (22
+# bytes: sensor, actuator, baud, servo min, max, rate, latency), the mount block (20 bytes:
+# axis, sense, 2 reserved, zero, roll, pitch, yaw) and the filter block (38 bytes: min range
+# cm, max range cm, min quality, sector count, 8 sectors of start and end centidegrees).
+BASE = "<BBHH3fI4f"
+RULE = "<B5f"
+LASER = "<BBI4f"
+MOUNT = "<Bb2x4f"
+FILTER = "<HHBB16H"
+SETUP_LEN = 38 + 21 + 22 + 20 + 38
+
 
 def cobs(data: bytes) -> bytes:
     """COBS, section 3: runs of non-zero bytes, each with its code byte; a run of 254 bytes is
@@ -39,6 +51,23 @@ def frame(msg_type: int, seq: int, body: bytes, version: int = VERSION) -> bytes
     decoded = struct.pack("<BBH", version, msg_type, seq) + body
     decoded += struct.pack("<I", zlib.crc32(decoded) & 0xFFFFFFFF)
     return cobs(decoded) + b"\x00"
+
+
+def setup_body(base, rule, laser, mount, filt) -> bytes:
+    """A Setup's body from the fields of its five blocks, each in wire order (the mount's
+    reserved bytes left out)."""
+    body = struct.pack(BASE, *base)
+    body += struct.pack(RULE, *rule)
+    body += struct.pack(LASER, *laser)
+    body += struct.pack(MOUNT, *mount)
+    body += struct.pack(FILTER, *filt)
+    assert len(body) == SETUP_LEN, len(body)
+    return body
+
+
+def set_rule_body(step, rule) -> bytes:
+    """A SetRule's body: the step, then a rule block."""
+    return struct.pack("<f", step) + struct.pack(RULE, *rule)
 
 
 def hexs(b: bytes) -> str:
@@ -121,46 +150,43 @@ def main() -> None:
     decayed += struct.pack("<HHI", 62, 3, 5)  # layer 0: rows 62, 63, 0; 5 cells faded
     decayed += struct.pack("<HHI", 10, 1, 0)  # layer 3: row 10; none faded
     g["decayed 0x0107"] = frame(0x06, 0x0107, decayed)
-    # Setup: the base part (38 bytes), the rule block (21 bytes: rule, max grade, residual,
-    # range sigma, angle sigma, noise factor), the laser block (22 bytes: sensor, actuator,
-    # baud, servo min, max, rate, latency), the mount block (20 bytes: axis, sense, 2 reserved,
-    # zero, roll, pitch, yaw) and the filter block (38 bytes: min range cm, max range cm, min
-    # quality, sector count, 8 sectors of start and end centidegrees).
-    preset_mount = struct.pack("<Bb2x4f", 0, 1, 0.0, 0.0, 0.0, 0.0)
-    no_filter = struct.pack("<HHBB16H", 0, 0, 0, 0, *([0] * 16))
-    spread = struct.pack("<B5f", 0, 0.0, 0.0, 0.0, 0.0, 0.0)
+    # Setup: the five blocks, as BASE ... FILTER above describe them.
+    preset_mount = (0, 1, 0.0, 0.0, 0.0, 0.0)
+    no_filter = (0, 0, 0, 0, *([0] * 16))
+    spread = (0, 0.0, 0.0, 0.0, 0.0, 0.0)
     # The plane rule's Q16.16 defaults, exact in f32.
-    plane = struct.pack("<B5f", 1, 23853 / 65536, 983 / 65536, 1311 / 65536, 86 / 65536, 2.0)
-    setup = struct.pack("<BBHH3fI4f", 1, 0, 180, 50, 0.25, -0.5, 0.75, 0, 1.0, 0.05, 0.0, 2.0)
-    setup += spread
-    setup += struct.pack("<BBI4f", 0, 0, 0, 0.0, 0.0, 0.0, 0.0)
-    setup += preset_mount + no_filter
-    assert len(setup) == 139
+    plane = (1, 23853 / 65536, 983 / 65536, 1311 / 65536, 86 / 65536, 2.0)
+    nodding = (1, 1, 0, -10.0, 30.0, 60.0, 25.0)
+    setup = setup_body(
+        (1, 0, 180, 50, 0.25, -0.5, 0.75, 0, 1.0, 0.05, 0.0, 2.0),
+        spread,
+        (0, 0, 0, 0.0, 0.0, 0.0, 0.0),
+        preset_mount,
+        no_filter,
+    )
     g["setup 7 (a SICK, external actuator)"] = frame(0x87, 7, setup)
-    lidar = struct.pack("<BBHH3fI4f", 1, 0, 0, 0, 0.1, 0.0, 0.4, 2, 0.5, 0.08, 0.0, 0.0)
-    lidar += plane
-    lidar += struct.pack("<BBI4f", 1, 1, 0, -10.0, 30.0, 60.0, 25.0)
-    lidar += preset_mount + no_filter
-    assert len(lidar) == 139
+    lidar_base = (1, 0, 0, 0, 0.1, 0.0, 0.4, 2, 0.5, 0.08, 0.0, 0.0)
+    lidar = setup_body(lidar_base, plane, nodding, preset_mount, no_filter)
     g["setup 8 (an LD06 on a nodding servo)"] = frame(0x87, 8, lidar)
     # The general mount (2): an LD19 upside down with its 0 deg to the left (roll 180, yaw 90)
     # on a tilt servo (axis 1) reversed (sense -1) with its zero at 5 deg; masked 135 ..< 225
     # deg and 350 ..< 10 deg, ranges 0.05 ..= 12 m, quality at least 10.
-    general = struct.pack("<BBHH3fI4f", 2, 0, 0, 0, 0.1, 0.0, 0.4, 2, 0.5, 0.08, 0.0, 0.0)
-    general += spread
-    general += struct.pack("<BBI4f", 1, 1, 0, -10.0, 30.0, 60.0, 25.0)
-    general += struct.pack("<Bb2x4f", 1, -1, 5.0, 180.0, 0.0, 90.0)
     sectors = [13500, 22500, 35000, 1000] + [0] * 12
-    general += struct.pack("<HHBB16H", 5, 1200, 10, 2, *sectors)
-    assert len(general) == 139
+    general = setup_body(
+        (2, *lidar_base[1:]),
+        spread,
+        nodding,
+        (1, -1, 5.0, 180.0, 0.0, 90.0),
+        (5, 1200, 10, 2, *sectors),
+    )
     g["setup 13 (an LD19 upside down on a reversed servo, masked)"] = frame(0x87, 13, general)
     g["request stats 2"] = frame(0x88, 2, b"")
     g["shutdown 2"] = frame(0x89, 2, b"")
     g["end observation 2"] = frame(0x8A, 2, b"")
     # SetRule: the step, then a rule block.
-    g["set rule 9 (spread, step 0.08)"] = frame(0x8B, 9, struct.pack("<f", 0.08) + spread)
+    g["set rule 9 (spread, step 0.08)"] = frame(0x8B, 9, set_rule_body(0.08, spread))
     g["set rule 10 (plane defaults, step 3277 / 65536)"] = frame(
-        0x8B, 10, struct.pack("<f", 3277 / 65536) + plane
+        0x8B, 10, set_rule_body(3277 / 65536, plane)
     )
     # The refusal of a pose flag byte 2 (param 38, OutOfRange 3, limits 0 and 1).
     g["reply refusing pose flags, 0x010a"] = frame(

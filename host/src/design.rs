@@ -8,7 +8,9 @@ use serde::Serialize;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use terrain_pyramid::design::BoundTerms;
-use terrain_pyramid::{Design, DesignError, GateShape, Schedule, SensorModel};
+use terrain_pyramid::{
+    DefaultDesign, Design, DesignError, GateShape, Schedule, SensorModel, DEFAULT_CELLS_PER_SIDE,
+};
 
 /// Figure 2 as a PNG (`pyramid design --plot`, and the lab's experiments).
 pub mod plot;
@@ -173,6 +175,20 @@ pub fn schedule(args: &DesignArgs) -> Schedule {
 /// The library's refusal, which names the flag and the rule.
 pub fn build(args: &DesignArgs) -> Result<PyramidDesign, DesignError> {
     Design::new(sensor_model(args), schedule(args), args.cells)
+}
+
+/// The design the firmware boots with (its link's Configure can change it): the library's
+/// default sensor and schedule, [`DEFAULT_CELLS_PER_SIDE`] cells per side.
+///
+/// # Errors
+/// The library's refusal of its own defaults, in words (it never refuses them).
+pub fn firmware_design() -> Result<DefaultDesign, String> {
+    DefaultDesign::new(
+        SensorModel::default(),
+        Schedule::default(),
+        DEFAULT_CELLS_PER_SIDE,
+    )
+    .map_err(|e| e.to_string())
 }
 
 /// The static RAM, bytes, of exactly this design's layers: the pyramid's cells and windows

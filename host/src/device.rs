@@ -11,7 +11,7 @@
 
 use crate::link::{HostLink, LinkEvent};
 use terrain_pyramid::app::{CoProcessor, NoAngleSource, StackUsage};
-use terrain_pyramid::link::convert::ReplyText;
+use terrain_pyramid::link::convert::{configure_of_design, ReplyText};
 use terrain_pyramid::link::{LinkConfig, PollReport};
 use terrain_pyramid::pipeline::FrontendConfig;
 use terrain_pyramid::wire::link::{Message, Reply, SnapshotScope, Stats};
@@ -88,6 +88,28 @@ pub trait Device {
         } else {
             Err(format!("the device refused {name}: {}", ReplyText(&reply)))
         }
+    }
+
+    /// Waits for the device's Hello (it has booted), then configures its pyramid with
+    /// `design` and `config` (Configure) and waits for the Reply: the start every harness
+    /// gives the firmware.
+    ///
+    /// # Errors
+    /// No Hello in time, no Reply, or a refusal.
+    fn configure_after_hello<const L: usize>(
+        &mut self,
+        design: &Design<L>,
+        config: &Config,
+    ) -> Result<(), String>
+    where
+        Self: Sized,
+    {
+        self.wait_for("Hello", |link, _| link.mirror().firmware().is_some())?;
+        self.command(
+            "Configure",
+            &Message::Configure(configure_of_design(design, config)),
+        )?;
+        Ok(())
     }
 
     /// RequestStats, and the Stats that answers it (every frame sent before it is applied).

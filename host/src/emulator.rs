@@ -279,10 +279,30 @@ impl Drop for TempDir {
     }
 }
 
-/// The QEMU command that boots `elf` on `machine` without graphics or monitor, semihosting
-/// on, its UARTs (the first [`Machine::uarts`] of `uart_sockets`) served on those Unix sockets
-/// and waiting for a connection; its standard streams are the caller's to set.
-pub fn qemu_command(machine: Machine, elf: &Path, uart_sockets: [&Path; 2]) -> Command {
+/// QEMU started to boot `elf` on `machine` without graphics or monitor, semihosting on, its
+/// UARTs (the first [`Machine::uarts`] of `uart_sockets`) served on those Unix sockets and
+/// waiting for a connection ([`connect`]); the firmware's raw defmt log (semihosting's
+/// stdout) into `defmt_log`, QEMU's own messages to `stderr`, no stdin.
+///
+/// # Errors
+/// QEMU cannot be started.
+pub fn spawn_qemu(
+    machine: Machine,
+    elf: &Path,
+    uart_sockets: [&Path; 2],
+    defmt_log: std::fs::File,
+    stderr: Stdio,
+) -> Result<Child, String> {
+    qemu_command(machine, elf, uart_sockets)
+        .stdin(Stdio::null())
+        .stdout(defmt_log)
+        .stderr(stderr)
+        .spawn()
+        .map_err(|e| format!("cannot start qemu-system-arm: {e} ({INSTALL_HINT})"))
+}
+
+/// The QEMU command of [`spawn_qemu`], its standard streams not set.
+fn qemu_command(machine: Machine, elf: &Path, uart_sockets: [&Path; 2]) -> Command {
     let mut qemu = Command::new("qemu-system-arm");
     qemu.args(["-machine", machine.qemu_machine(), "-nographic"]);
     if machine == Machine::Mps2An386 {
@@ -376,12 +396,7 @@ impl Emulator {
         let (s0, s1) = (dir.0.join("uart0.sock"), dir.0.join("uart1.sock"));
         let log = std::fs::File::create(defmt_log)
             .map_err(|e| format!("cannot create {}: {e}", defmt_log.display()))?;
-        let mut child = qemu_command(machine, elf, [&s0, &s1])
-            .stdin(Stdio::null())
-            .stdout(log)
-            .stderr(Stdio::piped())
-            .spawn()
-            .map_err(|e| format!("cannot start qemu-system-arm: {e} ({INSTALL_HINT})"))?;
+        let mut child = spawn_qemu(machine, elf, [&s0, &s1], log, Stdio::piped())?;
         let Uarts {
             uart0,
             uart1,

@@ -39,6 +39,27 @@ pub const PGM_UNKNOWN: u8 = 205;
 /// The file name of the picture of all the maps.
 pub const PICTURE_FILE: &str = "maps.png";
 
+/// The library's fused rule ([`Pyramid::fused`]) over one point's cell in every layer, the
+/// finest first (`None` where a layer does not hold the point): the first observed cell with
+/// L > 0 answers obstacle, with L < −`margin_raw` (Q8.8 raw log-odds) navigable; unknown when
+/// none does.
+pub fn fused_answer(margin_raw: i16, cells: impl IntoIterator<Item = Option<Cell>>) -> Fused {
+    for (k, cell) in cells.into_iter().enumerate() {
+        let Some(value) = cell.and_then(Cell::log_odds) else {
+            continue;
+        };
+        let raw = value.to_bits();
+        let layer = u8::try_from(k).unwrap_or(u8::MAX);
+        if raw > 0 {
+            return Fused::Obstacle { layer };
+        }
+        if raw < -margin_raw {
+            return Fused::Navigable { layer };
+        }
+    }
+    Fused::Unknown
+}
+
 /// One layer's window, as plain data.
 #[derive(Debug, Clone, PartialEq)]
 pub struct LayerSnapshot {
@@ -316,21 +337,13 @@ impl MapSnapshot {
         &self,
         mut cell_of_layer: impl FnMut(usize, &LayerSnapshot) -> Option<Cell>,
     ) -> Fused {
-        let margin = self.fused_margin.to_bits();
-        for (k, layer) in self.layers.iter().enumerate() {
-            let Some(value) = cell_of_layer(k, layer).and_then(Cell::log_odds) else {
-                continue;
-            };
-            let raw = value.to_bits();
-            let layer = u8::try_from(k).unwrap_or(u8::MAX);
-            if raw > 0 {
-                return Fused::Obstacle { layer };
-            }
-            if raw < -margin {
-                return Fused::Navigable { layer };
-            }
-        }
-        Fused::Unknown
+        fused_answer(
+            self.fused_margin.to_bits(),
+            self.layers
+                .iter()
+                .enumerate()
+                .map(|(k, layer)| cell_of_layer(k, layer)),
+        )
     }
 
     /// Samples [`Self::fused`] over `width × height` cells of size `step` from the lower-left
@@ -799,12 +812,7 @@ mod tests {
         use crate::link::HostLink;
         use terrain_pyramid::link::{Link, LinkConfig, SensorCounters};
         let config = Config::default();
-        let design = DefaultDesign::new(
-            SensorModel::default(),
-            Schedule::default(),
-            DEFAULT_CELLS_PER_SIDE,
-        )
-        .unwrap();
+        let design = crate::design::firmware_design().unwrap();
         let mut p = Box::new(DefaultPyramid::new());
         let mut link: Box<Link> = Box::new(Link::new(LinkConfig::DEFAULT));
         let mut host = HostLink::new();

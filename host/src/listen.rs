@@ -65,9 +65,9 @@ pub use summary::{cells_fnv1a64, DevicePoseTrack, Ending, PosesReport, Summary, 
 use crate::link::HostLink;
 use crate::pose_input;
 use crate::publish::{OutputArgs, Outputs};
+use crate::summary_args::SummaryArgs;
 use session::{receive, Session};
 use status::StatusOutput;
-use std::path::PathBuf;
 use std::process::ExitCode;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
@@ -140,14 +140,9 @@ pub struct Args {
     /// A TCP address serving the device's stream instead (the emulated board).
     #[arg(long, value_name = "HOST:PORT")]
     pub tcp: Option<String>,
-    /// The directory the maps, the picture and `summary.json` are written into (created if
-    /// missing).
-    #[arg(long, value_name = "DIR")]
-    pub out: PathBuf,
-    /// Print the summary as one JSON object on stdout (it is always written to
-    /// `DIR/summary.json`).
-    #[arg(long)]
-    pub json: bool,
+    /// The output directory, and whether the summary is also printed.
+    #[command(flatten)]
+    pub summary: SummaryArgs,
     /// Stop after this many seconds (otherwise at Ctrl-C or the end of the stream).
     #[arg(long, value_name = "N", value_parser = positive_seconds)]
     pub duration_s: Option<f64>,
@@ -296,7 +291,7 @@ pub fn run(args: &Args) -> ExitCode {
                     "warning: the maps may differ from the device's: frames were lost or a resend was incomplete when the session ended"
                 );
             }
-            if args.json {
+            if args.summary.json {
                 if !crate::json_line::print(&summary, "error: cannot encode the summary as JSON: ")
                 {
                     return ExitCode::FAILURE;
@@ -309,7 +304,7 @@ pub fn run(args: &Args) -> ExitCode {
                     summary.gaps,
                     summary.bad_frames,
                     summary.snapshots_requested,
-                    args.out.display()
+                    args.summary.out.display()
                 );
             }
             ExitCode::SUCCESS

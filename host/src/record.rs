@@ -346,16 +346,7 @@ pub fn execute(args: &Args, stop: &AtomicBool) -> Result<Report, (u8, String)> {
         None => None,
     };
     let port = match &args.port {
-        Some(path) => Some(
-            serialport::new(path.as_str(), baud)
-                .data_bits(serialport::DataBits::Eight)
-                .parity(serialport::Parity::None)
-                .stop_bits(serialport::StopBits::One)
-                .flow_control(serialport::FlowControl::None)
-                .timeout(READ_TIMEOUT)
-                .open()
-                .map_err(|e| fail(format!("cannot open the serial port {path}: {e}")))?,
-        ),
+        Some(path) => Some(crate::serial::open(path, baud, READ_TIMEOUT).map_err(fail)?),
         None => None,
     };
     let file = std::fs::File::create(&args.out)

@@ -23,9 +23,11 @@
 //! "no echo" value) goes to the classifier with its horizontal distance from the sensor and the
 //! robot's ground plane `sensor z − --height-m`; the observation is then finished into the
 //! pyramid.
-use crate::design::{self, DesignArgs};
+use crate::design;
 use crate::export::{self, MapSnapshot, MapSummary};
-use crate::rule::{self, RuleArgs};
+use crate::pyramid_args::PyramidArgs;
+use crate::rule;
+use crate::summary_args::SummaryArgs;
 use crate::uos::{self, UosReader};
 use serde::Serialize;
 use std::fs::File;
@@ -34,7 +36,7 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::str::FromStr;
 use terrain_pyramid::classify::{Classifier, ClassifierConfig, ClassifierStats};
-use terrain_pyramid::{Clamp, Config, Design, Meters, Point3, Pyramid, PyramidStats};
+use terrain_pyramid::{Config, Design, Meters, Point3, Pyramid, PyramidStats};
 
 /// The layer capacity: the design's.
 const L: usize = design::LAYER_CAPACITY;
@@ -80,42 +82,12 @@ pub struct Args {
     /// each within ±360), the points turned about the sensor's position; `0,0,0` by default.
     #[arg(long, value_name = "R,P,Y", allow_hyphen_values = true)]
     pub mount_rpy_deg: Option<Xyz>,
-    /// The directory the maps, the picture and `summary.json` are written into (created if
-    /// missing).
-    #[arg(long, value_name = "DIR")]
-    pub out: PathBuf,
-    /// Print the summary as one JSON object on stdout (it is always written to
-    /// `DIR/summary.json`).
-    #[arg(long)]
-    pub json: bool,
-    /// The sensor, the schedule, the window and the gate, as for `pyramid design`.
+    /// The output directory, and whether the summary is also printed.
     #[command(flatten)]
-    pub design: DesignArgs,
-    /// Clamping of the stored log-odds: none (the paper's baseline), or OctoMap's bounds
-    /// (−2 ..= 3.5 nats).
-    #[arg(long, value_enum, default_value_t = ClampArg::Octomap)]
-    pub clamp: ClampArg,
-    /// Returns higher than this above the robot's ground plane are overhang whatever the cell
-    /// holds (a roof seen where the floor under it was not), metres; off by default (the
-    /// paper's rule judges overhang only against the cell's lowest point).
-    #[arg(long, value_name = "M")]
-    pub ceiling_m: Option<f64>,
-    /// Returns this far below the robot's ground plane mark a drop-off (a negative
-    /// obstacle), metres; off by default.
-    #[arg(long, value_name = "M")]
-    pub drop_m: Option<f64>,
-    /// The navigability rule and its parameters.
+    pub summary: SummaryArgs,
+    /// The design, the clamping and the classifier.
     #[command(flatten)]
-    pub rule: RuleArgs,
-}
-
-/// The clamping, as the command line names it.
-#[derive(clap::ValueEnum, Debug, Clone, Copy, PartialEq, Eq)]
-pub enum ClampArg {
-    /// No clamping: only the Q8.8 format saturates.
-    Off,
-    /// OctoMap's default bounds, −2.0 ..= 3.5 nats.
-    Octomap,
+    pub pyramid: PyramidArgs,
 }
 
 /// Three comma-separated numbers.
@@ -292,19 +264,15 @@ struct Plan {
 }
 
 fn plan(args: &Args) -> Result<Plan, Failure> {
-    let design = design::build(&args.design).map_err(|e| Failure::config(e.to_string()))?;
+    let design = design::build(&args.pyramid.design).map_err(|e| Failure::config(e.to_string()))?;
     if !SUPPORTED_CELLS.contains(&design.cells_per_side()) {
         return Err(Failure::config(format!(
             "--cells: replay is compiled for windows of {SUPPORTED_CELLS:?} cells per side (got {})",
             design.cells_per_side()
         )));
     }
-    let clamp = match args.clamp {
-        ClampArg::Off => Clamp::Off,
-        ClampArg::Octomap => Clamp::OCTOMAP,
-    };
     let config = Config {
-        clamp,
+        clamp: args.pyramid.clamp(),
         ..Config::default()
     };
     let translation = match &args.pose {
@@ -341,14 +309,7 @@ fn plan(args: &Args) -> Result<Plan, Failure> {
         origin[1] + translation[1],
         origin[2] + translation[2],
     ];
-    let classifier = args
-        .rule
-        .apply(ClassifierConfig {
-            ceiling: args.ceiling_m.map(meters),
-            drop_threshold: args.drop_m.map(meters),
-            ..ClassifierConfig::default()
-        })
-        .map_err(Failure::config)?;
+    let classifier = args.pyramid.classifier().map_err(Failure::config)?;
     Ok(Plan {
         design,
         config,
@@ -358,7 +319,7 @@ fn plan(args: &Args) -> Result<Plan, Failure> {
         sensor_file_cm: to_3dtk_cm(origin),
         origin,
         rotation,
-        ground_z: sensor[2] - args.design.height_m,
+        ground_z: sensor[2] - args.pyramid.design.height_m,
     })
 }
 
@@ -463,7 +424,8 @@ pub fn replay(args: &Args) -> Result<Summary, Failure> {
         ),
         run.points_read
     );
-    let written = export::write_maps(&args.out, &run.snapshot, &title).map_err(Failure::input)?;
+    let written =
+        export::write_maps(&args.summary.out, &run.snapshot, &title).map_err(Failure::input)?;
     let MapSummary { layers, fused } = written.summary;
     let c = run.classifier;
     let mut summary = Summary {
@@ -491,7 +453,7 @@ pub fn replay(args: &Args) -> Result<Summary, Failure> {
     let json = serde_json::to_string_pretty(&summary)
         .map_err(|e| Failure::input(format!("cannot encode the summary as JSON: {e}")))?;
     export::write_file(
-        &args.out.join("summary.json"),
+        &args.summary.out.join("summary.json"),
         format!("{json}\n").as_bytes(),
     )
     .map_err(Failure::input)?;
@@ -534,7 +496,7 @@ fn table(args: &Args, s: &Summary) -> String {
         out,
         "Wrote {} files into {}",
         s.files.len(),
-        args.out.display()
+        args.summary.out.display()
     );
     out
 }
@@ -560,7 +522,7 @@ pub fn run(args: &Args) -> ExitCode {
     };
     match result {
         Ok(summary) => {
-            if args.json {
+            if args.summary.json {
                 if !crate::json_line::print(&summary, "error: cannot encode the summary as JSON: ")
                 {
                     return ExitCode::FAILURE;

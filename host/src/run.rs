@@ -24,29 +24,27 @@
 //! with the mirror's own decay of them.
 
 use crate::decay::{DecayArgs, DecaySummary};
-use crate::design::DesignArgs;
 use crate::device::{Device, InProcess};
 use crate::emulator::{qemu_available, Emulator, Machine, INSTALL_HINT};
 use crate::export::{write_maps, MapSnapshot};
 use crate::play::{mirror_snapshot, play, steps, RunCounts, Step, Steps};
 use crate::publish::{OutputArgs, Outputs, OutputsReport, Publishing};
-use crate::replay::ClampArg;
+use crate::pyramid_args::PyramidArgs;
 use crate::rigfile::{
     merged_rule, mount_rig, read_rig_file, recording_setup, SensorName, SensorSpec,
 };
+use crate::summary_args::SummaryArgs;
 use serde::Serialize;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::Instant;
 use terrain_pyramid::classify::ClassifierConfig;
 use terrain_pyramid::geometry::ScanPlane;
-use terrain_pyramid::link::convert::configure_of_design;
 use terrain_pyramid::link::LinkConfig;
 use terrain_pyramid::pipeline::FrontendConfig;
-use terrain_pyramid::wire::link::Message;
 use terrain_pyramid::{
-    Clamp, Config, DefaultDesign, LogOddsFixed, Meters, Schedule, SensorModel,
-    DEFAULT_CELLS_PER_SIDE, DEFAULT_CLASSIFIER_SLOTS, DEFAULT_LAYERS,
+    Config, DefaultDesign, LogOddsFixed, DEFAULT_CELLS_PER_SIDE, DEFAULT_CLASSIFIER_SLOTS,
+    DEFAULT_LAYERS,
 };
 
 /// Where the pipeline runs.
@@ -108,27 +106,13 @@ pub struct Args {
     /// The recording to play (`docs/recording.md`).
     #[arg(long, value_name = "FILE.rec")]
     pub recording: PathBuf,
-    /// The directory the maps, the picture and `summary.json` are written into.
-    #[arg(long, value_name = "DIR")]
-    pub out: PathBuf,
-    /// Print the summary as one JSON object on stdout.
-    #[arg(long)]
-    pub json: bool,
-    /// The pyramid's design, as for `pyramid design` (the window is the firmware's: 64).
+    /// The output directory, and whether the summary is also printed.
     #[command(flatten)]
-    pub design: DesignArgs,
-    /// Clamping of the stored log-odds.
-    #[arg(long, value_enum, default_value_t = ClampArg::Octomap)]
-    pub clamp: ClampArg,
-    /// Returns higher than this above the robot's ground plane are overhang, metres.
-    #[arg(long, value_name = "M")]
-    pub ceiling_m: Option<f64>,
-    /// Returns this far below the robot's ground plane mark a drop-off, metres.
-    #[arg(long, value_name = "M")]
-    pub drop_m: Option<f64>,
-    /// The navigability rule and its parameters (sent to the device in the Setup).
+    pub summary: SummaryArgs,
+    /// The pyramid's design (the window is the board's: `--cells` must match), the clamping
+    /// and the classifier (its rule is sent to the device in the Setup).
     #[command(flatten)]
-    pub rule: crate::rule::RuleArgs,
+    pub pyramid: PyramidArgs,
     /// The live outputs, as `pyramid listen`'s: the maps as the device sends them while the
     /// recording plays.
     #[command(flatten)]
@@ -288,9 +272,9 @@ pub fn write_outputs(
 /// An invalid design (exit status 2).
 pub fn run_config(args: &Args) -> Result<(DefaultDesign, Config, ClassifierConfig), (u8, String)> {
     let design: DefaultDesign = DefaultDesign::new(
-        crate::design::sensor_model(&args.design),
-        crate::design::schedule(&args.design),
-        args.design.cells,
+        crate::design::sensor_model(&args.pyramid.design),
+        crate::design::schedule(&args.pyramid.design),
+        args.pyramid.design.cells,
     )
     .map_err(|e| (2, format!("error: {e}")))?;
     let cells = args.board.cells_per_side();
@@ -304,10 +288,7 @@ pub fn run_config(args: &Args) -> Result<(DefaultDesign, Config, ClassifierConfi
         ));
     }
     let config = Config {
-        clamp: match args.clamp {
-            ClampArg::Off => Clamp::Off,
-            ClampArg::Octomap => Clamp::OCTOMAP,
-        },
+        clamp: args.pyramid.clamp(),
         decay: args
             .decay
             .decay(design.layers().len(), design.cells_per_side())
@@ -315,16 +296,12 @@ pub fn run_config(args: &Args) -> Result<(DefaultDesign, Config, ClassifierConfi
         ..Config::default()
     };
     let classifier = match &args.rig {
-        None => args.rule.apply(ClassifierConfig {
-            ceiling: args.ceiling_m.map(Meters::saturating_from_num),
-            drop_threshold: args.drop_m.map(Meters::saturating_from_num),
-            ..ClassifierConfig::default()
-        }),
+        None => args.pyramid.classifier(),
         Some(path) => read_rig_file(path).and_then(|rig| {
             let mut spec = rig.classifier;
-            spec.rule = merged_rule(&spec.rule, &args.rule);
-            spec.ceiling_m = args.ceiling_m.or(spec.ceiling_m);
-            spec.drop_m = args.drop_m.or(spec.drop_m);
+            spec.rule = merged_rule(&spec.rule, &args.pyramid.rule);
+            spec.ceiling_m = args.pyramid.ceiling_m.or(spec.ceiling_m);
+            spec.drop_m = args.pyramid.drop_m.or(spec.drop_m);
             spec.apply(ClassifierConfig::default())
         }),
     }
@@ -342,12 +319,7 @@ pub type HostDevice =
 /// # Errors
 /// The boot was refused.
 pub fn boot_host_device() -> Result<HostDevice, String> {
-    let design = DefaultDesign::new(
-        SensorModel::default(),
-        Schedule::default(),
-        DEFAULT_CELLS_PER_SIDE,
-    )
-    .map_err(|e| e.to_string())?;
+    let design = crate::design::firmware_design()?;
     HostDevice::boot(
         LinkConfig::DEFAULT,
         &design,
@@ -381,11 +353,7 @@ pub fn drive(
     config: &Config,
     classifier: &ClassifierConfig,
 ) -> Result<(RunCounts, MapSnapshot), String> {
-    device.wait_for("Hello", |link, _| link.mirror().firmware().is_some())?;
-    device.command(
-        "Configure",
-        &Message::Configure(configure_of_design(design, config)),
-    )?;
+    device.configure_after_hello(design, config)?;
     let (mut counts, sensor_xy) = play(device, steps, classifier)?;
     // Every change on the wire before the snapshot, so that it compares only what was sent:
     // a tile the link's budget still held back would otherwise count as differing. (With
@@ -437,10 +405,10 @@ pub fn execute(args: &Args) -> Result<String, (u8, String)> {
             ),
         )
     })?;
-    std::fs::create_dir_all(&args.out).map_err(|e| {
+    std::fs::create_dir_all(&args.summary.out).map_err(|e| {
         (
             1,
-            format!("error: cannot create {}: {e}", args.out.display()),
+            format!("error: cannot create {}: {e}", args.summary.out.display()),
         )
     })?;
     let fail = |e: String| (1, format!("error: {e}"));
@@ -471,7 +439,8 @@ pub fn execute(args: &Args) -> Result<String, (u8, String)> {
             (counts, snapshot, None, published, mirror)
         }
         Some(machine) => {
-            let mut emu = boot_emulator(machine, &args.out.join("firmware.defmt")).map_err(fail)?;
+            let mut emu =
+                boot_emulator(machine, &args.summary.out.join("firmware.defmt")).map_err(fail)?;
             let (counts, snapshot, published) =
                 drive_published(&mut emu, outputs, &steps, &design, &config, &classifier)
                     .map_err(fail)?;
@@ -494,7 +463,7 @@ pub fn execute(args: &Args) -> Result<String, (u8, String)> {
         counts.telegrams_applied
     );
     write_outputs(
-        &args.out,
+        &args.summary.out,
         &snapshot,
         &title,
         &counts,
@@ -570,10 +539,10 @@ pub fn rig_over_recording(path: &Path, steps: &mut Steps) -> Result<(), String> 
 pub fn run(args: &Args) -> ExitCode {
     match execute(args) {
         Ok(json) => {
-            if args.json {
+            if args.summary.json {
                 println!("{json}");
             } else {
-                eprintln!("maps written to {}", args.out.display());
+                eprintln!("maps written to {}", args.summary.out.display());
             }
             ExitCode::SUCCESS
         }

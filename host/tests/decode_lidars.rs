@@ -265,20 +265,10 @@ fn ydlidar_first_and_second_level_angles() {
 #[test]
 fn sick_keeps_its_format_and_the_alias_decodes_lidars_too() {
     let path = temp_file("alias", &LD06_EXAMPLE);
-    let a = pyramid(&[
-        "sick-decode",
-        "--sensor",
-        "ld06",
-        path.to_str().unwrap(),
-        "--json",
-    ]);
-    let b = pyramid(&[
-        "decode",
-        "--sensor",
-        "ld06",
-        path.to_str().unwrap(),
-        "--json",
-    ]);
+    let [a, b] = ["sick-decode", "decode"].map(|command| {
+        let path = path.to_str().unwrap();
+        pyramid(&[command, "--sensor", "ld06", path, "--json"])
+    });
     let sick = pyramid(&["decode", path.to_str().unwrap(), "--json"]);
     let human = pyramid(&["decode", "--sensor", "ld06", path.to_str().unwrap()]);
     std::fs::remove_file(&path).ok();

@@ -1,30 +1,18 @@
 //! `pyramid design` as scripts use it: the JSON report, the refusals, the plot.
 use serde_json::Value;
 use std::path::PathBuf;
-use std::process::{Command, Output};
+use std::process::Output;
 
+mod common;
+
+/// Runs `pyramid design ARGS`.
 fn pyramid(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_pyramid"))
-        .arg("design")
-        .args(args)
-        .output()
-        .expect("the pyramid binary runs")
+    common::pyramid(&[&["design"], args].concat())
 }
 
 /// Runs `pyramid design --json ARGS`, checks it succeeded, and parses its stdout as one object.
 fn design_json(args: &[&str]) -> Value {
-    let mut all = vec!["--json"];
-    all.extend_from_slice(args);
-    let out = pyramid(&all);
-    assert!(
-        out.status.success(),
-        "pyramid design {all:?} failed: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let stdout = String::from_utf8(out.stdout).expect("UTF-8 output");
-    let value: Value = serde_json::from_str(stdout.trim()).expect("stdout is one JSON value");
-    assert!(value.is_object(), "the JSON is an object: {stdout}");
-    value
+    common::json_object("design", args).0
 }
 
 fn num(v: &Value) -> f64 {
@@ -168,36 +156,41 @@ fn the_table_is_printed_without_json() {
     assert!(stdout.contains("1.3797"), "{stdout}");
 }
 
-#[test]
-fn gamma_one_is_refused_by_name() {
-    assert_refused(&["--gamma", "1"], "--gamma");
-}
+/// Each refused configuration: what is wrong, its flags, the flag the refusal names.
+const REFUSALS: &[(&str, &[&str], &str)] = &[
+    ("gamma one", &["--gamma", "1"], "--gamma"),
+    (
+        "a base cell below a centimetre",
+        &["--base-m", "0.001"],
+        "--base-m",
+    ),
+    ("a NaN sigma", &["--sigma-m", "nan"], "--sigma-m"),
+    // Negative and infinite values reach the library, which names them.
+    ("a negative height", &["--height-m", "-1"], "--height-m"),
+    ("an infinite psi", &["--psi-deg", "-inf"], "--psi-deg"),
+    (
+        "an infinite range",
+        &["--max-range-m", "inf"],
+        "--max-range-m",
+    ),
+    (
+        "a window too small for its band",
+        &["--cells", "8"],
+        "--cells",
+    ),
+    (
+        "a plot that is not a PNG",
+        &["--plot", "figure.svg"],
+        "--plot",
+    ),
+];
 
 #[test]
-fn a_base_cell_below_a_centimetre_is_refused_by_name() {
-    assert_refused(&["--base-m", "0.001"], "--base-m");
-}
-
-#[test]
-fn a_nan_sigma_is_refused_by_name() {
-    assert_refused(&["--sigma-m", "nan"], "--sigma-m");
-}
-
-#[test]
-fn negative_and_infinite_values_reach_the_library() {
-    assert_refused(&["--height-m", "-1"], "--height-m");
-    assert_refused(&["--psi-deg", "-inf"], "--psi-deg");
-    assert_refused(&["--max-range-m", "inf"], "--max-range-m");
-}
-
-#[test]
-fn a_window_too_small_for_its_band_is_refused_by_name() {
-    assert_refused(&["--cells", "8"], "--cells");
-}
-
-#[test]
-fn a_plot_that_is_not_a_png_is_refused_by_name() {
-    assert_refused(&["--plot", "figure.svg"], "--plot");
+fn every_refused_configuration_is_refused_by_name() {
+    for (what, args, flag) in REFUSALS {
+        eprintln!("{what}");
+        assert_refused(args, flag);
+    }
 }
 
 /// A file under the target directory, removed first.

@@ -1,8 +1,8 @@
 //! The link's Setup frame (protocol version 5: its body with the navigability rule, laser,
 //! mount and filter blocks) against an independent encoder written from `docs/protocol.md` alone:
-//! `host/tests/py/link_setup.py` (Python's `struct`, `zlib.crc32` and a COBS of its own). Every
-//! field is given to both in wire order; the frames must be equal byte for byte, and the
-//! library must decode Python's frame back to the same Setup.
+//! `host/tests/py/link_setup.py` (Python's `struct`, `zlib.crc32` and the COBS of
+//! `docs/link_golden.py`). Every field is given to both in wire order; the frames must be equal
+//! byte for byte, and the library must decode Python's frame back to the same Setup.
 use std::process::Command;
 
 mod common;

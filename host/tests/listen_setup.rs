@@ -17,6 +17,8 @@ use terrain_pyramid_host::rigfile::{device_setup, read_rig_file};
 
 #[path = "support/listen_device.rs"]
 mod listen_device;
+#[path = "support/accept.rs"]
+mod support_accept;
 use listen_device::{each_frame, refused_before_connecting};
 
 fn example(name: &str) -> PathBuf {
@@ -27,20 +29,7 @@ fn example(name: &str) -> PathBuf {
 
 /// The next connection, or a failed test after 30 s (the host exited early).
 fn accept(listener: &TcpListener) -> TcpStream {
-    listener.set_nonblocking(true).unwrap();
-    let start = Instant::now();
-    loop {
-        match listener.accept() {
-            Ok((stream, _)) => {
-                stream.set_nonblocking(false).unwrap();
-                return stream;
-            }
-            Err(_) if start.elapsed() < Duration::from_secs(30) => {
-                std::thread::sleep(Duration::from_millis(10));
-            }
-            Err(e) => panic!("the host never connected: {e}"),
-        }
-    }
+    support_accept::accept(listener, Duration::from_secs(30), false)
 }
 
 fn listen(port: u16, out: &Path, flags: &[&str]) -> Child {

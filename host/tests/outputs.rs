@@ -13,6 +13,7 @@
 //! The Python readers are installed by `host/tests/py/setup.sh`.
 use serde_json::Value;
 use std::io::{BufRead, BufReader};
+use std::path::PathBuf;
 use std::process::{Command, Stdio};
 use std::sync::atomic::Ordering;
 use std::time::{Duration, Instant};
@@ -25,7 +26,8 @@ mod netns;
 mod support;
 use netns::{run_in_own_network_namespace, NETNS_MARK};
 use support::{
-    device, fnv1a64, fused_occupancy, listen, listen_json, raw_cells, scratch, Plan, PATIENCE, W,
+    device, fnv1a64, fused_occupancy, listen, listen_json, raw_cells, scratch, Device, Plan,
+    PATIENCE, W,
 };
 #[path = "support/outputs.rs"]
 mod outputs_support;
@@ -203,6 +205,26 @@ fn pyramid_run_through_the_emulated_board_records_mcap_equal_to_its_maps() {
     assert!((pose[1].as_f64().unwrap() - 0.1).abs() < 1e-6, "{pose}");
 }
 
+/// A stand-in device driving `steps` steps of the clean plan of `seed` and staying connected
+/// once settled (driving at once, or when told to go), and `pyramid listen --json` connected
+/// to it with `flags`, writing into the scratch directory `outputs-NAME`.
+fn listening_to_device(
+    name: &str,
+    (seed, steps): (u64, usize),
+    go_now: bool,
+    flags: &[&str],
+) -> (Device, PathBuf, Running) {
+    let plan = Plan {
+        steps,
+        close_when_settled: false,
+        ..Plan::clean(seed)
+    };
+    let dev = device(plan, go_now);
+    let dir = scratch("outputs", name);
+    let run = running(listen_json(dev.port, &dir, flags));
+    (dev, dir, run)
+}
+
 // ------------------------------------------------------------------ Foxglove
 
 /// The `ws://` address `pyramid listen` says it serves.
@@ -214,18 +236,12 @@ fn served_url(run: &Running) -> String {
 #[test]
 fn a_foxglove_client_decodes_grids_while_a_stuck_client_holds_nothing_up() {
     let py = python();
-    let plan = Plan {
-        steps: 2500,
-        close_when_settled: false,
-        ..Plan::clean(17)
-    };
-    let dev = device(plan, false);
-    let dir = scratch("outputs", "foxglove");
-    let run = running(listen_json(
-        dev.port,
-        &dir,
+    let (dev, dir, run) = listening_to_device(
+        "foxglove",
+        (17, 2500),
+        false,
         &["--foxglove", "127.0.0.1:0", "--publish-hz", "50"],
-    ));
+    );
     let url = served_url(&run);
     assert!(url.starts_with("ws://127.0.0.1:"), "{url}");
     // The device's first Hello and snapshot have been published once the status says synced.
@@ -360,18 +376,8 @@ fn ros2_inner() {
         "ros2_inner runs only inside `unshare -n` (see the test that calls it)"
     );
     let py = python();
-    let plan = Plan {
-        steps: 300,
-        close_when_settled: false,
-        ..Plan::clean(29)
-    };
-    let dev = device(plan, true);
-    let dir = scratch("outputs", "ros2");
-    let run = running(listen_json(
-        dev.port,
-        &dir,
-        &["--ros2", "--ros-domain-id", "7"],
-    ));
+    let (dev, dir, run) =
+        listening_to_device("ros2", (29, 300), true, &["--ros2", "--ros-domain-id", "7"]);
     dev.settled
         .recv_timeout(PATIENCE)
         .expect("the device settled");
@@ -475,34 +481,23 @@ fn an_address_in_use_is_an_error_naming_the_flag() {
     let taken = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
     let addr = taken.local_addr().unwrap().to_string();
     let dir = scratch("outputs", "in-use");
+    let out_dir = dir.to_str().unwrap();
+    // `pyramid listen` with the outputs of `flags`, to a port nothing serves: it exits 1; its
+    // stderr.
+    let refusal = |flags: &[&str]| {
+        let base = ["--tcp", "127.0.0.1:1", "--out", out_dir];
+        let out = running(listen(&[&base, flags].concat())).finish();
+        assert_eq!(out.status.code(), Some(1));
+        String::from_utf8(out.stderr).unwrap()
+    };
     // The outputs start before the device is opened: no device is needed to see the error.
-    let out = running(listen(&[
-        "--tcp",
-        "127.0.0.1:1",
-        "--out",
-        dir.to_str().unwrap(),
-        "--foxglove",
-        &addr,
-    ]))
-    .finish();
-    assert_eq!(out.status.code(), Some(1));
-    let stderr = String::from_utf8(out.stderr).unwrap();
+    let stderr = refusal(&["--foxglove", &addr]);
     assert_eq!(
         stderr.trim(),
         format!("error: --foxglove: {addr} is already in use")
     );
     // An MCAP file that cannot be created names its flag too.
-    let out = running(listen(&[
-        "--tcp",
-        "127.0.0.1:1",
-        "--out",
-        dir.to_str().unwrap(),
-        "--mcap",
-        dir.join("no/such/dir/x.mcap").to_str().unwrap(),
-    ]))
-    .finish();
-    assert_eq!(out.status.code(), Some(1));
-    let stderr = String::from_utf8(out.stderr).unwrap();
+    let stderr = refusal(&["--mcap", dir.join("no/such/dir/x.mcap").to_str().unwrap()]);
     assert!(
         stderr.starts_with("error: --mcap: cannot create "),
         "{stderr}"

@@ -78,24 +78,48 @@ fn record_capture(args: &[&str], dir: &Path, (angles, out): (&str, &str)) -> Out
         .unwrap()
 }
 
-/// Starts `pyramid record --json ARGS --out OUT`, its stdout (the JSON report) piped.
-fn spawn_record(args: &[&str], out: &Path) -> Child {
-    Command::new(PYRAMID)
-        .args(["record", "--json"])
-        .args(args)
-        .arg("--out")
-        .arg(out)
-        .stdout(std::process::Stdio::piped())
-        .spawn()
-        .unwrap()
+/// `pyramid record` of a serial port, running: the port's other side, the process (its stdout,
+/// the JSON report, piped), and the recording it writes.
+struct PortRecording {
+    /// The side of the pseudo-terminal the test writes to; open until the test ends.
+    _master: TTYPort,
+    child: Child,
+    dir: PathBuf,
+    out: PathBuf,
 }
 
-/// Writes `bytes` to `port` in parts of `part_len` bytes, each flushed, `pause_ms` ms apart.
-fn write_in_parts(port: &mut TTYPort, bytes: &[u8], part_len: usize, pause_ms: u64) {
-    for part in bytes.chunks(part_len) {
-        port.write_all(part).unwrap();
-        port.flush().unwrap();
+/// Starts `pyramid record --json ARGS --port PTY --out NAME/port.rec` on a fresh
+/// pseudo-terminal and, once it has had time to open the port (0.7 s), writes `sent` to it in
+/// parts of `part_len` bytes, each flushed, `pause_ms` ms apart.
+fn record_port(
+    name: &str,
+    args: &[&str],
+    sent: &[u8],
+    (part_len, pause_ms): (usize, u64),
+) -> PortRecording {
+    let (mut master, port) = pseudo_terminal();
+    let dir = tmp(name);
+    let out = dir.join("port.rec");
+    let child = Command::new(PYRAMID)
+        .args(["record", "--json"])
+        .args(args)
+        .args(["--port", &port])
+        .arg("--out")
+        .arg(&out)
+        .stdout(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    std::thread::sleep(std::time::Duration::from_millis(700));
+    for part in sent.chunks(part_len) {
+        master.write_all(part).unwrap();
+        master.flush().unwrap();
         std::thread::sleep(std::time::Duration::from_millis(pause_ms));
+    }
+    PortRecording {
+        _master: master,
+        child,
+        dir,
+        out,
     }
 }
 
@@ -197,26 +221,26 @@ fn a_raw_capture_and_its_angles_replay_to_the_original_maps() {
 
 #[test]
 fn a_serial_port_is_recorded_byte_for_byte_with_host_times() {
-    let (mut master, name) = pseudo_terminal();
-    let dir = tmp("record-port");
-    let out = dir.join("port.rec");
-    let child = spawn_record(
+    // Bytes that are not all a lidar's packets: the recording keeps them as they came.
+    let sent: Vec<u8> = (0..3000_u32).map(|i| (i * 7 + i / 256) as u8).collect();
+    let PortRecording {
+        _master,
+        child,
+        dir,
+        out,
+    } = record_port(
+        "record-port",
         &[
             "--sensor",
             "rplidar",
             "--actuator",
             "pan",
-            "--port",
-            &name,
             "--duration-s",
             "2.5",
         ],
-        &out,
+        &sent,
+        (500, 100),
     );
-    std::thread::sleep(std::time::Duration::from_millis(700));
-    // Bytes that are not all a lidar's packets: the recording keeps them as they came.
-    let sent: Vec<u8> = (0..3000_u32).map(|i| (i * 7 + i / 256) as u8).collect();
-    write_in_parts(&mut master, &sent, 500, 100);
     let o = child.wait_with_output().unwrap();
     assert!(o.status.success());
     let report: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
@@ -313,13 +337,13 @@ fn run_with_a_rig_file_takes_its_setup_over_the_recording_s() {
 
 #[test]
 fn ctrl_c_ends_a_port_recording_with_a_complete_file() {
-    let (mut master, name) = pseudo_terminal();
-    let dir = tmp("record-ctrl-c");
-    let out = dir.join("port.rec");
-    let child = spawn_record(&["--sensor", "ld19", "--port", &name], &out);
-    std::thread::sleep(std::time::Duration::from_millis(700));
     let sent: Vec<u8> = (0..2000_u32).map(|i| (i % 251) as u8).collect();
-    write_in_parts(&mut master, &sent, 400, 50);
+    let PortRecording {
+        _master,
+        child,
+        dir,
+        out,
+    } = record_port("record-ctrl-c", &["--sensor", "ld19"], &sent, (400, 50));
     std::thread::sleep(std::time::Duration::from_millis(300));
     let status = Command::new("kill")
         .args(["-INT", &child.id().to_string()])

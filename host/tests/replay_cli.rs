@@ -3,14 +3,13 @@
 use serde_json::Value;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Output;
 
+mod common;
+
+/// Runs `pyramid replay ARGS`.
 fn pyramid(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_pyramid"))
-        .arg("replay")
-        .args(args)
-        .output()
-        .expect("the pyramid binary runs")
+    common::pyramid(&[&["replay"], args].concat())
 }
 
 /// A fresh directory for one test.
@@ -28,18 +27,8 @@ fn path(p: &Path) -> &str {
 /// Runs `pyramid replay --json ARGS`, checks it succeeded, and parses stdout as one object
 /// whose first keys are the required ones, in order.
 fn replay_json(args: &[&str]) -> Value {
-    let mut all = vec!["--json"];
-    all.extend_from_slice(args);
-    let out = pyramid(&all);
-    assert!(
-        out.status.success(),
-        "pyramid replay {all:?} failed: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let stdout = String::from_utf8(out.stdout).expect("UTF-8 output");
+    let (value, stdout) = common::json_object("replay", args);
     assert_eq!(stdout.trim().lines().count(), 1, "one line: {stdout}");
-    let value: Value = serde_json::from_str(stdout.trim()).expect("stdout is one JSON value");
-    assert!(value.is_object());
     let positions: Vec<usize> = [
         "{\"points_read\":",
         ",\"points_used\":",

@@ -134,20 +134,11 @@ fn json_lists_valid_measured_values_and_counts_errors() {
 fn measuring_mode_changes_the_mask() {
     let built = stream();
     let path = temp_file("mode", &built.bytes);
-    let out = pyramid(&[
-        "sick-decode",
-        path.to_str().unwrap(),
-        "--measuring-mode",
-        "0x0F",
-        "--json",
-    ]);
-    let dec = pyramid(&[
-        "sick-decode",
-        path.to_str().unwrap(),
-        "--measuring-mode",
-        "15",
-        "--json",
-    ]);
+    // The mode in hex and in decimal.
+    let [out, dec] = ["0x0F", "15"].map(|mode| {
+        let path = path.to_str().unwrap();
+        pyramid(&["sick-decode", path, "--measuring-mode", mode, "--json"])
+    });
     std::fs::remove_file(&path).ok();
     assert_eq!(out.status.code(), Some(0), "{out:?}");
     assert_eq!(out.stdout, dec.stdout);

@@ -19,7 +19,7 @@ import threading
 import time
 
 sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "..", "host", "tests", "py"))
-from dds_sub import OccupancyGrid  # noqa: E402  the IDL declarations of the host's tests
+from ros2_types import OccupancyGrid  # noqa: E402  the IDL declarations of the host's tests
 
 from cyclonedds.core import Policy, Qos  # noqa: E402
 from cyclonedds.domain import DomainParticipant  # noqa: E402

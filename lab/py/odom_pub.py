@@ -2,9 +2,9 @@
 `cyclonedds` Python binding), late and jittered as a robot's stack delivers them: each pose
 stamped with the wall-clock time the robot was there, published `late ± jitter` ms after it.
 
-The message types are declared here in IDL form under the names ROS 2 gives them on DDS
-(`nav_msgs::msg::dds_::Odometry_`, topic `rt/odom` for ROS 2's `/odom`), independently of the
-reader under test. QoS: keep last 10; reliable and volatile by default (rclcpp's default for a
+The message types are those of host/tests/py/ros2_types.py, declared in IDL form under the
+names ROS 2 gives them on DDS (`nav_msgs::msg::dds_::Odometry_`, topic `rt/odom` for ROS 2's
+`/odom`), independently of the reader under test. QoS: keep last 10; reliable and volatile by default (rclcpp's default for a
 publisher), or as --reliability and --durability say (a best-effort sensor driver, a
 transient-local latched publisher): a reader must take each of them.
 
@@ -23,97 +23,22 @@ Run it only inside a network namespace of its own (DDS multicast must not leave 
 import argparse
 import json
 import math
+import os
 import random
 import sys
 import time
-from dataclasses import dataclass, field
 
-import cyclonedds.idl.annotations as annotate
-import cyclonedds.idl.types as types
-from cyclonedds.core import Policy, Qos
-from cyclonedds.domain import DomainParticipant
-from cyclonedds.idl import IdlStruct
-from cyclonedds.pub import DataWriter
-from cyclonedds.topic import Topic
-from cyclonedds.util import duration
+sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "..", "host", "tests", "py"))
+from ros2_types import (  # noqa: E402  the IDL declarations of the host's tests
+    Header, Odometry, Point, Pose, PoseWithCovariance, Quaternion, Time, Twist,
+    TwistWithCovariance, Vector3,
+)
 
-
-@dataclass
-@annotate.final
-class Time(IdlStruct, typename="builtin_interfaces::msg::dds_::Time_"):
-    sec: types.int32
-    nanosec: types.uint32
-
-
-@dataclass
-@annotate.final
-class Header(IdlStruct, typename="std_msgs::msg::dds_::Header_"):
-    stamp: Time
-    frame_id: str
-
-
-@dataclass
-@annotate.final
-class Point(IdlStruct, typename="geometry_msgs::msg::dds_::Point_"):
-    x: types.float64
-    y: types.float64
-    z: types.float64
-
-
-@dataclass
-@annotate.final
-class Quaternion(IdlStruct, typename="geometry_msgs::msg::dds_::Quaternion_"):
-    x: types.float64
-    y: types.float64
-    z: types.float64
-    w: types.float64
-
-
-@dataclass
-@annotate.final
-class Pose(IdlStruct, typename="geometry_msgs::msg::dds_::Pose_"):
-    position: Point
-    orientation: Quaternion
-
-
-@dataclass
-@annotate.final
-class PoseWithCovariance(IdlStruct, typename="geometry_msgs::msg::dds_::PoseWithCovariance_"):
-    pose: Pose
-    covariance: types.array[types.float64, 36]
-
-
-@dataclass
-@annotate.final
-class Vector3(IdlStruct, typename="geometry_msgs::msg::dds_::Vector3_"):
-    x: types.float64
-    y: types.float64
-    z: types.float64
-
-
-@dataclass
-@annotate.final
-class Twist(IdlStruct, typename="geometry_msgs::msg::dds_::Twist_"):
-    linear: Vector3
-    angular: Vector3
-
-
-@dataclass
-@annotate.final
-class TwistWithCovariance(
-    IdlStruct, typename="geometry_msgs::msg::dds_::TwistWithCovariance_"
-):
-    twist: Twist
-    covariance: types.array[types.float64, 36]
-
-
-@dataclass
-@annotate.final
-class Odometry(IdlStruct, typename="nav_msgs::msg::dds_::Odometry_"):
-    header: Header
-    child_frame_id: str
-    pose: PoseWithCovariance
-    twist: TwistWithCovariance
+from cyclonedds.core import Policy, Qos  # noqa: E402
+from cyclonedds.domain import DomainParticipant  # noqa: E402
+from cyclonedds.pub import DataWriter  # noqa: E402
+from cyclonedds.topic import Topic  # noqa: E402
+from cyclonedds.util import duration  # noqa: E402
 
 
 def quaternion(roll, pitch, yaw):

@@ -232,11 +232,7 @@ fn run_kind(
     outcome.telegrams_total = lines.len() as u64;
 
     let mut emu = Emulator::start(Machine::Mps2An386, elf, &out.join(format!("{kind}.defmt")))?;
-    emu.wait_for("Hello", |link, _| link.mirror().firmware().is_some())?;
-    emu.command(
-        "Configure",
-        &Message::Configure(configure_of_design(&design, &config)),
-    )?;
+    emu.configure_after_hello(&design, &config)?;
     emu.command("Setup", &Message::Setup(setup))?;
 
     let mut phase = Phase::Normal;

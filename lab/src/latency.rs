@@ -566,13 +566,7 @@ pub fn execute(args: &Args) -> Result<Report, String> {
         std::thread::spawn(move || sample_sizes(path, stop))
     };
     let mut emu = boot_emulator(Machine::Mps2An386, &args.out.join("firmware.defmt"))?;
-    emu.wait_for("Hello", |link, _| link.mirror().firmware().is_some())?;
-    emu.command(
-        "Configure",
-        &Message::Configure(terrain_pyramid::link::convert::configure_of_design(
-            &design, &config,
-        )),
-    )?;
+    emu.configure_after_hello(&design, &config)?;
     eprintln!("latency: the stairs approach through the emulated board at {rate_hz:.1} Hz ...");
     let mut timed = Timed {
         emu: &mut emu,

@@ -70,12 +70,10 @@ use std::sync::Arc;
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 use terrain_pyramid::classify::ClassifierConfig;
 use terrain_pyramid::link::convert::setup_message_with_sensor;
-use terrain_pyramid::wire::link::{Message, PanAngle};
+use terrain_pyramid::wire::link::Message;
 use terrain_pyramid::LogOddsFixed;
-use terrain_pyramid::{
-    Config, DefaultDesign, Schedule, SensorModel, DEFAULT_CELLS_PER_SIDE, DEFAULT_CLASSIFIER_SLOTS,
-    DEFAULT_LAYERS,
-};
+use terrain_pyramid::{Config, DEFAULT_CELLS_PER_SIDE, DEFAULT_CLASSIFIER_SLOTS, DEFAULT_LAYERS};
+use terrain_pyramid_host::design::firmware_design;
 use terrain_pyramid_host::emulator::Machine;
 use terrain_pyramid_host::export::MapSnapshot;
 use terrain_pyramid_host::link::HostLink;
@@ -327,12 +325,7 @@ pub fn execute(args: &Args) -> Result<Report, String> {
     let mut in_order = poses.clone();
     in_order.sort_by_key(|p| p.stamp_us);
     write_poses(&out.join("poses.ndjson"), &in_order)?;
-    let design = DefaultDesign::new(
-        SensorModel::default(),
-        Schedule::default(),
-        DEFAULT_CELLS_PER_SIDE,
-    )
-    .map_err(|e| e.to_string())?;
+    let design = firmware_design()?;
     let config = Config::default();
     let frontend = terrain_pyramid::link::convert::frontend_config(&setup_message_with_sensor(
         &steps.setup().ok_or("no setup")?,
@@ -451,12 +444,7 @@ pub fn execute(args: &Args) -> Result<Report, String> {
             // The actuator's angle before the chunk it precedes, as `pyramid run` sends it
             // (this board has no encoder and the setup no servo).
             if let Some(turns) = angle.take() {
-                let frame = angles
-                    .command(&Message::PanAngle(PanAngle {
-                        turns,
-                        timestamp_ms: 0,
-                    }))
-                    .map_err(|e| e.to_string())?;
+                let frame = timing::pan_angle_frame(&mut angles, turns)?;
                 if let Ok(mut i) = relay.inject.lock() {
                     i.send(&frame, true);
                 }

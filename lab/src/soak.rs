@@ -27,16 +27,14 @@ use std::process::ExitCode;
 use std::time::Instant;
 use terrain_pyramid::classify::ClassifierConfig;
 use terrain_pyramid::geometry::ScanPlane;
-use terrain_pyramid::link::convert::{
-    configure_of_design, frontend_config_of_event, setup_message,
-};
+use terrain_pyramid::link::convert::{frontend_config_of_event, setup_message};
 use terrain_pyramid::link::{LinkConfig, DEFAULT_QUEUE_BYTES};
 use terrain_pyramid::pipeline::FrontendConfig;
 use terrain_pyramid::wire::link::{Message, PanAngle, PoseReport, Stats, STATS_COUNTERS};
 use terrain_pyramid::{
-    Clamp, Config, DefaultDesign, Schedule, SensorModel, DEFAULT_CELLS_PER_SIDE,
-    DEFAULT_CLASSIFIER_SLOTS, DEFAULT_LAYERS,
+    Clamp, Config, DefaultDesign, DEFAULT_CELLS_PER_SIDE, DEFAULT_CLASSIFIER_SLOTS, DEFAULT_LAYERS,
 };
+use terrain_pyramid_host::design::firmware_design;
 use terrain_pyramid_host::device::Device;
 use terrain_pyramid_host::device::InProcess;
 use terrain_pyramid_host::emulator::{
@@ -100,6 +98,28 @@ pub struct Sample {
     pub rss_kib: Option<u64>,
     /// The device's counters at the end of the interval, by name.
     pub stats: Vec<(String, u32)>,
+}
+
+impl Sample {
+    /// The sample at simulated time `sim_s` (seconds): `lines_in` telegrams played in the
+    /// last `interval_s` wall seconds, the wall time since `started`, the process's resident
+    /// set (KiB) when measured, and the device's counters `stats`.
+    #[allow(clippy::cast_precision_loss)]
+    fn new(
+        sim_s: f64,
+        started: Instant,
+        (lines_in, interval_s): (u64, f64),
+        rss_kib: Option<u64>,
+        stats: &Stats,
+    ) -> Self {
+        Self {
+            sim_s,
+            wall_s: started.elapsed().as_secs_f64(),
+            telegrams_per_s: lines_in as f64 / interval_s.max(1e-9),
+            rss_kib,
+            stats: named(stats),
+        }
+    }
 }
 
 /// A counter's growth and when it would saturate.
@@ -228,13 +248,7 @@ const BOARD_SAMPLE_LINES: u64 = 1125;
 
 /// The design and configuration the firmware boots with (the link's Configure repeats them).
 fn design_and_config() -> Result<(DefaultDesign, Config), String> {
-    let design = DefaultDesign::new(
-        SensorModel::default(),
-        Schedule::default(),
-        DEFAULT_CELLS_PER_SIDE,
-    )
-    .map_err(|e| e.to_string())?;
-    Ok((design, Config::default()))
+    Ok((firmware_design()?, Config::default()))
 }
 
 /// The soak's in-process co-processor: the firmware's pyramid and classifier, and the link's
@@ -262,11 +276,7 @@ fn in_process(
         config,
         FrontendConfig::lms291_boot(ScanPlane::TiltedHorizontal),
     )?;
-    device.wait_for("Hello", |link, _| link.mirror().firmware().is_some())?;
-    device.command(
-        "Configure",
-        &Message::Configure(configure_of_design(design, config)),
-    )?;
+    device.configure_after_hello(design, config)?;
     device.command("Setup", &Message::Setup(setup_message(setup, &classifier)))?;
     Ok(device)
 }
@@ -476,13 +486,7 @@ fn host_soak(minutes: f64, failures: &mut Vec<String>) -> Result<HostReport, Str
                 failures.push(format!("host: the mirror lost frames: {m:?}"));
             }
             let rss = rss_kib();
-            let sample = Sample {
-                sim_s,
-                wall_s: started.elapsed().as_secs_f64(),
-                telegrams_per_s: lines_in as f64 / wall.max(1e-9),
-                rss_kib: rss,
-                stats: named(&stats),
-            };
+            let sample = Sample::new(sim_s, started, (lines_in, wall), rss, &stats);
             if !report.samples.is_empty() || rss.is_some() {
                 eprintln!(
                     "  {:6.0} s simulated, {:6.1} s wall: {:7.0} telegrams/s, RSS {} KiB, points {}, patches {}, deferred {}",

@@ -157,7 +157,7 @@ pub(super) fn write_out(
             ", NOT synced"
         }
     );
-    let written = export::write_maps(&args.out, &snapshot, &title)?;
+    let written = export::write_maps(&args.summary.out, &snapshot, &title)?;
     let MapSummary { layers, fused } = written.summary;
     let c = mirror.counters();
     let mut files: Vec<String> = written
@@ -202,7 +202,7 @@ pub(super) fn write_out(
     let json = serde_json::to_string_pretty(&summary)
         .map_err(|e| format!("cannot encode the summary as JSON: {e}"))?;
     export::write_file(
-        &args.out.join("summary.json"),
+        &args.summary.out.join("summary.json"),
         format!("{json}\n").as_bytes(),
     )?;
     Ok(summary)

@@ -153,11 +153,7 @@ impl Timing {
         let fmt =
             |v: Option<f64>, digits: usize| v.map_or_else(String::new, |v| format!("{v:.digits$}"));
         let clock = ros_msgs::DiagnosticStatus {
-            level: if r.synced {
-                ros_msgs::LEVEL_OK
-            } else {
-                ros_msgs::LEVEL_WARN
-            },
+            level: ros_msgs::level(r.synced),
             name: "terrain_pyramid: clock".into(),
             message: match (r.drift_ppm, r.accuracy_us) {
                 (Some(drift), Some(acc)) if r.synced => {
@@ -208,11 +204,7 @@ impl Timing {
                 )
             });
             out.push(ros_msgs::DiagnosticStatus {
-                level: if rising || refused || p.counters.forwarded == 0 {
-                    ros_msgs::LEVEL_WARN
-                } else {
-                    ros_msgs::LEVEL_OK
-                },
+                level: ros_msgs::level(!(rising || refused || p.counters.forwarded == 0)),
                 name: "terrain_pyramid: poses".into(),
                 message: format!(
                     "{} forwarded, {} dropped ({}){publishers}{}",

@@ -30,14 +30,7 @@ impl Transport {
         };
         if let Some(path) = &args.port {
             let baud = args.baud.unwrap_or(DEFAULT_BAUD);
-            let port = serialport::new(path.as_str(), baud)
-                .data_bits(serialport::DataBits::Eight)
-                .parity(serialport::Parity::None)
-                .stop_bits(serialport::StopBits::One)
-                .flow_control(serialport::FlowControl::None)
-                .timeout(read_timeout)
-                .open()
-                .map_err(|e| serial_open_error(path, &e))?;
+            let port = crate::serial::open(path, baud, read_timeout)?;
             return Ok((Self::Serial(port), format!("{path} at {baud} Bd")));
         }
         let address = args.tcp.as_deref().unwrap_or_default();
@@ -86,18 +79,5 @@ impl Transport {
             Self::Tcp(stream) => stream.write_all(bytes),
             Self::Closed => Err(std::io::ErrorKind::NotConnected.into()),
         }
-    }
-}
-
-/// Why a serial port cannot be opened, in words: the port is exclusive (TIOCEXCL and an
-/// exclusive `flock`, serialport's default), so another process holding it is named as such.
-fn serial_open_error(path: &str, e: &serialport::Error) -> String {
-    let busy = e.description.contains("exclusive lock")
-        || e.description.contains("busy")
-        || e.description.contains("EBUSY");
-    if busy {
-        format!("cannot open the serial port {path}: it is already open in another process ({e})")
-    } else {
-        format!("cannot open the serial port {path}: {e}")
     }
 }

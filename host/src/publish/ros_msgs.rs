@@ -210,6 +210,17 @@ pub const LEVEL_OK: u8 = 0;
 /// `DiagnosticStatus.level`: WARN.
 pub const LEVEL_WARN: u8 = 1;
 
+/// `DiagnosticStatus.level` of a check: [`LEVEL_OK`] when it passed (`ok`), else
+/// [`LEVEL_WARN`].
+#[must_use]
+pub const fn level(ok: bool) -> u8 {
+    if ok {
+        LEVEL_OK
+    } else {
+        LEVEL_WARN
+    }
+}
+
 /// The separator between the definitions of a `ros2msg` schema.
 const SEPARATOR: &str =
     "================================================================================\n";

@@ -2,11 +2,8 @@
 use super::*;
 use crate::link::HostLink;
 use std::sync::mpsc::{Receiver, Sender};
-use terrain_pyramid::design::{Schedule, SensorModel};
 use terrain_pyramid::link::{Link, LinkConfig, SensorCounters};
-use terrain_pyramid::{
-    DefaultDesign, DefaultPyramid, Evidence, EvidenceClass, DEFAULT_CELLS_PER_SIDE,
-};
+use terrain_pyramid::{DefaultPyramid, Evidence, EvidenceClass};
 
 /// A sink that records what it is given and blocks on every publish until released.
 struct Stuck {
@@ -36,12 +33,7 @@ struct Pair {
 
 impl Pair {
     fn new() -> Self {
-        let design = DefaultDesign::new(
-            SensorModel::default(),
-            Schedule::default(),
-            DEFAULT_CELLS_PER_SIDE,
-        )
-        .unwrap();
+        let design = crate::design::firmware_design().unwrap();
         let mut pyramid = Box::new(DefaultPyramid::new());
         let mut device = Box::new(Link::new(LinkConfig::DEFAULT));
         pyramid

@@ -72,11 +72,7 @@ fn diagnostics_message(frame: &Frame, stamp: ros_msgs::Time) -> ros_msgs::Diagno
     );
     let c = frame.counters;
     let host = ros_msgs::DiagnosticStatus {
-        level: if frame.synced {
-            ros_msgs::LEVEL_OK
-        } else {
-            ros_msgs::LEVEL_WARN
-        },
+        level: ros_msgs::level(frame.synced),
         name: "terrain_pyramid: host link".into(),
         message: if frame.synced {
             "synced".into()

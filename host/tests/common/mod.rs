@@ -143,6 +143,24 @@ pub fn pyramid(args: &[&str]) -> Output {
     Command::new(PYRAMID).args(args).output().unwrap()
 }
 
+/// Runs `pyramid COMMAND --json ARGS`, checks that it succeeded and printed one JSON object;
+/// the object, and stdout as printed.
+pub fn json_object(command: &str, args: &[&str]) -> (serde_json::Value, String) {
+    let mut all = vec![command, "--json"];
+    all.extend_from_slice(args);
+    let out = pyramid(&all);
+    assert!(
+        out.status.success(),
+        "pyramid {all:?} failed: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let stdout = String::from_utf8(out.stdout).expect("UTF-8 output");
+    let value: serde_json::Value =
+        serde_json::from_str(stdout.trim()).expect("stdout is one JSON value");
+    assert!(value.is_object(), "the JSON is an object: {stdout}");
+    (value, stdout)
+}
+
 /// Runs `command` to its end and returns what it printed; fails the test, with `what_failed`
 /// followed by the command's stderr, when it does not exit successfully.
 pub fn succeeded(command: &mut Command, what_failed: &str) -> Output {

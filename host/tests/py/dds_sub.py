@@ -1,7 +1,8 @@
 """Subscribes with Eclipse Cyclone DDS (the `cyclonedds` Python binding) to the ROS 2 topics
-`pyramid listen --ros2` publishes, with the message types declared here in IDL form under the
-names ROS 2 gives them on DDS (`nav_msgs::msg::dds_::OccupancyGrid_`, topic `rt/terrain/fused`),
-and the QoS Nav2's map subscribers use (reliable, transient local, keep last 1).
+`pyramid listen --ros2` publishes, with the message types of `ros2_types.py` (IDL, under the
+names ROS 2 gives them on DDS: `nav_msgs::msg::dds_::OccupancyGrid_`, topic
+`rt/terrain/fused`), and the QoS Nav2's map subscribers use (reliable, transient local, keep
+last 1).
 
 Waits until it has a sample of every topic asked for (or the timeout), then prints one JSON
 object {topic: last sample} and exits (status 1 if a topic is missing).
@@ -12,108 +13,19 @@ Run it only inside a network namespace of its own (DDS multicast must not leave 
 import json
 import sys
 import time
-from dataclasses import dataclass
 
-import cyclonedds.idl.annotations as annotate
 from cyclonedds.core import Policy, Qos
 from cyclonedds.domain import DomainParticipant
-from cyclonedds.idl import IdlStruct
-from cyclonedds.idl.types import float32, float64, int8, int32, sequence, uint8, uint32
 from cyclonedds.sub import DataReader
 from cyclonedds.topic import Topic
 from cyclonedds.util import duration
 
-
-@dataclass
-@annotate.final
-class Time(IdlStruct, typename="builtin_interfaces::msg::dds_::Time_"):
-    sec: int32
-    nanosec: uint32
-
-
-@dataclass
-@annotate.final
-class Header(IdlStruct, typename="std_msgs::msg::dds_::Header_"):
-    stamp: Time
-    frame_id: str
-
-
-@dataclass
-@annotate.final
-class Point(IdlStruct, typename="geometry_msgs::msg::dds_::Point_"):
-    x: float64
-    y: float64
-    z: float64
-
-
-@dataclass
-@annotate.final
-class Quaternion(IdlStruct, typename="geometry_msgs::msg::dds_::Quaternion_"):
-    x: float64
-    y: float64
-    z: float64
-    w: float64
-
-
-@dataclass
-@annotate.final
-class Pose(IdlStruct, typename="geometry_msgs::msg::dds_::Pose_"):
-    position: Point
-    orientation: Quaternion
-
-
-@dataclass
-@annotate.final
-class MapMetaData(IdlStruct, typename="nav_msgs::msg::dds_::MapMetaData_"):
-    map_load_time: Time
-    resolution: float32
-    width: uint32
-    height: uint32
-    origin: Pose
-
-
-@dataclass
-@annotate.final
-class OccupancyGrid(IdlStruct, typename="nav_msgs::msg::dds_::OccupancyGrid_"):
-    header: Header
-    info: MapMetaData
-    data: sequence[int8]
-
-
-@dataclass
-@annotate.final
-class KeyValue(IdlStruct, typename="diagnostic_msgs::msg::dds_::KeyValue_"):
-    key: str
-    value: str
-
-
-@dataclass
-@annotate.final
-class DiagnosticStatus(IdlStruct, typename="diagnostic_msgs::msg::dds_::DiagnosticStatus_"):
-    level: uint8
-    name: str
-    message: str
-    hardware_id: str
-    values: sequence[KeyValue]
-
-
-@dataclass
-@annotate.final
-class DiagnosticArray(IdlStruct, typename="diagnostic_msgs::msg::dds_::DiagnosticArray_"):
-    header: Header
-    status: sequence[DiagnosticStatus]
+from ros2_json import diagnostics, occupancy_grid
+from ros2_types import DiagnosticArray, OccupancyGrid
 
 
 def grid(s):
-    return {
-        "frame_id": s.header.frame_id,
-        "stamp": [s.header.stamp.sec, s.header.stamp.nanosec],
-        "resolution": s.info.resolution,
-        "width": s.info.width,
-        "height": s.info.height,
-        "origin": [s.info.origin.position.x, s.info.origin.position.y, s.info.origin.orientation.w],
-        "data": list(s.data),
-    }
+    return occupancy_grid(s, list(s.data))
 
 
 def main():
@@ -131,7 +43,7 @@ def main():
     t = Topic(dp, "rt/diagnostics", DiagnosticArray, qos=diag_qos)
     readers["/diagnostics"] = (
         DataReader(dp, t, qos=diag_qos),
-        lambda s: {st.name: {kv.key: kv.value for kv in st.values} for st in s.status},
+        diagnostics,
     )
     last, first_at, counts = {}, {}, {}
     start = time.monotonic()

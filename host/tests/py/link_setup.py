@@ -1,67 +1,27 @@
 #!/usr/bin/env python3
 """An independent encoder of the link's Setup and SetRule frames (docs/protocol.md, version
-5), from the document alone: struct for the little-endian body, zlib.crc32 for
-CRC-32/ISO-HDLC, COBS by hand.
+5), from the document alone: the blocks, the header, the CRC (zlib.crc32, CRC-32/ISO-HDLC)
+and COBS of docs/link_golden.py, the fields from the command line.
 
 Usage: link_setup.py SEQ FIELD...           a Setup (51 fields in wire order, as numbers:
                                             the reserved bytes of the mount block left out)
        link_setup.py setrule SEQ FIELD...   a SetRule (the step, then the 6 rule fields)
 Prints the encoded frame as hex bytes separated by spaces, delimiter included.
 """
-import struct
+import os
 import sys
-import zlib
 
-VERSION = 5
+sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "..", "..", "docs"))
+from link_golden import (  # noqa: E402  the spec's encoder
+    BASE, FILTER, LASER, MOUNT, RULE, frame, hexs, set_rule_body, setup_body,
+)
+
 SETUP = 0x87
-
-# Base part (offset 0), rule block (offset 38), laser block (offset 59), mount block
-# (offset 81: axis, sense, 2 reserved bytes, zero, roll, pitch, yaw), filter block (offset
-# 101: min range cm, max range cm, min quality, sector count, 8 x (start, end) centidegrees).
-BASE = "<BBHH3fI4f"
-RULE = "<B5f"
-LASER = "<BBI4f"
-MOUNT = "<Bb2x4f"
-FILTER = "<HHBB16H"
-
-
-def cobs(data: bytes) -> bytes:
-    out = bytearray()
-    run = bytearray()
-    for b in data:
-        if b == 0:
-            out.append(len(run) + 1)
-            out += run
-            run = bytearray()
-        else:
-            run.append(b)
-            if len(run) == 254:
-                out.append(0xFF)
-                out += run
-                run = bytearray()
-    out.append(len(run) + 1)
-    out += run
-    return bytes(out)
-
-
-def setup_body(fields):
-    base, rule, laser = fields[:12], fields[12:18], fields[18:25]
-    mount, filt = fields[25:31], fields[31:]
-    assert len(filt) == 20, "12 base, 6 rule, 7 laser, 6 mount and 20 filter fields"
-    ints = lambda fmt, vs: [
-        int(v) if c in "BbHI" else float(v)
-        for c, v in zip([c for c in expand(fmt) if c != "x"], vs)
-    ]
-    body = struct.pack(BASE, *ints(BASE, base))
-    body += struct.pack(RULE, *ints(RULE, rule))
-    body += struct.pack(LASER, *ints(LASER, laser))
-    body += struct.pack(MOUNT, *ints(MOUNT, mount))
-    body += struct.pack(FILTER, *ints(FILTER, filt))
-    assert len(body) == 38 + 21 + 22 + 20 + 38, len(body)
-    return body
+SET_RULE = 0x8B
 
 
 def expand(fmt):
+    """The struct codes of a format, one a field (`3f` → `f f f`), padding left out."""
     out, n = [], ""
     for c in fmt[1:]:
         if c.isdigit():
@@ -69,29 +29,30 @@ def expand(fmt):
         else:
             out += [c] * int(n or "1")
             n = ""
-    return out
+    return [c for c in out if c != "x"]
 
 
-SET_RULE = 0x8B
+def numbers(fmt, texts):
+    """The fields of a block as numbers: integers for the integer codes, else floats."""
+    return [int(v) if c in "BbHI" else float(v) for c, v in zip(expand(fmt), texts)]
 
 
-def set_rule_body(fields):
+def setup_of(fields):
+    base, rule, laser = fields[:12], fields[12:18], fields[18:25]
+    mount, filt = fields[25:31], fields[31:]
+    assert len(filt) == 20, "12 base, 6 rule, 7 laser, 6 mount and 20 filter fields"
+    return setup_body(numbers(BASE, base), numbers(RULE, rule), numbers(LASER, laser),
+                      numbers(MOUNT, mount), numbers(FILTER, filt))
+
+
+def set_rule_of(fields):
     assert len(fields) == 7, "the step, then 6 rule fields"
-    body = struct.pack("<f", float(fields[0]))
-    body += struct.pack(RULE, int(fields[1]), *[float(v) for v in fields[2:]])
-    assert len(body) == 25, len(body)
-    return body
-
-
-def frame(seq, body, msg_type=SETUP):
-    decoded = struct.pack("<BBH", VERSION, msg_type, seq) + body
-    decoded += struct.pack("<I", zlib.crc32(decoded) & 0xFFFFFFFF)
-    return cobs(decoded) + b"\x00"
+    return set_rule_body(float(fields[0]), numbers(RULE, fields[1:]))
 
 
 if __name__ == "__main__":
     if sys.argv[1] == "setrule":
-        out = frame(int(sys.argv[2]), set_rule_body(sys.argv[3:]), SET_RULE)
+        out = frame(SET_RULE, int(sys.argv[2]), set_rule_of(sys.argv[3:]))
     else:
-        out = frame(int(sys.argv[1]), setup_body(sys.argv[2:]))
-    print(" ".join(f"{b:02x}" for b in out))
+        out = frame(SETUP, int(sys.argv[1]), setup_of(sys.argv[2:]))
+    print(hexs(out))

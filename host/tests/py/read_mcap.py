@@ -14,18 +14,12 @@ from mcap.reader import make_reader
 from mcap_protobuf.decoder import DecoderFactory as ProtobufDecoderFactory
 from mcap_ros2.decoder import DecoderFactory as Ros2DecoderFactory
 
+from ros2_json import diagnostics, occupancy_grid
 
-def occupancy_grid(m):
-    return {
-        "frame_id": m.header.frame_id,
-        "stamp": [m.header.stamp.sec, m.header.stamp.nanosec],
-        "resolution": m.info.resolution,
-        "width": m.info.width,
-        "height": m.info.height,
-        "origin": [m.info.origin.position.x, m.info.origin.position.y,
-                   m.info.origin.orientation.w],
-        "data": list(struct.unpack(f"<{len(m.data)}b", bytes(bytearray(x & 0xFF for x in m.data)))),
-    }
+
+def ros2_grid(m):
+    cells = struct.unpack(f"<{len(m.data)}b", bytes(bytearray(x & 0xFF for x in m.data)))
+    return occupancy_grid(m, list(cells))
 
 
 def foxglove_grid(m):
@@ -72,7 +66,7 @@ def main():
             schemas[topic] = [schema.name, schema.encoding, channel.message_encoding]
             try:
                 if schema.name == "nav_msgs/msg/OccupancyGrid":
-                    last[topic] = occupancy_grid(decoded)
+                    last[topic] = ros2_grid(decoded)
                 elif schema.name == "foxglove.Grid":
                     last[topic] = foxglove_grid(decoded)
                 elif schema.name == "foxglove.PoseInFrame":
@@ -82,7 +76,7 @@ def main():
                     e = decoded.entities[0]
                     last[topic] = {"id": e.id, "loops": [[[q.x, q.y] for q in l.points] for l in e.lines]}
                 elif schema.name == "diagnostic_msgs/msg/DiagnosticArray":
-                    last[topic] = {s.name: {kv.key: kv.value for kv in s.values} for s in decoded.status}
+                    last[topic] = diagnostics(decoded)
                 else:
                     errors.append(f"unexpected schema {schema.name} on {topic}")
             except Exception as e:  # noqa: BLE001 - reported to the test

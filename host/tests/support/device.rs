@@ -3,6 +3,8 @@
 //! approach of `host/tests/listen.rs`). It can wait for a go before it drives, and drop its
 //! connection once and accept a new one (the TCP analogue of a USB adapter unplugged).
 #![allow(dead_code)]
+#[path = "accept.rs"]
+mod accept;
 use std::io::{ErrorKind, Read, Write};
 use std::net::{TcpListener, TcpStream};
 use std::path::{Path, PathBuf};
@@ -210,20 +212,7 @@ fn send(stream: &mut TcpStream, mut bytes: &[u8]) -> bool {
 }
 
 fn accept(listener: &TcpListener) -> TcpStream {
-    let start = Instant::now();
-    loop {
-        match listener.accept() {
-            Ok((stream, _)) => {
-                stream.set_nonblocking(true).unwrap();
-                return stream;
-            }
-            Err(e) if e.kind() == ErrorKind::WouldBlock => {
-                assert!(start.elapsed() < PATIENCE, "the host never connected");
-                std::thread::sleep(Duration::from_millis(5));
-            }
-            Err(e) => panic!("accept: {e}"),
-        }
-    }
+    accept::accept(listener, PATIENCE, true)
 }
 
 /// Carries out the commands `pyramid listen` sends a device (snapshots, Stats, pings, time

@@ -386,11 +386,7 @@ fn report(r: &Results, design: &terrain_pyramid_host::design::PyramidDesign) -> 
         "| map | step cells obstacle at {} m | first step seen at | far: obstacle / free / unknown | false obstacles on the ground before the stairs |\n| --- | --- | --- | --- | --- |",
         st.stop_distance_m
     );
-    for (name, m) in
-        STAIRS_MAPS
-            .iter()
-            .zip([&s_.flat, &s_.flat_clamped, &s_.pyramid, &s_.pyramid_soft])
-    {
+    for (name, m) in STAIRS_MAPS.iter().zip(s_.maps()) {
         let _ = writeln!(
             s,
             "| {name} | {} | {} |",
@@ -414,11 +410,7 @@ fn report(r: &Results, design: &terrain_pyramid_host::design::PyramidDesign) -> 
                 "NOT the same outcome as the host"
             }
         );
-        for (name, m) in
-            STAIRS_MAPS
-                .iter()
-                .zip([&b.flat, &b.flat_clamped, &b.pyramid, &b.pyramid_soft])
-        {
+        for (name, m) in STAIRS_MAPS.iter().zip(b.maps()) {
             let _ = writeln!(
                 s,
                 "| {name} | {} | {} | {} | {:.0} s |",

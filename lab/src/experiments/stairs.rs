@@ -198,6 +198,20 @@ pub struct StairsResult {
     pub lines: usize,
 }
 
+impl StairsResult {
+    /// The four maps, in the order the report names them: the flat grid, the clamped flat
+    /// grid, the pyramid with the hard gate and with the soft one.
+    #[must_use]
+    pub const fn maps(&self) -> [&MapResult; 4] {
+        [
+            &self.flat,
+            &self.flat_clamped,
+            &self.pyramid,
+            &self.pyramid_soft,
+        ]
+    }
+}
+
 /// A world cell index at 0.1 m.
 pub type Cell = (i32, i32);
 

@@ -18,13 +18,12 @@ use std::path::Path;
 use std::time::Instant;
 use terrain_pyramid::classify::ClassifierConfig;
 use terrain_pyramid::grid::cell_of;
-use terrain_pyramid::link::convert::{configure_of_design, frontend_config_of_event};
+use terrain_pyramid::link::convert::frontend_config_of_event;
 use terrain_pyramid::logodds::round_to_log_odds;
-use terrain_pyramid::wire::link::Message;
 use terrain_pyramid::{Cell as MapCell, Config, Design, Fused, GateShape, Meters};
 use terrain_pyramid_host::device::Device;
 use terrain_pyramid_host::emulator::{build_firmware_variant, Emulator, Machine, BOARD_DIR};
-use terrain_pyramid_host::export::MapSnapshot;
+use terrain_pyramid_host::export::{fused_answer, MapSnapshot};
 use terrain_pyramid_host::link::HostLink;
 use terrain_pyramid_host::play::{play_watched, steps, Moment, Steps};
 use terrain_pyramid_host_tests::sim::record::simulate;
@@ -76,6 +75,19 @@ pub struct BoardStairsResult {
     pub same_outcome_as_host: bool,
 }
 
+impl BoardStairsResult {
+    /// The four maps, in the order of [`StairsResult::maps`].
+    #[must_use]
+    pub const fn maps(&self) -> [&BoardMapResult; 4] {
+        [
+            &self.flat,
+            &self.flat_clamped,
+            &self.pyramid,
+            &self.pyramid_soft,
+        ]
+    }
+}
+
 /// The fused answer of the host's mirror of the device's maps at world point `(x, y)`: the
 /// library's rule ([`terrain_pyramid::Pyramid::fused`]) on the mirror's layers.
 fn mirror_fused(link: &HostLink, margin_raw: i16, x: f64, y: f64) -> Fused {
@@ -85,36 +97,22 @@ fn mirror_fused(link: &HostLink, margin_raw: i16, x: f64, y: f64) -> Fused {
         Meters::saturating_from_num(x).to_bits(),
         Meters::saturating_from_num(y).to_bits(),
     );
-    for k in 0..mirror.layer_count() {
-        let Some(layer) = mirror.layer(k) else {
-            continue;
-        };
+    let cell = |k: usize| {
+        let layer = mirror.layer(k)?;
         let r = layer.resolution_q16;
         let offset = |bits: i32, origin: i32| {
             usize::try_from(i64::from(cell_of(bits, r)) - i64::from(origin))
                 .ok()
                 .filter(|&o| o < w)
         };
-        let (Some(dx), Some(dy)) = (offset(xb, layer.origin.0), offset(yb, layer.origin.1)) else {
-            continue;
-        };
-        let Some(value) = layer
+        let dx = offset(xb, layer.origin.0)?;
+        let dy = offset(yb, layer.origin.1)?;
+        layer
             .cells()
             .get(dy * w + dx)
-            .and_then(|&raw| MapCell::from_raw(raw).log_odds())
-        else {
-            continue;
-        };
-        let raw = value.to_bits();
-        let layer = u8::try_from(k).unwrap_or(u8::MAX);
-        if raw > 0 {
-            return Fused::Obstacle { layer };
-        }
-        if raw < -margin_raw {
-            return Fused::Navigable { layer };
-        }
-    }
-    Fused::Unknown
+            .map(|&raw| MapCell::from_raw(raw))
+    };
+    fused_answer(margin_raw, (0..mirror.layer_count()).map(cell))
 }
 
 fn mirror_shares(link: &HostLink, margin_raw: i16, cells: &[Cell]) -> Shares {
@@ -195,12 +193,7 @@ pub fn run(setup: &Setup, host: &StairsResult, out: &Path) -> Result<BoardStairs
     let (steps, first) = stairs::step_cells(&sim_config);
     let riser_x = sim_config.scene.target_x.unwrap_or(0.0);
     let drive_start_us = (sim_config.trajectory.drive_start_s() * 1e6).round();
-    let host_maps = [
-        &host.flat,
-        &host.flat_clamped,
-        &host.pyramid,
-        &host.pyramid_soft,
-    ];
+    let host_maps = host.maps();
     let specs = map_specs(setup.range_m)?;
     // One emulator per map, all at once: each run waits on its UARTs far more than it computes.
     let results: Vec<Result<BoardMapResult, String>> = std::thread::scope(|scope| {
@@ -291,11 +284,7 @@ impl BoardRun<'_> {
             elf,
             &out.join(format!("stairs-board-{name}.defmt")),
         )?;
-        emu.wait_for("Hello", |link, _| link.mirror().firmware().is_some())?;
-        emu.command(
-            "Configure",
-            &Message::Configure(configure_of_design(design, config)),
-        )?;
+        emu.configure_after_hello(design, config)?;
         let margin = round_to_log_odds(config.fused_margin).to_bits();
         // The host experiment's looks at its maps: the step cells at the end of standing
         // (before the first driving line), and whether the first step is seen after every

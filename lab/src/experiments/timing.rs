@@ -53,7 +53,8 @@ mod runner;
 pub use agreement::{agreement, Agreement, LayerAgreement};
 pub use poses::{late_poses, on_time_poses, true_poses, LatePose, PoseFeed};
 pub use runner::{
-    run, Input, PoseRule, RunCounters, RunOutcome, ON_TIME_PERIOD_US, TRUTH_PERIOD_US, TRUTH_TRACK,
+    pan_angle_frame, run, Input, PoseRule, RunCounters, RunOutcome, ON_TIME_PERIOD_US,
+    TRUTH_PERIOD_US, TRUTH_TRACK,
 };
 
 use super::designs;

@@ -139,35 +139,14 @@ fn damage(kind: &str, chunks: &[Chunk]) -> Vec<(Vec<u8>, bool)> {
             // The first chunks (the descriptor) and the last three stay clean.
             if i >= 2 && i + 3 < n && body.len() > 1 {
                 if kind.ends_with("bit_flips") {
-                    for byte in &mut body {
-                        for bit in 0..8 {
-                            if rng.chance(1e-3) {
-                                *byte ^= 1 << bit;
-                            }
-                        }
-                    }
+                    rng.flip_bits(&mut body, 1e-3);
                 } else if kind.ends_with("dropped_bytes") && rng.chance(0.2) {
                     for _ in 0..rng.range(1, 3.min(body.len() - 1)) {
                         let at = rng.range(0, body.len() - 1);
                         body.remove(at);
                     }
                 } else if kind.ends_with("garbage") {
-                    if rng.chance(0.25) {
-                        let k = rng.range(1, 120);
-                        pre = rng.bytes(k);
-                        if rng.chance(0.5) {
-                            pre.extend_from_slice(header);
-                            let k = rng.range(0, 4);
-                            pre.extend(rng.bytes(k));
-                        }
-                    }
-                    if rng.chance(0.1) {
-                        rng.overwrite(&mut body, 16);
-                    }
-                    if rng.chance(0.1) {
-                        let k = rng.range(1, 40);
-                        post = rng.bytes(k);
-                    }
+                    (pre, post) = rng.garbage(&mut body, header, 120, 16);
                 } else if kind.ends_with("truncated") && rng.chance(0.2) {
                     let mut keep = rng.range(1, body.len() - 1);
                     // An RPLIDAR chunk holds whole 5-byte nodes: cut inside one (a cut between

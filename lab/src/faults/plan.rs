@@ -85,6 +85,47 @@ impl Rng {
         let noise = self.bytes(len);
         body[at..at + len].copy_from_slice(&noise);
     }
+    /// Flips each bit of `body` with probability `ber` (a bit error rate).
+    pub(super) fn flip_bits(&mut self, body: &mut [u8], ber: f64) {
+        for byte in body {
+            for bit in 0..8 {
+                if self.chance(ber) {
+                    *byte ^= 1 << bit;
+                }
+            }
+        }
+    }
+    /// Garbage around and over one unit of a stream: with chance 0.25, 1 ..= `longest_before`
+    /// random bytes before it, half the time ending in a false `header` and 0 ..= 4 random
+    /// bytes (a length that claims the unit that follows); with chance 0.1, noise over the
+    /// unit itself (see [`Self::overwrite`], runs of up to `longest_over` bytes); with chance
+    /// 0.1, 1 ..= 40 random bytes after it. The bytes before and after the unit.
+    pub(super) fn garbage(
+        &mut self,
+        body: &mut [u8],
+        header: &[u8],
+        longest_before: usize,
+        longest_over: usize,
+    ) -> (Vec<u8>, Vec<u8>) {
+        let (mut pre, mut post) = (Vec::new(), Vec::new());
+        if self.chance(0.25) {
+            let k = self.range(1, longest_before);
+            pre = self.bytes(k);
+            if self.chance(0.5) {
+                pre.extend_from_slice(header);
+                let k = self.range(0, 4);
+                pre.extend(self.bytes(k));
+            }
+        }
+        if self.chance(0.1) {
+            self.overwrite(body, longest_over);
+        }
+        if self.chance(0.1) {
+            let k = self.range(1, 40);
+            post = self.bytes(k);
+        }
+        (pre, post)
+    }
 }
 
 /// A unit of a recording with what is in force when it arrives: the angle (2⁻¹⁶ turn) and
@@ -162,13 +203,7 @@ pub(super) fn plan(kind: &str, lines: &[Line], setup: &Setup) -> Vec<Step> {
             match kind {
                 "bit_flips_1e-4" | "bit_flips_1e-3" => {
                     let ber = if kind.ends_with("1e-4") { 1e-4 } else { 1e-3 };
-                    for byte in &mut body {
-                        for bit in 0..8 {
-                            if rng.chance(ber) {
-                                *byte ^= 1 << bit;
-                            }
-                        }
-                    }
+                    rng.flip_bits(&mut body, ber);
                 }
                 "dropped_bytes" if rng.chance(0.2) => {
                     for _ in 0..rng.range(1, 3) {
@@ -177,25 +212,9 @@ pub(super) fn plan(kind: &str, lines: &[Line], setup: &Setup) -> Vec<Step> {
                     }
                 }
                 "garbage_bursts" => {
-                    if rng.chance(0.25) {
-                        // Noise between telegrams, sometimes ending in a false `02 80` and a
-                        // length that claims the telegram that follows.
-                        let k = rng.range(1, 200);
-                        pre = rng.bytes(k);
-                        if rng.chance(0.5) {
-                            pre.extend_from_slice(&[0x02, 0x80]);
-                            let k = rng.range(0, 4);
-                            pre.extend(rng.bytes(k));
-                        }
-                    }
-                    if rng.chance(0.1) {
-                        // Noise over the telegram itself.
-                        rng.overwrite(&mut body, 64);
-                    }
-                    if rng.chance(0.1) {
-                        let k = rng.range(1, 40);
-                        post = rng.bytes(k);
-                    }
+                    // Noise between telegrams, sometimes ending in a false `02 80` and a
+                    // length that claims the telegram that follows; noise over a telegram.
+                    (pre, post) = rng.garbage(&mut body, &[0x02, 0x80], 200, 64);
                 }
                 "truncated" if rng.chance(0.2) => {
                     let keep = rng.range(1, body.len() - 1);

@@ -27,11 +27,7 @@ impl Reference {
     /// recording's setup (as the harness configures the board), nothing fed yet.
     pub(super) fn new(setup: &SetupEvent, lines: usize) -> Result<Self, String> {
         let mut device = boot_host_device()?;
-        device.wait_for("Hello", |link, _| link.mirror().firmware().is_some())?;
-        device.command(
-            "Configure",
-            &Message::Configure(configure_of_design(&default_design(), &Config::default())),
-        )?;
+        device.configure_after_hello(&default_design(), &Config::default())?;
         device.command(
             "Setup",
             &Message::Setup(setup_message(setup, &ClassifierConfig::default())),

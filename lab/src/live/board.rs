@@ -9,7 +9,7 @@ use std::time::{Duration, Instant};
 use terrain_pyramid::classify::ClassifierConfig;
 use terrain_pyramid::link::convert::setup_message_with_sensor;
 use terrain_pyramid::wire::link::Message;
-use terrain_pyramid_host::emulator::{connect, qemu_command, Machine};
+use terrain_pyramid_host::emulator::{connect, spawn_qemu, Machine};
 use terrain_pyramid_host::link::{HostLink, LinkEvent};
 use terrain_pyramid_host::play::Steps;
 
@@ -22,12 +22,7 @@ pub(super) fn start_qemu(
     let (s0, s1) = (dir.join("uart0.sock"), dir.join("uart1.sock"));
     let log = std::fs::File::create(dir.join("firmware.defmt"))
         .map_err(|e| format!("cannot create the firmware's log: {e}"))?;
-    let mut child = qemu_command(machine, elf, [&s0, &s1])
-        .stdin(Stdio::null())
-        .stdout(log)
-        .stderr(Stdio::null())
-        .spawn()
-        .map_err(|e| format!("cannot start qemu-system-arm: {e}"))?;
+    let mut child = spawn_qemu(machine, elf, [&s0, &s1], log, Stdio::null())?;
     let uart0 = connect(&s0, &mut child);
     let uart1 = connect(&s1, &mut child);
     let child = Reaped(Some(child));

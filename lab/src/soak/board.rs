@@ -74,13 +74,7 @@ pub(super) fn board_soak(
         emu,
         round_trips: 0,
     };
-    board
-        .emu
-        .wait_for("Hello", |link, _| link.mirror().firmware().is_some())?;
-    board.command(
-        "Configure",
-        &Message::Configure(configure_of_design(&design, &config)),
-    )?;
+    board.emu.configure_after_hello(&design, &config)?;
     board.command("Setup", &Message::Setup(setup_message(&setup, &classifier)))?;
 
     let drive = Drive::new(drive_config);
@@ -178,13 +172,7 @@ pub(super) fn board_soak(
             }
             let lines_in = sent - sampled;
             sampled = sent;
-            let sample = Sample {
-                sim_s,
-                wall_s: started.elapsed().as_secs_f64(),
-                telegrams_per_s: lines_in as f64 / wall.max(1e-9),
-                rss_kib: None,
-                stats: named(&stats),
-            };
+            let sample = Sample::new(sim_s, started, (lines_in, wall), None, &stats);
             eprintln!(
                 "  {:6.0} s simulated, {:6.1} s wall: {:5.0} telegrams/s, points {}, patches {}, deferred {}, queue high-water {}",
                 sample.sim_s,

@@ -185,13 +185,7 @@ fn run_with<const W: usize, const L: usize, const C: usize, const N: usize>(
             deliver(&mut core, rule, p);
         }
         if let Some(turns) = angle.take() {
-            let frame = host
-                .command(&Message::PanAngle(PanAngle {
-                    turns,
-                    timestamp_ms: 0,
-                }))
-                .map_err(|e| e.to_string())?;
-            core.host(&frame);
+            core.host(&pan_angle_frame(&mut host, turns)?);
         }
         core.laser(bytes, device_us(time_us), &mut NoAngleSource);
         // Nothing reads the link here: keep its queue from filling.
@@ -247,4 +241,17 @@ fn track_counters<const W: usize, const L: usize, const C: usize, const N: usize
         u64::from(c.app.poses_stamped),
         u64::from(c.app.poses_refused),
     )
+}
+
+/// The frame of a PanAngle command to `turns` (2⁻¹⁶ turn; untimed, as `pyramid run` sends
+/// the actuator's angle), with `host`'s next sequence number.
+///
+/// # Errors
+/// The command cannot be encoded.
+pub fn pan_angle_frame(host: &mut HostLink, turns: u16) -> Result<Vec<u8>, String> {
+    host.command(&Message::PanAngle(PanAngle {
+        turns,
+        timestamp_ms: 0,
+    }))
+    .map_err(|e| e.to_string())
 }
