@@ -366,7 +366,7 @@ fn lidar_seeds(root: &Path) {
         RplidarCapsuleRepr, RplidarDescriptorRepr, RplidarHealthRepr, RplidarInfoRepr,
         RplidarNodeRepr,
     };
-    use terrain_pyramid::wire::ydlidar::YdlidarRepr;
+    use terrain_pyramid_host_tests::sim::lidar::ydlidar_packet_bytes;
 
     // ld06_accumulator.
     let dir = root.join("ld06_accumulator");
@@ -402,15 +402,7 @@ fn lidar_seeds(root: &Path) {
     // header (LSN 0x28, FSA 0x6FE5, LSA 0x79BD) with 40 samples, device information.
     let dir = root.join("ydlidar_accumulator");
     let packet = |ct: u8, first: u16, last: u16, samples: &[u16]| {
-        let repr = YdlidarRepr {
-            packet_type: ct,
-            first_angle_q6: first,
-            last_angle_q6: last,
-            samples,
-        };
-        let mut b = vec![0; repr.buffer_len()];
-        repr.emit(&mut b).unwrap();
-        b
+        ydlidar_packet_bytes(ct, first, last, samples).unwrap()
     };
     let samples: Vec<u16> = (0..40).map(|i| 4000 + 37 * i).collect();
     let mut scan = vec![0, 0xA5, 0x5A, 0x05, 0x00, 0x00, 0x40, 0x81];

@@ -20,10 +20,11 @@ use terrain_pyramid::wire::rplidar::{
     RplidarDescriptorRepr, RplidarError, RplidarItem, RplidarNode, RplidarNodeRepr,
 };
 use terrain_pyramid::wire::ydlidar::{
-    YdlidarAccumulator, YdlidarAngleCorrection, YdlidarCounters, YdlidarPacket, YdlidarRepr,
+    YdlidarAccumulator, YdlidarAngleCorrection, YdlidarCounters, YdlidarPacket,
     YDLIDAR_CORRECTION_MAX_ERROR_DEG,
 };
 use terrain_pyramid::wire::FeedResult;
+use terrain_pyramid_host_tests::sim::lidar::ydlidar_packet_bytes;
 
 fn degrees(a: FineAngle) -> f64 {
     f64::from(a.to_bits()) * 360.0 / 4_294_967_296.0
@@ -177,18 +178,6 @@ fn ydlidar_parts() -> impl Strategy<Value = (u8, u16, u16, Vec<u16>)> {
     )
 }
 
-fn ydlidar_bytes(ct: u8, first: u16, last: u16, samples: &[u16]) -> Vec<u8> {
-    let repr = YdlidarRepr {
-        packet_type: ct,
-        first_angle_q6: first,
-        last_angle_q6: last,
-        samples,
-    };
-    let mut b = vec![0; repr.buffer_len()];
-    repr.emit(&mut b).unwrap();
-    b
-}
-
 fn ydlidar_run(chunks: &[&[u8]]) -> (Vec<(u64, Vec<u8>)>, usize, YdlidarCounters, u64) {
     run_to_end(YdlidarAccumulator::new(), chunks, checked_ydlidar)
 }
@@ -209,7 +198,7 @@ proptest! {
         for ((ct, first, last, samples), g) in &pieces {
             stream.extend_from_slice(g);
             garbage += g.len();
-            let p = ydlidar_bytes(*ct, *first, *last, samples);
+            let p = ydlidar_packet_bytes(*ct, *first, *last, samples).unwrap();
             want.push((stream.len() as u64, p.clone()));
             stream.extend(p);
         }
@@ -225,7 +214,7 @@ proptest! {
     /// correction off, within the FineAngle LSB.
     #[test]
     fn ydlidar_returns_follow_the_manual((ct, first, last, samples) in ydlidar_parts()) {
-        let bytes = ydlidar_bytes(ct, first, last, &samples);
+        let bytes = ydlidar_packet_bytes(ct, first, last, &samples).unwrap();
         let p = YdlidarPacket::new_checked(&bytes[..]).unwrap();
         prop_assert_eq!(p.starts_revolution(), ct & 1 == 1);
         let fsa = f64::from(first) / 64.0;
@@ -253,7 +242,7 @@ proptest! {
     /// only by chance (1 in 65 536).
     #[test]
     fn ydlidar_bit_flips_are_refused((ct, first, last, samples) in ydlidar_parts(), bit in any::<usize>()) {
-        let mut flipped = ydlidar_bytes(ct, first, last, &samples);
+        let mut flipped = ydlidar_packet_bytes(ct, first, last, &samples).unwrap();
         let bit = bit % (8 * flipped.len());
         flipped[bit / 8] ^= 1 << (bit % 8);
         let lsn_shrunk = bit / 8 == 3 && usize::from(flipped[3]) < samples.len();
@@ -264,7 +253,7 @@ proptest! {
     /// bytes add up.
     #[test]
     fn ydlidar_truncation((ct, first, last, samples) in ydlidar_parts(), cut in any::<usize>()) {
-        let bytes = ydlidar_bytes(ct, first, last, &samples);
+        let bytes = ydlidar_packet_bytes(ct, first, last, &samples).unwrap();
         let cut = 2 + cut % (bytes.len() - 2);
         let (delivered, rejected, c, _) = ydlidar_run(&[&bytes[..cut]]);
         prop_assert!(delivered.is_empty());

@@ -60,7 +60,7 @@ mod mount;
 mod stream;
 
 pub use mount::{LidarActuator, SimRig};
-pub use stream::ydlidar_correction_deg;
+pub use stream::{ydlidar_correction_deg, ydlidar_packet_bytes};
 
 use super::laser::{angle_to_u16, u16_to_angle_deg};
 use super::record::{push, push_laser, push_pose_change, SimError};
