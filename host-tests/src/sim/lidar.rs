@@ -63,7 +63,7 @@ pub use mount::{LidarActuator, SimRig};
 pub use stream::{ydlidar_correction_deg, ydlidar_packet_bytes};
 
 use super::laser::{angle_to_u16, u16_to_angle_deg};
-use super::record::{push, push_laser, push_pose_change, SimError};
+use super::record::{push, push_laser, push_pose_change, start_recording, SimError};
 use super::rng::Rng;
 use super::scene::{GroundTruthSpec, ObstacleCell, Scene};
 use super::trajectory::Trajectory;
@@ -71,9 +71,7 @@ use mount::Sweep;
 use stream::{Caster, Packets};
 use terrain_pyramid::laser::{LaserDecoder, LaserItem, Packet, Sensor, SensorKind};
 use terrain_pyramid::wire::recording::SetupEvent as Setup;
-use terrain_pyramid::wire::recording::{
-    emit_header_version, Event, MountKind, Payload, SensorEvent,
-};
+use terrain_pyramid::wire::recording::{Event, MountKind, Payload, SensorEvent};
 use terrain_pyramid::wire::rplidar::RplidarScanMode;
 use terrain_pyramid::wire::ydlidar::YdlidarAngleCorrection;
 use terrain_pyramid::wire::FeedResult;
@@ -359,37 +357,15 @@ pub fn simulate_lidar(config: &LidarSimConfig) -> Result<LidarSimulation, SimErr
         ..config.clone()
     };
     let duration = config.trajectory.duration_s();
-    let mut bytes = vec![0_u8; 16];
     // A rig needs version 3 (its rig event); without one the file stays version 2.
-    let version = if config.rig.is_some() {
+    let mut head = vec![Payload::Setup(setup), Payload::Sensor(sensor)];
+    let version = if let Some(rig) = config.rig {
+        head.push(Payload::Rig(rig.event(&config.actuator)));
         terrain_pyramid::wire::recording::VERSION
     } else {
         terrain_pyramid::wire::recording::VERSION_WITHOUT_RIG
     };
-    emit_header_version(&mut bytes, version).map_err(|e| SimError(format!("emit: {e}")))?;
-    push(
-        &mut bytes,
-        &Event {
-            time_us: 0,
-            payload: Payload::Setup(setup),
-        },
-    )?;
-    push(
-        &mut bytes,
-        &Event {
-            time_us: 0,
-            payload: Payload::Sensor(sensor),
-        },
-    )?;
-    if let Some(rig) = config.rig {
-        push(
-            &mut bytes,
-            &Event {
-                time_us: 0,
-                payload: Payload::Rig(rig.event(&config.actuator)),
-            },
-        )?;
-    }
+    let mut bytes = start_recording(version, &head)?;
     let mut packets = Packets {
         caster: Caster {
             config,
