@@ -393,22 +393,16 @@ fn probes() -> impl Strategy<Value = Vec<(i32, i32)>> {
 proptest! {
     #![proptest_config(ProptestConfig { cases: 48, ..ProptestConfig::default() })]
 
+    /// The default window with the soft and with the hard gate, each on every case.
     #[test]
-    fn default_pyramid_soft_gate(
+    fn default_pyramid_soft_and_hard_gate(
         settings in settings(),
         actions in prop::collection::vec(action(32), 1..400),
         probes in probes(),
     ) {
-        check::<64>(Which::DefaultSoft, settings, &actions, &probes)?;
-    }
-
-    #[test]
-    fn default_pyramid_hard_gate(
-        settings in settings(),
-        actions in prop::collection::vec(action(32), 1..400),
-        probes in probes(),
-    ) {
-        check::<64>(Which::DefaultHard, settings, &actions, &probes)?;
+        for which in [Which::DefaultSoft, Which::DefaultHard] {
+            check::<64>(which, settings, &actions, &probes)?;
+        }
     }
 }
 
