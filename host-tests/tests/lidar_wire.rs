@@ -9,7 +9,7 @@
 mod common;
 
 use common::feed::{checked_ld06, checked_ydlidar, feed_all, run_to_end};
-use common::{chunks, seeded};
+use common::{chunks, seeded, Units};
 use proptest::prelude::*;
 use terrain_pyramid::angle::FineAngle;
 use terrain_pyramid::wire::ld06::{
@@ -80,6 +80,28 @@ fn ld06_bytes(repr: &Ld06Repr) -> Vec<u8> {
     b
 }
 
+/// A stream of `head` (a descriptor, or nothing), then each packet after its garbage: with the
+/// (offset, bytes) an accumulator should deliver (`head` first, unless empty, then every
+/// packet) and how many bytes of garbage it holds.
+fn garbled_stream<'g>(
+    head: &[u8],
+    packets: impl Iterator<Item = (&'g Vec<u8>, Vec<u8>)>,
+) -> (Vec<u8>, Units, usize) {
+    let mut stream = head.to_vec();
+    let mut want = Vec::new();
+    if !head.is_empty() {
+        want.push((0, stream.clone()));
+    }
+    let mut garbage = 0;
+    for (g, packet) in packets {
+        stream.extend_from_slice(g);
+        garbage += g.len();
+        want.push((stream.len() as u64, packet.clone()));
+        stream.extend(packet);
+    }
+    (stream, want, garbage)
+}
+
 /// Feeds the chunks and flushes: (offset, packet) delivered, rejections, counters.
 fn ld06_run(chunks: &[&[u8]]) -> (Vec<(u64, Vec<u8>)>, usize, Ld06Counters, u64) {
     run_to_end(Ld06Accumulator::new(), chunks, checked_ld06)
@@ -95,15 +117,8 @@ proptest! {
         pieces in proptest::collection::vec((ld06_repr(), garbage_without(&[0x54])), 1..12),
         sizes in proptest::collection::vec(1_usize..120, 1..5),
     ) {
-        let mut stream = Vec::new();
-        let mut want = Vec::new();
-        let mut garbage = 0;
-        for (repr, g) in &pieces {
-            stream.extend_from_slice(g);
-            garbage += g.len();
-            want.push((stream.len() as u64, ld06_bytes(repr)));
-            stream.extend(ld06_bytes(repr));
-        }
+        let (stream, want, garbage) =
+            garbled_stream(&[], pieces.iter().map(|(repr, g)| (g, ld06_bytes(repr))));
         let (delivered, rejected, c, position) = ld06_run(&chunks(&stream, &sizes));
         prop_assert_eq!(&delivered, &want);
         prop_assert_eq!(rejected, 0);
@@ -192,16 +207,12 @@ proptest! {
         pieces in proptest::collection::vec((ydlidar_parts(), garbage_without(&[0xAA, 0xA5])), 1..10),
         sizes in proptest::collection::vec(1_usize..200, 1..5),
     ) {
-        let mut stream = vec![0xA5, 0x5A, 0x05, 0x00, 0x00, 0x40, 0x81];
-        let mut want = vec![(0_u64, stream.clone())];
-        let mut garbage = 0;
-        for ((ct, first, last, samples), g) in &pieces {
-            stream.extend_from_slice(g);
-            garbage += g.len();
-            let p = ydlidar_packet_bytes(*ct, *first, *last, samples).unwrap();
-            want.push((stream.len() as u64, p.clone()));
-            stream.extend(p);
-        }
+        let (stream, want, garbage) = garbled_stream(
+            &[0xA5, 0x5A, 0x05, 0x00, 0x00, 0x40, 0x81],
+            pieces.iter().map(|((ct, first, last, samples), g)| {
+                (g, ydlidar_packet_bytes(*ct, *first, *last, samples).unwrap())
+            }),
+        );
         let (delivered, rejected, c, position) = ydlidar_run(&chunks(&stream, &sizes));
         prop_assert_eq!(&delivered, &want);
         prop_assert_eq!(rejected, 0);
