@@ -13,40 +13,17 @@
 # and 4441 (UART1).
 set -euo pipefail
 cd "$(dirname "$0")"
+source ../support/qemu-sockets.sh
 
-build=1
-helper_args=()
-while [[ $# -gt 0 ]]; do
-    case "$1" in
-        --no-build) build=0 ;;
-        --payload|--out|--timeout) helper_args+=("$1" "$2"); shift ;;
-        *) echo "run.sh: unknown argument $1" >&2; exit 2 ;;
-    esac
-    shift
-done
+run_args run.sh "--payload|--out|--timeout" "$@"
 
 elf=target/thumbv7em-none-eabihf/release/qemu-mps2
 if [[ $build -eq 1 ]]; then
     cargo build --release
 fi
 
-tmp=$(mktemp -d)
-trap 'rm -rf "$tmp"' EXIT
-export QEMU_UART0="unix:$tmp/uart0.sock,server=on,wait=on"
-export QEMU_UART1="unix:$tmp/uart1.sock,server=on,wait=on"
-export QEMU_TIMEOUT="${QEMU_TIMEOUT:-60}"
-
-./qemu-run.sh "$elf" 2> >(grep -v "QEMU waiting for connection" >&2) &
-qemu_pid=$!
-
-helper_rc=0
-python3 uart_echo.py --uart0 "$tmp/uart0.sock" --uart1 "$tmp/uart1.sock" "${helper_args[@]}" \
-    || helper_rc=$?
-qemu_rc=0
-wait "$qemu_pid" || qemu_rc=$?
-
-echo "run.sh: QEMU exit code $qemu_rc, echo check exit code $helper_rc"
-if [[ $qemu_rc -ne 0 ]]; then
-    exit "$qemu_rc"
-fi
-exit "$helper_rc"
+qemu_start uart0 uart1 60 "$elf"
+check_rc=0
+python3 uart_echo.py --uart0 "$sockets/uart0.sock" --uart1 "$sockets/uart1.sock" \
+    "${check_args[@]}" || check_rc=$?
+qemu_finish run.sh "echo check" "$check_rc"

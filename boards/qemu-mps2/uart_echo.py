@@ -18,6 +18,9 @@ import sys
 import threading
 import time
 
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "support"))
+from qemu_socket import connect  # noqa: E402
+
 EOT = 0x04
 
 
@@ -26,21 +29,6 @@ def default_payload() -> bytes:
     body = bytes(b for b in range(256) if b != EOT)
     body += bytes(rng.choice([b for b in range(256) if b != EOT]) for _ in range(2000))
     return body + bytes([EOT]) + b"not echoed"
-
-
-def connect(address: str, deadline: float) -> socket.socket:
-    while True:
-        try:
-            if ":" in address and not os.path.sep in address:
-                host, port = address.rsplit(":", 1)
-                return socket.create_connection((host, int(port)), timeout=1)
-            s = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
-            s.connect(address)
-            return s
-        except OSError:
-            if time.monotonic() > deadline:
-                raise
-            time.sleep(0.05)
 
 
 def main() -> int:

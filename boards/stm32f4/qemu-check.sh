@@ -8,17 +8,9 @@
 #   ./qemu-check.sh [--no-build] [--telegrams N]
 set -euo pipefail
 cd "$(dirname "$0")"
+source ../support/qemu-sockets.sh
 
-build=1
-check_args=()
-while [[ $# -gt 0 ]]; do
-    case "$1" in
-        --no-build) build=0 ;;
-        --telegrams) check_args+=("$1" "$2"); shift ;;
-        *) echo "qemu-check.sh: unknown argument $1" >&2; exit 2 ;;
-    esac
-    shift
-done
+run_args qemu-check.sh "--telegrams" "$@"
 
 features=(--no-default-features --features chip-f405,log-semihosting)
 elf=target/netduinoplus2/thumbv7em-none-eabihf/release/stm32f4-board
@@ -26,23 +18,8 @@ if [[ $build -eq 1 ]]; then
     cargo build --release --target-dir target/netduinoplus2 "${features[@]}"
 fi
 
-tmp=$(mktemp -d)
-trap 'rm -rf "$tmp"' EXIT
-export QEMU_USART1="unix:$tmp/usart1.sock,server=on,wait=on"
-export QEMU_USART2="unix:$tmp/usart2.sock,server=on,wait=on"
-export QEMU_TIMEOUT="${QEMU_TIMEOUT:-90}"
-
-./qemu-run.sh "$elf" 2> >(grep -v "QEMU waiting for connection" >&2) &
-qemu_pid=$!
-
+qemu_start usart1 usart2 90 "$elf"
 check_rc=0
-python3 qemu_link_check.py --laser "$tmp/usart1.sock" --host "$tmp/usart2.sock" "${check_args[@]}" \
-    || check_rc=$?
-qemu_rc=0
-wait "$qemu_pid" || qemu_rc=$?
-
-echo "qemu-check.sh: QEMU exit code $qemu_rc, link check exit code $check_rc"
-if [[ $qemu_rc -ne 0 ]]; then
-    exit "$qemu_rc"
-fi
-exit "$check_rc"
+python3 qemu_link_check.py --laser "$sockets/usart1.sock" --host "$sockets/usart2.sock" \
+    "${check_args[@]}" || check_rc=$?
+qemu_finish qemu-check.sh "link check" "$check_rc"

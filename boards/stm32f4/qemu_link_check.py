@@ -27,6 +27,9 @@ import threading
 import time
 import zlib
 
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "support"))
+from qemu_socket import connect  # noqa: E402
+
 VERSION = 5
 T_HELLO, T_PATCH, T_MOVED, T_STATS, T_REPLY = 0x01, 0x02, 0x03, 0x04, 0x05
 T_PAN, T_PING, T_REQUEST_STATS, T_SHUTDOWN = 0x82, 0x86, 0x88, 0x89
@@ -105,18 +108,6 @@ def frame(msg_type: int, seq: int, body: bytes = b"") -> bytes:
     decoded = struct.pack("<BBH", VERSION, msg_type, seq) + body
     decoded += struct.pack("<I", zlib.crc32(decoded) & 0xFFFFFFFF)
     return cobs_encode(decoded) + b"\x00"
-
-
-def connect(path: str, deadline: float) -> socket.socket:
-    while True:
-        try:
-            s = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
-            s.connect(path)
-            return s
-        except OSError:
-            if time.monotonic() > deadline:
-                raise
-            time.sleep(0.05)
 
 
 class Laser(threading.Thread):

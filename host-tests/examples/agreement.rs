@@ -75,12 +75,7 @@ fn random_config(rng: &mut Rng) -> (tp::SensorModel, tp::Schedule, usize) {
         uniform_resolution: false,
     };
     // The smallest window that holds every band (if any), so that most configurations pass.
-    let o = bands::design(
-        &harness::sensor(&sensor),
-        &harness::schedule(&schedule),
-        1024,
-        1 << 20,
-    );
+    let o = harness::reference_design(&sensor, &schedule, 1024, 1 << 20);
     let cells = o.result.map_or(1024, |d| {
         d.layers
             .iter()
@@ -266,14 +261,9 @@ fn design_and_tables(configs: usize, default_only: bool) -> DesignErrors {
 fn binning() -> Vec<(usize, f64, f64, f32, f64)> {
     let sensor = tp::SensorModel::default();
     let schedule = tp::Schedule::default();
-    let rd = bands::design(
-        &harness::sensor(&sensor),
-        &harness::schedule(&schedule),
-        64,
-        8,
-    )
-    .result
-    .expect("the default design is valid");
+    let rd = harness::reference_design(&sensor, &schedule, 64, 8)
+        .result
+        .expect("the default design is valid");
     let ld = tp::Design::<8>::new(sensor, schedule, 64).expect("the default design is valid");
     let bins = DistanceBins::for_range(sensor.max_range_m);
     let mut rows = Vec::new();
@@ -320,14 +310,9 @@ fn pyramid(
     };
     let mut lib: Box<tp::Pyramid<64, 8>> = Box::default();
     lib.configure(&design, &config).expect("configures");
-    let rd = bands::design(
-        &harness::sensor(&sensor),
-        &harness::schedule(&schedule),
-        64,
-        8,
-    )
-    .result
-    .expect("valid");
+    let rd = harness::reference_design(&sensor, &schedule, 64, 8)
+        .result
+        .expect("valid");
     let model = |arithmetic| Model {
         arithmetic,
         inverse: harness::inverse(&config.model),

@@ -39,6 +39,14 @@ fn write(dir: &Path, name: &str, bytes: &[u8]) {
     fs::write(dir.join(name), bytes).unwrap();
 }
 
+/// A damaged stream: `garbage`, then `good` with bit mask `flip` XORed into its byte `at`,
+/// then `good` intact, then its first `cut` bytes.
+fn damaged_stream(garbage: &[u8], good: &[u8], (at, flip): (usize, u8), cut: usize) -> Vec<u8> {
+    let mut flipped = good.to_vec();
+    flipped[at] ^= flip;
+    [garbage, &flipped, good, &good[..cut]].concat()
+}
+
 fn reply(payload: &[u8]) -> Vec<u8> {
     let mut buf = vec![0_u8; 818];
     let n = emit_telegram(ADDRESS_REPLY, payload, &mut buf).unwrap();
@@ -366,7 +374,7 @@ fn lidar_seeds(root: &Path) {
         RplidarCapsuleRepr, RplidarDescriptorRepr, RplidarHealthRepr, RplidarInfoRepr,
         RplidarNodeRepr,
     };
-    use terrain_pyramid::wire::ydlidar::YdlidarRepr;
+    use terrain_pyramid_host_tests::sim::lidar::ydlidar_packet_bytes;
 
     // ld06_accumulator.
     let dir = root.join("ld06_accumulator");
@@ -389,28 +397,15 @@ fn lidar_seeds(root: &Path) {
         revolution.extend_from_slice(&b);
     }
     write(&dir, "across_360", &revolution);
-    let mut damaged = vec![2, 7, 13, 0x54, 0x2C, 0x54, 0x00];
-    damaged.extend_from_slice(&LD06_EXAMPLE[..30]);
-    let mut flipped = LD06_EXAMPLE;
-    flipped[20] ^= 0x04;
-    damaged.extend_from_slice(&flipped);
-    damaged.extend_from_slice(&LD06_EXAMPLE);
-    damaged.extend_from_slice(&LD06_EXAMPLE[..12]);
+    let garbage = [&[2, 7, 13, 0x54, 0x2C, 0x54, 0x00][..], &LD06_EXAMPLE[..30]].concat();
+    let damaged = damaged_stream(&garbage, &LD06_EXAMPLE, (20, 0x04), 12);
     write(&dir, "damaged", &damaged);
 
     // ydlidar_accumulator: the scan descriptor, a zero packet, the X4 manual's example
     // header (LSN 0x28, FSA 0x6FE5, LSA 0x79BD) with 40 samples, device information.
     let dir = root.join("ydlidar_accumulator");
     let packet = |ct: u8, first: u16, last: u16, samples: &[u16]| {
-        let repr = YdlidarRepr {
-            packet_type: ct,
-            first_angle_q6: first,
-            last_angle_q6: last,
-            samples,
-        };
-        let mut b = vec![0; repr.buffer_len()];
-        repr.emit(&mut b).unwrap();
-        b
+        ydlidar_packet_bytes(ct, first, last, samples).unwrap()
     };
     let samples: Vec<u16> = (0..40).map(|i| 4000 + 37 * i).collect();
     let mut scan = vec![0, 0xA5, 0x5A, 0x05, 0x00, 0x00, 0x40, 0x81];
@@ -422,13 +417,8 @@ fn lidar_seeds(root: &Path) {
     info.extend((0..19).map(|i| i as u8));
     info.extend_from_slice(&[0xA5, 0x5A, 0x03, 0x00, 0x00, 0x00, 0x06, 0, 0, 0]);
     write(&dir, "info_health", &info);
-    let mut damaged = vec![3, 1, 9, 90, 0xAA, 0x55, 0x00, 0x00, 0xAA];
-    let good = packet(0, 100, 740, &samples);
-    let mut flipped = good.clone();
-    flipped[33] ^= 0x80;
-    damaged.extend_from_slice(&flipped);
-    damaged.extend_from_slice(&good);
-    damaged.extend_from_slice(&good[..50]);
+    let garbage = [3, 1, 9, 90, 0xAA, 0x55, 0x00, 0x00, 0xAA];
+    let damaged = damaged_stream(&garbage, &packet(0, 100, 740, &samples), (33, 0x80), 50);
     write(&dir, "damaged", &damaged);
 
     // rplidar_accumulator.

@@ -14,7 +14,7 @@
 use terrain_pyramid::geometry::{BeamTable, ScanPlane};
 use terrain_pyramid::wire::sick::Variant;
 use terrain_pyramid_host_tests::geometry::{
-    draw_mount_bits, draw_pose, error_bound_m, evaluate, max_and_p999_mm, Case,
+    draw_mount_bits, draw_pose, error_bound_m, evaluate, Case, ErrorsByRange,
 };
 use terrain_pyramid_host_tests::workload::Rng;
 
@@ -24,9 +24,7 @@ fn main() {
         .and_then(|s| s.parse().ok())
         .unwrap_or(2_000_000);
     let tables = Variant::ALL.map(BeamTable::new);
-    let limits = [8.0, 30.0, 81.91];
-    let mut point: [Vec<f64>; 3] = Default::default();
-    let mut horizontal: [Vec<f64>; 3] = Default::default();
+    let mut errors = ErrorsByRange::new(&[8.0, 30.0, 81.91]);
     let mut relative_max = 0.0_f64;
     let mut over_bound = 0_usize;
     let mut rng = Rng::new(0x5EED_0F6E_00E7);
@@ -56,12 +54,7 @@ fn main() {
         if e.range_m >= 10.0 {
             relative_max = relative_max.max(e.point_m / e.range_m);
         }
-        for (k, &limit) in limits.iter().enumerate() {
-            if e.range_m <= limit {
-                point[k].push(e.point_m);
-                horizontal[k].push(e.horizontal_m);
-            }
-        }
+        errors.add(&e);
     }
 
     println!("fixed-point scan geometry vs f64 reference, {samples} random returns");
@@ -69,23 +62,5 @@ fn main() {
         "bound: 0.03 mm + 3.1e-5 x range; returns over it: {over_bound}; \
          max relative error (ranges >= 10 m): {relative_max:.2e}"
     );
-    println!(
-        "{:<14} {:>9} {:>14} {:>14} {:>16} {:>16} {:>10}",
-        "ranges", "returns", "point max", "point p99.9", "horiz. max", "horiz. p99.9", "bound"
-    );
-    for (k, &limit) in limits.iter().enumerate() {
-        let n = point[k].len();
-        let (pmax, p999) = max_and_p999_mm(&mut point[k]);
-        let (hmax, h999) = max_and_p999_mm(&mut horizontal[k]);
-        println!(
-            "{:<14} {:>9} {:>11.4} mm {:>11.4} mm {:>13.4} mm {:>13.4} mm {:>7.3} mm",
-            format!("<= {limit} m"),
-            n,
-            pmax,
-            p999,
-            hmax,
-            h999,
-            error_bound_m(limit) * 1e3
-        );
-    }
+    errors.print(error_bound_m);
 }

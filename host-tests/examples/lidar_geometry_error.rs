@@ -16,7 +16,7 @@
 use terrain_pyramid::geometry::ScanPlane;
 use terrain_pyramid::wire::ld06::{Ld06Point, Ld06Repr};
 use terrain_pyramid_host_tests::geometry::{
-    draw_mount_bits, draw_pose, evaluate_ld06, lidar_error_bound_m, max_and_p999_mm,
+    draw_mount_bits, draw_pose, evaluate_ld06, lidar_error_bound_m, ErrorsByRange,
 };
 use terrain_pyramid_host_tests::workload::Rng;
 
@@ -25,9 +25,7 @@ fn main() {
         .nth(1)
         .and_then(|s| s.parse().ok())
         .unwrap_or(200_000);
-    let limits = [12.0, 40.0];
-    let mut point: [Vec<f64>; 2] = Default::default();
-    let mut horizontal: [Vec<f64>; 2] = Default::default();
+    let mut table = ErrorsByRange::new(&[12.0, 40.0]);
     let mut over_bound = 0_usize;
     let mut rng = Rng::new(0x11D0_6E0A_5EED);
     for _ in 0..packets {
@@ -64,35 +62,12 @@ fn main() {
             {
                 over_bound += 1;
             }
-            for (k, &limit) in limits.iter().enumerate() {
-                if e.range_m <= limit {
-                    point[k].push(e.point_m);
-                    horizontal[k].push(e.horizontal_m);
-                }
-            }
+            table.add(&e);
         }
     }
     println!(
         "spinning-lidar returns (LD06 packets, own angles) vs f64 reference, {packets} packets"
     );
     println!("bound: 0.03 mm + 1e-8 x range; returns over it: {over_bound}");
-    println!(
-        "{:<10} {:>10} {:>13} {:>13} {:>13} {:>13} {:>10}",
-        "ranges", "returns", "point max", "point p99.9", "horiz. max", "horiz. p99.9", "bound"
-    );
-    for (k, &limit) in limits.iter().enumerate() {
-        let n = point[k].len();
-        let (pmax, p999) = max_and_p999_mm(&mut point[k]);
-        let (hmax, h999) = max_and_p999_mm(&mut horizontal[k]);
-        println!(
-            "{:<10} {:>10} {:>10.4} mm {:>10.4} mm {:>10.4} mm {:>10.4} mm {:>7.4} mm",
-            format!("<= {limit} m"),
-            n,
-            pmax,
-            p999,
-            hmax,
-            h999,
-            lidar_error_bound_m(limit) * 1e3
-        );
-    }
+    table.print(lidar_error_bound_m);
 }

@@ -436,6 +436,64 @@ pub fn max_and_p999_mm(errors: &mut [f64]) -> (f64, f64) {
     (errors[n - 1] * 1e3, p999 * 1e3)
 }
 
+/// The world-point and horizontal-distance errors of many returns, metres, gathered under each
+/// range limit at or above the return's range: the figures the error examples print.
+#[derive(Debug, Clone, Default)]
+pub struct ErrorsByRange {
+    /// The range limits, metres, ascending.
+    limits_m: Vec<f64>,
+    /// Per limit, the world-point errors of the returns within it, metres.
+    point_m: Vec<Vec<f64>>,
+    /// Per limit, the horizontal-distance errors of the returns within it, metres.
+    horizontal_m: Vec<Vec<f64>>,
+}
+
+impl ErrorsByRange {
+    /// No returns yet, for the range limits `limits_m` (metres, ascending).
+    #[must_use]
+    pub fn new(limits_m: &[f64]) -> Self {
+        Self {
+            limits_m: limits_m.to_vec(),
+            point_m: vec![Vec::new(); limits_m.len()],
+            horizontal_m: vec![Vec::new(); limits_m.len()],
+        }
+    }
+
+    /// Counts one return's errors under every limit at or above its range.
+    pub fn add(&mut self, e: &CaseError) {
+        for (k, &limit) in self.limits_m.iter().enumerate() {
+            if e.range_m <= limit {
+                self.point_m[k].push(e.point_m);
+                self.horizontal_m[k].push(e.horizontal_m);
+            }
+        }
+    }
+
+    /// Prints a table with a row per limit: the returns within it, the maximum and the 99.9th
+    /// percentile of both errors (mm), and the bound at the limit, `bound_m(limit)` (in mm).
+    pub fn print(&mut self, bound_m: impl Fn(f64) -> f64) {
+        println!(
+            "{:<14} {:>9} {:>14} {:>14} {:>16} {:>16} {:>10}",
+            "ranges", "returns", "point max", "point p99.9", "horiz. max", "horiz. p99.9", "bound"
+        );
+        for (k, &limit) in self.limits_m.iter().enumerate() {
+            let n = self.point_m[k].len();
+            let (pmax, p999) = max_and_p999_mm(&mut self.point_m[k]);
+            let (hmax, h999) = max_and_p999_mm(&mut self.horizontal_m[k]);
+            println!(
+                "{:<14} {:>9} {:>11.4} mm {:>11.4} mm {:>13.4} mm {:>13.4} mm {:>7.4} mm",
+                format!("<= {limit} m"),
+                n,
+                pmax,
+                p999,
+                hmax,
+                h999,
+                bound_m(limit) * 1e3
+            );
+        }
+    }
+}
+
 /// A random scan-centre position in the robot frame, as the library's fixed-point bits
 /// (2⁻¹⁶ m): x and y within ±2 m, z 0 ..= 3 m.
 #[allow(clippy::cast_possible_truncation)]

@@ -26,6 +26,18 @@ pub fn sensor(s: &tp::SensorModel) -> Sensor {
     }
 }
 
+/// The reference design ([`bands::design`]) for the library's sensor model and schedule,
+/// widened: a window of `cells` cells a side, at most `capacity` layers.
+#[must_use]
+pub fn reference_design(
+    model: &tp::SensorModel,
+    plan: &tp::Schedule,
+    cells: usize,
+    capacity: usize,
+) -> bands::Outcome {
+    bands::design(&sensor(model), &schedule(plan), cells, capacity)
+}
+
 /// The library's schedule, widened.
 #[must_use]
 pub fn schedule(s: &tp::Schedule) -> bands::Schedule {

@@ -453,6 +453,19 @@ pub struct CellPoints {
     pub distance_m: f64,
 }
 
+impl CellPoints {
+    /// The overhang cut: keeps the points at most `robot_height_m` (metres) above the cell's
+    /// lowest, in their order.
+    pub fn cut_overhang(&mut self, robot_height_m: f64) {
+        let ground = self
+            .points
+            .iter()
+            .map(|p| p.z)
+            .fold(f64::INFINITY, f64::min);
+        self.points.retain(|p| p.z <= ground + robot_height_m);
+    }
+}
+
 /// The layer cells of one observation, as the library's gates feed them: a point joins the
 /// cell of every layer whose gated increment at its distance is non-zero; per cell the points
 /// above the lowest + `robot_height_m` are dropped (exactly, whatever their order).
@@ -496,12 +509,7 @@ pub fn observation_cells<const W: usize, const L: usize>(
         }
     }
     for cell in cells.values_mut() {
-        let ground = cell
-            .points
-            .iter()
-            .map(|p| p.z)
-            .fold(f64::INFINITY, f64::min);
-        cell.points.retain(|p| p.z <= ground + robot_height_m);
+        cell.cut_overhang(robot_height_m);
     }
     cells
 }

@@ -206,7 +206,7 @@ proptest! {
             // The 1 cm floor kept Δd above φ·h: not an invalid configuration after all.
             return Ok(());
         }
-        let o = bands::design(&harness::sensor(&s), &harness::schedule(&sch), w, CAPACITY);
+        let o = harness::reference_design(&s, &sch, w, CAPACITY);
         if !o.fragile.is_empty() {
             return Ok(());
         }
@@ -249,14 +249,14 @@ fn default_design_matches_exactly_in_structure() {
     let s = tp::SensorModel::default();
     let sch = tp::Schedule::default();
     check_design(s, sch, 64).unwrap();
-    let o = bands::design(&harness::sensor(&s), &harness::schedule(&sch), 64, 8);
+    let o = harness::reference_design(&s, &sch, 64, 8);
     assert!(o.fragile.is_empty());
     let rd = o.result.unwrap();
     let ld = tp::Design::<8>::new(s, sch, 64).unwrap();
     assert_eq!(rd.layers.len(), 8);
     assert_eq!(ld.layers().len(), 8);
     // The default does not fit a smaller capacity, and says how many it needs.
-    let v = bands::design(&harness::sensor(&s), &harness::schedule(&sch), 64, 7)
+    let v = harness::reference_design(&s, &sch, 64, 7)
         .result
         .unwrap_err();
     assert_eq!(v, vec![Violation::TooManyLayers { needed: 8 }]);
@@ -270,7 +270,7 @@ fn boundaries_of_the_refusal_rules() {
     let s = tp::SensorModel::default();
     let sch = tp::Schedule::default();
     let verdict = |s: tp::SensorModel, sch: tp::Schedule, w: usize| {
-        let o = bands::design(&harness::sensor(&s), &harness::schedule(&sch), w, 16);
+        let o = harness::reference_design(&s, &sch, w, 16);
         let l = tp::Design::<16>::new(s, sch, w);
         (o.result.map(|_| ()), l.map(|_| ()))
     };
@@ -425,14 +425,9 @@ fn angles_at_their_limit_are_refused() {
             },
         ),
     ] {
-        let v = bands::design(
-            &harness::sensor(&sensor),
-            &harness::schedule(&sch),
-            1024,
-            16,
-        )
-        .result
-        .expect_err("the reference refuses");
+        let v = harness::reference_design(&sensor, &sch, 1024, 16)
+            .result
+            .expect_err("the reference refuses");
         match tp::Design::<16>::new(sensor, sch, 1024) {
             Err(e) => assert!(harness::refusal_matches(&e, &v), "{label}: {e:?} vs {v:?}"),
             Ok(d) => failures.push(format!(
@@ -454,11 +449,9 @@ fn angles_at_their_limit_are_refused() {
             },
             ..sensor
         };
-        assert!(
-            bands::design(&harness::sensor(&below), &harness::schedule(&sch), 1024, 16)
-                .result
-                .is_ok()
-        );
+        assert!(harness::reference_design(&below, &sch, 1024, 16)
+            .result
+            .is_ok());
         assert!(
             tp::Design::<16>::new(below, sch, 1024).is_ok(),
             "{label}, one step below"

@@ -106,7 +106,7 @@ fn default_design(gate: tp::GateShape) -> (bands::Design, tp::Design<CAPACITY>) 
         gate,
         ..tp::Schedule::default()
     };
-    let rd = bands::design(&harness::sensor(&s), &harness::schedule(&sch), 64, CAPACITY)
+    let rd = harness::reference_design(&s, &sch, 64, CAPACITY)
         .result
         .unwrap();
     let ld = tp::Design::<CAPACITY>::new(s, sch, 64).unwrap();

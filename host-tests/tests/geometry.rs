@@ -19,46 +19,60 @@ fn tables() -> &'static [BeamTable; 5] {
 /// 30° in radians, as f32.
 const THIRTY_DEG: f32 = std::f32::consts::FRAC_PI_6;
 
+/// A mount position as raw Q16.16 bits: x, y within ±2 m, z from 0 to 3 m.
+fn mount_bits() -> impl Strategy<Value = [i32; 3]> {
+    (
+        -131_072..=131_072_i32,
+        -131_072..=131_072_i32,
+        0..=196_608_i32,
+    )
+        .prop_map(|(x, y, z)| [x, y, z])
+}
+
+/// A pose as the host sends it (x, y, z in m, roll, pitch, yaw in rad): x and y within
+/// ±`xy_m`, z within ±`z_m`, roll and pitch within ±30°, yaw within ±`yaw_rad`.
+fn pose_within(xy_m: f32, z_m: f32, yaw_rad: f32) -> impl Strategy<Value = [f32; 6]> {
+    (
+        -xy_m..xy_m,
+        -xy_m..xy_m,
+        -z_m..z_m,
+        -THIRTY_DEG..=THIRTY_DEG,
+        -THIRTY_DEG..=THIRTY_DEG,
+        -yaw_rad..yaw_rad,
+    )
+        .prop_map(|(x, y, z, roll, pitch, yaw)| [x, y, z, roll, pitch, yaw])
+}
+
 fn case() -> impl Strategy<Value = (usize, Case)> {
     (
         0..5_usize,
         any::<prop::sample::Index>(),
         0..=81_910_u32,
         any::<bool>(),
-        // Mount: x, y within ±2 m, z from 0 to 3 m (raw Q16.16).
-        (
-            -131_072..=131_072_i32,
-            -131_072..=131_072_i32,
-            0..=196_608_i32,
-        ),
+        mount_bits(),
         any::<u32>(),
-        (
-            -29_999.0_f32..29_999.0,
-            -29_999.0_f32..29_999.0,
-            -999.0_f32..999.0,
-            -THIRTY_DEG..=THIRTY_DEG,
-            -THIRTY_DEG..=THIRTY_DEG,
-            -20.0_f32..20.0,
-        ),
+        pose_within(29_999.0, 999.0, 20.0),
     )
-        .prop_map(|(v, beam, range_mm, tilted, m, actuator_bits, p)| {
-            let count = Variant::ALL[v].beam_count();
-            (
-                v,
-                Case {
-                    beam: beam.index(count),
-                    range_mm,
-                    plane: if tilted {
-                        ScanPlane::TiltedHorizontal
-                    } else {
-                        ScanPlane::PannedVertical
+        .prop_map(
+            |(v, beam, range_mm, tilted, mount_bits, actuator_bits, pose)| {
+                let count = Variant::ALL[v].beam_count();
+                (
+                    v,
+                    Case {
+                        beam: beam.index(count),
+                        range_mm,
+                        plane: if tilted {
+                            ScanPlane::TiltedHorizontal
+                        } else {
+                            ScanPlane::PannedVertical
+                        },
+                        mount_bits,
+                        actuator_bits,
+                        pose,
                     },
-                    mount_bits: [m.0, m.1, m.2],
-                    actuator_bits,
-                    pose: [p.0, p.1, p.2, p.3, p.4, p.5],
-                },
-            )
-        })
+                )
+            },
+        )
 }
 
 proptest! {
@@ -165,25 +179,12 @@ mod general_mount {
             0..3_u8,
             any::<u32>(),
             any::<bool>(),
-            (
-                -131_072..=131_072_i32,
-                -131_072..=131_072_i32,
-                0..=196_608_i32,
-            ),
+            mount_bits(),
         )
-            .prop_map(|(rpy, axis, zero, rev, (x, y, z))| (rpy, axis, zero, rev, [x, y, z]))
     }
 
     fn pose_strategy() -> impl Strategy<Value = [f32; 6]> {
-        (
-            -999.0_f32..999.0,
-            -999.0_f32..999.0,
-            -99.0_f32..99.0,
-            -THIRTY_DEG..=THIRTY_DEG,
-            -THIRTY_DEG..=THIRTY_DEG,
-            -3.2_f32..3.2,
-        )
-            .prop_map(|(a, b, c, d, e, f)| [a, b, c, d, e, f])
+        pose_within(999.0, 99.0, 3.2)
     }
 
     struct Built {

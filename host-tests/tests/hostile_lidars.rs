@@ -27,8 +27,9 @@ use terrain_pyramid::wire::rplidar::{
     RplidarAccumulator, RplidarCapsule, RplidarCapsuleRepr, RplidarDescriptorRepr, RplidarError,
     RplidarItem, RplidarNode, RplidarNodeRepr,
 };
-use terrain_pyramid::wire::ydlidar::{YdlidarAccumulator, YdlidarRepr};
+use terrain_pyramid::wire::ydlidar::YdlidarAccumulator;
 use terrain_pyramid::wire::FeedResult as WireFeed;
+use terrain_pyramid_host_tests::sim::lidar::ydlidar_packet_bytes;
 
 /// One piece of a lidar stream, whatever the packet: `Intact` holds a valid packet, `Garbage`
 /// arbitrary bytes, `Flipped` and `Truncated` a packet (cut with at least 1 byte gone); a
@@ -166,15 +167,7 @@ fn ydlidar_packet() -> impl Strategy<Value = Vec<u8>> + Clone {
         proptest::collection::vec(any::<u16>(), 1..50),
     )
         .prop_map(|(ct, first, last, samples)| {
-            let repr = YdlidarRepr {
-                packet_type: ct,
-                first_angle_q6: first,
-                last_angle_q6: last,
-                samples: &samples,
-            };
-            let mut b = vec![0; repr.buffer_len()];
-            repr.emit(&mut b).unwrap();
-            b
+            ydlidar_packet_bytes(ct, first, last, &samples).unwrap()
         })
 }
 

@@ -9,7 +9,7 @@
 mod common;
 
 use common::feed::{checked_ld06, checked_ydlidar, feed_all, run_to_end};
-use common::{chunks, seeded};
+use common::{chunks, seeded, Units};
 use proptest::prelude::*;
 use terrain_pyramid::angle::FineAngle;
 use terrain_pyramid::wire::ld06::{
@@ -20,10 +20,11 @@ use terrain_pyramid::wire::rplidar::{
     RplidarDescriptorRepr, RplidarError, RplidarItem, RplidarNode, RplidarNodeRepr,
 };
 use terrain_pyramid::wire::ydlidar::{
-    YdlidarAccumulator, YdlidarAngleCorrection, YdlidarCounters, YdlidarPacket, YdlidarRepr,
+    YdlidarAccumulator, YdlidarAngleCorrection, YdlidarCounters, YdlidarPacket,
     YDLIDAR_CORRECTION_MAX_ERROR_DEG,
 };
 use terrain_pyramid::wire::FeedResult;
+use terrain_pyramid_host_tests::sim::lidar::ydlidar_packet_bytes;
 
 fn degrees(a: FineAngle) -> f64 {
     f64::from(a.to_bits()) * 360.0 / 4_294_967_296.0
@@ -79,6 +80,28 @@ fn ld06_bytes(repr: &Ld06Repr) -> Vec<u8> {
     b
 }
 
+/// A stream of `head` (a descriptor, or nothing), then each packet after its garbage: with the
+/// (offset, bytes) an accumulator should deliver (`head` first, unless empty, then every
+/// packet) and how many bytes of garbage it holds.
+fn garbled_stream<'g>(
+    head: &[u8],
+    packets: impl Iterator<Item = (&'g Vec<u8>, Vec<u8>)>,
+) -> (Vec<u8>, Units, usize) {
+    let mut stream = head.to_vec();
+    let mut want = Vec::new();
+    if !head.is_empty() {
+        want.push((0, stream.clone()));
+    }
+    let mut garbage = 0;
+    for (g, packet) in packets {
+        stream.extend_from_slice(g);
+        garbage += g.len();
+        want.push((stream.len() as u64, packet.clone()));
+        stream.extend(packet);
+    }
+    (stream, want, garbage)
+}
+
 /// Feeds the chunks and flushes: (offset, packet) delivered, rejections, counters.
 fn ld06_run(chunks: &[&[u8]]) -> (Vec<(u64, Vec<u8>)>, usize, Ld06Counters, u64) {
     run_to_end(Ld06Accumulator::new(), chunks, checked_ld06)
@@ -94,15 +117,8 @@ proptest! {
         pieces in proptest::collection::vec((ld06_repr(), garbage_without(&[0x54])), 1..12),
         sizes in proptest::collection::vec(1_usize..120, 1..5),
     ) {
-        let mut stream = Vec::new();
-        let mut want = Vec::new();
-        let mut garbage = 0;
-        for (repr, g) in &pieces {
-            stream.extend_from_slice(g);
-            garbage += g.len();
-            want.push((stream.len() as u64, ld06_bytes(repr)));
-            stream.extend(ld06_bytes(repr));
-        }
+        let (stream, want, garbage) =
+            garbled_stream(&[], pieces.iter().map(|(repr, g)| (g, ld06_bytes(repr))));
         let (delivered, rejected, c, position) = ld06_run(&chunks(&stream, &sizes));
         prop_assert_eq!(&delivered, &want);
         prop_assert_eq!(rejected, 0);
@@ -177,18 +193,6 @@ fn ydlidar_parts() -> impl Strategy<Value = (u8, u16, u16, Vec<u16>)> {
     )
 }
 
-fn ydlidar_bytes(ct: u8, first: u16, last: u16, samples: &[u16]) -> Vec<u8> {
-    let repr = YdlidarRepr {
-        packet_type: ct,
-        first_angle_q6: first,
-        last_angle_q6: last,
-        samples,
-    };
-    let mut b = vec![0; repr.buffer_len()];
-    repr.emit(&mut b).unwrap();
-    b
-}
-
 fn ydlidar_run(chunks: &[&[u8]]) -> (Vec<(u64, Vec<u8>)>, usize, YdlidarCounters, u64) {
     run_to_end(YdlidarAccumulator::new(), chunks, checked_ydlidar)
 }
@@ -203,16 +207,12 @@ proptest! {
         pieces in proptest::collection::vec((ydlidar_parts(), garbage_without(&[0xAA, 0xA5])), 1..10),
         sizes in proptest::collection::vec(1_usize..200, 1..5),
     ) {
-        let mut stream = vec![0xA5, 0x5A, 0x05, 0x00, 0x00, 0x40, 0x81];
-        let mut want = vec![(0_u64, stream.clone())];
-        let mut garbage = 0;
-        for ((ct, first, last, samples), g) in &pieces {
-            stream.extend_from_slice(g);
-            garbage += g.len();
-            let p = ydlidar_bytes(*ct, *first, *last, samples);
-            want.push((stream.len() as u64, p.clone()));
-            stream.extend(p);
-        }
+        let (stream, want, garbage) = garbled_stream(
+            &[0xA5, 0x5A, 0x05, 0x00, 0x00, 0x40, 0x81],
+            pieces.iter().map(|((ct, first, last, samples), g)| {
+                (g, ydlidar_packet_bytes(*ct, *first, *last, samples).unwrap())
+            }),
+        );
         let (delivered, rejected, c, position) = ydlidar_run(&chunks(&stream, &sizes));
         prop_assert_eq!(&delivered, &want);
         prop_assert_eq!(rejected, 0);
@@ -225,7 +225,7 @@ proptest! {
     /// correction off, within the FineAngle LSB.
     #[test]
     fn ydlidar_returns_follow_the_manual((ct, first, last, samples) in ydlidar_parts()) {
-        let bytes = ydlidar_bytes(ct, first, last, &samples);
+        let bytes = ydlidar_packet_bytes(ct, first, last, &samples).unwrap();
         let p = YdlidarPacket::new_checked(&bytes[..]).unwrap();
         prop_assert_eq!(p.starts_revolution(), ct & 1 == 1);
         let fsa = f64::from(first) / 64.0;
@@ -253,7 +253,7 @@ proptest! {
     /// only by chance (1 in 65 536).
     #[test]
     fn ydlidar_bit_flips_are_refused((ct, first, last, samples) in ydlidar_parts(), bit in any::<usize>()) {
-        let mut flipped = ydlidar_bytes(ct, first, last, &samples);
+        let mut flipped = ydlidar_packet_bytes(ct, first, last, &samples).unwrap();
         let bit = bit % (8 * flipped.len());
         flipped[bit / 8] ^= 1 << (bit % 8);
         let lsn_shrunk = bit / 8 == 3 && usize::from(flipped[3]) < samples.len();
@@ -264,7 +264,7 @@ proptest! {
     /// bytes add up.
     #[test]
     fn ydlidar_truncation((ct, first, last, samples) in ydlidar_parts(), cut in any::<usize>()) {
-        let bytes = ydlidar_bytes(ct, first, last, &samples);
+        let bytes = ydlidar_packet_bytes(ct, first, last, &samples).unwrap();
         let cut = 2 + cut % (bytes.len() - 2);
         let (delivered, rejected, c, _) = ydlidar_run(&[&bytes[..cut]]);
         prop_assert!(delivered.is_empty());

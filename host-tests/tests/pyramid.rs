@@ -24,7 +24,6 @@
 use proptest::prelude::*;
 use terrain_pyramid as tp;
 use terrain_pyramid_host_tests::harness;
-use terrain_pyramid_host_tests::reference::bands;
 use terrain_pyramid_host_tests::reference::decay;
 use terrain_pyramid_host_tests::reference::fused::Fused;
 use terrain_pyramid_host_tests::reference::logodds::{Arithmetic, Model};
@@ -272,14 +271,9 @@ fn check<const W: usize>(
     let mut lib: Box<tp::Pyramid<W, L>> = Box::default();
     lib.configure(&design, &config).expect("configures");
 
-    let rd = bands::design(
-        &harness::sensor(&sensor),
-        &harness::schedule(&schedule),
-        W,
-        L,
-    )
-    .result
-    .expect("the reference accepts it too");
+    let rd = harness::reference_design(&sensor, &schedule, W, L)
+        .result
+        .expect("the reference accepts it too");
     prop_assert_eq!(lib.layer_count(), rd.layers.len());
     let rq: Vec<i64> = rd
         .layers
@@ -399,22 +393,16 @@ fn probes() -> impl Strategy<Value = Vec<(i32, i32)>> {
 proptest! {
     #![proptest_config(ProptestConfig { cases: 48, ..ProptestConfig::default() })]
 
+    /// The default window with the soft and with the hard gate, each on every case.
     #[test]
-    fn default_pyramid_soft_gate(
+    fn default_pyramid_soft_and_hard_gate(
         settings in settings(),
         actions in prop::collection::vec(action(32), 1..400),
         probes in probes(),
     ) {
-        check::<64>(Which::DefaultSoft, settings, &actions, &probes)?;
-    }
-
-    #[test]
-    fn default_pyramid_hard_gate(
-        settings in settings(),
-        actions in prop::collection::vec(action(32), 1..400),
-        probes in probes(),
-    ) {
-        check::<64>(Which::DefaultHard, settings, &actions, &probes)?;
+        for which in [Which::DefaultSoft, Which::DefaultHard] {
+            check::<64>(which, settings, &actions, &probes)?;
+        }
     }
 }
 
@@ -484,14 +472,9 @@ fn the_comparison_catches_a_wrong_reference() {
     let config = tp::Config::default();
     let mut lib: Box<tp::Pyramid<64, L>> = Box::default();
     lib.configure(&design, &config).unwrap();
-    let rd = bands::design(
-        &harness::sensor(&sensor),
-        &harness::schedule(&schedule),
-        64,
-        L,
-    )
-    .result
-    .unwrap();
+    let rd = harness::reference_design(&sensor, &schedule, 64, L)
+        .result
+        .unwrap();
     let model = Model {
         arithmetic: Arithmetic::Quantised,
         inverse: harness::inverse(&config.model),

@@ -19,19 +19,18 @@
 use terrain_pyramid::angle::FineAngle;
 use terrain_pyramid::classify::ClassifierConfig;
 use terrain_pyramid::geometry::Pose;
-use terrain_pyramid::laser::{LaserDecoder, LaserItem, Sensor, SensorKind};
+use terrain_pyramid::laser::{LaserDecoder, Sensor, SensorKind};
 use terrain_pyramid::link::convert::{frontend_config, setup_message_with_sensor, setup_with_rig};
 use terrain_pyramid::logodds::CellClass;
 use terrain_pyramid::pipeline::{Frontend, PacketActuator};
 use terrain_pyramid::wire::link::MountSetup;
 use terrain_pyramid::wire::recording::{Payload, Reader, RigEvent};
-use terrain_pyramid::wire::FeedResult;
 use terrain_pyramid::{
     Config, DefaultDesign, DefaultPyramid, Schedule, SensorModel, DEFAULT_CELLS_PER_SIDE,
     DEFAULT_LAYERS,
 };
 use terrain_pyramid_host_tests::sim::lidar::{
-    simulate_lidar, LidarActuator, LidarKind, LidarSimConfig, SimRig,
+    feed_packets, simulate_lidar, LidarActuator, LidarKind, LidarSimConfig, SimRig,
 };
 use terrain_pyramid_host_tests::sim::scene::{Scenario, Scene};
 use terrain_pyramid_host_tests::sim::terrain::{cell_truth, Truth};
@@ -100,30 +99,17 @@ fn map(bytes: &[u8], ignore_rig: bool) -> Mapped {
                     }
                     frontend.configure(frontend_config(&setup).unwrap());
                 }
-                let decoder = decoder.as_mut().unwrap();
-                let mut rest: &[u8] = chunk;
-                loop {
-                    rest = match decoder.feed(rest) {
-                        FeedResult::Consumed => break,
-                        FeedResult::Item {
-                            item: LaserItem::Packet(p),
-                            remaining,
-                            ..
-                        } => {
-                            let returns: Vec<_> = p.returns().collect();
-                            frontend
-                                .packet(
-                                    &mut pyramid,
-                                    returns,
-                                    p.starts_revolution(),
-                                    PacketActuator::still(angle),
-                                )
-                                .unwrap();
-                            remaining
-                        }
-                        other => other.remaining(),
-                    };
-                }
+                feed_packets(decoder.as_mut().unwrap(), chunk, |p| {
+                    let returns: Vec<_> = p.returns().collect();
+                    frontend
+                        .packet(
+                            &mut pyramid,
+                            returns,
+                            p.starts_revolution(),
+                            PacketActuator::still(angle),
+                        )
+                        .unwrap();
+                });
             }
             _ => {}
         }

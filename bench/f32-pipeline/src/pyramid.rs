@@ -68,6 +68,19 @@ impl<const W: usize> Layer<W> {
         }
     }
 
+    /// The ring slots a move of `delta` cells (|delta| < W) brings in along an axis whose
+    /// oldest slot is `start`: the first of them and how many, in order from there.
+    #[allow(clippy::cast_possible_truncation)]
+    fn entering(start: usize, delta: i64) -> (usize, usize) {
+        let count = delta.unsigned_abs() as usize;
+        let first = if delta > 0 {
+            start
+        } else {
+            Self::slot(start, W - count)
+        };
+        (first, count)
+    }
+
     /// Moves the origin to world cell (nx, ny), resetting what enters; returns cells reset.
     pub(crate) fn move_origin(&mut self, nx: i32, ny: i32) -> usize {
         let w = W as i64;
@@ -82,14 +95,8 @@ impl<const W: usize> Layer<W> {
             W * W
         } else {
             let mut n = 0;
-            #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
             if dy != 0 {
-                let count = dy.unsigned_abs() as usize;
-                let first = if dy > 0 {
-                    self.start_y
-                } else {
-                    Self::slot(self.start_y, W - count)
-                };
+                let (first, count) = Self::entering(self.start_y, dy);
                 for t in 0..count {
                     if let Some(row) = self.cells.get_mut(Self::slot(first, t)) {
                         row.fill(f32::NAN);
@@ -97,14 +104,9 @@ impl<const W: usize> Layer<W> {
                 }
                 n += count * W;
             }
-            #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+            #[allow(clippy::cast_possible_truncation)]
             if dx != 0 {
-                let count = dx.unsigned_abs() as usize;
-                let first = if dx > 0 {
-                    self.start_x
-                } else {
-                    Self::slot(self.start_x, W - count)
-                };
+                let (first, count) = Self::entering(self.start_x, dx);
                 for row in &mut self.cells {
                     for t in 0..count {
                         if let Some(c) = row.get_mut(Self::slot(first, t)) {

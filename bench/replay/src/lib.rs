@@ -184,8 +184,10 @@ impl<const W: usize, const L: usize, const C: usize, const Q: usize> Pipeline
     }
 }
 
-/// Every measured-values telegram `bytes` complete, parsed, to `line`.
-fn each_line<const N: usize>(
+/// Feeds `bytes` (one laser chunk) to `accumulator` and hands every measured-values telegram
+/// the chunk completes, parsed, to `line`, in stream order; other telegrams, telegrams that do
+/// not parse and what the accumulator refuses are passed over.
+pub fn each_line<const N: usize>(
     accumulator: &mut SickAccumulator<N>,
     bytes: &[u8],
     mut line: impl FnMut(&MeasuredValues<'_>),

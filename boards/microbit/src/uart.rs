@@ -31,10 +31,10 @@
 //! and counts them here as [`UartError::Overrun`].
 
 pub use board_support::uart::UartError;
-use board_support::uart::{read_polled, PolledRx};
+use board_support::uart::{claim_once, PolledRx};
 use core::marker::PhantomData;
 use core::ptr::{read_volatile, write_volatile};
-use core::sync::atomic::{AtomicBool, Ordering};
+use core::sync::atomic::AtomicBool;
 
 /// Base address of the UART.
 pub const BASE: usize = 0x4000_2000;
@@ -103,13 +103,7 @@ impl Uart {
     /// Enables the UART at `baud` (8N1, no flow control, polled), once: `None` on a second
     /// call.
     pub fn take(baud: Baud) -> Option<Self> {
-        let first = critical_section::with(|_| {
-            // Load and store inside a critical section: ARMv6-M has no compare-and-swap.
-            let taken = TAKEN.load(Ordering::Relaxed);
-            TAKEN.store(true, Ordering::Relaxed);
-            !taken
-        });
-        if !first {
+        if !claim_once(&TAKEN) {
             return None;
         }
         write_reg(INTENCLR, u32::MAX);
@@ -160,25 +154,13 @@ impl PolledRx for Uart {
         #[allow(clippy::cast_possible_truncation)]
         Some(read_reg(RXD) as u8)
     }
-}
 
-impl embedded_io::ErrorType for Uart {
-    type Error = UartError;
-}
-
-impl embedded_io::ReadReady for Uart {
-    fn read_ready(&mut self) -> Result<bool, Self::Error> {
-        Ok(read_reg(EVENTS_RXDRDY) != 0)
+    fn rx_ready(&mut self) -> bool {
+        read_reg(EVENTS_RXDRDY) != 0
     }
 }
 
-impl embedded_io::Read for Uart {
-    /// Blocks until at least one byte is available (unless `buf` is empty), then returns the
-    /// bytes available without waiting further.
-    fn read(&mut self, buf: &mut [u8]) -> Result<usize, Self::Error> {
-        read_polled(self, buf)
-    }
-}
+board_support::impl_polled_read!([] Uart);
 
 impl embedded_io::Write for Uart {
     /// Sends every byte, each once the previous one has gone (the UART holds one).

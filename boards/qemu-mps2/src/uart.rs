@@ -19,10 +19,10 @@
 //! [`UartError::Overrun`].
 
 pub use board_support::uart::UartError;
-use board_support::uart::{read_polled, PolledRx};
+use board_support::uart::{claim_once, PolledRx};
 use core::marker::PhantomData;
 use core::ptr::{read_volatile, write_volatile};
-use core::sync::atomic::{AtomicBool, Ordering};
+use core::sync::atomic::AtomicBool;
 
 /// The peripheral clock of the MPS2 FPGA images (AN385/AN386/AN500), hertz.
 pub const PCLK_HZ: u32 = 25_000_000;
@@ -74,13 +74,7 @@ impl Uarts {
     /// Enables both UARTs (TX and RX, polled, interrupts cleared) at `baud`, once: `None` on
     /// a second call. The divider is `PCLK_HZ / baud`, at least 16 (QEMU ignores the rate).
     pub fn take(baud: u32) -> Option<Self> {
-        let first = critical_section::with(|_| {
-            // Load and store inside a critical section: ARMv6-M has no compare-and-swap.
-            let taken = TAKEN.load(Ordering::Relaxed);
-            TAKEN.store(true, Ordering::Relaxed);
-            !taken
-        });
-        if !first {
+        if !claim_once(&TAKEN) {
             return None;
         }
         let divider = (PCLK_HZ / baud.max(1)).max(MIN_BAUDDIV);
@@ -151,25 +145,13 @@ impl<const BASE: usize> PolledRx for CmsdkUart<BASE> {
         #[allow(clippy::cast_possible_truncation)]
         Some(Self::read_reg(DATA) as u8)
     }
-}
 
-impl<const BASE: usize> embedded_io::ErrorType for CmsdkUart<BASE> {
-    type Error = UartError;
-}
-
-impl<const BASE: usize> embedded_io::ReadReady for CmsdkUart<BASE> {
-    fn read_ready(&mut self) -> Result<bool, Self::Error> {
-        Ok(self.state() & STATE_RX_FULL != 0)
+    fn rx_ready(&mut self) -> bool {
+        self.state() & STATE_RX_FULL != 0
     }
 }
 
-impl<const BASE: usize> embedded_io::Read for CmsdkUart<BASE> {
-    /// Blocks until at least one byte is available (unless `buf` is empty), then returns the
-    /// bytes available without waiting further.
-    fn read(&mut self, buf: &mut [u8]) -> Result<usize, Self::Error> {
-        read_polled(self, buf)
-    }
-}
+board_support::impl_polled_read!([const BASE: usize] CmsdkUart<BASE>);
 
 impl<const BASE: usize> embedded_io::WriteReady for CmsdkUart<BASE> {
     fn write_ready(&mut self) -> Result<bool, Self::Error> {

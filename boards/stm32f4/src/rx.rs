@@ -81,32 +81,35 @@ static HOST: Mutex<RefCell<Option<RxPath<USART2>>>> = Mutex::new(RefCell::new(No
 
 /// Hands the laser's receiver to its interrupt (enabling RXNE) and returns the queue's
 /// consumer. Call once, before [`crate::hw::unmask_usart_interrupts`].
-pub fn install_laser(mut rx: Rx<USART1>) -> Consumer<'static, u8> {
+pub fn install_laser(rx: Rx<USART1>) -> Consumer<'static, u8> {
     let (producer, consumer) = LASER_QUEUE_CELL.take().split();
-    rx.listen();
-    critical_section::with(|cs| {
-        LASER.borrow(cs).replace(Some(RxPath {
-            rx,
-            producer,
-            stats: RxStats::default(),
-        }));
-    });
+    install(&LASER, rx, producer);
     consumer
 }
 
 /// Hands the host link's receiver to its interrupt (enabling RXNE) and returns the queue's
 /// consumer. Call once, before [`crate::hw::unmask_usart_interrupts`].
-pub fn install_host(mut rx: Rx<USART2>) -> Consumer<'static, u8> {
+pub fn install_host(rx: Rx<USART2>) -> Consumer<'static, u8> {
     let (producer, consumer) = HOST_QUEUE_CELL.take().split();
+    install(&HOST, rx, producer);
+    consumer
+}
+
+/// Enables RXNE on `rx` and hands it, with the producer of its queue, to the interrupt that
+/// reads `path`.
+fn install<U: Instance>(
+    path: &Mutex<RefCell<Option<RxPath<U>>>>,
+    mut rx: Rx<U>,
+    producer: Producer<'static, u8>,
+) {
     rx.listen();
     critical_section::with(|cs| {
-        HOST.borrow(cs).replace(Some(RxPath {
+        path.borrow(cs).replace(Some(RxPath {
             rx,
             producer,
             stats: RxStats::default(),
         }));
     });
-    consumer
 }
 
 /// The USART1 interrupt's work.

@@ -1,6 +1,9 @@
 //! A polled UART's error and its blocking `read`: the part of `embedded_io::Read` that does
 //! not depend on the peripheral. The registers stay in each board's `uart` module, which
-//! implements [`PolledRx`] for its UART.
+//! implements [`PolledRx`] for its UART, [`impl_polled_read!`] the `embedded_io` traits on
+//! top, and claims its registers once with [`claim_once`].
+
+use core::sync::atomic::{AtomicBool, Ordering};
 
 /// What a UART can report.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, defmt::Format)]
@@ -23,6 +26,47 @@ pub trait PolledRx {
     fn take_overrun(&mut self) -> bool;
     /// Takes the received byte if there is one.
     fn try_read_byte(&mut self) -> Option<u8>;
+    /// Whether a received byte is waiting (a read would not block).
+    fn rx_ready(&mut self) -> bool;
+}
+
+/// Whether this is the first claim of what `taken` guards (a UART's registers): `true` once,
+/// `false` on every later call. The load and the store happen inside a critical section:
+/// ARMv6-M has no compare-and-swap.
+pub fn claim_once(taken: &AtomicBool) -> bool {
+    cortex_m::interrupt::free(|_| {
+        let was_taken = taken.load(Ordering::Relaxed);
+        taken.store(true, Ordering::Relaxed);
+        !was_taken
+    })
+}
+
+/// Implements `embedded_io`'s `ErrorType` ([`UartError`]), `ReadReady`
+/// ([`PolledRx::rx_ready`]) and `Read` ([`read_polled`]) for a board's UART type that
+/// implements [`PolledRx`]: `impl_polled_read!([] Uart)`, or with its generic parameters in
+/// the brackets, `impl_polled_read!([const BASE: usize] CmsdkUart<BASE>)`. The board crate
+/// depends on `embedded-io` 0.6.
+#[macro_export]
+macro_rules! impl_polled_read {
+    ([$($generics:tt)*] $uart:ty) => {
+        impl<$($generics)*> embedded_io::ErrorType for $uart {
+            type Error = $crate::uart::UartError;
+        }
+
+        impl<$($generics)*> embedded_io::ReadReady for $uart {
+            fn read_ready(&mut self) -> Result<bool, Self::Error> {
+                Ok($crate::uart::PolledRx::rx_ready(self))
+            }
+        }
+
+        impl<$($generics)*> embedded_io::Read for $uart {
+            /// Blocks until at least one byte is available (unless `buf` is empty), then
+            /// returns the bytes available without waiting further.
+            fn read(&mut self, buf: &mut [u8]) -> Result<usize, Self::Error> {
+                $crate::uart::read_polled(self, buf)
+            }
+        }
+    };
 }
 
 /// `embedded_io::Read::read` of a polled receiver: blocks until at least one byte is

@@ -76,6 +76,22 @@ impl Judge {
     }
 }
 
+/// Prints a Markdown table's head: the `columns`, then a column per layer of `design` (its
+/// index and resolution).
+fn print_head(columns: &[&str], design: &Design<L>) {
+    let mut head = String::from("|");
+    let mut rule = String::from("|");
+    for column in columns {
+        head += &format!(" {column} |");
+        rule += " --- |";
+    }
+    for (k, l) in design.layers().iter().enumerate() {
+        head += &format!(" L{k} {:.1} m |", l.resolution_m);
+        rule += " --- |";
+    }
+    println!("{head}\n{rule}");
+}
+
 /// The plane rule in f64 (extent-based rise, no backstop, σ_a = 0.075° unless set otherwise).
 fn plane(max_slope_deg: f64, residual_m: f64, sigma_m: f64, k: f64) -> Rule {
     Rule::Plane {
@@ -93,30 +109,15 @@ fn plane(max_slope_deg: f64, residual_m: f64, sigma_m: f64, k: f64) -> Rule {
 
 /// The plane rule with an angular noise term.
 fn plane_angular(angle_sigma_deg: f64) -> Rule {
-    match plane(20.0, 0.015, 0.02, 2.0) {
-        Rule::Plane {
-            step_m,
-            max_slope_deg,
-            residual_m,
-            sigma_m,
-            k,
-            rise_over_cell,
-            backstop,
-            extremes,
-            ..
-        } => Rule::Plane {
-            step_m,
-            max_slope_deg,
-            residual_m,
-            sigma_m,
-            k,
-            rise_over_cell,
-            backstop,
-            angle_sigma_deg,
-            extremes,
-        },
-        other => other,
+    let mut rule = plane(20.0, 0.015, 0.02, 2.0);
+    if let Rule::Plane {
+        angle_sigma_deg: angle,
+        ..
+    } = &mut rule
+    {
+        *angle = angle_sigma_deg;
     }
+    rule
 }
 
 /// The candidates and the sensitivity of the chosen one, then the library's two rules.
@@ -314,13 +315,7 @@ fn print_table(title: &str, design: &Design<L>, judges: &[Judge], outcomes: &[Ou
     println!(
         "navigable % / obstacle % (truly navigable cells classed navigable / true obstacles classed obstacle)\n"
     );
-    let mut head = String::from("| rule | fused cells | fused at returns |");
-    let mut rule = String::from("| --- | --- | --- |");
-    for (k, l) in design.layers().iter().enumerate() {
-        head += &format!(" L{k} {:.1} m |", l.resolution_m);
-        rule += " --- |";
-    }
-    println!("{head}\n{rule}");
+    print_head(&["rule", "fused cells", "fused at returns"], design);
     for (judge, o) in judges.iter().zip(outcomes) {
         let mut line = format!(
             "| {} | {} / {} | {} / {} |",
@@ -380,12 +375,7 @@ fn part_spread() {
                     });
                 }
                 for cell in cells.values_mut() {
-                    let low = cell
-                        .points
-                        .iter()
-                        .map(|p| p.z)
-                        .fold(f64::INFINITY, f64::min);
-                    cell.points.retain(|p| p.z <= low + ROBOT_HEIGHT);
+                    cell.cut_overhang(ROBOT_HEIGHT);
                 }
                 let v = flat_spread(&cells, &[c], &scene, 0.05, 3.0, 0.5, ROBOT_HEIGHT);
                 tot[g].0 += v[0].0;
@@ -429,13 +419,7 @@ fn part_car(judges: &[Judge]) {
 fn print_steps(title: &str, design: &Design<L>, judges: &[Judge], outcomes: &[Outcome]) {
     println!("\n### {title}\n");
     println!("The smallest step (cm) found in at least half of the observed cells on its edges, per layer (– none up to 20 cm, or no such cell observed); fused: obstacle share over true obstacle cells.\n");
-    let mut head = String::from("| rule | fused obstacle % |");
-    let mut rule = String::from("| --- | --- |");
-    for (k, l) in design.layers().iter().enumerate() {
-        head += &format!(" L{k} {:.1} m |", l.resolution_m);
-        rule += " --- |";
-    }
-    println!("{head}\n{rule}");
+    print_head(&["rule", "fused obstacle %"], design);
     for (judge, o) in judges.iter().zip(outcomes) {
         let mut line = format!("| {} | {} |", judge.name(), pct(o.fused.obstacle_pct()));
         for per in &o.steps {

@@ -60,22 +60,21 @@ mod mount;
 mod stream;
 
 pub use mount::{LidarActuator, SimRig};
-pub use stream::ydlidar_correction_deg;
+pub use stream::{ydlidar_correction_deg, ydlidar_packet_bytes};
 
 use super::laser::{angle_to_u16, u16_to_angle_deg};
-use super::record::{push, push_laser, push_pose_change, SimError};
+use super::record::{push, push_laser, push_pose_change, start_recording, SimError};
 use super::rng::Rng;
 use super::scene::{GroundTruthSpec, ObstacleCell, Scene};
 use super::trajectory::Trajectory;
 use mount::Sweep;
 use stream::{Caster, Packets};
-use terrain_pyramid::laser::{Sensor, SensorKind};
+use terrain_pyramid::laser::{LaserDecoder, LaserItem, Packet, Sensor, SensorKind};
 use terrain_pyramid::wire::recording::SetupEvent as Setup;
-use terrain_pyramid::wire::recording::{
-    emit_header_version, Event, MountKind, Payload, SensorEvent,
-};
+use terrain_pyramid::wire::recording::{Event, MountKind, Payload, SensorEvent};
 use terrain_pyramid::wire::rplidar::RplidarScanMode;
 use terrain_pyramid::wire::ydlidar::YdlidarAngleCorrection;
+use terrain_pyramid::wire::FeedResult;
 
 /// Which lidar, and how it scans.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -358,37 +357,15 @@ pub fn simulate_lidar(config: &LidarSimConfig) -> Result<LidarSimulation, SimErr
         ..config.clone()
     };
     let duration = config.trajectory.duration_s();
-    let mut bytes = vec![0_u8; 16];
     // A rig needs version 3 (its rig event); without one the file stays version 2.
-    let version = if config.rig.is_some() {
+    let mut head = vec![Payload::Setup(setup), Payload::Sensor(sensor)];
+    let version = if let Some(rig) = config.rig {
+        head.push(Payload::Rig(rig.event(&config.actuator)));
         terrain_pyramid::wire::recording::VERSION
     } else {
         terrain_pyramid::wire::recording::VERSION_WITHOUT_RIG
     };
-    emit_header_version(&mut bytes, version).map_err(|e| SimError(format!("emit: {e}")))?;
-    push(
-        &mut bytes,
-        &Event {
-            time_us: 0,
-            payload: Payload::Setup(setup),
-        },
-    )?;
-    push(
-        &mut bytes,
-        &Event {
-            time_us: 0,
-            payload: Payload::Sensor(sensor),
-        },
-    )?;
-    if let Some(rig) = config.rig {
-        push(
-            &mut bytes,
-            &Event {
-                time_us: 0,
-                payload: Payload::Rig(rig.event(&config.actuator)),
-            },
-        )?;
-    }
+    let mut bytes = start_recording(version, &head)?;
     let mut packets = Packets {
         caster: Caster {
             config,
@@ -484,15 +461,34 @@ pub fn simulate_lidar(config: &LidarSimConfig) -> Result<LidarSimulation, SimErr
     Ok(sim)
 }
 
+/// Feeds one laser chunk to `decoder`, handing each packet the chunk completes to `packet`, in
+/// stream order; the decoder's other units and the candidates it refuses are passed over.
+pub fn feed_packets(decoder: &mut LaserDecoder, chunk: &[u8], mut packet: impl FnMut(&Packet<'_>)) {
+    let mut rest = chunk;
+    loop {
+        match decoder.feed(rest) {
+            FeedResult::Consumed => return,
+            result => {
+                if let FeedResult::Item {
+                    item: LaserItem::Packet(p),
+                    ..
+                } = &result
+                {
+                    packet(p);
+                }
+                rest = result.remaining();
+            }
+        }
+    }
+}
+
 /// Echoes the decoder of the library finds in a simulated stream, with their decoded angle
 /// (degrees, clockwise) and range (mm): the test's view of what a reader gets.
 ///
 /// # Errors
 /// A recording the reader refuses.
 pub fn decoded_returns(bytes: &[u8]) -> Result<Vec<(f64, u32)>, String> {
-    use terrain_pyramid::laser::{LaserDecoder, LaserItem};
     use terrain_pyramid::wire::recording::Reader;
-    use terrain_pyramid::wire::FeedResult;
     let reader = Reader::new(bytes).map_err(|e| e.to_string())?;
     let mut decoder: Option<Box<LaserDecoder>> = None;
     let mut out = Vec::new();
@@ -504,27 +500,16 @@ pub fn decoded_returns(bytes: &[u8]) -> Result<Vec<(f64, u32)>, String> {
                     .ok_or("bad sensor")?;
                 decoder = Some(Box::new(LaserDecoder::new(sensor)));
             }
-            Payload::Laser(mut rest) => {
+            Payload::Laser(chunk) => {
                 let d = decoder.as_mut().ok_or("laser bytes before the sensor")?;
-                loop {
-                    rest = match d.feed(rest) {
-                        FeedResult::Consumed => break,
-                        FeedResult::Item {
-                            item: LaserItem::Packet(p),
-                            remaining,
-                            ..
-                        } => {
-                            for r in p.returns() {
-                                out.push((
-                                    f64::from(r.angle.to_bits()) * 360.0 / 4_294_967_296.0,
-                                    r.range_mm,
-                                ));
-                            }
-                            remaining
-                        }
-                        other => other.remaining(),
-                    };
-                }
+                feed_packets(d, chunk, |p| {
+                    for r in p.returns() {
+                        out.push((
+                            f64::from(r.angle.to_bits()) * 360.0 / 4_294_967_296.0,
+                            r.range_mm,
+                        ));
+                    }
+                });
             }
             _ => {}
         }
@@ -608,9 +593,7 @@ mod tests {
     /// with its angle and range, and the decoder counts none implausible.
     #[test]
     fn no_intact_rplidar_node_is_refused_as_implausible() {
-        use terrain_pyramid::laser::{LaserDecoder, LaserItem};
         use terrain_pyramid::wire::recording::Reader;
-        use terrain_pyramid::wire::FeedResult;
         let spec = super::super::scene::StairsSpec::default();
         let actuators = [
             LidarActuator::servo(2.0, 35.0, 20.0, 0.0),
@@ -638,18 +621,8 @@ mod tests {
             );
             let mut decoder = LaserDecoder::new(LidarKind::RplidarStandard.sensor());
             for event in Reader::new(&sim.bytes).unwrap() {
-                if let Payload::Laser(mut rest) = event.unwrap().payload {
-                    loop {
-                        rest = match decoder.feed(rest) {
-                            FeedResult::Consumed => break,
-                            FeedResult::Item {
-                                item: LaserItem::Packet(_),
-                                remaining,
-                                ..
-                            } => remaining,
-                            other => other.remaining(),
-                        };
-                    }
+                if let Payload::Laser(chunk) = event.unwrap().payload {
+                    feed_packets(&mut decoder, chunk, |_| {});
                 }
             }
             let counts = decoder.counts();

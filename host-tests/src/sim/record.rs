@@ -41,7 +41,9 @@ use super::scene::{GroundTruthSpec, ObstacleCell, Scene, StairsSpec};
 use super::trajectory::{Phase, Pose, Trajectory};
 use core::fmt;
 use terrain_pyramid::wire::recording::SetupEvent as Setup;
-use terrain_pyramid::wire::recording::{emit_header, Event, MountKind, Payload};
+use terrain_pyramid::wire::recording::{
+    emit_header_version, Event, MountKind, Payload, VERSION_WITHOUT_RIG,
+};
 
 /// Marker id: the robot starts driving.
 pub const MARKER_DRIVE_START: u32 = 1;
@@ -199,6 +201,26 @@ pub(crate) fn push(out: &mut Vec<u8>, event: &Event<'_>) -> Result<(), SimError>
     Ok(())
 }
 
+/// A recording's beginning: the file header of `version` (`docs/recording.md`), then each of
+/// `payloads` as an event at t = 0, in order.
+///
+/// # Errors
+/// An event the library's writer refuses.
+pub(crate) fn start_recording(version: u16, payloads: &[Payload<'_>]) -> Result<Vec<u8>, SimError> {
+    let mut bytes = vec![0_u8; 16];
+    emit_header_version(&mut bytes, version).map_err(|e| SimError(format!("emit: {e}")))?;
+    for &payload in payloads {
+        push(
+            &mut bytes,
+            &Event {
+                time_us: 0,
+                payload,
+            },
+        )?;
+    }
+    Ok(bytes)
+}
+
 /// Writes a pose event of `pose` (x, y, z m, roll, pitch, yaw rad) at `time_us` (µs) unless
 /// `last`, the pose written last, is the same; `last` becomes `pose`. Returns whether it
 /// wrote one.
@@ -321,15 +343,7 @@ pub fn simulate_with(
     #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
     let lines = (duration * rate - 1e-9).ceil().max(0.0) as u32 + 1;
 
-    let mut bytes = vec![0_u8; 16];
-    emit_header(&mut bytes).map_err(|e| SimError(format!("emit: {e}")))?;
-    push(
-        &mut bytes,
-        &Event {
-            time_us: 0,
-            payload: Payload::Setup(setup),
-        },
-    )?;
+    let mut bytes = start_recording(VERSION_WITHOUT_RIG, &[Payload::Setup(setup)])?;
 
     let drives = trajectory.drive_s() > 0.0;
     let target = scene.target_x;

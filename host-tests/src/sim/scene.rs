@@ -219,14 +219,12 @@ mod tests {
     #[test]
     fn a_riser_is_hit_on_its_face() {
         let scene = Scene::scenario(Scenario::Stairs);
-        // Horizontal ray at 0.1 m: hits the first riser's face at x = 5.05.
-        let ray = along_x([0.0, 0.0, 0.1]);
-        let hit = scene.cast(&ray, 20.0).unwrap();
-        assert!((hit.point[0] - 5.05).abs() < 1e-9, "{:?}", hit);
-        // At 0.3 m: the second riser (steps at 0.17, 0.34).
-        let ray = along_x([0.0, 0.0, 0.3]);
-        let hit = scene.cast(&ray, 20.0).unwrap();
-        assert!((hit.point[0] - 5.35).abs() < 1e-9, "{:?}", hit);
+        // Horizontal rays at 0.1 m and 0.3 m hit the first riser's face at x = 5.05 and the
+        // second's at 5.35 (steps at 0.17, 0.34).
+        for (z, riser_x) in [(0.1, 5.05), (0.3, 5.35)] {
+            let hit = scene.cast(&along_x([0.0, 0.0, z]), 20.0).unwrap();
+            assert!((hit.point[0] - riser_x).abs() < 1e-9, "{z}: {hit:?}");
+        }
         // Beside the flight: nothing.
         let ray = along_x([0.0, 2.0, 0.3]);
         assert_eq!(scene.cast(&ray, 20.0), None);

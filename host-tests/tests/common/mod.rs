@@ -6,7 +6,6 @@ pub mod feed;
 use proptest::prelude::*;
 use terrain_pyramid as tp;
 use terrain_pyramid_host_tests::harness;
-use terrain_pyramid_host_tests::reference::bands;
 
 /// The layer capacity the design tests compile for.
 pub const CAPACITY: usize = 32;
@@ -90,12 +89,7 @@ pub fn config() -> impl Strategy<Value = (tp::SensorModel, tp::Schedule, usize)>
             (Just(s), Just(sch), w)
         })
         .prop_map(|(s, sch, choice)| {
-            let o = bands::design(
-                &harness::sensor(&s),
-                &harness::schedule(&sch),
-                1024,
-                1 << 20,
-            );
+            let o = harness::reference_design(&s, &sch, 1024, 1 << 20);
             let enough = o.result.map_or(64, |d| {
                 d.layers.iter().map(|l| l.cells_needed).max().unwrap_or(4)
             });

@@ -20,8 +20,7 @@ use terrain_pyramid::gate::Gates;
 use terrain_pyramid::geometry::{BeamTable, LineTransform, Pose, PoseFrame};
 use terrain_pyramid::pipeline::FrontendConfig;
 use terrain_pyramid::wire::recording::{Payload, Reader};
-use terrain_pyramid::wire::sick::{MeasuredValues, SickAccumulator, SickItem};
-use terrain_pyramid::wire::FeedResult;
+use terrain_pyramid::wire::sick::{MeasuredValues, SickAccumulator};
 use terrain_pyramid::{Config, DefaultCoProcessor};
 use terrain_pyramid_bench::{boot, default_design, frontend_config, replay, setup, Core, Pipeline};
 
@@ -78,25 +77,10 @@ fn each_line(
                 }
             }
             Payload::Laser(chunk) => {
-                let mut rest = chunk;
-                loop {
-                    match acc.feed(rest) {
-                        FeedResult::Consumed => break,
-                        FeedResult::Item {
-                            item: SickItem::Telegram(telegram),
-                            remaining,
-                            ..
-                        } => {
-                            if let Ok(values) = MeasuredValues::parse(&telegram) {
-                                let tr =
-                                    LineTransform::new(&beams, &config.mount, actuator, &frame);
-                                on_line(&tr, &values, &config);
-                            }
-                            rest = remaining;
-                        }
-                        other => rest = other.remaining(),
-                    }
-                }
+                terrain_pyramid_bench::each_line(&mut acc, chunk, |values| {
+                    let tr = LineTransform::new(&beams, &config.mount, actuator, &frame);
+                    on_line(&tr, values, &config);
+                });
             }
             _ => {}
         }

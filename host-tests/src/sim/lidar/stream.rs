@@ -12,7 +12,7 @@ use core::fmt;
 use terrain_pyramid::wire::ld06::{Ld06Point, Ld06Repr};
 use terrain_pyramid::wire::recording::MountKind;
 use terrain_pyramid::wire::rplidar::{RplidarCapsuleRepr, RplidarDescriptorRepr, RplidarNodeRepr};
-use terrain_pyramid::wire::ydlidar::{YdlidarDescriptorRepr, YdlidarRepr};
+use terrain_pyramid::wire::ydlidar::{YdlidarDescriptorRepr, YdlidarError, YdlidarRepr};
 
 /// One measured sample.
 #[derive(Debug, Clone, Copy)]
@@ -357,15 +357,37 @@ impl Packets<'_> {
 
     fn x4_packet(&self, samples: &[Sample], start: bool) -> Result<Sent, SimError> {
         let raw: Vec<u16> = samples.iter().map(|s| u16_units(s.units)).collect();
-        let repr = YdlidarRepr {
-            packet_type: u8::from(start),
-            first_angle_q6: samples.first().map_or(0, |s| q6(s.wire_deg)),
-            last_angle_q6: samples.last().map_or(0, |s| q6(s.wire_deg)),
-            samples: &raw,
-        };
-        let mut buf = vec![0_u8; repr.buffer_len()];
-        repr.emit(&mut buf)
-            .map_err(|e| SimError(format!("emit: {e:?}")))?;
+        let buf = ydlidar_packet_bytes(
+            u8::from(start),
+            samples.first().map_or(0, |s| q6(s.wire_deg)),
+            samples.last().map_or(0, |s| q6(s.wire_deg)),
+            &raw,
+        )
+        .map_err(|e| SimError(format!("emit: {e:?}")))?;
         Ok(self.sent(buf, samples, start))
     }
+}
+
+/// One YDLIDAR X4 packet as the sensor sends it (`AA 55`, CT, LSN, FSA, LSA, checksum, the
+/// samples): CT `packet_type` (bit 0: a revolution's start packet), the first and last
+/// first-level angles in 1/64° (≤ 0x7FFF), and 1 to 255 samples in mm·4, as the wire carries
+/// them.
+///
+/// # Errors
+/// The library's emitter's: no samples, more than 255, or an angle over 0x7FFF.
+pub fn ydlidar_packet_bytes(
+    packet_type: u8,
+    first_angle_q6: u16,
+    last_angle_q6: u16,
+    samples: &[u16],
+) -> Result<Vec<u8>, YdlidarError> {
+    let repr = YdlidarRepr {
+        packet_type,
+        first_angle_q6,
+        last_angle_q6,
+        samples,
+    };
+    let mut bytes = vec![0_u8; repr.buffer_len()];
+    repr.emit(&mut bytes)?;
+    Ok(bytes)
 }

@@ -70,29 +70,59 @@ fn ramp_sides(
 
 /// The four edges of a platform of `height` on `rect` (finite sides only).
 fn platform_edges(rect: Rect, height: f64, kind: FeatureKind) -> Vec<Feature> {
-    let h = height.abs();
-    let mut out = Vec::new();
-    if rect.x_min.is_finite() {
-        out.push(edge(
-            kind, rect.x_min, rect.x_min, rect.y_min, rect.y_max, h,
-        ));
+    let Rect {
+        x_min,
+        x_max,
+        y_min,
+        y_max,
+    } = rect;
+    // Each side: where it lies, and its segment (x0, x1, y0, y1).
+    [
+        (x_min, [x_min, x_min, y_min, y_max]),
+        (x_max, [x_max, x_max, y_min, y_max]),
+        (y_min, [x_min, x_max, y_min, y_min]),
+        (y_max, [x_min, x_max, y_max, y_max]),
+    ]
+    .into_iter()
+    .filter(|(at, _)| at.is_finite())
+    .map(|(_, [x0, x1, y0, y1])| edge(kind, x0, x1, y0, y1, height.abs()))
+    .collect()
+}
+
+/// The curb along `y = road_m` on the left of a road (+y), `height` metres tall: the sidewalk
+/// and everything beyond it raised to `height` but for a kerb cut over `x ∈ cut` (metres), a
+/// 1.2 m ramp from the road up to the sidewalk; its ground terms go to `ground`, the curb's
+/// edges and the cut's sides (as curbs) to `features`.
+fn left_curb_with_kerb_cut(
+    ground: &mut Vec<GroundTerm>,
+    features: &mut Vec<Feature>,
+    road_m: f64,
+    cut: (f64, f64),
+    height: f64,
+) {
+    let inf = f64::INFINITY;
+    for rect in [
+        Rect::new(-inf, cut.0, road_m, inf),
+        Rect::new(cut.1, inf, road_m, inf),
+        Rect::new(cut.0, cut.1, road_m + 1.2, inf),
+    ] {
+        ground.push(GroundTerm::Terrain(TerrainTerm::Platform { rect, height }));
     }
-    if rect.x_max.is_finite() {
-        out.push(edge(
-            kind, rect.x_max, rect.x_max, rect.y_min, rect.y_max, h,
-        ));
-    }
-    if rect.y_min.is_finite() {
-        out.push(edge(
-            kind, rect.x_min, rect.x_max, rect.y_min, rect.y_min, h,
-        ));
-    }
-    if rect.y_max.is_finite() {
-        out.push(edge(
-            kind, rect.x_min, rect.x_max, rect.y_max, rect.y_max, h,
-        ));
-    }
-    out
+    let kerb_cut = Rect::new(cut.0, cut.1, road_m, road_m + 1.2);
+    ground.push(GroundTerm::Terrain(TerrainTerm::Ramp {
+        rect: kerb_cut,
+        height,
+        rise: Rise::PlusY,
+    }));
+    features.push(edge(FeatureKind::Curb, -inf, cut.0, road_m, road_m, height));
+    features.push(edge(FeatureKind::Curb, cut.1, inf, road_m, road_m, height));
+    features.extend(ramp_sides(
+        kerb_cut,
+        height,
+        Rise::PlusY,
+        FeatureKind::Curb,
+        true,
+    ));
 }
 
 /// A box standing on the ground (a wall, a parked car) as a solid and its feature.
@@ -161,32 +191,7 @@ impl Scene {
         }
         let mut features = Vec::new();
         let mut solids = Vec::new();
-        // Left sidewalk (and everything beyond it) at the curb's height, but for the kerb cut.
-        for rect in [
-            Rect::new(-inf, cut.0, ROAD, inf),
-            Rect::new(cut.1, inf, ROAD, inf),
-            Rect::new(cut.0, cut.1, ROAD + 1.2, inf),
-        ] {
-            ground.push(GroundTerm::Terrain(TerrainTerm::Platform {
-                rect,
-                height: LEFT_CURB,
-            }));
-        }
-        let kerb_cut = Rect::new(cut.0, cut.1, ROAD, ROAD + 1.2);
-        ground.push(GroundTerm::Terrain(TerrainTerm::Ramp {
-            rect: kerb_cut,
-            height: LEFT_CURB,
-            rise: Rise::PlusY,
-        }));
-        features.push(edge(FeatureKind::Curb, -inf, cut.0, ROAD, ROAD, LEFT_CURB));
-        features.push(edge(FeatureKind::Curb, cut.1, inf, ROAD, ROAD, LEFT_CURB));
-        features.extend(ramp_sides(
-            kerb_cut,
-            LEFT_CURB,
-            Rise::PlusY,
-            FeatureKind::Curb,
-            true,
-        ));
+        left_curb_with_kerb_cut(&mut ground, &mut features, ROAD, cut, LEFT_CURB);
         ground.push(GroundTerm::Terrain(TerrainTerm::SideSlope {
             y0: ROAD,
             grade: 0.02,
@@ -384,33 +389,13 @@ impl Scene {
             grade,
         })];
         let mut features = Vec::new();
-        for rect in [
-            Rect::new(-inf, cut.0, ROAD, inf),
-            Rect::new(cut.1, inf, ROAD, inf),
-            Rect::new(cut.0, cut.1, ROAD + 1.2, inf),
-            Rect::new(-inf, inf, -inf, -ROAD),
-        ] {
-            ground.push(GroundTerm::Terrain(TerrainTerm::Platform {
-                rect,
-                height: curb_m,
-            }));
-        }
-        let kerb_cut = Rect::new(cut.0, cut.1, ROAD, ROAD + 1.2);
-        ground.push(GroundTerm::Terrain(TerrainTerm::Ramp {
-            rect: kerb_cut,
+        left_curb_with_kerb_cut(&mut ground, &mut features, ROAD, cut, curb_m);
+        // The right curb, unbroken.
+        ground.push(GroundTerm::Terrain(TerrainTerm::Platform {
+            rect: Rect::new(-inf, inf, -inf, -ROAD),
             height: curb_m,
-            rise: Rise::PlusY,
         }));
-        features.push(edge(FeatureKind::Curb, -inf, cut.0, ROAD, ROAD, curb_m));
-        features.push(edge(FeatureKind::Curb, cut.1, inf, ROAD, ROAD, curb_m));
         features.push(edge(FeatureKind::Curb, -inf, inf, -ROAD, -ROAD, curb_m));
-        features.extend(ramp_sides(
-            kerb_cut,
-            curb_m,
-            Rise::PlusY,
-            FeatureKind::Curb,
-            true,
-        ));
         Self {
             name: "cambered road",
             ground,
