@@ -9,7 +9,8 @@
 #   5. each firmware in QEMU: boot, self-check, and a small recording through the real
 #      pipeline, Shutdown, exit code 0, bit-identical to the library in process:
 #      - qemu-mps2 on mps2-an386 (`pyramid run --board qemu`: telegrams on UART0, the link on
-#        UART1) against `--board host`;
+#        UART1) against `--board host`, and the link checked by an independent
+#        implementation of both formats (qemu-mps2/run.sh);
 #      - stm32f4 on netduinoplus2 (`--board netduinoplus2`: a stand-in scanner answers the
 #        bring-up on USART1, the link on USART2) against `--board host`, and the link checked
 #        by an independent implementation of both formats (stm32f4/qemu-check.sh);
@@ -75,7 +76,7 @@ if ! command -v qemu-system-arm >/dev/null; then
     "${as_root[@]}" apt-get update
     DEBIAN_FRONTEND=noninteractive "${as_root[@]}" apt-get install -y qemu-system-arm
 fi
-command -v python3 >/dev/null || fail "python3 is needed for the UART echo test"
+command -v python3 >/dev/null || fail "python3 is needed for the link checks"
 defmt-print --version
 qemu-system-arm --version | head -1
 
@@ -167,6 +168,9 @@ qemu_stack=$(firmware_stack "$qemu_dir/target/thumbv7em-none-eabihf/release/qemu
     "$smoke/synthetic-qemu/qemu/firmware.defmt" "$run_log")
 grep -q "self-check passed" "$run_log" || fail "no self-check in the firmware's log"
 [[ -n "$qemu_stack" ]] || fail "the firmware did not report its stack"
+step "QEMU firmware: the link against an independent implementation (qemu-mps2/run.sh)"
+(cd "$qemu_dir" && ./run.sh --no-build) > "$smoke/qemu-mps2-run.log" 2>&1 \
+    || { cat "$smoke/qemu-mps2-run.log"; fail "qemu-mps2/run.sh"; }
 
 step "stm32f4 on QEMU's netduinoplus2: the synthetic recording, bit-identical to the host"
 board_run run_qemu netduinoplus2_matches_host_on_a_synthetic_recording netduinoplus2 \

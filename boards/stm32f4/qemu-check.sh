@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # Builds the firmware for QEMU's netduinoplus2 (STM32F405, defmt over semihosting) into
 # target/netduinoplus2/, boots it with USART1 (the laser) and USART2 (the host link) on Unix
-# sockets, and drives it with qemu_link_check.py: a stand-in scanner answers the bring-up,
-# the boot Hello is decoded, SICK telegrams go through the pipeline, Shutdown ends the run.
+# sockets, and drives it with ../support/qemu_link_check.py: a stand-in scanner answers the
+# bring-up, the boot Hello is decoded, SICK telegrams go through the pipeline, Shutdown ends the run.
 # Exits non-zero if the check or QEMU (the firmware's exit code) fails.
 #
 #   ./qemu-check.sh [--no-build] [--telegrams N]
@@ -20,6 +20,6 @@ fi
 
 qemu_start usart1 usart2 90 "$elf"
 check_rc=0
-python3 qemu_link_check.py --laser "$sockets/usart1.sock" --host "$sockets/usart2.sock" \
+python3 ../support/qemu_link_check.py --laser "$sockets/usart1.sock" --host "$sockets/usart2.sock" \
     "${check_args[@]}" || check_rc=$?
 qemu_finish qemu-check.sh "link check" "$check_rc"

@@ -1,7 +1,7 @@
 # Sourced by a board's run script that drives its firmware in QEMU through two serial ports on
 # Unix sockets (boards/qemu-mps2/run.sh, boards/stm32f4/qemu-check.sh): the arguments they
 # share, QEMU's start in the background with both sockets, and the exit codes at the end.
-# Each script runs its own checker on the sockets between the two calls.
+# Each script runs the checker (qemu_link_check.py) on the sockets between the two calls.
 
 # run_args SCRIPT VALUE-OPTIONS ARGS...: reads the script's arguments. Sets `build` (1; 0 after
 # --no-build) and `check_args` (every option of VALUE-OPTIONS, a list such as

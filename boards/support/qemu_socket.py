@@ -1,6 +1,5 @@
 """Connecting to a serial port QEMU serves on a socket (`-serial unix:PATH,server=on,wait=on`,
-or `tcp:127.0.0.1:PORT,...`), for the boards' checkers (qemu-mps2/uart_echo.py,
-stm32f4/qemu_link_check.py)."""
+or `tcp:127.0.0.1:PORT,...`), for the boards' checker (qemu_link_check.py, beside this module)."""
 import os
 import socket
 import time

@@ -1,15 +1,18 @@
 #!/usr/bin/env python3
-"""Drives the stm32f4 firmware in QEMU's netduinoplus2 through both of its USARTs and checks
-that it is alive: a stand-in scanner on USART1, the host link (docs/protocol.md) on USART2.
+"""Drives a board's firmware in QEMU through both of its serial ports and checks that it is
+alive: a stand-in scanner on the laser's port, the host link (docs/protocol.md) on the other.
+The stm32f4 on QEMU's netduinoplus2 (USART1, USART2: stm32f4/qemu-check.sh) and the default
+board on the mps2-an386 (UART0, UART1: qemu-mps2/run.sh) run it.
 
-QEMU listens on one Unix socket per USART (`-serial unix:PATH,server=on,wait=on`, USART1 first)
-and starts the guest once both are connected. This script then
+QEMU listens on one Unix socket per port (`-serial unix:PATH,server=on,wait=on`, the laser's
+first) and starts the guest once both are connected. This script then
 
-1. answers the firmware's scanner bring-up on USART1 as an LMS2xx would: ACK (0x06) and the
+1. answers the firmware's scanner bring-up on the laser's port as an LMS2xx would: ACK (0x06) and the
    mode-change reply telegram to "switch to 500 kBd", ACK to "continuous output";
-2. waits for the boot Hello on USART2 (COBS frame, CRC-32, protocol version 5) and prints it;
+2. waits for the boot Hello on the link (COBS frame, CRC-32, protocol version 5), prints it
+   and checks its clock source (`--clock-source`: the netduinoplus2's 4, the mps2's 0);
 3. sends PanAngle, then `--telegrams` SICK measured-values telegrams (361 values of 2 m, the
-   LMS 291's 180°/0.5° in the 8 m mode) on USART1, and RequestStats until the device counts
+   LMS 291's 180°/0.5° in the 8 m mode) on the laser's port, and RequestStats until the device counts
    them all;
 4. sends Shutdown and waits for its Reply (value: the stack's high-water mark, a: its size);
    the firmware then ends QEMU with exit code 0 (semihosting).
@@ -27,7 +30,7 @@ import threading
 import time
 import zlib
 
-sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "support"))
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from qemu_socket import connect  # noqa: E402
 
 VERSION = 5
@@ -239,8 +242,11 @@ def stats_of(body: bytes) -> dict:
 
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--laser", required=True, help="USART1's socket (the first -serial)")
-    ap.add_argument("--host", required=True, help="USART2's socket (the second -serial)")
+    ap.add_argument("--laser", required=True, help="the laser port's socket (the first -serial)")
+    ap.add_argument("--host", required=True, help="the link port's socket (the second -serial)")
+    ap.add_argument("--clock-source", type=int, default=4, choices=sorted(CLOCKS),
+                    help="the clock source the Hello must report (default 4: no clock tree "
+                         "modelled, the netduinoplus2; the mps2-an386 reports 0)")
     ap.add_argument("--telegrams", type=int, default=20)
     ap.add_argument("--clock-s", type=float, default=3.0,
                     help="seconds between the two Stats that compare the clocks")
@@ -261,9 +267,11 @@ def main() -> int:
     if hello[4] != 0:
         print(f"FAIL: the first Hello has reason {hello[4]}, not 0 (boot)")
         return 1
-    # QEMU's netduinoplus2 models no RCC: the start-up's fallbacks end at "unmodelled".
-    if hello[12] != 4:
-        print(f"FAIL: the Hello reports clock {hello[12]}, not 4 (no clock tree modelled)")
+    # QEMU's netduinoplus2 models no RCC: the start-up's fallbacks end at "unmodelled"; the
+    # mps2 board has no clock tree to report.
+    if hello[12] != args.clock_source:
+        print(f"FAIL: the Hello reports clock {hello[12]}, not {args.clock_source} "
+              f"({CLOCKS[args.clock_source]})")
         return 1
 
     # A pan angle (45°) for the lines (QEMU's SPI has no AS5047P on its bus), in force
