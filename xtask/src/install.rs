@@ -153,17 +153,18 @@ pub fn ensure_python_readers(out: Out) -> Result<(), String> {
 }
 
 /// What the suite's runs need and its builds do not, installed when missing in a thread beside
-/// the builds, their output in `log`: QEMU (apt-get), the Python readers (pip), `defmt-print`
-/// and llvm-tools (for `boards/check.sh`'s decoded logs and sizes). On a fresh machine that
-/// is about a minute and a half of downloads, unpacking and one small build, which would
-/// otherwise stand before and after the suite's builds.
+/// the builds, their output in `log`: QEMU (apt-get), the Python readers (pip) and llvm-tools
+/// (`boards/check.sh`'s sizes): downloads and unpacking, about a minute on a fresh machine,
+/// which would otherwise stand before the builds. `defmt-print` is not among them: its
+/// install is a cargo build, which holds cargo's package cache while the suite's build waits
+/// and takes a core from it (measured: the suite's build 451 → 576 s with it beside);
+/// `boards/check.sh` installs it at the end when missing.
 pub fn start_run_tools(log: PathBuf) -> JoinHandle<Result<(), String>> {
     std::thread::spawn(move || {
         let file = File::create(&log).map_err(|e| format!("{}: {e}", log.display()))?;
         let out = Out::Log(&file);
         ensure_qemu(out)?;
         ensure_python_readers(out)?;
-        ensure_defmt_print(out)?;
         install_step(out, "rustup", &["component", "add", "llvm-tools"])
     })
 }

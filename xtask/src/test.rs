@@ -17,7 +17,7 @@ fn run_all(lint: bool, jobs: usize) -> Result<(), String> {
     std::fs::create_dir_all(&runs).map_err(|e| format!("{}: {e}", runs.display()))?;
     let logs = work.join("logs");
     std::fs::create_dir_all(&logs).map_err(|e| format!("{}: {e}", logs.display()))?;
-    // QEMU, the Python readers and defmt-print install (when missing) beside the builds.
+    // QEMU, the Python readers and llvm-tools install (when missing) beside the builds.
     let tools_log = logs.join("run-tools-install.log");
     eprintln!(
         "\n==> what the runs need and the builds do not, installed beside them when missing \
