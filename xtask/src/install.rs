@@ -1,12 +1,10 @@
 //! What the tasks that run the firmware need on a fresh machine, installed when missing: the
 //! Cortex-M targets (rustup), QEMU (Debian's `qemu-system-arm`, through sudo when not root),
 //! `defmt-print` (cargo install), and the Python readers the output tests use (pip).
-//! `cargo xtask test` and `cargo xtask demo` share them. Installers log on stderr, or in a log
-//! file when they run beside a build: a task's stdout is its result.
-use std::fs::File;
+//! `cargo xtask test` and `cargo xtask demo` share them. Installers log on stderr only: a
+//! task's stdout is its result.
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
-use std::thread::JoinHandle;
 
 /// The repository's root (the xtask crate sits one level below it).
 pub fn root() -> PathBuf {
@@ -21,45 +19,19 @@ pub fn step(program: &str, args: &[&str]) -> Result<(), String> {
     run_step(program, args, Stdio::inherit())
 }
 
-/// Where an installer's output goes.
-#[derive(Clone, Copy)]
-pub enum Out<'a> {
-    /// Stderr (its stdout too), so that a task's stdout holds only its result (one JSON object
-    /// with `--json`) even on a fresh machine where something is installed first.
-    Stderr,
-    /// A log file: the installs run beside a build whose output they would break up.
-    Log(&'a File),
-}
-
-/// [`step`] for an installer (apt-get, rustup, cargo install, pip), its output to `out`.
-pub fn install_step(out: Out, program: &str, args: &[&str]) -> Result<(), String> {
-    let line = format!("\n==> {program} {}", args.join(" "));
-    let (stdout, stderr) = match out {
-        Out::Stderr => {
-            eprintln!("{line}");
-            (Stdio::from(std::io::stderr()), Stdio::inherit())
-        }
-        Out::Log(file) => {
-            use std::io::Write;
-            let _ = writeln!(&*file, "{line}");
-            let copy = |f: &File| f.try_clone().map(Stdio::from).map_err(|e| e.to_string());
-            (copy(file)?, copy(file)?)
-        }
-    };
-    run_command(program, args, stdout, stderr)
+/// [`step`] for an installer (apt-get, rustup, cargo install, pip): its stdout goes to stderr
+/// too, so that a task's stdout holds only its result (one JSON object with `--json`) even on
+/// a fresh machine where something is installed first.
+pub fn install_step(program: &str, args: &[&str]) -> Result<(), String> {
+    run_step(program, args, Stdio::from(std::io::stderr()))
 }
 
 fn run_step(program: &str, args: &[&str], stdout: Stdio) -> Result<(), String> {
     eprintln!("\n==> {program} {}", args.join(" "));
-    run_command(program, args, stdout, Stdio::inherit())
-}
-
-fn run_command(program: &str, args: &[&str], stdout: Stdio, stderr: Stdio) -> Result<(), String> {
     let status = Command::new(program)
         .args(args)
         .current_dir(root())
         .stdout(stdout)
-        .stderr(stderr)
         .status()
         .map_err(|e| format!("cannot run {program}: {e}"))?;
     if status.success() {
@@ -80,7 +52,6 @@ pub fn present(program: &str) -> bool {
 /// The Cortex-M targets the firmware and the on-target tests build for.
 pub fn ensure_targets() -> Result<(), String> {
     install_step(
-        Out::Stderr,
         "rustup",
         &[
             "target",
@@ -92,7 +63,7 @@ pub fn ensure_targets() -> Result<(), String> {
 }
 
 /// QEMU for the emulated board, from Debian's packages, through sudo when not root.
-pub fn ensure_qemu(out: Out) -> Result<(), String> {
+pub fn ensure_qemu() -> Result<(), String> {
     if present("qemu-system-arm") {
         return Ok(());
     }
@@ -117,7 +88,7 @@ pub fn ensure_qemu(out: Out) -> Result<(), String> {
         with(&["install", "-y", "qemu-system-arm"]),
     ] {
         let refs: Vec<&str> = args.iter().map(String::as_str).collect();
-        install_step(out, program, &refs)?;
+        install_step(program, &refs)?;
     }
     Ok(())
 }
@@ -125,20 +96,16 @@ pub fn ensure_qemu(out: Out) -> Result<(), String> {
 /// `defmt-print`, which turns the firmware's raw defmt log into text. Built unoptimised
 /// (`--debug`): it decodes logs of a few kilobytes, and the build takes about 40 s instead of
 /// about two minutes.
-pub fn ensure_defmt_print(out: Out) -> Result<(), String> {
+pub fn ensure_defmt_print() -> Result<(), String> {
     if present("defmt-print") {
         return Ok(());
     }
-    install_step(
-        out,
-        "cargo",
-        &["install", "--debug", "defmt-print", "--locked"],
-    )
+    install_step("cargo", &["install", "--debug", "defmt-print", "--locked"])
 }
 
 /// The Python readers the tests of `pyramid listen`'s outputs check against (MCAP, the
 /// Foxglove WebSocket protocol, Cyclone DDS): `host/tests/py/setup.sh` when one is missing.
-pub fn ensure_python_readers(out: Out) -> Result<(), String> {
+pub fn ensure_python_readers() -> Result<(), String> {
     let present = Command::new("python3")
         .args([
             "-c",
@@ -149,22 +116,5 @@ pub fn ensure_python_readers(out: Out) -> Result<(), String> {
     if present {
         return Ok(());
     }
-    install_step(out, "sh", &["host/tests/py/setup.sh"])
-}
-
-/// What the suite's runs need and its builds do not, installed when missing in a thread beside
-/// the builds, their output in `log`: QEMU (apt-get), the Python readers (pip) and llvm-tools
-/// (`boards/check.sh`'s sizes): downloads and unpacking, about a minute on a fresh machine,
-/// which would otherwise stand before the builds. `defmt-print` is not among them: its
-/// install is a cargo build, which holds cargo's package cache while the suite's build waits
-/// and takes a core from it (measured: the suite's build 451 → 576 s with it beside);
-/// `boards/check.sh` installs it at the end when missing.
-pub fn start_run_tools(log: PathBuf) -> JoinHandle<Result<(), String>> {
-    std::thread::spawn(move || {
-        let file = File::create(&log).map_err(|e| format!("{}: {e}", log.display()))?;
-        let out = Out::Log(&file);
-        ensure_qemu(out)?;
-        ensure_python_readers(out)?;
-        install_step(out, "rustup", &["component", "add", "llvm-tools"])
-    })
+    install_step("sh", &["host/tests/py/setup.sh"])
 }

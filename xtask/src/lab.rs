@@ -22,7 +22,7 @@
 //!   `--board host` is given; into `target/demo` unless `--out` is given) and turns each
 //!   run's defmt log into text beside it (`firmware.log`).
 use crate::install::{
-    ensure_defmt_print, ensure_python_readers, ensure_qemu, ensure_targets, root, Out,
+    ensure_defmt_print, ensure_python_readers, ensure_qemu, ensure_targets, root,
 };
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
@@ -197,8 +197,8 @@ pub fn latency(args: &[String]) -> Result<(), String> {
         }
     }
     ensure_targets()?;
-    ensure_qemu(Out::Stderr)?;
-    ensure_python_readers(Out::Stderr)?;
+    ensure_qemu()?;
+    ensure_python_readers()?;
     let pass = with_out(&pass, "target/latency");
     if !ros2 {
         return lab("latency", &pass);
@@ -279,8 +279,8 @@ pub fn live_in(profile: LabProfile, args: &[String]) -> Result<(), String> {
         }
     }
     ensure_targets()?;
-    ensure_qemu(Out::Stderr)?;
-    ensure_python_readers(Out::Stderr)?;
+    ensure_qemu()?;
+    ensure_python_readers()?;
     in_network_namespace(
         "live",
         &with_out(&pass, "target/live"),
@@ -322,8 +322,8 @@ pub fn size(args: &[String]) -> Result<(), String> {
 /// `cargo xtask demo`.
 pub fn demo(args: &[String]) -> Result<(), String> {
     ensure_targets()?;
-    ensure_qemu(Out::Stderr)?;
-    ensure_defmt_print(Out::Stderr)?;
+    ensure_qemu()?;
+    ensure_defmt_print()?;
     let pass = with_out(args, "target/demo");
     lab("demo", &pass)?;
     if value(&pass, "--board").as_deref() != Some("host") {

@@ -1,10 +1,12 @@
 //! `cargo xtask test [--lint] [--jobs N]`: the whole test suite, from a fresh machine.
-use crate::install::{ensure_targets, root, start_run_tools, step};
+use crate::install::{ensure_python_readers, ensure_qemu, ensure_targets, root, step};
 use crate::{pool, prebuild};
 
 /// Runs the whole suite.
 fn run_all(lint: bool, jobs: usize) -> Result<(), String> {
     ensure_targets()?;
+    ensure_qemu()?;
+    ensure_python_readers()?;
     let root = root();
     // Every host test: the library's unit tests, the f64 references and property tests, the
     // simulator, the tools, and the firmware in QEMU against the host, bit for bit. The same
@@ -17,14 +19,6 @@ fn run_all(lint: bool, jobs: usize) -> Result<(), String> {
     std::fs::create_dir_all(&runs).map_err(|e| format!("{}: {e}", runs.display()))?;
     let logs = work.join("logs");
     std::fs::create_dir_all(&logs).map_err(|e| format!("{}: {e}", logs.display()))?;
-    // QEMU, the Python readers and llvm-tools install (when missing) beside the builds.
-    let tools_log = logs.join("run-tools-install.log");
-    eprintln!(
-        "\n==> what the runs need and the builds do not, installed beside them when missing \
-         (log in {})",
-        tools_log.display()
-    );
-    let tools = start_run_tools(tools_log.clone());
     let firmware_log = logs.join("firmware-prebuild.log");
     let _ = std::fs::remove_file(&firmware_log);
     let lint_log = logs.join("boards-lint.log");
@@ -39,16 +33,6 @@ fn run_all(lint: bool, jobs: usize) -> Result<(), String> {
     );
     let firmware = prebuild::start(&root, firmware_log, lint.then(|| lint_log.clone()));
     let binaries = pool::build(&root)?;
-    let installed = tools
-        .join()
-        .map_err(|_| "the installs' thread failed".to_string())?;
-    if let Err(why) = installed {
-        eprintln!(
-            "{}",
-            std::fs::read_to_string(&tools_log).unwrap_or_default()
-        );
-        return Err(why);
-    }
     let (solo, shared): (Vec<_>, Vec<_>) = binaries
         .into_iter()
         .partition(|b| b.kind == "test" && pool::SOLO.contains(&b.name.as_str()));
