@@ -35,8 +35,11 @@ root="$(dirname "$boards")"
 qemu_dir="$boards/qemu-mps2"
 stm32_dir="$boards/stm32f4"
 microbit_dir="$boards/microbit"
-# The STM32F4 firmware for QEMU's netduinoplus2 (STM32F405), in its own target directory.
-nd_features=(--no-default-features --features chip-f405,log-semihosting --target-dir target/netduinoplus2)
+# Every board crate builds into boards/target (its .cargo/config.toml); the STM32F4 firmware
+# for QEMU's netduinoplus2 (STM32F405), other features of the same binary, into the variants'.
+target_dir="$boards/target"
+unset CARGO_TARGET_DIR
+nd_features=(--no-default-features --features chip-f405,log-semihosting --target-dir "$target_dir/variants")
 
 lint=1
 lint_only=0
@@ -84,8 +87,9 @@ step "the root memory.x is the default board's (boards/qemu-mps2/memory-an386.x)
 cmp "$root/memory.x" "$qemu_dir/memory-an386.x" || fail "memory.x and boards/qemu-mps2/memory-an386.x differ"
 
 if [[ $lint -eq 1 ]]; then
-    # The three crates have target directories of their own: their lints run side by side,
-    # each into its log, shown in order once all have ended.
+    # The three crates' lints start side by side, each into its log, shown in order once all
+    # have ended (they share boards/target, where cargo runs one build at a time and shares
+    # the check of the dependencies they have in common).
     step "format and lints: qemu-mps2 (thumbv7em and thumbv6m, firmware and tests), stm32f4 (NUCLEO-F446RE and netduinoplus2 builds), microbit"
     lint_logs=$(mktemp -d)
     (cd "$qemu_dir" && cargo fmt --check \
@@ -164,7 +168,7 @@ step "QEMU firmware: self-check, a recording through the pipeline, exit code"
 # `--board host`: every cell must be identical, QEMU must exit with 0 after Shutdown.
 board_run run_qemu qemu_matches_host_on_a_synthetic_recording "QEMU firmware" "identical"
 run_log="$smoke/firmware.log"
-qemu_stack=$(firmware_stack "$qemu_dir/target/thumbv7em-none-eabihf/release/qemu-mps2" \
+qemu_stack=$(firmware_stack "$target_dir/thumbv7em-none-eabihf/release/qemu-mps2" \
     "$smoke/synthetic-qemu/qemu/firmware.defmt" "$run_log")
 grep -q "self-check passed" "$run_log" || fail "no self-check in the firmware's log"
 [[ -n "$qemu_stack" ]] || fail "the firmware did not report its stack"
@@ -184,7 +188,7 @@ step "stm32f4 on QEMU's netduinoplus2: the link against an independent implement
 step "microbit on QEMU's microbit: the synthetic recording, bit-identical to the library"
 board_run run_microbit microbit_matches_the_host_on_a_synthetic_recording microbit \
     "microbit: .* on both"
-mb_stack=$(firmware_stack "$microbit_dir/target/thumbv6m-none-eabi/release/microbit-board" \
+mb_stack=$(firmware_stack "$target_dir/thumbv6m-none-eabi/release/microbit-board" \
     "$smoke/microbit-synthetic/firmware.defmt" "$smoke/microbit-firmware.log")
 [[ -n "$mb_stack" ]] || fail "the microbit firmware did not report its stack"
 
@@ -224,10 +228,10 @@ size_of() { # ELF -> "flash ram data"
         $1 == ".bss" || $1 == ".uninit" { ram += $2 }
         END { print flash, ram, data + 0 }'
 }
-read -r qemu_flash qemu_ram qemu_data < <(size_of "$qemu_dir/target/thumbv7em-none-eabihf/release/qemu-mps2")
-read -r stm_flash stm_ram stm_data < <(size_of "$stm32_dir/target/thumbv7em-none-eabihf/release/stm32f4-board")
-read -r nd_flash nd_ram nd_data < <(size_of "$stm32_dir/target/netduinoplus2/thumbv7em-none-eabihf/release/stm32f4-board")
-read -r mb_flash mb_ram mb_data < <(size_of "$microbit_dir/target/thumbv6m-none-eabi/release/microbit-board")
+read -r qemu_flash qemu_ram qemu_data < <(size_of "$target_dir/thumbv7em-none-eabihf/release/qemu-mps2")
+read -r stm_flash stm_ram stm_data < <(size_of "$target_dir/thumbv7em-none-eabihf/release/stm32f4-board")
+read -r nd_flash nd_ram nd_data < <(size_of "$target_dir/variants/thumbv7em-none-eabihf/release/stm32f4-board")
+read -r mb_flash mb_ram mb_data < <(size_of "$target_dir/thumbv6m-none-eabi/release/microbit-board")
 # The maps, the classifier and the queues start as all zero bits, in .bss. A type whose
 # unconfigured value is not all zeros would move them to .data: copied from flash at boot,
 # the image grown by the whole static RAM. Hold .data to a few small statics.

@@ -7,15 +7,17 @@
 #   ./run.sh [--no-build] [--telegrams N]
 #
 # For an interactive session use `cargo run --release | defmt-print -e
-# target/thumbv7em-none-eabihf/release/qemu-mps2` and connect to TCP 127.0.0.1:4440 (UART0)
+# ../target/thumbv7em-none-eabihf/release/qemu-mps2` and connect to TCP 127.0.0.1:4440 (UART0)
 # and 4441 (UART1); to map a recording through it, `pyramid run --board qemu` (docs/guide.md).
 set -euo pipefail
 cd "$(dirname "$0")"
 source ../support/qemu-sockets.sh
+# The ELF is read from boards/target, where the board crates build (.cargo/config.toml).
+unset CARGO_TARGET_DIR
 
 run_args run.sh "--telegrams" "$@"
 
-elf=target/thumbv7em-none-eabihf/release/qemu-mps2
+elf=../target/thumbv7em-none-eabihf/release/qemu-mps2
 if [[ $build -eq 1 ]]; then
     cargo build --release
 fi

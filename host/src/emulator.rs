@@ -89,12 +89,12 @@ impl Machine {
         }
     }
 
-    /// The cargo features of the build (without the board's defaults when `Some`), and the
-    /// directory under the board's `target/` it is built into.
+    /// The cargo features of the build, without the board's defaults, when it is not the
+    /// board's default build (then built into `boards/target/variants`).
     #[must_use]
-    pub const fn features(self) -> Option<(&'static str, &'static str)> {
+    pub const fn features(self) -> Option<&'static str> {
         match self {
-            Self::Netduinoplus2 => Some(("chip-f405,log-semihosting", "netduinoplus2")),
+            Self::Netduinoplus2 => Some("chip-f405,log-semihosting"),
             Self::Mps2An386 | Self::Microbit => None,
         }
     }
@@ -126,11 +126,11 @@ impl Machine {
             self.qemu_machine(),
             dir.display()
         );
-        let mut target_dir = dir.join("target");
+        let mut target_dir = boards_target_dir(&dir);
         let mut cargo = cargo();
         cargo.args(["build", "--release", "--quiet", "--target", target]);
-        if let Some((features, sub)) = self.features() {
-            target_dir = target_dir.join(sub);
+        if let Some(features) = self.features() {
+            target_dir = variants_target_dir(&dir);
             cargo
                 .args(["--no-default-features", "--features", features])
                 .arg("--target-dir")
@@ -139,6 +139,21 @@ impl Machine {
         run_build(&mut cargo, &dir, &format!("`rustup target add {target}`"))?;
         built_elf(target_dir.join(target).join("release").join(self.bin()))
     }
+}
+
+/// The target directory every board crate builds into (`boards/target`, set in each board's
+/// `.cargo/config.toml`): the parent of the board crate `board_dir`, then `target`.
+fn boards_target_dir(board_dir: &Path) -> PathBuf {
+    board_dir
+        .parent()
+        .map_or_else(|| board_dir.join("target"), |boards| boards.join("target"))
+}
+
+/// Where a board crate built with other features than its default goes
+/// (`boards/target/variants`): its binary keeps its name, so it cannot share the default
+/// build's folder; the variants of different crates (their binaries named apart) share this one.
+fn variants_target_dir(board_dir: &Path) -> PathBuf {
+    boards_target_dir(board_dir).join("variants")
 }
 
 /// Whether rustup lists `target` as installed (true when rustup cannot be asked: the build
@@ -210,9 +225,9 @@ pub fn build_firmware(board_dir: &Path, bin: &str) -> Result<PathBuf, String> {
     build_firmware_variant(board_dir, bin, None)
 }
 
-/// [`build_firmware`] with a cargo feature of the board (`--features F`), built into its own
-/// target directory (`target/F`) so that it and the default build do not overwrite each
-/// other; `None` is the default build.
+/// [`build_firmware`] with a cargo feature of the board (`--features F`), built into the
+/// boards' variants directory (`boards/target/variants`) so that it and the default build do
+/// not overwrite each other; `None` is the default build (`boards/target`).
 ///
 /// # Errors
 /// The target is missing or the build failed, with how to fix it.
@@ -232,8 +247,8 @@ pub fn build_firmware_variant(
         feature.map_or_else(String::new, |f| format!(" with --features {f}"))
     );
     let target_dir = feature.map_or_else(
-        || board_dir.join("target"),
-        |f| board_dir.join("target").join(f),
+        || boards_target_dir(board_dir),
+        |_| variants_target_dir(board_dir),
     );
     let mut cargo = cargo();
     cargo.args(["build", "--release", "--quiet"]);

@@ -296,7 +296,9 @@ fn bench(opts: &Opts) -> Result<()> {
                 .env_remove("CARGO_TARGET_DIR"),
         )?;
     }
-    let elf = |target: &str, bin: &str| board.join("target").join(target).join("release").join(bin);
+    // boards/target: the board crates share it (their .cargo/config.toml).
+    let target_dir = root.join("boards").join("target");
+    let elf = |target: &str, bin: &str| target_dir.join(target).join("release").join(bin);
 
     // 3. Instruction counts.
     let mut runs: HashMap<(&str, &str), Run> = HashMap::new();

@@ -1,8 +1,8 @@
 //! The firmware the test suite runs, built beside the host's test build.
 //!
-//! The board crates build into their own target directories (they are not in the workspace),
-//! so cargo lets their builds run while `cargo test --workspace --no-run` compiles the host
-//! side: the firmware's fat-LTO links and the board crates' dependency chains are mostly
+//! The board crates build into a target directory of their own, `boards/target` (they are
+//! not in the workspace), so cargo lets their builds run while `cargo test --workspace
+//! --no-run` compiles the host side: the firmware's fat-LTO links and the board crates' dependency chains are mostly
 //! serial, and fill the core the host build leaves idle in its long tail. Without this, the
 //! emulator tests each build their firmware when they first need it, in the middle of the
 //! pooled test runs, and `boards/check.sh` builds the rest at the end.
@@ -20,64 +20,56 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::thread::JoinHandle;
 
-/// One firmware build: the board crate (a folder under `boards/`), cargo's arguments, and
-/// `CARGO_TARGET_DIR` (under `boards/`) when its consumer sets one.
+/// One firmware build: the board crate (a folder under `boards/`) and cargo's arguments.
+/// Every build goes to `boards/target` (the board crates' `.cargo/config.toml`), or to the
+/// `--target-dir` its arguments name (`../target/variants`).
 struct FirmwareBuild {
     /// The board crate's folder under `boards/`.
     board: &'static str,
     /// cargo's arguments as the consumer gives them, separated by spaces.
     args: &'static str,
-    /// `CARGO_TARGET_DIR` under `boards/`, or `None` for cargo's default.
-    target_dir: Option<&'static str>,
     /// Who runs it, for the log.
     consumer: &'static str,
 }
 
-/// A build into cargo's default target directory (or the one its arguments name).
+/// A build of `board` with `args`, for `consumer`.
 const fn at(board: &'static str, args: &'static str, consumer: &'static str) -> FirmwareBuild {
     FirmwareBuild {
         board,
         args,
-        target_dir: None,
-        consumer,
-    }
-}
-
-/// `boards/microbit/run-mps2-tests.sh`'s build of qemu-mps2's on-target test (`args` name
-/// it) for the microbit, its stack at the top of the 16 KiB, into the script's target folder.
-const fn microbit_test(args: &'static str, consumer: &'static str) -> FirmwareBuild {
-    FirmwareBuild {
-        board: "qemu-mps2",
-        args,
-        target_dir: Some("microbit/target/mps2-tests"),
         consumer,
     }
 }
 
 /// The builds, in the order the suite first needs them: the pooled tests' firmware (the
-/// longest tests start first), then what `boards/check.sh` builds after the pool.
+/// longest tests start first), then what `boards/check.sh` builds after the pool. They share
+/// one target directory (two with the variants): the host's proc macros and build scripts and
+/// the Cortex-M dependencies the boards have in common are built once. The microbit's builds
+/// of the on-target tests come before the mps2-an386's of the same tests, which then are the
+/// ones left when `boards/check.sh` runs them first (each build of the other kind replaces
+/// them, in a second or two).
 #[rustfmt::skip]
 const BUILDS: &[FirmwareBuild] = &[
     at("qemu-mps2", "build --release --quiet --target thumbv7em-none-eabihf",
         "host/src/emulator.rs: Machine::Mps2An386.build()"),
-    at("qemu-mps2", "build --release --quiet --features paper-stairs --target-dir target/paper-stairs",
+    at("qemu-mps2", "build --release --quiet --features paper-stairs --target-dir ../target/variants",
         "host/src/emulator.rs: build_firmware_variant(.., Some(\"paper-stairs\"))"),
     at("stm32f4", "build --release --quiet --target thumbv7em-none-eabihf --no-default-features \
-        --features chip-f405,log-semihosting --target-dir target/netduinoplus2",
+        --features chip-f405,log-semihosting --target-dir ../target/variants",
         "host/src/emulator.rs: Machine::Netduinoplus2.build()"),
     at("microbit", "build --release --quiet --target thumbv6m-none-eabi",
         "host/src/emulator.rs: Machine::Microbit.build()"),
     at("stm32f4", "build --release", "boards/check.sh: the NUCLEO-F446RE build"),
     at("qemu-mps2", "test --release --target thumbv7em-none-eabihf --no-run",
         "boards/check.sh: on-target tests, thumbv7em-none-eabihf"),
-    at("qemu-mps2", "test --release --target thumbv6m-none-eabi --no-run",
-        "boards/check.sh: on-target tests, thumbv6m-none-eabi"),
-    microbit_test("rustc --release --target thumbv6m-none-eabi --test arith \
+    at("qemu-mps2", "rustc --release --target thumbv6m-none-eabi --test arith \
         -- -C link-arg=--defsym=_stack_start=0x20004000",
         "boards/microbit/run-mps2-tests.sh: arith"),
-    microbit_test("rustc --release --target thumbv6m-none-eabi --test pyramid \
+    at("qemu-mps2", "rustc --release --target thumbv6m-none-eabi --test pyramid \
         -- -C link-arg=--defsym=_stack_start=0x20004000",
         "boards/microbit/run-mps2-tests.sh: pyramid"),
+    at("qemu-mps2", "test --release --target thumbv6m-none-eabi --no-run",
+        "boards/check.sh: on-target tests, thumbv6m-none-eabi"),
 ];
 
 /// What the thread did: the builds that failed (left to their consumers), and the board
@@ -130,11 +122,8 @@ fn run(boards: &Path, build: &FirmwareBuild, log: &Path) -> Result<(), String> {
         .args(build.args.split_whitespace())
         .current_dir(&dir)
         // As the consumers run it (host/src/emulator.rs: run_build).
-        .env_remove("RUSTFLAGS");
-    match build.target_dir {
-        Some(sub) => command.env("CARGO_TARGET_DIR", boards.join(sub)),
-        None => command.env_remove("CARGO_TARGET_DIR"),
-    };
+        .env_remove("RUSTFLAGS")
+        .env_remove("CARGO_TARGET_DIR");
     logged(&mut command, log)
 }
 

@@ -120,7 +120,8 @@ pub fn rows(quick: bool) -> Result<serde_json::Value> {
                     .env("BENCH_RECORDING", rec)
                     .env_remove("CARGO_TARGET_DIR"),
             )?;
-            let elf = board
+            let elf = root
+                .join("boards")
                 .join("target")
                 .join(target)
                 .join("release")
