@@ -24,7 +24,6 @@ pub const SOLO: &[&str] = &["listen_poses"];
 const LONGEST_FIRST: &[&str] = &[
     "experiments",
     "run_qemu",
-    "far_obstacles",
     "outputs",
     "run_microbit",
     "rule_hash",

@@ -93,6 +93,10 @@ pub struct Args {
     /// `DIR/results.json` holding it alone.
     #[arg(long, conflicts_with_all = ["stairs_only", "board"])]
     pub far_obstacles_only: bool,
+    /// Everything but the far-obstacles table. It measures both rules whatever `--rule`
+    /// says, so a run under a second rule need not measure it again.
+    #[arg(long, conflicts_with = "far_obstacles_only")]
+    pub no_far_obstacles: bool,
     /// The navigability rule every map's classifier judges cells by, and its parameters
     /// (`--rule plane`, the default, or `--rule paper`).
     #[command(flatten)]
@@ -130,7 +134,7 @@ pub struct Results {
     #[serde(skip_serializing_if = "Option::is_none")]
     pub ld19: Option<lidar::Ld19Results>,
     /// The car laser's far obstacles by range ring, under both library rules (absent with
-    /// `--stairs-only`).
+    /// `--stairs-only` and `--no-far-obstacles`).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub far_obstacles: Option<far_obstacles::FarObstaclesResult>,
     /// Whether `--quick` was given.
@@ -260,7 +264,7 @@ pub fn run_all(args: &Args) -> Result<Results, String> {
             Some(out),
         )?)
     };
-    let far_obstacles = if args.stairs_only {
+    let far_obstacles = if args.stairs_only || args.no_far_obstacles {
         None
     } else {
         Some(far_obstacles::run(&far_setup(args))?)
