@@ -13,7 +13,7 @@
 //! - c_k: the mean of its two edges' tolerances plus two ULPs; σ_g,k: f times their sum plus
 //!   two ULPs (a narrow last band, 1 mm wide at 20 m, has a relative width error of 1 %).
 
-mod common;
+use crate::common;
 
 use common::{config, next_up, CAPACITY};
 use proptest::prelude::*;

@@ -12,7 +12,7 @@
 //!   narrow bands (1 mm wide at 20 m: tens of ULPs); a hard-gate bin whose centre lies within
 //!   an edge's tolerance may hold 0 or 1.
 
-mod common;
+use crate::common;
 
 use common::{config, CAPACITY};
 use proptest::prelude::*;

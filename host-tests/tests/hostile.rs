@@ -22,7 +22,7 @@
 //! the default test threads (the lidars' part, in its own file, 2 s); the case counts below
 //! set it.
 
-mod common;
+use crate::common;
 
 use common::{chunks, seeded, Piece, Units};
 use proptest::prelude::*;

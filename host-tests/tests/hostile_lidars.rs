@@ -13,7 +13,7 @@
 //! about 15 % to `hostile.rs`'s time (measured with `--test-threads=1` on a loaded machine:
 //! 20.3 s without them, 23.5 s with them).
 
-mod common;
+use crate::common;
 
 use common::feed::{
     checked_ld06, checked_node, checked_ydlidar, feed_all, tally, Accumulate, Tally,

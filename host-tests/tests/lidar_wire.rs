@@ -6,7 +6,7 @@
 //! Fixed seeds: a checksum can pass by chance (1 in 256 for the LD06 CRC-8 and the RPLIDAR
 //! capsule XOR), and a fixed seed keeps that from making CI flaky.
 
-mod common;
+use crate::common;
 
 use common::feed::{checked_ld06, checked_ydlidar, feed_all, run_to_end};
 use common::{chunks, seeded, Units};
