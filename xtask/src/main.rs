@@ -42,21 +42,7 @@ mod pool;
 mod prebuild;
 mod test;
 
-/// The test build (the dev profile: `cargo xtask test`, and the lab of `XTASK_LAB_PROFILE=dev`)
-/// without incremental compilation, unless `CARGO_INCREMENTAL` says otherwise: built once
-/// from scratch, incremental's bookkeeping costs more than it saves (the host's library: 89
-/// CPU-s against 65, 52 s against 37 s of wall time). Only the workspace's own crates are
-/// compiled incrementally, and only in the dev profile, so nothing else changes; a later
-/// plain `cargo test` keeps its own, incremental, build of them beside this one.
-fn without_incremental_builds() {
-    if std::env::var_os("CARGO_INCREMENTAL").is_none() {
-        // One thread: nothing else runs yet.
-        std::env::set_var("CARGO_INCREMENTAL", "0");
-    }
-}
-
 fn main() -> ExitCode {
-    without_incremental_builds();
     let args: Vec<String> = std::env::args().skip(1).collect();
     let (task, rest) = match args.split_first() {
         Some((task, rest)) => (task.as_str(), rest),
