@@ -21,10 +21,11 @@
 //! A fresh machine: the missing rustup targets, `qemu-system-arm` and `liboctomap-dev` are
 //! installed (apt-get, through sudo when not root).
 
+use crate::install::root;
 use object::{Object, ObjectSection};
 use std::collections::HashMap;
 use std::fs;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::{Command, Stdio};
 use std::time::Instant;
 use terrain_pyramid_host_tests::sim::record::{simulate, SimConfig};
@@ -76,12 +77,6 @@ struct Opts {
     quick: bool,
     singlestep: bool,
     lidars: bool,
-}
-
-fn root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .parent()
-        .map_or_else(|| PathBuf::from("."), Path::to_path_buf)
 }
 
 /// Runs a command, failing with its stderr.
@@ -296,8 +291,7 @@ fn bench(opts: &Opts) -> Result<()> {
                 .env_remove("CARGO_TARGET_DIR"),
         )?;
     }
-    // boards/target: the board crates share it (their .cargo/config.toml).
-    let target_dir = root.join("boards").join("target");
+    let target_dir = crate::install::boards_target_dir();
     let elf = |target: &str, bin: &str| target_dir.join(target).join("release").join(bin);
 
     // 3. Instruction counts.

@@ -13,6 +13,12 @@ pub fn root() -> PathBuf {
         .map_or_else(|| PathBuf::from("."), Path::to_path_buf)
 }
 
+/// The target directory every board crate builds into (`boards/target`, their
+/// `.cargo/config.toml`): the firmware's ELFs are under `TARGET/release/`.
+pub fn boards_target_dir() -> PathBuf {
+    root().join("boards").join("target")
+}
+
 /// Runs a command from the root, failing with its name when it fails; its output goes where
 /// xtask's goes.
 pub fn step(program: &str, args: &[&str]) -> Result<(), String> {

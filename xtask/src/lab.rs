@@ -337,7 +337,7 @@ pub fn demo(args: &[String]) -> Result<(), String> {
 /// (`firmware.log` beside it) with `defmt-print` and the firmware's ELF. A log that cannot
 /// be decoded is reported, not an error: the maps are the demo's result.
 fn decode_logs(out: &Path) {
-    let elf = root().join("boards/target/thumbv7em-none-eabihf/release/qemu-mps2");
+    let elf = crate::install::boards_target_dir().join("thumbv7em-none-eabihf/release/qemu-mps2");
     let Ok(entries) = std::fs::read_dir(out) else {
         return;
     };

@@ -15,15 +15,9 @@
 //! It reads the sources as text (every `crate::`/`super::` path, in `use` lists and in code,
 //! resolved to the deepest module file that exists), prints what it found, and fails on any
 //! violation.
+use crate::install::root;
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
-
-/// The repository's root (the xtask crate sits one level below it).
-fn root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .parent()
-        .map_or_else(|| PathBuf::from("."), Path::to_path_buf)
-}
 
 /// A module as a path of names from its crate's root (`[]` is `lib.rs`/`main.rs`).
 type ModPath = Vec<String>;

@@ -2,8 +2,9 @@
 //!
 //! The board crates build into a target directory of their own, `boards/target` (they are
 //! not in the workspace), so cargo lets their builds run while `cargo test --workspace
-//! --no-run` compiles the host side: the firmware's fat-LTO links and the board crates' dependency chains are mostly
-//! serial, and fill the core the host build leaves idle in its long tail. Without this, the
+//! --no-run` compiles the host side: the firmware's fat-LTO links and the board crates'
+//! dependency chains are mostly serial, and fill the core the host build leaves idle in its
+//! long tail. Without this, the
 //! emulator tests each build their firmware when they first need it, in the middle of the
 //! pooled test runs, and `boards/check.sh` builds the rest at the end.
 //!

@@ -120,9 +120,7 @@ pub fn rows(quick: bool) -> Result<serde_json::Value> {
                     .env("BENCH_RECORDING", rec)
                     .env_remove("CARGO_TARGET_DIR"),
             )?;
-            let elf = root
-                .join("boards")
-                .join("target")
+            let elf = crate::install::boards_target_dir()
                 .join(target)
                 .join("release")
                 .join("lidar");
