@@ -90,11 +90,12 @@ if [[ $lint -eq 1 ]]; then
     # The three crates' lints start side by side, each into its log, shown in order once all
     # have ended (they share boards/target, where cargo runs one build at a time and shares
     # the check of the dependencies they have in common).
-    step "format and lints: qemu-mps2 (thumbv7em and thumbv6m, firmware and tests), stm32f4 (NUCLEO-F446RE and netduinoplus2 builds), microbit"
+    step "format and lints: qemu-mps2 (thumbv7em and thumbv6m, firmware and tests, the paper's stairs firmware), stm32f4 (NUCLEO-F446RE and netduinoplus2 builds), microbit"
     lint_logs=$(mktemp -d)
     (cd "$qemu_dir" && cargo fmt --check \
         && cargo clippy --release --all-targets -- -D warnings \
-        && cargo clippy --release --all-targets --target thumbv6m-none-eabi -- -D warnings) \
+        && cargo clippy --release --all-targets --target thumbv6m-none-eabi -- -D warnings \
+        && cargo clippy --release --features paper-stairs --bin qemu-mps2-paper-stairs -- -D warnings) \
         > "$lint_logs/qemu-mps2" 2>&1 &
     qemu_lint=$!
     (cd "$stm32_dir" && cargo fmt --check \

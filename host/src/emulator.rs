@@ -149,9 +149,9 @@ fn boards_target_dir(board_dir: &Path) -> PathBuf {
         .map_or_else(|| board_dir.join("target"), |boards| boards.join("target"))
 }
 
-/// Where a board crate built with other features than its default goes
-/// (`boards/target/variants`): its binary keeps its name, so it cannot share the default
-/// build's folder; the variants of different crates (their binaries named apart) share this one.
+/// Where a board crate built with other features than its default goes when its binary keeps
+/// its name (`boards/target/variants`; the STM32F4 for QEMU's `netduinoplus2`): it cannot share
+/// the default build's folder.
 fn variants_target_dir(board_dir: &Path) -> PathBuf {
     boards_target_dir(board_dir).join("variants")
 }
@@ -225,9 +225,11 @@ pub fn build_firmware(board_dir: &Path, bin: &str) -> Result<PathBuf, String> {
     build_firmware_variant(board_dir, bin, None)
 }
 
-/// [`build_firmware`] with a cargo feature of the board (`--features F`), built into the
-/// boards' variants directory (`boards/target/variants`) so that it and the default build do
-/// not overwrite each other; `None` is the default build (`boards/target`).
+/// [`build_firmware`] with a cargo feature of the board (`--features F`): then the firmware
+/// is the board's binary `<bin>-<F>` (declared with `required-features = ["F"]`, as
+/// `boards/qemu-mps2` declares `qemu-mps2-paper-stairs`), built alone (`--bin <bin>-<F>`) into
+/// the boards' target directory beside the default build, whose dependencies' builds it
+/// shares; `None` is the default build of `bin`.
 ///
 /// # Errors
 /// The target is missing or the build failed, with how to fix it.
@@ -246,22 +248,21 @@ pub fn build_firmware_variant(
         board_dir.display(),
         feature.map_or_else(String::new, |f| format!(" with --features {f}"))
     );
-    let target_dir = feature.map_or_else(
-        || boards_target_dir(board_dir),
-        |_| variants_target_dir(board_dir),
-    );
+    let bin = feature.map_or_else(|| bin.to_string(), |f| format!("{bin}-{f}"));
     let mut cargo = cargo();
     cargo.args(["build", "--release", "--quiet"]);
     if let Some(f) = feature {
-        cargo
-            .args(["--features", f])
-            .arg("--target-dir")
-            .arg(&target_dir);
+        cargo.args(["--features", f, "--bin", &bin]);
     }
     // Anything the build prints goes to stderr: a caller's stdout may be its JSON.
     cargo.stdout(std::io::stderr());
     run_build(&mut cargo, board_dir, INSTALL_HINT)?;
-    built_elf(target_dir.join(TARGET).join("release").join(bin))
+    built_elf(
+        boards_target_dir(board_dir)
+            .join(TARGET)
+            .join("release")
+            .join(bin),
+    )
 }
 
 /// A running QEMU with the firmware, its UARTs connected.

@@ -23,7 +23,8 @@ use std::thread::JoinHandle;
 
 /// One firmware build: the board crate (a folder under `boards/`) and cargo's arguments.
 /// Every build goes to `boards/target` (the board crates' `.cargo/config.toml`), or to the
-/// `--target-dir` its arguments name (`../target/variants`).
+/// `--target-dir` its arguments name (`../target/variants`: a build with other features whose
+/// binary keeps the default build's name).
 struct FirmwareBuild {
     /// The board crate's folder under `boards/`.
     board: &'static str,
@@ -44,8 +45,9 @@ const fn at(board: &'static str, args: &'static str, consumer: &'static str) -> 
 
 /// The builds, in the order the suite first needs them: the pooled tests' firmware (the
 /// longest tests start first), then what `boards/check.sh` builds after the pool. They share
-/// one target directory (two with the variants): the host's proc macros and build scripts and
-/// the Cortex-M dependencies the boards have in common are built once. The microbit's builds
+/// one target directory (two with the netduinoplus2's variant): the host's proc macros and
+/// build scripts and the Cortex-M dependencies the boards have in common are built once, and the
+/// paper's stairs firmware (a binary of its own) reuses every dependency of the default one. The microbit's builds
 /// of the on-target tests come before the mps2-an386's of the same tests, which then are the
 /// ones left when `boards/check.sh` runs them first (each build of the other kind replaces
 /// them, in a second or two).
@@ -53,7 +55,7 @@ const fn at(board: &'static str, args: &'static str, consumer: &'static str) -> 
 const BUILDS: &[FirmwareBuild] = &[
     at("qemu-mps2", "build --release --quiet --target thumbv7em-none-eabihf",
         "host/src/emulator.rs: Machine::Mps2An386.build()"),
-    at("qemu-mps2", "build --release --quiet --features paper-stairs --target-dir ../target/variants",
+    at("qemu-mps2", "build --release --quiet --features paper-stairs --bin qemu-mps2-paper-stairs",
         "host/src/emulator.rs: build_firmware_variant(.., Some(\"paper-stairs\"))"),
     at("stm32f4", "build --release --quiet --target thumbv7em-none-eabihf --no-default-features \
         --features chip-f405,log-semihosting --target-dir ../target/variants",
@@ -154,8 +156,9 @@ mod tests {
     use super::BUILDS;
     use std::path::Path;
 
-    /// Each build names a board crate that exists, and each on-target test it names has its
-    /// source: a renamed crate or test fails here, not as a silent second build.
+    /// Each build names a board crate that exists, each binary it names is declared, and each
+    /// on-target test it names has its source: a renamed crate, binary or test fails here, not
+    /// as a silent second build.
     #[test]
     fn every_build_names_what_exists() {
         let boards = Path::new(env!("CARGO_MANIFEST_DIR")).join("../boards");
@@ -167,6 +170,11 @@ mod tests {
                 matches!(args.first(), Some(&("build" | "test" | "rustc"))),
                 "{args:?}"
             );
+            if let Some(i) = args.iter().position(|a| *a == "--bin") {
+                let name = args.get(i + 1).expect("a binary's name after --bin");
+                let manifest = std::fs::read_to_string(crate_dir.join("Cargo.toml")).unwrap();
+                assert!(manifest.contains(&format!("name = \"{name}\"")), "{name}");
+            }
             if let Some(i) = args.iter().position(|a| *a == "--test") {
                 let name = args.get(i + 1).expect("a test name after --test");
                 assert!(

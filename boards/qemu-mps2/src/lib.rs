@@ -14,6 +14,7 @@
 
 #[allow(unsafe_code)]
 pub mod clock;
+pub mod sizes;
 #[allow(unsafe_code)]
 pub mod uart;
 

@@ -23,11 +23,10 @@
 #![no_main]
 #![deny(unsafe_code)]
 
-mod sizes;
-
 use core::sync::atomic::{AtomicU32, Ordering};
 use cortex_m::peripheral::syst::SystClkSource;
 use embedded_io::{Read, ReadReady, Write};
+use qemu_mps2::sizes;
 use qemu_mps2::stack;
 use qemu_mps2::uart::Uarts;
 use static_cell::ConstStaticCell;

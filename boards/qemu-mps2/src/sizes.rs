@@ -1,10 +1,12 @@
-//! The sizes this firmware is built with.
+//! The sizes the firmware is built with (`src/main.rs`, and the same program as the binary
+//! `qemu-mps2-paper-stairs`).
 //!
 //! By default the library's: W = 64, 8 layers, 1 024 classifier slots (72 KiB of pyramid in
 //! the 4 MiB of SSRAM2/3) and a 2 KiB link queue (22 ms of the UART at 921 600 Bd, ahead of a
 //! patch budget of half the link), within 96 KiB of static RAM.
 //!
-//! With `--features paper-stairs`, the paper's stairs experiment: every layer at 0.1 m to
+//! With `--features paper-stairs` (the binary `qemu-mps2-paper-stairs`), the paper's stairs
+//! experiment: every layer at 0.1 m to
 //! 24 m needs 32 layers of 488 × 488 cells (15.3 MB, in the board's 16 MiB of PSRAM, see
 //! `memory-paper-stairs.x`) and 16 384 classifier slots (a soft-gated point feeds several
 //! layers). QEMU's UARTs have no baud rate, so the link's budget is 16 MB/s: a snapshot of all
