@@ -21,6 +21,18 @@ pub mod uart;
 pub use board_support::runtime::{exit, EXIT_FAILURE, EXIT_HARDFAULT, EXIT_PANIC, EXIT_SUCCESS};
 pub use board_support::stack;
 
+/// An interrupt: a UART's receive interrupt (enabled by [`uart::Uarts::wake_on_receive`] to
+/// wake the core from `wfi`) is cleared and the main loop goes on; any other ends the run with
+/// a failing exit code ([`EXIT_FAILURE`]).
+#[allow(unsafe_code)]
+#[cortex_m_rt::exception]
+unsafe fn DefaultHandler(irqn: i16) {
+    if !uart::acknowledge_receive(irqn) {
+        defmt::error!("unexpected interrupt or exception, IRQn {=i16}", irqn);
+        exit(EXIT_FAILURE);
+    }
+}
+
 /// A HardFault ends the run ([`board_support::runtime::hard_fault`]: logged, exit code
 /// [`EXIT_HARDFAULT`]).
 #[allow(unsafe_code)]

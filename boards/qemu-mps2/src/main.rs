@@ -113,10 +113,12 @@ fn run() -> Result<(), Fault> {
     syst.enable_counter();
     qemu_mps2::clock::start();
 
+    let mut uarts = Uarts::take(BAUD).ok_or(Fault::Taken)?;
+    uarts.wake_on_receive();
     let Uarts {
         uart0: mut laser,
         uart1: mut host,
-    } = Uarts::take(BAUD).ok_or(Fault::Taken)?;
+    } = uarts;
     defmt::info!("running: the laser on UART0, the host link on UART1");
     let mut buf = [0_u8; 256];
     loop {
@@ -154,6 +156,13 @@ fn run() -> Result<(), Fault> {
             let _ = host.flush();
             defmt::info!("shutdown: {}", core.counters());
             return Ok(());
+        }
+        // Both UARTs empty and the queue drained: sleep until a byte arrives (its UART's
+        // receive interrupt) or SysTick's next millisecond (the link's polls), rather than
+        // spin on the UARTs' registers. A byte that arrives between this check and `wfi`
+        // waits for that millisecond at most.
+        if !matches!(laser.read_ready(), Ok(true)) && !matches!(host.read_ready(), Ok(true)) {
+            cortex_m::asm::wfi();
         }
     }
 }

@@ -1,15 +1,16 @@
 //! The CMSDK APB UARTs of the MPS2 boards, behind `embedded-io` 0.6.
 //!
 //! This is the crate's register module: the only place (with [`crate::stack`]'s read of the
-//! painted stack) that holds `unsafe`, and only for volatile accesses to the five registers
-//! of a UART at a fixed, board-defined address.
+//! painted stack and [`crate::clock`]) that holds `unsafe`, and only for volatile accesses to
+//! the five registers of a UART at a fixed, board-defined address and for unmasking the two
+//! receive interrupts in the NVIC.
 //!
 //! | offset | register            | bits used                                              |
 //! | ------ | ------------------- | ------------------------------------------------------ |
 //! | 0x00   | DATA                | 7..0: read takes the received byte, write sends one    |
 //! | 0x04   | STATE               | 0 TX full, 1 RX full, 2 TX overrun, 3 RX overrun (w1c) |
-//! | 0x08   | CTRL                | 0 TX enable, 1 RX enable                               |
-//! | 0x0C   | INTSTATUS/INTCLEAR  | (interrupts are not used: both UARTs are polled)       |
+//! | 0x08   | CTRL                | 0 TX enable, 1 RX enable, 3 RX interrupt enable        |
+//! | 0x0C   | INTSTATUS/INTCLEAR  | 1 RX interrupt (w1c)                                   |
 //! | 0x10   | BAUDDIV             | PCLK / baud, at least 16                               |
 //!
 //! The UART has a one-byte buffer each way. [`embedded_io::Read::read`] returns what is
@@ -17,6 +18,13 @@
 //! byte has arrived; [`embedded_io::ReadReady::read_ready`] says whether it would block. A
 //! byte lost because the previous one was not read in time (RX overrun) is reported once as
 //! [`UartError::Overrun`].
+//!
+//! Reading is polled; the receive interrupts only wake the core. After
+//! [`Uarts::wake_on_receive`] a byte's arrival raises its UART's receive interrupt (IRQ 0 for
+//! UART0, 2 for UART1 on the MPS2 images), whose handler ([`acknowledge_receive`], called by
+//! the crate's `DefaultHandler`) only clears it: the main loop can sleep in `wfi` while both
+//! UARTs are empty and read the byte when it wakes. Under QEMU a core that spins on the
+//! status registers instead takes a whole host core while it waits.
 
 pub use board_support::uart::UartError;
 use board_support::uart::{claim_once, PolledRx};
@@ -43,6 +51,12 @@ const STATE_RX_FULL: u32 = 1 << 1;
 const STATE_RX_OVERRUN: u32 = 1 << 3;
 const CTRL_TX_EN: u32 = 1 << 0;
 const CTRL_RX_EN: u32 = 1 << 1;
+const CTRL_RX_INT_EN: u32 = 1 << 3;
+const INT_RX: u32 = 1 << 1;
+/// UART0's receive interrupt on the MPS2 images (AN385/AN386/AN500).
+const UART0_RX_IRQ: u16 = 0;
+/// UART1's receive interrupt.
+const UART1_RX_IRQ: u16 = 2;
 /// The smallest divider the UART accepts.
 const MIN_BAUDDIV: u32 = 16;
 
@@ -82,6 +96,45 @@ impl Uarts {
         let uart1 = Uart1::enable(divider);
         Some(Self { uart0, uart1 })
     }
+
+    /// Lets a received byte wake the core from `wfi`: enables both UARTs' receive interrupts
+    /// and unmasks them in the NVIC. Their handler is [`acknowledge_receive`]; the bytes are
+    /// still read by polling.
+    pub fn wake_on_receive(&mut self) {
+        Uart0::write_reg(INTCLEAR, INT_RX);
+        Uart1::write_reg(INTCLEAR, INT_RX);
+        Uart0::write_reg(CTRL, CTRL_TX_EN | CTRL_RX_EN | CTRL_RX_INT_EN);
+        Uart1::write_reg(CTRL, CTRL_TX_EN | CTRL_RX_EN | CTRL_RX_INT_EN);
+        for irq in [UART0_RX_IRQ, UART1_RX_IRQ] {
+            // SAFETY: the only handler these interrupts reach is `acknowledge_receive` (through
+            // the crate's `DefaultHandler`), which touches no memory but INTCLEAR, so unmasking
+            // breaks no critical section's assumptions.
+            unsafe { cortex_m::peripheral::NVIC::unmask(Irq(irq)) };
+        }
+    }
+}
+
+/// An external interrupt's number, for the NVIC.
+#[derive(Debug, Clone, Copy)]
+struct Irq(u16);
+
+// SAFETY: the numbers are the MPS2 images' UART receive interrupts, valid NVIC lines.
+unsafe impl cortex_m::interrupt::InterruptNumber for Irq {
+    fn number(self) -> u16 {
+        self.0
+    }
+}
+
+/// The handler of the receive interrupts that [`Uarts::wake_on_receive`] enables: clears the
+/// interrupt of external interrupt `irqn` when it is a UART's receive interrupt (the byte
+/// stays in the UART for the main loop to read) and says whether it was one.
+pub fn acknowledge_receive(irqn: i16) -> bool {
+    match u16::try_from(irqn) {
+        Ok(UART0_RX_IRQ) => Uart0::write_reg(INTCLEAR, INT_RX),
+        Ok(UART1_RX_IRQ) => Uart1::write_reg(INTCLEAR, INT_RX),
+        _ => return false,
+    }
+    true
 }
 
 impl<const BASE: usize> CmsdkUart<BASE> {
