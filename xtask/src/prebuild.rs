@@ -4,9 +4,8 @@
 //! not in the workspace), so cargo lets their builds run while `cargo test --workspace
 //! --no-run` compiles the host side: the firmware's fat-LTO links and the board crates'
 //! dependency chains are mostly serial, and fill the core the host build leaves idle in its
-//! long tail. Without this, the
-//! emulator tests each build their firmware when they first need it, in the middle of the
-//! pooled test runs, and `boards/check.sh` builds the rest at the end.
+//! long tail. Without this, the emulator tests each build their firmware when they first need
+//! it, in the middle of the pooled test runs, and `boards/check.sh` builds the rest at the end.
 //!
 //! Each build here is the exact command its consumer runs (the same arguments, hence the same
 //! fingerprints): the consumer's own `cargo build` then finds it up to date. A command that
@@ -46,9 +45,9 @@ const fn at(board: &'static str, args: &'static str, consumer: &'static str) -> 
 /// The builds, in the order the suite first needs them: the pooled tests' firmware (the
 /// longest tests start first), then what `boards/check.sh` builds after the pool. They share
 /// one target directory (two with the netduinoplus2's variant): the host's proc macros and
-/// build scripts and the Cortex-M dependencies the boards have in common are built once, and the
-/// paper's stairs firmware (a binary of its own) reuses every dependency of the default one. The microbit's builds
-/// of the on-target tests come before the mps2-an386's of the same tests, which then are the
+/// build scripts and the Cortex-M dependencies the boards have in common are built once, and
+/// the paper's stairs firmware (a binary of its own) reuses every dependency of the default
+/// one. The microbit's builds of the on-target tests come before the mps2-an386's of the same tests, which then are the
 /// ones left when `boards/check.sh` runs them first (each build of the other kind replaces
 /// them, in a second or two).
 #[rustfmt::skip]

@@ -52,6 +52,8 @@ const STATE_RX_OVERRUN: u32 = 1 << 3;
 const CTRL_TX_EN: u32 = 1 << 0;
 const CTRL_RX_EN: u32 = 1 << 1;
 const CTRL_RX_INT_EN: u32 = 1 << 3;
+/// CTRL of an enabled UART: both directions on.
+const ENABLED: u32 = CTRL_TX_EN | CTRL_RX_EN;
 const INT_RX: u32 = 1 << 1;
 /// UART0's receive interrupt on the MPS2 images (AN385/AN386/AN500).
 const UART0_RX_IRQ: u16 = 0;
@@ -101,10 +103,8 @@ impl Uarts {
     /// and unmasks them in the NVIC. Their handler is [`acknowledge_receive`]; the bytes are
     /// still read by polling.
     pub fn wake_on_receive(&mut self) {
-        Uart0::write_reg(INTCLEAR, INT_RX);
-        Uart1::write_reg(INTCLEAR, INT_RX);
-        Uart0::write_reg(CTRL, CTRL_TX_EN | CTRL_RX_EN | CTRL_RX_INT_EN);
-        Uart1::write_reg(CTRL, CTRL_TX_EN | CTRL_RX_EN | CTRL_RX_INT_EN);
+        self.uart0.interrupt_on_receive();
+        self.uart1.interrupt_on_receive();
         for irq in [UART0_RX_IRQ, UART1_RX_IRQ] {
             // SAFETY: the only handler these interrupts reach is `acknowledge_receive` (through
             // the crate's `DefaultHandler`), which touches no memory but INTCLEAR, so unmasking
@@ -156,10 +156,16 @@ impl<const BASE: usize> CmsdkUart<BASE> {
         // Clear any stale interrupt and overrun flags (write one to clear).
         Self::write_reg(INTCLEAR, 0xF);
         Self::write_reg(STATE, 0xC);
-        Self::write_reg(CTRL, CTRL_TX_EN | CTRL_RX_EN);
+        Self::write_reg(CTRL, ENABLED);
         Self {
             _owned: PhantomData,
         }
+    }
+
+    /// Raises the receive interrupt when a byte arrives (a stale one cleared first).
+    fn interrupt_on_receive(&mut self) {
+        Self::write_reg(INTCLEAR, INT_RX);
+        Self::write_reg(CTRL, ENABLED | CTRL_RX_INT_EN);
     }
 
     fn state(&self) -> u32 {

@@ -5,8 +5,8 @@
 //! paper-stairs`: 32 layers of 488² cells in PSRAM), configured over the link exactly as the
 //! host experiment configures its library pyramids (Configure with the design's flags, Setup
 //! from the recording), fed the recording's telegrams on UART0 lock-step by the host tool's
-//! player ([`terrain_pyramid_host::play::play_watched`]). At every point where the host experiment
-//! looks at its maps (the end of each observation, and the end of standing), the harness
+//! player ([`terrain_pyramid_host::play::play_watched`]). At every point where the host
+//! experiment looks at its maps (the end of each observation, and the end of standing), the harness
 //! waits until the device has sent every changed tile ([`Device::sync`]) and asks
 //! the fused question of its mirror of the device's maps. At the end, the mirror is compared
 //! cell for cell with the host's library map.
