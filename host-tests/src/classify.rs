@@ -14,8 +14,12 @@
 //!   `step + D·tan(max_slope) + a·√(12/n)`; `a = k·σ_z`, `σ_z = √((σ·h/r)² + (σ_a·r)²)`,
 //!   `r = √(h² + d²)`, h the sensor's height above the ground plane, d the cell's closest look,
 //!   n the points; or when the lowest and the highest point (the first of each in arrival
-//!   order) stand apart by more than the plane explains, `spread − max(0, w·(p_high − p_low))
-//!   > step + 2·k·σ·h/r` (the extremes test).
+//!   order) stand apart by more than the plane explains,
+//!   `spread − max(0, w·(p_high − p_low)) > step + 2·k·σ·h/r` (the extremes test); or when two
+//!   consecutive points in arrival order
+//!   stand apart by more than the largest slope explains between them,
+//!   `|Δz| − tan(max_slope)·(|Δx| + |Δy|) > step + 2·k·σ·h/r` (the pair test: a kerb's face,
+//!   where two beams' returns nearly coincide).
 //!
 //! A record's distance is the smallest horizontal distance among the cell's points.
 
@@ -116,6 +120,21 @@ pub struct RefRecord {
     /// The plane rule's rise test: `R·(g − tan)` over `g·(step + a·√(12/n))` (> 1: obstacle;
     /// 0 when the plane is no steeper than the largest slope, or under the spread rule).
     pub rise_ratio: f64,
+    /// The plane rule's pair test: the largest rise between consecutive points beyond the
+    /// largest slope, over `step + 2·k·σ·h/r` (> 1: obstacle; 0 under the spread rule).
+    pub pair_ratio: f64,
+}
+
+/// The pair test's largest rise between consecutive points (in arrival order) beyond what
+/// the slope `max_grade` explains over their L1 horizontal distance, m (0 for one point).
+fn pair_rise(xys: &[(f64, f64)], zs: &[f64], max_grade: f64) -> f64 {
+    xys.windows(2)
+        .zip(zs.windows(2))
+        .map(|(p, z)| {
+            let run = (p[1].0 - p[0].0).abs() + (p[1].1 - p[0].1).abs();
+            (z[1] - z[0]).abs() - max_grade * run
+        })
+        .fold(0.0, f64::max)
 }
 
 /// The plane rule's three test ratios (residual, rise, extremes) for `zs` at `xys`, see
@@ -236,8 +255,8 @@ pub fn classify(
                 .iter()
                 .map(|z| (z - cut).abs())
                 .fold(f64::INFINITY, f64::min);
-            let (residual_ratio, rise_ratio, judged) = match config.rule {
-                RefRule::Spread => (0.0, 0.0, spread > config.step_threshold),
+            let (residual_ratio, rise_ratio, pair_ratio, judged) = match config.rule {
+                RefRule::Spread => (0.0, 0.0, 0.0, spread > config.step_threshold),
                 RefRule::Plane {
                     max_grade,
                     residual,
@@ -273,7 +292,8 @@ pub fn classify(
                         noise_factor * sigma_z,
                         extremes_allowance,
                     );
-                    (rr, qr, rr > 1.0 || qr > 1.0 || er > 1.0)
+                    let pr = pair_rise(&xys, &zs, max_grade) / extremes_allowance.max(1e-300);
+                    (rr, qr, pr, rr > 1.0 || qr > 1.0 || er > 1.0 || pr > 1.0)
                 }
             };
             let record = RefRecord {
@@ -286,6 +306,7 @@ pub fn classify(
                 cut_margin,
                 residual_ratio,
                 rise_ratio,
+                pair_ratio,
             };
             ((layer, cell_x, cell_y), record)
         })

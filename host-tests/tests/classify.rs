@@ -110,7 +110,7 @@ fn compare(points: &[(f64, f64, f64)], gate: GateShape, rule: Rule) -> (usize, u
             Rule::Spread => (r.spread - 0.05).abs() < 0.002,
             Rule::Plane => {
                 let close = |ratio: f64| ratio > 0.85 && ratio < 1.15;
-                close(r.residual_ratio) || close(r.rise_ratio)
+                close(r.residual_ratio) || close(r.rise_ratio) || close(r.pair_ratio)
             }
         };
         if near || r.cut_margin < 0.002 {

@@ -31,11 +31,13 @@
 //!   ([`Classifier::add_missing_ground`]); the caller decides when a beam qualifies.
 //!
 //! # Bounded scratch
-//! The touched cells live in an open-addressing table of `C` slots (a power of two, 52 bytes
-//! each: 16 for the key, the closest look and the lowest and highest z, 36 for the plane rule's
-//! sums and where the lowest and highest points lie; 16 bytes in a build without the `plane-rule` feature, which has no sums). A point that finds the table full is dropped and
-//! counted in [`ClassifierStats::overflow_points`]; nothing panics. One 361-beam line touches
-//! at most 361 cells per layer it feeds (2 to 4 with the default soft gate); 1024 slots (52 KiB)
+//! The touched cells live in an open-addressing table of `C` slots (a power of two, 60 bytes
+//! each: 16 for the key, the closest look and the lowest and highest z, 44 for the plane rule's
+//! sums, where the lowest and highest points lie and the pair test's last return and largest
+//! rise; 16 bytes in a build without the `plane-rule` feature, which has no sums). A point
+//! that finds the table full is dropped and counted in [`ClassifierStats::overflow_points`];
+//! nothing panics. One 361-beam line touches at most 361 cells per layer it feeds (2 to 4
+//! with the default soft gate); 1024 slots (60 KiB)
 //! hold a line with room to spare, a whole 3-D sweep needs a window's worth.
 //!
 //! # The incremental rule
@@ -182,6 +184,7 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
         self.robot_height_mm = mm_i16(config.robot_height.to_bits()).max(0);
         self.step_mm = mm_i16(config.step_threshold.to_bits()).max(0);
         self.plane = rule::params_of(&config.rule, config.step_threshold);
+        self.refresh_layers();
         self.discard();
     }
 
@@ -202,14 +205,25 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
         increments: Increments,
     ) -> Result<(), DesignError> {
         self.gates.configure(design, increments)?;
-        for (k, recent) in self.recent.iter_mut().enumerate() {
-            recent.reciprocal = self
-                .gates
-                .resolution(k)
-                .map_or(0, |r| crate::grid::cell_reciprocal(r.to_bits()));
-        }
+        self.refresh_layers();
         self.discard();
         Ok(())
+    }
+
+    /// Sets the first eight layers' cell reciprocals and the pair test's slopes from the
+    /// gating and the rule in force.
+    fn refresh_layers(&mut self) {
+        for (k, recent) in self.recent.iter_mut().enumerate() {
+            let bits = self
+                .gates
+                .resolution(k)
+                .map(crate::grid::Resolution::to_bits);
+            recent.reciprocal = bits.map_or(0, crate::grid::cell_reciprocal);
+            recent.pair_slope = match (&self.plane, bits) {
+                (Some(params), Some(bits)) => params.pair_slope_q8(bits),
+                _ => 0,
+            };
+        }
     }
 
     /// The gating in force.
@@ -496,7 +510,16 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
                 } else {
                     (0, 0)
                 };
-                fold(slot, z, sub, bin, HOLE, robot_height_mm, PLANE);
+                fold(
+                    slot,
+                    z,
+                    sub,
+                    bin,
+                    HOLE,
+                    robot_height_mm,
+                    PLANE,
+                    recent.pair_slope,
+                );
                 return true;
             }
         }
@@ -505,7 +528,7 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
         };
         let (cx, cy, sub) = Self::cell_of(r, recent.reciprocal, point, PLANE);
         // Stored as k + 1 (0 marks an empty slot); k < 8.
-        match self.insert(k + 1, cx, cy, sub, bin, z, HOLE, PLANE) {
+        match self.insert(k + 1, cx, cy, sub, bin, z, HOLE, PLANE, recent.pair_slope) {
             Some(index) => {
                 self.remember(usize::from(k), r.to_bits(), cx, cy, index);
                 true
@@ -600,11 +623,15 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
         hole: bool,
     ) -> bool {
         let (cx, cy, sub) = Self::locate(r, reciprocal, point, self.plane.is_some());
-        self.feed_cell(layer_index, cx, cy, sub, bin, z, hole)
+        let slope = self
+            .plane
+            .as_ref()
+            .map_or(0, |params| params.pair_slope_q8(r.to_bits()));
+        self.feed_cell(layer_index, cx, cy, sub, bin, z, hole, slope)
     }
 
-    /// Adds a point to cell `(cx, cy)` of one layer (stored as `layer_index` = k + 1); `false`
-    /// when the table is full (counted).
+    /// Adds a point to cell `(cx, cy)` of one layer (stored as `layer_index` = k + 1), the
+    /// layer's pair slope `slope` ([`fold`]); `false` when the table is full (counted).
     #[inline]
     #[allow(clippy::too_many_arguments)]
     fn feed_cell(
@@ -616,10 +643,21 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
         bin: u16,
         z: i16,
         hole: bool,
+        slope: u32,
     ) -> bool {
         let (bin, z) = (u32::from(bin), i32::from(z));
         if self
-            .insert(layer_index, cx, cy, sub, bin, z, hole, self.plane.is_some())
+            .insert(
+                layer_index,
+                cx,
+                cy,
+                sub,
+                bin,
+                z,
+                hole,
+                self.plane.is_some(),
+                slope,
+            )
             .is_some()
         {
             true
@@ -632,7 +670,7 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
     /// Folds one point (at `sub` in its cell, [`rule::sub_cell`]) into the slot of
     /// `(layer, cx, cy)`, found by the hash and the probe or taken; the slot's index, `None`
     /// when the table is full. `bin` is a `u16` and `z` an `i16`, held in words as [`fold`]
-    /// takes them.
+    /// takes them, with the layer's pair slope `slope`.
     #[inline]
     #[allow(clippy::too_many_arguments)]
     fn insert(
@@ -645,6 +683,7 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
         z: i32,
         hole: bool,
         plane: bool,
+        slope: u32,
     ) -> Option<usize> {
         let mut index = hash(layer, cx, cy) as usize & Self::MASK;
         for _ in 0..C {
@@ -679,7 +718,7 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
             }
             if slot.layer == layer && slot.cell_x == cx && slot.cell_y == cy {
                 let robot_height_mm = i32::from(self.robot_height_mm);
-                fold(slot, z, sub, bin, hole, robot_height_mm, plane);
+                fold(slot, z, sub, bin, hole, robot_height_mm, plane, slope);
                 return Some(index);
             }
             index = (index + 1) & Self::MASK;

@@ -10,7 +10,9 @@
 //!   extent by more than the largest traversable slope and a step allow, or when the cell's
 //!   lowest and highest points stand apart by more than the plane explains between them and
 //!   a step allows (the extremes test: a kerb or a step inside a coarse cell, which the plane
-//!   takes for a slope). The allowances grow
+//!   takes for a slope), or when two consecutive returns of the cell stand apart by more than
+//!   the largest slope explains between them and a step allows (the pair test: a far kerb's
+//!   face, where two beams' returns stand on each other). The allowances grow
 //!   with the sensor's height noise at the cell's distance,
 //!   `σ_z(d) = √((σ·h/r)² + (σ_a·r)²)`, `r = √(h² + d²)`: the range noise σ along the beam and
 //!   the beam's elevation error σ_a, each seen in the vertical.
@@ -20,7 +22,7 @@
 //! rule is the spread rule, and the classifier applies the spread rule whatever its
 //! configuration asks ([`NavigabilityRule::is_built_in`]; the link refuses the plane rule).
 //!
-//! # Fixed point (`PlaneState`, 36 bytes a slot)
+//! # Fixed point (`PlaneState`, 44 bytes a slot)
 //! Per point: its position in the cell as two 6-bit coordinates `u, v ∈ −32 ..= 31` (units of
 //! the cell's side / 64, from the cell's centre: `⌊64·(x − x_cell)/c⌋ − 32`, by a multiplication
 //! with the layer's cached reciprocal), its height `z − z₀` in millimetres relative to the
@@ -44,6 +46,11 @@
 //! (from the slot's lowest and highest z) and the positions `(u, v)` of those two points,
 //! which the slot keeps as they change (4 bytes): `spread − max(0, w·Δ) > step + 2·k·σ·h/r`
 //! with `Δ` from the lowest to the highest (mm Q16, in 128 bits).
+//!
+//! The pair test is folded per return: the slot keeps its last return below the cut (its
+//! `(u, v)` and z, 4 bytes) and the largest `|Δz| − s·(|Δu| + |Δv|)` so far (mm, saturated to
+//! 0 ..= 255, 1 byte), s the layer's `tan θ_max·c/64` in mm Q8; the decision compares it with
+//! the extremes test's allowance `step + 2·k·σ·h/r`.
 
 use crate::units::Meters;
 use fixed::types::I16F16;
@@ -116,7 +123,11 @@ impl Default for NavigabilityRule {
 /// points):
 /// - the RMS of the points about their plane exceeds `√(residual² + a²)`, or
 /// - the plane rises across the points' extent D by more than `step + D·max_grade +
-///   a·√(12/n)`.
+///   a·√(12/n)`, or
+/// - the lowest and the highest point stand apart by more than the plane explains between
+///   them and `step + 2·noise_factor·range_sigma·h/r` (the extremes test), or
+/// - two consecutive returns stand apart by more than `max_grade` explains over their
+///   horizontal distance (|Δx| + |Δy|) and the same allowance (the pair test).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct PlaneRule {
     /// The largest traversable slope as its grade (rise per unit of run, the tangent of its
@@ -169,8 +180,8 @@ const MAX_LEVEL: u8 = 15;
 const DZ_BITS: u32 = 14;
 
 #[cfg(feature = "plane-rule")]
-/// The plane rule's running sums of one slot, and where in the cell its lowest and highest
-/// points lie. 36 bytes.
+/// The plane rule's running sums of one slot, where in the cell its lowest and highest
+/// points lie, and the pair test's last return and largest rise. 44 bytes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(super) struct PlaneState {
     sz: i32,
@@ -197,6 +208,15 @@ pub(super) struct PlaneState {
     low_at: (i8, i8),
     /// The position of the slot's highest point below the overhang cut (the spread's top).
     high_at: (i8, i8),
+    /// The position of the slot's last point below the cut as it arrived (the pair test's
+    /// previous return).
+    last_at: (i8, i8),
+    /// That point's z, millimetres relative to the observation's reference height.
+    last_z: i16,
+    /// The largest rise between two consecutive returns below the cut beyond what the
+    /// largest slope explains between them, `|Δz| − tan θ_max·(|Δx| + |Δy|)`, millimetres,
+    /// saturated to 0 ..= 255 (the pair test, [`PlaneState::step_from_last`]).
+    pair_rise: u8,
 }
 
 #[cfg(feature = "plane-rule")]
@@ -216,6 +236,9 @@ impl PlaneState {
         level: 0,
         low_at: (0, 0),
         high_at: (0, 0),
+        last_at: (0, 0),
+        last_z: 0,
+        pair_rise: 0,
     };
 
     /// Sums of the one point `(u, v, z)`, the lowest and the highest.
@@ -224,8 +247,37 @@ impl PlaneState {
         s.z0 = z;
         s.low_at = (u, v);
         s.high_at = (u, v);
+        s.last_at = (u, v);
+        s.last_z = z;
         s.add_next(u, v, z);
         s
+    }
+
+    /// The pair test's fold of a return below the cut at `(u, v, z)` (z mm), following the
+    /// slot's last one: the rise between them beyond what the largest slope explains,
+    /// `|Δz| − slope·(|Δu| + |Δv|)` with `slope_q8` the largest slope's rise per unit of
+    /// position (`tan θ_max·c/64` mm, Q8, at most `u16::MAX` as
+    /// [`PlaneParams::pair_slope_q8`] gives it), kept when it is the largest so far (saturated
+    /// to 255 mm); the point becomes the last. In 32-bit words, one multiplication: the run is
+    /// at most 510 units, so `slope·run < 2²⁵`; a larger `slope_q8` (never given) may wrap the
+    /// product, a wrong rise but no panic.
+    #[inline(always)]
+    pub(super) fn step_from_last(&mut self, u: i8, v: i8, z: i16, slope_q8: u32) {
+        let run = u32::from(u.abs_diff(self.last_at.0)) + u32::from(v.abs_diff(self.last_at.1));
+        let rise = u32::from(z.abs_diff(self.last_z)) << 8;
+        let excess = rise.saturating_sub(slope_q8.wrapping_mul(run)) >> 8;
+        // At most 255 after the clamp: the cast is exact.
+        #[allow(clippy::cast_possible_truncation)]
+        let excess = excess.min(255) as u8;
+        self.pair_rise = self.pair_rise.max(excess);
+        self.last_at = (u, v);
+        self.last_z = z;
+    }
+
+    /// The largest rise between consecutive returns below the cut beyond the largest slope,
+    /// mm (0 ..= 255, saturated).
+    pub(super) const fn pair_rise(&self) -> u8 {
+        self.pair_rise
     }
 
     /// The slot's lowest point is now at `at`.
@@ -371,6 +423,21 @@ impl PlaneState {
     }
 }
 
+#[cfg(feature = "plane-rule")]
+/// The largest slope's rise per unit of a cell's position (c/64), mm Q8, for the pair test
+/// ([`PlaneState::step_from_last`]): `⌊tan θ_max·c·1000/64 · 2⁸⌋` (from `grade_q16`, tan Q16,
+/// and the cell side `cell_bits`, raw Q16.16 metres), saturated to `u16::MAX` (a slope of
+/// 256 mm per unit: cells of 45 m and more at 20°). In 64 bits, saturating.
+fn pair_slope_q8(grade_q16: i64, cell_bits: i32) -> u32 {
+    let grade = u64::try_from(grade_q16.max(0))
+        .unwrap_or(0)
+        .min(u64::from(u32::MAX));
+    let cell = u64::from(cell_bits.max(0).unsigned_abs());
+    // grade·c·1000 / 2¹⁶ / 64 · 2⁸ / 2¹⁶ = grade·c·1000 / 2³⁰ (below 2⁶³ / 2³⁰).
+    let q8 = grade.saturating_mul(cell).saturating_mul(1000) >> 30;
+    u32::try_from(q8.min(u64::from(u16::MAX))).unwrap_or(u32::from(u16::MAX))
+}
+
 /// The 6-bit position `⌊64·rem/c⌋ − 32 ∈ −32 ..= 31` of a coordinate whose remainder in its cell
 /// is `rem` (raw Q16.16, `0 ≤ rem < c`), for a cell of `c` raw with reciprocal
 /// `m = ⌊2³²/c⌋` ([`crate::grid::cell_reciprocal`]): `⌊rem·m/2²⁶⌋`, at most one unit below the
@@ -447,6 +514,12 @@ impl PlaneParams {
             step_q16,
             quick_mm: i32::try_from(quick - 1).unwrap_or(i32::MAX).max(-1),
         }
+    }
+
+    /// The largest slope's rise per unit of position in a cell of side `cell_bits` (raw
+    /// Q16.16 metres), mm Q8: the pair test's slope ([`PlaneState::step_from_last`]).
+    pub(super) fn pair_slope_q8(&self, cell_bits: i32) -> u32 {
+        pair_slope_q8(self.grade_q16, cell_bits)
     }
 
     /// Whether a spread of `spread_mm` (the slot's highest − lowest summed z) is navigable
@@ -532,6 +605,11 @@ mod absent {
         pub(in crate::classify) const fn low_at(&self) -> (i8, i8) {
             (0, 0)
         }
+
+        /// The pair test's fold: nothing is kept.
+        #[allow(clippy::unused_self)]
+        pub(in crate::classify) fn step_from_last(&mut self, _u: i8, _v: i8, _z: i16, _slope: u32) {
+        }
     }
 
     /// The plane rule's parameters, in a build without the rule: uninhabited.
@@ -541,6 +619,11 @@ mod absent {
     impl PlaneParams {
         /// Never called: no value exists.
         pub(in crate::classify) fn flat_enough(&self, _spread_mm: i32) -> bool {
+            match *self {}
+        }
+
+        /// Never called: no value exists.
+        pub(in crate::classify) fn pair_slope_q8(&self, _cell_bits: i32) -> u32 {
             match *self {}
         }
     }

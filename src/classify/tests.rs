@@ -148,8 +148,8 @@ fn add_point_squared_is_add_point_with_the_floored_root() {
 #[test]
 #[cfg(feature = "plane-rule")]
 fn a_slot_is_52_bytes() {
-    assert_eq!(core::mem::size_of::<PlaneState>(), 36);
-    assert_eq!(core::mem::size_of::<Slot>(), 52);
+    assert_eq!(core::mem::size_of::<PlaneState>(), 44);
+    assert_eq!(core::mem::size_of::<Slot>(), 60);
 }
 
 #[test]

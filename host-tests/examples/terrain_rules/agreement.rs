@@ -80,7 +80,11 @@ fn agreement<const W: usize>(
         all += 1;
         agree += usize::from(obstacle == r.obstacle);
         let near = |x: f64| x > 0.85 && x < 1.15;
-        if near(r.residual_ratio) || near(r.rise_ratio) || r.cut_margin < 0.002 {
+        if near(r.residual_ratio)
+            || near(r.rise_ratio)
+            || near(r.pair_ratio)
+            || r.cut_margin < 0.002
+        {
             continue;
         }
         away += 1;

@@ -259,35 +259,55 @@ pub(super) fn extremes_allowance_q16(params: &PlaneParams, geometry: &CellGeomet
     i128::from(params.step_q16).saturating_add(noise)
 }
 
-/// The extremes test: whether the cell's lowest and highest points (spread `spread_mm`, the
-/// highest at `Δ = (du, dv)` units from the lowest) stand apart by more than the plane
-/// `w = (wa, wb)` (mm per unit, Q16) explains and the allowance: `spread − max(0, w·Δ) >
-/// step + 2·k·σ·h/r` (a step, a kerb, a pole's foot that the plane took for a slope). The
-/// unexplained part is at most the spread, so a spread within the step never passes.
-pub(super) fn extremes_obstacle(
+/// The extremes test's excess: how far the cell's lowest and highest points (spread
+/// `spread_mm`, the highest at `Δ = (du, dv)` units from the lowest) stand apart beyond what
+/// the plane `w = (wa, wb)` (mm per unit, Q16) explains, `spread − max(0, w·Δ)` (mm Q16; 0
+/// for a spread within the step, which is never an obstacle by this test). The unexplained
+/// part is at most the spread.
+pub(super) fn extremes_excess_q16(
     wa: i128,
     wb: i128,
     delta: (i8, i8),
     spread_mm: i32,
     params: &PlaneParams,
-    geometry: &CellGeometry,
-) -> bool {
+) -> i128 {
     let spread = i128::from(spread_mm) << 16;
     if spread <= i128::from(params.step_q16) {
-        return false;
+        return 0;
     }
     let explained = (wa * i128::from(delta.0) + wb * i128::from(delta.1)).max(0);
-    let unexplained = spread - explained;
-    unexplained > i128::from(params.step_q16)
-        && unexplained > extremes_allowance_q16(params, geometry)
+    spread - explained
+}
+
+/// Whether a rise `excess_q16` (mm Q16) between two returns, beyond what the cell's plane or
+/// the largest slope explains between them, is a step: more than `step + 2·k·σ·h/r`
+/// ([`extremes_allowance_q16`], computed only for an excess beyond the step).
+pub(super) fn beyond_allowance(
+    excess_q16: i128,
+    params: &PlaneParams,
+    geometry: &CellGeometry,
+) -> bool {
+    excess_q16 > i128::from(params.step_q16)
+        && excess_q16 > extremes_allowance_q16(params, geometry)
+}
+
+/// The pair test: whether two consecutive returns of the cell stand apart by more than the
+/// largest slope explains between them and the allowance, `pair_rise > step + 2·k·σ·h/r`
+/// (`pair_rise` mm, [`PlaneState::step_from_last`]): a kerb's face, where the returns of two
+/// beams stand on each other and differ by the kerb's height. The decision takes the larger of
+/// this excess and the extremes test's ([`extremes_excess_q16`]).
+#[cfg(test)]
+pub(super) fn pair_obstacle(pair_rise: u8, params: &PlaneParams, geometry: &CellGeometry) -> bool {
+    beyond_allowance(i128::from(pair_rise) << 16, params, geometry)
 }
 
 /// Whether the plane rule calls the cell of `state` not navigable: two to four 64-bit
 /// divisions (the plane), up to two integer square roots (the gradient, the rise), and the
 /// noise (one division, two roots) only for a cell whose residual exceeds the allowance
-/// without noise or that is steeper than the largest slope; the extremes test
-/// ([`extremes_obstacle`]) for a cell whose spread `spread_mm` (highest − lowest below the
-/// cut, mm) exceeds the step.
+/// without noise or that is steeper than the largest slope; the extremes and the pair tests
+/// ([`extremes_excess_q16`], the slot's pair rise, [`beyond_allowance`]: their allowance
+/// once, for the larger excess, only when it exceeds the step), the extremes for a spread
+/// `spread_mm` (highest − lowest below the cut, mm) beyond the step.
 pub(in crate::classify) fn plane_obstacle(
     state: &PlaneState,
     params: &PlaneParams,
@@ -327,7 +347,10 @@ pub(in crate::classify) fn plane_obstacle(
     );
     let (low, high) = (state.low_at(), state.high_at());
     let delta = (high.0.wrapping_sub(low.0), high.1.wrapping_sub(low.1));
-    if extremes_obstacle(wa, wb, delta, spread_mm, params, geometry) {
+    // The extremes and the pair test share their allowance: the larger excess decides.
+    let excess = extremes_excess_q16(wa, wb, delta, spread_mm, params)
+        .max(i128::from(state.pair_rise()) << 16);
+    if beyond_allowance(excess, params, geometry) {
         return true;
     }
     // wᵀCw and the residual, times n² (Q32 mm²).

@@ -778,3 +778,107 @@ fn the_extremes_allowance_is_the_step_and_twice_the_range_noise() {
     // No sensor height (a sensor on the ground): σ itself at r = 0 only.
     assert!((at(5, 0) - 50.0).abs() < 0.05);
 }
+
+/// The pair test's fold of `points` (u, v, z mm) in arrival order with slope `slope_q8`.
+fn pairs(points: &[(i8, i8, i16)], slope_q8: u32) -> PlaneState {
+    let (u, v, z) = points[0];
+    let mut s = PlaneState::first(u, v, z);
+    for &(u, v, z) in &points[1..] {
+        s.step_from_last(u, v, z, slope_q8);
+        s.add_next(u, v, z);
+    }
+    s
+}
+
+#[test]
+fn the_pair_slope_is_the_largest_slope_per_unit_of_the_cell() {
+    // tan 20°·600 mm / 64 = 3.412 mm per unit, 873.5 in Q8 (the grade and the cell in
+    // Q16.16: within a unit of Q8).
+    let p = PlaneParams::new(&PlaneRule::DEFAULT, Meters::from_num(0.05));
+    let exact = 20f64.to_radians().tan() * 600.0 / 64.0 * 256.0;
+    let got = f64::from(p.pair_slope_q8(Meters::from_num(0.6).to_bits()));
+    assert!((got - exact).abs() <= 1.5, "{got} against {exact}");
+    // No slope allowed: 0; a negative or zero cell: 0; a huge cell saturates.
+    let flat = PlaneParams::new(
+        &PlaneRule {
+            max_grade: Ratio::ZERO,
+            ..PlaneRule::DEFAULT
+        },
+        Meters::from_num(0.05),
+    );
+    assert_eq!(flat.pair_slope_q8(Meters::from_num(0.6).to_bits()), 0);
+    assert_eq!(p.pair_slope_q8(-5), 0);
+    assert_eq!(p.pair_slope_q8(i32::MAX), u32::from(u16::MAX));
+}
+
+#[test]
+fn the_pair_rise_is_the_largest_step_between_consecutive_returns_beyond_the_slope() {
+    let slope = 874; // 3.41 mm per unit: 20° in a 0.6 m cell.
+                     // Two beams crossing a 120 mm kerb's face at one azimuth after another: their returns
+                     // stand on each other (a unit apart), 119 mm apart in height.
+    let face = [(0, 0, 0), (1, 0, 119), (2, 1, 2), (3, 1, 120)];
+    let s = pairs(&face, slope);
+    // The largest of 119 − 3.41·1, 117 − 3.41·2 and 118 − 3.41·1 mm, floored.
+    assert_eq!(s.pair_rise(), 115);
+    // The same heights 30 units (28 cm) apart along a line: the slope explains 102.4 mm.
+    let spaced = [(-30, 0, 0), (0, 0, 119)];
+    assert_eq!(pairs(&spaced, slope).pair_rise(), 16);
+    // A 20° slope sampled at any spacing: nothing beyond the slope.
+    let ramp: std::vec::Vec<(i8, i8, i16)> = (-30..=30)
+        .step_by(3)
+        .map(|u: i32| {
+            let z = (f64::from(u + 30) * 3.41).floor();
+            (i8::try_from(u).unwrap(), 0, z as i16)
+        })
+        .collect();
+    assert_eq!(pairs(&ramp, slope).pair_rise(), 0);
+    // Falling counts as rising (the beams may cross the face in either order), and the rise
+    // saturates at 255 mm.
+    assert_eq!(pairs(&[(0, 0, 400), (0, 0, 0)], slope).pair_rise(), 255);
+    assert_eq!(pairs(&[(0, 0, 60), (0, 0, 0)], slope).pair_rise(), 60);
+    // Extreme positions and heights never panic.
+    let wild = [(-32, -32, i16::MIN), (31, 31, i16::MAX), (-32, 31, 0)];
+    assert_eq!(pairs(&wild, 0).pair_rise(), 255);
+    // 65.5 m over 126 units of 256 mm (32 m): still 255.
+    assert_eq!(pairs(&wild, u32::from(u16::MAX)).pair_rise(), 255);
+    let _ = pairs(&wild, u32::MAX);
+}
+
+#[test]
+fn a_pair_rise_beyond_the_step_and_the_range_noise_is_an_obstacle() {
+    let p = PlaneParams::new(&PlaneRule::DEFAULT, Meters::from_num(0.05));
+    let g = CellGeometry {
+        cell: Meters::from_num(0.6).to_bits(),
+        sensor_height_mm: 1300,
+        distance: Meters::from_num(17),
+    };
+    // The allowance at 17 m: 50 + 80·1.3/17.05 = 56.1 mm.
+    assert!(!pair_obstacle(56, &p, &g));
+    assert!(pair_obstacle(57, &p, &g));
+    // A cell whose only sign of the kerb is a stacked pair: the plane and the extremes see a
+    // gentle slope, the pair test the face.
+    let face = [
+        (-30, 0, 0),
+        (-20, 0, 0),
+        (-10, 0, 1),
+        (0, 0, 0),
+        (0, 1, 110),
+        (10, 1, 112),
+        (20, 1, 111),
+        (30, 1, 110),
+    ];
+    let s = pairs(&face, p.pair_slope_q8(g.cell));
+    assert!(s.pair_rise() > 100);
+    assert!(plane_obstacle(&s, &p, &g, 112));
+    // The same returns with the stacked ones apart: a ramp of 110 mm over 28 cm is no step
+    // beyond 20° and the step (the extremes lie apart too).
+    let apart = [
+        (-30, 0, 0),
+        (-20, 0, 0),
+        (-10, 0, 1),
+        (0, 0, 0),
+        (30, 1, 110),
+    ];
+    let s = pairs(&apart, p.pair_slope_q8(g.cell));
+    assert!(!pair_obstacle(s.pair_rise(), &p, &g));
+}
