@@ -23,6 +23,16 @@
 //! "no echo" value) goes to the classifier with its horizontal distance from the sensor and the
 //! robot's ground plane `sensor z − --height-m`; the observation is then finished into the
 //! pyramid.
+//!
+//! # The order of the points
+//! The classifier's pair test compares each return with the one before it in the same cell
+//! (`docs/core.md`, "The pair test"): a kerb's face shows where two beams' returns at one
+//! azimuth stand on each other, and they follow each other when the points come as a spinning
+//! laser fires them. A point file may hold them so, or beam by beam (a whole revolution of
+//! one beam, then the next). With `--order firing` (the default) the points are sorted into
+//! firing order first: by their azimuth about the sensor in steps of the design's ψ
+//! (`--psi-deg`), from −180°, and within one step from the highest elevation down (a stable
+//! sort: equal keys keep the file's order). `--order file` keeps the file's order.
 use crate::design;
 use crate::export::{self, MapSnapshot, MapSummary};
 use crate::pyramid_args::PyramidArgs;
@@ -78,6 +88,10 @@ pub struct Args {
         allow_hyphen_values = true
     )]
     pub sensor_origin_m: Xyz,
+    /// The order in which the points reach the classifier: `firing` (sorted by azimuth in
+    /// steps of ψ, then by elevation from the top, as a spinning laser fires them) or `file`.
+    #[arg(long, value_enum, default_value_t = PointOrder::Firing)]
+    pub order: PointOrder,
     /// The scan's frame relative to the robot's: roll, pitch, yaw in degrees (REP-103,
     /// each within ±360), the points turned about the sensor's position; `0,0,0` by default.
     #[arg(long, value_name = "R,P,Y", allow_hyphen_values = true)]
@@ -88,6 +102,30 @@ pub struct Args {
     /// The design, the clamping and the classifier.
     #[command(flatten)]
     pub pyramid: PyramidArgs,
+}
+
+/// The order in which `replay` gives the points to the classifier (see the module
+/// documentation).
+#[derive(clap::ValueEnum, Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum PointOrder {
+    /// By azimuth about the sensor in steps of the design's ψ, then by elevation from the
+    /// top: as a spinning laser fires them.
+    #[default]
+    Firing,
+    /// As the file holds them.
+    File,
+}
+
+/// The firing order's key of a point at `offset` (metres) from the sensor: its azimuth step
+/// (of `psi_rad` > 0, counted from −π) and its elevation negated (the highest first).
+#[must_use]
+pub fn firing_key(offset: [f64; 3], psi_rad: f64) -> (i64, f64) {
+    let azimuth = offset[1].atan2(offset[0]) + std::f64::consts::PI;
+    // At most 2π / ψ steps: the cast saturates only for a ψ below 1e-18 rad.
+    #[allow(clippy::cast_possible_truncation)]
+    let step = (azimuth / psi_rad).floor() as i64;
+    let elevation = offset[2].atan2(offset[0].hypot(offset[1]));
+    (step, -elevation)
 }
 
 /// Three comma-separated numbers.
@@ -183,6 +221,8 @@ pub struct Summary {
     pub ground_z_m: f64,
     /// The navigability rule in force and its parameters ([`rule::describe`]).
     pub rule: String,
+    /// The order in which the points reached the classifier: `firing` or `file`.
+    pub order: &'static str,
     /// The files written.
     pub files: Vec<String>,
 }
@@ -357,6 +397,9 @@ fn integrate<const W: usize>(args: &Args, plan: &Plan) -> Result<Integrated, Fai
     let max_range = f64::from(plan.design.sensor().max_range_m);
     let (mut no_return, mut beyond) = (0_u64, 0_u64);
     let mut reader = UosReader::new(BufReader::new(file));
+    // The points in the robot's frame, metres, with their firing order's key.
+    let mut points: Vec<([f64; 3], (i64, f64))> = Vec::new();
+    let psi = f64::from(plan.design.sensor().psi_rad).max(1e-9);
     for point in reader.by_ref() {
         let p = point.map_err(|e| Failure::input(format!("{}: {e}", args.points.display())))?;
         let raw = [p.x, p.y, p.z];
@@ -367,11 +410,23 @@ fn integrate<const W: usize>(args: &Args, plan: &Plan) -> Result<Integrated, Fai
             continue;
         }
         let local = mounted(&plan.rotation, plan.origin, from_3dtk_cm(raw));
-        let world = point3([
+        let world = [
             local[0] + plan.translation[0],
             local[1] + plan.translation[1],
             local[2] + plan.translation[2],
-        ]);
+        ];
+        let offset = [
+            world[0] - plan.sensor[0],
+            world[1] - plan.sensor[1],
+            world[2] - plan.sensor[2],
+        ];
+        points.push((world, firing_key(offset, psi)));
+    }
+    if args.order == PointOrder::Firing {
+        points.sort_by(|a, b| a.1 .0.cmp(&b.1 .0).then(a.1 .1.total_cmp(&b.1 .1)));
+    }
+    for (world, _) in points {
+        let world = point3(world);
         let distance = horizontal_distance(sensor, world);
         if distance.to_num::<f64>() > max_range {
             beyond += 1;
@@ -443,6 +498,10 @@ pub fn replay(args: &Args) -> Result<Summary, Failure> {
         sensor_m: plan.sensor,
         ground_z_m: plan.ground_z,
         rule: rule::describe(&plan.classifier),
+        order: match args.order {
+            PointOrder::Firing => "firing",
+            PointOrder::File => "file",
+        },
         files: written
             .files
             .iter()

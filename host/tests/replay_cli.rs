@@ -254,6 +254,98 @@ fn a_synthetic_floor_with_a_box() {
     assert!(out.join("maps.png").metadata().unwrap().len() > 10_000);
 }
 
+/// A noise-free revolution of a car's ring laser (h 1.3 m, beams every 0.4° from −24.8°, 0.2°
+/// azimuth steps over 0..90°, 20 m) over a flat road with a kerb `kerb_m` high along
+/// y = 3.5 m, written beam by beam (a whole sweep of one beam, then the next), as some point
+/// files hold a spinning laser's returns.
+fn kerb_scan_beam_by_beam(kerb_m: f64) -> String {
+    let (h, kerb_y) = (1.3, 3.5);
+    let mut s = String::new();
+    for k in 0..62 {
+        let a = (-24.8 + 0.4 * f64::from(k)).to_radians();
+        for j in 0..=450 {
+            let th = (0.2 * f64::from(j)).to_radians();
+            let d = [a.cos() * th.cos(), a.cos() * th.sin(), a.sin()];
+            let at = |t: f64| [t * d[0], t * d[1], t * d[2]];
+            let mut p = at(h / -d[2]);
+            if p[1] >= kerb_y {
+                // The face where the ray meets y = 3.5 m below the kerb's top, else the top.
+                let face = at(kerb_y / d[1]);
+                p = if face[2] < kerb_m - h {
+                    face
+                } else {
+                    at((h - kerb_m) / -d[2])
+                };
+            }
+            if p[0].hypot(p[1]) <= 20.0 {
+                line(&mut s, p[0], p[1], p[2]);
+            }
+        }
+    }
+    s
+}
+
+#[test]
+fn a_far_kerb_is_found_in_firing_order_whatever_the_file_order() {
+    let dir = scratch("kerb-order");
+    let file = dir.join("kerb.3d");
+    std::fs::write(&file, kerb_scan_beam_by_beam(0.12)).unwrap();
+    let design = [
+        "--max-range-m",
+        "20",
+        "--gamma",
+        "3",
+        "--height-m",
+        "1.3",
+        "--phi-deg",
+        "0.4",
+        "--psi-deg",
+        "0.2",
+        "--sigma-m",
+        "0.02",
+        "--cells",
+        "128",
+    ];
+    // Kerb samples every 0.1 m along x in 10..19 m, marked when an obstacle cell of the fused
+    // map lies within 0.2 m.
+    let marked = |order: &str| {
+        let out = dir.join(order);
+        let v = replay_json(
+            &[
+                &[
+                    "--points",
+                    path(&file),
+                    "--out",
+                    path(&out),
+                    "--order",
+                    order,
+                ][..],
+                &design[..],
+            ]
+            .concat(),
+        );
+        assert_eq!(v["order"], order);
+        let fused = Map::read(&out, "fused");
+        let near = |x: f64| {
+            (-2..=2).any(|i: i32| {
+                (-2..=2).any(|j: i32| {
+                    i * i + j * j <= 4
+                        && fused.at(x + 0.1 * f64::from(i), 3.5 + 0.1 * f64::from(j)) == OBSTACLE
+                })
+            })
+        };
+        (0..90)
+            .filter(|&i| near(10.05 + 0.1 * f64::from(i)))
+            .count()
+    };
+    // In firing order the two beams that stand on the kerb's face follow each other in their
+    // cell (the pair test); beam by beam they are a revolution apart, and far out the kerb is
+    // a ramp within each beam.
+    let (firing, file_order) = (marked("firing"), marked("file"));
+    assert_eq!(firing, 90, "firing order");
+    assert!(file_order < 80, "file order: {file_order} of 90");
+}
+
 /// The real scan: `../shared/data` next to the project (or `$PYRAMID_SHARED_DATA`).
 fn real_scan() -> Option<PathBuf> {
     let dir = std::env::var_os("PYRAMID_SHARED_DATA").map_or_else(
