@@ -26,13 +26,18 @@
 //!
 //! # The order of the points
 //! The classifier's pair test compares each return with the one before it in the same cell
-//! (`docs/core.md`, "The pair test"): a kerb's face shows where two beams' returns at one
-//! azimuth stand on each other, and they follow each other when the points come as a spinning
-//! laser fires them. A point file may hold them so, or beam by beam (a whole revolution of
-//! one beam, then the next). With `--order firing` (the default) the points are sorted into
-//! firing order first: by their azimuth about the sensor in steps of the design's ψ
-//! (`--psi-deg`), from −180°, and within one step from the highest elevation down (a stable
-//! sort: equal keys keep the file's order). `--order file` keeps the file's order.
+//! (`docs/core.md`, "Why the pair test"): a far kerb's face shows where two beams' returns at
+//! one azimuth stand on each other, and they follow each other only when the points come as
+//! a spinning laser fires them. By default (`--order file`) the points go in the file's
+//! order. `--order firing` sorts them first by their azimuth about the sensor in steps of the
+//! design's ψ (`--psi-deg`), from −180°, and within one step by elevation from the lowest up
+//! (a stable sort: equal keys keep the file's order): for a spinning multi-beam laser's file
+//! held beam by beam (a whole revolution of one beam, then the next). Not for a scanner whose
+//! lines already sweep the scene in order, such as a tilting 2-D laser: the classifier keeps a
+//! cell's points below its overhang cut as they come, and a point far below those before it
+//! restarts the cell's plane from the best bound still known, which in firing order happens
+//! at every azimuth step on a wall (`docs/core.md`, "The navigability rule"; measured on the
+//! 3DTK scan: 88.7 % of the obstacle returns marked against 99.9 % in the file's order).
 use crate::design;
 use crate::export::{self, MapSnapshot, MapSummary};
 use crate::pyramid_args::PyramidArgs;
@@ -88,9 +93,10 @@ pub struct Args {
         allow_hyphen_values = true
     )]
     pub sensor_origin_m: Xyz,
-    /// The order in which the points reach the classifier: `firing` (sorted by azimuth in
-    /// steps of ψ, then by elevation from the top, as a spinning laser fires them) or `file`.
-    #[arg(long, value_enum, default_value_t = PointOrder::Firing)]
+    /// The order in which the points reach the classifier: `file` (the default) or `firing`
+    /// (sorted by azimuth in steps of ψ, then by elevation from the bottom, as a spinning
+    /// laser fires them: for a multi-beam laser's file held beam by beam).
+    #[arg(long, value_enum, default_value_t = PointOrder::File)]
     pub order: PointOrder,
     /// The scan's frame relative to the robot's: roll, pitch, yaw in degrees (REP-103,
     /// each within ±360), the points turned about the sensor's position; `0,0,0` by default.
@@ -108,16 +114,16 @@ pub struct Args {
 /// documentation).
 #[derive(clap::ValueEnum, Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum PointOrder {
-    /// By azimuth about the sensor in steps of the design's ψ, then by elevation from the
-    /// top: as a spinning laser fires them.
+    /// As the file holds them (the default).
     #[default]
-    Firing,
-    /// As the file holds them.
     File,
+    /// By azimuth about the sensor in steps of the design's ψ, then by elevation from the
+    /// bottom: as a spinning laser fires them.
+    Firing,
 }
 
 /// The firing order's key of a point at `offset` (metres) from the sensor: its azimuth step
-/// (of `psi_rad` > 0, counted from −π) and its elevation negated (the highest first).
+/// (of `psi_rad` > 0, counted from −π) and its elevation (radians; the lowest first).
 #[must_use]
 pub fn firing_key(offset: [f64; 3], psi_rad: f64) -> (i64, f64) {
     let azimuth = offset[1].atan2(offset[0]) + std::f64::consts::PI;
@@ -125,7 +131,7 @@ pub fn firing_key(offset: [f64; 3], psi_rad: f64) -> (i64, f64) {
     #[allow(clippy::cast_possible_truncation)]
     let step = (azimuth / psi_rad).floor() as i64;
     let elevation = offset[2].atan2(offset[0].hypot(offset[1]));
-    (step, -elevation)
+    (step, elevation)
 }
 
 /// Three comma-separated numbers.

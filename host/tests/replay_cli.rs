@@ -255,7 +255,7 @@ fn a_synthetic_floor_with_a_box() {
 }
 
 /// A noise-free revolution of a car's ring laser (h 1.3 m, beams every 0.4° from −24.8°, 0.2°
-/// azimuth steps over 0..90°, 20 m) over a flat road with a kerb `kerb_m` high along
+/// azimuth steps over 0.1..90.1°, 20 m) over a flat road with a kerb `kerb_m` high along
 /// y = 3.5 m, written beam by beam (a whole sweep of one beam, then the next), as some point
 /// files hold a spinning laser's returns.
 fn kerb_scan_beam_by_beam(kerb_m: f64) -> String {
@@ -264,7 +264,8 @@ fn kerb_scan_beam_by_beam(kerb_m: f64) -> String {
     for k in 0..62 {
         let a = (-24.8 + 0.4 * f64::from(k)).to_radians();
         for j in 0..=450 {
-            let th = (0.2 * f64::from(j)).to_radians();
+            // Half a step off the multiples of ψ, where the sort's steps begin.
+            let th = (0.1 + 0.2 * f64::from(j)).to_radians();
             let d = [a.cos() * th.cos(), a.cos() * th.sin(), a.sin()];
             let at = |t: f64| [t * d[0], t * d[1], t * d[2]];
             let mut p = at(h / -d[2]);
@@ -286,7 +287,7 @@ fn kerb_scan_beam_by_beam(kerb_m: f64) -> String {
 }
 
 #[test]
-fn a_far_kerb_is_found_in_firing_order_whatever_the_file_order() {
+fn a_far_kerb_held_beam_by_beam_is_found_in_firing_order() {
     let dir = scratch("kerb-order");
     let file = dir.join("kerb.3d");
     std::fs::write(&file, kerb_scan_beam_by_beam(0.12)).unwrap();
@@ -344,6 +345,9 @@ fn a_far_kerb_is_found_in_firing_order_whatever_the_file_order() {
     let (firing, file_order) = (marked("firing"), marked("file"));
     assert_eq!(firing, 90, "firing order");
     assert!(file_order < 80, "file order: {file_order} of 90");
+    // The file's order is the default.
+    let v = replay_json(&["--points", path(&file), "--out", path(&dir.join("default"))]);
+    assert_eq!(v["order"], "file");
 }
 
 /// The real scan: `../shared/data` next to the project (or `$PYRAMID_SHARED_DATA`).

@@ -5,7 +5,8 @@
 //!   existed (docs/measurements.md, BENCHMARKS.md): the paper's rule, carried to the co-processor in the
 //!   link's Setup, still gives those maps bit for bit.
 //! - the default (`--rule plane`): `cc5fae74d9e79b55`, measured when the plane rule gained its
-//!   extremes test (`docs/core.md`, "The navigability rule"; `7f72fd2277f75e1e` before it); a
+//!   extremes test (`docs/core.md`, "The navigability rule"; `7f72fd2277f75e1e` before it; the
+//!   pair test left it unchanged: the scan's tilt lines stack no returns on a face); a
 //!   change to the plane rule's arithmetic changes it, and then this pin is renewed with the
 //!   reason.
 mod common;

@@ -586,6 +586,43 @@ fn part_3dtk(judges: &[Judge]) {
             per_layer.push((judge.name(), tallies));
         }
     }
+    // The default rule again, the points sorted into a spinning laser's firing order (by
+    // azimuth in steps of the design's ψ, then by elevation from the bottom), as `pyramid
+    // replay --order firing` gives them: what that order costs a tilting 2-D laser's scan.
+    let mut p = pyramid::<64, L>(&design);
+    classifier.configure(ClassifierConfig {
+        ceiling: Some(Meters::from_num(scan3dtk::CEILING_M)),
+        ..ClassifierConfig::default()
+    });
+    let psi = f64::from(design.sensor().psi_rad);
+    let key = |q: &[f64; 3]| {
+        let azimuth = q[1].atan2(q[0]) + std::f64::consts::PI;
+        ((azimuth / psi).floor() as i64, q[2].atan2(q[0].hypot(q[1])))
+    };
+    let mut firing = points.clone();
+    firing.sort_by(|a, b| {
+        let (ka, kb) = (key(a), key(b));
+        ka.0.cmp(&kb.0).then(ka.1.total_cmp(&kb.1))
+    });
+    let all = Observation {
+        points: firing,
+        ..obs.clone()
+    };
+    integrate_library(&mut p, &all, &mut classifier);
+    let e = scan3dtk::score(&p, &lab);
+    println!(
+        "| library, plane (default), fixed point, firing order (`pyramid replay --order firing`) | {} % ({} of {}) | {} % ({} of {}) | {} % ({} of {}) | {} % |",
+        share(e.ground_navigable, e.ground),
+        e.ground_navigable,
+        e.ground,
+        share(e.ground_cells_navigable, e.ground_cells),
+        e.ground_cells_navigable,
+        e.ground_cells,
+        share(e.obstacle_found, e.obstacle),
+        e.obstacle_found,
+        e.obstacle,
+        share(e.step_found, e.step)
+    );
     println!(
         "\nPer layer (the library's rules): of the clear ground returns whose cell in the layer is \
          observed, the share on a navigable cell / of the obstacle and step returns whose cell is \
