@@ -210,7 +210,7 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
         Ok(())
     }
 
-    /// Sets the first eight layers' cell reciprocals and the pair test's slopes from the
+    /// Sets the first eight layers' cell reciprocals and the pair test's scales from the
     /// gating and the rule in force.
     fn refresh_layers(&mut self) {
         for (k, recent) in self.recent.iter_mut().enumerate() {
@@ -219,8 +219,8 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
                 .resolution(k)
                 .map(crate::grid::Resolution::to_bits);
             recent.reciprocal = bits.map_or(0, crate::grid::cell_reciprocal);
-            recent.pair_slope = match (&self.plane, bits) {
-                (Some(params), Some(bits)) => params.pair_slope_q8(bits),
+            recent.pair_scale = match (&self.plane, bits) {
+                (Some(params), Some(bits)) => params.pair_scale(bits),
                 _ => 0,
             };
         }
@@ -518,7 +518,7 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
                     HOLE,
                     robot_height_mm,
                     PLANE,
-                    recent.pair_slope,
+                    recent.pair_scale,
                 );
                 return true;
             }
@@ -528,7 +528,7 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
         };
         let (cx, cy, sub) = Self::cell_of(r, recent.reciprocal, point, PLANE);
         // Stored as k + 1 (0 marks an empty slot); k < 8.
-        match self.insert(k + 1, cx, cy, sub, bin, z, HOLE, PLANE, recent.pair_slope) {
+        match self.insert(k + 1, cx, cy, sub, bin, z, HOLE, PLANE, recent.pair_scale) {
             Some(index) => {
                 self.remember(usize::from(k), r.to_bits(), cx, cy, index);
                 true
@@ -626,7 +626,7 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
         let slope = self
             .plane
             .as_ref()
-            .map_or(0, |params| params.pair_slope_q8(r.to_bits()));
+            .map_or(0, |params| params.pair_scale(r.to_bits()));
         self.feed_cell(layer_index, cx, cy, sub, bin, z, hole, slope)
     }
 

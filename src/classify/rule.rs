@@ -254,24 +254,36 @@ impl PlaneState {
     }
 
     /// The pair test's fold of a return below the cut at `(u, v, z)` (z mm), following the
-    /// slot's last one: the rise between them beyond what the largest slope explains,
-    /// `|Δz| − slope·(|Δu| + |Δv|)` with `slope_q8` the largest slope's rise per unit of
-    /// position (`tan θ_max·c/64` mm, Q8, at most `u16::MAX` as
-    /// [`PlaneParams::pair_slope_q8`] gives it), kept when it is the largest so far (saturated
-    /// to 255 mm); the point becomes the last. In 32-bit words, one multiplication: the run is
-    /// at most 510 units, so `slope·run < 2²⁵`; a larger `slope_q8` (never given) may wrap the
-    /// product, a wrong rise but no panic.
+    /// slot's last one, with the layer's `scale` ([`PlaneParams::pair_scale`]: the step
+    /// allowance s in whole mm in the high half, the largest slope's rise per unit of
+    /// position `tan θ_max·c/64` in mm Q8 in the low half): when the two differ in height by
+    /// more than s, the rise between them beyond what the slope explains,
+    /// `|Δz| − slope·(|Δu| + |Δv|)`, is kept when it is the largest so far (saturated to
+    /// 255 mm); a rise within s cannot exceed the step and is not computed. The point becomes
+    /// the last. In 32-bit words, one multiplication: the run is at most 510 units and the
+    /// slope below 2¹⁶, so their product is below 2²⁵.
     #[inline(always)]
-    pub(super) fn step_from_last(&mut self, u: i8, v: i8, z: i16, slope_q8: u32) {
+    pub(super) fn step_from_last(&mut self, u: i8, v: i8, z: i16, scale: u32) {
+        let rise = u32::from(z.abs_diff(self.last_z));
+        if rise > scale >> 16 {
+            self.keep_rise(u, v, rise, scale & 0xFFFF);
+        }
+        self.last_at = (u, v);
+        self.last_z = z;
+    }
+
+    /// [`PlaneState::step_from_last`]'s rise `rise` (mm) from the last point to one at
+    /// `(u, v)`, beyond the slope `slope_q8`, kept when it is the largest so far. Out of line:
+    /// only rises beyond the step come here.
+    #[cold]
+    #[inline(never)]
+    fn keep_rise(&mut self, u: i8, v: i8, rise: u32, slope_q8: u32) {
         let run = u32::from(u.abs_diff(self.last_at.0)) + u32::from(v.abs_diff(self.last_at.1));
-        let rise = u32::from(z.abs_diff(self.last_z)) << 8;
-        let excess = rise.saturating_sub(slope_q8.wrapping_mul(run)) >> 8;
+        let excess = (rise << 8).saturating_sub(slope_q8.wrapping_mul(run)) >> 8;
         // At most 255 after the clamp: the cast is exact.
         #[allow(clippy::cast_possible_truncation)]
         let excess = excess.min(255) as u8;
         self.pair_rise = self.pair_rise.max(excess);
-        self.last_at = (u, v);
-        self.last_z = z;
     }
 
     /// The largest rise between consecutive returns below the cut beyond the largest slope,
@@ -428,7 +440,7 @@ impl PlaneState {
 /// ([`PlaneState::step_from_last`]): `⌊tan θ_max·c·1000/64 · 2⁸⌋` (from `grade_q16`, tan Q16,
 /// and the cell side `cell_bits`, raw Q16.16 metres), saturated to `u16::MAX` (a slope of
 /// 256 mm per unit: cells of 45 m and more at 20°). In 64 bits, saturating.
-fn pair_slope_q8(grade_q16: i64, cell_bits: i32) -> u32 {
+pub(super) fn pair_slope_q8(grade_q16: i64, cell_bits: i32) -> u32 {
     let grade = u64::try_from(grade_q16.max(0))
         .unwrap_or(0)
         .min(u64::from(u32::MAX));
@@ -516,10 +528,13 @@ impl PlaneParams {
         }
     }
 
-    /// The largest slope's rise per unit of position in a cell of side `cell_bits` (raw
-    /// Q16.16 metres), mm Q8: the pair test's slope ([`PlaneState::step_from_last`]).
-    pub(super) fn pair_slope_q8(&self, cell_bits: i32) -> u32 {
-        pair_slope_q8(self.grade_q16, cell_bits)
+    /// The pair test's constants for a layer of cell side `cell_bits` (raw Q16.16 metres), in
+    /// one word ([`PlaneState::step_from_last`]): the step allowance in whole mm (floored,
+    /// at most `u16::MAX`) in the high half, the largest slope's rise per unit of position
+    /// ([`pair_slope_q8`], mm Q8) in the low half.
+    pub(super) fn pair_scale(&self, cell_bits: i32) -> u32 {
+        let step_mm = u32::try_from((self.step_q16 >> 16).clamp(0, 0xFFFF)).unwrap_or(0xFFFF);
+        (step_mm << 16) | pair_slope_q8(self.grade_q16, cell_bits)
     }
 
     /// Whether a spread of `spread_mm` (the slot's highest − lowest summed z) is navigable
@@ -623,7 +638,7 @@ mod absent {
         }
 
         /// Never called: no value exists.
-        pub(in crate::classify) fn pair_slope_q8(&self, _cell_bits: i32) -> u32 {
+        pub(in crate::classify) fn pair_scale(&self, _cell_bits: i32) -> u32 {
             match *self {}
         }
     }

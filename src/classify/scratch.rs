@@ -34,10 +34,10 @@ pub(super) struct Recent {
     /// The slot of the cell (valid while `span` is not 0: slots are vacated only when the
     /// observation ends, and every entry is forgotten then).
     pub(super) slot: u16,
-    /// The pair test's slope in the layer's cells (mm per c/64, Q8,
-    /// [`PlaneParams::pair_slope_q8`](super::rule::PlaneParams)), set by
-    /// [`Classifier::configure`] and [`Classifier::adopt_design`]; 0 without the plane rule.
-    pub(super) pair_slope: u32,
+    /// The pair test's constants in the layer's cells (the step in mm, the largest slope's
+    /// rise per c/64 in mm Q8: `PlaneParams::pair_scale`), set by [`Classifier::configure`]
+    /// and [`Classifier::adopt_design`]; 0 without the plane rule.
+    pub(super) pair_scale: u32,
 }
 
 impl Recent {
@@ -47,7 +47,7 @@ impl Recent {
         span: 0,
         reciprocal: 0,
         slot: 0,
-        pair_slope: 0,
+        pair_scale: 0,
     };
 }
 
@@ -161,7 +161,7 @@ pub(super) fn hash(layer: u8, x: i32, y: i32) -> u32 {
 
 /// Folds a point (z mm, position `sub` in the cell, distance bin) into a used slot under the
 /// overhang rule; with `plane`, into the plane rule's sums and its pair test (with the layer's
-/// `slope`, [`PlaneState::step_from_last`]) too when it lies below the cut.
+/// `scale`, [`PlaneState::step_from_last`]) too when it lies below the cut.
 /// `bin` is a `u16`, `z` and `robot_height_mm` are `i16`, held in words: the per-layer loop
 /// keeps them so, and extends nothing again per layer.
 #[inline(always)]
@@ -174,7 +174,7 @@ pub(super) fn fold(
     hole: bool,
     robot_height_mm: i32,
     plane: bool,
-    slope: u32,
+    scale: u32,
 ) {
     // The narrow values again, for the slot's fields (exact: see above).
     #[allow(clippy::cast_possible_truncation)]
@@ -195,7 +195,7 @@ pub(super) fn fold(
                 restart_sums(slot, sub, z16, low_stays);
             }
         } else if plane {
-            slot.plane.step_from_last(sub.0, sub.1, z16, slope);
+            slot.plane.step_from_last(sub.0, sub.1, z16, scale);
             slot.plane.add_next(sub.0, sub.1, z16);
             slot.plane.set_low_at(sub);
         }
@@ -208,7 +208,7 @@ pub(super) fn fold(
             }
         }
         if plane {
-            slot.plane.step_from_last(sub.0, sub.1, z16, slope);
+            slot.plane.step_from_last(sub.0, sub.1, z16, scale);
             slot.plane.add_next(sub.0, sub.1, z16);
         }
     }

@@ -245,9 +245,11 @@ pub(super) fn not_steeper(wa: i128, wb: i128, tan_c: i128) -> bool {
     }
 }
 
-/// The allowance of the extremes test, `step + 2·k·σ·h/r` (mm Q16): the step plus the range
-/// noise of two returns seen in the vertical, `r = √(h² + d²)` (σ itself at r = 0);
-/// saturating.
+/// The allowance of the extremes and the pair test, `step + 2·k·σ·h/r` (mm Q16): the step
+/// plus the range noise of two returns seen in the vertical, `r = √(h² + d²)` (σ itself at
+/// r = 0); saturating. The decision compares with it without computing it
+/// ([`beyond_allowance`]).
+#[cfg(test)]
 pub(super) fn extremes_allowance_q16(params: &PlaneParams, geometry: &CellGeometry) -> i128 {
     let h = i128::from(geometry.sensor_height_mm.max(0));
     let d = (i128::from(geometry.distance.to_bits()).max(0) * 1000) >> 16;
@@ -280,15 +282,37 @@ pub(super) fn extremes_excess_q16(
 }
 
 /// Whether a rise `excess_q16` (mm Q16) between two returns, beyond what the cell's plane or
-/// the largest slope explains between them, is a step: more than `step + 2·k·σ·h/r`
-/// ([`extremes_allowance_q16`], computed only for an excess beyond the step).
+/// the largest slope explains between them, is a step: more than the allowance
+/// `step + 2·k·σ·h/r` ([`extremes_allowance_q16`]), decided without its root and division:
+/// with `e = excess − step > 0`, `e > 2·k·σ·h/r` exactly when `e²·r² > (2·k·σ·h)²`
+/// (`r² = h² + d²`, mm²; `k·σ` in mm Q32 and the right side's root truncated to mm Q16), in
+/// 64-bit words and two 64 × 64 → 128-bit products; at `r = 0`, `e > 2·k·σ`. Saturating: an
+/// allowance beyond 2⁶⁴ never passes.
 pub(super) fn beyond_allowance(
     excess_q16: i128,
     params: &PlaneParams,
     geometry: &CellGeometry,
 ) -> bool {
-    excess_q16 > i128::from(params.step_q16)
-        && excess_q16 > extremes_allowance_q16(params, geometry)
+    let e = excess_q16 - i128::from(params.step_q16);
+    if e <= 0 {
+        return false;
+    }
+    let e = u64::try_from(e).unwrap_or(u64::MAX);
+    let h = u64::from(geometry.sensor_height_mm.max(0).unsigned_abs());
+    // d < 2³¹·1000 / 2¹⁶ < 2²⁵ mm and h < 2³¹: r² < 2⁶³.
+    let d = (u64::from(geometry.distance.to_bits().max(0).unsigned_abs()) * 1000) >> 16;
+    let r2 = h * h + d * d;
+    let sigma = u64::try_from(params.sigma_q16).unwrap_or(0);
+    let factor = u64::try_from(params.factor_q16).unwrap_or(0);
+    // k·σ, mm Q32.
+    let k_sigma = sigma.saturating_mul(factor);
+    if r2 == 0 {
+        return e > (k_sigma >> 16).saturating_mul(2);
+    }
+    // 2·k·σ·h, mm² Q16.
+    let noise_h = (k_sigma >> 16).saturating_mul(2).saturating_mul(h);
+    let e2 = e.saturating_mul(e);
+    u128::from(e2) * u128::from(r2) > u128::from(noise_h) * u128::from(noise_h)
 }
 
 /// The pair test: whether two consecutive returns of the cell stand apart by more than the

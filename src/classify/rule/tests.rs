@@ -796,8 +796,11 @@ fn the_pair_slope_is_the_largest_slope_per_unit_of_the_cell() {
     // Q16.16: within a unit of Q8).
     let p = PlaneParams::new(&PlaneRule::DEFAULT, Meters::from_num(0.05));
     let exact = 20f64.to_radians().tan() * 600.0 / 64.0 * 256.0;
-    let got = f64::from(p.pair_slope_q8(Meters::from_num(0.6).to_bits()));
+    let scale = p.pair_scale(Meters::from_num(0.6).to_bits());
+    let got = f64::from(scale & 0xFFFF);
     assert!((got - exact).abs() <= 1.5, "{got} against {exact}");
+    // The step allowance in whole mm in the high half: 50 (0.05 m in Q16.16 is 50.003 mm).
+    assert_eq!(scale >> 16, 50);
     // No slope allowed: 0; a negative or zero cell: 0; a huge cell saturates.
     let flat = PlaneParams::new(
         &PlaneRule {
@@ -806,9 +809,9 @@ fn the_pair_slope_is_the_largest_slope_per_unit_of_the_cell() {
         },
         Meters::from_num(0.05),
     );
-    assert_eq!(flat.pair_slope_q8(Meters::from_num(0.6).to_bits()), 0);
-    assert_eq!(p.pair_slope_q8(-5), 0);
-    assert_eq!(p.pair_slope_q8(i32::MAX), u32::from(u16::MAX));
+    assert_eq!(flat.pair_scale(Meters::from_num(0.6).to_bits()) & 0xFFFF, 0);
+    assert_eq!(p.pair_scale(-5) & 0xFFFF, 0);
+    assert_eq!(p.pair_scale(i32::MAX) & 0xFFFF, u32::from(u16::MAX));
 }
 
 #[test]
@@ -836,6 +839,10 @@ fn the_pair_rise_is_the_largest_step_between_consecutive_returns_beyond_the_slop
     // saturates at 255 mm.
     assert_eq!(pairs(&[(0, 0, 400), (0, 0, 0)], slope).pair_rise(), 255);
     assert_eq!(pairs(&[(0, 0, 60), (0, 0, 0)], slope).pair_rise(), 60);
+    // A rise within the scale's step (its high half) is not computed: it cannot exceed the
+    // step.
+    assert_eq!(pairs(&[(0, 0, 60), (0, 0, 0)], (60 << 16) | slope).pair_rise(), 0);
+    assert_eq!(pairs(&[(0, 0, 61), (0, 0, 0)], (60 << 16) | slope).pair_rise(), 61);
     // Extreme positions and heights never panic.
     let wild = [(-32, -32, i16::MIN), (31, 31, i16::MAX), (-32, 31, 0)];
     assert_eq!(pairs(&wild, 0).pair_rise(), 255);
@@ -867,7 +874,7 @@ fn a_pair_rise_beyond_the_step_and_the_range_noise_is_an_obstacle() {
         (20, 1, 111),
         (30, 1, 110),
     ];
-    let s = pairs(&face, p.pair_slope_q8(g.cell));
+    let s = pairs(&face, p.pair_scale(g.cell));
     assert!(s.pair_rise() > 100);
     assert!(plane_obstacle(&s, &p, &g, 112));
     // The same returns with the stacked ones apart: a ramp of 110 mm over 28 cm is no step
@@ -879,6 +886,49 @@ fn a_pair_rise_beyond_the_step_and_the_range_noise_is_an_obstacle() {
         (0, 0, 0),
         (30, 1, 110),
     ];
-    let s = pairs(&apart, p.pair_slope_q8(g.cell));
+    let s = pairs(&apart, p.pair_scale(g.cell));
     assert!(!pair_obstacle(s.pair_rise(), &p, &g));
+}
+
+#[test]
+fn the_allowance_compared_without_its_root_is_the_allowance() {
+    // Random rules, heights, distances and excesses: `beyond_allowance` decides as the
+    // allowance computed with its root and division, wherever the excess is more than 1/64 mm
+    // from it (the two round differently within that).
+    let mut rng = XorShift(0x5EED_A110_u64);
+    let mut decided = 0;
+    for _ in 0..20_000 {
+        let rule = PlaneRule {
+            range_sigma: Meters::from_bits(i32::try_from(rng.below(13_108)).unwrap()),
+            noise_factor: Ratio::from_bits(i32::try_from(rng.below(4 << 16)).unwrap()),
+            ..PlaneRule::DEFAULT
+        };
+        let p = PlaneParams::new(&rule, Meters::from_num(0.05));
+        let g = CellGeometry {
+            cell: Meters::from_num(0.3).to_bits(),
+            sensor_height_mm: i32::try_from(rng.below(3_000)).unwrap(),
+            distance: Meters::from_bits(i32::try_from(rng.below(40 << 16)).unwrap()),
+        };
+        let excess = i128::from(rng.below(300 << 16));
+        let allowance = extremes_allowance_q16(&p, &g);
+        if (excess - allowance).abs() <= 1 << 10 {
+            continue;
+        }
+        decided += 1;
+        assert_eq!(
+            beyond_allowance(excess, &p, &g),
+            excess > i128::from(p.step_q16) && excess > allowance,
+            "excess {excess}, allowance {allowance}, {g:?}, {p:?}"
+        );
+    }
+    assert!(decided > 19_000, "{decided}");
+    // At the sensor (r = 0): the step and 2·k·σ.
+    let p = PlaneParams::new(&PlaneRule::DEFAULT, Meters::from_num(0.05));
+    let at = CellGeometry {
+        cell: Meters::from_num(0.1).to_bits(),
+        sensor_height_mm: 0,
+        distance: Meters::ZERO,
+    };
+    assert!(!beyond_allowance(129 << 16, &p, &at));
+    assert!(beyond_allowance(131 << 16, &p, &at));
 }
