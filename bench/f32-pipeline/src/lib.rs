@@ -12,8 +12,10 @@
 //!   `floor(x · 1/r)`. The rule is the configuration's: the paper's spread against the step
 //!   threshold, or the plane rule (`docs/core.md`): per cell the running sums of the points'
 //!   position in the cell and height below the overhang cut, and at the observation's end the
-//!   same ridge least-squares plane, residual, gradient and rise tests as the library's, in
-//!   `f32` (no decimation: `f32` sums need no width bound).
+//!   same ridge least-squares plane, residual, gradient and rise tests as the library's, its
+//!   extremes test (the lowest and highest points' positions kept as they change) and its pair
+//!   test (the last point below the cut and the largest rise between consecutive points
+//!   beyond the largest slope), in `f32` (no decimation: `f32` sums need no width bound).
 //! - Gate: per layer a 512-bin `f32` table (the library's table widened; a weight whose
 //!   gated increments would both round to zero in Q8.8 is 0 here too, so the same layers are
 //!   fed), binned as the library bins.
@@ -119,6 +121,13 @@ struct Sums {
     suz: f32,
     svz: f32,
     szz: f32,
+    /// Where the lowest and the highest point lie (u, v).
+    low_at: (f32, f32),
+    high_at: (f32, f32),
+    /// The last point below the cut (u, v, z m) and the largest rise between consecutive
+    /// points beyond the largest slope (mm).
+    last: (f32, f32, f32),
+    pair_rise: f32,
 }
 
 impl Sums {
@@ -134,14 +143,34 @@ impl Sums {
         suz: 0.0,
         svz: 0.0,
         szz: 0.0,
+        low_at: (0.0, 0.0),
+        high_at: (0.0, 0.0),
+        last: (0.0, 0.0, 0.0),
+        pair_rise: 0.0,
     };
 
     /// The sums of the one point (u, v, z m).
     fn first(u: f32, v: f32, z: f32) -> Self {
         let mut s = Self::ZERO;
         s.z0 = z;
+        s.low_at = (u, v);
+        s.high_at = (u, v);
+        s.last = (u, v, z);
         s.add(u, v, z);
         s
+    }
+
+    /// The pair test's step from the last point to (u, v, z m), `slope` the largest slope's
+    /// rise per unit of position (mm).
+    #[inline]
+    fn step(&mut self, u: f32, v: f32, z: f32, slope: f32) {
+        let rise = (z - self.last.2).abs() * 1000.0;
+        let run = (u - self.last.0).abs() + (v - self.last.1).abs();
+        let excess = rise - slope * run;
+        if excess > self.pair_rise {
+            self.pair_rise = excess;
+        }
+        self.last = (u, v, z);
     }
 
     #[inline]
@@ -192,8 +221,9 @@ impl PlaneF32 {
     }
 
     /// Whether the cell of `s` is not navigable: `h` the sensor's height above the ground,
-    /// `d` the cell's closest look, `cell` its side, all in mm.
-    fn obstacle(&self, s: &Sums, h: f32, d: f32, cell: f32) -> bool {
+    /// `d` the cell's closest look, `cell` its side, `spread_mm` its highest less its lowest
+    /// point, all in mm.
+    fn obstacle(&self, s: &Sums, h: f32, d: f32, cell: f32, spread_mm: f32) -> bool {
         let n = s.n;
         if n < 2.0 {
             return false;
@@ -213,14 +243,26 @@ impl PlaneF32 {
         }
         let wa = (b * cuz - cuv * cvz) / det;
         let wb = (a * cvz - cuv * cuz) / det;
-        let explained = wa * wa * cuu + 2.0 * wa * wb * cuv + wb * wb * cvv;
-        let residual = czz - 2.0 * (wa * cuz + wb * cvz) + explained;
+        // The extremes and the pair tests against step + 2·k·σ·h/r.
         let r = sqrt(h * h + d * d);
         let range = if r > 0.0 {
             self.sigma_mm * h / r
         } else {
             self.sigma_mm
         };
+        let unexplained = if spread_mm > self.step_mm {
+            let du = s.high_at.0 - s.low_at.0;
+            let dv = s.high_at.1 - s.low_at.1;
+            spread_mm - (wa * du + wb * dv).max(0.0)
+        } else {
+            0.0
+        };
+        let excess = unexplained.max(s.pair_rise);
+        if excess > self.step_mm && excess > self.step_mm + 2.0 * self.factor * range {
+            return true;
+        }
+        let explained = wa * wa * cuu + 2.0 * wa * wb * cuv + wb * wb * cvv;
+        let residual = czz - 2.0 * (wa * cuz + wb * cvz) + explained;
         let angle = self.angle * r;
         let noise = self.factor * sqrt(range * range + angle * angle);
         let allowed = self.residual_mm * self.residual_mm + noise * noise;
@@ -480,12 +522,18 @@ impl<const C: usize> Frontend<C> {
             } else {
                 (0.0, 0.0)
             };
+            // The pair test's slope: the largest slope's rise per unit of position, mm.
+            let slope = self
+                .plane
+                .as_ref()
+                .map_or(0.0, |p| p.grade * 1000.0 / (64.0 * layer.inv_res));
             #[allow(clippy::cast_possible_truncation)]
-            self.accumulate::<PLANE>(k as u8, cx, cy, distance, z, (u, v));
+            self.accumulate::<PLANE>(k as u8, cx, cy, distance, z, (u, v), slope);
         }
     }
 
     #[inline]
+    #[allow(clippy::too_many_arguments)]
     fn accumulate<const PLANE: bool>(
         &mut self,
         layer: u8,
@@ -494,6 +542,7 @@ impl<const C: usize> Frontend<C> {
         distance: f32,
         z: f32,
         uv: (f32, f32),
+        slope: f32,
     ) {
         let plane = PLANE;
         let mask = C - 1;
@@ -544,21 +593,30 @@ impl<const C: usize> Frontend<C> {
                         if let Some(sums) = sums {
                             // The summed points lie above the cut now: restart from this
                             // point and, when still below it, the previous lowest.
+                            let previous_low_at = sums.low_at;
                             *sums = Sums::first(uv.0, uv.1, z);
                             if low_stays {
-                                sums.add(uv.0, uv.1, slot.z_low);
+                                sums.add(previous_low_at.0, previous_low_at.1, slot.z_low);
+                                sums.high_at = previous_low_at;
                             }
                         }
                     } else if let Some(sums) = sums {
+                        sums.step(uv.0, uv.1, z, slope);
                         sums.add(uv.0, uv.1, z);
+                        sums.low_at = uv;
                     }
                     slot.z_low = z;
                 } else if z <= slot.z_low + h {
-                    if z > slot.z_high {
+                    let higher = z > slot.z_high;
+                    if higher {
                         slot.z_high = z;
                     }
                     if let Some(sums) = sums {
+                        sums.step(uv.0, uv.1, z, slope);
                         sums.add(uv.0, uv.1, z);
+                        if higher {
+                            sums.high_at = uv;
+                        }
                     }
                 }
                 return;
@@ -604,6 +662,7 @@ impl<const C: usize> Frontend<C> {
                         (self.reference_z - self.pose[2]) * 1000.0,
                         slot.distance * 1000.0,
                         cell,
+                        spread * 1000.0,
                     )
                 }
                 None => spread > self.step,
