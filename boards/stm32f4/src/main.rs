@@ -62,8 +62,8 @@ const REPORT_MS: u32 = 1_000;
 /// bytes at 921 600 Bd), and the laser queue (1023 bytes: 20 ms) must not fill meanwhile.
 const TX_BYTES_PER_STEP: usize = 512;
 
-/// The classifier's observation scratch: half the default. A slot is 52 bytes with the plane
-/// rule (the default 1024 would take 52 KiB, and the part's 128 KiB could not hold it beside
+/// The classifier's observation scratch: half the default. A slot is 60 bytes with the plane
+/// rule (the default 1024 would take 60 KiB, and the part's 128 KiB could not hold it beside
 /// the pyramid); 512 slots hold an observation of a few SICK lines (a line touches 2-4 cells
 /// per return at most, mostly far fewer), and a point that finds the scratch full is counted
 /// (`overflow_points`), never misplaced. 256 would bring the statics under the 96 KiB goal

@@ -502,6 +502,23 @@ fn part_pan(judges: &[Judge]) {
     }
 }
 
+/// One row of the 3DTK table: the rule's name and its scores.
+fn print_3dtk_row(name: &str, e: &scan3dtk::Evaluation) {
+    println!(
+        "| {name} | {} % ({} of {}) | {} % ({} of {}) | {} % ({} of {}) | {} % |",
+        share(e.ground_navigable, e.ground),
+        e.ground_navigable,
+        e.ground,
+        share(e.ground_cells_navigable, e.ground_cells),
+        e.ground_cells_navigable,
+        e.ground_cells,
+        share(e.obstacle_found, e.obstacle),
+        e.obstacle_found,
+        e.obstacle,
+        share(e.step_found, e.step)
+    );
+}
+
 fn part_3dtk(judges: &[Judge]) {
     println!("\n## The 3DTK scan against its hand labelling (README replay: h 0.4 m, 8 m, γ 3, ceiling 1.2 m)\n");
     let points = match read_uos(std::path::Path::new(SCAN_PATH)) {
@@ -554,21 +571,7 @@ fn part_3dtk(judges: &[Judge]) {
                 integrate_library(&mut p, &all, &mut classifier);
             }
         }
-        let e = scan3dtk::score(&p, &lab);
-        println!(
-            "| {} | {} % ({} of {}) | {} % ({} of {}) | {} % ({} of {}) | {} % |",
-            judge.name(),
-            share(e.ground_navigable, e.ground),
-            e.ground_navigable,
-            e.ground,
-            share(e.ground_cells_navigable, e.ground_cells),
-            e.ground_cells_navigable,
-            e.ground_cells,
-            share(e.obstacle_found, e.obstacle),
-            e.obstacle_found,
-            e.obstacle,
-            share(e.step_found, e.step)
-        );
+        print_3dtk_row(&judge.name(), &scan3dtk::score(&p, &lab));
         if let Judge::Library(_) = judge {
             layer_names = (0..p.layer_count())
                 .filter_map(|k| p.layer(k))
@@ -609,19 +612,9 @@ fn part_3dtk(judges: &[Judge]) {
         ..obs.clone()
     };
     integrate_library(&mut p, &all, &mut classifier);
-    let e = scan3dtk::score(&p, &lab);
-    println!(
-        "| library, plane (default), fixed point, firing order (`pyramid replay --order firing`) | {} % ({} of {}) | {} % ({} of {}) | {} % ({} of {}) | {} % |",
-        share(e.ground_navigable, e.ground),
-        e.ground_navigable,
-        e.ground,
-        share(e.ground_cells_navigable, e.ground_cells),
-        e.ground_cells_navigable,
-        e.ground_cells,
-        share(e.obstacle_found, e.obstacle),
-        e.obstacle_found,
-        e.obstacle,
-        share(e.step_found, e.step)
+    print_3dtk_row(
+        "library, plane (default), fixed point, firing order (`pyramid replay --order firing`)",
+        &scan3dtk::score(&p, &lab),
     );
     println!(
         "\nPer layer (the library's rules): of the clear ground returns whose cell in the layer is \
