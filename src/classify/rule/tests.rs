@@ -841,8 +841,14 @@ fn the_pair_rise_is_the_largest_step_between_consecutive_returns_beyond_the_slop
     assert_eq!(pairs(&[(0, 0, 60), (0, 0, 0)], slope).pair_rise(), 60);
     // A rise within the scale's step (its high half) is not computed: it cannot exceed the
     // step.
-    assert_eq!(pairs(&[(0, 0, 60), (0, 0, 0)], (60 << 16) | slope).pair_rise(), 0);
-    assert_eq!(pairs(&[(0, 0, 61), (0, 0, 0)], (60 << 16) | slope).pair_rise(), 61);
+    assert_eq!(
+        pairs(&[(0, 0, 60), (0, 0, 0)], (60 << 16) | slope).pair_rise(),
+        0
+    );
+    assert_eq!(
+        pairs(&[(0, 0, 61), (0, 0, 0)], (60 << 16) | slope).pair_rise(),
+        61
+    );
     // Extreme positions and heights never panic.
     let wild = [(-32, -32, i16::MIN), (31, 31, i16::MAX), (-32, 31, 0)];
     assert_eq!(pairs(&wild, 0).pair_rise(), 255);
