@@ -55,7 +55,7 @@ use crate::units::{Meters, Point3};
 
 pub mod rule;
 
-use rule::{CellGeometry, PlaneParams, PlaneState};
+use rule::{CellGeometry, PairScale, PlaneParams, PlaneState};
 pub use rule::{NavigabilityRule, PlaneRule, Ratio};
 
 mod config;
@@ -63,7 +63,7 @@ mod scratch;
 
 pub use config::{ClassifierConfig, ClassifierStats};
 use scratch::{
-    corner, fold, hash, mm_i16, position_in_cell, Recent, Slot, EMPTY, ORIGIN_LIMIT, RECENT_LAYERS,
+    cell_of, corner, fold, hash, locate, mm_i16, Recent, Slot, EMPTY, ORIGIN_LIMIT, RECENT_LAYERS,
 };
 
 /// Scratch and counters for classifying observations with `C` cell slots (a power of two),
@@ -88,10 +88,10 @@ pub struct Classifier<const C: usize, const L: usize> {
     /// The plane rule's parameters in its units, and whether it is in force.
     plane: Option<PlaneParams>,
     /// For layers 8 and up (entry k for layer k; the first eight entries are unused: those
-    /// layers keep theirs in `recent`), the cell size (raw) of its last point and its
-    /// reciprocal ([`crate::grid::cell_reciprocal`]). Sized by the design's L, so that a small
+    /// layers keep theirs in `recent`), the cell size (raw) of its last point, its reciprocal
+    /// ([`crate::grid::cell_reciprocal`]) and the pair test's constants. Sized by the design's L, so that a small
     /// pyramid (the micro:bit's four layers) carries no entries it cannot use.
-    layer_cells: [(i32, u32); L],
+    layer_cells: [(i32, u32, PairScale); L],
     /// The robot's ground plane as of the last point (raw Q16.16).
     ground_z: i32,
     stats: ClassifierStats,
@@ -156,7 +156,7 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
             robot_height_mm: 0,
             step_mm: 0,
             plane: None,
-            layer_cells: [(0, 0); L],
+            layer_cells: [(0, 0, PairScale::NONE); L],
             ground_z: 0,
             stats: ClassifierStats {
                 points: 0,
@@ -211,18 +211,29 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
     }
 
     /// Sets the first eight layers' cell reciprocals and the pair test's scales from the
-    /// gating and the rule in force.
+    /// gating and the rule in force, and forgets those of the layers from the ninth on.
     fn refresh_layers(&mut self) {
-        for (k, recent) in self.recent.iter_mut().enumerate() {
+        for k in 0..RECENT_LAYERS {
             let bits = self
                 .gates
                 .resolution(k)
                 .map(crate::grid::Resolution::to_bits);
-            recent.reciprocal = bits.map_or(0, crate::grid::cell_reciprocal);
-            recent.pair_scale = match (&self.plane, bits) {
-                (Some(params), Some(bits)) => params.pair_scale(bits),
-                _ => 0,
-            };
+            let scale = self.pair_scale(bits);
+            if let Some(recent) = self.recent.get_mut(k) {
+                recent.reciprocal = bits.map_or(0, crate::grid::cell_reciprocal);
+                recent.pair_scale = scale;
+            }
+        }
+        // Layers from the ninth on find theirs again at their next point.
+        self.layer_cells = [(0, 0, PairScale::NONE); L];
+    }
+
+    /// The pair test's constants for a layer of cell side `bits` (raw), under the rule in
+    /// force.
+    fn pair_scale(&self, bits: Option<i32>) -> PairScale {
+        match (&self.plane, bits) {
+            (Some(params), Some(bits)) => params.pair_scale(bits),
+            _ => PairScale::NONE,
         }
     }
 
@@ -460,16 +471,22 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
                 break;
             };
             let bits = r.to_bits();
-            let reciprocal = match self.layer_cells.get_mut(k) {
-                Some(cell) => {
-                    if cell.0 != bits || cell.1 == 0 {
-                        *cell = (bits, crate::grid::cell_reciprocal(bits));
+            let known = self.layer_cells.get(k).copied();
+            let (reciprocal, scale) = match known {
+                Some((cell, m, scale)) if cell == bits && m != 0 => (m, scale),
+                _ => {
+                    let entry = (
+                        bits,
+                        crate::grid::cell_reciprocal(bits),
+                        self.pair_scale(Some(bits)),
+                    );
+                    if let Some(cell) = self.layer_cells.get_mut(k) {
+                        *cell = entry;
                     }
-                    cell.1
+                    (entry.1, entry.2)
                 }
-                None => crate::grid::cell_reciprocal(bits),
             };
-            fed |= self.feed_layer(layer_index, r, reciprocal, point, bin_index, z, hole);
+            fed |= self.feed_layer(layer_index, r, reciprocal, scale, point, bin_index, z, hole);
         }
         fed
     }
@@ -477,7 +494,7 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
     /// Adds a point to its cell of layer `k` (< [`RECENT_LAYERS`]); `false` when the table is
     /// full (counted). A point in the cell of the layer's last point goes
     /// straight to that cell's slot, its position in the cell from its difference to the cell's
-    /// corner; otherwise [`Classifier::cell_of`], the hash and the probe, and the cell is
+    /// corner; otherwise [`cell_of`], the hash and the probe, and the cell is
     /// remembered. `bin` is a `u16`, `z` and `robot_height_mm` are `i16`, held in words (as
     /// [`fold`] takes them).
     #[inline]
@@ -526,7 +543,7 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
         let Some(r) = self.gates.resolution(usize::from(k)) else {
             return false;
         };
-        let (cx, cy, sub) = Self::cell_of(r, recent.reciprocal, point, PLANE);
+        let (cx, cy, sub) = cell_of(r, recent.reciprocal, point, PLANE);
         // Stored as k + 1 (0 marks an empty slot); k < 8.
         match self.insert(k + 1, cx, cy, sub, bin, z, HOLE, PLANE, recent.pair_scale) {
             Some(index) => {
@@ -564,50 +581,6 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
         }
     }
 
-    /// The cell of `point` for cell size `r` with reciprocal `m`
-    /// ([`crate::grid::cell_reciprocal`]), and (while the plane rule is in force) the point's
-    /// position in it ([`rule::sub_cell`]): the cell by a hardware division where the target
-    /// has one (ARMv7-M, told apart from ARMv6-M by its atomic compare-and-swap: stable Rust
-    /// has no `cfg` for the divide instruction), a multiplication by the reciprocal elsewhere
-    /// (Cortex-M0, the host); both are exactly `r.cell_of`. The position is a multiplication
-    /// by the reciprocal on every target.
-    #[inline]
-    fn cell_of(
-        r: crate::grid::Resolution,
-        m: u32,
-        point: Point3,
-        plane: bool,
-    ) -> (i32, i32, (i8, i8)) {
-        let bits = r.to_bits();
-        let (cx, cy) = if cfg!(all(target_arch = "arm", target_has_atomic = "32")) {
-            (r.cell_of(point.x), r.cell_of(point.y))
-        } else {
-            (
-                crate::grid::cell_of_reciprocal(point.x.to_bits(), bits, m),
-                crate::grid::cell_of_reciprocal(point.y.to_bits(), bits, m),
-            )
-        };
-        if !plane {
-            return (cx, cy, (0, 0));
-        }
-        (cx, cy, position_in_cell(point, cx, cy, bits, m))
-    }
-
-    /// [`Classifier::cell_of`] for layers 8 and up: the cell by `r.cell_of`, the position
-    /// (when `plane`) by the layer's reciprocal `m`.
-    fn locate(
-        r: crate::grid::Resolution,
-        m: u32,
-        point: Point3,
-        plane: bool,
-    ) -> (i32, i32, (i8, i8)) {
-        let (cx, cy) = (r.cell_of(point.x), r.cell_of(point.y));
-        if !plane {
-            return (cx, cy, (0, 0));
-        }
-        (cx, cy, position_in_cell(point, cx, cy, r.to_bits(), m))
-    }
-
     /// Adds a point to its cell of one layer (stored as `layer_index` = k + 1); `false` when
     /// the table is full (counted).
     #[inline]
@@ -617,21 +590,18 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
         layer_index: u8,
         r: crate::grid::Resolution,
         reciprocal: u32,
+        scale: PairScale,
         point: Point3,
         bin: u16,
         z: i16,
         hole: bool,
     ) -> bool {
-        let (cx, cy, sub) = Self::locate(r, reciprocal, point, self.plane.is_some());
-        let slope = self
-            .plane
-            .as_ref()
-            .map_or(0, |params| params.pair_scale(r.to_bits()));
-        self.feed_cell(layer_index, cx, cy, sub, bin, z, hole, slope)
+        let (cx, cy, sub) = locate(r, reciprocal, point, self.plane.is_some());
+        self.feed_cell(layer_index, cx, cy, sub, bin, z, hole, scale)
     }
 
-    /// Adds a point to cell `(cx, cy)` of one layer (stored as `layer_index` = k + 1), the
-    /// layer's pair slope `slope` ([`fold`]); `false` when the table is full (counted).
+    /// Adds a point to cell `(cx, cy)` of one layer (stored as `layer_index` = k + 1), with the
+    /// layer's pair test constants `scale` ([`fold`]); `false` when the table is full (counted).
     #[inline]
     #[allow(clippy::too_many_arguments)]
     fn feed_cell(
@@ -643,7 +613,7 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
         bin: u16,
         z: i16,
         hole: bool,
-        slope: u32,
+        scale: PairScale,
     ) -> bool {
         let (bin, z) = (u32::from(bin), i32::from(z));
         if self
@@ -656,7 +626,7 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
                 z,
                 hole,
                 self.plane.is_some(),
-                slope,
+                scale,
             )
             .is_some()
         {
@@ -670,7 +640,7 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
     /// Folds one point (at `sub` in its cell, [`rule::sub_cell`]) into the slot of
     /// `(layer, cx, cy)`, found by the hash and the probe or taken; the slot's index, `None`
     /// when the table is full. `bin` is a `u16` and `z` an `i16`, held in words as [`fold`]
-    /// takes them, with the layer's pair slope `slope`.
+    /// takes them, with the layer's pair test constants `scale`.
     #[inline]
     #[allow(clippy::too_many_arguments)]
     fn insert(
@@ -683,7 +653,7 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
         z: i32,
         hole: bool,
         plane: bool,
-        slope: u32,
+        scale: PairScale,
     ) -> Option<usize> {
         let mut index = hash(layer, cx, cy) as usize & Self::MASK;
         for _ in 0..C {
@@ -718,7 +688,7 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
             }
             if slot.layer == layer && slot.cell_x == cx && slot.cell_y == cy {
                 let robot_height_mm = i32::from(self.robot_height_mm);
-                fold(slot, z, sub, bin, hole, robot_height_mm, plane, slope);
+                fold(slot, z, sub, bin, hole, robot_height_mm, plane, scale);
                 return Some(index);
             }
             index = (index + 1) & Self::MASK;

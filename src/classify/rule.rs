@@ -254,19 +254,17 @@ impl PlaneState {
     }
 
     /// The pair test's fold of a return below the cut at `(u, v, z)` (z mm), following the
-    /// slot's last one, with the layer's `scale` ([`PlaneParams::pair_scale`]: the step
-    /// allowance s in whole mm in the high half, the largest slope's rise per unit of
-    /// position `tan θ_max·c/64` in mm Q8 in the low half): when the two differ in height by
-    /// more than s, the rise between them beyond what the slope explains,
-    /// `|Δz| − slope·(|Δu| + |Δv|)`, is kept when it is the largest so far (saturated to
-    /// 255 mm); a rise within s cannot exceed the step and is not computed. The point becomes
-    /// the last. In 32-bit words, one multiplication: the run is at most 510 units and the
-    /// slope below 2¹⁶, so their product is below 2²⁵.
+    /// slot's last one, with the layer's `scale` ([`PlaneParams::pair_scale`]): when the two
+    /// differ in height by more than the scale's step, the rise between them beyond what the
+    /// slope explains, `|Δz| − slope·(|Δu| + |Δv|)`, is kept when it is the largest so far
+    /// (saturated to 255 mm); a rise within the step cannot exceed it and is not computed.
+    /// The point becomes the last. In 32-bit words, one multiplication: the run is at most
+    /// 510 units and the slope below 2¹⁶, so their product is below 2²⁵.
     #[inline(always)]
-    pub(super) fn step_from_last(&mut self, u: i8, v: i8, z: i16, scale: u32) {
+    pub(super) fn step_from_last(&mut self, u: i8, v: i8, z: i16, scale: PairScale) {
         let rise = u32::from(z.abs_diff(self.last_z));
-        if rise > scale >> 16 {
-            self.keep_rise(u, v, rise, scale & 0xFFFF);
+        if rise > u32::from(scale.step_mm) {
+            self.keep_rise(u, v, rise, u32::from(scale.slope_q8));
         }
         self.last_at = (u, v);
         self.last_z = z;
@@ -435,19 +433,39 @@ impl PlaneState {
     }
 }
 
+/// The pair test's constants for one layer ([`PlaneState::step_from_last`]), set per layer
+/// when the rule or the design changes ([`PlaneParams::pair_scale`]); all zero without the
+/// plane rule.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(super) struct PairScale {
+    /// The step allowance in whole millimetres (floored): a rise within it is not computed.
+    pub(super) step_mm: u16,
+    /// The largest slope's rise per unit of position (c/64) in the layer's cells, mm Q8.
+    pub(super) slope_q8: u16,
+}
+
+impl PairScale {
+    /// All zero: a layer's constants before a design, or without the plane rule (no fold
+    /// reads them then).
+    pub(super) const NONE: Self = Self {
+        step_mm: 0,
+        slope_q8: 0,
+    };
+}
+
 #[cfg(feature = "plane-rule")]
 /// The largest slope's rise per unit of a cell's position (c/64), mm Q8, for the pair test
 /// ([`PlaneState::step_from_last`]): `⌊tan θ_max·c·1000/64 · 2⁸⌋` (from `grade_q16`, tan Q16,
 /// and the cell side `cell_bits`, raw Q16.16 metres), saturated to `u16::MAX` (a slope of
 /// 256 mm per unit: cells of 45 m and more at 20°). In 64 bits, saturating.
-pub(super) fn pair_slope_q8(grade_q16: i64, cell_bits: i32) -> u32 {
+fn pair_slope_q8(grade_q16: i64, cell_bits: i32) -> u16 {
     let grade = u64::try_from(grade_q16.max(0))
         .unwrap_or(0)
         .min(u64::from(u32::MAX));
     let cell = u64::from(cell_bits.max(0).unsigned_abs());
     // grade·c·1000 / 2¹⁶ / 64 · 2⁸ / 2¹⁶ = grade·c·1000 / 2³⁰ (below 2⁶³ / 2³⁰).
     let q8 = grade.saturating_mul(cell).saturating_mul(1000) >> 30;
-    u32::try_from(q8.min(u64::from(u16::MAX))).unwrap_or(u32::from(u16::MAX))
+    u16::try_from(q8).unwrap_or(u16::MAX)
 }
 
 /// The 6-bit position `⌊64·rem/c⌋ − 32 ∈ −32 ..= 31` of a coordinate whose remainder in its cell
@@ -528,13 +546,14 @@ impl PlaneParams {
         }
     }
 
-    /// The pair test's constants for a layer of cell side `cell_bits` (raw Q16.16 metres), in
-    /// one word ([`PlaneState::step_from_last`]): the step allowance in whole mm (floored,
-    /// at most `u16::MAX`) in the high half, the largest slope's rise per unit of position
-    /// ([`pair_slope_q8`], mm Q8) in the low half.
-    pub(super) fn pair_scale(&self, cell_bits: i32) -> u32 {
-        let step_mm = u32::try_from((self.step_q16 >> 16).clamp(0, 0xFFFF)).unwrap_or(0xFFFF);
-        (step_mm << 16) | pair_slope_q8(self.grade_q16, cell_bits)
+    /// The pair test's constants for a layer of cell side `cell_bits` (raw Q16.16 metres):
+    /// the step allowance in whole mm (floored, at most `u16::MAX`) and the largest slope's
+    /// rise per unit of position ([`pair_slope_q8`], mm Q8).
+    pub(super) fn pair_scale(&self, cell_bits: i32) -> PairScale {
+        PairScale {
+            step_mm: u16::try_from((self.step_q16 >> 16).max(0)).unwrap_or(u16::MAX),
+            slope_q8: pair_slope_q8(self.grade_q16, cell_bits),
+        }
     }
 
     /// Whether a spread of `spread_mm` (the slot's highest − lowest summed z) is navigable
@@ -623,7 +642,13 @@ mod absent {
 
         /// The pair test's fold: nothing is kept.
         #[allow(clippy::unused_self)]
-        pub(in crate::classify) fn step_from_last(&mut self, _u: i8, _v: i8, _z: i16, _slope: u32) {
+        pub(in crate::classify) fn step_from_last(
+            &mut self,
+            _u: i8,
+            _v: i8,
+            _z: i16,
+            _scale: super::PairScale,
+        ) {
         }
     }
 
@@ -638,7 +663,7 @@ mod absent {
         }
 
         /// Never called: no value exists.
-        pub(in crate::classify) fn pair_scale(&self, _cell_bits: i32) -> u32 {
+        pub(in crate::classify) fn pair_scale(&self, _cell_bits: i32) -> super::PairScale {
             match *self {}
         }
     }

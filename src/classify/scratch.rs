@@ -1,8 +1,9 @@
 //! The classifier's scratch: one [`Slot`] per touched layer cell, the per-layer [`Recent`]
 //! cell that lets consecutive returns skip the hash, how a point folds into a slot, and the
-//! 32-bit cell arithmetic (millimetres, the position in a cell, a cell's corner, the hash).
+//! 32-bit cell arithmetic (millimetres, a point's cell and its position in it, a cell's corner,
+//! the hash).
 
-use super::rule::{self, PlaneState};
+use super::rule::{self, PairScale, PlaneState};
 use crate::units::{Meters, Point3};
 
 /// The layers for which the classifier remembers the cell and slot of their last point.
@@ -34,10 +35,9 @@ pub(super) struct Recent {
     /// The slot of the cell (valid while `span` is not 0: slots are vacated only when the
     /// observation ends, and every entry is forgotten then).
     pub(super) slot: u16,
-    /// The pair test's constants in the layer's cells (the step in mm, the largest slope's
-    /// rise per c/64 in mm Q8: `PlaneParams::pair_scale`), set by [`Classifier::configure`]
-    /// and [`Classifier::adopt_design`]; 0 without the plane rule.
-    pub(super) pair_scale: u32,
+    /// The pair test's constants in the layer's cells, set by [`Classifier::configure`] and
+    /// [`Classifier::adopt_design`]; [`PairScale::NONE`] without the plane rule.
+    pub(super) pair_scale: PairScale,
 }
 
 impl Recent {
@@ -47,7 +47,7 @@ impl Recent {
         span: 0,
         reciprocal: 0,
         slot: 0,
-        pair_scale: 0,
+        pair_scale: PairScale::NONE,
     };
 }
 
@@ -131,6 +131,50 @@ pub(super) fn position_in_cell(point: Point3, cx: i32, cy: i32, bits: i32, m: u3
     )
 }
 
+/// The cell of `point` for cell size `r` with reciprocal `m`
+/// ([`crate::grid::cell_reciprocal`]), and (while the plane rule is in force) the point's
+/// position in it ([`rule::sub_cell`]): the cell by a hardware division where the target
+/// has one (ARMv7-M, told apart from ARMv6-M by its atomic compare-and-swap: stable Rust
+/// has no `cfg` for the divide instruction), a multiplication by the reciprocal elsewhere
+/// (Cortex-M0, the host); both are exactly `r.cell_of`. The position is a multiplication
+/// by the reciprocal on every target.
+#[inline]
+pub(super) fn cell_of(
+    r: crate::grid::Resolution,
+    m: u32,
+    point: Point3,
+    plane: bool,
+) -> (i32, i32, (i8, i8)) {
+    let bits = r.to_bits();
+    let (cx, cy) = if cfg!(all(target_arch = "arm", target_has_atomic = "32")) {
+        (r.cell_of(point.x), r.cell_of(point.y))
+    } else {
+        (
+            crate::grid::cell_of_reciprocal(point.x.to_bits(), bits, m),
+            crate::grid::cell_of_reciprocal(point.y.to_bits(), bits, m),
+        )
+    };
+    if !plane {
+        return (cx, cy, (0, 0));
+    }
+    (cx, cy, position_in_cell(point, cx, cy, bits, m))
+}
+
+/// [`cell_of`] for layers 8 and up: the cell by `r.cell_of`, the position
+/// (when `plane`) by the layer's reciprocal `m`.
+pub(super) fn locate(
+    r: crate::grid::Resolution,
+    m: u32,
+    point: Point3,
+    plane: bool,
+) -> (i32, i32, (i8, i8)) {
+    let (cx, cy) = (r.cell_of(point.x), r.cell_of(point.y));
+    if !plane {
+        return (cx, cy, (0, 0));
+    }
+    (cx, cy, position_in_cell(point, cx, cy, r.to_bits(), m))
+}
+
 /// The lower corner `c · bits` of cell `c = ⌊x / bits⌋` (for some `i32` x) of size
 /// `0 < bits < ORIGIN_LIMIT`, or `None` when it lies beyond ±[`ORIGIN_LIMIT`]: as
 /// `c.checked_mul(bits)` within the limit, in one 32-bit multiplication (a `checked_mul` of
@@ -174,7 +218,7 @@ pub(super) fn fold(
     hole: bool,
     robot_height_mm: i32,
     plane: bool,
-    scale: u32,
+    scale: PairScale,
 ) {
     // The narrow values again, for the slot's fields (exact: see above).
     #[allow(clippy::cast_possible_truncation)]

@@ -779,15 +779,23 @@ fn the_extremes_allowance_is_the_step_and_twice_the_range_noise() {
     assert!((at(5, 0) - 50.0).abs() < 0.05);
 }
 
-/// The pair test's fold of `points` (u, v, z mm) in arrival order with slope `slope_q8`.
-fn pairs(points: &[(i8, i8, i16)], slope_q8: u32) -> PlaneState {
+/// The pair test's fold of `points` (u, v, z mm) in arrival order with the layer's `scale`.
+fn pairs(points: &[(i8, i8, i16)], scale: PairScale) -> PlaneState {
     let (u, v, z) = points[0];
     let mut s = PlaneState::first(u, v, z);
     for &(u, v, z) in &points[1..] {
-        s.step_from_last(u, v, z, slope_q8);
+        s.step_from_last(u, v, z, scale);
         s.add_next(u, v, z);
     }
     s
+}
+
+/// A layer's pair test constants: the slope `slope_q8` (mm Q8 per unit), no step skipped.
+fn slope(slope_q8: u16) -> PairScale {
+    PairScale {
+        step_mm: 0,
+        slope_q8,
+    }
 }
 
 #[test]
@@ -797,10 +805,10 @@ fn the_pair_slope_is_the_largest_slope_per_unit_of_the_cell() {
     let p = PlaneParams::new(&PlaneRule::DEFAULT, Meters::from_num(0.05));
     let exact = 20f64.to_radians().tan() * 600.0 / 64.0 * 256.0;
     let scale = p.pair_scale(Meters::from_num(0.6).to_bits());
-    let got = f64::from(scale & 0xFFFF);
+    let got = f64::from(scale.slope_q8);
     assert!((got - exact).abs() <= 1.5, "{got} against {exact}");
     // The step allowance in whole mm in the high half: 50 (0.05 m in Q16.16 is 50.003 mm).
-    assert_eq!(scale >> 16, 50);
+    assert_eq!(scale.step_mm, 50);
     // No slope allowed: 0; a negative or zero cell: 0; a huge cell saturates.
     let flat = PlaneParams::new(
         &PlaneRule {
@@ -809,23 +817,24 @@ fn the_pair_slope_is_the_largest_slope_per_unit_of_the_cell() {
         },
         Meters::from_num(0.05),
     );
-    assert_eq!(flat.pair_scale(Meters::from_num(0.6).to_bits()) & 0xFFFF, 0);
-    assert_eq!(p.pair_scale(-5) & 0xFFFF, 0);
-    assert_eq!(p.pair_scale(i32::MAX) & 0xFFFF, u32::from(u16::MAX));
+    assert_eq!(flat.pair_scale(Meters::from_num(0.6).to_bits()).slope_q8, 0);
+    assert_eq!(p.pair_scale(-5).slope_q8, 0);
+    assert_eq!(p.pair_scale(i32::MAX).slope_q8, u16::MAX);
 }
 
 #[test]
 fn the_pair_rise_is_the_largest_step_between_consecutive_returns_beyond_the_slope() {
-    let slope = 874; // 3.41 mm per unit: 20° in a 0.6 m cell.
-                     // Two beams crossing a 120 mm kerb's face at one azimuth after another: their returns
-                     // stand on each other (a unit apart), 119 mm apart in height.
+    // 3.41 mm per unit: 20° in a 0.6 m cell.
+    let twenty = slope(874);
+    // Two beams crossing a 120 mm kerb's face at one azimuth after another: their returns
+    // stand on each other (a unit apart), 119 mm apart in height.
     let face = [(0, 0, 0), (1, 0, 119), (2, 1, 2), (3, 1, 120)];
-    let s = pairs(&face, slope);
+    let s = pairs(&face, twenty);
     // The largest of 119 − 3.41·1, 117 − 3.41·2 and 118 − 3.41·1 mm, floored.
     assert_eq!(s.pair_rise(), 115);
     // The same heights 30 units (28 cm) apart along a line: the slope explains 102.4 mm.
     let spaced = [(-30, 0, 0), (0, 0, 119)];
-    assert_eq!(pairs(&spaced, slope).pair_rise(), 16);
+    assert_eq!(pairs(&spaced, twenty).pair_rise(), 16);
     // A 20° slope sampled at any spacing: nothing beyond the slope.
     let ramp: std::vec::Vec<(i8, i8, i16)> = (-30..=30)
         .step_by(3)
@@ -834,27 +843,40 @@ fn the_pair_rise_is_the_largest_step_between_consecutive_returns_beyond_the_slop
             (i8::try_from(u).unwrap(), 0, z as i16)
         })
         .collect();
-    assert_eq!(pairs(&ramp, slope).pair_rise(), 0);
+    assert_eq!(pairs(&ramp, twenty).pair_rise(), 0);
     // Falling counts as rising (the beams may cross the face in either order), and the rise
     // saturates at 255 mm.
-    assert_eq!(pairs(&[(0, 0, 400), (0, 0, 0)], slope).pair_rise(), 255);
-    assert_eq!(pairs(&[(0, 0, 60), (0, 0, 0)], slope).pair_rise(), 60);
+    assert_eq!(pairs(&[(0, 0, 400), (0, 0, 0)], twenty).pair_rise(), 255);
+    assert_eq!(pairs(&[(0, 0, 60), (0, 0, 0)], twenty).pair_rise(), 60);
     // A rise within the scale's step (its high half) is not computed: it cannot exceed the
     // step.
     assert_eq!(
-        pairs(&[(0, 0, 60), (0, 0, 0)], (60 << 16) | slope).pair_rise(),
+        pairs(
+            &[(0, 0, 60), (0, 0, 0)],
+            PairScale {
+                step_mm: 60,
+                ..twenty
+            }
+        )
+        .pair_rise(),
         0
     );
     assert_eq!(
-        pairs(&[(0, 0, 61), (0, 0, 0)], (60 << 16) | slope).pair_rise(),
+        pairs(
+            &[(0, 0, 61), (0, 0, 0)],
+            PairScale {
+                step_mm: 60,
+                ..twenty
+            }
+        )
+        .pair_rise(),
         61
     );
     // Extreme positions and heights never panic.
     let wild = [(-32, -32, i16::MIN), (31, 31, i16::MAX), (-32, 31, 0)];
-    assert_eq!(pairs(&wild, 0).pair_rise(), 255);
+    assert_eq!(pairs(&wild, slope(0)).pair_rise(), 255);
     // 65.5 m over 126 units of 256 mm (32 m): still 255.
-    assert_eq!(pairs(&wild, u32::from(u16::MAX)).pair_rise(), 255);
-    let _ = pairs(&wild, u32::MAX);
+    assert_eq!(pairs(&wild, slope(u16::MAX)).pair_rise(), 255);
 }
 
 #[test]
