@@ -403,8 +403,17 @@ fn integrate<const W: usize>(args: &Args, plan: &Plan) -> Result<Integrated, Fai
     let max_range = f64::from(plan.design.sensor().max_range_m);
     let (mut no_return, mut beyond) = (0_u64, 0_u64);
     let mut reader = UosReader::new(BufReader::new(file));
-    // The points in the robot's frame, metres, with their firing order's key.
-    let mut points: Vec<([f64; 3], (i64, f64))> = Vec::new();
+    // One point in the robot's frame (metres) to the classifier.
+    let mut add = |world: [f64; 3]| {
+        let world = point3(world);
+        let distance = horizontal_distance(sensor, world);
+        if distance.to_num::<f64>() > max_range {
+            beyond += 1;
+        }
+        classifier.add_point(world, distance, ground_z);
+    };
+    // In firing order, the points with their key, held until the file ends.
+    let mut firing: Vec<([f64; 3], (i64, f64))> = Vec::new();
     let psi = f64::from(plan.design.sensor().psi_rad).max(1e-9);
     for point in reader.by_ref() {
         let p = point.map_err(|e| Failure::input(format!("{}: {e}", args.points.display())))?;
@@ -421,23 +430,21 @@ fn integrate<const W: usize>(args: &Args, plan: &Plan) -> Result<Integrated, Fai
             local[1] + plan.translation[1],
             local[2] + plan.translation[2],
         ];
-        let offset = [
-            world[0] - plan.sensor[0],
-            world[1] - plan.sensor[1],
-            world[2] - plan.sensor[2],
-        ];
-        points.push((world, firing_key(offset, psi)));
-    }
-    if args.order == PointOrder::Firing {
-        points.sort_by(|a, b| a.1 .0.cmp(&b.1 .0).then(a.1 .1.total_cmp(&b.1 .1)));
-    }
-    for (world, _) in points {
-        let world = point3(world);
-        let distance = horizontal_distance(sensor, world);
-        if distance.to_num::<f64>() > max_range {
-            beyond += 1;
+        match args.order {
+            PointOrder::File => add(world),
+            PointOrder::Firing => {
+                let offset = [
+                    world[0] - plan.sensor[0],
+                    world[1] - plan.sensor[1],
+                    world[2] - plan.sensor[2],
+                ];
+                firing.push((world, firing_key(offset, psi)));
+            }
         }
-        classifier.add_point(world, distance, ground_z);
+    }
+    firing.sort_by(|a, b| a.1 .0.cmp(&b.1 .0).then(a.1 .1.total_cmp(&b.1 .1)));
+    for (world, _) in firing {
+        add(world);
     }
     classifier.finish_into(&mut pyramid);
     let snapshot = MapSnapshot::from_pyramid(
