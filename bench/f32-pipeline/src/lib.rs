@@ -526,7 +526,7 @@ impl<const C: usize> Frontend<C> {
             let slope = self
                 .plane
                 .as_ref()
-                .map_or(0.0, |p| p.grade * 1000.0 / (64.0 * layer.inv_res));
+                .map_or(0.0, |p| p.grade * layer.unit_mm);
             #[allow(clippy::cast_possible_truncation)]
             self.accumulate::<PLANE>(k as u8, cx, cy, distance, z, (u, v), slope);
         }

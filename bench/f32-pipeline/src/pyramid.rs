@@ -11,6 +11,9 @@ pub struct Layer<const W: usize> {
     pub(crate) start_x: usize,
     pub(crate) start_y: usize,
     pub(crate) inv_res: f32,
+    /// A unit of position in the cell (c/64), mm: the plane rule's pair test reads the
+    /// largest slope's rise over it.
+    pub(crate) unit_mm: f32,
     pub(crate) dirty: u64,
 }
 
@@ -23,6 +26,7 @@ impl<const W: usize> Layer<W> {
             start_x: 0,
             start_y: 0,
             inv_res: 1.0,
+            unit_mm: 1000.0 / 64.0,
             dirty: 0,
         }
     }
@@ -190,6 +194,7 @@ impl<const W: usize, const L: usize> Pyramid<W, L> {
         {
             *layer = Layer::new();
             layer.inv_res = 1.0 / d.resolution_m;
+            layer.unit_mm = d.resolution_m * 1000.0 / 64.0;
             let table = GateTable::build(design, k, bins);
             for (w, q) in gate.iter_mut().zip(table.weights()) {
                 let skip = gated(increments.obstacle, *q) == 0 && gated(increments.free, *q) == 0;
