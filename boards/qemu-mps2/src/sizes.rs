@@ -8,8 +8,8 @@
 //! With `--features paper-stairs` (the binary `qemu-mps2-paper-stairs`), the paper's stairs
 //! experiment: every layer at 0.1 m to 24 m needs 32 layers of 488 × 488 cells (15.3 MB, in
 //! the board's 16 MiB of PSRAM, see `memory-paper-stairs.x`) and 16 384 classifier slots (a
-//! soft-gated point feeds several layers). QEMU's UARTs have no baud rate, so the link's budget is 16 MB/s: a snapshot of all
-//! layers takes seconds, not minutes.
+//! soft-gated point feeds several layers). QEMU's UARTs have no baud rate, so the link's
+//! budget is 16 MB/s: a snapshot of all layers takes seconds, not minutes.
 
 use terrain_pyramid::link::LinkConfig;
 
