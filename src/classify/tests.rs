@@ -147,7 +147,7 @@ fn add_point_squared_is_add_point_with_the_floored_root() {
 
 #[test]
 #[cfg(feature = "plane-rule")]
-fn a_slot_is_52_bytes() {
+fn a_slot_is_60_bytes() {
     assert_eq!(core::mem::size_of::<PlaneState>(), 44);
     assert_eq!(core::mem::size_of::<Slot>(), 60);
 }
