@@ -263,8 +263,8 @@ impl PlaneState {
     #[inline(always)]
     pub(super) fn step_from_last(&mut self, u: i8, v: i8, z: i16, scale: PairScale) {
         let rise = u32::from(z.abs_diff(self.last_z));
-        if rise > u32::from(scale.step_mm) {
-            self.keep_rise(u, v, rise, u32::from(scale.slope_q8));
+        if rise > scale.step_mm() {
+            self.keep_rise(u, v, rise, scale.slope_q8());
         }
         self.last_at = (u, v);
         self.last_z = z;
@@ -434,23 +434,33 @@ impl PlaneState {
 }
 
 /// The pair test's constants for one layer ([`PlaneState::step_from_last`]), set per layer
-/// when the rule or the design changes ([`PlaneParams::pair_scale`]); all zero without the
-/// plane rule.
+/// when the rule or the design changes ([`PlaneParams::pair_scale`]): the step allowance in
+/// whole millimetres (floored; a rise within it is not computed) and the largest slope's rise
+/// per unit of position (c/64) in mm Q8, held as the two halves of one word (one load on the
+/// per-point path).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub(super) struct PairScale {
-    /// The step allowance in whole millimetres (floored): a rise within it is not computed.
-    pub(super) step_mm: u16,
-    /// The largest slope's rise per unit of position (c/64) in the layer's cells, mm Q8.
-    pub(super) slope_q8: u16,
-}
+pub(super) struct PairScale(u32);
 
+#[cfg_attr(not(feature = "plane-rule"), allow(dead_code))]
 impl PairScale {
     /// All zero: a layer's constants before a design, or without the plane rule (no fold
     /// reads them then).
-    pub(super) const NONE: Self = Self {
-        step_mm: 0,
-        slope_q8: 0,
-    };
+    pub(super) const NONE: Self = Self(0);
+
+    /// The constants `step_mm` (mm) and `slope_q8` (mm Q8 per unit).
+    pub(super) const fn new(step_mm: u16, slope_q8: u16) -> Self {
+        Self(((step_mm as u32) << 16) | slope_q8 as u32)
+    }
+
+    /// The step allowance, whole mm.
+    pub(super) const fn step_mm(self) -> u32 {
+        self.0 >> 16
+    }
+
+    /// The largest slope's rise per unit of position, mm Q8.
+    pub(super) const fn slope_q8(self) -> u32 {
+        self.0 & 0xFFFF
+    }
 }
 
 #[cfg(feature = "plane-rule")]
@@ -550,10 +560,10 @@ impl PlaneParams {
     /// the step allowance in whole mm (floored, at most `u16::MAX`) and the largest slope's
     /// rise per unit of position ([`pair_slope_q8`], mm Q8).
     pub(super) fn pair_scale(&self, cell_bits: i32) -> PairScale {
-        PairScale {
-            step_mm: u16::try_from((self.step_q16 >> 16).max(0)).unwrap_or(u16::MAX),
-            slope_q8: pair_slope_q8(self.grade_q16, cell_bits),
-        }
+        PairScale::new(
+            u16::try_from((self.step_q16 >> 16).max(0)).unwrap_or(u16::MAX),
+            pair_slope_q8(self.grade_q16, cell_bits),
+        )
     }
 
     /// Whether a spread of `spread_mm` (the slot's highest − lowest summed z) is navigable

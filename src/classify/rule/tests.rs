@@ -792,10 +792,7 @@ fn pairs(points: &[(i8, i8, i16)], scale: PairScale) -> PlaneState {
 
 /// A layer's pair test constants: the slope `slope_q8` (mm Q8 per unit), no step skipped.
 fn slope(slope_q8: u16) -> PairScale {
-    PairScale {
-        step_mm: 0,
-        slope_q8,
-    }
+    PairScale::new(0, slope_q8)
 }
 
 #[test]
@@ -805,10 +802,10 @@ fn the_pair_slope_is_the_largest_slope_per_unit_of_the_cell() {
     let p = PlaneParams::new(&PlaneRule::DEFAULT, Meters::from_num(0.05));
     let exact = 20f64.to_radians().tan() * 600.0 / 64.0 * 256.0;
     let scale = p.pair_scale(Meters::from_num(0.6).to_bits());
-    let got = f64::from(scale.slope_q8);
+    let got = f64::from(scale.slope_q8());
     assert!((got - exact).abs() <= 1.5, "{got} against {exact}");
     // The step allowance in whole mm in the high half: 50 (0.05 m in Q16.16 is 50.003 mm).
-    assert_eq!(scale.step_mm, 50);
+    assert_eq!(scale.step_mm(), 50);
     // No slope allowed: 0; a negative or zero cell: 0; a huge cell saturates.
     let flat = PlaneParams::new(
         &PlaneRule {
@@ -817,9 +814,12 @@ fn the_pair_slope_is_the_largest_slope_per_unit_of_the_cell() {
         },
         Meters::from_num(0.05),
     );
-    assert_eq!(flat.pair_scale(Meters::from_num(0.6).to_bits()).slope_q8, 0);
-    assert_eq!(p.pair_scale(-5).slope_q8, 0);
-    assert_eq!(p.pair_scale(i32::MAX).slope_q8, u16::MAX);
+    assert_eq!(
+        flat.pair_scale(Meters::from_num(0.6).to_bits()).slope_q8(),
+        0
+    );
+    assert_eq!(p.pair_scale(-5).slope_q8(), 0);
+    assert_eq!(p.pair_scale(i32::MAX).slope_q8(), u32::from(u16::MAX));
 }
 
 #[test]
@@ -848,28 +848,13 @@ fn the_pair_rise_is_the_largest_step_between_consecutive_returns_beyond_the_slop
     // saturates at 255 mm.
     assert_eq!(pairs(&[(0, 0, 400), (0, 0, 0)], twenty).pair_rise(), 255);
     assert_eq!(pairs(&[(0, 0, 60), (0, 0, 0)], twenty).pair_rise(), 60);
-    // A rise within the scale's step (its high half) is not computed: it cannot exceed the
-    // step.
+    // A rise within the scale's step is not computed: it cannot exceed the step.
     assert_eq!(
-        pairs(
-            &[(0, 0, 60), (0, 0, 0)],
-            PairScale {
-                step_mm: 60,
-                ..twenty
-            }
-        )
-        .pair_rise(),
+        pairs(&[(0, 0, 60), (0, 0, 0)], PairScale::new(60, 874)).pair_rise(),
         0
     );
     assert_eq!(
-        pairs(
-            &[(0, 0, 61), (0, 0, 0)],
-            PairScale {
-                step_mm: 60,
-                ..twenty
-            }
-        )
-        .pair_rise(),
+        pairs(&[(0, 0, 61), (0, 0, 0)], PairScale::new(60, 874)).pair_rise(),
         61
     );
     // Extreme positions and heights never panic.
