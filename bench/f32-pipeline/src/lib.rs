@@ -523,10 +523,7 @@ impl<const C: usize> Frontend<C> {
                 (0.0, 0.0)
             };
             // The pair test's slope: the largest slope's rise per unit of position, mm.
-            let slope = self
-                .plane
-                .as_ref()
-                .map_or(0.0, |p| p.grade * layer.unit_mm);
+            let slope = self.plane.as_ref().map_or(0.0, |p| p.grade * layer.unit_mm);
             #[allow(clippy::cast_possible_truncation)]
             self.accumulate::<PLANE>(k as u8, cx, cy, distance, z, (u, v), slope);
         }
