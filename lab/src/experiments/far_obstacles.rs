@@ -25,6 +25,9 @@
 //! ```sh
 //! cargo run --release -p terrain-pyramid-lab -- experiments --far-obstacles-only [--quick] --out DIR [--json]
 //! ```
+//! A real laser's beams are calibrated only so well: `--elevation-bias-deg DEG` and
+//! `--range-bias-m M` draw each beam's elevation error and range offset once (σ DEG and M),
+//! as `host-tests/examples/terrain_rules` does for its car bench (0.1°, 2 cm).
 //! (`lab experiments` runs it among the others: its table in `DIR/report.md`, its results
 //! under `far_obstacles` in `DIR/results.json` and in the `--json` object.)
 
@@ -68,6 +71,12 @@ pub struct Setup {
     pub swell_m: f64,
     /// The laser's range noise σ (and the design's σ), metres.
     pub sigma_m: f64,
+    /// The standard deviation of each beam's elevation error (a calibration error, drawn
+    /// once per beam and kept for every revolution), degrees, ≥ 0; 0 for a perfect laser.
+    pub elevation_bias_deg: f64,
+    /// The standard deviation of each beam's range offset (drawn once per beam), metres,
+    /// ≥ 0; 0 for a perfect laser.
+    pub range_bias_m: f64,
 }
 
 impl Setup {
@@ -79,6 +88,8 @@ impl Setup {
             seed,
             swell_m: 0.05,
             sigma_m: 0.02,
+            elevation_bias_deg: 0.0,
+            range_bias_m: 0.0,
         }
     }
 
@@ -189,7 +200,11 @@ pub fn design(sigma_m: f32) -> Result<Design<L>, String> {
 
 /// One revolution of the car laser from each place of `setup` on `scene`.
 fn scans(setup: &Setup, scene: &Scene) -> Vec<Observation> {
-    let laser = RingLaser::car(setup.sigma_m);
+    let laser = RingLaser {
+        elevation_bias_deg: setup.elevation_bias_deg,
+        range_bias_m: setup.range_bias_m,
+        ..RingLaser::car(setup.sigma_m)
+    };
     let mut rng = Rng::new(setup.seed);
     setup
         .xs
@@ -298,14 +313,16 @@ pub fn table(r: &FarObstaclesResult) -> String {
     let _ = writeln!(
         s,
         "## Far obstacles: marked and clear by range ring\n\nThe car laser (h 1.3 m, 68 beams \
-         every 0.4°, 0.2° azimuth, σ {} m, 20 m) on the street (swell {} m), one revolution \
-         from x = {} m, each into a fresh pyramid of the street design (γ 3, 20 m, 128 cells) \
+         every 0.4°, 0.2° azimuth, σ {} m, per-beam calibration errors σ {}° in elevation and \
+         {} m in range, 20 m) on the street (swell {} m), one revolution from x = {} m, each into a fresh pyramid of the street design (γ 3, 20 m, 128 cells) \
          through the library's classifier. Clear ground: returns on truly navigable 0.1 m cells \
          with no feature within 0.5 m, right when the fused map reads navigable. Obstacles: \
          returns on true obstacle cells by the kind of the cell's tallest feature, marked when \
          an obstacle cell of the fused map lies within 0.2 m. Each entry: % (right / returns); \
          rings by the return's horizontal distance from the laser.",
         r.setup.sigma_m,
+        r.setup.elevation_bias_deg,
+        r.setup.range_bias_m,
         r.setup.swell_m,
         xs.join(", ")
     );

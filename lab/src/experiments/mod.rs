@@ -12,7 +12,8 @@
 //!   obstacles decay wrongly clears; and the stairs with decay on.
 //! - **Far obstacles** ([`far_obstacles`]): the car's ring laser on the street through the
 //!   library's classifier under both rules: clear ground read navigable and each obstacle
-//!   kind (curb, post, step edge, block) marked, by range ring (0-5 … 15-20 m).
+//!   kind (curb, post, step edge, block) marked, by range ring (0-5 … 15-20 m); a laser with
+//!   per-beam calibration errors with `--elevation-bias-deg` and `--range-bias-m`.
 //!
 //! Writes `DIR/fig2.png`, `DIR/stairs.png`, `DIR/stairs-detection.png`, `DIR/coverage.png`
 //! (and the coverage maps as `pyramid run` writes them), `DIR/report.md` and
@@ -93,6 +94,14 @@ pub struct Args {
     /// `DIR/results.json` holding it alone.
     #[arg(long, conflicts_with_all = ["stairs_only", "board"])]
     pub far_obstacles_only: bool,
+    /// Far obstacles: the standard deviation of each beam's elevation error, degrees (a
+    /// calibration error drawn once per beam; default 0, a perfect laser).
+    #[arg(long, value_name = "DEG", default_value_t = 0.0)]
+    pub elevation_bias_deg: f64,
+    /// Far obstacles: the standard deviation of each beam's range offset, metres (drawn once
+    /// per beam; default 0).
+    #[arg(long, value_name = "M", default_value_t = 0.0)]
+    pub range_bias_m: f64,
     /// Everything but the far-obstacles table. It measures both rules whatever `--rule`
     /// says, so a run under a second rule need not measure it again.
     #[arg(long, conflicts_with = "far_obstacles_only")]
@@ -161,12 +170,24 @@ fn figure2_args() -> DesignArgs {
 }
 
 /// The far-obstacles setup of `args` (`--quick`: fewer places; `--seed`).
-fn far_setup(args: &Args) -> far_obstacles::Setup {
-    if args.quick {
+fn far_setup(args: &Args) -> Result<far_obstacles::Setup, String> {
+    let finite_non_negative = |v: f64| v.is_finite() && v >= 0.0;
+    if !finite_non_negative(args.elevation_bias_deg) || !finite_non_negative(args.range_bias_m) {
+        return Err(format!(
+            "--elevation-bias-deg {} and --range-bias-m {}: each must be a finite number ≥ 0",
+            args.elevation_bias_deg, args.range_bias_m
+        ));
+    }
+    let setup = if args.quick {
         far_obstacles::Setup::quick(args.seed)
     } else {
         far_obstacles::Setup::full(args.seed)
-    }
+    };
+    Ok(far_obstacles::Setup {
+        elevation_bias_deg: args.elevation_bias_deg,
+        range_bias_m: args.range_bias_m,
+        ..setup
+    })
 }
 
 /// The far-obstacles `results.json`: the experiment alone.
@@ -186,7 +207,7 @@ pub fn run_far_only(args: &Args) -> Result<FarOnly, String> {
     let out = args.out.as_path();
     std::fs::create_dir_all(out).map_err(|e| format!("cannot create {}: {e}", out.display()))?;
     let results = FarOnly {
-        far_obstacles: far_obstacles::run(&far_setup(args))?,
+        far_obstacles: far_obstacles::run(&far_setup(args)?)?,
         quick: args.quick,
     };
     let json = serde_json::to_string_pretty(&results).map_err(|e| e.to_string())?;
@@ -267,7 +288,7 @@ pub fn run_all(args: &Args) -> Result<Results, String> {
     let far_obstacles = if args.stairs_only || args.no_far_obstacles {
         None
     } else {
-        Some(far_obstacles::run(&far_setup(args))?)
+        Some(far_obstacles::run(&far_setup(args)?)?)
     };
     let results = Results {
         stairs,
