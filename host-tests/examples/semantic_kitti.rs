@@ -1,0 +1,383 @@
+//! A real, hand-labelled street scan through the library: one SemanticKITTI revolution (a
+//! Velodyne HDL-64E on a car in a town street, 1.73 m up) scored by range ring the way
+//! `lab experiments --far-obstacles-only` scores the simulated street.
+//!
+//! ```sh
+//! cargo run --release -p terrain-pyramid-host-tests --example semantic_kitti -- SCAN.bin SCAN.label
+//! ```
+//!
+//! `SCAN.bin` holds the points as KITTI writes them (`x y z reflectance`, little-endian `f32`,
+//! metres, the laser's frame: x forward, y left, z up); `SCAN.label` one little-endian `u32` a
+//! point, the class in its low 16 bits (SemanticKITTI's raw ids). Neither is in this
+//! repository: KITTI's scans are CC BY-NC-SA 3.0 and SemanticKITTI's labels CC BY-NC-SA 4.0
+//! (non-commercial, share-alike). One labelled scan (sequence 00, scan 0) is in the
+//! `mit-han-lab/spvnas` repository as `assets/000000.bin` and `assets/000000.label`; the whole
+//! set is at semantic-kitti.org.
+//!
+//! The scan goes as ONE observation (the sensor at the origin, the robot's ground plane
+//! 1.73 m below it) into a fresh pyramid of the street design (`--max-range-m 20 --gamma 3
+//! --height-m 1.73 --phi-deg 0.4 --psi-deg 0.09 --sigma-m 0.02 --cells 128`, the HDL-64E's
+//! beam spacing and its azimuth step at 10 Hz), through the library's classifier under each
+//! rule, the points in the file's order (KITTI holds them beam by beam) and in firing order
+//! (by azimuth in steps of ψ, then by elevation from the lowest: as `pyramid replay --order
+//! firing` sorts them).
+//!
+//! The score, by the point's horizontal distance from the laser (0-5 … 15-20 m), counting
+//! obstacles only within the robot's height (1.0 m above its ground plane):
+//! - **clear ground**: road, parking, sidewalk, lane marking and other ground with no
+//!   obstacle, vegetation, unlabelled or curb point within 0.5 m; right when the fused map
+//!   reads navigable there;
+//! - **curb** (SemanticKITTI has no curb class; derived): a ground point with a ground point
+//!   of another class within 0.3 m at least 8 cm below it (the kerb's face and edge between
+//!   road and sidewalk); marked when an obstacle cell of the fused map lies within 0.2 m;
+//! - **post** (pole, traffic sign, trunk), **block** (vehicles, people, buildings, fences,
+//!   other structures), **vegetation**, **other** (other objects): marked as curbs are.
+
+use std::collections::HashMap;
+use terrain_pyramid::classify::{Classifier, ClassifierConfig, NavigabilityRule, PlaneRule};
+use terrain_pyramid::{Design, Fused, Meters, Pyramid};
+use terrain_pyramid_host_tests::navigability::{self, integrate_library};
+use terrain_pyramid_host_tests::sim::cloud::Observation;
+
+/// Layer capacity of the design.
+const L: usize = 16;
+/// Cells per layer side.
+const W: usize = 128;
+/// Classifier slots: a whole revolution in one observation.
+const SLOTS: usize = 65_536;
+/// KITTI's laser above the ground, metres.
+const HEIGHT_M: f64 = 1.73;
+/// The design's and the score's range, metres.
+const RANGE_M: f64 = 20.0;
+/// The robot's height above its ground plane: obstacles are counted below it, metres.
+const ROBOT_HEIGHT_M: f64 = 1.0;
+/// The azimuth step of the HDL-64E at 10 Hz, degrees.
+const PSI_DEG: f64 = 0.09;
+/// Ring edges, metres.
+const RINGS: [f64; 5] = [0.0, 5.0, 10.0, 15.0, 20.0];
+
+/// What a labelled point is, for the score.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Kind {
+    /// Flat ground (road, parking, sidewalk, lane marking, other ground).
+    Ground,
+    /// Grass and soil: neither counted nor a feature.
+    Terrain,
+    Post,
+    Block,
+    Vegetation,
+    Other,
+    /// Unlabelled or an outlier: a feature near ground, never counted.
+    Unlabelled,
+}
+
+/// The kind of a SemanticKITTI raw class id.
+fn kind(class: u32) -> Kind {
+    match class {
+        40 | 44 | 48 | 49 | 60 => Kind::Ground,
+        72 => Kind::Terrain,
+        71 | 80 | 81 => Kind::Post,
+        10 | 11 | 13 | 15 | 16 | 18 | 20 | 30 | 31 | 32 | 50 | 51 | 52 | 252..=259 => Kind::Block,
+        70 => Kind::Vegetation,
+        99 => Kind::Other,
+        _ => Kind::Unlabelled,
+    }
+}
+
+/// The rows of the table, in order.
+const ROWS: [&str; 7] = [
+    "clear ground (navigable)",
+    "curb",
+    "post",
+    "block",
+    "vegetation",
+    "other",
+    "every obstacle (marked)",
+];
+
+/// Per row and ring: (points, right).
+type Table = [[(usize, usize); 4]; 7];
+
+fn read(path: &str) -> Result<Vec<u8>, String> {
+    std::fs::read(path).map_err(|e| format!("{path}: {e}"))
+}
+
+/// The points and their classes; an error for files of the wrong length or that disagree.
+fn load(bin: &str, label: &str) -> Result<(Vec<[f64; 3]>, Vec<u32>), String> {
+    let (b, l) = (read(bin)?, read(label)?);
+    if b.len() % 16 != 0 || l.len() % 4 != 0 || b.len() / 16 != l.len() / 4 {
+        return Err(format!(
+            "{bin} ({} bytes, 16 a point) and {label} ({} bytes, 4 a point) do not hold the same points",
+            b.len(),
+            l.len()
+        ));
+    }
+    let f = |c: &[u8]| f64::from(f32::from_le_bytes([c[0], c[1], c[2], c[3]]));
+    let points = b
+        .chunks_exact(16)
+        .map(|c| [f(&c[0..4]), f(&c[4..8]), f(&c[8..12])])
+        .collect();
+    let classes = l
+        .chunks_exact(4)
+        .map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]]) & 0xFFFF)
+        .collect();
+    Ok((points, classes))
+}
+
+fn ring(p: &[f64; 3]) -> Option<usize> {
+    let d = p[0].hypot(p[1]);
+    (0..4).find(|&r| d >= RINGS[r] && d < RINGS[r + 1])
+}
+
+/// Points bucketed by 0.5 m cells, for the neighbourhood searches.
+struct Buckets(HashMap<(i64, i64), Vec<usize>>);
+
+impl Buckets {
+    const SIZE: f64 = 0.5;
+
+    #[allow(clippy::cast_possible_truncation)]
+    fn key(p: &[f64; 3]) -> (i64, i64) {
+        (
+            (p[0] / Self::SIZE).floor() as i64,
+            (p[1] / Self::SIZE).floor() as i64,
+        )
+    }
+
+    fn new(points: &[[f64; 3]]) -> Self {
+        let mut m: HashMap<(i64, i64), Vec<usize>> = HashMap::new();
+        for (i, p) in points.iter().enumerate() {
+            m.entry(Self::key(p)).or_default().push(i);
+        }
+        Self(m)
+    }
+
+    /// Whether any point within `radius` (≤ 0.5 m) of `p` satisfies `f`.
+    fn any_near(
+        &self,
+        points: &[[f64; 3]],
+        p: &[f64; 3],
+        radius: f64,
+        f: impl Fn(usize) -> bool,
+    ) -> bool {
+        let (i, j) = Self::key(p);
+        (-1..=1).any(|di| {
+            (-1..=1).any(|dj| {
+                self.0.get(&(i + di, j + dj)).is_some_and(|v| {
+                    v.iter().any(|&k| {
+                        let q = &points[k];
+                        (q[0] - p[0]).hypot(q[1] - p[1]) <= radius && f(k)
+                    })
+                })
+            })
+        })
+    }
+}
+
+/// What each point counts as: `None` (not counted) or the table row.
+fn truth(points: &[[f64; 3]], classes: &[u32]) -> Vec<Option<usize>> {
+    let kinds: Vec<Kind> = classes.iter().map(|&c| kind(c)).collect();
+    let buckets = Buckets::new(points);
+    let ground_z = -HEIGHT_M;
+    let below_robot = |p: &[f64; 3]| p[2] <= ground_z + ROBOT_HEIGHT_M;
+    let curb: Vec<bool> = (0..points.len())
+        .map(|i| {
+            kinds[i] == Kind::Ground
+                && buckets.any_near(points, &points[i], 0.3, |k| {
+                    kinds[k] == Kind::Ground
+                        && classes[k] != classes[i]
+                        && points[i][2] - points[k][2] >= 0.08
+                })
+        })
+        .collect();
+    (0..points.len())
+        .map(|i| {
+            let p = &points[i];
+            ring(p)?;
+            match kinds[i] {
+                Kind::Ground if curb[i] => Some(1),
+                Kind::Ground => {
+                    let feature = buckets.any_near(points, p, 0.5, |k| {
+                        curb[k]
+                            || matches!(kinds[k], Kind::Unlabelled | Kind::Vegetation)
+                            || (matches!(kinds[k], Kind::Post | Kind::Block | Kind::Other)
+                                && below_robot(&points[k]))
+                    });
+                    (!feature).then_some(0)
+                }
+                _ if !below_robot(p) => None,
+                Kind::Post => Some(2),
+                Kind::Block => Some(3),
+                Kind::Vegetation => Some(4),
+                Kind::Other => Some(5),
+                Kind::Terrain | Kind::Unlabelled => None,
+            }
+        })
+        .collect()
+}
+
+fn design() -> Result<Design<L>, String> {
+    #[allow(clippy::cast_possible_truncation)]
+    Design::new(
+        terrain_pyramid::SensorModel {
+            phi_rad: 0.4_f32.to_radians(),
+            psi_rad: (PSI_DEG as f32).to_radians(),
+            sigma_m: 0.02,
+            height_m: HEIGHT_M as f32,
+            max_range_m: RANGE_M as f32,
+        },
+        terrain_pyramid::Schedule {
+            base_m: 0.1,
+            gamma: 3.0,
+            ..terrain_pyramid::Schedule::default()
+        },
+        W,
+    )
+    .map_err(|e| format!("the design: {e:?}"))
+}
+
+/// The points in firing order: by azimuth step of ψ from −180°, then elevation from the lowest.
+fn firing_order(points: &[[f64; 3]]) -> Vec<[f64; 3]> {
+    let psi = PSI_DEG.to_radians();
+    #[allow(clippy::cast_possible_truncation)]
+    let key = |p: &[f64; 3]| {
+        (
+            ((p[1].atan2(p[0]) + std::f64::consts::PI) / psi).floor() as i64,
+            p[2].atan2(p[0].hypot(p[1])),
+        )
+    };
+    let mut v: Vec<([f64; 3], (i64, f64))> = points.iter().map(|p| (*p, key(p))).collect();
+    v.sort_by(|a, b| a.1 .0.cmp(&b.1 .0).then(a.1 .1.total_cmp(&b.1 .1)));
+    v.into_iter().map(|(p, _)| p).collect()
+}
+
+fn fused(p: &Pyramid<W, L>, x: f64, y: f64) -> Fused {
+    p.fused(
+        Meters::saturating_from_num(x),
+        Meters::saturating_from_num(y),
+    )
+}
+
+/// Whether an obstacle cell of the fused map lies within 0.2 m of `(x, y)` (a 5 cm lattice).
+fn obstacle_near(p: &Pyramid<W, L>, x: f64, y: f64) -> bool {
+    (-4..=4).any(|i| {
+        (-4..=4).any(|j| {
+            let (dx, dy) = (0.05 * f64::from(i), 0.05 * f64::from(j));
+            dx.hypot(dy) <= 0.2 + 1e-9 && matches!(fused(p, x + dx, y + dy), Fused::Obstacle { .. })
+        })
+    })
+}
+
+fn score(p: &Pyramid<W, L>, points: &[[f64; 3]], rows: &[Option<usize>]) -> Table {
+    let mut t: Table = [[(0, 0); 4]; 7];
+    for (q, row) in points.iter().zip(rows) {
+        let (Some(row), Some(r)) = (*row, ring(q)) else {
+            continue;
+        };
+        let right = if row == 0 {
+            matches!(fused(p, q[0], q[1]), Fused::Navigable { .. })
+        } else {
+            obstacle_near(p, q[0], q[1])
+        };
+        for k in [Some(row), (row != 0).then_some(6)].into_iter().flatten() {
+            t[k][r].0 += 1;
+            t[k][r].1 += usize::from(right);
+        }
+    }
+    t
+}
+
+fn cell((n, ok): (usize, usize)) -> String {
+    if n == 0 {
+        return "–".into();
+    }
+    #[allow(clippy::cast_precision_loss)]
+    let pct = 100.0 * ok as f64 / n as f64;
+    format!("{pct:.1} % ({ok} / {n})")
+}
+
+fn print(title: &str, t: &Table) {
+    println!("\n### {title}\n");
+    println!("| points on | 0-5 m | 5-10 m | 10-15 m | 15-20 m | all |");
+    println!("| --- | --- | --- | --- | --- | --- |");
+    for (name, row) in ROWS.iter().zip(t) {
+        let all = row.iter().fold((0, 0), |a, c| (a.0 + c.0, a.1 + c.1));
+        let cells: Vec<String> = row.iter().map(|&c| cell(c)).collect();
+        println!("| {name} | {} | {} |", cells.join(" | "), cell(all));
+    }
+}
+
+fn run(bin: &str, label: &str) -> Result<(), String> {
+    let (points, classes) = load(bin, label)?;
+    let rows = truth(&points, &classes);
+    let design = design()?;
+    println!(
+        "{bin}: {} points; within {RANGE_M} m: {} clear ground, {} curb, {} post, {} block, {} vegetation, {} other (obstacles below {ROBOT_HEIGHT_M} m over the ground plane)",
+        points.len(),
+        rows.iter().filter(|r| **r == Some(0)).count(),
+        rows.iter().filter(|r| **r == Some(1)).count(),
+        rows.iter().filter(|r| **r == Some(2)).count(),
+        rows.iter().filter(|r| **r == Some(3)).count(),
+        rows.iter().filter(|r| **r == Some(4)).count(),
+        rows.iter().filter(|r| **r == Some(5)).count(),
+    );
+    let mut classifier: Box<Classifier<SLOTS, L>> = navigability::classifier(&design);
+    let orders = [
+        ("file order", points.clone()),
+        ("firing order", firing_order(&points)),
+    ];
+    let rules = [
+        (
+            "plane (default)",
+            NavigabilityRule::Plane(PlaneRule::DEFAULT),
+        ),
+        ("spread (paper)", NavigabilityRule::Spread),
+    ];
+    for (rule_name, rule) in rules {
+        for (order_name, ordered) in &orders {
+            classifier.configure(ClassifierConfig {
+                rule,
+                ..ClassifierConfig::default()
+            });
+            let obs = Observation {
+                sensor: [0.0, 0.0, 0.0],
+                ground_z: -HEIGHT_M,
+                points: ordered.clone(),
+            };
+            let mut p: Box<Pyramid<W, L>> = navigability::pyramid(&design);
+            integrate_library(&mut p, &obs, &mut classifier);
+            if classifier.stats().overflow_points != 0 {
+                return Err(format!("{rule_name}: the classifier's scratch overflowed"));
+            }
+            print(
+                &format!("{rule_name}, {order_name}"),
+                &score(&p, &points, &rows),
+            );
+        }
+    }
+    Ok(())
+}
+
+fn main() {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let [bin, label] = args.as_slice() else {
+        eprintln!("usage: semantic_kitti SCAN.bin SCAN.label (SemanticKITTI's velodyne/ and labels/ files)");
+        std::process::exit(2);
+    };
+    // The classifier's scratch and the pyramid are built in place before they are boxed.
+    let (bin, label) = (bin.clone(), label.clone());
+    let outcome = std::thread::Builder::new()
+        .stack_size(64 << 20)
+        .spawn(move || run(&bin, &label))
+        .map_err(|e| e.to_string())
+        .and_then(|h| {
+            h.join()
+                .map_err(|_| "the scoring thread panicked".to_string())
+        });
+    match outcome {
+        Ok(Ok(())) => {}
+        Ok(Err(e)) | Err(e) => {
+            eprintln!("semantic_kitti: {e}");
+            std::process::exit(1);
+        }
+    }
+}
