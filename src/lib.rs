@@ -85,7 +85,9 @@ pub use design::{Design, DesignError, GateShape, Param, Schedule, SensorModel};
 
 pub use grid::{Layer, LayerCounts, Resolution};
 pub use logodds::{Cell, CellClass, Clamp, Increments, InverseSensorModel};
-pub use pyramid::{Applied, Config, Evidence, EvidenceClass, Fused, Pyramid, PyramidStats};
+pub use pyramid::{
+    Applied, Config, Evidence, EvidenceClass, Fused, Pyramid, PyramidStats, DEFAULT_FUSED_MARGIN,
+};
 pub use units::{LogOddsFixed, Meters, Point3, Weight};
 
 /// Window size of the default pyramid, cells per side: 6.4 m across at 0.1 m.

@@ -75,6 +75,13 @@ pub enum Fused {
     },
 }
 
+/// The fused query's default margin for "navigable", nats (0.055, 14/256 in Q8.8): the free
+/// evidence of one return that the soft gate feeds to a layer two gate widths from its centre,
+/// `e^{−2}·|l_free|` with the default model's `l_free = ln(0.4/0.6)`. A layer whose free
+/// evidence at a place is weaker (its gate's far tail) leaves the answer to the coarser
+/// layers, where a small obstacle may already be marked (`docs/core.md`, "The fused query").
+pub const DEFAULT_FUSED_MARGIN: f32 = 0.055;
+
 /// What the pyramid does with evidence, beyond the design.
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -83,7 +90,8 @@ pub struct Config {
     pub model: InverseSensorModel,
     /// Clamping of stored log-odds. Default: OctoMap's −2 ..= 3.5 nats.
     pub clamp: Clamp,
-    /// The fused query's confidence margin for "navigable", nats, ≥ 0. Default 0.
+    /// The fused query's confidence margin for "navigable", nats, finite and ≥ 0: a layer
+    /// answers navigable only below −margin. Default [`DEFAULT_FUSED_MARGIN`].
     pub fused_margin: f32,
     /// Decay of stale evidence toward unknown ([`crate::decay`]). Default: off, the paper's
     /// behaviour.
@@ -95,7 +103,7 @@ impl Default for Config {
         Self {
             model: InverseSensorModel::default(),
             clamp: Clamp::default(),
-            fused_margin: 0.0,
+            fused_margin: DEFAULT_FUSED_MARGIN,
             decay: Decay::OFF,
         }
     }

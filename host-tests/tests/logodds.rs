@@ -141,7 +141,11 @@ fn defaults_match_the_spec() {
             prior: f64::from(0.5_f32),
         }
     );
-    assert_eq!(cfg.fused_margin, 0.0);
+    // The fused margin: one return's free evidence two gate widths from a layer's centre,
+    // e^(−2)·|ln(0.4 / 0.6)|, in f64 here; the configured value is within a Q8.8 step of it.
+    let margin = (-2.0_f64).exp() * (0.4_f64 / 0.6).ln().abs();
+    assert!((f64::from(cfg.fused_margin) - margin).abs() < 1.0 / 512.0);
+    assert_eq!((margin * 256.0).round(), 14.0);
     assert_eq!(harness::clamp(&cfg.clamp), Clamp::DEFAULT);
     // The unknown sentinel and the classes.
     assert_eq!(tp::Cell::UNKNOWN.to_raw(), i16::MIN);

@@ -39,6 +39,14 @@ pub const PGM_UNKNOWN: u8 = 205;
 /// The file name of the picture of all the maps.
 pub const PICTURE_FILE: &str = "maps.png";
 
+/// The fused query's margin for maps read from a device (which does not send its own): the
+/// library's default, [`terrain_pyramid::DEFAULT_FUSED_MARGIN`], in Q8.8 (14/256 nats), the
+/// margin `pyramid run` and `pyramid replay` configure their pyramids with.
+#[must_use]
+pub fn default_fused_margin() -> LogOddsFixed {
+    round_to_log_odds(terrain_pyramid::DEFAULT_FUSED_MARGIN)
+}
+
 /// The library's fused rule ([`Pyramid::fused`]) over one point's cell in every layer, the
 /// finest first (`None` where a layer does not hold the point): the first observed cell with
 /// L > 0 answers obstacle, with L < −`margin_raw` (Q8.8 raw log-odds) navigable; unknown when
@@ -838,7 +846,9 @@ mod tests {
             }
         }
         assert!(host.mirror().is_synced());
-        let mirrored = MapSnapshot::from_mirror(host.mirror(), LogOddsFixed::ZERO, robot).unwrap();
+        let mirrored =
+            MapSnapshot::from_mirror(host.mirror(), round_to_log_odds(config.fused_margin), robot)
+                .unwrap();
         let direct = MapSnapshot::from_pyramid(&p, &design, &config, robot);
         // Cells, windows, cell sizes and bands (from the Hello) all equal the library's.
         assert_eq!(mirrored, direct);

@@ -76,7 +76,6 @@ use summary::write_out;
 use terrain_pyramid::classify::ClassifierConfig;
 use terrain_pyramid::link::convert::set_rule_message;
 use terrain_pyramid::wire::link::{ClockSource, Setup};
-use terrain_pyramid::LogOddsFixed;
 use timing::start_pose_inputs;
 use transport::Transport;
 
@@ -228,7 +227,8 @@ pub fn run(args: &Args) -> ExitCode {
         eprintln!("warning: cannot catch Ctrl-C ({e}); use --duration-s to end the session");
     }
     // The outputs first: a port already in use ends the command before the device is opened.
-    let outputs = match Outputs::start(&args.outputs.config(LogOddsFixed::ZERO)) {
+    let outputs = match Outputs::start(&args.outputs.config(crate::export::default_fused_margin()))
+    {
         Ok(o) => o.is_on().then_some(o),
         Err(e) => {
             eprintln!("error: {e}");

@@ -43,8 +43,7 @@ use terrain_pyramid::geometry::ScanPlane;
 use terrain_pyramid::link::LinkConfig;
 use terrain_pyramid::pipeline::FrontendConfig;
 use terrain_pyramid::{
-    Config, DefaultDesign, LogOddsFixed, DEFAULT_CELLS_PER_SIDE, DEFAULT_CLASSIFIER_SLOTS,
-    DEFAULT_LAYERS,
+    Config, DefaultDesign, DEFAULT_CELLS_PER_SIDE, DEFAULT_CLASSIFIER_SLOTS, DEFAULT_LAYERS,
 };
 
 /// Where the pipeline runs.
@@ -423,7 +422,7 @@ pub fn execute(args: &Args) -> Result<String, (u8, String)> {
         None => flags,
     };
     // The outputs first: an address already in use ends the command before a board boots.
-    let outputs = Outputs::start(&args.outputs.config(LogOddsFixed::ZERO))
+    let outputs = Outputs::start(&args.outputs.config(crate::export::default_fused_margin()))
         .map_err(|e| (1, format!("error: {e}")))?;
     if let Some(addr) = outputs.foxglove_addr() {
         eprintln!("foxglove: serving ws://{addr}");

@@ -45,7 +45,6 @@ use std::sync::Arc;
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 use terrain_pyramid::link::convert::setup_message_with_sensor;
 use terrain_pyramid::wire::link::{Message, PanAngle, PoseReport, Stats};
-use terrain_pyramid::LogOddsFixed;
 use terrain_pyramid_host::device::Device;
 use terrain_pyramid_host::emulator::{Emulator, Machine};
 use terrain_pyramid_host::link::{HostLink, LinkEvent};
@@ -539,8 +538,11 @@ pub fn execute(args: &Args) -> Result<Report, String> {
         .map_err(|e| e.to_string())?
         .args;
     let (design, config, classifier) = run_config(&run).map_err(|(_, e)| e)?;
-    let mut outputs =
-        Outputs::start(&run.outputs.config(LogOddsFixed::ZERO)).map_err(|e| e.to_string())?;
+    let mut outputs = Outputs::start(
+        &run.outputs
+            .config(terrain_pyramid_host::export::default_fused_margin()),
+    )
+    .map_err(|e| e.to_string())?;
     let addr = outputs
         .foxglove_addr()
         .ok_or("the Foxglove server did not start")?

@@ -71,7 +71,6 @@ use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 use terrain_pyramid::classify::ClassifierConfig;
 use terrain_pyramid::link::convert::setup_message_with_sensor;
 use terrain_pyramid::wire::link::Message;
-use terrain_pyramid::LogOddsFixed;
 use terrain_pyramid::{Config, DEFAULT_CELLS_PER_SIDE, DEFAULT_CLASSIFIER_SLOTS, DEFAULT_LAYERS};
 use terrain_pyramid_host::design::firmware_design;
 use terrain_pyramid_host::emulator::Machine;
@@ -518,8 +517,12 @@ pub fn execute(args: &Args) -> Result<Report, String> {
         },
         PoseRule::OnTime,
     )?;
-    let board = MapSnapshot::from_mirror(mirror.mirror(), LogOddsFixed::ZERO, (0.0, 0.0))
-        .ok_or("the relay's mirror holds no maps")?;
+    let board = MapSnapshot::from_mirror(
+        mirror.mirror(),
+        terrain_pyramid_host::export::default_fused_margin(),
+        (0.0, 0.0),
+    )
+    .ok_or("the relay's mirror holds no maps")?;
     let text = std::fs::read_to_string(listen_dir.join("summary.json")).map_err(|e| {
         format!(
             "pyramid listen ({status}) wrote no summary: {e}; see {}",

@@ -10,7 +10,6 @@ use crate::publish::OutputsReport;
 use serde::Serialize;
 use std::time::Duration;
 use terrain_pyramid::wire::link::Stats;
-use terrain_pyramid::LogOddsFixed;
 
 /// The summary of a session: what `summary.json` holds and `--json` prints.
 #[derive(Serialize, Debug, Clone)]
@@ -136,9 +135,11 @@ pub(super) fn write_out(
 ) -> Result<Summary, String> {
     let mirror = session.host.mirror();
     let rx = session.host.rx_counters();
-    let Some(snapshot) =
-        MapSnapshot::from_mirror(mirror, LogOddsFixed::ZERO, window_centre(mirror))
-    else {
+    let Some(snapshot) = MapSnapshot::from_mirror(
+        mirror,
+        export::default_fused_margin(),
+        window_centre(mirror),
+    ) else {
         let hint = crate::link::version_hint(&rx);
         return Err(format!(
             "no maps to write: the device sent no usable Hello in {:.1} s ({} good frames, {} bad){hint}",

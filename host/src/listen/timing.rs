@@ -13,7 +13,6 @@ use serde::Serialize;
 use std::sync::mpsc;
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 use terrain_pyramid::wire::link::TimeRequest;
-use terrain_pyramid::LogOddsFixed;
 
 /// The session's clocks and poses: the time exchanges, the clock mapping, the pose inputs.
 pub(super) struct Timing {
@@ -252,7 +251,7 @@ pub(super) fn start_pose_inputs(args: &Args) -> Result<Timing, String> {
     if let Some(topic) = &args.odom_topic {
         let domain = args
             .outputs
-            .config(LogOddsFixed::ZERO)
+            .config(crate::export::default_fused_margin())
             .ros2_domain
             .unwrap_or(0);
         timing
