@@ -9,9 +9,10 @@
 //!   threshold;
 //! - the **plane** rule: the least-squares plane of the points (x, y relative to the cell,
 //!   ridge λ = (c/64)² on both horizontal variances); not navigable when the RMS of the points
-//!   about it exceeds `√(residual² + a²)`, or when it rises across the points' extent
-//!   (`D = √12·s`, s their standard deviation along the gradient) by more than
-//!   `step + D·tan(max_slope) + a·√(12/n)`; `a = k·σ_z`, `σ_z = √((σ·h/r)² + (σ_a·r)²)`,
+//!   about it exceeds `√(residual² + a²)`, or when it is steeper than the largest slope and
+//!   rises across the points' extent (`D = √12·s`, s their standard deviation along the
+//!   gradient) by more than `D·tan(max_slope) + 1.5·a·√(12/n)` and by more than
+//!   `step + a·√(12/n)` in all; `a = k·σ_z`, `σ_z = √((σ·h/r)² + (σ_a·r)²)`,
 //!   `r = √(h² + d²)`, h the sensor's height above the ground plane, d the cell's closest look,
 //!   n the points; or when the lowest and the highest point (the first of each in arrival
 //!   order) stand apart by more than the plane explains,
@@ -174,8 +175,14 @@ fn plane_ratios(
     let residual_ratio = r2 / (residual * residual + noise * noise).max(1e-300);
     let g = wx.hypot(wy);
     let rise = (12.0 * explained).max(0.0).sqrt();
+    // The rise test: steeper than the largest slope, rising beyond it over the points'
+    // extent D = R/g by more than 1.5 times the rise's noise, and rising more than a step
+    // and that noise in all; the ratio is the smaller of the two margins.
+    let rise_noise = noise * (12.0 / n).sqrt();
     let rise_ratio = if g > max_grade {
-        rise * (g - max_grade) / (g * (step + noise * (12.0 / n).sqrt())).max(1e-300)
+        let beyond_slope = rise * (g - max_grade) / (g * 1.5 * rise_noise).max(1e-300);
+        let beyond_step = rise / (step + rise_noise).max(1e-300);
+        beyond_slope.min(beyond_step)
     } else {
         0.0
     };

@@ -6,8 +6,9 @@
 //!   cut over the step threshold. State: the lowest and highest z (kept by every slot).
 //! - [`NavigabilityRule::Plane`], the default (with the `plane-rule` feature): a least-squares plane per cell from running sums
 //!   of the points below the overhang cut. Not navigable when the points stray from their
-//!   plane by more than a residual allowance, when the plane rises across the points'
-//!   extent by more than the largest traversable slope and a step allow, or when the cell's
+//!   plane by more than a residual allowance, when the plane is steeper than the largest
+//!   traversable slope, rises beyond it by more than its noise and rises more than a step in
+//!   all (a kerb whose face spreads over the cell), or when the cell's
 //!   lowest and highest points stand apart by more than the plane explains between them and
 //!   a step allows (the extremes test: a kerb or a step inside a coarse cell, which the plane
 //!   takes for a slope), or when two consecutive returns of the cell stand apart by more than
@@ -122,8 +123,8 @@ impl Default for NavigabilityRule {
 /// `σ_z = √((range_sigma·h/r)² + (angle_sigma·r)²)`, `a = noise_factor·σ_z`, n the summed
 /// points):
 /// - the RMS of the points about their plane exceeds `√(residual² + a²)`, or
-/// - the plane rises across the points' extent D by more than `step + D·max_grade +
-///   a·√(12/n)`, or
+/// - the plane is steeper than `max_grade` and rises across the points' extent D by more than
+///   `D·max_grade + 1.5·a·√(12/n)` and by more than `step + a·√(12/n)` in all, or
 /// - the lowest and the highest point stand apart by more than the plane explains between
 ///   them and `step + 2·noise_factor·range_sigma·h/r` (the extremes test), or
 /// - two consecutive returns stand apart by more than `max_grade` explains over their

@@ -180,23 +180,27 @@ fn without_the_plane_rule_a_slot_is_16_bytes_and_the_paper_rule_applies() {
 #[cfg(feature = "plane-rule")]
 fn the_paper_rule_stays_available() {
     let d = Meters::from_num(0.3);
-    // A plane rising 6 cm across the cell's 0.1 m (31°), four points at its corners.
-    let cell = [
-        pt(0.301, 0.01, 0.00),
-        pt(0.399, 0.01, 0.06),
-        pt(0.301, 0.09, 0.00),
-        pt(0.399, 0.09, 0.06),
-    ];
+    // Flat ground in a 4 × 4 grid over the cell's 0.1 m, one return 6 cm up (a tuft, a stone).
+    let mut cell = [pt(0.0, 0.0, 0.0); 16];
+    for (i, q) in cell.iter_mut().enumerate() {
+        let (u, v) = ((i % 4) as f32, (i / 4) as f32);
+        *q = pt(
+            0.31 + 0.025 * u,
+            0.01 + 0.025 * v,
+            if i == 5 { 0.06 } else { 0.0 },
+        );
+    }
     let mut c = classifier::<256>(GateShape::Hard);
+    // The sensor 1 m above the ground: the noise allowances at 0.3 m hold its range noise.
     let classify = |c: &mut Classifier<256, 8>| {
-        c.begin(Meters::ZERO);
+        c.begin(Meters::ONE);
         for q in cell {
             c.add_point(q, d, Meters::ZERO);
         }
         records(c)[0].class
     };
-    // The plane rule weighs the plane's rise over the points' extent D = √12·s = 0.17 m
-    // (10.4 cm) against the step and the largest slope over D (5 + 6.2 cm): navigable.
+    // The plane rule: the stray return is within the texture and noise allowances, the plane
+    // is not steeper than 20° and the lone 6 cm is within the extremes' allowance: navigable.
     assert_eq!(classify(&mut c), EvidenceClass::Navigable);
     // The paper's rule: a spread of 6 cm, over the 5 cm step threshold.
     c.configure(ClassifierConfig {

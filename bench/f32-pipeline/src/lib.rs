@@ -275,8 +275,9 @@ impl PlaneF32 {
             return false;
         }
         let rise_n = sqrt(12.0 * explained.max(0.0));
-        let allowance = self.step_mm + noise * sqrt(12.0 / n);
-        rise_n * steep > 64.0 * slope * n * allowance
+        let rise_noise = noise * sqrt(12.0 / n);
+        rise_n > n * (self.step_mm + rise_noise)
+            && rise_n * steep > 64.0 * slope * n * 1.5 * rise_noise
     }
 }
 

@@ -415,14 +415,19 @@ pub(in crate::classify) fn plane_obstacle(
     if steep <= 0 {
         return false;
     }
-    // The rise times n, R·n = √(12·wᵀCw·n²) (mm, Q16). R·(g − tan) > g·(step + a·√(12/n)),
-    // times n·c/64: R·n·(64·G − tan·c) > 64·G·n·(step + a·√(12/n)).
+    // The rise times n, R·n = √(12·wᵀCw·n²) (mm, Q16), and the rise's noise N = a·√(12/n).
+    // Not navigable when R > step + N (more than a step in all) and R·(g − tan) > g·1.5·N
+    // (beyond the largest slope over the extent D = R/g by more than the noise allows),
+    // the second times n·c/64: R·n·(64·G − tan·c) > 64·G·n·1.5·N.
     #[allow(clippy::cast_sign_loss, clippy::cast_possible_wrap)]
     let rise_n = isqrt((12 * explained.max(0)) as u128) as i128;
     let root = ROOT_12_OVER_N
         .get(usize::from(state.n))
         .map_or(0, |&r| i128::from(r));
     let noise = noise.unwrap_or_else(|| i128::from(noise_q16(params, geometry)));
-    let allowance = i128::from(params.step_q16).saturating_add(noise.saturating_mul(root) >> 16);
-    rise_n.saturating_mul(steep) > (64 * slope * n).saturating_mul(allowance)
+    let rise_noise = noise.saturating_mul(root) >> 16;
+    let above_step = i128::from(params.step_q16).saturating_add(rise_noise);
+    let beyond_slope = rise_noise.saturating_add(rise_noise >> 1);
+    rise_n > n.saturating_mul(above_step)
+        && rise_n.saturating_mul(steep) > (64 * slope * n).saturating_mul(beyond_slope)
 }

@@ -212,8 +212,11 @@ fn plane_obstacle_128(state: &PlaneState, params: &PlaneParams, geometry: &CellG
     let root = ROOT_12_OVER_N
         .get(usize::from(state.n))
         .map_or(0, |&r| i128::from(r));
-    let allowance = i128::from(params.step_q16).saturating_add(noise.saturating_mul(root) >> 16);
-    rise_n.saturating_mul(steep) > (64 * slope * n).saturating_mul(allowance)
+    let rise_noise = noise.saturating_mul(root) >> 16;
+    let above_step = i128::from(params.step_q16).saturating_add(rise_noise);
+    let beyond_slope = rise_noise.saturating_add(rise_noise >> 1);
+    rise_n > n.saturating_mul(above_step)
+        && rise_n.saturating_mul(steep) > (64 * slope * n).saturating_mul(beyond_slope)
 }
 
 #[test]
