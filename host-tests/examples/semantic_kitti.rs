@@ -35,9 +35,10 @@
 
 use std::collections::HashMap;
 use terrain_pyramid::classify::{Classifier, ClassifierConfig, NavigabilityRule, PlaneRule};
-use terrain_pyramid::{Design, Fused, Meters, Pyramid};
+use terrain_pyramid::{Design, Fused, Pyramid};
 use terrain_pyramid_host_tests::navigability::{self, integrate_library};
-use terrain_pyramid_host_tests::sim::cloud::Observation;
+use terrain_pyramid_host_tests::scan3dtk::{fused_at, obstacle_near};
+use terrain_pyramid_host_tests::sim::cloud::{firing_order, Observation};
 
 /// Layer capacity of the design.
 const L: usize = 16;
@@ -235,38 +236,6 @@ fn design() -> Result<Design<L>, String> {
     .map_err(|e| format!("the design: {e:?}"))
 }
 
-/// The points in firing order: by azimuth step of ψ from −180°, then elevation from the lowest.
-fn firing_order(points: &[[f64; 3]]) -> Vec<[f64; 3]> {
-    let psi = PSI_DEG.to_radians();
-    #[allow(clippy::cast_possible_truncation)]
-    let key = |p: &[f64; 3]| {
-        (
-            ((p[1].atan2(p[0]) + std::f64::consts::PI) / psi).floor() as i64,
-            p[2].atan2(p[0].hypot(p[1])),
-        )
-    };
-    let mut v: Vec<([f64; 3], (i64, f64))> = points.iter().map(|p| (*p, key(p))).collect();
-    v.sort_by(|a, b| a.1 .0.cmp(&b.1 .0).then(a.1 .1.total_cmp(&b.1 .1)));
-    v.into_iter().map(|(p, _)| p).collect()
-}
-
-fn fused(p: &Pyramid<W, L>, x: f64, y: f64) -> Fused {
-    p.fused(
-        Meters::saturating_from_num(x),
-        Meters::saturating_from_num(y),
-    )
-}
-
-/// Whether an obstacle cell of the fused map lies within 0.2 m of `(x, y)` (a 5 cm lattice).
-fn obstacle_near(p: &Pyramid<W, L>, x: f64, y: f64) -> bool {
-    (-4..=4).any(|i| {
-        (-4..=4).any(|j| {
-            let (dx, dy) = (0.05 * f64::from(i), 0.05 * f64::from(j));
-            dx.hypot(dy) <= 0.2 + 1e-9 && matches!(fused(p, x + dx, y + dy), Fused::Obstacle { .. })
-        })
-    })
-}
-
 fn score(p: &Pyramid<W, L>, points: &[[f64; 3]], rows: &[Option<usize>]) -> Table {
     let mut t: Table = [[(0, 0); 4]; 7];
     for (q, row) in points.iter().zip(rows) {
@@ -274,7 +243,7 @@ fn score(p: &Pyramid<W, L>, points: &[[f64; 3]], rows: &[Option<usize>]) -> Tabl
             continue;
         };
         let right = if row == 0 {
-            matches!(fused(p, q[0], q[1]), Fused::Navigable { .. })
+            matches!(fused_at(p, q[0], q[1]), Fused::Navigable { .. })
         } else {
             obstacle_near(p, q[0], q[1])
         };
@@ -323,7 +292,10 @@ fn run(bin: &str, label: &str) -> Result<(), String> {
     let mut classifier: Box<Classifier<SLOTS, L>> = navigability::classifier(&design);
     let orders = [
         ("file order", points.clone()),
-        ("firing order", firing_order(&points)),
+        (
+            "firing order",
+            firing_order(&points, [0.0; 3], PSI_DEG.to_radians()),
+        ),
     ];
     let rules = [
         (

@@ -241,8 +241,8 @@ pub struct Evaluation {
     pub step_found: usize,
 }
 
-/// The fused answer at `(x, y)`.
-fn fused_at<const W: usize, const L: usize>(
+/// The fused answer at `(x, y)`, metres.
+pub fn fused_at<const W: usize, const L: usize>(
     p: &terrain_pyramid::Pyramid<W, L>,
     x: f64,
     y: f64,
@@ -253,9 +253,9 @@ fn fused_at<const W: usize, const L: usize>(
     )
 }
 
-/// Whether an obstacle cell of the fused map lies within 0.2 m of `(x, y)` (sampled on a
-/// 5 cm lattice over the disc).
-fn obstacle_near<const W: usize, const L: usize>(
+/// Whether an obstacle cell of the fused map lies within 0.2 m of `(x, y)` (metres; sampled
+/// on a 5 cm lattice over the disc).
+pub fn obstacle_near<const W: usize, const L: usize>(
     p: &terrain_pyramid::Pyramid<W, L>,
     x: f64,
     y: f64,

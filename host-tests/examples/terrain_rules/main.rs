@@ -43,7 +43,9 @@ use terrain_pyramid_host_tests::navigability::{
 use terrain_pyramid_host_tests::scan3dtk::{
     self, labelled, read_uos, readme_design, render, Label, Labels, LABELS, SCAN_PATH,
 };
-use terrain_pyramid_host_tests::sim::cloud::{pan_observations, Observation, RingLaser};
+use terrain_pyramid_host_tests::sim::cloud::{
+    firing_order, pan_observations, Observation, RingLaser,
+};
 use terrain_pyramid_host_tests::sim::laser::LaserConfig;
 use terrain_pyramid_host_tests::sim::rng::Rng;
 use terrain_pyramid_host_tests::sim::scene::Scene;
@@ -598,17 +600,8 @@ fn part_3dtk(judges: &[Judge]) {
         ..ClassifierConfig::default()
     });
     let psi = f64::from(design.sensor().psi_rad);
-    let key = |q: &[f64; 3]| {
-        let azimuth = q[1].atan2(q[0]) + std::f64::consts::PI;
-        ((azimuth / psi).floor() as i64, q[2].atan2(q[0].hypot(q[1])))
-    };
-    let mut firing = points.clone();
-    firing.sort_by(|a, b| {
-        let (ka, kb) = (key(a), key(b));
-        ka.0.cmp(&kb.0).then(ka.1.total_cmp(&kb.1))
-    });
     let all = Observation {
-        points: firing,
+        points: firing_order(&points, obs.sensor, psi),
         ..obs.clone()
     };
     integrate_library(&mut p, &all, &mut classifier);

@@ -29,6 +29,22 @@ pub struct Observation {
     pub points: Vec<[f64; 3]>,
 }
 
+/// `points` in a spinning laser's firing order about `sensor` (metres): by azimuth in steps
+/// of `psi_rad` (> 0) counted from −π, then by elevation from the lowest; a stable sort, as
+/// `pyramid replay --order firing` sorts a point file.
+#[must_use]
+pub fn firing_order(points: &[[f64; 3]], sensor: [f64; 3], psi_rad: f64) -> Vec<[f64; 3]> {
+    #[allow(clippy::cast_possible_truncation)]
+    let key = |p: &[f64; 3]| {
+        let (x, y, z) = (p[0] - sensor[0], p[1] - sensor[1], p[2] - sensor[2]);
+        let step = ((y.atan2(x) + std::f64::consts::PI) / psi_rad).floor() as i64;
+        (step, z.atan2(x.hypot(y)))
+    };
+    let mut keyed: Vec<([f64; 3], (i64, f64))> = points.iter().map(|p| (*p, key(p))).collect();
+    keyed.sort_by(|a, b| a.1 .0.cmp(&b.1 .0).then(a.1 .1.total_cmp(&b.1 .1)));
+    keyed.into_iter().map(|(p, _)| p).collect()
+}
+
 /// A spinning multi-beam laser on a car.
 #[derive(Debug, Clone, PartialEq)]
 pub struct RingLaser {
