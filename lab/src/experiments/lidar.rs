@@ -19,6 +19,21 @@
 //!   deviation; the design takes the larger, systematic bound);
 //! - h = 1.0 m, maximum range 12 m (stairs) or 10 m (coverage, as for the SICK).
 //!
+//! # Why the design's resolutions
+//! The paper's stairs experiment runs every layer at 0.1 m (the SICK keeps that pyramid):
+//! its panned SICK draws vertical lines, and one 0.1 m cell holds a riser's whole profile. A
+//! nodding lidar's lines run across the range instead, one tilt a revolution: on flat ground
+//! they lie `d²·φ/h` apart (0.1 m at 1.7 m for the LD19, 0.56 m at 4 m), on a riser `d·φ`
+//! apart in height (0.14 m at 4 m). Beyond 1.7 m a 0.1 m cell holds at most one line a
+//! sweep, at one height, which looks flat on the ground, on a tread and on a riser alike: a
+//! riser cell is marked only when two lines land on its 0.17 m face in the same sweep
+//! (certain within `H/(2φ)` = 2.4 m, never beyond `H/φ` = 4.9 m), and takes free evidence
+//! otherwise. The design's bound `δ(d)` grows with that spacing (its term `φ·(d² + h²)/h`):
+//! a cell of the design's own resolution `r_k = k·γ·Δd` holds, in one sweep, the ground
+//! before a riser, the riser and the tread behind it, and the plane rule sees the rise. The
+//! rigs therefore run the pyramid a user flashes (the library's default schedule); the
+//! uniform one is [`StairsSetup::uniform_layers`].
+//!
 //! The SICK's design is the paper's (φ = 0.5°, ψ = 2°, σ = 0.15 m). The recording carries one
 //! actuator angle per packet (the angle at its mean sample time), which is what the host's
 //! PanAngle gives the co-processor.
@@ -173,6 +188,11 @@ pub struct StairsSetup {
     /// The servo: lowest and highest tilt (degrees), rate (°/s), latency (ms); default
     /// [`SERVO`]. The design's φ follows its rate.
     pub servo: (f64, f64, f64, f64),
+    /// Every pyramid layer at 0.1 m (the paper's stairs pyramid, which the SICK runs) when
+    /// true; the design's own resolutions `r_k = k·γ·Δd` (the library's default schedule,
+    /// what a user flashes) when false, the default. See the module documentation, "Why the
+    /// design's resolutions".
+    pub uniform_layers: bool,
 }
 
 impl StairsSetup {
@@ -187,6 +207,7 @@ impl StairsSetup {
         revolutions_per_observation: 0,
         kind: LidarKind::Ld19,
         servo: SERVO,
+        uniform_layers: false,
     };
     /// `--quick`: 30 s of standing.
     pub const QUICK: Self = Self {
@@ -221,7 +242,8 @@ pub struct StairsResult {
     pub flat: MapResult,
     /// The flat grid with OctoMap's clamping.
     pub flat_clamped: MapResult,
-    /// The LD19's pyramid (every layer at 0.1 m), hard gate.
+    /// The LD19's pyramid (its design's resolutions unless the setup asks for uniform
+    /// layers), hard gate.
     pub pyramid: MapResult,
     /// The same with the soft gate.
     pub pyramid_soft: MapResult,
@@ -229,7 +251,7 @@ pub struct StairsResult {
     pub setup: StairsSetup,
     /// The design's inputs.
     pub design: Ld19Design,
-    /// Layers of the LD19's uniform pyramid.
+    /// Layers of the LD19's pyramid.
     pub layers: usize,
     /// Step cells.
     pub step_cells: usize,
@@ -262,7 +284,7 @@ pub fn run_stairs(
     let design = Ld19Design::for_kind_at(setup.kind, setup.servo.2);
     let mut maps =
         stairs::four_maps::<STAIRS_CELLS, RIG_LAYERS>(&decoded, setup.range_m, |gate| {
-            design.pyramid(setup.range_m, gate, true, STAIRS_CELLS)
+            design.pyramid(setup.range_m, gate, setup.uniform_layers, STAIRS_CELLS)
         })?;
     let layers = maps.get(2).map_or(0, |m| m.layer_count());
     let pass = stairs::watch(&decoded, &mut maps, &watched, CHECK_EVERY, false, |_, _| {});
@@ -274,8 +296,8 @@ pub fn run_stairs(
     let names = [
         "LD19: flat grid, no clamping",
         "LD19: flat grid, OctoMap clamping",
-        "LD19: pyramid (0.1 m), hard gate",
-        "LD19: pyramid (0.1 m), soft gate",
+        "LD19: pyramid, hard gate",
+        "LD19: pyramid, soft gate",
     ];
     for (k, map) in maps.iter().enumerate() {
         let result = watched.result(map.as_ref(), pass.detect[k], pass.far[k]);
@@ -406,6 +428,9 @@ pub struct StandingRow {
     pub soft_at_stop: f64,
     /// The soft-gated pyramid: distance at which the first step was first seen (null: never).
     pub soft_first_seen_m: Option<f64>,
+    /// The soft-gated pyramid: share of the flat ground before the stairs (|y| ≤ 1.5 m, up
+    /// to 0.5 m before the first riser) obstacle at the stop.
+    pub soft_false_obstacles: f64,
 }
 
 /// A rig's stairs: standing 30 s, 120 s (and 300 s) and, in a full run, the approach started
@@ -452,6 +477,7 @@ fn standing_row(
         hard_first_seen_m: r.pyramid.detect_distance_m,
         soft_at_stop: r.pyramid_soft.detected_fraction,
         soft_first_seen_m: r.pyramid_soft.detect_distance_m,
+        soft_false_obstacles: r.pyramid_soft.false_obstacle_fraction,
     })
 }
 
@@ -540,7 +566,7 @@ fn rigs_report(s: &mut String, rigs: &[RigStairs]) {
     let m = |v: Option<f64>| v.map_or_else(|| "never".to_string(), |d| format!("{d:.2} m"));
     let _ = writeln!(
         s,
-        "\nEvery nodding rig on the same servo (2°..35° at 20 °/s, h = 1.0 m), standing its range less 0.95 m from the stairs, then driving at 1 m/s to 1 m; step cells obstacle at the stop and where the first step was first seen (flat grid; pyramid hard gate; soft gate). Rows \"phase\": 120 s plus a fraction of the nod's {:.1} s period.\n\n| rig (φ, ψ) | standing s | flat | hard | hard: first seen | soft | soft: first seen |\n| --- | --- | --- | --- | --- | --- | --- |",
+        "\nEvery nodding rig on the same servo (2°..35° at 20 °/s, h = 1.0 m), standing its range less 0.95 m from the stairs, then driving at 1 m/s to 1 m; step cells obstacle at the stop and where the first step was first seen (flat grid; pyramid of the rig's design, hard gate; soft gate), and the soft-gated pyramid's false obstacles on the ground before the stairs at the stop. Rows \"phase\": 120 s plus a fraction of the nod's {:.1} s period.\n\n| rig (φ, ψ) | standing s | flat | hard | hard: first seen | soft | soft: first seen | soft: false obstacles |\n| --- | --- | --- | --- | --- | --- | --- | --- |",
         nod_period_s()
     );
     for r in rigs {
@@ -552,7 +578,7 @@ fn rigs_report(s: &mut String, rigs: &[RigStairs]) {
         {
             let _ = writeln!(
                 s,
-                "| {} (φ {:.2}°, ψ {:.2}°) | {:.3}{label} | {} | {} | {} | {} | {} |",
+                "| {} (φ {:.2}°, ψ {:.2}°) | {:.3}{label} | {} | {} | {} | {} | {} | {} |",
                 r.rig,
                 r.design.phi_deg,
                 r.design.psi_deg,
@@ -561,7 +587,8 @@ fn rigs_report(s: &mut String, rigs: &[RigStairs]) {
                 pct(row.hard_at_stop),
                 m(row.hard_first_seen_m),
                 pct(row.soft_at_stop),
-                m(row.soft_first_seen_m)
+                m(row.soft_first_seen_m),
+                pct(row.soft_false_obstacles)
             );
         }
     }
@@ -584,7 +611,7 @@ pub fn report(
     let d = &r.stairs.design;
     let _ = writeln!(
         s,
-        "## An LD19 on a nodding servo, beside the SICK\n\nAn LDROBOT LD19 (4 500 returns/s at 10 Hz, 0.02–12 m, σ = 10 mm in the simulator) lies flat on a servo nodding it from {}° to {}° at {} °/s ({} ms behind its command), its spin centre h = {} m up; its 47-byte packets go through the library's decoder and `Frontend::packet`, one actuator angle per packet (`host-tests/src/sim/lidar.rs`). The design comes from its datasheet (`lab/src/experiments/lidar.rs`): φ = {:.1}° (the tilt between revolutions: 20 °/s ÷ 10 Hz), ψ = {:.1}° (360° ÷ 450 returns), σ = {} m (the datasheet's ±45 mm accuracy), h = {} m; the uniform stairs pyramid has {} layers. Stairs: the robot stands {:.2} m from the first step (the LD19 reaches 12 m) for {:.0} s, then drives at {} m/s to {} m; {} packets, {} echoes.\n",
+        "## An LD19 on a nodding servo, beside the SICK\n\nAn LDROBOT LD19 (4 500 returns/s at 10 Hz, 0.02–12 m, σ = 10 mm in the simulator) lies flat on a servo nodding it from {}° to {}° at {} °/s ({} ms behind its command), its spin centre h = {} m up; its 47-byte packets go through the library's decoder and `Frontend::packet`, one actuator angle per packet (`host-tests/src/sim/lidar.rs`). The design comes from its datasheet (`lab/src/experiments/lidar.rs`): φ = {:.1}° (the tilt between revolutions: 20 °/s ÷ 10 Hz), ψ = {:.1}° (360° ÷ 450 returns), σ = {} m (the datasheet's ±45 mm accuracy), h = {} m; its pyramid (the design's own resolutions, `r_k = k·γ·Δd`: on a nodding lidar uniform 0.1 m cells hold at most one scan line beyond 1.7 m) has {} layers. Stairs: the robot stands {:.2} m from the first step (the LD19 reaches 12 m) for {:.0} s, then drives at {} m/s to {} m; {} packets, {} echoes.\n",
         SERVO.0,
         SERVO.1,
         SERVO.2,

@@ -264,7 +264,7 @@ mod tests {
                     ..StairsSetup::FULL
                 };
                 let design = lidar::Ld19Design::from_datasheet()
-                    .pyramid::<LAYERS>(setup.range_m, gate, true, STAIRS_CELLS)
+                    .pyramid::<LAYERS>(setup.range_m, gate, setup.uniform_layers, STAIRS_CELLS)
                     .map_err(|e| e.to_string())?;
                 diagnose(&setup, design, &ClassifierConfig::default())
             })
