@@ -261,8 +261,30 @@ pub struct StairsResult {
     pub echoes: u64,
 }
 
-/// Packets between two looks at the maps (one second of an LD19).
-const CHECK_EVERY: usize = 375;
+/// Seconds of the recording between two looks at the maps: 0.1 m of driving at 1 m/s, the
+/// resolution of "first step seen at".
+const CHECK_PERIOD_S: f64 = 0.1;
+
+/// Packets in [`CHECK_PERIOD_S`] of `decoded` (its packet rate over the whole recording; at
+/// least 1): an LD19 sends 375 packets a second, an RPLIDAR in standard scan 2 000 nodes, a
+/// YDLIDAR X4 about 130 packets.
+fn packets_per_check(decoded: &super::engine::Decoded) -> usize {
+    let span_s = match (decoded.lines.first(), decoded.lines.last()) {
+        #[allow(clippy::cast_precision_loss)]
+        (Some(a), Some(b)) => b.time_us.saturating_sub(a.time_us) as f64 * 1e-6,
+        _ => 0.0,
+    };
+    if span_s <= 0.0 {
+        return 1;
+    }
+    #[allow(
+        clippy::cast_precision_loss,
+        clippy::cast_possible_truncation,
+        clippy::cast_sign_loss
+    )]
+    let n = (decoded.lines.len() as f64 / span_s * CHECK_PERIOD_S).round() as usize;
+    n.max(1)
+}
 
 /// Runs the LD19's stairs with the classifier's thresholds and rule `classifier`; writes
 /// `stairs-ld19.png` into `out` when given.
@@ -287,7 +309,14 @@ pub fn run_stairs(
             design.pyramid(setup.range_m, gate, setup.uniform_layers, STAIRS_CELLS)
         })?;
     let layers = maps.get(2).map_or(0, |m| m.layer_count());
-    let pass = stairs::watch(&decoded, &mut maps, &watched, CHECK_EVERY, false, |_, _| {});
+    let pass = stairs::watch(
+        &decoded,
+        &mut maps,
+        &watched,
+        packets_per_check(&decoded),
+        false,
+        |_, _| {},
+    );
     let count = decoded.lines.len();
     let robot = decoded.lines.last().map_or((0.0, 0.0), |l| l.robot_xy);
     let mut results = Vec::new();
