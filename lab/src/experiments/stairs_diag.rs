@@ -185,6 +185,25 @@ pub fn diagnose(
     }
     let _ = writeln!(
         out,
+        "\nat the stop, per riser (its centre cell): the fused answer and each observed layer's L (k:nats)"
+    );
+    let mut risers: Vec<i32> = steps.iter().map(|c| c.0).collect();
+    risers.dedup();
+    for ix in risers {
+        let (x, y) = centre((ix, 0));
+        let layers: Vec<String> = (0..n_layers)
+            .filter_map(|k| map.layer_log_odds(k, x, y).map(|l| format!("{k}:{l:.2}")))
+            .collect();
+        let _ = writeln!(
+            out,
+            "riser at {:.2} m: {:?}; {}",
+            x - decoded.lines.last().map_or(0.0, |l| l.robot_xy.0),
+            map.fused(x, y),
+            layers.join(" ")
+        );
+    }
+    let _ = writeln!(
+        out,
         "\nsimulated packets {}, echoes {}; the datasheet design's φ = {}°",
         sim.packets,
         sim.echoes,
