@@ -141,6 +141,19 @@ fn the_papers_claims_hold_under(rule: &str, far: bool) {
         ld19_pyramid > ld19_flat,
         "LD19: pyramid {ld19_pyramid} vs flat {ld19_flat}"
     );
+    // With its design's resolutions (not the paper's uniform 0.1 m layers) the LD19's pyramid
+    // sees the first step before the stop, marks most step cells there, and no flat ground.
+    assert!(
+        f(&r, &["ld19", "stairs", "pyramid_soft", "detect_distance_m"]) >= 2.0,
+        "LD19: first step seen only at {}",
+        r["ld19"]["stairs"]["pyramid_soft"]["detect_distance_m"]
+    );
+    assert!(ld19_pyramid >= 0.8, "LD19: pyramid {ld19_pyramid} at the stop");
+    let ld19_false = f(
+        &r,
+        &["ld19", "stairs", "pyramid_soft", "false_obstacle_fraction"],
+    );
+    assert!(ld19_false <= 0.01, "LD19: false obstacles {ld19_false}");
     let ld19_fixed = f(&r, &["ld19", "coverage", "fixed", "holes_fraction"]);
     let ld19_multi = f(&r, &["ld19", "coverage", "pyramid", "holes_fraction"]);
     assert!(
