@@ -148,7 +148,10 @@ fn the_papers_claims_hold_under(rule: &str, far: bool) {
         "LD19: first step seen only at {}",
         r["ld19"]["stairs"]["pyramid_soft"]["detect_distance_m"]
     );
-    assert!(ld19_pyramid >= 0.8, "LD19: pyramid {ld19_pyramid} at the stop");
+    assert!(
+        ld19_pyramid >= 0.8,
+        "LD19: pyramid {ld19_pyramid} at the stop"
+    );
     let ld19_false = f(
         &r,
         &["ld19", "stairs", "pyramid_soft", "false_obstacle_fraction"],
