@@ -101,7 +101,7 @@ pub fn stairs_with_decay(
     let per = decoded.frontend.lines_per_observation.max(1) as usize;
     let pass = stairs::watch(&decoded, &mut maps, &watched, per, false, |_, _| {});
     let [map] = maps;
-    let with = watched.result(map.as_ref(), pass.detect[0], pass.far[0]);
+    let with = watched.result(map.as_ref(), &pass, 0);
     Ok(StairsDecay {
         mode: DecayMode::All.name(),
         tau_s: f64::from(tau.seconds().unwrap_or(0.0)),

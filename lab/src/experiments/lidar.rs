@@ -329,7 +329,7 @@ pub fn run_stairs(
         "LD19: pyramid, soft gate",
     ];
     for (k, map) in maps.iter().enumerate() {
-        let result = watched.result(map.as_ref(), pass.detect[k], pass.far[k]);
+        let result = watched.result(map.as_ref(), &pass, k);
         let mut p = picture::panel(map.as_ref(), &region, robot, &watched.steps);
         p.title = format!(
             "{}: at {:.1} m, {:.0} % of step cells obstacle",
@@ -460,6 +460,9 @@ pub struct StandingRow {
     /// The soft-gated pyramid: share of the flat ground before the stairs (|y| ≤ 1.5 m, up
     /// to 0.5 m before the first riser) obstacle at the stop.
     pub soft_false_obstacles: f64,
+    /// The soft-gated pyramid: share of the flat ground 0.5–2.5 m before the first riser
+    /// obstacle when the first step was first seen (null: never seen).
+    pub soft_ground_at_first_sight: Option<f64>,
 }
 
 /// A rig's stairs: standing 30 s, 120 s (and 300 s) and, in a full run, the approach started
@@ -507,6 +510,7 @@ fn standing_row(
         soft_at_stop: r.pyramid_soft.detected_fraction,
         soft_first_seen_m: r.pyramid_soft.detect_distance_m,
         soft_false_obstacles: r.pyramid_soft.false_obstacle_fraction,
+        soft_ground_at_first_sight: r.pyramid_soft.false_obstacle_at_first_sight,
     })
 }
 
@@ -595,7 +599,7 @@ fn rigs_report(s: &mut String, rigs: &[RigStairs]) {
     let m = |v: Option<f64>| v.map_or_else(|| "never".to_string(), |d| format!("{d:.2} m"));
     let _ = writeln!(
         s,
-        "\nEvery nodding rig on the same servo (2°..35° at 20 °/s, h = 1.0 m), standing its range less 0.95 m from the stairs, then driving at 1 m/s to 1 m; step cells obstacle at the stop and where the first step was first seen (flat grid; pyramid of the rig's design, hard gate; soft gate), and the soft-gated pyramid's false obstacles on the ground before the stairs at the stop. Rows \"phase\": 120 s plus a fraction of the nod's {:.1} s period.\n\n| rig (φ, ψ) | standing s | flat | hard | hard: first seen | soft | soft: first seen | soft: false obstacles |\n| --- | --- | --- | --- | --- | --- | --- | --- |",
+        "\nEvery nodding rig on the same servo (2°..35° at 20 °/s, h = 1.0 m), standing its range less 0.95 m from the stairs, then driving at 1 m/s to 1 m; step cells obstacle at the stop and where the first step was first seen (flat grid; pyramid of the rig's design, hard gate; soft gate), the soft-gated pyramid's false obstacles on the ground before the stairs at the stop, and on the ground 0.5–2.5 m before the first riser when it first saw the first step. Rows \"phase\": 120 s plus a fraction of the nod's {:.1} s period.\n\n| rig (φ, ψ) | standing s | flat | hard | hard: first seen | soft | soft: first seen | soft: false obstacles | soft: ground 0.5–2.5 m before, at first sight |\n| --- | --- | --- | --- | --- | --- | --- | --- | --- |",
         nod_period_s()
     );
     for r in rigs {
@@ -607,7 +611,7 @@ fn rigs_report(s: &mut String, rigs: &[RigStairs]) {
         {
             let _ = writeln!(
                 s,
-                "| {} (φ {:.2}°, ψ {:.2}°) | {:.3}{label} | {} | {} | {} | {} | {} | {} |",
+                "| {} (φ {:.2}°, ψ {:.2}°) | {:.3}{label} | {} | {} | {} | {} | {} | {} | {} |",
                 r.rig,
                 r.design.phi_deg,
                 r.design.psi_deg,
@@ -617,7 +621,9 @@ fn rigs_report(s: &mut String, rigs: &[RigStairs]) {
                 m(row.hard_first_seen_m),
                 pct(row.soft_at_stop),
                 m(row.soft_first_seen_m),
-                pct(row.soft_false_obstacles)
+                pct(row.soft_false_obstacles),
+                row.soft_ground_at_first_sight
+                    .map_or_else(|| "–".to_string(), pct)
             );
         }
     }

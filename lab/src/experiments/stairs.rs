@@ -165,6 +165,10 @@ pub struct MapResult {
     /// Share of the flat ground before the stairs (|y| ≤ 1.5 m, up to 0.5 m before the first
     /// riser) marked obstacle at the stop: false obstacles.
     pub false_obstacle_fraction: f64,
+    /// Share of the flat ground 0.5–2.5 m before the first riser (|y| ≤ 1.5 m) marked obstacle
+    /// when the first step was first seen: how much of the sighting is a coarse cell that
+    /// also covers the ground before the stairs; null when never seen.
+    pub false_obstacle_at_first_sight: Option<f64>,
     /// Evidence records the pipeline produced.
     pub records: u64,
     /// Records that changed a cell.
@@ -338,6 +342,8 @@ pub struct Watched {
     /// The flat ground before the stairs, |y| ≤ 1.5 m, from x = 0 to 0.5 m before the first
     /// riser: no cell there is an obstacle.
     pub ground: Vec<Cell>,
+    /// The part of [`Watched::ground`] within 2.5 m of the first riser.
+    pub ground_before: Vec<Cell>,
     /// When the robot starts driving, microseconds of the recording's clock (whole).
     pub drive_start_us: f64,
 }
@@ -351,11 +357,15 @@ impl Watched {
         let ground: Vec<Cell> = (0..((riser_x - 0.5) / CELL_M).floor() as i32)
             .flat_map(|ix| (-15..15).map(move |iy| (ix, iy)))
             .collect();
+        #[allow(clippy::cast_possible_truncation)]
+        let from = ((riser_x - 2.5) / CELL_M).floor() as i32;
+        let ground_before = ground.iter().copied().filter(|c| c.0 >= from).collect();
         Self {
             riser_x,
             steps,
             first,
             ground,
+            ground_before,
             drive_start_us: (sim.trajectory.drive_start_s() * 1e6).round(),
         }
     }
@@ -372,10 +382,13 @@ impl Watched {
         }
     }
 
-    /// What `map` shows at the end of a run: the step cells' shares and the false obstacles
-    /// (rounded to 4 decimals), the first riser's shares and the pipeline's counts, with the
-    /// pass's `detect_distance_m` and `far` shares. No series and no final map.
-    pub fn result(&self, map: &dyn Map, detect_distance_m: Option<f64>, far: Shares) -> MapResult {
+    /// What `map` (map `k` of `pass`) shows at the end of a run: the step cells' shares and
+    /// the false obstacles (rounded to 4 decimals), the first riser's shares and the
+    /// pipeline's counts, with the pass's detection distance, ground at that moment and `far`
+    /// shares. No series and no final map.
+    pub fn result(&self, map: &dyn Map, pass: &Pass, k: usize) -> MapResult {
+        let detect_distance_m = pass.detect.get(k).copied().flatten();
+        let far = pass.far.get(k).copied().unwrap_or_default();
         let near = shares(map, &self.steps);
         MapResult {
             detected_fraction: round4(near.obstacle),
@@ -384,6 +397,7 @@ impl Watched {
             near,
             first_step_near: shares(map, &self.first),
             false_obstacle_fraction: round4(shares(map, &self.ground).obstacle),
+            false_obstacle_at_first_sight: pass.ground_at_detect.get(k).copied().flatten(),
             records: map.records(),
             applied: u64::from(map.stats().applied),
             layers: map.layer_count(),
@@ -399,6 +413,8 @@ pub struct Pass {
     /// Distance to the first riser when the first step was first seen (metres, to 1 mm), or
     /// `None`.
     pub detect: Vec<Option<f64>>,
+    /// The share of [`Watched::ground_before`] obstacle at that moment (4 decimals), or `None`.
+    pub ground_at_detect: Vec<Option<f64>>,
     /// The step cells' shares at the end of standing.
     pub far: Vec<Shares>,
     /// (distance to the first riser, share of step cells obstacle) while driving; empty
@@ -421,6 +437,7 @@ pub fn watch(
     let n = maps.len();
     let mut pass = Pass {
         detect: vec![None; n],
+        ground_at_detect: vec![None; n],
         far: vec![Shares::default(); n],
         series: vec![Vec::new(); n],
     };
@@ -452,6 +469,9 @@ pub fn watch(
                     && shares(map.as_ref(), &watched.first).obstacle >= FIRST_STEP_SHARE
                 {
                     pass.detect[k] = Some(round3(distance));
+                    pass.ground_at_detect[k] = Some(round4(
+                        shares(map.as_ref(), &watched.ground_before).obstacle,
+                    ));
                 }
                 if driving && series {
                     pass.series[k].push((distance, shares(map.as_ref(), &watched.steps).obstacle));
@@ -491,7 +511,7 @@ pub fn run(setup: &Setup, out: Option<&Path>) -> Result<StairsResult, String> {
         results.push(MapResult {
             series: std::mem::take(&mut pass.series[k]),
             final_map: Some(map.snapshot(robot)),
-            ..watched.result(map.as_ref(), pass.detect[k], pass.far[k])
+            ..watched.result(map.as_ref(), &pass, k)
         });
         near_panels.push(picture::panel(map.as_ref(), &region, robot, &watched.steps));
     }
