@@ -36,6 +36,7 @@
 use std::collections::HashMap;
 use terrain_pyramid::classify::{Classifier, ClassifierConfig, NavigabilityRule, PlaneRule};
 use terrain_pyramid::{Design, Fused, Pyramid};
+use terrain_pyramid_host_tests::navigability::rings::{ring_name, ring_of, RINGS};
 use terrain_pyramid_host_tests::navigability::{self, integrate_library};
 use terrain_pyramid_host_tests::scan3dtk::{fused_at, obstacle_near};
 use terrain_pyramid_host_tests::sim::cloud::{firing_order, Observation};
@@ -54,8 +55,6 @@ const RANGE_M: f64 = 20.0;
 const ROBOT_HEIGHT_M: f64 = 1.0;
 /// The azimuth step of the HDL-64E at 10 Hz, degrees.
 const PSI_DEG: f64 = 0.09;
-/// Ring edges, metres.
-const RINGS: [f64; 5] = [0.0, 5.0, 10.0, 15.0, 20.0];
 
 /// What a labelled point is, for the score.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -97,7 +96,7 @@ const ROWS: [&str; 7] = [
 ];
 
 /// Per row and ring: (points, right).
-type Table = [[(usize, usize); 4]; 7];
+type Table = [[(usize, usize); RINGS]; 7];
 
 fn read(path: &str) -> Result<Vec<u8>, String> {
     std::fs::read(path).map_err(|e| format!("{path}: {e}"))
@@ -125,9 +124,9 @@ fn load(bin: &str, label: &str) -> Result<(Vec<[f64; 3]>, Vec<u32>), String> {
     Ok((points, classes))
 }
 
+/// The range ring of a point, by its horizontal distance from the laser.
 fn ring(p: &[f64; 3]) -> Option<usize> {
-    let d = p[0].hypot(p[1]);
-    (0..4).find(|&r| d >= RINGS[r] && d < RINGS[r + 1])
+    ring_of(p[0].hypot(p[1]))
 }
 
 /// Points bucketed by 0.5 m cells, for the neighbourhood searches.
@@ -237,7 +236,7 @@ fn design() -> Result<Design<L>, String> {
 }
 
 fn score(p: &Pyramid<W, L>, points: &[[f64; 3]], rows: &[Option<usize>]) -> Table {
-    let mut t: Table = [[(0, 0); 4]; 7];
+    let mut t: Table = [[(0, 0); RINGS]; 7];
     for (q, row) in points.iter().zip(rows) {
         let (Some(row), Some(r)) = (*row, ring(q)) else {
             continue;
@@ -266,8 +265,9 @@ fn cell((n, ok): (usize, usize)) -> String {
 
 fn print(title: &str, t: &Table) {
     println!("\n### {title}\n");
-    println!("| points on | 0-5 m | 5-10 m | 10-15 m | 15-20 m | all |");
-    println!("| --- | --- | --- | --- | --- | --- |");
+    let names: Vec<String> = (0..RINGS).map(ring_name).collect();
+    println!("| points on | {} | all |", names.join(" | "));
+    println!("|{}", " --- |".repeat(RINGS + 2));
     for (name, row) in ROWS.iter().zip(t) {
         let all = row.iter().fold((0, 0), |a, c| (a.0 + c.0, a.1 + c.1));
         let cells: Vec<String> = row.iter().map(|&c| cell(c)).collect();
