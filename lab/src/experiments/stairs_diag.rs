@@ -187,8 +187,7 @@ pub fn diagnose(
         out,
         "\nat the stop, per riser (its centre cell): the fused answer and each observed layer's L (k:nats)"
     );
-    let mut risers: Vec<i32> = steps.iter().map(|c| c.0).collect();
-    risers.dedup();
+    let risers: std::collections::BTreeSet<i32> = steps.iter().map(|c| c.0).collect();
     for ix in risers {
         let (x, y) = centre((ix, 0));
         let layers: Vec<String> = (0..n_layers)
