@@ -402,7 +402,6 @@ pub(in crate::classify) fn plane_obstacle(
         }
         noise = Some(i128::from(sigma));
     }
-    let n = i128::from(n);
     // The gradient G = |w| (mm per unit, Q16), g = 64·G/c: steeper than the largest slope
     // when 64·G > tan·c (c in mm; both sides mm, Q16), with G = ⌊√(wa² + wb²)⌋.
     let tan_c = i128::from(tan_times_cell(params.grade_q16, geometry.cell));
@@ -415,19 +414,34 @@ pub(in crate::classify) fn plane_obstacle(
     if steep <= 0 {
         return false;
     }
-    // The rise times n, R·n = √(12·wᵀCw·n²) (mm, Q16), and the rise's noise N = a·√(12/n).
-    // Not navigable when R > step + N (more than a step in all) and R·(g − tan) > g·1.5·N
-    // (beyond the largest slope over the extent D = R/g by more than the noise allows),
-    // the second times n·c/64: R·n·(64·G − tan·c) > 64·G·n·1.5·N.
+    let noise = noise.unwrap_or_else(|| i128::from(noise_q16(params, geometry)));
+    rises_too_far(explained, slope, steep, state.n, noise, params.step_q16)
+}
+
+/// The rise test of a plane steeper than the largest slope: `explained` = wᵀCw·n² (Q32 mm²),
+/// `slope` = G (mm per position unit, Q16), `steep` = 64·G − tan·c (> 0), `n` the points,
+/// `noise` = a (mm, Q16), `step_q16` the step (mm, Q16). With the rise times n,
+/// R·n = √(12·wᵀCw·n²), and the rise's noise N = a·√(12/n): not navigable when R > step + N
+/// (more than a step in all) and R·(g − tan) > g·1.5·N (beyond the largest slope over the
+/// extent D = R/g by more than the noise allows), the second times n·c/64:
+/// R·n·(64·G − tan·c) > 64·G·n·1.5·N. Saturating: never panics.
+pub(in crate::classify) fn rises_too_far(
+    explained: i128,
+    slope: i128,
+    steep: i128,
+    n: u8,
+    noise: i128,
+    step_q16: i64,
+) -> bool {
     #[allow(clippy::cast_sign_loss, clippy::cast_possible_wrap)]
     let rise_n = isqrt((12 * explained.max(0)) as u128) as i128;
     let root = ROOT_12_OVER_N
-        .get(usize::from(state.n))
+        .get(usize::from(n))
         .map_or(0, |&r| i128::from(r));
-    let noise = noise.unwrap_or_else(|| i128::from(noise_q16(params, geometry)));
     let rise_noise = noise.saturating_mul(root) >> 16;
-    let above_step = i128::from(params.step_q16).saturating_add(rise_noise);
+    let above_step = i128::from(step_q16).saturating_add(rise_noise);
     let beyond_slope = rise_noise.saturating_add(rise_noise >> 1);
+    let n = i128::from(n);
     rise_n > n.saturating_mul(above_step)
         && rise_n.saturating_mul(steep) > (64 * slope * n).saturating_mul(beyond_slope)
 }

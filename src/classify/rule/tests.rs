@@ -208,15 +208,7 @@ fn plane_obstacle_128(state: &PlaneState, params: &PlaneParams, geometry: &CellG
     if steep <= 0 {
         return false;
     }
-    let rise_n = isqrt((12 * explained.max(0)) as u128) as i128;
-    let root = ROOT_12_OVER_N
-        .get(usize::from(state.n))
-        .map_or(0, |&r| i128::from(r));
-    let rise_noise = noise.saturating_mul(root) >> 16;
-    let above_step = i128::from(params.step_q16).saturating_add(rise_noise);
-    let beyond_slope = rise_noise.saturating_add(rise_noise >> 1);
-    rise_n > n.saturating_mul(above_step)
-        && rise_n.saturating_mul(steep) > (64 * slope * n).saturating_mul(beyond_slope)
+    rises_too_far(explained, slope, steep, state.n, noise, params.step_q16)
 }
 
 #[test]
