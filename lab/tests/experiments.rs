@@ -157,6 +157,28 @@ fn the_papers_claims_hold_under(rule: &str, far: bool) {
         &["ld19", "stairs", "pyramid_soft", "false_obstacle_fraction"],
     );
     assert!(ld19_false <= 0.01, "LD19: false obstacles {ld19_false}");
+    // Standing at the stop until the sweep in progress ends (at most half a nod), the LD19's
+    // pyramid marks the steps and still no flat ground, after every standing time.
+    let rigs = r["ld19"]["rigs"].as_array().expect("ld19.rigs");
+    let ld19_rig = rigs
+        .iter()
+        .find(|rig| rig["rig"] == "LD19")
+        .expect("the LD19's rig");
+    let rows = ld19_rig["standing"].as_array().expect("standing rows");
+    assert!(!rows.is_empty());
+    for row in rows {
+        let after = &row["soft_after_sweep"];
+        let (steps, ground, wait) = (
+            f(after, &["step_cells"]),
+            f(after, &["false_obstacles"]),
+            f(after, &["wait_s"]),
+        );
+        assert!(
+            steps >= 0.95 && ground <= 0.01 && wait <= 1.7,
+            "LD19 after standing {}: {steps} of the step cells and {ground} of the ground after the sweep in progress ({wait} s)",
+            row["stand_s"]
+        );
+    }
     let ld19_fixed = f(&r, &["ld19", "coverage", "fixed", "holes_fraction"]);
     let ld19_multi = f(&r, &["ld19", "coverage", "pyramid", "holes_fraction"]);
     assert!(

@@ -193,6 +193,9 @@ pub struct StairsSetup {
     /// what a user flashes) when false, the default. See the module documentation, "Why the
     /// design's resolutions".
     pub uniform_layers: bool,
+    /// Seconds the robot stands at the stop before the recording ends, ≥ 0 (default 0: the
+    /// recording ends as the robot arrives).
+    pub dwell_s: f64,
 }
 
 impl StairsSetup {
@@ -208,6 +211,7 @@ impl StairsSetup {
         kind: LidarKind::Ld19,
         servo: SERVO,
         uniform_layers: false,
+        dwell_s: 0.0,
     };
     /// `--quick`: 30 s of standing.
     pub const QUICK: Self = Self {
@@ -217,13 +221,15 @@ impl StairsSetup {
 
     /// The SICK-shaped configuration of the same scene and trajectory (for the step cells).
     pub fn scene_config(&self) -> SimConfig {
-        stairs::approach_config(
+        let mut config = stairs::approach_config(
             self.stand_distance_m,
             self.stand_s,
             self.speed_mps,
             self.stop_distance_m,
             LaserConfig::paper(),
-        )
+        );
+        config.trajectory.dwell_s = self.dwell_s.max(0.0);
+        config
     }
 
     /// The run of the setup's lidar.
@@ -364,6 +370,86 @@ pub fn run_stairs(
     })
 }
 
+/// What the soft-gated pyramid shows once the robot has stood at the stop until the
+/// observation in progress ended: the device integrates an observation only when the servo
+/// turns (or after its lines), so this is the first map after arrival that holds every tilt
+/// of a sweep seen from the stop.
+#[derive(Debug, Clone, Copy, Serialize, PartialEq)]
+pub struct AfterSweep {
+    /// Step cells obstacle (4 decimals).
+    pub step_cells: f64,
+    /// Flat ground before the stairs obstacle (the same cells as the false-obstacle figure at
+    /// the stop, 4 decimals).
+    pub false_obstacles: f64,
+    /// Seconds from arrival to the end of that observation.
+    pub wait_s: f64,
+}
+
+/// Runs `setup` again with the robot standing one nod's period at the stop, through the
+/// soft-gated pyramid of the rig's design, and measures it at the end of the first
+/// observation that ends after arrival; `None` when none ends within the nod.
+///
+/// # Errors
+/// The simulator or the library refused the setup.
+pub fn run_after_sweep(
+    setup: &StairsSetup,
+    classifier: &ClassifierConfig,
+) -> Result<Option<AfterSweep>, String> {
+    let setup = StairsSetup {
+        dwell_s: nod_period_s(),
+        ..*setup
+    };
+    let scene_config = setup.scene_config();
+    let stop_us = (scene_config.trajectory.stop_s() * 1e6).round();
+    let sim = simulate_lidar(&setup.sim()).map_err(|e| e.to_string())?;
+    let mut decoded = decode(&sim.bytes, classifier)?;
+    if setup.revolutions_per_observation > 0 {
+        decoded.frontend.lines_per_observation = setup.revolutions_per_observation;
+    }
+    let watched = Watched::of(&scene_config);
+    let design = Ld19Design::for_kind_at(setup.kind, setup.servo.2)
+        .pyramid::<RIG_LAYERS>(
+            setup.range_m,
+            GateShape::default(),
+            setup.uniform_layers,
+            STAIRS_CELLS,
+        )
+        .map_err(|e| e.to_string())?;
+    let mut map: Box<dyn Map> =
+        Box::new(Runner::<STAIRS_CELLS, RIG_LAYERS, { stairs::SLOTS }>::new(
+            "pyramid_soft",
+            design,
+            designs::unclamped(),
+            decoded.frontend,
+        )?);
+    let mut records_at_arrival = None;
+    for line in &decoded.lines {
+        map.line(line);
+        #[allow(clippy::cast_precision_loss)]
+        let t_us = line.time_us as f64;
+        if t_us < stop_us {
+            continue;
+        }
+        let records = map.records();
+        match records_at_arrival {
+            None => records_at_arrival = Some(records),
+            Some(before) if records > before => {
+                return Ok(Some(AfterSweep {
+                    step_cells: stairs::round4(
+                        stairs::shares(map.as_ref(), &watched.steps).obstacle,
+                    ),
+                    false_obstacles: stairs::round4(
+                        stairs::shares(map.as_ref(), &watched.ground).obstacle,
+                    ),
+                    wait_s: ((t_us - stop_us) * 1e-6 * 1000.0).round() / 1000.0,
+                }));
+            }
+            Some(_) => {}
+        }
+    }
+    Ok(None)
+}
+
 /// The LD19's coverage: the same gate and approach as the SICK's ([`coverage::Setup`]), the
 /// LD19 on its servo standing 4 s (the 0.5 s hold and one sweep) instead of 2.4 s.
 #[derive(Debug, Clone, Serialize)]
@@ -464,6 +550,9 @@ pub struct StandingRow {
     /// The soft-gated pyramid: share of the flat ground 0.5–2.5 m before the first riser
     /// obstacle when the first step was first seen (null: never seen).
     pub soft_ground_at_first_sight: Option<f64>,
+    /// The soft-gated pyramid after the robot stood at the stop until the observation in
+    /// progress ended ([`run_after_sweep`]; null: none ended within a nod).
+    pub soft_after_sweep: Option<AfterSweep>,
 }
 
 /// A rig's stairs: standing 30 s, 120 s (and 300 s) and, in a full run, the approach started
@@ -503,6 +592,7 @@ fn standing_row(
         ..StairsSetup::FULL
     };
     let r = run_stairs(&setup, classifier, None)?;
+    let after = run_after_sweep(&setup, classifier)?;
     Ok(StandingRow {
         stand_s,
         flat_at_stop: r.flat.detected_fraction,
@@ -512,6 +602,7 @@ fn standing_row(
         soft_first_seen_m: r.pyramid_soft.detect_distance_m,
         soft_false_obstacles: r.pyramid_soft.false_obstacle_fraction,
         soft_ground_at_first_sight: r.pyramid_soft.false_obstacle_at_first_sight,
+        soft_after_sweep: after,
     })
 }
 
@@ -600,7 +691,7 @@ fn rigs_report(s: &mut String, rigs: &[RigStairs]) {
     let m = |v: Option<f64>| v.map_or_else(|| "never".to_string(), |d| format!("{d:.2} m"));
     let _ = writeln!(
         s,
-        "\nEvery nodding rig on the same servo (2°..35° at 20 °/s, h = 1.0 m), standing its range less 0.95 m from the stairs, then driving at 1 m/s to 1 m; step cells obstacle at the stop and where the first step was first seen (flat grid; pyramid of the rig's design, hard gate; soft gate), the soft-gated pyramid's false obstacles on the ground before the stairs at the stop, and on the ground 0.5–2.5 m before the first riser when it first saw the first step. Rows \"phase\": 120 s plus a fraction of the nod's {:.1} s period.\n\n| rig (φ, ψ) | standing s | flat | hard | hard: first seen | soft | soft: first seen | soft: false obstacles | soft: ground 0.5–2.5 m before, at first sight |\n| --- | --- | --- | --- | --- | --- | --- | --- | --- |",
+        "\nEvery nodding rig on the same servo (2°..35° at 20 °/s, h = 1.0 m), standing its range less 0.95 m from the stairs, then driving at 1 m/s to 1 m; step cells obstacle at the stop and where the first step was first seen (flat grid; pyramid of the rig's design, hard gate; soft gate), the soft-gated pyramid's false obstacles on the ground before the stairs at the stop, and on the ground 0.5–2.5 m before the first riser when it first saw the first step. The last column: the same pyramid when the robot, arrived, stands until the observation in progress ends (the device integrates an observation when the servo turns; the other columns flush the partial sweep at arrival), and how long it waited. Rows \"phase\": 120 s plus a fraction of the nod's {:.1} s period.\n\n| rig (φ, ψ) | standing s | flat | hard | hard: first seen | soft | soft: first seen | soft: false obstacles | soft: ground 0.5–2.5 m before, at first sight | soft, after the sweep in progress (wait; false obstacles) |\n| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |",
         nod_period_s()
     );
     for r in rigs {
@@ -612,7 +703,7 @@ fn rigs_report(s: &mut String, rigs: &[RigStairs]) {
         {
             let _ = writeln!(
                 s,
-                "| {} (φ {:.2}°, ψ {:.2}°) | {:.3}{label} | {} | {} | {} | {} | {} | {} | {} |",
+                "| {} (φ {:.2}°, ψ {:.2}°) | {:.3}{label} | {} | {} | {} | {} | {} | {} | {} | {} |",
                 r.rig,
                 r.design.phi_deg,
                 r.design.psi_deg,
@@ -624,7 +715,16 @@ fn rigs_report(s: &mut String, rigs: &[RigStairs]) {
                 m(row.soft_first_seen_m),
                 pct(row.soft_false_obstacles),
                 row.soft_ground_at_first_sight
-                    .map_or_else(|| "–".to_string(), pct)
+                    .map_or_else(|| "–".to_string(), pct),
+                row.soft_after_sweep.map_or_else(
+                    || "no sweep ended".to_string(),
+                    |a| format!(
+                        "{} ({:.2} s; {})",
+                        pct(a.step_cells),
+                        a.wait_s,
+                        pct(a.false_obstacles)
+                    )
+                )
             );
         }
     }
