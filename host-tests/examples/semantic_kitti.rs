@@ -84,8 +84,9 @@ fn kind(class: u32) -> Kind {
     }
 }
 
-/// The rows of the table, in order.
-const ROWS: [&str; 7] = [
+/// The rows of the table, by index: the curb's points again by their distance from the drop
+/// (rows 7–9) after the kinds and every obstacle.
+const ROWS: [&str; 10] = [
     "clear ground (navigable)",
     "curb",
     "post",
@@ -93,10 +94,20 @@ const ROWS: [&str; 7] = [
     "vegetation",
     "other",
     "every obstacle (marked)",
+    "curb, drop within 0.1 m",
+    "curb, drop 0.1–0.2 m",
+    "curb, drop 0.2–0.3 m",
 ];
 
+/// The order the rows are printed in: each curb band under the curb.
+const PRINT_ORDER: [usize; 10] = [0, 1, 7, 8, 9, 2, 3, 4, 5, 6];
+
+/// The first of the curb's bands by distance from the drop, and their width (metres).
+const BAND_ROW: usize = 7;
+const BAND_M: f64 = 0.1;
+
 /// Per row and ring: (points, right).
-type Table = [[(usize, usize); RINGS]; 7];
+type Table = [[(usize, usize); RINGS]; 10];
 
 fn read(path: &str) -> Result<Vec<u8>, String> {
     std::fs::read(path).map_err(|e| format!("{path}: {e}"))
@@ -151,6 +162,31 @@ impl Buckets {
         Self(m)
     }
 
+    /// The horizontal distance from `p` to the nearest point within `radius` (≤ 0.5 m) that
+    /// satisfies `f`, if any.
+    fn nearest(
+        &self,
+        points: &[[f64; 3]],
+        p: &[f64; 3],
+        radius: f64,
+        f: impl Fn(usize) -> bool,
+    ) -> Option<f64> {
+        let (i, j) = Self::key(p);
+        let mut best: Option<f64> = None;
+        for di in -1..=1 {
+            for dj in -1..=1 {
+                for &k in self.0.get(&(i + di, j + dj)).into_iter().flatten() {
+                    let q = &points[k];
+                    let d = (q[0] - p[0]).hypot(q[1] - p[1]);
+                    if d <= radius && best.is_none_or(|b| d < b) && f(k) {
+                        best = Some(d);
+                    }
+                }
+            }
+        }
+        best
+    }
+
     /// Whether any point within `radius` (≤ 0.5 m) of `p` satisfies `f`.
     fn any_near(
         &self,
@@ -173,23 +209,32 @@ impl Buckets {
     }
 }
 
-/// What each point counts as: `None` (not counted) or the table row.
-fn truth(points: &[[f64; 3]], classes: &[u32]) -> Vec<Option<usize>> {
+/// What each point counts as: `None` (not counted) or the table row; and for a curb point,
+/// its band row by the distance from the drop (the nearest lower point of the other class).
+fn truth(points: &[[f64; 3]], classes: &[u32]) -> (Vec<Option<usize>>, Vec<Option<usize>>) {
     let kinds: Vec<Kind> = classes.iter().map(|&c| kind(c)).collect();
     let buckets = Buckets::new(points);
     let ground_z = -HEIGHT_M;
     let below_robot = |p: &[f64; 3]| p[2] <= ground_z + ROBOT_HEIGHT_M;
-    let curb: Vec<bool> = (0..points.len())
+    let drop: Vec<Option<f64>> = (0..points.len())
         .map(|i| {
-            kinds[i] == Kind::Ground
-                && buckets.any_near(points, &points[i], 0.3, |k| {
-                    kinds[k] == Kind::Ground
-                        && classes[k] != classes[i]
-                        && points[i][2] - points[k][2] >= 0.08
-                })
+            if kinds[i] != Kind::Ground {
+                return None;
+            }
+            buckets.nearest(points, &points[i], 0.3, |k| {
+                kinds[k] == Kind::Ground
+                    && classes[k] != classes[i]
+                    && points[i][2] - points[k][2] >= 0.08
+            })
         })
         .collect();
-    (0..points.len())
+    let curb: Vec<bool> = drop.iter().map(Option::is_some).collect();
+    #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+    let bands = drop
+        .iter()
+        .map(|d| d.map(|d| BAND_ROW + ((d / BAND_M).floor() as usize).min(2)))
+        .collect();
+    let rows = (0..points.len())
         .map(|i| {
             let p = &points[i];
             ring(p)?;
@@ -212,7 +257,8 @@ fn truth(points: &[[f64; 3]], classes: &[u32]) -> Vec<Option<usize>> {
                 Kind::Terrain | Kind::Unlabelled => None,
             }
         })
-        .collect()
+        .collect();
+    (rows, bands)
 }
 
 fn design() -> Result<Design<L>, String> {
@@ -235,18 +281,27 @@ fn design() -> Result<Design<L>, String> {
     .map_err(|e| format!("the design: {e:?}"))
 }
 
-fn score(p: &Pyramid<W, L>, points: &[[f64; 3]], rows: &[Option<usize>]) -> Table {
-    let mut t: Table = [[(0, 0); RINGS]; 7];
-    for (q, row) in points.iter().zip(rows) {
+fn score(
+    p: &Pyramid<W, L>,
+    points: &[[f64; 3]],
+    rows: &[Option<usize>],
+    bands: &[Option<usize>],
+) -> Table {
+    let mut t: Table = [[(0, 0); RINGS]; 10];
+    for ((q, row), band) in points.iter().zip(rows).zip(bands) {
         let (Some(row), Some(r)) = (*row, ring(q)) else {
             continue;
         };
+        let band = if row == 1 { *band } else { None };
         let right = if row == 0 {
             matches!(fused_at(p, q[0], q[1]), Fused::Navigable { .. })
         } else {
             obstacle_near(p, q[0], q[1])
         };
-        for k in [Some(row), (row != 0).then_some(6)].into_iter().flatten() {
+        for k in [Some(row), (row != 0).then_some(6), band]
+            .into_iter()
+            .flatten()
+        {
             t[k][r].0 += 1;
             t[k][r].1 += usize::from(right);
         }
@@ -268,7 +323,7 @@ fn print(title: &str, t: &Table) {
     let names: Vec<String> = (0..RINGS).map(ring_name).collect();
     println!("| points on | {} | all |", names.join(" | "));
     println!("|{}", " --- |".repeat(RINGS + 2));
-    for (name, row) in ROWS.iter().zip(t) {
+    for (name, row) in PRINT_ORDER.iter().map(|&k| (ROWS[k], &t[k])) {
         let all = row.iter().fold((0, 0), |a, c| (a.0 + c.0, a.1 + c.1));
         let cells: Vec<String> = row.iter().map(|&c| cell(c)).collect();
         println!("| {name} | {} | {} |", cells.join(" | "), cell(all));
@@ -277,7 +332,7 @@ fn print(title: &str, t: &Table) {
 
 fn run(bin: &str, label: &str) -> Result<(), String> {
     let (points, classes) = load(bin, label)?;
-    let rows = truth(&points, &classes);
+    let (rows, bands) = truth(&points, &classes);
     let design = design()?;
     println!(
         "{bin}: {} points; within {RANGE_M} m: {} clear ground, {} curb, {} post, {} block, {} vegetation, {} other (obstacles below {ROBOT_HEIGHT_M} m over the ground plane)",
@@ -322,7 +377,7 @@ fn run(bin: &str, label: &str) -> Result<(), String> {
             }
             print(
                 &format!("{rule_name}, {order_name}"),
-                &score(&p, &points, &rows),
+                &score(&p, &points, &rows, &bands),
             );
         }
     }
