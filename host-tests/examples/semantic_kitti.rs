@@ -195,17 +195,7 @@ impl Buckets {
         radius: f64,
         f: impl Fn(usize) -> bool,
     ) -> bool {
-        let (i, j) = Self::key(p);
-        (-1..=1).any(|di| {
-            (-1..=1).any(|dj| {
-                self.0.get(&(i + di, j + dj)).is_some_and(|v| {
-                    v.iter().any(|&k| {
-                        let q = &points[k];
-                        (q[0] - p[0]).hypot(q[1] - p[1]) <= radius && f(k)
-                    })
-                })
-            })
-        })
+        self.nearest(points, p, radius, f).is_some()
     }
 }
 
