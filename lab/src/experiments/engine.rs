@@ -139,6 +139,9 @@ pub trait Map {
     fn stats(&self) -> PyramidStats;
     /// Evidence records the classifier produced so far.
     fn records(&self) -> u64;
+    /// Observations the classifier ended so far (each integrated into the maps, evidence or
+    /// not).
+    fn observations(&self) -> u64;
     /// The maps as plain data, for pictures.
     fn snapshot(&self, sensor_xy: (f64, f64)) -> MapSnapshot;
     /// The number of layers.
@@ -250,6 +253,10 @@ impl<const W: usize, const L: usize, const C: usize> Map for Runner<W, L, C> {
 
     fn records(&self) -> u64 {
         u64::from(self.frontend.classifier_stats().records)
+    }
+
+    fn observations(&self) -> u64 {
+        u64::from(self.frontend.classifier_stats().observations)
     }
 
     fn snapshot(&self, sensor_xy: (f64, f64)) -> MapSnapshot {

@@ -422,29 +422,22 @@ pub fn run_after_sweep(
             designs::unclamped(),
             decoded.frontend,
         )?);
-    let mut records_at_arrival = None;
+    let mut ended_at_arrival = None;
     for line in &decoded.lines {
-        map.line(line);
         #[allow(clippy::cast_precision_loss)]
         let t_us = line.time_us as f64;
-        if t_us < stop_us {
-            continue;
+        if t_us >= stop_us && ended_at_arrival.is_none() {
+            ended_at_arrival = Some(map.observations());
         }
-        let records = map.records();
-        match records_at_arrival {
-            None => records_at_arrival = Some(records),
-            Some(before) if records > before => {
-                return Ok(Some(AfterSweep {
-                    step_cells: stairs::round4(
-                        stairs::shares(map.as_ref(), &watched.steps).obstacle,
-                    ),
-                    false_obstacles: stairs::round4(
-                        stairs::shares(map.as_ref(), &watched.ground).obstacle,
-                    ),
-                    wait_s: ((t_us - stop_us) * 1e-6 * 1000.0).round() / 1000.0,
-                }));
-            }
-            Some(_) => {}
+        map.line(line);
+        if ended_at_arrival.is_some_and(|before| map.observations() > before) {
+            return Ok(Some(AfterSweep {
+                step_cells: stairs::round4(stairs::shares(map.as_ref(), &watched.steps).obstacle),
+                false_obstacles: stairs::round4(
+                    stairs::shares(map.as_ref(), &watched.ground).obstacle,
+                ),
+                wait_s: ((t_us - stop_us) * 1e-6 * 1000.0).round() / 1000.0,
+            }));
         }
     }
     Ok(None)
