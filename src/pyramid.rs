@@ -63,7 +63,8 @@ impl defmt::Format for Evidence {
 pub enum Fused {
     /// No layer has a confident answer.
     Unknown,
-    /// Not navigable, according to this layer (the finest that answered).
+    /// Not navigable, according to this layer (the finest that answered, or the layer after
+    /// it when that one's obstacle evidence outweighed the finer layer's free evidence).
     Obstacle {
         /// The layer that answered.
         layer: u8,
@@ -433,27 +434,39 @@ impl<const W: usize, const L: usize> Pyramid<W, L> {
     }
 
     /// The fused answer at world point `(x, y)`: the finest layer whose cell is observed with
-    /// L > 0 (obstacle) or L < −margin (navigable); unknown when none.
+    /// L > 0 (obstacle) or L < −margin (navigable); unknown when none. A navigable answer of
+    /// layer k gives way to layer k + 1 when that layer's cell holds more obstacle evidence
+    /// than layer k's holds free evidence (`L_{k+1} > −L_k`): then layer k + 1 answers
+    /// obstacle (`docs/core.md`, "The fused query").
     #[must_use]
     pub fn fused(&self, x: Meters, y: Meters) -> Fused {
-        for (k, layer) in self.layers.iter().take(self.layer_count()).enumerate() {
-            let r = layer.resolution();
-            let Some(cell) = layer.get(r.cell_of(x), r.cell_of(y)) else {
+        for k in 0..self.layer_count() {
+            let Some(raw) = self.raw_log_odds_at(k, x, y) else {
                 continue;
             };
-            let Some(value) = cell.log_odds() else {
-                continue;
-            };
-            let raw = value.to_bits();
             let layer = u8::try_from(k).unwrap_or(u8::MAX);
             if raw > 0 {
                 return Fused::Obstacle { layer };
             }
             if raw < -self.state.margin {
-                return Fused::Navigable { layer };
+                return match self.raw_log_odds_at(k + 1, x, y) {
+                    Some(next) if i32::from(next) > -i32::from(raw) => Fused::Obstacle {
+                        layer: layer.saturating_add(1),
+                    },
+                    _ => Fused::Navigable { layer },
+                };
             }
         }
         Fused::Unknown
+    }
+
+    /// Layer `k`'s raw Q8.8 log-odds at world point `(x, y)`; `None` when there is no layer
+    /// `k`, the point lies outside its window, or the cell is unknown.
+    fn raw_log_odds_at(&self, k: usize, x: Meters, y: Meters) -> Option<i16> {
+        let layer = self.layers.get(..self.layer_count())?.get(k)?;
+        let r = layer.resolution();
+        let value = layer.get(r.cell_of(x), r.cell_of(y))?.log_odds()?;
+        Some(value.to_bits())
     }
 
     /// Samples the fused query over a grid of `width × height` cells of size `step` whose
@@ -698,6 +711,36 @@ mod tests {
         // Layer 0 says obstacle: it wins.
         p.apply(&record(0, 0, 0, EvidenceClass::Obstacle, 0.3));
         assert_eq!(p.fused(x, y), Fused::Obstacle { layer: 0 });
+    }
+
+    #[test]
+    fn weaker_free_evidence_gives_way_to_the_next_layers_obstacle() {
+        let mut p = pyramid(GateShape::Hard, Clamp::Off);
+        let (x, y) = (Meters::from_num(0.05), Meters::from_num(0.05));
+        // In its own band a layer's record has weight 1: free −104, obstacle +217 raw.
+        let in_band = |k: usize| {
+            (1..200)
+                .map(|i| i as f32 * 0.05)
+                .find(|&d| {
+                    GATES.with(|g| g.borrow().weight_at(k, Meters::from_num(d))) == Weight::ONE
+                })
+                .unwrap()
+        };
+        let (d0, d1, d2) = (in_band(0), in_band(1), in_band(2));
+        p.apply(&record(0, 0, 0, EvidenceClass::Navigable, d0));
+        // A coarser layer two steps away does not answer for layer 0.
+        p.apply(&record(2, 0, 0, EvidenceClass::Obstacle, d2));
+        assert_eq!(p.fused(x, y), Fused::Navigable { layer: 0 });
+        // The next layer's +217 outweighs layer 0's −104: it answers.
+        p.apply(&record(1, 0, 0, EvidenceClass::Obstacle, d1));
+        assert_eq!(p.fused(x, y), Fused::Obstacle { layer: 1 });
+        // Two more free looks (−312) outweigh it again.
+        p.apply(&record(0, 0, 0, EvidenceClass::Navigable, d0));
+        p.apply(&record(0, 0, 0, EvidenceClass::Navigable, d0));
+        assert_eq!(p.fused(x, y), Fused::Navigable { layer: 0 });
+        // A second obstacle look (+434 against −312) outweighs them once more.
+        p.apply(&record(1, 0, 0, EvidenceClass::Obstacle, d1));
+        assert_eq!(p.fused(x, y), Fused::Obstacle { layer: 1 });
     }
 
     #[test]

@@ -1,6 +1,8 @@
 //! The fused query of `docs/core.md`: walk the layers from the finest; the first layer whose
 //! cell at the point is observed and either positive (obstacle) or below −margin (navigable)
-//! answers; otherwise unknown. And the region export that samples it at a grid's centres.
+//! answers, except that a navigable answer of layer k gives way to layer k + 1 when that
+//! layer's cell holds more obstacle evidence than layer k's holds free evidence; otherwise
+//! unknown. And the region export that samples it at a grid's centres.
 
 use super::window::{cell_of, Pyramid};
 
@@ -25,19 +27,28 @@ impl Pyramid {
     /// The fused answer at the raw Q16.16 point (x, y).
     #[must_use]
     pub fn fused(&self, x_raw: i32, y_raw: i32) -> Fused {
-        for (k, layer) in self.layers.iter().enumerate() {
-            let i = cell_of(i64::from(x_raw), layer.rq);
-            let j = cell_of(i64::from(y_raw), layer.rq);
-            let Some(cell) = self.cell(k, i, j) else {
-                continue;
-            };
-            match cell.value {
+        for k in 0..self.layers.len() {
+            match self.value_at(k, x_raw, y_raw) {
                 Some(l) if l > 0.0 => return Fused::Obstacle { layer: k },
-                Some(l) if l < -self.margin => return Fused::Navigable { layer: k },
+                Some(l) if l < -self.margin => {
+                    return match self.value_at(k + 1, x_raw, y_raw) {
+                        Some(next) if next > -l => Fused::Obstacle { layer: k + 1 },
+                        _ => Fused::Navigable { layer: k },
+                    };
+                }
                 _ => {}
             }
         }
         Fused::Unknown
+    }
+
+    /// Layer `k`'s log-odds at the raw point, `None` where there is no such layer or its cell
+    /// there is outside the window or unknown.
+    fn value_at(&self, k: usize, x_raw: i32, y_raw: i32) -> Option<f64> {
+        let layer = self.layers.get(k)?;
+        let i = cell_of(i64::from(x_raw), layer.rq);
+        let j = cell_of(i64::from(y_raw), layer.rq);
+        self.cell(k, i, j)?.value
     }
 
     /// The fused answer, or `None` when a fixed-point pyramid that follows the spec could
@@ -67,7 +78,24 @@ impl Pyramid {
                 return Some(Fused::Obstacle { layer: k });
             }
             if l < -self.margin {
-                return Some(Fused::Navigable { layer: k });
+                // The next layer's comparison with this one's free evidence, within both
+                // budgets, or its observed-ness on a threshold, could go either way.
+                let Some(next_layer) = self.layers.get(k + 1) else {
+                    return Some(Fused::Navigable { layer: k });
+                };
+                let i = cell_of(i64::from(x_raw), next_layer.rq);
+                let j = cell_of(i64::from(y_raw), next_layer.rq);
+                let Some(next) = self.cell(k + 1, i, j) else {
+                    return Some(Fused::Navigable { layer: k });
+                };
+                if next.threshold_case && !next.surely_observed {
+                    return None;
+                }
+                return match next.value {
+                    Some(n) if (n + l).abs() <= e + next.budget && e + next.budget > 0.0 => None,
+                    Some(n) if n > -l => Some(Fused::Obstacle { layer: k + 1 }),
+                    _ => Some(Fused::Navigable { layer: k }),
+                };
             }
         }
         Some(Fused::Unknown)
@@ -133,5 +161,28 @@ mod tests {
         // With a large margin the free layer no longer answers.
         p.margin = 10.0;
         assert_eq!(p.fused(-100, -100), Fused::Unknown);
+    }
+
+    #[test]
+    fn the_next_layers_stronger_obstacle_evidence_answers() {
+        let (d, mut p) = default_quantised();
+        let at = |k: usize| (d.layers[k].centre * 65_536.0) as i32;
+        let look = |layer: usize, obstacle: bool| Evidence {
+            layer,
+            i: 0,
+            j: 0,
+            obstacle,
+            distance_raw: at(layer),
+        };
+        p.apply(&look(0, false));
+        assert_eq!(p.fused(100, 100), Fused::Navigable { layer: 0 });
+        // One obstacle look of layer 1 outweighs one free look of layer 0.
+        p.apply(&look(1, true));
+        assert_eq!(p.fused(100, 100), Fused::Obstacle { layer: 1 });
+        assert_eq!(p.fused_robust(100, 100), Some(Fused::Obstacle { layer: 1 }));
+        // Three free looks outweigh it.
+        p.apply(&look(0, false));
+        p.apply(&look(0, false));
+        assert_eq!(p.fused(100, 100), Fused::Navigable { layer: 0 });
     }
 }
