@@ -4,6 +4,7 @@
 //! layer's cell holds more obstacle evidence than layer k's holds free evidence; otherwise
 //! unknown. And the region export that samples it at a grid's centres.
 
+use super::logodds::Cell;
 use super::window::{cell_of, Pyramid};
 
 /// The answer of the fused query.
@@ -45,10 +46,16 @@ impl Pyramid {
     /// Layer `k`'s log-odds at the raw point, `None` where there is no such layer or its cell
     /// there is outside the window or unknown.
     fn value_at(&self, k: usize, x_raw: i32, y_raw: i32) -> Option<f64> {
+        self.cell_at(k, x_raw, y_raw)?.value
+    }
+
+    /// Layer `k`'s cell at the raw point, `None` where there is no such layer or the point
+    /// lies outside its window.
+    fn cell_at(&self, k: usize, x_raw: i32, y_raw: i32) -> Option<Cell> {
         let layer = self.layers.get(k)?;
         let i = cell_of(i64::from(x_raw), layer.rq);
         let j = cell_of(i64::from(y_raw), layer.rq);
-        self.cell(k, i, j)?.value
+        self.cell(k, i, j)
     }
 
     /// The fused answer, or `None` when a fixed-point pyramid that follows the spec could
@@ -58,10 +65,8 @@ impl Pyramid {
     /// table entry may legitimately differ, so this is nearly always [`Pyramid::fused`].)
     #[must_use]
     pub fn fused_robust(&self, x_raw: i32, y_raw: i32) -> Option<Fused> {
-        for (k, layer) in self.layers.iter().enumerate() {
-            let i = cell_of(i64::from(x_raw), layer.rq);
-            let j = cell_of(i64::from(y_raw), layer.rq);
-            let Some(cell) = self.cell(k, i, j) else {
+        for k in 0..self.layers.len() {
+            let Some(cell) = self.cell_at(k, x_raw, y_raw) else {
                 continue;
             };
             if cell.threshold_case && !cell.surely_observed {
@@ -80,12 +85,7 @@ impl Pyramid {
             if l < -self.margin {
                 // The next layer's comparison with this one's free evidence, within both
                 // budgets, or its observed-ness on a threshold, could go either way.
-                let Some(next_layer) = self.layers.get(k + 1) else {
-                    return Some(Fused::Navigable { layer: k });
-                };
-                let i = cell_of(i64::from(x_raw), next_layer.rq);
-                let j = cell_of(i64::from(y_raw), next_layer.rq);
-                let Some(next) = self.cell(k + 1, i, j) else {
+                let Some(next) = self.cell_at(k + 1, x_raw, y_raw) else {
                     return Some(Fused::Navigable { layer: k });
                 };
                 if next.threshold_case && !next.surely_observed {
