@@ -38,9 +38,10 @@
 //! actuator angle per packet (the angle at its mean sample time), which is what the host's
 //! PanAngle gives the co-processor.
 
+use super::after_sweep::{self, AfterSweep};
 use super::coverage::{self, Holes};
 use super::designs;
-use super::engine::{decode, Map, Runner};
+use super::engine::{decode, Decoded, Map, Runner};
 use super::picture;
 use super::stairs::{self, MapResult, Watched};
 use serde::Serialize;
@@ -232,6 +233,34 @@ impl StairsSetup {
         config
     }
 
+    /// The setup's recording, simulated and decoded (its observations grouped as the setup
+    /// asks), and the echoes it holds.
+    ///
+    /// # Errors
+    /// The simulator's or the library's refusal.
+    pub fn decoded(&self, classifier: &ClassifierConfig) -> Result<(Decoded, u64), String> {
+        let sim = simulate_lidar(&self.sim()).map_err(|e| e.to_string())?;
+        let mut decoded = decode(&sim.bytes, classifier)?;
+        if self.revolutions_per_observation > 0 {
+            decoded.frontend.lines_per_observation = self.revolutions_per_observation;
+        }
+        Ok((decoded, sim.echoes))
+    }
+
+    /// The pyramid of the setup's rig (its design's resolutions unless `uniform_layers`) with
+    /// the gate `gate`.
+    ///
+    /// # Errors
+    /// The library's refusal of the design.
+    pub fn pyramid<const L: usize>(&self, gate: GateShape) -> Result<Design<L>, DesignError> {
+        Ld19Design::for_kind_at(self.kind, self.servo.2).pyramid(
+            self.range_m,
+            gate,
+            self.uniform_layers,
+            STAIRS_CELLS,
+        )
+    }
+
     /// The run of the setup's lidar.
     pub fn sim(&self) -> LidarSimConfig {
         let s = self.scene_config();
@@ -304,16 +333,12 @@ pub fn run_stairs(
     out: Option<&Path>,
 ) -> Result<StairsResult, String> {
     let scene_config = setup.scene_config();
-    let sim = simulate_lidar(&setup.sim()).map_err(|e| e.to_string())?;
-    let mut decoded = decode(&sim.bytes, classifier)?;
-    if setup.revolutions_per_observation > 0 {
-        decoded.frontend.lines_per_observation = setup.revolutions_per_observation;
-    }
+    let (decoded, echoes) = setup.decoded(classifier)?;
     let watched = Watched::of(&scene_config);
     let design = Ld19Design::for_kind_at(setup.kind, setup.servo.2);
     let mut maps =
         stairs::four_maps::<STAIRS_CELLS, RIG_LAYERS>(&decoded, setup.range_m, |gate| {
-            design.pyramid(setup.range_m, gate, setup.uniform_layers, STAIRS_CELLS)
+            setup.pyramid(gate)
         })?;
     let layers = maps.get(2).map_or(0, |m| m.layer_count());
     let pass = stairs::watch(
@@ -366,81 +391,8 @@ pub fn run_stairs(
         layers,
         step_cells: watched.steps.len(),
         packets: count,
-        echoes: sim.echoes,
+        echoes,
     })
-}
-
-/// What the soft-gated pyramid shows once the robot has stood at the stop until the
-/// observation in progress ended: the device integrates an observation only when the servo
-/// turns (or after its lines), so this is the first map after arrival that holds every tilt
-/// of a sweep seen from the stop.
-#[derive(Debug, Clone, Copy, Serialize, PartialEq)]
-pub struct AfterSweep {
-    /// Step cells obstacle (4 decimals).
-    pub step_cells: f64,
-    /// Flat ground before the stairs obstacle (the same cells as the false-obstacle figure at
-    /// the stop, 4 decimals).
-    pub false_obstacles: f64,
-    /// Seconds from arrival to the end of that observation.
-    pub wait_s: f64,
-}
-
-/// Runs `setup` again with the robot standing one nod's period at the stop, through the
-/// soft-gated pyramid of the rig's design, and measures it at the end of the first
-/// observation that ends after arrival; `None` when none ends within the nod.
-///
-/// # Errors
-/// The simulator or the library refused the setup.
-pub fn run_after_sweep(
-    setup: &StairsSetup,
-    classifier: &ClassifierConfig,
-) -> Result<Option<AfterSweep>, String> {
-    let setup = StairsSetup {
-        dwell_s: nod_period_s(),
-        ..*setup
-    };
-    let scene_config = setup.scene_config();
-    let stop_us = (scene_config.trajectory.stop_s() * 1e6).round();
-    let sim = simulate_lidar(&setup.sim()).map_err(|e| e.to_string())?;
-    let mut decoded = decode(&sim.bytes, classifier)?;
-    if setup.revolutions_per_observation > 0 {
-        decoded.frontend.lines_per_observation = setup.revolutions_per_observation;
-    }
-    let watched = Watched::of(&scene_config);
-    let design = Ld19Design::for_kind_at(setup.kind, setup.servo.2)
-        .pyramid::<RIG_LAYERS>(
-            setup.range_m,
-            GateShape::default(),
-            setup.uniform_layers,
-            STAIRS_CELLS,
-        )
-        .map_err(|e| e.to_string())?;
-    let mut map: Box<dyn Map> =
-        Box::new(Runner::<STAIRS_CELLS, RIG_LAYERS, { stairs::SLOTS }>::new(
-            "pyramid_soft",
-            design,
-            designs::unclamped(),
-            decoded.frontend,
-        )?);
-    let mut ended_at_arrival = None;
-    for line in &decoded.lines {
-        #[allow(clippy::cast_precision_loss)]
-        let t_us = line.time_us as f64;
-        if t_us >= stop_us && ended_at_arrival.is_none() {
-            ended_at_arrival = Some(map.observations());
-        }
-        map.line(line);
-        if ended_at_arrival.is_some_and(|before| map.observations() > before) {
-            return Ok(Some(AfterSweep {
-                step_cells: stairs::round4(stairs::shares(map.as_ref(), &watched.steps).obstacle),
-                false_obstacles: stairs::round4(
-                    stairs::shares(map.as_ref(), &watched.ground).obstacle,
-                ),
-                wait_s: ((t_us - stop_us) * 1e-6 * 1000.0).round() / 1000.0,
-            }));
-        }
-    }
-    Ok(None)
 }
 
 /// The LD19's coverage: the same gate and approach as the SICK's ([`coverage::Setup`]), the
@@ -544,7 +496,7 @@ pub struct StandingRow {
     /// obstacle when the first step was first seen (null: never seen).
     pub soft_ground_at_first_sight: Option<f64>,
     /// The soft-gated pyramid after the robot stood at the stop until the observation in
-    /// progress ended ([`run_after_sweep`]; null: none ended within a nod).
+    /// progress ended ([`after_sweep::run`]; null: none ended within a nod).
     pub soft_after_sweep: Option<AfterSweep>,
 }
 
@@ -585,7 +537,7 @@ fn standing_row(
         ..StairsSetup::FULL
     };
     let r = run_stairs(&setup, classifier, None)?;
-    let after = run_after_sweep(&setup, classifier)?;
+    let after = after_sweep::run(&setup, classifier)?;
     Ok(StandingRow {
         stand_s,
         flat_at_stop: r.flat.detected_fraction,
