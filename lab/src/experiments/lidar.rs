@@ -38,12 +38,14 @@
 //! actuator angle per packet (the angle at its mean sample time), which is what the host's
 //! PanAngle gives the co-processor.
 
-use super::after_sweep::{self, AfterSweep};
+pub mod after_sweep;
+
 use super::coverage::{self, Holes};
 use super::designs;
 use super::engine::{decode, Decoded, Map, Runner};
 use super::picture;
 use super::stairs::{self, MapResult, Watched};
+use after_sweep::AfterSweep;
 use serde::Serialize;
 use std::path::Path;
 use terrain_pyramid::classify::ClassifierConfig;

@@ -26,7 +26,6 @@
 //! board ([`stairs_board`]), each of the four maps on the device, and the report sets its
 //! figures beside the host's.
 
-pub mod after_sweep;
 pub mod coverage;
 pub mod designs;
 pub mod dynamic;

@@ -3,10 +3,10 @@
 //! sweep that `lidar::run_stairs` flushes at arrival is a state it never shows; this is the map
 //! it shows next (`docs/lidars.md`, "Arrived and stood one sweep").
 
-use super::designs;
-use super::engine::{Map, Runner};
-use super::lidar::{nod_period_s, StairsSetup, RIG_LAYERS, STAIRS_CELLS};
-use super::stairs::{self, Watched};
+use super::{nod_period_s, StairsSetup, RIG_LAYERS, STAIRS_CELLS};
+use crate::experiments::designs;
+use crate::experiments::engine::{Map, Runner};
+use crate::experiments::stairs::{self, Watched};
 use serde::Serialize;
 use terrain_pyramid::classify::ClassifierConfig;
 use terrain_pyramid::GateShape;
