@@ -320,21 +320,29 @@ fn print(title: &str, t: &Table) {
     }
 }
 
-fn run(bin: &str, label: &str) -> Result<(), String> {
+/// The rules and the orders every scan runs under, in the order the tables are printed.
+const RUNS: usize = 4;
+
+/// One scan's tables, one per rule and order ([`RUNS`]), and its one-line summary.
+fn score_scan(
+    bin: &str,
+    label: &str,
+    design: &Design<L>,
+    classifier: &mut Classifier<SLOTS, L>,
+) -> Result<([(String, Table); RUNS], String), String> {
     let (points, classes) = load(bin, label)?;
     let (rows, bands) = truth(&points, &classes);
-    let design = design()?;
-    println!(
+    let count = |row: usize| rows.iter().filter(|r| **r == Some(row)).count();
+    let mut summary = format!(
         "{bin}: {} points; within {RANGE_M} m: {} clear ground, {} curb, {} post, {} block, {} vegetation, {} other (obstacles below {ROBOT_HEIGHT_M} m over the ground plane)",
         points.len(),
-        rows.iter().filter(|r| **r == Some(0)).count(),
-        rows.iter().filter(|r| **r == Some(1)).count(),
-        rows.iter().filter(|r| **r == Some(2)).count(),
-        rows.iter().filter(|r| **r == Some(3)).count(),
-        rows.iter().filter(|r| **r == Some(4)).count(),
-        rows.iter().filter(|r| **r == Some(5)).count(),
+        count(0),
+        count(1),
+        count(2),
+        count(3),
+        count(4),
+        count(5),
     );
-    let mut classifier: Box<Classifier<SLOTS, L>> = navigability::classifier(&design);
     let orders = [
         ("file order", points.clone()),
         (
@@ -349,6 +357,7 @@ fn run(bin: &str, label: &str) -> Result<(), String> {
         ),
         ("spread (paper)", NavigabilityRule::Spread),
     ];
+    let mut tables: Vec<(String, Table)> = Vec::with_capacity(RUNS);
     for (rule_name, rule) in rules {
         for (order_name, ordered) in &orders {
             classifier.configure(ClassifierConfig {
@@ -360,31 +369,83 @@ fn run(bin: &str, label: &str) -> Result<(), String> {
                 ground_z: -HEIGHT_M,
                 points: ordered.clone(),
             };
-            let mut p: Box<Pyramid<W, L>> = navigability::pyramid(&design);
-            integrate_library(&mut p, &obs, &mut classifier);
+            let mut p: Box<Pyramid<W, L>> = navigability::pyramid(design);
+            integrate_library(&mut p, &obs, classifier);
             if classifier.stats().overflow_points != 0 {
-                return Err(format!("{rule_name}: the classifier's scratch overflowed"));
+                return Err(format!(
+                    "{bin}: {rule_name}: the classifier's scratch overflowed"
+                ));
             }
-            print(
-                &format!("{rule_name}, {order_name}"),
-                &score(&p, &points, &rows, &bands),
-            );
+            tables.push((
+                format!("{rule_name}, {order_name}"),
+                score(&p, &points, &rows, &bands),
+            ));
         }
+    }
+    // The default rule in firing order, the way a device receives a spinning laser.
+    if let Some((name, t)) = tables.get(1) {
+        let all = |row: usize| cell(t[row].iter().fold((0, 0), |a, c| (a.0 + c.0, a.1 + c.1)));
+        summary.push_str(&format!(
+            "\n  {name}: clear ground {}, curb {}, post {}, every obstacle {}",
+            all(0),
+            all(1),
+            all(2),
+            all(6)
+        ));
+    }
+    let tables: [(String, Table); RUNS] = tables
+        .try_into()
+        .map_err(|_| "a rule or an order is missing".to_string())?;
+    Ok((tables, summary))
+}
+
+/// Every scan of `pairs` (`SCAN.bin`, `SCAN.label`), each summed into the printed tables.
+fn run(pairs: &[(String, String)]) -> Result<(), String> {
+    let design = design()?;
+    let mut classifier: Box<Classifier<SLOTS, L>> = navigability::classifier(&design);
+    let mut sums: Option<[(String, Table); RUNS]> = None;
+    for (bin, label) in pairs {
+        let (tables, summary) = score_scan(bin, label, &design, &mut classifier)?;
+        println!("{summary}");
+        match &mut sums {
+            None => sums = Some(tables),
+            Some(sums) => {
+                for ((_, sum), (_, t)) in sums.iter_mut().zip(&tables) {
+                    for (sum_row, row) in sum.iter_mut().zip(t) {
+                        for (a, c) in sum_row.iter_mut().zip(row) {
+                            *a = (a.0 + c.0, a.1 + c.1);
+                        }
+                    }
+                }
+            }
+        }
+    }
+    let scans = pairs.len();
+    for (name, t) in sums.iter().flatten() {
+        let title = if scans == 1 {
+            name.clone()
+        } else {
+            format!("{name}, {scans} scans")
+        };
+        print(&title, t);
     }
     Ok(())
 }
 
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
-    let [bin, label] = args.as_slice() else {
-        eprintln!("usage: semantic_kitti SCAN.bin SCAN.label (SemanticKITTI's velodyne/ and labels/ files)");
+    if args.is_empty() || args.len() % 2 != 0 {
+        eprintln!("usage: semantic_kitti SCAN.bin SCAN.label [SCAN.bin SCAN.label ...] (SemanticKITTI's velodyne/ and labels/ files)");
         std::process::exit(2);
-    };
+    }
+    let pairs: Vec<(String, String)> = args
+        .chunks_exact(2)
+        .map(|c| (c[0].clone(), c[1].clone()))
+        .collect();
     // The classifier's scratch and the pyramid are built in place before they are boxed.
-    let (bin, label) = (bin.clone(), label.clone());
     let outcome = std::thread::Builder::new()
         .stack_size(64 << 20)
-        .spawn(move || run(&bin, &label))
+        .spawn(move || run(&pairs))
         .map_err(|e| e.to_string())
         .and_then(|h| {
             h.join()
