@@ -1,20 +1,23 @@
-//! A real, hand-labelled street scan through the library: one SemanticKITTI revolution (a
-//! Velodyne HDL-64E on a car in a town street, 1.73 m up) scored by range ring the way
-//! `lab experiments --far-obstacles-only` scores the simulated street.
+//! Real, hand-labelled street scans through the library: SemanticKITTI revolutions (a Velodyne
+//! HDL-64E on a car in town streets, 1.73 m up) scored by range ring the way `lab experiments
+//! --far-obstacles-only` scores the simulated street.
 //!
 //! ```sh
-//! cargo run --release -p terrain-pyramid-host-tests --example semantic_kitti -- SCAN.bin SCAN.label
+//! cargo run --release -p terrain-pyramid-host-tests --example semantic_kitti -- SCAN.bin SCAN.label [SCAN.bin SCAN.label ...]
 //! ```
 //!
 //! `SCAN.bin` holds the points as KITTI writes them (`x y z reflectance`, little-endian `f32`,
 //! metres, the laser's frame: x forward, y left, z up); `SCAN.label` one little-endian `u32` a
-//! point, the class in its low 16 bits (SemanticKITTI's raw ids). Neither is in this
-//! repository: KITTI's scans are CC BY-NC-SA 3.0 and SemanticKITTI's labels CC BY-NC-SA 4.0
-//! (non-commercial, share-alike). One labelled scan (sequence 00, scan 0) is in the
-//! `mit-han-lab/spvnas` repository as `assets/000000.bin` and `assets/000000.label`; the whole
-//! set is at semantic-kitti.org.
+//! point, the class in its low 16 bits (SemanticKITTI's raw ids). None is in this repository:
+//! KITTI's scans are CC BY-NC-SA 3.0 and SemanticKITTI's labels CC BY-NC-SA 4.0
+//! (non-commercial, share-alike). Public copies: sequence 08, scan 0 in the
+//! `mit-han-lab/spvnas` repository (`assets/000000.bin`, `assets/000000.label`); scans 0–9 of
+//! every labelled sequence (00–10) in `rancheng/mini_kitti_dataset`
+//! (`dataset/sequences/SS/velodyne/NNNNNN.bin`, `…/labels/NNNNNN.label`); the whole set at
+//! semantic-kitti.org. Each scan prints one line (its counts and each rule's figures in firing
+//! order); the tables sum every scan given.
 //!
-//! The scan goes as ONE observation (the sensor at the origin, the robot's ground plane
+//! Each scan goes as ONE observation (the sensor at the origin, the robot's ground plane
 //! 1.73 m below it) into a fresh pyramid of the street design (`--max-range-m 20 --gamma 3
 //! --height-m 1.73 --phi-deg 0.4 --psi-deg 0.09 --sigma-m 0.02 --cells 128`, the HDL-64E's
 //! beam spacing and its azimuth step at 10 Hz), through the library's classifier under each
@@ -382,8 +385,8 @@ fn score_scan(
             ));
         }
     }
-    // The default rule in firing order, the way a device receives a spinning laser.
-    if let Some((name, t)) = tables.get(1) {
+    // Each rule in firing order, the way a device receives a spinning laser.
+    for (name, t) in tables.iter().skip(1).step_by(2) {
         let all = |row: usize| cell(t[row].iter().fold((0, 0), |a, c| (a.0 + c.0, a.1 + c.1)));
         summary.push_str(&format!(
             "\n  {name}: clear ground {}, curb {}, post {}, every obstacle {}",
