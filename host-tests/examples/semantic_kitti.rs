@@ -32,7 +32,9 @@
 //!   reads navigable there;
 //! - **curb** (SemanticKITTI has no curb class; derived): a ground point with a ground point
 //!   of another class within 0.3 m at least 8 cm below it (the kerb's face and edge between
-//!   road and sidewalk); marked when an obstacle cell of the fused map lies within 0.2 m;
+//!   road and sidewalk; again by the distance from that drop, and those with a drop of 10 cm or
+//!   more, a town kerb's usual 10–15 cm); marked when an obstacle cell of the fused map lies
+//!   within 0.2 m;
 //! - **post** (pole, traffic sign, trunk), **block** (vehicles, people, buildings, fences,
 //!   other structures), **vegetation**, **other** (other objects): marked as curbs are.
 
@@ -88,8 +90,8 @@ fn kind(class: u32) -> Kind {
 }
 
 /// The rows of the table, by index: the curb's points again by their distance from the drop
-/// (rows 7–9) after the kinds and every obstacle.
-const ROWS: [&str; 10] = [
+/// (rows 7–9) and the tall kerbs (row 10) after the kinds and every obstacle.
+const ROWS: [&str; 11] = [
     "clear ground (navigable)",
     "curb",
     "post",
@@ -100,17 +102,26 @@ const ROWS: [&str; 10] = [
     "curb, drop within 0.1 m",
     "curb, drop 0.1–0.2 m",
     "curb, drop 0.2–0.3 m",
+    "curb of 10 cm or more",
 ];
 
 /// The order the rows are printed in: each curb band under the curb.
-const PRINT_ORDER: [usize; 10] = [0, 1, 7, 8, 9, 2, 3, 4, 5, 6];
+const PRINT_ORDER: [usize; 11] = [0, 1, 7, 8, 9, 10, 2, 3, 4, 5, 6];
 
 /// The first of the curb's bands by distance from the drop, and their width (metres).
 const BAND_ROW: usize = 7;
 const BAND_M: f64 = 0.1;
+/// The row of the curb's returns with a drop of at least [`TALL_M`] within 0.3 m.
+const TALL_ROW: usize = 10;
+/// A town kerb's usual height (10–15 cm) from below: a drop of at least this, metres.
+const TALL_M: f64 = 0.10;
 
 /// Per row and ring: (points, right).
-type Table = [[(usize, usize); RINGS]; 10];
+type Table = [[(usize, usize); RINGS]; 11];
+
+/// A curb return's further rows: its band by the distance from the drop and, for a drop of at
+/// least [`TALL_M`], [`TALL_ROW`].
+type CurbRows = [Option<usize>; 2];
 
 fn read(path: &str) -> Result<Vec<u8>, String> {
     std::fs::read(path).map_err(|e| format!("{path}: {e}"))
@@ -203,8 +214,9 @@ impl Buckets {
 }
 
 /// What each point counts as: `None` (not counted) or the table row; and for a curb point,
-/// its band row by the distance from the drop (the nearest lower point of the other class).
-fn truth(points: &[[f64; 3]], classes: &[u32]) -> (Vec<Option<usize>>, Vec<Option<usize>>) {
+/// its band row by the distance from the drop (the nearest lower point of the other class) and
+/// whether it stands [`TALL_M`] or more over a point of the other class within 0.3 m.
+fn truth(points: &[[f64; 3]], classes: &[u32]) -> (Vec<Option<usize>>, Vec<CurbRows>) {
     let kinds: Vec<Kind> = classes.iter().map(|&c| kind(c)).collect();
     let buckets = Buckets::new(points);
     let ground_z = -HEIGHT_M;
@@ -225,7 +237,19 @@ fn truth(points: &[[f64; 3]], classes: &[u32]) -> (Vec<Option<usize>>, Vec<Optio
     #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
     let bands = drop
         .iter()
-        .map(|d| d.map(|d| BAND_ROW + ((d / BAND_M).floor() as usize).min(2)))
+        .enumerate()
+        .map(|(i, d)| {
+            let tall = d.is_some()
+                && buckets.any_near(points, &points[i], 0.3, |k| {
+                    kinds[k] == Kind::Ground
+                        && classes[k] != classes[i]
+                        && points[i][2] - points[k][2] >= TALL_M
+                });
+            [
+                d.map(|d| BAND_ROW + ((d / BAND_M).floor() as usize).min(2)),
+                tall.then_some(TALL_ROW),
+            ]
+        })
         .collect();
     let rows = (0..points.len())
         .map(|i| {
@@ -278,20 +302,20 @@ fn score(
     p: &Pyramid<W, L>,
     points: &[[f64; 3]],
     rows: &[Option<usize>],
-    bands: &[Option<usize>],
+    bands: &[CurbRows],
 ) -> Table {
-    let mut t: Table = [[(0, 0); RINGS]; 10];
+    let mut t: Table = [[(0, 0); RINGS]; 11];
     for ((q, row), band) in points.iter().zip(rows).zip(bands) {
         let (Some(row), Some(r)) = (*row, ring(q)) else {
             continue;
         };
-        let band = if row == 1 { *band } else { None };
+        let band = if row == 1 { *band } else { [None; 2] };
         let right = if row == 0 {
             matches!(fused_at(p, q[0], q[1]), Fused::Navigable { .. })
         } else {
             obstacle_near(p, q[0], q[1])
         };
-        for k in [Some(row), (row != 0).then_some(6), band]
+        for k in [Some(row), (row != 0).then_some(6), band[0], band[1]]
             .into_iter()
             .flatten()
         {
