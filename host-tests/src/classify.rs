@@ -17,10 +17,10 @@
 //!   n the points; or when the lowest and the highest point (the first of each in arrival
 //!   order) stand apart by more than the plane explains,
 //!   `spread − max(0, w·(p_high − p_low)) > step + 2·k·σ·h/r` (the extremes test); or when two
-//!   consecutive points in arrival order
-//!   stand apart by more than the largest slope explains between them,
-//!   `|Δz| − tan(max_slope)·(|Δx| + |Δy|) > step + 2·k·σ·h/r` (the pair test: a kerb's face,
-//!   where two beams' returns nearly coincide).
+//!   consecutive points in arrival order lie on a surface steeper than the largest slope and
+//!   rise more than a step, `|Δz| − tan(max_slope)·(|Δx| + |Δy|) > 2·k·σ·h/r` and
+//!   `|Δz| > step + 2·k·σ·h/r` (the pair test: a kerb's face, where two beams' returns nearly
+//!   coincide or one beam crosses it).
 //!
 //! A record's distance is the smallest horizontal distance among the cell's points.
 
@@ -121,19 +121,25 @@ pub struct RefRecord {
     /// The plane rule's rise test: `R·(g − tan)` over `g·(step + a·√(12/n))` (> 1: obstacle;
     /// 0 when the plane is no steeper than the largest slope, or under the spread rule).
     pub rise_ratio: f64,
-    /// The plane rule's pair test: the largest rise between consecutive points beyond the
-    /// largest slope, over `step + 2·k·σ·h/r` (> 1: obstacle; 0 under the spread rule).
+    /// The plane rule's pair test: over the pairs of consecutive points, the largest of the
+    /// smaller of their rise beyond the largest slope over `2·k·σ·h/r` and their whole rise
+    /// over `step + 2·k·σ·h/r` (> 1: obstacle; 0 under the spread rule).
     pub pair_ratio: f64,
 }
 
-/// The pair test's largest rise between consecutive points (in arrival order) beyond what
-/// the slope `max_grade` explains over their L1 horizontal distance, m (0 for one point).
-fn pair_rise(xys: &[(f64, f64)], zs: &[f64], max_grade: f64) -> f64 {
+/// The pair test's ratio over consecutive points (in arrival order): for each pair, the
+/// smaller of its rise beyond what the slope `max_grade` explains over their L1 horizontal
+/// distance over `noise` and its whole rise over `step + noise` (m, m); the largest (0 for
+/// one point). Above 1 exactly when some pair lies on a surface steeper than the slope beyond
+/// the noise and rises more than a step beyond it.
+fn pair_ratio(xys: &[(f64, f64)], zs: &[f64], max_grade: f64, step: f64, noise: f64) -> f64 {
     xys.windows(2)
         .zip(zs.windows(2))
         .map(|(p, z)| {
             let run = (p[1].0 - p[0].0).abs() + (p[1].1 - p[0].1).abs();
-            (z[1] - z[0]).abs() - max_grade * run
+            let rise = (z[1] - z[0]).abs();
+            let steep = (rise - max_grade * run) / noise.max(1e-300);
+            steep.min(rise / (step + noise).max(1e-300))
         })
         .fold(0.0, f64::max)
 }
@@ -299,7 +305,13 @@ pub fn classify(
                         noise_factor * sigma_z,
                         extremes_allowance,
                     );
-                    let pr = pair_rise(&xys, &zs, max_grade) / extremes_allowance.max(1e-300);
+                    let pr = pair_ratio(
+                        &xys,
+                        &zs,
+                        max_grade,
+                        config.step_threshold,
+                        2.0 * noise_factor * from_range,
+                    );
                     (rr, qr, pr, rr > 1.0 || qr > 1.0 || er > 1.0 || pr > 1.0)
                 }
             };

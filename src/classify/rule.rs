@@ -11,9 +11,9 @@
 //!   all (a kerb whose face spreads over the cell), or when the cell's
 //!   lowest and highest points stand apart by more than the plane explains between them and
 //!   a step allows (the extremes test: a kerb or a step inside a coarse cell, which the plane
-//!   takes for a slope), or when two consecutive returns of the cell stand apart by more than
-//!   the largest slope explains between them and a step allows (the pair test: a far kerb's
-//!   face, where two beams' returns stand on each other). The allowances grow
+//!   takes for a slope), or when two consecutive returns of the cell lie on a surface steeper
+//!   than the largest slope and rise more than a step (the pair test: a kerb's face, where two
+//!   beams' returns stand on each other or one beam crosses it). The allowances grow
 //!   with the sensor's height noise at the cell's distance,
 //!   `σ_z(d) = √((σ·h/r)² + (σ_a·r)²)`, `r = √(h² + d²)`: the range noise σ along the beam and
 //!   the beam's elevation error σ_a, each seen in the vertical.
@@ -49,9 +49,11 @@
 //! with `Δ` from the lowest to the highest (mm Q16, in 128 bits).
 //!
 //! The pair test is folded per return: the slot keeps its last return below the cut (its
-//! `(u, v)` and z, 4 bytes) and the largest `|Δz| − s·(|Δu| + |Δv|)` so far (mm, saturated to
-//! 0 ..= 255, 1 byte), s the layer's `tan θ_max·c/64` in mm Q8; the decision compares it with
-//! the extremes test's allowance `step + 2·k·σ·h/r`.
+//! `(u, v)` and z, 4 bytes) and the largest step a pair has shown so far,
+//! `min(|Δz|, |Δz| − s·(|Δu| + |Δv|) + step)` (mm, saturated to 0 ..= 255, 1 byte), s the
+//! layer's `tan θ_max·c/64` in mm Q8; the decision compares it with the extremes test's
+//! allowance `step + 2·k·σ·h/r`: beyond it exactly when the rise beyond the slope exceeds the
+//! noise `2·k·σ·h/r` and the whole rise the allowance.
 
 use crate::units::Meters;
 use fixed::types::I16F16;
@@ -127,8 +129,10 @@ impl Default for NavigabilityRule {
 ///   `D·max_grade + 1.5·a·√(12/n)` and by more than `step + a·√(12/n)` in all, or
 /// - the lowest and the highest point stand apart by more than the plane explains between
 ///   them and `step + 2·noise_factor·range_sigma·h/r` (the extremes test), or
-/// - two consecutive returns stand apart by more than `max_grade` explains over their
-///   horizontal distance (|Δx| + |Δy|) and the same allowance (the pair test).
+/// - two consecutive returns rise more than `max_grade` explains over their horizontal
+///   distance (|Δx| + |Δy|) by more than `2·noise_factor·range_sigma·h/r`, and more than that
+///   allowance and a step in all (the pair test: a surface steeper than the robot climbs that
+///   rises more than a step, as the second test asks of the plane).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct PlaneRule {
     /// The largest traversable slope as its grade (rise per unit of run, the tangent of its
@@ -214,9 +218,10 @@ pub(super) struct PlaneState {
     last_at: (i8, i8),
     /// That point's z, millimetres relative to the observation's reference height.
     last_z: i16,
-    /// The largest rise between two consecutive returns below the cut beyond what the
-    /// largest slope explains between them, `|Δz| − tan θ_max·(|Δx| + |Δy|)`, millimetres,
-    /// saturated to 0 ..= 255 (the pair test, [`PlaneState::step_from_last`]).
+    /// The largest step two consecutive returns below the cut have shown,
+    /// `min(|Δz|, |Δz| − tan θ_max·(|Δx| + |Δy|) + step)` (the part beyond the largest slope
+    /// floored at 0), millimetres, saturated to 0 ..= 255 (the pair test,
+    /// [`PlaneState::keep_rise`]).
     pair_rise: u8,
 }
 
@@ -256,37 +261,44 @@ impl PlaneState {
 
     /// The pair test's fold of a return below the cut at `(u, v, z)` (z mm), following the
     /// slot's last one, with the layer's `scale` ([`PlaneParams::pair_scale`]): when the two
-    /// differ in height by more than the scale's step, the rise between them beyond what the
-    /// slope explains, `|Δz| − slope·(|Δu| + |Δv|)`, is kept when it is the largest so far
-    /// (saturated to 255 mm); a rise within the step cannot exceed it and is not computed.
-    /// The point becomes the last. In 32-bit words, one multiplication: the run is at most
-    /// 510 units and the slope below 2¹⁶, so their product is below 2²⁵.
+    /// differ in height by more than the scale's step, the step the pair shows
+    /// ([`PlaneState::keep_rise`]) is kept when it is the largest so far (saturated to
+    /// 255 mm); a rise within the step shows none and is not computed. The point becomes the
+    /// last. In 32-bit words, one multiplication: the run is at most 510 units and the slope
+    /// below 2¹⁶, so their product is below 2²⁵.
     #[inline(always)]
     pub(super) fn step_from_last(&mut self, u: i8, v: i8, z: i16, scale: PairScale) {
         let rise = u32::from(z.abs_diff(self.last_z));
         if rise > scale.step_mm() {
-            self.keep_rise(u, v, rise, scale.slope_q8());
+            self.keep_rise(u, v, rise, scale);
         }
         self.last_at = (u, v);
         self.last_z = z;
     }
 
-    /// [`PlaneState::step_from_last`]'s rise `rise` (mm) from the last point to one at
-    /// `(u, v)`, beyond the slope `slope_q8`, kept when it is the largest so far. Out of line:
-    /// only rises beyond the step come here.
+    /// [`PlaneState::step_from_last`]'s pair: a rise `rise` (mm) from the last point to one at
+    /// `(u, v)`. Its part beyond the slope is `b = rise − slope·(|Δu| + |Δv|)` (≥ 0); the
+    /// step it shows is `min(rise, b + step)` (mm, the scale's step), so that the pair test's
+    /// `min(rise, b + step) > step + noise` holds exactly when the surface between the two is
+    /// steeper than the largest slope beyond the noise (`b > noise`) and rises more than a
+    /// step beyond it (`rise > step + noise`), as the rise test asks of a plane
+    /// (`docs/core.md`, "Why the pair test"). Kept when it is the largest so far. Out of
+    /// line: only rises beyond the step come here.
     #[cold]
     #[inline(never)]
-    fn keep_rise(&mut self, u: i8, v: i8, rise: u32, slope_q8: u32) {
+    fn keep_rise(&mut self, u: i8, v: i8, rise: u32, scale: PairScale) {
         let run = u32::from(u.abs_diff(self.last_at.0)) + u32::from(v.abs_diff(self.last_at.1));
-        let excess = (rise << 8).saturating_sub(slope_q8.wrapping_mul(run)) >> 8;
+        let beyond = (rise << 8).saturating_sub(scale.slope_q8().wrapping_mul(run)) >> 8;
+        let shown = (beyond + scale.step_mm()).min(rise);
         // At most 255 after the clamp: the cast is exact.
         #[allow(clippy::cast_possible_truncation)]
-        let excess = excess.min(255) as u8;
-        self.pair_rise = self.pair_rise.max(excess);
+        let shown = shown.min(255) as u8;
+        self.pair_rise = self.pair_rise.max(shown);
     }
 
-    /// The largest rise between consecutive returns below the cut beyond the largest slope,
-    /// mm (0 ..= 255, saturated).
+    /// The largest step a pair of consecutive returns below the cut shows
+    /// ([`PlaneState::keep_rise`]), mm (0 ..= 255, saturated; 0 when no pair rises more
+    /// than the layer's step).
     pub(super) const fn pair_rise(&self) -> u8 {
         self.pair_rise
     }

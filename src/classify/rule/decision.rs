@@ -315,11 +315,12 @@ pub(super) fn beyond_allowance(
     u128::from(e2) * u128::from(r2) > u128::from(noise_h) * u128::from(noise_h)
 }
 
-/// The pair test: whether two consecutive returns of the cell stand apart by more than the
-/// largest slope explains between them and the allowance, `pair_rise > step + 2·k·σ·h/r`
-/// (`pair_rise` mm, [`PlaneState::step_from_last`]): a kerb's face, where the returns of two
-/// beams stand on each other and differ by the kerb's height. The decision takes the larger of
-/// this excess and the extremes test's ([`extremes_excess_q16`]).
+/// The pair test: whether the step a pair of consecutive returns of the cell shows exceeds the
+/// allowance, `pair_rise > step + 2·k·σ·h/r` (`pair_rise` mm, [`PlaneState::keep_rise`]): the
+/// two lie on a surface steeper than the largest slope beyond the noise and rise more than the
+/// allowance (a kerb's face, where the returns of two beams stand on each other, or where one
+/// beam crosses it). The decision takes the larger of this and the extremes test's excess
+/// ([`extremes_excess_q16`]).
 #[cfg(test)]
 pub(super) fn pair_obstacle(pair_rise: u8, params: &PlaneParams, geometry: &CellGeometry) -> bool {
     beyond_allowance(i128::from(pair_rise) << 16, params, geometry)

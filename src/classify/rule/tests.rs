@@ -885,16 +885,45 @@ fn a_pair_rise_beyond_the_step_and_the_range_noise_is_an_obstacle() {
     let s = pairs(&face, p.pair_scale(g.cell));
     assert!(s.pair_rise() > 100);
     assert!(plane_obstacle(&s, &p, &g, 112));
-    // The same returns with the stacked ones apart: a ramp of 110 mm over 28 cm is no step
-    // beyond 20° and the step (the extremes lie apart too).
+    // The same returns with the stacked ones apart: 95 mm over 30 units (28 cm), which a 20°
+    // slope explains (102.4 mm), shows a step only (nothing beyond the slope).
     let apart = [
         (-30, 0, 0),
         (-20, 0, 0),
         (-10, 0, 1),
         (0, 0, 0),
-        (30, 1, 110),
+        (30, 0, 95),
     ];
     let s = pairs(&apart, p.pair_scale(g.cell));
+    assert_eq!(s.pair_rise(), 50);
+    assert!(!pair_obstacle(s.pair_rise(), &p, &g));
+}
+
+#[test]
+fn a_pair_steeper_than_the_slope_beyond_the_noise_that_rises_more_than_a_step_is_an_obstacle() {
+    let p = PlaneParams::new(&PlaneRule::DEFAULT, Meters::from_num(0.05));
+    let g = CellGeometry {
+        cell: Meters::from_num(0.6).to_bits(),
+        sensor_height_mm: 1300,
+        distance: Meters::from_num(17),
+    };
+    let scale = p.pair_scale(g.cell);
+    // The noise at 17 m: 80·1.3/17.05 = 6.1 mm; the allowance 56.1 mm. A beam crossing a
+    // 110 mm kerb 30 units (28 cm) apart: 7 mm beyond 20° (102.4 mm, floored), more than the
+    // noise, and 110 mm in all: the pair shows min(110, 7 + 50) = 57 mm, beyond the allowance.
+    // (Before, only the 7 mm beyond the slope counted, against the allowance.)
+    let crossing = [(0, 0, 0), (30, 0, 110)];
+    let s = pairs(&crossing, scale);
+    assert_eq!(s.pair_rise(), 57);
+    assert!(pair_obstacle(s.pair_rise(), &p, &g));
+    // 106 mm: 3 mm beyond the slope, within the noise: it shows that part and a step
+    // (53 mm), within the allowance.
+    let s = pairs(&[(0, 0, 0), (30, 0, 106)], scale);
+    assert_eq!(s.pair_rise(), 53);
+    assert!(!pair_obstacle(s.pair_rise(), &p, &g));
+    // Steep beyond the noise but rising less than the allowance: 55 mm over 2 units.
+    let s = pairs(&[(0, 0, 0), (2, 0, 55)], scale);
+    assert_eq!(s.pair_rise(), 55);
     assert!(!pair_obstacle(s.pair_rise(), &p, &g));
 }
 
