@@ -30,11 +30,12 @@
 //! - **clear ground**: road, parking, sidewalk, lane marking and other ground with no
 //!   obstacle, vegetation, unlabelled or curb point within 0.5 m; right when the fused map
 //!   reads navigable there;
-//! - **curb** (SemanticKITTI has no curb class; derived): a ground point with a ground point
-//!   of another class within 0.3 m at least 8 cm below it (the kerb's face and edge between
-//!   road and sidewalk; again by the distance from that drop, and those with a drop of 10 cm or
-//!   more, a town kerb's usual 10–15 cm); marked when an obstacle cell of the fused map lies
-//!   within 0.2 m;
+//! - **curb** (SemanticKITTI has no curb class; derived): a ground point with a ground or
+//!   terrain point of another class within 0.3 m at least 8 cm below it (the kerb's face and
+//!   edge between road and sidewalk, or above a verge; again by the distance from that drop,
+//!   and those with a drop of 10 cm or more, a town kerb's usual 10–15 cm); marked when an
+//!   obstacle cell of the fused map lies within 0.2 m. A terrain point above such a drop is a
+//!   kerb too (a verge above the pavement): not scored, but a feature for clear ground;
 //! - **post** (pole, traffic sign, trunk), **block** (vehicles, people, buildings, fences,
 //!   other structures), **vegetation**, **other** (other objects): marked as curbs are.
 
@@ -221,15 +222,16 @@ fn truth(points: &[[f64; 3]], classes: &[u32]) -> (Vec<Option<usize>>, Vec<CurbR
     let buckets = Buckets::new(points);
     let ground_z = -HEIGHT_M;
     let below_robot = |p: &[f64; 3]| p[2] <= ground_z + ROBOT_HEIGHT_M;
+    // A kerb is a class boundary with a drop: between two ground classes, or between ground
+    // and terrain (a verge below or above the pavement).
+    let surface = |k: usize| matches!(kinds[k], Kind::Ground | Kind::Terrain);
     let drop: Vec<Option<f64>> = (0..points.len())
         .map(|i| {
-            if kinds[i] != Kind::Ground {
+            if !surface(i) {
                 return None;
             }
             buckets.nearest(points, &points[i], 0.3, |k| {
-                kinds[k] == Kind::Ground
-                    && classes[k] != classes[i]
-                    && points[i][2] - points[k][2] >= 0.08
+                surface(k) && classes[k] != classes[i] && points[i][2] - points[k][2] >= 0.08
             })
         })
         .collect();
@@ -241,9 +243,7 @@ fn truth(points: &[[f64; 3]], classes: &[u32]) -> (Vec<Option<usize>>, Vec<CurbR
         .map(|(i, d)| {
             let tall = d.is_some()
                 && buckets.any_near(points, &points[i], 0.3, |k| {
-                    kinds[k] == Kind::Ground
-                        && classes[k] != classes[i]
-                        && points[i][2] - points[k][2] >= TALL_M
+                    surface(k) && classes[k] != classes[i] && points[i][2] - points[k][2] >= TALL_M
                 });
             [
                 d.map(|d| BAND_ROW + ((d / BAND_M).floor() as usize).min(2)),
