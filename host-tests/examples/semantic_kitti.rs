@@ -461,7 +461,7 @@ fn run(pairs: &[(String, String)]) -> Result<(), String> {
 
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
-    if args.is_empty() || args.len() % 2 != 0 {
+    if args.is_empty() || !args.len().is_multiple_of(2) {
         eprintln!("usage: semantic_kitti SCAN.bin SCAN.label [SCAN.bin SCAN.label ...] (SemanticKITTI's velodyne/ and labels/ files)");
         std::process::exit(2);
     }

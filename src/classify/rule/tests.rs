@@ -716,16 +716,24 @@ fn far_line(z: impl Fn(i32) -> i16, low: (i8, i8), high: (i8, i8)) -> (PlaneStat
     (s, i32::from(hi) - i32::from(lo))
 }
 
+/// The default rule (5 cm step) and a 0.6 m cell of the street design, `distance_m` away from
+/// a laser 1.3 m up.
+fn far_street_cell(distance_m: f64) -> (PlaneParams, CellGeometry) {
+    (
+        PlaneParams::new(&PlaneRule::DEFAULT, Meters::from_num(0.05)),
+        CellGeometry {
+            cell: Meters::from_num(0.6).to_bits(),
+            sensor_height_mm: 1300,
+            distance: Meters::from_num(distance_m),
+        },
+    )
+}
+
 #[test]
 fn extremes_next_to_each_other_across_a_step_are_an_obstacle_and_on_a_slope_are_not() {
     // A 0.6 m cell 15 m away (the street design's far layers), the default rule: the residual
     // and rise tests take a 12 cm curb across the cell for a slope of 0.3.
-    let p = PlaneParams::new(&PlaneRule::DEFAULT, Meters::from_num(0.05));
-    let g = CellGeometry {
-        cell: Meters::from_num(0.6).to_bits(),
-        sensor_height_mm: 1300,
-        distance: Meters::from_num(15),
-    };
+    let (p, g) = far_street_cell(15.0);
     let curb = |u: i32| if u >= 5 { 120 } else { 0 };
     // The lowest just before the kerb's face, the highest just after it.
     let (s, spread) = far_line(curb, (0, 0), (5, 0));
@@ -861,12 +869,7 @@ fn the_pair_rise_is_the_largest_step_between_consecutive_returns_beyond_the_slop
 
 #[test]
 fn a_pair_rise_beyond_the_step_and_the_range_noise_is_an_obstacle() {
-    let p = PlaneParams::new(&PlaneRule::DEFAULT, Meters::from_num(0.05));
-    let g = CellGeometry {
-        cell: Meters::from_num(0.6).to_bits(),
-        sensor_height_mm: 1300,
-        distance: Meters::from_num(17),
-    };
+    let (p, g) = far_street_cell(17.0);
     // The allowance at 17 m: 50 + 80·1.3/17.05 = 56.1 mm.
     assert!(!pair_obstacle(56, &p, &g));
     assert!(pair_obstacle(57, &p, &g));
@@ -901,12 +904,7 @@ fn a_pair_rise_beyond_the_step_and_the_range_noise_is_an_obstacle() {
 
 #[test]
 fn a_pair_steeper_than_the_slope_beyond_the_noise_that_rises_more_than_a_step_is_an_obstacle() {
-    let p = PlaneParams::new(&PlaneRule::DEFAULT, Meters::from_num(0.05));
-    let g = CellGeometry {
-        cell: Meters::from_num(0.6).to_bits(),
-        sensor_height_mm: 1300,
-        distance: Meters::from_num(17),
-    };
+    let (p, g) = far_street_cell(17.0);
     let scale = p.pair_scale(g.cell);
     // The noise at 17 m: 80·1.3/17.05 = 6.1 mm; the allowance 56.1 mm. A beam crossing a
     // 110 mm kerb 30 units (28 cm) apart: 7 mm beyond 20° (102.4 mm, floored), more than the
