@@ -28,16 +28,19 @@
 //! The classifier's pair test compares each return with the one before it in the same cell
 //! (`docs/core.md`, "Why the pair test"): a far kerb's face shows where two beams' returns at
 //! one azimuth stand on each other, and they follow each other only when the points come as
-//! a spinning laser fires them. By default (`--order file`) the points go in the file's
-//! order. `--order firing` sorts them first by their azimuth about the sensor in steps of the
+//! a spinning laser fires them. `--order file` gives the points in the file's order.
+//! `--order firing` sorts them first by their azimuth about the sensor in steps of the
 //! design's ψ (`--psi-deg`), from −180°, and within one step by elevation from the lowest up
 //! (a stable sort: equal keys keep the file's order): for a spinning multi-beam laser's file
-//! held beam by beam (a whole revolution of one beam, then the next). Not for a scanner whose
+//! held beam by beam (a whole revolution of one beam, then the next). The default, `--order
+//! auto`, sorts when the file holds such revolutions ([`held_beam_by_beam`]: a quarter of the
+//! points in runs of one elevation that turn 270° or more) and keeps the file's order
+//! otherwise; the summary's `order` says which. Not for a scanner whose
 //! lines already sweep the scene in order, such as a tilting 2-D laser: the classifier keeps a
 //! cell's points below its overhang cut as they come, and a point far below those before it
 //! restarts the cell's plane from the best bound still known, which in firing order happens
 //! at every azimuth step on a wall (`docs/core.md`, "The navigability rule"; measured on the
-//! 3DTK scan: 89.5 % of the obstacle returns marked against 100.0 % in the file's order).
+//! 3DTK scan: 89.6 % of the obstacle returns marked against 100.0 % in the file's order).
 use crate::design;
 use crate::export::{self, MapSnapshot, MapSummary};
 use crate::pyramid_args::PyramidArgs;
@@ -93,10 +96,11 @@ pub struct Args {
         allow_hyphen_values = true
     )]
     pub sensor_origin_m: Xyz,
-    /// The order in which the points reach the classifier: `file` (the default) or `firing`
-    /// (sorted by azimuth in steps of ψ, then by elevation from the bottom, as a spinning
-    /// laser fires them: for a multi-beam laser's file held beam by beam).
-    #[arg(long, value_enum, default_value_t = PointOrder::File)]
+    /// The order in which the points reach the classifier: `auto` (the default: `firing` when
+    /// the file holds a spinning laser's revolutions beam by beam, else `file`), `file`, or
+    /// `firing` (sorted by azimuth in steps of ψ, then by elevation from the bottom, as a
+    /// spinning laser fires them: for a multi-beam laser's file held beam by beam).
+    #[arg(long, value_enum, default_value_t = PointOrder::Auto)]
     pub order: PointOrder,
     /// The scan's frame relative to the robot's: roll, pitch, yaw in degrees (REP-103,
     /// each within ±360), the points turned about the sensor's position; `0,0,0` by default.
@@ -114,12 +118,82 @@ pub struct Args {
 /// documentation).
 #[derive(clap::ValueEnum, Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum PointOrder {
-    /// As the file holds them (the default).
+    /// The firing order when the file holds a spinning laser's returns beam by beam
+    /// ([`held_beam_by_beam`]), else the file's (the default).
     #[default]
+    Auto,
+    /// As the file holds them.
     File,
     /// By azimuth about the sensor in steps of the design's ψ, then by elevation from the
     /// bottom: as a spinning laser fires them.
     Firing,
+}
+
+impl PointOrder {
+    /// Its name on the command line and in the summary.
+    #[must_use]
+    pub const fn name(self) -> &'static str {
+        match self {
+            Self::Auto => "auto",
+            Self::File => "file",
+            Self::Firing => "firing",
+        }
+    }
+}
+
+/// The azimuth a run of one beam sweeps, at least, for [`held_beam_by_beam`]: 270°, radians.
+const BEAM_RUN_SWEEP_RAD: f64 = 1.5 * std::f64::consts::PI;
+/// The largest turn in azimuth between two consecutive returns of one beam's run: 30°, radians
+/// (a beam's gaps where nothing answered, the sky, are shorter).
+const BEAM_RUN_TURN_RAD: f64 = std::f64::consts::PI / 6.0;
+/// The largest change of elevation between two consecutive returns of one beam's run: 2°,
+/// radians (a beam's emitter sits a few centimetres off the sensor's origin, so its returns'
+/// elevation seen from the origin moves with their range).
+const BEAM_RUN_ELEVATION_RAD: f64 = std::f64::consts::PI / 90.0;
+
+/// Whether points (their offsets from the sensor, metres, in the file's order) are a spinning
+/// laser's returns held beam by beam (a whole revolution of one beam, then the next): at least
+/// a quarter of them lie in runs that turn 270° or more in azimuth, each step of a run turning
+/// by at most 30° and changing the elevation by at most 2°. A spinning laser's file in firing
+/// order (a column of beams at one azimuth, then the next) has no such run (its columns end
+/// in a jump of elevation), nor has a tilting or panning 2-D laser's (a line sweeps 180° at
+/// most). False for no points.
+#[must_use]
+pub fn held_beam_by_beam(offsets: impl IntoIterator<Item = [f64; 3]>) -> bool {
+    let (mut total, mut in_runs) = (0_usize, 0_usize);
+    // The previous point's azimuth and elevation, the run's signed sweep and its points.
+    let mut previous: Option<(f64, f64)> = None;
+    let (mut sweep, mut run) = (0.0_f64, 0_usize);
+    for o in offsets {
+        let azimuth = o[1].atan2(o[0]);
+        let elevation = o[2].atan2(o[0].hypot(o[1]));
+        total += 1;
+        let step = previous.map(|(a, e)| {
+            let turn = (azimuth - a + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU)
+                - std::f64::consts::PI;
+            (turn, (elevation - e).abs())
+        });
+        match step {
+            Some((turn, rise))
+                if turn.abs() <= BEAM_RUN_TURN_RAD && rise <= BEAM_RUN_ELEVATION_RAD =>
+            {
+                sweep += turn;
+                run += 1;
+            }
+            _ => {
+                if sweep.abs() >= BEAM_RUN_SWEEP_RAD {
+                    in_runs += run;
+                }
+                sweep = 0.0;
+                run = 1;
+            }
+        }
+        previous = Some((azimuth, elevation));
+    }
+    if sweep.abs() >= BEAM_RUN_SWEEP_RAD {
+        in_runs += run;
+    }
+    total > 0 && in_runs * 4 >= total
 }
 
 /// The firing order's key of a point at `offset` (metres) from the sensor: its azimuth step
@@ -229,6 +303,9 @@ pub struct Summary {
     pub rule: String,
     /// The order in which the points reached the classifier: `firing` or `file`.
     pub order: &'static str,
+    /// The order asked for (`--order`): `auto` (the default: `firing` for a spinning laser's
+    /// file held beam by beam, else `file`), `file` or `firing`.
+    pub order_asked: &'static str,
     /// The files written.
     pub files: Vec<String>,
 }
@@ -377,6 +454,8 @@ struct Integrated {
     beyond_max_range: u64,
     classifier: ClassifierStats,
     pyramid: PyramidStats,
+    /// The order the points reached the classifier in (`File` or `Firing`).
+    order: PointOrder,
 }
 
 /// Reads the point file into one observation of a `Pyramid<W, L>`.
@@ -412,8 +491,9 @@ fn integrate<const W: usize>(args: &Args, plan: &Plan) -> Result<Integrated, Fai
         }
         classifier.add_point(world, distance, ground_z);
     };
-    // In firing order, the points with their key, held until the file ends.
-    let mut firing: Vec<([f64; 3], (i64, f64))> = Vec::new();
+    // Unless the file's order is asked for, the points and their offsets from the sensor,
+    // held until the file ends.
+    let mut held: Vec<([f64; 3], [f64; 3])> = Vec::new();
     let psi = f64::from(plan.design.sensor().psi_rad).max(1e-9);
     for point in reader.by_ref() {
         let p = point.map_err(|e| Failure::input(format!("{}: {e}", args.points.display())))?;
@@ -430,21 +510,35 @@ fn integrate<const W: usize>(args: &Args, plan: &Plan) -> Result<Integrated, Fai
             local[1] + plan.translation[1],
             local[2] + plan.translation[2],
         ];
-        match args.order {
-            PointOrder::File => add(world),
-            PointOrder::Firing => {
-                let offset = [
-                    world[0] - plan.sensor[0],
-                    world[1] - plan.sensor[1],
-                    world[2] - plan.sensor[2],
-                ];
-                firing.push((world, firing_key(offset, psi)));
-            }
+        if args.order == PointOrder::File {
+            add(world);
+        } else {
+            let offset = [
+                world[0] - plan.sensor[0],
+                world[1] - plan.sensor[1],
+                world[2] - plan.sensor[2],
+            ];
+            held.push((world, offset));
         }
     }
-    firing.sort_by(|a, b| a.1 .0.cmp(&b.1 .0).then(a.1 .1.total_cmp(&b.1 .1)));
-    for (world, _) in firing {
-        add(world);
+    let order = match args.order {
+        PointOrder::Auto if held_beam_by_beam(held.iter().map(|h| h.1)) => PointOrder::Firing,
+        PointOrder::Auto => PointOrder::File,
+        given => given,
+    };
+    if order == PointOrder::Firing {
+        let mut firing: Vec<([f64; 3], (i64, f64))> = held
+            .drain(..)
+            .map(|(world, offset)| (world, firing_key(offset, psi)))
+            .collect();
+        firing.sort_by(|a, b| a.1 .0.cmp(&b.1 .0).then(a.1 .1.total_cmp(&b.1 .1)));
+        for (world, _) in firing {
+            add(world);
+        }
+    } else {
+        for (world, _) in held {
+            add(world);
+        }
     }
     classifier.finish_into(&mut pyramid);
     let snapshot = MapSnapshot::from_pyramid(
@@ -460,6 +554,7 @@ fn integrate<const W: usize>(args: &Args, plan: &Plan) -> Result<Integrated, Fai
         beyond_max_range: beyond,
         classifier: classifier.stats(),
         pyramid: pyramid.stats(),
+        order,
     })
 }
 
@@ -511,10 +606,8 @@ pub fn replay(args: &Args) -> Result<Summary, Failure> {
         sensor_m: plan.sensor,
         ground_z_m: plan.ground_z,
         rule: rule::describe(&plan.classifier),
-        order: match args.order {
-            PointOrder::Firing => "firing",
-            PointOrder::File => "file",
-        },
+        order: run.order.name(),
+        order_asked: args.order.name(),
         files: written
             .files
             .iter()
@@ -614,6 +707,66 @@ pub fn run(args: &Args) -> ExitCode {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A 16-beam laser 1 m up (beams every 2° from −15°), 0.5° azimuth steps, every beam
+    /// meeting flat ground or a wall 8 m away, with 20° of sky in the upper beams: offsets
+    /// beam by beam.
+    fn ring_laser_beam_by_beam() -> Vec<[f64; 3]> {
+        let mut points = Vec::new();
+        for k in 0..16 {
+            let a = (-15.0 + 2.0 * f64::from(k)).to_radians();
+            for j in 0..720 {
+                let th = (0.5 * f64::from(j)).to_radians();
+                if k >= 8 && (100..140).contains(&j) {
+                    continue;
+                }
+                let range = if a < -0.125 {
+                    (1.0 / -a.tan()).min(8.0)
+                } else {
+                    8.0
+                };
+                let r = range / a.cos().max(1e-9);
+                points.push([r * a.cos() * th.cos(), r * a.cos() * th.sin(), r * a.sin()]);
+            }
+        }
+        points
+    }
+
+    #[test]
+    fn a_spinning_laser_held_beam_by_beam_is_told_from_other_orders() {
+        let beam_by_beam = ring_laser_beam_by_beam();
+        assert!(held_beam_by_beam(beam_by_beam.iter().copied()));
+        // The same returns as the laser fires them: columns of beams, one azimuth after another.
+        let mut firing = beam_by_beam.clone();
+        firing.sort_by(|a, b| {
+            let (ka, kb) = (
+                firing_key(*a, 0.5_f64.to_radians()),
+                firing_key(*b, 0.5_f64.to_radians()),
+            );
+            ka.0.cmp(&kb.0).then(ka.1.total_cmp(&kb.1))
+        });
+        assert!(!held_beam_by_beam(firing.iter().copied()));
+        // A tilting 2-D laser: lines of 180° at tilts 0°..30° (its level line turns 180° only).
+        let tilting: Vec<[f64; 3]> = (0..60)
+            .flat_map(|t| {
+                let tilt = (0.5 * f64::from(t)).to_radians();
+                (0..361).map(move |j| {
+                    let th = (-90.0 + 0.5 * f64::from(j)).to_radians();
+                    [
+                        5.0 * th.cos() * tilt.cos(),
+                        5.0 * th.sin(),
+                        -5.0 * th.cos() * tilt.sin(),
+                    ]
+                })
+            })
+            .collect();
+        assert!(!held_beam_by_beam(tilting.iter().copied()));
+        // One revolution among many returns in no order: less than a quarter.
+        let mut mixed: Vec<[f64; 3]> = beam_by_beam[..720].to_vec();
+        mixed.extend(firing.iter().take(3_000));
+        assert!(!held_beam_by_beam(mixed.iter().copied()));
+        assert!(!held_beam_by_beam(std::iter::empty()));
+    }
 
     #[test]
     fn frames_round_trip_and_point_the_right_way() {

@@ -255,15 +255,15 @@ fn a_synthetic_floor_with_a_box() {
 }
 
 /// A noise-free revolution of a car's ring laser (h 1.3 m, beams every 0.4° from −24.8°, 0.2°
-/// azimuth steps over 0.1..90.1°, 20 m) over a flat road with a kerb `kerb_m` high along
-/// y = 3.5 m, written beam by beam (a whole sweep of one beam, then the next), as some point
-/// files hold a spinning laser's returns.
+/// azimuth steps from 0.1°, 20 m) over a flat road with a kerb `kerb_m` high along y = 3.5 m
+/// (y > 0), written beam by beam (a whole revolution of one beam, then the next), as some
+/// point files hold a spinning laser's returns.
 fn kerb_scan_beam_by_beam(kerb_m: f64) -> String {
     let (h, kerb_y) = (1.3, 3.5);
     let mut s = String::new();
     for k in 0..62 {
         let a = (-24.8 + 0.4 * f64::from(k)).to_radians();
-        for j in 0..=450 {
+        for j in 0..1800 {
             // Half a step off the multiples of ψ, where the sort's steps begin.
             let th = (0.1 + 0.2 * f64::from(j)).to_radians();
             let d = [a.cos() * th.cos(), a.cos() * th.sin(), a.sin()];
@@ -345,9 +345,10 @@ fn a_far_kerb_held_beam_by_beam_is_found_in_firing_order() {
     let (firing, file_order) = (marked("firing"), marked("file"));
     assert_eq!(firing, 90, "firing order");
     assert!(file_order < 80, "file order: {file_order} of 90");
-    // The file's order is the default.
+    // By default the order is found: the file holds whole revolutions of one beam.
     let v = replay_json(&["--points", path(&file), "--out", path(&dir.join("default"))]);
-    assert_eq!(v["order"], "file");
+    assert_eq!(v["order_asked"], "auto");
+    assert_eq!(v["order"], "firing");
 }
 
 /// The real scan: `../shared/data` next to the project (or `$PYRAMID_SHARED_DATA`).
@@ -387,6 +388,11 @@ fn the_real_tilt_scan() {
         path(&out),
     ]);
     assert_eq!(v["points_read"], 81_360);
+    // A tilting 2-D laser's lines: the file's own order, found by default.
+    assert_eq!(
+        (v["order_asked"].as_str(), v["order"].as_str()),
+        (Some("auto"), Some("file"))
+    );
     let no_return = v["no_return"].as_u64().unwrap();
     assert!(no_return > 0 && no_return < 5_000, "{no_return}");
     let used = v["points_used"].as_u64().unwrap();
