@@ -39,12 +39,12 @@
 //! - **post** (pole, traffic sign, trunk), **block** (vehicles, people, buildings, fences,
 //!   other structures), **vegetation**, **other** (other objects): marked as curbs are.
 
-use std::collections::HashMap;
 use terrain_pyramid::classify::{Classifier, ClassifierConfig, NavigabilityRule, PlaneRule};
 use terrain_pyramid::{Design, Fused, Pyramid};
 use terrain_pyramid_host_tests::navigability::rings::{ring_name, ring_of, RINGS};
 use terrain_pyramid_host_tests::navigability::{self, integrate_library};
 use terrain_pyramid_host_tests::scan3dtk::{fused_at, obstacle_near};
+use terrain_pyramid_host_tests::semantic_kitti::{load, truth, CurbRows};
 use terrain_pyramid_host_tests::sim::cloud::{firing_order, Observation};
 
 /// Layer capacity of the design.
@@ -61,34 +61,6 @@ const RANGE_M: f64 = 20.0;
 const ROBOT_HEIGHT_M: f64 = 1.0;
 /// The azimuth step of the HDL-64E at 10 Hz, degrees.
 const PSI_DEG: f64 = 0.09;
-
-/// What a labelled point is, for the score.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-enum Kind {
-    /// Flat ground (road, parking, sidewalk, lane marking, other ground).
-    Ground,
-    /// Grass and soil: neither counted nor a feature.
-    Terrain,
-    Post,
-    Block,
-    Vegetation,
-    Other,
-    /// Unlabelled or an outlier: a feature near ground, never counted.
-    Unlabelled,
-}
-
-/// The kind of a SemanticKITTI raw class id.
-fn kind(class: u32) -> Kind {
-    match class {
-        40 | 44 | 48 | 49 | 60 => Kind::Ground,
-        72 => Kind::Terrain,
-        71 | 80 | 81 => Kind::Post,
-        10 | 11 | 13 | 15 | 16 | 18 | 20 | 30 | 31 | 32 | 50 | 51 | 52 | 252..=259 => Kind::Block,
-        70 => Kind::Vegetation,
-        99 => Kind::Other,
-        _ => Kind::Unlabelled,
-    }
-}
 
 /// The rows of the table, by index: the curb's points again by their distance from the drop
 /// (rows 7–9) and the tall kerbs (row 10) after the kinds and every obstacle.
@@ -109,173 +81,12 @@ const ROWS: [&str; 11] = [
 /// The order the rows are printed in: each curb band under the curb.
 const PRINT_ORDER: [usize; 11] = [0, 1, 7, 8, 9, 10, 2, 3, 4, 5, 6];
 
-/// The first of the curb's bands by distance from the drop, and their width (metres).
-const BAND_ROW: usize = 7;
-const BAND_M: f64 = 0.1;
-/// The row of the curb's returns with a drop of at least [`TALL_M`] within 0.3 m.
-const TALL_ROW: usize = 10;
-/// A town kerb's usual height (10–15 cm) from below: a drop of at least this, metres.
-const TALL_M: f64 = 0.10;
-
 /// Per row and ring: (points, right).
 type Table = [[(usize, usize); RINGS]; 11];
-
-/// A curb return's further rows: its band by the distance from the drop and, for a drop of at
-/// least [`TALL_M`], [`TALL_ROW`].
-type CurbRows = [Option<usize>; 2];
-
-fn read(path: &str) -> Result<Vec<u8>, String> {
-    std::fs::read(path).map_err(|e| format!("{path}: {e}"))
-}
-
-/// The points and their classes; an error for files of the wrong length or that disagree.
-fn load(bin: &str, label: &str) -> Result<(Vec<[f64; 3]>, Vec<u32>), String> {
-    let (b, l) = (read(bin)?, read(label)?);
-    if b.len() % 16 != 0 || l.len() % 4 != 0 || b.len() / 16 != l.len() / 4 {
-        return Err(format!(
-            "{bin} ({} bytes, 16 a point) and {label} ({} bytes, 4 a point) do not hold the same points",
-            b.len(),
-            l.len()
-        ));
-    }
-    let f = |c: &[u8]| f64::from(f32::from_le_bytes([c[0], c[1], c[2], c[3]]));
-    let points = b
-        .chunks_exact(16)
-        .map(|c| [f(&c[0..4]), f(&c[4..8]), f(&c[8..12])])
-        .collect();
-    let classes = l
-        .chunks_exact(4)
-        .map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]]) & 0xFFFF)
-        .collect();
-    Ok((points, classes))
-}
 
 /// The range ring of a point, by its horizontal distance from the laser.
 fn ring(p: &[f64; 3]) -> Option<usize> {
     ring_of(p[0].hypot(p[1]))
-}
-
-/// Points bucketed by 0.5 m cells, for the neighbourhood searches.
-struct Buckets(HashMap<(i64, i64), Vec<usize>>);
-
-impl Buckets {
-    const SIZE: f64 = 0.5;
-
-    #[allow(clippy::cast_possible_truncation)]
-    fn key(p: &[f64; 3]) -> (i64, i64) {
-        (
-            (p[0] / Self::SIZE).floor() as i64,
-            (p[1] / Self::SIZE).floor() as i64,
-        )
-    }
-
-    fn new(points: &[[f64; 3]]) -> Self {
-        let mut m: HashMap<(i64, i64), Vec<usize>> = HashMap::new();
-        for (i, p) in points.iter().enumerate() {
-            m.entry(Self::key(p)).or_default().push(i);
-        }
-        Self(m)
-    }
-
-    /// The horizontal distance from `p` to the nearest point within `radius` (≤ 0.5 m) that
-    /// satisfies `f`, if any.
-    fn nearest(
-        &self,
-        points: &[[f64; 3]],
-        p: &[f64; 3],
-        radius: f64,
-        f: impl Fn(usize) -> bool,
-    ) -> Option<f64> {
-        let (i, j) = Self::key(p);
-        let mut best: Option<f64> = None;
-        for di in -1..=1 {
-            for dj in -1..=1 {
-                for &k in self.0.get(&(i + di, j + dj)).into_iter().flatten() {
-                    let q = &points[k];
-                    let d = (q[0] - p[0]).hypot(q[1] - p[1]);
-                    if d <= radius && best.is_none_or(|b| d < b) && f(k) {
-                        best = Some(d);
-                    }
-                }
-            }
-        }
-        best
-    }
-
-    /// Whether any point within `radius` (≤ 0.5 m) of `p` satisfies `f`.
-    fn any_near(
-        &self,
-        points: &[[f64; 3]],
-        p: &[f64; 3],
-        radius: f64,
-        f: impl Fn(usize) -> bool,
-    ) -> bool {
-        self.nearest(points, p, radius, f).is_some()
-    }
-}
-
-/// What each point counts as: `None` (not counted) or the table row; and for a curb point,
-/// its band row by the distance from the drop (the nearest lower point of the other class) and
-/// whether it stands [`TALL_M`] or more over a point of the other class within 0.3 m.
-fn truth(points: &[[f64; 3]], classes: &[u32]) -> (Vec<Option<usize>>, Vec<CurbRows>) {
-    let kinds: Vec<Kind> = classes.iter().map(|&c| kind(c)).collect();
-    let buckets = Buckets::new(points);
-    let ground_z = -HEIGHT_M;
-    let below_robot = |p: &[f64; 3]| p[2] <= ground_z + ROBOT_HEIGHT_M;
-    // A kerb is a class boundary with a drop: between two ground classes, or between ground
-    // and terrain (a verge below or above the pavement).
-    let surface = |k: usize| matches!(kinds[k], Kind::Ground | Kind::Terrain);
-    let drop: Vec<Option<f64>> = (0..points.len())
-        .map(|i| {
-            if !surface(i) {
-                return None;
-            }
-            buckets.nearest(points, &points[i], 0.3, |k| {
-                surface(k) && classes[k] != classes[i] && points[i][2] - points[k][2] >= 0.08
-            })
-        })
-        .collect();
-    let curb: Vec<bool> = drop.iter().map(Option::is_some).collect();
-    #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
-    let bands = drop
-        .iter()
-        .enumerate()
-        .map(|(i, d)| {
-            let tall = d.is_some()
-                && buckets.any_near(points, &points[i], 0.3, |k| {
-                    surface(k) && classes[k] != classes[i] && points[i][2] - points[k][2] >= TALL_M
-                });
-            [
-                d.map(|d| BAND_ROW + ((d / BAND_M).floor() as usize).min(2)),
-                tall.then_some(TALL_ROW),
-            ]
-        })
-        .collect();
-    let rows = (0..points.len())
-        .map(|i| {
-            let p = &points[i];
-            ring(p)?;
-            match kinds[i] {
-                Kind::Ground if curb[i] => Some(1),
-                Kind::Ground => {
-                    let feature = buckets.any_near(points, p, 0.5, |k| {
-                        curb[k]
-                            || matches!(kinds[k], Kind::Unlabelled | Kind::Vegetation)
-                            || (matches!(kinds[k], Kind::Post | Kind::Block | Kind::Other)
-                                && below_robot(&points[k]))
-                    });
-                    (!feature).then_some(0)
-                }
-                _ if !below_robot(p) => None,
-                Kind::Post => Some(2),
-                Kind::Block => Some(3),
-                Kind::Vegetation => Some(4),
-                Kind::Other => Some(5),
-                Kind::Terrain | Kind::Unlabelled => None,
-            }
-        })
-        .collect();
-    (rows, bands)
 }
 
 fn design() -> Result<Design<L>, String> {
@@ -358,7 +169,7 @@ fn score_scan(
     classifier: &mut Classifier<SLOTS, L>,
 ) -> Result<([(String, Table); RUNS], String), String> {
     let (points, classes) = load(bin, label)?;
-    let (rows, bands) = truth(&points, &classes);
+    let (rows, bands) = truth(&points, &classes, -HEIGHT_M, ROBOT_HEIGHT_M, RANGE_M);
     let count = |row: usize| rows.iter().filter(|r| **r == Some(row)).count();
     let mut summary = format!(
         "{bin}: {} points; within {RANGE_M} m: {} clear ground, {} curb, {} post, {} block, {} vegetation, {} other (obstacles below {ROBOT_HEIGHT_M} m over the ground plane)",

@@ -25,5 +25,6 @@ pub mod navigability;
 pub mod png;
 pub mod reference;
 pub mod scan3dtk;
+pub mod semantic_kitti;
 pub mod sim;
 pub mod workload;
