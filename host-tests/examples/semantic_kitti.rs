@@ -38,6 +38,8 @@
 //!   kerb too (a verge above the pavement): not scored, but a feature for clear ground;
 //! - **post** (pole, traffic sign, trunk), **block** (vehicles, people, buildings, fences,
 //!   other structures), **vegetation**, **other** (other objects): marked as curbs are.
+//!
+//! The truth is derived by `terrain_pyramid_host_tests::semantic_kitti::truth` (tested there).
 
 use terrain_pyramid::classify::{Classifier, ClassifierConfig, NavigabilityRule, PlaneRule};
 use terrain_pyramid::{Design, Fused, Pyramid};
