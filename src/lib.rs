@@ -86,7 +86,8 @@ pub use design::{Design, DesignError, GateShape, Param, Schedule, SensorModel};
 pub use grid::{Layer, LayerCounts, Resolution};
 pub use logodds::{Cell, CellClass, Clamp, Increments, InverseSensorModel};
 pub use pyramid::{
-    Applied, Config, Evidence, EvidenceClass, Fused, Pyramid, PyramidStats, DEFAULT_FUSED_MARGIN,
+    fused_answer, Applied, Config, Evidence, EvidenceClass, Fused, Pyramid, PyramidStats,
+    DEFAULT_FUSED_MARGIN,
 };
 pub use units::{LogOddsFixed, Meters, Point3, Weight};
 

@@ -12,7 +12,7 @@
 use crate::decay::{Decay, DecayMode, DecayRows, Sweep, TimeConstant};
 use crate::design::{Design, DesignError, Param};
 use crate::grid::{Layer, LayerCounts, Resolution};
-use crate::logodds::{gated, Clamp, Increments, InverseSensorModel};
+use crate::logodds::{gated, Cell, Clamp, Increments, InverseSensorModel};
 use crate::units::{LogOddsFixed, Meters, Weight};
 
 /// What the classifier concluded about one layer cell from one observation.
@@ -74,6 +74,39 @@ pub enum Fused {
         /// The layer that answered.
         layer: u8,
     },
+}
+
+/// The fused rule over one point's cell in every layer, the finest first (`None` where a
+/// layer does not hold the point): the first observed cell with L > 0 answers obstacle, with
+/// L < −`margin_raw` (Q8.8 raw log-odds) navigable unless the next layer's cell holds L
+/// greater than this one's −L (then that layer answers obstacle); unknown when none does.
+/// [`Pyramid::fused`] asks it of a pyramid, the host of the maps a device sends.
+pub fn fused_answer(margin_raw: i16, cells: impl IntoIterator<Item = Option<Cell>>) -> Fused {
+    let mut cells = cells.into_iter().enumerate().peekable();
+    while let Some((k, cell)) = cells.next() {
+        let Some(value) = cell.and_then(Cell::log_odds) else {
+            continue;
+        };
+        let raw = value.to_bits();
+        let layer = u8::try_from(k).unwrap_or(u8::MAX);
+        if raw > 0 {
+            return Fused::Obstacle { layer };
+        }
+        if raw < -margin_raw {
+            // The next layer's obstacle evidence, stronger than this free evidence, answers.
+            let next = cells
+                .peek()
+                .and_then(|(_, c)| c.and_then(Cell::log_odds))
+                .map(|v| i32::from(v.to_bits()));
+            return match next {
+                Some(next) if next > -i32::from(raw) => Fused::Obstacle {
+                    layer: layer.saturating_add(1),
+                },
+                _ => Fused::Navigable { layer },
+            };
+        }
+    }
+    Fused::Unknown
 }
 
 /// The fused query's default margin for "navigable", nats (0.055, 14/256 in Q8.8): the free
@@ -433,40 +466,21 @@ impl<const W: usize, const L: usize> Pyramid<W, L> {
         reset
     }
 
-    /// The fused answer at world point `(x, y)`: the finest layer whose cell is observed with
-    /// L > 0 (obstacle) or L < −margin (navigable); unknown when none. A navigable answer of
-    /// layer k gives way to layer k + 1 when that layer's cell holds more obstacle evidence
-    /// than layer k's holds free evidence (`L_{k+1} > −L_k`): then layer k + 1 answers
-    /// obstacle (`docs/core.md`, "The fused query").
+    /// The fused answer at world point `(x, y)` ([`fused_answer`] over each layer's cell at
+    /// it, with the configured margin): the finest layer whose cell is observed with L > 0
+    /// (obstacle) or L < −margin (navigable); unknown when none. A navigable answer of layer k
+    /// gives way to layer k + 1 when that layer's cell holds more obstacle evidence than layer
+    /// k's holds free evidence (`L_{k+1} > −L_k`): then layer k + 1 answers obstacle
+    /// (`docs/core.md`, "The fused query").
     #[must_use]
     pub fn fused(&self, x: Meters, y: Meters) -> Fused {
-        for k in 0..self.layer_count() {
-            let Some(raw) = self.raw_log_odds_at(k, x, y) else {
-                continue;
-            };
-            let layer = u8::try_from(k).unwrap_or(u8::MAX);
-            if raw > 0 {
-                return Fused::Obstacle { layer };
-            }
-            if raw < -self.state.margin {
-                return match self.raw_log_odds_at(k + 1, x, y) {
-                    Some(next) if i32::from(next) > -i32::from(raw) => Fused::Obstacle {
-                        layer: layer.saturating_add(1),
-                    },
-                    _ => Fused::Navigable { layer },
-                };
-            }
-        }
-        Fused::Unknown
-    }
-
-    /// Layer `k`'s raw Q8.8 log-odds at world point `(x, y)`; `None` when there is no layer
-    /// `k`, the point lies outside its window, or the cell is unknown.
-    fn raw_log_odds_at(&self, k: usize, x: Meters, y: Meters) -> Option<i16> {
-        let layer = self.layers.get(..self.layer_count())?.get(k)?;
-        let r = layer.resolution();
-        let value = layer.get(r.cell_of(x), r.cell_of(y))?.log_odds()?;
-        Some(value.to_bits())
+        fused_answer(
+            self.state.margin,
+            self.layers.iter().take(self.layer_count()).map(|layer| {
+                let r = layer.resolution();
+                layer.get(r.cell_of(x), r.cell_of(y))
+            }),
+        )
     }
 
     /// Samples the fused query over a grid of `width × height` cells of size `step` whose
@@ -711,6 +725,39 @@ mod tests {
         // Layer 0 says obstacle: it wins.
         p.apply(&record(0, 0, 0, EvidenceClass::Obstacle, 0.3));
         assert_eq!(p.fused(x, y), Fused::Obstacle { layer: 0 });
+    }
+
+    #[test]
+    fn the_next_layers_stronger_obstacle_evidence_answers() {
+        let c = |raw: i16| Some(Cell::from_raw(raw));
+        // Free −104 (one look) under the next layer's +217: the next layer answers.
+        assert_eq!(
+            fused_answer(14, [c(-104), c(217)]),
+            Fused::Obstacle { layer: 1 }
+        );
+        // Free −312 outweighs +217; equal evidence keeps the finer answer.
+        assert_eq!(
+            fused_answer(14, [c(-312), c(217)]),
+            Fused::Navigable { layer: 0 }
+        );
+        assert_eq!(
+            fused_answer(14, [c(-217), c(217)]),
+            Fused::Navigable { layer: 0 }
+        );
+        // Only the next layer: an unknown or absent layer 1 leaves layer 0's answer.
+        assert_eq!(
+            fused_answer(14, [c(-104), c(i16::MIN), c(900)]),
+            Fused::Navigable { layer: 0 }
+        );
+        assert_eq!(
+            fused_answer(14, [c(-104), None, c(900)]),
+            Fused::Navigable { layer: 0 }
+        );
+        // Within the margin layer 0 does not answer; layer 1's obstacle does.
+        assert_eq!(
+            fused_answer(14, [c(-10), c(217)]),
+            Fused::Obstacle { layer: 1 }
+        );
     }
 
     #[test]

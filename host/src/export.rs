@@ -47,38 +47,8 @@ pub fn default_fused_margin() -> LogOddsFixed {
     round_to_log_odds(terrain_pyramid::DEFAULT_FUSED_MARGIN)
 }
 
-/// The library's fused rule ([`Pyramid::fused`]) over one point's cell in every layer, the
-/// finest first (`None` where a layer does not hold the point): the first observed cell with
-/// L > 0 answers obstacle, with L < −`margin_raw` (Q8.8 raw log-odds) navigable unless the
-/// next layer's cell holds L greater than this one's −L (then that layer answers obstacle);
-/// unknown when none does.
-pub fn fused_answer(margin_raw: i16, cells: impl IntoIterator<Item = Option<Cell>>) -> Fused {
-    let mut cells = cells.into_iter().enumerate().peekable();
-    while let Some((k, cell)) = cells.next() {
-        let Some(value) = cell.and_then(Cell::log_odds) else {
-            continue;
-        };
-        let raw = value.to_bits();
-        let layer = u8::try_from(k).unwrap_or(u8::MAX);
-        if raw > 0 {
-            return Fused::Obstacle { layer };
-        }
-        if raw < -margin_raw {
-            // The next layer's obstacle evidence, stronger than this free evidence, answers.
-            let next = cells
-                .peek()
-                .and_then(|(_, c)| c.and_then(Cell::log_odds))
-                .map(|v| i32::from(v.to_bits()));
-            return match next {
-                Some(next) if next > -i32::from(raw) => Fused::Obstacle {
-                    layer: layer.saturating_add(1),
-                },
-                _ => Fused::Navigable { layer },
-            };
-        }
-    }
-    Fused::Unknown
-}
+/// The library's fused rule, which the host applies to the maps a device sends.
+pub use terrain_pyramid::fused_answer;
 
 /// One layer's window, as plain data.
 #[derive(Debug, Clone, PartialEq)]
@@ -932,39 +902,6 @@ mod tests {
         assert_eq!(l.get(-2, 2), None);
         assert_eq!(l.get(3, 2), None);
         assert!(l.get(2, 5).is_some());
-    }
-
-    #[test]
-    fn the_next_layers_stronger_obstacle_evidence_answers() {
-        let c = |raw: i16| Some(Cell::from_raw(raw));
-        // Free −104 (one look) under the next layer's +217: the next layer answers.
-        assert_eq!(
-            fused_answer(14, [c(-104), c(217)]),
-            Fused::Obstacle { layer: 1 }
-        );
-        // Free −312 outweighs +217; equal evidence keeps the finer answer.
-        assert_eq!(
-            fused_answer(14, [c(-312), c(217)]),
-            Fused::Navigable { layer: 0 }
-        );
-        assert_eq!(
-            fused_answer(14, [c(-217), c(217)]),
-            Fused::Navigable { layer: 0 }
-        );
-        // Only the next layer: an unknown or absent layer 1 leaves layer 0's answer.
-        assert_eq!(
-            fused_answer(14, [c(-104), c(i16::MIN), c(900)]),
-            Fused::Navigable { layer: 0 }
-        );
-        assert_eq!(
-            fused_answer(14, [c(-104), None, c(900)]),
-            Fused::Navigable { layer: 0 }
-        );
-        // Within the margin layer 0 does not answer; layer 1's obstacle does.
-        assert_eq!(
-            fused_answer(14, [c(-10), c(217)]),
-            Fused::Obstacle { layer: 1 }
-        );
     }
 
     #[test]
