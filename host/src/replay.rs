@@ -165,8 +165,7 @@ pub fn held_beam_by_beam(offsets: impl IntoIterator<Item = [f64; 3]>) -> bool {
     let mut previous: Option<(f64, f64)> = None;
     let (mut sweep, mut run) = (0.0_f64, 0_usize);
     for o in offsets {
-        let azimuth = o[1].atan2(o[0]);
-        let elevation = o[2].atan2(o[0].hypot(o[1]));
+        let (azimuth, elevation) = azimuth_elevation(o);
         total += 1;
         let step = previous.map(|(a, e)| {
             let turn = (azimuth - a + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU)
@@ -200,12 +199,20 @@ pub fn held_beam_by_beam(offsets: impl IntoIterator<Item = [f64; 3]>) -> bool {
 /// (of `psi_rad` > 0, counted from −π) and its elevation (radians; the lowest first).
 #[must_use]
 pub fn firing_key(offset: [f64; 3], psi_rad: f64) -> (i64, f64) {
-    let azimuth = offset[1].atan2(offset[0]) + std::f64::consts::PI;
+    let (azimuth, elevation) = azimuth_elevation(offset);
     // At most 2π / ψ steps: the cast saturates only for a ψ below 1e-18 rad.
     #[allow(clippy::cast_possible_truncation)]
-    let step = (azimuth / psi_rad).floor() as i64;
-    let elevation = offset[2].atan2(offset[0].hypot(offset[1]));
+    let step = ((azimuth + std::f64::consts::PI) / psi_rad).floor() as i64;
     (step, elevation)
+}
+
+/// The azimuth (−π ..= π, from x towards y) and elevation (radians) of a point at `offset`
+/// (metres) from the sensor.
+fn azimuth_elevation(offset: [f64; 3]) -> (f64, f64) {
+    (
+        offset[1].atan2(offset[0]),
+        offset[2].atan2(offset[0].hypot(offset[1])),
+    )
 }
 
 /// Three comma-separated numbers.
