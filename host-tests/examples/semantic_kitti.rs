@@ -46,7 +46,9 @@ use terrain_pyramid::{Design, Fused, Pyramid};
 use terrain_pyramid_host_tests::navigability::rings::{ring_name, ring_of, RINGS};
 use terrain_pyramid_host_tests::navigability::{self, integrate_library};
 use terrain_pyramid_host_tests::scan3dtk::{fused_at, obstacle_near};
-use terrain_pyramid_host_tests::semantic_kitti::{load, truth, CurbRows};
+use terrain_pyramid_host_tests::semantic_kitti::{
+    load, truth, CurbRows, BLOCK_ROW, CURB_ROW, GROUND_ROW, OTHER_ROW, POST_ROW, VEGETATION_ROW,
+};
 use terrain_pyramid_host_tests::sim::cloud::{firing_order, Observation};
 
 /// Layer capacity of the design.
@@ -63,6 +65,9 @@ const RANGE_M: f64 = 20.0;
 const ROBOT_HEIGHT_M: f64 = 1.0;
 /// The azimuth step of the HDL-64E at 10 Hz, degrees.
 const PSI_DEG: f64 = 0.09;
+
+/// The row of every obstacle, after the kinds' rows (`GROUND_ROW` … `OTHER_ROW`).
+const EVERY_OBSTACLE_ROW: usize = 6;
 
 /// The rows of the table, by index: the curb's points again by their distance from the drop
 /// (rows 7–9) and the tall kerbs (row 10) after the kinds and every obstacle.
@@ -122,21 +127,38 @@ fn score(
         let (Some(row), Some(r)) = (*row, ring(q)) else {
             continue;
         };
-        let band = if row == 1 { *band } else { [None; 2] };
+        let band = if row == CURB_ROW { *band } else { [None; 2] };
         let right = if row == 0 {
             matches!(fused_at(p, q[0], q[1]), Fused::Navigable { .. })
         } else {
             obstacle_near(p, q[0], q[1])
         };
-        for k in [Some(row), (row != 0).then_some(6), band[0], band[1]]
-            .into_iter()
-            .flatten()
+        for k in [
+            Some(row),
+            (row != GROUND_ROW).then_some(EVERY_OBSTACLE_ROW),
+            band[0],
+            band[1],
+        ]
+        .into_iter()
+        .flatten()
         {
             t[k][r].0 += 1;
             t[k][r].1 += usize::from(right);
         }
     }
     t
+}
+
+/// Adds `t`'s points and rights to `sum`'s, cell by cell.
+fn add_into(sum: &mut Table, t: &Table) {
+    for (a, c) in sum.iter_mut().flatten().zip(t.iter().flatten()) {
+        *a = (a.0 + c.0, a.1 + c.1);
+    }
+}
+
+/// A row's points and rights summed over the rings.
+fn total(row: &[(usize, usize)]) -> (usize, usize) {
+    row.iter().fold((0, 0), |a, c| (a.0 + c.0, a.1 + c.1))
 }
 
 fn cell((n, ok): (usize, usize)) -> String {
@@ -154,7 +176,7 @@ fn print(title: &str, t: &Table) {
     println!("| points on | {} | all |", names.join(" | "));
     println!("|{}", " --- |".repeat(RINGS + 2));
     for (name, row) in PRINT_ORDER.iter().map(|&k| (ROWS[k], &t[k])) {
-        let all = row.iter().fold((0, 0), |a, c| (a.0 + c.0, a.1 + c.1));
+        let all = total(row);
         let cells: Vec<String> = row.iter().map(|&c| cell(c)).collect();
         println!("| {name} | {} | {} |", cells.join(" | "), cell(all));
     }
@@ -176,12 +198,12 @@ fn score_scan(
     let mut summary = format!(
         "{bin}: {} points; within {RANGE_M} m: {} clear ground, {} curb, {} post, {} block, {} vegetation, {} other (obstacles below {ROBOT_HEIGHT_M} m over the ground plane)",
         points.len(),
-        count(0),
-        count(1),
-        count(2),
-        count(3),
-        count(4),
-        count(5),
+        count(GROUND_ROW),
+        count(CURB_ROW),
+        count(POST_ROW),
+        count(BLOCK_ROW),
+        count(VEGETATION_ROW),
+        count(OTHER_ROW),
     );
     let orders = [
         ("file order", points.clone()),
@@ -224,13 +246,13 @@ fn score_scan(
     }
     // Each rule in firing order, the way a device receives a spinning laser.
     for (name, t) in tables.iter().skip(1).step_by(2) {
-        let all = |row: usize| cell(t[row].iter().fold((0, 0), |a, c| (a.0 + c.0, a.1 + c.1)));
+        let all = |row: usize| cell(total(&t[row]));
         summary.push_str(&format!(
             "\n  {name}: clear ground {}, curb {}, post {}, every obstacle {}",
-            all(0),
-            all(1),
-            all(2),
-            all(6)
+            all(GROUND_ROW),
+            all(CURB_ROW),
+            all(POST_ROW),
+            all(EVERY_OBSTACLE_ROW)
         ));
     }
     let tables: [(String, Table); RUNS] = tables
@@ -251,11 +273,7 @@ fn run(pairs: &[(String, String)]) -> Result<(), String> {
             None => sums = Some(tables),
             Some(sums) => {
                 for ((_, sum), (_, t)) in sums.iter_mut().zip(&tables) {
-                    for (sum_row, row) in sum.iter_mut().zip(t) {
-                        for (a, c) in sum_row.iter_mut().zip(row) {
-                            *a = (a.0 + c.0, a.1 + c.1);
-                        }
-                    }
+                    add_into(sum, t);
                 }
             }
         }
