@@ -154,17 +154,6 @@ impl Buckets {
         }
         best
     }
-
-    /// Whether any point within `radius` (≤ 0.5 m) of `p` satisfies `f`.
-    fn any_near(
-        &self,
-        points: &[[f64; 3]],
-        p: &[f64; 3],
-        radius: f64,
-        f: impl Fn(usize) -> bool,
-    ) -> bool {
-        self.nearest(points, p, radius, f).is_some()
-    }
 }
 
 /// What each point of a scan (`points`, metres, the laser at the origin; `classes`, raw ids)
@@ -210,9 +199,13 @@ pub fn truth(
         .enumerate()
         .map(|(i, d)| {
             let tall = d.is_some()
-                && buckets.any_near(points, &points[i], KERB_REACH_M, |k| {
-                    surface(k) && classes[k] != classes[i] && points[i][2] - points[k][2] >= TALL_M
-                });
+                && buckets
+                    .nearest(points, &points[i], KERB_REACH_M, |k| {
+                        surface(k)
+                            && classes[k] != classes[i]
+                            && points[i][2] - points[k][2] >= TALL_M
+                    })
+                    .is_some();
             [
                 d.map(|d| BAND_ROW + ((d / BAND_M).floor() as usize).min(2)),
                 tall.then_some(TALL_ROW),
@@ -228,13 +221,13 @@ pub fn truth(
             match kinds[i] {
                 Kind::Ground if curb[i] => Some(CURB_ROW),
                 Kind::Ground => {
-                    let feature = buckets.any_near(points, p, CLEAR_M, |k| {
+                    let feature = buckets.nearest(points, p, CLEAR_M, |k| {
                         curb[k]
                             || matches!(kinds[k], Kind::Unlabelled | Kind::Vegetation)
                             || (matches!(kinds[k], Kind::Post | Kind::Block | Kind::Other)
                                 && below_robot(&points[k]))
                     });
-                    (!feature).then_some(GROUND_ROW)
+                    feature.is_none().then_some(GROUND_ROW)
                 }
                 _ if !below_robot(p) => None,
                 Kind::Post => Some(POST_ROW),
