@@ -63,7 +63,8 @@ mod scratch;
 
 pub use config::{ClassifierConfig, ClassifierStats};
 use scratch::{
-    cell_of, corner, fold, hash, locate, mm_i16, Recent, Slot, EMPTY, ORIGIN_LIMIT, RECENT_LAYERS,
+    cell_of, corner, fold, hash, locate, mm_i16, Previous, Recent, Slot, EMPTY, ORIGIN_LIMIT,
+    RECENT_LAYERS,
 };
 
 /// Scratch and counters for classifying observations with `C` cell slots (a power of two),
@@ -77,6 +78,8 @@ pub struct Classifier<const C: usize, const L: usize> {
     recent: [Recent; RECENT_LAYERS],
     /// The gate bin of the last point given by its squared distance (a first guess only).
     last_bin: u16,
+    /// The return before the current one (the pair test across a cell's edge).
+    previous: Previous,
     /// The design's gating: which layers a point feeds, with which weight.
     gates: Gates<L>,
     config: ClassifierConfig,
@@ -144,6 +147,7 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
             order: [0; C],
             recent: [Recent::NONE; RECENT_LAYERS],
             last_bin: 0,
+            previous: Previous::NONE,
             gates: Gates::new(),
             config: ClassifierConfig {
                 robot_height: Meters::ZERO,
@@ -314,8 +318,10 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
         self.used = 0;
     }
 
-    /// Forgets the cells of the layers' last points (their slots are vacated).
+    /// Forgets the cells of the layers' last points (their slots are vacated) and the
+    /// previous return.
     fn forget_recent(&mut self) {
+        self.previous.fed = 0;
         for recent in &mut self.recent {
             recent.span = 0;
         }
@@ -444,6 +450,13 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
                 refused |= bit;
             }
         }
+        // This return is the next one's previous (the pair test across a cell's edge).
+        self.previous = Previous {
+            x: point.x.to_bits(),
+            y: point.y.to_bits(),
+            z: z_word,
+            fed: u32::from(offered) & !refused,
+        };
         let mut fed = u32::from(offered) & !refused != 0;
         // Layers from the ninth on (pyramids of more than eight), by their weights.
         if self.gates.layer_count() > 8 {
@@ -544,9 +557,28 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
             return false;
         };
         let (cx, cy, sub) = cell_of(r, recent.reciprocal, point, PLANE);
+        // The pair test across the cell's edge: this return and the previous one, taken by
+        // another cell of the layer, mark the cell of the upper of the two.
+        let across = if PLANE {
+            self.pair_across(k, r.to_bits(), &recent, point, z, robot_height_mm)
+        } else {
+            None
+        };
+        if let Some((shown, false)) = across {
+            if recent.span != 0 {
+                if let Some(slot) = self.slots.get_mut(usize::from(recent.slot) & Self::MASK) {
+                    slot.plane.keep_shown(shown);
+                }
+            }
+        }
         // Stored as k + 1 (0 marks an empty slot); k < 8.
         match self.insert(k + 1, cx, cy, sub, bin, z, HOLE, PLANE, recent.pair_scale) {
             Some(index) => {
+                if let Some((shown, true)) = across {
+                    if let Some(slot) = self.slots.get_mut(index & Self::MASK) {
+                        slot.plane.keep_shown(shown);
+                    }
+                }
                 self.remember(usize::from(k), r.to_bits(), cx, cy, index);
                 true
             }
@@ -555,6 +587,46 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
                 false
             }
         }
+    }
+
+    /// The pair test across a cell's edge for a return at `point` (`z` mm, as a slot's) that
+    /// layer `k` (< [`RECENT_LAYERS`], cells of `bits` raw, `recent` its entry as the previous
+    /// return left it) takes in another cell than the previous return's: when the previous
+    /// return fed the layer too, the two rise more than the layer's step and at most the
+    /// robot's height, and lie less than a cell's side apart (|Δx| + |Δy|), the step they show
+    /// ([`rule::pair_shown`]) and whether this return is the upper one; `None` otherwise or
+    /// when they show no more than the step (`docs/core.md`, "The pair test across a cell's
+    /// edge").
+    #[inline]
+    fn pair_across(
+        &self,
+        k: u8,
+        bits: i32,
+        recent: &Recent,
+        point: Point3,
+        z: i32,
+        robot_height_mm: i32,
+    ) -> Option<(u8, bool)> {
+        let previous = self.previous;
+        if previous.fed & (1_u32 << (k & 7)) == 0 {
+            return None;
+        }
+        let rise = z.abs_diff(previous.z);
+        if rise <= recent.pair_scale.step_mm() || rise > robot_height_mm.unsigned_abs() {
+            return None;
+        }
+        let run = point
+            .x
+            .to_bits()
+            .abs_diff(previous.x)
+            .saturating_add(point.y.to_bits().abs_diff(previous.y));
+        if run >= bits.unsigned_abs() {
+            return None;
+        }
+        // run < c: run·⌊2³²/c⌋ < 2³², so the product does not wrap; units of c/64.
+        let units = run.wrapping_mul(recent.reciprocal) >> 26;
+        let shown = rule::pair_shown(rise, units, recent.pair_scale);
+        (u32::from(shown) > recent.pair_scale.step_mm()).then_some((shown, z > previous.z))
     }
 
     /// Remembers cell `(cx, cy)` of cell size `bits` in slot `index` (< C ≤ 65 536) as the cell
@@ -719,7 +791,15 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
                     .map(crate::grid::Resolution::to_bits);
                 let obstacle = slot.hole
                     || match (&self.plane, cell) {
-                        (Some(params), _) if params.flat_enough(spread) => false,
+                        // A pair across the cell's edge may mark a cell whose own
+                        // points lie flat: its step is read before the quick answer.
+                        (Some(params), _)
+                            if params.flat_enough(spread)
+                                && i32::from(slot.plane.pair_rise())
+                                    <= i32::from(self.step_mm) =>
+                        {
+                            false
+                        }
                         (Some(params), Some(cell)) => rule::plane_obstacle(
                             &slot.plane,
                             params,

@@ -51,6 +51,31 @@ impl Recent {
     };
 }
 
+/// The return before the current one, for the pair test across a cell's edge
+/// ([`super::Classifier`]): where it lay, its height and the layers (of the first
+/// [`RECENT_LAYERS`]) whose cells took it.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct Previous {
+    /// World x, raw Q16.16.
+    pub(super) x: i32,
+    /// World y, raw Q16.16.
+    pub(super) y: i32,
+    /// Millimetres relative to the observation's reference height (as a slot's z).
+    pub(super) z: i32,
+    /// Bit k set when layer k's cell took the return (then [`Recent`] k holds its slot);
+    /// 0 when there is no previous return (at an observation's start).
+    pub(super) fed: u32,
+}
+
+impl Previous {
+    pub(super) const NONE: Self = Self {
+        x: 0,
+        y: 0,
+        z: 0,
+        fed: 0,
+    };
+}
+
 /// The marker of an empty slot: slots store their layer plus one, so that an empty slot (and
 /// a fresh classifier) is all zero bits.
 pub(super) const EMPTY: u8 = 0;
