@@ -21,10 +21,10 @@
 //!   rise more than a step, `|Δz| − tan(max_slope)·(|Δx| + |Δy|) > 2·k·σ·h/r` and
 //!   `|Δz| > step + 2·k·σ·h/r` (the pair test: a kerb's face, where two beams' returns nearly
 //!   coincide or one beam crosses it). The pairs are those consecutive within the cell and,
-//!   for the first eight layers, each pair of consecutive points of the observation that the
-//!   layer takes in two different cells less than a cell's side apart (|Δx| + |Δy| < c),
-//!   rising more than the step and at most the robot's height: it counts in the cell of its
-//!   upper point (the pair test across a cell's edge).
+//!   for the first eight layers, each pair of consecutive points that the layer takes in two
+//!   different cells less than a cell's side apart (|Δx| + |Δy| < c), rising more than the
+//!   step and at most the robot's height: it counts in the cell of its upper point (the pair
+//!   test across a cell's edge).
 //!
 //! A record's distance is the smallest horizontal distance among the cell's points.
 
@@ -241,7 +241,8 @@ pub fn classify(
         across: Vec<(f64, f64)>,
     }
     let mut cells: BTreeMap<(usize, i64, i64), Acc> = BTreeMap::new();
-    let mut previous: Option<&RefPoint> = None;
+    // Per layer, the last point it took.
+    let mut previous: Vec<Option<&RefPoint>> = vec![None; resolutions.len()];
     for p in points {
         let hole = config
             .drop_threshold
@@ -264,8 +265,8 @@ pub fn classify(
             acc.zs.push(p.z);
             acc.distance = acc.distance.min(p.distance);
             acc.hole |= hole;
-            // The pair with the previous point across the cell's edge.
-            let Some(q) = previous.filter(|q| k < ACROSS_LAYERS && feeds(k, q.distance)) else {
+            // The pair with the layer's previous point across the cell's edge.
+            let Some(q) = previous[k].replace(p).filter(|_| k < ACROSS_LAYERS) else {
                 continue;
             };
             let q_key = (k, (q.x / r).floor() as i64, (q.y / r).floor() as i64);
@@ -281,7 +282,6 @@ pub fn classify(
                 }
             }
         }
-        previous = Some(p);
     }
     cells
         .into_iter()
@@ -455,12 +455,27 @@ mod tests {
         assert_eq!(kerb(0.005, 0.1, false), (false, true));
         assert_eq!(kerb(0.005, 0.1, true), (false, true));
         assert_eq!(kerb(0.005, 0.04, false), (false, false), "within the step");
-        assert_eq!(kerb(0.096, 0.1, false), (false, false), "a cell's side apart");
-        assert_eq!(kerb(0.005, 1.2, false), (false, false), "beyond the robot's height");
+        assert_eq!(
+            kerb(0.096, 0.1, false),
+            (false, false),
+            "a cell's side apart"
+        );
+        assert_eq!(
+            kerb(0.005, 1.2, false),
+            (false, false),
+            "beyond the robot's height"
+        );
         // Layers from the ninth on take no pairs across their edges.
         let pts = [p(0.29, 0.05, 0.0), p(0.31, 0.05, 0.1)];
         let resolutions = [0.1; 9];
-        let out = classify(&pts, &resolutions, |k, _| k == 8, 0.0, 0.0, &Default::default());
+        let out = classify(
+            &pts,
+            &resolutions,
+            |k, _| k == 8,
+            0.0,
+            0.0,
+            &Default::default(),
+        );
         assert!(!out[&(8, 3, 0)].obstacle);
     }
 }

@@ -63,8 +63,7 @@ mod scratch;
 
 pub use config::{ClassifierConfig, ClassifierStats};
 use scratch::{
-    cell_of, corner, fold, hash, locate, mm_i16, Previous, Recent, Slot, EMPTY, ORIGIN_LIMIT,
-    RECENT_LAYERS,
+    cell_of, corner, fold, hash, locate, mm_i16, Recent, Slot, EMPTY, ORIGIN_LIMIT, RECENT_LAYERS,
 };
 
 /// Scratch and counters for classifying observations with `C` cell slots (a power of two),
@@ -78,8 +77,6 @@ pub struct Classifier<const C: usize, const L: usize> {
     recent: [Recent; RECENT_LAYERS],
     /// The gate bin of the last point given by its squared distance (a first guess only).
     last_bin: u16,
-    /// The return before the current one (the pair test across a cell's edge).
-    previous: Previous,
     /// The design's gating: which layers a point feeds, with which weight.
     gates: Gates<L>,
     config: ClassifierConfig,
@@ -147,7 +144,6 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
             order: [0; C],
             recent: [Recent::NONE; RECENT_LAYERS],
             last_bin: 0,
-            previous: Previous::NONE,
             gates: Gates::new(),
             config: ClassifierConfig {
                 robot_height: Meters::ZERO,
@@ -303,7 +299,7 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
         if self.used > 0 {
             self.vacate();
         }
-        self.forget_recent();
+        self.forget_last();
     }
 
     /// Vacates the slots in use (out of line: `begin` finds none after a `finish`).
@@ -318,12 +314,23 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
         self.used = 0;
     }
 
-    /// Forgets the cells of the layers' last points (their slots are vacated) and the
-    /// previous return.
+    /// Forgets the cells of the layers' last points (the shortcut to their slots; the pair
+    /// test across a cell's edge keeps its own record of them, which
+    /// [`forget_last`](Self::forget_last) forgets). For the tests: the shortcut changes
+    /// nothing.
+    #[cfg(test)]
     fn forget_recent(&mut self) {
-        self.previous.fed = 0;
         for recent in &mut self.recent {
             recent.span = 0;
+        }
+    }
+
+    /// Forgets the slots of the layers' last returns (when the slots are vacated) and the
+    /// shortcut to them.
+    fn forget_last(&mut self) {
+        for recent in &mut self.recent {
+            recent.span = 0;
+            recent.last_slot = None;
         }
     }
 
@@ -450,13 +457,6 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
                 refused |= bit;
             }
         }
-        // This return is the next one's previous (the pair test across a cell's edge).
-        self.previous = Previous {
-            x: point.x.to_bits(),
-            y: point.y.to_bits(),
-            z: z_word,
-            fed: u32::from(offered) & !refused,
-        };
         let mut fed = u32::from(offered) & !refused != 0;
         // Layers from the ninth on (pyramids of more than eight), by their weights.
         if self.gates.layer_count() > 8 {
@@ -557,27 +557,11 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
             return false;
         };
         let (cx, cy, sub) = cell_of(r, recent.reciprocal, point, PLANE);
-        // The pair test across the cell's edge: this return and the previous one, taken by
-        // another cell of the layer, mark the cell of the upper of the two.
-        let across = if PLANE {
-            self.pair_across(k, r.to_bits(), &recent, point, z, robot_height_mm)
-        } else {
-            None
-        };
-        if let Some((shown, false)) = across {
-            if recent.span != 0 {
-                if let Some(slot) = self.slots.get_mut(usize::from(recent.slot) & Self::MASK) {
-                    slot.plane.keep_shown(shown);
-                }
-            }
-        }
         // Stored as k + 1 (0 marks an empty slot); k < 8.
         match self.insert(k + 1, cx, cy, sub, bin, z, HOLE, PLANE, recent.pair_scale) {
             Some(index) => {
-                if let Some((shown, true)) = across {
-                    if let Some(slot) = self.slots.get_mut(index & Self::MASK) {
-                        slot.plane.keep_shown(shown);
-                    }
+                if PLANE {
+                    self.pair_across(usize::from(k), index, sub, z, robot_height_mm);
                 }
                 self.remember(usize::from(k), r.to_bits(), cx, cy, index);
                 true
@@ -589,44 +573,44 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
         }
     }
 
-    /// The pair test across a cell's edge for a return at `point` (`z` mm, as a slot's) that
-    /// layer `k` (< [`RECENT_LAYERS`], cells of `bits` raw, `recent` its entry as the previous
-    /// return left it) takes in another cell than the previous return's: when the previous
-    /// return fed the layer too, the two rise more than the layer's step and at most the
-    /// robot's height, and lie less than a cell's side apart (|Δx| + |Δy|), the step they show
-    /// ([`rule::pair_shown`]) and whether this return is the upper one; `None` otherwise or
-    /// when they show no more than the step (`docs/core.md`, "The pair test across a cell's
-    /// edge").
-    #[inline]
-    fn pair_across(
-        &self,
-        k: u8,
-        bits: i32,
-        recent: &Recent,
-        point: Point3,
-        z: i32,
-        robot_height_mm: i32,
-    ) -> Option<(u8, bool)> {
-        let previous = self.previous;
-        if previous.fed & (1_u32 << (k & 7)) == 0 {
-            return None;
+    /// The pair test across a cell's edge for a return (`z` mm, as a slot's) that layer `k`
+    /// (< [`RECENT_LAYERS`]) has just folded at `sub` into slot `index`, which becomes the
+    /// layer's last: when the layer's last return lay in another slot (`last`, whose last return
+    /// below the cut is that one) and the two rise
+    /// more than the layer's step (`scale`) and at most the robot's height, and lie less than a
+    /// cell's side apart (|Δx| + |Δy|, in units of c/64), the cell of the upper return keeps
+    /// the step they show ([`rule::pair_shown`]; `docs/core.md`, "The pair test across a
+    /// cell's edge").
+    #[inline(never)]
+    fn pair_across(&mut self, k: usize, index: usize, sub: (i8, i8), z: i32, robot_height_mm: i32) {
+        let Some(recent) = self.recent.get_mut(k) else {
+            return;
+        };
+        // index < C ≤ 65 536: it fits a u16.
+        #[allow(clippy::cast_possible_truncation)]
+        let last = match recent.last_slot.replace(index as u16) {
+            Some(last) if usize::from(last) != index => usize::from(last),
+            _ => return,
+        };
+        let scale = recent.pair_scale;
+        let Some(previous) = self.slots.get(last & Self::MASK) else {
+            return;
+        };
+        let last_z = i32::from(previous.plane.last_z());
+        let rise = z.abs_diff(last_z);
+        if rise <= scale.step_mm() || rise > robot_height_mm.unsigned_abs() {
+            return;
         }
-        let rise = z.abs_diff(previous.z);
-        if rise <= recent.pair_scale.step_mm() || rise > robot_height_mm.unsigned_abs() {
-            return None;
+        let Some(current) = self.slots.get(index & Self::MASK) else {
+            return;
+        };
+        let Some(shown) = across_run(previous, current, sub, rise, scale) else {
+            return;
+        };
+        let upper = if z > last_z { index } else { last };
+        if let Some(slot) = self.slots.get_mut(upper & Self::MASK) {
+            slot.plane.keep_shown(shown);
         }
-        let run = point
-            .x
-            .to_bits()
-            .abs_diff(previous.x)
-            .saturating_add(point.y.to_bits().abs_diff(previous.y));
-        if run >= bits.unsigned_abs() {
-            return None;
-        }
-        // run < c: run·⌊2³²/c⌋ < 2³², so the product does not wrap; units of c/64.
-        let units = run.wrapping_mul(recent.reciprocal) >> 26;
-        let shown = rule::pair_shown(rise, units, recent.pair_scale);
-        (u32::from(shown) > recent.pair_scale.step_mm()).then_some((shown, z > previous.z))
     }
 
     /// Remembers cell `(cx, cy)` of cell size `bits` in slot `index` (< C ≤ 65 536) as the cell
@@ -795,8 +779,7 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
                         // points lie flat: its step is read before the quick answer.
                         (Some(params), _)
                             if params.flat_enough(spread)
-                                && i32::from(slot.plane.pair_rise())
-                                    <= i32::from(self.step_mm) =>
+                                && i32::from(slot.plane.pair_rise()) <= i32::from(self.step_mm) =>
                         {
                             false
                         }
@@ -839,7 +822,7 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
             }
             self.used = 0;
         }
-        self.forget_recent();
+        self.forget_last();
         self.stats.records = self.stats.records.saturating_add(records);
         self.stats.observations = self.stats.observations.saturating_add(1);
     }
@@ -850,6 +833,37 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
             pyramid.apply(&record);
         });
     }
+}
+
+/// [`Classifier::pair_across`]'s pair once it rises beyond the step: the run from the last
+/// return of slot `previous` to one at `sub` in the cell of slot `current` (same layer), in
+/// units of c/64 (|Δu| + |Δv|, each from the cells' indices and the positions in them); the
+/// step the pair shows when the run is below a cell's side (64 units) and the step is beyond
+/// the scale's, `None` otherwise. Out of line: only rises beyond the step come here.
+#[cold]
+#[inline(never)]
+fn across_run(
+    previous: &Slot,
+    current: &Slot,
+    sub: (i8, i8),
+    rise: u32,
+    scale: PairScale,
+) -> Option<u8> {
+    let (u, v) = previous.plane.last_at();
+    let along = |cells: i32, to: i8, from: i8| {
+        // Neighbouring cells only (a wrapped difference beyond ±1 is not one): within
+        // ±(64 + 63) units.
+        (-1..=1)
+            .contains(&cells)
+            .then(|| (cells * 64 + i32::from(to) - i32::from(from)).unsigned_abs())
+    };
+    let run = along(current.cell_x.wrapping_sub(previous.cell_x), sub.0, u)?
+        + along(current.cell_y.wrapping_sub(previous.cell_y), sub.1, v)?;
+    if run >= 64 {
+        return None;
+    }
+    let shown = rule::pair_shown(rise, run, scale);
+    (u32::from(shown) > scale.step_mm()).then_some(shown)
 }
 
 impl<const C: usize, const L: usize> Default for Classifier<C, L> {

@@ -38,6 +38,9 @@ pub(super) struct Recent {
     /// The pair test's constants in the layer's cells, set by [`Classifier::configure`] and
     /// [`Classifier::adopt_design`]; [`PairScale::NONE`] without the plane rule.
     pub(super) pair_scale: PairScale,
+    /// The slot of the cell that took the layer's last return (the pair test across a cell's
+    /// edge): kept when the shortcut (`span`) is forgotten, `None` at an observation's start.
+    pub(super) last_slot: Option<u16>,
 }
 
 impl Recent {
@@ -48,31 +51,7 @@ impl Recent {
         reciprocal: 0,
         slot: 0,
         pair_scale: PairScale::NONE,
-    };
-}
-
-/// The return before the current one, for the pair test across a cell's edge
-/// ([`super::Classifier`]): where it lay, its height and the layers (of the first
-/// [`RECENT_LAYERS`]) whose cells took it.
-#[derive(Debug, Clone, Copy)]
-pub(super) struct Previous {
-    /// World x, raw Q16.16.
-    pub(super) x: i32,
-    /// World y, raw Q16.16.
-    pub(super) y: i32,
-    /// Millimetres relative to the observation's reference height (as a slot's z).
-    pub(super) z: i32,
-    /// Bit k set when layer k's cell took the return (then [`Recent`] k holds its slot);
-    /// 0 when there is no previous return (at an observation's start).
-    pub(super) fed: u32,
-}
-
-impl Previous {
-    pub(super) const NONE: Self = Self {
-        x: 0,
-        y: 0,
-        z: 0,
-        fed: 0,
+        last_slot: None,
     };
 }
 

@@ -592,7 +592,10 @@ fn a_pair_across_a_cells_edge_needs_a_steep_surface() {
     c.add_point(pt(3.05, 0.05, 0.0), d, Meters::ZERO);
     c.add_point(pt(3.2, 0.05, 0.1), d, Meters::ZERO);
     let r = records(&mut c);
-    assert!(r.iter().all(|e| e.class == EvidenceClass::Navigable), "{r:?}");
+    assert!(
+        r.iter().all(|e| e.class == EvidenceClass::Navigable),
+        "{r:?}"
+    );
     // A 45° face over the same edge: steeper than the robot climbs.
     c.begin(Meters::ZERO);
     c.add_point(pt(0.25, 0.05, 0.0), d, Meters::ZERO);
