@@ -21,10 +21,10 @@
 //!   rise more than a step, `|Δz| − tan(max_slope)·(|Δx| + |Δy|) > 2·k·σ·h/r` and
 //!   `|Δz| > step + 2·k·σ·h/r` (the pair test: a kerb's face, where two beams' returns nearly
 //!   coincide or one beam crosses it). The pairs are those consecutive within the cell and,
-//!   for the first eight layers, each pair of consecutive points that the layer takes in two
-//!   different cells less than a cell's side apart (|Δx| + |Δy| < c), rising more than the
-//!   step and at most the robot's height: it counts in the cell of its upper point (the pair
-//!   test across a cell's edge).
+//!   for the first eight layers, each pair of consecutive points of the observation that the
+//!   layer takes in two different cells less than a cell's side apart (|Δx| + |Δy| < c),
+//!   rising more than the step and at most the robot's height: it counts in the cell of its
+//!   upper point (the pair test across a cell's edge).
 //!
 //! A record's distance is the smallest horizontal distance among the cell's points.
 
@@ -241,8 +241,7 @@ pub fn classify(
         across: Vec<(f64, f64)>,
     }
     let mut cells: BTreeMap<(usize, i64, i64), Acc> = BTreeMap::new();
-    // Per layer, the last point it took.
-    let mut previous: Vec<Option<&RefPoint>> = vec![None; resolutions.len()];
+    let mut previous: Option<&RefPoint> = None;
     for p in points {
         let hole = config
             .drop_threshold
@@ -265,8 +264,8 @@ pub fn classify(
             acc.zs.push(p.z);
             acc.distance = acc.distance.min(p.distance);
             acc.hole |= hole;
-            // The pair with the layer's previous point across the cell's edge.
-            let Some(q) = previous[k].replace(p).filter(|_| k < ACROSS_LAYERS) else {
+            // The pair with the previous point across the cell's edge.
+            let Some(q) = previous.filter(|q| k < ACROSS_LAYERS && feeds(k, q.distance)) else {
                 continue;
             };
             let q_key = (k, (q.x / r).floor() as i64, (q.y / r).floor() as i64);
@@ -282,6 +281,7 @@ pub fn classify(
                 }
             }
         }
+        previous = Some(p);
     }
     cells
         .into_iter()

@@ -53,9 +53,10 @@
 //! `min(|Δz|, |Δz| − s·(|Δu| + |Δv|) + step)` (mm, saturated to 0 ..= 255, 1 byte), s the
 //! layer's `tan θ_max·c/64` in mm Q8; the decision compares it with the extremes test's
 //! allowance `step + 2·k·σ·h/r`: beyond it exactly when the rise beyond the slope exceeds the
-//! noise `2·k·σ·h/r` and the whole rise the allowance. A pair across a cell's edge (a return
-//! that one of the first eight layers takes in another cell than its last one, and that last
-//! return, less than a cell's side apart) folds its step into the cell of its upper return
+//! noise `2·k·σ·h/r` and the whole rise the allowance. A pair across a cell's edge (two
+//! consecutive returns of the observation that one of the first eight layers takes in
+//! neighbouring cells, less than a cell's side apart) folds its step into the cell of its
+//! upper return
 //! ([`PlaneState::keep_shown`]; the classifier finds such pairs, `docs/core.md`, "The pair
 //! test across a cell's edge").
 
@@ -295,15 +296,10 @@ impl PlaneState {
         self.keep_shown(pair_shown(rise, run, scale));
     }
 
-    /// The slot's last return below the cut as it arrived: its position `(u, v)` in the cell
-    /// and its z (mm relative to the observation's reference height).
+    /// The position `(u, v)` in the cell of the slot's last return below the cut as it
+    /// arrived.
     pub(super) const fn last_at(&self) -> (i8, i8) {
         self.last_at
-    }
-
-    /// The z of [`PlaneState::last_at`]'s return, mm.
-    pub(super) const fn last_z(&self) -> i16 {
-        self.last_z
     }
 
     /// Keeps `shown` (mm, [`pair_shown`]) as the largest step a pair has shown when it is
@@ -707,12 +703,6 @@ mod absent {
         #[allow(clippy::unused_self)]
         pub(in crate::classify) const fn last_at(&self) -> (i8, i8) {
             (0, 0)
-        }
-
-        /// The last return's z: not kept.
-        #[allow(clippy::unused_self)]
-        pub(in crate::classify) const fn last_z(&self) -> i16 {
-            0
         }
 
         /// The pair test's largest step: none kept.

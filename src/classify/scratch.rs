@@ -32,15 +32,13 @@ pub(super) struct Recent {
     /// [`Classifier::adopt_design`]: where there is no hardware division, cell indices are
     /// found by a multiplication; the plane rule's position in the cell on every target.
     pub(super) reciprocal: u32,
-    /// The slot of the cell (valid while `span` is not 0: slots are vacated only when the
-    /// observation ends, and every entry is forgotten then).
+    /// The slot of the cell of the layer's last point, whether or not the shortcut (`span`)
+    /// holds its cell (the pair test across a cell's edge reads it): valid while the layer has
+    /// a last point in the observation (slots are vacated only when the observation ends).
     pub(super) slot: u16,
     /// The pair test's constants in the layer's cells, set by [`Classifier::configure`] and
     /// [`Classifier::adopt_design`]; [`PairScale::NONE`] without the plane rule.
     pub(super) pair_scale: PairScale,
-    /// The slot of the cell that took the layer's last return (the pair test across a cell's
-    /// edge): kept when the shortcut (`span`) is forgotten, `None` at an observation's start.
-    pub(super) last_slot: Option<u16>,
 }
 
 impl Recent {
@@ -51,7 +49,6 @@ impl Recent {
         reciprocal: 0,
         slot: 0,
         pair_scale: PairScale::NONE,
-        last_slot: None,
     };
 }
 
