@@ -33,7 +33,7 @@
 //! # Bounded scratch
 //! Besides its slots the classifier keeps the previous return's height and the layers that
 //! took it, and, while a pair across a cell's edge waits to be judged, the slots of the
-//! return before (the pair test across a cell's edge, [`rule`]; 32 bytes in all).
+//! return before (the pair test across a cell's edge, [`rule`]; 36 bytes in all).
 //!
 //! The touched cells live in an open-addressing table of `C` slots (a power of two, 60 bytes
 //! each: 16 for the key, the closest look and the lowest and highest z, 44 for the plane rule's

@@ -56,9 +56,8 @@
 //! noise `2·k·σ·h/r` and the whole rise the allowance. A pair across a cell's edge (two
 //! consecutive returns of the observation that one of the first eight layers takes in
 //! neighbouring cells, less than a cell's side apart) folds its step into the cell of its
-//! upper return
-//! ([`PlaneState::keep_shown`]; the classifier finds such pairs, `docs/core.md`, "The pair
-//! test across a cell's edge").
+//! upper return (the classifier finds such pairs; `docs/core.md`, "The pair test across a
+//! cell's edge").
 
 use crate::units::Meters;
 use fixed::types::I16F16;
