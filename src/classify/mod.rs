@@ -88,7 +88,8 @@ pub struct Classifier<const C: usize, const L: usize> {
     /// A return whose height differs from the previous one's by this much or more (mm) goes
     /// to [`Classifier::across`]: the step plus one, or 0 while a pair across a cell's edge
     /// waits to be judged (then the earlier return's slots, entry k for layer k, its layers
-    /// and its z follow).
+    /// and its z follow) and in an unconfigured classifier (all zero bits, for `.bss`: its
+    /// first return finds nothing pending and sets the threshold).
     across_threshold: u32,
     before: [u16; RECENT_LAYERS],
     before_fed: u32,
@@ -163,7 +164,7 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
             last_bin: 0,
             previous_z: 0,
             previous_fed: 0,
-            across_threshold: 1,
+            across_threshold: 0,
             before: [0; RECENT_LAYERS],
             before_fed: 0,
             before_z: 0,
