@@ -20,7 +20,11 @@
 //!   consecutive points in arrival order lie on a surface steeper than the largest slope and
 //!   rise more than a step, `|Δz| − tan(max_slope)·(|Δx| + |Δy|) > 2·k·σ·h/r` and
 //!   `|Δz| > step + 2·k·σ·h/r` (the pair test: a kerb's face, where two beams' returns nearly
-//!   coincide or one beam crosses it).
+//!   coincide or one beam crosses it). The pairs are those consecutive within the cell and,
+//!   for the first eight layers, each pair of consecutive points of the observation that the
+//!   layer takes in two different cells less than a cell's side apart (|Δx| + |Δy| < c),
+//!   rising more than the step and at most the robot's height: it counts in the cell of its
+//!   upper point (the pair test across a cell's edge).
 //!
 //! A record's distance is the smallest horizontal distance among the cell's points.
 
@@ -137,12 +141,19 @@ fn pair_ratio(xys: &[(f64, f64)], zs: &[f64], max_grade: f64, step: f64, noise: 
         .zip(zs.windows(2))
         .map(|(p, z)| {
             let run = (p[1].0 - p[0].0).abs() + (p[1].1 - p[0].1).abs();
-            let rise = (z[1] - z[0]).abs();
-            let steep = (rise - max_grade * run) / noise.max(1e-300);
-            steep.min(rise / (step + noise).max(1e-300))
+            one_pair_ratio((z[1] - z[0]).abs(), run, max_grade, step, noise)
         })
         .fold(0.0, f64::max)
 }
+
+/// One pair's ratio for [`pair_ratio`]: a rise `rise` over an L1 run `run` (m).
+fn one_pair_ratio(rise: f64, run: f64, max_grade: f64, step: f64, noise: f64) -> f64 {
+    let steep = (rise - max_grade * run) / noise.max(1e-300);
+    steep.min(rise / (step + noise).max(1e-300))
+}
+
+/// The layers whose cells take pairs across their edges: the first eight.
+const ACROSS_LAYERS: usize = 8;
 
 /// The plane rule's three test ratios (residual, rise, extremes) for `zs` at `xys`, see
 /// [`RefRecord`]; `extremes_allowance` is `step + 2·k·σ·h/r`.
@@ -226,8 +237,11 @@ pub fn classify(
         xys: Vec<(f64, f64)>,
         distance: f64,
         hole: bool,
+        /// Pairs across the cell's edge whose upper point lies here: (rise, run), m.
+        across: Vec<(f64, f64)>,
     }
     let mut cells: BTreeMap<(usize, i64, i64), Acc> = BTreeMap::new();
+    let mut previous: Option<&RefPoint> = None;
     for p in points {
         let hole = config
             .drop_threshold
@@ -242,6 +256,7 @@ pub fn classify(
                 xys: Vec::new(),
                 distance: f64::INFINITY,
                 hole: false,
+                across: Vec::new(),
             });
             #[allow(clippy::cast_precision_loss)]
             acc.xys
@@ -249,7 +264,24 @@ pub fn classify(
             acc.zs.push(p.z);
             acc.distance = acc.distance.min(p.distance);
             acc.hole |= hole;
+            // The pair with the previous point across the cell's edge.
+            let Some(q) = previous.filter(|q| k < ACROSS_LAYERS && feeds(k, q.distance)) else {
+                continue;
+            };
+            let q_key = (k, (q.x / r).floor() as i64, (q.y / r).floor() as i64);
+            let (rise, run) = ((p.z - q.z).abs(), (p.x - q.x).abs() + (p.y - q.y).abs());
+            if q_key != key
+                && run < r
+                && rise > config.step_threshold
+                && rise <= config.robot_height
+            {
+                let upper = if p.z > q.z { key } else { q_key };
+                if let Some(cell) = cells.get_mut(&upper) {
+                    cell.across.push((rise, run));
+                }
+            }
         }
+        previous = Some(p);
     }
     cells
         .into_iter()
@@ -305,13 +337,17 @@ pub fn classify(
                         noise_factor * sigma_z,
                         extremes_allowance,
                     );
-                    let pr = pair_ratio(
-                        &xys,
-                        &zs,
-                        max_grade,
-                        config.step_threshold,
-                        2.0 * noise_factor * from_range,
-                    );
+                    let pair_noise = 2.0 * noise_factor * from_range;
+                    let pr = acc
+                        .across
+                        .iter()
+                        .map(|&(rise, run)| {
+                            one_pair_ratio(rise, run, max_grade, config.step_threshold, pair_noise)
+                        })
+                        .fold(
+                            pair_ratio(&xys, &zs, max_grade, config.step_threshold, pair_noise),
+                            f64::max,
+                        );
                     (rr, qr, pr, rr > 1.0 || qr > 1.0 || er > 1.0 || pr > 1.0)
                 }
             };
@@ -399,5 +435,47 @@ mod tests {
         };
         let out = classify(&pts, &[1.0], |_, _| true, 0.0, 0.0, &spread);
         assert!(out[&(0, 0, 0)].obstacle, "the paper's rule: a 24 cm spread");
+    }
+
+    #[test]
+    fn a_pair_across_a_cells_edge_marks_the_upper_cell() {
+        // A 10 cm kerb on the edge x = 0.3 m between 0.1 m cells 2 and 3, each flat.
+        let kerb = |gap: f64, top: f64, down: bool| {
+            let mut pts: Vec<RefPoint> = [0.22, 0.25, 0.28, 0.3 - gap]
+                .iter()
+                .map(|&x| p(x, 0.05, 0.0))
+                .chain([0.305, 0.33, 0.36, 0.39].iter().map(|&x| p(x, 0.05, top)))
+                .collect();
+            if down {
+                pts.reverse();
+            }
+            let out = classify(&pts, &[0.1], |_, _| true, 0.0, 0.0, &Default::default());
+            (out[&(0, 2, 0)].obstacle, out[&(0, 3, 0)].obstacle)
+        };
+        assert_eq!(kerb(0.005, 0.1, false), (false, true));
+        assert_eq!(kerb(0.005, 0.1, true), (false, true));
+        assert_eq!(kerb(0.005, 0.04, false), (false, false), "within the step");
+        assert_eq!(
+            kerb(0.096, 0.1, false),
+            (false, false),
+            "a cell's side apart"
+        );
+        assert_eq!(
+            kerb(0.005, 1.2, false),
+            (false, false),
+            "beyond the robot's height"
+        );
+        // Layers from the ninth on take no pairs across their edges.
+        let pts = [p(0.29, 0.05, 0.0), p(0.31, 0.05, 0.1)];
+        let resolutions = [0.1; 9];
+        let out = classify(
+            &pts,
+            &resolutions,
+            |k, _| k == 8,
+            0.0,
+            0.0,
+            &Default::default(),
+        );
+        assert!(!out[&(8, 3, 0)].obstacle);
     }
 }

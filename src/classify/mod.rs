@@ -31,6 +31,10 @@
 //!   ([`Classifier::add_missing_ground`]); the caller decides when a beam qualifies.
 //!
 //! # Bounded scratch
+//! Besides its slots the classifier keeps the previous return's height and the layers that
+//! took it, and, while a pair across a cell's edge waits to be judged, the slots of the
+//! return before (the pair test across a cell's edge, [`rule`]; 36 bytes in all).
+//!
 //! The touched cells live in an open-addressing table of `C` slots (a power of two, 60 bytes
 //! each: 16 for the key, the closest look and the lowest and highest z, 44 for the plane rule's
 //! sums, where the lowest and highest points lie and the pair test's last return and largest
@@ -77,6 +81,19 @@ pub struct Classifier<const C: usize, const L: usize> {
     recent: [Recent; RECENT_LAYERS],
     /// The gate bin of the last point given by its squared distance (a first guess only).
     last_bin: u16,
+    /// The previous return's z (mm, as a slot's) and the layers of the first eight whose
+    /// cells took it (0: none, at an observation's start): the pair test across a cell's edge.
+    previous_z: i32,
+    previous_fed: u32,
+    /// A return whose height differs from the previous one's by this much or more (mm) goes
+    /// to [`Classifier::across`]: the step plus one, or 0 while a pair across a cell's edge
+    /// waits to be judged (then the earlier return's slots, entry k for layer k, its layers
+    /// and its z follow) and in an unconfigured classifier (all zero bits, for `.bss`: its
+    /// first return finds nothing pending and sets the threshold).
+    across_threshold: u32,
+    before: [u16; RECENT_LAYERS],
+    before_fed: u32,
+    before_z: i32,
     /// The design's gating: which layers a point feeds, with which weight.
     gates: Gates<L>,
     config: ClassifierConfig,
@@ -127,6 +144,7 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
         classifier.config = ClassifierConfig::DEFAULT;
         classifier.robot_height_mm = 1000;
         classifier.step_mm = 50;
+        classifier.across_threshold = 51;
         // The default rule's parameters (computed at compile time).
         classifier.plane = rule::DEFAULT_PARAMS;
         classifier
@@ -144,6 +162,12 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
             order: [0; C],
             recent: [Recent::NONE; RECENT_LAYERS],
             last_bin: 0,
+            previous_z: 0,
+            previous_fed: 0,
+            across_threshold: 0,
+            before: [0; RECENT_LAYERS],
+            before_fed: 0,
+            before_z: 0,
             gates: Gates::new(),
             config: ClassifierConfig {
                 robot_height: Meters::ZERO,
@@ -300,6 +324,8 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
             self.vacate();
         }
         self.forget_recent();
+        self.previous_fed = 0;
+        self.across_threshold = u32::from(self.step_mm.unsigned_abs()) + 1;
     }
 
     /// Vacates the slots in use (out of line: `begin` finds none after a `finish`).
@@ -431,6 +457,13 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
         let (bin_word, z_word) = (u32::from(bin_index), i32::from(z));
         // Read once per point, not per layer (the slots written in between are not them).
         let robot_height_mm = i32::from(self.robot_height_mm);
+        // The pair test across a cell's edge: the previous return's pair, when it rose more
+        // than the step from the one before (rare), is judged now that its cells are known;
+        // this return's, when it rises more than the step from the previous one, keeps the
+        // slots that one went to.
+        if PLANE && z_word.abs_diff(self.previous_z) >= self.across_threshold {
+            self.across(z_word);
+        }
         while mask != 0 {
             // The lowest layer left in the mask (a layer in force), then the mask without it.
             // The mask holds eight bits: the cast is exact.
@@ -444,7 +477,10 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
                 refused |= bit;
             }
         }
-        let mut fed = u32::from(offered) & !refused != 0;
+        let taken = u32::from(offered) & !refused;
+        self.previous_z = z_word;
+        self.previous_fed = taken;
+        let mut fed = taken != 0;
         // Layers from the ninth on (pyramids of more than eight), by their weights.
         if self.gates.layer_count() > 8 {
             fed |= self.feed_beyond_eight(point, bin, z, HOLE);
@@ -557,25 +593,110 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
         }
     }
 
+    /// The pair test across a cell's edge at a return of height `z` (mm, as a slot's), before
+    /// the layers take it: the pending pair (the previous return and the one before it) is
+    /// judged against the cells the previous return went to ([`Classifier::mark_across`]);
+    /// when this return rises more than the step from the previous one, which some layers
+    /// took, the previous return's slots and height are kept and the pair is pending until the
+    /// next return or the observation's end. Out of line: rare.
+    #[cold]
+    #[inline(never)]
+    fn across(&mut self, z: i32) {
+        self.settle_across();
+        if z.abs_diff(self.previous_z) > u32::from(self.step_mm.unsigned_abs())
+            && self.previous_fed != 0
+        {
+            for (slot, recent) in self.before.iter_mut().zip(&self.recent) {
+                *slot = recent.slot;
+            }
+            self.before_fed = self.previous_fed;
+            self.before_z = self.previous_z;
+            // The next return comes here whatever its height.
+            self.across_threshold = 0;
+        }
+    }
+
+    /// Judges the pending pair across a cell's edge, if any ([`Classifier::across`]): its upper
+    /// return is the previous one (height `previous_z`, in the layers `previous_fed`) or the
+    /// one before it (`before_z`, in `before_fed`, its slots `before`).
+    fn settle_across(&mut self) {
+        if self.across_threshold == 0 {
+            self.across_threshold = u32::from(self.step_mm.unsigned_abs()) + 1;
+            self.mark_across(self.before_fed & self.previous_fed, self.previous_z);
+        }
+    }
+
+    /// The pair test across a cell's edge: the previous return (`z` mm, as a slot's), which
+    /// rose more than the step from the one before it (`before_z`), and that one, each in
+    /// `layers` (the first eight that took both; the earlier one's slots kept in `before`, the
+    /// later one's named by the layers' entries now). In each such layer whose two cells differ, are neighbours and hold the two
+    /// returns less than a cell's side apart (|Δx| + |Δy| in units of c/64, from the cells'
+    /// indices and the returns' positions as their cells hold them), with a rise of at most
+    /// the robot's height (a higher return is overhang to the lower one's cell), the cell of
+    /// the upper return keeps the step the pair shows ([`rule::pair_shown`]; `docs/core.md`,
+    /// "The pair test across a cell's edge"). Out of line: rare.
+    #[cold]
+    #[inline(never)]
+    fn mark_across(&mut self, layers: u32, z: i32) {
+        let rise = z.abs_diff(self.before_z);
+        if rise > u32::from(self.robot_height_mm.unsigned_abs()) {
+            return;
+        }
+        for (k, (&last, recent)) in self.before.iter().zip(&self.recent).enumerate() {
+            let (last, index) = (usize::from(last), usize::from(recent.slot));
+            if layers & (1 << k) == 0 || last == index {
+                continue;
+            }
+            let (Some(previous), Some(current)) = (
+                self.slots.get(last & Self::MASK),
+                self.slots.get(index & Self::MASK),
+            ) else {
+                continue;
+            };
+            let along = |cells: i32, to: i8, from: i8| {
+                // Neighbouring cells only (a wrapped difference beyond ±1 is not one):
+                // within ±(64 + 63) units.
+                (-1..=1)
+                    .contains(&cells)
+                    .then(|| (cells * 64 + i32::from(to) - i32::from(from)).unsigned_abs())
+            };
+            let ((u, v), (to_u, to_v)) = (previous.plane.last_at(), current.plane.last_at());
+            let run = along(current.cell_x.wrapping_sub(previous.cell_x), to_u, u).and_then(|du| {
+                along(current.cell_y.wrapping_sub(previous.cell_y), to_v, v).map(|dv| du + dv)
+            });
+            let Some(run) = run.filter(|&run| run < 64) else {
+                continue;
+            };
+            let scale = recent.pair_scale;
+            let shown = rule::pair_shown(rise, run, scale);
+            if u32::from(shown) <= scale.step_mm() {
+                continue;
+            }
+            let upper = if z > self.before_z { index } else { last };
+            if let Some(slot) = self.slots.get_mut(upper & Self::MASK) {
+                slot.plane.keep_shown(shown);
+            }
+        }
+    }
+
     /// Remembers cell `(cx, cy)` of cell size `bits` in slot `index` (< C ≤ 65 536) as the cell
-    /// of the last point of layer `k`, or nothing when its corner or size is beyond
-    /// [`ORIGIN_LIMIT`].
+    /// of the last point of layer `k`: its slot always, its corner and size (the shortcut)
+    /// unless beyond [`ORIGIN_LIMIT`].
     #[inline]
     fn remember(&mut self, k: usize, bits: i32, cx: i32, cy: i32, index: usize) {
         let Some(entry) = self.recent.get_mut(k) else {
             return;
         };
-        match (
-            corner(cx, bits),
-            corner(cy, bits),
-            u32::try_from(bits),
-            u16::try_from(index),
-        ) {
-            (Some(origin_x), Some(origin_y), Ok(span), Ok(slot)) if bits < ORIGIN_LIMIT => {
+        // index < C ≤ 65 536: it fits a u16.
+        #[allow(clippy::cast_possible_truncation)]
+        {
+            entry.slot = index as u16;
+        }
+        match (corner(cx, bits), corner(cy, bits), u32::try_from(bits)) {
+            (Some(origin_x), Some(origin_y), Ok(span)) if bits < ORIGIN_LIMIT => {
                 entry.origin_x = origin_x;
                 entry.origin_y = origin_y;
                 entry.span = span;
-                entry.slot = slot;
             }
             _ => entry.span = 0,
         }
@@ -700,6 +821,8 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
     /// the order the cells were first touched (deterministic: the same points give the same
     /// order on every target), and clears the scratch. Visits the touched slots only.
     pub fn finish(&mut self, mut sink: impl FnMut(Evidence)) {
+        // The last return's pair across a cell's edge, if it waits.
+        self.settle_across();
         let records = u32::try_from(self.used).unwrap_or(u32::MAX);
         if self.used > 0 {
             for &index in self.order.iter().take(self.used) {
@@ -719,7 +842,14 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
                     .map(crate::grid::Resolution::to_bits);
                 let obstacle = slot.hole
                     || match (&self.plane, cell) {
-                        (Some(params), _) if params.flat_enough(spread) => false,
+                        // A pair across the cell's edge may mark a cell whose own points lie
+                        // flat: its step is read before the quick answer.
+                        (Some(params), _)
+                            if params.flat_enough(spread)
+                                && i32::from(slot.plane.pair_rise()) <= i32::from(self.step_mm) =>
+                        {
+                            false
+                        }
                         (Some(params), Some(cell)) => rule::plane_obstacle(
                             &slot.plane,
                             params,
@@ -760,6 +890,7 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
             self.used = 0;
         }
         self.forget_recent();
+        self.previous_fed = 0;
         self.stats.records = self.stats.records.saturating_add(records);
         self.stats.observations = self.stats.observations.saturating_add(1);
     }

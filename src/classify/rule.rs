@@ -53,7 +53,11 @@
 //! `min(|Δz|, |Δz| − s·(|Δu| + |Δv|) + step)` (mm, saturated to 0 ..= 255, 1 byte), s the
 //! layer's `tan θ_max·c/64` in mm Q8; the decision compares it with the extremes test's
 //! allowance `step + 2·k·σ·h/r`: beyond it exactly when the rise beyond the slope exceeds the
-//! noise `2·k·σ·h/r` and the whole rise the allowance.
+//! noise `2·k·σ·h/r` and the whole rise the allowance. A pair across a cell's edge (two
+//! consecutive returns of the observation that one of the first eight layers takes in
+//! neighbouring cells, less than a cell's side apart) folds its step into the cell of its
+//! upper return (the classifier finds such pairs; `docs/core.md`, "The pair test across a
+//! cell's edge").
 
 use crate::units::Meters;
 use fixed::types::I16F16;
@@ -288,11 +292,20 @@ impl PlaneState {
     #[inline(never)]
     fn keep_rise(&mut self, u: i8, v: i8, rise: u32, scale: PairScale) {
         let run = u32::from(u.abs_diff(self.last_at.0)) + u32::from(v.abs_diff(self.last_at.1));
-        let beyond = (rise << 8).saturating_sub(scale.slope_q8().wrapping_mul(run)) >> 8;
-        let shown = (beyond + scale.step_mm()).min(rise);
-        // At most 255 after the clamp: the cast is exact.
-        #[allow(clippy::cast_possible_truncation)]
-        let shown = shown.min(255) as u8;
+        self.keep_shown(pair_shown(rise, run, scale));
+    }
+
+    /// The position `(u, v)` in the cell of the slot's last return below the cut as it
+    /// arrived.
+    pub(super) const fn last_at(&self) -> (i8, i8) {
+        self.last_at
+    }
+
+    /// Keeps `shown` (mm, [`pair_shown`]) as the largest step a pair has shown when it is
+    /// larger: the pair test's fold of a pair across the cell's edge
+    /// ([`super::Classifier`]'s cross-cell pair), as of one within the cell.
+    #[inline]
+    pub(super) fn keep_shown(&mut self, shown: u8) {
         self.pair_rise = self.pair_rise.max(shown);
     }
 
@@ -474,6 +487,24 @@ impl PairScale {
     pub(super) const fn slope_q8(self) -> u32 {
         self.0 & 0xFFFF
     }
+}
+
+/// The step a pair of returns shows (the pair test, [`PlaneState::keep_rise`]): for a rise of
+/// `rise` mm over a horizontal run of `run` units of the layer's cells (c/64, L1), its part
+/// beyond the largest slope `b = rise − slope·run` (floored at 0) plus the scale's step, at
+/// most the rise: `min(rise, b + step)`, mm, saturated to 255. `min(rise, b + step) > step +
+/// noise` exactly when `b > noise` and `rise > step + noise`. In 32-bit words (one
+/// multiplication): a run of at most 510 units times a slope below 2¹⁶ stays below 2²⁵; a
+/// larger run only saturates the slope's part.
+#[cfg_attr(not(feature = "plane-rule"), allow(dead_code))]
+#[inline]
+pub(super) fn pair_shown(rise: u32, run: u32, scale: PairScale) -> u8 {
+    let beyond = (rise << 8).saturating_sub(scale.slope_q8().saturating_mul(run)) >> 8;
+    let shown = (beyond + scale.step_mm()).min(rise);
+    // At most 255 after the clamp: the cast is exact.
+    #[allow(clippy::cast_possible_truncation)]
+    let shown = shown.min(255) as u8;
+    shown
 }
 
 #[cfg(feature = "plane-rule")]
@@ -661,6 +692,22 @@ mod absent {
         #[allow(clippy::unused_self)]
         pub(in crate::classify) const fn low_at(&self) -> (i8, i8) {
             (0, 0)
+        }
+
+        /// The pair test's fold of a pair across the cell's edge: nothing is kept.
+        #[allow(clippy::unused_self)]
+        pub(in crate::classify) fn keep_shown(&mut self, _shown: u8) {}
+
+        /// The last return's position: not kept.
+        #[allow(clippy::unused_self)]
+        pub(in crate::classify) const fn last_at(&self) -> (i8, i8) {
+            (0, 0)
+        }
+
+        /// The pair test's largest step: none kept.
+        #[allow(clippy::unused_self)]
+        pub(in crate::classify) const fn pair_rise(&self) -> u8 {
+            0
         }
 
         /// The pair test's fold: nothing is kept.

@@ -32,8 +32,9 @@ pub(super) struct Recent {
     /// [`Classifier::adopt_design`]: where there is no hardware division, cell indices are
     /// found by a multiplication; the plane rule's position in the cell on every target.
     pub(super) reciprocal: u32,
-    /// The slot of the cell (valid while `span` is not 0: slots are vacated only when the
-    /// observation ends, and every entry is forgotten then).
+    /// The slot of the cell of the layer's last point, whether or not the shortcut (`span`)
+    /// holds its cell (the pair test across a cell's edge reads it): valid while the layer has
+    /// a last point in the observation (slots are vacated only when the observation ends).
     pub(super) slot: u16,
     /// The pair test's constants in the layer's cells, set by [`Classifier::configure`] and
     /// [`Classifier::adopt_design`]; [`PairScale::NONE`] without the plane rule.

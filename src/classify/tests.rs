@@ -538,3 +538,74 @@ fn finish_into_updates_the_pyramid() {
         Fused::Obstacle { layer: 0 }
     );
 }
+
+/// A 10 cm kerb on the edge x = 0.3 m between layer 0's cells 2 (road, z = 0) and 3
+/// (pavement, z = `top`), each cell's own points flat; the road's last return `gap` m before
+/// the edge and the pavement's first just after it, `down` walking from the pavement to the
+/// road instead. The classes of cells 2 and 3.
+fn kerb_on_an_edge(top: f32, gap: f32, down: bool) -> (EvidenceClass, EvidenceClass) {
+    let mut c = classifier::<256>(GateShape::Hard);
+    c.begin(Meters::ZERO);
+    let d = Meters::from_num(0.3);
+    let road = [0.22, 0.25, 0.28, 0.3 - gap];
+    let pavement = [0.305, 0.33, 0.36, 0.39];
+    let mut line: Vec<Point3> = road.iter().map(|&x| pt(x, 0.05, 0.0)).collect();
+    line.extend(pavement.iter().map(|&x| pt(x, 0.05, top)));
+    if down {
+        line.reverse();
+    }
+    for q in line {
+        c.add_point(q, d, Meters::ZERO);
+    }
+    let mut r = records(&mut c);
+    r.sort_by_key(|e| e.cell_x);
+    assert_eq!(r.iter().map(|e| e.cell_x).collect::<Vec<_>>(), [2, 3]);
+    (r[0].class, r[1].class)
+}
+
+#[test]
+fn a_pair_across_a_cells_edge_marks_the_upper_cell() {
+    use EvidenceClass::{Navigable, Obstacle};
+    // Up the kerb and down it: the pavement's cell, never the road's.
+    assert_eq!(kerb_on_an_edge(0.10, 0.005, false), (Navigable, Obstacle));
+    assert_eq!(kerb_on_an_edge(0.10, 0.005, true), (Navigable, Obstacle));
+    // Within the step (4 cm): nothing.
+    assert_eq!(kerb_on_an_edge(0.04, 0.005, false), (Navigable, Navigable));
+    // Two returns a cell's side apart or more (0.1 m): no pair.
+    assert_eq!(kerb_on_an_edge(0.10, 0.096, false), (Navigable, Navigable));
+    // A rise of more than the robot's height (1 m) is overhang to the lower cell: no pair.
+    assert_eq!(kerb_on_an_edge(1.2, 0.005, false), (Navigable, Navigable));
+}
+
+#[test]
+fn a_pair_across_a_cells_edge_needs_a_steep_surface() {
+    let mut c = classifier::<256>(GateShape::Hard);
+    c.begin(Meters::ZERO);
+    let d = Meters::from_num(0.3);
+    // A 20° ramp (tan 20° = 0.364, within the largest slope) sampled every 5 cm: pairs
+    // across each edge rise 1.8 cm, none beyond the slope.
+    for i in 0..40_u8 {
+        let x = 0.0025 + 0.05 * f32::from(i);
+        c.add_point(pt(x, 0.05, 0.36 * x), d, Meters::ZERO);
+    }
+    // A 10 cm kerb 15 cm after the next return (1.5 cells): no pair either.
+    c.add_point(pt(3.05, 0.05, 0.0), d, Meters::ZERO);
+    c.add_point(pt(3.2, 0.05, 0.1), d, Meters::ZERO);
+    let r = records(&mut c);
+    assert!(
+        r.iter().all(|e| e.class == EvidenceClass::Navigable),
+        "{r:?}"
+    );
+    // A 45° face over the same edge: steeper than the robot climbs.
+    c.begin(Meters::ZERO);
+    c.add_point(pt(0.25, 0.05, 0.0), d, Meters::ZERO);
+    c.add_point(pt(0.29, 0.05, 0.0), d, Meters::ZERO);
+    c.add_point(pt(0.37, 0.05, 0.08), d, Meters::ZERO);
+    c.add_point(pt(0.39, 0.05, 0.08), d, Meters::ZERO);
+    let mut r = records(&mut c);
+    r.sort_by_key(|e| e.cell_x);
+    assert_eq!(
+        r.iter().map(|e| (e.cell_x, e.class)).collect::<Vec<_>>(),
+        [(2, EvidenceClass::Navigable), (3, EvidenceClass::Obstacle)]
+    );
+}
