@@ -543,6 +543,7 @@ fn finish_into_updates_the_pyramid() {
 /// (pavement, z = `top`), each cell's own points flat; the road's last return `gap` m before
 /// the edge and the pavement's first just after it, `down` walking from the pavement to the
 /// road instead. The classes of cells 2 and 3.
+#[cfg(feature = "plane-rule")]
 fn kerb_on_an_edge(top: f32, gap: f32, down: bool) -> (EvidenceClass, EvidenceClass) {
     let mut c = classifier::<256>(GateShape::Hard);
     c.begin(Meters::ZERO);
@@ -564,6 +565,7 @@ fn kerb_on_an_edge(top: f32, gap: f32, down: bool) -> (EvidenceClass, EvidenceCl
 }
 
 #[test]
+#[cfg(feature = "plane-rule")]
 fn a_pair_across_a_cells_edge_marks_the_upper_cell() {
     use EvidenceClass::{Navigable, Obstacle};
     // Up the kerb and down it: the pavement's cell, never the road's.
@@ -578,6 +580,7 @@ fn a_pair_across_a_cells_edge_marks_the_upper_cell() {
 }
 
 #[test]
+#[cfg(feature = "plane-rule")]
 fn a_pair_across_a_cells_edge_needs_a_steep_surface() {
     let mut c = classifier::<256>(GateShape::Hard);
     c.begin(Meters::ZERO);
