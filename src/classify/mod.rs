@@ -31,9 +31,8 @@
 //!   ([`Classifier::add_missing_ground`]); the caller decides when a beam qualifies.
 //!
 //! # Bounded scratch
-//! Besides its slots the classifier keeps the previous return's height and the layers that
-//! took it, and, while a pair across a cell's edge waits to be judged, the slots of the
-//! return before (the pair test across a cell's edge, [`rule`]; 36 bytes in all).
+//! Besides its slots the classifier keeps 36 bytes for the pair test across a cell's edge
+//! (module `across`).
 //!
 //! The touched cells live in an open-addressing table of `C` slots (a power of two, 60 bytes
 //! each: 16 for the key, the closest look and the lowest and highest z, 44 for the plane rule's
@@ -59,6 +58,10 @@ use crate::units::{Meters, Point3};
 
 pub mod rule;
 
+mod across;
+mod beyond_eight;
+use across::AcrossEdge;
+
 use rule::{CellGeometry, PairScale, PlaneParams, PlaneState};
 pub use rule::{NavigabilityRule, PlaneRule, Ratio};
 
@@ -67,7 +70,7 @@ mod scratch;
 
 pub use config::{ClassifierConfig, ClassifierStats};
 use scratch::{
-    cell_of, corner, fold, hash, locate, mm_i16, Recent, Slot, EMPTY, ORIGIN_LIMIT, RECENT_LAYERS,
+    cell_of, corner, fold, hash, mm_i16, Recent, Slot, EMPTY, ORIGIN_LIMIT, RECENT_LAYERS,
 };
 
 /// Scratch and counters for classifying observations with `C` cell slots (a power of two),
@@ -81,19 +84,8 @@ pub struct Classifier<const C: usize, const L: usize> {
     recent: [Recent; RECENT_LAYERS],
     /// The gate bin of the last point given by its squared distance (a first guess only).
     last_bin: u16,
-    /// The previous return's z (mm, as a slot's) and the layers of the first eight whose
-    /// cells took it (0: none, at an observation's start): the pair test across a cell's edge.
-    previous_z: i32,
-    previous_fed: u32,
-    /// A return whose height differs from the previous one's by this much or more (mm) goes
-    /// to [`Classifier::across`]: the step plus one, or 0 while a pair across a cell's edge
-    /// waits to be judged (then the earlier return's slots, entry k for layer k, its layers
-    /// and its z follow) and in an unconfigured classifier (all zero bits, for `.bss`: its
-    /// first return finds nothing pending and sets the threshold).
-    across_threshold: u32,
-    before: [u16; RECENT_LAYERS],
-    before_fed: u32,
-    before_z: i32,
+    /// The previous return and the pair across a cell's edge that waits to be judged.
+    across: AcrossEdge,
     /// The design's gating: which layers a point feeds, with which weight.
     gates: Gates<L>,
     config: ClassifierConfig,
@@ -144,7 +136,7 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
         classifier.config = ClassifierConfig::DEFAULT;
         classifier.robot_height_mm = 1000;
         classifier.step_mm = 50;
-        classifier.across_threshold = 51;
+        classifier.across = AcrossEdge::resting(50);
         // The default rule's parameters (computed at compile time).
         classifier.plane = rule::DEFAULT_PARAMS;
         classifier
@@ -162,12 +154,7 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
             order: [0; C],
             recent: [Recent::NONE; RECENT_LAYERS],
             last_bin: 0,
-            previous_z: 0,
-            previous_fed: 0,
-            across_threshold: 0,
-            before: [0; RECENT_LAYERS],
-            before_fed: 0,
-            before_z: 0,
+            across: AcrossEdge::ZERO,
             gates: Gates::new(),
             config: ClassifierConfig {
                 robot_height: Meters::ZERO,
@@ -324,8 +311,7 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
             self.vacate();
         }
         self.forget_recent();
-        self.previous_fed = 0;
-        self.across_threshold = u32::from(self.step_mm.unsigned_abs()) + 1;
+        self.across.forget(self.step_mm);
     }
 
     /// Vacates the slots in use (out of line: `begin` finds none after a `finish`).
@@ -461,8 +447,14 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
         // than the step from the one before (rare), is judged now that its cells are known;
         // this return's, when it rises more than the step from the previous one, keeps the
         // slots that one went to.
-        if PLANE && z_word.abs_diff(self.previous_z) >= self.across_threshold {
-            self.across(z_word);
+        if PLANE && self.across.wants(z_word) {
+            self.across.at_return(
+                z_word,
+                self.step_mm,
+                self.robot_height_mm,
+                &mut self.slots,
+                &self.recent,
+            );
         }
         while mask != 0 {
             // The lowest layer left in the mask (a layer in force), then the mask without it.
@@ -478,51 +470,11 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
             }
         }
         let taken = u32::from(offered) & !refused;
-        self.previous_z = z_word;
-        self.previous_fed = taken;
+        self.across.took(z_word, taken);
         let mut fed = taken != 0;
         // Layers from the ninth on (pyramids of more than eight), by their weights.
         if self.gates.layer_count() > 8 {
             fed |= self.feed_beyond_eight(point, bin, z, HOLE);
-        }
-        fed
-    }
-
-    /// [`Classifier::feed`] for layers 8 and up, by their gate weights (out of line: the
-    /// default pyramid has eight layers).
-    #[inline(never)]
-    fn feed_beyond_eight(&mut self, point: Point3, bin: usize, z: i16, hole: bool) -> bool {
-        let bin_index = u16::try_from(bin).unwrap_or(u16::MAX);
-        let min_weight = self.gates.min_feeding_weight();
-        let mut fed = false;
-        for k in 8..self.gates.layer_count() {
-            let (Some(r), Some(gate)) = (self.gates.resolution(k), self.gates.table(k)) else {
-                break;
-            };
-            if gate.weight(bin) < min_weight {
-                continue;
-            }
-            // Stored as k + 1; k < L ≤ 254.
-            let Ok(layer_index) = u8::try_from(k + 1) else {
-                break;
-            };
-            let bits = r.to_bits();
-            let known = self.layer_cells.get(k).copied();
-            let (reciprocal, scale) = match known {
-                Some((cell, m, scale)) if cell == bits && m != 0 => (m, scale),
-                _ => {
-                    let entry = (
-                        bits,
-                        crate::grid::cell_reciprocal(bits),
-                        self.pair_scale(Some(bits)),
-                    );
-                    if let Some(cell) = self.layer_cells.get_mut(k) {
-                        *cell = entry;
-                    }
-                    (entry.1, entry.2)
-                }
-            };
-            fed |= self.feed_layer(layer_index, r, reciprocal, scale, point, bin_index, z, hole);
         }
         fed
     }
@@ -593,92 +545,6 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
         }
     }
 
-    /// The pair test across a cell's edge at a return of height `z` (mm, as a slot's), before
-    /// the layers take it: the pending pair (the previous return and the one before it) is
-    /// judged against the cells the previous return went to ([`Classifier::mark_across`]);
-    /// when this return rises more than the step from the previous one, which some layers
-    /// took, the previous return's slots and height are kept and the pair is pending until the
-    /// next return or the observation's end. Out of line: rare.
-    #[cold]
-    #[inline(never)]
-    fn across(&mut self, z: i32) {
-        self.settle_across();
-        if z.abs_diff(self.previous_z) > u32::from(self.step_mm.unsigned_abs())
-            && self.previous_fed != 0
-        {
-            for (slot, recent) in self.before.iter_mut().zip(&self.recent) {
-                *slot = recent.slot;
-            }
-            self.before_fed = self.previous_fed;
-            self.before_z = self.previous_z;
-            // The next return comes here whatever its height.
-            self.across_threshold = 0;
-        }
-    }
-
-    /// Judges the pending pair across a cell's edge, if any ([`Classifier::across`]): its upper
-    /// return is the previous one (height `previous_z`, in the layers `previous_fed`) or the
-    /// one before it (`before_z`, in `before_fed`, its slots `before`).
-    fn settle_across(&mut self) {
-        if self.across_threshold == 0 {
-            self.across_threshold = u32::from(self.step_mm.unsigned_abs()) + 1;
-            self.mark_across(self.before_fed & self.previous_fed, self.previous_z);
-        }
-    }
-
-    /// The pair test across a cell's edge: the previous return (`z` mm, as a slot's), which
-    /// rose more than the step from the one before it (`before_z`), and that one, each in
-    /// `layers` (the first eight that took both; the earlier one's slots kept in `before`, the
-    /// later one's named by the layers' entries now). In each such layer whose two cells differ, are neighbours and hold the two
-    /// returns less than a cell's side apart (|Δx| + |Δy| in units of c/64, from the cells'
-    /// indices and the returns' positions as their cells hold them), with a rise of at most
-    /// the robot's height (a higher return is overhang to the lower one's cell), the cell of
-    /// the upper return keeps the step the pair shows ([`rule::pair_shown`]; `docs/core.md`,
-    /// "The pair test across a cell's edge"). Out of line: rare.
-    #[cold]
-    #[inline(never)]
-    fn mark_across(&mut self, layers: u32, z: i32) {
-        let rise = z.abs_diff(self.before_z);
-        if rise > u32::from(self.robot_height_mm.unsigned_abs()) {
-            return;
-        }
-        for (k, (&last, recent)) in self.before.iter().zip(&self.recent).enumerate() {
-            let (last, index) = (usize::from(last), usize::from(recent.slot));
-            if layers & (1 << k) == 0 || last == index {
-                continue;
-            }
-            let (Some(previous), Some(current)) = (
-                self.slots.get(last & Self::MASK),
-                self.slots.get(index & Self::MASK),
-            ) else {
-                continue;
-            };
-            let along = |cells: i32, to: i8, from: i8| {
-                // Neighbouring cells only (a wrapped difference beyond ±1 is not one):
-                // within ±(64 + 63) units.
-                (-1..=1)
-                    .contains(&cells)
-                    .then(|| (cells * 64 + i32::from(to) - i32::from(from)).unsigned_abs())
-            };
-            let ((u, v), (to_u, to_v)) = (previous.plane.last_at(), current.plane.last_at());
-            let run = along(current.cell_x.wrapping_sub(previous.cell_x), to_u, u).and_then(|du| {
-                along(current.cell_y.wrapping_sub(previous.cell_y), to_v, v).map(|dv| du + dv)
-            });
-            let Some(run) = run.filter(|&run| run < 64) else {
-                continue;
-            };
-            let scale = recent.pair_scale;
-            let shown = rule::pair_shown(rise, run, scale);
-            if u32::from(shown) <= scale.step_mm() {
-                continue;
-            }
-            let upper = if z > self.before_z { index } else { last };
-            if let Some(slot) = self.slots.get_mut(upper & Self::MASK) {
-                slot.plane.keep_shown(shown);
-            }
-        }
-    }
-
     /// Remembers cell `(cx, cy)` of cell size `bits` in slot `index` (< C ≤ 65 536) as the cell
     /// of the last point of layer `k`: its slot always, its corner and size (the shortcut)
     /// unless beyond [`ORIGIN_LIMIT`].
@@ -699,62 +565,6 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
                 entry.span = span;
             }
             _ => entry.span = 0,
-        }
-    }
-
-    /// Adds a point to its cell of one layer (stored as `layer_index` = k + 1); `false` when
-    /// the table is full (counted).
-    #[inline]
-    #[allow(clippy::too_many_arguments)]
-    fn feed_layer(
-        &mut self,
-        layer_index: u8,
-        r: crate::grid::Resolution,
-        reciprocal: u32,
-        scale: PairScale,
-        point: Point3,
-        bin: u16,
-        z: i16,
-        hole: bool,
-    ) -> bool {
-        let (cx, cy, sub) = locate(r, reciprocal, point, self.plane.is_some());
-        self.feed_cell(layer_index, cx, cy, sub, bin, z, hole, scale)
-    }
-
-    /// Adds a point to cell `(cx, cy)` of one layer (stored as `layer_index` = k + 1), with the
-    /// layer's pair test constants `scale` ([`fold`]); `false` when the table is full (counted).
-    #[inline]
-    #[allow(clippy::too_many_arguments)]
-    fn feed_cell(
-        &mut self,
-        layer_index: u8,
-        cx: i32,
-        cy: i32,
-        sub: (i8, i8),
-        bin: u16,
-        z: i16,
-        hole: bool,
-        scale: PairScale,
-    ) -> bool {
-        let (bin, z) = (u32::from(bin), i32::from(z));
-        if self
-            .insert(
-                layer_index,
-                cx,
-                cy,
-                sub,
-                bin,
-                z,
-                hole,
-                self.plane.is_some(),
-                scale,
-            )
-            .is_some()
-        {
-            true
-        } else {
-            self.stats.overflow_points = self.stats.overflow_points.saturating_add(1);
-            false
         }
     }
 
@@ -822,7 +632,12 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
     /// order on every target), and clears the scratch. Visits the touched slots only.
     pub fn finish(&mut self, mut sink: impl FnMut(Evidence)) {
         // The last return's pair across a cell's edge, if it waits.
-        self.settle_across();
+        self.across.settle(
+            self.step_mm,
+            self.robot_height_mm,
+            &mut self.slots,
+            &self.recent,
+        );
         let records = u32::try_from(self.used).unwrap_or(u32::MAX);
         if self.used > 0 {
             for &index in self.order.iter().take(self.used) {
@@ -890,7 +705,7 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
             self.used = 0;
         }
         self.forget_recent();
-        self.previous_fed = 0;
+        self.across.forget(self.step_mm);
         self.stats.records = self.stats.records.saturating_add(records);
         self.stats.observations = self.stats.observations.saturating_add(1);
     }
