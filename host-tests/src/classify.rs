@@ -119,6 +119,13 @@ pub struct RefRecord {
     pub distance: f64,
     /// How close any point came to the overhang cut (ground + robot height), m.
     pub cut_margin: f64,
+    /// How close a pair of lowest points across the cell's edges (its own and a neighbour's,
+    /// rising more than the step: "The step between neighbouring cells' lowest returns") came
+    /// to a bound the firmware reads in its own units (positions in 64ths of a side, heights
+    /// in mm): the smaller of its run's distance from the cell's side over 5 % of the side and
+    /// its rise's distance from the robot's height over 2 mm; below 1 the two may differ
+    /// there (`f64::INFINITY`: no such pair).
+    pub edge_margin: f64,
     /// The plane rule's residual test: the residual's mean square over the allowed one (> 1:
     /// obstacle); 0 under the spread rule.
     pub residual_ratio: f64,
@@ -219,8 +226,8 @@ fn plane_ratios(
     (residual_ratio, rise_ratio, extremes_ratio)
 }
 
-/// The step between neighbouring cells (`docs/core.md`, "The step between neighbouring
-/// cells"): each cell's lowest point (the first of the lowest, in arrival order) and that of
+/// The step between neighbouring cells' lowest returns (`docs/core.md`, the section of that
+/// name): each cell's lowest point (the first of the lowest, in arrival order) and that of
 /// the cell beside it to the east and to the north in the same layer, less than a cell's side
 /// apart (L1), rising more than the step
 /// and no more than the robot's height: a pair (rise, run) of the upper cell, judged as a
@@ -231,7 +238,7 @@ fn steps_between_cells<A>(
     resolutions: &[f64],
     config: &RefClassifierConfig,
     mut parts: impl FnMut(&mut A) -> (&Vec<f64>, &Vec<(f64, f64)>, &mut Vec<(f64, f64)>),
-) {
+) -> BTreeMap<(usize, i64, i64), f64> {
     // Per cell: its lowest point's height and position in the cell.
     type Lowest = (f64, (f64, f64));
     let mut lowest: BTreeMap<(usize, i64, i64), Lowest> = BTreeMap::new();
@@ -246,6 +253,7 @@ fn steps_between_cells<A>(
         }
     }
     let mut pairs = Vec::new();
+    let mut margins: BTreeMap<(usize, i64, i64), f64> = BTreeMap::new();
     for (&(k, x, y), &(za, (xa, ya))) in &lowest {
         let r = resolutions[k];
         for (dx, dy) in [(1_i64, 0_i64), (0, 1)] {
@@ -256,6 +264,14 @@ fn steps_between_cells<A>(
             #[allow(clippy::cast_precision_loss)]
             let run = (xb + r * dx as f64 - xa).abs() + (yb + r * dy as f64 - ya).abs();
             let rise = zb - za;
+            if rise.abs() > config.step_threshold {
+                let margin = ((run - r).abs() / (0.05 * r))
+                    .min((rise.abs() - config.robot_height).abs() / 0.002);
+                for key in [(k, x, y), beside] {
+                    let m = margins.entry(key).or_insert(f64::INFINITY);
+                    *m = m.min(margin);
+                }
+            }
             if run < r && rise.abs() > config.step_threshold && rise.abs() <= config.robot_height {
                 let upper = if rise > 0.0 { beside } else { (k, x, y) };
                 pairs.push((upper, (rise.abs(), run)));
@@ -267,6 +283,7 @@ fn steps_between_cells<A>(
             parts(acc).2.push(pair);
         }
     }
+    margins
 }
 
 /// Classifies one observation.
@@ -333,11 +350,13 @@ pub fn classify(
         }
         previous = Some(p);
     }
-    if matches!(config.rule, RefRule::Plane { .. }) {
+    let edge_margins = if matches!(config.rule, RefRule::Plane { .. }) {
         steps_between_cells(&mut cells, resolutions, config, |acc| {
             (&acc.zs, &acc.xys, &mut acc.across)
-        });
-    }
+        })
+    } else {
+        BTreeMap::new()
+    };
     cells
         .into_iter()
         .map(|((layer, cell_x, cell_y), acc)| {
@@ -414,6 +433,10 @@ pub fn classify(
                 spread,
                 distance: acc.distance,
                 cut_margin,
+                edge_margin: edge_margins
+                    .get(&(layer, cell_x, cell_y))
+                    .copied()
+                    .unwrap_or(f64::INFINITY),
                 residual_ratio,
                 rise_ratio,
                 pair_ratio,

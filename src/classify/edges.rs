@@ -1,5 +1,5 @@
-//! The step between neighbouring cells (`docs/core.md`, "The step between neighbouring
-//! cells"): at an observation's end, before any cell is judged, the lowest return of each cell
+//! The step between neighbouring cells' lowest returns (`docs/core.md`, the section of that
+//! name): at an observation's end, before any cell is judged, the lowest return of each cell
 //! (its ground, the bound of its overhang cut) is paired with the lowest return of the cell
 //! beside it in the same layer, to the east (+x) and to the north (+y). Two such returns less
 //! than a cell's side apart (|Δu| + |Δv| < 64 units of c/64), rising more than the step and no

@@ -17,8 +17,10 @@
 //! which the pyramid gates with; the scratch keeps it as its gate bin, so the record's distance
 //! is the lower edge of that bin (which the pyramid bins to the same bin again).
 //!
-//! A cell holding a single point always looks navigable: that is the systematic far-range miss
-//! the pyramid exists to fix, and it is deliberately not "fixed" here.
+//! A cell holding a single point looks navigable by its own points: that is the systematic
+//! far-range miss the pyramid exists to fix, and it is deliberately not "fixed" here. Only a
+//! pair with a return beside it (module `across`, and the step between neighbouring cells'
+//! lowest returns, module `edges`) can mark it.
 //!
 //! # Beyond the paper (options, off by default)
 //! - **Drop-offs**: a return more than [`ClassifierConfig::drop_threshold`] below the robot's
@@ -32,7 +34,8 @@
 //!
 //! # Bounded scratch
 //! Besides its slots the classifier keeps 36 bytes for the pair test across a cell's edge
-//! (module `across`).
+//! (module `across`). The step between neighbouring cells' lowest returns (module `edges`)
+//! keeps nothing: it reads the slots at the observation's end, two lookups a cell.
 //!
 //! The touched cells live in an open-addressing table of `C` slots (a power of two, 60 bytes
 //! each: 16 for the key, the closest look and the lowest and highest z, 44 for the plane rule's

@@ -703,3 +703,25 @@ fn a_step_between_neighbouring_cells_lowest_returns_marks_the_upper_cell() {
         );
     }
 }
+
+#[test]
+#[cfg(feature = "plane-rule")]
+fn a_single_return_above_a_neighbours_lowest_is_marked() {
+    // One return fits no plane, but with the road's lowest return beside it, 10 cm lower and
+    // 1 cm away across the edge x = 0.3 m, it is two returns on a kerb's face.
+    let mut c = classifier::<256>(GateShape::Hard);
+    c.begin(Meters::ZERO);
+    let d = Meters::from_num(0.3);
+    for v in [0.01, 0.03, 0.05] {
+        c.add_point(pt(0.295, v, 0.0), d, Meters::ZERO);
+    }
+    c.add_point(pt(-0.55, -0.55, 0.0), d, Meters::ZERO);
+    c.add_point(pt(0.305, 0.01, 0.1), d, Meters::ZERO);
+    let mut r = records(&mut c);
+    r.retain(|e| e.cell_x >= 0);
+    r.sort_by_key(|e| e.cell_x);
+    assert_eq!(
+        r.iter().map(|e| (e.cell_x, e.class)).collect::<Vec<_>>(),
+        [(2, EvidenceClass::Navigable), (3, EvidenceClass::Obstacle)]
+    );
+}
