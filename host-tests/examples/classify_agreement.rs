@@ -93,7 +93,7 @@ fn main() {
                 continue;
             };
             all_agree += usize::from(obstacle == r.obstacle);
-            if (r.spread - 0.05).abs() < 0.002 || r.cut_margin < 0.002 {
+            if (r.spread - 0.05).abs() < 0.002 || r.cut_margin < 0.002 || r.edge_margin < 1.0 {
                 near += 1;
                 continue;
             }

@@ -119,6 +119,13 @@ pub struct RefRecord {
     pub distance: f64,
     /// How close any point came to the overhang cut (ground + robot height), m.
     pub cut_margin: f64,
+    /// How close a pair of lowest points across the cell's edges (its own and a neighbour's,
+    /// rising more than the step: "The step between neighbouring cells' lowest returns") came
+    /// to a bound the firmware reads in its own units (positions in 64ths of a side, heights
+    /// in mm): the smaller of its run's distance from the cell's side over 5 % of the side and
+    /// its rise's distance from the robot's height over 2 mm; below 1 the two may differ
+    /// there (`f64::INFINITY`: no such pair).
+    pub edge_margin: f64,
     /// The plane rule's residual test: the residual's mean square over the allowed one (> 1:
     /// obstacle); 0 under the spread rule.
     pub residual_ratio: f64,
@@ -219,6 +226,66 @@ fn plane_ratios(
     (residual_ratio, rise_ratio, extremes_ratio)
 }
 
+/// The step between neighbouring cells' lowest returns (`docs/core.md`, the section of that
+/// name): each cell's lowest point (the first of the lowest, in arrival order) and that of
+/// the cell beside it to the east and to the north in the same layer, less than a cell's side
+/// apart (L1), rising more than the step
+/// and no more than the robot's height: a pair (rise, run) of the upper cell, judged as a
+/// pair of consecutive points is. `parts` gives a cell's heights, positions in the cell (m,
+/// from its lower corner) and its list of pairs from beyond its edges.
+fn steps_between_cells<A>(
+    cells: &mut BTreeMap<(usize, i64, i64), A>,
+    resolutions: &[f64],
+    config: &RefClassifierConfig,
+    mut parts: impl FnMut(&mut A) -> (&Vec<f64>, &Vec<(f64, f64)>, &mut Vec<(f64, f64)>),
+) -> BTreeMap<(usize, i64, i64), f64> {
+    // Per cell: its lowest point's height and position in the cell.
+    type Lowest = (f64, (f64, f64));
+    let mut lowest: BTreeMap<(usize, i64, i64), Lowest> = BTreeMap::new();
+    for (key, acc) in cells.iter_mut() {
+        let (zs, xys, _) = parts(acc);
+        let first = (0..zs.len()).fold(None, |best: Option<usize>, i| match best {
+            Some(b) if zs[b] <= zs[i] => Some(b),
+            _ => Some(i),
+        });
+        if let Some(i) = first {
+            lowest.insert(*key, (zs[i], xys[i]));
+        }
+    }
+    let mut pairs = Vec::new();
+    let mut margins: BTreeMap<(usize, i64, i64), f64> = BTreeMap::new();
+    for (&(k, x, y), &(za, (xa, ya))) in &lowest {
+        let r = resolutions[k];
+        for (dx, dy) in [(1_i64, 0_i64), (0, 1)] {
+            let beside = (k, x + dx, y + dy);
+            let Some(&(zb, (xb, yb))) = lowest.get(&beside) else {
+                continue;
+            };
+            #[allow(clippy::cast_precision_loss)]
+            let run = (xb + r * dx as f64 - xa).abs() + (yb + r * dy as f64 - ya).abs();
+            let rise = zb - za;
+            if rise.abs() > config.step_threshold {
+                let margin = ((run - r).abs() / (0.05 * r))
+                    .min((rise.abs() - config.robot_height).abs() / 0.002);
+                for key in [(k, x, y), beside] {
+                    let m = margins.entry(key).or_insert(f64::INFINITY);
+                    *m = m.min(margin);
+                }
+            }
+            if run < r && rise.abs() > config.step_threshold && rise.abs() <= config.robot_height {
+                let upper = if rise > 0.0 { beside } else { (k, x, y) };
+                pairs.push((upper, (rise.abs(), run)));
+            }
+        }
+    }
+    for (upper, pair) in pairs {
+        if let Some(acc) = cells.get_mut(&upper) {
+            parts(acc).2.push(pair);
+        }
+    }
+    margins
+}
+
 /// Classifies one observation.
 ///
 /// `resolutions[k]` is layer k's cell size (m); `feeds(k, d)` says whether a point at
@@ -283,6 +350,13 @@ pub fn classify(
         }
         previous = Some(p);
     }
+    let edge_margins = if matches!(config.rule, RefRule::Plane { .. }) {
+        steps_between_cells(&mut cells, resolutions, config, |acc| {
+            (&acc.zs, &acc.xys, &mut acc.across)
+        })
+    } else {
+        BTreeMap::new()
+    };
     cells
         .into_iter()
         .map(|((layer, cell_x, cell_y), acc)| {
@@ -359,6 +433,10 @@ pub fn classify(
                 spread,
                 distance: acc.distance,
                 cut_margin,
+                edge_margin: edge_margins
+                    .get(&(layer, cell_x, cell_y))
+                    .copied()
+                    .unwrap_or(f64::INFINITY),
                 residual_ratio,
                 rise_ratio,
                 pair_ratio,
@@ -441,7 +519,9 @@ mod tests {
     fn a_pair_across_a_cells_edge_marks_the_upper_cell() {
         // A 10 cm kerb on the edge x = 0.3 m between 0.1 m cells 2 and 3, each flat.
         let kerb = |gap: f64, top: f64, down: bool| {
-            let mut pts: Vec<RefPoint> = [0.22, 0.25, 0.28, 0.3 - gap]
+            // The road's first (lowest) point a cell's side from the pavement's: no step
+            // between the cells' lowest points.
+            let mut pts: Vec<RefPoint> = [0.2005, 0.25, 0.28, 0.3 - gap]
                 .iter()
                 .map(|&x| p(x, 0.05, 0.0))
                 .chain([0.305, 0.33, 0.36, 0.39].iter().map(|&x| p(x, 0.05, top)))
@@ -465,8 +545,9 @@ mod tests {
             (false, false),
             "beyond the robot's height"
         );
-        // Layers from the ninth on take no pairs across their edges.
-        let pts = [p(0.29, 0.05, 0.0), p(0.31, 0.05, 0.1)];
+        // Layers from the ninth on take no pairs across their edges (the road's lowest point
+        // a cell's side from the pavement's: no step between the cells' lowest points).
+        let pts = [p(0.201, 0.05, 0.0), p(0.29, 0.05, 0.0), p(0.31, 0.05, 0.1)];
         let resolutions = [0.1; 9];
         let out = classify(
             &pts,
@@ -477,5 +558,77 @@ mod tests {
             &Default::default(),
         );
         assert!(!out[&(8, 3, 0)].obstacle);
+    }
+
+    #[test]
+    fn a_step_between_neighbouring_cells_lowest_points_marks_the_upper_cell() {
+        // Two lines parallel to the edge x = 0.3 m (or y = 0.3 m) between 0.1 m cells 2 and 3,
+        // a far point between them: no two consecutive points cross the edge.
+        let lines = |top: f64, road: f64, pavement: f64, north: bool, layers: usize| {
+            let at = |across: f64, along: f64, z: f64| {
+                if north {
+                    p(along, across, z)
+                } else {
+                    p(across, along, z)
+                }
+            };
+            let along = [0.01, 0.03, 0.05, 0.07, 0.09];
+            let mut pts: Vec<RefPoint> = along.iter().map(|&v| at(road, v, 0.0)).collect();
+            pts.push(p(-0.55, -0.55, 0.0));
+            pts.extend(along.iter().map(|&v| at(pavement, v, top)));
+            let resolutions = vec![0.1; layers];
+            let out = classify(
+                &pts,
+                &resolutions,
+                |k, _| k + 1 == layers,
+                0.0,
+                0.0,
+                &Default::default(),
+            );
+            let (lower, upper) = if north {
+                ((0, 2), (0, 3))
+            } else {
+                ((2, 0), (3, 0))
+            };
+            let k = layers - 1;
+            (
+                out[&(k, lower.0, lower.1)].obstacle,
+                out[&(k, upper.0, upper.1)].obstacle,
+            )
+        };
+        for north in [false, true] {
+            // Every layer, the ninth too.
+            for layers in [1, 9] {
+                assert_eq!(lines(0.1, 0.295, 0.305, north, layers), (false, true));
+            }
+            assert_eq!(lines(-0.1, 0.295, 0.305, north, 1), (true, false), "down");
+            assert_eq!(
+                lines(0.04, 0.295, 0.305, north, 1),
+                (false, false),
+                "within the step"
+            );
+            assert_eq!(
+                lines(0.1, 0.201, 0.305, north, 1),
+                (false, false),
+                "a cell's side apart"
+            );
+            assert_eq!(
+                lines(1.2, 0.295, 0.305, north, 1),
+                (false, false),
+                "beyond the robot's height"
+            );
+        }
+        // The paper's rule judges each cell by its own spread.
+        let pts = [
+            p(0.295, 0.05, 0.0),
+            p(-0.55, -0.55, 0.0),
+            p(0.305, 0.05, 0.1),
+        ];
+        let spread = RefClassifierConfig {
+            rule: RefRule::Spread,
+            ..RefClassifierConfig::default()
+        };
+        let out = classify(&pts, &[0.1], |_, _| true, 0.0, 0.0, &spread);
+        assert!(!out[&(0, 3, 0)].obstacle);
     }
 }

@@ -113,7 +113,7 @@ fn compare(points: &[(f64, f64, f64)], gate: GateShape, rule: Rule) -> (usize, u
                 close(r.residual_ratio) || close(r.rise_ratio) || close(r.pair_ratio)
             }
         };
-        if near || r.cut_margin < 0.002 {
+        if near || r.cut_margin < 0.002 || r.edge_margin < 1.0 {
             continue;
         }
         compared += 1;

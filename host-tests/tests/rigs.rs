@@ -421,8 +421,10 @@ fn a_rig_taken_as_the_preset_does_not_map_like_it() {
 
 /// The preset's rotation and axis with another zero and sense: the same rays at the same
 /// moments, the reported angles the other way round from 5°: the same map but for the
-/// reported angles' rounding to 2⁻¹⁶ turn (measured: every class the same, 99.75 % of the
-/// cells equal).
+/// reported angles' rounding to 2⁻¹⁶ turn (measured: 99.83 % of the classes the same, two
+/// cells of 1 187 whose lowest returns the rounding moved pair differently with a neighbour's
+/// (`docs/core.md`, "The step between neighbouring cells' lowest returns"; every class the
+/// same before it), and 99.33 % of the cells equal; the preset with another seed 98.16 %).
 #[test]
 fn a_reversed_servo_with_a_zero_maps_the_presets_map() {
     let rig = SimRig {
@@ -439,5 +441,5 @@ fn a_reversed_servo_with_a_zero_maps_the_presets_map() {
     let preset = ld19_on_a_servo(Scene::scenario(Scenario::Stairs));
     let c = compare("ld19 reversed", Scenario::Stairs, &preset, rig, block);
     let (class, equal) = c.rig;
-    assert!(class >= 0.999 && equal >= 0.99, "{class} {equal}");
+    assert!(class >= 0.995 && equal >= 0.99, "{class} {equal}");
 }

@@ -17,8 +17,10 @@
 //! which the pyramid gates with; the scratch keeps it as its gate bin, so the record's distance
 //! is the lower edge of that bin (which the pyramid bins to the same bin again).
 //!
-//! A cell holding a single point always looks navigable: that is the systematic far-range miss
-//! the pyramid exists to fix, and it is deliberately not "fixed" here.
+//! A cell holding a single point looks navigable by its own points: that is the systematic
+//! far-range miss the pyramid exists to fix, and it is deliberately not "fixed" here. Only a
+//! pair with a return beside it (module `across`, and the step between neighbouring cells'
+//! lowest returns, module `edges`) can mark it.
 //!
 //! # Beyond the paper (options, off by default)
 //! - **Drop-offs**: a return more than [`ClassifierConfig::drop_threshold`] below the robot's
@@ -32,7 +34,8 @@
 //!
 //! # Bounded scratch
 //! Besides its slots the classifier keeps 36 bytes for the pair test across a cell's edge
-//! (module `across`).
+//! (module `across`). The step between neighbouring cells' lowest returns (module `edges`)
+//! keeps nothing: it reads the slots at the observation's end, two lookups a cell.
 //!
 //! The touched cells live in an open-addressing table of `C` slots (a power of two, 60 bytes
 //! each: 16 for the key, the closest look and the lowest and highest z, 44 for the plane rule's
@@ -60,6 +63,7 @@ pub mod rule;
 
 mod across;
 mod beyond_eight;
+mod edges;
 use across::AcrossEdge;
 
 use rule::{CellGeometry, PairScale, PlaneParams, PlaneState};
@@ -225,14 +229,13 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
     /// gating and the rule in force, and forgets those of the layers from the ninth on.
     fn refresh_layers(&mut self) {
         for k in 0..RECENT_LAYERS {
-            let bits = self
-                .gates
-                .resolution(k)
-                .map(crate::grid::Resolution::to_bits);
+            let resolution = self.gates.resolution(k);
+            let bits = resolution.map(crate::grid::Resolution::to_bits);
             let scale = self.pair_scale(bits);
             if let Some(recent) = self.recent.get_mut(k) {
                 recent.reciprocal = bits.map_or(0, crate::grid::cell_reciprocal);
                 recent.pair_scale = scale;
+                recent.resolution = resolution.unwrap_or(crate::grid::Resolution::UNSET);
             }
         }
         // Layers from the ninth on find theirs again at their next point.
@@ -528,9 +531,10 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
                 return true;
             }
         }
-        let Some(r) = self.gates.resolution(usize::from(k)) else {
+        let r = recent.resolution;
+        if r == crate::grid::Resolution::UNSET {
             return false;
-        };
+        }
         let (cx, cy, sub) = cell_of(r, recent.reciprocal, point, PLANE);
         // Stored as k + 1 (0 marks an empty slot); k < 8.
         match self.insert(k + 1, cx, cy, sub, bin, z, HOLE, PLANE, recent.pair_scale) {
@@ -639,6 +643,9 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
             &self.recent,
         );
         let records = u32::try_from(self.used).unwrap_or(u32::MAX);
+        if self.plane.is_some() {
+            self.steps_between_cells();
+        }
         if self.used > 0 {
             for &index in self.order.iter().take(self.used) {
                 // Masked to C − 1 (every index is below C): the bound check compiles away.
@@ -648,43 +655,44 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
                 if slot.layer == EMPTY {
                     continue;
                 }
-                let distance = self.gates.distance_bins().lower_edge(usize::from(slot.bin));
                 let spread = i32::from(slot.z_high) - i32::from(slot.z_low);
                 let layer = slot.layer.saturating_sub(1);
-                let cell = self
-                    .gates
-                    .resolution(usize::from(layer))
-                    .map(crate::grid::Resolution::to_bits);
                 let obstacle = slot.hole
-                    || match (&self.plane, cell) {
+                    || match &self.plane {
                         // A pair across the cell's edge may mark a cell whose own points lie
                         // flat: its step is read before the quick answer.
-                        (Some(params), _)
+                        Some(params)
                             if params.flat_enough(spread)
                                 && i32::from(slot.plane.pair_rise()) <= i32::from(self.step_mm) =>
                         {
                             false
                         }
-                        (Some(params), Some(cell)) => rule::plane_obstacle(
-                            &slot.plane,
-                            params,
-                            &CellGeometry {
-                                cell,
-                                sensor_height_mm: i32::from(mm_i16(
-                                    self.reference_z.saturating_sub(self.ground_z),
-                                )),
-                                distance,
-                            },
-                            spread,
-                        ),
-                        _ => spread > i32::from(self.step_mm),
+                        // The cell's side and closest look only where the plane is judged.
+                        Some(params) => match self.gates.resolution(usize::from(layer)) {
+                            Some(cell) => rule::plane_obstacle(
+                                &slot.plane,
+                                params,
+                                &CellGeometry {
+                                    cell: cell.to_bits(),
+                                    sensor_height_mm: i32::from(mm_i16(
+                                        self.reference_z.saturating_sub(self.ground_z),
+                                    )),
+                                    distance: self
+                                        .gates
+                                        .distance_bins()
+                                        .lower_edge(usize::from(slot.bin)),
+                                },
+                                spread,
+                            ),
+                            None => spread > i32::from(self.step_mm),
+                        },
+                        None => spread > i32::from(self.step_mm),
                     };
                 let class = if obstacle {
                     EvidenceClass::Obstacle
                 } else {
                     EvidenceClass::Navigable
                 };
-                let layer = slot.layer.saturating_sub(1);
                 let weight = self
                     .gates
                     .table(usize::from(layer))

@@ -57,7 +57,9 @@
 //! consecutive returns of the observation that one of the first eight layers takes in
 //! neighbouring cells, less than a cell's side apart) folds its step into the cell of its
 //! upper return (the classifier finds such pairs; `docs/core.md`, "The pair test across a
-//! cell's edge").
+//! cell's edge"), and so does the pair of a cell's lowest return and a neighbour's at the
+//! observation's end ("The step between neighbouring cells' lowest returns"). A cell of one
+//! return is judged by such pairs alone.
 
 use crate::units::Meters;
 use fixed::types::I16F16;

@@ -39,6 +39,11 @@ pub(super) struct Recent {
     /// The pair test's constants in the layer's cells, set by [`Classifier::configure`] and
     /// [`Classifier::adopt_design`]; [`PairScale::NONE`] without the plane rule.
     pub(super) pair_scale: PairScale,
+    /// The layer's cell size, set with the reciprocal ([`Resolution::UNSET`] for a layer not
+    /// in force): read where a point leaves the cell of the layer's last one.
+    ///
+    /// [`Resolution::UNSET`]: crate::grid::Resolution::UNSET
+    pub(super) resolution: crate::grid::Resolution,
 }
 
 impl Recent {
@@ -49,6 +54,7 @@ impl Recent {
         reciprocal: 0,
         slot: 0,
         pair_scale: PairScale::NONE,
+        resolution: crate::grid::Resolution::UNSET,
     };
 }
 

@@ -548,7 +548,9 @@ fn kerb_on_an_edge(top: f32, gap: f32, down: bool) -> (EvidenceClass, EvidenceCl
     let mut c = classifier::<256>(GateShape::Hard);
     c.begin(Meters::ZERO);
     let d = Meters::from_num(0.3);
-    let road = [0.22, 0.25, 0.28, 0.3 - gap];
+    // The road's lowest return (its first) lies a cell's side from the pavement's: the step
+    // between the cells' lowest returns (`edges`) shows nothing here.
+    let road = [0.2005, 0.25, 0.28, 0.3 - gap];
     let pavement = [0.305, 0.33, 0.36, 0.39];
     let mut line: Vec<Point3> = road.iter().map(|&x| pt(x, 0.05, 0.0)).collect();
     line.extend(pavement.iter().map(|&x| pt(x, 0.05, top)));
@@ -606,6 +608,117 @@ fn a_pair_across_a_cells_edge_needs_a_steep_surface() {
     c.add_point(pt(0.37, 0.05, 0.08), d, Meters::ZERO);
     c.add_point(pt(0.39, 0.05, 0.08), d, Meters::ZERO);
     let mut r = records(&mut c);
+    r.sort_by_key(|e| e.cell_x);
+    assert_eq!(
+        r.iter().map(|e| (e.cell_x, e.class)).collect::<Vec<_>>(),
+        [(2, EvidenceClass::Navigable), (3, EvidenceClass::Obstacle)]
+    );
+}
+
+/// Two lines of returns parallel to the edge x = 0.3 m between layer 0's cells 2 (a road line
+/// at `road_x`, z = 0) and 3 (a pavement line at `pavement_x`, z = `top`), with a return in a
+/// far cell between them so that no two consecutive returns cross the edge (two sweeps of a
+/// nodding lidar). `north`: the same turned by 90° (the edge y = 0.3 m). The classes of the
+/// road's cell and the pavement's, under `rule`.
+#[cfg(feature = "plane-rule")]
+fn lines_beside_an_edge(
+    top: f32,
+    road_x: f32,
+    pavement_x: f32,
+    north: bool,
+    rule: NavigabilityRule,
+) -> (EvidenceClass, EvidenceClass) {
+    let mut c = classifier::<256>(GateShape::Hard);
+    c.configure(ClassifierConfig {
+        rule,
+        ..ClassifierConfig::default()
+    });
+    c.begin(Meters::ZERO);
+    let d = Meters::from_num(0.3);
+    let at = |across: f32, along: f32, z: f32| {
+        if north {
+            pt(along, across, z)
+        } else {
+            pt(across, along, z)
+        }
+    };
+    let along = [0.01, 0.03, 0.05, 0.07, 0.09];
+    for &v in &along {
+        c.add_point(at(road_x, v, 0.0), d, Meters::ZERO);
+    }
+    c.add_point(pt(-0.55, -0.55, 0.0), d, Meters::ZERO);
+    for &v in &along {
+        c.add_point(at(pavement_x, v, top), d, Meters::ZERO);
+    }
+    let mut r = records(&mut c);
+    r.retain(|e| e.cell_x >= 0 && e.cell_y >= 0);
+    r.sort_by_key(|e| (e.cell_x, e.cell_y));
+    let cells: Vec<(i32, i32)> = r.iter().map(|e| (e.cell_x, e.cell_y)).collect();
+    assert_eq!(
+        cells,
+        if north {
+            [(0, 2), (0, 3)]
+        } else {
+            [(2, 0), (3, 0)]
+        }
+    );
+    (r[0].class, r[1].class)
+}
+
+#[test]
+#[cfg(feature = "plane-rule")]
+fn a_step_between_neighbouring_cells_lowest_returns_marks_the_upper_cell() {
+    use EvidenceClass::{Navigable, Obstacle};
+    let plane = NavigabilityRule::Plane(PlaneRule::DEFAULT);
+    for north in [false, true] {
+        // A 10 cm kerb on the edge, each cell's returns flat, none consecutive across it.
+        assert_eq!(
+            lines_beside_an_edge(0.10, 0.295, 0.305, north, plane),
+            (Navigable, Obstacle)
+        );
+        // Down rather than up: still the upper cell.
+        assert_eq!(
+            lines_beside_an_edge(-0.10, 0.295, 0.305, north, plane),
+            (Obstacle, Navigable)
+        );
+        // Within the step (4 cm): nothing.
+        assert_eq!(
+            lines_beside_an_edge(0.04, 0.295, 0.305, north, plane),
+            (Navigable, Navigable)
+        );
+        // The lowest returns a cell's side apart (0.1 m): no pair.
+        assert_eq!(
+            lines_beside_an_edge(0.10, 0.205, 0.305, north, plane),
+            (Navigable, Navigable)
+        );
+        // A rise of more than the robot's height (1 m) is overhang to the lower cell: no pair.
+        assert_eq!(
+            lines_beside_an_edge(1.2, 0.295, 0.305, north, plane),
+            (Navigable, Navigable)
+        );
+        // The paper's rule judges each cell by its own spread only.
+        assert_eq!(
+            lines_beside_an_edge(0.10, 0.295, 0.305, north, NavigabilityRule::Spread),
+            (Navigable, Navigable)
+        );
+    }
+}
+
+#[test]
+#[cfg(feature = "plane-rule")]
+fn a_single_return_above_a_neighbours_lowest_is_marked() {
+    // One return fits no plane, but with the road's lowest return beside it, 10 cm lower and
+    // 1 cm away across the edge x = 0.3 m, it is two returns on a kerb's face.
+    let mut c = classifier::<256>(GateShape::Hard);
+    c.begin(Meters::ZERO);
+    let d = Meters::from_num(0.3);
+    for v in [0.01, 0.03, 0.05] {
+        c.add_point(pt(0.295, v, 0.0), d, Meters::ZERO);
+    }
+    c.add_point(pt(-0.55, -0.55, 0.0), d, Meters::ZERO);
+    c.add_point(pt(0.305, 0.01, 0.1), d, Meters::ZERO);
+    let mut r = records(&mut c);
+    r.retain(|e| e.cell_x >= 0);
     r.sort_by_key(|e| e.cell_x);
     assert_eq!(
         r.iter().map(|e| (e.cell_x, e.class)).collect::<Vec<_>>(),

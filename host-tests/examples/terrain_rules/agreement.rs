@@ -84,6 +84,7 @@ fn agreement<const W: usize>(
             || near(r.rise_ratio)
             || near(r.pair_ratio)
             || r.cut_margin < 0.002
+            || r.edge_margin < 1.0
         {
             continue;
         }

@@ -340,7 +340,9 @@ pub(in crate::classify) fn plane_obstacle(
     spread_mm: i32,
 ) -> bool {
     if state.n < 2 {
-        return false;
+        // One return fits no plane; a pair across the cell's edge or between its lowest
+        // return and a neighbour's is two returns, and still shows its step.
+        return beyond_allowance(i128::from(state.pair_rise()) << 16, params, geometry);
     }
     let m = moments(state);
     let Moments {
