@@ -211,10 +211,7 @@ fn plane_ratios(
         0.0
     };
     // The extremes: the first lowest and the first highest point in arrival order.
-    let first_by = |better: &dyn Fn(f64, f64) -> bool| {
-        (1..zs.len()).fold(0, |best, i| if better(zs[i], zs[best]) { i } else { best })
-    };
-    let (low, high) = (first_by(&|a, b| a < b), first_by(&|a, b| a > b));
+    let (low, high) = (first_by(zs, |a, b| a < b), first_by(zs, |a, b| a > b));
     let spread = zs[high] - zs[low];
     let explained_rise =
         (wx * (xys[high].0 - xys[low].0) + wy * (xys[high].1 - xys[low].1)).max(0.0);
@@ -226,39 +223,52 @@ fn plane_ratios(
     (residual_ratio, rise_ratio, extremes_ratio)
 }
 
+/// A layer cell's points as [`classify`] gathers them.
+struct Acc {
+    zs: Vec<f64>,
+    /// Positions in the cell, m from its lower corner.
+    xys: Vec<(f64, f64)>,
+    distance: f64,
+    hole: bool,
+    /// Pairs across the cell's edge whose upper point lies here (the pair across an edge, the
+    /// step between neighbouring cells' lowest points): (rise, run), m.
+    across: Vec<(f64, f64)>,
+}
+
+/// A cell's key: (layer, world cell index along x, along y).
+type CellKey = (usize, i64, i64);
+
+/// The index of the first point of `zs` that no later one beats (`better(later, best)`), in
+/// arrival order: the first lowest or the first highest. 0 for no point.
+fn first_by(zs: &[f64], better: impl Fn(f64, f64) -> bool) -> usize {
+    (1..zs.len()).fold(0, |best, i| if better(zs[i], zs[best]) { i } else { best })
+}
+
 /// The step between neighbouring cells' lowest returns (`docs/core.md`, the section of that
 /// name): each cell's lowest point (the first of the lowest, in arrival order) and that of
 /// the cell beside it to the east and to the north in the same layer, less than a cell's side
 /// apart (L1), rising more than the step
 /// and no more than the robot's height: a pair (rise, run) of the upper cell, judged as a
-/// pair of consecutive points is. `parts` gives a cell's heights, positions in the cell (m,
-/// from its lower corner) and its list of pairs from beyond its edges.
-fn steps_between_cells<A>(
-    cells: &mut BTreeMap<(usize, i64, i64), A>,
+/// pair of consecutive points is, kept in the upper cell's `across`. Returns each cell's
+/// [`RefRecord::edge_margin`] where it has one.
+fn steps_between_cells(
+    cells: &mut BTreeMap<CellKey, Acc>,
     resolutions: &[f64],
     config: &RefClassifierConfig,
-    mut parts: impl FnMut(&mut A) -> (&Vec<f64>, &Vec<(f64, f64)>, &mut Vec<(f64, f64)>),
-) -> BTreeMap<(usize, i64, i64), f64> {
-    // Per cell: its lowest point's height and position in the cell.
-    type Lowest = (f64, (f64, f64));
-    let mut lowest: BTreeMap<(usize, i64, i64), Lowest> = BTreeMap::new();
-    for (key, acc) in cells.iter_mut() {
-        let (zs, xys, _) = parts(acc);
-        let first = (0..zs.len()).fold(None, |best: Option<usize>, i| match best {
-            Some(b) if zs[b] <= zs[i] => Some(b),
-            _ => Some(i),
-        });
-        if let Some(i) = first {
-            lowest.insert(*key, (zs[i], xys[i]));
-        }
-    }
+) -> BTreeMap<CellKey, f64> {
+    // Per cell: its lowest point's height and position in the cell (every cell holds one).
+    let lowest = |acc: &Acc| {
+        let i = first_by(&acc.zs, |a, b| a < b);
+        (acc.zs[i], acc.xys[i])
+    };
     let mut pairs = Vec::new();
-    let mut margins: BTreeMap<(usize, i64, i64), f64> = BTreeMap::new();
-    for (&(k, x, y), &(za, (xa, ya))) in &lowest {
+    let mut margins: BTreeMap<CellKey, f64> = BTreeMap::new();
+    for (&(k, x, y), a) in cells.iter() {
+        let (za, (xa, ya)) = lowest(a);
         let r = resolutions[k];
         for (dx, dy) in [(1_i64, 0_i64), (0, 1)] {
             let beside = (k, x + dx, y + dy);
-            let Some(&(zb, (xb, yb))) = lowest.get(&beside) else {
+            let Some((zb, (xb, yb))) = cells.get(&beside).map(lowest) else {
                 continue;
             };
             #[allow(clippy::cast_precision_loss)]
@@ -280,7 +290,7 @@ fn steps_between_cells<A>(
     }
     for (upper, pair) in pairs {
         if let Some(acc) = cells.get_mut(&upper) {
-            parts(acc).2.push(pair);
+            acc.across.push(pair);
         }
     }
     margins
@@ -299,15 +309,7 @@ pub fn classify(
     sensor_z: f64,
     config: &RefClassifierConfig,
 ) -> BTreeMap<(usize, i64, i64), RefRecord> {
-    struct Acc {
-        zs: Vec<f64>,
-        xys: Vec<(f64, f64)>,
-        distance: f64,
-        hole: bool,
-        /// Pairs across the cell's edge whose upper point lies here: (rise, run), m.
-        across: Vec<(f64, f64)>,
-    }
-    let mut cells: BTreeMap<(usize, i64, i64), Acc> = BTreeMap::new();
+    let mut cells: BTreeMap<CellKey, Acc> = BTreeMap::new();
     let mut previous: Option<&RefPoint> = None;
     for p in points {
         let hole = config
@@ -351,9 +353,7 @@ pub fn classify(
         previous = Some(p);
     }
     let edge_margins = if matches!(config.rule, RefRule::Plane { .. }) {
-        steps_between_cells(&mut cells, resolutions, config, |acc| {
-            (&acc.zs, &acc.xys, &mut acc.across)
-        })
+        steps_between_cells(&mut cells, resolutions, config)
     } else {
         BTreeMap::new()
     };
