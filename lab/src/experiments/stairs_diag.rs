@@ -43,7 +43,12 @@ pub fn diagnose(
         .layers()
         .iter()
         .enumerate()
-        .map(|(k, l)| format!("{k}: {:.2}..{:.2}", l.band_inner_m, l.band_outer_m))
+        .map(|(k, l)| {
+            format!(
+                "{k}: {:.2}..{:.2} ({:.2} m)",
+                l.band_inner_m, l.band_outer_m, l.resolution_m
+            )
+        })
         .collect();
     let mut map: Box<dyn Map> = Box::new(Runner::<STAIRS_CELLS, LAYERS, { stairs::SLOTS }>::new(
         "diag",
