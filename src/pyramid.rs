@@ -815,10 +815,10 @@ mod tests {
                 })
                 .unwrap()
         };
-        let (d0, d1, d2) = (in_band(0), in_band(1), in_band(2));
+        let (d0, d1, d4) = (in_band(0), in_band(1), in_band(4));
         p.apply(&record(0, 0, 0, EvidenceClass::Navigable, d0));
-        // A coarser layer two steps away does not answer for layer 0.
-        p.apply(&record(2, 0, 0, EvidenceClass::Obstacle, d2));
+        // A coarser layer four steps away, beyond the reach, does not answer for layer 0.
+        p.apply(&record(4, 0, 0, EvidenceClass::Obstacle, d4));
         assert_eq!(p.fused(x, y), Fused::Navigable { layer: 0 });
         // The next layer's +217 outweighs layer 0's −104: it answers.
         p.apply(&record(1, 0, 0, EvidenceClass::Obstacle, d1));
