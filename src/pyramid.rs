@@ -83,6 +83,9 @@ pub enum Fused {
 /// layers' cells holds L greater than the −L of this layer and of every observed layer
 /// between them (then the first such layer answers obstacle); unknown when none does. [`Pyramid::fused`] asks it of a pyramid, the host of
 /// the maps a device sends.
+// Out of line: inlined into the boot's self-check it grew that frame by 560 B of stack
+// (`boards/check.sh`, qemu-mps2).
+#[inline(never)]
 pub fn fused_answer(margin_raw: i16, cells: impl IntoIterator<Item = Option<Cell>>) -> Fused {
     // A navigable answer waiting on the next layers: its layer, its free evidence (−L, raw)
     // and how many layers may still overrule it.

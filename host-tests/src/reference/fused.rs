@@ -186,17 +186,25 @@ mod tests {
         assert_eq!(p.fused(-100, -100), Fused::Unknown);
     }
 
-    #[test]
-    fn the_next_layers_stronger_obstacle_evidence_answers() {
-        let (d, mut p) = default_quantised();
-        let at = |k: usize| (d.layers[k].centre * 65_536.0) as i32;
-        let look = |layer: usize, obstacle: bool| Evidence {
+    /// One look of `layer` at its cell (0, 0) from its band's centre.
+    fn look_at_origin(
+        d: &crate::reference::bands::Design,
+        layer: usize,
+        obstacle: bool,
+    ) -> Evidence {
+        Evidence {
             layer,
             i: 0,
             j: 0,
             obstacle,
-            distance_raw: at(layer),
-        };
+            distance_raw: (d.layers[layer].centre * 65_536.0) as i32,
+        }
+    }
+
+    #[test]
+    fn the_next_layers_stronger_obstacle_evidence_answers() {
+        let (d, mut p) = default_quantised();
+        let look = |layer: usize, obstacle: bool| look_at_origin(&d, layer, obstacle);
         p.apply(&look(0, false));
         assert_eq!(p.fused(100, 100), Fused::Navigable { layer: 0 });
         // One obstacle look of layer 1 outweighs one free look of layer 0.
@@ -212,14 +220,7 @@ mod tests {
     #[test]
     fn three_coarser_layers_may_answer_past_stronger_free_evidence_only() {
         let (d, mut p) = default_quantised();
-        let at = |k: usize| (d.layers[k].centre * 65_536.0) as i32;
-        let look = |layer: usize, obstacle: bool| Evidence {
-            layer,
-            i: 0,
-            j: 0,
-            obstacle,
-            distance_raw: at(layer),
-        };
+        let look = |layer: usize, obstacle: bool| look_at_origin(&d, layer, obstacle);
         p.apply(&look(0, false));
         // Layer 3's obstacle, two unobserved layers between: it answers.
         p.apply(&look(3, true));
