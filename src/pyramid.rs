@@ -63,8 +63,9 @@ impl defmt::Format for Evidence {
 pub enum Fused {
     /// No layer has a confident answer.
     Unknown,
-    /// Not navigable, according to this layer (the finest that answered, or the layer after
-    /// it when that one's obstacle evidence outweighed the finer layer's free evidence).
+    /// Not navigable, according to this layer (the finest that answered, or one of the
+    /// [`FUSED_REACH`] layers after it whose obstacle evidence outweighed the finer layer's
+    /// free evidence).
     Obstacle {
         /// The layer that answered.
         layer: u8,
@@ -78,36 +79,55 @@ pub enum Fused {
 
 /// The fused rule over one point's cell in every layer, the finest first (`None` where a
 /// layer does not hold the point): the first observed cell with L > 0 answers obstacle, with
-/// L < −`margin_raw` (Q8.8 raw log-odds) navigable unless the next layer's cell holds L
-/// greater than this one's −L (then that layer answers obstacle); unknown when none does.
-/// [`Pyramid::fused`] asks it of a pyramid, the host of the maps a device sends.
+/// L < −`margin_raw` (Q8.8 raw log-odds) navigable unless one of the next [`FUSED_REACH`]
+/// layers' cells holds L greater than the −L of this layer and of every observed layer
+/// between them (then the first such layer answers obstacle); unknown when none does. [`Pyramid::fused`] asks it of a pyramid, the host of
+/// the maps a device sends.
+// Out of line: inlined into the boot's self-check it grew that frame by 560 B of stack
+// (`boards/check.sh`, qemu-mps2).
+#[inline(never)]
 pub fn fused_answer(margin_raw: i16, cells: impl IntoIterator<Item = Option<Cell>>) -> Fused {
-    let mut cells = cells.into_iter().enumerate().peekable();
-    while let Some((k, cell)) = cells.next() {
-        let Some(value) = cell.and_then(Cell::log_odds) else {
+    // A navigable answer waiting on the next layers: its layer, its free evidence (−L, raw)
+    // and how many layers may still overrule it.
+    let mut pending: Option<(u8, i32, usize)> = None;
+    for (k, cell) in cells.into_iter().enumerate() {
+        let layer = u8::try_from(k).unwrap_or(u8::MAX);
+        let value = cell
+            .and_then(Cell::log_odds)
+            .map(|v| i32::from(v.to_bits()));
+        if let Some((finer, free, left)) = pending {
+            // A coarser layer's obstacle evidence, stronger than the free evidence of every
+            // layer from the answering one to it.
+            let v = value.unwrap_or(0);
+            if v > free {
+                return Fused::Obstacle { layer };
+            }
+            if left <= 1 {
+                return Fused::Navigable { layer: finer };
+            }
+            pending = Some((finer, free.max(-v), left - 1));
+            continue;
+        }
+        let Some(raw) = value else {
             continue;
         };
-        let raw = value.to_bits();
-        let layer = u8::try_from(k).unwrap_or(u8::MAX);
         if raw > 0 {
             return Fused::Obstacle { layer };
         }
-        if raw < -margin_raw {
-            // The next layer's obstacle evidence, stronger than this free evidence, answers.
-            let next = cells
-                .peek()
-                .and_then(|(_, c)| c.and_then(Cell::log_odds))
-                .map(|v| i32::from(v.to_bits()));
-            return match next {
-                Some(next) if next > -i32::from(raw) => Fused::Obstacle {
-                    layer: layer.saturating_add(1),
-                },
-                _ => Fused::Navigable { layer },
-            };
+        if raw < -i32::from(margin_raw) {
+            pending = Some((layer, -raw, FUSED_REACH));
         }
     }
-    Fused::Unknown
+    match pending {
+        Some((finer, _, _)) => Fused::Navigable { layer: finer },
+        None => Fused::Unknown,
+    }
 }
+
+/// How many coarser layers may overrule a layer's navigable answer with stronger obstacle
+/// evidence at the same point (3: layers k + 1 ..= k + 3; `docs/core.md`, "The fused query",
+/// gives the measured choice).
+pub const FUSED_REACH: usize = 3;
 
 /// The fused query's default margin for "navigable", nats (0.055, 14/256 in Q8.8): the free
 /// evidence of one return that the soft gate feeds to a layer two gate widths from its centre,
@@ -744,13 +764,38 @@ mod tests {
             fused_answer(14, [c(-217), c(217)]),
             Fused::Navigable { layer: 0 }
         );
-        // Only the next layer: an unknown or absent layer 1 leaves layer 0's answer.
+        // The next three layers, observed or not: an unknown or absent layer 1 lets layer
+        // 2 or 3 answer; layer 4 is too far.
         assert_eq!(
             fused_answer(14, [c(-104), c(i16::MIN), c(900)]),
+            Fused::Obstacle { layer: 2 }
+        );
+        assert_eq!(
+            fused_answer(14, [c(-104), None, c(-50), c(900)]),
+            Fused::Obstacle { layer: 3 }
+        );
+        assert_eq!(
+            fused_answer(14, [c(-104), None, None, c(50), c(900)]),
+            Fused::Navigable { layer: 0 }
+        );
+        // The first stronger one answers, a weaker one before it does not.
+        assert_eq!(
+            fused_answer(14, [c(-104), c(50), c(217), c(900)]),
+            Fused::Obstacle { layer: 2 }
+        );
+        // Stronger free evidence of a layer between raises the bar: +217 does not outweigh
+        // layer 1's −300, +900 does.
+        assert_eq!(
+            fused_answer(14, [c(-104), c(-300), c(217)]),
             Fused::Navigable { layer: 0 }
         );
         assert_eq!(
-            fused_answer(14, [c(-104), None, c(900)]),
+            fused_answer(14, [c(-104), c(-300), c(217), c(900)]),
+            Fused::Obstacle { layer: 3 }
+        );
+        // Fewer layers than the reach: the finer answer stands.
+        assert_eq!(
+            fused_answer(14, [c(-104), c(50)]),
             Fused::Navigable { layer: 0 }
         );
         // Within the margin layer 0 does not answer; layer 1's obstacle does.
@@ -773,10 +818,10 @@ mod tests {
                 })
                 .unwrap()
         };
-        let (d0, d1, d2) = (in_band(0), in_band(1), in_band(2));
+        let (d0, d1, d4) = (in_band(0), in_band(1), in_band(4));
         p.apply(&record(0, 0, 0, EvidenceClass::Navigable, d0));
-        // A coarser layer two steps away does not answer for layer 0.
-        p.apply(&record(2, 0, 0, EvidenceClass::Obstacle, d2));
+        // A coarser layer four steps away, beyond the reach, does not answer for layer 0.
+        p.apply(&record(4, 0, 0, EvidenceClass::Obstacle, d4));
         assert_eq!(p.fused(x, y), Fused::Navigable { layer: 0 });
         // The next layer's +217 outweighs layer 0's −104: it answers.
         p.apply(&record(1, 0, 0, EvidenceClass::Obstacle, d1));

@@ -24,7 +24,10 @@
 //!   for the first eight layers, each pair of consecutive points of the observation that the
 //!   layer takes in two different cells less than a cell's side apart (|Δx| + |Δy| < c),
 //!   rising more than the step and at most the robot's height: it counts in the cell of its
-//!   upper point (the pair test across a cell's edge).
+//!   upper point (the pair test across a cell's edge). In every layer, the lowest points of
+//!   two cells that share an edge are a pair too, however far apart in their cells, when they
+//!   rise more than the step and at most the robot's height ("The step between neighbouring
+//!   cells' lowest returns").
 //!
 //! A record's distance is the smallest horizontal distance among the cell's points.
 
@@ -121,10 +124,9 @@ pub struct RefRecord {
     pub cut_margin: f64,
     /// How close a pair of lowest points across the cell's edges (its own and a neighbour's,
     /// rising more than the step: "The step between neighbouring cells' lowest returns") came
-    /// to a bound the firmware reads in its own units (positions in 64ths of a side, heights
-    /// in mm): the smaller of its run's distance from the cell's side over 5 % of the side and
-    /// its rise's distance from the robot's height over 2 mm; below 1 the two may differ
-    /// there (`f64::INFINITY`: no such pair).
+    /// to the bound the firmware reads in its own units (heights in mm): its rise's distance
+    /// from the robot's height over 2 mm; below 1 the two may differ there
+    /// (`f64::INFINITY`: no such pair).
     pub edge_margin: f64,
     /// The plane rule's residual test: the residual's mean square over the allowed one (> 1:
     /// obstacle); 0 under the spread rule.
@@ -246,8 +248,8 @@ fn first_by(zs: &[f64], better: impl Fn(f64, f64) -> bool) -> usize {
 
 /// The step between neighbouring cells' lowest returns (`docs/core.md`, the section of that
 /// name): each cell's lowest point (the first of the lowest, in arrival order) and that of
-/// the cell beside it to the east and to the north in the same layer, less than a cell's side
-/// apart (L1), rising more than the step
+/// the cell beside it to the east and to the north in the same layer, however far apart in
+/// their cells (the largest slope's allowance grows with their run), rising more than the step
 /// and no more than the robot's height: a pair (rise, run) of the upper cell, judged as a
 /// pair of consecutive points is, kept in the upper cell's `across`. Returns each cell's
 /// [`RefRecord::edge_margin`] where it has one.
@@ -275,14 +277,13 @@ fn steps_between_cells(
             let run = (xb + r * dx as f64 - xa).abs() + (yb + r * dy as f64 - ya).abs();
             let rise = zb - za;
             if rise.abs() > config.step_threshold {
-                let margin = ((run - r).abs() / (0.05 * r))
-                    .min((rise.abs() - config.robot_height).abs() / 0.002);
+                let margin = (rise.abs() - config.robot_height).abs() / 0.002;
                 for key in [(k, x, y), beside] {
                     let m = margins.entry(key).or_insert(f64::INFINITY);
                     *m = m.min(margin);
                 }
             }
-            if run < r && rise.abs() > config.step_threshold && rise.abs() <= config.robot_height {
+            if rise.abs() > config.step_threshold && rise.abs() <= config.robot_height {
                 let upper = if rise > 0.0 { beside } else { (k, x, y) };
                 pairs.push((upper, (rise.abs(), run)));
             }
@@ -519,8 +520,7 @@ mod tests {
     fn a_pair_across_a_cells_edge_marks_the_upper_cell() {
         // A 10 cm kerb on the edge x = 0.3 m between 0.1 m cells 2 and 3, each flat.
         let kerb = |gap: f64, top: f64, down: bool| {
-            // The road's first (lowest) point a cell's side from the pavement's: no step
-            // between the cells' lowest points.
+            // The road's first point is its lowest, at x = 0.2005 m.
             let mut pts: Vec<RefPoint> = [0.2005, 0.25, 0.28, 0.3 - gap]
                 .iter()
                 .map(|&x| p(x, 0.05, 0.0))
@@ -535,9 +535,11 @@ mod tests {
         assert_eq!(kerb(0.005, 0.1, false), (false, true));
         assert_eq!(kerb(0.005, 0.1, true), (false, true));
         assert_eq!(kerb(0.005, 0.04, false), (false, false), "within the step");
+        // Two consecutive points a cell's side apart are no pair, but the cells' lowest
+        // points, 0.1045 m apart, still show the kerb.
         assert_eq!(
             kerb(0.096, 0.1, false),
-            (false, false),
+            (false, true),
             "a cell's side apart"
         );
         assert_eq!(
@@ -545,19 +547,28 @@ mod tests {
             (false, false),
             "beyond the robot's height"
         );
-        // Layers from the ninth on take no pairs across their edges (the road's lowest point
-        // a cell's side from the pavement's: no step between the cells' lowest points).
-        let pts = [p(0.201, 0.05, 0.0), p(0.29, 0.05, 0.0), p(0.31, 0.05, 0.1)];
+        // Layers from the ninth on take no pairs across their edges. A 6 cm kerb whose
+        // cells' lowest points lie 0.198 m apart, a rise the largest slope explains (no step
+        // between the cells' lowest points): the first layer marks the pavement, the ninth
+        // does not.
+        let pts = [
+            p(0.201, 0.05, 0.0),
+            p(0.299, 0.05, 0.0),
+            p(0.301, 0.05, 0.06),
+            p(0.399, 0.05, 0.058),
+        ];
         let resolutions = [0.1; 9];
-        let out = classify(
-            &pts,
-            &resolutions,
-            |k, _| k == 8,
-            0.0,
-            0.0,
-            &Default::default(),
-        );
-        assert!(!out[&(8, 3, 0)].obstacle);
+        for (layer, marked) in [(0, true), (8, false)] {
+            let out = classify(
+                &pts,
+                &resolutions,
+                |k, _| k == layer,
+                0.0,
+                0.0,
+                &Default::default(),
+            );
+            assert_eq!(out[&(layer, 3, 0)].obstacle, marked, "layer {layer}");
+        }
     }
 
     #[test]
@@ -608,9 +619,14 @@ mod tests {
                 "within the step"
             );
             assert_eq!(
-                lines(0.1, 0.201, 0.305, north, 1),
+                lines(0.15, 0.205, 0.395, north, 1),
+                (false, true),
+                "almost two cells' sides apart, beyond the slope"
+            );
+            assert_eq!(
+                lines(0.06, 0.205, 0.395, north, 1),
                 (false, false),
-                "a cell's side apart"
+                "a rise the slope explains over the run"
             );
             assert_eq!(
                 lines(1.2, 0.295, 0.305, north, 1),

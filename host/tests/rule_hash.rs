@@ -4,9 +4,11 @@
 //! - `--rule paper`: `de7d71d3e1d71392`, the hash every board gave before the plane rule
 //!   existed (docs/measurements.md, BENCHMARKS.md): the paper's rule, carried to the co-processor in the
 //!   link's Setup, still gives those maps bit for bit.
-//! - the default (`--rule plane`): `4f235b861aa69c73`, measured when neighbouring cells'
-//!   lowest returns began to pair (`docs/core.md`, "The step between neighbouring cells'
-//!   lowest returns"; `2df1bca4cb673a0c` before it, from the pair test across a cell's edge,
+//! - the default (`--rule plane`): `e8d966e726a80cc7`, measured when neighbouring cells'
+//!   lowest returns began to pair at any run within their two cells (`docs/core.md`, "The
+//!   step between neighbouring cells' lowest returns"; `4f235b861aa69c73` before it, when
+//!   they paired less than a cell's side apart; `2df1bca4cb673a0c` before that, from the pair
+//!   test across a cell's edge,
 //!   which took the tilt lines' consecutive returns that straddle an edge;
 //!   `eaa2ac2a9f922126` before that, from the
 //!   rise test that stopped adding the step to the largest slope on; `cc5fae74d9e79b55` before
@@ -44,7 +46,7 @@ fn the_3dtk_maps_under_each_rule() {
     let default = hash(&recording, &dir.join("default"), &[]);
     let plane = hash(&recording, &dir.join("plane"), &["--rule", "plane"]);
     assert_eq!(paper, "de7d71d3e1d71392", "the paper's rule");
-    assert_eq!(default, "4f235b861aa69c73", "the default rule");
+    assert_eq!(default, "e8d966e726a80cc7", "the default rule");
     assert_eq!(plane, default);
     // A parameter of the plane rule travels too: a 2 cm step allowance changes the maps.
     let strict = hash(

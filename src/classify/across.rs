@@ -171,3 +171,42 @@ fn run_between(previous: &Slot, current: &Slot) -> Option<u32> {
     let dv = along(current.cell_y.wrapping_sub(previous.cell_y), to_v, v)?;
     Some(du + dv).filter(|&run| run < 64)
 }
+
+#[cfg(all(test, feature = "plane-rule"))]
+mod tests {
+    use super::*;
+
+    /// A slot of cell `(cx, cy)` whose last return lies at `(u, v)` (units of c/64 from the
+    /// cell's centre).
+    fn slot(cx: i32, cy: i32, u: i8, v: i8) -> Slot {
+        let mut s = Slot::VACANT;
+        s.cell_x = cx;
+        s.cell_y = cy;
+        s.plane = rule::PlaneState::first(u, v, 0);
+        s
+    }
+
+    #[test]
+    fn a_run_is_taken_between_neighbours_less_than_a_side_apart() {
+        // Across the edge x = 3 from both sides of it: 2 units.
+        assert_eq!(
+            run_between(&slot(2, 0, 31, 0), &slot(3, 0, -31, 0)),
+            Some(2)
+        );
+        // And back, and to the north.
+        assert_eq!(
+            run_between(&slot(3, 0, -31, 0), &slot(2, 0, 31, 0)),
+            Some(2)
+        );
+        assert_eq!(
+            run_between(&slot(0, 2, 0, 31), &slot(0, 3, 5, -31)),
+            Some(7)
+        );
+        // Just below a side, and a side apart.
+        assert_eq!(run_between(&slot(2, 0, 0, 0), &slot(3, 0, -1, 0)), Some(63));
+        assert_eq!(run_between(&slot(2, 0, 0, 0), &slot(3, 0, 0, 0)), None);
+        // Cells that are not neighbours, however close the returns' positions.
+        assert_eq!(run_between(&slot(2, 0, 31, 0), &slot(4, 0, -32, 0)), None);
+        assert_eq!(run_between(&slot(2, 0, 0, 0), &slot(3, 2, 0, 0)), None);
+    }
+}

@@ -1,10 +1,16 @@
 //! The step between neighbouring cells' lowest returns (`docs/core.md`, the section of that
 //! name): at an observation's end, before any cell is judged, the lowest return of each cell
 //! (its ground, the bound of its overhang cut) is paired with the lowest return of the cell
-//! beside it in the same layer, to the east (+x) and to the north (+y). Two such returns less
-//! than a cell's side apart (|Δu| + |Δv| < 64 units of c/64), rising more than the step and no
-//! more than the robot's height, are judged as two consecutive returns are
-//! ([`rule::pair_shown`]); the cell of the upper one keeps the step they show.
+//! beside it in the same layer, to the east (+x) and to the north (+y). Two such returns,
+//! however far apart in their cells (|Δu| + |Δv| up to 190 units of c/64), rising more than the
+//! step and no more than the robot's height, are judged as two consecutive returns are
+//! ([`rule::pair_shown`]): the largest slope's allowance grows with their run, so a rise over
+//! a long run must be the steeper to count. The cell of the upper one keeps the step they
+//! show.
+//!
+//! No bound on the run: a cell's lowest return lies anywhere on a flat cell, and a riser or a
+//! kerb on the edge between two flat cells is a step whatever the two lowest returns' places
+//! (a nodding lidar's treads: `docs/core.md`).
 //!
 //! It finds the kerb the pair tests cannot: one whose face lies on the edge between two cells
 //! with no two consecutive returns across it (a kerb along a spinning laser's beams, where
@@ -75,9 +81,8 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
     }
 
     /// [`Classifier::judge_lowest`]'s pair, rising `rise` mm from `a`'s lowest return to
-    /// `b`'s: when the rise is at most the robot's height and the two returns lie less than a
-    /// cell's side apart, the upper slot keeps the step the pair shows if it is beyond the
-    /// layer's step. Out of line: rare.
+    /// `b`'s: when the rise is at most the robot's height, the upper slot keeps the step the
+    /// pair shows over their run if it is beyond the layer's step. Out of line: rare.
     #[cold]
     #[inline(never)]
     fn judge_step(&mut self, a: usize, b: usize, offset: (i32, i32), rise: i32) {
@@ -92,15 +97,16 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
         let du = i32::from(ub) + offset.0 - i32::from(ua);
         let dv = i32::from(vb) + offset.1 - i32::from(va);
         let run = du.unsigned_abs() + dv.unsigned_abs();
-        if run >= 64 {
-            return;
-        }
         let layer = usize::from(low_a.layer.saturating_sub(1));
-        let scale = self.pair_scale(
-            self.gates
-                .resolution(layer)
-                .map(crate::grid::Resolution::to_bits),
-        );
+        // The first eight layers keep their constants; the others compute them.
+        let scale = match self.recent.get(layer) {
+            Some(recent) => recent.pair_scale,
+            None => self.pair_scale(
+                self.gates
+                    .resolution(layer)
+                    .map(crate::grid::Resolution::to_bits),
+            ),
+        };
         let shown = rule::pair_shown(rise_mm, run, scale);
         if u32::from(shown) <= scale.step_mm() {
             return;

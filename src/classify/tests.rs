@@ -548,8 +548,7 @@ fn kerb_on_an_edge(top: f32, gap: f32, down: bool) -> (EvidenceClass, EvidenceCl
     let mut c = classifier::<256>(GateShape::Hard);
     c.begin(Meters::ZERO);
     let d = Meters::from_num(0.3);
-    // The road's lowest return (its first) lies a cell's side from the pavement's: the step
-    // between the cells' lowest returns (`edges`) shows nothing here.
+    // The road's lowest return is its first, at x = 0.2005 m.
     let road = [0.2005, 0.25, 0.28, 0.3 - gap];
     let pavement = [0.305, 0.33, 0.36, 0.39];
     let mut line: Vec<Point3> = road.iter().map(|&x| pt(x, 0.05, 0.0)).collect();
@@ -575,8 +574,10 @@ fn a_pair_across_a_cells_edge_marks_the_upper_cell() {
     assert_eq!(kerb_on_an_edge(0.10, 0.005, true), (Navigable, Obstacle));
     // Within the step (4 cm): nothing.
     assert_eq!(kerb_on_an_edge(0.04, 0.005, false), (Navigable, Navigable));
-    // Two returns a cell's side apart or more (0.1 m): no pair.
-    assert_eq!(kerb_on_an_edge(0.10, 0.096, false), (Navigable, Navigable));
+    // Two consecutive returns a cell's side apart or more (0.1 m) are no pair
+    // (`across::tests`), but the cells' lowest returns, 0.1045 m apart, still show the kerb
+    // (`edges`).
+    assert_eq!(kerb_on_an_edge(0.10, 0.096, false), (Navigable, Obstacle));
     // A rise of more than the robot's height (1 m) is overhang to the lower cell: no pair.
     assert_eq!(kerb_on_an_edge(1.2, 0.005, false), (Navigable, Navigable));
 }
@@ -593,9 +594,6 @@ fn a_pair_across_a_cells_edge_needs_a_steep_surface() {
         let x = 0.0025 + 0.05 * f32::from(i);
         c.add_point(pt(x, 0.05, 0.36 * x), d, Meters::ZERO);
     }
-    // A 10 cm kerb 15 cm after the next return (1.5 cells): no pair either.
-    c.add_point(pt(3.05, 0.05, 0.0), d, Meters::ZERO);
-    c.add_point(pt(3.2, 0.05, 0.1), d, Meters::ZERO);
     let r = records(&mut c);
     assert!(
         r.iter().all(|e| e.class == EvidenceClass::Navigable),
@@ -686,9 +684,15 @@ fn a_step_between_neighbouring_cells_lowest_returns_marks_the_upper_cell() {
             lines_beside_an_edge(0.04, 0.295, 0.305, north, plane),
             (Navigable, Navigable)
         );
-        // The lowest returns a cell's side apart (0.1 m): no pair.
+        // The lowest returns almost two cells' sides apart (0.19 m): still a pair, its
+        // rise beyond the largest slope (20°: 6.9 cm over the run).
         assert_eq!(
-            lines_beside_an_edge(0.10, 0.205, 0.305, north, plane),
+            lines_beside_an_edge(0.15, 0.205, 0.395, north, plane),
+            (Navigable, Obstacle)
+        );
+        // A rise the largest slope explains over that run (6 cm): nothing.
+        assert_eq!(
+            lines_beside_an_edge(0.06, 0.205, 0.395, north, plane),
             (Navigable, Navigable)
         );
         // A rise of more than the robot's height (1 m) is overhang to the lower cell: no pair.

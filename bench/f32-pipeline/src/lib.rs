@@ -14,8 +14,11 @@
 //!   position in the cell and height below the overhang cut, and at the observation's end the
 //!   same ridge least-squares plane, residual, gradient and rise tests as the library's, its
 //!   extremes test (the lowest and highest points' positions kept as they change) and its pair
-//!   test (the last point below the cut and the largest rise between consecutive points
-//!   beyond the largest slope), in `f32` (no decimation: `f32` sums need no width bound).
+//!   test (the last point below the cut and the largest step a pair of consecutive points
+//!   shows, `min(rise, rise − slope·run + step)`), with the step between neighbouring cells'
+//!   lowest points at the observation's end, in `f32` (no decimation: `f32` sums need no
+//!   width bound). The pair across a cell's edge (two consecutive points in neighbouring
+//!   cells) it does not have.
 //! - Gate: per layer a 512-bin `f32` table (the library's table widened; a weight whose
 //!   gated increments would both round to zero in Q8.8 is 0 here too, so the same layers are
 //!   fed), binned as the library bins.
@@ -124,8 +127,8 @@ struct Sums {
     /// Where the lowest and the highest point lie (u, v).
     low_at: (f32, f32),
     high_at: (f32, f32),
-    /// The last point below the cut (u, v, z m) and the largest rise between consecutive
-    /// points beyond the largest slope (mm).
+    /// The last point below the cut (u, v, z m) and the largest step a pair of points has
+    /// shown (mm, [`shown`]).
     last: (f32, f32, f32),
     pair_rise: f32,
 }
@@ -161,16 +164,24 @@ impl Sums {
     }
 
     /// The pair test's step from the last point to (u, v, z m), `slope` the largest slope's
-    /// rise per unit of position (mm).
+    /// rise per unit of position and `step` the step allowance (mm).
     #[inline]
-    fn step(&mut self, u: f32, v: f32, z: f32, slope: f32) {
+    fn step(&mut self, u: f32, v: f32, z: f32, slope: f32, step: f32) {
         let rise = (z - self.last.2).abs() * 1000.0;
-        let run = (u - self.last.0).abs() + (v - self.last.1).abs();
-        let excess = rise - slope * run;
-        if excess > self.pair_rise {
-            self.pair_rise = excess;
+        // A rise within the step shows none beyond it (as the library's, not computed).
+        if rise > step {
+            let run = (u - self.last.0).abs() + (v - self.last.1).abs();
+            self.keep(shown(rise, run, slope, step));
         }
         self.last = (u, v, z);
+    }
+
+    /// Keeps `shown` (mm) when it is the largest step a pair has shown.
+    #[inline]
+    fn keep(&mut self, shown: f32) {
+        if shown > self.pair_rise {
+            self.pair_rise = shown;
+        }
     }
 
     #[inline]
@@ -186,6 +197,22 @@ impl Sums {
         self.suz += u * dz;
         self.svz += v * dz;
         self.szz += dz * dz;
+    }
+}
+
+/// The step a pair of points shows (mm): its rise beyond the largest slope over its run
+/// (`slope` mm a unit, at least 0) plus the step allowance, at most the rise, so that it
+/// exceeds `step + noise` exactly when the surface between them is steeper than the largest
+/// slope beyond the noise and rises more than a step beyond it (`docs/core.md`).
+/// Comparisons, not `f32::max`/`min`: those call `fmaxf`/`fminf` on the Cortex-M4F.
+#[inline]
+fn shown(rise: f32, run: f32, slope: f32, step: f32) -> f32 {
+    let beyond = rise - slope * run;
+    let shown = if beyond > 0.0 { beyond + step } else { step };
+    if shown < rise {
+        shown
+    } else {
+        rise
     }
 }
 
@@ -225,8 +252,15 @@ impl PlaneF32 {
     /// point, all in mm.
     fn obstacle(&self, s: &Sums, h: f32, d: f32, cell: f32, spread_mm: f32) -> bool {
         let n = s.n;
+        let r = sqrt(h * h + d * d);
+        let range = if r > 0.0 {
+            self.sigma_mm * h / r
+        } else {
+            self.sigma_mm
+        };
         if n < 2.0 {
-            return false;
+            // One point fits no plane; a pair with a point beside it may still show a step.
+            return s.pair_rise > self.step_mm + 2.0 * self.factor * range;
         }
         // Centred moments times n²; the ridge of 1 unit² times n².
         let cuu = n * s.suu - s.su * s.su;
@@ -244,12 +278,6 @@ impl PlaneF32 {
         let wa = (b * cuz - cuv * cvz) / det;
         let wb = (a * cvz - cuv * cuz) / det;
         // The extremes and the pair tests against step + 2·k·σ·h/r.
-        let r = sqrt(h * h + d * d);
-        let range = if r > 0.0 {
-            self.sigma_mm * h / r
-        } else {
-            self.sigma_mm
-        };
         let unexplained = if spread_mm > self.step_mm {
             let du = s.high_at.0 - s.low_at.0;
             let dv = s.high_at.1 - s.low_at.1;
@@ -578,6 +606,7 @@ impl<const C: usize> Frontend<C> {
                     slot.distance = distance;
                 }
                 let h = self.robot_height;
+                let step_mm = self.step * 1000.0;
                 let sums = if plane {
                     self.sums.get_mut(index)
                 } else {
@@ -599,7 +628,7 @@ impl<const C: usize> Frontend<C> {
                             }
                         }
                     } else if let Some(sums) = sums {
-                        sums.step(uv.0, uv.1, z, slope);
+                        sums.step(uv.0, uv.1, z, slope, step_mm);
                         sums.add(uv.0, uv.1, z);
                         sums.low_at = uv;
                     }
@@ -610,7 +639,7 @@ impl<const C: usize> Frontend<C> {
                         slot.z_high = z;
                     }
                     if let Some(sums) = sums {
-                        sums.step(uv.0, uv.1, z, slope);
+                        sums.step(uv.0, uv.1, z, slope, step_mm);
                         sums.add(uv.0, uv.1, z);
                         if higher {
                             sums.high_at = uv;
@@ -620,6 +649,71 @@ impl<const C: usize> Frontend<C> {
                 return;
             }
             index = (index + 1) & mask;
+        }
+    }
+
+    /// The slot of `(layer, cx, cy)` if the observation touched that cell.
+    fn find(&self, layer: u8, cx: i32, cy: i32) -> Option<usize> {
+        let mask = C - 1;
+        let mut index = hash(layer, cx, cy) as usize & mask;
+        for _ in 0..C {
+            let slot = self.slots.get(index)?;
+            if slot.layer == EMPTY {
+                return None;
+            }
+            if slot.layer == layer && slot.cell_x == cx && slot.cell_y == cy {
+                return Some(index);
+            }
+            index = (index + 1) & mask;
+        }
+        None
+    }
+
+    /// The step between neighbouring cells' lowest points (`docs/core.md`): each cell's
+    /// lowest point paired with those of its east and north neighbours in the same layer;
+    /// a rise beyond the step and at most the robot's height gives the upper cell the step
+    /// the pair shows over its run.
+    fn steps_between_cells<const W: usize, const L: usize>(&mut self, pyramid: &Pyramid<W, L>) {
+        let Some(plane) = self.plane else {
+            return;
+        };
+        let step_mm = self.step * 1000.0;
+        for n in 0..self.used {
+            let Some(&a) = self.order.get(n) else {
+                break;
+            };
+            let a = usize::from(a);
+            let Some(&cell) = self.slots.get(a) else {
+                continue;
+            };
+            let unit_mm = pyramid
+                .layers
+                .get(usize::from(cell.layer))
+                .map_or(0.0, |l| l.unit_mm);
+            for (dx, dy) in [(1, 0), (0, 1)] {
+                let Some(b) = self.find(cell.layer, cell.cell_x + dx, cell.cell_y + dy) else {
+                    continue;
+                };
+                let Some(&beside) = self.slots.get(b) else {
+                    continue;
+                };
+                let rise_m = beside.z_low - cell.z_low;
+                let rise = rise_m.abs() * 1000.0;
+                if rise <= step_mm || rise_m.abs() > self.robot_height {
+                    continue;
+                }
+                let (Some(from), Some(to)) = (self.sums.get(a), self.sums.get(b)) else {
+                    continue;
+                };
+                #[allow(clippy::cast_precision_loss)]
+                let run = (to.low_at.0 + 64.0 * dx as f32 - from.low_at.0).abs()
+                    + (to.low_at.1 + 64.0 * dy as f32 - from.low_at.1).abs();
+                let shown = shown(rise, run, plane.grade * unit_mm, step_mm);
+                let upper = if rise_m > 0.0 { b } else { a };
+                if let Some(sums) = self.sums.get_mut(upper) {
+                    sums.keep(shown);
+                }
+            }
         }
     }
 
@@ -638,6 +732,9 @@ impl<const C: usize> Frontend<C> {
             return;
         }
         pyramid.recentre(self.pose[0], self.pose[1]);
+        if self.plane.is_some() {
+            self.steps_between_cells(pyramid);
+        }
         let (obstacle, free, initial, min, max) = (
             pyramid.obstacle,
             pyramid.free,
@@ -651,8 +748,14 @@ impl<const C: usize> Frontend<C> {
             };
             let k = usize::from(slot.layer);
             let spread = slot.z_high - slot.z_low;
+            let pair_rise =
+                |sums: &[Sums; C]| sums.get(usize::from(i)).map_or(0.0, |s| s.pair_rise);
             let is_obstacle = match &self.plane {
-                Some(p) if spread * 1000.0 <= p.quick_mm => false,
+                // A pair beside the cell may mark a cell whose own points lie flat: its step
+                // is read before the quick answer.
+                Some(p) if spread * 1000.0 <= p.quick_mm && pair_rise(&self.sums) <= p.step_mm => {
+                    false
+                }
                 Some(p) => {
                     let cell = pyramid.layers.get(k).map_or(1.0, |l| 1000.0 / l.inv_res);
                     p.obstacle(

@@ -1,11 +1,15 @@
 //! The fused query of `docs/core.md`: walk the layers from the finest; the first layer whose
 //! cell at the point is observed and either positive (obstacle) or below −margin (navigable)
-//! answers, except that a navigable answer of layer k gives way to layer k + 1 when that
-//! layer's cell holds more obstacle evidence than layer k's holds free evidence; otherwise
-//! unknown. And the region export that samples it at a grid's centres.
+//! answers, except that a navigable answer of layer k gives way to the first of layers
+//! k + 1 ..= k + 3 whose cell holds more obstacle evidence than layer k's, and every
+//! observed layer's between them, hold free evidence; otherwise unknown. And the region
+//! export that samples it at a grid's centres.
 
 use super::logodds::Cell;
 use super::window::{cell_of, Pyramid};
+
+/// How many coarser layers may overrule a navigable answer (`docs/core.md`).
+const REACH: usize = 3;
 
 /// The answer of the fused query.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -32,10 +36,16 @@ impl Pyramid {
             match self.value_at(k, x_raw, y_raw) {
                 Some(l) if l > 0.0 => return Fused::Obstacle { layer: k },
                 Some(l) if l < -self.margin => {
-                    return match self.value_at(k + 1, x_raw, y_raw) {
-                        Some(next) if next > -l => Fused::Obstacle { layer: k + 1 },
-                        _ => Fused::Navigable { layer: k },
-                    };
+                    // The strongest free evidence from layer k to the one looked at.
+                    let mut free = -l;
+                    for j in k + 1..=k + REACH {
+                        let value = self.value_at(j, x_raw, y_raw).unwrap_or(0.0);
+                        if value > free {
+                            return Fused::Obstacle { layer: j };
+                        }
+                        free = free.max(-value);
+                    }
+                    return Fused::Navigable { layer: k };
                 }
                 _ => {}
             }
@@ -83,19 +93,32 @@ impl Pyramid {
                 return Some(Fused::Obstacle { layer: k });
             }
             if l < -self.margin {
-                // The next layer's comparison with this one's free evidence, within both
-                // budgets, or its observed-ness on a threshold, could go either way.
-                let Some(next) = self.cell_at(k + 1, x_raw, y_raw) else {
-                    return Some(Fused::Navigable { layer: k });
-                };
-                if next.threshold_case && !next.surely_observed {
-                    return None;
+                // Each coarser layer's comparison with the strongest free evidence before it
+                // (from layer k on), within their budgets, or its observed-ness on a
+                // threshold, could go either way.
+                let (mut free, mut free_budget) = (-l, e);
+                for j in k + 1..=k + REACH {
+                    let Some(next) = self.cell_at(j, x_raw, y_raw) else {
+                        continue;
+                    };
+                    if next.threshold_case && !next.surely_observed {
+                        return None;
+                    }
+                    let Some(n) = next.value else {
+                        continue;
+                    };
+                    let budget = free_budget + next.budget;
+                    if (n - free).abs() <= budget && budget > 0.0 {
+                        return None;
+                    }
+                    if n > free {
+                        return Some(Fused::Obstacle { layer: j });
+                    }
+                    if -n > free {
+                        (free, free_budget) = (-n, next.budget);
+                    }
                 }
-                return match next.value {
-                    Some(n) if (n + l).abs() <= e + next.budget && e + next.budget > 0.0 => None,
-                    Some(n) if n > -l => Some(Fused::Obstacle { layer: k + 1 }),
-                    _ => Some(Fused::Navigable { layer: k }),
-                };
+                return Some(Fused::Navigable { layer: k });
             }
         }
         Some(Fused::Unknown)
@@ -163,17 +186,25 @@ mod tests {
         assert_eq!(p.fused(-100, -100), Fused::Unknown);
     }
 
-    #[test]
-    fn the_next_layers_stronger_obstacle_evidence_answers() {
-        let (d, mut p) = default_quantised();
-        let at = |k: usize| (d.layers[k].centre * 65_536.0) as i32;
-        let look = |layer: usize, obstacle: bool| Evidence {
+    /// One look of `layer` at its cell (0, 0) from its band's centre.
+    fn look_at_origin(
+        d: &crate::reference::bands::Design,
+        layer: usize,
+        obstacle: bool,
+    ) -> Evidence {
+        Evidence {
             layer,
             i: 0,
             j: 0,
             obstacle,
-            distance_raw: at(layer),
-        };
+            distance_raw: (d.layers[layer].centre * 65_536.0) as i32,
+        }
+    }
+
+    #[test]
+    fn the_next_layers_stronger_obstacle_evidence_answers() {
+        let (d, mut p) = default_quantised();
+        let look = |layer: usize, obstacle: bool| look_at_origin(&d, layer, obstacle);
         p.apply(&look(0, false));
         assert_eq!(p.fused(100, 100), Fused::Navigable { layer: 0 });
         // One obstacle look of layer 1 outweighs one free look of layer 0.
@@ -184,5 +215,31 @@ mod tests {
         p.apply(&look(0, false));
         p.apply(&look(0, false));
         assert_eq!(p.fused(100, 100), Fused::Navigable { layer: 0 });
+    }
+
+    #[test]
+    fn three_coarser_layers_may_answer_past_stronger_free_evidence_only() {
+        let (d, mut p) = default_quantised();
+        let look = |layer: usize, obstacle: bool| look_at_origin(&d, layer, obstacle);
+        p.apply(&look(0, false));
+        // Layer 3's obstacle, two unobserved layers between: it answers.
+        p.apply(&look(3, true));
+        assert_eq!(p.fused(100, 100), Fused::Obstacle { layer: 3 });
+        // Layer 1's three free looks between outweigh it: layer 0's answer stands.
+        for _ in 0..3 {
+            p.apply(&look(1, false));
+        }
+        assert_eq!(p.fused(100, 100), Fused::Navigable { layer: 0 });
+        assert_eq!(
+            p.fused_robust(100, 100),
+            Some(Fused::Navigable { layer: 0 })
+        );
+        // Layer 4 is beyond the reach, however strong.
+        let (_, mut q) = default_quantised();
+        q.apply(&look(0, false));
+        for _ in 0..4 {
+            q.apply(&look(4, true));
+        }
+        assert_eq!(q.fused(100, 100), Fused::Navigable { layer: 0 });
     }
 }

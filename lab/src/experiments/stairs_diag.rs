@@ -7,7 +7,7 @@
 
 use super::designs;
 use super::engine::{decode, Map, Runner};
-use super::lidar::{self, StairsSetup, LAYERS, STAIRS_CELLS};
+use super::lidar::{self, StairsSetup, RIG_LAYERS as LAYERS, STAIRS_CELLS};
 use super::stairs::{self, CELL_M};
 use std::fmt::Write as _;
 use terrain_pyramid::classify::ClassifierConfig;
@@ -43,7 +43,12 @@ pub fn diagnose(
         .layers()
         .iter()
         .enumerate()
-        .map(|(k, l)| format!("{k}: {:.2}..{:.2}", l.band_inner_m, l.band_outer_m))
+        .map(|(k, l)| {
+            format!(
+                "{k}: {:.2}..{:.2} ({:.2} m)",
+                l.band_inner_m, l.band_outer_m, l.resolution_m
+            )
+        })
         .collect();
     let mut map: Box<dyn Map> = Box::new(Runner::<STAIRS_CELLS, LAYERS, { stairs::SLOTS }>::new(
         "diag",
@@ -72,6 +77,12 @@ pub fn diagnose(
         "| t s | robot to riser m | fused: obstacle/free/unknown | answering layers (k:obst/free) | first riser obstacle |\n| --- | --- | --- | --- | --- |"
     );
     let count = decoded.lines.len();
+    let trace_layers: Vec<usize> = std::env::var("STAIRS_DIAG_TRACE")
+        .unwrap_or_default()
+        .split(',')
+        .filter_map(|v| v.trim().parse().ok())
+        .collect();
+    let mut trace = String::new();
     let mut next_report_s = 0.0_f64;
     for (i, line) in decoded.lines.iter().enumerate() {
         map.line(line);
@@ -98,6 +109,18 @@ pub fn diagnose(
                         &mut standing
                     };
                     let positive = delta > 0.0;
+                    if trace_layers.contains(&k) && (c.1 == 0) && is_driving {
+                        let _ = writeln!(
+                            trace,
+                            "t {:.3} robot->cell {:.2} m cell ({}, {}) layer {k}: {delta:+.2} -> {:.2}{}",
+                            t_us * 1e-6,
+                            x - robot_x,
+                            c.0,
+                            c.1,
+                            now.unwrap_or(0.0),
+                            if is_last { " (flush)" } else { "" }
+                        );
+                    }
                     if let Some(e) = table.get_mut(k) {
                         if positive {
                             e.obstacle += 1;
@@ -160,6 +183,9 @@ pub fn diagnose(
                 stairs::shares(map.as_ref(), &first).obstacle
             );
         }
+    }
+    if !trace.is_empty() {
+        let _ = writeln!(out, "\nincrements while driving, row y = 0 only:\n{trace}");
     }
     let _ = writeln!(
         out,
@@ -262,7 +288,8 @@ mod tests {
     use terrain_pyramid::GateShape;
 
     /// `cargo test --release -p terrain-pyramid-lab --lib stairs_diag -- --ignored --nocapture`
-    /// with `STAIRS_DIAG_STAND_S` (default 120) and `STAIRS_DIAG_GATE` (`hard` or `soft`).
+    /// with `STAIRS_DIAG_STAND_S` (default 120), `STAIRS_DIAG_GATE` (`hard` or `soft`) and
+    /// `STAIRS_DIAG_RIG` (`ld19`, the default, `rplidar` or `ydlidar`).
     #[test]
     #[ignore = "a diagnostic, minutes long: run by hand"]
     fn stairs_diagnostic() {
@@ -277,13 +304,20 @@ mod tests {
         let handle = std::thread::Builder::new()
             .stack_size(512 << 20)
             .spawn(move || {
+                let kind = match std::env::var("STAIRS_DIAG_RIG").as_deref() {
+                    Ok("rplidar") => lidar::RIGS[1].0,
+                    Ok("ydlidar") => lidar::RIGS[2].0,
+                    _ => lidar::RIGS[0].0,
+                };
+                let (_, range_m) = kind.range_m();
                 let setup = StairsSetup {
                     stand_s,
+                    kind,
+                    range_m,
+                    stand_distance_m: range_m - 0.95,
                     ..StairsSetup::FULL
                 };
-                let design = lidar::Ld19Design::from_datasheet()
-                    .pyramid::<LAYERS>(setup.range_m, gate, setup.uniform_layers, STAIRS_CELLS)
-                    .map_err(|e| e.to_string())?;
+                let design = setup.pyramid::<LAYERS>(gate).map_err(|e| e.to_string())?;
                 diagnose(&setup, design, &ClassifierConfig::default())
             })
             .unwrap();
