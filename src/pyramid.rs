@@ -81,8 +81,8 @@ pub enum Fused {
 /// layer does not hold the point): the first observed cell with L > 0 answers obstacle, with
 /// L < −`margin_raw` (Q8.8 raw log-odds) navigable unless one of the next [`FUSED_REACH`]
 /// layers' cells holds L greater than the −L of this layer and of every observed layer
-/// between them (then the first such layer answers obstacle); unknown when none does. [`Pyramid::fused`] asks it of a pyramid, the host of
-/// the maps a device sends.
+/// between them (then the first such layer answers obstacle); unknown when none does.
+/// [`Pyramid::fused`] asks it of a pyramid, the host of the maps a device sends.
 // Out of line: inlined into the boot's self-check it grew that frame by 560 B of stack
 // (`boards/check.sh`, qemu-mps2).
 #[inline(never)]

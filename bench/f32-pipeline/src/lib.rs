@@ -204,6 +204,7 @@ impl Sums {
 /// (`slope` mm a unit, at least 0) plus the step allowance, at most the rise, so that it
 /// exceeds `step + noise` exactly when the surface between them is steeper than the largest
 /// slope beyond the noise and rises more than a step beyond it (`docs/core.md`).
+///
 /// Comparisons, not `f32::max`/`min`: those call `fmaxf`/`fminf` on the Cortex-M4F.
 #[inline]
 fn shown(rise: f32, run: f32, slope: f32, step: f32) -> f32 {
@@ -672,7 +673,7 @@ impl<const C: usize> Frontend<C> {
     /// The step between neighbouring cells' lowest points (`docs/core.md`): each cell's
     /// lowest point paired with those of its east and north neighbours in the same layer;
     /// a rise beyond the step and at most the robot's height gives the upper cell the step
-    /// the pair shows over its run.
+    /// the pair shows over its run. Plane rule only (nothing to do under the spread rule).
     fn steps_between_cells<const W: usize, const L: usize>(&mut self, pyramid: &Pyramid<W, L>) {
         let Some(plane) = self.plane else {
             return;
@@ -732,9 +733,7 @@ impl<const C: usize> Frontend<C> {
             return;
         }
         pyramid.recentre(self.pose[0], self.pose[1]);
-        if self.plane.is_some() {
-            self.steps_between_cells(pyramid);
-        }
+        self.steps_between_cells(pyramid);
         let (obstacle, free, initial, min, max) = (
             pyramid.obstacle,
             pyramid.free,
@@ -748,12 +747,14 @@ impl<const C: usize> Frontend<C> {
             };
             let k = usize::from(slot.layer);
             let spread = slot.z_high - slot.z_low;
-            let pair_rise =
-                |sums: &[Sums; C]| sums.get(usize::from(i)).map_or(0.0, |s| s.pair_rise);
             let is_obstacle = match &self.plane {
                 // A pair beside the cell may mark a cell whose own points lie flat: its step
                 // is read before the quick answer.
-                Some(p) if spread * 1000.0 <= p.quick_mm && pair_rise(&self.sums) <= p.step_mm => {
+                Some(p)
+                    if spread * 1000.0 <= p.quick_mm
+                        && self.sums.get(usize::from(i)).map_or(0.0, |s| s.pair_rise)
+                            <= p.step_mm =>
+                {
                     false
                 }
                 Some(p) => {
