@@ -39,6 +39,12 @@
 //! - **post** (pole, traffic sign, trunk), **block** (vehicles, people, buildings, fences,
 //!   other structures), **vegetation**, **other** (other objects): marked as curbs are.
 //!
+//! Under each table, the same points by how flat the surface around them is, whatever their
+//! label: the height span of every return within 0.3 m (`semantic_kitti::local_spans`), for the
+//! obstacles left unmarked, every obstacle, the clear ground read otherwise and all of it. An
+//! obstacle whose surroundings span less than a kerb is one a geometric rule marks only by
+//! marking ground as flat.
+//!
 //! The truth is derived by `terrain_pyramid_host_tests::semantic_kitti::truth` (tested there).
 
 use terrain_pyramid::classify::{Classifier, ClassifierConfig, NavigabilityRule, PlaneRule};
@@ -47,7 +53,8 @@ use terrain_pyramid_host_tests::navigability::rings::{ring_name, ring_of, RINGS}
 use terrain_pyramid_host_tests::navigability::{self, integrate_library};
 use terrain_pyramid_host_tests::scan3dtk::{fused_at, obstacle_near};
 use terrain_pyramid_host_tests::semantic_kitti::{
-    load, truth, CurbRows, BLOCK_ROW, CURB_ROW, GROUND_ROW, OTHER_ROW, POST_ROW, VEGETATION_ROW,
+    load, local_spans, truth, CurbRows, BLOCK_ROW, CURB_ROW, GROUND_ROW, OTHER_ROW, POST_ROW,
+    SPAN_RADIUS_M, VEGETATION_ROW,
 };
 use terrain_pyramid_host_tests::sim::cloud::{firing_order, Observation};
 
@@ -91,6 +98,27 @@ const PRINT_ORDER: [usize; 11] = [0, 1, 7, 8, 9, 10, 2, 3, 4, 5, 6];
 /// Per row and ring: (points, right).
 type Table = [[(usize, usize); RINGS]; 11];
 
+/// The upper bounds of the flatness table's columns: the height span of every return within
+/// [`SPAN_RADIUS_M`] of a point, metres (the last column is open).
+const SPAN_BOUNDS_M: [f64; 4] = [0.05, 0.08, 0.10, 0.15];
+/// The flatness table's columns.
+const SPANS: usize = SPAN_BOUNDS_M.len() + 1;
+/// The flatness table's rows, by index.
+const FLAT_ROWS: [&str; 4] = [
+    "every obstacle, unmarked",
+    "every obstacle",
+    "clear ground, not navigable",
+    "clear ground",
+];
+/// Points by the flatness around them ([`local_spans`]): one row of [`FLAT_ROWS`] each.
+type Flatness = [[usize; SPANS]; 4];
+
+/// One run's score: the table by ring and the points by the flatness around them.
+struct Scored {
+    table: Table,
+    flat: Flatness,
+}
+
 /// The range ring of a point, by its horizontal distance from the laser.
 fn ring(p: &[f64; 3]) -> Option<usize> {
     ring_of(p[0].hypot(p[1]))
@@ -116,14 +144,24 @@ fn design() -> Result<Design<L>, String> {
     .map_err(|e| format!("the design: {e:?}"))
 }
 
+/// The column of [`Flatness`] a span (metres) falls in.
+fn span_column(span: f64) -> usize {
+    SPAN_BOUNDS_M
+        .iter()
+        .position(|&b| span < b)
+        .unwrap_or(SPANS - 1)
+}
+
 fn score(
     p: &Pyramid<W, L>,
     points: &[[f64; 3]],
     rows: &[Option<usize>],
     bands: &[CurbRows],
-) -> Table {
+    spans: &[f64],
+) -> Scored {
     let mut t: Table = [[(0, 0); RINGS]; 11];
-    for ((q, row), band) in points.iter().zip(rows).zip(bands) {
+    let mut flat: Flatness = [[0; SPANS]; 4];
+    for (((q, row), band), span) in points.iter().zip(rows).zip(bands).zip(spans) {
         let (Some(row), Some(r)) = (*row, ring(q)) else {
             continue;
         };
@@ -133,6 +171,10 @@ fn score(
         } else {
             obstacle_near(p, q[0], q[1])
         };
+        let flat_row = if row == GROUND_ROW { 2 } else { 0 };
+        let column = span_column(*span);
+        flat[flat_row + 1][column] += 1;
+        flat[flat_row][column] += usize::from(!right);
         for k in [
             Some(row),
             (row != GROUND_ROW).then_some(EVERY_OBSTACLE_ROW),
@@ -146,13 +188,16 @@ fn score(
             t[k][r].1 += usize::from(right);
         }
     }
-    t
+    Scored { table: t, flat }
 }
 
 /// Adds `t`'s points and rights to `sum`'s, cell by cell.
-fn add_into(sum: &mut Table, t: &Table) {
-    for (a, c) in sum.iter_mut().flatten().zip(t.iter().flatten()) {
+fn add_into(sum: &mut Scored, t: &Scored) {
+    for (a, c) in sum.table.iter_mut().flatten().zip(t.table.iter().flatten()) {
         *a = (a.0 + c.0, a.1 + c.1);
+    }
+    for (a, c) in sum.flat.iter_mut().flatten().zip(t.flat.iter().flatten()) {
+        *a += c;
     }
 }
 
@@ -170,7 +215,8 @@ fn cell((n, ok): (usize, usize)) -> String {
     format!("{pct:.1} % ({ok} / {n})")
 }
 
-fn print(title: &str, t: &Table) {
+fn print(title: &str, scored: &Scored) {
+    let t = &scored.table;
     println!("\n### {title}\n");
     let names: Vec<String> = (0..RINGS).map(ring_name).collect();
     println!("| points on | {} | all |", names.join(" | "));
@@ -179,6 +225,36 @@ fn print(title: &str, t: &Table) {
         let all = total(row);
         let cells: Vec<String> = row.iter().map(|&c| cell(c)).collect();
         println!("| {name} | {} | {} |", cells.join(" | "), cell(all));
+    }
+    print_flatness(&scored.flat);
+}
+
+/// The flatness table: the points by the height span of every return within
+/// [`SPAN_RADIUS_M`] of them, and what share of each row's points each column holds.
+fn print_flatness(flat: &Flatness) {
+    println!(
+        "\nThe same points by the height span of every return within {SPAN_RADIUS_M} m of them:\n"
+    );
+    let cm = |m: f64| format!("{:.0}", m * 100.0);
+    let names: Vec<String> = (0..SPANS)
+        .map(|k| {
+            match (
+                k.checked_sub(1).map(|j| SPAN_BOUNDS_M[j]),
+                SPAN_BOUNDS_M.get(k),
+            ) {
+                (None, Some(&high)) => format!("< {} cm", cm(high)),
+                (Some(low), Some(&high)) => format!("{}–{} cm", cm(low), cm(high)),
+                (Some(low), None) => format!("≥ {} cm", cm(low)),
+                (None, None) => String::new(),
+            }
+        })
+        .collect();
+    println!("| points | {} | all |", names.join(" | "));
+    println!("|{}", " --- |".repeat(SPANS + 2));
+    for (name, row) in FLAT_ROWS.iter().zip(flat) {
+        let all: usize = row.iter().sum();
+        let cells: Vec<String> = row.iter().map(|&n| cell((all, n))).collect();
+        println!("| {name} | {} | {all} |", cells.join(" | "));
     }
 }
 
@@ -191,7 +267,7 @@ fn score_scan(
     label: &str,
     design: &Design<L>,
     classifier: &mut Classifier<SLOTS, L>,
-) -> Result<([(String, Table); RUNS], String), String> {
+) -> Result<([(String, Scored); RUNS], String), String> {
     let (points, classes) = load(bin, label)?;
     let (rows, bands) = truth(&points, &classes, -HEIGHT_M, ROBOT_HEIGHT_M, RANGE_M);
     let count = |row: usize| rows.iter().filter(|r| **r == Some(row)).count();
@@ -219,7 +295,8 @@ fn score_scan(
         ),
         ("spread (paper)", NavigabilityRule::Spread),
     ];
-    let mut tables: Vec<(String, Table)> = Vec::with_capacity(RUNS);
+    let spans = local_spans(&points);
+    let mut tables: Vec<(String, Scored)> = Vec::with_capacity(RUNS);
     for (rule_name, rule) in rules {
         for (order_name, ordered) in &orders {
             classifier.configure(ClassifierConfig {
@@ -240,13 +317,13 @@ fn score_scan(
             }
             tables.push((
                 format!("{rule_name}, {order_name}"),
-                score(&p, &points, &rows, &bands),
+                score(&p, &points, &rows, &bands, &spans),
             ));
         }
     }
     // Each rule in firing order, the way a device receives a spinning laser.
     for (name, t) in tables.iter().skip(1).step_by(2) {
-        let all = |row: usize| cell(total(&t[row]));
+        let all = |row: usize| cell(total(&t.table[row]));
         summary.push_str(&format!(
             "\n  {name}: clear ground {}, curb {}, post {}, every obstacle {}",
             all(GROUND_ROW),
@@ -255,7 +332,7 @@ fn score_scan(
             all(EVERY_OBSTACLE_ROW)
         ));
     }
-    let tables: [(String, Table); RUNS] = tables
+    let tables: [(String, Scored); RUNS] = tables
         .try_into()
         .map_err(|_| "a rule or an order is missing".to_string())?;
     Ok((tables, summary))
@@ -265,7 +342,7 @@ fn score_scan(
 fn run(pairs: &[(String, String)]) -> Result<(), String> {
     let design = design()?;
     let mut classifier: Box<Classifier<SLOTS, L>> = navigability::classifier(&design);
-    let mut sums: Option<[(String, Table); RUNS]> = None;
+    let mut sums: Option<[(String, Scored); RUNS]> = None;
     for (bin, label) in pairs {
         let (tables, summary) = score_scan(bin, label, &design, &mut classifier)?;
         println!("{summary}");

@@ -154,6 +154,41 @@ impl Buckets {
         }
         best
     }
+
+    /// The height span (highest less lowest, metres) of the points within `radius` (≤ 0.5 m)
+    /// of `p`, horizontally, `p` itself among them.
+    fn span(&self, points: &[[f64; 3]], p: &[f64; 3], radius: f64) -> f64 {
+        let (i, j) = Self::key(p);
+        let (mut low, mut high) = (p[2], p[2]);
+        for di in -1..=1 {
+            for dj in -1..=1 {
+                for &k in self.0.get(&(i + di, j + dj)).into_iter().flatten() {
+                    let q = &points[k];
+                    if (q[0] - p[0]).hypot(q[1] - p[1]) <= radius {
+                        low = low.min(q[2]);
+                        high = high.max(q[2]);
+                    }
+                }
+            }
+        }
+        high - low
+    }
+}
+
+/// The radius of the neighbourhood [`local_spans`] measures, metres: a kerb's reach.
+pub const SPAN_RADIUS_M: f64 = KERB_REACH_M;
+
+/// How flat the surface around each point is, whatever its label: the height span (highest
+/// less lowest, metres, ≥ 0) of every point of the scan within [`SPAN_RADIUS_M`] of it
+/// horizontally. A geometric rule that marks a point whose neighbourhood spans less than a
+/// kerb marks ground that spans as little.
+#[must_use]
+pub fn local_spans(points: &[[f64; 3]]) -> Vec<f64> {
+    let buckets = Buckets::new(points);
+    points
+        .iter()
+        .map(|p| buckets.span(points, p, SPAN_RADIUS_M))
+        .collect()
 }
 
 /// What each point of a scan (`points`, metres, the laser at the origin; `classes`, raw ids)
@@ -270,6 +305,27 @@ mod tests {
             .contains("do not hold the same points"));
         assert!(parse(&b[..20], &l).is_err());
         assert!(load("/nonexistent/000000.bin", "/nonexistent/000000.label").is_err());
+    }
+
+    #[test]
+    fn a_local_span_holds_the_neighbours_within_the_radius_only() {
+        // A flat patch, a 12 cm step 0.25 m away, and a post 0.4 m away (beyond the radius).
+        let points = [
+            [0.0, 0.0, -1.73],
+            [0.1, 0.0, -1.72],
+            [0.25, 0.0, -1.61],
+            [0.0, 0.4, -1.0],
+        ];
+        let spans = local_spans(&points);
+        assert!((spans[0] - 0.12).abs() < 1e-9, "{spans:?}");
+        // The step sees the patch below it but not the post (0.47 m away).
+        assert!((spans[2] - 0.12).abs() < 1e-9, "{spans:?}");
+        // The post sees nothing within 0.3 m but itself.
+        assert!(spans[3].abs() < 1e-12, "{spans:?}");
+        // Across bucket boundaries (0.5 m cells): a point at 0.49 m sees one at 0.51 m.
+        let spans = local_spans(&[[0.49, 0.0, 0.0], [0.51, 0.0, 0.05], [1.2, 0.0, 1.0]]);
+        assert!((spans[0] - 0.05).abs() < 1e-9 && (spans[1] - 0.05).abs() < 1e-9);
+        assert!(spans[2].abs() < 1e-12);
     }
 
     #[test]
