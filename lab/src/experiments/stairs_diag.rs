@@ -82,6 +82,10 @@ pub fn diagnose(
         .split(',')
         .filter_map(|v| v.trim().parse().ok())
         .collect();
+    let trace_row: i32 = std::env::var("STAIRS_DIAG_ROW")
+        .ok()
+        .and_then(|v| v.trim().parse().ok())
+        .unwrap_or(0);
     let mut trace = String::new();
     let mut next_report_s = 0.0_f64;
     for (i, line) in decoded.lines.iter().enumerate() {
@@ -109,7 +113,7 @@ pub fn diagnose(
                         &mut standing
                     };
                     let positive = delta > 0.0;
-                    if trace_layers.contains(&k) && (c.1 == 0) && is_driving {
+                    if trace_layers.contains(&k) && (c.1 == trace_row) && is_driving {
                         let _ = writeln!(
                             trace,
                             "t {:.3} robot->cell {:.2} m cell ({}, {}) layer {k}: {delta:+.2} -> {:.2}{}",
@@ -185,7 +189,10 @@ pub fn diagnose(
         }
     }
     if !trace.is_empty() {
-        let _ = writeln!(out, "\nincrements while driving, row y = 0 only:\n{trace}");
+        let _ = writeln!(
+            out,
+            "\nincrements while driving, row y = {trace_row} only:\n{trace}"
+        );
     }
     let _ = writeln!(
         out,
@@ -224,6 +231,29 @@ pub fn diagnose(
             "riser at {:.2} m: {:?}; {}",
             x - decoded.lines.last().map_or(0.0, |l| l.robot_xy.0),
             map.fused(x, y),
+            layers.join(" ")
+        );
+    }
+    let _ = writeln!(
+        out,
+        "\nat the stop, every step cell the fused map does not read as obstacle: its answer and each observed layer's L (k:nats)"
+    );
+    let robot_x = decoded.lines.last().map_or(0.0, |l| l.robot_xy.0);
+    for c in &steps {
+        let (x, y) = centre(*c);
+        let answer = map.fused(x, y);
+        if matches!(answer, Fused::Obstacle { .. }) {
+            continue;
+        }
+        let layers: Vec<String> = (0..n_layers)
+            .filter_map(|k| map.layer_log_odds(k, x, y).map(|l| format!("{k}:{l:.2}")))
+            .collect();
+        let _ = writeln!(
+            out,
+            "cell ({}, {}) at {:.2} m: {answer:?}; {}",
+            c.0,
+            c.1,
+            x - robot_x,
             layers.join(" ")
         );
     }
@@ -288,8 +318,11 @@ mod tests {
     use terrain_pyramid::GateShape;
 
     /// `cargo test --release -p terrain-pyramid-lab --lib stairs_diag -- --ignored --nocapture`
-    /// with `STAIRS_DIAG_STAND_S` (default 120), `STAIRS_DIAG_GATE` (`hard` or `soft`) and
-    /// `STAIRS_DIAG_RIG` (`ld19`, the default, `rplidar` or `ydlidar`).
+    /// with `STAIRS_DIAG_STAND_S` (default 120), `STAIRS_DIAG_GATE` (`hard` or `soft`),
+    /// `STAIRS_DIAG_RIG` (`ld19`, the default, `rplidar` or `ydlidar`), `STAIRS_DIAG_TRACE`
+    /// (the layers whose increments to the step cells are listed, e.g. `1,2,3`) and
+    /// `STAIRS_DIAG_ROW` (the row of step cells traced, default 0; the cells missed at the
+    /// stop are listed with their rows).
     #[test]
     #[ignore = "a diagnostic, minutes long: run by hand"]
     fn stairs_diagnostic() {
