@@ -220,41 +220,42 @@ pub fn diagnose(
         out,
         "\nat the stop, per riser (its centre cell): the fused answer and each observed layer's L (k:nats)"
     );
+    // Each observed layer's log-odds at a point, `k:nats` apart by spaces.
+    let layers_at = |x: f64, y: f64| {
+        (0..n_layers)
+            .filter_map(|k| map.layer_log_odds(k, x, y).map(|l| format!("{k}:{l:.2}")))
+            .collect::<Vec<String>>()
+            .join(" ")
+    };
+    let robot_x = decoded.lines.last().map_or(0.0, |l| l.robot_xy.0);
     let risers: std::collections::BTreeSet<i32> = steps.iter().map(|c| c.0).collect();
     for ix in risers {
         let (x, y) = centre((ix, 0));
-        let layers: Vec<String> = (0..n_layers)
-            .filter_map(|k| map.layer_log_odds(k, x, y).map(|l| format!("{k}:{l:.2}")))
-            .collect();
         let _ = writeln!(
             out,
             "riser at {:.2} m: {:?}; {}",
-            x - decoded.lines.last().map_or(0.0, |l| l.robot_xy.0),
+            x - robot_x,
             map.fused(x, y),
-            layers.join(" ")
+            layers_at(x, y)
         );
     }
     let _ = writeln!(
         out,
         "\nat the stop, every step cell the fused map does not read as obstacle: its answer and each observed layer's L (k:nats)"
     );
-    let robot_x = decoded.lines.last().map_or(0.0, |l| l.robot_xy.0);
     for c in &steps {
         let (x, y) = centre(*c);
         let answer = map.fused(x, y);
         if matches!(answer, Fused::Obstacle { .. }) {
             continue;
         }
-        let layers: Vec<String> = (0..n_layers)
-            .filter_map(|k| map.layer_log_odds(k, x, y).map(|l| format!("{k}:{l:.2}")))
-            .collect();
         let _ = writeln!(
             out,
             "cell ({}, {}) at {:.2} m: {answer:?}; {}",
             c.0,
             c.1,
             x - robot_x,
-            layers.join(" ")
+            layers_at(x, y)
         );
     }
     let _ = writeln!(
