@@ -236,18 +236,16 @@ fn print_flatness(flat: &Flatness) {
         "\nThe same points by the height span of every return within {SPAN_RADIUS_M} m of them:\n"
     );
     let cm = |m: f64| format!("{:.0}", m * 100.0);
-    let names: Vec<String> = (0..SPANS)
-        .map(|k| {
-            match (
-                k.checked_sub(1).map(|j| SPAN_BOUNDS_M[j]),
-                SPAN_BOUNDS_M.get(k),
-            ) {
-                (None, Some(&high)) => format!("< {} cm", cm(high)),
-                (Some(low), Some(&high)) => format!("{}–{} cm", cm(low), cm(high)),
-                (Some(low), None) => format!("≥ {} cm", cm(low)),
-                (None, None) => String::new(),
-            }
-        })
+    let names: Vec<String> = SPAN_BOUNDS_M
+        .first()
+        .map(|&b| format!("< {} cm", cm(b)))
+        .into_iter()
+        .chain(
+            SPAN_BOUNDS_M
+                .windows(2)
+                .map(|w| format!("{}–{} cm", cm(w[0]), cm(w[1]))),
+        )
+        .chain(SPAN_BOUNDS_M.last().map(|&b| format!("≥ {} cm", cm(b))))
         .collect();
     println!("| points | {} | all |", names.join(" | "));
     println!("|{}", " --- |".repeat(SPANS + 2));

@@ -59,6 +59,19 @@ impl Pyramid {
         self.cell_at(k, x_raw, y_raw)?.value
     }
 
+    /// Layer `k`'s log-odds and error budget at the raw point: `Some(None)` where it holds
+    /// none (no such layer, outside its window, or unknown), `None` where a fixed-point
+    /// pyramid that follows the spec could hold that cell observed or not (a threshold case).
+    fn settled_value(&self, k: usize, x_raw: i32, y_raw: i32) -> Option<Option<(f64, f64)>> {
+        let Some(cell) = self.cell_at(k, x_raw, y_raw) else {
+            return Some(None);
+        };
+        if cell.threshold_case && !cell.surely_observed {
+            return None;
+        }
+        Some(cell.value.map(|l| (l, cell.budget)))
+    }
+
     /// Layer `k`'s cell at the raw point, `None` where there is no such layer or the point
     /// lies outside its window.
     fn cell_at(&self, k: usize, x_raw: i32, y_raw: i32) -> Option<Cell> {
@@ -76,16 +89,9 @@ impl Pyramid {
     #[must_use]
     pub fn fused_robust(&self, x_raw: i32, y_raw: i32) -> Option<Fused> {
         for k in 0..self.layers.len() {
-            let Some(cell) = self.cell_at(k, x_raw, y_raw) else {
+            let Some((l, e)) = self.settled_value(k, x_raw, y_raw)? else {
                 continue;
             };
-            if cell.threshold_case && !cell.surely_observed {
-                return None;
-            }
-            let Some(l) = cell.value else {
-                continue;
-            };
-            let e = cell.budget;
             if e > 0.0 && (l.abs() <= e || (l + self.margin).abs() <= e) {
                 return None;
             }
@@ -98,16 +104,10 @@ impl Pyramid {
                 // threshold, could go either way.
                 let (mut free, mut free_budget) = (-l, e);
                 for j in k + 1..=k + REACH {
-                    let Some(next) = self.cell_at(j, x_raw, y_raw) else {
+                    let Some((n, n_budget)) = self.settled_value(j, x_raw, y_raw)? else {
                         continue;
                     };
-                    if next.threshold_case && !next.surely_observed {
-                        return None;
-                    }
-                    let Some(n) = next.value else {
-                        continue;
-                    };
-                    let budget = free_budget + next.budget;
+                    let budget = free_budget + n_budget;
                     if (n - free).abs() <= budget && budget > 0.0 {
                         return None;
                     }
@@ -115,7 +115,7 @@ impl Pyramid {
                         return Some(Fused::Obstacle { layer: j });
                     }
                     if -n > free {
-                        (free, free_budget) = (-n, next.budget);
+                        (free, free_budget) = (-n, n_budget);
                     }
                 }
                 return Some(Fused::Navigable { layer: k });
