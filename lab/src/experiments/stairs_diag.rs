@@ -64,6 +64,10 @@ pub fn diagnose(
         )
     };
     let mut last: Vec<Vec<Option<f32>>> = vec![vec![None; n_layers]; steps.len()];
+    // The ground before the stairs, watched alike: each observation's verdict on its cells.
+    let ground = stairs::Watched::of(&scene).ground;
+    let mut ground_last: Vec<Vec<Option<f32>>> = vec![vec![None; n_layers]; ground.len()];
+    let mut ground_looks = vec![Counts::default(); n_layers];
     // Increments per layer while standing and while driving; per distance (1 m rings of the
     // step cell's distance from the robot) while driving.
     let mut standing = vec![Counts::default(); n_layers];
@@ -147,6 +151,23 @@ pub fn diagnose(
                 *p = now;
             }
         }
+        for (c, prev) in ground.iter().zip(ground_last.iter_mut()) {
+            let (x, y) = centre(*c);
+            for (k, p) in prev.iter_mut().enumerate() {
+                let now = map.layer_log_odds(k, x, y);
+                let delta = now.unwrap_or(0.0) - p.unwrap_or(0.0);
+                if now.is_some() && (p.is_none() || delta.abs() > 1e-6) {
+                    if let Some(e) = ground_looks.get_mut(k) {
+                        if delta > 0.0 {
+                            e.obstacle += 1;
+                        } else {
+                            e.free += 1;
+                        }
+                    }
+                }
+                *p = now;
+            }
+        }
         let t_s = t_us * 1e-6;
         if t_s >= next_report_s || is_last {
             next_report_s = if is_driving { t_s + 0.5 } else { t_s + 10.0 };
@@ -207,6 +228,28 @@ pub fn diagnose(
             );
         }
     }
+    // The classifier's verdicts per look, as the inverse sensor model reads them: the share of
+    // obstacle verdicts on cells that hold a step (its hit rate) and on the flat ground before
+    // the stairs (its false alarms).
+    let share = |c: &[Counts]| {
+        let (o, f) = c.iter().fold((0_u64, 0_u64), |(o, f), e| {
+            (o + u64::from(e.obstacle), f + u64::from(e.free))
+        });
+        #[allow(clippy::cast_precision_loss)]
+        let v = if o + f == 0 {
+            0.0
+        } else {
+            100.0 * o as f64 / (o + f) as f64
+        };
+        (o, o + f, v)
+    };
+    let all_steps: Vec<Counts> = standing.iter().chain(&driving).copied().collect();
+    let (so, sn, sv) = share(&all_steps);
+    let (go, gn, gv) = share(&ground_looks);
+    let _ = writeln!(
+        out,
+        "\nlooks that called a cell obstacle, every layer: step cells {so} of {sn} ({sv:.1} %), the ground before the stairs {go} of {gn} ({gv:.2} %)"
+    );
     let _ = writeln!(
         out,
         "\nwhile driving, increments by the step cell's distance ahead (m): obstacle/free"
@@ -256,6 +299,39 @@ pub fn diagnose(
             c.1,
             x - robot_x,
             layers_at(x, y)
+        );
+    }
+    // The false obstacles at the stop: where on the ground before the stairs, and which layer
+    // answered for them.
+    let mut false_by_distance: std::collections::BTreeMap<i32, Vec<u8>> =
+        std::collections::BTreeMap::new();
+    for c in &ground {
+        let (x, y) = centre(*c);
+        if let Fused::Obstacle { layer } = map.fused(x, y) {
+            // Quarter metres before the first riser.
+            #[allow(clippy::cast_possible_truncation)]
+            let bin = ((riser_x - x) / 0.25).floor() as i32;
+            false_by_distance.entry(bin).or_default().push(layer);
+        }
+    }
+    let _ = writeln!(
+        out,
+        "\nat the stop ({:.2} m from the first riser), the ground before the stairs read as obstacle, {} of {} cells, by distance before the riser (m): cells (answering layers)",
+        riser_x - robot_x,
+        false_by_distance.values().map(Vec::len).sum::<usize>(),
+        ground.len()
+    );
+    for (bin, layers) in &false_by_distance {
+        let mut layers = layers.clone();
+        layers.sort_unstable();
+        layers.dedup();
+        let _ = writeln!(
+            out,
+            "{:.2}..{:.2}: {} ({:?})",
+            f64::from(*bin) * 0.25,
+            f64::from(*bin + 1) * 0.25,
+            false_by_distance.get(bin).map_or(0, Vec::len),
+            layers
         );
     }
     let _ = writeln!(
@@ -316,6 +392,7 @@ pub fn stand_sweep(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use terrain_pyramid::classify::NavigabilityRule;
     use terrain_pyramid::GateShape;
 
     /// `cargo test --release -p terrain-pyramid-lab --lib stairs_diag -- --ignored --nocapture`
@@ -323,7 +400,8 @@ mod tests {
     /// `STAIRS_DIAG_RIG` (`ld19`, the default, `rplidar` or `ydlidar`), `STAIRS_DIAG_TRACE`
     /// (the layers whose increments to the step cells are listed, e.g. `1,2,3`) and
     /// `STAIRS_DIAG_ROW` (the row of step cells traced, default 0; the cells missed at the
-    /// stop are listed with their rows).
+    /// stop are listed with their rows) and `STAIRS_DIAG_RULE` (`paper` for the spread rule;
+    /// the plane rule otherwise).
     #[test]
     #[ignore = "a diagnostic, minutes long: run by hand"]
     fn stairs_diagnostic() {
@@ -352,7 +430,14 @@ mod tests {
                     ..StairsSetup::FULL
                 };
                 let design = setup.pyramid::<LAYERS>(gate).map_err(|e| e.to_string())?;
-                diagnose(&setup, design, &ClassifierConfig::default())
+                let classifier = match std::env::var("STAIRS_DIAG_RULE").as_deref() {
+                    Ok("paper") => ClassifierConfig {
+                        rule: NavigabilityRule::Spread,
+                        ..ClassifierConfig::default()
+                    },
+                    _ => ClassifierConfig::default(),
+                };
+                diagnose(&setup, design, &classifier)
             })
             .unwrap();
         let report = handle.join().unwrap().unwrap();
