@@ -546,14 +546,22 @@ fn an_invalid_design_exits_2_like_pyramid_design() {
         (["--gamma", "1"], "--gamma"),
         (["--cells", "66"], "--cells"),
     ] {
-        let mut all = vec!["--points", "whatever.3d", "--out", path(&dir)];
-        all.extend_from_slice(&args);
-        let r = pyramid(&all);
-        assert_eq!(r.status.code(), Some(2), "{all:?}");
-        let stderr = String::from_utf8_lossy(&r.stderr);
-        assert_eq!(stderr.lines().count(), 1, "{stderr}");
-        assert!(stderr.contains(flag), "{stderr}");
+        refused_by_flag(
+            &["--points", "whatever.3d", "--out", path(&dir)],
+            &args,
+            flag,
+        );
     }
+}
+
+/// `pyramid replay` with `args` then `bad` exits 2 with one line on stderr naming `flag`.
+fn refused_by_flag(args: &[&str], bad: &[&str], flag: &str) {
+    let all = [args, bad].concat();
+    let r = pyramid(&all);
+    assert_eq!(r.status.code(), Some(2), "{all:?}");
+    let stderr = String::from_utf8_lossy(&r.stderr);
+    assert_eq!(stderr.lines().count(), 1, "{stderr}");
+    assert!(stderr.contains(flag), "{stderr}");
 }
 
 #[test]
@@ -580,12 +588,10 @@ fn a_bad_inverse_sensor_model_is_refused_by_its_flag() {
         (["--p-free", "0.6"], "--p-free"),
         (["--p-obstacle", "1.0"], "--p-obstacle"),
     ] {
-        let mut all = vec!["--points", path(&points), "--out", path(&dir)];
-        all.extend_from_slice(&args);
-        let r = pyramid(&all);
-        assert_eq!(r.status.code(), Some(2), "{all:?}");
-        let stderr = String::from_utf8_lossy(&r.stderr);
-        assert_eq!(stderr.lines().count(), 1, "{stderr}");
-        assert!(stderr.contains(flag), "{stderr}");
+        refused_by_flag(
+            &["--points", path(&points), "--out", path(&dir)],
+            &args,
+            flag,
+        );
     }
 }

@@ -23,6 +23,24 @@ struct Counts {
     free: u32,
 }
 
+impl Counts {
+    /// One look's increment: obstacle evidence when it raised the cell.
+    fn add(&mut self, delta: f32) {
+        if delta > 0.0 {
+            self.obstacle += 1;
+        } else {
+            self.free += 1;
+        }
+    }
+}
+
+/// The increment between two readings of a layer's cell, when there was one (the cell
+/// observed now, and first observed or changed since).
+fn look(now: Option<f32>, before: Option<f32>) -> Option<f32> {
+    let delta = now.unwrap_or(0.0) - before.unwrap_or(0.0);
+    (now.is_some() && (before.is_none() || delta.abs() > 1e-6)).then_some(delta)
+}
+
 /// Runs `setup` through a pyramid of `design` and describes where the step cells' evidence
 /// goes: a Markdown report.
 ///
@@ -109,14 +127,12 @@ pub fn diagnose(
             let (x, y) = centre(*c);
             for (k, p) in prev.iter_mut().enumerate() {
                 let now = map.layer_log_odds(k, x, y);
-                let delta = now.unwrap_or(0.0) - p.unwrap_or(0.0);
-                if now.is_some() && (p.is_none() || delta.abs() > 1e-6) {
+                if let Some(delta) = look(now, *p) {
                     let table = if is_driving {
                         &mut driving
                     } else {
                         &mut standing
                     };
-                    let positive = delta > 0.0;
                     if trace_layers.contains(&k) && (c.1 == trace_row) && is_driving {
                         let _ = writeln!(
                             trace,
@@ -130,21 +146,13 @@ pub fn diagnose(
                         );
                     }
                     if let Some(e) = table.get_mut(k) {
-                        if positive {
-                            e.obstacle += 1;
-                        } else {
-                            e.free += 1;
-                        }
+                        e.add(delta);
                     }
                     if is_driving {
                         #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
                         let ring = ((x - robot_x).max(0.0).floor() as usize).min(13);
                         if let Some(e) = by_distance.get_mut(ring) {
-                            if positive {
-                                e.obstacle += 1;
-                            } else {
-                                e.free += 1;
-                            }
+                            e.add(delta);
                         }
                     }
                 }
@@ -155,15 +163,8 @@ pub fn diagnose(
             let (x, y) = centre(*c);
             for (k, p) in prev.iter_mut().enumerate() {
                 let now = map.layer_log_odds(k, x, y);
-                let delta = now.unwrap_or(0.0) - p.unwrap_or(0.0);
-                if now.is_some() && (p.is_none() || delta.abs() > 1e-6) {
-                    if let Some(e) = ground_looks.get_mut(k) {
-                        if delta > 0.0 {
-                            e.obstacle += 1;
-                        } else {
-                            e.free += 1;
-                        }
-                    }
+                if let (Some(delta), Some(e)) = (look(now, *p), ground_looks.get_mut(k)) {
+                    e.add(delta);
                 }
                 *p = now;
             }
