@@ -403,6 +403,7 @@ fn plan(args: &Args) -> Result<Plan, Failure> {
     }
     let config = Config {
         clamp: args.pyramid.clamp(),
+        model: args.pyramid.model().map_err(Failure::config)?,
         ..Config::default()
     };
     let translation = match &args.pose {

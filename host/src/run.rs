@@ -288,6 +288,10 @@ pub fn run_config(args: &Args) -> Result<(DefaultDesign, Config, ClassifierConfi
     }
     let config = Config {
         clamp: args.pyramid.clamp(),
+        model: args
+            .pyramid
+            .model()
+            .map_err(|e| (2, format!("error: {e}")))?,
         decay: args
             .decay
             .decay(design.layers().len(), design.cells_per_side())

@@ -546,12 +546,52 @@ fn an_invalid_design_exits_2_like_pyramid_design() {
         (["--gamma", "1"], "--gamma"),
         (["--cells", "66"], "--cells"),
     ] {
-        let mut all = vec!["--points", "whatever.3d", "--out", path(&dir)];
-        all.extend_from_slice(&args);
-        let r = pyramid(&all);
-        assert_eq!(r.status.code(), Some(2), "{all:?}");
-        let stderr = String::from_utf8_lossy(&r.stderr);
-        assert_eq!(stderr.lines().count(), 1, "{stderr}");
-        assert!(stderr.contains(flag), "{stderr}");
+        refused_by_flag(
+            &["--points", "whatever.3d", "--out", path(&dir)],
+            &args,
+            flag,
+        );
+    }
+}
+
+/// `pyramid replay` with `args` then `bad` exits 2 with one line on stderr naming `flag`.
+fn refused_by_flag(args: &[&str], bad: &[&str], flag: &str) {
+    let all = [args, bad].concat();
+    let r = pyramid(&all);
+    assert_eq!(r.status.code(), Some(2), "{all:?}");
+    let stderr = String::from_utf8_lossy(&r.stderr);
+    assert_eq!(stderr.lines().count(), 1, "{stderr}");
+    assert!(stderr.contains(flag), "{stderr}");
+}
+
+#[test]
+fn a_bad_inverse_sensor_model_is_refused_by_its_flag() {
+    let dir = scratch("model");
+    let (scan, _) = synthetic_scan();
+    let points = dir.join("scan.3d");
+    std::fs::write(&points, scan).unwrap();
+    // A model the library takes makes maps (`host/tests/rule_hash.rs` pins what it changes).
+    let v = replay_json(&[
+        "--points",
+        path(&points),
+        "--out",
+        path(&dir.join("out")),
+        "--p-obstacle",
+        "0.9",
+        "--p-free",
+        "0.3",
+    ]);
+    assert!(v["points_used"].as_u64().unwrap_or(0) > 0, "{v}");
+    // A probability on the wrong side of the prior, or out of range, is refused by its flag.
+    for (args, flag) in [
+        (["--p-obstacle", "0.4"], "--p-obstacle"),
+        (["--p-free", "0.6"], "--p-free"),
+        (["--p-obstacle", "1.0"], "--p-obstacle"),
+    ] {
+        refused_by_flag(
+            &["--points", path(&points), "--out", path(&dir)],
+            &args,
+            flag,
+        );
     }
 }

@@ -15,6 +15,8 @@
 //!   that, from the extremes test on, which the pair test within a cell left unchanged;
 //!   `7f72fd2277f75e1e` before the extremes test); a change to the plane rule's arithmetic
 //!   changes it, and then this pin is renewed with the reason.
+//! - the default rule with `--p-obstacle 0.9` (the inverse sensor model travels in the
+//!   link's Configure): `745cdaffa1984616`.
 mod common;
 
 use common::{record_3dtk, succeeded, tmp, PYRAMID};
@@ -55,6 +57,12 @@ fn the_3dtk_maps_under_each_rule() {
         &["--rule", "plane", "--step-m", "0.02"],
     );
     assert_ne!(strict, default);
+    // So does the inverse sensor model (`--p-obstacle`): an obstacle verdict adds logit(0.9).
+    let strong = hash(&recording, &dir.join("strong"), &["--p-obstacle", "0.9"]);
+    assert_eq!(
+        strong, "745cdaffa1984616",
+        "the default rule, p_obstacle 0.9"
+    );
     let _ = std::fs::remove_dir_all(&dir);
 }
 

@@ -95,7 +95,10 @@ fn synthetic(board: &str) {
     let dir = tmp(&format!("synthetic-{board}"));
     let recording = dir.join("synthetic.rec");
     synthetic_recording(&recording);
-    let cells = compare(board, &recording, &dir, &["--drop-m", "0.3"]);
+    // A drop-off threshold and an inverse sensor model of the user's (both travel in the
+    // link's Configure; the 3DTK scan below runs the defaults).
+    let flags = ["--drop-m", "0.3", "--p-obstacle", "0.9", "--p-free", "0.35"];
+    let cells = compare(board, &recording, &dir, &flags);
     assert_eq!(cells, 8 * 64 * 64);
     if std::env::var_os("PYRAMID_QEMU_OUT").is_none() {
         let _ = std::fs::remove_dir_all(&dir);

@@ -23,6 +23,24 @@ struct Counts {
     free: u32,
 }
 
+impl Counts {
+    /// One look's increment: obstacle evidence when it raised the cell.
+    fn add(&mut self, delta: f32) {
+        if delta > 0.0 {
+            self.obstacle += 1;
+        } else {
+            self.free += 1;
+        }
+    }
+}
+
+/// The increment between two readings of a layer's cell, when there was one (the cell
+/// observed now, and first observed or changed since).
+fn look(now: Option<f32>, before: Option<f32>) -> Option<f32> {
+    let delta = now.unwrap_or(0.0) - before.unwrap_or(0.0);
+    (now.is_some() && (before.is_none() || delta.abs() > 1e-6)).then_some(delta)
+}
+
 /// Runs `setup` through a pyramid of `design` and describes where the step cells' evidence
 /// goes: a Markdown report.
 ///
@@ -64,6 +82,10 @@ pub fn diagnose(
         )
     };
     let mut last: Vec<Vec<Option<f32>>> = vec![vec![None; n_layers]; steps.len()];
+    // The ground before the stairs, watched alike: each observation's verdict on its cells.
+    let ground = stairs::Watched::of(&scene).ground;
+    let mut ground_last: Vec<Vec<Option<f32>>> = vec![vec![None; n_layers]; ground.len()];
+    let mut ground_looks = vec![Counts::default(); n_layers];
     // Increments per layer while standing and while driving; per distance (1 m rings of the
     // step cell's distance from the robot) while driving.
     let mut standing = vec![Counts::default(); n_layers];
@@ -105,14 +127,12 @@ pub fn diagnose(
             let (x, y) = centre(*c);
             for (k, p) in prev.iter_mut().enumerate() {
                 let now = map.layer_log_odds(k, x, y);
-                let delta = now.unwrap_or(0.0) - p.unwrap_or(0.0);
-                if now.is_some() && (p.is_none() || delta.abs() > 1e-6) {
+                if let Some(delta) = look(now, *p) {
                     let table = if is_driving {
                         &mut driving
                     } else {
                         &mut standing
                     };
-                    let positive = delta > 0.0;
                     if trace_layers.contains(&k) && (c.1 == trace_row) && is_driving {
                         let _ = writeln!(
                             trace,
@@ -126,23 +146,25 @@ pub fn diagnose(
                         );
                     }
                     if let Some(e) = table.get_mut(k) {
-                        if positive {
-                            e.obstacle += 1;
-                        } else {
-                            e.free += 1;
-                        }
+                        e.add(delta);
                     }
                     if is_driving {
                         #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
                         let ring = ((x - robot_x).max(0.0).floor() as usize).min(13);
                         if let Some(e) = by_distance.get_mut(ring) {
-                            if positive {
-                                e.obstacle += 1;
-                            } else {
-                                e.free += 1;
-                            }
+                            e.add(delta);
                         }
                     }
+                }
+                *p = now;
+            }
+        }
+        for (c, prev) in ground.iter().zip(ground_last.iter_mut()) {
+            let (x, y) = centre(*c);
+            for (k, p) in prev.iter_mut().enumerate() {
+                let now = map.layer_log_odds(k, x, y);
+                if let (Some(delta), Some(e)) = (look(now, *p), ground_looks.get_mut(k)) {
+                    e.add(delta);
                 }
                 *p = now;
             }
@@ -207,6 +229,28 @@ pub fn diagnose(
             );
         }
     }
+    // The classifier's verdicts per look, as the inverse sensor model reads them: the share of
+    // obstacle verdicts on cells that hold a step (its hit rate) and on the flat ground before
+    // the stairs (its false alarms).
+    let share = |c: &[Counts]| {
+        let (o, f) = c.iter().fold((0_u64, 0_u64), |(o, f), e| {
+            (o + u64::from(e.obstacle), f + u64::from(e.free))
+        });
+        #[allow(clippy::cast_precision_loss)]
+        let v = if o + f == 0 {
+            0.0
+        } else {
+            100.0 * o as f64 / (o + f) as f64
+        };
+        (o, o + f, v)
+    };
+    let all_steps: Vec<Counts> = standing.iter().chain(&driving).copied().collect();
+    let (so, sn, sv) = share(&all_steps);
+    let (go, gn, gv) = share(&ground_looks);
+    let _ = writeln!(
+        out,
+        "\nlooks that called a cell obstacle, every layer: step cells {so} of {sn} ({sv:.1} %), the ground before the stairs {go} of {gn} ({gv:.2} %)"
+    );
     let _ = writeln!(
         out,
         "\nwhile driving, increments by the step cell's distance ahead (m): obstacle/free"
@@ -256,6 +300,39 @@ pub fn diagnose(
             c.1,
             x - robot_x,
             layers_at(x, y)
+        );
+    }
+    // The false obstacles at the stop: where on the ground before the stairs, and which layer
+    // answered for them.
+    let mut false_by_distance: std::collections::BTreeMap<i32, Vec<u8>> =
+        std::collections::BTreeMap::new();
+    for c in &ground {
+        let (x, y) = centre(*c);
+        if let Fused::Obstacle { layer } = map.fused(x, y) {
+            // Quarter metres before the first riser.
+            #[allow(clippy::cast_possible_truncation)]
+            let bin = ((riser_x - x) / 0.25).floor() as i32;
+            false_by_distance.entry(bin).or_default().push(layer);
+        }
+    }
+    let _ = writeln!(
+        out,
+        "\nat the stop ({:.2} m from the first riser), the ground before the stairs read as obstacle, {} of {} cells, by distance before the riser (m): cells (answering layers)",
+        riser_x - robot_x,
+        false_by_distance.values().map(Vec::len).sum::<usize>(),
+        ground.len()
+    );
+    for (bin, layers) in &false_by_distance {
+        let mut layers = layers.clone();
+        layers.sort_unstable();
+        layers.dedup();
+        let _ = writeln!(
+            out,
+            "{:.2}..{:.2}: {} ({:?})",
+            f64::from(*bin) * 0.25,
+            f64::from(*bin + 1) * 0.25,
+            false_by_distance.get(bin).map_or(0, Vec::len),
+            layers
         );
     }
     let _ = writeln!(
@@ -316,6 +393,7 @@ pub fn stand_sweep(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use terrain_pyramid::classify::NavigabilityRule;
     use terrain_pyramid::GateShape;
 
     /// `cargo test --release -p terrain-pyramid-lab --lib stairs_diag -- --ignored --nocapture`
@@ -323,7 +401,8 @@ mod tests {
     /// `STAIRS_DIAG_RIG` (`ld19`, the default, `rplidar` or `ydlidar`), `STAIRS_DIAG_TRACE`
     /// (the layers whose increments to the step cells are listed, e.g. `1,2,3`) and
     /// `STAIRS_DIAG_ROW` (the row of step cells traced, default 0; the cells missed at the
-    /// stop are listed with their rows).
+    /// stop are listed with their rows) and `STAIRS_DIAG_RULE` (`paper` for the spread rule;
+    /// the plane rule otherwise).
     #[test]
     #[ignore = "a diagnostic, minutes long: run by hand"]
     fn stairs_diagnostic() {
@@ -352,7 +431,14 @@ mod tests {
                     ..StairsSetup::FULL
                 };
                 let design = setup.pyramid::<LAYERS>(gate).map_err(|e| e.to_string())?;
-                diagnose(&setup, design, &ClassifierConfig::default())
+                let classifier = match std::env::var("STAIRS_DIAG_RULE").as_deref() {
+                    Ok("paper") => ClassifierConfig {
+                        rule: NavigabilityRule::Spread,
+                        ..ClassifierConfig::default()
+                    },
+                    _ => ClassifierConfig::default(),
+                };
+                diagnose(&setup, design, &classifier)
             })
             .unwrap();
         let report = handle.join().unwrap().unwrap();
