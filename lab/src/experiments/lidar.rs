@@ -516,7 +516,18 @@ pub struct RigStairs {
     pub standing: Vec<StandingRow>,
     /// One row per phase of the nod (empty with `--quick`).
     pub phases: Vec<StandingRow>,
+    /// The same phases after [`LONG_STAND_NODS`] more nods of standing (318 s and more; empty
+    /// with `--quick`): row i starts the approach at the nod's phase and the lines' tilts of
+    /// [`RigStairs::phases`]' row i, so the two differ in how long the robot stood (and in
+    /// the range noise's draws).
+    pub phases_long: Vec<StandingRow>,
 }
+
+/// Whole nods between the phase rows after 120 s and the long ones: 60 × 3.3 s = 198 s, a
+/// whole number of revolutions of every rig (LD19 1 980 at 10 Hz, RPLIDAR 1 089 at 5.5 Hz,
+/// YDLIDAR 1 386 at 7 Hz), so each long row's lines fall at its phase row's tilts; the long
+/// rows stand 318 s and more.
+pub const LONG_STAND_NODS: u32 = 60;
 
 /// The nod's period, seconds: up and down between the servo's limits.
 pub fn nod_period_s() -> f64 {
@@ -574,19 +585,23 @@ pub fn run_rigs(
             .iter()
             .map(|&t| standing_row(kind, t, seed, classifier))
             .collect::<Result<Vec<_>, _>>()?;
-        let phases = if quick {
-            Vec::new()
-        } else {
+        // The nod's phases after `from` seconds of standing.
+        let phases_after = |from: f64| {
+            if quick {
+                return Ok(Vec::new());
+            }
             #[allow(clippy::cast_precision_loss)]
             let step = nod_period_s() / PHASES as f64;
             #[allow(clippy::cast_precision_loss)]
             (0..PHASES)
                 .map(|i| {
-                    let t = 120.0 + step * i as f64;
+                    let t = from + step * i as f64;
                     standing_row(kind, (t * 1000.0).round() / 1000.0, seed, classifier)
                 })
-                .collect::<Result<Vec<_>, _>>()?
+                .collect::<Result<Vec<_>, _>>()
         };
+        let phases = phases_after(120.0)?;
+        let phases_long = phases_after(120.0 + f64::from(LONG_STAND_NODS) * nod_period_s())?;
         let (_, range) = kind.range_m();
         out.push(RigStairs {
             rig: name,
@@ -594,6 +609,7 @@ pub fn run_rigs(
             stand_distance_m: range - 0.95,
             standing,
             phases,
+            phases_long,
         });
     }
     Ok(out)
@@ -638,8 +654,9 @@ fn rigs_report(s: &mut String, rigs: &[RigStairs]) {
     let m = |v: Option<f64>| v.map_or_else(|| "never".to_string(), |d| format!("{d:.2} m"));
     let _ = writeln!(
         s,
-        "\nEvery nodding rig on the same servo (2°..35° at 20 °/s, h = 1.0 m), standing its range less 0.95 m from the stairs, then driving at 1 m/s to 1 m; step cells obstacle at the stop and where the first step was first seen (flat grid; pyramid of the rig's design, hard gate; soft gate), the soft-gated pyramid's false obstacles on the ground before the stairs at the stop, and on the ground 0.5–2.5 m before the first riser when it first saw the first step. The last column: the same pyramid when the robot, arrived, stands until the observation in progress ends (the device integrates an observation when the servo turns; the other columns flush the partial sweep at arrival), and how long it waited. Rows \"phase\": 120 s plus a fraction of the nod's {:.1} s period.\n\n| rig (φ, ψ) | standing s | flat | hard | hard: first seen | soft | soft: first seen | soft: false obstacles | soft: ground 0.5–2.5 m before, at first sight | soft, after the sweep in progress (wait; false obstacles) |\n| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |",
-        nod_period_s()
+        "\nEvery nodding rig on the same servo (2°..35° at 20 °/s, h = 1.0 m), standing its range less 0.95 m from the stairs, then driving at 1 m/s to 1 m; step cells obstacle at the stop and where the first step was first seen (flat grid; pyramid of the rig's design, hard gate; soft gate), the soft-gated pyramid's false obstacles on the ground before the stairs at the stop, and on the ground 0.5–2.5 m before the first riser when it first saw the first step. The last column: the same pyramid when the robot, arrived, stands until the observation in progress ends (the device integrates an observation when the servo turns; the other columns flush the partial sweep at arrival), and how long it waited. Rows \"phase\": 120 s plus a fraction of the nod's {:.1} s period; rows \"phase, long\": the same phases {} nods later, so that each differs from its \"phase\" row in the standing alone.\n\n| rig (φ, ψ) | standing s | flat | hard | hard: first seen | soft | soft: first seen | soft: false obstacles | soft: ground 0.5–2.5 m before, at first sight | soft, after the sweep in progress (wait; false obstacles) |\n| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |",
+        nod_period_s(),
+        LONG_STAND_NODS
     );
     for r in rigs {
         for (label, row) in r
@@ -647,6 +664,7 @@ fn rigs_report(s: &mut String, rigs: &[RigStairs]) {
             .iter()
             .map(|x| ("", x))
             .chain(r.phases.iter().map(|x| (" (phase)", x)))
+            .chain(r.phases_long.iter().map(|x| (" (phase, long)", x)))
         {
             let _ = writeln!(
                 s,
@@ -676,6 +694,55 @@ fn rigs_report(s: &mut String, rigs: &[RigStairs]) {
         }
     }
     let _ = writeln!(s);
+    for r in rigs {
+        if let Some(line) = longer_standing(r) {
+            let _ = writeln!(s, "{line}");
+        }
+    }
+    let _ = writeln!(s);
+}
+
+/// What standing [`LONG_STAND_NODS`] nods longer did to a rig's phases: the phases whose step
+/// cells at the stop fell, and those whose first sighting came more than 0.1 m nearer (a
+/// tenth of a second's drive); `None` without long rows.
+fn longer_standing(r: &RigStairs) -> Option<String> {
+    if r.phases_long.is_empty() {
+        return None;
+    }
+    let seen = |row: &StandingRow| row.soft_first_seen_m.unwrap_or(0.0);
+    let pairs = || r.phases.iter().zip(&r.phases_long);
+    let lower: Vec<String> = pairs()
+        .filter(|(a, b)| b.soft_at_stop < a.soft_at_stop)
+        .map(|(a, b)| {
+            format!(
+                "{:.3} s: {} → {}",
+                a.stand_s,
+                pct(a.soft_at_stop),
+                pct(b.soft_at_stop)
+            )
+        })
+        .collect();
+    let nearer: Vec<String> = pairs()
+        .filter(|(a, b)| seen(b) < seen(a) - 0.1)
+        .map(|(a, b)| format!("{:.3} s: {:.2} → {:.2} m", a.stand_s, seen(a), seen(b)))
+        .collect();
+    let list = |v: &[String]| {
+        if v.is_empty() {
+            "none".to_string()
+        } else {
+            v.join(", ")
+        }
+    };
+    Some(format!(
+        "- {}, standing {} nods longer at the same phase: step cells at the stop lower in {} of {} phases ({}); the first step first seen more than 0.1 m nearer in {} ({}).",
+        r.rig,
+        LONG_STAND_NODS,
+        lower.len(),
+        r.phases.len(),
+        list(&lower),
+        nearer.len(),
+        list(&nearer)
+    ))
 }
 
 fn pct(v: f64) -> String {
