@@ -70,8 +70,8 @@ fn param(p: tp::Param) -> Option<bands::Param> {
 
 /// Does the library's refusal name one of the rules the reference says are broken?
 ///
-/// A `TooManyLayers` must agree on the count needed; a `WindowTooSmall` on the layer and the
-/// cells needed.
+/// A `TooManyLayers` must agree on the count needed within one (below); a `WindowTooSmall` on
+/// the layer and the cells needed.
 #[must_use]
 pub fn refusal_matches(error: &tp::DesignError, violations: &[Violation]) -> bool {
     use tp::DesignError as E;
@@ -82,7 +82,13 @@ pub fn refusal_matches(error: &tp::DesignError, violations: &[Violation]) -> boo
         (E::BadWindow { .. }, Violation::OutOfRange(q)) => q == bands::Param::Cells,
         (E::GammaNotAboveOne { .. }, Violation::GammaNotAboveOne)
         | (E::BaseBelowBound { .. }, Violation::BaseBelowBound) => true,
-        (E::TooManyLayers { needed, .. }, Violation::TooManyLayers { needed: n }) => needed == n,
+        // The count walks every band edge to the range, in f32 in the library and in f64 in
+        // the reference: over thousands of edges (a 0.014 m base to 75 m needs 6 900) the last
+        // one can fall on either side of the range within rounding, so the count may differ
+        // by one. Both refuse for the same rule; the count only says by how much.
+        (E::TooManyLayers { needed, .. }, Violation::TooManyLayers { needed: n }) => {
+            needed.abs_diff(n) <= 1
+        }
         (
             E::WindowTooSmall { layer, needed, .. },
             Violation::WindowTooSmall {

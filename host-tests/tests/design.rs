@@ -142,6 +142,30 @@ fn check_design(
     Ok(())
 }
 
+/// A case the property once found: a 0.014 m base to 75 m needs about 6 900 layers, and the
+/// library (f32) counts 6 900 where the reference (f64) counts 6 901. Both refuse.
+#[test]
+fn a_far_range_on_a_fine_base_is_refused_alike() {
+    let sensor = tp::SensorModel {
+        phi_rad: 0.021_462_977,
+        psi_rad: 0.065_041_98,
+        sigma_m: 0.232_513_46,
+        height_m: 0.443_658_3,
+        max_range_m: 74.599_24,
+    };
+    let schedule = tp::Schedule {
+        base_m: 0.013_865_11,
+        gamma: 2.867_733_2,
+        gate: tp::GateShape::Hard,
+        uniform_resolution: false,
+    };
+    assert!(matches!(
+        tp::Design::<CAPACITY>::new(sensor, schedule, 10),
+        Err(tp::DesignError::TooManyLayers { .. })
+    ));
+    check_design(sensor, schedule, 10).unwrap();
+}
+
 proptest! {
     #![proptest_config(ProptestConfig { cases: 512, ..ProptestConfig::default() })]
 
