@@ -323,16 +323,19 @@ pub fn diagnose(
         ground.len()
     );
     for (bin, layers) in &false_by_distance {
-        let mut layers = layers.clone();
-        layers.sort_unstable();
-        layers.dedup();
+        // The answering layers, once each and in order.
+        let answering: Vec<&u8> = layers
+            .iter()
+            .collect::<std::collections::BTreeSet<_>>()
+            .into_iter()
+            .collect();
         let _ = writeln!(
             out,
             "{:.2}..{:.2}: {} ({:?})",
             f64::from(*bin) * 0.25,
             f64::from(*bin + 1) * 0.25,
-            false_by_distance.get(bin).map_or(0, Vec::len),
-            layers
+            layers.len(),
+            answering
         );
     }
     let _ = writeln!(
