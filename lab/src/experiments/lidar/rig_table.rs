@@ -166,3 +166,79 @@ fn longer_standing(r: &RigStairs) -> Option<String> {
         list(&nearer)
     ))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::super::riser_sight::Lit;
+    use super::super::Ld19Design;
+    use super::*;
+
+    fn row(
+        stand_s: f64,
+        seen_m: Option<f64>,
+        sweep_end_m: Option<f64>,
+        gap_m: Option<f64>,
+    ) -> StandingRow {
+        StandingRow {
+            stand_s,
+            flat_at_stop: 0.0,
+            hard_at_stop: 1.0,
+            hard_first_seen_m: seen_m,
+            soft_at_stop: 1.0,
+            soft_first_seen_m: seen_m,
+            soft_false_obstacles: 0.0,
+            soft_ground_at_first_sight: None,
+            soft_after_sweep: None,
+            lit: Lit {
+                standing_lines: 10,
+                driving_lines_from_far: 1,
+                farthest_driving_m: sweep_end_m.map(|d| d + 1.0),
+                farthest_sweep_end_m: sweep_end_m,
+                far_ground_gap_m: gap_m,
+            },
+        }
+    }
+
+    fn rig(phases: Vec<StandingRow>) -> RigStairs {
+        RigStairs {
+            rig: "test rig",
+            design: Ld19Design::from_datasheet(),
+            stand_distance_m: 11.05,
+            standing: Vec::new(),
+            phases,
+            phases_long: Vec::new(),
+        }
+    }
+
+    #[test]
+    fn late_sightings_are_sorted_by_what_the_laser_gave() {
+        let line = first_sight_against_the_laser(&rig(vec![
+            row(120.0, Some(6.0), Some(5.0), Some(0.3)),
+            row(120.5, Some(3.46), Some(3.47), None),
+            row(121.0, Some(2.2), Some(5.5), Some(1.48)),
+            row(121.5, None, None, None),
+        ]))
+        .unwrap();
+        assert!(line.contains("nearer than 4 m in 3 of 4 phases"), "{line}");
+        assert!(
+            line.contains("In 2 no sweep that lit it while driving ended 4 m or more before it (120.500 s: lit from 4.47 m, that sweep ended at 3.47 m, seen at 3.46 m; 121.500 s: lit from –, that sweep ended at –, seen at –)"),
+            "{line}"
+        );
+        assert!(
+            line.contains("In 1 one did, and the ground its returns came nearest the riser lay (121.000 s: ground 1.48 m before the riser, seen at 2.20 m)"),
+            "{line}"
+        );
+    }
+
+    #[test]
+    fn a_rig_seen_from_far_in_every_phase_says_so_and_no_phases_say_nothing() {
+        let line =
+            first_sight_against_the_laser(&rig(vec![row(120.0, Some(6.0), Some(5.0), None)]))
+                .unwrap();
+        assert!(
+            line.ends_with("4 m or more before it in every phase."),
+            "{line}"
+        );
+        assert!(first_sight_against_the_laser(&rig(Vec::new())).is_none());
+    }
+}
