@@ -40,6 +40,7 @@
 
 pub mod after_sweep;
 mod rig_table;
+pub mod riser_sight;
 
 use super::coverage::{self, Holes};
 use super::designs;
@@ -501,6 +502,9 @@ pub struct StandingRow {
     /// The soft-gated pyramid after the robot stood at the stop until the observation in
     /// progress ended ([`after_sweep::run`]; null: none ended within a nod).
     pub soft_after_sweep: Option<AfterSweep>,
+    /// What the laser itself put on the first step ([`riser_sight::run`]): the bound on any
+    /// map's first sighting.
+    pub lit: riser_sight::Lit,
 }
 
 /// A rig's stairs: standing 30 s, 120 s (and 300 s) and, in a full run, the approach started
@@ -552,6 +556,7 @@ fn standing_row(
     };
     let r = run_stairs(&setup, classifier, None)?;
     let after = after_sweep::run(&setup, classifier)?;
+    let lit = riser_sight::run(&setup, classifier)?.summary();
     Ok(StandingRow {
         stand_s,
         flat_at_stop: r.flat.detected_fraction,
@@ -562,6 +567,7 @@ fn standing_row(
         soft_false_obstacles: r.pyramid_soft.false_obstacle_fraction,
         soft_ground_at_first_sight: r.pyramid_soft.false_obstacle_at_first_sight,
         soft_after_sweep: after,
+        lit,
     })
 }
 

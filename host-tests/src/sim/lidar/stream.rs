@@ -3,7 +3,7 @@
 //! and the samples packed into the packets (and descriptors) each sensor sends, appended to
 //! a recording as events.
 use super::mount::{mat3, rot, Sweep};
-use super::{LidarKind, LidarSimConfig};
+use super::{LidarKind, LidarSimConfig, TrueHit};
 use crate::sim::record::SimError;
 use crate::sim::rng::Rng;
 use crate::sim::scene::Ray;
@@ -33,6 +33,10 @@ pub(super) struct Caster<'a> {
     pub(super) sweep: Sweep,
     pub(super) rng: Rng,
     pub(super) pose: Pose,
+    /// The point the last cast met, world metres.
+    pub(super) last_point: Option<[f64; 3]>,
+    /// The returns kept for the configuration's hit box.
+    pub(super) hits: Vec<TrueHit>,
 }
 
 impl Caster<'_> {
@@ -64,10 +68,18 @@ impl Caster<'_> {
         let dir = core::array::from_fn(|i| r[i][0] * d[0] + r[i][1] * d[1] + r[i][2] * d[2]);
         let origin = pose.to_world(self.config.position_m);
         let (_, max) = self.config.kind.range_m();
-        self.config
-            .scene
-            .cast(&Ray { origin, dir }, max)
-            .map(|h| h.t)
+        let hit = self.config.scene.cast(&Ray { origin, dir }, max);
+        self.last_point = hit.map(|h| core::array::from_fn(|i| origin[i] + h.t * dir[i]));
+        hit.map(|h| h.t)
+    }
+
+    /// Keeps the last cast's point when the configuration's hit box holds it.
+    fn keep_hit(&mut self, t: f64, truth: Option<f64>) {
+        if let (Some(hit_box), Some(_), Some(p)) = (self.config.hit_box, truth, self.last_point) {
+            if hit_box.contains(p) {
+                self.hits.push(TrueHit { t_s: t, point_m: p });
+            }
+        }
     }
 
     /// A measured range in `per_m` units per metre, 0 for none or below the minimum.
@@ -94,6 +106,7 @@ impl Caster<'_> {
         match kind {
             LidarKind::Ld06 | LidarKind::Ld19 => {
                 let truth = self.true_range(t, wire_deg);
+                self.keep_hit(t, truth);
                 let units = self.measure(truth, 1000.0, 0xFFFF);
                 Sample {
                     t,
@@ -106,6 +119,7 @@ impl Caster<'_> {
                 // The node's angle is quantised to 1/64°: cast along what a reader sees.
                 let q6 = (wire_deg * 64.0).round().rem_euclid(23_040.0);
                 let truth = self.true_range(t, q6 / 64.0);
+                self.keep_hit(t, truth);
                 let units = self.measure(truth, 4000.0, 0xFFFF);
                 Sample {
                     t,
@@ -119,6 +133,7 @@ impl Caster<'_> {
                 let dtheta_q3 = (n % 4) as u8;
                 let phi = (wire_deg - f64::from(dtheta_q3) / 8.0).rem_euclid(360.0);
                 let truth = self.true_range(t, phi);
+                self.keep_hit(t, truth);
                 let units = self.measure(truth, 1000.0, 0x3FFF);
                 Sample {
                     t,
@@ -136,6 +151,7 @@ impl Caster<'_> {
                     let corr = ydlidar_correction_deg(d * 1000.0);
                     truth = self.true_range(t, wire_deg + corr);
                 }
+                self.keep_hit(t, truth);
                 let units = self.measure(truth, 4000.0, 0xFFFF);
                 Sample {
                     t,
