@@ -6,9 +6,10 @@
 //! Beside each line, the ground the same sweep saw nearest before the riser: the rise from
 //! there to the step is what tells a step from a ramp.
 //!
-//! A map cannot see the first step from farther than the laser lit it, so this is the bound
-//! beside "first step seen at": the lines that lit the step from 4 m or more are what any
-//! navigability rule and any pyramid has to work with.
+//! Beside "first step seen at" this says what any navigability rule and any pyramid had to
+//! work with: a map shows the first step from its own returns no sooner than a sweep that lit
+//! it ends. (A coarse cell can show it sooner from the flight's upper risers, which this does
+//! not count.)
 
 use super::super::engine::{decode, Decoded};
 use super::StairsSetup;
