@@ -243,12 +243,29 @@ impl StairsSetup {
     /// # Errors
     /// The simulator's or the library's refusal.
     pub fn decoded(&self, classifier: &ClassifierConfig) -> Result<(Decoded, u64), String> {
-        let sim = simulate_lidar(&self.sim()).map_err(|e| e.to_string())?;
+        let (decoded, sim) = self.simulated(classifier)?;
+        Ok((decoded, sim.echoes))
+    }
+
+    /// The setup's recording, simulated and decoded as [`StairsSetup::decoded`], with the
+    /// simulation, which keeps the true points of [`riser_sight::hit_box`].
+    ///
+    /// # Errors
+    /// The simulator's or the library's refusal.
+    pub fn simulated(
+        &self,
+        classifier: &ClassifierConfig,
+    ) -> Result<(Decoded, LidarSimulation), String> {
+        let sim_config = LidarSimConfig {
+            hit_box: Some(riser_sight::hit_box(self)),
+            ..self.sim()
+        };
+        let sim = simulate_lidar(&sim_config).map_err(|e| e.to_string())?;
         let mut decoded = decode(&sim.bytes, classifier)?;
         if self.revolutions_per_observation > 0 {
             decoded.frontend.lines_per_observation = self.revolutions_per_observation;
         }
-        Ok((decoded, sim.echoes))
+        Ok((decoded, sim))
     }
 
     /// The pyramid of the setup's rig (its design's resolutions unless `uniform_layers`) with
@@ -298,6 +315,11 @@ pub struct StairsResult {
     pub packets: usize,
     /// Returns with an echo in the recording.
     pub echoes: u64,
+    /// What the laser put on the first step, in brief ([`riser_sight`]).
+    pub lit: riser_sight::Lit,
+    /// The same, line by line.
+    #[serde(skip)]
+    pub sight: riser_sight::RiserSight,
 }
 
 /// Seconds of the recording between two looks at the maps: 0.1 m of driving at 1 m/s, the
@@ -337,7 +359,7 @@ pub fn run_stairs(
     out: Option<&Path>,
 ) -> Result<StairsResult, String> {
     let scene_config = setup.scene_config();
-    let (decoded, echoes) = setup.decoded(classifier)?;
+    let (decoded, sim) = setup.simulated(classifier)?;
     let watched = Watched::of(&scene_config);
     let design = Ld19Design::for_kind_at(setup.kind, setup.servo.2);
     let mut maps =
@@ -385,6 +407,13 @@ pub fn run_stairs(
         )?;
     }
     let [flat, flat_clamped, pyramid, pyramid_soft] = stairs::four(results)?;
+    // Every map ends its observations on the same lines; the soft-gated pyramid's are read.
+    let sight = riser_sight::sight(
+        setup,
+        classifier,
+        &sim.hits,
+        pass.integrated_s.get(3).map_or(&[], Vec::as_slice),
+    );
     Ok(StairsResult {
         flat,
         flat_clamped,
@@ -395,7 +424,9 @@ pub fn run_stairs(
         layers,
         step_cells: watched.steps.len(),
         packets: count,
-        echoes,
+        echoes: sim.echoes,
+        lit: sight.summary(),
+        sight,
     })
 }
 
@@ -556,7 +587,6 @@ fn standing_row(
     };
     let r = run_stairs(&setup, classifier, None)?;
     let after = after_sweep::run(&setup, classifier)?;
-    let lit = riser_sight::run(&setup, classifier)?.summary();
     Ok(StandingRow {
         stand_s,
         flat_at_stop: r.flat.detected_fraction,
@@ -567,7 +597,7 @@ fn standing_row(
         soft_false_obstacles: r.pyramid_soft.false_obstacle_fraction,
         soft_ground_at_first_sight: r.pyramid_soft.false_obstacle_at_first_sight,
         soft_after_sweep: after,
-        lit,
+        lit: r.lit,
     })
 }
 

@@ -420,6 +420,9 @@ pub struct Pass {
     /// (distance to the first riser, share of step cells obstacle) while driving; empty
     /// unless the pass was asked for it.
     pub series: Vec<Vec<(f64, f64)>>,
+    /// The recording's times (seconds) of the lines on which each map ended an observation
+    /// and integrated it (the last line's for the flush at the end).
+    pub integrated_s: Vec<Vec<f64>>,
 }
 
 /// Feeds every line of `decoded` to every map of `maps` (flushing them after the last), and
@@ -440,6 +443,7 @@ pub fn watch(
         ground_at_detect: vec![None; n],
         far: vec![Shares::default(); n],
         series: vec![Vec::new(); n],
+        integrated_s: vec![Vec::new(); n],
     };
     let mut standing_done = false;
     let count = decoded.lines.len();
@@ -453,13 +457,16 @@ pub fn watch(
                 at_standing_end(map.as_ref(), line.robot_xy);
             }
         }
-        for map in maps.iter_mut() {
-            map.line(line);
-        }
         let last = i + 1 == count;
-        if last {
-            for map in maps.iter_mut() {
+        for (map, ends) in maps.iter_mut().zip(pass.integrated_s.iter_mut()) {
+            let before = map.observations();
+            map.line(line);
+            if last {
                 map.flush();
+            }
+            if map.observations() > before {
+                #[allow(clippy::cast_precision_loss)]
+                ends.push(line.time_us as f64 * 1e-6);
             }
         }
         if (i + 1) % check_every == 0 || last {

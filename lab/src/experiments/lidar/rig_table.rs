@@ -112,6 +112,7 @@ fn first_sight_against_the_laser(r: &RigStairs) -> Option<String> {
             m(row.soft_first_seen_m)
         )
     });
+    let (ramp_run_m, rise_m) = riser_sight::ramp_run_m();
     Some(format!(
         "- {}: the first step first seen nearer than {FAR_M} m in {} of {} phases. In {} no sweep that lit it while driving ended {FAR_M} m or more before it ({near_text}). In {} one did, and the ground its returns came nearest the riser lay ({far_text}); over more than {:.2} m a {:.2} m riser rises less steeply than the plane rule's largest grade, as a ramp would.",
         r.rig,
@@ -119,8 +120,8 @@ fn first_sight_against_the_laser(r: &RigStairs) -> Option<String> {
         r.phases.len(),
         near.len(),
         far.len(),
-        riser_sight::RAMP_RUN_M,
-        riser_sight::RISE_M,
+        ramp_run_m,
+        rise_m,
     ))
 }
 

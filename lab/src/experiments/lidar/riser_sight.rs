@@ -11,23 +11,26 @@
 //! it ends. (A coarse cell can show it sooner from the flight's upper risers, which this does
 //! not count.)
 
-use super::super::engine::{decode, Decoded};
 use super::StairsSetup;
 use serde::Serialize;
 use terrain_pyramid::classify::ClassifierConfig;
-use terrain_pyramid_host_tests::sim::lidar::{simulate_lidar, HitBox, TrueHit};
+use terrain_pyramid_host_tests::sim::lidar::{HitBox, TrueHit};
 use terrain_pyramid_host_tests::sim::scene::StairsSpec;
 
 /// The distance from which the first step's sighting is asked, metres.
 pub const FAR_M: f64 = 4.0;
 
-/// The stairs' rise, metres (the simulator's default stairs).
-pub const RISE_M: f64 = 0.17;
-
-/// The run over which [`RISE_M`] rises at the plane rule's largest grade (tan 20°), metres:
-/// ground returns farther before the riser than this rise to the step less steeply than a
-/// ramp the robot climbs.
-pub const RAMP_RUN_M: f64 = RISE_M / 0.363_97;
+/// The run over which the default stairs' riser rises at the plane rule's largest grade,
+/// metres, and that rise: ground returns farther before the riser than this rise to the step
+/// less steeply than a ramp the robot climbs.
+#[must_use]
+pub fn ramp_run_m() -> (f64, f64) {
+    let rise = StairsSpec::default().rise_m;
+    let grade = terrain_pyramid::classify::PlaneRule::DEFAULT
+        .max_grade
+        .to_num::<f64>();
+    (rise / grade, rise)
+}
 
 /// One line that lit the first step.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
@@ -46,9 +49,9 @@ pub struct LitLine {
     pub ground_gap_m: Option<f64>,
     /// Whether the robot was still standing.
     pub standing: bool,
-    /// The robot's distance from the first riser when the servo next turned after the line,
-    /// metres: the observation that holds the line ends there, so no map integrating a sweep
-    /// at its turn shows the line's evidence before (`None`: the recording ended first).
+    /// The robot's distance from the first riser when the map next integrated an observation
+    /// after the line (on a nodding rig, when the servo turned), metres: no map shows the
+    /// line's evidence before (`None`: the recording ended first).
     pub sweep_end_m: Option<f64>,
 }
 
@@ -83,49 +86,17 @@ impl RiserSight {
     /// The run in brief.
     #[must_use]
     pub fn summary(&self) -> Lit {
+        let driving = || self.lines.iter().filter(|l| !l.standing);
         Lit {
-            standing_lines: self.standing_lines(),
-            driving_lines_from_far: self.driving_lines_from_far(),
-            farthest_driving_m: self.farthest_driving_m(),
-            farthest_sweep_end_m: self
-                .lines
-                .iter()
-                .filter(|l| !l.standing)
-                .filter_map(|l| l.sweep_end_m)
-                .reduce(f64::max),
-            far_ground_gap_m: self
-                .lines
-                .iter()
-                .filter(|l| !l.standing && l.sweep_end_m.is_some_and(|d| d >= FAR_M))
+            standing_lines: self.lines.iter().filter(|l| l.standing).count(),
+            driving_lines_from_far: driving().filter(|l| l.distance_m >= FAR_M).count(),
+            farthest_driving_m: driving().map(|l| l.distance_m).reduce(f64::max),
+            farthest_sweep_end_m: driving().filter_map(|l| l.sweep_end_m).reduce(f64::max),
+            far_ground_gap_m: driving()
+                .filter(|l| l.sweep_end_m.is_some_and(|d| d >= FAR_M))
                 .filter_map(|l| l.ground_gap_m)
                 .reduce(f64::min),
         }
-    }
-
-    /// The farthest distance from which a line lit the first step while the robot drove,
-    /// metres; `None` when none did.
-    #[must_use]
-    pub fn farthest_driving_m(&self) -> Option<f64> {
-        self.lines
-            .iter()
-            .filter(|l| !l.standing)
-            .map(|l| l.distance_m)
-            .reduce(f64::max)
-    }
-
-    /// Lines that lit the first step from `FAR_M` or more while the robot drove.
-    #[must_use]
-    pub fn driving_lines_from_far(&self) -> usize {
-        self.lines
-            .iter()
-            .filter(|l| !l.standing && l.distance_m >= FAR_M)
-            .count()
-    }
-
-    /// Lines that lit the first step while the robot stood.
-    #[must_use]
-    pub fn standing_lines(&self) -> usize {
-        self.lines.iter().filter(|l| l.standing).count()
     }
 }
 
@@ -171,76 +142,61 @@ fn group(hits: &[TrueHit], revolution_s: f64) -> Vec<Vec<TrueHit>> {
     lines
 }
 
-/// The times the servo turned, seconds: where the angle the recording carries changes its
-/// direction of travel (a hold at a limit does not count).
-fn turns(decoded: &Decoded) -> Vec<f64> {
-    let mut out = Vec::new();
-    let mut last: Option<u16> = None;
-    let mut rising: Option<bool> = None;
-    for line in &decoded.lines {
-        let Some(a) = line.angle else { continue };
-        if let Some(prev) = last {
-            if a != prev {
-                // The shorter way round from prev to a (angles are fractions of a turn).
-                let up = a.wrapping_sub(prev) < 0x8000;
-                if rising.is_some_and(|r| r != up) {
-                    #[allow(clippy::cast_precision_loss)]
-                    out.push(line.time_us as f64 * 1e-6);
-                }
-                rising = Some(up);
-            }
-        }
-        last = Some(a);
+/// The first step of `setup`'s stairs.
+fn first_step(setup: &StairsSetup) -> StairsSpec {
+    StairsSpec {
+        first_riser_x: setup.scene_config().scene.target_x.unwrap_or(0.0),
+        ..StairsSpec::default()
     }
-    out
 }
 
-/// Simulates `setup` keeping the returns on the first step, and groups them into lines.
-///
-/// # Errors
-/// The simulator's refusal.
-pub fn run(setup: &StairsSetup, classifier: &ClassifierConfig) -> Result<RiserSight, String> {
-    let scene = setup.scene_config();
-    let spec = StairsSpec {
-        first_riser_x: scene.scene.target_x.unwrap_or(0.0),
-        ..StairsSpec::default()
-    };
+/// The box a stairs run of `setup` keeps the true points of (its simulation's `hit_box`).
+#[must_use]
+pub fn hit_box(setup: &StairsSetup) -> HitBox {
+    watched_box(&first_step(setup))
+}
+
+/// Reads the returns a stairs run of `setup` kept in its [`hit_box`] against the times
+/// (seconds) at which its map integrated an observation, and groups those on the first step
+/// into lines.
+#[must_use]
+pub fn sight(
+    setup: &StairsSetup,
+    classifier: &ClassifierConfig,
+    hits: &[TrueHit],
+    integrated_s: &[f64],
+) -> RiserSight {
+    let spec = first_step(setup);
     let step_m = f64::from(classifier.step_threshold.to_num::<f32>());
-    let mut sim_config = setup.sim();
-    sim_config.hit_box = Some(watched_box(&spec));
-    let sim = simulate_lidar(&sim_config).map_err(|e| e.to_string())?;
-    let turns = turns(&decode(&sim.bytes, classifier)?);
-    let distance_at =
-        |t_s: f64| spec.first_riser_x - sim_config.trajectory.pose_at(t_s, &scene.scene).x;
-    // The sweep a time falls in: the turns before and after it.
-    let sweep_of = |t_s: f64| {
-        let next = turns.iter().position(|&t| t > t_s);
-        let start = next
-            .and_then(|i| i.checked_sub(1))
-            .or_else(|| turns.len().checked_sub(1).filter(|_| next.is_none()))
-            .and_then(|i| turns.get(i).copied())
+    let trajectory = setup.scene_config().trajectory;
+    let scene = setup.scene_config().scene;
+    let distance_at = |t_s: f64| spec.first_riser_x - trajectory.pose_at(t_s, &scene).x;
+    // The observation a time falls in: the integrations before and after it.
+    let observation_of = |t_s: f64| {
+        let i = integrated_s.partition_point(|&t| t <= t_s);
+        let start = i
+            .checked_sub(1)
+            .and_then(|j| integrated_s.get(j))
+            .copied()
             .unwrap_or(0.0);
-        (start, next.and_then(|i| turns.get(i).copied()))
+        (start, integrated_s.get(i).copied())
     };
-    let ground: Vec<&TrueHit> = sim
-        .hits
+    let ground: Vec<&TrueHit> = hits
         .iter()
         .filter(|h| on_ground_before(&spec, h.point_m))
         .collect();
-    let step: Vec<TrueHit> = sim
-        .hits
+    let step: Vec<TrueHit> = hits
         .iter()
         .filter(|h| on_step(&spec, step_m, h.point_m))
         .copied()
         .collect();
     let revolution_s = 1.0 / setup.kind.rotation_hz();
-    let drive_start_s = setup.stand_s;
     let lines = group(&step, revolution_s)
         .iter()
         .filter_map(|line| {
             let first = line.first()?;
             let last = line.last()?;
-            let (start, end) = sweep_of(last.t_s);
+            let (start, end) = observation_of(last.t_s);
             let ground_gap_m = ground
                 .iter()
                 .filter(|h| h.t_s > start && end.is_none_or(|e| h.t_s <= e))
@@ -255,25 +211,23 @@ pub fn run(setup: &StairsSetup, classifier: &ClassifierConfig) -> Result<RiserSi
                     .filter(|h| h.point_m[2] < spec.rise_m - 0.01)
                     .count(),
                 ground_gap_m,
-                standing: first.t_s < drive_start_s,
+                standing: first.t_s < setup.stand_s,
             })
         })
         .collect();
-    Ok(RiserSight { lines })
+    RiserSight { lines }
 }
 
 #[cfg(test)]
 mod tests {
-    use super::super::{nod_period_s, PHASES, RIGS};
+    use super::super::{nod_period_s, run_stairs, PHASES, RIGS};
     use super::*;
 
     #[test]
     fn the_ramp_run_is_the_default_stairs_at_the_plane_rules_grade() {
-        assert!((RISE_M - StairsSpec::default().rise_m).abs() < 1e-12);
-        let grade = terrain_pyramid::classify::PlaneRule::DEFAULT
-            .max_grade
-            .to_num::<f64>();
-        assert!((RAMP_RUN_M - RISE_M / grade).abs() < 1e-3, "{RAMP_RUN_M}");
+        let (run, rise) = ramp_run_m();
+        assert!((rise - 0.17).abs() < 1e-12);
+        assert!((run - 0.17 / 0.363_97).abs() < 1e-3, "{run}");
     }
 
     #[test]
@@ -313,6 +267,15 @@ mod tests {
             .ok()
             .and_then(|s| s.parse().ok())
             .unwrap_or(120.0);
+        let handle = std::thread::Builder::new()
+            .stack_size(512 << 20)
+            .spawn(move || print_phases(from))
+            .unwrap();
+        handle.join().unwrap();
+    }
+
+    /// Every rig's 8 phases after `from` seconds of standing, one line each.
+    fn print_phases(from: f64) {
         let classifier = ClassifierConfig::default();
         for (kind, name) in RIGS {
             let (_, range) = kind.range_m();
@@ -326,7 +289,8 @@ mod tests {
                     stand_distance_m: range - 0.95,
                     ..StairsSetup::FULL
                 };
-                let sight = run(&setup, &classifier).unwrap();
+                let sight = run_stairs(&setup, &classifier, None).unwrap().sight;
+                let lit = sight.summary();
                 let driving: Vec<String> = sight
                     .lines
                     .iter()
@@ -345,9 +309,9 @@ mod tests {
                 println!(
                     "{name} {:.3} s: standing lines {}, driving from ≥ {FAR_M} m {}, farthest {:?}; {}",
                     setup.stand_s,
-                    sight.standing_lines(),
-                    sight.driving_lines_from_far(),
-                    sight.farthest_driving_m(),
+                    lit.standing_lines,
+                    lit.driving_lines_from_far,
+                    lit.farthest_driving_m,
                     driving.join(" ")
                 );
             }
