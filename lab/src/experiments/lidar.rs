@@ -39,6 +39,7 @@
 //! PanAngle gives the co-processor.
 
 pub mod after_sweep;
+pub mod on_board;
 mod rig_table;
 pub mod riser_sight;
 
@@ -330,7 +331,7 @@ const CHECK_PERIOD_S: f64 = 0.1;
 /// least 1): an LD19 sends 375 packets a second (4 500 samples, 12 a packet), an RPLIDAR in
 /// standard scan 2 000 nodes (one a sample), a YDLIDAR X4 about 130 (5 000 samples at 7 Hz in
 /// packets of up to 40, each turn opened by a one-sample packet).
-fn packets_per_check(decoded: &super::engine::Decoded) -> usize {
+pub(super) fn packets_per_check(decoded: &super::engine::Decoded) -> usize {
     let span_s = match (decoded.lines.first(), decoded.lines.last()) {
         #[allow(clippy::cast_precision_loss)]
         (Some(a), Some(b)) => b.time_us.saturating_sub(a.time_us) as f64 * 1e-6,
@@ -661,6 +662,8 @@ pub struct Ld19Results {
     pub coverage: CoverageResult,
     /// The nodding rigs' stairs against standing time and the nod's phase.
     pub rigs: Vec<RigStairs>,
+    /// The same rigs through the pyramid a board holds ([`on_board`]).
+    pub on_board: Vec<on_board::BoardRig>,
 }
 
 /// Runs both, `quick` with 30 s of standing before the stairs.
@@ -683,6 +686,7 @@ pub fn run(
         stairs: run_stairs(&setup, &coverage_setup.classifier, out)?,
         coverage: run_coverage(coverage_setup)?,
         rigs: run_rigs(quick, seed, &coverage_setup.classifier)?,
+        on_board: on_board::run_rigs(quick, seed, &coverage_setup.classifier)?,
     })
 }
 
@@ -768,6 +772,7 @@ pub fn report(
         sick_holes(sick_coverage.map(|k| &k.pyramid)),
     );
     rig_table::rigs_report(&mut s, &r.rigs);
+    on_board::report(&mut s, &r.on_board);
     s
 }
 
