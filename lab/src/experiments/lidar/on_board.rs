@@ -14,7 +14,7 @@ use crate::experiments::stairs::{self, Watched};
 use serde::Serialize;
 use terrain_pyramid::classify::ClassifierConfig;
 use terrain_pyramid::{
-    Design, GateShape, Schedule, DEFAULT_CELLS_PER_SIDE, DEFAULT_CLASSIFIER_SLOTS, DEFAULT_LAYERS,
+    Design, GateShape, Schedule, SensorModel, DEFAULT_CELLS_PER_SIDE, DEFAULT_CLASSIFIER_SLOTS, DEFAULT_LAYERS,
 };
 use terrain_pyramid_host::design::{fit, DesignArgs, GateArg};
 
@@ -27,6 +27,16 @@ pub const BOARD: (usize, usize, usize) = (
 
 /// The designs' ranges measured, metres: `None` is the rig's own (12 m, the YDLIDAR's 10 m).
 pub const RANGES_M: [Option<f64>; 3] = [None, Some(8.0), Some(6.0)];
+
+/// A design a board runs.
+#[derive(Debug, Clone, Copy, Serialize, PartialEq)]
+pub enum BoardDesign {
+    /// The design the firmware boots with until a Configure comes: the library's default
+    /// sensor (the SICK's φ 0.5°, σ 0.15 m, 10 m) and schedule (γ 2).
+    Boot,
+    /// The rig's own sensor to this range, metres, with [`fitted`]'s γ.
+    Fitted(f64),
+}
 
 /// The stairs as a board's soft-gated pyramid sees them.
 #[derive(Debug, Clone, Copy, Serialize, PartialEq)]
@@ -83,14 +93,14 @@ pub fn fitted(setup: &StairsSetup) -> Result<(f32, Design<DEFAULT_LAYERS>), Stri
     Ok((gamma, design))
 }
 
-/// Runs `setup`'s recording through a board's soft-gated pyramid of [`fitted`]'s design at
-/// each range of `ranges_m` (`setup.range_m` is not read), all in one pass.
+/// Runs `setup`'s recording through a board's soft-gated pyramid of each of `designs`
+/// (`setup.range_m` is not read), all in one pass.
 ///
 /// # Errors
 /// The simulator or the library refused the setup.
 pub fn run(
     setup: &StairsSetup,
-    ranges_m: &[f64],
+    designs: &[BoardDesign],
     classifier: &ClassifierConfig,
 ) -> Result<Vec<OnBoard>, String> {
     let scene_config = setup.scene_config();
@@ -98,8 +108,16 @@ pub fn run(
     let watched = Watched::of(&scene_config);
     let mut fits = Vec::new();
     let mut maps: Vec<Box<dyn Map>> = Vec::new();
-    for &range_m in ranges_m {
-        let (gamma, design) = fitted(&StairsSetup { range_m, ..*setup })?;
+    for &designed in designs {
+        let (gamma, design) = match designed {
+            BoardDesign::Boot => {
+                let schedule = Schedule::default();
+                let design = Design::new(SensorModel::default(), schedule, DEFAULT_CELLS_PER_SIDE)
+                    .map_err(|e| e.to_string())?;
+                (schedule.gamma, design)
+            }
+            BoardDesign::Fitted(range_m) => fitted(&StairsSetup { range_m, ..*setup })?,
+        };
         fits.push((gamma, design.layers().len()));
         maps.push(Box::new(Runner::<
             DEFAULT_CELLS_PER_SIDE,
@@ -144,8 +162,8 @@ pub fn run(
 pub struct BoardRig {
     /// The rig's name.
     pub rig: &'static str,
-    /// The design's range, metres.
-    pub range_m: f64,
+    /// The design.
+    pub design: BoardDesign,
     /// Distance from the standing place to the first riser, metres: the rig's own range less
     /// 0.95 m, as in the rig table, whatever the design's range.
     pub stand_distance_m: f64,
@@ -157,7 +175,7 @@ pub struct BoardRig {
     pub phases_long: Vec<OnBoard>,
 }
 
-/// Every rig at every range of [`RANGES_M`] on a board, the approach started at the nod's
+/// Every rig on a board, with its boot design and fitted to every range of [`RANGES_M`], the approach started at the nod's
 /// phases after 120 s of standing.
 ///
 /// # Errors
@@ -172,7 +190,9 @@ pub fn run_rigs(
     let mut out = Vec::new();
     for (kind, name) in RIGS {
         let (_, own) = kind.range_m();
-        let ranges: Vec<f64> = RANGES_M.iter().map(|r| r.unwrap_or(own)).collect();
+        let designs: Vec<BoardDesign> = core::iter::once(BoardDesign::Boot)
+            .chain(RANGES_M.iter().map(|r| BoardDesign::Fitted(r.unwrap_or(own))))
+            .collect();
         // Row i: phase i's runs, one per range.
         let rows_after = |from: f64, count: usize| {
             #[allow(clippy::cast_precision_loss)]
@@ -186,7 +206,7 @@ pub fn run_rigs(
                         stand_distance_m: own - 0.95,
                         ..StairsSetup::FULL
                     };
-                    run(&setup, &ranges, classifier)
+                    run(&setup, &designs, classifier)
                 })
                 .collect::<Result<Vec<_>, _>>()
         };
@@ -199,10 +219,10 @@ pub fn run_rigs(
         let column = |rows: &[Vec<OnBoard>], j: usize| -> Vec<OnBoard> {
             rows.iter().filter_map(|row| row.get(j).copied()).collect()
         };
-        for (j, &range_m) in ranges.iter().enumerate() {
+        for (j, &design) in designs.iter().enumerate() {
             out.push(BoardRig {
                 rig: name,
-                range_m,
+                design,
                 stand_distance_m: own - 0.95,
                 phases: column(&rows, j),
                 phases_long: column(&long, j),
@@ -248,7 +268,7 @@ pub fn report(s: &mut String, rows: &[BoardRig]) {
     use std::fmt::Write as _;
     let _ = writeln!(
         s,
-        "On a board: the same rigs and approach through the soft-gated pyramid a board holds ({} layers of {}² cells, {} classifier slots: the `qemu-mps2` and `stm32f4` firmware), its design at the range given with the smallest γ (in steps of 0.5 from 2) that fits; the nod's phases after 120 s. Step cells obstacle at the stop, where the first step was first seen (the phases meeting 95 % and 4 m), the most flat ground before the stairs obstacle at the stop and 0.5–2.5 m before the first riser when the first step was first seen, the point additions the classifier's scratch dropped, and the phases where standing {} nods longer lowered the step cells at the stop or brought the first sighting more than 0.1 m nearer.\n\n| rig | design range | γ, layers | step cells at the stop (≥ 95 %) | first step seen (≥ 4 m) | false obstacles at the stop | ground at first sight | dropped | standing longer: lower at the stop; seen nearer |\n| --- | --- | --- | --- | --- | --- | --- | --- | --- |",
+        "On a board: the same rigs and approach through the soft-gated pyramid a board holds ({} layers of {}² cells, {} classifier slots: the `qemu-mps2` and `stm32f4` firmware), with the design it boots with (until the host sends a Configure: `pyramid listen` sends none) or with the rig's design at the range given and the smallest γ (in steps of 0.5 from 2) that fits (`pyramid design --fit-layers 8`); the nod's phases after 120 s. Step cells obstacle at the stop, where the first step was first seen (the phases meeting 95 % and 4 m), the most flat ground before the stairs obstacle at the stop and 0.5–2.5 m before the first riser when the first step was first seen, the point additions the classifier's scratch dropped, and the phases where standing {} nods longer lowered the step cells at the stop or brought the first sighting more than 0.1 m nearer.\n\n| rig | design | γ, layers | step cells at the stop (≥ 95 %) | first step seen (≥ 4 m) | false obstacles at the stop | ground at first sight | dropped | standing longer: lower at the stop; seen nearer |\n| --- | --- | --- | --- | --- | --- | --- | --- | --- |",
         BOARD.0, BOARD.1, BOARD.2, LONG_STAND_NODS
     );
     for r in rows {
@@ -267,9 +287,12 @@ pub fn report(s: &mut String, rows: &[BoardRig]) {
         };
         let _ = writeln!(
             s,
-            "| {} | {:.0} m | {gamma}, {layers} | {} ({met} of {n}) | {}{never} ({far} of {n}) | ≤ {} | ≤ {} | {} | {} |",
+            "| {} | {} | {gamma}, {layers} | {} ({met} of {n}) | {}{never} ({far} of {n}) | ≤ {} | ≤ {} | {} | {} |",
             r.rig,
-            r.range_m,
+            match r.design {
+                BoardDesign::Boot => "boot (SICK's φ 0.5°, 10 m)".to_string(),
+                BoardDesign::Fitted(range_m) => format!("rig's, {range_m:.0} m"),
+            },
             span(&at_stop, pct),
             span(&seen, |d| format!("{d:.2} m")),
             pct(worst(r.phases.iter().map(|p| p.false_obstacles).collect())),
@@ -354,7 +377,7 @@ mod tests {
                         .unwrap_or(range - 0.95),
                     ..StairsSetup::FULL
                 };
-                let r = run(&setup, &[range], &classifier).unwrap();
+                let r = run(&setup, &[BoardDesign::Fitted(range)], &classifier).unwrap();
                 println!("{name} {:.3} s: {r:?}", setup.stand_s);
             }
         }
