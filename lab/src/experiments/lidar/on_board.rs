@@ -14,7 +14,8 @@ use crate::experiments::stairs::{self, Watched};
 use serde::Serialize;
 use terrain_pyramid::classify::ClassifierConfig;
 use terrain_pyramid::{
-    Design, GateShape, Schedule, SensorModel, DEFAULT_CELLS_PER_SIDE, DEFAULT_CLASSIFIER_SLOTS, DEFAULT_LAYERS,
+    Design, GateShape, Schedule, SensorModel, DEFAULT_CELLS_PER_SIDE, DEFAULT_CLASSIFIER_SLOTS,
+    DEFAULT_LAYERS,
 };
 use terrain_pyramid_host::design::{fit, DesignArgs, GateArg};
 
@@ -191,7 +192,11 @@ pub fn run_rigs(
     for (kind, name) in RIGS {
         let (_, own) = kind.range_m();
         let designs: Vec<BoardDesign> = core::iter::once(BoardDesign::Boot)
-            .chain(RANGES_M.iter().map(|r| BoardDesign::Fitted(r.unwrap_or(own))))
+            .chain(
+                RANGES_M
+                    .iter()
+                    .map(|r| BoardDesign::Fitted(r.unwrap_or(own))),
+            )
             .collect();
         // Row i: phase i's runs, one per range.
         let rows_after = |from: f64, count: usize| {
