@@ -358,31 +358,39 @@ mod tests {
         );
     }
 
-    /// Prints every rig's 8 phases after 120 s on a board.
+    /// Prints every rig's 8 phases after 120 s on a board, with the boot design and the rig's
+    /// fitted to `ON_BOARD_RANGE_M` (default the rig's range), standing `ON_BOARD_STAND_M`
+    /// away (default that range less 0.95 m), `ON_BOARD_RPO` revolutions an observation
+    /// (default 0: one per sweep; 1 was the rig file's default for a lidar until 2026-12-06).
     #[test]
-    #[ignore = "a diagnostic, minutes long: run by hand"]
+    #[ignore = "a diagnostic, a minute long: run by hand"]
     fn on_board_phases() {
+        fn env_or<T: std::str::FromStr>(name: &str, default: T) -> T {
+            std::env::var(name)
+                .ok()
+                .and_then(|s| s.parse().ok())
+                .unwrap_or(default)
+        }
         let classifier = ClassifierConfig::default();
         for (kind, name) in RIGS {
             let (_, full) = kind.range_m();
-            let range = std::env::var("ON_BOARD_RANGE_M")
-                .ok()
-                .and_then(|s| s.parse().ok())
-                .unwrap_or(full);
+            let range = env_or("ON_BOARD_RANGE_M", full);
             #[allow(clippy::cast_precision_loss)]
             for i in 0..PHASES {
                 let stand_s = 120.0 + nod_period_s() * i as f64 / PHASES as f64;
                 let setup = StairsSetup {
                     stand_s: (stand_s * 1000.0).round() / 1000.0,
                     kind,
-                    range_m: range,
-                    stand_distance_m: std::env::var("ON_BOARD_STAND_M")
-                        .ok()
-                        .and_then(|s| s.parse().ok())
-                        .unwrap_or(range - 0.95),
+                    stand_distance_m: env_or("ON_BOARD_STAND_M", full - 0.95),
+                    revolutions_per_observation: env_or("ON_BOARD_RPO", 0),
                     ..StairsSetup::FULL
                 };
-                let r = run(&setup, &[BoardDesign::Fitted(range)], &classifier).unwrap();
+                let r = run(
+                    &setup,
+                    &[BoardDesign::Boot, BoardDesign::Fitted(range)],
+                    &classifier,
+                )
+                .unwrap();
                 println!("{name} {:.3} s: {r:?}", setup.stand_s);
             }
         }
