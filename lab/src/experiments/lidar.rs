@@ -31,8 +31,9 @@
 //! otherwise. The design's bound `δ(d)` grows with that spacing (its term `φ·(d² + h²)/h`):
 //! a cell of the design's own resolution `r_k = k·γ·Δd` holds, in one sweep, the ground
 //! before a riser, the riser and the tread behind it, and the plane rule sees the rise. The
-//! rigs therefore run the pyramid a user flashes (the library's default schedule); the
-//! uniform one is [`StairsSetup::uniform_layers`].
+//! rigs therefore run the design's own pyramid (the library's default schedule, up to 64
+//! layers: more than a board holds, which [`on_board`] measures); the uniform one is
+//! [`StairsSetup::uniform_layers`].
 //!
 //! The SICK's design is the paper's (φ = 0.5°, ψ = 2°, σ = 0.15 m). The recording carries one
 //! actuator angle per packet (the angle at its mean sample time), which is what the host's
@@ -196,8 +197,8 @@ pub struct StairsSetup {
     pub servo: (f64, f64, f64, f64),
     /// Every pyramid layer at 0.1 m (the paper's stairs pyramid, which the SICK runs) when
     /// true; the design's own resolutions `r_k = k·γ·Δd` (the library's default schedule,
-    /// what a user flashes) when false, the default. See the module documentation, "Why the
-    /// design's resolutions".
+    /// up to [`RIG_LAYERS`] layers) when false, the default. See the module documentation,
+    /// "Why the design's resolutions".
     pub uniform_layers: bool,
     /// Seconds the robot stands at the stop before the recording ends, ≥ 0 (default 0: the
     /// recording ends as the robot arrives).
