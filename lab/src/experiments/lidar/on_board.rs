@@ -158,7 +158,7 @@ pub fn run(
         .collect())
 }
 
-/// A rig on a board at one design range: its nod's phases.
+/// A rig on a board with one design: its nod's phases.
 #[derive(Debug, Clone, Serialize)]
 pub struct BoardRig {
     /// The rig's name.
@@ -176,8 +176,8 @@ pub struct BoardRig {
     pub phases_long: Vec<OnBoard>,
 }
 
-/// Every rig on a board, with its boot design and fitted to every range of [`RANGES_M`], the approach started at the nod's
-/// phases after 120 s of standing.
+/// Every rig on a board, with its boot design and with its own fitted to every range of
+/// [`RANGES_M`], the approach started at the nod's phases after 120 s of standing.
 ///
 /// # Errors
 /// As [`run`].
