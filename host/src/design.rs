@@ -37,6 +37,53 @@ pub struct Args {
     /// Also draw the bound, its terms and the bands (the paper's Figure 2) into this PNG file.
     #[arg(long, value_name = "FILE.png")]
     pub plot: Option<PathBuf>,
+    /// Fit the design to a board that holds N layers (1 ..= 16; the `qemu-mps2` and `stm32f4`
+    /// firmware hold 8, the micro:bit's 4): γ is raised from `--gamma` in steps of 0.5 until
+    /// the bands need at most N layers and each window holds its band, and the design of
+    /// that γ is reported (docs/lidars.md, "On a board").
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u8).range(1..=16))]
+    pub fit_layers: Option<u8>,
+}
+
+/// The step by which `--fit-layers` raises γ.
+pub const FIT_GAMMA_STEP: f64 = 0.5;
+
+/// The largest γ `--fit-layers` tries: beyond it layer 1's cells are 6.4 m at Δd = 0.1 m.
+pub const FIT_GAMMA_MAX: f64 = 64.0;
+
+/// Raises `args.gamma` in steps of [`FIT_GAMMA_STEP`] until the design needs at most
+/// `layers` layers (≤ [`LAYER_CAPACITY`]) and every window holds its band: the arguments of
+/// that γ and their design. A refusal that γ cannot mend (a bad φ, σ, range, window or gate;
+/// γ ≤ 1) is returned at once.
+///
+/// # Errors
+/// That refusal, or no γ up to [`FIT_GAMMA_MAX`] fits: the refusal at that γ, in words.
+pub fn fit(args: &DesignArgs, layers: usize) -> Result<(DesignArgs, PyramidDesign), String> {
+    let mut tried = args.clone();
+    loop {
+        let outcome = build(&tried);
+        let mendable = match &outcome {
+            Ok(design) => design.layers().len() > layers,
+            Err(DesignError::TooManyLayers { .. } | DesignError::WindowTooSmall { .. }) => true,
+            Err(_) => false,
+        };
+        if !mendable {
+            return outcome
+                .map(|design| (tried, design))
+                .map_err(|e| e.to_string());
+        }
+        if tried.gamma + FIT_GAMMA_STEP > FIT_GAMMA_MAX {
+            let needed = match outcome {
+                Ok(design) => format!("needs {} layers", design.layers().len()),
+                Err(e) => e.to_string(),
+            };
+            return Err(format!(
+                "--fit-layers: no gamma from {} to {FIT_GAMMA_MAX} fits {layers} layers (at {}: {needed}); lower --max-range-m or raise --base-m",
+                args.gamma, tried.gamma
+            ));
+        }
+        tried.gamma += FIT_GAMMA_STEP;
+    }
 }
 
 /// The flags that describe a design: the sensor, the resolution schedule, the window and the
@@ -274,6 +321,8 @@ impl From<BoundTerms> for BoundReport {
 /// The whole report: what `--json` prints.
 #[derive(Serialize, Debug, Clone, PartialEq)]
 pub struct Report {
+    /// γ of the schedule, the one `--fit-layers` chose when given.
+    pub gamma: f64,
     /// The layers, finest first.
     pub layers: Vec<LayerReport>,
     /// The bound at the listed distances.
@@ -303,12 +352,14 @@ pub fn report<const L: usize>(design: &Design<L>) -> Report {
             extent_m: metres(cells_f * l.resolution_m),
         })
         .collect();
+    let gamma = metres(design.schedule().gamma);
     let sensor = design.sensor();
     let bound = bound_distances(sensor.max_range_m)
         .into_iter()
         .map(|d| BoundReport::from(sensor.bound(d)))
         .collect();
     Report {
+        gamma,
         layers,
         bound,
         static_ram_bytes: static_ram_bytes(design),
@@ -413,15 +464,21 @@ pub fn run(args: &Args) -> ExitCode {
             return ExitCode::from(2);
         }
     }
-    let design = match build(&args.design) {
-        Ok(design) => design,
+    let built = match args.fit_layers {
+        Some(n) => fit(&args.design, usize::from(n)),
+        None => build(&args.design)
+            .map(|design| (args.design.clone(), design))
+            .map_err(|e| e.to_string()),
+    };
+    let (design_args, design) = match built {
+        Ok(built) => built,
         Err(e) => {
             eprintln!("error: {e}");
             return ExitCode::from(2);
         }
     };
     if let Some(path) = &args.plot {
-        if let Err(msg) = plot::draw(path, &args.design, &design) {
+        if let Err(msg) = plot::draw(path, &design_args, &design) {
             eprintln!("error: --plot: cannot write {}: {msg}", path.display());
             return ExitCode::FAILURE;
         }
@@ -432,7 +489,13 @@ pub fn run(args: &Args) -> ExitCode {
             return ExitCode::FAILURE;
         }
     } else {
-        print!("{}", table(&args.design, &design, &report));
+        print!("{}", table(&design_args, &design, &report));
+        if let Some(n) = args.fit_layers {
+            println!(
+                "\nFitted to {n} layers: gamma {} (from --gamma {}).",
+                design_args.gamma, args.design.gamma
+            );
+        }
     }
     ExitCode::SUCCESS
 }

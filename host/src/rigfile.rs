@@ -245,22 +245,20 @@ pub struct Rig {
     /// Masks and range and quality filters.
     pub filters: Filters,
     /// Lines (a SICK's telegrams, a lidar's revolutions) per observation; 0 = one per sweep
-    /// of the actuator; `None`: the sensor's default ([`default_lines_per_observation`]).
+    /// of the actuator; `None`: [`DEFAULT_LINES_PER_OBSERVATION`].
     pub lines_per_observation: Option<u32>,
     /// The classifier's thresholds.
     pub classifier: ClassifierSpec,
 }
 
-/// The observation policy of a sensor when the rig gives none: a spinning lidar, one
-/// observation per revolution (a 360° lidar touches far more cells per actuator sweep than
-/// a classifier's scratch holds); a SICK, one per sweep (the paper's).
-#[must_use]
-pub const fn default_lines_per_observation(kind: SensorKind) -> u32 {
-    match kind {
-        SensorKind::Sick => 0,
-        _ => 1,
-    }
-}
+/// The observation policy when the rig gives none, every sensor: 0, the policy that suits the
+/// mount (`docs/lidars.md`, "Observations"): a SICK or a nodding lidar one observation per
+/// sweep of its actuator, a panned lidar or one without an actuator one per revolution. A
+/// full classifier scratch splits an observation (no return is lost), so a sweep's many
+/// revolutions need no smaller policy. (Until 2026-12-06 a lidar's was 1: on a nodding rig
+/// each revolution, one tilt, was judged alone, and the stairs went unseen;
+/// `docs/lidars.md`, "On a board".)
+pub const DEFAULT_LINES_PER_OBSERVATION: u32 = 0;
 
 #[cfg(test)]
 mod tests {
@@ -285,6 +283,25 @@ mod tests {
 
     fn parse(text: &str) -> Result<Rig, String> {
         parse_rig(Path::new("rig.toml"), text)
+    }
+
+    #[test]
+    fn a_nodding_lidar_without_an_observation_policy_gets_one_observation_a_sweep() {
+        // The library's 0: a sweep of the servo on a tilt, a revolution on a pan (one tilt a
+        // revolution judged alone leaves a nodding rig's stairs unseen: docs/lidars.md).
+        let text = "[sensor]\nkind = \"ld19\"\n[actuator]\naxis = \"tilt\"\n";
+        let rig = parse(text).unwrap();
+        assert_eq!(rig.lines_per_observation, None);
+        let setup = device_setup(&rig, &ClassifierConfig::DEFAULT).unwrap();
+        assert_eq!(setup.lines_per_observation, 0);
+        let (event, _) = recording_setup(&rig).unwrap();
+        assert_eq!(event.lines_per_observation, 0);
+        let frontend = terrain_pyramid::link::convert::frontend_config(&setup).unwrap();
+        assert_eq!(frontend.lines_per_observation, 0);
+        // The nodding example says so too.
+        let (name, example) = EXAMPLES[0];
+        let rig = parse_rig(Path::new(name), example).unwrap();
+        assert_eq!(rig.lines_per_observation, Some(0));
     }
 
     #[test]
@@ -319,7 +336,7 @@ mod tests {
         );
         assert_eq!(
             (setup.laser.baud, setup.lines_per_observation),
-            (115_200, 1)
+            (115_200, 0)
         );
         assert_eq!(setup.ceiling_m, 0.0, "the classifier is the caller's");
         let config = rp.classifier.apply(ClassifierConfig::DEFAULT).unwrap();

@@ -233,3 +233,64 @@ fn an_unwritable_plot_fails_with_one_line() {
     assert_eq!(stderr.lines().count(), 1, "{stderr:?}");
     assert!(stderr.contains("--plot"), "{stderr}");
 }
+
+/// An LD19 nodding at 20 °/s (φ 2°, ψ 0.8°, σ 0.045 m, h 1 m) to 8 m: the design of γ = 2
+/// needs more than a board's 8 layers.
+const LD19_8M: [&str; 8] = [
+    "--phi-deg",
+    "2",
+    "--psi-deg",
+    "0.8",
+    "--sigma-m",
+    "0.045",
+    "--max-range-m",
+    "8",
+];
+
+#[test]
+fn fit_layers_raises_gamma_to_the_smallest_that_fits_and_reports_it() {
+    let layers = |v: &Value| v["layers"].as_array().expect("layers").len();
+    let unfitted = design_json(&LD19_8M);
+    assert_eq!(num(&unfitted["gamma"]), 2.0);
+    assert!(
+        layers(&unfitted) > 8,
+        "γ = 2 already fits: {}",
+        layers(&unfitted)
+    );
+    let fitted = design_json(&[&LD19_8M[..], &["--fit-layers", "8"]].concat());
+    let gamma = num(&fitted["gamma"]);
+    assert!(layers(&fitted) <= 8);
+    // The same design as asked for by γ directly, and half a step less does not fit.
+    let direct = design_json(&[&LD19_8M[..], &["--gamma", &gamma.to_string()]].concat());
+    assert_eq!(fitted, direct);
+    let less = design_json(&[&LD19_8M[..], &["--gamma", &(gamma - 0.5).to_string()]].concat());
+    assert!(layers(&less) > 8, "γ {} fits too", gamma - 0.5);
+    // A design that fits already keeps its γ.
+    let kept = design_json(&["--fit-layers", "16"]);
+    assert_eq!(kept, design_json(&[]));
+    // The table says what was fitted.
+    let out = pyramid(&[&LD19_8M[..], &["--fit-layers", "8"]].concat());
+    let table = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        table.contains(&format!(
+            "Fitted to 8 layers: gamma {gamma} (from --gamma 2)"
+        )),
+        "{table}"
+    );
+}
+
+#[test]
+fn a_fit_no_gamma_can_make_or_a_bad_count_is_refused_by_name() {
+    // One layer cannot reach 8 m at any γ (layer 0's band ends where δ(d) passes Δd).
+    assert_refused(
+        &[&LD19_8M[..], &["--fit-layers", "1"]].concat(),
+        "--fit-layers",
+    );
+    // What γ cannot mend is refused as without the flag.
+    assert_refused(&["--phi-deg", "-1", "--fit-layers", "8"], "--phi-deg");
+    for bad in ["0", "17", "eight"] {
+        let out = pyramid(&["--fit-layers", bad]);
+        assert_eq!(out.status.code(), Some(2), "--fit-layers {bad}");
+        assert!(String::from_utf8_lossy(&out.stderr).contains("--fit-layers"));
+    }
+}

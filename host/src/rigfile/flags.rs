@@ -82,8 +82,9 @@ pub struct RigArgs {
     /// Returns of a lower quality (the sensor's 0 ..= 255) are dropped.
     #[arg(long = "filter-min-quality", value_name = "Q")]
     pub min_quality: Option<u8>,
-    /// Lines (SICK telegrams, lidar revolutions) per observation; 0 = one per actuator sweep
-    /// [default: SICK 0, a lidar 1].
+    /// Lines (SICK telegrams, lidar revolutions) per observation; 0 = the mount's policy: one
+    /// per sweep of a tilting or nodding actuator, one per revolution on a pan or without an
+    /// actuator [default: 0].
     #[arg(long, value_name = "N")]
     pub lines_per_observation: Option<u32>,
 }

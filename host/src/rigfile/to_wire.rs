@@ -1,6 +1,6 @@
 //! Where a [`Rig`] becomes what the device's link (its Setup) and a recording (its setup,
 //! sensor and rig events) carry: the only place the rig meets the wire formats.
-use super::{default_lines_per_observation, Axis, Rig, SensorName, SensorSpec};
+use super::{Axis, Rig, SensorName, SensorSpec, DEFAULT_LINES_PER_OBSERVATION};
 use terrain_pyramid::classify::ClassifierConfig;
 use terrain_pyramid::link::convert::rule_setup;
 use terrain_pyramid::wire::link::{FilterSetup, LaserSetup, MountSetup, Setup};
@@ -90,7 +90,7 @@ pub fn device_setup(rig: &Rig, classifier: &ClassifierConfig) -> Result<Setup, S
         sensor_m: rig.mount.xyz_m.map(f),
         lines_per_observation: rig
             .lines_per_observation
-            .unwrap_or(default_lines_per_observation(sensor.name.kind())),
+            .unwrap_or(DEFAULT_LINES_PER_OBSERVATION),
         robot_height_m: m(classifier.robot_height),
         step_threshold_m: m(classifier.step_threshold),
         drop_threshold_m: off(classifier.drop_threshold),
@@ -148,7 +148,7 @@ pub fn recording_setup(rig: &Rig) -> Result<(SetupEvent, SensorEvent), String> {
         sensor_m: rig.mount.xyz_m.map(|v| v as f32),
         lines_per_observation: rig
             .lines_per_observation
-            .unwrap_or(default_lines_per_observation(sensor.name.kind())),
+            .unwrap_or(DEFAULT_LINES_PER_OBSERVATION),
     };
     let event = SensorEvent {
         sensor: sensor.name.kind().code(),

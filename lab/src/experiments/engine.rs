@@ -142,6 +142,8 @@ pub trait Map {
     /// Observations the classifier ended so far (each integrated into the maps, evidence or
     /// not).
     fn observations(&self) -> u64;
+    /// Point-to-cell additions the classifier's full scratch dropped so far (its overflow).
+    fn dropped(&self) -> u64;
     /// The maps as plain data, for pictures.
     fn snapshot(&self, sensor_xy: (f64, f64)) -> MapSnapshot;
     /// The number of layers.
@@ -257,6 +259,10 @@ impl<const W: usize, const L: usize, const C: usize> Map for Runner<W, L, C> {
 
     fn observations(&self) -> u64 {
         u64::from(self.frontend.classifier_stats().observations)
+    }
+
+    fn dropped(&self) -> u64 {
+        u64::from(self.frontend.classifier_stats().overflow_points)
     }
 
     fn snapshot(&self, sensor_xy: (f64, f64)) -> MapSnapshot {

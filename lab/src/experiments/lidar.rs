@@ -31,14 +31,16 @@
 //! otherwise. The design's bound `δ(d)` grows with that spacing (its term `φ·(d² + h²)/h`):
 //! a cell of the design's own resolution `r_k = k·γ·Δd` holds, in one sweep, the ground
 //! before a riser, the riser and the tread behind it, and the plane rule sees the rise. The
-//! rigs therefore run the pyramid a user flashes (the library's default schedule); the
-//! uniform one is [`StairsSetup::uniform_layers`].
+//! rigs therefore run the design's own pyramid (the library's default schedule, up to 64
+//! layers: more than a board holds, which [`on_board`] measures); the uniform one is
+//! [`StairsSetup::uniform_layers`].
 //!
 //! The SICK's design is the paper's (φ = 0.5°, ψ = 2°, σ = 0.15 m). The recording carries one
 //! actuator angle per packet (the angle at its mean sample time), which is what the host's
 //! PanAngle gives the co-processor.
 
 pub mod after_sweep;
+pub mod on_board;
 mod rig_table;
 pub mod riser_sight;
 
@@ -195,8 +197,8 @@ pub struct StairsSetup {
     pub servo: (f64, f64, f64, f64),
     /// Every pyramid layer at 0.1 m (the paper's stairs pyramid, which the SICK runs) when
     /// true; the design's own resolutions `r_k = k·γ·Δd` (the library's default schedule,
-    /// what a user flashes) when false, the default. See the module documentation, "Why the
-    /// design's resolutions".
+    /// up to [`RIG_LAYERS`] layers) when false, the default. See the module documentation,
+    /// "Why the design's resolutions".
     pub uniform_layers: bool,
     /// Seconds the robot stands at the stop before the recording ends, ≥ 0 (default 0: the
     /// recording ends as the robot arrives).
@@ -330,7 +332,7 @@ const CHECK_PERIOD_S: f64 = 0.1;
 /// least 1): an LD19 sends 375 packets a second (4 500 samples, 12 a packet), an RPLIDAR in
 /// standard scan 2 000 nodes (one a sample), a YDLIDAR X4 about 130 (5 000 samples at 7 Hz in
 /// packets of up to 40, each turn opened by a one-sample packet).
-fn packets_per_check(decoded: &super::engine::Decoded) -> usize {
+pub(super) fn packets_per_check(decoded: &super::engine::Decoded) -> usize {
     let span_s = match (decoded.lines.first(), decoded.lines.last()) {
         #[allow(clippy::cast_precision_loss)]
         (Some(a), Some(b)) => b.time_us.saturating_sub(a.time_us) as f64 * 1e-6,
@@ -661,6 +663,8 @@ pub struct Ld19Results {
     pub coverage: CoverageResult,
     /// The nodding rigs' stairs against standing time and the nod's phase.
     pub rigs: Vec<RigStairs>,
+    /// The same rigs through the pyramid a board holds ([`on_board`]).
+    pub on_board: Vec<on_board::BoardRig>,
 }
 
 /// Runs both, `quick` with 30 s of standing before the stairs.
@@ -683,6 +687,7 @@ pub fn run(
         stairs: run_stairs(&setup, &coverage_setup.classifier, out)?,
         coverage: run_coverage(coverage_setup)?,
         rigs: run_rigs(quick, seed, &coverage_setup.classifier)?,
+        on_board: on_board::run_rigs(quick, seed, &coverage_setup.classifier)?,
     })
 }
 
@@ -768,6 +773,7 @@ pub fn report(
         sick_holes(sick_coverage.map(|k| &k.pyramid)),
     );
     rig_table::rigs_report(&mut s, &r.rigs);
+    on_board::report(&mut s, &r.on_board);
     s
 }
 
