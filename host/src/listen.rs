@@ -126,8 +126,9 @@ const CONNECT_TIMEOUT: Duration = Duration::from_secs(5);
 #[command(
     after_help = "The rig: with --rig FILE or any rig flag (--sensor, --mount-xyz-m, \
 --actuator, --servo-sweep-deg, --lines-per-observation, ...), the device is sent its Setup on \
-connecting and on every reconnection, before the SetRule of the rule flags. Without them no \
-Setup is sent: the device keeps the setup it booted with (or was last given)."
+connecting, on every reconnection and after the device boots, before the SetRule of the rule \
+flags. Without them no Setup is sent: the device keeps the setup it booted with (or was last \
+given)."
 )]
 pub struct Args {
     /// The device's serial port (8N1).

@@ -12,7 +12,10 @@ use std::time::{Duration, Instant};
 use terrain_pyramid::classify::ClassifierConfig;
 use terrain_pyramid::link::convert::{setup_refusal, SetupError, SetupField};
 use terrain_pyramid::link::{Link, LinkConfig};
-use terrain_pyramid::wire::link::{FrameAccumulator, Header, Message, Setup, MAX_FRAME};
+use terrain_pyramid::wire::link::{
+    encode, ClockSource, FirmwareVersion, FrameAccumulator, Header, Hello, HelloReason, Message,
+    Setup, MAX_FRAME, VERSION,
+};
 use terrain_pyramid_host::rigfile::{device_setup, read_rig_file};
 
 #[path = "support/listen_device.rs"]
@@ -114,6 +117,68 @@ fn the_rig_s_setup_is_sent_at_connect_and_again_after_a_reconnect() {
         assert_eq!(got.iter().filter(|f| f.0 == 0x87).count(), 1, "{name}");
     }
     assert!(stderr.contains("reconnected"), "{stderr}");
+}
+
+#[test]
+fn a_device_that_boots_while_connected_is_sent_the_rig_s_setup_and_rule_again() {
+    // A watchdog reset behind a serial port that stays open: the connection goes on, and
+    // the device says it booted.
+    let rig_path = example("ld19-nodding.toml");
+    let rig = read_rig_file(&rig_path).unwrap();
+    let classifier = rig.classifier.apply(ClassifierConfig::DEFAULT).unwrap();
+    let expected = device_setup(&rig, &classifier).unwrap();
+    let listener = TcpListener::bind("127.0.0.1:0").unwrap();
+    let port = listener.local_addr().unwrap().port();
+    let out = std::env::temp_dir().join(format!("pyramid-listen-setup-b-{}", std::process::id()));
+    let child = listen(
+        port,
+        &out,
+        &[
+            "--duration-s",
+            "3",
+            "--rig",
+            rig_path.to_str().unwrap(),
+            "--rule",
+            "plane",
+        ],
+    );
+    let mut stream = accept(&listener);
+    let before = frames(&mut stream, Duration::from_millis(800), |_, _, _| {});
+    let hello = Hello {
+        protocol: VERSION,
+        firmware: FirmwareVersion {
+            major: 0,
+            minor: 1,
+            patch: 0,
+        },
+        reason: HelloReason::Boot,
+        cells_per_side: 64,
+        resend: 0,
+        clock: ClockSource::NotReported,
+        layers: Default::default(),
+    };
+    let mut buf = [0_u8; 128];
+    let n = encode(0, &Message::Hello(hello), &mut buf).unwrap();
+    stream.write_all(&buf[..n]).unwrap();
+    let after = frames(&mut stream, Duration::from_millis(4000), |_, _, _| {});
+    let o = child.wait_with_output().unwrap();
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    let _ = std::fs::remove_dir_all(&out);
+    let types = |got: &[(u8, Option<Setup>)]| got.iter().map(|f| f.0).collect::<Vec<_>>();
+    assert_eq!(types(&before), [0x87, 0x8B, 0x85], "{before:?}\n{stderr}");
+    // After the boot Hello: the Setup, the SetRule and a snapshot request again, once.
+    assert_eq!(
+        types(&after).get(..3),
+        Some(&[0x87, 0x8B, 0x85][..]),
+        "{after:?}\n{stderr}"
+    );
+    assert_eq!(after[0].1, Some(expected));
+    assert_eq!(after.iter().filter(|f| f.0 == 0x87).count(), 1, "{after:?}");
+    assert!(
+        stderr.contains("device booted: the rig's setup and rule sent again"),
+        "{stderr}"
+    );
+    assert!(!stderr.contains("reconnected"), "{stderr}");
 }
 
 #[test]

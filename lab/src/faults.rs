@@ -93,7 +93,7 @@ mod reference;
 use plan::{plan, recording, Cmd, Line, Phase, Rng, Step};
 use reference::Reference;
 
-/// Every fault kind, in order (the spinning lidars' kinds follow: [`lidar::KINDS`]).
+/// Every fault kind, in order (the spinning lidars' kinds, `lidar::KINDS`, follow).
 pub const KINDS: [&str; 10] = [
     "bit_flips_1e-4",
     "bit_flips_1e-3",

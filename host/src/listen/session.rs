@@ -35,7 +35,7 @@ pub(super) struct Session {
     pub(super) set_rule: Option<SetRule>,
     /// The rig's Setup, sent on connecting before the rule (`--rig` and the rig flags).
     pub(super) setup: Option<Setup>,
-    /// Setups sent (one per connection).
+    /// Setups sent (one per connection, and one more after each boot Hello).
     pub(super) setups_sent: u64,
     /// The clocks and the poses.
     pub(super) timing: Timing,
@@ -246,6 +246,7 @@ pub(super) fn receive(
             }
         };
         let mut wants = false;
+        let mut rebooted = false;
         for event in session.host.feed(buf.get(..n).unwrap_or_default()) {
             match event {
                 LinkEvent::Hello(hello) => {
@@ -256,6 +257,7 @@ pub(super) fn receive(
                         session
                             .timing
                             .restart(ResetReason::DeviceBoot, Instant::now());
+                        rebooted = true;
                     }
                     if hello.reason != HelloReason::Snapshot {
                         out.notice(&format!(
@@ -313,6 +315,17 @@ pub(super) fn receive(
                 | LinkEvent::Stats(_)
                 | LinkEvent::BadFrame(_)
                 | LinkEvent::Faded(_) => {}
+            }
+        }
+        // A device that booted runs its boot setup and rule: the rig's go again (a watchdog
+        // reset behind a serial port that stays open ends no connection). One that boots as
+        // the host connects has them twice, which costs at most its first observation.
+        if rebooted && (session.setup.is_some() || session.set_rule.is_some()) {
+            match session.greet(Instant::now()) {
+                Ok(()) => out.notice(
+                    "device booted: the rig's setup and rule sent again; snapshot requested",
+                ),
+                Err(e) => out.notice(&format!("warning: {e}")),
             }
         }
         let now = Instant::now();

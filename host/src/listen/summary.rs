@@ -54,7 +54,8 @@ pub struct Summary {
     pub files: Vec<String>,
     /// Times the device was reconnected after its stream ended (`--reconnect`, serial ports).
     pub reconnects: u64,
-    /// Setups sent to the device (the rig's, one per connection; 0 without a rig).
+    /// Setups sent to the device (the rig's, one per connection and one more after each boot
+    /// Hello; 0 without a rig).
     pub setups_sent: u64,
     /// The live outputs (`--ros2`, `--foxglove`, `--mcap`), when any was on.
     #[serde(skip_serializing_if = "Option::is_none")]

@@ -535,8 +535,8 @@ pub struct StandingRow {
     /// The soft-gated pyramid after the robot stood at the stop until the observation in
     /// progress ended ([`after_sweep::run`]; null: none ended within a nod).
     pub soft_after_sweep: Option<AfterSweep>,
-    /// What the laser itself put on the first step ([`riser_sight::run`]): the bound on any
-    /// map's first sighting.
+    /// What the laser itself put on the first step ([`riser_sight::sight`]): the bound on
+    /// any map's first sighting from the first step's own returns.
     pub lit: riser_sight::Lit,
 }
 

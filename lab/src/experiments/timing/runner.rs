@@ -81,7 +81,7 @@ pub struct Input<'a, const L: usize> {
     pub late: &'a [LatePose],
     /// The on-time feed.
     pub on_time: &'a [LatePose],
-    /// The reference's true poses ([`true_poses`]).
+    /// The reference's true poses ([`true_poses`](super::true_poses)).
     pub truth: &'a [LatePose],
     /// The design the co-processor boots with.
     pub design: &'a Design<L>,
