@@ -1,9 +1,11 @@
 //! The nodding rigs' stairs on a board's sizes: the library's default 8 layers of 64² cells
 //! and 1 024 classifier slots, what the `qemu-mps2` and `stm32f4` firmware hold. A rig's
 //! design at γ = 2 needs 28 (LD19) to 49 (RPLIDAR A1) layers to reach its 12 m, which the
-//! rig table's maps hold and no board does; here γ is the smallest, in steps of 0.5 from
-//! the schedule's default, whose design a board takes at the range asked
-//! (`docs/lidars.md`, "On a board").
+//! rig table's maps hold and no board does. Here each rig runs through a board's pyramid
+//! with the design a board boots with (until a host sends a Configure: `pyramid listen`
+//! sends none) and with its own, γ the smallest in steps of 0.5 from the schedule's default
+//! that a board takes at the range asked (`pyramid design --fit-layers`; `docs/lidars.md`,
+//! "On a board").
 
 use super::{
     nod_period_s, packets_per_check, pct, Ld19Design, StairsSetup, LONG_STAND_NODS, PHASES, RIGS,
@@ -42,7 +44,8 @@ pub enum BoardDesign {
 /// The stairs as a board's soft-gated pyramid sees them.
 #[derive(Debug, Clone, Copy, Serialize, PartialEq)]
 pub struct OnBoard {
-    /// γ of the design, the smallest in steps of 0.5 from 2 that a board takes.
+    /// γ of the design: the boot design's 2, or the smallest in steps of 0.5 from 2 that a
+    /// board takes.
     pub gamma: f32,
     /// Layers of that design.
     pub layers: usize,
