@@ -16,10 +16,9 @@ use crate::experiments::stairs::{self, Watched};
 use serde::Serialize;
 use terrain_pyramid::classify::ClassifierConfig;
 use terrain_pyramid::{
-    Design, GateShape, Schedule, SensorModel, DEFAULT_CELLS_PER_SIDE, DEFAULT_CLASSIFIER_SLOTS,
-    DEFAULT_LAYERS,
+    Design, GateShape, Schedule, DEFAULT_CELLS_PER_SIDE, DEFAULT_CLASSIFIER_SLOTS, DEFAULT_LAYERS,
 };
-use terrain_pyramid_host::design::{fit, DesignArgs, GateArg};
+use terrain_pyramid_host::design::{firmware_design, fit, DesignArgs, GateArg};
 
 /// A board's layers, cells per side and classifier slots: the library's defaults.
 pub const BOARD: (usize, usize, usize) = (
@@ -115,10 +114,8 @@ pub fn run(
     for &designed in designs {
         let (gamma, design) = match designed {
             BoardDesign::Boot => {
-                let schedule = Schedule::default();
-                let design = Design::new(SensorModel::default(), schedule, DEFAULT_CELLS_PER_SIDE)
-                    .map_err(|e| e.to_string())?;
-                (schedule.gamma, design)
+                let design = firmware_design()?;
+                (design.schedule().gamma, design)
             }
             BoardDesign::Fitted(range_m) => fitted(&StairsSetup { range_m, ..*setup })?,
         };
@@ -190,7 +187,6 @@ pub fn run_rigs(
     classifier: &ClassifierConfig,
 ) -> Result<Vec<BoardRig>, String> {
     let phases = if quick { 1 } else { PHASES };
-    debug_assert!(phases <= PHASES);
     let mut out = Vec::new();
     for (kind, name) in RIGS {
         let (_, own) = kind.range_m();
