@@ -489,11 +489,12 @@ pub fn run(args: &Args) -> ExitCode {
             return ExitCode::FAILURE;
         }
     } else {
-        print!("{}", table(&design_args, &design, &report));
+        crate::out!("{}", table(&design_args, &design, &report));
         if let Some(n) = args.fit_layers {
-            println!(
+            crate::outln!(
                 "\nFitted to {n} layers: gamma {} (from --gamma {}).",
-                design_args.gamma, args.design.gamma
+                design_args.gamma,
+                args.design.gamma
             );
         }
     }

@@ -543,7 +543,7 @@ pub fn run(args: &Args) -> ExitCode {
     match execute(args) {
         Ok(json) => {
             if args.summary.json {
-                println!("{json}");
+                crate::outln!("{json}");
             } else {
                 eprintln!("maps written to {}", args.summary.out.display());
             }

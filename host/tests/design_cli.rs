@@ -294,3 +294,20 @@ fn a_fit_no_gamma_can_make_or_a_bad_count_is_refused_by_name() {
         assert!(String::from_utf8_lossy(&out.stderr).contains("--fit-layers"));
     }
 }
+
+#[test]
+fn a_reader_that_goes_away_ends_the_command_quietly() {
+    // `pyramid design --json | true`: the pipe's reader is gone before the answer is
+    // written; a Unix tool ends quietly (print! panicked with status 101).
+    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_pyramid"))
+        .args(["design", "--json"])
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    drop(child.stdout.take());
+    let out = child.wait_with_output().unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{:?}: {stderr}", out.status);
+    assert!(!stderr.contains("panicked"), "{stderr}");
+}
