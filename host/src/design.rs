@@ -92,7 +92,7 @@ pub fn fit(args: &DesignArgs, layers: usize) -> Result<(DesignArgs, PyramidDesig
 ///
 /// The numeric flags accept values that start with a hyphen (`--height-m -1`, `--sigma-m -inf`)
 /// so that the library, not the parser, refuses them with its own message.
-#[derive(clap::Args, Debug, Clone)]
+#[derive(clap::Args, Debug, Clone, PartialEq)]
 pub struct DesignArgs {
     /// φ, the sensor's vertical angular resolution, degrees.
     #[arg(
@@ -173,6 +173,26 @@ pub struct DesignArgs {
     /// ground (docs/lidars.md, "Why the design's resolutions").
     #[arg(long)]
     pub uniform_resolution: bool,
+}
+
+impl Default for DesignArgs {
+    /// The flags' defaults: the library's default sensor and schedule (the design the
+    /// firmware boots with), 64 cells per side.
+    fn default() -> Self {
+        Self {
+            phi_deg: 0.5,
+            psi_deg: 2.0,
+            sigma_m: 0.15,
+            height_m: 1.0,
+            base_m: 0.1,
+            gamma: 2.0,
+            max_range_m: 10.0,
+            cells: 64,
+            gate: GateArg::Soft,
+            gate_width: 0.5,
+            uniform_resolution: false,
+        }
+    }
 }
 
 /// The gate shape, as the command line names it.
@@ -504,6 +524,22 @@ pub fn run(args: &Args) -> ExitCode {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_default_arguments_are_the_flags_defaults_and_the_firmware_s_design() {
+        #[derive(clap::Parser)]
+        struct Cli {
+            #[command(flatten)]
+            design: DesignArgs,
+        }
+        let parsed = <Cli as clap::Parser>::try_parse_from(["design"]).unwrap();
+        assert_eq!(parsed.design, DesignArgs::default());
+        let ours = build(&DesignArgs::default()).unwrap();
+        let firmware = firmware_design().unwrap();
+        assert_eq!(ours.layers(), firmware.layers());
+        assert_eq!(ours.sensor(), firmware.sensor());
+        assert_eq!(ours.schedule(), firmware.schedule());
+    }
 
     #[test]
     fn bound_distances_stop_at_and_include_the_maximum_range() {

@@ -357,6 +357,35 @@ mod tests {
         );
     }
 
+    #[test]
+    fn the_nodding_example_rig_is_the_ld19_rig_measured_here_with_its_8_m_design() {
+        use crate::experiments::lidar::{HEIGHT_M, SERVO};
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../examples/rigs/ld19-nodding.toml");
+        let rig = terrain_pyramid_host::rigfile::read_rig_file(&path).unwrap();
+        let servo = rig.actuator.servo.unwrap();
+        assert_eq!(
+            (
+                servo.min_deg,
+                servo.max_deg,
+                servo.rate_deg_s,
+                servo.latency_ms
+            ),
+            SERVO
+        );
+        assert!((rig.mount.xyz_m[2] - HEIGHT_M).abs() < 1e-12);
+        let (gamma, design) = rig.design.unwrap().design(DEFAULT_CELLS_PER_SIDE).unwrap();
+        let (lab_gamma, lab_design) = fitted(&StairsSetup {
+            kind: LidarKind::Ld19,
+            range_m: 8.0,
+            ..StairsSetup::FULL
+        })
+        .unwrap();
+        assert!((gamma - f64::from(lab_gamma)).abs() < 1e-9);
+        assert_eq!(design.layers(), lab_design.layers());
+        assert_eq!(design.sensor(), lab_design.sensor());
+    }
+
     /// Prints every rig's 8 phases after 120 s on a board, with the boot design and the rig's
     /// fitted to `ON_BOARD_RANGE_M` (default the rig's range), standing `ON_BOARD_STAND_M`
     /// away (default that range less 0.95 m), `ON_BOARD_RPO` revolutions an observation
