@@ -43,6 +43,14 @@ pub struct Args {
     /// that γ is reported (docs/lidars.md, "On a board").
     #[arg(long, value_name = "N", value_parser = clap::value_parser!(u8).range(1..=16))]
     pub fit_layers: Option<u8>,
+    /// The design of a rig file's `[design]` (docs/rig.md): what `pyramid listen --rig FILE`
+    /// sends a device of `--cells` cells a side. Its values replace the sensor and schedule
+    /// flags, which may not be given with it.
+    #[arg(long, value_name = "FILE", conflicts_with_all = [
+        "phi_deg", "psi_deg", "sigma_m", "height_m", "base_m", "gamma", "max_range_m",
+        "gate", "gate_width", "uniform_resolution", "fit_layers",
+    ])]
+    pub rig: Option<PathBuf>,
 }
 
 /// The step by which `--fit-layers` raises γ.
@@ -484,10 +492,30 @@ pub fn run(args: &Args) -> ExitCode {
             return ExitCode::from(2);
         }
     }
-    let built = match args.fit_layers {
-        Some(n) => fit(&args.design, usize::from(n)),
-        None => build(&args.design)
-            .map(|design| (args.design.clone(), design))
+    // A rig file's design stands for the flags: its values and its `fit_layers`.
+    let (asked, fit_layers) = match &args.rig {
+        Some(path) => match crate::rigfile::read_rig_file(path) {
+            Ok(rig) => {
+                let Some(spec) = rig.design else {
+                    eprintln!(
+                        "error: --rig: {} has no [design] (docs/rig.md)",
+                        path.display()
+                    );
+                    return ExitCode::from(2);
+                };
+                (spec.args(args.design.cells), spec.fit_layers)
+            }
+            Err(e) => {
+                eprintln!("error: {e}");
+                return ExitCode::from(2);
+            }
+        },
+        None => (args.design.clone(), args.fit_layers),
+    };
+    let built = match fit_layers {
+        Some(n) => fit(&asked, usize::from(n)),
+        None => build(&asked)
+            .map(|design| (asked.clone(), design))
             .map_err(|e| e.to_string()),
     };
     let (design_args, design) = match built {
@@ -510,11 +538,16 @@ pub fn run(args: &Args) -> ExitCode {
         }
     } else {
         crate::out!("{}", table(&design_args, &design, &report));
-        if let Some(n) = args.fit_layers {
+        if let Some(n) = fit_layers {
+            let from = if args.rig.is_some() {
+                "the rig's gamma"
+            } else {
+                "--gamma"
+            };
             crate::outln!(
-                "\nFitted to {n} layers: gamma {} (from --gamma {}).",
+                "\nFitted to {n} layers: gamma {} (from {from} {}).",
                 design_args.gamma,
-                args.design.gamma
+                asked.gamma
             );
         }
     }

@@ -311,3 +311,37 @@ fn a_reader_that_goes_away_ends_the_command_quietly() {
     assert!(out.status.success(), "{:?}: {stderr}", out.status);
     assert!(!stderr.contains("panicked"), "{stderr}");
 }
+
+#[test]
+fn a_rig_file_s_design_is_the_one_its_flags_give() {
+    let rig = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../examples/rigs/ld19-nodding.toml"
+    );
+    // The example's [design], written out as flags (the file's comment says the same).
+    let flags = design_json(&[&LD19_8M[..], &["--height-m", "1", "--fit-layers", "8"]].concat());
+    assert_eq!(design_json(&["--rig", rig]), flags);
+    // Another window: the device's, as `listen` builds it.
+    assert_eq!(
+        design_json(&["--rig", rig, "--cells", "128"]),
+        design_json(
+            &[
+                &LD19_8M[..],
+                &["--height-m", "1", "--fit-layers", "8", "--cells", "128"]
+            ]
+            .concat()
+        )
+    );
+    // The sensor and schedule flags may not be given with it; a rig without [design] is
+    // refused by name.
+    let out = pyramid(&["--rig", rig, "--gamma", "3"]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--gamma"));
+    let sick = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../examples/rigs/sick-tilt.toml"
+    );
+    let out = pyramid(&["--rig", sick]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("has no [design]"));
+}
