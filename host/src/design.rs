@@ -481,40 +481,21 @@ fn check_plot_path(path: &Path) -> Result<(), String> {
     }
 }
 
-/// Runs `pyramid design`.
+/// Runs `pyramid design` for the design `asked` (the flags', or a rig file's with
+/// [`crate::rigfile::asked_design`]) and its `--fit-layers`.
 ///
 /// Exit status: 0 on success; 2 for a refused configuration, with one line on stderr that names
 /// the flag and the rule, and nothing on stdout; 1 when the plot cannot be written.
-pub fn run(args: &Args) -> ExitCode {
+pub fn run(args: &Args, asked: &DesignArgs, fit_layers: Option<u8>) -> ExitCode {
     if let Some(path) = &args.plot {
         if let Err(msg) = check_plot_path(path) {
             eprintln!("error: {msg}");
             return ExitCode::from(2);
         }
     }
-    // A rig file's design stands for the flags: its values and its `fit_layers`.
-    let (asked, fit_layers) = match &args.rig {
-        Some(path) => match crate::rigfile::read_rig_file(path) {
-            Ok(rig) => {
-                let Some(spec) = rig.design else {
-                    eprintln!(
-                        "error: --rig: {} has no [design] (docs/rig.md)",
-                        path.display()
-                    );
-                    return ExitCode::from(2);
-                };
-                (spec.args(args.design.cells), spec.fit_layers)
-            }
-            Err(e) => {
-                eprintln!("error: {e}");
-                return ExitCode::from(2);
-            }
-        },
-        None => (args.design.clone(), args.fit_layers),
-    };
     let built = match fit_layers {
-        Some(n) => fit(&asked, usize::from(n)),
-        None => build(&asked)
+        Some(n) => fit(asked, usize::from(n)),
+        None => build(asked)
             .map(|design| (asked.clone(), design))
             .map_err(|e| e.to_string()),
     };

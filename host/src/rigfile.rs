@@ -315,6 +315,21 @@ impl DesignSpec {
     }
 }
 
+/// The design `pyramid design` is asked for and its fit: with `--rig FILE` the file's
+/// `[design]` for a window of `--cells` (its values and `fit_layers`), else the flags'.
+///
+/// # Errors
+/// The file's errors, or a rig file without `[design]`.
+pub fn asked_design(args: &crate::design::Args) -> Result<(DesignArgs, Option<u8>), String> {
+    let Some(path) = &args.rig else {
+        return Ok((args.design.clone(), args.fit_layers));
+    };
+    let spec = read_rig_file(path)?
+        .design
+        .ok_or_else(|| format!("--rig: {} has no [design] (docs/rig.md)", path.display()))?;
+    Ok((spec.args(args.design.cells), spec.fit_layers))
+}
+
 /// The observation policy when the rig gives none, every sensor: 0, the policy that suits the
 /// mount (`docs/lidars.md`, "Observations"): a SICK or a nodding lidar one observation per
 /// sweep of its actuator, a panned lidar or one without an actuator one per revolution. A
