@@ -309,7 +309,7 @@ fn print_lidar_summary(sensor: Sensor, packets: &[PacketOut], errors: &BTreeMap<
             .map(|r| format!("{:.4}° {} mm", r.angle_deg, r.range_mm))
             .collect();
         let more = if p.returns.len() > SHOWN { ", ..." } else { "" };
-        println!(
+        crate::outln!(
             "packet {i:>6}: {:>3} returns{} [{}{}]",
             p.returns.len(),
             if p.start_of_revolution {
@@ -324,7 +324,7 @@ fn print_lidar_summary(sensor: Sensor, packets: &[PacketOut], errors: &BTreeMap<
     let revolutions = packets.iter().filter(|p| p.start_of_revolution).count();
     let returns: usize = packets.iter().map(|p| p.returns.len()).sum();
     let errors: Vec<String> = errors.iter().map(|(k, v)| format!("{k} {v}")).collect();
-    println!(
+    crate::outln!(
         "{} {} packets ({returns} returns, {revolutions} revolution starts); errors: {}",
         packets.len(),
         sensor.kind(),
@@ -412,7 +412,7 @@ fn print_summary(telegrams: &[TelegramOut], refused: usize, stats: &SickCounters
         } else {
             ""
         };
-        println!(
+        crate::outln!(
             "offset {:>8}: b0 count {:>3} unit {} partial {} status 0x{:02x} ranges_mm [{}{}]",
             t.offset,
             t.count,
@@ -423,7 +423,7 @@ fn print_summary(telegrams: &[TelegramOut], refused: usize, stats: &SickCounters
             more
         );
     }
-    println!(
+    crate::outln!(
         "{} measured-values telegrams ({} telegrams ok in all, {} 0xB0 refused); \
          errors: crc {}, length {}, truncated {}, garbage bytes {}; ack {}, nak {}",
         telegrams.len(),

@@ -43,6 +43,14 @@ pub struct Args {
     /// that γ is reported (docs/lidars.md, "On a board").
     #[arg(long, value_name = "N", value_parser = clap::value_parser!(u8).range(1..=16))]
     pub fit_layers: Option<u8>,
+    /// The design of a rig file's `[design]` (docs/rig.md): what `pyramid listen --rig FILE`
+    /// sends a device of `--cells` cells a side. Its values replace the sensor and schedule
+    /// flags, which may not be given with it.
+    #[arg(long, value_name = "FILE", conflicts_with_all = [
+        "phi_deg", "psi_deg", "sigma_m", "height_m", "base_m", "gamma", "max_range_m",
+        "gate", "gate_width", "uniform_resolution", "fit_layers",
+    ])]
+    pub rig: Option<PathBuf>,
 }
 
 /// The step by which `--fit-layers` raises γ.
@@ -92,7 +100,7 @@ pub fn fit(args: &DesignArgs, layers: usize) -> Result<(DesignArgs, PyramidDesig
 ///
 /// The numeric flags accept values that start with a hyphen (`--height-m -1`, `--sigma-m -inf`)
 /// so that the library, not the parser, refuses them with its own message.
-#[derive(clap::Args, Debug, Clone)]
+#[derive(clap::Args, Debug, Clone, PartialEq)]
 pub struct DesignArgs {
     /// φ, the sensor's vertical angular resolution, degrees.
     #[arg(
@@ -173,6 +181,26 @@ pub struct DesignArgs {
     /// ground (docs/lidars.md, "Why the design's resolutions").
     #[arg(long)]
     pub uniform_resolution: bool,
+}
+
+impl Default for DesignArgs {
+    /// The flags' defaults: the library's default sensor and schedule (the design the
+    /// firmware boots with), 64 cells per side.
+    fn default() -> Self {
+        Self {
+            phi_deg: 0.5,
+            psi_deg: 2.0,
+            sigma_m: 0.15,
+            height_m: 1.0,
+            base_m: 0.1,
+            gamma: 2.0,
+            max_range_m: 10.0,
+            cells: 64,
+            gate: GateArg::Soft,
+            gate_width: 0.5,
+            uniform_resolution: false,
+        }
+    }
 }
 
 /// The gate shape, as the command line names it.
@@ -453,21 +481,22 @@ fn check_plot_path(path: &Path) -> Result<(), String> {
     }
 }
 
-/// Runs `pyramid design`.
+/// Runs `pyramid design` for the design `asked` (the flags', or a rig file's with
+/// [`crate::rigfile::asked_design`]) and its `--fit-layers`.
 ///
 /// Exit status: 0 on success; 2 for a refused configuration, with one line on stderr that names
 /// the flag and the rule, and nothing on stdout; 1 when the plot cannot be written.
-pub fn run(args: &Args) -> ExitCode {
+pub fn run(args: &Args, asked: &DesignArgs, fit_layers: Option<u8>) -> ExitCode {
     if let Some(path) = &args.plot {
         if let Err(msg) = check_plot_path(path) {
             eprintln!("error: {msg}");
             return ExitCode::from(2);
         }
     }
-    let built = match args.fit_layers {
-        Some(n) => fit(&args.design, usize::from(n)),
-        None => build(&args.design)
-            .map(|design| (args.design.clone(), design))
+    let built = match fit_layers {
+        Some(n) => fit(asked, usize::from(n)),
+        None => build(asked)
+            .map(|design| (asked.clone(), design))
             .map_err(|e| e.to_string()),
     };
     let (design_args, design) = match built {
@@ -489,11 +518,17 @@ pub fn run(args: &Args) -> ExitCode {
             return ExitCode::FAILURE;
         }
     } else {
-        print!("{}", table(&design_args, &design, &report));
-        if let Some(n) = args.fit_layers {
-            println!(
-                "\nFitted to {n} layers: gamma {} (from --gamma {}).",
-                design_args.gamma, args.design.gamma
+        crate::out!("{}", table(&design_args, &design, &report));
+        if let Some(n) = fit_layers {
+            let from = if args.rig.is_some() {
+                "the rig's gamma"
+            } else {
+                "--gamma"
+            };
+            crate::outln!(
+                "\nFitted to {n} layers: gamma {} (from {from} {}).",
+                design_args.gamma,
+                asked.gamma
             );
         }
     }
@@ -503,6 +538,22 @@ pub fn run(args: &Args) -> ExitCode {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_default_arguments_are_the_flags_defaults_and_the_firmware_s_design() {
+        #[derive(clap::Parser)]
+        struct Cli {
+            #[command(flatten)]
+            design: DesignArgs,
+        }
+        let parsed = <Cli as clap::Parser>::try_parse_from(["design"]).unwrap();
+        assert_eq!(parsed.design, DesignArgs::default());
+        let ours = build(&DesignArgs::default()).unwrap();
+        let firmware = firmware_design().unwrap();
+        assert_eq!(ours.layers(), firmware.layers());
+        assert_eq!(ours.sensor(), firmware.sensor());
+        assert_eq!(ours.schedule(), firmware.schedule());
+    }
 
     #[test]
     fn bound_distances_stop_at_and_include_the_maximum_range() {

@@ -7,7 +7,7 @@ use serde::Serialize;
 pub fn print(value: &impl Serialize, failure: &str) -> bool {
     match serde_json::to_string(value) {
         Ok(json) => {
-            println!("{json}");
+            crate::outln!("{json}");
             true
         }
         Err(e) => {

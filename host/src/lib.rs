@@ -27,5 +27,6 @@ pub mod rigfile;
 pub mod rule;
 pub mod run;
 pub mod serial;
+pub mod stdout;
 pub mod summary_args;
 pub mod uos;

@@ -22,6 +22,11 @@
 //!   classifier's thresholds (the rig file's `[classifier]` with the rule flags over it). The
 //!   device's answer is reported on stderr; a refusal names the field and its rule. Without a
 //!   rig no Setup is sent and the device keeps the setup it has.
+//! - With a rig file's `[design]` ([`crate::rigfile::DesignSpec`]), it compares the pyramid
+//!   each Hello describes with the rig's design built for the Hello's window, and sends a
+//!   Configure only when they differ (a device that booted, or one configured by another
+//!   host), once per connection or boot: a device already running the design keeps its maps.
+//!   The device's answer is reported on stderr.
 //! - With `--rule` or any of its parameters (`crate::rule`), it then sends a SetRule
 //!   command: the device's classifier takes that step threshold and navigability rule (the
 //!   rest of its setup stays); the device's answer is reported on stderr (an older firmware
@@ -53,6 +58,7 @@
 //! [`Mirror::needs_snapshot`]: crate::link::Mirror::needs_snapshot
 //! [`ClockSync`]: crate::clock_sync::ClockSync
 
+mod design;
 mod session;
 mod status;
 mod summary;
@@ -66,6 +72,7 @@ use crate::link::HostLink;
 use crate::pose_input;
 use crate::publish::{OutputArgs, Outputs};
 use crate::summary_args::SummaryArgs;
+use design::WantedDesign;
 use session::{receive, Session};
 use status::StatusOutput;
 use std::process::ExitCode;
@@ -76,6 +83,7 @@ use summary::write_out;
 use terrain_pyramid::classify::ClassifierConfig;
 use terrain_pyramid::link::convert::set_rule_message;
 use terrain_pyramid::wire::link::{ClockSource, Setup};
+use terrain_pyramid::DEFAULT_CELLS_PER_SIDE;
 use timing::start_pose_inputs;
 use transport::Transport;
 
@@ -128,7 +136,8 @@ const CONNECT_TIMEOUT: Duration = Duration::from_secs(5);
 --actuator, --servo-sweep-deg, --lines-per-observation, ...), the device is sent its Setup on \
 connecting, on every reconnection and after the device boots, before the SetRule of the rule \
 flags. Without them no Setup is sent: the device keeps the setup it booted with (or was last \
-given)."
+given). A rig file's [design] is sent as a Configure whenever the device's Hello shows another \
+pyramid (docs/rig.md)."
 )]
 pub struct Args {
     /// The device's serial port (8N1).
@@ -198,7 +207,7 @@ fn positive_seconds(s: &str) -> Result<f64, String> {
 pub fn run(args: &Args) -> ExitCode {
     // The rig and the rule first: a bad flag ends the command before anything is opened
     // (status 2).
-    let setup = match rig_setup(args) {
+    let (setup, design) = match rig_setup(args) {
         Ok(setup) => setup,
         Err(e) => {
             eprintln!("error: {e}");
@@ -272,6 +281,8 @@ pub fn run(args: &Args) -> ExitCode {
         set_rule,
         setup,
         setups_sent: 0,
+        design,
+        configures_sent: 0,
         timing,
     };
     let (mut session, ending, elapsed) = receive(session, args, &stop, &mut out);
@@ -318,13 +329,15 @@ pub fn run(args: &Args) -> ExitCode {
 }
 
 /// The Setup of the rig's flags and file (`None` without either): the classifier is the
-/// library's defaults with the rig file's `[classifier]` and the rule flags over it.
+/// library's defaults with the rig file's `[classifier]` and the rule flags over it; and the
+/// rig file's design (`[design]`), checked by the library at the boards' window
+/// ([`DEFAULT_CELLS_PER_SIDE`]; the device's own, from its Hello, is the one sent).
 ///
 /// # Errors
-/// A bad rig file or flag, or a value the Setup cannot carry.
-pub fn rig_setup(args: &Args) -> Result<Option<Setup>, String> {
+/// A bad rig file or flag, a value the Setup cannot carry, or a design the library refuses.
+pub(crate) fn rig_setup(args: &Args) -> Result<(Option<Setup>, Option<WantedDesign>), String> {
     if !args.rig.given() && args.sensor_baud.is_none() {
-        return Ok(None);
+        return Ok((None, None));
     }
     let mut rig = args.rig.rig()?;
     if let Some(b) = args.sensor_baud {
@@ -338,7 +351,16 @@ pub fn rig_setup(args: &Args) -> Result<Option<Setup>, String> {
     }
     rig.classifier.rule = crate::rigfile::merged_rule(&rig.classifier.rule, &args.rule);
     let classifier = rig.classifier.apply(ClassifierConfig::DEFAULT)?;
-    crate::rigfile::device_setup(&rig, &classifier).map(Some)
+    let setup = crate::rigfile::device_setup(&rig, &classifier)?;
+    let design = match rig.design {
+        Some(spec) => {
+            spec.design(DEFAULT_CELLS_PER_SIDE)
+                .map_err(|e| format!("the rig's [design]: {e}"))?;
+            Some(WantedDesign::new(spec))
+        }
+        None => None,
+    };
+    Ok((Some(setup), design))
 }
 
 /// How the listener names the device's clock: a fallback says what it costs.

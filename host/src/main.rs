@@ -4,7 +4,7 @@
 //! `Args` struct (clap) and a `run(args) -> ExitCode` function.
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
-use terrain_pyramid_host::{decode, design, listen, record, record3dtk, replay, run};
+use terrain_pyramid_host::{decode, design, listen, record, record3dtk, replay, rigfile, run};
 
 /// The main computer's side of terrain-pyramid.
 #[derive(Parser)]
@@ -39,7 +39,13 @@ enum Command {
 fn main() -> ExitCode {
     let cli = Cli::parse();
     match cli.command {
-        Command::Design(args) => design::run(&args),
+        Command::Design(args) => match rigfile::asked_design(&args) {
+            Ok((asked, fit_layers)) => design::run(&args, &asked, fit_layers),
+            Err(e) => {
+                eprintln!("error: {e}");
+                ExitCode::from(2)
+            }
+        },
         Command::Replay(args) => replay::run(&args),
         Command::Decode(args) => decode::run(&args),
         Command::Record3dtk(args) => record3dtk::run(&args),

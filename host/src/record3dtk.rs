@@ -79,9 +79,9 @@ pub fn run(args: &Args) -> ExitCode {
     match convert(args) {
         Ok(report) => {
             if args.json {
-                println!("{}", serde_json::to_string(&report).unwrap_or_default());
+                crate::outln!("{}", serde_json::to_string(&report).unwrap_or_default());
             } else {
-                println!(
+                crate::outln!(
                     "{}: {} lines, {} telegrams, {} points ({} without echo), tilt {:.2}° .. {:.2}°, beam angles within {:.3}° of i·0.5°, {} bytes",
                     report.out.display(),
                     report.lines,

@@ -701,7 +701,7 @@ pub fn run(args: &Args) -> ExitCode {
                     return ExitCode::FAILURE;
                 }
             } else {
-                print!("{}", table(args, &summary));
+                crate::out!("{}", table(args, &summary));
             }
             ExitCode::SUCCESS
         }

@@ -17,6 +17,7 @@ pub use flags::{merged_rule, RigArgs};
 pub use parse::{parse_rig, read_rig_file};
 pub use to_wire::{device_setup, mount_rig, recording_setup, rig_event};
 
+use crate::design::{build, fit, DesignArgs, PyramidDesign};
 use crate::rule::RuleArgs;
 use terrain_pyramid::classify::ClassifierConfig;
 use terrain_pyramid::laser::SensorKind;
@@ -249,6 +250,84 @@ pub struct Rig {
     pub lines_per_observation: Option<u32>,
     /// The classifier's thresholds.
     pub classifier: ClassifierSpec,
+    /// The pyramid the device is to run (`[design]`); `None`: the device keeps its own.
+    pub design: Option<DesignSpec>,
+}
+
+/// The pyramid a rig asks its device to run (the file's `[design]`, sent by `pyramid listen`
+/// as a Configure, `docs/rig.md`): each value is `pyramid design`'s flag of the same name, in
+/// its units, `None` taking that flag's default (the design the firmware boots with). The
+/// window is the device's (its Hello's W); the gate is the soft one of width 0.5, the
+/// library's default.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct DesignSpec {
+    /// φ, the angle between two scan lines, degrees (a nodding lidar: the servo's rate ÷ the
+    /// revolutions a second).
+    pub phi_deg: Option<f64>,
+    /// ψ, the angle between two returns of a line, degrees.
+    pub psi_deg: Option<f64>,
+    /// σ, the range noise's standard deviation, metres.
+    pub sigma_m: Option<f64>,
+    /// h, the sensor's height above the ground, metres.
+    pub height_m: Option<f64>,
+    /// The range the last band ends at, metres.
+    pub max_range_m: Option<f64>,
+    /// Δd, layer 0's cell, metres.
+    pub base_m: Option<f64>,
+    /// γ, the schedule's slope (`r_k = k·γ·Δd`); the start of the search with `fit_layers`.
+    pub gamma: Option<f64>,
+    /// Raise γ in steps of 0.5 until the design needs at most this many layers (1 ..= 16;
+    /// `pyramid design --fit-layers`); `None`: γ as given.
+    pub fit_layers: Option<u8>,
+}
+
+impl DesignSpec {
+    /// `pyramid design`'s arguments for a window of `cells` per side: the rig's values over
+    /// the flags' defaults.
+    #[must_use]
+    pub fn args(&self, cells: usize) -> DesignArgs {
+        let d = DesignArgs::default();
+        DesignArgs {
+            phi_deg: self.phi_deg.unwrap_or(d.phi_deg),
+            psi_deg: self.psi_deg.unwrap_or(d.psi_deg),
+            sigma_m: self.sigma_m.unwrap_or(d.sigma_m),
+            height_m: self.height_m.unwrap_or(d.height_m),
+            max_range_m: self.max_range_m.unwrap_or(d.max_range_m),
+            base_m: self.base_m.unwrap_or(d.base_m),
+            gamma: self.gamma.unwrap_or(d.gamma),
+            cells,
+            ..d
+        }
+    }
+
+    /// The design for a window of `cells` per side, fitted to `fit_layers` when set, and γ.
+    ///
+    /// # Errors
+    /// The library's refusal (naming the value and its rule), or no γ fits.
+    pub fn design(&self, cells: usize) -> Result<(f64, PyramidDesign), String> {
+        let args = self.args(cells);
+        match self.fit_layers {
+            Some(n) => fit(&args, usize::from(n)).map(|(a, d)| (a.gamma, d)),
+            None => build(&args)
+                .map(|d| (args.gamma, d))
+                .map_err(|e| e.to_string()),
+        }
+    }
+}
+
+/// The design `pyramid design` is asked for and its fit: with `--rig FILE` the file's
+/// `[design]` for a window of `--cells` (its values and `fit_layers`), else the flags'.
+///
+/// # Errors
+/// The file's errors, or a rig file without `[design]`.
+pub fn asked_design(args: &crate::design::Args) -> Result<(DesignArgs, Option<u8>), String> {
+    let Some(path) = &args.rig else {
+        return Ok((args.design.clone(), args.fit_layers));
+    };
+    let spec = read_rig_file(path)?
+        .design
+        .ok_or_else(|| format!("--rig: {} has no [design] (docs/rig.md)", path.display()))?;
+    Ok((spec.args(args.design.cells), spec.fit_layers))
 }
 
 /// The observation policy when the rig gives none, every sensor: 0, the policy that suits the
@@ -326,8 +405,8 @@ mod tests {
             (setup.mount, setup.laser.sensor, setup.laser.actuator),
             (1, 1, 1)
         );
-        assert_eq!(setup.laser.servo_min_deg, -10.0);
-        assert_eq!(setup.sensor_m, [0.10, 0.0, 0.30]);
+        assert_eq!(setup.laser.servo_min_deg, 2.0);
+        assert_eq!(setup.sensor_m, [0.10, 0.0, 1.00]);
         let rp = parse(EXAMPLES[1].1).unwrap();
         let setup = device_setup(&rp, &ClassifierConfig::DEFAULT).unwrap();
         assert_eq!(
@@ -349,6 +428,63 @@ mod tests {
             (5, 226)
         );
         assert_eq!(sensor, SensorEvent::SICK);
+    }
+
+    #[test]
+    fn the_nodding_example_s_design_fits_a_board_at_the_smallest_gamma() {
+        let rig = parse(EXAMPLES[0].1).unwrap();
+        let spec = rig.design.unwrap();
+        assert_eq!(spec.fit_layers, Some(8));
+        let (gamma, design) = spec.design(64).unwrap();
+        assert!(design.layers().len() <= 8, "{}", design.layers().len());
+        assert!((f64::from(design.schedule().gamma) - gamma).abs() < 1e-6);
+        // Half a step less needs more than the board's 8 layers (or cannot hold its bands).
+        let less = build(&DesignArgs {
+            gamma: gamma - crate::design::FIT_GAMMA_STEP,
+            ..spec.args(64)
+        });
+        assert!(less.map_or(true, |d| d.layers().len() > 8));
+        // The sensor is the file's: φ = 20 °/s ÷ 10 Hz, the mount's 1 m.
+        assert!((design.sensor().phi_rad - 2.0_f32.to_radians()).abs() < 1e-7);
+        assert!((design.sensor().height_m - 1.0).abs() < 1e-7);
+        // The other examples ask for no design: their devices keep their own.
+        assert!(parse(EXAMPLES[1].1).unwrap().design.is_none());
+        // A key left out takes `pyramid design`'s default.
+        let rig = parse("[design]\nmax_range_m = 6\n").unwrap();
+        let args = rig.design.unwrap().args(32);
+        assert_eq!(
+            args,
+            DesignArgs {
+                max_range_m: 6.0,
+                cells: 32,
+                ..DesignArgs::default()
+            }
+        );
+    }
+
+    #[test]
+    fn a_bad_design_value_is_named_with_its_key_and_line() {
+        for (text, start) in [
+            ("[design]\nphi_deg = 0\n", "rig.toml:2: design.phi_deg"),
+            ("[design]\n\ngamma = -2\n", "rig.toml:3: design.gamma"),
+            (
+                "[design]\nfit_layers = 17\n",
+                "rig.toml:2: design.fit_layers",
+            ),
+            (
+                "[design]\nmax_range_m = inf\n",
+                "rig.toml:2: design.max_range_m",
+            ),
+        ] {
+            let e = parse(text).unwrap_err();
+            assert!(e.starts_with(start), "{text:?}: {e}");
+        }
+        let e = parse("[design]\ncells = 64\n").unwrap_err();
+        assert!(e.contains("unknown field `cells`"), "{e}");
+        // The library's own rules come with the design: Δd must exceed φ·h.
+        let rig = parse("[design]\nphi_deg = 10\nheight_m = 2\n").unwrap();
+        let e = rig.design.unwrap().design(64).unwrap_err();
+        assert!(e.contains("base"), "{e}");
     }
 
     #[test]

@@ -421,6 +421,12 @@ pub fn execute(args: &Args) -> Result<String, (u8, String)> {
         Some(path) => {
             rig_over_recording(path, &mut steps).map_err(|e| (2, format!("error: {e}")))?;
             let file = read_rig_file(path).map_err(|e| (2, format!("error: {e}")))?;
+            if file.design.is_some() {
+                eprintln!(
+                    "note: the rig's [design] is what `pyramid listen` sends a device; `run` \
+                     takes its design from its own flags (--phi-deg, --gamma, ...)"
+                );
+            }
             mount_rig(&file).then(flags)
         }
         None => flags,
@@ -543,7 +549,7 @@ pub fn run(args: &Args) -> ExitCode {
     match execute(args) {
         Ok(json) => {
             if args.summary.json {
-                println!("{json}");
+                crate::outln!("{json}");
             } else {
                 eprintln!("maps written to {}", args.summary.out.display());
             }

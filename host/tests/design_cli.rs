@@ -294,3 +294,54 @@ fn a_fit_no_gamma_can_make_or_a_bad_count_is_refused_by_name() {
         assert!(String::from_utf8_lossy(&out.stderr).contains("--fit-layers"));
     }
 }
+
+#[test]
+fn a_reader_that_goes_away_ends_the_command_quietly() {
+    // `pyramid design --json | true`: the pipe's reader is gone before the answer is
+    // written; a Unix tool ends quietly (print! panicked with status 101).
+    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_pyramid"))
+        .args(["design", "--json"])
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    drop(child.stdout.take());
+    let out = child.wait_with_output().unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{:?}: {stderr}", out.status);
+    assert!(!stderr.contains("panicked"), "{stderr}");
+}
+
+#[test]
+fn a_rig_file_s_design_is_the_one_its_flags_give() {
+    let rig = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../examples/rigs/ld19-nodding.toml"
+    );
+    // The example's [design], written out as flags (the file's comment says the same).
+    let flags = design_json(&[&LD19_8M[..], &["--height-m", "1", "--fit-layers", "8"]].concat());
+    assert_eq!(design_json(&["--rig", rig]), flags);
+    // Another window: the device's, as `listen` builds it.
+    assert_eq!(
+        design_json(&["--rig", rig, "--cells", "128"]),
+        design_json(
+            &[
+                &LD19_8M[..],
+                &["--height-m", "1", "--fit-layers", "8", "--cells", "128"]
+            ]
+            .concat()
+        )
+    );
+    // The sensor and schedule flags may not be given with it; a rig without [design] is
+    // refused by name.
+    let out = pyramid(&["--rig", rig, "--gamma", "3"]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--gamma"));
+    let sick = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../examples/rigs/sick-tilt.toml"
+    );
+    let out = pyramid(&["--rig", sick]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("has no [design]"));
+}

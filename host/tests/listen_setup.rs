@@ -166,13 +166,15 @@ fn a_device_that_boots_while_connected_is_sent_the_rig_s_setup_and_rule_again() 
     let _ = std::fs::remove_dir_all(&out);
     let types = |got: &[(u8, Option<Setup>)]| got.iter().map(|f| f.0).collect::<Vec<_>>();
     assert_eq!(types(&before), [0x87, 0x8B, 0x85], "{before:?}\n{stderr}");
-    // After the boot Hello: the Setup, the SetRule and a snapshot request again, once.
+    // After the boot Hello: the rig's design (a Configure: the Hello describes another
+    // pyramid, `host/tests/listen_design.rs`), then the Setup, the SetRule and a snapshot
+    // request again, once.
     assert_eq!(
-        types(&after).get(..3),
-        Some(&[0x87, 0x8B, 0x85][..]),
+        types(&after).get(..4),
+        Some(&[0x83, 0x87, 0x8B, 0x85][..]),
         "{after:?}\n{stderr}"
     );
-    assert_eq!(after[0].1, Some(expected));
+    assert_eq!(after[1].1, Some(expected));
     assert_eq!(after.iter().filter(|f| f.0 == 0x87).count(), 1, "{after:?}");
     assert!(
         stderr.contains("device booted: the rig's setup and rule sent again"),

@@ -25,7 +25,7 @@
 //!   process through the library's co-processor with the firmware's design, the device's clock
 //!   the recording's time: **on time** (the trajectory at 250 Hz, each pose stamped and
 //!   delivered at its stamp: what the device does with perfect poses) and **lock-step** (the
-//!   recording's pose before each chunk), and **board-timed** ([`timeline`]: every chunk,
+//!   recording's pose before each chunk), and **board-timed** (`timeline`: every chunk,
 //!   PanAngle and on-time pose at the time the emulated board took it, from the Stats the lab
 //!   asks for every [`STATS_PERIOD`]): what the device does with perfect poses and the
 //!   emulator's backlog, the reference [`bounds::MAP_EQUAL`] holds the maps to. Beside them
@@ -155,7 +155,7 @@ pub struct Report {
     /// delivered at its stamp): known cells of every layer equal.
     pub against_on_time: timing::Agreement,
     /// listen's maps against the in-process run with every pose on time and every chunk and
-    /// PanAngle at the time the board took it ([`timeline`]): what the device does with
+    /// PanAngle at the time the board took it (`timeline`): what the device does with
     /// perfect poses and the emulator's timing, the figure [`bounds::MAP_EQUAL`] holds.
     pub against_board_timed: timing::Agreement,
     /// That board-timed run against the on-time run: what the emulator's backlog alone moves.

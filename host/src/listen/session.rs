@@ -1,6 +1,7 @@
 //! The host's end of one `pyramid listen` session: greeting the device (its Setup, SetRule
 //! and snapshot request), the receive loop, reconnecting, and what the device's answers tell
 //! the user.
+use super::design::{Verdict, WantedDesign};
 use super::status::{status_line, Counts, RateMeter, StatusOutput, SyncState};
 use super::timing::Timing;
 use super::transport::{Received, Transport};
@@ -17,8 +18,8 @@ use std::time::{Duration, Instant};
 use terrain_pyramid::link::convert::ReplyText;
 use terrain_pyramid::wire::link::RxCounters;
 use terrain_pyramid::wire::link::{
-    HelloReason, Message, MessageType, PoseReport, Reply, ReplyCode, SetRule, Setup, SnapshotScope,
-    POSE_STAMPED,
+    Hello, HelloReason, Message, MessageType, PoseReport, Reply, ReplyCode, SetRule, Setup,
+    SnapshotScope, POSE_STAMPED,
 };
 
 /// The host's end of one session: the link, and when it last asked for a snapshot.
@@ -37,6 +38,10 @@ pub(super) struct Session {
     pub(super) setup: Option<Setup>,
     /// Setups sent (one per connection, and one more after each boot Hello).
     pub(super) setups_sent: u64,
+    /// The rig's design (`[design]`), sent as a Configure when the device runs another.
+    pub(super) design: Option<WantedDesign>,
+    /// Configures sent.
+    pub(super) configures_sent: u64,
     /// The clocks and the poses.
     pub(super) timing: Timing,
 }
@@ -115,6 +120,34 @@ impl Session {
         Ok(())
     }
 
+    /// What a Hello means for the rig's design: a Configure sent when the device runs
+    /// another pyramid; the line to show the user, if any.
+    fn design_on_hello(&mut self, hello: &Hello) -> Option<String> {
+        let verdict = self.design.as_mut()?.on_hello(hello);
+        match verdict {
+            Verdict::Quiet => None,
+            Verdict::Runs(ours) => Some(format!("device: runs the rig's design ({ours})")),
+            Verdict::Configure(configure, theirs, ours) => {
+                Some(match self.send(&Message::Configure(*configure)) {
+                    Ok(()) => {
+                        self.configures_sent += 1;
+                        format!(
+                            "device: runs {theirs}; the rig's design sent ({ours}): its maps start afresh"
+                        )
+                    }
+                    Err(e) => format!("warning: {e}"),
+                })
+            }
+            Verdict::StillOther(theirs, ours) => Some(format!(
+                "warning: after the rig's design ({ours}) the device runs {theirs}: it keeps that"
+            )),
+            Verdict::Unbuildable(e) => Some(format!(
+                "warning: the rig's [design] does not fit the device's {} cells a side: {e}; it keeps its pyramid",
+                hello.cells_per_side
+            )),
+        }
+    }
+
     pub(super) fn counts(&self) -> Counts {
         let c = self.host.mirror().counters();
         Counts {
@@ -156,6 +189,9 @@ pub(super) fn reconnect(
                 Ok((transport, source)) => {
                     session.transport = transport;
                     session.reconnects += 1;
+                    if let Some(design) = &mut session.design {
+                        design.restart();
+                    }
                     session
                         .timing
                         .restart(ResetReason::Reconnect, Instant::now());
@@ -258,6 +294,9 @@ pub(super) fn receive(
                             .timing
                             .restart(ResetReason::DeviceBoot, Instant::now());
                         rebooted = true;
+                        if let Some(design) = &mut session.design {
+                            design.restart();
+                        }
                     }
                     if hello.reason != HelloReason::Snapshot {
                         out.notice(&format!(
@@ -276,6 +315,9 @@ pub(super) fn receive(
                             clock_name(hello.clock)
                         ));
                     }
+                    if let Some(notice) = session.design_on_hello(&hello) {
+                        out.notice(&notice);
+                    }
                 }
                 LinkEvent::SnapshotNeeded => wants = true,
                 LinkEvent::Reply(reply) if reply.to_type == MessageType::SetRule.to_u8() => {
@@ -283,6 +325,9 @@ pub(super) fn receive(
                 }
                 LinkEvent::Reply(reply) if reply.to_type == MessageType::Setup.to_u8() => {
                     out.notice(&setup_answer(&reply));
+                }
+                LinkEvent::Reply(reply) if reply.to_type == MessageType::Configure.to_u8() => {
+                    out.notice(&configure_answer(&reply));
                 }
                 LinkEvent::TimeReply(reply) => {
                     let outcome = session.timing.clock.add(Exchange {
@@ -396,6 +441,18 @@ fn setup_answer(reply: &Reply) -> String {
         }
         _ => format!(
             "warning: the device refused the rig's setup: {} (it keeps its own setup)",
+            ReplyText(reply).reason()
+        ),
+    }
+}
+
+/// What the device's answer to the rig's design (a Configure) tells the user: a refusal
+/// names the value and its rule.
+fn configure_answer(reply: &Reply) -> String {
+    match reply.code {
+        ReplyCode::Ok => "device: the rig's design taken".to_string(),
+        _ => format!(
+            "warning: the device refused the rig's design: {} (it keeps its pyramid)",
             ReplyText(reply).reason()
         ),
     }

@@ -57,6 +57,8 @@ pub struct Summary {
     /// Setups sent to the device (the rig's, one per connection and one more after each boot
     /// Hello; 0 without a rig).
     pub setups_sent: u64,
+    /// The rig's design sent as a Configure (when the device ran another pyramid).
+    pub configures_sent: u64,
     /// The live outputs (`--ros2`, `--foxglove`, `--mcap`), when any was on.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub outputs: Option<OutputsReport>,
@@ -196,6 +198,7 @@ pub(super) fn write_out(
         files,
         reconnects: session.reconnects,
         setups_sent: session.setups_sent,
+        configures_sent: session.configures_sent,
         outputs,
         time_sync: session.timing.report(),
         poses: session.timing.poses_report(),

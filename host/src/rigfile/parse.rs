@@ -1,6 +1,6 @@
 //! The rig file (`--rig FILE`, `docs/rig.md`): its TOML as it is written, and its parsing
 //! into a [`Rig`], each value checked and each error naming the file, the line and the key.
-use super::{Axis, Rig, SensorName, SensorSpec, ServoSweep, LIMIT_M, MAX_MASKS};
+use super::{Axis, DesignSpec, Rig, SensorName, SensorSpec, ServoSweep, LIMIT_M, MAX_MASKS};
 use serde::Deserialize;
 use std::path::Path;
 use terrain_pyramid::classify::ClassifierConfig;
@@ -16,6 +16,20 @@ struct FileRig {
     filters: Option<FileFilters>,
     observation: Option<FileObservation>,
     classifier: Option<FileClassifier>,
+    design: Option<FileDesign>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct FileDesign {
+    phi_deg: Option<Spanned<f64>>,
+    psi_deg: Option<Spanned<f64>>,
+    sigma_m: Option<Spanned<f64>>,
+    height_m: Option<Spanned<f64>>,
+    max_range_m: Option<Spanned<f64>>,
+    base_m: Option<Spanned<f64>>,
+    gamma: Option<Spanned<f64>>,
+    fit_layers: Option<Spanned<i64>>,
 }
 
 #[derive(Deserialize)]
@@ -425,5 +439,36 @@ pub fn parse_rig(path: &Path, text: &str) -> Result<Rig, String> {
             return Err(format!("{}: [classifier]: {e}", path.display()));
         }
     }
+    if let Some(d) = &file.design {
+        rig.design = Some(design_spec(&c, d)?);
+    }
     Ok(rig)
+}
+
+/// `[design]`: each value finite and positive here (the library's own rules, with the
+/// device's window, are checked when the design is built: `pyramid listen` does so before
+/// it connects).
+fn design_spec(c: &Checker<'_>, d: &FileDesign) -> Result<DesignSpec, String> {
+    let positive = |v: &Option<Spanned<f64>>, key: &str| {
+        let key = format!("design.{key}");
+        v.as_ref()
+            .map(|v| c.num(v, &key, |x| x > 0.0, "a positive number"))
+            .transpose()
+    };
+    let fit_layers = d
+        .fit_layers
+        .as_ref()
+        .map(|v| c.int(v, "design.fit_layers", 1, 16))
+        .transpose()?
+        .map(|n| u8::try_from(n).unwrap_or(u8::MAX));
+    Ok(DesignSpec {
+        phi_deg: positive(&d.phi_deg, "phi_deg")?,
+        psi_deg: positive(&d.psi_deg, "psi_deg")?,
+        sigma_m: positive(&d.sigma_m, "sigma_m")?,
+        height_m: positive(&d.height_m, "height_m")?,
+        max_range_m: positive(&d.max_range_m, "max_range_m")?,
+        base_m: positive(&d.base_m, "base_m")?,
+        gamma: positive(&d.gamma, "gamma")?,
+        fit_layers,
+    })
 }

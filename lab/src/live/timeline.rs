@@ -30,7 +30,7 @@ pub struct BoardLag {
     /// When the board took each chunk's last byte minus the chunk's recorded time, ms.
     pub chunk_lag_ms: Spread,
     /// When the board took the host-link frame that carries the reference's pose (written
-    /// [`POSE_DELAY_US`] after its time) minus the pose's time, ms.
+    /// `POSE_DELAY_US` (30 ms) after its time) minus the pose's time, ms.
     pub pose_lag_ms: Spread,
 }
 

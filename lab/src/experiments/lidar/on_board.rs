@@ -19,6 +19,7 @@ use terrain_pyramid::{
     Design, GateShape, Schedule, DEFAULT_CELLS_PER_SIDE, DEFAULT_CLASSIFIER_SLOTS, DEFAULT_LAYERS,
 };
 use terrain_pyramid_host::design::{firmware_design, fit, DesignArgs, GateArg};
+use terrain_pyramid_host_tests::sim::lidar::LidarKind;
 
 /// A board's layers, cells per side and classifier slots: the library's defaults.
 pub const BOARD: (usize, usize, usize) = (
@@ -26,6 +27,16 @@ pub const BOARD: (usize, usize, usize) = (
     DEFAULT_CELLS_PER_SIDE,
     DEFAULT_CLASSIFIER_SLOTS,
 );
+
+/// The rigs measured on a board: the rig table's ([`RIGS`]) and the RPLIDAR A1 in express
+/// scan (10 revolutions a second, φ 2° on the same servo; `[sensor] mode = 1` in a rig file),
+/// which a robot builder can choose over the standard scan's 5.5.
+pub const BOARD_RIGS: [(LidarKind, &str); 4] = [
+    RIGS[0],
+    RIGS[1],
+    RIGS[2],
+    (LidarKind::RplidarExpress, "RPLIDAR A1 (express scan)"),
+];
 
 /// The designs' ranges measured, metres: `None` is the rig's own (12 m, the YDLIDAR's 10 m).
 pub const RANGES_M: [Option<f64>; 3] = [None, Some(8.0), Some(6.0)];
@@ -188,7 +199,7 @@ pub fn run_rigs(
 ) -> Result<Vec<BoardRig>, String> {
     let phases = if quick { 1 } else { PHASES };
     let mut out = Vec::new();
-    for (kind, name) in RIGS {
+    for (kind, name) in BOARD_RIGS {
         let (_, own) = kind.range_m();
         let designs: Vec<BoardDesign> = core::iter::once(BoardDesign::Boot)
             .chain(
@@ -272,7 +283,7 @@ pub fn report(s: &mut String, rows: &[BoardRig]) {
     use std::fmt::Write as _;
     let _ = writeln!(
         s,
-        "On a board: the same rigs and approach through the soft-gated pyramid a board holds ({} layers of {}² cells, {} classifier slots: the `qemu-mps2` and `stm32f4` firmware), with the design it boots with (until the host sends a Configure: `pyramid listen` sends none) or with the rig's design at the range given and the smallest γ (in steps of 0.5 from 2) that fits (`pyramid design --fit-layers 8`); the nod's phases after 120 s. Step cells obstacle at the stop, where the first step was first seen (the phases meeting 95 % and 4 m), the most flat ground before the stairs obstacle at the stop and 0.5–2.5 m before the first riser when the first step was first seen, the point additions the classifier's scratch dropped, and the phases where standing {} nods longer lowered the step cells at the stop or brought the first sighting more than 0.1 m nearer.\n\n| rig | design | γ, layers | step cells at the stop (≥ 95 %) | first step seen (≥ 4 m) | false obstacles at the stop | ground at first sight | dropped | standing longer: lower at the stop; seen nearer |\n| --- | --- | --- | --- | --- | --- | --- | --- | --- |",
+        "On a board: the same rigs and approach through the soft-gated pyramid a board holds ({} layers of {}² cells, {} classifier slots: the `qemu-mps2` and `stm32f4` firmware), with the design it boots with (until the host sends a Configure: `pyramid listen` sends a rig file's `[design]`) or with the rig's design at the range given and the smallest γ (in steps of 0.5 from 2) that fits (`pyramid design --fit-layers 8`); the nod's phases after 120 s. Step cells obstacle at the stop, where the first step was first seen (the phases meeting 95 % and 4 m), the most flat ground before the stairs obstacle at the stop and 0.5–2.5 m before the first riser when the first step was first seen, the point additions the classifier's scratch dropped, and the phases where standing {} nods longer lowered the step cells at the stop or brought the first sighting more than 0.1 m nearer.\n\n| rig | design | γ, layers | step cells at the stop (≥ 95 %) | first step seen (≥ 4 m) | false obstacles at the stop | ground at first sight | dropped | standing longer: lower at the stop; seen nearer |\n| --- | --- | --- | --- | --- | --- | --- | --- | --- |",
         BOARD.0, BOARD.1, BOARD.2, LONG_STAND_NODS
     );
     for r in rows {
@@ -320,12 +331,11 @@ pub fn report(s: &mut String, rows: &[BoardRig]) {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::experiments::lidar::{nod_period_s, PHASES, RIGS};
-    use terrain_pyramid_host_tests::sim::lidar::LidarKind;
+    use crate::experiments::lidar::{nod_period_s, PHASES};
 
     #[test]
     fn every_rig_s_design_fits_a_board_at_some_gamma() {
-        for (kind, _) in RIGS {
+        for (kind, _) in BOARD_RIGS {
             let (_, range) = kind.range_m();
             let setup = StairsSetup {
                 kind,
@@ -357,10 +367,42 @@ mod tests {
         );
     }
 
+    #[test]
+    fn the_nodding_example_rig_is_the_ld19_rig_measured_here_with_its_8_m_design() {
+        use crate::experiments::lidar::{HEIGHT_M, SERVO};
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../examples/rigs/ld19-nodding.toml");
+        let rig = terrain_pyramid_host::rigfile::read_rig_file(&path).unwrap();
+        let servo = rig.actuator.servo.unwrap();
+        assert_eq!(
+            (
+                servo.min_deg,
+                servo.max_deg,
+                servo.rate_deg_s,
+                servo.latency_ms
+            ),
+            SERVO
+        );
+        assert!((rig.mount.xyz_m[2] - HEIGHT_M).abs() < 1e-12);
+        let (gamma, design) = rig.design.unwrap().design(DEFAULT_CELLS_PER_SIDE).unwrap();
+        let (lab_gamma, lab_design) = fitted(&StairsSetup {
+            kind: LidarKind::Ld19,
+            range_m: 8.0,
+            ..StairsSetup::FULL
+        })
+        .unwrap();
+        assert!((gamma - f64::from(lab_gamma)).abs() < 1e-9);
+        assert_eq!(design.layers(), lab_design.layers());
+        assert_eq!(design.sensor(), lab_design.sensor());
+    }
+
     /// Prints every rig's 8 phases after 120 s on a board, with the boot design and the rig's
     /// fitted to `ON_BOARD_RANGE_M` (default the rig's range), standing `ON_BOARD_STAND_M`
     /// away (default that range less 0.95 m), `ON_BOARD_RPO` revolutions an observation
-    /// (default 0: one per sweep; 1 was the rig file's default for a lidar until 2026-12-06).
+    /// (default 0: one per sweep; 1 was the rig file's default for a lidar until 2026-12-06),
+    /// (every rig of [`BOARD_RIGS`]); `ON_BOARD_SEED`
+    /// the simulator's seed, `ON_BOARD_LONGER_NODS` whole nods more of standing (the
+    /// experiments' `phases_long` stand 60 more).
     #[test]
     #[ignore = "a diagnostic, a minute long: run by hand"]
     fn on_board_phases() {
@@ -371,15 +413,17 @@ mod tests {
                 .unwrap_or(default)
         }
         let classifier = ClassifierConfig::default();
-        for (kind, name) in RIGS {
+        for (kind, name) in BOARD_RIGS {
             let (_, full) = kind.range_m();
             let range = env_or("ON_BOARD_RANGE_M", full);
             #[allow(clippy::cast_precision_loss)]
             for i in 0..PHASES {
-                let stand_s = 120.0 + nod_period_s() * i as f64 / PHASES as f64;
+                let longer = env_or("ON_BOARD_LONGER_NODS", 0.0);
+                let stand_s = 120.0 + nod_period_s() * (longer + i as f64 / PHASES as f64);
                 let setup = StairsSetup {
                     stand_s: (stand_s * 1000.0).round() / 1000.0,
                     kind,
+                    seed: env_or("ON_BOARD_SEED", StairsSetup::FULL.seed),
                     stand_distance_m: env_or("ON_BOARD_STAND_M", full - 0.95),
                     revolutions_per_observation: env_or("ON_BOARD_RPO", 0),
                     ..StairsSetup::FULL
