@@ -2,7 +2,8 @@
 //! describes is the rig's, and the Configure that makes it so.
 //!
 //! A Configure clears the device's maps, so it is sent only when the device runs another
-//! pyramid: a device that booted (its boot design), or one another host configured. A device
+//! pyramid: a device that booted (its boot design; also one whose boot Hello was lost, found
+//! on another pyramid after it ran the rig's), or one another host configured. A device
 //! found running the rig's design keeps its maps, whichever session or reconnection finds it.
 //! The Hello describes the layers (W, each layer's cell and band), not the gate or the sensor
 //! model's probabilities; those are the library's defaults in every Configure sent here.
@@ -36,8 +37,10 @@ pub enum Verdict {
     /// The device runs the rig's design; `String` describes it.
     Runs(String),
     /// The device runs another pyramid: send this Configure. The first `String` describes
-    /// the device's pyramid, the second the rig's.
-    Configure(Box<Configure>, String, String),
+    /// the device's pyramid, the second the rig's; the `bool` says the device ran the rig's
+    /// design before (its boot Hello lost, most likely: its Setup and rule are the boot ones
+    /// too).
+    Configure(Box<Configure>, String, String, bool),
     /// A Configure was sent already and the device still runs another pyramid (described).
     StillOther(String, String),
     /// Nothing to say (already confirmed, or a Configure is out and the device's Hello has
@@ -86,6 +89,12 @@ impl WantedDesign {
             return Verdict::Runs(wanted);
         }
         let theirs = describe_hello(hello);
+        let again = self.confirmed;
+        if again {
+            // It ran the rig's design and runs another now: a boot whose Hello was lost, or
+            // another host's Configure. Looked at afresh.
+            self.restart();
+        }
         if self.configure_sent {
             // The Hello of a snapshot already queued when the Configure went out says the old
             // pyramid; only the Configure's own Hello (reason configured) is its answer.
@@ -101,6 +110,7 @@ impl WantedDesign {
             Box::new(configure_of_design(&design, &Config::default())),
             theirs,
             wanted,
+            again,
         )
     }
 }
@@ -205,7 +215,7 @@ mod tests {
     fn a_device_on_its_boot_design_is_configured_once_and_then_confirmed() {
         let boot = crate::design::firmware_design().unwrap();
         let mut wanted = WantedDesign::new(ld19());
-        let Verdict::Configure(configure, theirs, ours) =
+        let Verdict::Configure(configure, theirs, ours, false) =
             wanted.on_hello(&hello_of(&boot, HelloReason::Boot))
         else {
             panic!("a boot design is not the LD19's");
@@ -239,6 +249,32 @@ mod tests {
             wanted.on_hello(&hello_of(&boot, HelloReason::Boot)),
             Verdict::Configure(..)
         ));
+    }
+
+    #[test]
+    fn a_device_found_on_another_pyramid_after_running_the_rig_s_is_configured_again() {
+        // A reboot whose Hello was lost: the next snapshot's Hello shows the boot design.
+        let boot = crate::design::firmware_design().unwrap();
+        let mut wanted = WantedDesign::new(ld19());
+        let Verdict::Configure(configure, ..) =
+            wanted.on_hello(&hello_of(&boot, HelloReason::Snapshot))
+        else {
+            panic!("a boot design is not the LD19's");
+        };
+        let design: Design<8> = terrain_pyramid::link::convert::design_of(&configure).unwrap();
+        assert!(matches!(
+            wanted.on_hello(&hello_of(&design, HelloReason::Configured)),
+            Verdict::Runs(_)
+        ));
+        assert!(matches!(
+            wanted.on_hello(&hello_of(&boot, HelloReason::Snapshot)),
+            Verdict::Configure(_, _, _, true)
+        ));
+        // Once: the snapshot Hellos queued behind it say nothing more.
+        assert_eq!(
+            wanted.on_hello(&hello_of(&boot, HelloReason::Snapshot)),
+            Verdict::Quiet
+        );
     }
 
     #[test]

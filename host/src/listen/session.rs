@@ -127,14 +127,22 @@ impl Session {
         match verdict {
             Verdict::Quiet => None,
             Verdict::Runs(ours) => Some(format!("device: runs the rig's design ({ours})")),
-            Verdict::Configure(configure, theirs, ours) => {
-                Some(match self.send(&Message::Configure(*configure)) {
-                    Ok(()) => {
-                        self.configures_sent += 1;
-                        format!(
-                            "device: runs {theirs}; the rig's design sent ({ours}): its maps start afresh"
-                        )
-                    }
+            Verdict::Configure(configure, theirs, ours, again) => {
+                let sent = self.send(&Message::Configure(*configure)).map(|()| {
+                    self.configures_sent += 1;
+                });
+                // A device that ran the rig's design and runs another booted unseen, most
+                // likely: its Setup and rule go again too, as after a boot Hello.
+                let resent = if again && (self.setup.is_some() || self.set_rule.is_some()) {
+                    sent.and_then(|()| self.greet(Instant::now()))
+                        .map(|()| " (it ran it before: the rig's setup and rule sent again)")
+                } else {
+                    sent.map(|()| "")
+                };
+                Some(match resent {
+                    Ok(also) => format!(
+                        "device: runs {theirs}; the rig's design sent ({ours}): its maps start afresh{also}"
+                    ),
                     Err(e) => format!("warning: {e}"),
                 })
             }
