@@ -43,7 +43,7 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use terrain_pyramid::classify::ClassifierConfig;
-use terrain_pyramid_host::design::{DesignArgs, GateArg};
+use terrain_pyramid_host::design::DesignArgs;
 use terrain_pyramid_host::rule::{self, RuleArgs};
 
 /// Arguments of `lab experiments`.
@@ -152,21 +152,10 @@ pub struct Results {
     pub rule: String,
 }
 
-/// The paper's Figure 2 design flags: φ = 0.5°, ψ = 2°, σ = 0.15 m, h = 1 m, 10 m.
+/// The paper's Figure 2 design flags: φ = 0.5°, ψ = 2°, σ = 0.15 m, h = 1 m, 10 m, which are
+/// `pyramid design`'s defaults (the library's default sensor and schedule).
 fn figure2_args() -> DesignArgs {
-    DesignArgs {
-        phi_deg: 0.5,
-        psi_deg: 2.0,
-        sigma_m: 0.15,
-        height_m: 1.0,
-        base_m: 0.1,
-        gamma: 2.0,
-        max_range_m: 10.0,
-        cells: 64,
-        gate: GateArg::Soft,
-        gate_width: 0.5,
-        uniform_resolution: false,
-    }
+    DesignArgs::default()
 }
 
 /// The far-obstacles setup of `args` (`--quick`: fewer places; `--seed`).

@@ -18,7 +18,7 @@ use terrain_pyramid::classify::ClassifierConfig;
 use terrain_pyramid::{
     Design, GateShape, Schedule, DEFAULT_CELLS_PER_SIDE, DEFAULT_CLASSIFIER_SLOTS, DEFAULT_LAYERS,
 };
-use terrain_pyramid_host::design::{firmware_design, fit, DesignArgs, GateArg};
+use terrain_pyramid_host::design::{firmware_design, fit, DesignArgs};
 use terrain_pyramid_host_tests::sim::lidar::LidarKind;
 
 /// A board's layers, cells per side and classifier slots: the library's defaults.
@@ -90,9 +90,7 @@ pub fn fitted(setup: &StairsSetup) -> Result<(f32, Design<DEFAULT_LAYERS>), Stri
         gamma: f64::from(schedule.gamma),
         max_range_m: setup.range_m,
         cells: DEFAULT_CELLS_PER_SIDE,
-        gate: GateArg::Soft,
-        gate_width: 0.5,
-        uniform_resolution: false,
+        ..DesignArgs::default()
     };
     let (args, _) = fit(&args, DEFAULT_LAYERS)?;
     #[allow(clippy::cast_possible_truncation)]
