@@ -31,12 +31,13 @@
 //! errors are the car laser's alone.
 //!
 //! The same street is then driven by the paper's SICK and the nodding lidars
-//! ([`super::street_rigs`], `rigs` in the results), scored the same way.
+//! ([`rigs`], `rigs` in the results), scored the same way.
 //! (`lab experiments` runs it among the others: its table in `DIR/report.md`, its results
 //! under `far_obstacles` in `DIR/results.json` and in the `--json` object.)
 
+pub mod rigs;
+
 use super::stairs::round3;
-use super::street_rigs;
 use serde::Serialize;
 use std::fmt::Write as _;
 use terrain_pyramid::classify::{Classifier, ClassifierConfig, NavigabilityRule, PlaneRule};
@@ -59,9 +60,9 @@ const W: usize = 128;
 /// The library classifier's slots: a whole revolution of the car laser in one observation.
 const SLOTS: usize = 65_536;
 /// The robot's height: the overhang cut and the truth's obstacles below it, metres.
-const ROBOT_HEIGHT_M: f64 = 1.0;
+pub(crate) const ROBOT_HEIGHT_M: f64 = 1.0;
 /// Clear ground: no feature within this distance, metres.
-const CLEAR_M: f64 = 0.5;
+pub(crate) const CLEAR_M: f64 = 0.5;
 /// The laser's and the design's range, metres.
 const MAX_RANGE_M: f64 = 20.0;
 
@@ -194,8 +195,8 @@ pub struct FarObstaclesResult {
     /// Per rule.
     pub rules: Vec<RuleResult>,
     /// The same street seen by the SICK and the nodding lidars from a driving robot
-    /// ([`super::street_rigs`]).
-    pub rigs: Vec<street_rigs::RigResult>,
+    /// ([`rigs`]).
+    pub rigs: Vec<rigs::RigResult>,
 }
 
 /// The street design: φ 0.4°, ψ 0.2°, σ `sigma_m`, h 1.3 m, 20 m, γ 3, 128 cells.
@@ -279,7 +280,7 @@ pub fn run(setup: &Setup) -> Result<FarObstaclesResult, String> {
         setup: setup.clone(),
         rings: (0..RINGS).map(ring_name).collect(),
         rules,
-        rigs: street_rigs::run(setup)?,
+        rigs: rigs::run(setup)?,
     })
 }
 

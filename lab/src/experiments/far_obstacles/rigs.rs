@@ -1,11 +1,11 @@
-//! The street of [`super::far_obstacles`] seen by the paper's SICK on its pan unit and by the
-//! nodding lidars of [`super::lidar`] (LD19, RPLIDAR A1, YDLIDAR X4 on the 2°..35° servo),
+//! The street of [`super`] (the far-obstacles experiment) seen by the paper's SICK on its pan unit and by the
+//! nodding lidars of [`crate::experiments::lidar`] (LD19, RPLIDAR A1, YDLIDAR X4 on the 2°..35° servo),
 //! each on a robot driving down the road, each through its own design and the library's
 //! pipeline as a board runs it.
 //!
 //! The run: the robot stands 2 s at 2 m before the first place of the street experiment
 //! (x = −6 m, y = 0), then drives along the road at 1 m/s to 0.5 m past the last place. One
-//! map per rig and rule, fed the whole recording line by line ([`super::engine`]), the
+//! map per rig and rule, fed the whole recording line by line ([`crate::experiments::engine`]), the
 //! configuration a board boots with (`Config::default()`). As the robot passes each place, the
 //! map as it stands then is scored, as the car's revolutions are
 //! ([`terrain_pyramid_host_tests::navigability::rings`]), at the true points of the returns of
@@ -20,10 +20,10 @@
 //! [`Ld19Design::for_kind`] to their ranges (12 m; the X4 10 m). Both pyramids with the
 //! default schedule (γ 2, r_k = k·γ·Δd) and the soft gate.
 
-use super::engine::{decode, Decoded, Map, Runner};
-use super::far_obstacles::{rule_result, RuleResult, Setup, RULES};
-use super::lidar::{self, Ld19Design, RIGS, RIG_LAYERS, STAIRS_CELLS};
-use super::{designs, stairs};
+use super::{rule_result, RuleResult, Setup, CLEAR_M, ROBOT_HEIGHT_M, RULES};
+use crate::experiments::engine::{decode, Decoded, Map, Runner};
+use crate::experiments::lidar::{self, Ld19Design, RIGS, RIG_LAYERS, STAIRS_CELLS};
+use crate::experiments::{designs, stairs};
 use serde::Serialize;
 use terrain_pyramid::classify::ClassifierConfig;
 use terrain_pyramid::wire::sick::Unit;
@@ -46,10 +46,6 @@ const SICK_PAN_DEG_S: f64 = 74.0;
 const SICK_CELLS: usize = 232;
 /// Layer capacity of the SICK's pyramid.
 const SICK_LAYERS: usize = 64;
-/// The robot's height: the overhang cut and the truth's obstacles below it, metres.
-const ROBOT_HEIGHT_M: f64 = 1.0;
-/// Clear ground: no feature within this distance, metres.
-const CLEAR_M: f64 = 0.5;
 /// Seconds standing before driving.
 const STAND_S: f64 = 2.0;
 /// Metres driven before the first place.
@@ -252,7 +248,7 @@ fn rig_result(
 }
 
 /// Runs every rig on the street of `setup` (its places, seed and swell). Needs a large stack,
-/// as [`super::far_obstacles::run`].
+/// as [`super::run`].
 ///
 /// # Errors
 /// A design the library refused, the simulator's refusal, or a classifier whose scratch
