@@ -350,4 +350,85 @@ fn the_far_obstacles_table_holds_every_ring_and_kind(json: &Value, table: &str, 
         assert_eq!(ground_points, n(&fp["navigable"]), "{rule}");
         assert_eq!(ground_right, n(&fp["navigable_ok"]), "{rule}");
     }
+    the_street_rigs_are_scored_each_in_its_range(far, table, &report);
+}
+
+/// The street from a driving robot (`far_obstacles.rigs`): the SICK and the three nodding
+/// lidars, both rules each; returns only within each rig's range; the curbs every rig passes
+/// seen and mostly marked near the robot, the paper's rule marking at least as many as the
+/// plane rule; a table section per rig in stderr and in `report.md`.
+fn the_street_rigs_are_scored_each_in_its_range(far: &Value, table: &str, report: &str) {
+    let rigs = far["rigs"].as_array().expect("the street rigs");
+    let names: Vec<&str> = rigs.iter().filter_map(|r| r["rig"].as_str()).collect();
+    assert_eq!(
+        names,
+        [
+            "SICK LMS2xx (panned)",
+            "LD19",
+            "RPLIDAR A1 (standard scan)",
+            "YDLIDAR X4"
+        ]
+    );
+    for rig in rigs {
+        let name = rig["rig"].as_str().unwrap_or_default();
+        let heading = format!("### The street from a driving robot: {name}");
+        assert!(table.contains(&heading), "{heading} missing:\n{table}");
+        assert!(
+            report.contains(&heading),
+            "{heading} missing from report.md"
+        );
+        let range = rig["range_m"].as_f64().expect("range");
+        let rules = rig["rules"].as_array().expect("rules");
+        assert_eq!(rules.len(), 2, "{name}");
+        let curbs_marked = |rule: &Value| {
+            let curb = rule["kinds"]
+                .as_array()
+                .and_then(|k| k.iter().find(|k| k["kind"] == "curb"))
+                .expect("curb");
+            n(&curb["all"]["right"])
+        };
+        for rule in rules {
+            // Rings beyond the rig's range hold no return; the nearest holds ground and curbs.
+            for (i, g) in rule["ground"]
+                .as_array()
+                .expect("ground")
+                .iter()
+                .enumerate()
+            {
+                #[allow(clippy::cast_precision_loss)]
+                let ring_start = 5.0 * i as f64;
+                if ring_start >= range {
+                    assert_eq!(n(&g["points"]), 0, "{name} ring {i}");
+                }
+            }
+            assert!(
+                n(&rule["ground"][0]["points"]) > 0,
+                "{name}: no clear ground"
+            );
+            let curb = rule["kinds"]
+                .as_array()
+                .and_then(|k| k.iter().find(|k| k["kind"] == "curb"))
+                .expect("curb");
+            let near = &curb["rings"][0];
+            assert!(n(&near["points"]) > 0, "{name}: no curb within 5 m");
+            assert!(
+                n(&near["right"]) * 10 >= n(&near["points"]) * 8,
+                "{name}, {}: curbs within 5 m {near}",
+                rule["rule"]
+            );
+            // The totals add up to the rings.
+            let fp = &rule["fused_points"];
+            let ground_points: u64 = rule["ground"]
+                .as_array()
+                .expect("ground")
+                .iter()
+                .map(|g| n(&g["points"]))
+                .sum();
+            assert_eq!(ground_points, n(&fp["navigable"]), "{name}");
+        }
+        assert!(
+            curbs_marked(&rules[1]) >= curbs_marked(&rules[0]),
+            "{name}: the paper's rule marks fewer curb returns than the plane rule"
+        );
+    }
 }

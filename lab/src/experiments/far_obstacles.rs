@@ -27,9 +27,15 @@
 //! ```
 //! A real laser's beams are calibrated only so well: `--elevation-bias-deg DEG` and
 //! `--range-bias-m M` draw each beam's elevation error and range offset once (σ DEG and M),
-//! as `host-tests/examples/terrain_rules` does for its car bench (0.1°, 2 cm).
+//! as `host-tests/examples/terrain_rules` does for its car bench (0.1°, 2 cm). The calibration
+//! errors are the car laser's alone.
+//!
+//! The same street is then driven by the paper's SICK and the nodding lidars
+//! ([`rigs`], `rigs` in the results), scored the same way.
 //! (`lab experiments` runs it among the others: its table in `DIR/report.md`, its results
 //! under `far_obstacles` in `DIR/results.json` and in the `--json` object.)
+
+pub mod rigs;
 
 use super::stairs::round3;
 use serde::Serialize;
@@ -54,9 +60,9 @@ const W: usize = 128;
 /// The library classifier's slots: a whole revolution of the car laser in one observation.
 const SLOTS: usize = 65_536;
 /// The robot's height: the overhang cut and the truth's obstacles below it, metres.
-const ROBOT_HEIGHT_M: f64 = 1.0;
+pub(crate) const ROBOT_HEIGHT_M: f64 = 1.0;
 /// Clear ground: no feature within this distance, metres.
-const CLEAR_M: f64 = 0.5;
+pub(crate) const CLEAR_M: f64 = 0.5;
 /// The laser's and the design's range, metres.
 const MAX_RANGE_M: f64 = 20.0;
 
@@ -188,6 +194,9 @@ pub struct FarObstaclesResult {
     pub rings: Vec<String>,
     /// Per rule.
     pub rules: Vec<RuleResult>,
+    /// The same street seen by the SICK and the nodding lidars from a driving robot
+    /// ([`rigs`]).
+    pub rigs: Vec<rigs::RigResult>,
 }
 
 /// The street design: φ 0.4°, ψ 0.2°, σ `sigma_m`, h 1.3 m, 20 m, γ 3, 128 cells.
@@ -271,10 +280,11 @@ pub fn run(setup: &Setup) -> Result<FarObstaclesResult, String> {
         setup: setup.clone(),
         rings: (0..RINGS).map(ring_name).collect(),
         rules,
+        rigs: rigs::run(setup)?,
     })
 }
 
-fn rule_result(name: &'static str, t: &RingTally, points: Tally) -> RuleResult {
+pub(crate) fn rule_result(name: &'static str, t: &RingTally, points: Tally) -> RuleResult {
     let per_ring = |f: &dyn Fn(usize) -> Count| -> Vec<RingCount> {
         (0..RINGS)
             .map(|r| RingCount::new(ring_name(r), &f(r)))
@@ -326,23 +336,44 @@ pub fn table(r: &FarObstaclesResult) -> String {
         r.setup.swell_m,
         xs.join(", ")
     );
-    for rule in &r.rules {
+    rule_tables(&mut s, "###", &r.rings, &r.rules);
+    for rig in &r.rigs {
         let _ = writeln!(
             s,
-            "\n### {}: clear ground navigable {}\n",
+            "\n### The street from a driving robot: {}\n\nThe robot stands 2 s at x = {} m \
+             and drives along the road at 1 m/s; one map ({} layers, {} m, the board's boot \
+             configuration) fed the whole run; scored as the robot passes each place at the \
+             returns of the last {:.2} s (one sweep of its actuator).",
+            rig.rig,
+            r.setup.xs.iter().copied().fold(f64::INFINITY, f64::min) - 2.0,
+            rig.layers,
+            rig.range_m,
+            rig.window_s,
+        );
+        rule_tables(&mut s, "####", &r.rings, &rig.rules);
+    }
+    s
+}
+
+/// Per rule, under heading `level`: clear ground and each kind by ring.
+fn rule_tables(s: &mut String, level: &str, rings: &[String], rules: &[RuleResult]) {
+    for rule in rules {
+        let _ = writeln!(
+            *s,
+            "\n{level} {}: clear ground navigable {}\n",
             rule.rule,
             rule.ground_navigable_pct
                 .map_or_else(|| "–".to_string(), |p| format!("{p:.1} %"))
         );
-        let _ = writeln!(s, "| returns on | {} | all |", r.rings.join(" | "));
-        let _ = writeln!(s, "| --- |{}", " --- |".repeat(r.rings.len() + 1));
+        let _ = writeln!(*s, "| returns on | {} | all |", rings.join(" | "));
+        let _ = writeln!(*s, "| --- |{}", " --- |".repeat(rings.len() + 1));
         let ground_all = Count {
             points: rule.ground.iter().map(|c| c.points).sum(),
             right: rule.ground.iter().map(|c| c.right).sum(),
         };
         let mut line = |name: &str, rings: &[RingCount], all: &RingCount| {
             let cells: Vec<String> = rings.iter().map(cell).collect();
-            let _ = writeln!(s, "| {name} | {} | {} |", cells.join(" | "), cell(all));
+            let _ = writeln!(*s, "| {name} | {} | {} |", cells.join(" | "), cell(all));
         };
         line(
             "clear ground (navigable)",
@@ -362,5 +393,4 @@ pub fn table(r: &FarObstaclesResult) -> String {
             &RingCount::new("all".into(), &obstacles_all),
         );
     }
-    s
 }

@@ -13,7 +13,9 @@
 //! - **Far obstacles** ([`far_obstacles`]): the car's ring laser on the street through the
 //!   library's classifier under both rules: clear ground read navigable and each obstacle
 //!   kind (curb, post, step edge, block) marked, by range ring (0-5 … 15-20 m); a laser with
-//!   per-beam calibration errors with `--elevation-bias-deg` and `--range-bias-m`.
+//!   per-beam calibration errors with `--elevation-bias-deg` and `--range-bias-m`; and the
+//!   same street from a driving robot by the SICK and the nodding lidars
+//!   ([`far_obstacles::rigs`]).
 //!
 //! Writes `DIR/fig2.png`, `DIR/stairs.png`, `DIR/stairs-detection.png`, `DIR/coverage.png`
 //! (and the coverage maps as `pyramid run` writes them), `DIR/report.md` and

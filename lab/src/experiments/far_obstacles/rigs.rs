@@ -1,0 +1,310 @@
+//! The street of [`super`] (the far-obstacles experiment) seen by the paper's SICK on its pan unit and by the
+//! nodding lidars of [`crate::experiments::lidar`] (LD19, RPLIDAR A1, YDLIDAR X4 on the 2°..35° servo),
+//! each on a robot driving down the road, each through its own design and the library's
+//! pipeline as a board runs it.
+//!
+//! The run: the robot stands 2 s at 2 m before the first place of the street experiment
+//! (x = −6 m, y = 0), then drives along the road at 1 m/s to 0.5 m past the last place. One
+//! map per rig and rule, fed the whole recording line by line ([`crate::experiments::engine`]), the
+//! configuration a board boots with (`Config::default()`). As the robot passes each place, the
+//! map as it stands then is scored, as the car's revolutions are
+//! ([`terrain_pyramid_host_tests::navigability::rings`]), at the true points of the returns of
+//! the last sweep the map has integrated (one period of the actuator before the end of the
+//! map's last observation: the SICK's pan 2.43 s, the servo's nod 3.3 s), each ring counted
+//! from where the laser was when it measured the return: clear ground read navigable,
+//! obstacles marked within 0.2 m, by ring and kind. A return the pipeline has not yet integrated is not scored: the
+//! map cannot know it yet.
+//!
+//! The designs are the rigs' own: the SICK the paper's (φ 0.5°, ψ 2°, σ 0.15 m, h 1 m) to
+//! 20 m, in centimetres and panned at 74°/s as in the stairs experiment; the nodding lidars
+//! [`Ld19Design::for_kind`] to their ranges (12 m; the X4 10 m). Both pyramids with the
+//! default schedule (γ 2, r_k = k·γ·Δd) and the soft gate.
+
+use super::{rule_result, RuleResult, Setup, CLEAR_M, ROBOT_HEIGHT_M, RULES};
+use crate::experiments::engine::{decode, Decoded, Map, Runner};
+use crate::experiments::lidar::{self, Ld19Design, RIGS, RIG_LAYERS, STAIRS_CELLS};
+use crate::experiments::{designs, stairs};
+use serde::Serialize;
+use terrain_pyramid::classify::ClassifierConfig;
+use terrain_pyramid::wire::sick::Unit;
+use terrain_pyramid::{Config, Design, GateShape};
+use terrain_pyramid_host_tests::navigability::rings::{far_obstacles_with, RingTally};
+use terrain_pyramid_host_tests::sim::cloud::Observation;
+use terrain_pyramid_host_tests::sim::laser::{Actuator, LaserConfig};
+use terrain_pyramid_host_tests::sim::lidar::{simulate_lidar, HitBox, LidarKind};
+use terrain_pyramid_host_tests::sim::record::{simulate_with, SimConfig};
+use terrain_pyramid_host_tests::sim::scene::Scene;
+use terrain_pyramid_host_tests::sim::trajectory::Trajectory;
+
+/// The SICK's range and its design's, metres.
+const SICK_RANGE_M: f64 = 20.0;
+/// The SICK's pan rate, degrees per second (±45°): as the stairs experiment, not locked to
+/// the mirror so that sweeps interleave.
+const SICK_PAN_DEG_S: f64 = 74.0;
+/// Cells per layer side of the SICK's pyramid (the smallest even window its 20 m design
+/// accepts, rounded up to a multiple of 8).
+const SICK_CELLS: usize = 232;
+/// Layer capacity of the SICK's pyramid.
+const SICK_LAYERS: usize = 64;
+/// Seconds standing before driving.
+const STAND_S: f64 = 2.0;
+/// Metres driven before the first place.
+const LEAD_M: f64 = 2.0;
+/// Driving speed, m/s.
+const SPEED_MPS: f64 = 1.0;
+
+/// One rig's outcome on the street.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct RigResult {
+    /// The rig: `SICK LMS2xx (panned)` or a nodding lidar's name ([`RIGS`]).
+    pub rig: &'static str,
+    /// The rig's (and its design's) range, metres.
+    pub range_m: f64,
+    /// The window scored at each place: the actuator's period, seconds.
+    pub window_s: f64,
+    /// The design's layers.
+    pub layers: usize,
+    /// Per rule, as the car's.
+    pub rules: Vec<RuleResult>,
+}
+
+/// A return's time (seconds since the run's start) and true point (world metres).
+type Hit = (f64, [f64; 3]);
+
+/// Builds a rig's map for a decoded recording (its pipeline configuration).
+type MapOf<'a> = &'a dyn Fn(&Decoded) -> Result<Box<dyn Map>, String>;
+
+/// The robot's run along the street for `setup`'s places.
+fn trajectory(setup: &Setup) -> Trajectory {
+    let first = setup.xs.iter().copied().fold(f64::INFINITY, f64::min);
+    let last = setup.xs.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    Trajectory {
+        start_x: first - LEAD_M,
+        y: 0.0,
+        stand_s: STAND_S,
+        speed_mps: SPEED_MPS,
+        stop_x: last + 0.5,
+        dwell_s: 0.0,
+        yaw_rate_rad_s: 0.0,
+    }
+}
+
+/// The SICK's recording of the run and its returns' true points within its range.
+fn sick_run(setup: &Setup) -> Result<(Vec<u8>, Vec<Hit>), String> {
+    let laser = LaserConfig {
+        unit: Unit::Centimetre,
+        max_range_m: Some(SICK_RANGE_M),
+        actuator: Actuator::Pan {
+            half_width_deg: 45.0,
+            rate_deg_s: SICK_PAN_DEG_S,
+        },
+        ..LaserConfig::paper()
+    };
+    let mut config = SimConfig::new(Scene::street(setup.swell_m), laser, trajectory(setup));
+    config.seed = setup.seed;
+    let mut hits = Vec::new();
+    let sim = simulate_with(&config, &|_| None, &mut |line| {
+        let range = line.laser.config().max_range();
+        for ray in line.laser.rays(line.pose, line.angle) {
+            if let Some(hit) = line.scene.cast(&ray, range) {
+                hits.push((line.t_s, hit.point));
+            }
+        }
+    })
+    .map_err(|e| format!("the SICK on the street: {e}"))?;
+    Ok((sim.bytes, hits))
+}
+
+/// Nodding lidar `kind`'s recording of the run and its returns' true points.
+fn lidar_run(setup: &Setup, kind: LidarKind) -> Result<(Vec<u8>, Vec<Hit>), String> {
+    let mut config = lidar::rig_sim(
+        kind,
+        Scene::street(setup.swell_m),
+        trajectory(setup),
+        setup.seed,
+    );
+    config.hit_box = Some(HitBox {
+        min: [-40.0, -30.0, -5.0],
+        max: [50.0, 30.0, 5.0],
+    });
+    let sim = simulate_lidar(&config).map_err(|e| format!("{kind:?} on the street: {e}"))?;
+    Ok((
+        sim.bytes,
+        sim.hits.iter().map(|h| (h.t_s, h.point_m)).collect(),
+    ))
+}
+
+/// Seconds of returns scored from one place of the laser: the robot moves 0.1 m meanwhile.
+const SLICE_S: f64 = 0.1;
+
+/// Feeds `decoded` into `map` and scores the map, as it stands when the robot passes each
+/// of `places`, at the returns of the last `window_s` seconds the map has integrated (up to
+/// the end of its last observation), each ring counted from where the laser was when it
+/// measured the return (`trajectory`, within [`SLICE_S`]).
+fn score(
+    map: &mut dyn Map,
+    decoded: &Decoded,
+    hits: &[Hit],
+    places: &[f64],
+    window_s: f64,
+    trajectory: &Trajectory,
+    scene: &Scene,
+) -> RingTally {
+    let mut places: Vec<f64> = places.to_vec();
+    places.sort_by(f64::total_cmp);
+    let mut next = places.iter().peekable();
+    let mut tally = RingTally::default();
+    // The end of the last observation integrated, seconds.
+    let mut integrated: Option<f64> = None;
+    let mut observations = map.observations();
+    for line in &decoded.lines {
+        map.line(line);
+        if map.observations() != observations {
+            observations = map.observations();
+            #[allow(clippy::cast_precision_loss)]
+            let t = line.time_us as f64 * 1e-6;
+            integrated = Some(t);
+        }
+        while next.next_if(|&&x| line.robot_xy.0 >= x).is_some() {
+            let Some(t) = integrated else {
+                continue;
+            };
+            // The window's returns in slices, each seen from the laser's place at its middle.
+            let window: Vec<&Hit> = hits
+                .iter()
+                .filter(|(th, _)| *th > t - window_s && *th <= t)
+                .collect();
+            for slice in window.chunk_by(|a, b| {
+                (a.0 / SLICE_S).floor().total_cmp(&(b.0 / SLICE_S).floor())
+                    == std::cmp::Ordering::Equal
+            }) {
+                let Some(first) = slice.first() else {
+                    continue;
+                };
+                let at = ((first.0 / SLICE_S).floor() + 0.5) * SLICE_S;
+                let pose = trajectory.pose_at(at, scene);
+                let obs = Observation {
+                    sensor: [pose.x, pose.y, pose.z + lidar::HEIGHT_M],
+                    ground_z: pose.z,
+                    points: slice.iter().map(|h| h.1).collect(),
+                };
+                tally.add(&far_obstacles_with(
+                    |qx, qy| map.fused(qx, qy),
+                    scene,
+                    std::slice::from_ref(&obs),
+                    CLEAR_M,
+                    ROBOT_HEIGHT_M,
+                ));
+            }
+        }
+    }
+    tally
+}
+
+/// One rig under every rule: `map` builds its map for a decoded recording.
+fn rig_result(
+    rig: &'static str,
+    range_m: f64,
+    window_s: f64,
+    layers: usize,
+    run: &(Vec<u8>, Vec<Hit>),
+    setup: &Setup,
+    map: MapOf<'_>,
+) -> Result<RigResult, String> {
+    let scene = Scene::street(setup.swell_m);
+    let mut rules = Vec::new();
+    for (name, rule) in RULES {
+        let decoded = decode(
+            &run.0,
+            &ClassifierConfig {
+                rule,
+                ..ClassifierConfig::default()
+            },
+        )?;
+        let mut m = map(&decoded)?;
+        let tally = score(
+            m.as_mut(),
+            &decoded,
+            &run.1,
+            &setup.xs,
+            window_s,
+            &trajectory(setup),
+            &scene,
+        );
+        if m.dropped() != 0 {
+            return Err(format!(
+                "{rig}, {name}: the classifier's scratch overflowed"
+            ));
+        }
+        rules.push(rule_result(name, &tally, tally.total()));
+    }
+    Ok(RigResult {
+        rig,
+        range_m,
+        window_s,
+        layers,
+        rules,
+    })
+}
+
+/// Runs every rig on the street of `setup` (its places, seed and swell). Needs a large stack,
+/// as [`super::run`].
+///
+/// # Errors
+/// A design the library refused, the simulator's refusal, or a classifier whose scratch
+/// overflowed.
+pub fn run(setup: &Setup) -> Result<Vec<RigResult>, String> {
+    let mut out = Vec::new();
+    #[allow(clippy::cast_possible_truncation)]
+    let sick: Design<SICK_LAYERS> =
+        designs::pyramid(SICK_RANGE_M as f32, GateShape::default(), false, SICK_CELLS)
+            .map_err(|e| format!("the SICK's street design: {e}"))?;
+    let pan_s = 2.0 * 90.0 / SICK_PAN_DEG_S;
+    out.push(rig_result(
+        "SICK LMS2xx (panned)",
+        SICK_RANGE_M,
+        pan_s,
+        sick.layers().len(),
+        &sick_run(setup)?,
+        setup,
+        &|d| {
+            Ok(Box::new(Runner::<
+                SICK_CELLS,
+                SICK_LAYERS,
+                { stairs::SLOTS },
+            >::new(
+                "sick",
+                sick.clone(),
+                Config::default(),
+                d.frontend,
+            )?))
+        },
+    )?);
+    for (kind, name) in RIGS {
+        let (_, range) = kind.range_m();
+        let design: Design<RIG_LAYERS> = Ld19Design::for_kind(kind)
+            .pyramid(range, GateShape::default(), false, STAIRS_CELLS)
+            .map_err(|e| format!("{name}'s design: {e}"))?;
+        out.push(rig_result(
+            name,
+            range,
+            lidar::nod_period_s(),
+            design.layers().len(),
+            &lidar_run(setup, kind)?,
+            setup,
+            &|d| {
+                Ok(Box::new(Runner::<
+                    STAIRS_CELLS,
+                    RIG_LAYERS,
+                    { stairs::SLOTS },
+                >::new(
+                    name,
+                    design.clone(),
+                    Config::default(),
+                    d.frontend,
+                )?))
+            },
+        )?);
+    }
+    Ok(out)
+}
