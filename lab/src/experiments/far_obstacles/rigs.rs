@@ -123,6 +123,8 @@ fn lidar_run(setup: &Setup, kind: LidarKind) -> Result<(Vec<u8>, Vec<Hit>), Stri
         trajectory(setup),
         setup.seed,
     );
+    // A box around every return the rigs can make on this run (x from −6 − 12 to 14.5 + 12 m,
+    // |y| ≤ 12 m).
     config.hit_box = Some(HitBox {
         min: [-40.0, -30.0, -5.0],
         max: [50.0, 30.0, 5.0],
