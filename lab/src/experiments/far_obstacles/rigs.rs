@@ -51,9 +51,10 @@ const SICK_RANGE_M: f64 = 20.0;
 /// The SICK's pan rate, degrees per second (±45°): as the stairs experiment, not locked to
 /// the mirror so that sweeps interleave.
 const SICK_PAN_DEG_S: f64 = 74.0;
-/// Cells per layer side of the SICK's pyramid (the smallest even window its 20 m design
-/// accepts, rounded up to a multiple of 8).
-const SICK_CELLS: usize = 232;
+/// Cells per layer side of the SICK's pyramid: every layer's window holds the whole 20 m
+/// range on either side of the robot, as the nodding rigs' [`STAIRS_CELLS`] do their 12 m
+/// (2 · 20 / 0.1 + 2 = 402, rounded up to a multiple of 8).
+const SICK_CELLS: usize = 408;
 /// Layer capacity of the SICK's pyramid.
 const SICK_LAYERS: usize = 64;
 /// Seconds standing before driving.
@@ -402,4 +403,22 @@ pub fn run(setup: &Setup) -> Result<Vec<RigResult>, String> {
         }
     }
     Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_layer_of_the_sicks_window_holds_its_whole_range() {
+        #[allow(clippy::cast_possible_truncation)]
+        let design: Design<SICK_LAYERS> =
+            designs::pyramid(SICK_RANGE_M as f32, GateShape::default(), false, SICK_CELLS)
+                .expect("the SICK's design");
+        #[allow(clippy::cast_precision_loss)]
+        let half = |r: f32| f64::from(r) * SICK_CELLS as f64 / 2.0;
+        for layer in design.layers() {
+            assert!(half(layer.resolution_m) >= SICK_RANGE_M, "{layer:?}");
+        }
+    }
 }
