@@ -353,33 +353,48 @@ fn the_far_obstacles_table_holds_every_ring_and_kind(json: &Value, table: &str, 
     the_street_rigs_are_scored_each_in_its_range(far, table, &report);
 }
 
-/// The street from a driving robot (`far_obstacles.rigs`): the SICK and the three nodding
-/// lidars, both rules each; returns only within each rig's range; the curbs every rig passes
+/// The street from a driving robot (`far_obstacles.rigs`): the SICK with its own design and
+/// the four nodding rigs each with its own, a board's boot design and its own fitted to a
+/// board, both rules each; returns only within each rig's range; the curbs every rig passes
 /// seen and mostly marked near the robot, the paper's rule marking at least as many as the
-/// plane rule; a table section per rig in stderr and in `report.md`.
+/// plane rule; a table section per row in stderr and in `report.md`.
 fn the_street_rigs_are_scored_each_in_its_range(far: &Value, table: &str, report: &str) {
     let rigs = far["rigs"].as_array().expect("the street rigs");
-    let names: Vec<&str> = rigs.iter().filter_map(|r| r["rig"].as_str()).collect();
-    assert_eq!(
-        names,
-        [
-            "SICK LMS2xx (panned)",
-            "LD19",
-            "RPLIDAR A1 (standard scan)",
-            "YDLIDAR X4"
-        ]
-    );
+    let rows: Vec<(&str, &str)> = rigs
+        .iter()
+        .filter_map(|r| Some((r["rig"].as_str()?, r["design"].as_str()?)))
+        .collect();
+    let mut expected = vec![("SICK LMS2xx (panned)", "own")];
+    for lidar in [
+        "LD19",
+        "RPLIDAR A1 (standard scan)",
+        "YDLIDAR X4",
+        "RPLIDAR A1 (express scan)",
+    ] {
+        for design in ["own", "board, boot", "board, own to 8 m"] {
+            expected.push((lidar, design));
+        }
+    }
+    assert_eq!(rows, expected);
     for rig in rigs {
         let name = rig["rig"].as_str().unwrap_or_default();
-        let heading = format!("### The street from a driving robot: {name}");
+        let design = rig["design"].as_str().unwrap_or_default();
+        let heading = format!("### The street from a driving robot: {name}, {design} design");
         assert!(table.contains(&heading), "{heading} missing:\n{table}");
         assert!(
             report.contains(&heading),
             "{heading} missing from report.md"
         );
+        if design != "own" {
+            assert_eq!(
+                n(&rig["layers"]),
+                8,
+                "{name}, {design}: a board holds 8 layers"
+            );
+        }
         let range = rig["range_m"].as_f64().expect("range");
         let rules = rig["rules"].as_array().expect("rules");
-        assert_eq!(rules.len(), 2, "{name}");
+        assert_eq!(rules.len(), 2, "{name}, {design}");
         let curbs_marked = |rule: &Value| {
             let curb = rule["kinds"]
                 .as_array()
@@ -428,7 +443,7 @@ fn the_street_rigs_are_scored_each_in_its_range(far: &Value, table: &str, report
         }
         assert!(
             curbs_marked(&rules[1]) >= curbs_marked(&rules[0]),
-            "{name}: the paper's rule marks fewer curb returns than the plane rule"
+            "{name}, {design}: the paper's rule marks fewer curb returns than the plane rule"
         );
     }
 }

@@ -1,33 +1,43 @@
-//! The street of [`super`] (the far-obstacles experiment) seen by the paper's SICK on its pan unit and by the
-//! nodding lidars of [`crate::experiments::lidar`] (LD19, RPLIDAR A1, YDLIDAR X4 on the 2°..35° servo),
-//! each on a robot driving down the road, each through its own design and the library's
-//! pipeline as a board runs it.
+//! The street of [`super`] (the far-obstacles experiment) seen by the paper's SICK on its pan
+//! unit and by the nodding lidars of [`crate::experiments::lidar`] (LD19, RPLIDAR A1 in its
+//! standard and express scans, YDLIDAR X4 on the 2°..35° servo), each on a robot driving down
+//! the road through the library's pipeline as a board runs it.
 //!
 //! The run: the robot stands 2 s at 2 m before the first place of the street experiment
 //! (x = −6 m, y = 0), then drives along the road at 1 m/s to 0.5 m past the last place. One
-//! map per rig and rule, fed the whole recording line by line ([`crate::experiments::engine`]), the
-//! configuration a board boots with (`Config::default()`). As the robot passes each place, the
-//! map as it stands then is scored, as the car's revolutions are
-//! ([`terrain_pyramid_host_tests::navigability::rings`]), at the true points of the returns of
-//! the last sweep the map has integrated (one period of the actuator before the end of the
-//! map's last observation: the SICK's pan 2.43 s, the servo's nod 3.3 s), each ring counted
-//! from where the laser was when it measured the return: clear ground read navigable,
-//! obstacles marked within 0.2 m, by ring and kind. A return the pipeline has not yet integrated is not scored: the
-//! map cannot know it yet.
+//! map per rig, design and rule, fed the whole recording line by line
+//! ([`crate::experiments::engine`]), the configuration a board boots with
+//! (`Config::default()`). As the robot passes each place, the map as it stands then is
+//! scored, as the car's revolutions are ([`terrain_pyramid_host_tests::navigability::rings`]),
+//! at the true points of the returns of the last sweep the map has integrated (one period of
+//! the actuator before the end of the map's last observation: the SICK's pan 2.43 s, the
+//! servo's nod 3.3 s), each ring counted from where the laser was when it measured the
+//! return: clear ground read navigable, obstacles marked within 0.2 m, by ring and kind. A
+//! return the pipeline has not yet integrated is not scored: the map cannot know it yet.
 //!
-//! The designs are the rigs' own: the SICK the paper's (φ 0.5°, ψ 2°, σ 0.15 m, h 1 m) to
-//! 20 m, in centimetres and panned at 74°/s as in the stairs experiment; the nodding lidars
-//! [`Ld19Design::for_kind`] to their ranges (12 m; the X4 10 m). Both pyramids with the
-//! default schedule (γ 2, r_k = k·γ·Δd) and the soft gate.
+//! The designs, all with the soft gate:
+//! - the rigs' own, the default schedule (γ 2, `r_k = k·γ·Δd`), as many layers as that
+//!   takes: the SICK the paper's (φ 0.5°, ψ 2°, σ 0.15 m, h 1 m) to 20 m, in centimetres and
+//!   panned at 74°/s as in the stairs experiment; the nodding lidars [`Ld19Design::for_kind`]
+//!   to their ranges (12 m; the X4 10 m);
+//! - for the nodding lidars, what a board runs (8 layers of 64² cells, 1 024 classifier
+//!   slots): the design it boots with (the library's default sensor, the SICK's, to 10 m) and
+//!   the rig's own fitted to 8 m ([`on_board::fitted`], `pyramid design --fit-layers 8`).
+//!   Beyond a design's range the map knows nothing, which the score counts as wrong.
 
 use super::{rule_result, RuleResult, Setup, CLEAR_M, ROBOT_HEIGHT_M, RULES};
 use crate::experiments::engine::{decode, Decoded, Map, Runner};
-use crate::experiments::lidar::{self, Ld19Design, RIGS, RIG_LAYERS, STAIRS_CELLS};
+use crate::experiments::lidar::on_board::{self, BOARD_RIGS};
+use crate::experiments::lidar::{self, Ld19Design, StairsSetup, RIG_LAYERS, STAIRS_CELLS};
 use crate::experiments::{designs, stairs};
 use serde::Serialize;
 use terrain_pyramid::classify::ClassifierConfig;
 use terrain_pyramid::wire::sick::Unit;
-use terrain_pyramid::{Config, Design, GateShape};
+use terrain_pyramid::{
+    Config, DefaultDesign, Design, GateShape, DEFAULT_CELLS_PER_SIDE, DEFAULT_CLASSIFIER_SLOTS,
+    DEFAULT_LAYERS,
+};
+use terrain_pyramid_host::design::firmware_design;
 use terrain_pyramid_host_tests::navigability::rings::{far_obstacles_with, RingTally};
 use terrain_pyramid_host_tests::sim::cloud::Observation;
 use terrain_pyramid_host_tests::sim::laser::{Actuator, LaserConfig};
@@ -41,9 +51,10 @@ const SICK_RANGE_M: f64 = 20.0;
 /// The SICK's pan rate, degrees per second (±45°): as the stairs experiment, not locked to
 /// the mirror so that sweeps interleave.
 const SICK_PAN_DEG_S: f64 = 74.0;
-/// Cells per layer side of the SICK's pyramid (the smallest even window its 20 m design
-/// accepts, rounded up to a multiple of 8).
-const SICK_CELLS: usize = 232;
+/// Cells per layer side of the SICK's pyramid: every layer's window holds the whole 20 m
+/// range on either side of the robot, as the nodding rigs' [`STAIRS_CELLS`] do their 12 m
+/// (2 · 20 / 0.1 + 2 = 402, rounded up to a multiple of 8).
+const SICK_CELLS: usize = 408;
 /// Layer capacity of the SICK's pyramid.
 const SICK_LAYERS: usize = 64;
 /// Seconds standing before driving.
@@ -53,19 +64,42 @@ const LEAD_M: f64 = 2.0;
 /// Driving speed, m/s.
 const SPEED_MPS: f64 = 1.0;
 
-/// One rig's outcome on the street.
+/// One rig's outcome on the street with one design.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct RigResult {
-    /// The rig: `SICK LMS2xx (panned)` or a nodding lidar's name ([`RIGS`]).
+    /// The rig: `SICK LMS2xx (panned)` or a nodding lidar's name ([`BOARD_RIGS`]).
     pub rig: &'static str,
-    /// The rig's (and its design's) range, metres.
+    /// The design: `own` (the rig's own to its range, γ 2, as many layers as it needs),
+    /// `board, boot` (what a board runs until a host configures it: the library's default
+    /// sensor, 10 m, γ 2, 8 layers of 64²) or `board, own to 8 m` (the rig's own fitted to
+    /// a board's 8 layers, `pyramid design --fit-layers 8`).
+    pub design: &'static str,
+    /// The laser's range, metres.
     pub range_m: f64,
-    /// The window scored at each place: the actuator's period, seconds.
-    pub window_s: f64,
+    /// The design's range, metres.
+    pub design_range_m: f64,
+    /// The design's γ.
+    pub gamma: f32,
     /// The design's layers.
     pub layers: usize,
+    /// The window scored at each place: the actuator's period, seconds.
+    pub window_s: f64,
     /// Per rule, as the car's.
     pub rules: Vec<RuleResult>,
+}
+
+/// What a rig's map runs, for [`rig_result`].
+struct DesignRow<'a> {
+    /// [`RigResult::design`].
+    name: &'static str,
+    /// The design's range, metres.
+    range_m: f64,
+    /// Its γ.
+    gamma: f32,
+    /// Its layers.
+    layers: usize,
+    /// Builds the map for a decoded recording.
+    map: MapOf<'a>,
 }
 
 /// A return's time (seconds since the run's start) and true point (world metres).
@@ -73,6 +107,12 @@ type Hit = (f64, [f64; 3]);
 
 /// Builds a rig's map for a decoded recording (its pipeline configuration).
 type MapOf<'a> = &'a dyn Fn(&Decoded) -> Result<Box<dyn Map>, String>;
+/// A [`MapOf`] that owns its closure.
+type MapBuilder<'a> = Box<dyn Fn(&Decoded) -> Result<Box<dyn Map>, String> + 'a>;
+
+/// The range a board's own design of a nodding rig is fitted to, metres (the rig file
+/// `examples/rigs/ld19-nodding.toml`'s).
+const BOARD_RANGE_M: f64 = 8.0;
 
 /// The robot's run along the street for `setup`'s places.
 fn trajectory(setup: &Setup) -> Trajectory {
@@ -123,6 +163,8 @@ fn lidar_run(setup: &Setup, kind: LidarKind) -> Result<(Vec<u8>, Vec<Hit>), Stri
         trajectory(setup),
         setup.seed,
     );
+    // A box around every return the rigs can make on this run (x from −6 − 12 to 14.5 + 12 m,
+    // |y| ≤ 12 m).
     config.hit_box = Some(HitBox {
         min: [-40.0, -30.0, -5.0],
         max: [50.0, 30.0, 5.0],
@@ -201,15 +243,14 @@ fn score(
     tally
 }
 
-/// One rig under every rule: `map` builds its map for a decoded recording.
+/// One rig (its laser's range, the actuator's period, its run) with one design under every
+/// rule.
 fn rig_result(
     rig: &'static str,
-    range_m: f64,
-    window_s: f64,
-    layers: usize,
+    (range_m, window_s): (f64, f64),
+    design: &DesignRow<'_>,
     run: &(Vec<u8>, Vec<Hit>),
     setup: &Setup,
-    map: MapOf<'_>,
 ) -> Result<RigResult, String> {
     let scene = Scene::street(setup.swell_m);
     let mut rules = Vec::new();
@@ -221,7 +262,7 @@ fn rig_result(
                 ..ClassifierConfig::default()
             },
         )?;
-        let mut m = map(&decoded)?;
+        let mut m = (design.map)(&decoded)?;
         let tally = score(
             m.as_mut(),
             &decoded,
@@ -233,17 +274,37 @@ fn rig_result(
         );
         if m.dropped() != 0 {
             return Err(format!(
-                "{rig}, {name}: the classifier's scratch overflowed"
+                "{rig}, {}, {name}: the classifier's scratch overflowed",
+                design.name
             ));
         }
         rules.push(rule_result(name, &tally, tally.total()));
     }
     Ok(RigResult {
         rig,
+        design: design.name,
         range_m,
+        design_range_m: design.range_m,
+        gamma: design.gamma,
+        layers: design.layers,
         window_s,
-        layers,
         rules,
+    })
+}
+
+/// A board's map (8 layers of 64² cells, 1 024 classifier slots) of `design`.
+fn board_map(name: &'static str, design: DefaultDesign) -> MapBuilder<'static> {
+    Box::new(move |d: &Decoded| -> Result<Box<dyn Map>, String> {
+        Ok(Box::new(Runner::<
+            DEFAULT_CELLS_PER_SIDE,
+            DEFAULT_LAYERS,
+            DEFAULT_CLASSIFIER_SLOTS,
+        >::new(
+            name,
+            design.clone(),
+            Config::default(),
+            d.frontend,
+        )?))
     })
 }
 
@@ -259,52 +320,105 @@ pub fn run(setup: &Setup) -> Result<Vec<RigResult>, String> {
     let sick: Design<SICK_LAYERS> =
         designs::pyramid(SICK_RANGE_M as f32, GateShape::default(), false, SICK_CELLS)
             .map_err(|e| format!("the SICK's street design: {e}"))?;
-    let pan_s = 2.0 * 90.0 / SICK_PAN_DEG_S;
     out.push(rig_result(
         "SICK LMS2xx (panned)",
-        SICK_RANGE_M,
-        pan_s,
-        sick.layers().len(),
-        &sick_run(setup)?,
-        setup,
-        &|d| {
-            Ok(Box::new(Runner::<
-                SICK_CELLS,
-                SICK_LAYERS,
-                { stairs::SLOTS },
-            >::new(
-                "sick",
-                sick.clone(),
-                Config::default(),
-                d.frontend,
-            )?))
-        },
-    )?);
-    for (kind, name) in RIGS {
-        let (_, range) = kind.range_m();
-        let design: Design<RIG_LAYERS> = Ld19Design::for_kind(kind)
-            .pyramid(range, GateShape::default(), false, STAIRS_CELLS)
-            .map_err(|e| format!("{name}'s design: {e}"))?;
-        out.push(rig_result(
-            name,
-            range,
-            lidar::nod_period_s(),
-            design.layers().len(),
-            &lidar_run(setup, kind)?,
-            setup,
-            &|d| {
+        (SICK_RANGE_M, 2.0 * 90.0 / SICK_PAN_DEG_S),
+        &DesignRow {
+            name: "own",
+            range_m: SICK_RANGE_M,
+            gamma: sick.schedule().gamma,
+            layers: sick.layers().len(),
+            map: &|d| {
                 Ok(Box::new(Runner::<
-                    STAIRS_CELLS,
-                    RIG_LAYERS,
+                    SICK_CELLS,
+                    SICK_LAYERS,
                     { stairs::SLOTS },
                 >::new(
-                    name,
-                    design.clone(),
+                    "sick",
+                    sick.clone(),
                     Config::default(),
                     d.frontend,
                 )?))
             },
+        },
+        &sick_run(setup)?,
+        setup,
+    )?);
+    let boot = firmware_design()?;
+    for (kind, name) in BOARD_RIGS {
+        let (_, range) = kind.range_m();
+        let own: Design<RIG_LAYERS> = Ld19Design::for_kind(kind)
+            .pyramid(range, GateShape::default(), false, STAIRS_CELLS)
+            .map_err(|e| format!("{name}'s design: {e}"))?;
+        let (fitted_gamma, fitted) = on_board::fitted(&StairsSetup {
+            kind,
+            range_m: BOARD_RANGE_M,
+            ..StairsSetup::FULL
+        })?;
+        let run = lidar_run(setup, kind)?;
+        let timing = (range, lidar::nod_period_s());
+        out.push(rig_result(
+            name,
+            timing,
+            &DesignRow {
+                name: "own",
+                range_m: range,
+                gamma: own.schedule().gamma,
+                layers: own.layers().len(),
+                map: &|d| {
+                    Ok(Box::new(Runner::<
+                        STAIRS_CELLS,
+                        RIG_LAYERS,
+                        { stairs::SLOTS },
+                    >::new(
+                        name,
+                        own.clone(),
+                        Config::default(),
+                        d.frontend,
+                    )?))
+                },
+            },
+            &run,
+            setup,
         )?);
+        let boot_map = board_map(name, boot.clone());
+        let fitted_map = board_map(name, fitted.clone());
+        for row in [
+            DesignRow {
+                name: "board, boot",
+                range_m: f64::from(boot.sensor().max_range_m),
+                gamma: boot.schedule().gamma,
+                layers: boot.layers().len(),
+                map: &*boot_map,
+            },
+            DesignRow {
+                name: "board, own to 8 m",
+                range_m: BOARD_RANGE_M,
+                gamma: fitted_gamma,
+                layers: fitted.layers().len(),
+                map: &*fitted_map,
+            },
+        ] {
+            out.push(rig_result(name, timing, &row, &run, setup)?);
+        }
     }
     Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_layer_of_the_sicks_window_holds_its_whole_range() {
+        #[allow(clippy::cast_possible_truncation)]
+        let design: Design<SICK_LAYERS> =
+            designs::pyramid(SICK_RANGE_M as f32, GateShape::default(), false, SICK_CELLS)
+                .expect("the SICK's design");
+        #[allow(clippy::cast_precision_loss)]
+        let half = |r: f32| f64::from(r) * SICK_CELLS as f64 / 2.0;
+        for layer in design.layers() {
+            assert!(half(layer.resolution_m) >= SICK_RANGE_M, "{layer:?}");
+        }
+    }
 }
