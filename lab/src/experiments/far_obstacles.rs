@@ -338,22 +338,7 @@ pub fn table(r: &FarObstaclesResult) -> String {
     );
     rule_tables(&mut s, "###", &r.rings, &r.rules);
     for rig in &r.rigs {
-        let _ = writeln!(
-            s,
-            "\n### The street from a driving robot: {}, {} design\n\nThe robot stands 2 s at \
-             x = {} m and drives along the road at 1 m/s; one map (γ {}, {} layers, {} m, the \
-             board's boot configuration; the laser reaches {} m) fed the whole run; scored as \
-             the robot passes each place at the returns of the last {:.2} s (one sweep of its \
-             actuator) the map has integrated.",
-            rig.rig,
-            rig.design,
-            r.setup.xs.iter().copied().fold(f64::INFINITY, f64::min) - 2.0,
-            rig.gamma,
-            rig.layers,
-            rig.design_range_m,
-            rig.range_m,
-            rig.window_s,
-        );
+        s.push_str(&rigs::heading(rig, &r.setup));
         rule_tables(&mut s, "####", &r.rings, &rig.rules);
     }
     s

@@ -34,8 +34,7 @@ use serde::Serialize;
 use terrain_pyramid::classify::ClassifierConfig;
 use terrain_pyramid::wire::sick::Unit;
 use terrain_pyramid::{
-    Config, DefaultDesign, Design, GateShape, DEFAULT_CELLS_PER_SIDE, DEFAULT_CLASSIFIER_SLOTS,
-    DEFAULT_LAYERS,
+    Config, Design, GateShape, DEFAULT_CELLS_PER_SIDE, DEFAULT_CLASSIFIER_SLOTS, DEFAULT_LAYERS,
 };
 use terrain_pyramid_host::design::firmware_design;
 use terrain_pyramid_host_tests::navigability::rings::{far_obstacles_with, RingTally};
@@ -88,8 +87,15 @@ pub struct RigResult {
     pub rules: Vec<RuleResult>,
 }
 
-/// What a rig's map runs, for [`rig_result`].
-struct DesignRow<'a> {
+/// A return's time (seconds since the run's start) and true point (world metres).
+type Hit = (f64, [f64; 3]);
+
+/// Builds a rig's map for a decoded recording (its pipeline configuration).
+type MapBuilder = Box<dyn Fn(&Decoded) -> Result<Box<dyn Map>, String>>;
+
+/// One design a rig's maps run, for [`rig_results`]: what [`RigResult`] says of it and how
+/// to build its map.
+struct DesignRow {
     /// [`RigResult::design`].
     name: &'static str,
     /// The design's range, metres.
@@ -99,16 +105,33 @@ struct DesignRow<'a> {
     /// Its layers.
     layers: usize,
     /// Builds the map for a decoded recording.
-    map: MapOf<'a>,
+    map: MapBuilder,
 }
 
-/// A return's time (seconds since the run's start) and true point (world metres).
-type Hit = (f64, [f64; 3]);
-
-/// Builds a rig's map for a decoded recording (its pipeline configuration).
-type MapOf<'a> = &'a dyn Fn(&Decoded) -> Result<Box<dyn Map>, String>;
-/// A [`MapOf`] that owns its closure.
-type MapBuilder<'a> = Box<dyn Fn(&Decoded) -> Result<Box<dyn Map>, String> + 'a>;
+impl DesignRow {
+    /// `design` in a pyramid of `L` layers of `W × W` cells behind `C` classifier slots, with
+    /// the configuration a board boots with.
+    fn of<const W: usize, const L: usize, const C: usize>(
+        name: &'static str,
+        rig: &'static str,
+        design: Design<L>,
+    ) -> Self {
+        Self {
+            name,
+            range_m: f64::from(design.sensor().max_range_m),
+            gamma: design.schedule().gamma,
+            layers: design.layers().len(),
+            map: Box::new(move |d: &Decoded| -> Result<Box<dyn Map>, String> {
+                Ok(Box::new(Runner::<W, L, C>::new(
+                    rig,
+                    design.clone(),
+                    Config::default(),
+                    d.frontend,
+                )?))
+            }),
+        }
+    }
+}
 
 /// The range a board's own design of a nodding rig is fitted to, metres (the rig file
 /// `examples/rigs/ld19-nodding.toml`'s).
@@ -243,69 +266,67 @@ fn score(
     tally
 }
 
-/// One rig (its laser's range, the actuator's period, its run) with one design under every
-/// rule.
-fn rig_result(
+/// What the street of `setup` is and how the robot drives it, shared by every rig.
+struct Street<'a> {
+    /// Its places, seed and swell.
+    setup: &'a Setup,
+    /// `Scene::street` of its swell.
+    scene: Scene,
+    /// [`trajectory`] of its places.
+    trajectory: Trajectory,
+}
+
+/// One rig (its laser's range, the actuator's period, its run) with each of `designs` under
+/// every rule: one result per design, in their order. The recording is decoded once per rule.
+fn rig_results(
     rig: &'static str,
     (range_m, window_s): (f64, f64),
-    design: &DesignRow<'_>,
-    run: &(Vec<u8>, Vec<Hit>),
-    setup: &Setup,
-) -> Result<RigResult, String> {
-    let scene = Scene::street(setup.swell_m);
-    let mut rules = Vec::new();
+    designs: &[DesignRow],
+    (bytes, hits): &(Vec<u8>, Vec<Hit>),
+    street: &Street<'_>,
+) -> Result<Vec<RigResult>, String> {
+    let mut results: Vec<RigResult> = designs
+        .iter()
+        .map(|design| RigResult {
+            rig,
+            design: design.name,
+            range_m,
+            design_range_m: design.range_m,
+            gamma: design.gamma,
+            layers: design.layers,
+            window_s,
+            rules: Vec::new(),
+        })
+        .collect();
     for (name, rule) in RULES {
         let decoded = decode(
-            &run.0,
+            bytes,
             &ClassifierConfig {
                 rule,
                 ..ClassifierConfig::default()
             },
         )?;
-        let mut m = (design.map)(&decoded)?;
-        let tally = score(
-            m.as_mut(),
-            &decoded,
-            &run.1,
-            &setup.xs,
-            window_s,
-            &trajectory(setup),
-            &scene,
-        );
-        if m.dropped() != 0 {
-            return Err(format!(
-                "{rig}, {}, {name}: the classifier's scratch overflowed",
-                design.name
-            ));
+        for (design, result) in designs.iter().zip(&mut results) {
+            let mut m = (design.map)(&decoded)?;
+            let tally = score(
+                m.as_mut(),
+                &decoded,
+                hits,
+                &street.setup.xs,
+                window_s,
+                &street.trajectory,
+                &street.scene,
+            );
+            if m.dropped() != 0 {
+                return Err(format!(
+                    "{rig}, {}, {name}: the classifier's scratch overflowed",
+                    design.name
+                ));
+            }
+            result.rules.push(rule_result(name, &tally, tally.total()));
         }
-        rules.push(rule_result(name, &tally, tally.total()));
     }
-    Ok(RigResult {
-        rig,
-        design: design.name,
-        range_m,
-        design_range_m: design.range_m,
-        gamma: design.gamma,
-        layers: design.layers,
-        window_s,
-        rules,
-    })
-}
-
-/// A board's map (8 layers of 64² cells, 1 024 classifier slots) of `design`.
-fn board_map(name: &'static str, design: DefaultDesign) -> MapBuilder<'static> {
-    Box::new(move |d: &Decoded| -> Result<Box<dyn Map>, String> {
-        Ok(Box::new(Runner::<
-            DEFAULT_CELLS_PER_SIDE,
-            DEFAULT_LAYERS,
-            DEFAULT_CLASSIFIER_SLOTS,
-        >::new(
-            name,
-            design.clone(),
-            Config::default(),
-            d.frontend,
-        )?))
-    })
+    Ok(results)
 }
 
 /// Runs every rig on the street of `setup` (its places, seed and swell). Needs a large stack,
@@ -315,94 +336,75 @@ fn board_map(name: &'static str, design: DefaultDesign) -> MapBuilder<'static> {
 /// A design the library refused, the simulator's refusal, or a classifier whose scratch
 /// overflowed.
 pub fn run(setup: &Setup) -> Result<Vec<RigResult>, String> {
-    let mut out = Vec::new();
+    let street = Street {
+        setup,
+        scene: Scene::street(setup.swell_m),
+        trajectory: trajectory(setup),
+    };
     #[allow(clippy::cast_possible_truncation)]
     let sick: Design<SICK_LAYERS> =
         designs::pyramid(SICK_RANGE_M as f32, GateShape::default(), false, SICK_CELLS)
             .map_err(|e| format!("the SICK's street design: {e}"))?;
-    out.push(rig_result(
-        "SICK LMS2xx (panned)",
+    let sick_name = "SICK LMS2xx (panned)";
+    let mut out = rig_results(
+        sick_name,
         (SICK_RANGE_M, 2.0 * 90.0 / SICK_PAN_DEG_S),
-        &DesignRow {
-            name: "own",
-            range_m: SICK_RANGE_M,
-            gamma: sick.schedule().gamma,
-            layers: sick.layers().len(),
-            map: &|d| {
-                Ok(Box::new(Runner::<
-                    SICK_CELLS,
-                    SICK_LAYERS,
-                    { stairs::SLOTS },
-                >::new(
-                    "sick",
-                    sick.clone(),
-                    Config::default(),
-                    d.frontend,
-                )?))
-            },
-        },
+        &[DesignRow::of::<SICK_CELLS, SICK_LAYERS, { stairs::SLOTS }>(
+            "own", sick_name, sick,
+        )],
         &sick_run(setup)?,
-        setup,
-    )?);
+        &street,
+    )?;
     let boot = firmware_design()?;
     for (kind, name) in BOARD_RIGS {
         let (_, range) = kind.range_m();
         let own: Design<RIG_LAYERS> = Ld19Design::for_kind(kind)
             .pyramid(range, GateShape::default(), false, STAIRS_CELLS)
             .map_err(|e| format!("{name}'s design: {e}"))?;
-        let (fitted_gamma, fitted) = on_board::fitted(&StairsSetup {
+        let (_, fitted) = on_board::fitted(&StairsSetup {
             kind,
             range_m: BOARD_RANGE_M,
             ..StairsSetup::FULL
         })?;
-        let run = lidar_run(setup, kind)?;
-        let timing = (range, lidar::nod_period_s());
-        out.push(rig_result(
+        let board = |design_name, design| {
+            DesignRow::of::<DEFAULT_CELLS_PER_SIDE, DEFAULT_LAYERS, DEFAULT_CLASSIFIER_SLOTS>(
+                design_name,
+                name,
+                design,
+            )
+        };
+        out.extend(rig_results(
             name,
-            timing,
-            &DesignRow {
-                name: "own",
-                range_m: range,
-                gamma: own.schedule().gamma,
-                layers: own.layers().len(),
-                map: &|d| {
-                    Ok(Box::new(Runner::<
-                        STAIRS_CELLS,
-                        RIG_LAYERS,
-                        { stairs::SLOTS },
-                    >::new(
-                        name,
-                        own.clone(),
-                        Config::default(),
-                        d.frontend,
-                    )?))
-                },
-            },
-            &run,
-            setup,
+            (range, lidar::nod_period_s()),
+            &[
+                DesignRow::of::<STAIRS_CELLS, RIG_LAYERS, { stairs::SLOTS }>("own", name, own),
+                board("board, boot", boot.clone()),
+                board("board, own to 8 m", fitted),
+            ],
+            &lidar_run(setup, kind)?,
+            &street,
         )?);
-        let boot_map = board_map(name, boot.clone());
-        let fitted_map = board_map(name, fitted.clone());
-        for row in [
-            DesignRow {
-                name: "board, boot",
-                range_m: f64::from(boot.sensor().max_range_m),
-                gamma: boot.schedule().gamma,
-                layers: boot.layers().len(),
-                map: &*boot_map,
-            },
-            DesignRow {
-                name: "board, own to 8 m",
-                range_m: BOARD_RANGE_M,
-                gamma: fitted_gamma,
-                layers: fitted.layers().len(),
-                map: &*fitted_map,
-            },
-        ] {
-            out.push(rig_result(name, timing, &row, &run, setup)?);
-        }
     }
     Ok(out)
+}
+
+/// The report's heading and paragraph of one rig's tables (Markdown, after a blank line).
+pub(crate) fn heading(rig: &RigResult, setup: &Setup) -> String {
+    format!(
+        "\n### The street from a driving robot: {}, {} design\n\nThe robot stands {STAND_S} s \
+         at x = {} m and drives along the road at {SPEED_MPS} m/s; one map (γ {}, {} layers, \
+         {} m, the board's boot configuration; the laser reaches {} m) fed the whole run; \
+         scored as the robot passes each place at the returns of the last {:.2} s (one sweep \
+         of its actuator) the map has integrated.\n",
+        rig.rig,
+        rig.design,
+        trajectory(setup).start_x,
+        rig.gamma,
+        rig.layers,
+        rig.design_range_m,
+        rig.range_m,
+        rig.window_s,
+    )
 }
 
 #[cfg(test)]
