@@ -41,6 +41,7 @@ use terrain_pyramid::{CellClass, Config, Design, Evidence, EvidenceClass, Fused,
 
 pub mod rings;
 mod score;
+pub mod witness;
 
 pub use rings::{far_obstacles, far_obstacles_with, ObstacleKind, RingTally};
 pub use score::{flat_spread, fused_points, fused_tally, layer_tally, step_detection, Tally};

@@ -445,5 +445,66 @@ fn the_street_rigs_are_scored_each_in_its_range(far: &Value, table: &str, report
             curbs_marked(&rules[1]) >= curbs_marked(&rules[0]),
             "{name}, {design}: the paper's rule marks fewer curb returns than the plane rule"
         );
+        the_bounds_score_the_same_returns(rig, &rules[0], design == rows_first_design(&rows, name));
+    }
+    assert!(
+        report.contains("The most any rule could mark on the same returns"),
+        "the bounds' paragraph is missing from report.md"
+    );
+}
+
+/// The design a rig's first row has (its bounds' row).
+fn rows_first_design<'a>(rows: &[(&str, &'a str)], rig: &str) -> &'a str {
+    rows.iter()
+        .find(|(r, _)| *r == rig)
+        .map(|(_, d)| *d)
+        .unwrap_or_default()
+}
+
+/// A rig's first row carries its witness bounds, the others none. The bounds count the same
+/// returns as the map's `rule` by ring, ground and obstacles; pairs between any returns so far
+/// mark at least what pairs within one observation do; and clear ground within 5 m, true
+/// returns on flat ground, holds no witness (at most 1 %: a return beside a drop).
+fn the_bounds_score_the_same_returns(rig: &Value, rule: &Value, first: bool) {
+    let name = rig["rig"].as_str().unwrap_or_default();
+    if !first {
+        assert!(rig["bounds"].is_null(), "{name}: bounds on a later row");
+        return;
+    }
+    let bounds = &rig["bounds"];
+    let (one, every) = (&bounds["one_observation"], &bounds["every_return"]);
+    for (key, b) in [("one", one), ("every", every)] {
+        for part in ["ground", "obstacles"] {
+            for (ring, (c, m)) in b[part]
+                .as_array()
+                .expect("rings")
+                .iter()
+                .zip(rule[part].as_array().expect("rings"))
+                .enumerate()
+            {
+                assert_eq!(
+                    n(&c["points"]),
+                    n(&m["points"]),
+                    "{name}, {key}: {part} ring {ring} counts other returns than the map"
+                );
+            }
+        }
+        let near = &b["ground"][0];
+        assert!(
+            n(&near["right"]) * 100 >= n(&near["points"]) * 99,
+            "{name}, {key}: clear ground within 5 m {near}"
+        );
+    }
+    for (ring, (o, e)) in one["obstacles"]
+        .as_array()
+        .expect("rings")
+        .iter()
+        .zip(every["obstacles"].as_array().expect("rings"))
+        .enumerate()
+    {
+        assert!(
+            n(&e["right"]) >= n(&o["right"]),
+            "{name}: ring {ring}, every return {e} marks less than one observation {o}"
+        );
     }
 }

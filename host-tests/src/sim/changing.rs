@@ -1,5 +1,5 @@
 //! Scenes that change: a static [`Scene`] plus [`Mover`]s, solids that move along a path and
-//! may leave. The laser sees the scene of each line's time ([`record::simulate_with`]); the
+//! may leave. The laser sees the scene of each line's time ([`super::record::simulate_with`]); the
 //! truth says which cells each mover covers when, and which cells of the static obstacles the
 //! laser hit when (so that an evaluation can tell the obstacles in view from those out of
 //! view).

@@ -36,6 +36,7 @@
 //! under `far_obstacles` in `DIR/results.json` and in the `--json` object.)
 
 pub mod rigs;
+pub mod witnessed;
 
 use super::stairs::round3;
 use serde::Serialize;
@@ -52,6 +53,10 @@ use terrain_pyramid_host_tests::sim::cloud::{car_design, Observation, RingLaser}
 use terrain_pyramid_host_tests::sim::rng::Rng;
 use terrain_pyramid_host_tests::sim::scene::Scene;
 use terrain_pyramid_host_tests::sim::trajectory::Pose;
+
+/// A return of a rig's run: its time (seconds since the run's start) and true point (world
+/// metres).
+pub(crate) type Hit = (f64, [f64; 3]);
 
 /// Layer capacity of the street design (γ 3 to 20 m needs fewer).
 const L: usize = 16;
@@ -340,6 +345,15 @@ pub fn table(r: &FarObstaclesResult) -> String {
     for rig in &r.rigs {
         s.push_str(&rigs::heading(rig, &r.setup));
         rule_tables(&mut s, "####", &r.rings, &rig.rules);
+        if let Some(b) = &rig.bounds {
+            s.push_str(witnessed::TEXT);
+            rule_tables(
+                &mut s,
+                "####",
+                &r.rings,
+                &[b.one_observation.clone(), b.every_return.clone()],
+            );
+        }
     }
     s
 }

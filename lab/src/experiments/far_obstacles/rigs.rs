@@ -25,7 +25,8 @@
 //!   the rig's own fitted to 8 m ([`on_board::fitted`], `pyramid design --fit-layers 8`).
 //!   Beyond a design's range the map knows nothing, which the score counts as wrong.
 
-use super::{rule_result, RuleResult, Setup, CLEAR_M, ROBOT_HEIGHT_M, RULES};
+use super::witnessed::{Bounds, Witnessed};
+use super::{rule_result, Hit, RuleResult, Setup, CLEAR_M, ROBOT_HEIGHT_M, RULES};
 use crate::experiments::engine::{decode, Decoded, Map, Runner};
 use crate::experiments::lidar::on_board::{self, BOARD_RIGS};
 use crate::experiments::lidar::{self, Ld19Design, StairsSetup, RIG_LAYERS, STAIRS_CELLS};
@@ -85,10 +86,10 @@ pub struct RigResult {
     pub window_s: f64,
     /// Per rule, as the car's.
     pub rules: Vec<RuleResult>,
+    /// The most any rule could mark on the same returns ([`super::witnessed`]), on the rig's
+    /// first design only (the same for every design: the observations are the pipeline's).
+    pub bounds: Option<Bounds>,
 }
-
-/// A return's time (seconds since the run's start) and true point (world metres).
-type Hit = (f64, [f64; 3]);
 
 /// Builds a rig's map for a decoded recording (its pipeline configuration).
 type MapBuilder = Box<dyn Fn(&Decoded) -> Result<Box<dyn Map>, String>>;
@@ -205,7 +206,9 @@ const SLICE_S: f64 = 0.1;
 /// Feeds `decoded` into `map` and scores the map, as it stands when the robot passes each
 /// of `places`, at the returns of the last `window_s` seconds the map has integrated (up to
 /// the end of its last observation), each ring counted from where the laser was when it
-/// measured the return (`trajectory`, within [`SLICE_S`]).
+/// measured the return (`trajectory`, within [`SLICE_S`]). With `witnessed`, scores its bounds
+/// at the same returns.
+#[allow(clippy::too_many_arguments)]
 fn score(
     map: &mut dyn Map,
     decoded: &Decoded,
@@ -214,6 +217,7 @@ fn score(
     window_s: f64,
     trajectory: &Trajectory,
     scene: &Scene,
+    mut witnessed: Option<&mut Witnessed>,
 ) -> RingTally {
     let mut places: Vec<f64> = places.to_vec();
     places.sort_by(f64::total_cmp);
@@ -228,6 +232,9 @@ fn score(
             observations = map.observations();
             #[allow(clippy::cast_precision_loss)]
             let t = line.time_us as f64 * 1e-6;
+            if let Some(w) = witnessed.as_deref_mut() {
+                w.observation_ended(hits, t);
+            }
             integrated = Some(t);
         }
         while next.next_if(|&&x| line.robot_xy.0 >= x).is_some() {
@@ -260,6 +267,9 @@ fn score(
                     CLEAR_M,
                     ROBOT_HEIGHT_M,
                 ));
+                if let Some(w) = witnessed.as_deref_mut() {
+                    w.score(&obs, scene);
+                }
             }
         }
     }
@@ -296,8 +306,10 @@ fn rig_results(
             layers: design.layers,
             window_s,
             rules: Vec::new(),
+            bounds: None,
         })
         .collect();
+    let mut bounded = false;
     for (name, rule) in RULES {
         let decoded = decode(
             bytes,
@@ -308,6 +320,8 @@ fn rig_results(
         )?;
         for (design, result) in designs.iter().zip(&mut results) {
             let mut m = (design.map)(&decoded)?;
+            // The bounds once a rig: with its first map.
+            let mut witnessed = (!bounded).then(Witnessed::default);
             let tally = score(
                 m.as_mut(),
                 &decoded,
@@ -316,7 +330,12 @@ fn rig_results(
                 window_s,
                 &street.trajectory,
                 &street.scene,
+                witnessed.as_mut(),
             );
+            if let Some(w) = witnessed {
+                result.bounds = Some(w.bounds());
+                bounded = true;
+            }
             if m.dropped() != 0 {
                 return Err(format!(
                     "{rig}, {}, {name}: the classifier's scratch overflowed",

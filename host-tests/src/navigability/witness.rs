@@ -1,0 +1,260 @@
+//! The most a navigability rule can mark from one observation's returns: the **witness
+//! pairs**.
+//!
+//! A rule that keeps every surface the robot drives navigable (no steeper than the largest
+//! slope θ_max, with steps of at most `step`) can call a return an obstacle only where the
+//! returns it reads do not lie on such a surface. By the McShane–Whitney extension theorem a
+//! set of points lies on a surface whose grade is nowhere steeper than `tan θ_max` exactly
+//! when every pair of them rises by at most `tan θ_max` times their horizontal distance. So
+//! the returns of one observation near an obstacle give a rule something to mark only where
+//! two of them, a **witness pair**, rise more steeply than the largest slope, and (that a step
+//! of at most `step` is drivable) by more than `step`; and not by more than the robot's
+//! height (a higher return is overhang, which a rule ignores).
+//!
+//! [`witnesses`] finds the pairs among a set of points (the true points of the returns, with
+//! no noise: the bound is the geometry's, before any noise allowance), within a horizontal
+//! `reach` of each other, and returns the points that belong to one. Used as a map (a point
+//! marked where a witness lies in its 0.1 m cell, [`super::rings::far_obstacles_with`]), it is
+//! a bound, generous on purpose: both points of a pair mark, not only the upper one, and
+//! witnesses of every observation so far stay marked, as the map's verdicts do.
+
+use std::collections::HashMap;
+
+/// What a witness pair must show ([`witnesses`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Witness {
+    /// The largest drivable grade, `tan θ_max` (> 0).
+    pub max_grade: f64,
+    /// The largest drivable step, metres (≥ 0).
+    pub step_m: f64,
+    /// The robot's height, metres: a pair rising more is overhang, no witness.
+    pub robot_height_m: f64,
+    /// The largest horizontal distance between a pair's points, metres (> 0).
+    pub reach_m: f64,
+}
+
+impl Witness {
+    /// The library's defaults (`docs/core.md`): grade tan 20°, step 0.05 m, robot height
+    /// 1.0 m; a reach of 1 m (a pair further apart rises more than 0.36 m to be steeper than
+    /// the largest slope: no kerb does).
+    #[must_use]
+    pub fn library() -> Self {
+        Self {
+            max_grade: 20f64.to_radians().tan(),
+            step_m: 0.05,
+            robot_height_m: 1.0,
+            reach_m: 1.0,
+        }
+    }
+
+    /// Whether the pair `a`, `b` is a witness: within reach, rising more than the step and no
+    /// more than the robot's height, and steeper than the largest grade by more than 1 mm (a
+    /// slope of exactly the largest grade, rounded, is no witness).
+    #[must_use]
+    pub fn pair(&self, a: &[f64; 3], b: &[f64; 3]) -> bool {
+        let run = (a[0] - b[0]).hypot(a[1] - b[1]);
+        let rise = (a[2] - b[2]).abs();
+        run <= self.reach_m
+            && rise > self.step_m
+            && rise <= self.robot_height_m
+            && rise > self.max_grade * run + 1e-3
+    }
+}
+
+/// The upper points of the witness pairs of `w` among `points` (in the order of `points`,
+/// each once): of a pair, the higher return, which marks its cell as the library's pair test
+/// marks the upper return's. Points that are not finite are skipped.
+#[must_use]
+pub fn witnesses(points: &[[f64; 3]], w: &Witness) -> Vec<[f64; 3]> {
+    let own = Buckets::of(points, w.reach_m);
+    let mut upper = vec![false; points.len()];
+    for (&key, here) in &own.cells {
+        for there in own.around(key) {
+            for &(i, p) in here {
+                for &(j, q) in there {
+                    if i < j && w.pair(p, q) {
+                        let k = if p[2] > q[2] { i } else { j };
+                        if let Some(u) = upper.get_mut(k) {
+                            *u = true;
+                        }
+                    }
+                }
+            }
+        }
+    }
+    points
+        .iter()
+        .zip(upper)
+        .filter_map(|(p, u)| u.then_some(*p))
+        .collect()
+}
+
+/// Every return of the observations so far, for the witness pairs a new observation's returns
+/// make with them: the bound of a map that kept every return's height (perfect poses, no
+/// noise), not one observation's.
+#[derive(Debug, Clone, Default)]
+pub struct PastReturns {
+    /// The returns so far.
+    points: Vec<[f64; 3]>,
+}
+
+impl PastReturns {
+    /// No returns yet.
+    #[must_use]
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// The upper points of the witness pairs of `w` between a return of `points` and one
+    /// of the earlier observations' (each once; either may be the upper), then keeps
+    /// `points` among the earlier ones. With [`witnesses`] of `points` by their own, the
+    /// witnesses of every return so far.
+    pub fn witnesses_then_keep(&mut self, points: &[[f64; 3]], w: &Witness) -> Vec<[f64; 3]> {
+        let new = Buckets::of(points, w.reach_m);
+        let mut upper: Vec<[f64; 3]> = Vec::new();
+        let mut new_upper = vec![false; points.len()];
+        let mut old_upper = vec![false; self.points.len()];
+        for (j, q) in self.points.iter().enumerate() {
+            let Some(key) = new.key(q) else {
+                continue;
+            };
+            for there in new.around(key) {
+                for &(i, p) in there {
+                    if w.pair(p, q) {
+                        if p[2] > q[2] {
+                            if let Some(u) = new_upper.get_mut(i) {
+                                *u = true;
+                            }
+                        } else if let Some(u) = old_upper.get_mut(j) {
+                            *u = true;
+                        }
+                    }
+                }
+            }
+        }
+        upper.extend(
+            points
+                .iter()
+                .zip(new_upper)
+                .filter_map(|(p, u)| u.then_some(*p)),
+        );
+        upper.extend(
+            self.points
+                .iter()
+                .zip(old_upper)
+                .filter_map(|(p, u)| u.then_some(*p)),
+        );
+        self.points.extend_from_slice(points);
+        upper
+    }
+}
+
+/// A bucket's points: (index in their slice, point).
+type Bucket<'a> = Vec<(usize, &'a [f64; 3])>;
+
+/// Points hashed into square buckets of the reach's side (a pair within reach lies in one
+/// bucket or two neighbouring ones).
+struct Buckets<'a> {
+    /// The bucket's side, metres (> 0).
+    side: f64,
+    /// Per bucket: the points (index, point).
+    cells: HashMap<(i64, i64), Bucket<'a>>,
+}
+
+impl<'a> Buckets<'a> {
+    /// `points` (those finite) in buckets of side `reach_m` (1 m if it is not > 0).
+    fn of(points: &'a [[f64; 3]], reach_m: f64) -> Self {
+        let side = if reach_m > 0.0 { reach_m } else { 1.0 };
+        let mut b = Self {
+            side,
+            cells: HashMap::new(),
+        };
+        for (i, p) in points.iter().enumerate() {
+            if let Some(key) = b.key(p) {
+                b.cells.entry(key).or_default().push((i, p));
+            }
+        }
+        b
+    }
+
+    /// The bucket of a finite point.
+    #[allow(clippy::cast_possible_truncation)]
+    fn key(&self, p: &[f64; 3]) -> Option<(i64, i64)> {
+        p.iter().all(|v| v.is_finite()).then(|| {
+            (
+                (p[0] / self.side).floor() as i64,
+                (p[1] / self.side).floor() as i64,
+            )
+        })
+    }
+
+    /// The points of the buckets at and around `key` (3 × 3).
+    fn around(&self, key: (i64, i64)) -> impl Iterator<Item = &Bucket<'a>> {
+        (-1..=1)
+            .flat_map(move |dx| (-1..=1).map(move |dy| (key.0 + dx, key.1 + dy)))
+            .filter_map(|k| self.cells.get(&k))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// By hand, with the library's allowance (grade 0.364, step 0.05 m, 1 m):
+    /// - flat ground 0.1 m apart: no pair rises; no witness;
+    /// - a 20° slope sampled every 0.1 m: each pair rises exactly the grade; no witness;
+    /// - a 12 cm kerb: its foot (0, 0, 0) and its top (0.1, 0, 0.12) rise 1.2 m a metre, more
+    ///   than a step: a witness pair, whose upper point is the top; the top and
+    ///   (0.5, 0, 0.12) do not rise;
+    /// - the same kerb seen as a ramp from 1 m away: (−1, 0, 0) and (0, 0, 0.12), 12 %:
+    ///   no witness;
+    /// - a return 1.2 m over the ground beside it: overhang, no witness.
+    #[test]
+    fn a_kerb_is_witnessed_and_a_slope_is_not() {
+        let w = Witness::library();
+        let flat: Vec<[f64; 3]> = (0..20).map(|i| [f64::from(i) * 0.1, 0.0, 0.0]).collect();
+        assert!(witnesses(&flat, &w).is_empty());
+        let slope: Vec<[f64; 3]> = (0..20)
+            .map(|i| {
+                let x = f64::from(i) * 0.1;
+                [x, 0.0, x * 20f64.to_radians().tan()]
+            })
+            .collect();
+        assert!(witnesses(&slope, &w).is_empty());
+        let kerb = [[0.0, 0.0, 0.0], [0.1, 0.0, 0.12], [0.5, 0.0, 0.12]];
+        assert_eq!(witnesses(&kerb, &w), vec![kerb[1]]);
+        let ramp = [[-1.0, 0.0, 0.0], [0.0, 0.0, 0.12]];
+        assert!(witnesses(&ramp, &w).is_empty());
+        let overhang = [[0.0, 0.0, 0.0], [0.1, 0.0, 1.2]];
+        assert!(witnesses(&overhang, &w).is_empty());
+    }
+
+    /// Pairs are found across the reach's buckets (points either side of x = 1 m) and not
+    /// beyond the reach; a point that is not finite is skipped.
+    #[test]
+    fn pairs_meet_across_buckets_and_not_beyond_reach() {
+        let w = Witness::library();
+        let across = [[0.95, 0.0, 0.0], [1.05, 0.0, 0.2], [f64::NAN, 0.0, 0.0]];
+        assert_eq!(witnesses(&across, &w), vec![across[1]]);
+        let far = [[0.0, 0.0, 0.0], [1.5, 0.0, 0.9]];
+        assert!(witnesses(&far, &w).is_empty());
+    }
+
+    /// The kerb of the first test seen by two observations, its foot by the first and its top
+    /// by the second: neither holds a pair, the two together do, and the upper point is
+    /// reported whichever observation holds it; a third observation on flat ground far away
+    /// adds none.
+    #[test]
+    fn past_returns_pair_with_a_new_observation() {
+        let w = Witness::library();
+        let mut past = PastReturns::new();
+        assert!(past.witnesses_then_keep(&[[0.0, 0.0, 0.0]], &w).is_empty());
+        let top = [0.1, 0.0, 0.12];
+        assert!(witnesses(&[top], &w).is_empty());
+        assert_eq!(past.witnesses_then_keep(&[top], &w), vec![top]);
+        let mut past = PastReturns::new();
+        assert!(past.witnesses_then_keep(&[top], &w).is_empty());
+        assert_eq!(past.witnesses_then_keep(&[[0.0, 0.0, 0.0]], &w), vec![top]);
+        assert!(past.witnesses_then_keep(&[[5.0, 5.0, 0.0]], &w).is_empty());
+    }
+}
