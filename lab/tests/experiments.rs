@@ -350,7 +350,34 @@ fn the_far_obstacles_table_holds_every_ring_and_kind(json: &Value, table: &str, 
         assert_eq!(ground_points, n(&fp["navigable"]), "{rule}");
         assert_eq!(ground_right, n(&fp["navigable_ok"]), "{rule}");
     }
+    the_car_bound_scores_the_maps_returns(far, rules, table, &report);
     the_street_rigs_are_scored_each_in_its_range(far, table, &report);
+}
+
+/// The car's bound (`far_obstacles.bound`): scored at the maps' returns, so as many clear
+/// ground and obstacle returns by ring as the maps'; no witness on the clear ground within
+/// 5 m; its section in the table and the report.
+fn the_car_bound_scores_the_maps_returns(far: &Value, rules: &[Value], table: &str, report: &str) {
+    let bound = &far["bound"];
+    assert_eq!(bound["rule"], "bound: the revolution's returns");
+    for part in ["ground", "obstacles"] {
+        for (b, m) in bound[part]
+            .as_array()
+            .expect("rings")
+            .iter()
+            .zip(rules[0][part].as_array().expect("rings"))
+        {
+            assert_eq!(n(&b["points"]), n(&m["points"]), "{part}: {b} against {m}");
+        }
+    }
+    let near = &bound["ground"][0];
+    assert!(
+        n(&near["points"]) > 0 && n(&near["right"]) * 100 >= n(&near["points"]) * 99,
+        "clear ground within 5 m {near}"
+    );
+    let heading = "### bound: the revolution's returns: clear ground navigable";
+    assert!(table.contains(heading), "{heading} missing:\n{table}");
+    assert!(report.contains(heading), "{heading} missing from report.md");
 }
 
 /// The street from a driving robot (`far_obstacles.rigs`): the SICK with its own design and

@@ -66,21 +66,15 @@ impl Witness {
 /// marks the upper return's. Points that are not finite are skipped.
 #[must_use]
 pub fn witnesses(points: &[[f64; 3]], w: &Witness) -> Vec<[f64; 3]> {
-    let own = Buckets::of(points, w.reach_m);
+    let indexed: Vec<(usize, [f64; 3])> = points.iter().copied().enumerate().collect();
+    let own = Buckets::of(&indexed, w.reach_m);
     let mut upper = vec![false; points.len()];
-    for (&key, here) in &own.cells {
-        for there in own.around(key) {
-            for &(i, p) in here {
-                for &(j, q) in there {
-                    if i < j && w.pair(p, q) {
-                        let k = if p[2] > q[2] { i } else { j };
-                        if let Some(u) = upper.get_mut(k) {
-                            *u = true;
-                        }
-                    }
-                }
+    for &(_, p) in &indexed {
+        own.each_above(&p, w, |j, _| {
+            if let Some(u) = upper.get_mut(j) {
+                *u = true;
             }
-        }
+        });
     }
     points
         .iter()
@@ -94,8 +88,10 @@ pub fn witnesses(points: &[[f64; 3]], w: &Witness) -> Vec<[f64; 3]> {
 /// noise), not one observation's.
 #[derive(Debug, Clone, Default)]
 pub struct PastReturns {
-    /// The returns so far.
-    points: Vec<[f64; 3]>,
+    /// The returns so far (index, point), in buckets of the reach's side.
+    past: Option<Buckets>,
+    /// Per earlier return: already reported as an upper point.
+    reported: Vec<bool>,
 }
 
 impl PastReturns {
@@ -106,75 +102,86 @@ impl PastReturns {
     }
 
     /// The upper points of the witness pairs of `w` between a return of `points` and one
-    /// of the earlier observations' (each once; either may be the upper), then keeps
-    /// `points` among the earlier ones. With [`witnesses`] of `points` by their own, the
-    /// witnesses of every return so far.
+    /// of the earlier observations' (either may be the upper; an earlier return once over
+    /// every call), then keeps `points` among the earlier ones. With [`witnesses`] of `points`
+    /// by their own, the witnesses of every return so far.
     pub fn witnesses_then_keep(&mut self, points: &[[f64; 3]], w: &Witness) -> Vec<[f64; 3]> {
-        let new = Buckets::of(points, w.reach_m);
         let mut upper: Vec<[f64; 3]> = Vec::new();
-        let mut new_upper = vec![false; points.len()];
-        let mut old_upper = vec![false; self.points.len()];
-        for (j, q) in self.points.iter().enumerate() {
-            let Some(key) = new.key(q) else {
-                continue;
-            };
-            for there in new.around(key) {
-                for &(i, p) in there {
-                    if w.pair(p, q) {
-                        if p[2] > q[2] {
-                            if let Some(u) = new_upper.get_mut(i) {
-                                *u = true;
-                            }
-                        } else if let Some(u) = old_upper.get_mut(j) {
-                            *u = true;
+        let first = self.reported.len();
+        let indexed: Vec<(usize, [f64; 3])> = points
+            .iter()
+            .enumerate()
+            .map(|(i, p)| (first + i, *p))
+            .collect();
+        if let Some(past) = &self.past {
+            // An earlier return above a new one: the earlier is the upper.
+            for &(_, p) in &indexed {
+                past.each_above(&p, w, |j, q| {
+                    if let Some(r) = self.reported.get_mut(j) {
+                        if !*r {
+                            *r = true;
+                            upper.push(*q);
                         }
                     }
-                }
+                });
             }
+            // A new return above an earlier one: the new is the upper.
+            upper.extend(
+                indexed
+                    .iter()
+                    .filter(|(_, p)| past.any_below(p, w))
+                    .map(|(_, p)| *p),
+            );
         }
-        upper.extend(
-            points
-                .iter()
-                .zip(new_upper)
-                .filter_map(|(p, u)| u.then_some(*p)),
-        );
-        upper.extend(
-            self.points
-                .iter()
-                .zip(old_upper)
-                .filter_map(|(p, u)| u.then_some(*p)),
-        );
-        self.points.extend_from_slice(points);
+        self.reported.resize(first + points.len(), false);
+        match &mut self.past {
+            Some(past) => past.extend(&indexed),
+            None => self.past = Some(Buckets::of(&indexed, w.reach_m)),
+        }
         upper
     }
 }
 
-/// A bucket's points: (index in their slice, point).
-type Bucket<'a> = Vec<(usize, &'a [f64; 3])>;
+/// A bucket's points: (index, point), lowest first.
+type Bucket = Vec<(usize, [f64; 3])>;
 
-/// Points hashed into square buckets of the reach's side (a pair within reach lies in one
-/// bucket or two neighbouring ones).
-struct Buckets<'a> {
+/// Points (index, point) hashed into square buckets of the reach's side (a pair within reach
+/// lies in one bucket or two neighbouring ones), each bucket sorted by height.
+#[derive(Debug, Clone)]
+struct Buckets {
     /// The bucket's side, metres (> 0).
     side: f64,
-    /// Per bucket: the points (index, point).
-    cells: HashMap<(i64, i64), Bucket<'a>>,
+    /// Per bucket: its points, lowest first.
+    cells: HashMap<(i64, i64), Bucket>,
 }
 
-impl<'a> Buckets<'a> {
+impl Buckets {
     /// `points` (those finite) in buckets of side `reach_m` (1 m if it is not > 0).
-    fn of(points: &'a [[f64; 3]], reach_m: f64) -> Self {
-        let side = if reach_m > 0.0 { reach_m } else { 1.0 };
+    fn of(points: &[(usize, [f64; 3])], reach_m: f64) -> Self {
         let mut b = Self {
-            side,
+            side: if reach_m > 0.0 { reach_m } else { 1.0 },
             cells: HashMap::new(),
         };
-        for (i, p) in points.iter().enumerate() {
-            if let Some(key) = b.key(p) {
-                b.cells.entry(key).or_default().push((i, p));
+        b.extend(points);
+        b
+    }
+
+    /// Adds `points` (those finite), keeping each bucket sorted by height.
+    fn extend(&mut self, points: &[(usize, [f64; 3])]) {
+        let mut touched = Vec::new();
+        for &(i, p) in points {
+            if let Some(key) = self.key(&p) {
+                self.cells.entry(key).or_default().push((i, p));
+                touched.push(key);
             }
         }
-        b
+        touched.sort_unstable();
+        touched.dedup();
+        for key in touched {
+            if let Some(bucket) = self.cells.get_mut(&key) {
+                bucket.sort_by(|a, b| a.1[2].total_cmp(&b.1[2]));
+            }
+        }
     }
 
     /// The bucket of a finite point.
@@ -188,11 +195,53 @@ impl<'a> Buckets<'a> {
         })
     }
 
-    /// The points of the buckets at and around `key` (3 × 3).
-    fn around(&self, key: (i64, i64)) -> impl Iterator<Item = &Bucket<'a>> {
-        (-1..=1)
-            .flat_map(move |dx| (-1..=1).map(move |dy| (key.0 + dx, key.1 + dy)))
-            .filter_map(|k| self.cells.get(&k))
+    /// Whether some point makes a witness pair of `w` with `p` as its lower point: lower than
+    /// `p` by more than the step and no more than the robot's height, in the buckets at and
+    /// around `p`'s.
+    fn any_below(&self, p: &[f64; 3], w: &Witness) -> bool {
+        let Some(key) = self.key(p) else {
+            return false;
+        };
+        (-1..=1).any(|dx| {
+            (-1..=1).any(|dy| {
+                self.cells
+                    .get(&(key.0 + dx, key.1 + dy))
+                    .is_some_and(|bucket| {
+                        let to = bucket.partition_point(|(_, q)| q[2] < p[2] - w.step_m);
+                        bucket
+                            .iter()
+                            .take(to)
+                            .rev()
+                            .take_while(|(_, q)| q[2] >= p[2] - w.robot_height_m)
+                            .any(|(_, q)| w.pair(q, p))
+                    })
+            })
+        })
+    }
+
+    /// Calls `f(index, point)` for every point that makes a witness pair of `w` with `p` as
+    /// its upper point: higher than `p` by more than the step and no more than the robot's
+    /// height, in the buckets at and around `p`'s.
+    fn each_above(&self, p: &[f64; 3], w: &Witness, mut f: impl FnMut(usize, &[f64; 3])) {
+        let Some(key) = self.key(p) else {
+            return;
+        };
+        for dx in -1..=1 {
+            for dy in -1..=1 {
+                let Some(bucket) = self.cells.get(&(key.0 + dx, key.1 + dy)) else {
+                    continue;
+                };
+                let from = bucket.partition_point(|(_, q)| q[2] <= p[2] + w.step_m);
+                for (j, q) in bucket.iter().skip(from) {
+                    if q[2] > p[2] + w.robot_height_m {
+                        break;
+                    }
+                    if w.pair(p, q) {
+                        f(*j, q);
+                    }
+                }
+            }
+        }
     }
 }
 

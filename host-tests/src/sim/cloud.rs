@@ -102,6 +102,18 @@ impl RingLaser {
     /// One revolution from `pose` (level), noise from `rng`.
     #[must_use]
     pub fn scan(&self, scene: &Scene, pose: &Pose, rng: &mut Rng) -> Observation {
+        self.scan_with_truth(scene, pose, rng).0
+    }
+
+    /// [`Self::scan`], and the true points of its returns, in the same order: where each
+    /// beam, as it really points, met the scene.
+    #[must_use]
+    pub fn scan_with_truth(
+        &self,
+        scene: &Scene,
+        pose: &Pose,
+        rng: &mut Rng,
+    ) -> (Observation, Observation) {
         let origin = pose.to_world([0.0, 0.0, self.height_m]);
         let r = pose.rotation();
         #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
@@ -123,6 +135,7 @@ impl RingLaser {
             })
             .collect();
         let mut points = Vec::new();
+        let mut truth = Vec::new();
         for a in 0..firings {
             let (sa, ca) = (f64::from(a) * self.azimuth_step_deg)
                 .to_radians()
@@ -144,15 +157,23 @@ impl RingLaser {
                             dir: world([cn * ca, cn * sa, sn]),
                         };
                         points.push(nominal.at(range));
+                        truth.push(hit.point);
                     }
                 }
             }
         }
-        Observation {
-            sensor: origin,
-            ground_z: pose.z,
-            points,
-        }
+        (
+            Observation {
+                sensor: origin,
+                ground_z: pose.z,
+                points,
+            },
+            Observation {
+                sensor: origin,
+                ground_z: pose.z,
+                points: truth,
+            },
+        )
     }
 }
 

@@ -199,6 +199,10 @@ pub struct FarObstaclesResult {
     pub rings: Vec<String>,
     /// Per rule.
     pub rules: Vec<RuleResult>,
+    /// The most any rule could mark on each revolution ([`witnessed`]): the witness pairs of
+    /// the true points of its returns (where each beam met the scene), scored at the returns
+    /// as the maps are.
+    pub bound: RuleResult,
     /// The same street seen by the SICK and the nodding lidars from a driving robot
     /// ([`rigs`]).
     pub rigs: Vec<rigs::RigResult>,
@@ -212,8 +216,9 @@ pub fn design(sigma_m: f32) -> Result<Design<L>, String> {
     car_design(sigma_m, W).map_err(|e| format!("the street design: {e:?}"))
 }
 
-/// One revolution of the car laser from each place of `setup` on `scene`.
-fn scans(setup: &Setup, scene: &Scene) -> Vec<Observation> {
+/// One revolution of the car laser from each place of `setup` on `scene`, and its returns'
+/// true points.
+fn scans(setup: &Setup, scene: &Scene) -> Vec<(Observation, Observation)> {
     let laser = RingLaser {
         elevation_bias_deg: setup.elevation_bias_deg,
         range_bias_m: setup.range_bias_m,
@@ -229,7 +234,7 @@ fn scans(setup: &Setup, scene: &Scene) -> Vec<Observation> {
                 z: scene.ground_height(x, 0.0),
                 ..Pose::default()
             };
-            laser.scan(scene, &pose, &mut rng)
+            laser.scan_with_truth(scene, &pose, &mut rng)
         })
         .collect()
 }
@@ -252,7 +257,8 @@ pub fn run(setup: &Setup) -> Result<FarObstaclesResult, String> {
     #[allow(clippy::cast_possible_truncation)]
     let design = design(setup.sigma_m as f32)?;
     let scene = Scene::street(setup.swell_m);
-    let observations = scans(setup, &scene);
+    let (observations, true_returns): (Vec<Observation>, Vec<Observation>) =
+        scans(setup, &scene).into_iter().unzip();
     let mut classifier: Box<Classifier<SLOTS, L>> = navigability::classifier(&design);
     let mut rules = Vec::new();
     for (name, rule) in RULES {
@@ -281,10 +287,15 @@ pub fn run(setup: &Setup) -> Result<FarObstaclesResult, String> {
         }
         rules.push(rule_result(name, &tally, points));
     }
+    let mut bound = RingTally::default();
+    for (truth, measured) in true_returns.iter().zip(&observations) {
+        bound.add(&witnessed::of_observation(truth, measured, &scene));
+    }
     Ok(FarObstaclesResult {
         setup: setup.clone(),
         rings: (0..RINGS).map(ring_name).collect(),
         rules,
+        bound: rule_result(witnessed::REVOLUTION, &bound, bound.total()),
         rigs: rigs::run(setup)?,
     })
 }
@@ -342,6 +353,8 @@ pub fn table(r: &FarObstaclesResult) -> String {
         xs.join(", ")
     );
     rule_tables(&mut s, "###", &r.rings, &r.rules);
+    s.push_str(witnessed::REVOLUTION_TEXT);
+    rule_tables(&mut s, "###", &r.rings, std::slice::from_ref(&r.bound));
     for rig in &r.rigs {
         s.push_str(&rigs::heading(rig, &r.setup));
         rule_tables(&mut s, "####", &r.rings, &rig.rules);
