@@ -13,10 +13,11 @@
 //!
 //! [`witnesses`] finds the pairs among a set of points (the true points of the returns, with
 //! no noise: the bound is the geometry's, before any noise allowance), within a horizontal
-//! `reach` of each other, and returns the points that belong to one. Used as a map (a point
-//! marked where a witness lies in its 0.1 m cell, [`super::rings::far_obstacles_with`]), it is
-//! a bound, generous on purpose: both points of a pair mark, not only the upper one, and
-//! witnesses of every observation so far stay marked, as the map's verdicts do.
+//! `reach` of each other, and returns each pair's upper point, the return whose cell the
+//! library's pair test marks; [`PastReturns`] does the same between a new observation's
+//! returns and every earlier one. Used as a map (a return marked where an upper point lies in
+//! a 0.1 m cell within 0.2 m, [`super::rings::far_obstacles_with`]), it bounds what a rule
+//! marking near its evidence can mark.
 
 use std::collections::HashMap;
 
@@ -287,6 +288,20 @@ mod tests {
         assert_eq!(witnesses(&across, &w), vec![across[1]]);
         let far = [[0.0, 0.0, 0.0], [1.5, 0.0, 0.9]];
         assert!(witnesses(&far, &w).is_empty());
+    }
+
+    /// [`Witness::library`]'s allowances are the library's defaults (`ClassifierConfig`, the
+    /// plane rule's largest grade), to within their fixed-point resolution.
+    #[test]
+    fn the_allowances_are_the_librarys_defaults() {
+        use terrain_pyramid::classify::{ClassifierConfig, PlaneRule};
+        let w = Witness::library();
+        let config = ClassifierConfig::DEFAULT;
+        let close = |a: f64, b: f64| (a - b).abs() < 1e-4;
+        assert!(close(w.step_m, config.step_threshold.to_num::<f64>()));
+        assert!(close(w.robot_height_m, config.robot_height.to_num::<f64>()));
+        let grade = PlaneRule::DEFAULT.max_grade.to_num::<f64>();
+        assert!(close(w.max_grade, grade), "{} against {grade}", w.max_grade);
     }
 
     /// The kerb of the first test seen by two observations, its foot by the first and its top

@@ -3,8 +3,8 @@
 //! ([`super`], [`super::rigs`]): a map that reads obstacle in the 0.1 m cells of the witness
 //! pairs' upper returns, navigable everywhere else.
 //!
-//! For a rig's run, two bounds, from the laser's true returns (no noise) with the library's allowances (20°,
-//! 5 cm, the robot's 1 m):
+//! For a rig's run, two bounds, from the laser's true returns (no noise) with the library's
+//! allowances (20°, 5 cm, the robot's 1 m):
 //! - **one observation**: the pairs within each observation the pipeline ended, kept as the
 //!   map keeps its verdicts: what a rule that judges one observation at a time (the
 //!   library's classifier) could mark;
