@@ -3,7 +3,7 @@
 //! --far-obstacles-only` scores the simulated street.
 //!
 //! ```sh
-//! cargo run --release -p terrain-pyramid-host-tests --example semantic_kitti -- SCAN.bin SCAN.label [SCAN.bin SCAN.label ...]
+//! cargo run --release -p terrain-pyramid-host-tests --example semantic_kitti -- [--height-m H] [--psi-deg P] SCAN.bin SCAN.label [SCAN.bin SCAN.label ...]
 //! ```
 //!
 //! `SCAN.bin` holds the points as KITTI writes them (`x y z reflectance`, little-endian `f32`,
@@ -20,7 +20,10 @@
 //! Each scan goes as ONE observation (the sensor at the origin, the robot's ground plane
 //! 1.73 m below it) into a fresh pyramid of the street design (`--max-range-m 20 --gamma 3
 //! --height-m 1.73 --phi-deg 0.4 --psi-deg 0.09 --sigma-m 0.02 --cells 128`, the HDL-64E's
-//! beam spacing and its azimuth step at 10 Hz), through the library's classifier under each
+//! beam spacing and its azimuth step at 10 Hz; `--height-m` and `--psi-deg` describe the laser
+//! otherwise, as `pyramid replay` takes them: the design's height and the classifier's ground
+//! plane, the design's ψ and the firing order's step, while the truth keeps KITTI's ground
+//! plane), through the library's classifier under each
 //! rule, the points in the file's order (KITTI holds them beam by beam) and in firing order
 //! (by azimuth in steps of ψ, then by elevation from the lowest: as `pyramid replay --order
 //! firing` sorts them).
@@ -64,14 +67,35 @@ const L: usize = 16;
 const W: usize = 128;
 /// Classifier slots: a whole revolution in one observation.
 const SLOTS: usize = 65_536;
-/// KITTI's laser above the ground, metres.
+/// KITTI's laser above the ground, metres: the truth's ground plane, and the design's height
+/// unless `--height-m` gives another.
 const HEIGHT_M: f64 = 1.73;
 /// The design's and the score's range, metres.
 const RANGE_M: f64 = 20.0;
 /// The robot's height above its ground plane: obstacles are counted below it, metres.
 const ROBOT_HEIGHT_M: f64 = 1.0;
-/// The azimuth step of the HDL-64E at 10 Hz, degrees.
+/// The azimuth step of the HDL-64E at 10 Hz, degrees: the design's ψ unless `--psi-deg`
+/// gives another.
 const PSI_DEG: f64 = 0.09;
+
+/// The laser as the design describes it: the sensor's height above the robot's ground plane
+/// (metres; the classifier's ground plane lies this far below the laser, as in `pyramid
+/// replay`) and the azimuth step (degrees; the design's ψ and the firing order's step). The
+/// truth keeps KITTI's own ground plane, [`HEIGHT_M`] below the laser, whatever the design
+/// says.
+#[derive(Clone, Copy)]
+struct Described {
+    height_m: f64,
+    psi_deg: f64,
+}
+
+impl Described {
+    /// The HDL-64E as KITTI mounts it.
+    const KITTI: Self = Self {
+        height_m: HEIGHT_M,
+        psi_deg: PSI_DEG,
+    };
+}
 
 /// The row of every obstacle, after the kinds' rows (`GROUND_ROW` … `OTHER_ROW`).
 const EVERY_OBSTACLE_ROW: usize = 6;
@@ -124,14 +148,14 @@ fn ring(p: &[f64; 3]) -> Option<usize> {
     ring_of(p[0].hypot(p[1]))
 }
 
-fn design() -> Result<Design<L>, String> {
+fn design(described: Described) -> Result<Design<L>, String> {
     #[allow(clippy::cast_possible_truncation)]
     Design::new(
         terrain_pyramid::SensorModel {
             phi_rad: 0.4_f32.to_radians(),
-            psi_rad: (PSI_DEG as f32).to_radians(),
+            psi_rad: (described.psi_deg as f32).to_radians(),
             sigma_m: 0.02,
-            height_m: HEIGHT_M as f32,
+            height_m: described.height_m as f32,
             max_range_m: RANGE_M as f32,
         },
         terrain_pyramid::Schedule {
@@ -264,6 +288,7 @@ fn score_scan(
     bin: &str,
     label: &str,
     design: &Design<L>,
+    described: Described,
     classifier: &mut Classifier<SLOTS, L>,
 ) -> Result<([(String, Scored); RUNS], String), String> {
     let (points, classes) = load(bin, label)?;
@@ -283,7 +308,7 @@ fn score_scan(
         ("file order", points.clone()),
         (
             "firing order",
-            firing_order(&points, [0.0; 3], PSI_DEG.to_radians()),
+            firing_order(&points, [0.0; 3], described.psi_deg.to_radians()),
         ),
     ];
     let rules = [
@@ -303,7 +328,7 @@ fn score_scan(
             });
             let obs = Observation {
                 sensor: [0.0, 0.0, 0.0],
-                ground_z: -HEIGHT_M,
+                ground_z: -described.height_m,
                 points: ordered.clone(),
             };
             let mut p: Box<Pyramid<W, L>> = navigability::pyramid(design);
@@ -337,12 +362,12 @@ fn score_scan(
 }
 
 /// Every scan of `pairs` (`SCAN.bin`, `SCAN.label`), each summed into the printed tables.
-fn run(pairs: &[(String, String)]) -> Result<(), String> {
-    let design = design()?;
+fn run(pairs: &[(String, String)], described: Described) -> Result<(), String> {
+    let design = design(described)?;
     let mut classifier: Box<Classifier<SLOTS, L>> = navigability::classifier(&design);
     let mut sums: Option<[(String, Scored); RUNS]> = None;
     for (bin, label) in pairs {
-        let (tables, summary) = score_scan(bin, label, &design, &mut classifier)?;
+        let (tables, summary) = score_scan(bin, label, &design, described, &mut classifier)?;
         println!("{summary}");
         match &mut sums {
             None => sums = Some(tables),
@@ -365,20 +390,50 @@ fn run(pairs: &[(String, String)]) -> Result<(), String> {
     Ok(())
 }
 
-fn main() {
-    let args: Vec<String> = std::env::args().skip(1).collect();
-    if args.is_empty() || !args.len().is_multiple_of(2) {
-        eprintln!("usage: semantic_kitti SCAN.bin SCAN.label [SCAN.bin SCAN.label ...] (SemanticKITTI's velodyne/ and labels/ files)");
-        std::process::exit(2);
+/// The usage line.
+const USAGE: &str = "usage: semantic_kitti [--height-m H] [--psi-deg P] SCAN.bin SCAN.label [SCAN.bin SCAN.label ...] (SemanticKITTI's velodyne/ and labels/ files; H and P the design's laser height, metres, and azimuth step, degrees, as `pyramid replay` takes them: KITTI's 1.73 and 0.09 unless given)";
+
+/// The design's flags and the scan pairs from the command line.
+fn parse(args: &[String]) -> Result<(Described, Vec<(String, String)>), String> {
+    let mut described = Described::KITTI;
+    let mut rest = args;
+    while let [flag, value, tail @ ..] = rest {
+        let target = match flag.as_str() {
+            "--height-m" => &mut described.height_m,
+            "--psi-deg" => &mut described.psi_deg,
+            _ => break,
+        };
+        *target = value
+            .parse::<f64>()
+            .ok()
+            .filter(|v| v.is_finite() && *v > 0.0)
+            .ok_or_else(|| format!("{flag}: {value:?} is not a positive number"))?;
+        rest = tail;
     }
-    let pairs: Vec<(String, String)> = args
+    if rest.is_empty() || !rest.len().is_multiple_of(2) || rest.iter().any(|a| a.starts_with("--"))
+    {
+        return Err(USAGE.to_string());
+    }
+    let pairs = rest
         .chunks_exact(2)
         .map(|c| (c[0].clone(), c[1].clone()))
         .collect();
+    Ok((described, pairs))
+}
+
+fn main() {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let (described, pairs) = match parse(&args) {
+        Ok(parsed) => parsed,
+        Err(e) => {
+            eprintln!("{e}");
+            std::process::exit(2);
+        }
+    };
     // The classifier's scratch and the pyramid are built in place before they are boxed.
     let outcome = std::thread::Builder::new()
         .stack_size(64 << 20)
-        .spawn(move || run(&pairs))
+        .spawn(move || run(&pairs, described))
         .map_err(|e| e.to_string())
         .and_then(|h| {
             h.join()

@@ -12,6 +12,7 @@ pub mod design;
 pub mod device;
 pub mod emulator;
 pub mod export;
+pub mod ground_height;
 pub mod json_line;
 pub mod link;
 pub mod listen;

@@ -43,6 +43,7 @@
 //! 3DTK scan: 89.6 % of the obstacle returns marked against 100.0 % in the file's order).
 use crate::design;
 use crate::export::{self, MapSnapshot, MapSummary};
+use crate::ground_height::{self, GroundDepths};
 use crate::pyramid_args::PyramidArgs;
 use crate::rule;
 use crate::summary_args::SummaryArgs;
@@ -306,6 +307,14 @@ pub struct Summary {
     pub sensor_m: [f64; 3],
     /// The robot's ground plane given to the classifier, metres.
     pub ground_z_m: f64,
+    /// How far below the sensor the scan's ground lies, metres, found in the points themselves
+    /// ([`ground_height::GroundDepths::found_m`]: where the points 1–8 m away gather most
+    /// densely in depth); `null` when too few points lie there.
+    pub ground_found_m: Option<f64>,
+    /// What the run noticed that the user may want to change, one sentence each (also printed
+    /// on stderr, `warning: ` first): the scan's ground more than
+    /// [`ground_height::TOLERANCE_M`] from `--height-m`.
+    pub warnings: Vec<String>,
     /// The navigability rule in force and its parameters ([`rule::describe`]).
     pub rule: String,
     /// The order in which the points reached the classifier: `firing` or `file`.
@@ -464,6 +473,8 @@ struct Integrated {
     pyramid: PyramidStats,
     /// The order the points reached the classifier in (`File` or `Firing`).
     order: PointOrder,
+    /// The points' depths below the sensor, for the ground's.
+    depths: GroundDepths,
 }
 
 /// Reads the point file into one observation of a `Pyramid<W, L>`.
@@ -489,9 +500,14 @@ fn integrate<const W: usize>(args: &Args, plan: &Plan) -> Result<Integrated, Fai
     let ground_z = meters(plan.ground_z);
     let max_range = f64::from(plan.design.sensor().max_range_m);
     let (mut no_return, mut beyond) = (0_u64, 0_u64);
+    let mut depths = GroundDepths::new();
     let mut reader = UosReader::new(BufReader::new(file));
     // One point in the robot's frame (metres) to the classifier.
     let mut add = |world: [f64; 3]| {
+        depths.add(
+            plan.sensor[2] - world[2],
+            (world[0] - plan.sensor[0]).hypot(world[1] - plan.sensor[1]),
+        );
         let world = point3(world);
         let distance = horizontal_distance(sensor, world);
         if distance.to_num::<f64>() > max_range {
@@ -563,6 +579,7 @@ fn integrate<const W: usize>(args: &Args, plan: &Plan) -> Result<Integrated, Fai
         classifier: classifier.stats(),
         pyramid: pyramid.stats(),
         order,
+        depths,
     })
 }
 
@@ -599,6 +616,11 @@ pub fn replay(args: &Args) -> Result<Summary, Failure> {
         export::write_maps(&args.summary.out, &run.snapshot, &title).map_err(Failure::input)?;
     let MapSummary { layers, fused } = written.summary;
     let c = run.classifier;
+    let ground_found_m = run.depths.found_m();
+    let warnings: Vec<String> = ground_found_m
+        .and_then(|found| ground_height::disagreement(found, args.pyramid.design.height_m))
+        .into_iter()
+        .collect();
     let mut summary = Summary {
         points_read: run.points_read,
         points_used: u64::from(c.points_used),
@@ -613,6 +635,8 @@ pub fn replay(args: &Args) -> Result<Summary, Failure> {
         records_outside_window: u64::from(run.pyramid.outside_window),
         sensor_m: plan.sensor,
         ground_z_m: plan.ground_z,
+        ground_found_m,
+        warnings,
         rule: rule::describe(&plan.classifier),
         order: run.order.name(),
         order_asked: args.order.name(),
@@ -695,6 +719,9 @@ pub fn run(args: &Args) -> ExitCode {
     };
     match result {
         Ok(summary) => {
+            for warning in &summary.warnings {
+                eprintln!("warning: {warning}");
+            }
             if args.summary.json {
                 if !crate::json_line::print(&summary, "error: cannot encode the summary as JSON: ")
                 {

@@ -414,6 +414,50 @@ fn the_real_tilt_scan() {
     }
     let l0 = &v["layers"][0];
     assert!(l0["free_cells"].as_u64().unwrap() > l0["obstacle_cells"].as_u64().unwrap());
+    // The scanner stands 0.4 m above the walkway's floor (the guide's `--height-m 0.4`); the
+    // default height of 1 m is called out.
+    let found = v["ground_found_m"].as_f64().unwrap();
+    assert!((found - 0.4).abs() < 0.05, "{found}");
+    let warnings = v["warnings"].as_array().unwrap();
+    assert_eq!(warnings.len(), 1, "{warnings:?}");
+    assert!(warnings[0]
+        .as_str()
+        .unwrap()
+        .contains("higher than it stands"));
+}
+
+#[test]
+fn the_scans_ground_is_checked_against_the_height() {
+    let dir = scratch("ground");
+    let file = dir.join("box.3d");
+    std::fs::write(&file, synthetic_scan().0).unwrap();
+    // The synthetic floor lies 0.4 m below the sensor.
+    let described = |height: &str| {
+        let out = pyramid(&[
+            "--points",
+            path(&file),
+            "--out",
+            path(&dir.join(format!("out-{height}"))),
+            "--height-m",
+            height,
+            "--json",
+        ]);
+        assert!(out.status.success(), "{out:?}");
+        let v: Value = serde_json::from_slice(&out.stdout).unwrap();
+        (v, String::from_utf8(out.stderr).unwrap())
+    };
+    let (v, stderr) = described("0.4");
+    let found = v["ground_found_m"].as_f64().unwrap();
+    assert!((found - 0.4).abs() < 0.03, "{found}");
+    assert_eq!(v["warnings"], serde_json::json!([]));
+    assert!(!stderr.contains("warning"), "{stderr}");
+    // A laser described 0.3 m higher than the scan puts it: named on stderr and in the summary.
+    let (v, stderr) = described("0.7");
+    let warnings = v["warnings"].as_array().unwrap();
+    assert_eq!(warnings.len(), 1, "{warnings:?}");
+    let text = warnings[0].as_str().unwrap();
+    assert!(text.contains("higher than it stands") && text.contains("--height-m says 0.7 m"));
+    assert!(stderr.contains(&format!("warning: {text}")), "{stderr}");
 }
 
 #[test]
