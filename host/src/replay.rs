@@ -24,6 +24,15 @@
 //! robot's ground plane `sensor z − --height-m`; the observation is then finished into the
 //! pyramid.
 //!
+//! # The ground
+//! The design's height (`--height-m`) sets its far cells (the paper's bound grows as 1/h) and
+//! puts the classifier's ground plane below the sensor. Replay finds how far below the sensor
+//! the scan's own ground lies ([`crate::ground_height`]: where the points 1–8 m away gather most
+//! densely in depth), reports it as the summary's `ground_found_m`, and warns (stderr and the
+//! summary's `warnings`) when `--height-m` lies more than
+//! [`crate::ground_height::TOLERANCE_M`] from it. The maps are made with `--height-m` all the
+//! same.
+//!
 //! # The order of the points
 //! The classifier's pair test compares each return with the one before it in the same cell
 //! (`docs/core.md`, "Why the pair test"): a far kerb's face shows where two beams' returns at
@@ -689,6 +698,13 @@ fn table(args: &Args, s: &Summary) -> String {
         s.fused.width,
         s.fused.height
     );
+    if let Some(found) = s.ground_found_m {
+        let _ = writeln!(
+            out,
+            "  ground {found:.2} m below the sensor in the scan; the design's ground plane {:.2} m below",
+            s.sensor_m[2] - s.ground_z_m
+        );
+    }
     let _ = writeln!(
         out,
         "Wrote {} files into {}",

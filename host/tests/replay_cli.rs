@@ -458,6 +458,26 @@ fn the_scans_ground_is_checked_against_the_height() {
     let text = warnings[0].as_str().unwrap();
     assert!(text.contains("higher than it stands") && text.contains("--height-m says 0.7 m"));
     assert!(stderr.contains(&format!("warning: {text}")), "{stderr}");
+    // The table printed without --json says both depths.
+    let out = pyramid(&[
+        "--points",
+        path(&file),
+        "--out",
+        path(&dir.join("out-table")),
+        "--height-m",
+        "0.7",
+    ]);
+    assert!(out.status.success(), "{out:?}");
+    let table = String::from_utf8(out.stdout).unwrap();
+    let line = table
+        .lines()
+        .find(|l| l.trim_start().starts_with("ground "))
+        .unwrap_or_else(|| panic!("no ground line: {table}"));
+    assert!(line.trim_start().starts_with("ground 0.4"), "{line}");
+    assert!(
+        line.ends_with("the design's ground plane 0.70 m below"),
+        "{line}"
+    );
 }
 
 #[test]
