@@ -513,13 +513,12 @@ fn integrate<const W: usize>(args: &Args, plan: &Plan) -> Result<Integrated, Fai
     let mut reader = UosReader::new(BufReader::new(file));
     // One point in the robot's frame (metres) to the classifier.
     let mut add = |world: [f64; 3]| {
-        depths.add(
-            plan.sensor[2] - world[2],
-            (world[0] - plan.sensor[0]).hypot(world[1] - plan.sensor[1]),
-        );
+        let below = plan.sensor[2] - world[2];
         let world = point3(world);
         let distance = horizontal_distance(sensor, world);
-        if distance.to_num::<f64>() > max_range {
+        let distance_m = distance.to_num::<f64>();
+        depths.add(below, distance_m);
+        if distance_m > max_range {
             beyond += 1;
         }
         classifier.add_point(world, distance, ground_z);
@@ -702,7 +701,7 @@ fn table(args: &Args, s: &Summary) -> String {
         let _ = writeln!(
             out,
             "  ground {found:.2} m below the sensor in the scan; the design's ground plane {:.2} m below",
-            s.sensor_m[2] - s.ground_z_m
+            args.pyramid.design.height_m
         );
     }
     let _ = writeln!(

@@ -431,18 +431,26 @@ fn the_scans_ground_is_checked_against_the_height() {
     let dir = scratch("ground");
     let file = dir.join("box.3d");
     std::fs::write(&file, synthetic_scan().0).unwrap();
-    // The synthetic floor lies 0.4 m below the sensor.
-    let described = |height: &str| {
-        let out = pyramid(&[
+    // The synthetic floor lies 0.4 m below the sensor. Each run writes its own folder.
+    let replay = |height: &str, json: bool| {
+        let out_dir = dir.join(format!("out-{height}-{json}"));
+        let mut args = vec![
             "--points",
             path(&file),
             "--out",
-            path(&dir.join(format!("out-{height}"))),
+            path(&out_dir),
             "--height-m",
             height,
-            "--json",
-        ]);
+        ];
+        if json {
+            args.push("--json");
+        }
+        let out = pyramid(&args);
         assert!(out.status.success(), "{out:?}");
+        out
+    };
+    let described = |height: &str| {
+        let out = replay(height, true);
         let v: Value = serde_json::from_slice(&out.stdout).unwrap();
         (v, String::from_utf8(out.stderr).unwrap())
     };
@@ -459,15 +467,7 @@ fn the_scans_ground_is_checked_against_the_height() {
     assert!(text.contains("higher than it stands") && text.contains("--height-m says 0.7 m"));
     assert!(stderr.contains(&format!("warning: {text}")), "{stderr}");
     // The table printed without --json says both depths.
-    let out = pyramid(&[
-        "--points",
-        path(&file),
-        "--out",
-        path(&dir.join("out-table")),
-        "--height-m",
-        "0.7",
-    ]);
-    assert!(out.status.success(), "{out:?}");
+    let out = replay("0.7", false);
     let table = String::from_utf8(out.stdout).unwrap();
     let line = table
         .lines()
