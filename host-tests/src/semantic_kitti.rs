@@ -410,16 +410,19 @@ mod tests {
         (points, classes)
     }
 
+    /// The index of the street's point at `(x, y)`.
+    fn index_at(points: &[[f64; 3]], x: f64, y: f64) -> usize {
+        points
+            .iter()
+            .position(|p| (p[0] - x).abs() < 1e-9 && (p[1] - y).abs() < 1e-9)
+            .unwrap()
+    }
+
     #[test]
     fn kerbs_are_class_boundaries_with_a_drop_and_clear_ground_keeps_away_from_features() {
         let (points, classes) = street();
         let (rows, bands) = truth(&points, &classes, -1.73, 1.0, 20.0);
-        let at = |x: f64, y: f64| {
-            points
-                .iter()
-                .position(|p| (p[0] - x).abs() < 1e-9 && (p[1] - y).abs() < 1e-9)
-                .unwrap()
-        };
+        let at = |x: f64, y: f64| index_at(&points, x, y);
         // The pavement's edge over the road: curb, banded by the distance from the drop (the
         // nearest road return is 5 cm below the edge's first row), 12 cm: tall.
         let edge = at(6.0, 3.025);
@@ -444,16 +447,12 @@ mod tests {
         assert_eq!(rows[points.len() - 2], None);
         assert_eq!(rows[points.len() - 1], None);
     }
+
     #[test]
     fn clear_ground_in_a_cell_with_a_feature_is_not_in_a_ground_only_cell() {
         let (points, classes) = street();
         let (rows, _) = truth(&points, &classes, -1.73, 1.0, 20.0);
-        let at = |x: f64, y: f64| {
-            points
-                .iter()
-                .position(|p| (p[0] - x).abs() < 1e-9 && (p[1] - y).abs() < 1e-9)
-                .unwrap()
-        };
+        let at = |x: f64, y: f64| index_at(&points, x, y);
         // Two layers: 1 m cells for x < 6.5 m, 2 m cells beyond (floored from the origin).
         let band = |p: &[f64; 3]| (p[0].hypot(p[1]) <= 20.0).then_some(usize::from(p[0] >= 6.5));
         #[allow(clippy::cast_possible_truncation)]
