@@ -32,7 +32,10 @@
 //! obstacles only within the robot's height (1.0 m above its ground plane):
 //! - **clear ground**: road, parking, sidewalk, lane marking and other ground with no
 //!   obstacle, vegetation, unlabelled or curb point within 0.5 m; right when the fused map
-//!   reads navigable there;
+//!   reads navigable there. Again, those whose cell in their own band's layer holds no return
+//!   but ground below the robot's height (**ground-only cells**,
+//!   `semantic_kitti::in_ground_only_cells`): a far cell of 1.2–2.4 m that holds a kerb is an
+//!   obstacle cell, and the road beside the kerb within it ground the map cannot resolve;
 //! - **curb** (SemanticKITTI has no curb class; derived): a ground point with a ground or
 //!   terrain point of another class within 0.3 m at least 8 cm below it (the kerb's face and
 //!   edge between road and sidewalk, or above a verge; again by the distance from that drop,
@@ -48,16 +51,24 @@
 //! obstacle whose surroundings span less than a kerb is one a geometric rule marks only by
 //! marking ground as flat.
 //!
+//! Last, the same scoring of a map that marks the **witness pairs** of the scan's returns
+//! (`navigability::witness`: two returns within 1 m rising more steeply than 20° and by more
+//! than 5 cm; obstacle in the 0.1 m cell of the upper one, navigable elsewhere): the most a
+//! rule that keeps every surface no steeper than 20° with steps of at most 5 cm navigable can
+//! mark on these returns, whatever the design (here the returns as measured, their noise
+//! included).
+//!
 //! The truth is derived by `terrain_pyramid_host_tests::semantic_kitti::truth` (tested there).
 
 use terrain_pyramid::classify::{Classifier, ClassifierConfig, NavigabilityRule, PlaneRule};
-use terrain_pyramid::{Design, Fused, Pyramid};
+use terrain_pyramid::{Design, Fused, Meters, Pyramid};
 use terrain_pyramid_host_tests::navigability::rings::{ring_name, ring_of, RINGS};
+use terrain_pyramid_host_tests::navigability::witness::{witnesses, Witness};
 use terrain_pyramid_host_tests::navigability::{self, integrate_library};
-use terrain_pyramid_host_tests::scan3dtk::{fused_at, obstacle_near};
+use terrain_pyramid_host_tests::scan3dtk::{fused_at, obstacle_near_with};
 use terrain_pyramid_host_tests::semantic_kitti::{
-    load, local_spans, truth, CurbRows, BLOCK_ROW, CURB_ROW, GROUND_ROW, OTHER_ROW, POST_ROW,
-    SPAN_RADIUS_M, VEGETATION_ROW,
+    in_ground_only_cells, load, local_spans, truth, CurbRows, BLOCK_ROW, CURB_ROW, GROUND_ROW,
+    OTHER_ROW, POST_ROW, SPAN_RADIUS_M, VEGETATION_ROW,
 };
 use terrain_pyramid_host_tests::sim::cloud::{firing_order, Observation};
 
@@ -100,9 +111,13 @@ impl Described {
 /// The row of every obstacle, after the kinds' rows (`GROUND_ROW` … `OTHER_ROW`).
 const EVERY_OBSTACLE_ROW: usize = 6;
 
+/// The row of the clear ground in ground-only cells ([`in_ground_only_cells`]).
+const GROUND_ONLY_ROW: usize = 11;
+
 /// The rows of the table, by index: the curb's points again by their distance from the drop
-/// (rows 7–9) and the tall kerbs (row 10) after the kinds and every obstacle.
-const ROWS: [&str; 11] = [
+/// (rows 7–9), the tall kerbs (row 10) and the clear ground in ground-only cells (row 11) after
+/// the kinds and every obstacle.
+const ROWS: [&str; 12] = [
     "clear ground (navigable)",
     "curb",
     "post",
@@ -114,13 +129,15 @@ const ROWS: [&str; 11] = [
     "curb, drop 0.1–0.2 m",
     "curb, drop 0.2–0.3 m",
     "curb of 10 cm or more",
+    "clear ground in ground-only cells",
 ];
 
-/// The order the rows are printed in: each curb band under the curb.
-const PRINT_ORDER: [usize; 11] = [0, 1, 7, 8, 9, 10, 2, 3, 4, 5, 6];
+/// The order the rows are printed in: the ground-only cells' under the clear ground, each curb
+/// band under the curb.
+const PRINT_ORDER: [usize; 12] = [0, 11, 1, 7, 8, 9, 10, 2, 3, 4, 5, 6];
 
 /// Per row and ring: (points, right).
-type Table = [[(usize, usize); RINGS]; 11];
+type Table = [[(usize, usize); RINGS]; 12];
 
 /// The upper bounds of the flatness table's columns: the height span of every return within
 /// [`SPAN_RADIUS_M`] of a point, metres (the last column is open).
@@ -176,24 +193,78 @@ fn span_column(span: f64) -> usize {
         .unwrap_or(SPANS - 1)
 }
 
-fn score(
-    p: &Pyramid<W, L>,
-    points: &[[f64; 3]],
-    rows: &[Option<usize>],
-    bands: &[CurbRows],
-    spans: &[f64],
-) -> Scored {
-    let mut t: Table = [[(0, 0); RINGS]; 11];
+/// What the scan's returns count as: their rows and curb rows ([`truth`]), the height span
+/// around them ([`local_spans`]) and whether they are clear ground in a ground-only cell
+/// ([`in_ground_only_cells`]).
+struct Truth {
+    rows: Vec<Option<usize>>,
+    bands: Vec<CurbRows>,
+    spans: Vec<f64>,
+    ground_only: Vec<bool>,
+}
+
+impl Truth {
+    /// The truth of `points` (classes `classes`) for the design's cells, each return in its
+    /// own band's layer (by its horizontal distance from the laser).
+    fn new(points: &[[f64; 3]], classes: &[u32], design: &Design<L>) -> Self {
+        let (rows, bands) = truth(points, classes, -HEIGHT_M, ROBOT_HEIGHT_M, RANGE_M);
+        let layers = design.layers();
+        let band = |q: &[f64; 3]| {
+            let d = q[0].hypot(q[1]);
+            let last = layers.len().checked_sub(1)?;
+            layers
+                .iter()
+                .position(|l| f64::from(l.band_inner_m) <= d && d < f64::from(l.band_outer_m))
+                .or_else(|| (d <= RANGE_M).then_some(last))
+        };
+        let grid: Box<Pyramid<W, L>> = navigability::pyramid(design);
+        let cell = |k: usize, q: &[f64; 3]| {
+            grid.layer(k).map(|layer| {
+                let r = layer.resolution();
+                (
+                    r.cell_of(Meters::saturating_from_num(q[0])),
+                    r.cell_of(Meters::saturating_from_num(q[1])),
+                )
+            })
+        };
+        let ground_only = in_ground_only_cells(
+            points,
+            classes,
+            &rows,
+            (-HEIGHT_M, ROBOT_HEIGHT_M),
+            layers.len(),
+            band,
+            cell,
+        );
+        Self {
+            rows,
+            bands,
+            spans: local_spans(points),
+            ground_only,
+        }
+    }
+}
+
+/// The table of a map, `fused(x, y)` its fused answer at a point (metres), at the returns
+/// `points` with their truth.
+fn score(fused: impl Fn(f64, f64) -> Fused, points: &[[f64; 3]], truth: &Truth) -> Scored {
+    let mut t: Table = [[(0, 0); RINGS]; 12];
     let mut flat: Flatness = [[0; SPANS]; 4];
-    for (((q, row), band), span) in points.iter().zip(rows).zip(bands).zip(spans) {
+    let each = points
+        .iter()
+        .zip(&truth.rows)
+        .zip(&truth.bands)
+        .zip(&truth.spans)
+        .zip(&truth.ground_only);
+    for ((((q, row), band), span), ground_only) in each {
         let (Some(row), Some(r)) = (*row, ring(q)) else {
             continue;
         };
         let band = if row == CURB_ROW { *band } else { [None; 2] };
         let right = if row == 0 {
-            matches!(fused_at(p, q[0], q[1]), Fused::Navigable { .. })
+            matches!(fused(q[0], q[1]), Fused::Navigable { .. })
         } else {
-            obstacle_near(p, q[0], q[1])
+            obstacle_near_with(&fused, q[0], q[1])
         };
         let flat_row = if row == GROUND_ROW { 2 } else { 0 };
         let column = span_column(*span);
@@ -202,6 +273,7 @@ fn score(
         for k in [
             Some(row),
             (row != GROUND_ROW).then_some(EVERY_OBSTACLE_ROW),
+            ground_only.then_some(GROUND_ONLY_ROW),
             band[0],
             band[1],
         ]
@@ -280,10 +352,36 @@ fn print_flatness(flat: &Flatness) {
     }
 }
 
-/// The rules and the orders every scan runs under, in the order the tables are printed.
-const RUNS: usize = 4;
+/// The rules and the orders every scan runs under, in the order the tables are printed, and
+/// the bound of the witness pairs ([`BOUND`]) last.
+const RUNS: usize = 5;
 
-/// One scan's tables, one per rule and order ([`RUNS`]), and its one-line summary.
+/// The last table's name: the most a rule could mark on the scan's returns.
+const BOUND: &str = "bound: the witness pairs of the scan's returns";
+
+/// The map of the witness pairs (`navigability::witness`) among `points`: obstacle in the 0.1 m
+/// cell of each pair's upper return, navigable elsewhere. The most a rule that keeps every
+/// surface no steeper than 20° with steps of at most 5 cm navigable can mark on these returns,
+/// as `lab experiments` bounds the simulated street (there at the true points; here the
+/// returns as measured, their noise included).
+fn witness_map(points: &[[f64; 3]]) -> impl Fn(f64, f64) -> Fused {
+    #[allow(clippy::cast_possible_truncation)]
+    let cell = |x: f64, y: f64| ((x / 0.1).floor() as i64, (y / 0.1).floor() as i64);
+    let cells: std::collections::HashSet<(i64, i64)> = witnesses(points, &Witness::library())
+        .iter()
+        .map(|p| cell(p[0], p[1]))
+        .collect();
+    move |x, y| {
+        if cells.contains(&cell(x, y)) {
+            Fused::Obstacle { layer: 0 }
+        } else {
+            Fused::Navigable { layer: 0 }
+        }
+    }
+}
+
+/// One scan's tables, one per rule and order and the bound ([`RUNS`]), and its one-line
+/// summary.
 fn score_scan(
     bin: &str,
     label: &str,
@@ -292,8 +390,8 @@ fn score_scan(
     classifier: &mut Classifier<SLOTS, L>,
 ) -> Result<([(String, Scored); RUNS], String), String> {
     let (points, classes) = load(bin, label)?;
-    let (rows, bands) = truth(&points, &classes, -HEIGHT_M, ROBOT_HEIGHT_M, RANGE_M);
-    let count = |row: usize| rows.iter().filter(|r| **r == Some(row)).count();
+    let truth = Truth::new(&points, &classes, design);
+    let count = |row: usize| truth.rows.iter().filter(|r| **r == Some(row)).count();
     let mut summary = format!(
         "{bin}: {} points; within {RANGE_M} m: {} clear ground, {} curb, {} post, {} block, {} vegetation, {} other (obstacles below {ROBOT_HEIGHT_M} m over the ground plane)",
         points.len(),
@@ -318,7 +416,6 @@ fn score_scan(
         ),
         ("spread (paper)", NavigabilityRule::Spread),
     ];
-    let spans = local_spans(&points);
     let mut tables: Vec<(String, Scored)> = Vec::with_capacity(RUNS);
     for (rule_name, rule) in rules {
         for (order_name, ordered) in &orders {
@@ -340,16 +437,21 @@ fn score_scan(
             }
             tables.push((
                 format!("{rule_name}, {order_name}"),
-                score(&p, &points, &rows, &bands, &spans),
+                score(|x, y| fused_at(&p, x, y), &points, &truth),
             ));
         }
     }
-    // Each rule in firing order, the way a device receives a spinning laser.
-    for (name, t) in tables.iter().skip(1).step_by(2) {
+    tables.push((
+        BOUND.to_string(),
+        score(witness_map(&points), &points, &truth),
+    ));
+    // Each rule in firing order, the way a device receives a spinning laser, and the bound.
+    for (name, t) in tables.iter().skip(1).step_by(2).chain(tables.last()) {
         let all = |row: usize| cell(total(&t.table[row]));
         summary.push_str(&format!(
-            "\n  {name}: clear ground {}, curb {}, post {}, every obstacle {}",
+            "\n  {name}: clear ground {} (in ground-only cells {}), curb {}, post {}, every obstacle {}",
             all(GROUND_ROW),
+            all(GROUND_ONLY_ROW),
             all(CURB_ROW),
             all(POST_ROW),
             all(EVERY_OBSTACLE_ROW)

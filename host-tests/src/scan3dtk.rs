@@ -260,11 +260,15 @@ pub fn obstacle_near<const W: usize, const L: usize>(
     x: f64,
     y: f64,
 ) -> bool {
+    obstacle_near_with(|qx, qy| fused_at(p, qx, qy), x, y)
+}
+
+/// [`obstacle_near`] of any map: `fused(x, y)` answers the fused query at a point, metres.
+pub fn obstacle_near_with(fused: impl Fn(f64, f64) -> Fused, x: f64, y: f64) -> bool {
     (-4..=4).any(|i| {
         (-4..=4).any(|j| {
             let (dx, dy) = (0.05 * f64::from(i), 0.05 * f64::from(j));
-            dx.hypot(dy) <= 0.2 + 1e-9
-                && matches!(fused_at(p, x + dx, y + dy), Fused::Obstacle { .. })
+            dx.hypot(dy) <= 0.2 + 1e-9 && matches!(fused(x + dx, y + dy), Fused::Obstacle { .. })
         })
     })
 }

@@ -276,6 +276,44 @@ pub fn truth(
     (rows, bands)
 }
 
+/// Which returns are clear ground in a ground-only cell of the map: a clear-ground return
+/// (`rows[i] == Some(GROUND_ROW)`, from [`truth`]) whose cell in its own band's layer holds no
+/// return but ground below the robot's height (no kerb, terrain, vegetation, unlabelled return
+/// or obstacle at or below `robot_height_m` over the ground plane at `ground_z_m`).
+///
+/// The map's cells coarsen with range: a far cell holding a kerb is an obstacle cell however
+/// much road it holds besides, and its road is clear ground the map cannot resolve. `band`
+/// names the layer whose band holds a point (`None` beyond the design), `cell` the index of a
+/// point's cell in layer `k` of `layers`.
+#[must_use]
+pub fn in_ground_only_cells<C: Eq + std::hash::Hash>(
+    points: &[[f64; 3]],
+    classes: &[u32],
+    rows: &[Option<usize>],
+    (ground_z_m, robot_height_m): (f64, f64),
+    layers: usize,
+    band: impl Fn(&[f64; 3]) -> Option<usize>,
+    cell: impl Fn(usize, &[f64; 3]) -> C,
+) -> Vec<bool> {
+    let feature = |i: usize| {
+        points[i][2] <= ground_z_m + robot_height_m
+            && (kind(classes[i]) != Kind::Ground || rows[i] == Some(CURB_ROW))
+    };
+    let featured: std::collections::HashSet<(usize, C)> = (0..points.len())
+        .filter(|&i| feature(i))
+        .flat_map(|i| (0..layers).map(move |k| (k, i)))
+        .map(|(k, i)| (k, cell(k, &points[i])))
+        .collect();
+    points
+        .iter()
+        .zip(rows)
+        .map(|(p, row)| {
+            *row == Some(GROUND_ROW)
+                && band(p).is_some_and(|k| !featured.contains(&(k, cell(k, p))))
+        })
+        .collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -372,16 +410,19 @@ mod tests {
         (points, classes)
     }
 
+    /// The index of the street's point at `(x, y)`.
+    fn index_at(points: &[[f64; 3]], x: f64, y: f64) -> usize {
+        points
+            .iter()
+            .position(|p| (p[0] - x).abs() < 1e-9 && (p[1] - y).abs() < 1e-9)
+            .unwrap()
+    }
+
     #[test]
     fn kerbs_are_class_boundaries_with_a_drop_and_clear_ground_keeps_away_from_features() {
         let (points, classes) = street();
         let (rows, bands) = truth(&points, &classes, -1.73, 1.0, 20.0);
-        let at = |x: f64, y: f64| {
-            points
-                .iter()
-                .position(|p| (p[0] - x).abs() < 1e-9 && (p[1] - y).abs() < 1e-9)
-                .unwrap()
-        };
+        let at = |x: f64, y: f64| index_at(&points, x, y);
         // The pavement's edge over the road: curb, banded by the distance from the drop (the
         // nearest road return is 5 cm below the edge's first row), 12 cm: tall.
         let edge = at(6.0, 3.025);
@@ -405,5 +446,34 @@ mod tests {
         // The fence's top above the robot's height, the road beyond the range: not counted.
         assert_eq!(rows[points.len() - 2], None);
         assert_eq!(rows[points.len() - 1], None);
+    }
+
+    #[test]
+    fn clear_ground_in_a_cell_with_a_feature_is_not_in_a_ground_only_cell() {
+        let (points, classes) = street();
+        let (rows, _) = truth(&points, &classes, -1.73, 1.0, 20.0);
+        let at = |x: f64, y: f64| index_at(&points, x, y);
+        // Two layers: 1 m cells for x < 6.5 m, 2 m cells beyond (floored from the origin).
+        let band = |p: &[f64; 3]| (p[0].hypot(p[1]) <= 20.0).then_some(usize::from(p[0] >= 6.5));
+        #[allow(clippy::cast_possible_truncation)]
+        let cell = |k: usize, p: &[f64; 3]| {
+            let r = if k == 0 { 1.0 } else { 2.0 };
+            ((p[0] / r).floor() as i64, (p[1] / r).floor() as i64)
+        };
+        let only = in_ground_only_cells(&points, &classes, &rows, (-1.73, 1.0), 2, band, cell);
+        // Road 1 m from the kerb in a 1 m cell of road alone: ground-only.
+        assert_eq!(rows[at(6.0, 2.025)], Some(GROUND_ROW));
+        assert!(only[at(6.0, 2.025)]);
+        // The same road in a 2 m cell (x 6–8, y 2–4) that holds the kerb: not.
+        assert_eq!(rows[at(7.0, 2.025)], Some(GROUND_ROW));
+        assert!(!only[at(7.0, 2.025)]);
+        // Pavement in the 1 m cell x 5–6, y 4–5 (no kerb, no verge): ground-only; the same
+        // pavement's 2 m cell y 4–6 holds the verge: not.
+        assert!(only[at(5.5, 4.525)]);
+        assert!(!only[at(7.0, 4.525)]);
+        // The road in the 2 m cell x 6–8, y 0–2 holds the pole (below the robot's height).
+        assert!(!only[at(7.0, 0.525)]);
+        // Not clear ground, not counted: the kerb itself, the verge.
+        assert!(!only[at(6.0, 3.025)] && !only[at(6.0, 5.775)]);
     }
 }
