@@ -61,7 +61,7 @@
 //! The truth is derived by `terrain_pyramid_host_tests::semantic_kitti::truth` (tested there).
 
 use terrain_pyramid::classify::{Classifier, ClassifierConfig, NavigabilityRule, PlaneRule};
-use terrain_pyramid::{Design, Fused, Meters, Pyramid};
+use terrain_pyramid::{Design, Fused, Meters, Pyramid, Resolution};
 use terrain_pyramid_host_tests::navigability::rings::{ring_name, ring_of, RINGS};
 use terrain_pyramid_host_tests::navigability::witness::{witnesses, Witness};
 use terrain_pyramid_host_tests::navigability::{self, integrate_library};
@@ -137,7 +137,7 @@ const ROWS: [&str; 12] = [
 const PRINT_ORDER: [usize; 12] = [0, 11, 1, 7, 8, 9, 10, 2, 3, 4, 5, 6];
 
 /// Per row and ring: (points, right).
-type Table = [[(usize, usize); RINGS]; 12];
+type Table = [[(usize, usize); RINGS]; ROWS.len()];
 
 /// The upper bounds of the flatness table's columns: the height span of every return within
 /// [`SPAN_RADIUS_M`] of a point, metres (the last column is open).
@@ -209,18 +209,22 @@ impl Truth {
     fn new(points: &[[f64; 3]], classes: &[u32], design: &Design<L>) -> Self {
         let (rows, bands) = truth(points, classes, -HEIGHT_M, ROBOT_HEIGHT_M, RANGE_M);
         let layers = design.layers();
+        // The bands run on from 0 m, the last one closed at the range.
         let band = |q: &[f64; 3]| {
             let d = q[0].hypot(q[1]);
             let last = layers.len().checked_sub(1)?;
             layers
                 .iter()
-                .position(|l| f64::from(l.band_inner_m) <= d && d < f64::from(l.band_outer_m))
+                .position(|l| d < f64::from(l.band_outer_m))
                 .or_else(|| (d <= RANGE_M).then_some(last))
         };
-        let grid: Box<Pyramid<W, L>> = navigability::pyramid(design);
+        // Each layer's cell size as the pyramid rounds it.
+        let resolutions: Vec<Option<Resolution>> = layers
+            .iter()
+            .map(|l| Resolution::from_m(l.resolution_m))
+            .collect();
         let cell = |k: usize, q: &[f64; 3]| {
-            grid.layer(k).map(|layer| {
-                let r = layer.resolution();
+            resolutions.get(k).copied().flatten().map(|r| {
                 (
                     r.cell_of(Meters::saturating_from_num(q[0])),
                     r.cell_of(Meters::saturating_from_num(q[1])),
@@ -248,7 +252,7 @@ impl Truth {
 /// The table of a map, `fused(x, y)` its fused answer at a point (metres), at the returns
 /// `points` with their truth.
 fn score(fused: impl Fn(f64, f64) -> Fused, points: &[[f64; 3]], truth: &Truth) -> Scored {
-    let mut t: Table = [[(0, 0); RINGS]; 12];
+    let mut t: Table = [[(0, 0); RINGS]; ROWS.len()];
     let mut flat: Flatness = [[0; SPANS]; 4];
     let each = points
         .iter()
