@@ -12,7 +12,7 @@ use terrain_pyramid::classify::{NavigabilityRule, PlaneRule, Ratio};
 use terrain_pyramid::link::convert::{frontend_config, rule_setup, set_rule_message, set_rule_of};
 use terrain_pyramid::wire::link::{
     encode, Decoded, FrameAccumulator, LaserSetup, Message, RuleSetup, SetRule, Setup,
-    MAX_ENCODED_FRAME, MAX_FRAME,
+    MAX_ENCODED_FRAME, MAX_FRAME, VERSION,
 };
 use terrain_pyramid::wire::FeedResult;
 use terrain_pyramid::Meters;
@@ -258,7 +258,7 @@ fn setup_frames_equal_an_independent_encoder() {
                 item: Decoded { header, message },
                 ..
             } => {
-                assert_eq!((header.version, header.seq), (5, seq));
+                assert_eq!((header.version, header.seq), (VERSION, seq));
                 assert_eq!(message, Message::Setup(*setup));
             }
             other => panic!("Python's frame did not decode: {other:?}"),
