@@ -11,19 +11,19 @@ output as hex literals; run it to see them again:
 import struct
 import zlib
 
-VERSION = 5
+VERSION = 6
 
-# The Setup body's blocks (section 7): the base part (38 bytes), the rule block (21 bytes:
-# rule, max grade, residual, range sigma, angle sigma, noise factor), the laser block (22
+# The Setup body's blocks (section 7): the base part (38 bytes), the rule block (22 bytes:
+# rule, max grade, residual, range sigma, angle sigma, noise factor, pair depth), the laser block (22
 # bytes: sensor, actuator, baud, servo min, max, rate, latency), the mount block (20 bytes:
 # axis, sense, 2 reserved, zero, roll, pitch, yaw) and the filter block (38 bytes: min range
 # cm, max range cm, min quality, sector count, 8 sectors of start and end centidegrees).
 BASE = "<BBHH3fI4f"
-RULE = "<B5f"
+RULE = "<B5fB"
 LASER = "<BBI4f"
 MOUNT = "<Bb2x4f"
 FILTER = "<HHBB16H"
-SETUP_LEN = 38 + 21 + 22 + 20 + 38
+SETUP_LEN = 38 + 22 + 22 + 20 + 38
 
 
 def cobs(data: bytes) -> bytes:
@@ -153,9 +153,11 @@ def main() -> None:
     # Setup: the five blocks, as BASE ... FILTER above describe them.
     preset_mount = (0, 1, 0.0, 0.0, 0.0, 0.0)
     no_filter = (0, 0, 0, 0, *([0] * 16))
-    spread = (0, 0.0, 0.0, 0.0, 0.0, 0.0)
-    # The plane rule's Q16.16 defaults, exact in f32.
-    plane = (1, 23853 / 65536, 983 / 65536, 1311 / 65536, 86 / 65536, 2.0)
+    spread = (0, 0.0, 0.0, 0.0, 0.0, 0.0, 0)
+    # The plane rule's Q16.16 defaults, exact in f32, each return paired with the last.
+    plane = (1, 23853 / 65536, 983 / 65536, 1311 / 65536, 86 / 65536, 2.0, 1)
+    # The same for a spinning multi-beam laser in firing order: paired with the last three.
+    plane_firing = plane[:6] + (3,)
     nodding = (1, 1, 0, -10.0, 30.0, 60.0, 25.0)
     setup = setup_body(
         (1, 0, 180, 50, 0.25, -0.5, 0.75, 0, 1.0, 0.05, 0.0, 2.0),
@@ -188,6 +190,13 @@ def main() -> None:
     g["set rule 10 (plane defaults, step 3277 / 65536)"] = frame(
         0x8B, 10, set_rule_body(3277 / 65536, plane)
     )
+    g["set rule 14 (plane defaults, pair depth 3, step 3277 / 65536)"] = frame(
+        0x8B, 14, set_rule_body(3277 / 65536, plane_firing)
+    )
+    # The refusal of a pair depth of 4 (param 81, OutOfRange 3, limits 1 and 3).
+    g["reply refusing pair depth, 0x010b"] = frame(
+        0x05, 0x010B, struct.pack("<HBBBfff", 15, 0x8B, 3, 81, 4.0, 1.0, 3.0)
+    )
     # The refusal of a pose flag byte 2 (param 38, OutOfRange 3, limits 0 and 1).
     g["reply refusing pose flags, 0x010a"] = frame(
         0x05, 0x010A, struct.pack("<HBBBfff", 13, 0x81, 3, 38, 2.0, 0.0, 1.0)
@@ -195,6 +204,7 @@ def main() -> None:
     g["ping 1, version 2"] = frame(0x86, 1, b"", version=2)
     g["ping 1, version 3"] = frame(0x86, 1, b"", version=3)
     g["ping 1, version 4"] = frame(0x86, 1, b"", version=4)
+    g["ping 1, version 5"] = frame(0x86, 1, b"", version=5)
     for name, b in g.items():
         print(f"{name}:\n  {hexs(b)}")
     # The CRC's check value (section 2).

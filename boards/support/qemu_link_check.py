@@ -9,7 +9,7 @@ first) and starts the guest once both are connected. This script then
 
 1. answers the firmware's scanner bring-up on the laser's port as an LMS2xx would: ACK (0x06) and the
    mode-change reply telegram to "switch to 500 kBd", ACK to "continuous output";
-2. waits for the boot Hello on the link (COBS frame, CRC-32, protocol version 5), prints it
+2. waits for the boot Hello on the link (COBS frame, CRC-32, protocol version 6), prints it
    and checks its clock source (`--clock-source`: the netduinoplus2's 4, the mps2's 0);
 3. sends PanAngle, then `--telegrams` SICK measured-values telegrams (361 values of 2 m, the
    LMS 291's 180°/0.5° in the 8 m mode) on the laser's port, and RequestStats until the device counts
@@ -33,7 +33,7 @@ import zlib
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from qemu_socket import connect  # noqa: E402
 
-VERSION = 5
+VERSION = 6
 T_HELLO, T_PATCH, T_MOVED, T_STATS, T_REPLY = 0x01, 0x02, 0x03, 0x04, 0x05
 T_PAN, T_PING, T_REQUEST_STATS, T_SHUTDOWN = 0x82, 0x86, 0x88, 0x89
 # Hello's clock source (offset 12).

@@ -26,7 +26,9 @@
 //! plane), through the library's classifier under each
 //! rule, the points in the file's order (KITTI holds them beam by beam) and in firing order
 //! (by azimuth in steps of ψ, then by elevation from the lowest: as `pyramid replay --order
-//! firing` sorts them).
+//! firing` sorts them). In firing order the plane rule pairs each return with the last three
+//! of its cell (`PlaneRule::pair_depth` 3, as `pyramid replay` sets it for a spinning laser's
+//! file); in the file's order with the last.
 //!
 //! The score, by the point's horizontal distance from the laser (0-5 … 15-20 m), counting
 //! obstacles only within the robot's height (1.0 m above its ground plane):
@@ -60,7 +62,9 @@
 //!
 //! The truth is derived by `terrain_pyramid_host_tests::semantic_kitti::truth` (tested there).
 
-use terrain_pyramid::classify::{Classifier, ClassifierConfig, NavigabilityRule, PlaneRule};
+use terrain_pyramid::classify::{
+    Classifier, ClassifierConfig, NavigabilityRule, PlaneRule, FIRING_ORDER_PAIR_DEPTH,
+};
 use terrain_pyramid::{Design, Fused, Meters, Pyramid, Resolution};
 use terrain_pyramid_host_tests::navigability::rings::{ring_name, ring_of, RINGS};
 use terrain_pyramid_host_tests::navigability::witness::{witnesses, Witness};
@@ -423,6 +427,14 @@ fn score_scan(
     let mut tables: Vec<(String, Scored)> = Vec::with_capacity(RUNS);
     for (rule_name, rule) in rules {
         for (order_name, ordered) in &orders {
+            // In firing order the plane rule pairs each return with the last three of its
+            // cell, as `pyramid replay` sets it for a spinning laser's file.
+            let rule = match rule {
+                NavigabilityRule::Plane(plane) if order_name.starts_with("firing") => {
+                    NavigabilityRule::Plane(plane.with_pair_depth(FIRING_ORDER_PAIR_DEPTH))
+                }
+                other => other,
+            };
             classifier.configure(ClassifierConfig {
                 rule,
                 ..ClassifierConfig::default()

@@ -63,20 +63,31 @@ pub enum RefRule {
         angle_sigma: f64,
         /// The noise factor k.
         noise_factor: f64,
+        /// How many of a cell's previous points (below the cut, in arrival order) the pair
+        /// test pairs each point with, ≥ 1.
+        pair_depth: usize,
     },
 }
 
 impl RefRule {
     /// The plane rule with the defaults of `docs/core.md`: 20°, 1.5 cm, σ = 2 cm,
-    /// σ_a = 0.075°, k = 2.
+    /// σ_a = 0.075°, k = 2, each point paired with the one before it.
     #[must_use]
     pub fn plane() -> Self {
+        Self::plane_paired(1)
+    }
+
+    /// The plane rule with its defaults, each point paired with the `depth` points before it
+    /// (3 for a spinning multi-beam laser's points in firing order).
+    #[must_use]
+    pub fn plane_paired(depth: usize) -> Self {
         Self::Plane {
             max_grade: 20f64.to_radians().tan(),
             residual: 0.015,
             range_sigma: 0.02,
             angle_sigma: 0.075f64.to_radians(),
             noise_factor: 2.0,
+            pair_depth: depth,
         }
     }
 }
@@ -134,25 +145,35 @@ pub struct RefRecord {
     /// The plane rule's rise test: `R·(g − tan)` over `g·(step + a·√(12/n))` (> 1: obstacle;
     /// 0 when the plane is no steeper than the largest slope, or under the spread rule).
     pub rise_ratio: f64,
-    /// The plane rule's pair test: over the pairs of consecutive points, the largest of the
+    /// The plane rule's pair test: over the pairs of a point and one of the `pair_depth`
+    /// points before it, the largest of the
     /// smaller of their rise beyond the largest slope over `2·k·σ·h/r` and their whole rise
     /// over `step + 2·k·σ·h/r` (> 1: obstacle; 0 under the spread rule).
     pub pair_ratio: f64,
 }
 
-/// The pair test's ratio over consecutive points (in arrival order): for each pair, the
-/// smaller of its rise beyond what the slope `max_grade` explains over their L1 horizontal
-/// distance over `noise` and its whole rise over `step + noise` (m, m); the largest (0 for
-/// one point). Above 1 exactly when some pair lies on a surface steeper than the slope beyond
-/// the noise and rises more than a step beyond it.
-fn pair_ratio(xys: &[(f64, f64)], zs: &[f64], max_grade: f64, step: f64, noise: f64) -> f64 {
-    xys.windows(2)
-        .zip(zs.windows(2))
-        .map(|(p, z)| {
-            let run = (p[1].0 - p[0].0).abs() + (p[1].1 - p[0].1).abs();
-            one_pair_ratio((z[1] - z[0]).abs(), run, max_grade, step, noise)
-        })
-        .fold(0.0, f64::max)
+/// The pair test's ratio over the pairs of each point (in arrival order) and each of the
+/// `depth` points before it: for each pair, the smaller of its rise beyond what the slope
+/// `max_grade` explains over their L1 horizontal distance over `noise` and its whole rise over
+/// `step + noise` (m, m); the largest (0 for one point). Above 1 exactly when some pair lies
+/// on a surface steeper than the slope beyond the noise and rises more than a step beyond it.
+fn pair_ratio(
+    xys: &[(f64, f64)],
+    zs: &[f64],
+    depth: usize,
+    max_grade: f64,
+    step: f64,
+    noise: f64,
+) -> f64 {
+    let mut largest: f64 = 0.0;
+    for i in 1..xys.len() {
+        for j in i.saturating_sub(depth)..i {
+            let run = (xys[i].0 - xys[j].0).abs() + (xys[i].1 - xys[j].1).abs();
+            let ratio = one_pair_ratio((zs[i] - zs[j]).abs(), run, max_grade, step, noise);
+            largest = largest.max(ratio);
+        }
+    }
+    largest
 }
 
 /// One pair's ratio for [`pair_ratio`]: a rise `rise` over an L1 run `run` (m).
@@ -383,6 +404,7 @@ pub fn classify(
                     range_sigma,
                     angle_sigma,
                     noise_factor,
+                    pair_depth,
                 } => {
                     let (xys, zs): (Vec<(f64, f64)>, Vec<f64>) = acc
                         .xys
@@ -420,7 +442,14 @@ pub fn classify(
                             one_pair_ratio(rise, run, max_grade, config.step_threshold, pair_noise)
                         })
                         .fold(
-                            pair_ratio(&xys, &zs, max_grade, config.step_threshold, pair_noise),
+                            pair_ratio(
+                                &xys,
+                                &zs,
+                                pair_depth,
+                                max_grade,
+                                config.step_threshold,
+                                pair_noise,
+                            ),
                             f64::max,
                         );
                     (rr, qr, pr, rr > 1.0 || qr > 1.0 || er > 1.0 || pr > 1.0)
@@ -458,6 +487,27 @@ mod tests {
             z,
             distance: 1.0,
         }
+    }
+
+    #[test]
+    fn the_pair_test_pairs_as_deep_as_asked() {
+        // A kerb return 0.11 m above a road return 0.01 m from it two points before, with a
+        // road point 0.6 m away between them: tan 20° explains 0.22 m over that run.
+        let xys = [(0.0, 0.0), (0.3, 0.3), (0.01, 0.0)];
+        let zs = [0.0, 0.002, 0.11];
+        let grade = 20f64.to_radians().tan();
+        let ratio = |depth| pair_ratio(&xys, &zs, depth, grade, 0.05, 0.006);
+        assert!(ratio(1) < 1.0, "{}", ratio(1));
+        // Two back: 0.11 − 0.0036 beyond the slope over 0.006, and 0.11 over 0.056: the
+        // smaller, 1.96.
+        let expected = (0.11 / 0.056_f64).min((0.11 - grade * 0.01) / 0.006);
+        assert!((ratio(2) - expected).abs() < 1e-9, "{}", ratio(2));
+        assert!((ratio(3) - expected).abs() < 1e-9, "{}", ratio(3));
+        // Three back is out of reach of two.
+        let xys = [(0.0, 0.0), (0.3, 0.3), (-0.3, 0.3), (0.01, 0.0)];
+        let zs = [0.0, 0.002, 0.001, 0.11];
+        assert!(pair_ratio(&xys, &zs, 2, grade, 0.05, 0.006) < 1.0);
+        assert!((pair_ratio(&xys, &zs, 3, grade, 0.05, 0.006) - expected).abs() < 1e-9);
     }
 
     #[test]

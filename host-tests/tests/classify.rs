@@ -17,7 +17,7 @@
 //!   are left out.
 
 use proptest::prelude::*;
-use terrain_pyramid::classify::{Classifier, ClassifierConfig, NavigabilityRule};
+use terrain_pyramid::classify::{Classifier, ClassifierConfig, NavigabilityRule, PlaneRule};
 use terrain_pyramid::{
     Config, DefaultDesign, DefaultPyramid, EvidenceClass, GateShape, Meters, Schedule, SensorModel,
 };
@@ -49,11 +49,25 @@ fn q(v: f64) -> f64 {
 enum Rule {
     Spread,
     Plane,
+    /// The plane rule with each point paired with the three before it in its cell (a
+    /// spinning multi-beam laser's firing order).
+    PlaneThreeBack,
 }
 
 /// Runs both classifiers; returns (compared cells, disagreements).
 fn compare(points: &[(f64, f64, f64)], gate: GateShape, rule: Rule) -> (usize, usize) {
-    let design = design(gate);
+    compare_with(points, &design(gate), rule, rule)
+}
+
+/// [`compare`] in `design`, the library under `rule` and the reference under
+/// `reference_rule`.
+fn compare_with(
+    points: &[(f64, f64, f64)],
+    design: &DefaultDesign,
+    rule: Rule,
+    reference_rule: Rule,
+) -> (usize, usize) {
+    let design = design.clone();
     let p = pyramid(&design);
     let pts: Vec<RefPoint> = points
         .iter()
@@ -67,11 +81,12 @@ fn compare(points: &[(f64, f64, f64)], gate: GateShape, rule: Rule) -> (usize, u
             }
         })
         .collect();
-    let mut c = Box::new(Classifier::<4096, 8>::new());
+    let mut c = Box::new(Classifier::<16_384, 8>::new());
     c.configure(ClassifierConfig {
         rule: match rule {
             Rule::Spread => NavigabilityRule::Spread,
             Rule::Plane => NavigabilityRule::DEFAULT,
+            Rule::PlaneThreeBack => NavigabilityRule::Plane(PlaneRule::DEFAULT.with_pair_depth(3)),
         },
         ..ClassifierConfig::default()
     });
@@ -84,9 +99,10 @@ fn compare(points: &[(f64, f64, f64)], gate: GateShape, rule: Rule) -> (usize, u
     let gates = c.gates();
     let feeds = gate_feeds(gates, p.increments());
     let config = RefClassifierConfig {
-        rule: match rule {
+        rule: match reference_rule {
             Rule::Spread => RefRule::Spread,
             Rule::Plane => RefRule::plane(),
+            Rule::PlaneThreeBack => RefRule::plane_paired(3),
         },
         ..RefClassifierConfig::default()
     };
@@ -106,9 +122,9 @@ fn compare(points: &[(f64, f64, f64)], gate: GateShape, rule: Rule) -> (usize, u
             gates.weight_at(key.0, Meters::from_num(r.distance)),
             "closest look"
         );
-        let near = match rule {
+        let near = match reference_rule {
             Rule::Spread => (r.spread - 0.05).abs() < 0.002,
-            Rule::Plane => {
+            Rule::Plane | Rule::PlaneThreeBack => {
                 let close = |ratio: f64| ratio > 0.85 && ratio < 1.15;
                 close(r.residual_ratio) || close(r.rise_ratio) || close(r.pair_ratio)
             }
@@ -154,6 +170,70 @@ fn terrain() -> impl Strategy<Value = Vec<(f64, f64, f64)>> {
         })
 }
 
+/// The reach of the ring laser's street comparison, metres.
+const RANGE_M: f64 = 14.0;
+
+/// One revolution of the simulated car's ring laser (68 beams, 0.2° azimuth step, σ 2 cm) on
+/// the simulated street (15 cm and 10 cm curbs, poles, a car, stairs, a ramp) in its firing
+/// order, the returns ahead (within 45° of its heading) and within [`RANGE_M`], relative to the sensor less 1 m (the harness's ground
+/// plane is 1 m below the sensor).
+fn ring_laser_street() -> Vec<(f64, f64, f64)> {
+    use terrain_pyramid_host_tests::sim::cloud::RingLaser;
+
+    use terrain_pyramid_host_tests::sim::rng::Rng;
+    use terrain_pyramid_host_tests::sim::scene::Scene;
+    use terrain_pyramid_host_tests::sim::trajectory::Pose;
+    let scene = Scene::street(0.05);
+    let pose = Pose {
+        x: 3.0,
+        z: scene.ground_height(3.0, 0.0),
+        ..Pose::default()
+    };
+    let obs = RingLaser::car(0.02).scan(&scene, &pose, &mut Rng::new(1));
+    obs.points
+        .iter()
+        .map(|p| {
+            (
+                p[0] - obs.sensor[0],
+                p[1] - obs.sensor[1],
+                p[2] - obs.sensor[2],
+            )
+        })
+        .filter(|&(x, y, _)| x.hypot(y) < RANGE_M && x > y.abs())
+        .collect()
+}
+
+/// A spinning multi-beam laser's street in firing order (the order the deeper pairs are
+/// for): the library pairing each return with the last three of its cell agrees with the
+/// reference doing the same on at least 98 % of the cells compared.
+#[test]
+fn three_back_on_a_ring_lasers_street_is_the_references() {
+    let points = ring_laser_street();
+    assert!(points.len() > 10_000, "{}", points.len());
+    // The car laser's street design (`sim::cloud::car_design`) to 14 m from 0.2 m cells: the
+    // default pyramid's eight layers of 64² cells.
+    let street = DefaultDesign::new(
+        SensorModel {
+            phi_rad: 0.4_f32.to_radians(),
+            psi_rad: 0.2_f32.to_radians(),
+            sigma_m: 0.02,
+            height_m: 1.3,
+            max_range_m: RANGE_M as f32,
+        },
+        Schedule {
+            base_m: 0.2,
+            gamma: 3.0,
+            ..Schedule::default()
+        },
+        64,
+    )
+    .unwrap();
+    let three = Rule::PlaneThreeBack;
+    let (compared, differ) = compare_with(&points, &street, three, three);
+    assert!(compared > 1_000, "{compared}");
+    assert!(differ * 50 <= compared, "{differ} of {compared}");
+}
+
 proptest! {
     #![proptest_config(ProptestConfig { cases: 64, ..ProptestConfig::default() })]
 
@@ -192,6 +272,18 @@ proptest! {
         let gate = if hard { GateShape::Hard } else { GateShape::default() };
         let (compared, differ) = compare(&points, gate, Rule::Plane);
         prop_assert!(differ * 20 <= compared.max(1), "{differ} of {compared}");
+    }
+
+    /// The plane rule pairing each point with the three before it in its cell: lowest first
+    /// at least 98 %, in any order at least 95 %, as with one.
+    #[test]
+    fn plane_three_back_agrees(mut points in terrain(), sorted in any::<bool>()) {
+        if sorted {
+            points.sort_by(|a, b| a.2.total_cmp(&b.2));
+        }
+        let (compared, differ) = compare(&points, GateShape::default(), Rule::PlaneThreeBack);
+        let share = if sorted { 50 } else { 20 };
+        prop_assert!(differ * share <= compared.max(1), "{differ} of {compared}");
     }
 
     /// Random clutter under the plane rule (the same scenes as the spread tests): when a new

@@ -649,7 +649,7 @@ impl HostLink {
 
 /// A sentence for a device that sent only frames of another protocol version (the firmware
 /// and this host do not match: this host speaks version
-/// [`terrain_pyramid::wire::link::VERSION`], 4, and a firmware of an earlier release version 3
+/// [`terrain_pyramid::wire::link::VERSION`], 6, and a firmware of an earlier release version 5
 /// or older); empty otherwise.
 #[must_use]
 pub fn version_hint(rx: &RxCounters) -> String {

@@ -44,7 +44,11 @@
 //! held beam by beam (a whole revolution of one beam, then the next). The default, `--order
 //! auto`, sorts when the file holds such revolutions ([`held_beam_by_beam`]: a quarter of the
 //! points in runs of one elevation that turn 270° or more) and keeps the file's order
-//! otherwise; the summary's `order` says which. Not for a scanner whose
+//! otherwise; the summary's `order` says which. In firing order the plane rule's pair test pairs
+//! each return with the last three of its cell ([`FIRING_ORDER_PAIR_DEPTH`]: between a return
+//! and its neighbour along the ring come the other beams' returns of the same azimuth step;
+//! `docs/core.md`, "How far back the pair test looks"), unless `--pair-depth` says otherwise;
+//! the summary's `rule` says `pairs 3 back`. Not for a scanner whose
 //! lines already sweep the scene in order, such as a tilting 2-D laser: the classifier keeps a
 //! cell's points below its overhang cut as they come, and a point far below those before it
 //! restarts the cell's plane from the best bound still known, which in firing order happens
@@ -63,7 +67,9 @@ use std::io::BufReader;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::str::FromStr;
-use terrain_pyramid::classify::{Classifier, ClassifierConfig, ClassifierStats};
+use terrain_pyramid::classify::{
+    Classifier, ClassifierConfig, ClassifierStats, NavigabilityRule, FIRING_ORDER_PAIR_DEPTH,
+};
 use terrain_pyramid::{Config, Design, Meters, Point3, Pyramid, PyramidStats};
 
 /// The layer capacity: the design's.
@@ -482,6 +488,8 @@ struct Integrated {
     pyramid: PyramidStats,
     /// The order the points reached the classifier in (`File` or `Firing`).
     order: PointOrder,
+    /// The classifier's configuration the points met ([`for_order`]).
+    classifier_config: ClassifierConfig,
     /// The points' depths below the sensor, for the ground's.
     depths: GroundDepths,
 }
@@ -512,7 +520,7 @@ fn integrate<const W: usize>(args: &Args, plan: &Plan) -> Result<Integrated, Fai
     let mut depths = GroundDepths::new();
     let mut reader = UosReader::new(BufReader::new(file));
     // One point in the robot's frame (metres) to the classifier.
-    let mut add = |world: [f64; 3]| {
+    let mut add = |classifier: &mut Classifier<CLASSIFIER_SLOTS, L>, world: [f64; 3]| {
         let below = plan.sensor[2] - world[2];
         let world = point3(world);
         let distance = horizontal_distance(sensor, world);
@@ -543,7 +551,7 @@ fn integrate<const W: usize>(args: &Args, plan: &Plan) -> Result<Integrated, Fai
             local[2] + plan.translation[2],
         ];
         if args.order == PointOrder::File {
-            add(world);
+            add(&mut classifier, world);
         } else {
             let offset = [
                 world[0] - plan.sensor[0],
@@ -558,6 +566,12 @@ fn integrate<const W: usize>(args: &Args, plan: &Plan) -> Result<Integrated, Fai
         PointOrder::Auto => PointOrder::File,
         given => given,
     };
+    let classifier_config = for_order(plan.classifier, order, args.pyramid.rule.pair_depth);
+    if classifier_config != plan.classifier {
+        // No point has reached the classifier yet: they are held until the order is known.
+        classifier.configure(classifier_config);
+        classifier.begin(sensor.z);
+    }
     if order == PointOrder::Firing {
         let mut firing: Vec<([f64; 3], (i64, f64))> = held
             .drain(..)
@@ -565,11 +579,11 @@ fn integrate<const W: usize>(args: &Args, plan: &Plan) -> Result<Integrated, Fai
             .collect();
         firing.sort_by(|a, b| a.1 .0.cmp(&b.1 .0).then(a.1 .1.total_cmp(&b.1 .1)));
         for (world, _) in firing {
-            add(world);
+            add(&mut classifier, world);
         }
     } else {
         for (world, _) in held {
-            add(world);
+            add(&mut classifier, world);
         }
     }
     classifier.finish_into(&mut pyramid);
@@ -587,8 +601,33 @@ fn integrate<const W: usize>(args: &Args, plan: &Plan) -> Result<Integrated, Fai
         classifier: classifier.stats(),
         pyramid: pyramid.stats(),
         order,
+        classifier_config,
         depths,
     })
+}
+
+/// The classifier's configuration for points given in `order`: under the plane rule, a
+/// spinning laser's points in firing order are paired with the last
+/// [`FIRING_ORDER_PAIR_DEPTH`] returns of their cell (`docs/core.md`, "How far back the pair
+/// test looks") unless `--pair-depth` (`pair_depth_flag`) says otherwise; `config` as it is
+/// for the file's order.
+#[must_use]
+pub fn for_order(
+    config: ClassifierConfig,
+    order: PointOrder,
+    pair_depth_flag: Option<i64>,
+) -> ClassifierConfig {
+    match config.rule {
+        NavigabilityRule::Plane(rule)
+            if order == PointOrder::Firing && pair_depth_flag.is_none() =>
+        {
+            ClassifierConfig {
+                rule: NavigabilityRule::Plane(rule.with_pair_depth(FIRING_ORDER_PAIR_DEPTH)),
+                ..config
+            }
+        }
+        _ => config,
+    }
 }
 
 /// Integrates with the window the design asks for.
@@ -645,7 +684,7 @@ pub fn replay(args: &Args) -> Result<Summary, Failure> {
         ground_z_m: plan.ground_z,
         ground_found_m,
         warnings,
-        rule: rule::describe(&plan.classifier),
+        rule: rule::describe(&run.classifier_config),
         order: run.order.name(),
         order_asked: args.order.name(),
         files: written
@@ -816,6 +855,33 @@ mod tests {
         mixed.extend(firing.iter().take(3_000));
         assert!(!held_beam_by_beam(mixed.iter().copied()));
         assert!(!held_beam_by_beam(std::iter::empty()));
+    }
+
+    #[test]
+    fn firing_order_pairs_three_back_unless_told() {
+        let plane = ClassifierConfig::DEFAULT;
+        let three = for_order(plane, PointOrder::Firing, None);
+        assert_eq!(
+            three.rule,
+            NavigabilityRule::Plane(
+                terrain_pyramid::classify::PlaneRule::DEFAULT.with_pair_depth(3)
+            )
+        );
+        assert_eq!(
+            ClassifierConfig {
+                rule: plane.rule,
+                ..three
+            },
+            plane
+        );
+        // The file's order, a depth given on the command line, or the paper's rule: as is.
+        assert_eq!(for_order(plane, PointOrder::File, None), plane);
+        assert_eq!(for_order(plane, PointOrder::Firing, Some(1)), plane);
+        let paper = ClassifierConfig {
+            rule: NavigabilityRule::Spread,
+            ..plane
+        };
+        assert_eq!(for_order(paper, PointOrder::Firing, None), paper);
     }
 
     #[test]

@@ -11,7 +11,9 @@
 //! The numeric flags accept values that start with a hyphen so that [`RuleArgs::apply`], not the
 //! parser, refuses them with its own message.
 
-use terrain_pyramid::classify::{ClassifierConfig, NavigabilityRule, PlaneRule, Ratio};
+use terrain_pyramid::classify::{
+    ClassifierConfig, NavigabilityRule, PlaneRule, Ratio, MAX_PAIR_DEPTH,
+};
 use terrain_pyramid::Meters;
 
 /// Which rule, as the command line names it.
@@ -68,6 +70,12 @@ pub struct RuleArgs {
     /// `plane`: how many σ of height noise the allowances hold, 0 ≤ v < 100 [default: 2].
     #[arg(long, value_name = "K", allow_hyphen_values = true)]
     pub noise_factor: Option<f64>,
+    /// `plane`: how many of a cell's previous returns each return is paired with, 1 ..= 3:
+    /// 1 for a laser whose returns sweep a cell line by line (a tilting or nodding 2-D
+    /// laser), 3 for a spinning multi-beam laser's returns in firing order [default: 1;
+    /// `pyramid replay`: 3 when it sorts the file into firing order].
+    #[arg(long, value_name = "N", allow_hyphen_values = true)]
+    pub pair_depth: Option<i64>,
 }
 
 impl RuleArgs {
@@ -94,6 +102,7 @@ impl RuleArgs {
             ]
             .iter()
             .any(Option::is_some)
+            || self.pair_depth.is_some()
     }
 
     /// `base` with the rule and the parameters the flags set.
@@ -117,6 +126,9 @@ impl RuleArgs {
             RuleArg::Paper => {
                 if let Some((flag, _)) = plane_flags.iter().find(|(_, v)| v.is_some()) {
                     return Err(format!("{flag} is a parameter of --rule plane"));
+                }
+                if self.pair_depth.is_some() {
+                    return Err("--pair-depth is a parameter of --rule plane".to_string());
                 }
                 NavigabilityRule::Spread
             }
@@ -143,6 +155,14 @@ impl RuleArgs {
                     rule.noise_factor =
                         Ratio::saturating_from_num(within("--noise-factor", v, 100.0)?);
                 }
+                if let Some(v) = self.pair_depth {
+                    rule.pair_depth = u8::try_from(v)
+                        .ok()
+                        .filter(|d| (1..=MAX_PAIR_DEPTH).contains(d))
+                        .ok_or_else(|| {
+                            format!("--pair-depth: {v} is outside 1 ..= {MAX_PAIR_DEPTH}")
+                        })?;
+                }
                 NavigabilityRule::Plane(rule)
             }
         };
@@ -165,19 +185,25 @@ fn metres(flag: &str, v: f64) -> Result<Meters, String> {
 }
 
 /// A short description of a rule in force, for summaries and reports: `paper (step 0.05 m)`
-/// or `plane (step 0.05 m, slope 20.0°, residual 0.015 m, σ 0.02 m, σ_a 0.075°, k 2)`.
+/// or `plane (step 0.05 m, slope 20.0°, residual 0.015 m, σ 0.02 m, σ_a 0.075°, k 2)`, with
+/// `, pairs 3 back` when the pair test looks further back than the last return.
 #[must_use]
 pub fn describe(config: &ClassifierConfig) -> String {
     let step = round(config.step_threshold.to_num::<f64>());
     match config.rule {
         NavigabilityRule::Spread => format!("paper (step {step} m)"),
         NavigabilityRule::Plane(r) => format!(
-            "plane (step {step} m, slope {:.1}°, residual {} m, σ {} m, σ_a {:.3}°, k {})",
+            "plane (step {step} m, slope {:.1}°, residual {} m, σ {} m, σ_a {:.3}°, k {}{})",
             r.max_grade.to_num::<f64>().atan().to_degrees(),
             round(r.residual.to_num::<f64>()),
             round(r.range_sigma.to_num::<f64>()),
             r.angle_sigma.to_num::<f64>().to_degrees(),
-            round(r.noise_factor.to_num::<f64>())
+            round(r.noise_factor.to_num::<f64>()),
+            if r.pair_depth > 1 {
+                format!(", pairs {} back", r.pair_depth)
+            } else {
+                String::new()
+            }
         ),
     }
 }
@@ -221,6 +247,7 @@ mod tests {
             noise_sigma_m: Some(0.05),
             angle_sigma_deg: Some(0.2),
             noise_factor: Some(3.0),
+            pair_depth: Some(3),
             ..RuleArgs::default()
         }
         .apply(ClassifierConfig::DEFAULT)
@@ -234,7 +261,29 @@ mod tests {
         assert_eq!(r.range_sigma, Meters::from_num(0.05));
         assert!((r.angle_sigma.to_num::<f64>() - 0.2_f64.to_radians()).abs() < 1e-4);
         assert_eq!(r.noise_factor, Ratio::from_num(3));
+        assert_eq!(r.pair_depth, 3);
+        assert!(
+            describe(&c).ends_with(", pairs 3 back)"),
+            "{}",
+            describe(&c)
+        );
         for bad in [
+            RuleArgs {
+                pair_depth: Some(0),
+                ..RuleArgs::default()
+            },
+            RuleArgs {
+                pair_depth: Some(4),
+                ..RuleArgs::default()
+            },
+            RuleArgs {
+                pair_depth: Some(-1),
+                ..RuleArgs::default()
+            },
+            RuleArgs {
+                pair_depth: Some(2),
+                ..RuleArgs::paper()
+            },
             RuleArgs {
                 max_slope_deg: Some(90.0),
                 ..RuleArgs::default()

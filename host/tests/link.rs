@@ -219,10 +219,17 @@ fn commands() -> impl Strategy<Value = Owned> {
         prop::array::uniform4(float()),
         any::<(u8, u8, u32)>(),
         prop::array::uniform4(float()),
-        (any::<u8>(), prop::array::uniform5(float())),
+        (any::<(u8, u8)>(), prop::array::uniform5(float())),
     )
         .prop_map(
-            |((mount, mode, field, res, lines), sensor_m, t, (s, a, baud), servo, (rule, r))| {
+            |(
+                (mount, mode, field, res, lines),
+                sensor_m,
+                t,
+                (s, a, baud),
+                servo,
+                ((rule, depth), r),
+            )| {
                 Owned::Msg(Message::Setup(Setup {
                     mount_block: terrain_pyramid::wire::link::MountSetup::PRESET,
                     filter: terrain_pyramid::wire::link::FilterSetup::NONE,
@@ -243,6 +250,7 @@ fn commands() -> impl Strategy<Value = Owned> {
                         range_sigma_m: r[2],
                         angle_sigma_rad: r[3],
                         noise_factor: r[4],
+                        pair_depth: depth,
                     },
                     laser: LaserSetup {
                         sensor: s,

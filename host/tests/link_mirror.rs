@@ -437,7 +437,7 @@ fn a_version_2_device_is_refused_and_named() {
     assert_eq!((rx.unknown_version, rx.frames_ok), (1, 0));
     let hint = terrain_pyramid_host::link::version_hint(&rx);
     assert!(hint.contains("do not match"), "{hint}");
-    assert!(hint.contains("version 4"), "{hint}");
+    assert!(hint.contains("version 6"), "{hint}");
     // A frame of this version clears it.
     host.feed(&device_frame(
         0,
@@ -456,27 +456,27 @@ fn a_version_2_device_is_refused_and_named() {
     );
 }
 
-/// A version-4 device (the release before the mount and filter blocks): its frames are refused
-/// whole and the host names both versions. The Reply Ok to Configure of the version-4 worked
-/// examples (`docs/link_golden.py` with version 4), whose CRC is good.
+/// A version-5 device (the release before the pair depth): its frames are refused whole and
+/// the host names both versions. The Reply Ok to Configure of the version-5 worked examples
+/// (`docs/link_golden.py` with version 5), whose CRC is good.
 #[test]
-fn a_version_4_device_is_refused_and_named() {
+fn a_version_5_device_is_refused_and_named() {
     let mut host = HostLink::new();
-    // Reply Ok to configure 11, seq 0x0105, version 4.
-    let v4 = [
-        0x06, 0x04, 0x05, 0x05, 0x01, 0x0b, 0x02, 0x83, 0x01, 0x01, 0x01, 0x01, 0x01, 0x01, 0x01,
-        0x01, 0x01, 0x01, 0x01, 0x01, 0x01, 0x05, 0xac, 0xa4, 0xdf, 0x43, 0x00,
+    // Reply Ok to configure 11, seq 0x0105, version 5.
+    let v5 = [
+        0x06, 0x05, 0x05, 0x05, 0x01, 0x0b, 0x02, 0x83, 0x01, 0x01, 0x01, 0x01, 0x01, 0x01, 0x01,
+        0x01, 0x01, 0x01, 0x01, 0x01, 0x01, 0x05, 0x32, 0x27, 0x05, 0xdc, 0x00,
     ];
-    let events = host.feed(&v4);
+    let events = host.feed(&v5);
     assert!(events
         .iter()
-        .all(|e| matches!(e, LinkEvent::BadFrame(DecodeError::UnknownVersion(4)))));
+        .all(|e| matches!(e, LinkEvent::BadFrame(DecodeError::UnknownVersion(5)))));
     let rx = host.rx_counters();
     assert_eq!((rx.unknown_version, rx.frames_ok), (1, 0));
     let hint = terrain_pyramid_host::link::version_hint(&rx);
     assert!(hint.contains("do not match"), "{hint}");
     assert!(
-        hint.contains("version 5") && hint.contains("version 4"),
+        hint.contains("version 6") && hint.contains("version 5"),
         "{hint}"
     );
 }

@@ -1,4 +1,4 @@
-//! The link's Setup frame (protocol version 5: its body with the navigability rule, laser,
+//! The link's Setup frame (protocol version 6: its body with the navigability rule, laser,
 //! mount and filter blocks) against an independent encoder written from `docs/protocol.md` alone:
 //! `host/tests/py/link_setup.py` (Python's `struct`, `zlib.crc32` and the COBS of
 //! `docs/link_golden.py`). Every field is given to both in wire order; the frames must be equal
@@ -12,7 +12,7 @@ use terrain_pyramid::classify::{NavigabilityRule, PlaneRule, Ratio};
 use terrain_pyramid::link::convert::{frontend_config, rule_setup, set_rule_message, set_rule_of};
 use terrain_pyramid::wire::link::{
     encode, Decoded, FrameAccumulator, LaserSetup, Message, RuleSetup, SetRule, Setup,
-    MAX_ENCODED_FRAME, MAX_FRAME,
+    MAX_ENCODED_FRAME, MAX_FRAME, VERSION,
 };
 use terrain_pyramid::wire::FeedResult;
 use terrain_pyramid::Meters;
@@ -21,7 +21,7 @@ const SCRIPT: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/py/link_setup.p
 
 /// The script's arguments for a navigability rule: its number, then its parameters (f32's
 /// Display: the shortest decimal that reads back as the same f32).
-fn rule_args(rule: &RuleSetup) -> [String; 6] {
+fn rule_args(rule: &RuleSetup) -> [String; 7] {
     [
         rule.rule.to_string(),
         rule.max_grade.to_string(),
@@ -29,6 +29,7 @@ fn rule_args(rule: &RuleSetup) -> [String; 6] {
         rule.range_sigma_m.to_string(),
         rule.angle_sigma_rad.to_string(),
         rule.noise_factor.to_string(),
+        rule.pair_depth.to_string(),
     ]
 }
 
@@ -130,6 +131,7 @@ fn set_rule_frames_equal_an_independent_encoder() {
         range_sigma: Meters::from_num(0.04),
         angle_sigma: Ratio::from_num(0.001),
         noise_factor: Ratio::from_num(1.5),
+        pair_depth: 3,
     });
     for (i, rule) in [NavigabilityRule::Spread, NavigabilityRule::DEFAULT, custom]
         .into_iter()
@@ -179,6 +181,7 @@ fn setup_frames_equal_an_independent_encoder() {
         range_sigma: Meters::from_num(0.03),
         angle_sigma: Ratio::from_num(0.0025),
         noise_factor: Ratio::from_num(2.5),
+        pair_depth: 2,
     });
     let servo = LaserSetup {
         sensor: 1,
@@ -206,6 +209,7 @@ fn setup_frames_equal_an_independent_encoder() {
             range_sigma_m: 123.456,
             angle_sigma_rad: f32::MAX,
             noise_factor: -0.0,
+            pair_depth: 255,
         },
         ..base(NavigabilityRule::Spread, servo)
     });
@@ -254,7 +258,7 @@ fn setup_frames_equal_an_independent_encoder() {
                 item: Decoded { header, message },
                 ..
             } => {
-                assert_eq!((header.version, header.seq), (5, seq));
+                assert_eq!((header.version, header.seq), (VERSION, seq));
                 assert_eq!(message, Message::Setup(*setup));
             }
             other => panic!("Python's frame did not decode: {other:?}"),

@@ -37,10 +37,10 @@
 //! (module `across`). The step between neighbouring cells' lowest returns (module `edges`)
 //! keeps nothing: it reads the slots at the observation's end, two lookups a cell.
 //!
-//! The touched cells live in an open-addressing table of `C` slots (a power of two, 60 bytes
-//! each: 16 for the key, the closest look and the lowest and highest z, 44 for the plane rule's
-//! sums, where the lowest and highest points lie and the pair test's last return and largest
-//! rise; 16 bytes in a build without the `plane-rule` feature, which has no sums). A point
+//! The touched cells live in an open-addressing table of `C` slots (a power of two, 68 bytes
+//! each: 16 for the key, the closest look and the lowest and highest z, 52 for the plane rule's
+//! sums, where the lowest and highest points lie and the pair test's last three returns and
+//! largest rise; 16 bytes in a build without the `plane-rule` feature, which has no sums). A point
 //! that finds the table full is dropped and counted in [`ClassifierStats::overflow_points`];
 //! nothing panics. One 361-beam line touches at most 361 cells per layer it feeds (2 to 4
 //! with the default soft gate); 1024 slots (60 KiB)
@@ -67,7 +67,7 @@ mod edges;
 use across::AcrossEdge;
 
 use rule::{CellGeometry, PairScale, PlaneParams, PlaneState};
-pub use rule::{NavigabilityRule, PlaneRule, Ratio};
+pub use rule::{NavigabilityRule, PlaneRule, Ratio, FIRING_ORDER_PAIR_DEPTH, MAX_PAIR_DEPTH};
 
 mod config;
 mod scratch;

@@ -19,11 +19,11 @@
 //!   the beam's elevation error σ_a, each seen in the vertical.
 //!
 //! The plane rule is built in with the library's `plane-rule` feature (on by default). Without
-//! it `PlaneState` is zero-sized (a classifier slot is 16 bytes instead of 48), the default
+//! it `PlaneState` is zero-sized (a classifier slot is 16 bytes instead of 68), the default
 //! rule is the spread rule, and the classifier applies the spread rule whatever its
 //! configuration asks ([`NavigabilityRule::is_built_in`]; the link refuses the plane rule).
 //!
-//! # Fixed point (`PlaneState`, 44 bytes a slot)
+//! # Fixed point (`PlaneState`, 52 bytes a slot)
 //! Per point: its position in the cell as two 6-bit coordinates `u, v ∈ −32 ..= 31` (units of
 //! the cell's side / 64, from the cell's centre: `⌊64·(x − x_cell)/c⌋ − 32`, by a multiplication
 //! with the layer's cached reciprocal), its height `z − z₀` in millimetres relative to the
@@ -49,7 +49,8 @@
 //! with `Δ` from the lowest to the highest (mm Q16, in 128 bits).
 //!
 //! The pair test is folded per return: the slot keeps its last return below the cut (its
-//! `(u, v)` and z, 4 bytes) and the largest step a pair has shown so far,
+//! `(u, v)` and z, 4 bytes), the two before it (8 bytes, paired too when the rule's pair depth
+//! asks: [`PlaneRule::pair_depth`]) and the largest step a pair has shown so far,
 //! `min(|Δz|, |Δz| − s·(|Δu| + |Δv|) + step)` (mm, saturated to 0 ..= 255, 1 byte), s the
 //! layer's `tan θ_max·c/64` in mm Q8; the decision compares it with the extremes test's
 //! allowance `step + 2·k·σ·h/r`: beyond it exactly when the rise beyond the slope exceeds the
@@ -135,10 +136,11 @@ impl Default for NavigabilityRule {
 ///   `D·max_grade + 1.5·a·√(12/n)` and by more than `step + a·√(12/n)` in all, or
 /// - the lowest and the highest point stand apart by more than the plane explains between
 ///   them and `step + 2·noise_factor·range_sigma·h/r` (the extremes test), or
-/// - two consecutive returns rise more than `max_grade` explains over their horizontal
-///   distance (|Δx| + |Δy|) by more than `2·noise_factor·range_sigma·h/r`, and more than that
-///   allowance and a step in all (the pair test: a surface steeper than the robot climbs that
-///   rises more than a step, as the second test asks of the plane).
+/// - a return and one of the `pair_depth` returns of the cell before it rise more than
+///   `max_grade` explains over their horizontal distance (|Δx| + |Δy|) by more than
+///   `2·noise_factor·range_sigma·h/r`, and more than that allowance and a step in all (the
+///   pair test: a surface steeper than the robot climbs that rises more than a step, as the
+///   second test asks of the plane).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct PlaneRule {
     /// The largest traversable slope as its grade (rise per unit of run, the tangent of its
@@ -154,7 +156,21 @@ pub struct PlaneRule {
     pub angle_sigma: Ratio,
     /// How many σ_z the noise allowance is, ≥ 0. Default 2.
     pub noise_factor: Ratio,
+    /// How many of a cell's previous returns the pair test pairs each return with,
+    /// 1 ..= [`MAX_PAIR_DEPTH`] (a value outside is taken as the nearest bound). Default 1: the
+    /// last one, for a laser whose returns sweep a cell line by line (a tilting or nodding
+    /// 2-D laser). 3 for a spinning multi-beam laser whose returns come in firing order:
+    /// there the returns of one azimuth step, beam over beam, come between a return and its
+    /// neighbour along the ring (`docs/core.md`, "How far back the pair test looks").
+    pub pair_depth: u8,
 }
+
+/// The most returns back the pair test looks ([`PlaneRule::pair_depth`]).
+pub const MAX_PAIR_DEPTH: u8 = 3;
+
+/// The pair depth a spinning multi-beam laser's returns in firing order ask for
+/// ([`PlaneRule::pair_depth`]; measured in `docs/core.md`, "How far back the pair test looks").
+pub const FIRING_ORDER_PAIR_DEPTH: u8 = 3;
 
 impl PlaneRule {
     /// The defaults: 20°, 1.5 cm, σ = 2 cm, σ_a = 0.075°, k = 2 (chosen by measurement,
@@ -165,7 +181,14 @@ impl PlaneRule {
         range_sigma: DEFAULT_RANGE_SIGMA,
         angle_sigma: DEFAULT_ANGLE_SIGMA,
         noise_factor: DEFAULT_NOISE_FACTOR,
+        pair_depth: 1,
     };
+
+    /// The rule with `pair_depth` returns back paired ([`PlaneRule::pair_depth`]).
+    #[must_use]
+    pub const fn with_pair_depth(self, pair_depth: u8) -> Self {
+        Self { pair_depth, ..self }
+    }
 }
 
 impl Default for PlaneRule {
@@ -175,7 +198,7 @@ impl Default for PlaneRule {
 }
 
 #[cfg(feature = "defmt")]
-defmt_raw!(PlaneRule, "PlaneRule {{ max_grade: {=i32}, residual: {=i32}, range_sigma: {=i32}, angle_sigma: {=i32}, noise_factor: {=i32} }} (raw Q16.16)", [max_grade, residual, range_sigma, angle_sigma, noise_factor]);
+defmt_raw!(PlaneRule, "PlaneRule {{ max_grade: {=i32}, residual: {=i32}, range_sigma: {=i32}, angle_sigma: {=i32}, noise_factor: {=i32} }} (raw Q16.16), pair depth {=u8}", [max_grade, residual, range_sigma, angle_sigma, noise_factor], [pair_depth]);
 
 #[cfg(feature = "plane-rule")]
 /// The number of summed points at which the sums are halved.
@@ -192,7 +215,7 @@ const DZ_BITS: u32 = 14;
 
 #[cfg(feature = "plane-rule")]
 /// The plane rule's running sums of one slot, where in the cell its lowest and highest
-/// points lie, and the pair test's last return and largest rise. 44 bytes.
+/// points lie, and the pair test's last returns and largest rise. 52 bytes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(super) struct PlaneState {
     sz: i32,
@@ -224,6 +247,12 @@ pub(super) struct PlaneState {
     last_at: (i8, i8),
     /// That point's z, millimetres relative to the observation's reference height.
     last_z: i16,
+    /// The two returns below the cut before the last, the more recent first: paired too
+    /// when the layer's [`PairScale`] asks for more than the last
+    /// ([`PlaneRule::pair_depth`]); kept only then.
+    earlier: [Back; 2],
+    /// How many of `earlier` hold a return (0 ..= 2).
+    earlier_held: u8,
     /// The largest step two consecutive returns below the cut have shown,
     /// `min(|Δz|, |Δz| − tan θ_max·(|Δx| + |Δy|) + step)` (the part beyond the largest slope
     /// floored at 0), millimetres, saturated to 0 ..= 255 (the pair test,
@@ -250,6 +279,8 @@ impl PlaneState {
         high_at: (0, 0),
         last_at: (0, 0),
         last_z: 0,
+        earlier: [Back::NONE; 2],
+        earlier_held: 0,
         pair_rise: 0,
     };
 
@@ -269,31 +300,63 @@ impl PlaneState {
     /// slot's last one, with the layer's `scale` ([`PlaneParams::pair_scale`]): when the two
     /// differ in height by more than the scale's step, the step the pair shows
     /// ([`PlaneState::keep_rise`]) is kept when it is the largest so far (saturated to
-    /// 255 mm); a rise within the step shows none and is not computed. The point becomes the
+    /// 255 mm); a rise within the step shows none and is not computed. When the scale asks
+    /// for deeper pairs ([`PairScale::earlier`]), the point is paired with as many of the
+    /// returns before the last too ([`PlaneState::step_from_earlier`]). The point becomes the
     /// last. In 32-bit words, one multiplication: the run is at most 510 units and the slope
     /// below 2¹⁶, so their product is below 2²⁵.
     #[inline(always)]
     pub(super) fn step_from_last(&mut self, u: i8, v: i8, z: i16, scale: PairScale) {
         let rise = u32::from(z.abs_diff(self.last_z));
         if rise > scale.step_mm() {
-            self.keep_rise(u, v, rise, scale);
+            self.keep_rise(self.last_at, u, v, rise, scale);
+        }
+        if scale.earlier() != 0 {
+            self.step_from_earlier(u, v, z, scale);
         }
         self.last_at = (u, v);
         self.last_z = z;
     }
 
-    /// [`PlaneState::step_from_last`]'s pair: a rise `rise` (mm) from the last point to one at
-    /// `(u, v)`. Its part beyond the slope is `b = rise − slope·(|Δu| + |Δv|)` (≥ 0); the
-    /// step it shows is `min(rise, b + step)` (mm, the scale's step), so that the pair test's
-    /// `min(rise, b + step) > step + noise` holds exactly when the surface between the two is
-    /// steeper than the largest slope beyond the noise (`b > noise`) and rises more than a
-    /// step beyond it (`rise > step + noise`), as the rise test asks of a plane
-    /// (`docs/core.md`, "Why the pair test"). Kept when it is the largest so far. Out of
-    /// line: only rises beyond the step come here.
+    /// The deeper pairs of [`PlaneState::step_from_last`]: the return at `(u, v, z)` paired
+    /// with each of the first [`PairScale::earlier`] returns before the last that the slot
+    /// holds, as with the last; then the last joins them (the oldest drops out). Out of line:
+    /// only a layer that asks for deeper pairs (a spinning multi-beam laser's returns in
+    /// firing order) comes here, and the fold of every other keeps its registers.
+    #[inline(never)]
+    fn step_from_earlier(&mut self, u: i8, v: i8, z: i16, scale: PairScale) {
+        let held = usize::from(self.earlier_held).min(scale.earlier());
+        let earlier = self.earlier;
+        for back in earlier.iter().take(held) {
+            let rise = u32::from(z.abs_diff(back.z));
+            if rise > scale.step_mm() {
+                self.keep_rise(back.at, u, v, rise, scale);
+            }
+        }
+        let [newer, _] = earlier;
+        self.earlier = [
+            Back {
+                at: self.last_at,
+                z: self.last_z,
+            },
+            newer,
+        ];
+        self.earlier_held = (self.earlier_held + 1).min(2);
+    }
+
+    /// [`PlaneState::step_from_last`]'s pair: a rise `rise` (mm) from an earlier return at
+    /// `from` to one at `(u, v)`. Its part beyond the slope is
+    /// `b = rise − slope·(|Δu| + |Δv|)` (≥ 0); the step it shows is `min(rise, b + step)`
+    /// (mm, the scale's step), so that the pair test's `min(rise, b + step) > step + noise`
+    /// holds exactly when the surface between the two is steeper than the largest slope
+    /// beyond the noise (`b > noise`) and rises more than a step beyond it
+    /// (`rise > step + noise`), as the rise test asks of a plane (`docs/core.md`, "Why the
+    /// pair test"). Kept when it is the largest so far. Out of line: only rises beyond the
+    /// step come here.
     #[cold]
     #[inline(never)]
-    fn keep_rise(&mut self, u: i8, v: i8, rise: u32, scale: PairScale) {
-        let run = u32::from(u.abs_diff(self.last_at.0)) + u32::from(v.abs_diff(self.last_at.1));
+    fn keep_rise(&mut self, from: (i8, i8), u: i8, v: i8, rise: u32, scale: PairScale) {
+        let run = u32::from(u.abs_diff(from.0)) + u32::from(v.abs_diff(from.1));
         self.keep_shown(pair_shown(rise, run, scale));
     }
 
@@ -461,11 +524,32 @@ impl PlaneState {
     }
 }
 
+#[cfg(feature = "plane-rule")]
+/// One earlier return of a slot that the pair test keeps ([`PlaneState::step_from_earlier`]):
+/// its position `(u, v)` in the cell and its z (mm relative to the observation's reference
+/// height). 4 bytes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+struct Back {
+    at: (i8, i8),
+    z: i16,
+}
+
+#[cfg(feature = "plane-rule")]
+impl Back {
+    /// No return (never read: the slot counts the returns it holds).
+    const NONE: Self = Self { at: (0, 0), z: 0 };
+}
+
+/// The largest step allowance a [`PairScale`] holds, whole mm (16.383 m; a larger step is
+/// taken as this).
+const PAIR_STEP_MAX_MM: u16 = (1 << 14) - 1;
+
 /// The pair test's constants for one layer ([`PlaneState::step_from_last`]), set per layer
-/// when the rule or the design changes ([`PlaneParams::pair_scale`]): the step allowance in
-/// whole millimetres (floored; a rise within it is not computed) and the largest slope's rise
-/// per unit of position (c/64) in mm Q8, held as the two halves of one word (one load on the
-/// per-point path).
+/// when the rule or the design changes ([`PlaneParams::pair_scale`]), in one word (one load
+/// on the per-point path): the step allowance in whole millimetres (floored, at most
+/// [`PAIR_STEP_MAX_MM`]; a rise within it is not computed) in bits 18..=31, how many returns
+/// before the last are paired too (0 ..= 2, [`PlaneRule::pair_depth`] − 1) in bits 16..=17,
+/// and the largest slope's rise per unit of position (c/64) in mm Q8 in the low half.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(super) struct PairScale(u32);
 
@@ -475,14 +559,38 @@ impl PairScale {
     /// reads them then).
     pub(super) const NONE: Self = Self(0);
 
-    /// The constants `step_mm` (mm) and `slope_q8` (mm Q8 per unit).
+    /// The constants `step_mm` (mm, at most [`PAIR_STEP_MAX_MM`], a larger step taken as
+    /// it) and `slope_q8` (mm Q8 per unit), each return paired with the last only.
     pub(super) const fn new(step_mm: u16, slope_q8: u16) -> Self {
-        Self(((step_mm as u32) << 16) | slope_q8 as u32)
+        let step = if step_mm > PAIR_STEP_MAX_MM {
+            PAIR_STEP_MAX_MM
+        } else {
+            step_mm
+        };
+        Self(((step as u32) << 18) | slope_q8 as u32)
+    }
+
+    /// These constants with each return paired with the last `depth` returns of its cell
+    /// (1 ..= [`MAX_PAIR_DEPTH`]; outside, the nearest bound).
+    pub(super) const fn with_depth(self, depth: u8) -> Self {
+        let depth = if depth == 0 {
+            1
+        } else if depth > MAX_PAIR_DEPTH {
+            MAX_PAIR_DEPTH
+        } else {
+            depth
+        };
+        Self((self.0 & !(3 << 16)) | ((depth as u32 - 1) << 16))
     }
 
     /// The step allowance, whole mm.
     pub(super) const fn step_mm(self) -> u32 {
-        self.0 >> 16
+        self.0 >> 18
+    }
+
+    /// How many returns before the last each return is paired with too (0 ..= 2).
+    pub(super) const fn earlier(self) -> usize {
+        ((self.0 >> 16) & 3) as usize
     }
 
     /// The largest slope's rise per unit of position, mm Q8.
@@ -559,6 +667,8 @@ pub(super) struct PlaneParams {
     factor_q16: i64,
     /// The step allowance, mm Q16.
     step_q16: i64,
+    /// How many returns back the pair test looks ([`PlaneRule::pair_depth`], as given).
+    pair_depth: u8,
     /// A spread (highest − lowest summed z) of at most this many mm is navigable without the
     /// plane: the residual's RMS is at most half the spread and the rise at most √3 times it,
     /// so both tests fail below `min(2·residual, step/√3)` (less a millimetre of rounding).
@@ -582,6 +692,7 @@ impl PlaneParams {
         angle_q16: DEFAULT_ANGLE_SIGMA.to_bits() as i64,
         factor_q16: DEFAULT_NOISE_FACTOR.to_bits() as i64,
         step_q16: Meters::lit("0.05").to_bits() as i64 * 1000,
+        pair_depth: PlaneRule::DEFAULT.pair_depth,
         // min(2·15, ⌊50·1000/1732⌋) − 1 = 27 mm.
         quick_mm: 27,
     };
@@ -598,18 +709,20 @@ impl PlaneParams {
             angle_q16: i64::from(rule.angle_sigma.to_bits()).max(0),
             factor_q16: i64::from(rule.noise_factor.to_bits()).max(0),
             step_q16,
+            pair_depth: rule.pair_depth,
             quick_mm: i32::try_from(quick - 1).unwrap_or(i32::MAX).max(-1),
         }
     }
 
     /// The pair test's constants for a layer of cell side `cell_bits` (raw Q16.16 metres):
-    /// the step allowance in whole mm (floored, at most `u16::MAX`) and the largest slope's
-    /// rise per unit of position ([`pair_slope_q8`], mm Q8).
+    /// the step allowance in whole mm (floored, at most [`PAIR_STEP_MAX_MM`]), the largest
+    /// slope's rise per unit of position ([`pair_slope_q8`], mm Q8) and the pair depth.
     pub(super) fn pair_scale(&self, cell_bits: i32) -> PairScale {
         PairScale::new(
             u16::try_from((self.step_q16 >> 16).max(0)).unwrap_or(u16::MAX),
             pair_slope_q8(self.grade_q16, cell_bits),
         )
+        .with_depth(self.pair_depth)
     }
 
     /// Whether a spread of `spread_mm` (the slot's highest − lowest summed z) is navigable

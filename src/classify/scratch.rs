@@ -62,7 +62,7 @@ impl Recent {
 /// a fresh classifier) is all zero bits.
 pub(super) const EMPTY: u8 = 0;
 
-/// One touched layer cell of the current observation. 60 bytes (16 without the `plane-rule`
+/// One touched layer cell of the current observation. 68 bytes (16 without the `plane-rule`
 /// feature).
 #[derive(Debug, Clone, Copy)]
 pub(super) struct Slot {

@@ -33,7 +33,9 @@ mod agreement;
 use agreement::part_agreement;
 
 use std::collections::{BTreeMap, BTreeSet};
-use terrain_pyramid::classify::{Classifier, ClassifierConfig, NavigabilityRule};
+use terrain_pyramid::classify::{
+    Classifier, ClassifierConfig, NavigabilityRule, PlaneRule, FIRING_ORDER_PAIR_DEPTH,
+};
 use terrain_pyramid::{Design, EvidenceClass, Meters, Pyramid, Schedule, SensorModel};
 use terrain_pyramid_host_tests::classify::{classify, RefClassifierConfig, RefPoint, RefRule};
 use terrain_pyramid_host_tests::navigability::{
@@ -593,10 +595,13 @@ fn part_3dtk(judges: &[Judge]) {
     }
     // The default rule again, the points sorted into a spinning laser's firing order (by
     // azimuth in steps of the design's ψ, then by elevation from the bottom), as `pyramid
-    // replay --order firing` gives them: what that order costs a tilting 2-D laser's scan.
+    // replay --order firing` gives them (the plane rule pairing each return with the last
+    // three of its cell, as replay sets it in that order): what that order costs a tilting
+    // 2-D laser's scan.
     let mut p = pyramid::<64, L>(&design);
     classifier.configure(ClassifierConfig {
         ceiling: Some(Meters::from_num(scan3dtk::CEILING_M)),
+        rule: NavigabilityRule::Plane(PlaneRule::DEFAULT.with_pair_depth(FIRING_ORDER_PAIR_DEPTH)),
         ..ClassifierConfig::default()
     });
     let psi = f64::from(design.sensor().psi_rad);

@@ -225,6 +225,7 @@ pub fn merged_rule(file: &RuleArgs, flags: &RuleArgs) -> RuleArgs {
         noise_sigma_m: flags.noise_sigma_m.or(file.noise_sigma_m),
         angle_sigma_deg: flags.angle_sigma_deg.or(file.angle_sigma_deg),
         noise_factor: flags.noise_factor.or(file.noise_factor),
+        pair_depth: flags.pair_depth.or(file.pair_depth),
     }
 }
 

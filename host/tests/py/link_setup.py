@@ -1,11 +1,11 @@
 #!/usr/bin/env python3
 """An independent encoder of the link's Setup and SetRule frames (docs/protocol.md, version
-5), from the document alone: the blocks, the header, the CRC (zlib.crc32, CRC-32/ISO-HDLC)
+6), from the document alone: the blocks, the header, the CRC (zlib.crc32, CRC-32/ISO-HDLC)
 and COBS of docs/link_golden.py, the fields from the command line.
 
-Usage: link_setup.py SEQ FIELD...           a Setup (51 fields in wire order, as numbers:
+Usage: link_setup.py SEQ FIELD...           a Setup (52 fields in wire order, as numbers:
                                             the reserved bytes of the mount block left out)
-       link_setup.py setrule SEQ FIELD...   a SetRule (the step, then the 6 rule fields)
+       link_setup.py setrule SEQ FIELD...   a SetRule (the step, then the 7 rule fields)
 Prints the encoded frame as hex bytes separated by spaces, delimiter included.
 """
 import os
@@ -38,15 +38,15 @@ def numbers(fmt, texts):
 
 
 def setup_of(fields):
-    base, rule, laser = fields[:12], fields[12:18], fields[18:25]
-    mount, filt = fields[25:31], fields[31:]
-    assert len(filt) == 20, "12 base, 6 rule, 7 laser, 6 mount and 20 filter fields"
+    base, rule, laser = fields[:12], fields[12:19], fields[19:26]
+    mount, filt = fields[26:32], fields[32:]
+    assert len(filt) == 20, "12 base, 7 rule, 7 laser, 6 mount and 20 filter fields"
     return setup_body(numbers(BASE, base), numbers(RULE, rule), numbers(LASER, laser),
                       numbers(MOUNT, mount), numbers(FILTER, filt))
 
 
 def set_rule_of(fields):
-    assert len(fields) == 7, "the step, then 6 rule fields"
+    assert len(fields) == 8, "the step, then 7 rule fields"
     return set_rule_body(float(fields[0]), numbers(RULE, fields[1:]))
 
 

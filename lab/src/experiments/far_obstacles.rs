@@ -9,7 +9,10 @@
 //! otherwise), each revolution into a fresh pyramid of the street design (`--max-range-m 20
 //! --gamma 3 --height-m 1.3 --phi-deg 0.4 --psi-deg 0.2 --sigma-m 0.02 --cells 128`) through
 //! the library's classifier (fixed point), once with the default plane rule and once with the
-//! paper's spread rule.
+//! paper's spread rule. The laser fires beam over beam at each azimuth step, so the plane
+//! rule pairs each return with the last three of its cell (`PlaneRule::pair_depth`, as
+//! `pyramid replay` sets it for a spinning laser's file); the SICK and the nodding lidars
+//! ([`rigs`]) with the last.
 //!
 //! The score is the fused map at the returns
 //! ([`terrain_pyramid_host_tests::navigability::rings`]): a return on clear navigable ground
@@ -41,7 +44,9 @@ pub mod witnessed;
 use super::stairs::round3;
 use serde::Serialize;
 use std::fmt::Write as _;
-use terrain_pyramid::classify::{Classifier, ClassifierConfig, NavigabilityRule, PlaneRule};
+use terrain_pyramid::classify::{
+    Classifier, ClassifierConfig, NavigabilityRule, PlaneRule, FIRING_ORDER_PAIR_DEPTH,
+};
 use terrain_pyramid::{Design, Pyramid};
 use terrain_pyramid_host_tests::navigability::rings::{
     ring_name, Count, ObstacleKind, RingTally, RINGS,
@@ -248,6 +253,18 @@ pub const RULES: [(&str, NavigabilityRule); 2] = [
     ("spread (paper)", NavigabilityRule::Spread),
 ];
 
+/// `rule` as a spinning multi-beam laser's returns in firing order ask for it (the car's,
+/// as `pyramid replay` sets it for such a file): the plane rule's pair test pairs each return
+/// with the last [`FIRING_ORDER_PAIR_DEPTH`] of its cell.
+fn in_firing_order(rule: NavigabilityRule) -> NavigabilityRule {
+    match rule {
+        NavigabilityRule::Plane(plane) => {
+            NavigabilityRule::Plane(plane.with_pair_depth(FIRING_ORDER_PAIR_DEPTH))
+        }
+        NavigabilityRule::Spread => NavigabilityRule::Spread,
+    }
+}
+
 /// Runs the experiment. Needs a large stack (the classifier's 3 MiB scratch and the pyramids
 /// are built in place before they are boxed): `lab experiments` runs it on its own thread.
 ///
@@ -263,7 +280,7 @@ pub fn run(setup: &Setup) -> Result<FarObstaclesResult, String> {
     let mut rules = Vec::new();
     for (name, rule) in RULES {
         classifier.configure(ClassifierConfig {
-            rule,
+            rule: in_firing_order(rule),
             ..ClassifierConfig::default()
         });
         let mut tally = RingTally::default();

@@ -967,3 +967,74 @@ fn the_allowance_compared_without_its_root_is_the_allowance() {
     assert!(!beyond_allowance(129 << 16, &p, &at));
     assert!(beyond_allowance(131 << 16, &p, &at));
 }
+
+#[test]
+fn the_pair_test_looks_as_far_back_as_the_depth() {
+    // 3.41 mm per unit: 20° in a 0.6 m cell; no step skipped.
+    let depth = |d: u8| slope(874).with_depth(d);
+    // A kerb return (110 mm up) one unit from a road return two returns before it, with a
+    // road return 59 units away between them (a 20° slope explains 201 mm over that): only a
+    // pair two back sees the face, 110 − 3.41 = 106.6 mm beyond the slope.
+    let two_back = [(0, 0, 0), (30, 30, 2), (1, 0, 110)];
+    assert_eq!(pairs(&two_back, depth(1)).pair_rise(), 0);
+    assert_eq!(pairs(&two_back, depth(2)).pair_rise(), 106);
+    assert_eq!(pairs(&two_back, depth(3)).pair_rise(), 106);
+    // Three back: only depth 3 sees it.
+    let three_back = [(0, 0, 0), (30, 30, 2), (-30, 30, 1), (1, 0, 110)];
+    assert_eq!(pairs(&three_back, depth(2)).pair_rise(), 0);
+    assert_eq!(pairs(&three_back, depth(3)).pair_rise(), 106);
+    // Four back is never paired.
+    let four_back = [
+        (0, 0, 0),
+        (30, 30, 2),
+        (-30, 30, 1),
+        (-30, -30, 0),
+        (1, 0, 110),
+    ];
+    assert_eq!(pairs(&four_back, depth(3)).pair_rise(), 0);
+    // A slot pairs only the returns it holds: after its first return no earlier one exists
+    // (an empty entry at (0, 0, 0) would show 106 mm here).
+    assert_eq!(pairs(&[(30, 30, 2), (1, 0, 110)], depth(3)).pair_rise(), 0);
+    // The deeper pairs keep the largest step with the last's: the last pair 200 mm over one
+    // unit is the largest.
+    let both = [(0, 0, 0), (30, 30, 2), (1, 0, 110), (2, 0, 310)];
+    assert_eq!(pairs(&both, depth(3)).pair_rise(), 255);
+    // A restart of the sums (a new lowest point that puts the summed ones above the cut)
+    // starts a slot afresh ([`PlaneState::first`]): it forgets the earlier returns with the
+    // rest.
+    let held = pairs(&[(0, 0, 0), (30, 30, 2)], depth(3));
+    assert_ne!(PlaneState::first(-30, 30, -2_000), held);
+    let mut s = PlaneState::first(-30, 30, -2_000);
+    s.step_from_last(1, 0, -1_890, depth(3));
+    assert_eq!(s.pair_rise(), 0);
+}
+
+#[test]
+fn a_pair_scale_holds_its_depth_beside_the_step_and_the_slope() {
+    let scale = PairScale::new(50, 874);
+    assert_eq!(
+        (scale.step_mm(), scale.slope_q8(), scale.earlier()),
+        (50, 874, 0)
+    );
+    for (depth, earlier) in [(0, 0), (1, 0), (2, 1), (3, 2), (4, 2), (255, 2)] {
+        let s = scale.with_depth(depth);
+        assert_eq!((s.step_mm(), s.slope_q8(), s.earlier()), (50, 874, earlier));
+    }
+    // The largest step and slope stay whole beside the largest depth; a larger step saturates.
+    let wide = PairScale::new(u16::MAX, u16::MAX).with_depth(3);
+    assert_eq!(
+        (wide.step_mm(), wide.slope_q8(), wide.earlier()),
+        (16_383, u32::from(u16::MAX), 2)
+    );
+    // The rule's depth reaches every layer's constants.
+    let p = PlaneParams::new(
+        &PlaneRule::DEFAULT.with_pair_depth(crate::classify::FIRING_ORDER_PAIR_DEPTH),
+        Meters::from_num(0.05),
+    );
+    assert_eq!(p.pair_scale(Meters::from_num(0.6).to_bits()).earlier(), 2);
+    assert_eq!(
+        PlaneParams::DEFAULT.pair_scale(Meters::from_num(0.6).to_bits()),
+        PlaneParams::new(&PlaneRule::DEFAULT, Meters::from_num(0.05))
+            .pair_scale(Meters::from_num(0.6).to_bits())
+    );
+}

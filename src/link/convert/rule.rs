@@ -3,7 +3,7 @@
 //! [`set_rule_of`]), and the rules this build takes ([`RULE_MAX`]).
 
 use super::{SetupError, SetupField, SETUP_LIMIT_M};
-use crate::classify::{ClassifierConfig, NavigabilityRule, PlaneRule, Ratio};
+use crate::classify::{ClassifierConfig, NavigabilityRule, PlaneRule, Ratio, MAX_PAIR_DEPTH};
 use crate::units::Meters;
 use crate::wire::link::{RuleSetup, SetRule};
 
@@ -20,6 +20,7 @@ pub fn rule_setup(rule: &NavigabilityRule) -> RuleSetup {
             range_sigma_m: p.range_sigma.to_num::<f32>(),
             angle_sigma_rad: p.angle_sigma.to_num::<f32>(),
             noise_factor: p.noise_factor.to_num::<f32>(),
+            pair_depth: p.pair_depth,
         },
     }
 }
@@ -54,7 +55,8 @@ pub const RULE_MAX: u8 = if cfg!(feature = "plane-rule") { 1 } else { 0 };
 
 /// The navigability rule of a Setup's rule block, validated in wire order: the rule exists (0
 /// spread, 1 plane) and this build has it; under the plane rule every parameter is finite with
-/// 0 ≤ v < 1 000 (the parameters are ignored under the spread rule).
+/// 0 ≤ v < 1 000 and the pair depth within 1 ..= [`MAX_PAIR_DEPTH`] (the parameters are
+/// ignored under the spread rule).
 ///
 /// # Errors
 /// The first bad field. A rule beyond [`RULE_MAX`] is out of range `[0, RULE_MAX]`
@@ -70,12 +72,21 @@ pub fn navigability_rule(block: &RuleSetup) -> Result<NavigabilityRule, SetupErr
             let range_sigma = value(SetupField::RangeSigma, block.range_sigma_m)?;
             let angle_sigma = value(SetupField::AngleSigma, block.angle_sigma_rad)?;
             let noise_factor = value(SetupField::NoiseFactor, block.noise_factor)?;
+            if !(1..=MAX_PAIR_DEPTH).contains(&block.pair_depth) {
+                return Err(SetupError::OutOfRange {
+                    field: SetupField::PairDepth,
+                    value: f32::from(block.pair_depth),
+                    min: 1.0,
+                    max: f32::from(MAX_PAIR_DEPTH),
+                });
+            }
             Ok(NavigabilityRule::Plane(PlaneRule {
                 max_grade: Ratio::saturating_from_num(max_grade),
                 residual: Meters::saturating_from_num(residual),
                 range_sigma: Meters::saturating_from_num(range_sigma),
                 angle_sigma: Ratio::saturating_from_num(angle_sigma),
                 noise_factor: Ratio::saturating_from_num(noise_factor),
+                pair_depth: block.pair_depth,
             }))
         }
         other => Err(SetupError::OutOfRange {

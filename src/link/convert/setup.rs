@@ -83,6 +83,8 @@ pub enum SetupField {
     SectorCount = 79,
     /// A masked sector's start or end (the value the bad angle, `min` the sector's index).
     Sector = 80,
+    /// The plane rule's pair depth (version 6).
+    PairDepth = 81,
 }
 /// The field a Reply `param` names, if it names one.
 pub fn from_param;
@@ -126,6 +128,7 @@ impl SetupField {
             Self::MaxRange => "setup maximum range",
             Self::SectorCount => "setup masked sector count",
             Self::Sector => "setup masked sector",
+            Self::PairDepth => "setup pair depth",
         }
     }
 }

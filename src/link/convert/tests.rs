@@ -45,7 +45,7 @@ fn a_design_refusal_names_the_parameter() {
     let n = encode(0x0106, &Message::Reply(reply), &mut out).unwrap();
     assert_eq!(
         &out[..n],
-        &hex("06 05 05 06 01 0c 04 83 03 07 01 03 48 43 01 01 01 01 01 07 c8 42 3f fb 50 af 00")[..]
+        &hex("06 06 05 06 01 0c 04 83 03 07 01 03 48 43 01 01 01 01 01 07 c8 42 dc 79 4e d4 00")[..]
     );
     assert_eq!(
         std::format!("{}", ReplyText(&reply)),
@@ -344,6 +344,7 @@ fn the_rule_block_travels_and_is_validated() {
         range_sigma: Meters::from_num(0.05),
         angle_sigma: Ratio::from_num(0.002),
         noise_factor: Ratio::from_num(3),
+        pair_depth: 3,
     });
     for rule in [NavigabilityRule::Spread, NavigabilityRule::DEFAULT, custom] {
         let classifier = ClassifierConfig {
@@ -402,6 +403,30 @@ fn the_rule_block_travels_and_is_validated() {
         .field(),
         SetupField::NoiseFactor
     );
+    // The pair depth (version 6): 1 ..= 3, after the parameters in wire order.
+    for depth in [0, 4, 255] {
+        assert_eq!(
+            refused(RuleSetup {
+                pair_depth: depth,
+                ..plane.rule
+            }),
+            SetupError::OutOfRange {
+                field: SetupField::PairDepth,
+                value: f32::from(depth),
+                min: 1.0,
+                max: 3.0
+            }
+        );
+    }
+    assert_eq!(
+        refused(RuleSetup {
+            noise_factor: f32::NAN,
+            pair_depth: 0,
+            ..plane.rule
+        })
+        .field(),
+        SetupField::NoiseFactor
+    );
     let paper = RuleSetup {
         rule: 0,
         angle_sigma_rad: f32::NAN,
@@ -423,11 +448,11 @@ fn the_rule_block_travels_and_is_validated() {
         let field = SetupField::from_param(code).unwrap();
         assert_eq!(field as u8, code);
     }
-    for code in 71..=80 {
+    for code in 71..=81 {
         let field = SetupField::from_param(code).unwrap();
         assert_eq!(field as u8, code);
     }
-    assert_eq!(SetupField::from_param(81), None);
+    assert_eq!(SetupField::from_param(82), None);
 }
 
 /// The laser block: each field refused with its own code and sentence; a lidar's mode is

@@ -252,6 +252,7 @@ impl<'a> Writer<'a> {
         ] {
             self.f32(v);
         }
+        self.u8(r.pair_depth);
     }
     fn laser_setup(&mut self, l: &LaserSetup) {
         self.u8(l.sensor);

@@ -119,6 +119,7 @@ impl<'a> Reader<'a> {
             range_sigma_m: self.f32(),
             angle_sigma_rad: self.f32(),
             noise_factor: self.f32(),
+            pair_depth: self.u8(),
         }
     }
 }

@@ -14,7 +14,7 @@
 //! use terrain_pyramid::wire::FeedResult;
 //! let mut out = [0_u8; 16];
 //! let n = encode(1, &Message::Ping, &mut out).unwrap();
-//! assert_eq!(&out[..n], &[0x04, 0x05, 0x86, 0x01, 0x05, 0x5D, 0x79, 0x39, 0xEA, 0x00]);
+//! assert_eq!(&out[..n], &[0x04, 0x06, 0x86, 0x01, 0x05, 0xB3, 0xD6, 0x8C, 0xF8, 0x00]);
 //! let mut acc = FrameAccumulator::<MAX_FRAME>::new();
 //! match acc.feed(&out[..n]) {
 //!     FeedResult::Item { item: Decoded { header, message }, remaining, .. } => {
@@ -52,7 +52,7 @@ pub use time::{Observed, TimeReply, TimeRequest};
 use core::fmt;
 
 /// The protocol version this module speaks (`docs/protocol.md`, section 6).
-pub const VERSION: u8 = 5;
+pub const VERSION: u8 = 6;
 /// Bytes of the header: version, type, sequence number.
 pub const HEADER_LEN: usize = 4;
 /// Bytes of the CRC-32 after the body.
@@ -76,17 +76,17 @@ pub const MAX_BODY: usize = if MAX_HELLO_BODY > MAX_PATCH_BODY {
 };
 /// The largest decoded frame (header, body, CRC), device to host: 664 bytes.
 pub const MAX_FRAME: usize = MIN_FRAME + MAX_BODY;
-/// The largest command body: a Configure (94 bytes) or a Setup (139), whichever is longer.
+/// The largest command body: a Configure (94 bytes) or a Setup (140), whichever is longer.
 const MAX_COMMAND_BODY: usize = if message::CONFIGURE_LEN > message::SETUP_LEN {
     message::CONFIGURE_LEN
 } else {
     message::SETUP_LEN
 };
-/// The largest decoded frame host to device (a [`Setup`]): 147 bytes.
+/// The largest decoded frame host to device (a [`Setup`]): 148 bytes.
 pub const MAX_COMMAND_FRAME: usize = MIN_FRAME + MAX_COMMAND_BODY;
 /// The largest encoded frame device to host, delimiter included: 668 bytes.
 pub const MAX_ENCODED_FRAME: usize = encoded_len_max(MAX_FRAME);
-/// The largest encoded frame host to device, delimiter included: 149 bytes.
+/// The largest encoded frame host to device, delimiter included: 150 bytes.
 pub const MAX_ENCODED_COMMAND: usize = encoded_len_max(MAX_COMMAND_FRAME);
 
 /// The most bytes a decoded frame of `decoded` bytes takes on the wire, delimiter included.

@@ -7,7 +7,7 @@
 pub(crate) const SETUP_BASE_LEN: usize = 38;
 /// Bytes of Setup's navigability rule block ([`RuleSetup`]), between the base part and the
 /// laser block.
-pub const SETUP_RULE_LEN: usize = 21;
+pub const SETUP_RULE_LEN: usize = 22;
 /// Bytes of Setup's laser block ([`LaserSetup`]).
 pub const SETUP_LASER_LEN: usize = 22;
 /// Bytes of Setup's mount block ([`MountSetup`], version 5).
@@ -22,8 +22,8 @@ pub(crate) const SETUP_LEN: usize =
 /// Bytes of a SetRule body: the step threshold and a rule block.
 pub(crate) const SET_RULE_LEN: usize = 4 + SETUP_RULE_LEN;
 
-/// Setup's navigability rule block (protocol version 3, offset 38): which rule judges a cell's
-/// points and the plane rule's parameters. Unvalidated ([`crate::link::convert::frontend_config`]
+/// Setup's navigability rule block (protocol version 3, offset 38; its pair depth from version
+/// 6): which rule judges a cell's points and the plane rule's parameters. Unvalidated ([`crate::link::convert::frontend_config`]
 /// checks it; the plane parameters only under the plane rule).
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -41,6 +41,9 @@ pub struct RuleSetup {
     pub angle_sigma_rad: f32,
     /// How many σ of height noise the allowances hold.
     pub noise_factor: f32,
+    /// How many of a cell's previous returns the pair test pairs each return with
+    /// (1 ..= [`MAX_PAIR_DEPTH`](crate::classify::MAX_PAIR_DEPTH); version 6).
+    pub pair_depth: u8,
 }
 
 impl RuleSetup {
@@ -52,6 +55,7 @@ impl RuleSetup {
         range_sigma_m: 0.0,
         angle_sigma_rad: 0.0,
         noise_factor: 0.0,
+        pair_depth: 0,
     };
 }
 

@@ -33,7 +33,7 @@ fn golden(seq: u16, message: &Message<'_>, encoded: &str) {
             assert_eq!(
                 header,
                 Header {
-                    version: 5,
+                    version: VERSION,
                     msg_type: message.msg_type().to_u8(),
                     seq
                 }
@@ -56,22 +56,22 @@ fn assert_bad_bodies(msg_type: u8, lens: &[usize]) {
 }
 
 fn ping_frame() -> Vec<u8> {
-    hex("04 05 86 01 05 5d 79 39 ea 00")
+    hex("04 06 86 01 05 b3 d6 8c f8 00")
 }
 
 #[test]
 fn ping_reset_snapshot_golden() {
-    golden(1, &Message::Ping, "04 05 86 01 05 5d 79 39 ea 00");
-    golden(0x0203, &Message::Reset, "09 05 84 03 02 9d ae 85 35 00");
+    golden(1, &Message::Ping, "04 06 86 01 05 b3 d6 8c f8 00");
+    golden(0x0203, &Message::Reset, "09 06 84 03 02 73 01 30 27 00");
     golden(
         7,
         &Message::RequestSnapshot(SnapshotScope::All),
-        "04 05 85 07 06 ff 6c c7 08 fc 00",
+        "04 06 85 07 06 ff bc bd a8 bb 00",
     );
     golden(
         8,
         &Message::RequestSnapshot(SnapshotScope::Layer(2)),
-        "04 05 85 08 06 02 f0 0e 58 34 00",
+        "04 06 85 08 06 02 20 74 f8 73 00",
     );
 }
 
@@ -83,7 +83,7 @@ fn pan_and_pose_golden() {
             turns: 0x4000,
             timestamp_ms: 123_456,
         }),
-        "04 05 82 09 01 05 40 40 e2 01 05 2b a5 d5 22 00",
+        "04 06 82 09 01 05 40 40 e2 01 05 28 1e e2 c9 00",
     );
     golden(
         10,
@@ -97,8 +97,8 @@ fn pan_and_pose_golden() {
             stamp_us: 1000,
             flags: 0,
         }),
-        "04 05 81 0a 01 01 03 c0 3f 01 03 10 c0 01 01 01 01 01 01 01 01 01 01 01 01 01 05 49 40 \
-         e8 03 01 01 05 25 b7 56 22 00",
+        "04 06 81 0a 01 01 03 c0 3f 01 03 10 c0 01 01 01 01 01 01 01 01 01 01 01 01 01 05 49 40 \
+         e8 03 01 01 05 30 06 41 79 00",
     );
 }
 
@@ -129,10 +129,10 @@ fn configure_golden() {
     golden(
         11,
         &Message::Configure(c),
-        "04 05 83 0b 01 01 01 02 3f 01 07 80 3e 9a 99 19 3e 01 03 80 3f 01 07 20 41 cd cc cc 3d \
+        "04 06 83 0b 01 01 01 02 3f 01 07 80 3e 9a 99 19 3e 01 03 80 3f 01 07 20 41 cd cc cc 3d \
          01 01 03 40 01 01 01 03 3f 40 09 33 33 33 3f cd cc cc 3e 01 01 03 3f 01 01 01 02 c0 01 \
          03 60 40 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 \
-         01 01 01 01 01 01 01 01 01 01 01 05 10 c0 10 f2 00",
+         01 01 01 01 01 01 01 01 01 01 01 05 e9 7f 5e 4d 00",
     );
     // Decay on (obstacle evidence only), codes 54, 54, 70, 70, 86, 86 for layers 0 ..= 5.
     let mut tau = [0_u8; 32];
@@ -145,10 +145,10 @@ fn configure_golden() {
     golden(
         12,
         &Message::Configure(decaying),
-        "04 05 83 0c 01 01 01 02 3f 01 07 80 3e 9a 99 19 3e 01 03 80 3f 01 07 20 41 cd cc cc 3d \
+        "04 06 83 0c 01 01 01 02 3f 01 07 80 3e 9a 99 19 3e 01 03 80 3f 01 07 20 41 cd cc cc 3d \
          01 01 03 40 01 01 01 03 3f 40 09 33 33 33 3f cd cc cc 3e 01 01 03 3f 01 01 01 02 c0 01 \
          03 60 40 01 01 01 01 08 02 36 36 46 46 56 56 01 01 01 01 01 01 01 01 01 01 01 01 01 01 \
-         01 01 01 01 01 01 01 01 01 01 01 05 86 9a 30 0b 00",
+         01 01 01 01 01 01 01 01 01 01 01 05 7f 25 7e b4 00",
     );
     // A mode above 3 is out of range (the body is otherwise the one above).
     let mut body = [0_u8; 94];
@@ -194,8 +194,8 @@ fn decayed_golden() {
     golden(
         0x0107,
         &Message::Decayed(d),
-        "07 05 06 07 01 01 09 01 01 02 3e 02 03 02 05 01 01 02 0a 02 01 01 01 01 01 05 c0 3a f7 \
-         6e 00",
+        "07 06 06 07 01 01 09 01 01 02 3e 02 03 02 05 01 01 02 0a 02 01 01 01 01 01 05 93 8c 1a \
+         5b 00",
     );
     assert_eq!(d.len(), 2);
     assert_eq!(d.rows(3).map(|r| r.first), Some(10));
@@ -263,9 +263,9 @@ fn hello_golden() {
     golden(
         0,
         &Message::Hello(hello),
-        "03 05 01 01 02 01 03 01 02 03 02 40 01 01 01 01 02 02 01 01 03 9a 19 01 01 01 01 01 01 \
+        "03 06 01 01 02 01 03 01 02 03 02 40 01 01 01 01 02 02 01 01 03 9a 19 01 01 01 01 01 01 \
          01 01 0c 3f e0 ff ff ff e0 ff ff ff 33 33 01 01 01 01 02 3f 01 0f c0 3f e0 ff ff ff e0 \
-         ff ff ff 25 9d 24 ff 00",
+         ff ff ff f5 08 21 7b 00",
     );
 }
 
@@ -285,8 +285,8 @@ fn layer_patch_golden_is_the_specs_worked_example() {
         cells: PatchCells::from_le_bytes(&cells).unwrap(),
     };
     let encoded =
-        "11 05 02 02 01 01 02 02 e0 ff ff ff e0 ff ff ff 03 01 01 05 fc ff ff ff 03 80 d9 01 02 \
-         fe 01 05 13 40 98 7c 00";
+        "11 06 02 02 01 01 02 02 e0 ff ff ff e0 ff ff ff 03 01 01 05 fc ff ff ff 03 80 d9 01 02 \
+         fe 01 05 60 79 b0 6f 00";
     golden(0x0102, &Message::LayerPatch(patch), encoded);
     let values: Vec<i16> = patch.cells.iter().collect();
     assert_eq!(values, [i16::MIN, 217, -512, 0]);
@@ -313,7 +313,7 @@ fn window_moved_stats_reply_golden() {
     golden(
         0x0103,
         &Message::WindowMoved(moved),
-        "06 05 03 03 01 05 01 01 15 e1 ff ff ff e0 ff ff ff f0 ff ff ff df ff ff ff c1 7c 1c a2 \
+        "06 06 03 03 01 05 01 01 15 e1 ff ff ff e0 ff ff ff f0 ff ff ff df ff ff ff e9 d5 02 fa \
          00",
     );
     let mut values = [0_u32; STATS_COUNTERS];
@@ -339,13 +339,13 @@ fn window_moved_stats_reply_golden() {
     golden(
         0x0104,
         &Message::Stats(stats),
-        "06 05 04 04 01 01 01 01 02 02 01 01 02 03 01 01 02 04 01 01 02 05 01 01 02 06 01 01 02 \
+        "06 06 04 04 01 01 01 01 02 02 01 01 02 03 01 01 02 04 01 01 02 05 01 01 02 06 01 01 02 \
          07 01 01 02 08 01 01 02 09 01 01 02 0a 01 01 02 0b 01 01 02 0c 01 01 02 0d 01 01 02 0e \
          01 01 02 0f 01 01 02 10 01 01 02 11 01 01 02 12 01 01 02 13 01 01 02 14 01 01 02 15 01 \
          01 02 16 01 01 02 17 01 01 02 18 01 01 02 19 01 01 02 1a 01 01 02 1b 01 01 02 1c 01 01 \
          02 1d 01 01 02 1e 01 01 02 1f 01 01 02 20 01 01 02 21 01 01 02 22 01 01 02 23 01 01 02 \
-         24 01 01 02 25 01 01 02 26 01 01 02 27 01 01 02 28 01 01 02 29 01 01 02 2a 01 01 05 fa \
-         16 31 d2 00",
+         24 01 01 02 25 01 01 02 26 01 01 02 27 01 01 02 28 01 01 02 29 01 01 02 2a 01 01 05 4f \
+         ed ee 18 00",
     );
     let configure = Header {
         version: 1,
@@ -355,7 +355,7 @@ fn window_moved_stats_reply_golden() {
     golden(
         0x0105,
         &Message::Reply(Reply::ok(configure)),
-        "06 05 05 05 01 0b 02 83 01 01 01 01 01 01 01 01 01 01 01 01 01 05 32 27 05 dc 00",
+        "06 06 05 05 01 0b 02 83 01 01 01 01 01 01 01 01 01 01 01 01 01 05 d1 a5 1b a7 00",
     );
     // The refusal of layer 3's decay time constant: param 96 + 3, OutOfRange, 1 s against
     // [4, 60 097] s.
@@ -371,7 +371,7 @@ fn window_moved_stats_reply_golden() {
     golden(
         0x0106,
         &Message::Reply(refusal),
-        "06 05 05 06 01 0c 04 83 03 63 01 03 80 3f 01 03 80 40 08 c1 6a 47 61 af 90 26 00",
+        "06 06 05 06 01 0c 04 83 03 63 01 03 80 3f 01 03 80 40 08 c1 6a 47 82 2d 8e 5d 00",
     );
 }
 
@@ -380,9 +380,9 @@ fn sizes_match_the_spec() {
     // Section 9 of the spec: the largest frame device to host is a 32-layer Hello.
     assert_eq!(MAX_FRAME, 664);
     assert_eq!(MAX_ENCODED_FRAME, 668);
-    // The largest command is a Setup (139 bytes of body; a Configure has 94).
-    assert_eq!(MAX_COMMAND_FRAME, 147);
-    assert_eq!(MAX_ENCODED_COMMAND, 149);
+    // The largest command is a Setup (140 bytes of body; a Configure has 94).
+    assert_eq!(MAX_COMMAND_FRAME, 148);
+    assert_eq!(MAX_ENCODED_COMMAND, 150);
     assert_eq!(encoded_len_max(MIN_FRAME + 19 + 2 * 16 * 16), 543);
     assert_eq!(encoded_len_max(MIN_FRAME + 19 + 128), 157);
     assert_eq!(encoded_len_max(MIN_FRAME + 16 + 8 * 20), 186);
@@ -448,10 +448,10 @@ fn bad_frames_are_refused_counted_and_the_next_frame_decodes() {
     // 4. Unknown version, unknown type, bad body length, out-of-range field.
     // A version-2 frame (an older peer): refused whole.
     stream.extend_from_slice(&raw_frame(2, 0x86, 3, &[]));
-    stream.extend_from_slice(&raw_frame(5, 0x7E, 4, &[]));
-    stream.extend_from_slice(&raw_frame(5, 0x86, 5, &[0]));
+    stream.extend_from_slice(&raw_frame(VERSION, 0x7E, 4, &[]));
+    stream.extend_from_slice(&raw_frame(VERSION, 0x86, 5, &[0]));
     stream.extend_from_slice(&raw_frame(
-        5,
+        VERSION,
         0x01,
         6,
         &[2, 0, 0, 0, 9, 0, 64, 0, 0, 0, 0, 0, 0, 0, 0, 0],
@@ -587,19 +587,20 @@ fn setup_and_the_empty_commands_golden() {
     golden(
         7,
         &Message::Setup(setup),
-        "04 05 87 07 02 01 02 b4 02 32 01 01 03 80 3e 01 01 02 bf 01 03 40 3f 01 01 01 01 01 07 \
+        "04 06 87 07 02 01 02 b4 02 32 01 01 03 80 3e 01 01 02 bf 01 03 40 3f 01 01 01 01 01 07 \
          80 3f cd cc 4c 3d 01 01 01 01 01 01 02 40 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 \
-         01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 02 \
          01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 \
-         01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 05 f5 \
-         7b fc 03 00",
+         02 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 \
+         01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 05 \
+         d5 dc 62 26 00",
     );
-    golden(2, &Message::RequestStats, "04 05 88 02 05 94 07 8a cb 00");
-    golden(2, &Message::Shutdown, "04 05 89 02 05 a3 6d 48 ca 00");
-    golden(2, &Message::EndObservation, "04 05 8a 02 05 fa d3 0e c8 00");
+    golden(2, &Message::RequestStats, "04 06 88 02 05 7a a8 3f d9 00");
+    golden(2, &Message::Shutdown, "04 06 89 02 05 4d c2 fd d8 00");
+    golden(2, &Message::EndObservation, "04 06 8a 02 05 14 7c bb da 00");
     // A Setup body one byte short is a bad body; so is a version-2 Setup (38 bytes), a
-    // Setup of version 3 before its rule block (60 bytes) and one of version 4 (81 bytes).
-    assert_bad_bodies(0x87, &[138, 81, 60, 38]);
+    // Setup of version 3 before its rule block (60 bytes), one of version 4 (81 bytes) and
+    // one of version 5 (139 bytes).
+    assert_bad_bodies(0x87, &[139, 81, 60, 38]);
 }
 
 /// SetRule (0x8B, `docs/protocol.md`, "0x8B SetRule"): the paper's rule with a 0.08 m step,
@@ -613,8 +614,8 @@ fn set_rule_golden() {
             step_threshold_m: 0.08,
             rule: RuleSetup::SPREAD,
         }),
-        "04 05 8b 09 05 0a d7 a3 3d 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 \
-         05 af 2e f1 73 00",
+        "04 06 8b 09 05 0a d7 a3 3d 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 \
+         01 05 c2 85 b9 d0 00",
     );
     // The plane rule with its defaults (what a build with the plane-rule feature defaults to).
     let default = crate::link::convert::set_rule_message(&crate::classify::ClassifierConfig {
@@ -624,10 +625,25 @@ fn set_rule_golden() {
     golden(
         10,
         &Message::SetRule(default),
-        "04 05 8b 0a 01 05 d0 4c 3d 01 04 5a ba 3e 04 c0 75 3c 04 e0 a3 3c 01 03 ac 3a 01 01 06 \
-         40 e5 b5 4c 15 00",
+        "04 06 8b 0a 01 05 d0 4c 3d 01 04 5a ba 3e 04 c0 75 3c 04 e0 a3 3c 01 03 ac 3a 01 01 07 \
+         40 01 41 a0 d1 31 00",
     );
-    assert_bad_bodies(0x8B, &[24, 26]);
+    // The same for a spinning multi-beam laser in firing order: pair depth 3 (version 6).
+    let firing = crate::link::convert::set_rule_message(&crate::classify::ClassifierConfig {
+        rule: crate::classify::NavigabilityRule::Plane(
+            crate::classify::PlaneRule::DEFAULT
+                .with_pair_depth(crate::classify::FIRING_ORDER_PAIR_DEPTH),
+        ),
+        ..crate::classify::ClassifierConfig::DEFAULT
+    });
+    golden(
+        14,
+        &Message::SetRule(firing),
+        "04 06 8b 0e 01 05 d0 4c 3d 01 04 5a ba 3e 04 c0 75 3c 04 e0 a3 3c 01 03 ac 3a 01 01 07 \
+         40 03 19 35 08 d9 00",
+    );
+    // A version-5 SetRule (25 bytes: no pair depth) is a bad body, as is one byte more.
+    assert_bad_bodies(0x8B, &[25, 27]);
 }
 
 /// The laser block of version 3 (`docs/protocol.md`, "0x87 Setup", the second worked
@@ -644,16 +660,17 @@ fn setup_with_a_lidar_on_a_servo_golden() {
         range_sigma_m: 1_311.0 / 65_536.0,
         angle_sigma_rad: 86.0 / 65_536.0,
         noise_factor: 2.0,
+        pair_depth: 1,
     });
     golden(
         8,
         &Message::Setup(setup),
-        "04 05 87 08 02 01 01 01 01 01 05 cd cc cc 3d 01 01 01 06 cd cc cc 3e 02 01 01 01 01 01 \
+        "04 06 87 08 02 01 01 01 01 01 05 cd cc cc 3d 01 01 01 06 cd cc cc 3e 02 01 01 01 01 01 \
          06 3f 0a d7 a3 3d 01 01 01 01 01 01 01 02 01 04 5a ba 3e 04 c0 75 3c 04 e0 a3 3c 01 03 \
-         ac 3a 01 01 04 40 01 01 01 01 01 01 01 03 20 c1 01 03 f0 41 01 03 70 42 01 03 c8 41 02 \
-         01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 \
-         01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 05 9b \
-         20 5f dc 00",
+         ac 3a 01 01 05 40 01 01 01 01 01 01 01 01 03 20 c1 01 03 f0 41 01 03 70 42 01 03 c8 41 \
+         02 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 \
+         01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 05 \
+         40 f1 b8 be 00",
     );
     // The rule block is the library's default plane rule, bit for bit.
     assert_eq!(
@@ -662,7 +679,7 @@ fn setup_with_a_lidar_on_a_servo_golden() {
             crate::classify::PlaneRule::DEFAULT
         ))
     );
-    assert_eq!((SETUP_RULE_LEN, SETUP_LASER_LEN), (21, 22));
+    assert_eq!((SETUP_RULE_LEN, SETUP_LASER_LEN), (22, 22));
 }
 
 /// A version-2 frame (the Ping of version 2's worked example, whose CRC is good) is refused
@@ -697,8 +714,20 @@ fn a_version_4_frame_is_refused() {
     assert_eq!(got, [Err(DecodeError::UnknownVersion(4))]);
     assert_eq!(
         std::format!("{}", DecodeError::UnknownVersion(4)),
-        "unknown protocol version 4 (this side speaks 5)"
+        "unknown protocol version 4 (this side speaks 6)"
     );
+}
+
+/// A version-5 frame (the Ping of version 5's worked example, its CRC good) is refused whole
+/// as an unknown version: a version-5 peer, whose rule block has no pair depth, gets no
+/// silent garbage.
+#[test]
+fn a_version_5_frame_is_refused() {
+    let mut acc = FrameAccumulator::<MAX_FRAME>::new();
+    let got = feed_all(&mut acc, &hex("04 05 86 01 05 5d 79 39 ea 00"));
+    assert_eq!(got, [Err(DecodeError::UnknownVersion(5))]);
+    assert_eq!(acc.counters().unknown_version, 1);
+    assert_eq!(feed_all(&mut acc, &ping_frame()), [Ok(1)]);
 }
 
 /// The mount and filter blocks of version 5 (`docs/protocol.md`, "0x87 Setup", the third
@@ -720,12 +749,12 @@ fn setup_with_a_general_mount_and_filters_golden() {
     golden(
         13,
         &Message::Setup(setup),
-        "04 05 87 0d 02 02 01 01 01 01 05 cd cc cc 3d 01 01 01 06 cd cc cc 3e 02 01 01 01 01 01 \
+        "04 06 87 0d 02 02 01 01 01 01 05 cd cc cc 3d 01 01 01 06 cd cc cc 3e 02 01 01 01 01 01 \
          06 3f 0a d7 a3 3d 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 \
-         01 01 01 01 01 03 01 01 01 01 01 01 01 03 20 c1 01 03 f0 41 01 03 70 42 01 05 c8 41 01 \
-         ff 01 01 01 03 a0 40 01 03 34 43 01 01 01 01 01 04 b4 42 05 0d b0 04 0a 02 bc 34 e4 57 \
-         b8 88 e8 03 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 05 5d \
-         c7 23 46 00",
+         01 01 01 01 01 01 03 01 01 01 01 01 01 01 03 20 c1 01 03 f0 41 01 03 70 42 01 05 c8 41 \
+         01 ff 01 01 01 03 a0 40 01 03 34 43 01 01 01 01 01 04 b4 42 05 0d b0 04 0a 02 bc 34 e4 \
+         57 b8 88 e8 03 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 01 05 \
+         2e 4b 45 a1 00",
     );
     assert_eq!(
         (
@@ -755,8 +784,8 @@ fn stamped_pose_golden() {
     golden(
         11,
         &Message::Pose(pose),
-        "04 05 81 0b 01 01 03 c0 3f 01 03 10 c0 01 01 02 3e 01 01 01 01 01 03 80 3e 01 03 c0 bf \
-         03 09 3d 03 01 83 03 45 92 00",
+        "04 06 81 0b 01 01 03 c0 3f 01 03 10 c0 01 01 02 3e 01 01 01 01 01 03 80 3e 01 03 c0 bf \
+         03 09 3d 06 01 96 b1 52 c9 00",
     );
     // Flags are carried as they are (the device validates them), a version-3 body (28 bytes)
     // and a byte too many are bad bodies.
@@ -777,7 +806,7 @@ fn time_messages_golden() {
     golden(
         12,
         &Message::TimeRequest(TimeRequest { host_us }),
-        "04 05 8c 0c 07 cb 04 fb 71 1f 01 01 05 80 84 6d e5 00",
+        "04 06 8c 0c 07 cb 04 fb 71 1f 01 01 05 70 56 f3 92 00",
     );
     golden(
         0x0108,
@@ -786,7 +815,7 @@ fn time_messages_golden() {
             device_us: 4_000_123,
             queued_ahead: 300,
         }),
-        "0b 05 07 08 01 cb 04 fb 71 1f 01 01 04 7b 09 3d 07 2c 01 16 32 3f cf 00",
+        "0b 06 07 08 01 cb 04 fb 71 1f 01 01 04 7b 09 3d 07 2c 01 74 ef b9 25 00",
     );
     golden(
         0x0109,
@@ -795,7 +824,7 @@ fn time_messages_golden() {
             first_us: 3_990_000,
             last_us: 4_090_000,
         }),
-        "06 05 08 09 01 2a 01 01 04 f0 e1 3c 04 90 68 3e 05 e6 51 e8 4b 00",
+        "06 06 08 09 01 2a 01 01 04 f0 e1 3c 04 90 68 3e 05 14 e5 20 62 00",
     );
     for (msg_type, len) in [(0x8C, 8), (0x07, 14), (0x08, 12)] {
         assert_bad_bodies(msg_type, &[len - 1, len + 1, 0]);
