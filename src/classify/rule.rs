@@ -111,6 +111,17 @@ impl NavigabilityRule {
     #[cfg(not(feature = "plane-rule"))]
     pub const DEFAULT: Self = Self::Spread;
 
+    /// The rule as a spinning multi-beam laser's returns in firing order ask for it: the
+    /// plane rule pairing each return with the last [`FIRING_ORDER_PAIR_DEPTH`] of its cell
+    /// ([`PlaneRule::pair_depth`]); the spread rule as it is.
+    #[must_use]
+    pub const fn for_firing_order(self) -> Self {
+        match self {
+            Self::Spread => Self::Spread,
+            Self::Plane(rule) => Self::Plane(rule.with_pair_depth(FIRING_ORDER_PAIR_DEPTH)),
+        }
+    }
+
     /// Whether this build can apply the rule: the spread rule always, the plane rule only
     /// with the `plane-rule` feature (the library's default).
     #[must_use]
