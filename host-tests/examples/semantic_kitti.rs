@@ -62,9 +62,7 @@
 //!
 //! The truth is derived by `terrain_pyramid_host_tests::semantic_kitti::truth` (tested there).
 
-use terrain_pyramid::classify::{
-    Classifier, ClassifierConfig, NavigabilityRule, PlaneRule, FIRING_ORDER_PAIR_DEPTH,
-};
+use terrain_pyramid::classify::{Classifier, ClassifierConfig, NavigabilityRule, PlaneRule};
 use terrain_pyramid::{Design, Fused, Meters, Pyramid, Resolution};
 use terrain_pyramid_host_tests::navigability::rings::{ring_name, ring_of, RINGS};
 use terrain_pyramid_host_tests::navigability::witness::{witnesses, Witness};
@@ -410,11 +408,13 @@ fn score_scan(
         count(VEGETATION_ROW),
         count(OTHER_ROW),
     );
+    // Each order, and whether it is a spinning laser's firing order.
     let orders = [
-        ("file order", points.clone()),
+        ("file order", points.clone(), false),
         (
             "firing order",
             firing_order(&points, [0.0; 3], described.psi_deg.to_radians()),
+            true,
         ),
     ];
     let rules = [
@@ -426,14 +426,13 @@ fn score_scan(
     ];
     let mut tables: Vec<(String, Scored)> = Vec::with_capacity(RUNS);
     for (rule_name, rule) in rules {
-        for (order_name, ordered) in &orders {
+        for (order_name, ordered, firing) in &orders {
             // In firing order the plane rule pairs each return with the last three of its
             // cell, as `pyramid replay` sets it for a spinning laser's file.
-            let rule = match rule {
-                NavigabilityRule::Plane(plane) if order_name.starts_with("firing") => {
-                    NavigabilityRule::Plane(plane.with_pair_depth(FIRING_ORDER_PAIR_DEPTH))
-                }
-                other => other,
+            let rule = if *firing {
+                rule.for_firing_order()
+            } else {
+                rule
             };
             classifier.configure(ClassifierConfig {
                 rule,

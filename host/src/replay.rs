@@ -45,7 +45,7 @@
 //! auto`, sorts when the file holds such revolutions ([`held_beam_by_beam`]: a quarter of the
 //! points in runs of one elevation that turn 270° or more) and keeps the file's order
 //! otherwise; the summary's `order` says which. In firing order the plane rule's pair test pairs
-//! each return with the last three of its cell ([`FIRING_ORDER_PAIR_DEPTH`]: between a return
+//! each return with the last three of its cell ([`FIRING_ORDER_PAIR_DEPTH`](terrain_pyramid::classify::FIRING_ORDER_PAIR_DEPTH): between a return
 //! and its neighbour along the ring come the other beams' returns of the same azimuth step;
 //! `docs/core.md`, "How far back the pair test looks"), unless `--pair-depth` says otherwise;
 //! the summary's `rule` says `pairs 3 back`. Not for a scanner whose
@@ -67,9 +67,7 @@ use std::io::BufReader;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::str::FromStr;
-use terrain_pyramid::classify::{
-    Classifier, ClassifierConfig, ClassifierStats, NavigabilityRule, FIRING_ORDER_PAIR_DEPTH,
-};
+use terrain_pyramid::classify::{Classifier, ClassifierConfig, ClassifierStats};
 use terrain_pyramid::{Config, Design, Meters, Point3, Pyramid, PyramidStats};
 
 /// The layer capacity: the design's.
@@ -608,7 +606,7 @@ fn integrate<const W: usize>(args: &Args, plan: &Plan) -> Result<Integrated, Fai
 
 /// The classifier's configuration for points given in `order`: under the plane rule, a
 /// spinning laser's points in firing order are paired with the last
-/// [`FIRING_ORDER_PAIR_DEPTH`] returns of their cell (`docs/core.md`, "How far back the pair
+/// [`FIRING_ORDER_PAIR_DEPTH`](terrain_pyramid::classify::FIRING_ORDER_PAIR_DEPTH) returns of their cell ([`NavigabilityRule::for_firing_order`](terrain_pyramid::classify::NavigabilityRule::for_firing_order); `docs/core.md`, "How far back the pair
 /// test looks") unless `--pair-depth` (`pair_depth_flag`) says otherwise; `config` as it is
 /// for the file's order.
 #[must_use]
@@ -617,16 +615,13 @@ pub fn for_order(
     order: PointOrder,
     pair_depth_flag: Option<i64>,
 ) -> ClassifierConfig {
-    match config.rule {
-        NavigabilityRule::Plane(rule)
-            if order == PointOrder::Firing && pair_depth_flag.is_none() =>
-        {
-            ClassifierConfig {
-                rule: NavigabilityRule::Plane(rule.with_pair_depth(FIRING_ORDER_PAIR_DEPTH)),
-                ..config
-            }
+    if order == PointOrder::Firing && pair_depth_flag.is_none() {
+        ClassifierConfig {
+            rule: config.rule.for_firing_order(),
+            ..config
         }
-        _ => config,
+    } else {
+        config
     }
 }
 
@@ -796,6 +791,7 @@ pub fn run(args: &Args) -> ExitCode {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use terrain_pyramid::classify::NavigabilityRule;
 
     /// A 16-beam laser 1 m up (beams every 2° from −15°), 0.5° azimuth steps, every beam
     /// meeting flat ground or a wall 8 m away, with 20° of sky in the upper beams: offsets

@@ -33,9 +33,7 @@ mod agreement;
 use agreement::part_agreement;
 
 use std::collections::{BTreeMap, BTreeSet};
-use terrain_pyramid::classify::{
-    Classifier, ClassifierConfig, NavigabilityRule, PlaneRule, FIRING_ORDER_PAIR_DEPTH,
-};
+use terrain_pyramid::classify::{Classifier, ClassifierConfig, NavigabilityRule};
 use terrain_pyramid::{Design, EvidenceClass, Meters, Pyramid, Schedule, SensorModel};
 use terrain_pyramid_host_tests::classify::{classify, RefClassifierConfig, RefPoint, RefRule};
 use terrain_pyramid_host_tests::navigability::{
@@ -601,7 +599,7 @@ fn part_3dtk(judges: &[Judge]) {
     let mut p = pyramid::<64, L>(&design);
     classifier.configure(ClassifierConfig {
         ceiling: Some(Meters::from_num(scan3dtk::CEILING_M)),
-        rule: NavigabilityRule::Plane(PlaneRule::DEFAULT.with_pair_depth(FIRING_ORDER_PAIR_DEPTH)),
+        rule: NavigabilityRule::DEFAULT.for_firing_order(),
         ..ClassifierConfig::default()
     });
     let psi = f64::from(design.sensor().psi_rad);

@@ -44,9 +44,7 @@ pub mod witnessed;
 use super::stairs::round3;
 use serde::Serialize;
 use std::fmt::Write as _;
-use terrain_pyramid::classify::{
-    Classifier, ClassifierConfig, NavigabilityRule, PlaneRule, FIRING_ORDER_PAIR_DEPTH,
-};
+use terrain_pyramid::classify::{Classifier, ClassifierConfig, NavigabilityRule, PlaneRule};
 use terrain_pyramid::{Design, Pyramid};
 use terrain_pyramid_host_tests::navigability::rings::{
     ring_name, Count, ObstacleKind, RingTally, RINGS,
@@ -253,18 +251,6 @@ pub const RULES: [(&str, NavigabilityRule); 2] = [
     ("spread (paper)", NavigabilityRule::Spread),
 ];
 
-/// `rule` as a spinning multi-beam laser's returns in firing order ask for it (the car's,
-/// as `pyramid replay` sets it for such a file): the plane rule's pair test pairs each return
-/// with the last [`FIRING_ORDER_PAIR_DEPTH`] of its cell.
-fn in_firing_order(rule: NavigabilityRule) -> NavigabilityRule {
-    match rule {
-        NavigabilityRule::Plane(plane) => {
-            NavigabilityRule::Plane(plane.with_pair_depth(FIRING_ORDER_PAIR_DEPTH))
-        }
-        NavigabilityRule::Spread => NavigabilityRule::Spread,
-    }
-}
-
 /// Runs the experiment. Needs a large stack (the classifier's 3 MiB scratch and the pyramids
 /// are built in place before they are boxed): `lab experiments` runs it on its own thread.
 ///
@@ -280,7 +266,7 @@ pub fn run(setup: &Setup) -> Result<FarObstaclesResult, String> {
     let mut rules = Vec::new();
     for (name, rule) in RULES {
         classifier.configure(ClassifierConfig {
-            rule: in_firing_order(rule),
+            rule: rule.for_firing_order(),
             ..ClassifierConfig::default()
         });
         let mut tally = RingTally::default();
