@@ -7,7 +7,7 @@
 //! functions: [`cell_of`], [`window_offset`], [`slot`], [`entering`].
 
 use crate::decay::{decayed, DecayMode};
-use crate::logodds::{Cell, CellClass, Clamp};
+use crate::logodds::{Cell, CellClass, Clamp, GatedIncrement};
 use crate::units::{LogOddsFixed, Meters};
 
 /// A layer's cell size in fixed point: `rq = round(r · 2¹⁶)` raw Q16.16, at least 1 cm.
@@ -388,16 +388,31 @@ impl<const W: usize> Layer<W> {
         self.cells.get(row)?.get(col).copied()
     }
 
-    /// Adds a gated increment to world cell `(i, j)`; returns `false` (and changes nothing)
-    /// when the cell is outside the window.
+    /// Adds a gated increment `g` (raw Q8.8) of full weight to world cell `(i, j)`
+    /// ([`Cell::updated`]); returns `false` (and changes nothing) when the cell is outside
+    /// the window.
     #[inline]
     pub fn update(&mut self, i: i32, j: i32, g: i16, initial: LogOddsFixed, clamp: Clamp) -> bool {
+        self.update_by(i, j, GatedIncrement::unbounded(g), initial, clamp)
+    }
+
+    /// Applies one record's [`GatedIncrement`] to world cell `(i, j)` ([`Cell::updated_by`]);
+    /// returns `false` (and changes nothing) when the cell is outside the window.
+    #[inline]
+    pub fn update_by(
+        &mut self,
+        i: i32,
+        j: i32,
+        increment: GatedIncrement,
+        initial: LogOddsFixed,
+        clamp: Clamp,
+    ) -> bool {
         let Some((row, col)) = self.slot_of(i, j) else {
             return false;
         };
         match self.cells.get_mut(row).and_then(|r| r.get_mut(col)) {
             Some(cell) => {
-                let new = cell.updated(g, initial, clamp);
+                let new = cell.updated_by(increment, initial, clamp);
                 if new != *cell {
                     *cell = new;
                     let tile =

@@ -84,7 +84,7 @@ pub use decay::{Decay, DecayMode, TimeConstant};
 pub use design::{Design, DesignError, GateShape, Param, Schedule, SensorModel};
 
 pub use grid::{Layer, LayerCounts, Resolution};
-pub use logodds::{Cell, CellClass, Clamp, Increments, InverseSensorModel};
+pub use logodds::{Cell, CellClass, Clamp, GatedIncrement, Increments, InverseSensorModel};
 pub use pyramid::{
     fused_answer, Applied, Config, Evidence, EvidenceClass, Fused, Pyramid, PyramidStats,
     DEFAULT_FUSED_MARGIN,

@@ -108,12 +108,30 @@ impl Cell {
         }
     }
 
-    /// Adds a gated increment `g` (raw Q8.8). Zero leaves the cell untouched (it does not
-    /// become observed); otherwise an unknown cell first takes `initial`, the sum saturates at
-    /// ±127.996 nats, and `clamp` applies.
+    /// Adds a gated increment `g` (raw Q8.8) of full weight: [`Cell::updated_by`] with
+    /// [`GatedIncrement::unbounded`]. Zero leaves the cell untouched (it does not become observed);
+    /// otherwise an unknown cell first takes `initial`, the sum saturates at ±127.996 nats,
+    /// and `clamp` applies.
     #[must_use]
     #[inline]
     pub fn updated(self, g: i16, initial: LogOddsFixed, clamp: Clamp) -> Self {
+        self.updated_by(GatedIncrement::unbounded(g), initial, clamp)
+    }
+
+    /// Applies one record's [`GatedIncrement`]: its increment `g` (raw Q8.8), carrying the cell
+    /// toward `g`'s sign no further than `increment.reach` (a cell already beyond it keeps its
+    /// value).
+    /// Zero leaves the cell untouched (it does not become observed); otherwise an unknown cell
+    /// first takes `initial`, the sum saturates at ±127.996 nats, and `clamp` applies.
+    #[must_use]
+    #[inline]
+    pub fn updated_by(
+        self,
+        increment: GatedIncrement,
+        initial: LogOddsFixed,
+        clamp: Clamp,
+    ) -> Self {
+        let g = increment.g;
         if g == 0 {
             return self;
         }
@@ -123,7 +141,44 @@ impl Cell {
             initial.to_bits()
         };
         let sum = start.saturating_add(g).max(-STORED_MAX_RAW);
-        Self(encode(clamp.apply_raw(sum)))
+        let reached = if g < 0 {
+            sum.max(start.min(increment.reach))
+        } else {
+            sum.min(start.max(increment.reach))
+        };
+        Self(encode(clamp.apply_raw(reached)))
+    }
+}
+
+/// What one evidence record does to a cell: its gated increment, and how far toward the
+/// increment's sign it may carry the cell (`docs/core.md`, "One update").
+///
+/// Under clamping the reach is the bound on that side scaled by the record's gate weight,
+/// `round(c·w)`: a layer never believes more of what it saw at a distance than its gate trusts
+/// it with there, however often it looks. With weight 1 (the hard gate, the flat grid) the
+/// reach is the bound itself, and the rule is OctoMap's clamp.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct GatedIncrement {
+    /// The gated increment, raw Q8.8 (0: the record changes nothing).
+    pub g: i16,
+    /// The farthest value, raw Q8.8, the record may carry the cell to in `g`'s direction:
+    /// −32 767 ..= 0 when `g < 0`, 0 ..= 32 767 when `g > 0`.
+    pub reach: i16,
+}
+
+impl GatedIncrement {
+    /// The increment `g` (raw Q8.8) with no reach but the format's (±127.996 nats).
+    #[must_use]
+    pub const fn unbounded(g: i16) -> Self {
+        Self {
+            g,
+            reach: if g < 0 {
+                -STORED_MAX_RAW
+            } else {
+                STORED_MAX_RAW
+            },
+        }
     }
 }
 
@@ -233,6 +288,22 @@ impl Clamp {
         match self {
             Self::Off => raw,
             Self::Bounds { min, max } => raw.clamp(min.to_bits(), max.to_bits().max(min.to_bits())),
+        }
+    }
+
+    /// The [`GatedIncrement`] of a record of class increment `l` (raw Q8.8) and gate weight `w`: the
+    /// gated increment `round(l·w)` and, with bounds, the bound on its side scaled by the same
+    /// weight, `round(c·w)` (the same rounding, [`gated`]); without, the format's limit.
+    #[must_use]
+    #[inline]
+    pub fn gated(self, l: LogOddsFixed, w: Weight) -> GatedIncrement {
+        let g = gated(l, w);
+        match self {
+            Self::Off => GatedIncrement::unbounded(g),
+            Self::Bounds { min, max } => GatedIncrement {
+                g,
+                reach: gated(if g < 0 { min } else { max }, w),
+            },
         }
     }
 }
@@ -474,6 +545,71 @@ mod tests {
             c = c.updated(217, LogOddsFixed::ZERO, Clamp::OCTOMAP);
         }
         assert_eq!(c.log_odds(), Some(LogOddsFixed::from_num(3.5)));
+    }
+
+    #[test]
+    fn a_step_reaches_the_bound_scaled_by_its_weight() {
+        let (free, obstacle) = (LogOddsFixed::from_bits(-104), LogOddsFixed::from_bits(217));
+        // Weight 1: the bounds themselves (−2 = −512 raw, 3.5 = 896 raw).
+        let one = Clamp::OCTOMAP.gated(free, Weight::ONE);
+        assert_eq!((one.g, one.reach), (-104, -512));
+        // Weight 0.5: −52 and −256 exactly.
+        let half = Clamp::OCTOMAP.gated(free, Weight::from_num(0.5));
+        assert_eq!((half.g, half.reach), (-52, -256));
+        // Weight 500/32 768 (a gate's tail): −104·500 = −52 000 → ⌊(−52 000 + 16 384) / 32 768⌋
+        // = −2; −512·500 = −256 000 → −8; 217·500 = 108 500 → 3; 896·500 = 448 000 → 14.
+        let tail = Weight::from_bits(500);
+        let f = Clamp::OCTOMAP.gated(free, tail);
+        assert_eq!((f.g, f.reach), (-2, -8));
+        let o = Clamp::OCTOMAP.gated(obstacle, tail);
+        assert_eq!((o.g, o.reach), (3, 14));
+        // Without clamping, only the format bounds an increment.
+        assert_eq!(Clamp::Off.gated(free, tail), GatedIncrement::unbounded(-2));
+        assert_eq!(GatedIncrement::unbounded(-2).reach, -32_767);
+        assert_eq!(GatedIncrement::unbounded(3).reach, 32_767);
+    }
+
+    #[test]
+    fn looks_at_a_gates_tail_never_carry_a_cell_past_their_share_of_the_bound() {
+        let clamp = Clamp::OCTOMAP;
+        let free = LogOddsFixed::from_bits(-104);
+        let tail = clamp.gated(free, Weight::from_bits(500));
+        let mut c = Cell::UNKNOWN;
+        for _ in 0..1000 {
+            c = c.updated_by(tail, LogOddsFixed::ZERO, clamp);
+        }
+        // −2 a look, stopped at −8: a thousand looks weigh no more than four.
+        assert_eq!(c.to_raw(), -8);
+        // A full-weight look carries it on, to the bound itself.
+        for _ in 0..10 {
+            c = c.updated_by(clamp.gated(free, Weight::ONE), LogOddsFixed::ZERO, clamp);
+        }
+        assert_eq!(c.to_raw(), -512);
+        // A tail look then leaves it where stronger looks put it: neither further nor back.
+        assert_eq!(c.updated_by(tail, LogOddsFixed::ZERO, clamp).to_raw(), -512);
+        // Obstacle evidence of the tail moves it toward its own reach (+14) as usual.
+        let up = clamp.gated(LogOddsFixed::from_bits(217), Weight::from_bits(500));
+        assert_eq!(c.updated_by(up, LogOddsFixed::ZERO, clamp).to_raw(), -509);
+        let mut d = Cell::observed(LogOddsFixed::from_bits(12));
+        d = d.updated_by(up, LogOddsFixed::ZERO, clamp);
+        assert_eq!(d.to_raw(), 14);
+        d = d.updated_by(up, LogOddsFixed::ZERO, clamp);
+        assert_eq!(d.to_raw(), 14);
+    }
+
+    #[test]
+    fn at_weight_one_a_step_is_octomaps_clamp() {
+        let clamp = Clamp::OCTOMAP;
+        let mut a = Cell::UNKNOWN;
+        let mut b = Cell::UNKNOWN;
+        // A fixed pattern of free and obstacle looks that hits both bounds.
+        for n in 0..400_u32 {
+            let l = if (n / 37) % 2 == 0 { -104 } else { 217 };
+            let l = LogOddsFixed::from_bits(l);
+            a = a.updated_by(clamp.gated(l, Weight::ONE), LogOddsFixed::ZERO, clamp);
+            b = b.updated(l.to_bits(), LogOddsFixed::ZERO, clamp);
+            assert_eq!(a, b);
+        }
     }
 
     #[test]

@@ -12,7 +12,7 @@
 use crate::decay::{Decay, DecayMode, DecayRows, Sweep, TimeConstant};
 use crate::design::{Design, DesignError, Param};
 use crate::grid::{Layer, LayerCounts, Resolution};
-use crate::logodds::{gated, Cell, Clamp, Increments, InverseSensorModel};
+use crate::logodds::{Cell, Clamp, Increments, InverseSensorModel};
 use crate::units::{LogOddsFixed, Meters, Weight};
 
 /// What the classifier concluded about one layer cell from one observation.
@@ -432,7 +432,8 @@ impl<const W: usize, const L: usize> Pyramid<W, L> {
         self.state.stats
     }
 
-    /// Applies one record: the gated increment `round(l_class · w)` to its cell.
+    /// Applies one record: the gated increment `round(l_class · w)` to its cell, carrying it
+    /// under clamping no further than the bound scaled by `w` ([`Clamp::gated`]).
     #[inline]
     pub fn apply(&mut self, record: &Evidence) -> Applied {
         let k = usize::from(record.layer);
@@ -446,15 +447,15 @@ impl<const W: usize, const L: usize> Pyramid<W, L> {
             EvidenceClass::Obstacle => state.increments.obstacle,
             EvidenceClass::Navigable => state.increments.free,
         };
-        let g = gated(l, record.weight);
-        if g == 0 {
+        let increment = state.clamp.gated(l, record.weight);
+        if increment.g == 0 {
             state.stats.gated_out = state.stats.gated_out.saturating_add(1);
             return Applied::GatedOut;
         }
-        if layer.update(
+        if layer.update_by(
             record.cell_x,
             record.cell_y,
-            g,
+            increment,
             state.increments.initial,
             state.clamp,
         ) {

@@ -82,8 +82,8 @@ proptest! {
     }
 
     /// One cell under a random sequence of gated increments, with clamping on or off:
-    /// `Cell::updated` follows the quantised reference (unknown → `L_0`, saturation, clamp;
-    /// g = 0 leaves the cell untouched).
+    /// `Cell::updated_by` with `Clamp::gated` follows the quantised reference (unknown → `L_0`,
+    /// saturation, the reach scaled by the weight, clamp; g = 0 leaves the cell untouched).
     #[test]
     fn one_cell_follows_the_recursion(
         m in model(),
@@ -107,8 +107,12 @@ proptest! {
         for (obstacle, w, repeat) in updates {
             for _ in 0..repeat {
                 let l = if obstacle { l_obs } else { l_free };
-                let g = gated(i64::from(l), u32::from(w));
-                cell = cell.updated(g as i16, inc.initial, clamp);
+                let step = clamp.gated(
+                    tp::units::LogOddsFixed::from_bits(l as i16),
+                    tp::units::Weight::from_bits(w),
+                );
+                prop_assert_eq!(i64::from(step.g), gated(i64::from(l), u32::from(w)));
+                cell = cell.updated_by(step, inc.initial, clamp);
                 model.update(&mut want, obstacle, GateWeight { exact: 0.0, raw: u32::from(w), raw_lo: u32::from(w), raw_hi: u32::from(w) });
                 let got = cell.log_odds().map(|v| v.to_num::<f64>());
                 prop_assert_eq!(got, want.value);

@@ -23,7 +23,8 @@
 //!   gated increments would both round to zero in Q8.8 is 0 here too, so the same layers are
 //!   fed), binned as the library bins.
 //! - Pyramid: per layer a W × W circular window of `f32` log-odds (NaN = unknown), the same
-//!   recentring and row/column resets, clamping to OctoMap's −2 ..= 3.5, dirty tiles.
+//!   recentring and row/column resets, clamping to OctoMap's −2 ..= 3.5 (each record reaching
+//!   no further than its weight's share of the bound), dirty tiles.
 //!
 //! It is not bit-identical to the fixed pipeline (nor meant to be); it does the same work.
 #![no_std]
@@ -779,8 +780,9 @@ impl<const C: usize> Frontend<C> {
                 .unwrap_or(0.0);
             let g = l * w;
             if g != 0.0 {
+                let reach = if g < 0.0 { min * w } else { max * w };
                 if let Some(layer) = pyramid.layers.get_mut(k) {
-                    layer.update(slot.cell_x, slot.cell_y, g, initial, min, max);
+                    layer.update(slot.cell_x, slot.cell_y, g, reach, initial, min, max);
                 }
             }
             *slot = Slot::VACANT;

@@ -42,7 +42,17 @@ impl<const W: usize> Layer<W> {
     }
 
     #[inline]
-    pub(crate) fn update(&mut self, i: i32, j: i32, g: f32, initial: f32, min: f32, max: f32) {
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn update(
+        &mut self,
+        i: i32,
+        j: i32,
+        g: f32,
+        reach: f32,
+        initial: f32,
+        min: f32,
+        max: f32,
+    ) {
         #[allow(clippy::cast_sign_loss)]
         let (ox, oy) = (
             i.wrapping_sub(self.origin_x) as u32 as usize,
@@ -57,6 +67,23 @@ impl<const W: usize> Layer<W> {
             // Comparisons, not `f32::clamp`/`min`/`max`: those are `fminf`/`fmaxf` calls on an
             // FPv4 (NaN rules), and no value here is NaN.
             let sum = start + g;
+            // The record carries the cell toward g's sign no further than its reach (the
+            // bound on that side scaled by the gate's weight), a cell beyond it stays.
+            let sum = if g < 0.0 {
+                let floor = if start < reach { start } else { reach };
+                if sum < floor {
+                    floor
+                } else {
+                    sum
+                }
+            } else {
+                let ceiling = if start > reach { start } else { reach };
+                if sum > ceiling {
+                    ceiling
+                } else {
+                    sum
+                }
+            };
             let new = if sum < min {
                 min
             } else if sum > max {

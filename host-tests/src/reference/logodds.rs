@@ -5,14 +5,16 @@
 //! - [`Arithmetic::Ideal`]: everything in `f64` — the exact increments `l = logit p(x|z) −
 //!   logit p(x)`, the exact `L_0 = logit p(x)`, the unrounded binned gate weight, the clamping
 //!   bounds as given. An update whose gated increment |w·l| is below half a Q8.8 step (2⁻⁹)
-//!   does not observe the cell and adds nothing. The value saturates at the Q8.8 format's
+//!   does not observe the cell and adds nothing. Under clamping an update carries the cell
+//!   toward its sign no further than `w·c`, c the bound on that side, and leaves a cell already
+//!   beyond it where it is. The value saturates at the Q8.8 format's
 //!   range (±32 767/256) like the device's, so that "clamping off" means the same thing.
 //!   Each cell also carries a bound on how far a spec-conforming fixed-point cell can have
 //!   drifted from it (see [`Cell::budget`]).
 //! - [`Arithmetic::Quantised`]: the rules of `docs/core.md` ("One update") taken literally —
 //!   increments, `L_0` and clamping bounds rounded to Q8.8 (ties away from zero), the weight
 //!   rounded to Q1.15, `g = floor((l·w + 2¹⁴)/2¹⁵)`, `g = 0` does nothing, saturation to
-//!   ±32 767 raw. The values are held in `f64` but are exact multiples of 2⁻⁸. Where a
+//!   ±32 767 raw, the reach `floor((c·w + 2¹⁴)/2¹⁵)` of the bound c on g's side. The values are held in `f64` but are exact multiples of 2⁻⁸. Where a
 //!   table entry a conforming `f32`-built table may hold differs from the reference's
 //!   rounding and that changes g, the cell's budget grows by the difference (see
 //!   [`super::gate::GateWeight`]).
@@ -110,7 +112,8 @@ impl InverseModel {
 pub enum Clamp {
     /// Only the format saturates (the paper's baseline).
     Off,
-    /// `L ← min(max(L, min), max)`, nats.
+    /// `L ← min(max(L, min), max)`, nats, and an update of gate weight w carries the cell
+    /// toward its sign no further than `w·min` (free) or `w·max` (obstacle).
     Bounds {
         /// c_min.
         min: f64,
@@ -274,6 +277,18 @@ impl Model {
         let current = cell.value.map_or(i64::from(l0), |v| (v * 256.0) as i64);
         let mut next = (current + g).clamp(-i64::from(MAX_RAW), i64::from(MAX_RAW));
         if let Some((lo, hi)) = self.clamp_raw() {
+            // The bound on g's side, scaled by the same weight and rounded the same way.
+            let c = i64::from(if g < 0 { lo } else { hi });
+            let reach = gated(c, w.raw);
+            let (ra, rb) = (gated(c, w.raw_lo), gated(c, w.raw_hi));
+            let reach_spread = (ra - rb).unsigned_abs().max((reach - ra).unsigned_abs());
+            // max(a, min(b, r)) moves by no more than the most any of a, b, r moves.
+            cell.budget = cell.budget.max(reach_spread as f64 * ULP);
+            next = if g < 0 {
+                next.max(current.min(reach))
+            } else {
+                next.min(current.max(reach))
+            };
             next = next.max(i64::from(lo)).min(i64::from(hi));
         }
         cell.value = Some(next as f64 * ULP);
@@ -313,6 +328,24 @@ impl Model {
         let current = cell.value.unwrap_or_else(|| inv.l0());
         let mut next = (current + increment).clamp(-MAX_NATS, MAX_NATS);
         if let Clamp::Bounds { min, max } = self.clamp {
+            // How far a layer may believe what it saw at this weight: the bound on the
+            // increment's side, scaled by the weight.
+            let c = if increment < 0.0 { min } else { max };
+            let reach = w.exact * c;
+            // A device rounds c to Q8.8, uses its table's entry and rounds the product to
+            // the nearest raw step: within half a step of c_q·w_dev.
+            let c_q = f64::from(q88(c)) * ULP;
+            let reach_error = [w.raw_lo, w.raw_hi, w.raw]
+                .iter()
+                .map(|&r| (c_q * f64::from(r) / one - reach).abs())
+                .fold(0.0, f64::max)
+                + HALF_ULP;
+            cell.budget = cell.budget.max(reach_error);
+            next = if increment < 0.0 {
+                next.max(current.min(reach))
+            } else {
+                next.min(current.max(reach))
+            };
             next = next.max(min).min(max);
         }
         cell.value = Some(next);

@@ -364,10 +364,12 @@ pub fn run_stairs(
     let (decoded, sim) = setup.simulated(classifier)?;
     let watched = Watched::of(&scene_config);
     let design = Ld19Design::for_kind_at(setup.kind, setup.servo.2);
-    let mut maps =
-        stairs::four_maps::<STAIRS_CELLS, RIG_LAYERS>(&decoded, setup.range_m, |gate| {
-            setup.pyramid(gate)
-        })?;
+    let mut maps = stairs::four_maps::<STAIRS_CELLS, RIG_LAYERS>(
+        &decoded,
+        setup.range_m,
+        |gate| setup.pyramid(gate),
+        Config::default(),
+    )?;
     let layers = maps.get(2).map_or(0, |m| m.layer_count());
     let pass = stairs::watch(
         &decoded,

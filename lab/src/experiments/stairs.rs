@@ -11,7 +11,7 @@ use serde::Serialize;
 use std::path::Path;
 use terrain_pyramid::classify::ClassifierConfig;
 use terrain_pyramid::wire::sick::Unit;
-use terrain_pyramid::{Design, DesignError, Fused, GateShape};
+use terrain_pyramid::{Config, Design, DesignError, Fused, GateShape};
 use terrain_pyramid_host_tests::sim::laser::{Actuator, LaserConfig};
 use terrain_pyramid_host_tests::sim::record::{simulate, SimConfig};
 use terrain_pyramid_host_tests::sim::scene::{GroundTruthSpec, Scene, StairsSpec};
@@ -287,9 +287,11 @@ pub fn shares_by(fused: impl Fn(f64, f64) -> Fused, cells: &[(i32, i32)]) -> Sha
 
 /// The four maps of a stairs run, in this order: the flat grid without clamping
 /// ("flat"), the flat grid with OctoMap's clamping ("flat_clamped"), and the pyramid `pyramid`
-/// designs for a gate, with the hard gate ("pyramid") and the soft one ("pyramid_soft"). Every
-/// map has windows of `W` cells a side at [`CELL_M`], reaches `range_m` metres and has
-/// [`SLOTS`] classifier slots; the pyramids hold at most `L` layers.
+/// designs for a gate, with the hard gate ("pyramid") and the soft one ("pyramid_soft"), both
+/// in `pyramid_config` (the paper's stairs: [`designs::unclamped`], the paper's baseline; the
+/// nodding rigs: the library's default). Every map has windows of `W` cells a side at
+/// [`CELL_M`], reaches `range_m` metres and has [`SLOTS`] classifier slots; the pyramids hold
+/// at most `L` layers.
 ///
 /// # Errors
 /// The library refused a design or a configuration.
@@ -297,6 +299,7 @@ pub fn four_maps<const W: usize, const L: usize>(
     decoded: &Decoded,
     range_m: f64,
     pyramid: impl Fn(GateShape) -> Result<Design<L>, DesignError>,
+    pyramid_config: Config,
 ) -> Result<Vec<Box<dyn Map>>, String> {
     #[allow(clippy::cast_possible_truncation)]
     let (range, cell) = (range_m as f32, CELL_M as f32);
@@ -312,7 +315,12 @@ pub fn four_maps<const W: usize, const L: usize>(
     };
     let gated = |name: &str, gate| -> Result<Box<dyn Map>, String> {
         let design = pyramid(gate).map_err(e)?;
-        Ok(Box::new(Runner::<W, L, SLOTS>::new(name, design, off, fc)?))
+        Ok(Box::new(Runner::<W, L, SLOTS>::new(
+            name,
+            design,
+            pyramid_config,
+            fc,
+        )?))
     };
     Ok(vec![
         flat("flat", off)?,
@@ -500,9 +508,12 @@ pub fn run(setup: &Setup, out: Option<&Path>) -> Result<StairsResult, String> {
     let watched = Watched::of(&sim_config);
     let riser_x = watched.riser_x;
     #[allow(clippy::cast_possible_truncation)]
-    let mut maps = four_maps::<CELLS, LAYERS>(&decoded, setup.range_m, |gate| {
-        designs::pyramid(setup.range_m as f32, gate, true, CELLS)
-    })?;
+    let mut maps = four_maps::<CELLS, LAYERS>(
+        &decoded,
+        setup.range_m,
+        |gate| designs::pyramid(setup.range_m as f32, gate, true, CELLS),
+        designs::unclamped(),
+    )?;
     let per = decoded.frontend.lines_per_observation.max(1) as usize;
     let region = watched.region();
     let mut far_panels: Vec<Panel> = Vec::new();

@@ -5,13 +5,12 @@
 //! It watches the step cells of every layer between packets (each change is one observation's
 //! increment to that layer's cell), so it needs nothing from the library beyond its maps.
 
-use super::designs;
 use super::engine::{decode, Map, Runner};
 use super::lidar::{self, StairsSetup, RIG_LAYERS as LAYERS, STAIRS_CELLS};
 use super::stairs::{self, CELL_M};
 use std::fmt::Write as _;
 use terrain_pyramid::classify::ClassifierConfig;
-use terrain_pyramid::{Design, Fused};
+use terrain_pyramid::{Config, Design, Fused};
 use terrain_pyramid_host_tests::sim::lidar::simulate_lidar;
 
 /// Packets between two looks at the step cells (a fifteenth of an LD19's second).
@@ -56,7 +55,8 @@ pub fn diagnose(
     let decoded = decode(&sim.bytes, classifier)?;
     let (steps, first) = stairs::step_cells(&scene);
     let riser_x = scene.scene.target_x.unwrap_or(0.0);
-    let config = designs::unclamped();
+    // The library's default configuration, as the rig table's pyramids.
+    let config = Config::default();
     let layers_text: Vec<String> = design
         .layers()
         .iter()
@@ -171,7 +171,12 @@ pub fn diagnose(
         }
         let t_s = t_us * 1e-6;
         if t_s >= next_report_s || is_last {
-            next_report_s = if is_driving { t_s + 0.5 } else { t_s + 10.0 };
+            // Every 10 s while standing, every 0.5 s from the start of the drive.
+            next_report_s = if is_driving {
+                t_s + 0.5
+            } else {
+                (t_s + 10.0).min(drive_start_us * 1e-6)
+            };
             let mut answer: Vec<Counts> = vec![Counts::default(); n_layers];
             let mut shares = (0, 0, 0);
             for c in &steps {

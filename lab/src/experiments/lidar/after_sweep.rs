@@ -4,12 +4,11 @@
 //! it shows next (`docs/lidars.md`, "Arrived and stood one sweep").
 
 use super::{nod_period_s, StairsSetup, RIG_LAYERS, STAIRS_CELLS};
-use crate::experiments::designs;
 use crate::experiments::engine::{Map, Runner};
 use crate::experiments::stairs::{self, Watched};
 use serde::Serialize;
 use terrain_pyramid::classify::ClassifierConfig;
-use terrain_pyramid::GateShape;
+use terrain_pyramid::{Config, GateShape};
 
 /// What the soft-gated pyramid shows at the end of the first observation after arrival: the
 /// first map that holds every tilt of a sweep seen from the stop.
@@ -50,7 +49,7 @@ pub fn run(
         Box::new(Runner::<STAIRS_CELLS, RIG_LAYERS, { stairs::SLOTS }>::new(
             "pyramid_soft",
             design,
-            designs::unclamped(),
+            Config::default(),
             decoded.frontend,
         )?);
     // The observations ended before the arrival's line, once it comes.

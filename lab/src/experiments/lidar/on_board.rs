@@ -10,13 +10,13 @@
 use super::{
     nod_period_s, packets_per_check, pct, Ld19Design, StairsSetup, LONG_STAND_NODS, PHASES, RIGS,
 };
-use crate::experiments::designs;
 use crate::experiments::engine::{Map, Runner};
 use crate::experiments::stairs::{self, Watched};
 use serde::Serialize;
 use terrain_pyramid::classify::ClassifierConfig;
 use terrain_pyramid::{
-    Design, GateShape, Schedule, DEFAULT_CELLS_PER_SIDE, DEFAULT_CLASSIFIER_SLOTS, DEFAULT_LAYERS,
+    Config, Design, GateShape, Schedule, DEFAULT_CELLS_PER_SIDE, DEFAULT_CLASSIFIER_SLOTS,
+    DEFAULT_LAYERS,
 };
 use terrain_pyramid_host::design::{firmware_design, fit, DesignArgs};
 use terrain_pyramid_host_tests::sim::lidar::LidarKind;
@@ -136,7 +136,7 @@ pub fn run(
         >::new(
             "board",
             design,
-            designs::unclamped(),
+            Config::default(),
             decoded.frontend,
         )?));
     }
