@@ -81,11 +81,16 @@ pub const CLASSIFIER_SLOTS: usize = 65_536;
 /// the pyramid are built in place on it before they are boxed.
 const STACK_BYTES: usize = 64 << 20;
 
-/// The scanner's "no echo" range is 3276.7 cm (32767 mm). In the 3DTK file those returns sit
+/// The SICK's "no echo" range is 3276.7 cm (32767 mm). In the 3DTK file those returns sit
 /// between 3275.9 and 3276.7 cm from the origin (the tilt axis is not exactly at the mirror),
-/// and no real return of that scanner comes near them, so a point at least 3270 cm from the
-/// sensor is taken as "no echo" and is not a point.
+/// and no real return of that scanner comes near them, so a point from 3270 cm up to
+/// [`NO_ECHO_END_CM`] from the sensor is taken as "no echo" and is not a point.
 pub const NO_ECHO_CM: f64 = 3270.0;
+
+/// The end of the "no echo" band, cm (exclusive): a point farther than this is a real return
+/// of a longer-ranged laser (a Velodyne reaches 120 m), counted beyond the max range when it
+/// is, never as "no echo".
+pub const NO_ECHO_END_CM: f64 = 3280.0;
 
 /// The windows, cells per side, that `replay` is compiled for (the pyramid's `W` is a const
 /// generic); `--cells` must be one of them.
@@ -297,7 +302,8 @@ pub struct Summary {
     pub points_read: u64,
     /// Points that fed at least one layer cell (the classifier's count).
     pub points_used: u64,
-    /// Points that were the scanner's "no echo" value.
+    /// Points that were the SICK's "no echo" value (3270 ..< 3280 cm from the sensor,
+    /// [`NO_ECHO_CM`]); a farther point is a return.
     pub no_return: u64,
     /// Per layer: counts of the cells of its window.
     pub layers: Vec<export::LayerSummary>,
@@ -538,7 +544,7 @@ fn integrate<const W: usize>(args: &Args, plan: &Plan) -> Result<Integrated, Fai
         let raw = [p.x, p.y, p.z];
         let s = plan.sensor_file_cm;
         let range_cm = (raw[0] - s[0]).hypot(raw[1] - s[1]).hypot(raw[2] - s[2]);
-        if range_cm >= NO_ECHO_CM {
+        if (NO_ECHO_CM..NO_ECHO_END_CM).contains(&range_cm) {
             no_return += 1;
             continue;
         }

@@ -132,8 +132,9 @@ fn line(out: &mut String, x: f64, y: f64, z: f64) {
 }
 
 /// A flat floor 0.4 m below the sensor over x 0.3..4.5 m, y −2..2 m (every 5 cm), a box 30 cm
-/// high on it at x 2.05..2.35 m, y 0.25..0.55 m (its top and its four faces), and three
-/// "no echo" points.
+/// high on it at x 2.05..2.35 m, y 0.25..0.55 m (its top and its four faces), three "no echo"
+/// points (the SICK's 3276.7 cm) and two far returns (40 m and 33 m away, as a longer-ranged
+/// laser gives them).
 fn synthetic_scan() -> (String, usize) {
     synthetic_scan_seen_by(|p| p)
 }
@@ -183,6 +184,11 @@ fn synthetic_scan_seen_by(to_scanner: impl Fn([f64; 3]) -> [f64; 3]) -> (String,
         s.push('\n');
         n += 1;
     }
+    for far in ["0 -40 4000", "0 -40 3300"] {
+        s.push_str(far);
+        s.push('\n');
+        n += 1;
+    }
     (s, n)
 }
 
@@ -197,6 +203,8 @@ fn a_synthetic_floor_with_a_box() {
 
     assert_eq!(v["points_read"], lines);
     assert_eq!(v["no_return"], 3);
+    // The far returns are points, beyond the default design's 10 m, not "no echo".
+    assert_eq!(v["points_beyond_max_range"], 2);
     assert_eq!(v["overflow_points"], 0);
     let used = v["points_used"].as_u64().unwrap();
     assert!(used > 0 && used <= lines as u64 - 3, "{used}");
