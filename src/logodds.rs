@@ -109,9 +109,9 @@ impl Cell {
     }
 
     /// Adds a gated increment `g` (raw Q8.8) of full weight: [`Cell::updated_by`] with
-    /// [`GatedIncrement::unbounded`]. Zero leaves the cell untouched (it does not become observed);
-    /// otherwise an unknown cell first takes `initial`, the sum saturates at ±127.996 nats,
-    /// and `clamp` applies.
+    /// [`GatedIncrement::unbounded`]. Zero leaves the cell untouched (it does not become
+    /// observed); otherwise an unknown cell first takes `initial`, the sum saturates at
+    /// ±127.996 nats, and `clamp` applies.
     #[must_use]
     #[inline]
     pub fn updated(self, g: i16, initial: LogOddsFixed, clamp: Clamp) -> Self {
@@ -120,9 +120,9 @@ impl Cell {
 
     /// Applies one record's [`GatedIncrement`]: its increment `g` (raw Q8.8), carrying the cell
     /// toward `g`'s sign no further than `increment.reach` (a cell already beyond it keeps its
-    /// value).
-    /// Zero leaves the cell untouched (it does not become observed); otherwise an unknown cell
-    /// first takes `initial`, the sum saturates at ±127.996 nats, and `clamp` applies.
+    /// value). Zero leaves the cell untouched (it does not become observed); otherwise an
+    /// unknown cell first takes `initial`, the sum saturates at ±127.996 nats, and `clamp`
+    /// applies.
     #[must_use]
     #[inline]
     pub fn updated_by(
@@ -291,9 +291,10 @@ impl Clamp {
         }
     }
 
-    /// The [`GatedIncrement`] of a record of class increment `l` (raw Q8.8) and gate weight `w`: the
-    /// gated increment `round(l·w)` and, with bounds, the bound on its side scaled by the same
-    /// weight, `round(c·w)` (the same rounding, [`gated`]); without, the format's limit.
+    /// The [`GatedIncrement`] of a record of class increment `l` (raw Q8.8) and gate weight
+    /// `w`: the gated increment `round(l·w)` and, with bounds, the bound on its side scaled by
+    /// the same weight, `round(c·w)` (the same rounding, [`gated`]); without, the format's
+    /// limit.
     #[must_use]
     #[inline]
     pub fn gated(self, l: LogOddsFixed, w: Weight) -> GatedIncrement {

@@ -45,8 +45,9 @@
 //! auto`, sorts when the file holds such revolutions ([`held_beam_by_beam`]: a quarter of the
 //! points in runs of one elevation that turn 270° or more) and keeps the file's order
 //! otherwise; the summary's `order` says which. In firing order the plane rule's pair test pairs
-//! each return with the last three of its cell ([`FIRING_ORDER_PAIR_DEPTH`](terrain_pyramid::classify::FIRING_ORDER_PAIR_DEPTH): between a return
-//! and its neighbour along the ring come the other beams' returns of the same azimuth step;
+//! each return with the last three of its cell
+//! ([`FIRING_ORDER_PAIR_DEPTH`](terrain_pyramid::classify::FIRING_ORDER_PAIR_DEPTH): between a
+//! return and its neighbour along the ring come the other beams' returns of the same azimuth step;
 //! `docs/core.md`, "How far back the pair test looks"), unless `--pair-depth` says otherwise;
 //! the summary's `rule` says `pairs 3 back`. Not for a scanner whose
 //! lines already sweep the scene in order, such as a tilting 2-D laser: the classifier keeps a
@@ -612,8 +613,10 @@ fn integrate<const W: usize>(args: &Args, plan: &Plan) -> Result<Integrated, Fai
 
 /// The classifier's configuration for points given in `order`: under the plane rule, a
 /// spinning laser's points in firing order are paired with the last
-/// [`FIRING_ORDER_PAIR_DEPTH`](terrain_pyramid::classify::FIRING_ORDER_PAIR_DEPTH) returns of their cell ([`NavigabilityRule::for_firing_order`](terrain_pyramid::classify::NavigabilityRule::for_firing_order); `docs/core.md`, "How far back the pair
-/// test looks") unless `--pair-depth` (`pair_depth_flag`) says otherwise; `config` as it is
+/// [`FIRING_ORDER_PAIR_DEPTH`](terrain_pyramid::classify::FIRING_ORDER_PAIR_DEPTH) returns of
+/// their cell
+/// ([`NavigabilityRule::for_firing_order`](terrain_pyramid::classify::NavigabilityRule::for_firing_order);
+/// `docs/core.md`, "How far back the pair test looks") unless `--pair-depth` (`pair_depth_flag`) says otherwise; `config` as it is
 /// for the file's order.
 #[must_use]
 pub fn for_order(

@@ -7,15 +7,15 @@
 //!   bounds as given. An update whose gated increment |w·l| is below half a Q8.8 step (2⁻⁹)
 //!   does not observe the cell and adds nothing. Under clamping an update carries the cell
 //!   toward its sign no further than `w·c`, c the bound on that side, and leaves a cell already
-//!   beyond it where it is. The value saturates at the Q8.8 format's
-//!   range (±32 767/256) like the device's, so that "clamping off" means the same thing.
+//!   beyond it where it is. The value saturates at the Q8.8 format's range (±32 767/256) like
+//!   the device's, so that "clamping off" means the same thing.
 //!   Each cell also carries a bound on how far a spec-conforming fixed-point cell can have
 //!   drifted from it (see [`Cell::budget`]).
 //! - [`Arithmetic::Quantised`]: the rules of `docs/core.md` ("One update") taken literally —
 //!   increments, `L_0` and clamping bounds rounded to Q8.8 (ties away from zero), the weight
 //!   rounded to Q1.15, `g = floor((l·w + 2¹⁴)/2¹⁵)`, `g = 0` does nothing, saturation to
-//!   ±32 767 raw, the reach `floor((c·w + 2¹⁴)/2¹⁵)` of the bound c on g's side. The values are held in `f64` but are exact multiples of 2⁻⁸. Where a
-//!   table entry a conforming `f32`-built table may hold differs from the reference's
+//!   ±32 767 raw, the reach `floor((c·w + 2¹⁴)/2¹⁵)` of the bound c on g's side. The values
+//!   are held in `f64` but are exact multiples of 2⁻⁸. Where a table entry a conforming `f32`-built table may hold differs from the reference's
 //!   rounding and that changes g, the cell's budget grows by the difference (see
 //!   [`super::gate::GateWeight`]).
 
