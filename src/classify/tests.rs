@@ -147,9 +147,9 @@ fn add_point_squared_is_add_point_with_the_floored_root() {
 
 #[test]
 #[cfg(feature = "plane-rule")]
-fn a_slot_is_68_bytes() {
+fn a_slot_is_72_bytes() {
     assert_eq!(core::mem::size_of::<PlaneState>(), 52);
-    assert_eq!(core::mem::size_of::<Slot>(), 68);
+    assert_eq!(core::mem::size_of::<Slot>(), 72);
 }
 
 #[test]
