@@ -326,11 +326,31 @@ fn steps_between_cells(
 pub fn classify(
     points: &[RefPoint],
     resolutions: &[f64],
-    mut feeds: impl FnMut(usize, f64) -> bool,
+    feeds: impl FnMut(usize, f64) -> bool,
     ground_z: f64,
     sensor_z: f64,
     config: &RefClassifierConfig,
 ) -> BTreeMap<(usize, i64, i64), RefRecord> {
+    classify_after(points, resolutions, feeds, ground_z, sensor_z, config, None).0
+}
+
+/// One observation's lowest returns, for the next one ([`classify_after`]): per cell its
+/// lowest point (the first of the lowest, in arrival order), height in metres and position in
+/// the cell in metres from its lower corner.
+pub type Lowest = BTreeMap<(usize, i64, i64), (f64, (f64, f64))>;
+
+/// [`classify`] after an observation whose lowest returns were `last` (the step from the last
+/// observation's lowest return, `docs/core.md`; plane rule only), and this observation's
+/// lowest returns for the next.
+pub fn classify_after(
+    points: &[RefPoint],
+    resolutions: &[f64],
+    mut feeds: impl FnMut(usize, f64) -> bool,
+    ground_z: f64,
+    sensor_z: f64,
+    config: &RefClassifierConfig,
+    last: Option<&Lowest>,
+) -> (BTreeMap<(usize, i64, i64), RefRecord>, Lowest) {
     let mut cells: BTreeMap<CellKey, Acc> = BTreeMap::new();
     let mut previous: Option<&RefPoint> = None;
     for p in points {
@@ -374,12 +394,23 @@ pub fn classify(
         }
         previous = Some(p);
     }
-    let edge_margins = if matches!(config.rule, RefRule::Plane { .. }) {
+    let plane = matches!(config.rule, RefRule::Plane { .. });
+    let mut edge_margins = if plane {
         steps_between_cells(&mut cells, resolutions, config)
     } else {
         BTreeMap::new()
     };
-    cells
+    if let (true, Some(last)) = (plane, last) {
+        for (key, margin) in steps_from_last(&mut cells, config, last) {
+            let m = edge_margins.entry(key).or_insert(f64::INFINITY);
+            *m = m.min(margin);
+        }
+    }
+    let lowest: Lowest = cells
+        .iter()
+        .map(|(&key, acc)| (key, lowest_of(acc)))
+        .collect();
+    let records = cells
         .into_iter()
         .map(|((layer, cell_x, cell_y), acc)| {
             let ground = acc.zs.iter().copied().fold(f64::INFINITY, f64::min);
@@ -473,7 +504,52 @@ pub fn classify(
             };
             ((layer, cell_x, cell_y), record)
         })
-        .collect()
+        .collect();
+    (records, if plane { lowest } else { Lowest::new() })
+}
+
+/// A cell's lowest point (the first of the lowest, in arrival order): height and position in
+/// the cell, m.
+fn lowest_of(acc: &Acc) -> (f64, (f64, f64)) {
+    let i = first_by(&acc.zs, |a, b| a < b);
+    (acc.zs[i], acc.xys[i])
+}
+
+/// The step from the last observation's lowest return (`docs/core.md`, the section of that
+/// name): each cell's first point (in arrival order) and the lowest point `last` holds for the
+/// same cell; where the first stands higher by more than the step and no more than the
+/// robot's height, the pair (rise, run) is this cell's, judged as a pair of consecutive points
+/// is. Every such pair is made here; the firmware makes it only where the cell's slot of the
+/// last observation is free for it again (`src/classify/recall.rs`), so it may mark fewer
+/// cells, never more. Returns the margins, as [`steps_between_cells`] does.
+fn steps_from_last(
+    cells: &mut BTreeMap<CellKey, Acc>,
+    config: &RefClassifierConfig,
+    last: &Lowest,
+) -> BTreeMap<CellKey, f64> {
+    let mut margins = BTreeMap::new();
+    for (key, acc) in cells.iter_mut() {
+        let (Some(&za), Some(&(xa, ya))) = (acc.zs.first(), acc.xys.first()) else {
+            continue;
+        };
+        let Some(&(zb, (xb, yb))) = last.get(key) else {
+            continue;
+        };
+        let run = (xb - xa).abs() + (yb - ya).abs();
+        let rise = za - zb;
+        if rise.abs() > config.step_threshold {
+            // Heights in mm on the firmware's side: within 2 mm of a bound, either answer.
+            let margin = ((rise.abs() - config.robot_height).abs())
+                .min((rise.abs() - config.step_threshold).abs())
+                / 0.002;
+            let m = margins.entry(*key).or_insert(f64::INFINITY);
+            *m = f64::min(*m, margin);
+        }
+        if rise > config.step_threshold && rise <= config.robot_height {
+            acc.across.push((rise, run));
+        }
+    }
+    margins
 }
 
 #[cfg(test)]

@@ -21,7 +21,9 @@ use terrain_pyramid::classify::{Classifier, ClassifierConfig, NavigabilityRule, 
 use terrain_pyramid::{
     Config, DefaultDesign, DefaultPyramid, EvidenceClass, GateShape, Meters, Schedule, SensorModel,
 };
-use terrain_pyramid_host_tests::classify::{classify, RefClassifierConfig, RefPoint, RefRule};
+use terrain_pyramid_host_tests::classify::{
+    classify, classify_after, RefClassifierConfig, RefPoint, RefRule,
+};
 use terrain_pyramid_host_tests::harness::{
     add_ref_points, evidence_by_cell, gate_feeds, layer_resolutions_m,
 };
@@ -62,6 +64,28 @@ fn compare(points: &[(f64, f64, f64)], gate: GateShape, rule: Rule) -> (usize, u
 /// [`compare`] in `design`, the library under `rule` and the reference under
 /// `reference_rule`.
 fn compare_with(
+    points: &[(f64, f64, f64)],
+    design: &DefaultDesign,
+    rule: Rule,
+    reference_rule: Rule,
+) -> (usize, usize) {
+    let (points, design) = (points.to_vec(), design.clone());
+    on_a_large_stack(move || compare_with_on(&points, &design, rule, reference_rule))
+}
+
+/// Runs `f` on a thread of 64 MiB of stack: a classifier of 16 384 slots (1.2 MB) is built
+/// before it is boxed, and may be moved once on the way.
+fn on_a_large_stack<T: Send + 'static>(f: impl FnOnce() -> T + Send + 'static) -> T {
+    std::thread::Builder::new()
+        .stack_size(64 << 20)
+        .spawn(f)
+        .unwrap()
+        .join()
+        .unwrap()
+}
+
+/// [`compare_with`] on the calling thread.
+fn compare_with_on(
     points: &[(f64, f64, f64)],
     design: &DefaultDesign,
     rule: Rule,
@@ -138,6 +162,121 @@ fn compare_with(
         }
     }
     (compared, differ)
+}
+
+/// Quantised reference points of `points` (x, y, z in m; the distance from the origin).
+fn ref_points(points: &[(f64, f64, f64)]) -> Vec<RefPoint> {
+    points
+        .iter()
+        .map(|&(x, y, z)| {
+            let (x, y, z) = (q(x), q(y), q(z));
+            RefPoint {
+                x,
+                y,
+                z,
+                distance: q((x * x + y * y).sqrt()),
+            }
+        })
+        .collect()
+}
+
+/// Two observations in a row under the plane rule, the first with reference height `first_z`
+/// (m) and the second with 0 (the library stores heights relative to them): the second's
+/// verdicts of the library against the reference's, which makes every pair of a cell's first
+/// point with the first observation's lowest ([`classify_after`]) where the library makes
+/// those its slots still hold. So the library marks no cell the reference does not
+/// (`invented`), and every cell the reference marks by the second observation alone
+/// (`lost`). Returns (compared cells, invented, lost, cells the library marks only through the
+/// first observation).
+fn compare_after(
+    first: &[(f64, f64, f64)],
+    second: &[(f64, f64, f64)],
+    first_z: f64,
+) -> (usize, usize, usize, usize) {
+    let (first, second) = (first.to_vec(), second.to_vec());
+    on_a_large_stack(move || compare_after_on(&first, &second, first_z))
+}
+
+/// [`compare_after`] on the calling thread.
+fn compare_after_on(
+    first: &[(f64, f64, f64)],
+    second: &[(f64, f64, f64)],
+    first_z: f64,
+) -> (usize, usize, usize, usize) {
+    let design = design(GateShape::default());
+    let p = pyramid(&design);
+    let (first, second) = (ref_points(first), ref_points(second));
+    let mut c = Box::new(Classifier::<16_384, 8>::new());
+    c.adopt_design(&design, p.increments()).unwrap();
+    c.begin(Meters::from_num(first_z));
+    add_ref_points(&mut c, &first);
+    let _ = evidence_by_cell(&mut c, |e| (e.class, e.weight));
+    c.begin(Meters::ZERO);
+    add_ref_points(&mut c, &second);
+    let lib = evidence_by_cell(&mut c, |e| (e.class, e.weight));
+    assert_eq!(c.stats().overflow_points, 0);
+    let resolutions = layer_resolutions_m(&p);
+    let config = RefClassifierConfig::default();
+    let feeds = gate_feeds(c.gates(), p.increments());
+    let (_, lowest) = classify_after(&first, &resolutions, feeds, -1.0, 0.0, &config, None);
+    let feeds = gate_feeds(c.gates(), p.increments());
+    let (after, _) = classify_after(
+        &second,
+        &resolutions,
+        feeds,
+        -1.0,
+        0.0,
+        &config,
+        Some(&lowest),
+    );
+    let feeds = gate_feeds(c.gates(), p.increments());
+    let alone = classify(&second, &resolutions, feeds, -1.0, 0.0, &config);
+    let (mut compared, mut invented, mut lost, mut through_last) = (0, 0, 0, 0);
+    for (key, r) in &after {
+        let a = &alone[key];
+        let close = |ratio: f64| ratio > 0.85 && ratio < 1.15;
+        let near = |r: &terrain_pyramid_host_tests::classify::RefRecord| {
+            close(r.residual_ratio)
+                || close(r.rise_ratio)
+                || close(r.pair_ratio)
+                || r.cut_margin < 0.002
+                || r.edge_margin < 1.0
+        };
+        if near(r) || near(a) {
+            continue;
+        }
+        compared += 1;
+        let marked = lib[key].0 == EvidenceClass::Obstacle;
+        invented += usize::from(marked && !r.obstacle);
+        lost += usize::from(!marked && a.obstacle);
+        through_last += usize::from(marked && !a.obstacle);
+    }
+    (compared, invented, lost, through_last)
+}
+
+/// A riser between two observations: the first saw the ground before it, the second only the
+/// tread behind it (a nodding lidar's lines of the up and the down sweep). Neither marks the
+/// riser by its own points; the second does, as the reference does, through the first's lowest
+/// returns. The first observation's reference height differs from the second's, so the
+/// library's heights must be brought to one reference.
+#[test]
+fn a_riser_between_two_observations_is_marked() {
+    // Lines across the x axis at 2.0 and 2.1 m (ground, z = −1) and at 2.3 m (tread, 0.17 m
+    // up): 0.17 m over 0.2–0.3 m, steeper than 20°.
+    let line = |x: f64, z: f64| (0..40).map(move |i| (x, -1.0 + 0.05 * f64::from(i), z));
+    let ground: Vec<_> = line(2.0, -1.0).chain(line(2.1, -1.0)).collect();
+    let tread: Vec<_> = line(2.3, -0.83).chain(line(2.4, -0.83)).collect();
+    let (compared, invented, lost, through_last) = compare_after(&ground, &tread, 0.25);
+    assert!(compared > 0);
+    assert_eq!((invented, lost), (0, 0), "of {compared}");
+    assert!(
+        through_last > 0,
+        "the riser is marked through the last observation"
+    );
+    // The other way round (the tread first, then the ground) marks nothing new: the last
+    // observation's cells are never marked again, and the ground below is no step up.
+    let (_, invented, lost, through_last) = compare_after(&tread, &ground, 0.0);
+    assert_eq!((invented, lost, through_last), (0, 0, 0));
 }
 
 fn scene() -> impl Strategy<Value = Vec<(f64, f64, f64)>> {
@@ -284,6 +423,28 @@ proptest! {
         let (compared, differ) = compare(&points, GateShape::default(), Rule::PlaneThreeBack);
         let share = if sorted { 50 } else { 20 };
         prop_assert!(differ * share <= compared.max(1), "{differ} of {compared}");
+    }
+
+    /// Two observations of terrain in a row, split where the step lies or at random: the
+    /// library marks at most 5 % of the cells compared that the reference, pairing with the
+    /// first's lowest returns, does not, and leaves at most 5 % unmarked that the reference
+    /// marks by the second alone (as one observation in any order agrees).
+    #[test]
+    fn two_observations_agree(points in terrain(), split in 0.0..1.0f64, by_x in any::<bool>(), first_z in -0.5..0.5f64) {
+        let (first, second): (Vec<_>, Vec<_>) = points.iter().enumerate().partition(|&(i, p)| {
+            if by_x {
+                p.0 < 6.0 * split - 3.0
+            } else {
+                #[allow(clippy::cast_precision_loss)]
+                let f = i as f64 / points.len() as f64;
+                f < split
+            }
+        });
+        let first: Vec<_> = first.into_iter().map(|(_, &p)| p).collect();
+        let second: Vec<_> = second.into_iter().map(|(_, &p)| p).collect();
+        let (compared, invented, lost, _) = compare_after(&first, &second, first_z);
+        prop_assert!(invented * 20 <= compared.max(1), "{invented} invented of {compared}");
+        prop_assert!(lost * 20 <= compared.max(1), "{lost} lost of {compared}");
     }
 
     /// Random clutter under the plane rule (the same scenes as the spread tests): when a new

@@ -35,16 +35,19 @@
 //! # Bounded scratch
 //! Besides its slots the classifier keeps 36 bytes for the pair test across a cell's edge
 //! (module `across`). The step between neighbouring cells' lowest returns (module `edges`)
-//! keeps nothing: it reads the slots at the observation's end, two lookups a cell.
+//! keeps nothing: it reads the slots at the observation's end, two lookups a cell. The step
+//! from the last observation's lowest return (module `recall`) reads what a vacated slot still
+//! holds of the cell it held, which it notes in 2 bytes.
 //!
-//! The touched cells live in an open-addressing table of `C` slots (a power of two, 68 bytes
+//! The touched cells live in an open-addressing table of `C` slots (a power of two, 72 bytes
 //! each: 16 for the key, the closest look and the lowest and highest z, 52 for the plane rule's
 //! sums, where the lowest and highest points lie and the pair test's last three returns and
-//! largest rise; 16 bytes in a build without the `plane-rule` feature, which has no sums). A point
-//! that finds the table full is dropped and counted in [`ClassifierStats::overflow_points`];
-//! nothing panics. One 361-beam line touches at most 361 cells per layer it feeds (2 to 4
-//! with the default soft gate); 1024 slots (60 KiB)
-//! hold a line with room to spare, a whole 3-D sweep needs a window's worth.
+//! largest rise, 2 for the cell a vacated slot held, 2 of padding; 16 bytes in a build without
+//! the `plane-rule` feature, which has no sums). A point that finds the table full is dropped
+//! and counted in [`ClassifierStats::overflow_points`]; nothing panics. One 361-beam line
+//! touches at most 361 cells per layer it feeds (2 to 4 with the default soft gate); 1024 slots
+//! (74 KiB with the slots' order) hold a line with room to spare, a whole 3-D sweep needs a
+//! window's worth.
 //!
 //! # The incremental rule
 //! The scratch keeps, per cell, the lowest z and the highest z not above lowest + robot height.
@@ -64,6 +67,7 @@ pub mod rule;
 mod across;
 mod beyond_eight;
 mod edges;
+mod recall;
 use across::AcrossEdge;
 
 use rule::{CellGeometry, PairScale, PlaneParams, PlaneState};
@@ -111,6 +115,11 @@ pub struct Classifier<const C: usize, const L: usize> {
     /// The indices of the slots in use, in the order they were taken (the first `used`
     /// entries; each below C ≤ 65 536): the observation's end visits these, not all C slots.
     order: [u16; C],
+    /// The last finished observation's stamp and reference height (module `recall`).
+    recall_state: recall::RecallState,
+    /// The last observation's heights less this one's, mm (its reference height less this
+    /// one's, saturated to `i16`): set by [`Classifier::begin`].
+    recall_shift: i32,
 }
 
 impl<const C: usize, const L: usize> core::fmt::Debug for Classifier<C, L> {
@@ -156,6 +165,8 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
             slots: [Slot::VACANT; C],
             used: 0,
             order: [0; C],
+            recall_state: recall::RecallState::EMPTY,
+            recall_shift: 0,
             recent: [Recent::NONE; RECENT_LAYERS],
             last_bin: 0,
             across: AcrossEdge::ZERO,
@@ -201,6 +212,7 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
         self.plane = rule::params_of(&config.rule, config.step_threshold);
         self.refresh_layers();
         self.discard();
+        self.forget_last_observation();
     }
 
     /// The configuration in force.
@@ -222,6 +234,7 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
         self.gates.configure(design, increments)?;
         self.refresh_layers();
         self.discard();
+        self.forget_last_observation();
         Ok(())
     }
 
@@ -306,6 +319,11 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
     pub fn begin(&mut self, reference_z: Meters) {
         self.discard();
         self.reference_z = reference_z.to_bits();
+        self.recall_shift = i32::from(mm_i16(
+            self.recall_state
+                .reference_z
+                .saturating_sub(self.reference_z),
+        ));
     }
 
     /// Forgets the current observation without producing evidence.
@@ -602,6 +620,30 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
                     *entry = index as u16;
                 }
                 self.used += 1;
+                // The cell's first return against its lowest in the last observation, when
+                // this slot held the cell then (`last` is 0 when nothing may be recalled: a new
+                // configuration or design). Only a rise beyond the step is judged, out of
+                // line: most cells lie as they lay.
+                #[cfg(feature = "plane-rule")]
+                let shown = if plane
+                    && self.recall_state.last != 0
+                    && slot.held.stamp == self.recall_state.last
+                    && slot.held.layer == layer
+                    && slot.cell_x == cx
+                    && slot.cell_y == cy
+                    && z - (i32::from(slot.z_low) + self.recall_shift) > i32::from(self.step_mm)
+                {
+                    recall::step_from_held(
+                        slot,
+                        self.recall_shift,
+                        z,
+                        sub,
+                        scale,
+                        (i32::from(self.step_mm), i32::from(self.robot_height_mm)),
+                    )
+                } else {
+                    0
+                };
                 // The narrow values again, for the slot's fields (exact: see above).
                 #[allow(clippy::cast_possible_truncation)]
                 let (bin, z) = (bin as u16, z as i16);
@@ -618,7 +660,12 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
                     z_high: z,
                     layer,
                     hole,
+                    held: scratch::Held::NONE,
                 };
+                #[cfg(feature = "plane-rule")]
+                if shown > 0 {
+                    slot.plane.keep_shown(shown);
+                }
                 return Some(index);
             }
             if slot.layer == layer && slot.cell_x == cx && slot.cell_y == cy {
@@ -646,6 +693,8 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
         if self.plane.is_some() {
             self.steps_between_cells();
         }
+        let stamp = self.next_stamp();
+        let recalls = self.plane.is_some();
         if self.used > 0 {
             for &index in self.order.iter().take(self.used) {
                 // Masked to C − 1 (every index is below C): the bound check compiles away.
@@ -708,10 +757,19 @@ impl<const C: usize, const L: usize> Classifier<C, L> {
                 });
                 // Vacated: a slot is only read while its layer is set, and `insert` writes
                 // all of it when it takes a vacant one.
+                if recalls {
+                    recall::vacate_held(slot, stamp);
+                }
                 slot.layer = EMPTY;
             }
             self.used = 0;
         }
+        self.recall_state = recall::RecallState {
+            last: if recalls { stamp } else { 0 },
+            counter: stamp,
+            reference_z: self.reference_z,
+        };
+        self.recall_shift = 0;
         self.forget_recent();
         self.across.forget(self.step_mm);
         self.stats.records = self.stats.records.saturating_add(records);

@@ -62,7 +62,7 @@ impl Recent {
 /// a fresh classifier) is all zero bits.
 pub(super) const EMPTY: u8 = 0;
 
-/// One touched layer cell of the current observation. 68 bytes (16 without the `plane-rule`
+/// One touched layer cell of the current observation. 72 bytes (16 without the `plane-rule`
 /// feature).
 #[derive(Debug, Clone, Copy)]
 pub(super) struct Slot {
@@ -81,6 +81,31 @@ pub(super) struct Slot {
     pub(super) layer: u8,
     /// Whether a drop-off or missing ground was seen in the cell.
     pub(super) hole: bool,
+    /// Once vacated: which cell it held, and when (module `recall`).
+    pub(super) held: Held,
+}
+
+/// What a vacated slot held: the layer plus one of its cell (whose key and lowest return stay
+/// in the slot until it is taken again) and the stamp of the observation that held it (0:
+/// none). Zero-sized without the `plane-rule` feature, whose rule has no pair test.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(super) struct Held {
+    /// The layer plus one, or [`EMPTY`].
+    #[cfg(feature = "plane-rule")]
+    pub(super) layer: u8,
+    /// The observation's stamp, 1 ..= 255 (0: none).
+    #[cfg(feature = "plane-rule")]
+    pub(super) stamp: u8,
+}
+
+impl Held {
+    /// Nothing held.
+    pub(super) const NONE: Self = Self {
+        #[cfg(feature = "plane-rule")]
+        layer: EMPTY,
+        #[cfg(feature = "plane-rule")]
+        stamp: 0,
+    };
 }
 
 impl Slot {
@@ -93,6 +118,7 @@ impl Slot {
         z_high: 0,
         layer: EMPTY,
         hole: false,
+        held: Held::NONE,
     };
 }
 /// Metres (raw Q16.16) to millimetres, `⌊raw · 1000 / 2¹⁶⌋`, saturated to `i16`.

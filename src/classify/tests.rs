@@ -147,9 +147,9 @@ fn add_point_squared_is_add_point_with_the_floored_root() {
 
 #[test]
 #[cfg(feature = "plane-rule")]
-fn a_slot_is_68_bytes() {
+fn a_slot_is_72_bytes() {
     assert_eq!(core::mem::size_of::<PlaneState>(), 52);
-    assert_eq!(core::mem::size_of::<Slot>(), 68);
+    assert_eq!(core::mem::size_of::<Slot>(), 72);
 }
 
 #[test]
@@ -727,5 +727,93 @@ fn a_single_return_above_a_neighbours_lowest_is_marked() {
     assert_eq!(
         r.iter().map(|e| (e.cell_x, e.class)).collect::<Vec<_>>(),
         [(2, EvidenceClass::Navigable), (3, EvidenceClass::Obstacle)]
+    );
+}
+
+/// One observation of `points` at horizontal distance 0.3 m into `c` (reference height
+/// `reference`, ground plane 0); its records.
+fn observation(c: &mut Classifier<256, 8>, reference: f32, points: &[Point3]) -> Vec<Evidence> {
+    c.begin(Meters::from_num(reference));
+    for &q in points {
+        c.add_point(q, Meters::from_num(0.3), Meters::ZERO);
+    }
+    records(c)
+}
+
+/// Cell (3, 0) of layer 0 (0.1 m): ground in its lower half, a tread 10 cm up in its upper.
+fn ground_and_tread() -> ([Point3; 2], [Point3; 2]) {
+    (
+        [pt(0.31, 0.02, 0.0), pt(0.33, 0.05, 0.0)],
+        [pt(0.37, 0.05, 0.10), pt(0.39, 0.02, 0.10)],
+    )
+}
+
+#[test]
+fn a_step_between_two_observations_marks_the_later_cell() {
+    let (ground, tread) = ground_and_tread();
+    // Each alone is flat.
+    for points in [&ground, &tread] {
+        let mut c = classifier::<256>(GateShape::Hard);
+        let r = observation(&mut c, 0.0, points);
+        assert_eq!(r.len(), 1);
+        assert_eq!(r[0].class, EvidenceClass::Navigable);
+    }
+    // The ground, then the tread: 10 cm over 6–8 cm, steeper than 20°. The first observation's
+    // heights are stored 0.5 m lower (its reference is 0.5 m up) and brought to one reference.
+    let mut c = classifier::<256>(GateShape::Hard);
+    observation(&mut c, 0.5, &ground);
+    let r = observation(&mut c, 0.0, &tread);
+    assert_eq!((r[0].cell_x, r[0].class), (3, EvidenceClass::Obstacle));
+    // The tread, then the ground: the ground fell away from the last look; nothing marked.
+    let mut c = classifier::<256>(GateShape::Hard);
+    observation(&mut c, 0.0, &tread);
+    let r = observation(&mut c, 0.0, &ground);
+    assert_eq!(r[0].class, EvidenceClass::Navigable);
+}
+
+#[test]
+fn only_the_last_observation_is_recalled() {
+    let (ground, tread) = ground_and_tread();
+    // An observation between them, elsewhere: the ground is no longer the last look.
+    let mut c = classifier::<256>(GateShape::Hard);
+    observation(&mut c, 0.0, &ground);
+    observation(&mut c, 0.0, &[pt(0.05, 0.05, 0.0)]);
+    assert_eq!(
+        observation(&mut c, 0.0, &tread)[0].class,
+        EvidenceClass::Navigable
+    );
+    // 256 observations between them bring the stamp round to the ground's: every slot's is
+    // cleared on the way, so the ground is not taken for the last look.
+    let mut c = classifier::<256>(GateShape::Hard);
+    observation(&mut c, 0.0, &ground);
+    for _ in 0..255 {
+        observation(&mut c, 0.0, &[]);
+    }
+    assert_eq!(
+        c.recall_state.last, 1,
+        "the stamp came round to the ground's"
+    );
+    assert_eq!(
+        observation(&mut c, 0.0, &tread)[0].class,
+        EvidenceClass::Navigable
+    );
+    // A new configuration forgets the last observation.
+    let mut c = classifier::<256>(GateShape::Hard);
+    observation(&mut c, 0.0, &ground);
+    c.configure(ClassifierConfig::default());
+    assert_eq!(
+        observation(&mut c, 0.0, &tread)[0].class,
+        EvidenceClass::Navigable
+    );
+    // The paper's rule pairs nothing.
+    let mut c = classifier::<256>(GateShape::Hard);
+    c.configure(ClassifierConfig {
+        rule: NavigabilityRule::Spread,
+        ..ClassifierConfig::default()
+    });
+    observation(&mut c, 0.0, &ground);
+    assert_eq!(
+        observation(&mut c, 0.0, &tread)[0].class,
+        EvidenceClass::Navigable
     );
 }
