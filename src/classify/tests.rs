@@ -730,6 +730,7 @@ fn a_single_return_above_a_neighbours_lowest_is_marked() {
     );
 }
 
+#[cfg(feature = "plane-rule")]
 /// One observation of `points` at horizontal distance 0.3 m into `c` (reference height
 /// `reference`, ground plane 0); its records.
 fn observation(c: &mut Classifier<256, 8>, reference: f32, points: &[Point3]) -> Vec<Evidence> {
@@ -740,6 +741,7 @@ fn observation(c: &mut Classifier<256, 8>, reference: f32, points: &[Point3]) ->
     records(c)
 }
 
+#[cfg(feature = "plane-rule")]
 /// Cell (3, 0) of layer 0 (0.1 m): ground in its lower half, a tread 10 cm up in its upper.
 fn ground_and_tread() -> ([Point3; 2], [Point3; 2]) {
     (
@@ -748,6 +750,7 @@ fn ground_and_tread() -> ([Point3; 2], [Point3; 2]) {
     )
 }
 
+#[cfg(feature = "plane-rule")]
 #[test]
 fn a_step_between_two_observations_marks_the_later_cell() {
     let (ground, tread) = ground_and_tread();
@@ -771,6 +774,7 @@ fn a_step_between_two_observations_marks_the_later_cell() {
     assert_eq!(r[0].class, EvidenceClass::Navigable);
 }
 
+#[cfg(feature = "plane-rule")]
 #[test]
 fn only_the_last_observation_is_recalled() {
     let (ground, tread) = ground_and_tread();
