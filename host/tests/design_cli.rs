@@ -351,24 +351,23 @@ fn a_rig_file_s_design_is_the_one_its_flags_give() {
 /// from 4 m with φ ≤ 0.467 / 17 rad = 1.574°, a nod of 15.74 °/s (worked in `nod.rs`).
 #[test]
 fn a_nodding_lidar_s_plan_is_in_the_json_and_the_table() {
+    // LD19_8M's sensor, to 10 m with γ 3 (14 layers).
     let flags = [
-        "--phi-deg",
-        "2",
-        "--psi-deg",
-        "0.8",
-        "--sigma-m",
-        "0.045",
-        "--max-range-m",
-        "10",
-        "--gamma",
-        "3",
-        "--revolution-hz",
-        "10",
-        "--step-m",
-        "0.17",
-        "--sure-from-m",
-        "4",
-    ];
+        &LD19_8M[..6],
+        &[
+            "--max-range-m",
+            "10",
+            "--gamma",
+            "3",
+            "--revolution-hz",
+            "10",
+            "--step-m",
+            "0.17",
+            "--sure-from-m",
+            "4",
+        ],
+    ]
+    .concat();
     let v = design_json(&flags);
     let n = &v["nodding"];
     assert!(close(num(&n["nod_deg_s"]), 20.0, 1e-9), "{n}");

@@ -401,10 +401,6 @@ fn rule_tables(s: &mut String, level: &str, rings: &[String], rules: &[RuleResul
         );
         let _ = writeln!(*s, "| returns on | {} | all |", rings.join(" | "));
         let _ = writeln!(*s, "| --- |{}", " --- |".repeat(rings.len() + 1));
-        let ground_all = Count {
-            points: rule.ground.iter().map(|c| c.points).sum(),
-            right: rule.ground.iter().map(|c| c.right).sum(),
-        };
         let mut line = |name: &str, rings: &[RingCount], all: &RingCount| {
             let cells: Vec<String> = rings.iter().map(cell).collect();
             let _ = writeln!(*s, "| {name} | {} | {} |", cells.join(" | "), cell(all));
@@ -412,28 +408,29 @@ fn rule_tables(s: &mut String, level: &str, rings: &[String], rules: &[RuleResul
         line(
             "clear ground (navigable)",
             &rule.ground,
-            &RingCount::new("all".into(), &ground_all),
+            &all_rings(&rule.ground),
         );
-        let ground_only_all = Count {
-            points: rule.ground_only.iter().map(|c| c.points).sum(),
-            right: rule.ground_only.iter().map(|c| c.right).sum(),
-        };
         line(
             "clear ground in ground-only cells",
             &rule.ground_only,
-            &RingCount::new("all".into(), &ground_only_all),
+            &all_rings(&rule.ground_only),
         );
         for k in &rule.kinds {
             line(k.kind, &k.rings, &k.all);
         }
-        let obstacles_all = Count {
-            points: rule.obstacles.iter().map(|c| c.points).sum(),
-            right: rule.obstacles.iter().map(|c| c.right).sum(),
-        };
         line(
             "every obstacle (marked)",
             &rule.obstacles,
-            &RingCount::new("all".into(), &obstacles_all),
+            &all_rings(&rule.obstacles),
         );
     }
+}
+
+/// A row's rings summed into its "all" entry.
+fn all_rings(rings: &[RingCount]) -> RingCount {
+    let all = Count {
+        points: rings.iter().map(|c| c.points).sum(),
+        right: rings.iter().map(|c| c.right).sum(),
+    };
+    RingCount::new("all".into(), &all)
 }
