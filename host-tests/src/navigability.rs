@@ -43,7 +43,9 @@ pub mod rings;
 mod score;
 pub mod witness;
 
-pub use rings::{far_obstacles, far_obstacles_with, ObstacleKind, RingTally};
+pub use rings::{
+    far_obstacles, far_obstacles_with, pyramid_cell, square_cell, ObstacleKind, RingTally,
+};
 pub use score::{flat_spread, fused_points, fused_tally, layer_tally, step_detection, Tally};
 
 /// What a rule knows about the cell it judges.

@@ -12,6 +12,8 @@ use terrain_pyramid::{
     DefaultDesign, Design, DesignError, GateShape, Schedule, SensorModel, DEFAULT_CELLS_PER_SIDE,
 };
 
+/// What a 2-D lidar nodding on an actuator shows of a step (`--revolution-hz`).
+pub mod nod;
 /// Figure 2 as a PNG (`pyramid design --plot`, and the lab's experiments).
 pub mod plot;
 
@@ -51,6 +53,9 @@ pub struct Args {
         "gate", "gate_width", "uniform_resolution", "fit_layers",
     ])]
     pub rig: Option<PathBuf>,
+    /// For a lidar on a nodding actuator: what the nod shows of a step.
+    #[command(flatten)]
+    pub nod: nod::NodArgs,
 }
 
 /// The step by which `--fit-layers` raises γ.
@@ -358,6 +363,9 @@ pub struct Report {
     /// The static RAM the design's layers need, bytes: the pyramid's cells and windows and
     /// the classifier's gating.
     pub static_ram_bytes: usize,
+    /// With `--revolution-hz`: what the design's nod shows of a step ([`nod::plan`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub nodding: Option<nod::NodPlan>,
 }
 
 /// The report of a design.
@@ -391,6 +399,7 @@ pub fn report<const L: usize>(design: &Design<L>) -> Report {
         layers,
         bound,
         static_ram_bytes: static_ram_bytes(design),
+        nodding: None,
     }
 }
 
@@ -506,19 +515,40 @@ pub fn run(args: &Args, asked: &DesignArgs, fit_layers: Option<u8>) -> ExitCode 
             return ExitCode::from(2);
         }
     };
+    let grade = terrain_pyramid::classify::PlaneRule::DEFAULT
+        .max_grade
+        .to_num::<f64>();
+    // Refused before anything is written.
+    let nodding = match nod::plan(
+        &args.nod,
+        design_args.phi_deg,
+        design_args.height_m,
+        design_args.max_range_m,
+        grade,
+    ) {
+        Ok(plan) => plan,
+        Err(e) => {
+            eprintln!("error: {e}");
+            return ExitCode::from(2);
+        }
+    };
     if let Some(path) = &args.plot {
         if let Err(msg) = plot::draw(path, &design_args, &design) {
             eprintln!("error: --plot: cannot write {}: {msg}", path.display());
             return ExitCode::FAILURE;
         }
     }
-    let report = report(&design);
+    let mut report = report(&design);
+    report.nodding = nodding;
     if args.json {
         if !crate::json_line::print(&report, "error: cannot encode the report as JSON: ") {
             return ExitCode::FAILURE;
         }
     } else {
         crate::out!("{}", table(&design_args, &design, &report));
+        if let Some(plan) = &report.nodding {
+            crate::out!("{}", nod::table(plan));
+        }
         if let Some(n) = fit_layers {
             let from = if args.rig.is_some() {
                 "the rig's gamma"

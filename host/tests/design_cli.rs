@@ -345,3 +345,60 @@ fn a_rig_file_s_design_is_the_one_its_flags_give() {
     assert_eq!(out.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&out.stderr).contains("has no [design]"));
 }
+
+/// The LD19 of docs/lidars.md nodding at 20 °/s (φ 2° at 10 Hz, h 1 m) for its stairs' 0.17 m
+/// risers: a line every 0.593 m at 4 m (0.034907 · 17), every step sure within 3.52 m, and
+/// from 4 m with φ ≤ 0.467 / 17 rad = 1.574°, a nod of 15.74 °/s (worked in `nod.rs`).
+#[test]
+fn a_nodding_lidar_s_plan_is_in_the_json_and_the_table() {
+    // LD19_8M's sensor, to 10 m with γ 3 (14 layers).
+    let flags = [
+        &LD19_8M[..6],
+        &[
+            "--max-range-m",
+            "10",
+            "--gamma",
+            "3",
+            "--revolution-hz",
+            "10",
+            "--step-m",
+            "0.17",
+            "--sure-from-m",
+            "4",
+        ],
+    ]
+    .concat();
+    let v = design_json(&flags);
+    let n = &v["nodding"];
+    assert!(close(num(&n["nod_deg_s"]), 20.0, 1e-9), "{n}");
+    assert!(close(num(&n["sure_within_m"]), 3.52, 0.005), "{n}");
+    assert!(
+        close(num(&n["sure_from"]["max_nod_deg_s"]), 15.74, 0.01),
+        "{n}"
+    );
+    let at_4 = n["spacing"]
+        .as_array()
+        .and_then(|s| s.iter().find(|p| num(&p["d_m"]) == 4.0))
+        .expect("the spacing at 4 m");
+    assert!(close(num(&at_4["spacing_m"]), 0.5934, 1e-3), "{at_4}");
+    // Without the rate there is no plan; the table carries it when asked.
+    assert!(design_json(&[]).get("nodding").is_none());
+    let out = pyramid(&flags);
+    assert!(out.status.success());
+    let table = String::from_utf8_lossy(&out.stdout);
+    assert!(table.contains("phi is a nod of 20.00°/s"), "{table}");
+    assert!(table.contains("a nod of at most 15.74°/s"), "{table}");
+    // A bad rate or step is refused by name, before any plot is written.
+    assert_refused(&["--revolution-hz", "0"], "--revolution-hz");
+    assert_refused(&["--revolution-hz", "10", "--step-m", "-1"], "--step-m");
+    let png = scratch_file("nod_refused.png");
+    let _ = std::fs::remove_file(&png);
+    let out = pyramid(&[
+        "--revolution-hz",
+        "nan",
+        "--plot",
+        png.to_str().expect("a UTF-8 path"),
+    ]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(!png.exists());
+}

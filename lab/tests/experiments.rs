@@ -314,6 +314,18 @@ fn the_far_obstacles_table_holds_every_ring_and_kind(json: &Value, table: &str, 
         assert!(rule["ground_navigable_pct"]
             .as_f64()
             .is_some_and(|p| p > 50.0));
+        // The ground-only cells' clear ground is part of it, ring by ring, and a row of the
+        // table.
+        let ground_only = rule["ground_only"].as_array().expect("ground_only");
+        assert_eq!(ground_only.len(), 4);
+        for (only, all) in ground_only.iter().zip(ground) {
+            assert!(n(&only["points"]) <= n(&all["points"]), "{rule}");
+            assert!(n(&only["right"]) <= n(&all["right"]), "{rule}");
+        }
+        assert!(
+            section.contains("| clear ground in ground-only cells |"),
+            "{section}"
+        );
         // Every kind with its four rings; every kind with returns a row of the table.
         let kinds = rule["kinds"].as_array().expect("kinds");
         let kind_names: Vec<&str> = kinds.iter().filter_map(|k| k["kind"].as_str()).collect();

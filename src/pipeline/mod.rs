@@ -106,9 +106,12 @@ pub struct Frontend<const C: usize, const L: usize> {
     lines_in_observation: u32,
     /// Lidar revolutions started in the current observation.
     revolutions_in_observation: u32,
-    /// The most classifier slots one return can take under the design in force
-    /// ([`Classifier::slots_per_point`]): with fewer free, the observation is split first.
-    slots_per_return: u16,
+    /// The cells in use beyond which the classifier's scratch may not hold the next return:
+    /// `C` less the most slots one return can take under the design in force
+    /// ([`Classifier::slots_per_point`]), 0 when that is `C` or more (then any cell in use
+    /// splits), `C` before a design (never beyond). With more in use, the observation is
+    /// split first.
+    split_above: usize,
     stats: FrontendStats,
     /// Whether a configuration has been adopted (lines are refused until then).
     configured: bool,
@@ -176,7 +179,7 @@ impl<const C: usize, const L: usize> Frontend<C, L> {
             direction: 0,
             lines_in_observation: 0,
             revolutions_in_observation: 0,
-            slots_per_return: 0,
+            split_above: C,
             stats: FrontendStats {
                 lines_applied: 0,
                 lines_rejected: 0,
@@ -251,8 +254,7 @@ impl<const C: usize, const L: usize> Frontend<C, L> {
     pub fn adopt_design(&mut self, design: &Design<L>, config: &Config) -> Result<(), DesignError> {
         let increments = config.model.increments()?;
         self.classifier.adopt_design(design, increments)?;
-        self.slots_per_return =
-            u16::try_from(self.classifier.slots_per_point()).unwrap_or(u16::MAX);
+        self.split_above = C.saturating_sub(self.classifier.slots_per_point());
         self.lines_in_observation = 0;
         Ok(())
     }
@@ -414,12 +416,15 @@ impl<const C: usize, const L: usize> Frontend<C, L> {
     }
 
     /// Whether the classifier's scratch may not hold the next return: fewer slots free than
-    /// one return can take. Then the observation is split before it
-    /// ([`split_observation`](Self::split_observation)).
+    /// one return can take, and at least one cell in use (an empty scratch is never split).
+    /// Then the observation is split before it
+    /// ([`split_observation`](Self::split_observation)). One comparison per return: with
+    /// `s` the slots a return takes and `u ≤ C` the cells in use, `C − u < s ∧ u > 0` is
+    /// `u > C − s` when `s ≤ C` (which is then ≥ 0) and `u > 0` when `s > C`, that is
+    /// `u > C ⊖ s` (the field `split_above`; `⊖` saturates at 0).
     #[inline(always)]
     fn scratch_short(&self) -> bool {
-        self.classifier.slots_free() < usize::from(self.slots_per_return)
-            && self.classifier.cells_in_use() > 0
+        self.classifier.cells_in_use() > self.split_above
     }
 
     /// Applies what the observation under way holds (recentred on the robot, counted as an

@@ -10,6 +10,15 @@
 //! obstacle step, or navigable ground near a feature), not counted. Summed over the rings and
 //! kinds the counts are [`fused_points`]'s with a 20 m range ([`RingTally::total`]).
 //!
+//! The clear ground again in **ground-only cells**: the returns on it whose fused answer came
+//! from a map cell clear of every feature below the robot's height (or from no cell: the map
+//! did not know the place). A map's cells coarsen with range, and a far cell that holds a
+//! curb is an obstacle cell however much road it holds besides: the road beside the curb
+//! within it is clear ground (no feature within `clear_m` of its 0.1 m cell) that the map
+//! cannot resolve, and those returns leave this row. The rest are the navigable ground the
+//! map's own cells could have told apart, as `host-tests/examples/semantic_kitti` counts real
+//! streets.
+//!
 //! [`fused_points`]: super::fused_points
 
 use super::Tally;
@@ -17,7 +26,7 @@ use crate::sim::cloud::Observation;
 use crate::sim::scene::{FeatureKind, Scene};
 use crate::sim::terrain::{cell_truth, clear_of_features, Rect, Truth};
 use std::collections::BTreeMap;
-use terrain_pyramid::{Fused, Meters, Pyramid};
+use terrain_pyramid::{Fused, Meters, Pyramid, Resolution};
 
 /// The rings' edges, metres: ring r holds the returns at a horizontal distance d from their
 /// sensor with `RING_EDGES_M[r] ≤ d < RING_EDGES_M[r + 1]` (the last ring includes its outer
@@ -147,6 +156,10 @@ impl Count {
 pub struct RingTally {
     /// Per ring: returns on clear navigable ground, and of those read navigable.
     pub ground: [Count; RINGS],
+    /// Per ring: the returns of `ground` whose fused answer came from a map cell clear of
+    /// every feature below the robot's height, or from none (unknown), and of those read
+    /// navigable (see the module documentation).
+    pub ground_only: [Count; RINGS],
     /// Per kind (as [`ObstacleKind::ALL`]), per ring: returns on a true obstacle cell of the
     /// kind, and of those with an obstacle cell of the fused map within 0.2 m.
     pub obstacles: [[Count; RINGS]; KINDS],
@@ -156,6 +169,9 @@ impl RingTally {
     /// Adds another tally.
     pub fn add(&mut self, other: &Self) {
         for (a, b) in self.ground.iter_mut().zip(&other.ground) {
+            a.add(b);
+        }
+        for (a, b) in self.ground_only.iter_mut().zip(&other.ground_only) {
             a.add(b);
         }
         for (ka, kb) in self.obstacles.iter_mut().zip(&other.obstacles) {
@@ -170,6 +186,16 @@ impl RingTally {
     pub fn ground_total(&self) -> Count {
         let mut c = Count::default();
         for g in &self.ground {
+            c.add(g);
+        }
+        c
+    }
+
+    /// The clear ground in ground-only cells over every ring.
+    #[must_use]
+    pub fn ground_only_total(&self) -> Count {
+        let mut c = Count::default();
+        for g in &self.ground_only {
             c.add(g);
         }
         c
@@ -231,6 +257,7 @@ pub fn far_obstacles<const W: usize, const L: usize>(
                 Meters::saturating_from_num(y),
             )
         },
+        |k, x, y| pyramid_cell(pyramid, k, x, y),
         scene,
         observations,
         clear_m,
@@ -238,10 +265,52 @@ pub fn far_obstacles<const W: usize, const L: usize>(
     )
 }
 
-/// [`far_obstacles`] of any map: `fused(x, y)` answers the fused query at a point, metres.
+/// The footprint (metres) of layer `k`'s cell at world point `(x, y)` of `pyramid`: the
+/// cells lie on the world's multiples of the layer's size, wherever the window stands
+/// (`None`: no layer `k`, or a layer not in force).
+#[must_use]
+pub fn pyramid_cell<const W: usize, const L: usize>(
+    pyramid: &Pyramid<W, L>,
+    k: u8,
+    x: f64,
+    y: f64,
+) -> Option<Rect> {
+    let r = pyramid.layer(usize::from(k))?.resolution();
+    if r == Resolution::UNSET {
+        return None;
+    }
+    let edges = |v: f64| {
+        let i = r.cell_of(Meters::saturating_from_num(v));
+        (
+            r.cell_edge(i).to_num::<f64>(),
+            r.cell_edge(i.saturating_add(1)).to_num::<f64>(),
+        )
+    };
+    let ((x_min, x_max), (y_min, y_max)) = (edges(x), edges(y));
+    Some(Rect::new(x_min, x_max, y_min, y_max))
+}
+
+/// The footprint (metres) of the cell of a grid of `cell_m` squares on the world's multiples
+/// of `cell_m` that holds `(x, y)`: [`far_obstacles_with`]'s `cell` for a map of one layer
+/// at one cell size.
+#[must_use]
+pub fn square_cell(cell_m: f64, x: f64, y: f64) -> Rect {
+    let (i, j) = ((x / cell_m).floor(), (y / cell_m).floor());
+    Rect::new(
+        i * cell_m,
+        (i + 1.0) * cell_m,
+        j * cell_m,
+        (j + 1.0) * cell_m,
+    )
+}
+
+/// [`far_obstacles`] of any map: `fused(x, y)` answers the fused query at a point, metres;
+/// `cell(k, x, y)` gives the footprint of layer k's cell there (metres; `None` for a layer
+/// the map does not have), for the clear ground in ground-only cells.
 #[must_use]
 pub fn far_obstacles_with(
     fused: impl Fn(f64, f64) -> Fused,
+    cell: impl Fn(u8, f64, f64) -> Option<Rect>,
     scene: &Scene,
     observations: &[Observation],
     clear_m: f64,
@@ -249,7 +318,15 @@ pub fn far_obstacles_with(
 ) -> RingTally {
     const C: f64 = 0.1;
     #[allow(clippy::cast_precision_loss)]
-    let fused_at = |i: i64, j: i64| fused((i as f64 + 0.5) * C, (j as f64 + 0.5) * C);
+    let centre = |i: i64| (i as f64 + 0.5) * C;
+    let fused_at = |i: i64, j: i64| fused(centre(i), centre(j));
+    // Whether the fused answer at 0.1 m cell (i, j) came from a map cell clear of every
+    // feature below the robot's height, or from none.
+    let ground_only = |answer: Fused, i: i64, j: i64| match answer {
+        Fused::Unknown => true,
+        Fused::Navigable { layer } | Fused::Obstacle { layer } => cell(layer, centre(i), centre(j))
+            .is_none_or(|r| clear_of_features(scene, &r, robot_height_m)),
+    };
     #[allow(clippy::cast_possible_truncation)]
     let grow = (clear_m / C).ceil() as i64;
     // Per 0.1 m cell: None = not counted; Some(None) = clear navigable ground; Some(Some(k))
@@ -282,9 +359,14 @@ pub fn far_obstacles_with(
             });
             match kind {
                 Some(None) => {
+                    let answer = fused_at(i, j);
+                    let right = usize::from(matches!(answer, Fused::Navigable { .. }));
                     t.ground[r].points += 1;
-                    t.ground[r].right +=
-                        usize::from(matches!(fused_at(i, j), Fused::Navigable { .. }));
+                    t.ground[r].right += right;
+                    if ground_only(answer, i, j) {
+                        t.ground_only[r].points += 1;
+                        t.ground_only[r].right += right;
+                    }
                 }
                 Some(Some(k)) => {
                     let near = (-2..=2).any(|di| {
@@ -323,11 +405,46 @@ mod tests {
         }
     }
 
+    /// Each layer's cell at a point, from the design's cell size (metres, as the design
+    /// reports it, rounded to the library's Q16.16): it holds the point, is one cell size
+    /// wide, and lies on the world's multiples of that size, wherever the window stands.
+    #[test]
+    fn a_layers_cell_holds_the_point_on_the_worlds_lattice() {
+        let design = crate::sim::cloud::car_design::<16>(0.02, 128).expect("the car's design");
+        let p = super::super::pyramid::<128, 16>(&design);
+        for (k, layer) in design.layers().iter().enumerate() {
+            // The library holds cell sizes in Q16.16: the design's size rounded to 2⁻¹⁶ m.
+            let size = (f64::from(layer.resolution_m) * 65_536.0).round() / 65_536.0;
+            let k8 = u8::try_from(k).expect("16 layers");
+            for &(x, y) in &[(0.05, 0.05), (3.33, -2.71), (-7.9, 11.2)] {
+                let r = pyramid_cell(&p, k8, x, y).expect("a layer in force");
+                assert!(
+                    r.x_min <= x && x < r.x_max && r.y_min <= y && y < r.y_max,
+                    "{k}"
+                );
+                for (lo, hi) in [(r.x_min, r.x_max), (r.y_min, r.y_max)] {
+                    assert!(
+                        (hi - lo - size).abs() < 1e-9,
+                        "layer {k}: {lo}..{hi}, {size}"
+                    );
+                    let n = lo / size;
+                    assert!((n - n.round()).abs() < 1e-9, "layer {k}: {lo} on {size}");
+                }
+            }
+        }
+        let beyond = u8::try_from(design.layers().len()).expect("16 layers");
+        assert!(pyramid_cell(&p, beyond, 0.0, 0.0).is_none());
+    }
+
     /// Flat ground, a 10 cm curb along x = 4.05 m and a post at (12.05, 0.05); a map that
-    /// reads obstacle in the 0.1 m cells with 3.9 ≤ x < 4.0 and navigable everywhere else.
+    /// reads obstacle in the 0.1 m cells with 3.9 ≤ x < 4.0 and the one at (1.05, −3.05),
+    /// navigable everywhere else; its layer 0 (0.1 m cells) answers for x < 6 m, its layer 1
+    /// (4 m cells) beyond.
     ///
     /// By hand, the sensor at the origin:
-    /// - (1.05, 3.05): clear ground (1 m from the curb), read navigable: ring 0, right.
+    /// - (1.05, 3.05): clear ground (1 m from the curb), read navigable: ring 0, right; in a
+    ///   ground-only cell.
+    /// - (1.05, −3.05): clear ground read obstacle: ring 0, wrong; in a ground-only cell.
     /// - (4.05, 0.05): the curb's cell (40, 0); the obstacle cell (39, 0) is one cell away:
     ///   ring 0 (4.05 m), marked.
     /// - (4.05, 6.05): the curb's cell (40, 60), 7.30 m out: ring 1, marked.
@@ -335,8 +452,10 @@ mod tests {
     ///   feature, not counted.
     /// - (12.05, 0.05) twice: the post's cell (120, 0), nothing read obstacle near it: ring 2,
     ///   two points, neither marked.
-    /// - (7.05, 0.05): clear ground, read navigable: ring 1, right.
-    /// - (19.95, 0.05): clear ground: ring 3, right; (25.0, 0.05): beyond 20 m, not counted.
+    /// - (7.05, 0.05): clear ground, read navigable: ring 1, right; but layer 1's cell
+    ///   [4, 8) × [0, 4) holds the curb: not in a ground-only cell.
+    /// - (19.95, 0.05): clear ground: ring 3, right; layer 1's cell [16, 20) × [0, 4) holds no
+    ///   feature: in a ground-only cell. (25.0, 0.05): beyond 20 m, not counted.
     #[test]
     fn a_hand_made_case() {
         let mut scene = Scene::flat();
@@ -365,6 +484,7 @@ mod tests {
             ground_z: 0.0,
             points: [
                 (1.05, 3.05),
+                (1.05, -3.05),
                 (4.05, 0.05),
                 (4.05, 6.05),
                 (4.25, 0.05),
@@ -378,16 +498,24 @@ mod tests {
             .map(|&(x, y)| [x, y, 0.0])
             .collect(),
         };
-        let map = |x: f64, _y: f64| {
-            if (3.9..4.0).contains(&x) {
-                Fused::Obstacle { layer: 0 }
+        let map = |x: f64, y: f64| {
+            let layer = u8::from(x >= 6.0);
+            if (3.9..4.0).contains(&x) || ((1.0..1.1).contains(&x) && y < 0.0) {
+                Fused::Obstacle { layer }
             } else {
-                Fused::Navigable { layer: 0 }
+                Fused::Navigable { layer }
             }
         };
-        let t = far_obstacles_with(map, &scene, std::slice::from_ref(&obs), 0.5, 1.0);
+        let cells = |k: u8, x: f64, y: f64| match k {
+            0 => Some(square_cell(0.1, x, y)),
+            1 => Some(square_cell(4.0, x, y)),
+            _ => None,
+        };
+        let t = far_obstacles_with(map, cells, &scene, std::slice::from_ref(&obs), 0.5, 1.0);
         let c = |points, right| Count { points, right };
-        assert_eq!(t.ground, [c(1, 1), c(1, 1), c(0, 0), c(1, 1)]);
+        assert_eq!(t.ground, [c(2, 1), c(1, 1), c(0, 0), c(1, 1)]);
+        assert_eq!(t.ground_only, [c(2, 1), c(0, 0), c(0, 0), c(1, 1)]);
+        assert_eq!(t.ground_only_total(), c(3, 2));
         let curb = ObstacleKind::Curb.index();
         let post = ObstacleKind::Post.index();
         assert_eq!(t.obstacles[curb], [c(1, 1), c(1, 1), c(0, 0), c(0, 0)]);
@@ -403,7 +531,7 @@ mod tests {
         assert_eq!(
             t.total(),
             Tally {
-                navigable: 3,
+                navigable: 4,
                 navigable_ok: 3,
                 obstacle: 4,
                 obstacle_ok: 2,

@@ -20,6 +20,8 @@ use terrain_pyramid::wire::LaserReturn;
 use terrain_pyramid::{Config, Design, Fused, Meters, Pyramid, PyramidStats};
 use terrain_pyramid_host::export::MapSnapshot;
 use terrain_pyramid_host::play::{each_packet, steps, Step};
+use terrain_pyramid_host_tests::navigability::pyramid_cell;
+use terrain_pyramid_host_tests::sim::terrain::Rect;
 
 /// One scan line of a recording, with the pose and actuator angle in force for it.
 #[derive(Debug, Clone)]
@@ -153,6 +155,10 @@ pub trait Map {
     /// Layer `k`'s log-odds at world point `(x, y)`, nats: `None` when the cell is unknown,
     /// outside the window, or there is no layer `k` (for diagnostics).
     fn layer_log_odds(&self, k: usize, x: f64, y: f64) -> Option<f32>;
+    /// The footprint (world metres) of layer `k`'s cell at world point `(x, y)`, wherever the
+    /// window stands: `None` when there is no layer `k` in force (for the far obstacles'
+    /// ground-only cells).
+    fn cell_footprint(&self, k: u8, x: f64, y: f64) -> Option<Rect>;
 }
 
 /// A library pyramid of `L` layers of `W × W` cells behind a pipeline with `C` classifier
@@ -281,6 +287,10 @@ impl<const W: usize, const L: usize, const C: usize> Map for Runner<W, L, C> {
             r.cell_of(Meters::saturating_from_num(y)),
         )?;
         cell.log_odds().map(|v| v.to_num::<f32>())
+    }
+
+    fn cell_footprint(&self, k: u8, x: f64, y: f64) -> Option<Rect> {
+        pyramid_cell(&self.pyramid, k, x, y)
     }
 
     fn reset(&mut self) {

@@ -22,7 +22,8 @@
 //! from the laser (rings 0–5, 5–10, 10–15, 15–20 m) and by the kind of the obstacle cell's
 //! tallest feature: curb (the curbs, the kerb cut's and the ramp's sides), post (the poles),
 //! step edge (the stairs), block (the parked car, the facade), other (a slope beyond 20° with
-//! no feature, a ditch). Per rule: clear ground navigable %, and per kind and ring the returns,
+//! no feature, a ditch). Per rule: clear ground navigable % (again in ground-only cells: those
+//! whose fused answer came from a map cell holding no feature), and per kind and ring the returns,
 //! those marked and the share.
 //!
 //! ```sh
@@ -161,6 +162,13 @@ pub struct RuleResult {
     pub ground_navigable_pct: Option<f64>,
     /// Clear ground per ring.
     pub ground: Vec<RingCount>,
+    /// Clear ground in ground-only cells read navigable, percent, over every ring: the clear
+    /// ground whose fused answer came from a map cell that holds no feature below the robot's
+    /// height (or from none), the ground the map's own cells could tell apart
+    /// ([`terrain_pyramid_host_tests::navigability::rings`]).
+    pub ground_only_navigable_pct: Option<f64>,
+    /// Clear ground in ground-only cells per ring.
+    pub ground_only: Vec<RingCount>,
     /// Every obstacle kind.
     pub kinds: Vec<KindResult>,
     /// Every kind per ring.
@@ -310,10 +318,13 @@ pub(crate) fn rule_result(name: &'static str, t: &RingTally, points: Tally) -> R
             .collect()
     };
     let ground = t.ground_total();
+    let ground_only = t.ground_only_total();
     RuleResult {
         rule: name,
         ground_navigable_pct: (ground.points > 0).then(|| round3(ground.pct())),
         ground: per_ring(&|r| t.ground[r]),
+        ground_only_navigable_pct: (ground_only.points > 0).then(|| round3(ground_only.pct())),
+        ground_only: per_ring(&|r| t.ground_only[r]),
         kinds: ObstacleKind::ALL
             .iter()
             .map(|&k| KindResult {
@@ -345,7 +356,10 @@ pub fn table(r: &FarObstaclesResult) -> String {
          every 0.4°, 0.2° azimuth, σ {} m, per-beam calibration errors σ {}° in elevation and \
          {} m in range, 20 m) on the street (swell {} m), one revolution from x = {} m, each into a fresh pyramid of the street design (γ 3, 20 m, 128 cells) \
          through the library's classifier. Clear ground: returns on truly navigable 0.1 m cells \
-         with no feature within 0.5 m, right when the fused map reads navigable. Obstacles: \
+         with no feature within 0.5 m, right when the fused map reads navigable; again in \
+         ground-only cells, those whose answer came from a map cell holding no feature (a far \
+         cell that holds a curb is an obstacle cell, and the road beside it within the cell \
+         ground it cannot resolve). Obstacles: \
          returns on true obstacle cells by the kind of the cell's tallest feature, marked when \
          an obstacle cell of the fused map lies within 0.2 m. Each entry: % (right / returns); \
          rings by the return's horizontal distance from the laser.",
@@ -377,19 +391,16 @@ pub fn table(r: &FarObstaclesResult) -> String {
 /// Per rule, under heading `level`: clear ground and each kind by ring.
 fn rule_tables(s: &mut String, level: &str, rings: &[String], rules: &[RuleResult]) {
     for rule in rules {
+        let pct = |p: Option<f64>| p.map_or_else(|| "–".to_string(), |p| format!("{p:.1} %"));
         let _ = writeln!(
             *s,
-            "\n{level} {}: clear ground navigable {}\n",
+            "\n{level} {}: clear ground navigable {} (in ground-only cells {})\n",
             rule.rule,
-            rule.ground_navigable_pct
-                .map_or_else(|| "–".to_string(), |p| format!("{p:.1} %"))
+            pct(rule.ground_navigable_pct),
+            pct(rule.ground_only_navigable_pct),
         );
         let _ = writeln!(*s, "| returns on | {} | all |", rings.join(" | "));
         let _ = writeln!(*s, "| --- |{}", " --- |".repeat(rings.len() + 1));
-        let ground_all = Count {
-            points: rule.ground.iter().map(|c| c.points).sum(),
-            right: rule.ground.iter().map(|c| c.right).sum(),
-        };
         let mut line = |name: &str, rings: &[RingCount], all: &RingCount| {
             let cells: Vec<String> = rings.iter().map(cell).collect();
             let _ = writeln!(*s, "| {name} | {} | {} |", cells.join(" | "), cell(all));
@@ -397,19 +408,29 @@ fn rule_tables(s: &mut String, level: &str, rings: &[String], rules: &[RuleResul
         line(
             "clear ground (navigable)",
             &rule.ground,
-            &RingCount::new("all".into(), &ground_all),
+            &all_rings(&rule.ground),
+        );
+        line(
+            "clear ground in ground-only cells",
+            &rule.ground_only,
+            &all_rings(&rule.ground_only),
         );
         for k in &rule.kinds {
             line(k.kind, &k.rings, &k.all);
         }
-        let obstacles_all = Count {
-            points: rule.obstacles.iter().map(|c| c.points).sum(),
-            right: rule.obstacles.iter().map(|c| c.right).sum(),
-        };
         line(
             "every obstacle (marked)",
             &rule.obstacles,
-            &RingCount::new("all".into(), &obstacles_all),
+            &all_rings(&rule.obstacles),
         );
     }
+}
+
+/// A row's rings summed into its "all" entry.
+fn all_rings(rings: &[RingCount]) -> RingCount {
+    let all = Count {
+        points: rings.iter().map(|c| c.points).sum(),
+        right: rings.iter().map(|c| c.right).sum(),
+    };
+    RingCount::new("all".into(), &all)
 }

@@ -262,6 +262,7 @@ fn score(
                 };
                 tally.add(&far_obstacles_with(
                     |qx, qy| map.fused(qx, qy),
+                    |k, qx, qy| map.cell_footprint(k, qx, qy),
                     scene,
                     std::slice::from_ref(&obs),
                     CLEAR_M,

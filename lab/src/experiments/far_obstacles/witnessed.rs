@@ -18,7 +18,7 @@ use super::{rule_result, Hit, RuleResult, CLEAR_M, ROBOT_HEIGHT_M};
 use serde::Serialize;
 use std::collections::HashSet;
 use terrain_pyramid::Fused;
-use terrain_pyramid_host_tests::navigability::rings::{far_obstacles_with, RingTally};
+use terrain_pyramid_host_tests::navigability::rings::{far_obstacles_with, square_cell, RingTally};
 use terrain_pyramid_host_tests::navigability::witness::{witnesses, PastReturns, Witness};
 use terrain_pyramid_host_tests::sim::cloud::Observation;
 use terrain_pyramid_host_tests::sim::scene::Scene;
@@ -90,6 +90,7 @@ fn marked_at(cells: &HashSet<(i64, i64)>, obs: &Observation, scene: &Scene) -> R
                 Fused::Navigable { layer: 0 }
             }
         },
+        |_, x, y| Some(square_cell(0.1, x, y)),
         scene,
         std::slice::from_ref(obs),
         CLEAR_M,
