@@ -106,12 +106,11 @@ pub struct Frontend<const C: usize, const L: usize> {
     lines_in_observation: u32,
     /// Lidar revolutions started in the current observation.
     revolutions_in_observation: u32,
-    /// The cells in use beyond which the classifier's scratch may not hold the next return:
-    /// `C` less the most slots one return can take under the design in force
-    /// ([`Classifier::slots_per_point`]), 0 when that is `C` or more (then any cell in use
-    /// splits), `C` before a design (never beyond). With more in use, the observation is
-    /// split first.
-    split_above: usize,
+    /// The most classifier slots one return can take under the design in force
+    /// ([`Classifier::slots_per_point`]), at most `C`; 0 before a design (nothing is split).
+    /// With fewer free, the observation is split first. 0 at rest, so that a fresh pipeline
+    /// is all zero bits and a board keeps it in `.bss`, not in flash.
+    slots_per_return: usize,
     stats: FrontendStats,
     /// Whether a configuration has been adopted (lines are refused until then).
     configured: bool,
@@ -179,7 +178,7 @@ impl<const C: usize, const L: usize> Frontend<C, L> {
             direction: 0,
             lines_in_observation: 0,
             revolutions_in_observation: 0,
-            split_above: C,
+            slots_per_return: 0,
             stats: FrontendStats {
                 lines_applied: 0,
                 lines_rejected: 0,
@@ -254,7 +253,7 @@ impl<const C: usize, const L: usize> Frontend<C, L> {
     pub fn adopt_design(&mut self, design: &Design<L>, config: &Config) -> Result<(), DesignError> {
         let increments = config.model.increments()?;
         self.classifier.adopt_design(design, increments)?;
-        self.split_above = C.saturating_sub(self.classifier.slots_per_point());
+        self.slots_per_return = self.classifier.slots_per_point().min(C);
         self.lines_in_observation = 0;
         Ok(())
     }
@@ -418,13 +417,13 @@ impl<const C: usize, const L: usize> Frontend<C, L> {
     /// Whether the classifier's scratch may not hold the next return: fewer slots free than
     /// one return can take, and at least one cell in use (an empty scratch is never split).
     /// Then the observation is split before it
-    /// ([`split_observation`](Self::split_observation)). One comparison per return: with
-    /// `s` the slots a return takes and `u ≤ C` the cells in use, `C − u < s ∧ u > 0` is
-    /// `u > C − s` when `s ≤ C` (which is then ≥ 0) and `u > 0` when `s > C`, that is
-    /// `u > C ⊖ s` (the field `split_above`; `⊖` saturates at 0).
+    /// ([`split_observation`](Self::split_observation)). One addition and one comparison
+    /// per return: with `s ≤ C` the slots a return takes (clamped when adopted) and `u ≤ C`
+    /// the cells in use, `C − u < s ∧ u > 0` is `u + s > C` (which, with `s ≤ C`, needs
+    /// `u > 0`; `u + s ≤ 2C` does not overflow).
     #[inline(always)]
     fn scratch_short(&self) -> bool {
-        self.classifier.cells_in_use() > self.split_above
+        self.classifier.cells_in_use() + self.slots_per_return > C
     }
 
     /// Applies what the observation under way holds (recentred on the robot, counted as an

@@ -568,7 +568,7 @@ fn a_full_scratch_splits_the_observation_and_drops_nothing() {
     // Without the split, the small scratch drops returns: the same sweep with the split
     // disabled (as before) is what `overflow_points` counted.
     let mut dropping = setup_slots::<16>(36);
-    dropping.split_above = usize::MAX;
+    dropping.slots_per_return = 0;
     let (_, mut r) = setup(36);
     for tilt in 5..41 {
         let values = ranges_mm(f64::from(tilt));
