@@ -142,6 +142,16 @@ impl Count {
         self.right += other.right;
     }
 
+    /// The counts summed.
+    #[must_use]
+    pub fn sum<'a>(counts: impl IntoIterator<Item = &'a Self>) -> Self {
+        let mut c = Self::default();
+        for k in counts {
+            c.add(k);
+        }
+        c
+    }
+
     /// The share judged right, percent (NaN with none).
     #[must_use]
     pub fn pct(&self) -> f64 {
@@ -184,53 +194,32 @@ impl RingTally {
     /// The clear ground over every ring.
     #[must_use]
     pub fn ground_total(&self) -> Count {
-        let mut c = Count::default();
-        for g in &self.ground {
-            c.add(g);
-        }
-        c
+        Count::sum(&self.ground)
     }
 
     /// The clear ground in ground-only cells over every ring.
     #[must_use]
     pub fn ground_only_total(&self) -> Count {
-        let mut c = Count::default();
-        for g in &self.ground_only {
-            c.add(g);
-        }
-        c
+        Count::sum(&self.ground_only)
     }
 
     /// One kind over every ring.
     #[must_use]
     pub fn kind_total(&self, kind: ObstacleKind) -> Count {
-        let mut c = Count::default();
-        for k in &self.obstacles[kind.index()] {
-            c.add(k);
-        }
-        c
+        Count::sum(&self.obstacles[kind.index()])
     }
 
     /// Every kind in one ring.
     #[must_use]
     pub fn ring_obstacles(&self, r: usize) -> Count {
-        let mut c = Count::default();
-        for k in &self.obstacles {
-            if let Some(v) = k.get(r) {
-                c.add(v);
-            }
-        }
-        c
+        Count::sum(self.obstacles.iter().filter_map(|k| k.get(r)))
     }
 
     /// Everything, as [`fused_points`](super::fused_points) counts it.
     #[must_use]
     pub fn total(&self) -> Tally {
         let ground = self.ground_total();
-        let mut obstacle = Count::default();
-        for kind in ObstacleKind::ALL {
-            obstacle.add(&self.kind_total(kind));
-        }
+        let obstacle = Count::sum(self.obstacles.iter().flatten());
         Tally {
             navigable: ground.points,
             navigable_ok: ground.right,
