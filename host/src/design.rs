@@ -181,7 +181,7 @@ pub struct DesignArgs {
     /// Every layer at the base cell size, the bands still those of the linear schedule (the
     /// paper's stairs experiment); the window must then hold each band at the base cell.
     /// Not for a lidar on a nodding actuator: its scan lines lie d²·φ/h apart on the ground,
-    /// so where that exceeds the base cell (beyond 1.7 m for an LD19 nodding at 20 °/s, h 1 m,
+    /// so where that exceeds the base cell (beyond 2 m for an LD19 nodding at 15 °/s, h 1 m,
     /// 0.1 m cells) a cell holds at most one line a sweep and cannot tell a riser from the
     /// ground (docs/lidars.md, "Why the design's resolutions").
     #[arg(long)]

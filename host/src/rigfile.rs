@@ -444,8 +444,8 @@ mod tests {
             ..spec.args(64)
         });
         assert!(less.map_or(true, |d| d.layers().len() > 8));
-        // The sensor is the file's: φ = 20 °/s ÷ 10 Hz, the mount's 1 m.
-        assert!((design.sensor().phi_rad - 2.0_f32.to_radians()).abs() < 1e-7);
+        // The sensor is the file's: φ = 15 °/s ÷ 10 Hz, the mount's 1 m.
+        assert!((design.sensor().phi_rad - 1.5_f32.to_radians()).abs() < 1e-7);
         assert!((design.sensor().height_m - 1.0).abs() < 1e-7);
         // The other examples ask for no design: their devices keep their own.
         assert!(parse(EXAMPLES[1].1).unwrap().design.is_none());

@@ -234,11 +234,11 @@ fn an_unwritable_plot_fails_with_one_line() {
     assert!(stderr.contains("--plot"), "{stderr}");
 }
 
-/// An LD19 nodding at 20 °/s (φ 2°, ψ 0.8°, σ 0.045 m, h 1 m) to 8 m: the design of γ = 2
-/// needs more than a board's 8 layers.
+/// The LD19 of `examples/rigs/ld19-nodding.toml`, nodding at 15 °/s (φ 1.5°, ψ 0.8°,
+/// σ 0.045 m, h 1 m) to 8 m: the design of γ = 2 needs more than a board's 8 layers.
 const LD19_8M: [&str; 8] = [
     "--phi-deg",
-    "2",
+    "1.5",
     "--psi-deg",
     "0.8",
     "--sigma-m",
@@ -351,9 +351,9 @@ fn a_rig_file_s_design_is_the_one_its_flags_give() {
 /// from 4 m with φ ≤ 0.467 / 17 rad = 1.574°, a nod of 15.74 °/s (worked in `nod.rs`).
 #[test]
 fn a_nodding_lidar_s_plan_is_in_the_json_and_the_table() {
-    // LD19_8M's sensor, to 10 m with γ 3 (14 layers).
+    // An LD19 nodding at 20 °/s (φ 2°, ψ 0.8°, σ 0.045 m), to 10 m with γ 3 (14 layers).
     let flags = [
-        &LD19_8M[..6],
+        &["--phi-deg", "2", "--psi-deg", "0.8", "--sigma-m", "0.045"][..],
         &[
             "--max-range-m",
             "10",

@@ -71,28 +71,29 @@ pub fn scenarios() -> Vec<Scenario> {
         Scenario {
             name: "ld19-nodding-stairs",
             about: "an LDROBOT LD19 (47-byte packets, 4 500 returns/s at 10 Hz) lying on a servo \
-                    that nods it 2°..35° at 20 °/s, 1 m up, simulated in front of the same \
+                    that nods it 2°..35° at 15 °/s, 1 m up, simulated in front of the same \
                     stairs: 1 s standing, then driving at 1 m/s to 1 m from the first step; \
-                    the design from its datasheet (φ = 2°, ψ = 0.8°, σ = 0.045 m; γ = 4, 8 m: 8 layers)",
+                    the design from its datasheet and nod (φ = 1.5°, ψ = 0.8°, σ = 0.045 m; \
+                    γ = 3, 8 m: 8 layers)",
             record: record_ld19_stairs,
             flags: FLAGS_LD19,
         },
     ]
 }
 
-/// The LD19 scenario's `pyramid run` flags: the design of its datasheet
-/// (`lab/src/experiments/lidar.rs`): φ = 2° (the tilt between revolutions), ψ = 0.8°,
-/// σ = 0.045 m, h = 1.0 m; γ = 4 and 8 m so that it fits the firmware's 8 layers (at γ = 2
-/// and 10 m it needs 20).
+/// The LD19 scenario's `pyramid run` flags: the design of its datasheet and nod
+/// (`lab/src/experiments/lidar.rs`): φ = 1.5° (the tilt between revolutions), ψ = 0.8°,
+/// σ = 0.045 m, h = 1.0 m; γ = 3 and 8 m so that it fits the firmware's 8 layers (at γ = 2
+/// and 10 m it needs 16), as `examples/rigs/ld19-nodding.toml`'s design.
 pub const FLAGS_LD19: &[&str] = &[
     "--phi-deg",
-    "2",
+    "1.5",
     "--psi-deg",
     "0.8",
     "--sigma-m",
     "0.045",
     "--gamma",
-    "4",
+    "3",
     "--max-range-m",
     "8",
 ];

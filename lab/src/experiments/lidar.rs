@@ -6,14 +6,23 @@
 //! 0.02–12 m at 70 % reflectivity, scan rate 5–13 Hz (10 Hz typical), a fixed 4 500
 //! measurements per second, ranging accuracy ±45 mm and standard deviation 10 mm over
 //! 0.3–12 m, angular resolution "1°" typical (4 500 / 10 Hz = 450 per turn: 0.8°). The lidar
-//! lies flat on a servo that nods it from 2° to 35° (positive looks down) at 20 °/s, 20 ms
+//! lies flat on a servo that nods it from 2° to 35° (positive looks down) at 15 °/s, 20 ms
 //! behind its command, its spin centre 1.0 m above the ground (the paper's h).
+//!
+//! # The nod
+//! Each rig nods at the rate its plan gives ([`rig_servo`]): the tilt between two revolutions,
+//! φ = [`RIG_PHI_DEG`] = 1.5°, is the largest (to a tenth of a degree) for which every 0.17 m
+//! riser has a line close enough before it in each sweep from 4 m in
+//! (`pyramid design --revolution-hz F --step-m 0.17 --sure-from-m 4`; `docs/lidars.md`,
+//! "What the laser gave"), and the nod's rate is φ times the revolutions per second (LD19
+//! 15 °/s, RPLIDAR A1 standard scan 8.25 °/s, YDLIDAR X4 10.5 °/s). The sweep's 33° then
+//! holds 22 revolutions, so a nod is a whole number of them for every rig.
 //!
 //! The design's sensor model (`terrain_pyramid::SensorModel`) takes φ as the *vertical*
 //! resolution and ψ as the *horizontal* one. On the nodding servo they swap roles against
 //! the paper's panned SICK:
-//! - **φ = 2°**: the tilt between successive revolutions (20 °/s ÷ 10 Hz), the vertical spacing
-//!   of the scan lines;
+//! - **φ = 1.5°**: the tilt between successive revolutions (15 °/s ÷ 10 Hz), the vertical
+//!   spacing of the scan lines;
 //! - **ψ = 0.8°**: the spacing of the returns within a revolution (360° ÷ 450);
 //! - **σ = 0.045 m**: the datasheet's ±45 mm accuracy (the simulator draws the 10 mm standard
 //!   deviation; the design takes the larger, systematic bound);
@@ -23,11 +32,11 @@
 //! The paper's stairs experiment runs every layer at 0.1 m (the SICK keeps that pyramid):
 //! its panned SICK draws vertical lines, and one 0.1 m cell holds a riser's whole profile. A
 //! nodding lidar's lines run across the range instead, one tilt a revolution: on flat ground
-//! they lie `d²·φ/h` apart (0.1 m at 1.7 m for the LD19, 0.56 m at 4 m), on a riser `d·φ`
-//! apart in height (0.14 m at 4 m). Beyond 1.7 m a 0.1 m cell holds at most one line a
+//! they lie `d²·φ/h` apart (0.1 m at 2 m for the LD19, 0.42 m at 4 m), on a riser `d·φ`
+//! apart in height (0.10 m at 4 m). Beyond 2 m a 0.1 m cell holds at most one line a
 //! sweep, at one height, which looks flat on the ground, on a tread and on a riser alike: a
 //! riser cell is marked only when two lines land on its 0.17 m face in the same sweep
-//! (certain within `H/(2φ)` = 2.4 m, never beyond `H/φ` = 4.9 m), and takes free evidence
+//! (certain within `H/(2φ)` = 3.2 m, never beyond `H/φ` = 6.5 m), and takes free evidence
 //! otherwise. The design's bound `δ(d)` grows with that spacing (its term `φ·(d² + h²)/h`):
 //! a cell of the design's own resolution `r_k = k·γ·Δd` holds, in one sweep, the ground
 //! before a riser, the riser and the tread behind it, and the plane rule sees the rise. The
@@ -62,8 +71,33 @@ use terrain_pyramid_host_tests::sim::record::SimConfig;
 use terrain_pyramid_host_tests::sim::scene::Scene;
 use terrain_pyramid_host_tests::sim::trajectory::Trajectory;
 
-/// The servo's sweep: lowest and highest tilt (degrees), rate (°/s), latency (ms).
-pub const SERVO: (f64, f64, f64, f64) = (2.0, 35.0, 20.0, 20.0);
+/// The servo's lowest and highest tilt, degrees (positive looks down).
+pub const SERVO_ENDS_DEG: (f64, f64) = (2.0, 35.0);
+/// How far the servo lags its command, ms.
+pub const SERVO_LATENCY_MS: f64 = 20.0;
+/// The step every rig's nod is planned for, metres: the stairs' riser.
+pub const PLANNED_STEP_M: f64 = 0.17;
+/// The distance from which every rig's nod makes each such step sure, metres: the goal's.
+pub const SURE_FROM_M: f64 = 4.0;
+/// φ of every rig's nod, degrees: the largest tilt between two revolutions that makes every
+/// step of [`PLANNED_STEP_M`] sure from [`SURE_FROM_M`] at [`HEIGHT_M`] (1.574°), rounded
+/// down to a tenth of a degree. A test derives it from `pyramid design`'s plan.
+pub const RIG_PHI_DEG: f64 = 1.5;
+
+/// Rig `kind`'s servo: lowest and highest tilt (degrees), rate (°/s), latency (ms). The rate
+/// is [`RIG_PHI_DEG`] times the lidar's revolutions per second.
+#[must_use]
+pub const fn rig_servo(kind: LidarKind) -> (f64, f64, f64, f64) {
+    (
+        SERVO_ENDS_DEG.0,
+        SERVO_ENDS_DEG.1,
+        RIG_PHI_DEG * kind.rotation_hz(),
+        SERVO_LATENCY_MS,
+    )
+}
+
+/// The LD19's servo: 2°..35° at 15 °/s, 20 ms behind its command.
+pub const SERVO: (f64, f64, f64, f64) = rig_servo(LidarKind::Ld19);
 /// The spin centre's height, metres.
 pub const HEIGHT_M: f64 = 1.0;
 /// Window of the LD19's stairs maps: 12 m at 0.1 m (2 · 12 / 0.1 + 2 = 242, rounded up).
@@ -88,18 +122,18 @@ pub struct Ld19Design {
 }
 
 impl Ld19Design {
-    /// φ = 20 °/s ÷ 10 Hz = 2°, ψ = 360° ÷ (4 500 / 10) = 0.8°, σ = 0.045 m, h = 1.0 m.
+    /// φ = 15 °/s ÷ 10 Hz = 1.5°, ψ = 360° ÷ (4 500 / 10) = 0.8°, σ = 0.045 m, h = 1.0 m.
     pub fn from_datasheet() -> Self {
         Self::for_kind(LidarKind::Ld19)
     }
 
-    /// The same derivation for any lidar on the same servo: φ = the servo's rate ÷ the
-    /// revolutions per second (RPLIDAR A1 standard scan: 20 ÷ 5.5 = 3.64°; YDLIDAR X4:
-    /// 20 ÷ 7 = 2.86°), ψ = 360° ÷ returns per revolution (A1: 0.99°, X4: 0.50°), σ = 0.045 m
+    /// The same derivation for any lidar on its own nod ([`rig_servo`]): φ = the servo's rate
+    /// ÷ the revolutions per second, 1.5° for every rig (RPLIDAR A1 standard scan:
+    /// 8.25 ÷ 5.5; YDLIDAR X4: 10.5 ÷ 7), ψ = 360° ÷ returns per revolution (A1: 0.99°, X4: 0.50°), σ = 0.045 m
     /// for all (the LD19's ±45 mm; the RPLIDAR's and X4's "about 1 %" of range is 0.03 m at
     /// 3 m, and the noise term is the smallest of the bound's three beyond 1 m), h = 1.0 m.
     pub fn for_kind(kind: LidarKind) -> Self {
-        Self::for_kind_at(kind, SERVO.2)
+        Self::for_kind_at(kind, rig_servo(kind).2)
     }
 
     /// [`Ld19Design::for_kind`] on a servo nodding at `rate_deg_s`.
@@ -145,10 +179,10 @@ pub fn ld19_sim(scene: Scene, trajectory: Trajectory, seed: u64) -> LidarSimConf
     rig_sim(LidarKind::Ld19, scene, trajectory, seed)
 }
 
-/// Lidar `kind` on the LD19's servo (same sweep, same height), for a run over `scene` along
-/// `trajectory`.
+/// Lidar `kind` on its own nod ([`rig_servo`]; the LD19's sweep and height), for a run over
+/// `scene` along `trajectory`.
 pub fn rig_sim(kind: LidarKind, scene: Scene, trajectory: Trajectory, seed: u64) -> LidarSimConfig {
-    servo_sim(kind, SERVO, scene, trajectory, seed)
+    servo_sim(kind, rig_servo(kind), scene, trajectory, seed)
 }
 
 /// Lidar `kind` on a servo `(lowest, highest tilt °, rate °/s, latency ms)`.
@@ -192,9 +226,9 @@ pub struct StairsSetup {
     /// The lidar on the servo (default the LD19).
     #[serde(skip)]
     pub kind: LidarKind,
-    /// The servo: lowest and highest tilt (degrees), rate (°/s), latency (ms); default
-    /// [`SERVO`]. The design's φ follows its rate.
-    pub servo: (f64, f64, f64, f64),
+    /// Another servo than the rig's own ([`rig_servo`], the default `None`): lowest and
+    /// highest tilt (degrees), rate (°/s), latency (ms). The design's φ follows its rate.
+    pub servo: Option<(f64, f64, f64, f64)>,
     /// Every pyramid layer at 0.1 m (the paper's stairs pyramid, which the SICK runs) when
     /// true; the design's own resolutions `r_k = k·γ·Δd` (the library's default schedule,
     /// up to [`RIG_LAYERS`] layers) when false, the default. See the module documentation,
@@ -216,7 +250,7 @@ impl StairsSetup {
         seed: 1,
         revolutions_per_observation: 0,
         kind: LidarKind::Ld19,
-        servo: SERVO,
+        servo: None,
         uniform_layers: false,
         dwell_s: 0.0,
     };
@@ -225,6 +259,12 @@ impl StairsSetup {
         stand_s: 30.0,
         ..Self::FULL
     };
+
+    /// The servo the setup's lidar nods on: [`StairsSetup::servo`], else the rig's own.
+    #[must_use]
+    pub fn nod(&self) -> (f64, f64, f64, f64) {
+        self.servo.unwrap_or_else(|| rig_servo(self.kind))
+    }
 
     /// The SICK-shaped configuration of the same scene and trajectory (for the step cells).
     pub fn scene_config(&self) -> SimConfig {
@@ -276,7 +316,7 @@ impl StairsSetup {
     /// # Errors
     /// The library's refusal of the design.
     pub fn pyramid<const L: usize>(&self, gate: GateShape) -> Result<Design<L>, DesignError> {
-        Ld19Design::for_kind_at(self.kind, self.servo.2).pyramid(
+        Ld19Design::for_kind_at(self.kind, self.nod().2).pyramid(
             self.range_m,
             gate,
             self.uniform_layers,
@@ -287,7 +327,7 @@ impl StairsSetup {
     /// The run of the setup's lidar.
     pub fn sim(&self) -> LidarSimConfig {
         let s = self.scene_config();
-        let mut c = servo_sim(self.kind, self.servo, s.scene, s.trajectory, self.seed);
+        let mut c = servo_sim(self.kind, self.nod(), s.scene, s.trajectory, self.seed);
         c.truth = s.truth;
         c
     }
@@ -363,7 +403,7 @@ pub fn run_stairs(
     let scene_config = setup.scene_config();
     let (decoded, sim) = setup.simulated(classifier)?;
     let watched = Watched::of(&scene_config);
-    let design = Ld19Design::for_kind_at(setup.kind, setup.servo.2);
+    let design = Ld19Design::for_kind_at(setup.kind, setup.nod().2);
     let mut maps = stairs::four_maps::<STAIRS_CELLS, RIG_LAYERS>(
         &decoded,
         setup.range_m,
@@ -405,7 +445,7 @@ pub fn run_stairs(
     if let Some(dir) = out {
         picture::draw_panels(
             &dir.join("stairs-ld19.png"),
-            "Stairs, an LD19 on a nodding servo (2°..35° at 20 °/s, h = 1.0 m): at 1.0 m from the first step",
+            "Stairs, an LD19 on a nodding servo (2°..35° at 15 °/s, h = 1.0 m): at 1.0 m from the first step",
             &panels,
             4,
         )?;
@@ -528,6 +568,9 @@ pub struct StandingRow {
     pub soft_at_stop: f64,
     /// The soft-gated pyramid: distance at which the first step was first seen (null: never).
     pub soft_first_seen_m: Option<f64>,
+    /// The soft-gated pyramid: step cells obstacle in the map a device shows at the stop
+    /// ([`stairs::MapResult::arrived_fraction`]).
+    pub soft_at_arrival: f64,
     /// The soft-gated pyramid: share of the flat ground before the stairs (|y| ≤ 1.5 m, up
     /// to 0.5 m before the first riser) obstacle at the stop.
     pub soft_false_obstacles: f64,
@@ -563,15 +606,18 @@ pub struct RigStairs {
     pub phases_long: Vec<StandingRow>,
 }
 
-/// Whole nods between the phase rows after 120 s and the long ones: 60 × 3.3 s = 198 s, a
-/// whole number of revolutions of every rig (LD19 1 980 at 10 Hz, RPLIDAR 1 089 at 5.5 Hz,
-/// YDLIDAR 1 386 at 7 Hz), so each long row's lines fall at its phase row's tilts; the long
+/// Whole nods between the phase rows after 120 s and the long ones: 45 nods of 44
+/// revolutions each (LD19 198 s, RPLIDAR A1 360 s, YDLIDAR X4 283 s), so each long row's
+/// lines fall at its phase row's tilts (to the millisecond its start is rounded to); the long
 /// rows stand 318 s and more.
-pub const LONG_STAND_NODS: u32 = 60;
+pub const LONG_STAND_NODS: u32 = 45;
 
-/// The nod's period, seconds: up and down between the servo's limits.
-pub fn nod_period_s() -> f64 {
-    2.0 * (SERVO.1 - SERVO.0) / SERVO.2
+/// Rig `kind`'s nod period, seconds: up and down between the servo's limits (LD19 4.4 s,
+/// RPLIDAR A1 standard scan 8 s, YDLIDAR X4 6.29 s): 44 revolutions of every rig.
+#[must_use]
+pub fn nod_period_s(kind: LidarKind) -> f64 {
+    let (lo, hi, rate, _) = rig_servo(kind);
+    2.0 * (hi - lo) / rate
 }
 
 fn standing_row(
@@ -597,6 +643,7 @@ fn standing_row(
         hard_at_stop: r.pyramid.detected_fraction,
         hard_first_seen_m: r.pyramid.detect_distance_m,
         soft_at_stop: r.pyramid_soft.detected_fraction,
+        soft_at_arrival: r.pyramid_soft.arrived_fraction,
         soft_first_seen_m: r.pyramid_soft.detect_distance_m,
         soft_false_obstacles: r.pyramid_soft.false_obstacle_fraction,
         soft_ground_at_first_sight: r.pyramid_soft.false_obstacle_at_first_sight,
@@ -632,7 +679,7 @@ pub fn run_rigs(
                 return Ok(Vec::new());
             }
             #[allow(clippy::cast_precision_loss)]
-            let step = nod_period_s() / PHASES as f64;
+            let step = nod_period_s(kind) / PHASES as f64;
             #[allow(clippy::cast_precision_loss)]
             (0..PHASES)
                 .map(|i| {
@@ -642,7 +689,7 @@ pub fn run_rigs(
                 .collect::<Result<Vec<_>, _>>()
         };
         let phases = phases_after(120.0)?;
-        let phases_long = phases_after(120.0 + f64::from(LONG_STAND_NODS) * nod_period_s())?;
+        let phases_long = phases_after(120.0 + f64::from(LONG_STAND_NODS) * nod_period_s(kind))?;
         let (_, range) = kind.range_m();
         out.push(RigStairs {
             rig: name,
@@ -709,7 +756,7 @@ pub fn report(
     let d = &r.stairs.design;
     let _ = writeln!(
         s,
-        "## An LD19 on a nodding servo, beside the SICK\n\nAn LDROBOT LD19 (4 500 returns/s at 10 Hz, 0.02–12 m, σ = 10 mm in the simulator) lies flat on a servo nodding it from {}° to {}° at {} °/s ({} ms behind its command), its spin centre h = {} m up; its 47-byte packets go through the library's decoder and `Frontend::packet`, one actuator angle per packet (`host-tests/src/sim/lidar.rs`). The design comes from its datasheet (`lab/src/experiments/lidar.rs`): φ = {:.1}° (the tilt between revolutions: 20 °/s ÷ 10 Hz), ψ = {:.1}° (360° ÷ 450 returns), σ = {} m (the datasheet's ±45 mm accuracy), h = {} m; its pyramid (the design's own resolutions, `r_k = k·γ·Δd`: on a nodding lidar uniform 0.1 m cells hold at most one scan line beyond 1.7 m) has {} layers. Stairs: the robot stands {:.2} m from the first step (the LD19 reaches 12 m) for {:.0} s, then drives at {} m/s to {} m; {} packets, {} echoes.\n",
+        "## An LD19 on a nodding servo, beside the SICK\n\nAn LDROBOT LD19 (4 500 returns/s at 10 Hz, 0.02–12 m, σ = 10 mm in the simulator) lies flat on a servo nodding it from {}° to {}° at {} °/s ({} ms behind its command), its spin centre h = {} m up; its 47-byte packets go through the library's decoder and `Frontend::packet`, one actuator angle per packet (`host-tests/src/sim/lidar.rs`). The design comes from its datasheet (`lab/src/experiments/lidar.rs`): φ = {:.1}° (the tilt between revolutions: 15 °/s ÷ 10 Hz, the plan for 0.17 m steps sure from 4 m), ψ = {:.1}° (360° ÷ 450 returns), σ = {} m (the datasheet's ±45 mm accuracy), h = {} m; its pyramid (the design's own resolutions, `r_k = k·γ·Δd`: on a nodding lidar uniform 0.1 m cells hold at most one scan line beyond 2 m) has {} layers. Stairs: the robot stands {:.2} m from the first step (the LD19 reaches 12 m) for {:.0} s, then drives at {} m/s to {} m; {} packets, {} echoes.\n",
         SERVO.0,
         SERVO.1,
         SERVO.2,
@@ -786,7 +833,7 @@ mod tests {
     #[test]
     fn the_design_comes_from_the_datasheet() {
         let d = Ld19Design::from_datasheet();
-        assert!((d.phi_deg - 2.0).abs() < 1e-12);
+        assert!((d.phi_deg - 1.5).abs() < 1e-12);
         assert!((d.psi_deg - 0.8).abs() < 1e-12);
         assert!(d
             .pyramid::<LAYERS>(12.0, GateShape::Hard, true, STAIRS_CELLS)
@@ -794,6 +841,46 @@ mod tests {
         assert!(d
             .pyramid::<LAYERS>(10.0, GateShape::default(), false, 64)
             .is_ok());
+    }
+
+    /// Every rig's nod is `pyramid design`'s plan for the stairs' risers from 4 m, its φ
+    /// rounded down to a tenth of a degree, and a nod is a whole number of revolutions.
+    #[test]
+    fn every_rig_nods_as_its_plan_says() {
+        use terrain_pyramid_host::design::nod::{plan, NodArgs};
+        let grade = terrain_pyramid::classify::PlaneRule::DEFAULT
+            .max_grade
+            .to_num::<f64>();
+        for (kind, name) in on_board::BOARD_RIGS {
+            let (lo, hi, rate, latency) = rig_servo(kind);
+            assert_eq!((lo, hi, latency), (2.0, 35.0, 20.0), "{name}");
+            let hz = kind.rotation_hz();
+            let args = NodArgs {
+                revolution_hz: Some(hz),
+                step_m: Some(PLANNED_STEP_M),
+                sure_from_m: Some(SURE_FROM_M),
+            };
+            let p = plan(&args, rate / hz, HEIGHT_M, 12.0, grade)
+                .unwrap()
+                .unwrap();
+            let sure = p.sure_from.unwrap();
+            // φ is the plan's largest to a tenth of a degree, and the nod no faster than it.
+            assert!((sure.max_phi_deg - 1.574).abs() < 1e-3, "{name}: {sure:?}");
+            assert!(
+                ((sure.max_phi_deg * 10.0).floor() / 10.0 - RIG_PHI_DEG).abs() < 1e-12,
+                "{name}"
+            );
+            assert!(rate <= sure.max_nod_deg_s, "{name}: {rate} °/s");
+            assert!(
+                p.sure_within_m >= SURE_FROM_M,
+                "{name}: {}",
+                p.sure_within_m
+            );
+            // 44 revolutions a nod.
+            let revolutions = nod_period_s(kind) * hz;
+            assert!((revolutions - 44.0).abs() < 1e-9, "{name}: {revolutions}");
+        }
+        assert_eq!(SERVO, (2.0, 35.0, 15.0, 20.0));
     }
 
     /// The engine takes an LD19 recording's packets through `Frontend::packet`: a short run

@@ -151,8 +151,14 @@ pub struct Shares {
 /// One map's result.
 #[derive(Debug, Clone, Serialize)]
 pub struct MapResult {
-    /// Share of the step cells marked obstacle when the robot is at the stop (1.0 m).
+    /// Share of the step cells marked obstacle when the robot is at the stop (1.0 m), the
+    /// observation in progress flushed into the map.
     pub detected_fraction: f64,
+    /// Share of the step cells marked obstacle in the map a device shows at the stop: the
+    /// observations ended on or before the arrival's line, without the one in progress (a
+    /// device ends an observation only when its actuator turns or its revolutions are counted,
+    /// never on arrival).
+    pub arrived_fraction: f64,
     /// Distance from the robot to the first riser when at least half of the first riser's
     /// cells first became obstacle, metres; null when never.
     pub detect_distance_m: Option<f64>,
@@ -400,6 +406,7 @@ impl Watched {
         let near = shares(map, &self.steps);
         MapResult {
             detected_fraction: round4(near.obstacle),
+            arrived_fraction: round4(pass.arrived.get(k).copied().unwrap_or_default().obstacle),
             detect_distance_m,
             far,
             near,
@@ -431,12 +438,15 @@ pub struct Pass {
     /// The recording's times (seconds) of the lines on which each map ended an observation
     /// and integrated it (the last line's for the flush at the end).
     pub integrated_s: Vec<Vec<f64>>,
+    /// The step cells' shares after the last line, before the flush: the map a device shows.
+    pub arrived: Vec<Shares>,
 }
 
 /// Feeds every line of `decoded` to every map of `maps` (flushing them after the last), and
 /// looks at them: once at the end of standing (the far shares, and `at_standing_end` with
 /// each map and the robot's position), and after every `check_every` lines and the last
-/// (whether the first step is seen, and the series when `series`).
+/// (whether the first step is seen, and the series when `series`), and after the last line
+/// before the flush (the map a device shows at arrival, [`Pass::arrived`]).
 pub fn watch(
     decoded: &Decoded,
     maps: &mut [Box<dyn Map>],
@@ -452,6 +462,7 @@ pub fn watch(
         far: vec![Shares::default(); n],
         series: vec![Vec::new(); n],
         integrated_s: vec![Vec::new(); n],
+        arrived: vec![Shares::default(); n],
     };
     let mut standing_done = false;
     let count = decoded.lines.len();
@@ -466,10 +477,15 @@ pub fn watch(
             }
         }
         let last = i + 1 == count;
-        for (map, ends) in maps.iter_mut().zip(pass.integrated_s.iter_mut()) {
+        for ((map, ends), arrived) in maps
+            .iter_mut()
+            .zip(pass.integrated_s.iter_mut())
+            .zip(pass.arrived.iter_mut())
+        {
             let before = map.observations();
             map.line(line);
             if last {
+                *arrived = shares(map.as_ref(), &watched.steps);
                 map.flush();
             }
             if map.observations() > before {

@@ -353,6 +353,17 @@ pub fn diagnose(
     Ok(out)
 }
 
+/// `STAIRS_SERVO` = `lo,hi,rate` (degrees, °/s) when set, else `None`: the rig's own nod.
+fn servo_from_env() -> Option<(f64, f64, f64, f64)> {
+    std::env::var("STAIRS_SERVO").ok().and_then(|v| {
+        let f: Vec<f64> = v.split(',').filter_map(|x| x.trim().parse().ok()).collect();
+        match f[..] {
+            [lo, hi, rate] => Some((lo, hi, rate, lidar::SERVO_LATENCY_MS)),
+            _ => None,
+        }
+    })
+}
+
 /// One run of the LD19's stairs for the standing-time sweep: the four maps' figures.
 ///
 /// # Errors
@@ -367,20 +378,10 @@ pub fn stand_sweep(
     );
     let m = |v: Option<f64>| v.map_or_else(|| "never".to_string(), |d| format!("{d:.2} m"));
     for &s in stand_s {
-        let servo = std::env::var("STAIRS_SERVO")
-            .ok()
-            .and_then(|v| {
-                let f: Vec<f64> = v.split(',').filter_map(|x| x.trim().parse().ok()).collect();
-                match f[..] {
-                    [lo, hi, rate] => Some((lo, hi, rate, lidar::SERVO.3)),
-                    _ => None,
-                }
-            })
-            .unwrap_or(lidar::SERVO);
         let setup = StairsSetup {
             stand_s: s,
             revolutions_per_observation,
-            servo,
+            servo: servo_from_env(),
             ..StairsSetup::FULL
         };
         let r = lidar::run_stairs(&setup, classifier, None)?;
@@ -410,7 +411,7 @@ mod tests {
     /// (the layers whose increments to the step cells are listed, e.g. `1,2,3`) and
     /// `STAIRS_DIAG_ROW` (the row of step cells traced, default 0; the cells missed at the
     /// stop are listed with their rows) and `STAIRS_DIAG_RULE` (`paper` for the spread rule;
-    /// the plane rule otherwise).
+    /// the plane rule otherwise); `STAIRS_SERVO` = `lo,hi,rate` for another nod.
     #[test]
     #[ignore = "a diagnostic, minutes long: run by hand"]
     fn stairs_diagnostic() {
@@ -436,6 +437,7 @@ mod tests {
                     kind,
                     range_m,
                     stand_distance_m: range_m - 0.95,
+                    servo: servo_from_env(),
                     ..StairsSetup::FULL
                 };
                 let design = setup.pyramid::<LAYERS>(gate).map_err(|e| e.to_string())?;

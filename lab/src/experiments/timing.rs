@@ -443,8 +443,11 @@ pub fn ld19_scene(quick: bool, feed: &PoseFeed) -> Result<SceneResult, String> {
     let riser_x = scene_config.scene.target_x.unwrap_or(0.0);
     let config = designs::unclamped();
     let description = format!(
-        "LD19 nodding 2°–35° at 20°/s on a servo, standing {} s {:.2} m from the stairs, \
+        "LD19 nodding {}°–{}° at {}°/s on a servo, standing {} s {:.2} m from the stairs, \
          then driving at {} m/s to {} m; soft-gated pyramid, every layer 0.1 m, to {} m",
+        super::lidar::SERVO.0,
+        super::lidar::SERVO.1,
+        super::lidar::SERVO.2,
         setup.stand_s,
         setup.stand_distance_m,
         setup.speed_mps,

@@ -395,7 +395,7 @@ pub fn run(setup: &Setup) -> Result<Vec<RigResult>, String> {
         };
         out.extend(rig_results(
             name,
-            (range, lidar::nod_period_s()),
+            (range, lidar::nod_period_s(kind)),
             &[
                 DesignRow::of::<STAIRS_CELLS, RIG_LAYERS, { stairs::SLOTS }>("own", name, own),
                 board("board, boot", boot.clone()),

@@ -35,7 +35,7 @@ pub fn run(
     classifier: &ClassifierConfig,
 ) -> Result<Option<AfterSweep>, String> {
     let setup = StairsSetup {
-        dwell_s: nod_period_s(),
+        dwell_s: nod_period_s(setup.kind),
         ..*setup
     };
     let scene_config = setup.scene_config();

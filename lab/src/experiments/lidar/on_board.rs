@@ -59,8 +59,11 @@ pub struct OnBoard {
     pub gamma: f32,
     /// Layers of that design.
     pub layers: usize,
-    /// Step cells obstacle at the stop (4 decimals).
+    /// Step cells obstacle at the stop, the observation in progress flushed (4 decimals).
     pub at_stop: f64,
+    /// Step cells obstacle in the map a device shows at arrival, without that flush
+    /// ([`stairs::MapResult::arrived_fraction`], 4 decimals).
+    pub at_arrival: f64,
     /// Distance at which the first step was first seen, metres (null: never).
     pub first_seen_m: Option<f64>,
     /// Flat ground before the stairs obstacle at the stop (4 decimals).
@@ -79,7 +82,7 @@ pub struct OnBoard {
 /// # Errors
 /// No γ fits: `pyramid design`'s refusal, or the library's.
 pub fn fitted(setup: &StairsSetup) -> Result<(f32, Design<DEFAULT_LAYERS>), String> {
-    let rig = Ld19Design::for_kind_at(setup.kind, setup.servo.2);
+    let rig = Ld19Design::for_kind_at(setup.kind, setup.nod().2);
     let schedule = Schedule::default();
     let args = DesignArgs {
         phi_deg: rig.phi_deg,
@@ -158,6 +161,7 @@ pub fn run(
                 gamma,
                 layers,
                 at_stop: result.detected_fraction,
+                at_arrival: result.arrived_fraction,
                 first_seen_m: result.detect_distance_m,
                 false_obstacles: result.false_obstacle_fraction,
                 ground_at_first_sight: result.false_obstacle_at_first_sight,
@@ -211,7 +215,7 @@ pub fn run_rigs(
             #[allow(clippy::cast_precision_loss)]
             (0..count)
                 .map(|i| {
-                    let t = from + nod_period_s() * i as f64 / PHASES as f64;
+                    let t = from + nod_period_s(kind) * i as f64 / PHASES as f64;
                     let setup = StairsSetup {
                         stand_s: (t * 1000.0).round() / 1000.0,
                         seed,
@@ -227,7 +231,10 @@ pub fn run_rigs(
         let long = if quick {
             Vec::new()
         } else {
-            rows_after(120.0 + f64::from(LONG_STAND_NODS) * nod_period_s(), PHASES)?
+            rows_after(
+                120.0 + f64::from(LONG_STAND_NODS) * nod_period_s(kind),
+                PHASES,
+            )?
         };
         let column = |rows: &[Vec<OnBoard>], j: usize| -> Vec<OnBoard> {
             rows.iter().filter_map(|row| row.get(j).copied()).collect()
@@ -265,7 +272,7 @@ fn longer(r: &BoardRig) -> String {
         return "–".to_string();
     }
     let pairs = || r.phases.iter().zip(&r.phases_long);
-    let lower = pairs().filter(|(a, b)| b.at_stop < a.at_stop).count();
+    let lower = pairs().filter(|(a, b)| b.at_arrival < a.at_arrival).count();
     let nearer = pairs()
         .filter(|(a, b)| match (a.first_seen_m, b.first_seen_m) {
             (Some(x), Some(y)) => y < x - 0.1,
@@ -281,11 +288,13 @@ pub fn report(s: &mut String, rows: &[BoardRig]) {
     use std::fmt::Write as _;
     let _ = writeln!(
         s,
-        "On a board: the same rigs and approach through the soft-gated pyramid a board holds ({} layers of {}² cells, {} classifier slots: the `qemu-mps2` and `stm32f4` firmware), with the design it boots with (until the host sends a Configure: `pyramid listen` sends a rig file's `[design]`) or with the rig's design at the range given and the smallest γ (in steps of 0.5 from 2) that fits (`pyramid design --fit-layers 8`); the nod's phases after 120 s. Step cells obstacle at the stop, where the first step was first seen (the phases meeting 95 % and 4 m), the most flat ground before the stairs obstacle at the stop and 0.5–2.5 m before the first riser when the first step was first seen, the point additions the classifier's scratch dropped, and the phases where standing {} nods longer lowered the step cells at the stop or brought the first sighting more than 0.1 m nearer.\n\n| rig | design | γ, layers | step cells at the stop (≥ 95 %) | first step seen (≥ 4 m) | false obstacles at the stop | ground at first sight | dropped | standing longer: lower at the stop; seen nearer |\n| --- | --- | --- | --- | --- | --- | --- | --- | --- |",
+        "On a board: the same rigs and approach through the soft-gated pyramid a board holds ({} layers of {}² cells, {} classifier slots: the `qemu-mps2` and `stm32f4` firmware), with the design it boots with (until the host sends a Configure: `pyramid listen` sends a rig file's `[design]`) or with the rig's design at the range given and the smallest γ (in steps of 0.5 from 2) that fits (`pyramid design --fit-layers 8`); the nod's phases after 120 s. Step cells obstacle at arrival in the map a device shows, and with the observation in progress flushed into it, where the first step was first seen (the phases meeting 95 % and 4 m), the most flat ground before the stairs obstacle at the stop and 0.5–2.5 m before the first riser when the first step was first seen, the point additions the classifier's scratch dropped, and the phases where standing {} nods longer lowered the step cells at arrival or brought the first sighting more than 0.1 m nearer.\n\n| rig | design | γ, layers | step cells at arrival (≥ 95 %) | flushed (≥ 95 %) | first step seen (≥ 4 m) | false obstacles at the stop | ground at first sight | dropped | standing longer: lower at arrival; seen nearer |\n| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |",
         BOARD.0, BOARD.1, BOARD.2, LONG_STAND_NODS
     );
     for r in rows {
         let at_stop: Vec<f64> = r.phases.iter().map(|p| p.at_stop).collect();
+        let at_arrival: Vec<f64> = r.phases.iter().map(|p| p.at_arrival).collect();
+        let met_arrival = at_arrival.iter().filter(|&&v| v >= 0.95).count();
         let seen: Vec<f64> = r.phases.iter().filter_map(|p| p.first_seen_m).collect();
         let never = r.phases.len() - seen.len();
         let met = at_stop.iter().filter(|&&v| v >= 0.95).count();
@@ -300,12 +309,13 @@ pub fn report(s: &mut String, rows: &[BoardRig]) {
         };
         let _ = writeln!(
             s,
-            "| {} | {} | {gamma}, {layers} | {} ({met} of {n}) | {}{never} ({far} of {n}) | ≤ {} | ≤ {} | {} | {} |",
+            "| {} | {} | {gamma}, {layers} | {} ({met_arrival} of {n}) | {} ({met} of {n}) | {}{never} ({far} of {n}) | ≤ {} | ≤ {} | {} | {} |",
             r.rig,
             match r.design {
                 BoardDesign::Boot => "boot (SICK's φ 0.5°, 10 m)".to_string(),
                 BoardDesign::Fitted(range_m) => format!("rig's, {range_m:.0} m"),
             },
+            span(&at_arrival, pct),
             span(&at_stop, pct),
             span(&seen, |d| format!("{d:.2} m")),
             pct(worst(r.phases.iter().map(|p| p.false_obstacles).collect())),
@@ -361,7 +371,7 @@ mod tests {
             })
             .unwrap()
             .0,
-            8.0
+            6.0
         );
     }
 
@@ -417,7 +427,7 @@ mod tests {
             #[allow(clippy::cast_precision_loss)]
             for i in 0..PHASES {
                 let longer = env_or("ON_BOARD_LONGER_NODS", 0.0);
-                let stand_s = 120.0 + nod_period_s() * (longer + i as f64 / PHASES as f64);
+                let stand_s = 120.0 + nod_period_s(kind) * (longer + i as f64 / PHASES as f64);
                 let setup = StairsSetup {
                     stand_s: (stand_s * 1000.0).round() / 1000.0,
                     kind,

@@ -2,16 +2,26 @@
 //! the same phases after [`LONG_STAND_NODS`] more nods, and what standing longer did.
 
 use super::riser_sight::{self, FAR_M};
-use super::{nod_period_s, pct, RigStairs, StandingRow, LONG_STAND_NODS};
+use super::{nod_period_s, pct, rig_servo, RigStairs, StandingRow, LONG_STAND_NODS, RIGS};
 
 /// Appends every nodding rig's stairs table to `s`, and what standing longer did.
 pub(super) fn rigs_report(s: &mut String, rigs: &[RigStairs]) {
     use std::fmt::Write as _;
     let m = |v: Option<f64>| v.map_or_else(|| "never".to_string(), |d| format!("{d:.2} m"));
+    let nods: Vec<String> = RIGS
+        .iter()
+        .map(|&(kind, name)| {
+            format!(
+                "{name} {} °/s, a {:.2} s nod",
+                rig_servo(kind).2,
+                nod_period_s(kind)
+            )
+        })
+        .collect();
     let _ = writeln!(
         s,
-        "\nEvery nodding rig on the same servo (2°..35° at 20 °/s, h = 1.0 m), standing its range less 0.95 m from the stairs, then driving at 1 m/s to 1 m; step cells obstacle at the stop and where the first step was first seen (flat grid; pyramid of the rig's design, hard gate; soft gate), the soft-gated pyramid's false obstacles on the ground before the stairs at the stop, and on the ground 0.5–2.5 m before the first riser when it first saw the first step. The next column: the same pyramid when the robot, arrived, stands until the observation in progress ends (the device integrates an observation when the servo turns; the other columns flush the partial sweep at arrival), and how long it waited. The last: what the laser itself put on the first step (the simulator's true points on the riser's face or the first tread, at least the step threshold up), the bound on any map's first sighting: the lines (revolutions) that lit it while the robot stood, those that lit it from 4 m or more while it drove, and the farthest it lit it from while driving, with where the robot was when that line's sweep ended (a device integrates an observation when the servo turns, so a map shows a line's evidence up to a sweep, 1.65 s and 1.65 m, later). Rows \"phase\": 120 s plus a fraction of the nod's {:.1} s period; rows \"phase, long\": the same phases {} nods later, so that each differs from its \"phase\" row in the standing alone.\n\n| rig (φ, ψ) | standing s | flat | hard | hard: first seen | soft | soft: first seen | soft: false obstacles | soft: ground 0.5–2.5 m before, at first sight | soft, after the sweep in progress (wait; false obstacles) | first step lit: lines standing; driving from ≥ 4 m; farthest driving (its sweep's end) |\n| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |",
-        nod_period_s(),
+        "\nEvery nodding rig on its own nod (2°..35°, φ = 1.5° between two revolutions, the plan for 0.17 m steps sure from 4 m: {}; h = 1.0 m), standing its range less 0.95 m from the stairs, then driving at 1 m/s to 1 m. Step cells obstacle at the stop (flat grid; pyramid of the rig's design, hard gate; soft gate) with the observation in progress flushed into the map, and where the first step was first seen; the soft-gated pyramid at arrival without that flush (the map a device shows: it integrates an observation when the servo turns, never on arrival), its false obstacles on the ground before the stairs at the stop, and on the ground 0.5–2.5 m before the first riser when it first saw the first step. The next column: the same pyramid when the robot, arrived, stands until the observation in progress ends, and how long it waited. The last: what the laser itself put on the first step (the simulator's true points on the riser's face or the first tread, at least the step threshold up), the bound on any map's first sighting: the lines (revolutions) that lit it while the robot stood, those that lit it from 4 m or more while it drove, and the farthest it lit it from while driving, with where the robot was when that line's sweep ended (a map shows a line's evidence up to a sweep, half a nod, later). Rows \"phase\": 120 s plus a fraction of the nod's period; rows \"phase, long\": the same phases {} nods later, so that each differs from its \"phase\" row in the standing alone.\n\n| rig (φ, ψ) | standing s | flat | hard | hard: first seen | soft, flushed | soft: at arrival | soft: first seen | soft: false obstacles | soft: ground 0.5–2.5 m before, at first sight | soft, after the sweep in progress (wait; false obstacles) | first step lit: lines standing; driving from ≥ 4 m; farthest driving (its sweep's end) |\n| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |",
+        nods.join(", "),
         LONG_STAND_NODS
     );
     for r in rigs {
@@ -24,7 +34,7 @@ pub(super) fn rigs_report(s: &mut String, rigs: &[RigStairs]) {
         {
             let _ = writeln!(
                 s,
-                "| {} (φ {:.2}°, ψ {:.2}°) | {:.3}{label} | {} | {} | {} | {} | {} | {} | {} | {} | {}; {}; {} ({}) |",
+                "| {} (φ {:.2}°, ψ {:.2}°) | {:.3}{label} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {}; {}; {} ({}) |",
                 r.rig,
                 r.design.phi_deg,
                 r.design.psi_deg,
@@ -33,6 +43,7 @@ pub(super) fn rigs_report(s: &mut String, rigs: &[RigStairs]) {
                 pct(row.hard_at_stop),
                 m(row.hard_first_seen_m),
                 pct(row.soft_at_stop),
+                pct(row.soft_at_arrival),
                 m(row.soft_first_seen_m),
                 pct(row.soft_false_obstacles),
                 row.soft_ground_at_first_sight
@@ -126,7 +137,7 @@ fn first_sight_against_the_laser(r: &RigStairs) -> Option<String> {
 }
 
 /// What standing [`LONG_STAND_NODS`] nods longer did to a rig's phases: the phases whose step
-/// cells at the stop fell, and those whose first sighting came more than 0.1 m nearer (a
+/// cells at arrival (the device's map) fell, and those whose first sighting came more than 0.1 m nearer (a
 /// tenth of a second's drive); `None` without long rows.
 fn longer_standing(r: &RigStairs) -> Option<String> {
     if r.phases_long.is_empty() {
@@ -135,13 +146,13 @@ fn longer_standing(r: &RigStairs) -> Option<String> {
     let seen = |row: &StandingRow| row.soft_first_seen_m.unwrap_or(0.0);
     let pairs = || r.phases.iter().zip(&r.phases_long);
     let lower: Vec<String> = pairs()
-        .filter(|(a, b)| b.soft_at_stop < a.soft_at_stop)
+        .filter(|(a, b)| b.soft_at_arrival < a.soft_at_arrival)
         .map(|(a, b)| {
             format!(
                 "{:.3} s: {} → {}",
                 a.stand_s,
-                pct(a.soft_at_stop),
-                pct(b.soft_at_stop)
+                pct(a.soft_at_arrival),
+                pct(b.soft_at_arrival)
             )
         })
         .collect();
@@ -157,7 +168,7 @@ fn longer_standing(r: &RigStairs) -> Option<String> {
         }
     };
     Some(format!(
-        "- {}, standing {} nods longer at the same phase: step cells at the stop lower in {} of {} phases ({}); the first step first seen more than 0.1 m nearer in {} ({}).",
+        "- {}, standing {} nods longer at the same phase: step cells at arrival lower in {} of {} phases ({}); the first step first seen more than 0.1 m nearer in {} ({}).",
         r.rig,
         LONG_STAND_NODS,
         lower.len(),
@@ -186,6 +197,7 @@ mod tests {
             hard_at_stop: 1.0,
             hard_first_seen_m: seen_m,
             soft_at_stop: 1.0,
+            soft_at_arrival: 1.0,
             soft_first_seen_m: seen_m,
             soft_false_obstacles: 0.0,
             soft_ground_at_first_sight: None,

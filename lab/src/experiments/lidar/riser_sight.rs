@@ -281,7 +281,7 @@ mod tests {
             let (_, range) = kind.range_m();
             #[allow(clippy::cast_precision_loss)]
             for i in 0..PHASES {
-                let stand_s = from + nod_period_s() * i as f64 / PHASES as f64;
+                let stand_s = from + nod_period_s(kind) * i as f64 / PHASES as f64;
                 let setup = StairsSetup {
                     stand_s: (stand_s * 1000.0).round() / 1000.0,
                     kind,
