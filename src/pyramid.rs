@@ -826,33 +826,23 @@ mod tests {
         let c = |raw: i16| Some(Cell::from_raw(raw));
         let reach: [usize; 12] = core::array::from_fn(fused_reach);
         assert_eq!(reach, [3, 3, 3, 3, 3, 3, 3, 3, 4, 4, 5, 5]);
-        // Layer 9 navigable (cells 9·γ·Δd): layer 13 (13/9 ≈ 1.44 times as wide) may overrule
-        // it, layer 14 (1.56 times) may not.
-        let far = |at: usize| {
-            let mut cells = [None; 15];
-            if let (Some(a), Some(b)) = (cells.get_mut(9), c(-33)) {
-                *a = Some(b);
-            }
-            if let (Some(a), Some(b)) = (cells.get_mut(at), c(92)) {
-                *a = Some(b);
+        // Layer `free` navigable at −33 raw, layer `at` obstacle at +92, nothing else.
+        let answer = |free: usize, at: usize| {
+            let mut cells = [None; 16];
+            for (k, raw) in [(free, -33), (at, 92)] {
+                if let (Some(cell), Some(v)) = (cells.get_mut(k), c(raw)) {
+                    *cell = Some(v);
+                }
             }
             fused_answer(14, cells)
         };
-        assert_eq!(far(13), Fused::Obstacle { layer: 13 });
-        assert_eq!(far(14), Fused::Navigable { layer: 9 });
+        // Layer 9 (cells 9·γ·Δd): layer 13 (13/9 ≈ 1.44 times as wide) may overrule it,
+        // layer 14 (1.56 times) may not.
+        assert_eq!(answer(9, 13), Fused::Obstacle { layer: 13 });
+        assert_eq!(answer(9, 14), Fused::Navigable { layer: 9 });
         // Layer 7 keeps the reach of three: layer 10 may, layer 11 may not.
-        let near = |at: usize| {
-            let mut cells = [None; 12];
-            if let (Some(a), Some(b)) = (cells.get_mut(7), c(-33)) {
-                *a = Some(b);
-            }
-            if let (Some(a), Some(b)) = (cells.get_mut(at), c(92)) {
-                *a = Some(b);
-            }
-            fused_answer(14, cells)
-        };
-        assert_eq!(near(10), Fused::Obstacle { layer: 10 });
-        assert_eq!(near(11), Fused::Navigable { layer: 7 });
+        assert_eq!(answer(7, 10), Fused::Obstacle { layer: 10 });
+        assert_eq!(answer(7, 11), Fused::Navigable { layer: 7 });
     }
 
     #[test]
