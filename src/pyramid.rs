@@ -64,7 +64,7 @@ pub enum Fused {
     /// No layer has a confident answer.
     Unknown,
     /// Not navigable, according to this layer (the finest that answered, or one of the
-    /// [`FUSED_REACH`] layers after it whose obstacle evidence outweighed the finer layer's
+    /// [`fused_reach`] layers after it whose obstacle evidence outweighed the finer layer's
     /// free evidence).
     Obstacle {
         /// The layer that answered.
@@ -79,9 +79,10 @@ pub enum Fused {
 
 /// The fused rule over one point's cell in every layer, the finest first (`None` where a
 /// layer does not hold the point): the first observed cell with L > 0 answers obstacle, with
-/// L < −`margin_raw` (Q8.8 raw log-odds) navigable unless one of the next [`FUSED_REACH`]
-/// layers' cells holds L greater than the −L of this layer and of every observed layer
-/// between them (then the first such layer answers obstacle); unknown when none does.
+/// L < −`margin_raw` (Q8.8 raw log-odds) navigable unless one of the next
+/// [`fused_reach`]`(k)` layers' cells (k the navigable layer) holds L greater than the −L of
+/// this layer and of every observed layer between them (then the first such layer answers
+/// obstacle); unknown when none does.
 /// [`Pyramid::fused`] asks it of a pyramid, the host of the maps a device sends.
 // Out of line: inlined into the boot's self-check it grew that frame by 560 B of stack
 // (`boards/check.sh`, qemu-mps2).
@@ -115,7 +116,7 @@ pub fn fused_answer(margin_raw: i16, cells: impl IntoIterator<Item = Option<Cell
             return Fused::Obstacle { layer };
         }
         if raw < -i32::from(margin_raw) {
-            pending = Some((layer, -raw, FUSED_REACH));
+            pending = Some((layer, -raw, fused_reach(k)));
         }
     }
     match pending {
@@ -124,10 +125,24 @@ pub fn fused_answer(margin_raw: i16, cells: impl IntoIterator<Item = Option<Cell
     }
 }
 
-/// How many coarser layers may overrule a layer's navigable answer with stronger obstacle
-/// evidence at the same point (3: layers k + 1 ..= k + 3; `docs/core.md`, "The fused query",
-/// gives the measured choice).
+/// How many coarser layers may at least overrule a layer's navigable answer with stronger
+/// obstacle evidence at the same point (3: layers k + 1 ..= k + 3; `docs/core.md`, "The fused
+/// query", gives the measured choice).
 pub const FUSED_REACH: usize = 3;
+
+/// How many coarser layers may overrule layer `k`'s navigable answer: [`FUSED_REACH`], or
+/// ⌊k/2⌋ where that is more. Under the schedule's `r_k = k·γ·Δd` the layers k + 1 ..= ⌊3k/2⌋
+/// are those whose cells are at most 1.5 times as wide as layer k's, nearly the same ground
+/// around the place (`docs/core.md`, "The fused query"); only designs of more than 8 layers
+/// have them (layer 8 and up).
+#[must_use]
+pub const fn fused_reach(k: usize) -> usize {
+    if k / 2 > FUSED_REACH {
+        k / 2
+    } else {
+        FUSED_REACH
+    }
+}
 
 /// The fused query's default margin for "navigable", nats (0.055, 14/256 in Q8.8): the free
 /// evidence of one return that the soft gate feeds to a layer two gate widths from its centre,
@@ -804,6 +819,30 @@ mod tests {
             fused_answer(14, [c(-10), c(217)]),
             Fused::Obstacle { layer: 1 }
         );
+    }
+
+    #[test]
+    fn a_far_layer_reaches_every_layer_of_cells_at_most_half_as_wide_again() {
+        let c = |raw: i16| Some(Cell::from_raw(raw));
+        let reach: [usize; 12] = core::array::from_fn(fused_reach);
+        assert_eq!(reach, [3, 3, 3, 3, 3, 3, 3, 3, 4, 4, 5, 5]);
+        // Layer `free` navigable at −33 raw, layer `at` obstacle at +92, nothing else.
+        let answer = |free: usize, at: usize| {
+            let mut cells = [None; 16];
+            for (k, raw) in [(free, -33), (at, 92)] {
+                if let (Some(cell), Some(v)) = (cells.get_mut(k), c(raw)) {
+                    *cell = Some(v);
+                }
+            }
+            fused_answer(14, cells)
+        };
+        // Layer 9 (cells 9·γ·Δd): layer 13 (13/9 ≈ 1.44 times as wide) may overrule it,
+        // layer 14 (1.56 times) may not.
+        assert_eq!(answer(9, 13), Fused::Obstacle { layer: 13 });
+        assert_eq!(answer(9, 14), Fused::Navigable { layer: 9 });
+        // Layer 7 keeps the reach of three: layer 10 may, layer 11 may not.
+        assert_eq!(answer(7, 10), Fused::Obstacle { layer: 10 });
+        assert_eq!(answer(7, 11), Fused::Navigable { layer: 7 });
     }
 
     #[test]

@@ -1,15 +1,19 @@
 //! The fused query of `docs/core.md`: walk the layers from the finest; the first layer whose
 //! cell at the point is observed and either positive (obstacle) or below −margin (navigable)
 //! answers, except that a navigable answer of layer k gives way to the first of layers
-//! k + 1 ..= k + 3 whose cell holds more obstacle evidence than layer k's, and every
-//! observed layer's between them, hold free evidence; otherwise unknown. And the region
+//! k + 1 ..= k + max(3, ⌊k/2⌋) whose cell holds more obstacle evidence than layer k's, and
+//! every observed layer's between them, hold free evidence; otherwise unknown. And the region
 //! export that samples it at a grid's centres.
 
 use super::logodds::Cell;
 use super::window::{cell_of, Pyramid};
 
-/// How many coarser layers may overrule a navigable answer (`docs/core.md`).
-const REACH: usize = 3;
+/// How many coarser layers may overrule layer `k`'s navigable answer (`docs/core.md`, "The
+/// fused query"): three, and every layer whose cells are at most 1.5 times as wide under the
+/// schedule `r_k = k·γ·Δd` (j ≤ 3k/2).
+fn reach(k: usize) -> usize {
+    3.max(k / 2)
+}
 
 /// The answer of the fused query.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -38,7 +42,7 @@ impl Pyramid {
                 Some(l) if l < -self.margin => {
                     // The strongest free evidence from layer k to the one looked at.
                     let mut free = -l;
-                    for j in k + 1..=k + REACH {
+                    for j in k + 1..=k + reach(k) {
                         let value = self.value_at(j, x_raw, y_raw).unwrap_or(0.0);
                         if value > free {
                             return Fused::Obstacle { layer: j };
@@ -103,7 +107,7 @@ impl Pyramid {
                 // (from layer k on), within their budgets, or its observed-ness on a
                 // threshold, could go either way.
                 let (mut free, mut free_budget) = (-l, e);
-                for j in k + 1..=k + REACH {
+                for j in k + 1..=k + reach(k) {
                     let Some((n, n_budget)) = self.settled_value(j, x_raw, y_raw)? else {
                         continue;
                     };
@@ -156,6 +160,23 @@ impl Pyramid {
 mod tests {
     use super::*;
     use crate::reference::window::{default_quantised, Evidence};
+
+    /// The reach written by index is the rule of `docs/core.md`: the next three layers, and
+    /// every layer whose cells are at most 1.5 times as wide under `r_k = k·γ·Δd`.
+    #[test]
+    fn the_reach_is_three_layers_and_every_one_of_nearly_the_same_cells() {
+        for gamma in [1.5, 2.0, 3.0, 4.5] {
+            let r = |k: usize| if k == 0 { 0.1 } else { k as f64 * gamma * 0.1 };
+            for k in 1..64 {
+                let widest = (k + 1..k + 200)
+                    .take_while(|&j| r(j) <= 1.5 * r(k) + 1e-12)
+                    .last()
+                    .unwrap_or(k);
+                assert_eq!(reach(k), 3.max(widest - k), "γ {gamma}, layer {k}");
+            }
+        }
+        assert_eq!(reach(0), 3);
+    }
 
     #[test]
     fn finer_positive_evidence_wins_and_undecided_falls_through() {
