@@ -10,13 +10,8 @@
 //! behind its command, its spin centre 1.0 m above the ground (the paper's h).
 //!
 //! # The nod
-//! Each rig nods at the rate its plan gives ([`rig_servo`]): the tilt between two revolutions,
-//! φ = [`RIG_PHI_DEG`] = 1.5°, is the largest (to a tenth of a degree) for which every 0.17 m
-//! riser has a line close enough before it in each sweep from 4 m in
-//! (`pyramid design --revolution-hz F --step-m 0.17 --sure-from-m 4`; `docs/lidars.md`,
-//! "What the laser gave"), and the nod's rate is φ times the revolutions per second (LD19
-//! 15 °/s, RPLIDAR A1 standard scan 8.25 °/s, YDLIDAR X4 10.5 °/s). The sweep's 33° then
-//! holds 22 revolutions, so a nod is a whole number of them for every rig.
+//! Each rig nods at the rate its plan gives ([`nod`]: φ = 1.5° between two revolutions; LD19
+//! 15 °/s, RPLIDAR A1 standard scan 8.25 °/s, YDLIDAR X4 10.5 °/s).
 //!
 //! The design's sensor model (`terrain_pyramid::SensorModel`) takes φ as the *vertical*
 //! resolution and ψ as the *horizontal* one. On the nodding servo they swap roles against
@@ -49,9 +44,15 @@
 //! PanAngle gives the co-processor.
 
 pub mod after_sweep;
+pub mod nod;
 pub mod on_board;
 mod rig_table;
 pub mod riser_sight;
+
+pub use nod::{
+    nod_period_s, rig_servo, PLANNED_STEP_M, RIG_PHI_DEG, SERVO, SERVO_ENDS_DEG, SERVO_LATENCY_MS,
+    SURE_FROM_M,
+};
 
 use super::coverage::{self, Holes};
 use super::designs;
@@ -71,33 +72,6 @@ use terrain_pyramid_host_tests::sim::record::SimConfig;
 use terrain_pyramid_host_tests::sim::scene::Scene;
 use terrain_pyramid_host_tests::sim::trajectory::Trajectory;
 
-/// The servo's lowest and highest tilt, degrees (positive looks down).
-pub const SERVO_ENDS_DEG: (f64, f64) = (2.0, 35.0);
-/// How far the servo lags its command, ms.
-pub const SERVO_LATENCY_MS: f64 = 20.0;
-/// The step every rig's nod is planned for, metres: the stairs' riser.
-pub const PLANNED_STEP_M: f64 = 0.17;
-/// The distance from which every rig's nod makes each such step sure, metres: the goal's.
-pub const SURE_FROM_M: f64 = 4.0;
-/// φ of every rig's nod, degrees: the largest tilt between two revolutions that makes every
-/// step of [`PLANNED_STEP_M`] sure from [`SURE_FROM_M`] at [`HEIGHT_M`] (1.574°), rounded
-/// down to a tenth of a degree. A test derives it from `pyramid design`'s plan.
-pub const RIG_PHI_DEG: f64 = 1.5;
-
-/// Rig `kind`'s servo: lowest and highest tilt (degrees), rate (°/s), latency (ms). The rate
-/// is [`RIG_PHI_DEG`] times the lidar's revolutions per second.
-#[must_use]
-pub const fn rig_servo(kind: LidarKind) -> (f64, f64, f64, f64) {
-    (
-        SERVO_ENDS_DEG.0,
-        SERVO_ENDS_DEG.1,
-        RIG_PHI_DEG * kind.rotation_hz(),
-        SERVO_LATENCY_MS,
-    )
-}
-
-/// The LD19's servo: 2°..35° at 15 °/s, 20 ms behind its command.
-pub const SERVO: (f64, f64, f64, f64) = rig_servo(LidarKind::Ld19);
 /// The spin centre's height, metres.
 pub const HEIGHT_M: f64 = 1.0;
 /// Window of the LD19's stairs maps: 12 m at 0.1 m (2 · 12 / 0.1 + 2 = 242, rounded up).
@@ -612,14 +586,6 @@ pub struct RigStairs {
 /// rows stand 318 s and more.
 pub const LONG_STAND_NODS: u32 = 45;
 
-/// Rig `kind`'s nod period, seconds: up and down between the servo's limits (LD19 4.4 s,
-/// RPLIDAR A1 standard scan 8 s, YDLIDAR X4 6.29 s): 44 revolutions of every rig.
-#[must_use]
-pub fn nod_period_s(kind: LidarKind) -> f64 {
-    let (lo, hi, rate, _) = rig_servo(kind);
-    2.0 * (hi - lo) / rate
-}
-
 fn standing_row(
     kind: LidarKind,
     stand_s: f64,
@@ -841,46 +807,6 @@ mod tests {
         assert!(d
             .pyramid::<LAYERS>(10.0, GateShape::default(), false, 64)
             .is_ok());
-    }
-
-    /// Every rig's nod is `pyramid design`'s plan for the stairs' risers from 4 m, its φ
-    /// rounded down to a tenth of a degree, and a nod is a whole number of revolutions.
-    #[test]
-    fn every_rig_nods_as_its_plan_says() {
-        use terrain_pyramid_host::design::nod::{plan, NodArgs};
-        let grade = terrain_pyramid::classify::PlaneRule::DEFAULT
-            .max_grade
-            .to_num::<f64>();
-        for (kind, name) in on_board::BOARD_RIGS {
-            let (lo, hi, rate, latency) = rig_servo(kind);
-            assert_eq!((lo, hi, latency), (2.0, 35.0, 20.0), "{name}");
-            let hz = kind.rotation_hz();
-            let args = NodArgs {
-                revolution_hz: Some(hz),
-                step_m: Some(PLANNED_STEP_M),
-                sure_from_m: Some(SURE_FROM_M),
-            };
-            let p = plan(&args, rate / hz, HEIGHT_M, 12.0, grade)
-                .unwrap()
-                .unwrap();
-            let sure = p.sure_from.unwrap();
-            // φ is the plan's largest to a tenth of a degree, and the nod no faster than it.
-            assert!((sure.max_phi_deg - 1.574).abs() < 1e-3, "{name}: {sure:?}");
-            assert!(
-                ((sure.max_phi_deg * 10.0).floor() / 10.0 - RIG_PHI_DEG).abs() < 1e-12,
-                "{name}"
-            );
-            assert!(rate <= sure.max_nod_deg_s, "{name}: {rate} °/s");
-            assert!(
-                p.sure_within_m >= SURE_FROM_M,
-                "{name}: {}",
-                p.sure_within_m
-            );
-            // 44 revolutions a nod.
-            let revolutions = nod_period_s(kind) * hz;
-            assert!((revolutions - 44.0).abs() < 1e-9, "{name}: {revolutions}");
-        }
-        assert_eq!(SERVO, (2.0, 35.0, 15.0, 20.0));
     }
 
     /// The engine takes an LD19 recording's packets through `Frontend::packet`: a short run
