@@ -131,14 +131,16 @@ pub fn fused_answer(margin_raw: i16, cells: impl IntoIterator<Item = Option<Cell
 pub const FUSED_REACH: usize = 3;
 
 /// How many coarser layers may overrule layer `k`'s navigable answer: [`FUSED_REACH`], or
-/// ⌊k/2⌋ where that is more. Under the schedule's `r_k = k·γ·Δd` the layers k + 1 ..= ⌊3k/2⌋
-/// are those whose cells are at most 1.5 times as wide as layer k's, nearly the same ground
-/// around the place (`docs/core.md`, "The fused query"); only designs of more than 8 layers
-/// have them (layer 8 and up).
+/// k where that is more. Under the schedule's `r_k = k·γ·Δd` the layers k + 1 ..= 2k are
+/// those whose cells are at most twice as wide as layer k's: the design sizes layer k's cell
+/// to the bound δ(d), which holds a tilting laser's line spacing `φ·(d² + h²)/h`, so at its
+/// band's end a cell of layer k holds one line a sweep and a cell twice as wide two, what
+/// tells a step from a ramp (`docs/core.md`, "The fused query"). Only designs of more than 8
+/// layers reach further than three (layer 4 and up, to a layer beyond 7).
 #[must_use]
 pub const fn fused_reach(k: usize) -> usize {
-    if k / 2 > FUSED_REACH {
-        k / 2
+    if k > FUSED_REACH {
+        k
     } else {
         FUSED_REACH
     }
@@ -822,13 +824,13 @@ mod tests {
     }
 
     #[test]
-    fn a_far_layer_reaches_every_layer_of_cells_at_most_half_as_wide_again() {
+    fn a_far_layer_reaches_every_layer_of_cells_at_most_twice_as_wide() {
         let c = |raw: i16| Some(Cell::from_raw(raw));
         let reach: [usize; 12] = core::array::from_fn(fused_reach);
-        assert_eq!(reach, [3, 3, 3, 3, 3, 3, 3, 3, 4, 4, 5, 5]);
+        assert_eq!(reach, [3, 3, 3, 3, 4, 5, 6, 7, 8, 9, 10, 11]);
         // Layer `free` navigable at −33 raw, layer `at` obstacle at +92, nothing else.
         let answer = |free: usize, at: usize| {
-            let mut cells = [None; 16];
+            let mut cells = [None; 24];
             for (k, raw) in [(free, -33), (at, 92)] {
                 if let (Some(cell), Some(v)) = (cells.get_mut(k), c(raw)) {
                     *cell = Some(v);
@@ -836,13 +838,16 @@ mod tests {
             }
             fused_answer(14, cells)
         };
-        // Layer 9 (cells 9·γ·Δd): layer 13 (13/9 ≈ 1.44 times as wide) may overrule it,
-        // layer 14 (1.56 times) may not.
-        assert_eq!(answer(9, 13), Fused::Obstacle { layer: 13 });
-        assert_eq!(answer(9, 14), Fused::Navigable { layer: 9 });
-        // Layer 7 keeps the reach of three: layer 10 may, layer 11 may not.
-        assert_eq!(answer(7, 10), Fused::Obstacle { layer: 10 });
-        assert_eq!(answer(7, 11), Fused::Navigable { layer: 7 });
+        // Layer 7 (cells 7·γ·Δd): layer 14 (twice as wide) may overrule it, layer 15 (15/7
+        // ≈ 2.14 times) may not.
+        assert_eq!(answer(7, 14), Fused::Obstacle { layer: 14 });
+        assert_eq!(answer(7, 15), Fused::Navigable { layer: 7 });
+        // Layer 11 reaches layer 22, not 23.
+        assert_eq!(answer(11, 22), Fused::Obstacle { layer: 22 });
+        assert_eq!(answer(11, 23), Fused::Navigable { layer: 11 });
+        // Layer 2 (cells 2·γ·Δd) keeps the reach of three: layer 5 may, layer 6 may not.
+        assert_eq!(answer(2, 5), Fused::Obstacle { layer: 5 });
+        assert_eq!(answer(2, 6), Fused::Navigable { layer: 2 });
     }
 
     #[test]

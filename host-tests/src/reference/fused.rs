@@ -1,7 +1,7 @@
 //! The fused query of `docs/core.md`: walk the layers from the finest; the first layer whose
 //! cell at the point is observed and either positive (obstacle) or below −margin (navigable)
 //! answers, except that a navigable answer of layer k gives way to the first of layers
-//! k + 1 ..= k + max(3, ⌊k/2⌋) whose cell holds more obstacle evidence than layer k's, and
+//! k + 1 ..= k + max(3, k) whose cell holds more obstacle evidence than layer k's, and
 //! every observed layer's between them, hold free evidence; otherwise unknown. And the region
 //! export that samples it at a grid's centres.
 
@@ -9,10 +9,10 @@ use super::logodds::Cell;
 use super::window::{cell_of, Pyramid};
 
 /// How many coarser layers may overrule layer `k`'s navigable answer (`docs/core.md`, "The
-/// fused query"): three, and every layer whose cells are at most 1.5 times as wide under the
-/// schedule `r_k = k·γ·Δd` (j ≤ 3k/2).
+/// fused query"): three, and every layer whose cells are at most twice as wide under the
+/// schedule `r_k = k·γ·Δd` (j ≤ 2k).
 fn reach(k: usize) -> usize {
-    3.max(k / 2)
+    3.max(k)
 }
 
 /// The answer of the fused query.
@@ -162,14 +162,14 @@ mod tests {
     use crate::reference::window::{default_quantised, Evidence};
 
     /// The reach written by index is the rule of `docs/core.md`: the next three layers, and
-    /// every layer whose cells are at most 1.5 times as wide under `r_k = k·γ·Δd`.
+    /// every layer whose cells are at most twice as wide under `r_k = k·γ·Δd`.
     #[test]
-    fn the_reach_is_three_layers_and_every_one_of_nearly_the_same_cells() {
+    fn the_reach_is_three_layers_and_every_one_of_cells_at_most_twice_as_wide() {
         for gamma in [1.5, 2.0, 3.0, 4.5] {
             let r = |k: usize| if k == 0 { 0.1 } else { k as f64 * gamma * 0.1 };
             for k in 1..64 {
                 let widest = (k + 1..k + 200)
-                    .take_while(|&j| r(j) <= 1.5 * r(k) + 1e-12)
+                    .take_while(|&j| r(j) <= 2.0 * r(k) + 1e-12)
                     .last()
                     .unwrap_or(k);
                 assert_eq!(reach(k), 3.max(widest - k), "γ {gamma}, layer {k}");

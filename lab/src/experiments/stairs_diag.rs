@@ -41,7 +41,8 @@ fn look(now: Option<f32>, before: Option<f32>) -> Option<f32> {
 }
 
 /// Runs `setup` through a pyramid of `design` and describes where the step cells' evidence
-/// goes: a Markdown report.
+/// goes: a Markdown report. With `at_arrival` the stop is read as a device shows it, without
+/// the sweep still in progress; otherwise that sweep is flushed into the map at the last line.
 ///
 /// # Errors
 /// The simulator's or the library's refusal.
@@ -49,6 +50,7 @@ pub fn diagnose(
     setup: &StairsSetup,
     design: Design<LAYERS>,
     classifier: &ClassifierConfig,
+    at_arrival: bool,
 ) -> Result<String, String> {
     let scene = setup.scene_config();
     let sim = simulate_lidar(&setup.sim()).map_err(|e| e.to_string())?;
@@ -113,7 +115,7 @@ pub fn diagnose(
     for (i, line) in decoded.lines.iter().enumerate() {
         map.line(line);
         let is_last = i + 1 == count;
-        if is_last {
+        if is_last && !at_arrival {
             map.flush();
         }
         if (i + 1) % LOOK_EVERY != 0 && !is_last {
@@ -142,7 +144,7 @@ pub fn diagnose(
                             c.0,
                             c.1,
                             now.unwrap_or(0.0),
-                            if is_last { " (flush)" } else { "" }
+                            if is_last && !at_arrival { " (flush)" } else { "" }
                         );
                     }
                     if let Some(e) = table.get_mut(k) {
@@ -411,7 +413,9 @@ mod tests {
     /// (the layers whose increments to the step cells are listed, e.g. `1,2,3`) and
     /// `STAIRS_DIAG_ROW` (the row of step cells traced, default 0; the cells missed at the
     /// stop are listed with their rows) and `STAIRS_DIAG_RULE` (`paper` for the spread rule;
-    /// the plane rule otherwise); `STAIRS_SERVO` = `lo,hi,rate` for another nod.
+    /// the plane rule otherwise); `STAIRS_SERVO` = `lo,hi,rate` for another nod;
+    /// `STAIRS_DIAG_SEED` the simulator's seed (default 1); `STAIRS_DIAG_AT_ARRIVAL` set reads
+    /// the stop as a device shows it, without flushing the sweep in progress.
     #[test]
     #[ignore = "a diagnostic, minutes long: run by hand"]
     fn stairs_diagnostic() {
@@ -438,6 +442,10 @@ mod tests {
                     range_m,
                     stand_distance_m: range_m - 0.95,
                     servo: servo_from_env(),
+                    seed: std::env::var("STAIRS_DIAG_SEED")
+                        .ok()
+                        .and_then(|v| v.trim().parse().ok())
+                        .unwrap_or(StairsSetup::FULL.seed),
                     ..StairsSetup::FULL
                 };
                 let design = setup.pyramid::<LAYERS>(gate).map_err(|e| e.to_string())?;
@@ -448,7 +456,8 @@ mod tests {
                     },
                     _ => ClassifierConfig::default(),
                 };
-                diagnose(&setup, design, &classifier)
+                let at_arrival = std::env::var("STAIRS_DIAG_AT_ARRIVAL").is_ok();
+                diagnose(&setup, design, &classifier, at_arrival)
             })
             .unwrap();
         let report = handle.join().unwrap().unwrap();
@@ -478,14 +487,19 @@ mod tests {
     }
 
     /// Every nodding rig's stairs against standing time and the nod's phase (the table of
-    /// `lab experiments`), as JSON; `STAIRS_RIGS_QUICK=1` for 30 s and 120 s only.
+    /// `lab experiments`), as JSON; `STAIRS_RIGS_QUICK=1` for 30 s and 120 s only;
+    /// `STAIRS_RIGS_SEED` the simulator's seed (default 1).
     #[test]
     #[ignore = "a diagnostic, minutes long: run by hand"]
     fn stairs_rigs() {
         let quick = std::env::var("STAIRS_RIGS_QUICK").is_ok();
+        let seed: u64 = std::env::var("STAIRS_RIGS_SEED")
+            .ok()
+            .and_then(|v| v.trim().parse().ok())
+            .unwrap_or(1);
         let handle = std::thread::Builder::new()
             .stack_size(512 << 20)
-            .spawn(move || lidar::run_rigs(quick, 1, &ClassifierConfig::default()))
+            .spawn(move || lidar::run_rigs(quick, seed, &ClassifierConfig::default()))
             .unwrap();
         let rigs = handle.join().unwrap().unwrap();
         println!("{}", serde_json::to_string(&rigs).unwrap());
