@@ -40,6 +40,15 @@ fn look(now: Option<f32>, before: Option<f32>) -> Option<f32> {
     (now.is_some() && (before.is_none() || delta.abs() > 1e-6)).then_some(delta)
 }
 
+/// A hand-run diagnostic's setting: environment variable `name` parsed as `T` (surrounding
+/// spaces ignored), or `default` when it is unset or does not parse.
+pub fn env_or<T: std::str::FromStr>(name: &str, default: T) -> T {
+    std::env::var(name)
+        .ok()
+        .and_then(|v| v.trim().parse().ok())
+        .unwrap_or(default)
+}
+
 /// Runs `setup` through a pyramid of `design` and describes where the step cells' evidence
 /// goes: a Markdown report. With `at_arrival` the stop is read as a device shows it, without
 /// the sweep still in progress; otherwise that sweep is flushed into the map at the last line.
@@ -106,16 +115,14 @@ pub fn diagnose(
         .split(',')
         .filter_map(|v| v.trim().parse().ok())
         .collect();
-    let trace_row: i32 = std::env::var("STAIRS_DIAG_ROW")
-        .ok()
-        .and_then(|v| v.trim().parse().ok())
-        .unwrap_or(0);
+    let trace_row: i32 = env_or("STAIRS_DIAG_ROW", 0);
     let mut trace = String::new();
     let mut next_report_s = 0.0_f64;
     for (i, line) in decoded.lines.iter().enumerate() {
         map.line(line);
         let is_last = i + 1 == count;
-        if is_last && !at_arrival {
+        let flushed = is_last && !at_arrival;
+        if flushed {
             map.flush();
         }
         if (i + 1) % LOOK_EVERY != 0 && !is_last {
@@ -144,7 +151,7 @@ pub fn diagnose(
                             c.0,
                             c.1,
                             now.unwrap_or(0.0),
-                            if is_last && !at_arrival { " (flush)" } else { "" }
+                            if flushed { " (flush)" } else { "" }
                         );
                     }
                     if let Some(e) = table.get_mut(k) {
@@ -419,10 +426,7 @@ mod tests {
     #[test]
     #[ignore = "a diagnostic, minutes long: run by hand"]
     fn stairs_diagnostic() {
-        let stand_s: f64 = std::env::var("STAIRS_DIAG_STAND_S")
-            .ok()
-            .and_then(|s| s.parse().ok())
-            .unwrap_or(120.0);
+        let stand_s: f64 = env_or("STAIRS_DIAG_STAND_S", 120.0);
         let gate = match std::env::var("STAIRS_DIAG_GATE").as_deref() {
             Ok("hard") => GateShape::Hard,
             _ => GateShape::default(),
@@ -442,10 +446,7 @@ mod tests {
                     range_m,
                     stand_distance_m: range_m - 0.95,
                     servo: servo_from_env(),
-                    seed: std::env::var("STAIRS_DIAG_SEED")
-                        .ok()
-                        .and_then(|v| v.trim().parse().ok())
-                        .unwrap_or(StairsSetup::FULL.seed),
+                    seed: env_or("STAIRS_DIAG_SEED", StairsSetup::FULL.seed),
                     ..StairsSetup::FULL
                 };
                 let design = setup.pyramid::<LAYERS>(gate).map_err(|e| e.to_string())?;
@@ -475,10 +476,7 @@ mod tests {
             .split(',')
             .filter_map(|s| s.trim().parse().ok())
             .collect();
-        let revolutions: u32 = std::env::var("STAIRS_REVOLUTIONS")
-            .ok()
-            .and_then(|s| s.parse().ok())
-            .unwrap_or(0);
+        let revolutions: u32 = env_or("STAIRS_REVOLUTIONS", 0);
         let handle = std::thread::Builder::new()
             .stack_size(512 << 20)
             .spawn(move || stand_sweep(&times, revolutions, &ClassifierConfig::default()))
@@ -493,10 +491,7 @@ mod tests {
     #[ignore = "a diagnostic, minutes long: run by hand"]
     fn stairs_rigs() {
         let quick = std::env::var("STAIRS_RIGS_QUICK").is_ok();
-        let seed: u64 = std::env::var("STAIRS_RIGS_SEED")
-            .ok()
-            .and_then(|v| v.trim().parse().ok())
-            .unwrap_or(1);
+        let seed: u64 = env_or("STAIRS_RIGS_SEED", 1);
         let handle = std::thread::Builder::new()
             .stack_size(512 << 20)
             .spawn(move || lidar::run_rigs(quick, seed, &ClassifierConfig::default()))

@@ -46,6 +46,7 @@ pub fn nod_period_s(kind: LidarKind) -> f64 {
 
 #[cfg(test)]
 mod tests {
+    use super::super::{on_board::BOARD_RIGS, HEIGHT_M};
     use super::*;
 
     /// Every rig's nod is `pyramid design`'s plan for the stairs' risers from 4 m, its φ
@@ -56,7 +57,7 @@ mod tests {
         let grade = terrain_pyramid::classify::PlaneRule::DEFAULT
             .max_grade
             .to_num::<f64>();
-        for (kind, name) in crate::experiments::lidar::on_board::BOARD_RIGS {
+        for (kind, name) in BOARD_RIGS {
             let (lo, hi, rate, latency) = rig_servo(kind);
             assert_eq!((lo, hi, latency), (2.0, 35.0, 20.0), "{name}");
             let hz = kind.rotation_hz();
@@ -65,15 +66,9 @@ mod tests {
                 step_m: Some(PLANNED_STEP_M),
                 sure_from_m: Some(SURE_FROM_M),
             };
-            let p = plan(
-                &args,
-                rate / hz,
-                crate::experiments::lidar::HEIGHT_M,
-                12.0,
-                grade,
-            )
-            .unwrap()
-            .unwrap();
+            let p = plan(&args, rate / hz, HEIGHT_M, 12.0, grade)
+                .unwrap()
+                .unwrap();
             let sure = p.sure_from.unwrap();
             // φ is the plan's largest to a tenth of a degree, and the nod no faster than it.
             assert!((sure.max_phi_deg - 1.574).abs() < 1e-3, "{name}: {sure:?}");

@@ -414,12 +414,7 @@ mod tests {
     #[test]
     #[ignore = "a diagnostic, a minute long: run by hand"]
     fn on_board_phases() {
-        fn env_or<T: std::str::FromStr>(name: &str, default: T) -> T {
-            std::env::var(name)
-                .ok()
-                .and_then(|s| s.parse().ok())
-                .unwrap_or(default)
-        }
+        use crate::experiments::stairs_diag::env_or;
         let classifier = ClassifierConfig::default();
         for (kind, name) in BOARD_RIGS {
             let (_, full) = kind.range_m();
