@@ -139,6 +139,13 @@ pub struct RefRecord {
     /// from the robot's height over 2 mm; below 1 the two may differ there
     /// (`f64::INFINITY`: no such pair).
     pub edge_margin: f64,
+    /// How close a pair of consecutive points across the cell's edge (this cell's and a
+    /// neighbour's, rising more than the step: "The pair test across a cell's edge") came to
+    /// the bounds the firmware reads in its own units: its run's distance from a cell's side
+    /// over [`PAIR_RUN_SLACK_UNITS`] units of c/64 and its
+    /// rise's distance from the robot's height over 2 mm, the smaller; below 1 the two may
+    /// differ there (`f64::INFINITY`: no such pair).
+    pub across_margin: f64,
     /// The plane rule's residual test: the residual's mean square over the allowed one (> 1:
     /// obstacle); 0 under the spread rule.
     pub residual_ratio: f64,
@@ -150,13 +157,26 @@ pub struct RefRecord {
     /// smaller of their rise beyond the largest slope over `2·k·σ·h/r` and their whole rise
     /// over `step + 2·k·σ·h/r` (> 1: obstacle; 0 under the spread rule).
     pub pair_ratio: f64,
+    /// The pair test's ratio were every pair's run [`PAIR_RUN_SLACK_UNITS`] units of c/64
+    /// longer, and shorter: (lowest, highest). The firmware holds a return's place in its cell
+    /// as the floor of its place in those units, so where the span reaches 1 the two may
+    /// differ, however far the ratio itself lies from 1: on a slope's allowance nearly as large
+    /// as the rise, a run a centimetre shorter moves the ratio by tenths. (0, 0) under the
+    /// spread rule.
+    pub pair_ratio_span: (f64, f64),
 }
+
+/// How many units of a cell's side / 64 a pair's run may differ between the firmware and the
+/// reference ([`RefRecord::pair_ratio_span`]): one a return's place along each axis, floored,
+/// and one for the fixed point's rounding of the place.
+pub const PAIR_RUN_SLACK_UNITS: f64 = 3.0;
 
 /// The pair test's ratio over the pairs of each point (in arrival order) and each of the
 /// `depth` points before it: for each pair, the smaller of its rise beyond what the slope
 /// `max_grade` explains over their L1 horizontal distance over `noise` and its whole rise over
 /// `step + noise` (m, m); the largest (0 for one point). Above 1 exactly when some pair lies
 /// on a surface steeper than the slope beyond the noise and rises more than a step beyond it.
+/// Each run is taken `run_slack` longer (m, either sign; a run stays ≥ 0).
 fn pair_ratio(
     xys: &[(f64, f64)],
     zs: &[f64],
@@ -164,11 +184,13 @@ fn pair_ratio(
     max_grade: f64,
     step: f64,
     noise: f64,
+    run_slack: f64,
 ) -> f64 {
     let mut largest: f64 = 0.0;
     for i in 1..xys.len() {
         for j in i.saturating_sub(depth)..i {
-            let run = (xys[i].0 - xys[j].0).abs() + (xys[i].1 - xys[j].1).abs();
+            let run =
+                ((xys[i].0 - xys[j].0).abs() + (xys[i].1 - xys[j].1).abs() + run_slack).max(0.0);
             let ratio = one_pair_ratio((zs[i] - zs[j]).abs(), run, max_grade, step, noise);
             largest = largest.max(ratio);
         }
@@ -256,6 +278,8 @@ struct Acc {
     /// Pairs across the cell's edge whose upper point lies here (the pair across an edge, the
     /// step between neighbouring cells' lowest points): (rise, run), m.
     across: Vec<(f64, f64)>,
+    /// [`RefRecord::across_margin`].
+    across_margin: f64,
 }
 
 /// A cell's key: (layer, world cell index along x, along y).
@@ -368,6 +392,7 @@ pub fn classify_after(
                 distance: f64::INFINITY,
                 hole: false,
                 across: Vec::new(),
+                across_margin: f64::INFINITY,
             });
             #[allow(clippy::cast_precision_loss)]
             acc.xys
@@ -381,6 +406,15 @@ pub fn classify_after(
             };
             let q_key = (k, (q.x / r).floor() as i64, (q.y / r).floor() as i64);
             let (rise, run) = ((p.z - q.z).abs(), (p.x - q.x).abs() + (p.y - q.y).abs());
+            if q_key != key && rise > config.step_threshold {
+                let margin = ((run - r).abs() * 64.0 / r / PAIR_RUN_SLACK_UNITS)
+                    .min((rise - config.robot_height).abs() / 0.002);
+                for key in [key, q_key] {
+                    if let Some(cell) = cells.get_mut(&key) {
+                        cell.across_margin = cell.across_margin.min(margin);
+                    }
+                }
+            }
             if q_key != key
                 && run < r
                 && rise > config.step_threshold
@@ -427,6 +461,7 @@ pub fn classify_after(
                 .iter()
                 .map(|z| (z - cut).abs())
                 .fold(f64::INFINITY, f64::min);
+            let mut pair_span = (0.0, 0.0);
             let (residual_ratio, rise_ratio, pair_ratio, judged) = match config.rule {
                 RefRule::Spread => (0.0, 0.0, 0.0, spread > config.step_threshold),
                 RefRule::Plane {
@@ -466,23 +501,36 @@ pub fn classify_after(
                         extremes_allowance,
                     );
                     let pair_noise = 2.0 * noise_factor * from_range;
-                    let pr = acc
-                        .across
-                        .iter()
-                        .map(|&(rise, run)| {
-                            one_pair_ratio(rise, run, max_grade, config.step_threshold, pair_noise)
-                        })
-                        .fold(
-                            pair_ratio(
-                                &xys,
-                                &zs,
-                                pair_depth,
-                                max_grade,
-                                config.step_threshold,
-                                pair_noise,
-                            ),
-                            f64::max,
-                        );
+                    // The pair test with every run `slack` longer (m).
+                    let pairs_at = |slack: f64| {
+                        acc.across
+                            .iter()
+                            .map(|&(rise, run)| {
+                                let run = (run + slack).max(0.0);
+                                one_pair_ratio(
+                                    rise,
+                                    run,
+                                    max_grade,
+                                    config.step_threshold,
+                                    pair_noise,
+                                )
+                            })
+                            .fold(
+                                pair_ratio(
+                                    &xys,
+                                    &zs,
+                                    pair_depth,
+                                    max_grade,
+                                    config.step_threshold,
+                                    pair_noise,
+                                    slack,
+                                ),
+                                f64::max,
+                            )
+                    };
+                    let pr = pairs_at(0.0);
+                    let slack = PAIR_RUN_SLACK_UNITS * resolutions[layer] / 64.0;
+                    pair_span = (pairs_at(slack), pairs_at(-slack));
                     (rr, qr, pr, rr > 1.0 || qr > 1.0 || er > 1.0 || pr > 1.0)
                 }
             };
@@ -498,9 +546,11 @@ pub fn classify_after(
                     .get(&(layer, cell_x, cell_y))
                     .copied()
                     .unwrap_or(f64::INFINITY),
+                across_margin: acc.across_margin,
                 residual_ratio,
                 rise_ratio,
                 pair_ratio,
+                pair_ratio_span: pair_span,
             };
             ((layer, cell_x, cell_y), record)
         })
@@ -572,7 +622,7 @@ mod tests {
         let xys = [(0.0, 0.0), (0.3, 0.3), (0.01, 0.0)];
         let zs = [0.0, 0.002, 0.11];
         let grade = 20f64.to_radians().tan();
-        let ratio = |depth| pair_ratio(&xys, &zs, depth, grade, 0.05, 0.006);
+        let ratio = |depth| pair_ratio(&xys, &zs, depth, grade, 0.05, 0.006, 0.0);
         assert!(ratio(1) < 1.0, "{}", ratio(1));
         // Two back: 0.11 − 0.0036 beyond the slope over 0.006, and 0.11 over 0.056: the
         // smaller, 1.96.
@@ -582,8 +632,8 @@ mod tests {
         // Three back is out of reach of two.
         let xys = [(0.0, 0.0), (0.3, 0.3), (-0.3, 0.3), (0.01, 0.0)];
         let zs = [0.0, 0.002, 0.001, 0.11];
-        assert!(pair_ratio(&xys, &zs, 2, grade, 0.05, 0.006) < 1.0);
-        assert!((pair_ratio(&xys, &zs, 3, grade, 0.05, 0.006) - expected).abs() < 1e-9);
+        assert!(pair_ratio(&xys, &zs, 2, grade, 0.05, 0.006, 0.0) < 1.0);
+        assert!((pair_ratio(&xys, &zs, 3, grade, 0.05, 0.006, 0.0) - expected).abs() < 1e-9);
     }
 
     #[test]

@@ -13,8 +13,10 @@
 //!   the cell, judges σ_z at the lower edge of the closest look's gate bin and samples a cell's
 //!   points past 62 of them, and restarts its sums from the best bound still known when a new
 //!   lowest point moves the overhang cut below summed points; cells whose reference test
-//!   ratios lie within 15 % of a threshold (or with a point within 2 mm of the overhang cut)
-//!   are left out.
+//!   ratios lie within 15 % of a threshold, whose pair test would cross its threshold were a
+//!   pair's run 3/64 of the cell longer or shorter (the place's quantisation), with a pair
+//!   across an edge whose run or rise lies that close to its bound, or with a point within
+//!   2 mm of the overhang cut, are left out.
 
 use proptest::prelude::*;
 use terrain_pyramid::classify::{Classifier, ClassifierConfig, NavigabilityRule, PlaneRule};
@@ -40,6 +42,12 @@ fn pyramid(design: &DefaultDesign) -> Box<DefaultPyramid> {
     let mut p = Box::new(DefaultPyramid::new());
     p.configure(design, &Config::default()).unwrap();
     p
+}
+
+/// Whether the pair test's ratio, were every run 3/64 of a cell longer or shorter
+/// (`RefRecord::pair_ratio_span`), may lie on either side of 1.
+fn spans_one((lowest, highest): (f64, f64)) -> bool {
+    lowest <= 1.0 && highest >= 1.0
 }
 
 fn q(v: f64) -> f64 {
@@ -150,10 +158,13 @@ fn compare_with_on(
             Rule::Spread => (r.spread - 0.05).abs() < 0.002,
             Rule::Plane | Rule::PlaneThreeBack => {
                 let close = |ratio: f64| ratio > 0.85 && ratio < 1.15;
-                close(r.residual_ratio) || close(r.rise_ratio) || close(r.pair_ratio)
+                close(r.residual_ratio)
+                    || close(r.rise_ratio)
+                    || close(r.pair_ratio)
+                    || spans_one(r.pair_ratio_span)
             }
         };
-        if near || r.cut_margin < 0.002 || r.edge_margin < 1.0 {
+        if near || r.cut_margin < 0.002 || r.edge_margin < 1.0 || r.across_margin < 1.0 {
             continue;
         }
         compared += 1;
@@ -239,8 +250,10 @@ fn compare_after_on(
             close(r.residual_ratio)
                 || close(r.rise_ratio)
                 || close(r.pair_ratio)
+                || spans_one(r.pair_ratio_span)
                 || r.cut_margin < 0.002
                 || r.edge_margin < 1.0
+                || r.across_margin < 1.0
         };
         if near(r) || near(a) {
             continue;
