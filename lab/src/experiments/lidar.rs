@@ -546,8 +546,12 @@ pub struct StandingRow {
     /// ([`stairs::MapResult::arrived_fraction`]).
     pub soft_at_arrival: f64,
     /// The soft-gated pyramid: share of the flat ground before the stairs (|y| ≤ 1.5 m, up
-    /// to 0.5 m before the first riser) obstacle at the stop.
+    /// to 0.5 m before the first riser) obstacle at the stop, the observation in progress
+    /// flushed into the map.
     pub soft_false_obstacles: f64,
+    /// The same share in the map a device shows at the stop
+    /// ([`stairs::MapResult::arrived_false_obstacle_fraction`]).
+    pub soft_false_obstacles_at_arrival: f64,
     /// The soft-gated pyramid: share of the flat ground 0.5–2.5 m before the first riser
     /// obstacle when the first step was first seen (null: never seen).
     pub soft_ground_at_first_sight: Option<f64>,
@@ -612,6 +616,7 @@ fn standing_row(
         soft_at_arrival: r.pyramid_soft.arrived_fraction,
         soft_first_seen_m: r.pyramid_soft.detect_distance_m,
         soft_false_obstacles: r.pyramid_soft.false_obstacle_fraction,
+        soft_false_obstacles_at_arrival: r.pyramid_soft.arrived_false_obstacle_fraction,
         soft_ground_at_first_sight: r.pyramid_soft.false_obstacle_at_first_sight,
         soft_after_sweep: after,
         lit: r.lit,

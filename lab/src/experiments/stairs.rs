@@ -169,8 +169,12 @@ pub struct MapResult {
     /// The first riser's cells at the stop.
     pub first_step_near: Shares,
     /// Share of the flat ground before the stairs (|y| ≤ 1.5 m, up to 0.5 m before the first
-    /// riser) marked obstacle at the stop: false obstacles.
+    /// riser) marked obstacle at the stop, the observation in progress flushed into the map:
+    /// false obstacles.
     pub false_obstacle_fraction: f64,
+    /// The same ground's share marked obstacle in the map a device shows at the stop (as
+    /// [`MapResult::arrived_fraction`]): the false obstacles a robot arriving would meet.
+    pub arrived_false_obstacle_fraction: f64,
     /// Share of the flat ground 0.5–2.5 m before the first riser (|y| ≤ 1.5 m) marked obstacle
     /// when the first step was first seen: how much of the sighting is a coarse cell that
     /// also covers the ground before the stairs; null when never seen.
@@ -412,6 +416,13 @@ impl Watched {
             near,
             first_step_near: shares(map, &self.first),
             false_obstacle_fraction: round4(shares(map, &self.ground).obstacle),
+            arrived_false_obstacle_fraction: round4(
+                pass.arrived_ground
+                    .get(k)
+                    .copied()
+                    .unwrap_or_default()
+                    .obstacle,
+            ),
             false_obstacle_at_first_sight: pass.ground_at_detect.get(k).copied().flatten(),
             records: map.records(),
             applied: u64::from(map.stats().applied),
@@ -440,13 +451,16 @@ pub struct Pass {
     pub integrated_s: Vec<Vec<f64>>,
     /// The step cells' shares after the last line, before the flush: the map a device shows.
     pub arrived: Vec<Shares>,
+    /// The shares of [`Watched::ground`] in that map.
+    pub arrived_ground: Vec<Shares>,
 }
 
 /// Feeds every line of `decoded` to every map of `maps` (flushing them after the last), and
 /// looks at them: once at the end of standing (the far shares, and `at_standing_end` with
 /// each map and the robot's position), and after every `check_every` lines and the last
 /// (whether the first step is seen, and the series when `series`), and after the last line
-/// before the flush (the map a device shows at arrival, [`Pass::arrived`]).
+/// before the flush (the map a device shows at arrival, [`Pass::arrived`] and
+/// [`Pass::arrived_ground`]).
 pub fn watch(
     decoded: &Decoded,
     maps: &mut [Box<dyn Map>],
@@ -463,6 +477,7 @@ pub fn watch(
         series: vec![Vec::new(); n],
         integrated_s: vec![Vec::new(); n],
         arrived: vec![Shares::default(); n],
+        arrived_ground: vec![Shares::default(); n],
     };
     let mut standing_done = false;
     let count = decoded.lines.len();
@@ -477,15 +492,17 @@ pub fn watch(
             }
         }
         let last = i + 1 == count;
-        for ((map, ends), arrived) in maps
+        for (((map, ends), arrived), arrived_ground) in maps
             .iter_mut()
             .zip(pass.integrated_s.iter_mut())
             .zip(pass.arrived.iter_mut())
+            .zip(pass.arrived_ground.iter_mut())
         {
             let before = map.observations();
             map.line(line);
             if last {
                 *arrived = shares(map.as_ref(), &watched.steps);
+                *arrived_ground = shares(map.as_ref(), &watched.ground);
                 map.flush();
             }
             if map.observations() > before {

@@ -20,7 +20,7 @@ pub(super) fn rigs_report(s: &mut String, rigs: &[RigStairs]) {
         .collect();
     let _ = writeln!(
         s,
-        "\nEvery nodding rig on its own nod (2°..35°, φ = 1.5° between two revolutions, the plan for 0.17 m steps sure from 4 m: {}; h = 1.0 m), standing its range less 0.95 m from the stairs, then driving at 1 m/s to 1 m. Step cells obstacle at the stop (flat grid; pyramid of the rig's design, hard gate; soft gate) with the observation in progress flushed into the map, and where the first step was first seen; the soft-gated pyramid at arrival without that flush (the map a device shows: it integrates an observation when the servo turns, never on arrival), its false obstacles on the ground before the stairs at the stop, and on the ground 0.5–2.5 m before the first riser when it first saw the first step. The next column: the same pyramid when the robot, arrived, stands until the observation in progress ends, and how long it waited. The last: what the laser itself put on the first step (the simulator's true points on the riser's face or the first tread, at least the step threshold up), the bound on any map's first sighting: the lines (revolutions) that lit it while the robot stood, those that lit it from 4 m or more while it drove, and the farthest it lit it from while driving, with where the robot was when that line's sweep ended (a map shows a line's evidence up to a sweep, half a nod, later). Rows \"phase\": 120 s plus a fraction of the nod's period; rows \"phase, long\": the same phases {} nods later, so that each differs from its \"phase\" row in the standing alone.\n\n| rig (φ, ψ) | standing s | flat | hard | hard: first seen | soft, flushed | soft: at arrival | soft: first seen | soft: false obstacles | soft: ground 0.5–2.5 m before, at first sight | soft, after the sweep in progress (wait; false obstacles) | first step lit: lines standing; driving from ≥ 4 m; farthest driving (its sweep's end) |\n| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |",
+        "\nEvery nodding rig on its own nod (2°..35°, φ = 1.5° between two revolutions, the plan for 0.17 m steps sure from 4 m: {}; h = 1.0 m), standing its range less 0.95 m from the stairs, then driving at 1 m/s to 1 m. Step cells obstacle at the stop (flat grid; pyramid of the rig's design, hard gate; soft gate) with the observation in progress flushed into the map, and where the first step was first seen; the soft-gated pyramid at arrival without that flush (the map a device shows: it integrates an observation when the servo turns, never on arrival), its false obstacles on the ground before the stairs at the stop (flushed; at arrival), and on the ground 0.5–2.5 m before the first riser when it first saw the first step. The next column: the same pyramid when the robot, arrived, stands until the observation in progress ends, and how long it waited. The last: what the laser itself put on the first step (the simulator's true points on the riser's face or the first tread, at least the step threshold up), the bound on any map's first sighting: the lines (revolutions) that lit it while the robot stood, those that lit it from 4 m or more while it drove, and the farthest it lit it from while driving, with where the robot was when that line's sweep ended (a map shows a line's evidence up to a sweep, half a nod, later). Rows \"phase\": 120 s plus a fraction of the nod's period; rows \"phase, long\": the same phases {} nods later, so that each differs from its \"phase\" row in the standing alone.\n\n| rig (φ, ψ) | standing s | flat | hard | hard: first seen | soft, flushed | soft: at arrival | soft: first seen | soft: false obstacles, flushed; at arrival | soft: ground 0.5–2.5 m before, at first sight | soft, after the sweep in progress (wait; false obstacles) | first step lit: lines standing; driving from ≥ 4 m; farthest driving (its sweep's end) |\n| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |",
         nods.join(", "),
         LONG_STAND_NODS
     );
@@ -34,7 +34,7 @@ pub(super) fn rigs_report(s: &mut String, rigs: &[RigStairs]) {
         {
             let _ = writeln!(
                 s,
-                "| {} (φ {:.2}°, ψ {:.2}°) | {:.3}{label} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {}; {}; {} ({}) |",
+                "| {} (φ {:.2}°, ψ {:.2}°) | {:.3}{label} | {} | {} | {} | {} | {} | {} | {}; {} | {} | {} | {}; {}; {} ({}) |",
                 r.rig,
                 r.design.phi_deg,
                 r.design.psi_deg,
@@ -46,6 +46,7 @@ pub(super) fn rigs_report(s: &mut String, rigs: &[RigStairs]) {
                 pct(row.soft_at_arrival),
                 m(row.soft_first_seen_m),
                 pct(row.soft_false_obstacles),
+                pct(row.soft_false_obstacles_at_arrival),
                 row.soft_ground_at_first_sight
                     .map_or_else(|| "–".to_string(), pct),
                 row.soft_after_sweep.map_or_else(
@@ -200,6 +201,7 @@ mod tests {
             soft_at_arrival: 1.0,
             soft_first_seen_m: seen_m,
             soft_false_obstacles: 0.0,
+            soft_false_obstacles_at_arrival: 0.0,
             soft_ground_at_first_sight: None,
             soft_after_sweep: None,
             lit: Lit {
