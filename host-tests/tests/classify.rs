@@ -441,7 +441,10 @@ proptest! {
     /// Two observations of terrain in a row, split where the step lies or at random: the
     /// library marks at most 5 % of the cells compared that the reference, pairing with the
     /// first's lowest returns, does not, and leaves at most 5 % unmarked that the reference
-    /// marks by the second alone (as one observation in any order agrees).
+    /// marks by the second alone (as one observation in any order agrees). A split near either
+    /// end leaves the second a few cells; under 20 compared, 5 % is less than one cell, and
+    /// one may differ (the order's approximations: a new lowest point restarting a cell's sums
+    /// drops a pair the reference keeps).
     #[test]
     fn two_observations_agree(points in terrain(), split in 0.0..1.0f64, by_x in any::<bool>(), first_z in -0.5..0.5f64) {
         let (first, second): (Vec<_>, Vec<_>) = points.iter().enumerate().partition(|&(i, p)| {
@@ -456,8 +459,8 @@ proptest! {
         let first: Vec<_> = first.into_iter().map(|(_, &p)| p).collect();
         let second: Vec<_> = second.into_iter().map(|(_, &p)| p).collect();
         let (compared, invented, lost, _) = compare_after(&first, &second, first_z);
-        prop_assert!(invented * 20 <= compared.max(1), "{invented} invented of {compared}");
-        prop_assert!(lost * 20 <= compared.max(1), "{lost} lost of {compared}");
+        prop_assert!(invented * 20 <= compared.max(20), "{invented} invented of {compared}");
+        prop_assert!(lost * 20 <= compared.max(20), "{lost} lost of {compared}");
     }
 
     /// Random clutter under the plane rule (the same scenes as the spread tests): when a new
