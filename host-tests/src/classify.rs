@@ -189,17 +189,32 @@ fn pair_ratio(
     let mut largest: f64 = 0.0;
     for i in 1..xys.len() {
         for j in i.saturating_sub(depth)..i {
-            let run =
-                ((xys[i].0 - xys[j].0).abs() + (xys[i].1 - xys[j].1).abs() + run_slack).max(0.0);
-            let ratio = one_pair_ratio((zs[i] - zs[j]).abs(), run, max_grade, step, noise);
+            let run = (xys[i].0 - xys[j].0).abs() + (xys[i].1 - xys[j].1).abs();
+            let ratio = one_pair_ratio(
+                (zs[i] - zs[j]).abs(),
+                run,
+                run_slack,
+                max_grade,
+                step,
+                noise,
+            );
             largest = largest.max(ratio);
         }
     }
     largest
 }
 
-/// One pair's ratio for [`pair_ratio`]: a rise `rise` over an L1 run `run` (m).
-fn one_pair_ratio(rise: f64, run: f64, max_grade: f64, step: f64, noise: f64) -> f64 {
+/// One pair's ratio for [`pair_ratio`]: a rise `rise` over an L1 run `run` taken `run_slack`
+/// longer (m; either sign, the run stays ≥ 0).
+fn one_pair_ratio(
+    rise: f64,
+    run: f64,
+    run_slack: f64,
+    max_grade: f64,
+    step: f64,
+    noise: f64,
+) -> f64 {
+    let run = (run + run_slack).max(0.0);
     let steep = (rise - max_grade * run) / noise.max(1e-300);
     steep.min(rise / (step + noise).max(1e-300))
 }
@@ -406,20 +421,17 @@ pub fn classify_after(
             };
             let q_key = (k, (q.x / r).floor() as i64, (q.y / r).floor() as i64);
             let (rise, run) = ((p.z - q.z).abs(), (p.x - q.x).abs() + (p.y - q.y).abs());
-            if q_key != key && rise > config.step_threshold {
-                let margin = ((run - r).abs() * 64.0 / r / PAIR_RUN_SLACK_UNITS)
-                    .min((rise - config.robot_height).abs() / 0.002);
-                for key in [key, q_key] {
-                    if let Some(cell) = cells.get_mut(&key) {
-                        cell.across_margin = cell.across_margin.min(margin);
-                    }
+            if q_key == key || rise <= config.step_threshold {
+                continue;
+            }
+            let margin = ((run - r).abs() * 64.0 / r / PAIR_RUN_SLACK_UNITS)
+                .min((rise - config.robot_height).abs() / 0.002);
+            for side in [key, q_key] {
+                if let Some(cell) = cells.get_mut(&side) {
+                    cell.across_margin = cell.across_margin.min(margin);
                 }
             }
-            if q_key != key
-                && run < r
-                && rise > config.step_threshold
-                && rise <= config.robot_height
-            {
+            if run < r && rise <= config.robot_height {
                 let upper = if p.z > q.z { key } else { q_key };
                 if let Some(cell) = cells.get_mut(&upper) {
                     cell.across.push((rise, run));
@@ -461,9 +473,8 @@ pub fn classify_after(
                 .iter()
                 .map(|z| (z - cut).abs())
                 .fold(f64::INFINITY, f64::min);
-            let mut pair_span = (0.0, 0.0);
-            let (residual_ratio, rise_ratio, pair_ratio, judged) = match config.rule {
-                RefRule::Spread => (0.0, 0.0, 0.0, spread > config.step_threshold),
+            let (residual_ratio, rise_ratio, pair_ratio, pair_span, judged) = match config.rule {
+                RefRule::Spread => (0.0, 0.0, 0.0, (0.0, 0.0), spread > config.step_threshold),
                 RefRule::Plane {
                     max_grade,
                     residual,
@@ -506,10 +517,10 @@ pub fn classify_after(
                         acc.across
                             .iter()
                             .map(|&(rise, run)| {
-                                let run = (run + slack).max(0.0);
                                 one_pair_ratio(
                                     rise,
                                     run,
+                                    slack,
                                     max_grade,
                                     config.step_threshold,
                                     pair_noise,
@@ -530,8 +541,14 @@ pub fn classify_after(
                     };
                     let pr = pairs_at(0.0);
                     let slack = PAIR_RUN_SLACK_UNITS * resolutions[layer] / 64.0;
-                    pair_span = (pairs_at(slack), pairs_at(-slack));
-                    (rr, qr, pr, rr > 1.0 || qr > 1.0 || er > 1.0 || pr > 1.0)
+                    let span = (pairs_at(slack), pairs_at(-slack));
+                    (
+                        rr,
+                        qr,
+                        pr,
+                        span,
+                        rr > 1.0 || qr > 1.0 || er > 1.0 || pr > 1.0,
+                    )
                 }
             };
             let record = RefRecord {

@@ -408,21 +408,16 @@ impl Watched {
         let detect_distance_m = pass.detect.get(k).copied().flatten();
         let far = pass.far.get(k).copied().unwrap_or_default();
         let near = shares(map, &self.steps);
+        let arrived = pass.arrived.get(k).copied().unwrap_or_default();
         MapResult {
             detected_fraction: round4(near.obstacle),
-            arrived_fraction: round4(pass.arrived.get(k).copied().unwrap_or_default().obstacle),
+            arrived_fraction: round4(arrived.steps.obstacle),
             detect_distance_m,
             far,
             near,
             first_step_near: shares(map, &self.first),
             false_obstacle_fraction: round4(shares(map, &self.ground).obstacle),
-            arrived_false_obstacle_fraction: round4(
-                pass.arrived_ground
-                    .get(k)
-                    .copied()
-                    .unwrap_or_default()
-                    .obstacle,
-            ),
+            arrived_false_obstacle_fraction: round4(arrived.ground.obstacle),
             false_obstacle_at_first_sight: pass.ground_at_detect.get(k).copied().flatten(),
             records: map.records(),
             applied: u64::from(map.stats().applied),
@@ -449,18 +444,24 @@ pub struct Pass {
     /// The recording's times (seconds) of the lines on which each map ended an observation
     /// and integrated it (the last line's for the flush at the end).
     pub integrated_s: Vec<Vec<f64>>,
-    /// The step cells' shares after the last line, before the flush: the map a device shows.
-    pub arrived: Vec<Shares>,
-    /// The shares of [`Watched::ground`] in that map.
-    pub arrived_ground: Vec<Shares>,
+    /// The map a device shows at arrival: after the last line, before the flush.
+    pub arrived: Vec<Arrived>,
+}
+
+/// What one map shows at arrival ([`Pass::arrived`]).
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Arrived {
+    /// The step cells' shares ([`Watched::steps`]).
+    pub steps: Shares,
+    /// The flat ground's shares ([`Watched::ground`]).
+    pub ground: Shares,
 }
 
 /// Feeds every line of `decoded` to every map of `maps` (flushing them after the last), and
 /// looks at them: once at the end of standing (the far shares, and `at_standing_end` with
 /// each map and the robot's position), and after every `check_every` lines and the last
 /// (whether the first step is seen, and the series when `series`), and after the last line
-/// before the flush (the map a device shows at arrival, [`Pass::arrived`] and
-/// [`Pass::arrived_ground`]).
+/// before the flush (the map a device shows at arrival, [`Pass::arrived`]).
 pub fn watch(
     decoded: &Decoded,
     maps: &mut [Box<dyn Map>],
@@ -476,8 +477,7 @@ pub fn watch(
         far: vec![Shares::default(); n],
         series: vec![Vec::new(); n],
         integrated_s: vec![Vec::new(); n],
-        arrived: vec![Shares::default(); n],
-        arrived_ground: vec![Shares::default(); n],
+        arrived: vec![Arrived::default(); n],
     };
     let mut standing_done = false;
     let count = decoded.lines.len();
@@ -492,17 +492,18 @@ pub fn watch(
             }
         }
         let last = i + 1 == count;
-        for (((map, ends), arrived), arrived_ground) in maps
+        for ((map, ends), arrived) in maps
             .iter_mut()
             .zip(pass.integrated_s.iter_mut())
             .zip(pass.arrived.iter_mut())
-            .zip(pass.arrived_ground.iter_mut())
         {
             let before = map.observations();
             map.line(line);
             if last {
-                *arrived = shares(map.as_ref(), &watched.steps);
-                *arrived_ground = shares(map.as_ref(), &watched.ground);
+                *arrived = Arrived {
+                    steps: shares(map.as_ref(), &watched.steps),
+                    ground: shares(map.as_ref(), &watched.ground),
+                };
                 map.flush();
             }
             if map.observations() > before {
